@@ -1,0 +1,51 @@
+"""robustsynth: certified robust controllers for a skid-slip tracked robot driven over a network.
+
+The public API reads as a table of contents (each name is imported lazily from its module, so
+``import robustsynth`` stays cheap):
+
+=====================  ============================  ==========================================
+name                   module                        what
+=====================  ============================  ==========================================
+load_config            robustsynth.config            YAML file -> validated frozen Config
+parse_config           robustsynth.config            YAML text -> Config
+Config                 robustsynth.config            the scenario (robot, network, slip, ...)
+build_model            robustsynth.model             Config -> lifted norm-bounded Model
+Model                  robustsynth.model             eqs. 25, 31-33 with its Delta structure
+synthesize             robustsynth.synthesis         Model -> certified gain (LMIs)
+check_certificate      robustsynth.verify            numpy-only re-check of an LMI certificate
+verify                 robustsynth.verify            gain -> checks, Monte Carlo on the robot
+run                    robustsynth.pipeline          build-model -> synthesize -> verify
+=====================  ============================  ==========================================
+"""
+
+from __future__ import annotations
+
+from importlib import import_module
+from typing import Any
+
+__version__ = "0.1.0"
+
+_EXPORTS = {
+    "load_config": "robustsynth.config",
+    "parse_config": "robustsynth.config",
+    "Config": "robustsynth.config",
+    "build_model": "robustsynth.model",
+    "Model": "robustsynth.model",
+    "synthesize": "robustsynth.synthesis",
+    "SynthesisResult": "robustsynth.synthesis",
+    "check_certificate": "robustsynth.verify.certificate",
+    "verify": "robustsynth.verify",
+    "run": "robustsynth.pipeline",
+}
+
+__all__ = [*_EXPORTS, "__version__"]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _EXPORTS:
+        return getattr(import_module(_EXPORTS[name]), name)
+    raise AttributeError(f"module 'robustsynth' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

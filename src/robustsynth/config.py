@@ -1,0 +1,331 @@
+"""YAML configuration -> validated, frozen :class:`Config` (pydantic v2, ``extra="forbid"``).
+
+All quantities are SI: m, s, rad, rad/s.  Every error is raised as :class:`ConfigError` whose
+message is one line beginning with the key path (``network.delay.max: ...``) or, for problems
+with the file itself, with the file name.
+"""
+
+from __future__ import annotations
+
+import math
+from importlib import resources
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from .errors import ConfigError
+
+__all__ = [
+    "Config",
+    "RobotConfig",
+    "ReferenceConfig",
+    "NetworkConfig",
+    "SlipConfig",
+    "SynthesisConfig",
+    "VerificationConfig",
+    "MAX_CONFIG_BYTES",
+    "load_config",
+    "parse_config",
+    "default_config_text",
+    "config_schema",
+]
+
+MAX_CONFIG_BYTES = 1 << 20  # 1 MiB
+
+_MODEL = ConfigDict(extra="forbid", frozen=True, strict=True, allow_inf_nan=False)
+
+Pos = Annotated[float, Field(gt=0)]
+NonNeg = Annotated[float, Field(ge=0)]
+# A token in validator messages that the formatter replaces by the sibling key's full path.
+_SIBLING = "@sibling:"
+
+
+def _range_check(lo: float | None, hi: float, lo_name: str = "min") -> None:
+    if lo is not None and hi < lo:
+        raise ValueError(f"must be >= {_SIBLING}{lo_name} (got {hi:g} < {lo:g})")
+
+
+class _Node(BaseModel):
+    model_config = _MODEL
+
+
+class RobotConfig(_Node):
+    gear_radius: Pos = Field(description="R: radius of the gears driving the tracks [m]")
+    track_distance: Pos = Field(description="D: distance between the tracks [m]")
+    max_motor_speed: Pos | None = Field(
+        default=None, description="rho_max: limit on |rho_r|, |rho_l| [rad/s]; null for none"
+    )
+
+
+class ReferenceConfig(_Node):
+    speed: Pos = Field(description="V^D: desired forward speed along each segment [m/s]")
+
+
+class DelayRange(_Node):
+    min: NonNeg = Field(description="tau_min [s]")
+    max: NonNeg = Field(description="tau_max [s]")
+
+    @field_validator("max")
+    @classmethod
+    def _ordered(cls, v: float, info: Any) -> float:
+        _range_check(info.data.get("min"), v)
+        return v
+
+
+class NetworkConfig(_Node):
+    sampling_time: Pos = Field(description="Ts: sensor sampling period [s]")
+    delay: DelayRange = Field(description="bounds of the total delay tau = tau_SC + tau_CA + tau_C [s]")
+
+
+class SlipRange(_Node):
+    min: Pos = Field(description="smallest slip coefficient mu (dimensionless, > 0)")
+    max: Pos = Field(description="largest slip coefficient mu (dimensionless, > 0)")
+
+    @field_validator("max")
+    @classmethod
+    def _ordered(cls, v: float, info: Any) -> float:
+        _range_check(info.data.get("min"), v)
+        return v
+
+
+class SlipConfig(_Node):
+    right: SlipRange = Field(description="range of mu_r (right track)")
+    left: SlipRange = Field(description="range of mu_l (left track)")
+
+
+class ErrorWeights(_Node):
+    e_x: NonNeg = Field(default=0.1, description="weight on e_x [1/m]")
+    e_y: NonNeg = Field(default=1.0, description="weight on e_y [1/m]")
+    e_theta: NonNeg = Field(default=0.1, description="weight on e_theta [1/rad]")
+
+    @model_validator(mode="after")
+    def _not_all_zero(self) -> "ErrorWeights":
+        if self.e_x == 0 and self.e_y == 0 and self.e_theta == 0:
+            raise ValueError("at least one weight must be > 0")
+        return self
+
+
+class SynthesisConfig(_Node):
+    objective: Literal["ultimate-bound", "stability", "hinf"] = Field(
+        default="ultimate-bound", description="what the LMIs optimize (see README)"
+    )
+    multiplier: Literal["structured", "full"] = Field(
+        default="structured", description="S-procedure multiplier for Delta: one per block or one scalar"
+    )
+    solver: Literal["clarabel", "scs"] = Field(default="clarabel", description="first solver tried")
+    weights: ErrorWeights = Field(default_factory=ErrorWeights, description="weights on the error states")
+    motor_limits: bool = Field(
+        default=True, description="enforce robot.max_motor_speed on the invariant ellipsoid (when set)"
+    )
+    alpha_points: Annotated[int, Field(ge=3, le=200)] = Field(
+        default=15, description="grid points of the line search over alpha (then refined)"
+    )
+    bisection_tol: Annotated[float, Field(gt=0, lt=0.1)] = Field(
+        default=1e-4, description="tolerance on the decay rate r in the bisection"
+    )
+    margin: Annotated[float, Field(gt=0, lt=1e-2)] = Field(
+        default=1e-7, description="LMIs are solved as M <= -margin*I (scaled units)"
+    )
+
+
+class InitialOffset(_Node):
+    x: float = Field(default=0.0, description="initial e_x [m]")
+    y: float = Field(default=0.05, description="initial e_y [m]")
+    theta: float = Field(default=0.0, description="initial e_theta [rad]")
+
+
+class NoiseConfig(_Node):
+    position: NonNeg = Field(default=0.0, description="std of position measurement noise [m]")
+    heading: NonNeg = Field(default=0.0, description="std of heading measurement noise [rad]")
+
+
+Waypoint = Annotated[tuple[float, float], Field(description="(x, y) [m]")]
+
+_DEFAULT_PATH: tuple[tuple[float, float], ...] = ((0.0, 0.0), (6.0, 0.0), (10.0, 2.0), (16.0, 2.0))
+
+
+class VerificationConfig(_Node):
+    runs: Annotated[int, Field(ge=1, le=100_000)] = Field(default=200, description="Monte Carlo runs")
+    seed: Annotated[int, Field(ge=0)] = Field(default=0, description="random seed")
+    path: tuple[Waypoint, ...] = Field(default=_DEFAULT_PATH, description="waypoints of the polyline [m]")
+    initial_offset: InitialOffset = Field(default_factory=InitialOffset, description="initial pose error")
+    noise: NoiseConfig = Field(default_factory=NoiseConfig, description="measurement noise")
+    transient: NonNeg = Field(
+        default=5.0, description="time after the start and after each waypoint excluded from the maxima [s]"
+    )
+    frozen_grid: Annotated[int, Field(ge=2, le=100_000)] = Field(
+        default=201, description="delay grid points per uncertain instant for the frozen-delay check"
+    )
+    lifted_runs: Annotated[int, Field(ge=1, le=100_000)] = Field(
+        default=200, description="runs of the lifted linear model per delay pattern"
+    )
+    lifted_steps: Annotated[int, Field(ge=1, le=100_000)] = Field(
+        default=200, description="steps of each lifted-model run"
+    )
+    nonlinear_slack: Annotated[float, Field(ge=1)] = Field(
+        default=1.5,
+        description="the nonlinear Monte Carlo fails when a maximum exceeds slack x its certified bound",
+    )
+
+    @field_validator("path", mode="before")
+    @classmethod
+    def _lists_to_tuples(cls, v: Any) -> Any:
+        # YAML gives lists; strict mode takes tuples only.
+        if isinstance(v, list):
+            return tuple(tuple(p) if isinstance(p, list) else p for p in v)
+        return v
+
+    @field_validator("path")
+    @classmethod
+    def _path_ok(cls, v: tuple[tuple[float, float], ...]) -> tuple[tuple[float, float], ...]:
+        if len(v) < 2:
+            raise ValueError("needs at least 2 waypoints")
+        for i in range(1, len(v)):
+            if math.hypot(v[i][0] - v[i - 1][0], v[i][1] - v[i - 1][1]) <= 1e-9:
+                raise ValueError(f"waypoints {i - 1} and {i} coincide")
+        return v
+
+
+class Config(_Node):
+    """A whole scenario: one robot, its network, its slip, and how to design and verify."""
+
+    name: Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9][A-Za-z0-9._-]*$")] = Field(
+        description="scenario name; default output directory results/<name>/"
+    )
+    robot: RobotConfig
+    reference: ReferenceConfig
+    network: NetworkConfig
+    slip: SlipConfig
+    synthesis: SynthesisConfig = Field(default_factory=SynthesisConfig)
+    verification: VerificationConfig = Field(default_factory=VerificationConfig)
+
+
+# --------------------------------------------------------------------------- loading
+
+
+class _StrictLoader(yaml.SafeLoader):
+    """SafeLoader that refuses aliases (alias bombs) and duplicate keys."""
+
+    def compose_node(self, parent: Any, index: Any) -> Any:  # noqa: D401
+        if self.check_event(yaml.AliasEvent):
+            mark = self.peek_event().start_mark
+            raise ConfigError(f"line {mark.line + 1}: YAML aliases are not allowed")
+        return super().compose_node(parent, index)
+
+    def construct_mapping(self, node: Any, deep: bool = False) -> Any:
+        seen: set[Any] = set()
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=True)
+            try:
+                dup = key in seen
+            except TypeError:
+                dup = False
+            if dup:
+                raise ConfigError(f"line {key_node.start_mark.line + 1}: duplicate key {key!r}")
+            try:
+                seen.add(key)
+            except TypeError:
+                pass
+        return super().construct_mapping(node, deep=deep)
+
+
+def _loc(loc: tuple[Any, ...]) -> str:
+    parts: list[str] = []
+    for p in loc:
+        if isinstance(p, int):
+            parts.append(f"[{p}]")
+        else:
+            parts.append(("." if parts else "") + str(p))
+    return "".join(parts) or "<root>"
+
+
+def _format_validation_error(err: ValidationError) -> str:
+    first = err.errors(include_url=False)[0]
+    loc = tuple(first["loc"])
+    path = _loc(loc)
+    msg = str(first["msg"])
+    if msg.startswith("Value error, "):
+        msg = msg[len("Value error, ") :]
+    if _SIBLING in msg:
+        parent = _loc(loc[:-1])
+        msg = msg.replace(_SIBLING, f"{parent}." if loc[:-1] else "")
+    if first["type"] == "extra_forbidden":
+        msg = "unknown key"
+    elif first["type"] == "missing":
+        msg = "required key is missing"
+    else:
+        inp = first.get("input")
+        if first["type"] in {"float_type", "int_type", "string_type", "bool_type", "model_type", "tuple_type"}:
+            msg += f" (got {type(inp).__name__})"
+    more = len(err.errors()) - 1
+    suffix = f" (+{more} more problem{'s' if more > 1 else ''})" if more else ""
+    return f"{path}: {msg}{suffix}"
+
+
+def parse_config(text: str | bytes, source: str = "<config>") -> Config:
+    """Parse and validate a YAML document (``text``) into a :class:`Config`."""
+    if isinstance(text, bytes):
+        if len(text) > MAX_CONFIG_BYTES:
+            raise ConfigError(f"{source}: file is larger than 1 MiB ({len(text)} bytes)")
+        try:
+            text = text.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise ConfigError(f"{source}: not valid UTF-8 (byte {exc.start})") from None
+    if len(text) > MAX_CONFIG_BYTES:
+        raise ConfigError(f"{source}: file is larger than 1 MiB")
+    try:
+        data = yaml.load(text, Loader=_StrictLoader)  # noqa: S506 - _StrictLoader is a SafeLoader
+    except ConfigError as exc:
+        raise ConfigError(f"{source}: {exc}") from None
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"line {mark.line + 1}: " if mark is not None else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise ConfigError(f"{source}: {where}invalid YAML: {problem}") from None
+    except RecursionError:
+        raise ConfigError(f"{source}: YAML nesting is too deep") from None
+    if not isinstance(data, dict):
+        raise ConfigError(f"{source}: the document must be a mapping (got {type(data).__name__})")
+    try:
+        return Config.model_validate(data)
+    except ValidationError as exc:
+        raise ConfigError(_format_validation_error(exc)) from None
+    except RecursionError:
+        raise ConfigError(f"{source}: YAML nesting is too deep") from None
+
+
+def default_config_text() -> str:
+    """The embedded default configuration (package data)."""
+    return resources.files("robustsynth").joinpath("data/default.yaml").read_text(encoding="utf-8")
+
+
+def load_config(path: str | Path | None = None) -> Config:
+    """Load a configuration file; ``None`` gives the embedded default."""
+    if path is None:
+        return parse_config(default_config_text(), "<default config>")
+    p = Path(path)
+    try:
+        size = p.stat().st_size
+        if not p.is_file():
+            raise ConfigError(f"{p}: not a regular file")
+        if size > MAX_CONFIG_BYTES:
+            raise ConfigError(f"{p}: file is larger than 1 MiB ({size} bytes)")
+        with p.open("rb") as fh:
+            raw = fh.read(MAX_CONFIG_BYTES + 1)
+    except ConfigError:
+        raise
+    except OSError as exc:
+        raise ConfigError(f"{p}: cannot read ({exc.strerror or exc})") from None
+    return parse_config(raw, str(p))
+
+
+def config_schema() -> dict[str, Any]:
+    """JSON Schema of the configuration."""
+    return Config.model_json_schema()
+
+
+def config_to_dict(cfg: Config) -> dict[str, Any]:
+    """Resolved configuration as plain JSON-able data (tuples as lists)."""
+    return cfg.model_dump(mode="json")

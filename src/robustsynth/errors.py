@@ -1,0 +1,59 @@
+"""Exceptions of robustsynth and the exit codes the CLI maps them to (one table, here)."""
+
+from __future__ import annotations
+
+__all__ = [
+    "EXIT_OK",
+    "EXIT_VERIFICATION_FAILED",
+    "EXIT_BAD_INPUT",
+    "EXIT_INFEASIBLE",
+    "EXIT_SOLVER_FAILURE",
+    "RobustSynthError",
+    "ConfigError",
+    "InputError",
+    "InfeasibleError",
+    "SolverFailure",
+    "VerificationFailed",
+]
+
+EXIT_OK = 0
+EXIT_VERIFICATION_FAILED = 1
+EXIT_BAD_INPUT = 2
+EXIT_INFEASIBLE = 3
+EXIT_SOLVER_FAILURE = 4
+
+
+class RobustSynthError(Exception):
+    """Base class. ``str(err)`` is the one line shown to the user."""
+
+    exit_code = EXIT_BAD_INPUT
+
+
+class ConfigError(RobustSynthError, ValueError):
+    """The configuration file is unreadable or invalid (message names the key path)."""
+
+    exit_code = EXIT_BAD_INPUT
+
+
+class InputError(RobustSynthError, ValueError):
+    """Any other bad input: a gains file, an option value."""
+
+    exit_code = EXIT_BAD_INPUT
+
+
+class InfeasibleError(RobustSynthError):
+    """The LMIs have no solution: no gain meets the requested guarantee."""
+
+    exit_code = EXIT_INFEASIBLE
+
+
+class SolverFailure(RobustSynthError):
+    """Every solver tried failed numerically, or no returned point passed the certificate check."""
+
+    exit_code = EXIT_SOLVER_FAILURE
+
+
+class VerificationFailed(RobustSynthError):
+    """At least one verification check failed."""
+
+    exit_code = EXIT_VERIFICATION_FAILED

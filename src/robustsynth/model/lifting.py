@@ -1,0 +1,97 @@
+"""Time-varying network delay and the lifted discrete model (eq. LTI_error2, eq. 25, math.md §3).
+
+Within ``[t_k, t_k+1)`` the actuator holds ``du_{k-j}`` from ``t_k + s~_j`` on, with
+``Ts >= s~_0 >= ... >= s~_{d_hi} = 0`` (in-order delivery).  Summation by parts gives
+
+    e_{k+1} = Phi e_k + sum_{j<d_hi} Gamma(Ts - s~_j) (du_{k-j} - du_{k-j-1}) + Gamma(Ts) du_{k-d_hi} + Gamma_D d_k
+
+and with the lifted state ``xi_k = [e_k; du_{k-1}; ...; du_{k-d_hi}]``:
+``xi_{k+1} = A~(s~) xi_k + B~(s~) du_k + B~_d d_k`` (eq. 25).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["delay_indices", "instant_ranges", "s_tilde_sequence", "lift", "lifted_exact"]
+
+_INT_TOL = 1e-9
+
+
+def _near_int(x: float) -> int | None:
+    n = round(x)
+    return int(n) if abs(x - n) <= _INT_TOL * max(1.0, abs(x)) else None
+
+
+def delay_indices(tau_min: float, tau_max: float, Ts: float) -> tuple[int, int]:
+    """(d_lo, d_hi) = (floor(tau_min/Ts), max(1, ceil(tau_max/Ts))), robust to float round-off."""
+    lo_x, hi_x = tau_min / Ts, tau_max / Ts
+    n = _near_int(lo_x)
+    d_lo = n if n is not None else math.floor(lo_x)
+    n = _near_int(hi_x)
+    d_hi = n if n is not None else math.ceil(hi_x)
+    return d_lo, max(1, d_hi)
+
+
+def instant_ranges(tau_min: float, tau_max: float, Ts: float, d_hi: int) -> np.ndarray:
+    """Range [lo_j, hi_j] of each switching instant s~_j, j = 0..d_hi-1; shape (d_hi, 2)."""
+    j = np.arange(d_hi)
+    lo = np.clip(tau_min - j * Ts, 0.0, Ts)
+    hi = np.clip(tau_max - j * Ts, 0.0, Ts)
+    return np.stack([lo, hi], axis=1)
+
+
+def s_tilde_sequence(taus: np.ndarray, Ts: float, d_hi: int) -> np.ndarray:
+    """Switching instants ``s~[..., k, j]`` (j = 0..d_hi-1) from packet delays.
+
+    ``taus[..., i]`` is the delay of the packet sent at ``t_{i - d_hi}``: the first ``d_hi`` entries
+    are the packets sent before ``t_0``, so the result has ``taus.shape[-1] - d_hi`` steps.
+    In-order delivery: ``s~_{j-1} = max(s_{j-1}, s~_j)``, ``s~_{d_hi} = 0``.
+    """
+    taus = np.asarray(taus, dtype=float)
+    K = taus.shape[-1] - d_hi
+    if K < 0:
+        raise ValueError(f"need at least d_hi = {d_hi} delays of packets sent before t_0")
+    s = np.zeros(taus.shape[:-1] + (K, d_hi + 1))
+    for j in range(d_hi):
+        # packet k - j is taus[..., k - j + d_hi]
+        s[..., j] = np.clip(taus[..., d_hi - j : d_hi - j + K] - j * Ts, 0.0, Ts)
+    for j in range(d_hi - 1, -1, -1):
+        s[..., j] = np.maximum(s[..., j], s[..., j + 1])
+    return s[..., :d_hi]
+
+
+def lift(Phi: np.ndarray, Gammas: np.ndarray, Gamma_Ts: np.ndarray, Gamma_D: np.ndarray):
+    """Lifted (A~, B~, B~_d) from the per-instant Gamma_j = Gamma(Ts - s~_j).
+
+    ``Gammas`` has shape (..., d_hi, n_e, n_u); the result broadcasts over the leading axes.
+    """
+    Gammas = np.asarray(Gammas)
+    batch = Gammas.shape[:-3]
+    d_hi, n_e, n_u = Gammas.shape[-3:]
+    n_s = n_e + d_hi * n_u
+    A = np.zeros(batch + (n_s, n_s))
+    B = np.zeros(batch + (n_s, n_u))
+    A[..., :n_e, :n_e] = Phi
+    B[..., :n_e, :] = Gammas[..., 0, :, :]
+    for j in range(1, d_hi + 1):  # coefficient of du_{k-j}
+        nxt = Gammas[..., j, :, :] if j < d_hi else Gamma_Ts
+        cols = slice(n_e + (j - 1) * n_u, n_e + j * n_u)
+        A[..., :n_e, cols] = nxt - Gammas[..., j - 1, :, :]
+    B[..., n_e : n_e + n_u, :] = np.eye(n_u)  # du_k becomes du_{(k+1)-1}
+    for j in range(1, d_hi):  # shift register: du_{k-j} -> slot j+1
+        A[..., n_e + j * n_u : n_e + (j + 1) * n_u, n_e + (j - 1) * n_u : n_e + j * n_u] = np.eye(n_u)
+    Bd = np.zeros((n_s, Gamma_D.shape[1]))
+    Bd[:n_e] = Gamma_D
+    return A, B, np.broadcast_to(Bd, batch + Bd.shape).copy()
+
+
+def lifted_exact(A: np.ndarray, B: np.ndarray, B_D: np.ndarray, Ts: float, s_tilde: np.ndarray):
+    """Exact (A~(s~), B~(s~), B~_d) for switching instants ``s_tilde[..., j]``, j = 0..d_hi-1."""
+    from .linearize import Gamma, Gamma_D, Phi
+
+    s_tilde = np.asarray(s_tilde, dtype=float)
+    Gammas = Gamma(A, B, Ts - s_tilde)
+    return lift(Phi(A, Ts), Gammas, Gamma(A, B, Ts), Gamma_D(A, B_D, Ts))

@@ -1,0 +1,81 @@
+"""CLI: arguments forwarded, exit codes, one-line errors, and a real subprocess run."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+from click.testing import CliRunner
+
+from robustsynth.cli import main
+
+
+def test_help_lists_commands() -> None:
+    r = CliRunner().invoke(main, ["--help"])
+    assert r.exit_code == 0
+    for cmd in ("build-model", "schema"):
+        assert cmd in r.output
+
+
+def test_schema_is_json() -> None:
+    r = CliRunner().invoke(main, ["schema"])
+    assert r.exit_code == 0
+    schema = json.loads(r.output)
+    assert set(schema["properties"]) >= {"name", "robot", "reference", "network", "slip", "synthesis", "verification"}
+
+
+def test_build_model_writes_files(tmp_path) -> None:
+    r = CliRunner().invoke(main, ["build-model", "-o", str(tmp_path / "out")])
+    assert r.exit_code == 0, r.output
+    data = json.loads((tmp_path / "out" / "model.json").read_text())
+    assert set(data) >= {"schema_version", "config", "dimensions", "state_names", "input_names", "continuous", "lifted", "uncertainty"}
+    assert data["dimensions"] == {"n_e": 3, "n_u": 2, "n_s": 5, "d_lo": 0, "d_hi": 1}
+    assert data["state_names"] == ["e_x", "e_y", "e_theta", "dV[k-1]", "omega[k-1]"]
+    assert len(data["lifted"]["B_p"]) == 5 and len(data["lifted"]["B_p"][0]) == 3
+    assert (tmp_path / "out" / "model.md").read_text().startswith("# Model of `default`")
+
+
+def test_build_model_forwards_config(tmp_path) -> None:
+    cfg = tmp_path / "c.yaml"
+    from .conftest import default_dict
+    import yaml
+
+    d = default_dict()
+    d["name"] = "long"
+    d["network"]["delay"] = {"min": 0.12, "max": 0.25}
+    cfg.write_text(yaml.safe_dump(d))
+    r = CliRunner().invoke(main, ["build-model", str(cfg), "-o", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    dims = json.loads((tmp_path / "o" / "model.json").read_text())["dimensions"]
+    assert (dims["d_lo"], dims["d_hi"], dims["n_s"]) == (1, 3, 9)
+
+
+def test_bad_config_exits_2_with_one_line_and_no_files(tmp_path) -> None:
+    cfg = tmp_path / "bad.yaml"
+    cfg.write_text("name: x\nrobot: {gear_radius: -1, track_distance: 0.4}\n")
+    r = CliRunner().invoke(main, ["build-model", str(cfg), "-o", str(tmp_path / "o")])
+    assert r.exit_code == 2
+    lines = r.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: robot.gear_radius: Input should be greater than 0")
+    assert not (tmp_path / "o").exists()
+
+
+def test_unknown_option_is_usage_error() -> None:
+    r = CliRunner().invoke(main, ["build-model", "--bogus"])
+    assert r.exit_code == 2
+
+
+def test_subprocess_run_and_lazy_imports(tmp_path) -> None:
+    code = (
+        "import sys, runpy; sys.argv=['robustsynth','build-model','-o',sys.argv[1]];"
+        "\ntry:\n    runpy.run_module('robustsynth', run_name='__main__')\nexcept SystemExit as e:\n"
+        "    assert e.code == 0, e.code\n"
+        "bad=[m for m in ('cvxpy','matplotlib') if m in sys.modules]\nprint('HEAVY', bad)"
+    )
+    out = subprocess.run([sys.executable, "-c", code, str(tmp_path / "o")], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert "HEAVY []" in out.stdout
+    assert (tmp_path / "o" / "model.json").exists()
+    r = subprocess.run([sys.executable, "-m", "robustsynth", "--help"], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0 and "build-model" in r.stdout

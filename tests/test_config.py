@@ -1,0 +1,141 @@
+"""Configuration: the default, valid variations (hypothesis) and a table of bad inputs whose
+one-line message must name the key path."""
+
+from __future__ import annotations
+
+import copy
+import math
+
+import pytest
+import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from robustsynth.config import Config, load_config, parse_config
+from robustsynth.errors import ConfigError
+
+from .conftest import default_dict
+
+
+def _dump(d) -> str:
+    return yaml.safe_dump(d)
+
+
+def test_default_loads_and_is_frozen() -> None:
+    cfg = load_config()
+    assert cfg.name == "default"
+    assert cfg.network.delay.max == 0.08
+    with pytest.raises(Exception):
+        cfg.name = "x"  # type: ignore[misc]
+
+
+def test_configs_default_equals_embedded() -> None:
+    from pathlib import Path
+
+    here = Path(__file__).resolve().parents[1] / "configs" / "default.yaml"
+    assert load_config(here) == load_config()
+
+
+def _with(path: str, value):
+    d = copy.deepcopy(default_dict())
+    node = d
+    keys = path.split(".")
+    for k in keys[:-1]:
+        node = node.setdefault(k, {})
+    if value is _DELETE:
+        del node[keys[-1]]
+    else:
+        node[keys[-1]] = value
+    return _dump(d)
+
+
+_DELETE = object()
+
+BAD = [
+    ("robot.gear_radius", 0.0, "robot.gear_radius: "),
+    ("robot.gear_radius", -0.1, "robot.gear_radius: "),
+    ("robot.track_distance", "wide", "robot.track_distance: "),
+    ("robot.max_motor_speed", 0, "robot.max_motor_speed"),
+    ("reference.speed", math.nan, "reference.speed: "),
+    ("reference.speed", math.inf, "reference.speed: "),
+    ("reference.speed", True, "reference.speed: "),
+    ("network.sampling_time", 0, "network.sampling_time: "),
+    ("network.delay.min", -0.01, "network.delay.min: "),
+    ("network.delay.max", 0.005, "network.delay.max: must be >= network.delay.min (got 0.005 < 0.01)"),
+    ("slip.right.min", 0.0, "slip.right.min: "),
+    ("slip.left.max", 0.5, "slip.left.max: must be >= slip.left.min"),
+    ("slip.left", _DELETE, "slip.left: required key is missing"),
+    ("robot.wheels", 4, "robot.wheels: unknown key"),
+    ("network.delay", [0.1, 0.2], "network.delay: "),
+    ("synthesis.objective", "fastest", "synthesis.objective: "),
+    ("synthesis.weights.e_y", -1.0, "synthesis.weights.e_y: "),
+    ("verification.runs", 0, "verification.runs: "),
+    ("verification.path", [[0, 0]], "verification.path: needs at least 2 waypoints"),
+    ("verification.path", [[0, 0], [0, 0]], "verification.path: waypoints 0 and 1 coincide"),
+    ("name", "../evil", "name: "),
+    ("name", _DELETE, "name: required key is missing"),
+]
+
+
+@pytest.mark.parametrize("path,value,expected", BAD, ids=[f"{p}={v!r}" for p, v, _ in BAD])
+def test_bad_values_name_the_key_path(path, value, expected) -> None:
+    with pytest.raises(ConfigError) as exc:
+        parse_config(_with(path, value))
+    msg = str(exc.value)
+    assert msg.startswith(expected), msg
+    assert "\n" not in msg
+
+
+@pytest.mark.parametrize(
+    "text,expected",
+    [
+        ("- 1\n- 2\n", "the document must be a mapping"),
+        ("", "the document must be a mapping"),
+        ("a: &x [1]\nb: *x\n", "YAML aliases are not allowed"),
+        ("a: !!python/object/apply:os.system ['true']\n", "invalid YAML"),
+        ("name: a\nname: b\n", "duplicate key 'name'"),
+        ("name: [unclosed\n", "invalid YAML"),
+    ],
+)
+def test_bad_documents(text, expected) -> None:
+    with pytest.raises(ConfigError, match=expected):
+        parse_config(text)
+
+
+def test_file_problems(tmp_path) -> None:
+    with pytest.raises(ConfigError, match="cannot read"):
+        load_config(tmp_path / "missing.yaml")
+    big = tmp_path / "big.yaml"
+    big.write_bytes(b"#" * (1 << 20) + b"\n")
+    with pytest.raises(ConfigError, match="larger than 1 MiB"):
+        load_config(big)
+    bad = tmp_path / "latin1.yaml"
+    bad.write_bytes(b"name: caf\xe9\n")
+    with pytest.raises(ConfigError, match="not valid UTF-8"):
+        load_config(bad)
+    with pytest.raises(ConfigError, match="not a regular file"):
+        load_config(tmp_path)
+
+
+def test_billion_laughs_is_refused_quickly() -> None:
+    lines = ['a0: &a0 ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]']
+    for i in range(1, 10):
+        lines.append(f"a{i}: &a{i} [" + ",".join([f"*a{i - 1}"] * 9) + "]")
+    with pytest.raises(ConfigError, match="aliases"):
+        parse_config("\n".join(lines))
+
+
+@given(
+    R=st.floats(1e-3, 10), D=st.floats(1e-3, 10), V=st.floats(1e-3, 20), Ts=st.floats(1e-4, 2),
+    t1=st.floats(0, 5), t2=st.floats(0, 5), m1=st.floats(1e-3, 3), m2=st.floats(1e-3, 3),
+    rho=st.one_of(st.none(), st.floats(1e-3, 1e4)),
+)
+@settings(max_examples=100, deadline=None)
+def test_valid_configs_roundtrip(R, D, V, Ts, t1, t2, m1, m2, rho) -> None:
+    d = default_dict()
+    d["robot"] = {"gear_radius": R, "track_distance": D, "max_motor_speed": rho}
+    d["reference"]["speed"] = V
+    d["network"] = {"sampling_time": Ts, "delay": {"min": min(t1, t2), "max": max(t1, t2)}}
+    d["slip"]["right"] = {"min": min(m1, m2), "max": max(m1, m2)}
+    cfg = parse_config(_dump(d))
+    assert Config.model_validate(cfg.model_dump(mode="json")) == cfg
