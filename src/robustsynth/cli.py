@@ -119,3 +119,43 @@ def build_model_cmd(obj: _Ctx, config: Path | None, outdir: Path | None) -> None
         f"(max|Delta|={st.coverage['max_abs_delta']:.4f}, residual={st.coverage['max_residual']:.1e})"
     )
     obj.say(f"wrote {', '.join(str(p) for p in st.files)}")
+
+
+@main.command()
+@CONFIG_ARG
+@OUTDIR_OPT
+@click.option("--objective", type=click.Choice(["ultimate-bound", "stability", "hinf"]), default=None,
+              help="Override synthesis.objective.")
+@click.option("--solver", type=click.Choice(["clarabel", "scs"]), default=None, help="Override synthesis.solver.")
+@click.option("--multiplier", type=click.Choice(["structured", "full"]), default=None,
+              help="Override synthesis.multiplier.")
+@click.pass_obj
+@_guard
+def synthesize(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str | None, solver: str | None,
+               multiplier: str | None) -> None:
+    """Solve the LMIs for a certified robust gain; write gains.json, gains.mat, synthesis.md."""
+    from .model import build_model
+    from .pipeline import synthesis_stage
+
+    cfg = _load(config)
+    out = _outdir(cfg, outdir)
+    obj.detail(f"building the model of '{cfg.name}'")
+    st = synthesis_stage(build_model(cfg), out, objective=objective, solver=solver, multiplier=multiplier)
+    obj.say(_certified_line(st.gains))
+    obj.say(f"wrote {', '.join(str(p) for p in st.files)}")
+
+
+def _certified_line(gains: dict[str, Any]) -> str:
+    c = gains["certified"]
+    parts = [f"certified ({gains['objective']}):"]
+    if c.get("decay_rate") is not None:
+        parts.append(f"decay rate {c['decay_rate']:.4f}")
+    ub = c.get("ultimate_bound")
+    if ub:
+        parts.append(f"|e_x| <= {ub['e_x'] * 100:.2f} cm, |e_y| <= {ub['e_y'] * 100:.2f} cm, "
+                     f"|e_theta| <= {ub['e_theta']:.4f} rad")
+    if c.get("motor_speed_bound") is not None:
+        parts.append(f"|rho| <= {c['motor_speed_bound']:.3f} rad/s")
+    if c.get("hinf_gain") is not None:
+        parts.append(f"l2 gain {c['hinf_gain']:.4g}")
+    return " ".join(parts[:1]) + " " + ", ".join(parts[1:])

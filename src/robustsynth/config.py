@@ -123,7 +123,7 @@ class SynthesisConfig(_Node):
         default=15, description="grid points of the line search over alpha (then refined)"
     )
     bisection_tol: Annotated[float, Field(gt=0, lt=0.1)] = Field(
-        default=1e-4, description="tolerance on the decay rate r in the bisection"
+        default=1e-3, description="tolerance on the decay rate r in the bisection"
     )
     margin: Annotated[float, Field(gt=0, lt=1e-2)] = Field(
         default=1e-7, description="LMIs are solved as M <= -margin*I (scaled units)"

@@ -1,0 +1,166 @@
+"""gains.json, gains.mat and synthesis.md (the files of ``robustsynth synthesize``)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..config import config_to_dict
+from .artifacts import SCHEMA_VERSION
+from .markdown import fmt, matrix_table, table
+
+__all__ = ["gains_dict", "gains_mat_vars", "synthesis_markdown", "LAW", "CERTIFIED_KEYS"]
+
+LAW = "du_k = K xi_k"
+CERTIFIED_KEYS = ("robust_stability", "decay_rate", "ultimate_bound", "motor_speed_bound", "hinf_gain")
+
+OBJECTIVE_TEXT = {
+    "ultimate-bound": (
+        "smallest ellipsoid `xi' P xi <= level` that is invariant and attracting for every admissible delay "
+        "sequence and every slip in its box (math.md §5b), minimizing the weighted squared bounds on "
+        "e_x, e_y, e_theta; line search over alpha"
+    ),
+    "stability": (
+        "robust quadratic stability for all |Delta_k| <= 1 (the paper's stated goal) with the best decay rate r, "
+        "`V(xi[k+1]) <= r^2 V(xi[k])` without slip (math.md §5a); bisection on r"
+    ),
+    "hinf": (
+        "smallest l2 gain gamma from the slip deviation d to the weighted error z = diag(w) e, for every "
+        "admissible delay sequence (math.md §5d)"
+    ),
+}
+
+
+def gains_dict(model: Any, result: Any) -> dict[str, Any]:
+    figs = result.certified
+    cert = result.certificate
+    certified = {k: figs.get(k) for k in CERTIFIED_KEYS}
+    certificate: dict[str, Any] = {
+        "objective": cert["objective"],
+        "P": cert["P"],
+        "Q": cert["Q"],
+        "multipliers": cert["multipliers"],
+        "alpha": cert.get("alpha"),
+        "beta": cert.get("beta"),
+        "r2": cert.get("r2"),
+        "gamma2": cert.get("gamma2"),
+        "ellipsoid_level": figs.get("ellipsoid_level"),
+        "motor_limits_enforced": cert.get("motor_limits_enforced", False),
+        "margin": cert["margin"],
+        "min_eig_margin_found": cert["min_eig_margin_found"],
+        "checks": list(result.check.checks),
+    }
+    return {
+        "schema_version": SCHEMA_VERSION,
+        "config": config_to_dict(model.config),
+        "K": result.K,
+        "state_names": list(model.state_names),
+        "input_names": list(model.input_names),
+        "law": LAW,
+        "objective": result.objective,
+        "certified": certified,
+        "certificate": certificate,
+        "solver": {k: result.solver[k] for k in ("name", "version", "status", "iterations", "solve_time_s", "fallback_used")},
+        "notes": list(result.notes),
+    }
+
+
+def _mat_value(v: Any) -> Any:
+    if v is None:
+        return np.nan
+    if isinstance(v, dict):
+        return {k: _mat_value(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)) and v and isinstance(v[0], str):
+        return np.array(v, dtype=object)
+    return v
+
+
+def gains_mat_vars(gd: dict[str, Any]) -> dict[str, Any]:
+    """The same names as gains.json, MATLAB-friendly (null -> NaN, lists of names -> cell arrays)."""
+    c = gd["certificate"]
+    return {
+        "K": np.asarray(gd["K"], dtype=float),
+        "state_names": _mat_value(gd["state_names"]),
+        "input_names": _mat_value(gd["input_names"]),
+        "law": gd["law"],
+        "objective": gd["objective"],
+        "certified": _mat_value(gd["certified"]),
+        "P": np.asarray(c["P"], dtype=float),
+        "Q": np.asarray(c["Q"], dtype=float),
+        "M": np.asarray(c["multipliers"]["M"], dtype=float),
+        "alpha": _mat_value(c["alpha"]),
+        "beta": np.asarray(c["beta"] if c["beta"] is not None else np.nan, dtype=float),
+        "margin": c["margin"],
+    }
+
+
+def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any]) -> str:
+    cfg = model.config
+    figs = result.certified
+    c = gd["certificate"]
+    out = [f"# Synthesis for `{cfg.name}`\n\n"]
+    out.append(f"**Objective `{result.objective}`**: {OBJECTIVE_TEXT[result.objective]}.\n\n")
+    out.append(
+        f"Control law `{LAW}` on the lifted state ({', '.join(model.state_names)}); applied command "
+        f"`u_hat = [V^D, 0] + du`. Multiplier: `{result.multiplier}`"
+        f" ({'one block per Delta block' if result.multiplier == 'structured' else 'mu I, the paper’s |Delta| <= 1'}).\n\n"
+    )
+    out.append("## Assumptions\n\n")
+    out.append(
+        f"- delays tau in [{cfg.network.delay.min:g}, {cfg.network.delay.max:g}] s, sampling Ts = {cfg.network.sampling_time:g} s,"
+        f" d_lo = {model.d_lo}, d_hi = {model.d_hi}, in-order delivery, no packet loss;\n"
+        f"- slip mu_r in [{cfg.slip.right.min:g}, {cfg.slip.right.max:g}], mu_l in [{cfg.slip.left.min:g}, {cfg.slip.left.max:g}],"
+        " constant within a sampling period; a non-symmetric range is written as centre + box and the centre is"
+        " treated as one more bounded slip component (so no equilibrium shift is assumed);\n"
+        "- the paper's linearization (eq. `lineare`) around the straight segment: the guarantees are for the linear"
+        " lifted model; `robustsynth verify` measures how the nonlinear robot compares.\n\n"
+    )
+    out.append("## Certified figures\n\n")
+    ub = figs.get("ultimate_bound") or {}
+    rows = [
+        ["robust stability", fmt(figs.get("robust_stability")), "—"],
+        ["decay rate r (V(xi[k+1]) <= r² V(xi[k]) without slip)", fmt(figs.get("decay_rate")), "per step"],
+        ["bound on |e_x|", fmt(ub.get("e_x")) if ub else "—", "m"],
+        ["bound on |e_y|", fmt(ub.get("e_y")) if ub else "—", "m"],
+        ["bound on |e_theta|", fmt(ub.get("e_theta")) if ub else "—", "rad"],
+        ["bound on |rho_r|, |rho_l| on the ellipsoid", fmt(figs.get("motor_speed_bound")), "rad/s"],
+        ["l2 gain slip -> weighted error", fmt(figs.get("hinf_gain")), "—"],
+    ]
+    out.append(table(["quantity", "value", "unit"], rows))
+    if ub:
+        out.append(
+            f"\nThe bounds hold on the ellipsoid `xi' P xi <= {c['ellipsoid_level']:.6g}`, which every trajectory"
+            f" enters (V decays at least as `(1-alpha)^k`, alpha = {c['alpha']:.4g}) and never leaves."
+            f" In centimetres: |e_y| <= {100 * ub['e_y']:.2f} cm, |e_x| <= {100 * ub['e_x']:.2f} cm.\n"
+        )
+    if cfg.robot.max_motor_speed is not None:
+        out.append(
+            f"\nMotor-speed limit rho_max = {cfg.robot.max_motor_speed:g} rad/s "
+            f"{'enforced as an LMI on the ellipsoid' if c['motor_limits_enforced'] else 'not enforced by this objective'}.\n"
+        )
+    out.append("\n## Gain\n\n" + matrix_table(np.asarray(result.K), model.input_names, model.state_names))
+    out.append("\n## Certificate check (numpy, independent of the solver)\n\n")
+    out.append(
+        f"Each LMI was rebuilt in numpy from the written values (`Q`, `M`, `Y = K Q`) and must have its largest"
+        f" eigenvalue <= −{0.5 * c['margin']:.3g} (half the solve margin {c['margin']:.3g}).\n\n"
+    )
+    crow = []
+    for ch in c["checks"]:
+        val = ch.get("max_eig")
+        crow.append([
+            ch["name"],
+            f"{val:.3e}" if val is not None else fmt(ch.get("value")),
+            f"{ch['threshold']:.3e}" if val is not None else f"<= {fmt(ch['threshold'])}",
+            "pass" if ch["passed"] else "**FAIL**",
+        ])
+    out.append(table(["check", "largest eigenvalue / value", "threshold", "result"], crow))
+    s = gd["solver"]
+    out.append(
+        f"\n## Solver\n\n{s['name']} {s['version']}, status `{s['status']}`, {s['iterations']} iterations in the final"
+        f" solve, {result.solver['solves']} solves in all, {s['solve_time_s']:.3f} s solving;"
+        f" fallback used: {'yes' if s['fallback_used'] else 'no'}.\n"
+    )
+    if result.notes:
+        out.append("\nNotes: " + "; ".join(result.notes) + ".\n")
+    return "".join(out)

@@ -1,0 +1,304 @@
+"""One function per objective; :func:`synthesize` dispatches and assembles the result."""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+
+from ..config import SynthesisConfig
+from ..errors import InfeasibleError, InputError, SolverFailure
+from ..verify.certificate import CertificateCheck, check_certificate
+from .lmis import LMIProblem, build_hinf, build_invariance, build_stability
+from .solve import Outcome, SolveRecord, solve, solver_version
+
+__all__ = ["SynthesisResult", "synthesize"]
+
+ALPHA_RANGE = (0.005, 0.95)  # line search range of alpha (log-spaced grid, then golden section)
+GOLDEN_STEPS = 10
+
+
+@dataclass(frozen=True)
+class SynthesisResult:
+    """A certified gain with its certificate, the figures it proves, and how it was found."""
+
+    K: np.ndarray
+    objective: str
+    multiplier: str
+    certificate: dict[str, Any]
+    check: CertificateCheck
+    solver: dict[str, Any]
+    search: tuple[dict[str, Any], ...]
+    timings: dict[str, float] = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+
+    @property
+    def certified(self) -> dict[str, Any]:
+        return dict(self.check.figures)
+
+
+@dataclass
+class _Best:
+    value: float = math.inf
+    cert: dict[str, Any] | None = None
+    K: np.ndarray | None = None
+    check: CertificateCheck | None = None
+    record: SolveRecord | None = None
+
+
+class _Runner:
+    """Solves one compiled problem repeatedly; remembers attempts, counts and times."""
+
+    def __init__(self, model: Any, lp: LMIProblem, primary: str, make_cert: Callable[[dict], dict]):
+        self.model, self.lp, self.primary, self.make_cert = model, lp, primary, make_cert
+        self.records: list[SolveRecord] = []
+        self.fallbacks = 0
+        self.solves = 0
+        self.failures = 0
+
+    def run(self) -> tuple[Outcome, dict | None, np.ndarray | None, CertificateCheck | None]:
+        holder: dict[str, Any] = {}
+
+        def accept() -> bool:
+            vals = self.lp.values()
+            try:
+                K = np.linalg.solve(vals["Q"].T, vals["Y"].T).T  # K = Y Q^-1
+            except np.linalg.LinAlgError:
+                return False
+            cert = self.make_cert(vals)
+            chk = check_certificate(self.model, K, cert)
+            holder.update(cert=cert, K=K, check=chk)
+            return chk.passed
+
+        out = solve(self.lp.problem, self.primary, accept)
+        self.solves += len(out.attempts)
+        self.records.extend(out.attempts)
+        if out.fallback_used:
+            self.fallbacks += 1
+        if out.kind == "failed":
+            self.failures += 1
+        if out.kind == "ok":
+            return out, holder["cert"], holder["K"], holder["check"]
+        return out, None, None, None
+
+
+def _cert_common(model: Any, vals: dict, kind: str, margin: float, objective: str) -> dict[str, Any]:
+    Q = vals["Q"]
+    return {
+        "objective": objective,
+        "Q": Q,
+        "P": np.linalg.inv(Q),
+        "multipliers": {"kind": kind, "M": vals["M"], "blocks": [i.j for i in model.instants]},
+        "margin": margin,
+    }
+
+
+def _weights(settings: SynthesisConfig) -> np.ndarray:
+    w = settings.weights
+    return np.array([w.e_x, w.e_y, w.e_theta])
+
+
+def _delay_text(model: Any) -> str:
+    return f"delays up to {model.config.network.delay.max:g} s"
+
+
+def _run_stability(model: Any, s: SynthesisConfig, search: list) -> tuple[_Best, _Runner]:
+    lp = build_stability(model, s.multiplier, s.margin)
+    best = _Best()
+
+    def make_cert(vals: dict) -> dict:
+        c = _cert_common(model, vals, s.multiplier, s.margin, "stability")
+        c["r2"] = float(lp.params["r2"].value)
+        return c
+
+    runner = _Runner(model, lp, s.solver, make_cert)
+
+    def feasible(r: float) -> bool:
+        lp.params["r2"].value = r * r
+        out, cert, K, chk = runner.run()
+        search.append({"r": r, "status": out.kind})
+        if out.kind == "ok":
+            best.value, best.cert, best.K, best.check, best.record = r, cert, K, chk, out.record
+            return True
+        return False
+
+    hi = 1.0 - 1e-6
+    if not feasible(hi):
+        if runner.failures:
+            raise SolverFailure(f"stability: the solvers failed ({runner.records[-1].status})")
+        raise InfeasibleError(
+            f"stability: no gain robustly stabilizes the robot for {_delay_text(model)}: "
+            "narrow network.delay or lower reference.speed"
+        )
+    lo = 0.0
+    while hi - lo > s.bisection_tol:
+        mid = (lo + hi) / 2.0
+        if feasible(mid):
+            hi = mid
+        else:
+            lo = mid
+    return best, runner
+
+
+def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool) -> tuple[_Best, _Runner]:
+    lp = build_invariance(model, s.multiplier, s.margin, _weights(s), motor)
+    w = _weights(s)
+    best = _Best()
+
+    def make_cert(vals: dict) -> dict:
+        c = _cert_common(model, vals, s.multiplier, s.margin, "ultimate-bound")
+        c["alpha"] = float(lp.params["alpha"].value)
+        c["beta"] = vals["beta"]
+        c["motor_limits_enforced"] = motor
+        return c
+
+    runner = _Runner(model, lp, s.solver, make_cert)
+    cache: dict[float, float] = {}
+
+    def evaluate(log_a: float) -> float:
+        if log_a in cache:
+            return cache[log_a]
+        a = float(np.exp(log_a))
+        lp.params["alpha"].value = a
+        lp.params["one_minus_alpha"].value = 1.0 - a
+        out, cert, K, chk = runner.run()
+        val = math.inf
+        if out.kind == "ok":
+            ub = chk.figures["ultimate_bound"]
+            val = float(w[0] * ub["e_x"] ** 2 + w[1] * ub["e_y"] ** 2 + w[2] * ub["e_theta"] ** 2)
+            if val < best.value:
+                best.value, best.cert, best.K, best.check, best.record = val, cert, K, chk, out.record
+        search.append({"alpha": a, "status": out.kind, "objective": None if math.isinf(val) else val})
+        cache[log_a] = val
+        return val
+
+    grid = np.linspace(math.log(ALPHA_RANGE[0]), math.log(ALPHA_RANGE[1]), s.alpha_points)
+    vals = [evaluate(float(g)) for g in grid]
+    if best.cert is None:
+        return best, runner
+    i = int(np.argmin(vals))
+    a, b = float(grid[max(i - 1, 0)]), float(grid[min(i + 1, len(grid) - 1)])
+    phi = (math.sqrt(5.0) - 1.0) / 2.0
+    c, d = b - phi * (b - a), a + phi * (b - a)
+    fc, fd = evaluate(c), evaluate(d)
+    for _ in range(GOLDEN_STEPS):
+        if fc <= fd:
+            b, d, fd = d, c, fc
+            c = b - phi * (b - a)
+            fc = evaluate(c)
+        else:
+            a, c, fc = c, d, fd
+            d = a + phi * (b - a)
+            fd = evaluate(d)
+    return best, runner
+
+
+def _run_hinf(model: Any, s: SynthesisConfig, search: list) -> tuple[_Best, _Runner]:
+    lp = build_hinf(model, s.multiplier, s.margin, _weights(s))
+    best = _Best()
+
+    def make_cert(vals: dict) -> dict:
+        c = _cert_common(model, vals, s.multiplier, s.margin, "hinf")
+        # certify a gamma^2 a hair above the optimum so the numpy check keeps its headroom
+        c["gamma2"] = float(vals["gamma2"]) * (1.0 + 1e-6) + s.margin
+        return c
+
+    runner = _Runner(model, lp, s.solver, make_cert)
+    out, cert, K, chk = runner.run()
+    search.append({"status": out.kind})
+    if out.kind == "ok":
+        best.value, best.cert, best.K, best.check, best.record = cert["gamma2"], cert, K, chk, out.record
+    return best, runner
+
+
+def synthesize(model: Any, settings: SynthesisConfig | None = None, **overrides: Any) -> SynthesisResult:
+    """Design and certify ``du_k = K xi_k`` for ``model``.
+
+    ``settings`` defaults to ``model.config.synthesis``; keyword ``overrides`` (``objective``,
+    ``solver``, ``multiplier``, ...) replace single settings.  Raises :class:`InfeasibleError`
+    (exit 3) when the LMIs have no solution and :class:`SolverFailure` (exit 4) when the solvers
+    fail or no returned point passes the certificate check.
+    """
+    s = settings if settings is not None else model.config.synthesis
+    if overrides:
+        s = s.model_copy(update={k: v for k, v in overrides.items() if v is not None})
+    t0 = time.perf_counter()
+    search: list[dict[str, Any]] = []
+    notes: list[str] = []
+    cfg = model.config
+    if s.objective == "stability":
+        best, runner = _run_stability(model, s, search)
+    elif s.objective == "hinf":
+        best, runner = _run_hinf(model, s, search)
+        if best.cert is None:
+            _raise_no_solution(runner, "hinf", f"hinf: no gain gives a finite l2 gain for {_delay_text(model)}: "
+                               "narrow network.delay or lower reference.speed")
+    else:
+        if model.B_w.shape[1] == 0:
+            raise InputError(
+                "slip: every slip range has zero width and centre 1, so the ultimate bound is 0; "
+                "use synthesis.objective: stability"
+            )
+        rho_max = cfg.robot.max_motor_speed
+        motor = bool(s.motor_limits and rho_max is not None)
+        if motor and rho_max <= cfg.reference.speed / cfg.robot.gear_radius:
+            raise InfeasibleError(
+                f"ultimate-bound: robot.max_motor_speed = {rho_max:g} rad/s is below V^D/R = "
+                f"{cfg.reference.speed / cfg.robot.gear_radius:.4g} rad/s needed to follow the path: "
+                "raise robot.max_motor_speed or lower reference.speed"
+            )
+        best, runner = _run_invariance(model, s, search, motor)
+        if best.cert is None:
+            if runner.failures and runner.failures == len(search):
+                raise SolverFailure("ultimate-bound: every solve failed, also with the fallback solver")
+            if motor:
+                probe, _ = _run_invariance(model, s.model_copy(update={"alpha_points": 5}), [], False)
+                if probe.cert is not None:
+                    raise InfeasibleError(
+                        f"ultimate-bound: no gain keeps |rho| <= {rho_max:g} rad/s for {_delay_text(model)}: "
+                        "raise robot.max_motor_speed or lower reference.speed"
+                    )
+            raise InfeasibleError(
+                f"ultimate-bound: no gain makes an ellipsoid invariant for {_delay_text(model)} and slip in "
+                f"[{cfg.slip.right.min:g}, {cfg.slip.right.max:g}] x [{cfg.slip.left.min:g}, {cfg.slip.left.max:g}]: "
+                "narrow network.delay or slip, or lower reference.speed"
+            )
+        if not motor and rho_max is not None and s.motor_limits is False:
+            notes.append("motor limits not enforced (synthesis.motor_limits: false)")
+    if runner.fallbacks:
+        notes.append(f"fallback solver used in {runner.fallbacks} of {len(search)} solves")
+    rec = best.record
+    assert_ok = best.cert is not None and best.check is not None and best.check.passed
+    if not assert_ok:  # pragma: no cover - guarded above
+        raise SolverFailure(f"{s.objective}: no certified point")
+    cert = dict(best.cert)
+    cert["min_eig_margin_found"] = best.check.min_eig_margin
+    solver = {
+        "name": rec.name,
+        "version": solver_version(rec.name),
+        "status": rec.status,
+        "iterations": rec.iterations,
+        "solve_time_s": float(sum(r.solve_time_s for r in runner.records)),
+        "fallback_used": bool(runner.fallbacks),
+        "solves": runner.solves,
+    }
+    return SynthesisResult(
+        K=best.K,
+        objective=s.objective,
+        multiplier=s.multiplier,
+        certificate=cert,
+        check=best.check,
+        solver=solver,
+        search=tuple(search),
+        timings={"total_s": time.perf_counter() - t0, "solve_s": solver["solve_time_s"]},
+        notes=tuple(notes),
+    )
+
+
+def _raise_no_solution(runner: _Runner, objective: str, infeasible_msg: str) -> None:
+    if runner.failures:
+        raise SolverFailure(f"{objective}: the solvers failed, also with the fallback ({runner.records[-1].status})")
+    raise InfeasibleError(infeasible_msg)
