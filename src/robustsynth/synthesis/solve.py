@@ -84,14 +84,15 @@ def solve(problem: cp.Problem, primary: str, accept: Callable[[], bool]) -> Outc
     """Solve with ``primary``; on a solver error, an inaccurate status or a point that ``accept``
     rejects (the numpy certificate check), retry once with the other solver.
 
-    A clean 'infeasible' from the solver is final (no retry)."""
+    A clean 'infeasible' from the solver is final (no retry).  The fallback's 'optimal_inaccurate'
+    point is still offered to ``accept``: the numpy check, not the status, decides."""
     attempts: list[SolveRecord] = []
-    for name in (primary, FALLBACK[primary]):
+    for i, name in enumerate((primary, FALLBACK[primary])):
         rec = _attempt(problem, name)
         attempts.append(rec)
         if rec.status == cp.INFEASIBLE:
             return Outcome("infeasible", rec, attempts)
-        if rec.status == cp.OPTIMAL:
+        if rec.status == cp.OPTIMAL or (i > 0 and rec.status == cp.OPTIMAL_INACCURATE):
             if accept():
                 return Outcome("ok", rec, attempts)
             rec.error = rec.error or "returned point failed the numpy certificate check"

@@ -205,6 +205,8 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
             return CertificateCheck(False, tuple(checks), figures, f"beta has {beta.size} entries, expected {Bw.shape[1]}")
         if not 0 < alpha < 1:
             return CertificateCheck(False, tuple(checks), figures, "alpha must be in (0, 1)")
+        if np.any(beta <= 0):
+            return CertificateCheck(False, tuple(checks), figures, "beta must be > 0")
         L = lmi_invariance(A, B, Bp, Cq, Dq, Bw, Q, Y, M, beta, alpha)
         checks.append(_item("invariance LMI (5b)", eig(L), threshold))
         level = float(np.sum(beta) / alpha)  # {xi' P xi <= level} is invariant and attracting

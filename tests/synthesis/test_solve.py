@@ -1,0 +1,77 @@
+"""Solver faults: an injected Clarabel failure makes the SCS fallback run and be recorded; both
+failing gives exit 4 with one line; an infeasible problem exits 3 and leaves no current gains."""
+
+from __future__ import annotations
+
+import json
+
+import cvxpy as cp
+import pytest
+import yaml
+from click.testing import CliRunner
+
+from robustsynth.cli import main
+from robustsynth.model import build_model
+from robustsynth.synthesis import solve as solve_mod
+from robustsynth.synthesis import synthesize
+
+from ..conftest import default_dict, make_config
+
+
+def _failing(names):
+    real = solve_mod._call_solver
+
+    def fake(problem, name):
+        if name in names:
+            raise cp.error.SolverError(f"injected failure of {name}")
+        return real(problem, name)
+
+    return fake
+
+
+def test_clarabel_failure_falls_back_to_scs(monkeypatch) -> None:
+    monkeypatch.setattr(solve_mod, "_call_solver", _failing({"clarabel"}))
+    res = synthesize(build_model(make_config()), objective="hinf")
+    assert res.solver["name"] == "scs"
+    assert res.solver["fallback_used"] is True
+    assert res.check.passed
+
+
+def test_both_solvers_failing_exits_4(monkeypatch, tmp_path) -> None:
+    monkeypatch.setattr(solve_mod, "_call_solver", _failing({"clarabel", "scs"}))
+    r = CliRunner().invoke(main, ["synthesize", "--objective", "hinf", "-o", str(tmp_path)])
+    assert r.exit_code == 4, r.output
+    lines = r.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: hinf: the solvers failed")
+    assert not (tmp_path / "gains.json").exists()
+
+
+def test_infeasible_exits_3_and_removes_stale_gains(tmp_path) -> None:
+    out = tmp_path / "o"
+    r = CliRunner().invoke(main, ["synthesize", "--objective", "hinf", "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    assert (out / "gains.json").exists()
+    d = default_dict()
+    d["robot"]["max_motor_speed"] = 5.6
+    cfg = tmp_path / "inf.yaml"
+    cfg.write_text(yaml.safe_dump(d))
+    r = CliRunner().invoke(main, ["synthesize", str(cfg), "-o", str(out)])
+    assert r.exit_code == 3, r.output
+    assert "raise robot.max_motor_speed" in r.output
+    assert not (out / "gains.json").exists() and not (out / "synthesis.md").exists()
+
+
+def test_synthesize_cli_writes_consistent_files(tmp_path) -> None:
+    r = CliRunner().invoke(main, ["synthesize", "--objective", "stability", "-o", str(tmp_path)])
+    assert r.exit_code == 0, r.output
+    g = json.loads((tmp_path / "gains.json").read_text())
+    assert g["law"] == "du_k = K xi_k" and g["objective"] == "stability"
+    assert len(g["K"]) == 2 and len(g["K"][0]) == 5
+    assert set(g["certified"]) == {"robust_stability", "decay_rate", "ultimate_bound", "motor_speed_bound", "hinf_gain"}
+    assert g["certified"]["robust_stability"] is True and g["certified"]["ultimate_bound"] is None
+    assert set(g["solver"]) == {"name", "version", "status", "iterations", "solve_time_s", "fallback_used"}
+    from scipy.io import loadmat
+
+    mat = loadmat(tmp_path / "gains.mat")
+    assert mat["K"].shape == (2, 5)
+    assert "Certificate check" in (tmp_path / "synthesis.md").read_text()
