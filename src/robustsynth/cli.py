@@ -159,3 +159,100 @@ def _certified_line(gains: dict[str, Any]) -> str:
     if c.get("hinf_gain") is not None:
         parts.append(f"l2 gain {c['hinf_gain']:.4g}")
     return " ".join(parts[:1]) + " " + ", ".join(parts[1:])
+
+
+def _progress(obj: _Ctx):
+    """A progress bar on stderr when it is a terminal (and not --quiet); else None."""
+    if obj.quiet or not sys.stderr.isatty():
+        return None, None
+    bar = click.progressbar(length=100, label="Monte Carlo", file=sys.stderr)
+    state = {"last": 0}
+
+    def cb(done: int, total: int) -> None:
+        pct = int(100 * done / max(total, 1))
+        bar.update(pct - state["last"])
+        state["last"] = pct
+
+    return cb, bar
+
+
+VERIFY_OPTS = [
+    click.option("--runs", type=click.IntRange(min=1, max=100_000), default=None, help="Monte Carlo runs [config]."),
+    click.option("--seed", type=click.IntRange(min=0), default=None, help="Random seed [config]."),
+    click.option("--format", "fmt", type=click.Choice(["png", "pdf", "svg"]), default="png", show_default=True,
+                 help="Figure format."),
+    click.option("--no-plots", is_flag=True, help="Skip the figures."),
+]
+
+
+def _verify_opts(fn):
+    for opt in reversed(VERIFY_OPTS):
+        fn = opt(fn)
+    return fn
+
+
+def _report_checks(obj: _Ctx, result: Any) -> None:
+    for c in result.checks:
+        if not c["passed"]:
+            click.echo(f"FAILED: {c['name']} (value {c['value']}, threshold {c['threshold']})", err=True)
+    mc = result.monte_carlo
+    ratios = ", ".join(f"{k} {v:.3f}" for k, v in mc["ratio_to_certified"].items())
+    obj.say(f"verification {'passed' if result.passed else 'FAILED'}: {len(result.checks)} checks, "
+            f"{mc['runs']} Monte Carlo runs" + (f"; worst/certified: {ratios}" if ratios else ""))
+
+
+@main.command("verify")
+@CONFIG_ARG
+@click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Gains file [default: OUTDIR/gains.json].")
+@OUTDIR_OPT
+@_verify_opts
+@click.pass_obj
+@_guard
+def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path | None, runs: int | None,
+               seed: int | None, fmt: str, no_plots: bool) -> int:
+    """Check a gain against the config: certificate, frozen delays, lifted model, nonlinear Monte Carlo.
+
+    Exit 1 when any check fails.
+    """
+    from .errors import EXIT_VERIFICATION_FAILED
+    from .model import build_model
+    from .pipeline import verification_stage
+
+    cfg = _load(config)
+    out = _outdir(cfg, outdir)
+    cb, bar = _progress(obj)
+    try:
+        st = verification_stage(build_model(cfg), out, gains, runs, seed, fmt, not no_plots, cb)
+    finally:
+        if bar is not None:
+            bar.render_finish()
+    _report_checks(obj, st.result)
+    obj.say(f"wrote {out / 'verification.json'}, {out / 'verification.md'}" + (f" and {len(st.figures)} figures" if st.figures else ""))
+    return EXIT_OK if st.result.passed else EXIT_VERIFICATION_FAILED
+
+
+@main.command("run")
+@CONFIG_ARG
+@OUTDIR_OPT
+@_verify_opts
+@click.pass_obj
+@_guard
+def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, runs: int | None, seed: int | None, fmt: str,
+            no_plots: bool) -> int:
+    """build-model, synthesize and verify in one go; write report.md and summary.json."""
+    from .errors import EXIT_VERIFICATION_FAILED
+    from .pipeline import run
+
+    cfg = _load(config)
+    out = _outdir(cfg, outdir)
+    cb, bar = _progress(obj)
+    try:
+        res = run(cfg, out, runs, seed, fmt, not no_plots, cb, on_stage=lambda s: obj.detail(f"[{s}]"))
+    finally:
+        if bar is not None:
+            bar.render_finish()
+    obj.say(_certified_line(res.synthesis.gains))
+    _report_checks(obj, res.verification.result)
+    obj.say(f"report: {out / 'report.md'}")
+    return EXIT_OK if res.passed else EXIT_VERIFICATION_FAILED

@@ -12,7 +12,17 @@ from typing import Any, Callable
 from .config import Config
 from .model import Model, build_model, coverage_check
 
-__all__ = ["ModelStage", "model_stage", "SynthesisStage", "synthesis_stage", "default_outdir"]
+__all__ = [
+    "ModelStage",
+    "model_stage",
+    "SynthesisStage",
+    "synthesis_stage",
+    "VerificationStage",
+    "verification_stage",
+    "RunResult",
+    "run",
+    "default_outdir",
+]
 
 MODEL_FILES = ("model.json", "model.md")
 SYNTHESIS_FILES = ("gains.json", "gains.mat", "synthesis.md")
@@ -90,3 +100,107 @@ def synthesis_stage(model: Model, outdir: str | Path, **overrides: Any) -> Synth
 
 
 ProgressFn = Callable[[int, int], None]
+
+
+@dataclass(frozen=True)
+class VerificationStage:
+    model: Model
+    result: Any  # robustsynth.verify.VerificationResult
+    data: dict[str, Any]
+    figures: dict[str, Path]
+    files: tuple[Path, ...]
+
+
+def verification_stage(
+    model: Model,
+    outdir: str | Path,
+    gains_path: str | Path | None = None,
+    runs: int | None = None,
+    seed: int | None = None,
+    fmt: str = "png",
+    plots: bool = True,
+    progress: ProgressFn | None = None,
+) -> VerificationStage:
+    """Verify a gains file (default ``outdir/gains.json``); write figures, verification.md and
+    verification.json (last).  The run's report and summary are removed first."""
+    from .report.artifacts import commit_files, json_bytes, sha256
+    from .report.verification import verification_dict, verification_markdown
+    from .verify import load_gains, verify
+
+    outdir = Path(outdir)
+    gp = Path(gains_path) if gains_path is not None else outdir / "gains.json"
+    gains = load_gains(gp)
+    raw = gp.read_bytes()
+    res = verify(model, gains, runs=runs, seed=seed, progress=progress)
+    for name in ("verification.json",) + RUN_FILES:
+        try:
+            (outdir / name).unlink()
+        except FileNotFoundError:
+            pass
+    figures: dict[str, Path] = {}
+    if plots:
+        from .report.plots import write_figures
+
+        figures = write_figures(res, model, outdir, fmt)
+    rel = {k: str(v.relative_to(outdir)) for k, v in figures.items()}
+    vd = verification_dict(model, res, str(gp), sha256(raw))
+    files = {
+        "verification.md": verification_markdown(model, res, vd, rel).encode("utf-8"),
+        "verification.json": json_bytes(vd),
+    }
+    written = commit_files(outdir, files, primary="verification.json", invalidate=RUN_FILES)
+    return VerificationStage(model, res, vd, figures, tuple(list(figures.values()) + written))
+
+
+@dataclass(frozen=True)
+class RunResult:
+    model: ModelStage
+    synthesis: SynthesisStage
+    verification: VerificationStage
+    files: tuple[Path, ...]
+
+    @property
+    def passed(self) -> bool:
+        return bool(self.verification.result.passed)
+
+
+def run(
+    config: Config,
+    outdir: str | Path | None = None,
+    runs: int | None = None,
+    seed: int | None = None,
+    fmt: str = "png",
+    plots: bool = True,
+    progress: ProgressFn | None = None,
+    on_stage: Callable[[str], None] | None = None,
+) -> RunResult:
+    """build-model -> synthesize -> verify, then report.md and summary.json.
+
+    When synthesis finds no gain, summary.json records the status ('infeasible' or
+    'solver-failure') and the error is raised again."""
+    from .errors import InfeasibleError, RobustSynthError
+    from .report.artifacts import atomic_write, commit_files, json_bytes
+    from .report.verification import report_markdown, summary_dict
+
+    outdir = Path(outdir) if outdir is not None else default_outdir(config)
+    say = on_stage or (lambda _s: None)
+    say("build-model")
+    ms = model_stage(config, outdir)
+    say("synthesize")
+    try:
+        ss = synthesis_stage(ms.model, outdir)
+    except RobustSynthError as exc:
+        status = "infeasible" if isinstance(exc, InfeasibleError) else "solver-failure"
+        summary = summary_dict(ms.model, None, None, status)
+        summary["message"] = str(exc)
+        atomic_write(outdir / "summary.json", json_bytes(summary))
+        raise
+    say("verify")
+    vs = verification_stage(ms.model, outdir, runs=runs, seed=seed, fmt=fmt, plots=plots, progress=progress)
+    rel = {k: str(v.relative_to(outdir)) for k, v in vs.figures.items()}
+    files = {
+        "report.md": report_markdown(ms.model, ss.gains, vs.data, rel).encode("utf-8"),
+        "summary.json": json_bytes(summary_dict(ms.model, ss.gains, vs.data, "certified")),
+    }
+    written = commit_files(outdir, files, primary="summary.json")
+    return RunResult(ms, ss, vs, tuple(ms.files + ss.files + vs.files + tuple(written)))

@@ -1,0 +1,264 @@
+"""Figures of a verification (the only module that imports matplotlib; Agg backend).
+
+Each function takes computed data and an optional ``ax`` and returns the figure; nothing here
+computes a check."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["write_figures", "FIGURES"]
+
+FIGURES = {
+    "path": "Path in the plane",
+    "errors": "Tracking errors with certified bounds",
+    "commands": "Commands and motor speeds",
+    "network": "Delay and slip realizations",
+    "lyapunov": "V(xi_k) against the certified decay",
+    "ellipsoid": "Certified ellipsoid projections with simulated states",
+    "frozen": "Frozen-delay spectral radius",
+}
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _ellipse(Qsub: np.ndarray, level: float, n: int = 200) -> np.ndarray:
+    """Boundary of {x : x' Qsub^-1 x <= level}, the projection of {xi' P xi <= level}."""
+    L = np.linalg.cholesky(Qsub * level)
+    t = np.linspace(0, 2 * np.pi, n)
+    return (L @ np.vstack([np.cos(t), np.sin(t)])).T
+
+
+def fig_path(res, model) -> Any:
+    plt = _plt()
+    sim = res.sim
+    W = np.asarray(model.config.verification.path)
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    for n in range(sim.q.shape[0]):
+        ax.plot(sim.q[n, :, 0], sim.q[n, :, 1], color="tab:blue", alpha=0.06, lw=0.8)
+    ax.plot([], [], color="tab:blue", alpha=0.4, label=f"Monte Carlo runs ({sim.q.shape[0]})")
+    ax.plot(W[:, 0], W[:, 1], "k--", lw=1.2, label="desired polyline")
+    ax.plot(W[:, 0], W[:, 1], "ko", ms=4)
+    ax.plot(sim.q[0, :, 0], sim.q[0, :, 1], color="tab:red", lw=1.5, label="sample run (run 0)")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title("Path in the plane: desired polyline and the robot over the network")
+    ax.legend(loc="best", fontsize=8)
+    ax.grid(alpha=0.3)
+    return fig
+
+
+def fig_errors(res, model) -> Any:
+    plt = _plt()
+    sim = res.sim
+    ub = res.certificate.figures.get("ultimate_bound") if res.certificate.passed else None
+    fig, axes = plt.subplots(3, 1, figsize=(9, 7), sharex=True)
+    labels = [("e_x", "m", 100.0, "cm"), ("e_y", "m", 100.0, "cm"), ("e_theta", "rad", 180 / np.pi, "deg")]
+    for i, (ax, (name, _u, scale, unit)) in enumerate(zip(axes, labels)):
+        e = sim.e[:, :, i] * scale
+        lo, hi = np.percentile(e, [0, 100], axis=0)
+        p5, p95 = np.percentile(e, [5, 95], axis=0)
+        ax.fill_between(sim.t, lo, hi, color="tab:blue", alpha=0.15, label="Monte Carlo min–max")
+        ax.fill_between(sim.t, p5, p95, color="tab:blue", alpha=0.3, label="5–95 %")
+        ax.plot(sim.t, e[0], color="tab:red", lw=1, label="sample run")
+        if ub:
+            b = ub[name] * scale
+            ax.axhspan(-b, b, color="tab:green", alpha=0.08)
+            ax.axhline(b, color="tab:green", ls="--", lw=1, label="certified bound")
+            ax.axhline(-b, color="tab:green", ls="--", lw=1)
+        for ts in model_path_switches(res, model):
+            ax.axvline(ts, color="grey", lw=0.8, ls=":")
+        unsettled = ~sim.settled
+        ax.fill_between(sim.t, 0, 1, where=unsettled, transform=ax.get_xaxis_transform(), color="grey", alpha=0.1,
+                        label="transient (excluded)")
+        ax.set_ylabel(f"{name} [{unit}]")
+        ax.grid(alpha=0.3)
+    axes[0].legend(loc="upper right", fontsize=7, ncol=3)
+    axes[-1].set_xlabel("time t [s]")
+    axes[0].set_title("Tracking error in the segment frame L (dotted: waypoint switches)")
+    fig.tight_layout()
+    return fig
+
+
+def model_path_switches(res, model) -> list[float]:
+    from ..verify.simulate import make_path
+
+    p = make_path(model.config.verification.path, model.V)
+    return list(p.t_start[1:])
+
+
+def fig_commands(res, model) -> Any:
+    plt = _plt()
+    sim = res.sim
+    tk = sim.t[:-1]
+    cfg = model.config
+    fig, axes = plt.subplots(2, 2, figsize=(10, 6), sharex=True)
+    for ax, data, name, unit in ((axes[0, 0], sim.du[:, :, 0], "dV", "m/s"), (axes[0, 1], sim.du[:, :, 1], "omega", "rad/s"),
+                                 (axes[1, 0], sim.rho[:, :, 0], "rho_r (commanded)", "rad/s"),
+                                 (axes[1, 1], sim.rho[:, :, 1], "rho_l (commanded)", "rad/s")):
+        ax.fill_between(tk, data.min(axis=0), data.max(axis=0), color="tab:blue", alpha=0.25, label="Monte Carlo min–max")
+        ax.plot(tk, data[0], color="tab:red", lw=1, label="sample run")
+        if name.startswith("rho") and cfg.robot.max_motor_speed is not None:
+            for s in (1, -1):
+                ax.axhline(s * cfg.robot.max_motor_speed, color="k", ls="--", lw=1, label="rho_max" if s == 1 else None)
+            msb = res.certificate.figures.get("motor_speed_bound") if res.certificate.passed else None
+            if msb is not None:
+                ax.axhline(msb, color="tab:green", ls=":", lw=1, label="certified on the ellipsoid")
+        ax.set_ylabel(f"{name} [{unit}]")
+        ax.grid(alpha=0.3)
+    axes[0, 0].legend(fontsize=7)
+    axes[1, 0].legend(fontsize=7)
+    for ax in axes[1]:
+        ax.set_xlabel("time t [s]")
+    fig.suptitle("Commands du_k = K xi_k and nominal motor speeds rho = J^-1 u_hat")
+    fig.tight_layout()
+    return fig
+
+
+def fig_network(res, model) -> Any:
+    plt = _plt()
+    sim = res.sim
+    cfg = model.config
+    tk = sim.t[:-1]
+    scen_taus, scen_mu = res.scenario.taus, res.scenario.mu
+    fig, axes = plt.subplots(2, 1, figsize=(9, 5), sharex=True)
+    ax = axes[0]
+    taus = scen_taus[0, model.d_hi :] * 1000
+    ax.plot(tk, taus, ".", ms=3, color="tab:purple", label="tau_k (sample run)")
+    ax.axhline(cfg.network.delay.min * 1000, color="k", ls="--", lw=1, label="tau_min, tau_max")
+    ax.axhline(cfg.network.delay.max * 1000, color="k", ls="--", lw=1)
+    ax.axhline(cfg.network.sampling_time * 1000, color="grey", ls=":", lw=1, label="Ts")
+    ax.set_ylabel("delay [ms]")
+    ax.legend(fontsize=7, loc="upper right")
+    ax.grid(alpha=0.3)
+    ax = axes[1]
+    colors = {"constant": "tab:blue", "random-walk": "tab:orange", "steps": "tab:green"}
+    for n in range(min(3, scen_mu.shape[0])):
+        ax.plot(tk, scen_mu[n, :, 0], lw=1, color=list(colors.values())[n % 3], label=f"mu_r run {n}")
+        ax.plot(tk, scen_mu[n, :, 1], lw=1, ls="--", color=list(colors.values())[n % 3], label=f"mu_l run {n}")
+    ax.axhline(min(cfg.slip.right.min, cfg.slip.left.min), color="k", ls=":", lw=1)
+    ax.axhline(max(cfg.slip.right.max, cfg.slip.left.max), color="k", ls=":", lw=1)
+    ax.set_ylabel("slip mu [-]")
+    ax.set_xlabel("time t [s]")
+    ax.legend(fontsize=7, ncol=3, loc="lower right")
+    ax.grid(alpha=0.3)
+    axes[0].set_title("Network delay and track slip realizations (runs 0–2: constant, random walk, steps)")
+    fig.tight_layout()
+    return fig
+
+
+def fig_lyapunov(res, model) -> Any:
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    cert = res.certificate
+    traces = res.lifted_traces
+    for i, (name, V) in enumerate(sorted(traces.items())):
+        col = f"C{i}"
+        k = np.arange(V.shape[1])
+        ax.semilogy(k, V.max(axis=0), color=col, lw=1.2, label=f"{name}: max over runs")
+        ax.semilogy(k, np.median(V, axis=0), color=col, lw=0.8, ls=":")
+    if cert.passed:
+        c = res.gains["certificate"]
+        if c["objective"] == "ultimate-bound":
+            level = cert.figures["ellipsoid_level"]
+            alpha = float(c["alpha"])
+            k = np.arange(max(v.shape[1] for v in traces.values()))
+            V0 = 25.0 * level
+            ax.semilogy(k, level + (V0 - level) * (1 - alpha) ** k, "k--", lw=1, label="certified: level + (V0 − level)(1−α)^k, V0 = 25·level")
+            ax.axhline(level, color="k", lw=1.5, label="ellipsoid level")
+        elif cert.figures.get("decay_rate"):
+            r = cert.figures["decay_rate"]
+            k = np.arange(max(v.shape[1] for v in traces.values()))
+            V0 = max(float(np.max(v[:, 0])) for v in traces.values())
+            ax.semilogy(k, V0 * r ** (2 * k), "k--", lw=1, label="certified r^(2k) V0")
+    if not traces:
+        ax.text(0.5, 0.5, "no valid certificate: V is not available", ha="center", transform=ax.transAxes)
+    ax.set_xlabel("step k")
+    ax.set_ylabel("V(xi_k) = xi' P xi [-]")
+    ax.set_title("Lyapunov function on the lifted model under time-varying delays (dotted: median)")
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3, which="both")
+    return fig
+
+
+def fig_ellipsoid(res, model) -> Any:
+    plt = _plt()
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.5))
+    sim = res.sim
+    st = sim.settled
+    e = sim.e[:, st] if np.any(st) else sim.e
+    pairs = [((1, 2), ("e_y [cm]", "e_theta [deg]"), (100.0, 180 / np.pi)), ((0, 1), ("e_x [cm]", "e_y [cm]"), (100.0, 100.0))]
+    cert = res.certificate
+    for ax, (idx, labels, scales) in zip(axes, pairs):
+        pts = e[..., list(idx)].reshape(-1, 2) * np.array(scales)
+        ax.plot(pts[:, 0], pts[:, 1], ".", ms=1, alpha=0.15, color="tab:blue", label="nonlinear MC states after transients")
+        if cert.passed and cert.figures.get("ellipsoid_level") is not None:
+            Q = np.asarray(res.gains["certificate"]["Q"], dtype=float)
+            Qs = Q[np.ix_(idx, idx)]
+            b = _ellipse(Qs, cert.figures["ellipsoid_level"]) * np.array(scales)
+            ax.plot(b[:, 0], b[:, 1], color="tab:green", lw=1.5, label="certified ellipsoid (projection)")
+        ax.set_xlabel(labels[0])
+        ax.set_ylabel(labels[1])
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.suptitle("Certified invariant ellipsoid, projected, with simulated states")
+    fig.tight_layout()
+    return fig
+
+
+def fig_frozen(res, model) -> Any:
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7, 4))
+    fr = res.frozen
+    ax.plot(np.asarray(fr["tau"]) * 1000, fr["spectral_radius_vs_tau"], color="tab:blue", lw=1.5, label="rho(A~(tau) + B~(tau) K)")
+    ax.axhline(1.0, color="k", ls="--", lw=1, label="stability limit")
+    r = res.certificate.figures.get("decay_rate") if res.certificate.passed else None
+    if r is not None:
+        ax.axhline(r, color="tab:green", ls=":", lw=1.2, label=f"certified decay rate r = {r:.3f}")
+    ax.set_xlabel("constant delay tau [ms]")
+    ax.set_ylabel("spectral radius [-]")
+    ax.set_title("Closed loop with the delay frozen at tau")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    return fig
+
+
+def write_figures(res, model, outdir: str | Path, fmt: str = "png") -> dict[str, Path]:
+    """Render every figure into ``outdir/figures/`` (atomically); returns name -> path."""
+    import io
+
+    from .artifacts import atomic_write
+
+    plt = _plt()
+    outdir = Path(outdir) / "figures"
+    makers = {
+        "path": lambda: fig_path(res, model),
+        "errors": lambda: fig_errors(res, model),
+        "commands": lambda: fig_commands(res, model),
+        "network": lambda: fig_network(res, model),
+        "lyapunov": lambda: fig_lyapunov(res, model),
+        "ellipsoid": lambda: fig_ellipsoid(res, model),
+        "frozen": lambda: fig_frozen(res, model),
+    }
+    written = {}
+    for name, make in makers.items():
+        fig = make()
+        buf = io.BytesIO()
+        meta = {"Software": None} if fmt == "png" else ({"Creator": None, "Producer": None, "CreationDate": None} if fmt == "pdf" else {"Date": None})
+        fig.savefig(buf, format=fmt, dpi=110, metadata=meta)
+        plt.close(fig)
+        path = outdir / f"{name}.{fmt}"
+        atomic_write(path, buf.getvalue())
+        written[name] = path
+    return written

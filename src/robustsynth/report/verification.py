@@ -1,0 +1,143 @@
+"""verification.json, verification.md and the run's report.md."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..config import config_to_dict
+from .artifacts import SCHEMA_VERSION
+from .markdown import fmt, table
+
+__all__ = ["verification_dict", "verification_markdown", "report_markdown", "summary_dict"]
+
+
+def verification_dict(model: Any, res: Any, gains_file: str, gains_sha256: str) -> dict[str, Any]:
+    fr = dict(res.frozen)
+    fr.pop("tau", None)
+    fr.pop("spectral_radius_vs_tau", None)
+    return {
+        "schema_version": SCHEMA_VERSION,
+        "passed": res.passed,
+        "gains_file": gains_file,
+        "gains_sha256": gains_sha256,
+        "config": config_to_dict(model.config),
+        "certified": res.certificate.figures if res.certificate.passed else None,
+        "checks": list(res.checks),
+        "frozen": fr,
+        "lifted": res.lifted,
+        "monte_carlo": res.monte_carlo,
+    }
+
+
+def _val(v: Any) -> str:
+    if v is None:
+        return "—"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, (int, float)):
+        return fmt(v, 5)
+    return str(v)
+
+
+def verification_markdown(model: Any, res: Any, vd: dict[str, Any], figures: dict[str, str] | None = None) -> str:
+    cfg = model.config
+    out = [f"# Verification for `{cfg.name}`: {'PASSED' if res.passed else 'FAILED'}\n\n"]
+    out.append(
+        f"Gain file `{vd['gains_file']}` (sha256 `{vd['gains_sha256'][:16]}…`), checked independently of how it was made."
+        " Pass/fail rules are in the README (section *Verification rules*).\n\n"
+    )
+    rows = [[c["name"], "pass" if c["passed"] else "**FAIL**", _val(c["value"]), _val(c["threshold"]), c["detail"]] for c in res.checks]
+    out.append(table(["check", "result", "value", "threshold", "detail"], rows))
+    mc = res.monte_carlo
+    out.append(
+        f"\n## Monte Carlo on the nonlinear robot\n\n{mc['runs']} runs (seed {mc['seed']}), {mc['steps']} steps of "
+        f"{cfg.network.sampling_time:g} s along the path {list(map(list, cfg.verification.path))}; delays {mc['delays']};"
+        f" slip profiles {mc['slip_profiles']}; maxima taken after a {mc['transient_s']:g} s transient at the start and"
+        " after each waypoint.\n\n"
+    )
+    rows = []
+    units = {"e_x": ("cm", 100), "e_y": ("cm", 100), "e_theta": ("rad", 1), "motor_speed": ("rad/s", 1)}
+    for k, (u, sc) in units.items():
+        m = mc["maxima"][k]
+        cert = mc["certified"].get(k)
+        ratio = mc["ratio_to_certified"].get(k)
+        rows.append([f"max \\|{k}\\| [{u}]", fmt(m["mean"] * sc), fmt(m["p95"] * sc), fmt(m["max"] * sc),
+                     fmt(mc["extreme_maxima"][k] * sc), fmt(cert * sc) if cert is not None else "—",
+                     fmt(ratio, 3) if ratio is not None else "—"])
+    out.append(table(["quantity (after transients)", "mean", "p95", "max", "extreme switching", "certified", "worst / certified"], rows))
+    m_all = mc["maxima"]["motor_speed_all"]["max"]
+    if cfg.robot.max_motor_speed is not None:
+        note = "exceeds" if m_all > cfg.robot.max_motor_speed else "stays within"
+        out.append(
+            f"\nOver whole runs, transients included, the commanded motor speed reaches {m_all:.3f} rad/s, which {note}"
+            f" rho_max = {cfg.robot.max_motor_speed:g} rad/s: the certificate covers the ellipsoid, and the waypoint turns"
+            " start each segment outside it.\n"
+        )
+    ratios = [r for r in mc["ratio_to_certified"].values() if r is not None]
+    if ratios and max(ratios) > 1:
+        out.append(
+            f"\nThe nonlinear robot exceeds the linear certificate by up to {100 * (max(ratios) - 1):.1f} % (allowed: "
+            f"{100 * (mc['nonlinear_slack'] - 1):.0f} %): the paper's linearization drops the slip's effect on the"
+            " input and on the forward speed, and the heading enters through sin(e_theta).\n"
+        )
+    if figures:
+        out.append("\n## Figures\n\n")
+        from .plots import FIGURES
+
+        for name, rel in figures.items():
+            out.append(f"### {FIGURES[name]}\n\n![{FIGURES[name]}]({rel})\n\n")
+    return "".join(out)
+
+
+def summary_dict(model: Any, gains: dict[str, Any] | None, vd: dict[str, Any] | None, status: str) -> dict[str, Any]:
+    """results/<name>/summary.json: what the regression compares (certified figures, feasibility,
+    verdict, Monte Carlo maxima at the config's seed)."""
+    out: dict[str, Any] = {"schema_version": SCHEMA_VERSION, "name": model.config.name, "status": status,
+                           "dimensions": {"d_lo": model.d_lo, "d_hi": model.d_hi, "n_s": model.n_s}}
+    if gains is not None:
+        out["objective"] = gains["objective"]
+        out["certified"] = gains["certified"]
+    if vd is not None:
+        out["verification_passed"] = vd["passed"]
+        out["failed_checks"] = [c["name"] for c in vd["checks"] if not c["passed"]]
+        mc = vd["monte_carlo"]
+        out["monte_carlo"] = {"runs": mc["runs"], "seed": mc["seed"],
+                              "max": {k: v["max"] for k, v in mc["maxima"].items()}}
+    return out
+
+
+def report_markdown(model: Any, gains: dict[str, Any], vd: dict[str, Any], figures: dict[str, str]) -> str:
+    cfg = model.config
+    c = gains["certified"]
+    ub = c.get("ultimate_bound") or {}
+    mc = vd["monte_carlo"]
+    out = [f"# robustsynth report: `{cfg.name}`\n\n"]
+    out.append(
+        f"Verdict: **{'PASSED' if vd['passed'] else 'FAILED'}**. Objective `{gains['objective']}`; d_lo = {model.d_lo},"
+        f" d_hi = {model.d_hi}, lifted state n_s = {model.n_s}. Details: [model](model.md),"
+        f" [synthesis](synthesis.md), [verification](verification.md); gain in `gains.json` / `gains.mat`.\n\n"
+    )
+    out.append("## What is proven, and what the robot did\n\n")
+    rows = [["decay rate r per step", fmt(c.get("decay_rate")), "—", "—"]]
+    for k, u, sc in (("e_x", "cm", 100), ("e_y", "cm", 100), ("e_theta", "rad", 1)):
+        if ub:
+            rows.append([f"\\|{k}\\| [{u}]", fmt(ub[k] * sc), fmt(mc["maxima"][k]["max"] * sc),
+                         fmt(mc["ratio_to_certified"].get(k), 3)])
+    if c.get("motor_speed_bound") is not None:
+        rows.append(["\\|rho\\| [rad/s]", fmt(c["motor_speed_bound"]), fmt(mc["maxima"]["motor_speed"]["max"]),
+                     fmt(mc["ratio_to_certified"].get("motor_speed"), 3)])
+    if c.get("hinf_gain") is not None:
+        rows.append(["l2 gain slip → weighted error", fmt(c["hinf_gain"]), "—", "—"])
+    out.append(table(["quantity", "certified (linear lifted model)", f"nonlinear Monte Carlo max ({mc['runs']} runs)", "ratio"], rows))
+    failed = [ch["name"] for ch in vd["checks"] if not ch["passed"]]
+    if failed:
+        out.append("\nFailed checks: " + "; ".join(failed) + ".\n")
+    out.append("\n## Figures\n\n")
+    from .plots import FIGURES
+
+    for name, rel in figures.items():
+        out.append(f"- [{FIGURES[name]}]({rel})\n")
+    out.append("\n")
+    for name, rel in figures.items():
+        out.append(f"### {FIGURES[name]}\n\n![{FIGURES[name]}]({rel})\n\n")
+    return "".join(out)

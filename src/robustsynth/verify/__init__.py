@@ -1,0 +1,8 @@
+"""Independent verification of a gain: certificate re-check (numpy), frozen delays, the lifted
+model under time-varying delays, and Monte Carlo on the nonlinear networked robot."""
+
+from __future__ import annotations
+
+from .checks import VerificationResult, load_gains, verify
+
+__all__ = ["verify", "load_gains", "VerificationResult"]
