@@ -38,8 +38,11 @@ _MODEL = ConfigDict(extra="forbid", frozen=True, strict=True, allow_inf_nan=Fals
 
 Pos = Annotated[float, Field(gt=0)]
 NonNeg = Annotated[float, Field(ge=0)]
-# A token in validator messages that the formatter replaces by the sibling key's full path.
+MAX_D_HI = 20  # longest delay, in sampling periods (the lifted state grows with it)
+# Tokens in validator messages: _SIBLING is replaced by the sibling key's full path; a message
+# starting with _FIELD "name: ..." (from a model validator) is reported at that field's path.
 _SIBLING = "@sibling:"
+_FIELD = "@field:"
 
 
 def _range_check(lo: float | None, hi: float, lo_name: str = "min") -> None:
@@ -52,20 +55,20 @@ class _Node(BaseModel):
 
 
 class RobotConfig(_Node):
-    gear_radius: Pos = Field(description="R: radius of the gears driving the tracks [m]")
-    track_distance: Pos = Field(description="D: distance between the tracks [m]")
-    max_motor_speed: Pos | None = Field(
+    gear_radius: Annotated[float, Field(gt=0, le=10)] = Field(description="R: radius of the gears driving the tracks [m]")
+    track_distance: Annotated[float, Field(gt=0, le=100)] = Field(description="D: distance between the tracks [m]")
+    max_motor_speed: Annotated[float, Field(gt=0, le=1e6)] | None = Field(
         default=None, description="rho_max: limit on |rho_r|, |rho_l| [rad/s]; null for none"
     )
 
 
 class ReferenceConfig(_Node):
-    speed: Pos = Field(description="V^D: desired forward speed along each segment [m/s]")
+    speed: Annotated[float, Field(gt=0, le=100)] = Field(description="V^D: desired forward speed along each segment [m/s]")
 
 
 class DelayRange(_Node):
-    min: NonNeg = Field(description="tau_min [s]")
-    max: NonNeg = Field(description="tau_max [s]")
+    min: Annotated[float, Field(ge=0, le=1e4)] = Field(description="tau_min [s]")
+    max: Annotated[float, Field(ge=0, le=1e4)] = Field(description="tau_max [s]")
 
     @field_validator("max")
     @classmethod
@@ -75,13 +78,23 @@ class DelayRange(_Node):
 
 
 class NetworkConfig(_Node):
-    sampling_time: Pos = Field(description="Ts: sensor sampling period [s]")
+    sampling_time: Annotated[float, Field(ge=1e-6, le=100)] = Field(description="Ts: sensor sampling period [s]")
     delay: DelayRange = Field(description="bounds of the total delay tau = tau_SC + tau_CA + tau_C [s]")
+
+    @model_validator(mode="after")
+    def _lifting_size(self) -> "NetworkConfig":
+        ratio = self.delay.max / self.sampling_time
+        if ratio > MAX_D_HI + 1e-9:
+            raise ValueError(
+                f"{_FIELD}delay.max: must be <= {MAX_D_HI} * network.sampling_time (got {self.delay.max:g} s ="
+                f" {ratio:.4g} periods; the lifted state would have {3 + 2 * math.ceil(ratio - 1e-9)} entries)"
+            )
+        return self
 
 
 class SlipRange(_Node):
-    min: Pos = Field(description="smallest slip coefficient mu (dimensionless, > 0)")
-    max: Pos = Field(description="largest slip coefficient mu (dimensionless, > 0)")
+    min: Annotated[float, Field(gt=0, le=10)] = Field(description="smallest slip coefficient mu (dimensionless, > 0)")
+    max: Annotated[float, Field(gt=0, le=10)] = Field(description="largest slip coefficient mu (dimensionless, > 0)")
 
     @field_validator("max")
     @classmethod
@@ -96,9 +109,9 @@ class SlipConfig(_Node):
 
 
 class ErrorWeights(_Node):
-    e_x: NonNeg = Field(default=0.1, description="weight on e_x [1/m]")
-    e_y: NonNeg = Field(default=1.0, description="weight on e_y [1/m]")
-    e_theta: NonNeg = Field(default=0.1, description="weight on e_theta [1/rad]")
+    e_x: Annotated[float, Field(ge=0, le=1e6)] = Field(default=0.1, description="weight on e_x [1/m]")
+    e_y: Annotated[float, Field(ge=0, le=1e6)] = Field(default=1.0, description="weight on e_y [1/m]")
+    e_theta: Annotated[float, Field(ge=0, le=1e6)] = Field(default=0.1, description="weight on e_theta [1/rad]")
 
     @model_validator(mode="after")
     def _not_all_zero(self) -> "ErrorWeights":
@@ -131,28 +144,29 @@ class SynthesisConfig(_Node):
 
 
 class InitialOffset(_Node):
-    x: float = Field(default=0.0, description="initial e_x [m]")
-    y: float = Field(default=0.05, description="initial e_y [m]")
-    theta: float = Field(default=0.0, description="initial e_theta [rad]")
+    x: Annotated[float, Field(ge=-100, le=100)] = Field(default=0.0, description="initial e_x [m]")
+    y: Annotated[float, Field(ge=-100, le=100)] = Field(default=0.05, description="initial e_y [m]")
+    theta: Annotated[float, Field(ge=-math.pi, le=math.pi)] = Field(default=0.0, description="initial e_theta [rad]")
 
 
 class NoiseConfig(_Node):
-    position: NonNeg = Field(default=0.0, description="std of position measurement noise [m]")
-    heading: NonNeg = Field(default=0.0, description="std of heading measurement noise [rad]")
+    position: Annotated[float, Field(ge=0, le=10)] = Field(default=0.0, description="std of position measurement noise [m]")
+    heading: Annotated[float, Field(ge=0, le=math.pi)] = Field(default=0.0, description="std of heading measurement noise [rad]")
 
 
-Waypoint = Annotated[tuple[float, float], Field(description="(x, y) [m]")]
+Coord = Annotated[float, Field(ge=-1e6, le=1e6)]
+Waypoint = Annotated[tuple[Coord, Coord], Field(description="(x, y) [m]")]
 
 _DEFAULT_PATH: tuple[tuple[float, float], ...] = ((0.0, 0.0), (6.0, 0.0), (10.0, 2.0), (16.0, 2.0))
 
 
 class VerificationConfig(_Node):
     runs: Annotated[int, Field(ge=1, le=100_000)] = Field(default=200, description="Monte Carlo runs")
-    seed: Annotated[int, Field(ge=0)] = Field(default=0, description="random seed")
-    path: tuple[Waypoint, ...] = Field(default=_DEFAULT_PATH, description="waypoints of the polyline [m]")
+    seed: Annotated[int, Field(ge=0, le=2**32 - 1)] = Field(default=0, description="random seed")
+    path: tuple[Waypoint, ...] = Field(default=_DEFAULT_PATH, max_length=1000, description="waypoints of the polyline [m]")
     initial_offset: InitialOffset = Field(default_factory=InitialOffset, description="initial pose error")
     noise: NoiseConfig = Field(default_factory=NoiseConfig, description="measurement noise")
-    transient: NonNeg = Field(
+    transient: Annotated[float, Field(ge=0, le=1e4)] = Field(
         default=5.0, description="time after the start and after each waypoint excluded from the maxima [s]"
     )
     frozen_grid: Annotated[int, Field(ge=2, le=100_000)] = Field(
@@ -164,7 +178,7 @@ class VerificationConfig(_Node):
     lifted_steps: Annotated[int, Field(ge=1, le=100_000)] = Field(
         default=200, description="steps of each lifted-model run"
     )
-    nonlinear_slack: Annotated[float, Field(ge=1)] = Field(
+    nonlinear_slack: Annotated[float, Field(ge=1, le=1e3)] = Field(
         default=1.5,
         description="the nonlinear Monte Carlo fails when a maximum exceeds slack x its certified bound",
     )
@@ -248,6 +262,9 @@ def _format_validation_error(err: ValidationError) -> str:
     msg = str(first["msg"])
     if msg.startswith("Value error, "):
         msg = msg[len("Value error, ") :]
+    if msg.startswith(_FIELD):
+        field, _, msg = msg[len(_FIELD) :].partition(": ")
+        path = f"{path}.{field}" if loc else field
     if _SIBLING in msg:
         parent = _loc(loc[:-1])
         msg = msg.replace(_SIBLING, f"{parent}." if loc[:-1] else "")
@@ -307,17 +324,16 @@ def load_config(path: str | Path | None = None) -> Config:
         return parse_config(default_config_text(), "<default config>")
     p = Path(path)
     try:
-        size = p.stat().st_size
-        if not p.is_file():
-            raise ConfigError(f"{p}: not a regular file")
-        if size > MAX_CONFIG_BYTES:
-            raise ConfigError(f"{p}: file is larger than 1 MiB ({size} bytes)")
-        with p.open("rb") as fh:
+        if p.is_dir():
+            raise ConfigError(f"{p}: is a directory, not a config file")
+        with p.open("rb") as fh:  # regular files, and pipes such as <(...) or /dev/stdin
             raw = fh.read(MAX_CONFIG_BYTES + 1)
     except ConfigError:
         raise
     except OSError as exc:
         raise ConfigError(f"{p}: cannot read ({exc.strerror or exc})") from None
+    if len(raw) > MAX_CONFIG_BYTES:
+        raise ConfigError(f"{p}: file is larger than 1 MiB")
     return parse_config(raw, str(p))
 
 

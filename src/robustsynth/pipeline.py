@@ -123,14 +123,14 @@ def verification_stage(
 ) -> VerificationStage:
     """Verify a gains file (default ``outdir/gains.json``); write figures, verification.md and
     verification.json (last).  The run's report and summary are removed first."""
-    from .report.artifacts import commit_files, json_bytes, sha256
+    from .report.artifacts import commit_files, json_bytes
+    from .report.synthesis import gains_id
     from .report.verification import verification_dict, verification_markdown
     from .verify import load_gains, verify
 
     outdir = Path(outdir)
     gp = Path(gains_path) if gains_path is not None else outdir / "gains.json"
     gains = load_gains(gp)
-    raw = gp.read_bytes()
     res = verify(model, gains, runs=runs, seed=seed, progress=progress)
     for name in ("verification.json",) + RUN_FILES:
         try:
@@ -143,7 +143,11 @@ def verification_stage(
 
         figures = write_figures(res, model, outdir, fmt)
     rel = {k: str(v.relative_to(outdir)) for k, v in figures.items()}
-    vd = verification_dict(model, res, str(gp), sha256(raw))
+    try:  # a path relative to OUTDIR keeps verification.json identical across output directories
+        shown = str(gp.resolve().relative_to(outdir.resolve()))
+    except ValueError:
+        shown = str(gp)
+    vd = verification_dict(model, res, shown, gains_id(gains))
     files = {
         "verification.md": verification_markdown(model, res, vd, rel).encode("utf-8"),
         "verification.json": json_bytes(vd),

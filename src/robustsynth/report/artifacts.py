@@ -80,6 +80,15 @@ def sha256(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
+def remove_stale_temps(outdir: Path) -> None:
+    """Remove temp files that a killed writer left behind (``.<name>.<random>.tmp``)."""
+    for p in list(outdir.glob(".*.tmp")) + list(outdir.glob("figures/.*.tmp")):
+        try:
+            p.unlink()
+        except FileNotFoundError:
+            pass
+
+
 def commit_files(
     outdir: str | Path,
     files: Mapping[str, bytes],
@@ -90,6 +99,7 @@ def commit_files(
     then ``primary`` last.  Returns the written paths."""
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
+    remove_stale_temps(outdir)
     for name in (primary, *invalidate):
         try:
             (outdir / name).unlink()

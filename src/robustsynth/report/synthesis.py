@@ -10,7 +10,7 @@ from ..config import config_to_dict
 from .artifacts import SCHEMA_VERSION
 from .markdown import fmt, matrix_table, table
 
-__all__ = ["gains_dict", "gains_mat_vars", "synthesis_markdown", "LAW", "CERTIFIED_KEYS"]
+__all__ = ["gains_dict", "gains_id", "gains_mat_vars", "synthesis_markdown", "LAW", "CERTIFIED_KEYS"]
 
 LAW = "du_k = K xi_k"
 CERTIFIED_KEYS = ("robust_stability", "decay_rate", "ultimate_bound", "motor_speed_bound", "hinf_gain")
@@ -51,7 +51,7 @@ def gains_dict(model: Any, result: Any) -> dict[str, Any]:
         "min_eig_margin_found": cert["min_eig_margin_found"],
         "checks": list(result.check.checks),
     }
-    return {
+    out = {
         "schema_version": SCHEMA_VERSION,
         "config": config_to_dict(model.config),
         "K": result.K,
@@ -64,6 +64,16 @@ def gains_dict(model: Any, result: Any) -> dict[str, Any]:
         "solver": {k: result.solver[k] for k in ("name", "version", "status", "iterations", "solve_time_s", "fallback_used")},
         "notes": list(result.notes),
     }
+    out["gains_id"] = gains_id(out)
+    return out
+
+
+def gains_id(gd: dict[str, Any]) -> str:
+    """sha256 of what defines a gain (config, K, certificate): identical for identical gains,
+    unlike a hash of the file, which also holds the solver's timing."""
+    from .artifacts import json_bytes, sha256
+
+    return sha256(json_bytes({"config": gd.get("config"), "K": gd.get("K"), "certificate": gd.get("certificate")}))
 
 
 def _mat_value(v: Any) -> Any:
@@ -101,6 +111,7 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any]) -> str:
     c = gd["certificate"]
     out = [f"# Synthesis for `{cfg.name}`\n\n"]
     out.append(f"**Objective `{result.objective}`**: {OBJECTIVE_TEXT[result.objective]}.\n\n")
+    out.append(f"Written with `gains.json` whose `gains_id` is `{gd['gains_id']}`.\n\n")
     out.append(
         f"Control law `{LAW}` on the lifted state ({', '.join(model.state_names)}); applied command "
         f"`u_hat = [V^D, 0] + du`. Multiplier: `{result.multiplier}`"

@@ -11,7 +11,7 @@ from .markdown import fmt, table
 __all__ = ["verification_dict", "verification_markdown", "report_markdown", "summary_dict"]
 
 
-def verification_dict(model: Any, res: Any, gains_file: str, gains_sha256: str) -> dict[str, Any]:
+def verification_dict(model: Any, res: Any, gains_file: str, gid: str) -> dict[str, Any]:
     fr = dict(res.frozen)
     fr.pop("tau", None)
     fr.pop("spectral_radius_vs_tau", None)
@@ -19,7 +19,7 @@ def verification_dict(model: Any, res: Any, gains_file: str, gains_sha256: str) 
         "schema_version": SCHEMA_VERSION,
         "passed": res.passed,
         "gains_file": gains_file,
-        "gains_sha256": gains_sha256,
+        "gains_id": gid,
         "config": config_to_dict(model.config),
         "certified": res.certificate.figures if res.certificate.passed else None,
         "checks": list(res.checks),
@@ -43,7 +43,7 @@ def verification_markdown(model: Any, res: Any, vd: dict[str, Any], figures: dic
     cfg = model.config
     out = [f"# Verification for `{cfg.name}`: {'PASSED' if res.passed else 'FAILED'}\n\n"]
     out.append(
-        f"Gain file `{vd['gains_file']}` (sha256 `{vd['gains_sha256'][:16]}…`), checked independently of how it was made."
+        f"Gain file `{vd['gains_file']}` (gains_id `{vd['gains_id'][:16]}…`), checked independently of how it was made."
         " Pass/fail rules are in the README (section *Verification rules*).\n\n"
     )
     rows = [[c["name"], "pass" if c["passed"] else "**FAIL**", _val(c["value"]), _val(c["threshold"]), c["detail"]] for c in res.checks]
@@ -94,6 +94,8 @@ def summary_dict(model: Any, gains: dict[str, Any] | None, vd: dict[str, Any] | 
     verdict, Monte Carlo maxima at the config's seed)."""
     out: dict[str, Any] = {"schema_version": SCHEMA_VERSION, "name": model.config.name, "status": status,
                            "dimensions": {"d_lo": model.d_lo, "d_hi": model.d_hi, "n_s": model.n_s}}
+    if vd is not None:
+        out["gains_id"] = vd["gains_id"]
     if gains is not None:
         out["objective"] = gains["objective"]
         out["certified"] = gains["certified"]

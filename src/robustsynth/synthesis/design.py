@@ -176,9 +176,19 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool) -
         return val
 
     grid = np.linspace(math.log(ALPHA_RANGE[0]), math.log(ALPHA_RANGE[1]), s.alpha_points)
-    vals = [evaluate(float(g)) for g in grid]
+    vals: list[float] = []
+    for g in grid:
+        vals.append(evaluate(float(g)))
+        # Scan upwards; stop once past the minimum (two rises in a row) or at the end of the
+        # feasible interval (a failure after a success): the points beyond cost solver time
+        # (near-infeasible LMIs trigger the fallback solver) and cannot improve the bound.
+        if len(vals) >= 3 and math.isfinite(vals[-3]) and vals[-1] > vals[-2] > vals[-3]:
+            break
+        if len(vals) >= 2 and math.isfinite(vals[-2]) and not math.isfinite(vals[-1]):
+            break
     if best.cert is None:
         return best, runner
+    grid = grid[: len(vals)]
     i = int(np.argmin(vals))
     a, b = float(grid[max(i - 1, 0)]), float(grid[min(i + 1, len(grid) - 1)])
     phi = (math.sqrt(5.0) - 1.0) / 2.0

@@ -212,7 +212,7 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
         level = float(np.sum(beta) / alpha)  # {xi' P xi <= level} is invariant and attracting
         figures["decay_rate"] = float(np.sqrt(1.0 - alpha))
         figures["ellipsoid_level"] = level
-        diag = np.diag(Q)
+        diag = np.maximum(np.diag(Q), 0.0)  # figures are discarded below unless every check passes
         figures["ultimate_bound"] = {
             "e_x": float(np.sqrt(level * diag[0])),
             "e_y": float(np.sqrt(level * diag[1])),
@@ -221,7 +221,7 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
         R = cfg.robot.gear_radius
         KQK = K @ Q @ K.T
         J_inv = np.asarray(model.J_inv)
-        dev = np.sqrt(level * np.einsum("ij,jk,ik->i", J_inv, KQK, J_inv))
+        dev = np.sqrt(np.maximum(level * np.einsum("ij,jk,ik->i", J_inv, KQK, J_inv), 0.0))
         figures["motor_speed_bound"] = float(cfg.reference.speed / R + np.max(dev))
         rho_max = cfg.robot.max_motor_speed
         if rho_max is not None and cert.get("motor_limits_enforced", False):

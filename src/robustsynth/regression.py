@@ -1,0 +1,126 @@
+"""Regression on ``configs/``: run every config and compare with ``results/<name>/summary.json``.
+
+    python -m robustsynth.regression --write   # regenerate the baselines (make baselines)
+    python -m robustsynth.regression           # compare (what the test in make test does)
+
+Tolerances: certified figures relative 1e-3; Monte Carlo maxima relative 1e-2 (they depend on
+the gain, which solvers reproduce to their accuracy only); statuses, dimensions and verdicts exact.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+__all__ = ["run_config", "compare", "write_baselines", "CERTIFIED_REL", "MONTE_CARLO_REL"]
+
+CERTIFIED_REL = 1e-3
+MONTE_CARLO_REL = 1e-2
+
+
+def run_config(config_path: Path, outdir: Path) -> dict[str, Any]:
+    """``robustsynth run`` without figures; returns the summary (also for infeasible configs)."""
+    from .config import load_config
+    from .errors import RobustSynthError
+    from .pipeline import run
+
+    cfg = load_config(config_path)
+    try:
+        run(cfg, outdir, plots=False)
+    except RobustSynthError:
+        pass  # run() recorded the status in summary.json
+    return json.loads((outdir / "summary.json").read_text())
+
+
+def _close(a: Any, b: Any, rel: float) -> bool:
+    if a is None or b is None:
+        return a is b
+    return math.isclose(float(a), float(b), rel_tol=rel, abs_tol=0.0)
+
+
+def compare(expected: dict[str, Any], got: dict[str, Any]) -> list[str]:
+    """Differences between two summaries under the named tolerances (empty when they agree)."""
+    diffs: list[str] = []
+    for key in ("status", "objective", "dimensions", "verification_passed", "failed_checks"):
+        if expected.get(key) != got.get(key):
+            diffs.append(f"{key}: expected {expected.get(key)!r}, got {got.get(key)!r}")
+    ec, gc = expected.get("certified") or {}, got.get("certified") or {}
+    for key in ("robust_stability",):
+        if ec.get(key) != gc.get(key):
+            diffs.append(f"certified.{key}: expected {ec.get(key)!r}, got {gc.get(key)!r}")
+    for key in ("decay_rate", "motor_speed_bound", "hinf_gain"):
+        if not _close(ec.get(key), gc.get(key), CERTIFIED_REL):
+            diffs.append(f"certified.{key}: expected {ec.get(key)}, got {gc.get(key)} (rel {CERTIFIED_REL:g})")
+    eu, gu = ec.get("ultimate_bound") or {}, gc.get("ultimate_bound") or {}
+    for key in sorted(set(eu) | set(gu)):
+        if not _close(eu.get(key), gu.get(key), CERTIFIED_REL):
+            diffs.append(f"certified.ultimate_bound.{key}: expected {eu.get(key)}, got {gu.get(key)} (rel {CERTIFIED_REL:g})")
+    em = (expected.get("monte_carlo") or {}).get("max", {})
+    gm = (got.get("monte_carlo") or {}).get("max", {})
+    for key in sorted(set(em) | set(gm)):
+        if not _close(em.get(key), gm.get(key), MONTE_CARLO_REL):
+            diffs.append(f"monte_carlo.max.{key}: expected {em.get(key)}, got {gm.get(key)} (rel {MONTE_CARLO_REL:g})")
+    return diffs
+
+
+def _configs(configs_dir: Path) -> list[Path]:
+    return sorted(configs_dir.glob("*.yaml"))
+
+
+def write_baselines(configs_dir: Path, results_dir: Path) -> None:
+    from .report.artifacts import atomic_write
+
+    for cfg_path in _configs(configs_dir):
+        with tempfile.TemporaryDirectory() as tmp:
+            summary = run_config(cfg_path, Path(tmp))
+            dest = results_dir / summary["name"]
+            dest.mkdir(parents=True, exist_ok=True)
+            atomic_write(dest / "summary.json", (Path(tmp) / "summary.json").read_bytes())
+            if (Path(tmp) / "gains.json").exists():
+                atomic_write(dest / "gains.json", (Path(tmp) / "gains.json").read_bytes())
+            elif (dest / "gains.json").exists():
+                (dest / "gains.json").unlink()
+            print(f"{cfg_path.name}: {summary['status']}"
+                  + (f", verification {'passed' if summary.get('verification_passed') else 'FAILED'}"
+                     if "verification_passed" in summary else ""))
+
+
+def check_all(configs_dir: Path, results_dir: Path) -> int:
+    bad = 0
+    for cfg_path in _configs(configs_dir):
+        with tempfile.TemporaryDirectory() as tmp:
+            got = run_config(cfg_path, Path(tmp))
+        base = results_dir / got["name"] / "summary.json"
+        if not base.exists():
+            print(f"{cfg_path.name}: no baseline {base} (run make baselines)")
+            bad += 1
+            continue
+        diffs = compare(json.loads(base.read_text()), got)
+        print(f"{cfg_path.name}: {'ok' if not diffs else 'DIFFERS'}")
+        for d in diffs:
+            print(f"  {d}")
+        bad += bool(diffs)
+    return 1 if bad else 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    import argparse
+
+    ap = argparse.ArgumentParser(prog="python -m robustsynth.regression", description=__doc__.splitlines()[0])
+    ap.add_argument("--write", action="store_true", help="regenerate results/<name>/summary.json and gains.json")
+    ap.add_argument("--configs", type=Path, default=Path("configs"))
+    ap.add_argument("--results", type=Path, default=Path("results"))
+    a = ap.parse_args(argv)
+    if a.write:
+        write_baselines(a.configs, a.results)
+        return 0
+    return check_all(a.configs, a.results)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
