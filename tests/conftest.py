@@ -7,6 +7,12 @@ from typing import Any
 
 import pytest
 import yaml
+from hypothesis import settings
+
+# Deterministic property tests: the same examples on every machine and run (CI must not flake);
+# no example database written into the work tree.
+settings.register_profile("robustsynth", derandomize=True, database=None)
+settings.load_profile("robustsynth")
 
 from robustsynth.config import Config, default_config_text
 
