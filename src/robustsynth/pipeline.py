@@ -132,11 +132,7 @@ def verification_stage(
     gp = Path(gains_path) if gains_path is not None else outdir / "gains.json"
     gains = load_gains(gp)
     res = verify(model, gains, runs=runs, seed=seed, progress=progress)
-    for name in ("verification.json",) + RUN_FILES:
-        try:
-            (outdir / name).unlink()
-        except FileNotFoundError:
-            pass
+    _remove(outdir, ("verification.json",) + RUN_FILES)
     figures: dict[str, Path] = {}
     if plots:
         from .report.plots import write_figures

@@ -89,3 +89,12 @@ def test_slip_box_reproduces_range() -> None:
         corners[m.slip.labels.index("centre")] = 1.0
     d = W @ corners
     assert np.allclose(d.min(axis=1), m.slip.d_min) and np.allclose(d.max(axis=1), m.slip.d_max)
+
+
+def test_slip_coordinates_invert_W() -> None:
+    m = build_model(make_config(**{"slip.right.min": 0.5, "slip.right.max": 1.1}))
+    rng = np.random.default_rng(0)
+    d = rng.uniform(m.slip.d_min, m.slip.d_max, size=(100, 2))
+    w = m.slip.coordinates(d)
+    assert np.allclose(w @ np.asarray(m.slip.W).T, d, atol=1e-14)
+    assert np.all(np.abs(w) <= 1 + 1e-12)

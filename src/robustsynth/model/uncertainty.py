@@ -116,6 +116,21 @@ class SlipBox:
     W: np.ndarray  # (2, n_w)
     labels: tuple[str, ...]
 
+    def coordinates(self, d: np.ndarray) -> np.ndarray:
+        """The box coordinates w (..., n_w) of slip deviations d (..., 2): w_centre = 1 and
+        w_i = (d_i - c_i) / half-width_i, so that d = W w and |w_i| <= 1 inside the box."""
+        d = np.asarray(d, dtype=float)
+        lo, hi = np.array(self.d_min), np.array(self.d_max)
+        c, half = (lo + hi) / 2.0, (hi - lo) / 2.0
+        cols = []
+        for name in self.labels:
+            if name == "centre":
+                cols.append(np.ones(d.shape[:-1]))
+            else:
+                i = 0 if name == "dmu_r" else 1
+                cols.append((d[..., i] - c[i]) / half[i])
+        return np.stack(cols, axis=-1) if cols else np.zeros(d.shape[:-1] + (0,))
+
 
 def slip_box(mu_r: tuple[float, float], mu_l: tuple[float, float]) -> SlipBox:
     d_min = (mu_r[0] - 1.0, mu_l[0] - 1.0)

@@ -281,9 +281,8 @@ def synthesize(model: Any, settings: SynthesisConfig | None = None, **overrides:
     if runner.fallbacks:
         notes.append(f"fallback solver used in {runner.fallbacks} of {len(search)} solves")
     rec = best.record
-    assert_ok = best.cert is not None and best.check is not None and best.check.passed
-    if not assert_ok:  # pragma: no cover - guarded above
-        raise SolverFailure(f"{s.objective}: no certified point")
+    if best.cert is None or best.check is None or not best.check.passed or rec is None:
+        raise SolverFailure(f"{s.objective}: no certified point")  # unreachable: each branch above raised
     cert = dict(best.cert)
     cert["min_eig_margin_found"] = best.check.min_eig_margin
     solver = {

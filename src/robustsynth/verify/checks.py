@@ -143,7 +143,6 @@ def _lifted(model, K, cert: CertificateCheck, gains: dict) -> tuple[list[dict], 
         level = float(cert.figures["ellipsoid_level"])
         alpha = float(c["alpha"])
         beta = np.asarray(c["beta"], dtype=float)
-        W = np.asarray(model.slip.W)
         # starting points: on the ellipsoid's boundary, and far outside it (decay towards it)
         z = rng.normal(size=(N, model.n_s))
         z /= np.sqrt(_V(z, P))[:, None]
@@ -159,8 +158,7 @@ def _lifted(model, K, cert: CertificateCheck, gains: dict) -> tuple[list[dict], 
             for start_name, xi0 in (("boundary", xi_in), ("outside", xi_out)):
                 xi = closed_loop_run(model, K, taus, d, xi0)
                 V = _V(xi, P)
-                # w with d = W w: least squares is exact as W has full column rank
-                w = np.linalg.lstsq(W, d.reshape(-1, 2).T, rcond=None)[0].T.reshape(N, steps, -1)
+                w = model.slip.coordinates(d)  # d = W w, |w_i| <= 1
                 rhs = (1 - alpha) * V[:, :-1] + (w**2) @ beta
                 worst_dec = max(worst_dec, float(np.max((V[:, 1:] - rhs) / np.maximum(V[:, :-1], level))))
                 if start_name == "boundary":
