@@ -166,6 +166,17 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any]) -> str:
             "pass" if ch["passed"] else "**FAIL**",
         ])
     out.append(table(["check", "largest eigenvalue / value", "threshold", "result"], crow))
+    if result.search:
+        out.append("\n## Search\n\n")
+        if "alpha" in result.search[0]:
+            rows = [[fmt(p["alpha"]), p["status"], fmt(p["objective"]) if p.get("objective") is not None else "—"]
+                    for p in sorted(result.search, key=lambda p: p["alpha"])]
+            out.append("Line search over alpha (objective: sum of weight x bound² over e_x, e_y, e_theta):\n\n")
+            out.append(table(["alpha", "result", "objective"], rows))
+        elif "r" in result.search[0]:
+            rows = [[fmt(p["r"], 6), p["status"]] for p in result.search]
+            out.append("Bisection on the decay rate r (in the order solved):\n\n")
+            out.append(table(["r", "result"], rows))
     s = gd["solver"]
     out.append(
         f"\n## Solver\n\n{s['name']} {s['version']}, status `{s['status']}`, {s['iterations']} iterations in the final"

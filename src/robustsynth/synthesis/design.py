@@ -66,9 +66,9 @@ class _Runner:
             vals = self.lp.values()
             try:
                 K = np.linalg.solve(vals["Q"].T, vals["Y"].T).T  # K = Y Q^-1
+                cert = self.make_cert(vals)  # computes P = Q^-1
             except np.linalg.LinAlgError:
                 return False
-            cert = self.make_cert(vals)
             chk = check_certificate(self.model, K, cert)
             holder.update(cert=cert, K=K, check=chk)
             return chk.passed
