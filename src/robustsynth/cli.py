@@ -121,14 +121,25 @@ def build_model_cmd(obj: _Ctx, config: Path | None, outdir: Path | None) -> None
     obj.say(f"wrote {', '.join(str(p) for p in st.files)}")
 
 
+SYNTH_OPTS = [
+    click.option("--objective", type=click.Choice(["ultimate-bound", "stability", "hinf"]), default=None,
+                 help="Override synthesis.objective."),
+    click.option("--solver", type=click.Choice(["clarabel", "scs"]), default=None, help="Override synthesis.solver."),
+    click.option("--multiplier", type=click.Choice(["structured", "full"]), default=None,
+                 help="Override synthesis.multiplier."),
+]
+
+
+def _synth_opts(fn):
+    for opt in reversed(SYNTH_OPTS):
+        fn = opt(fn)
+    return fn
+
+
 @main.command()
 @CONFIG_ARG
 @OUTDIR_OPT
-@click.option("--objective", type=click.Choice(["ultimate-bound", "stability", "hinf"]), default=None,
-              help="Override synthesis.objective.")
-@click.option("--solver", type=click.Choice(["clarabel", "scs"]), default=None, help="Override synthesis.solver.")
-@click.option("--multiplier", type=click.Choice(["structured", "full"]), default=None,
-              help="Override synthesis.multiplier.")
+@_synth_opts
 @click.pass_obj
 @_guard
 def synthesize(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str | None, solver: str | None,
@@ -235,11 +246,12 @@ def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
 @main.command("run")
 @CONFIG_ARG
 @OUTDIR_OPT
+@_synth_opts
 @_verify_opts
 @click.pass_obj
 @_guard
-def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, runs: int | None, seed: int | None, fmt: str,
-            no_plots: bool) -> int:
+def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str | None, solver: str | None,
+            multiplier: str | None, runs: int | None, seed: int | None, fmt: str, no_plots: bool) -> int:
     """build-model, synthesize and verify in one go; write report.md and summary.json."""
     from .errors import EXIT_VERIFICATION_FAILED
     from .pipeline import run
@@ -248,7 +260,8 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, runs: int | Non
     out = _outdir(cfg, outdir)
     cb, bar = _progress(obj)
     try:
-        res = run(cfg, out, runs, seed, fmt, not no_plots, cb, on_stage=lambda s: obj.detail(f"[{s}]"))
+        res = run(cfg, out, runs, seed, fmt, not no_plots, cb, on_stage=lambda s: obj.detail(f"[{s}]"),
+                  objective=objective, solver=solver, multiplier=multiplier)
     finally:
         if bar is not None:
             bar.render_finish()

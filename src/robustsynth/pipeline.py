@@ -173,11 +173,13 @@ def run(
     plots: bool = True,
     progress: ProgressFn | None = None,
     on_stage: Callable[[str], None] | None = None,
+    **synthesis_overrides: Any,
 ) -> RunResult:
     """build-model -> synthesize -> verify, then report.md and summary.json.
 
     When synthesis finds no gain, summary.json records the status ('infeasible' or
-    'solver-failure') and the error is raised again."""
+    'solver-failure') and the error is raised again.  ``synthesis_overrides`` (objective, solver,
+    multiplier) replace the config's synthesis settings."""
     from .errors import InfeasibleError, RobustSynthError
     from .report.artifacts import atomic_write, commit_files, json_bytes
     from .report.verification import report_markdown, summary_dict
@@ -188,7 +190,7 @@ def run(
     ms = model_stage(config, outdir)
     say("synthesize")
     try:
-        ss = synthesis_stage(ms.model, outdir)
+        ss = synthesis_stage(ms.model, outdir, **synthesis_overrides)
     except RobustSynthError as exc:
         status = "infeasible" if isinstance(exc, InfeasibleError) else "solver-failure"
         summary = summary_dict(ms.model, None, None, status)

@@ -96,3 +96,13 @@ def test_pdf_figures(run_dir, tmp_path) -> None:
                                   "--format", "pdf"])
     assert r.exit_code == 0, r.output
     assert (tmp_path / "figures" / "errors.pdf").read_bytes()[:5] == b"%PDF-"
+
+
+def test_run_forwards_synthesis_options(tmp_path) -> None:
+    r = CliRunner().invoke(main, ["run", "-o", str(tmp_path), "--objective", "stability", "--multiplier", "full",
+                                  "--runs", "5", "--no-plots"])
+    assert r.exit_code == 0, r.output
+    g = json.loads((tmp_path / "gains.json").read_text())
+    assert g["objective"] == "stability" and g["certificate"]["multipliers"]["kind"] == "full"
+    v = json.loads((tmp_path / "verification.json").read_text())
+    assert v["passed"] is True
