@@ -178,6 +178,10 @@ class VerificationConfig(_Node):
     lifted_steps: Annotated[int, Field(ge=1, le=100_000)] = Field(
         default=200, description="steps of each lifted-model run"
     )
+    motor_saturation: bool = Field(
+        default=False,
+        description="clip the motor speeds to +-robot.max_motor_speed at the actuator, as real motors do",
+    )
     nonlinear_slack: Annotated[float, Field(ge=1, le=1e3)] = Field(
         default=1.5,
         description="the nonlinear Monte Carlo fails when a maximum exceeds slack x its certified bound",

@@ -37,6 +37,7 @@ def setups():
         "multi-period": {"network.delay.min": 0.03, "network.delay.max": 0.25},
         "d_lo>=1": {"network.delay.min": 0.12, "network.delay.max": 0.22, "verification.noise.position": 0.005,
                     "verification.noise.heading": 0.01},
+        "saturated": {"verification.motor_saturation": True},
     }.items():
         m = build_model(make_config(**over))
         res = synthesize(m, objective="stability")
@@ -44,7 +45,7 @@ def setups():
     return out
 
 
-@pytest.mark.parametrize("name", ["paper", "multi-period", "d_lo>=1"])
+@pytest.mark.parametrize("name", ["paper", "multi-period", "d_lo>=1", "saturated"])
 def test_vectorized_equals_per_run_reference(setups, name) -> None:
     m, K = setups[name]
     path = make_path(m.config.verification.path, m.V)
@@ -85,3 +86,21 @@ def test_scenarios_are_reproducible(setups) -> None:
     a = draw_scenario(m, 5, seed=9, steps=50, path=path)
     b = draw_scenario(m, 5, seed=9, steps=50, path=path)
     assert np.array_equal(a.taus, b.taus) and np.array_equal(a.mu, b.mu)
+
+
+def test_saturation_clips_motor_speeds_and_changes_the_turns(setups) -> None:
+    from robustsynth.verify.simulate import saturate
+
+    m, K = setups["saturated"]
+    J, J_inv = np.asarray(m.J), np.asarray(m.J_inv)
+    u = np.array([[0.5, 3.0], [2.0, 0.0], [0.4, -0.1]])
+    rho = saturate(u, J, J_inv, 12.0) @ J_inv.T
+    assert np.all(np.abs(rho) <= 12.0 + 1e-12)
+    assert np.allclose(saturate(u[2:], J, J_inv, 12.0), u[2:])  # inside the limit: unchanged
+    path = make_path(m.config.verification.path, m.V)
+    steps = int(path.duration / m.Ts)
+    scen = draw_scenario(m, 4, seed=2, steps=steps, path=path)
+    sat = simulate(m, K, path, scen)
+    free = simulate(setups["paper"][0], K, path, scen)
+    assert np.max(np.abs(free.rho)) > 12.0  # the turns ask for more than the motors give...
+    assert np.max(np.abs(sat.q - free.q)) > 1e-6  # ...so clipping changes the motion

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..model.kinematics import G_matrix, JHJinv
-from .simulate import PathGeometry, Scenario, arc_step, frame_error
+from .simulate import PathGeometry, Scenario, arc_step, frame_error, saturate
 
 __all__ = ["simulate_run", "ivp_arc"]
 
@@ -33,6 +33,8 @@ def simulate_run(model, K: np.ndarray, path: PathGeometry, scen: Scenario, n: in
     send = (np.arange(steps + d_hi) - d_hi) * Ts
     arrive = np.maximum.accumulate(send + taus)
     uD = np.array([V, 0.0])
+    cfg = model.config
+    rho_sat = cfg.robot.max_motor_speed if cfg.verification.motor_saturation else None
     u_hat = [uD.copy() for _ in range(d_hi)]  # packets sent before t_0 carry du = 0
     q = scen.q0[n].copy()
     qs, es, dus = [q.copy()], [], []
@@ -53,7 +55,7 @@ def simulate_run(model, K: np.ndarray, path: PathGeometry, scen: Scenario, n: in
         for a, b in zip(events[:-1], events[1:]):
             active = [i for i in range(len(u_hat)) if arrive[i] <= a]
             u = u_hat[active[-1]] if active else uD
-            ue = M @ u
+            ue = M @ saturate(u, np.asarray(model.J), np.asarray(model.J_inv), rho_sat)
             if integrator == "arc":
                 q = arc_step(q, ue[0], ue[1], b - a)
             else:

@@ -27,6 +27,7 @@ __all__ = [
     "arc_step",
     "frame_error",
     "wrap_angle",
+    "saturate",
     "SLIP_PROFILES",
 ]
 
@@ -50,6 +51,15 @@ def arc_step(q: np.ndarray, v: np.ndarray, w: np.ndarray, h: np.ndarray | float)
     out[..., 1] = q[..., 1] + chord * np.sin(th + half)
     out[..., 2] = th + w * h
     return out
+
+
+def saturate(u_hat: np.ndarray, J: np.ndarray, J_inv: np.ndarray, rho_max: float | None) -> np.ndarray:
+    """The command the actuator can apply: motor speeds rho = J^-1 u_hat clipped to +-rho_max,
+    mapped back, u = J rho (identity when rho_max is None)."""
+    if rho_max is None:
+        return u_hat
+    rho = np.clip(u_hat @ J_inv.T, -rho_max, rho_max)
+    return rho @ J.T
 
 
 @dataclass(frozen=True)
@@ -200,6 +210,8 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
     D = cfg.robot.track_distance
     N, steps = scen.runs, scen.steps
     J_inv = np.asarray(model.J_inv)
+    J = np.asarray(model.J)
+    rho_sat = cfg.robot.max_motor_speed if cfg.verification.motor_saturation else None
     S = model.s_tilde(scen.taus)  # (N, steps, d_hi)
     uD = np.array([V, 0.0])
     U = np.tile(uD, (N, d_hi + 1, 1))  # U[:, j] = u_hat_{k-j}
@@ -224,7 +236,7 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
         for j in range(d_hi, -1, -1):  # u_hat_{k-j} acts on [s~_j, s~_{j-1}), s~_{d_hi} = 0, s~_{-1} = Ts
             end = S[:, k, j - 1] if j > 0 else np.full(N, Ts)
             h = end - start
-            u_eff = np.einsum("nij,nj->ni", M, U[:, j])
+            u_eff = np.einsum("nij,nj->ni", M, saturate(U[:, j], J, J_inv, rho_sat))
             q = arc_step(q, u_eff[:, 0], u_eff[:, 1], h)
             start = end
         Q[:, k + 1] = q
