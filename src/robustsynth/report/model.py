@@ -6,6 +6,7 @@ from typing import Any
 
 from ..config import config_to_dict
 from ..model import ERROR_NAMES, SLIP_NAMES, Model
+from .. import __version__
 from .artifacts import SCHEMA_VERSION
 from .markdown import fmt, matrix_table, table
 
@@ -61,6 +62,7 @@ def uncertainty_dict(model: Model) -> dict[str, Any]:
 def model_dict(model: Model, coverage: dict[str, Any]) -> dict[str, Any]:
     return {
         "schema_version": SCHEMA_VERSION,
+        "robustsynth_version": __version__,
         "config": config_to_dict(model.config),
         "dimensions": {"n_e": model.n_e, "n_u": model.n_u, "n_s": model.n_s, "d_lo": model.d_lo, "d_hi": model.d_hi},
         "state_names": list(model.state_names),

@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 
 from ..config import config_to_dict
+from .. import __version__
 from .artifacts import SCHEMA_VERSION
 from .markdown import fmt, matrix_table, table
 
@@ -53,6 +54,7 @@ def gains_dict(model: Any, result: Any) -> dict[str, Any]:
     }
     out = {
         "schema_version": SCHEMA_VERSION,
+        "robustsynth_version": __version__,
         "config": config_to_dict(model.config),
         "K": result.K,
         "state_names": list(model.state_names),
@@ -101,6 +103,10 @@ def gains_mat_vars(gd: dict[str, Any]) -> dict[str, Any]:
         "M": np.asarray(c["multipliers"]["M"], dtype=float),
         "alpha": _mat_value(c["alpha"]),
         "beta": np.asarray(c["beta"] if c["beta"] is not None else np.nan, dtype=float),
+        "r2": _mat_value(c["r2"]),
+        "gamma2": _mat_value(c["gamma2"]),
+        "multiplier": c["multipliers"]["kind"],
+        "motor_limits_enforced": bool(c["motor_limits_enforced"]),
         "margin": c["margin"],
     }
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from ..config import config_to_dict
+from .. import __version__
 from .artifacts import SCHEMA_VERSION
 from .markdown import fmt, table
 
@@ -17,6 +18,7 @@ def verification_dict(model: Any, res: Any, gains_file: str, gid: str) -> dict[s
     fr.pop("spectral_radius_vs_tau", None)
     return {
         "schema_version": SCHEMA_VERSION,
+        "robustsynth_version": __version__,
         "passed": res.passed,
         "gains_file": gains_file,
         "gains_id": gid,

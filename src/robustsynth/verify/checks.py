@@ -62,13 +62,53 @@ class VerificationResult:
         return [c["name"] for c in self.checks if not c["passed"]]
 
 
+def _mat_scalar(v: Any) -> Any:
+    a = np.asarray(v)
+    if a.dtype.kind in "US":
+        return str(a.reshape(-1)[0]) if a.size else ""
+    a = a.astype(float).reshape(-1)
+    return None if a.size == 0 or not np.isfinite(a[0]) else float(a[0])
+
+
+def _load_mat(p: Path) -> dict[str, Any]:
+    """A gains.mat (ours, or any .mat with a matrix K) as the gains.json mapping.  The certificate
+    is rebuilt when its parts (objective, Q, M, margin, ...) are present."""
+    from scipy.io import loadmat
+
+    try:
+        m = loadmat(p, squeeze_me=False)
+    except Exception as exc:  # scipy raises several types for a damaged file
+        raise InputError(f"{p}: not a readable MATLAB .mat file ({exc})") from None
+    if "K" not in m:
+        raise InputError(f"{p}: K: required variable is missing")
+    data: dict[str, Any] = {"K": m["K"]}  # validated by load_gains like a JSON K
+    if all(k in m for k in ("objective", "Q", "M", "margin")):
+        Q = np.asarray(m["Q"], dtype=float)
+        M = np.asarray(m["M"], dtype=float)
+        beta = np.asarray(m.get("beta", np.nan), dtype=float).reshape(-1)
+        data["certificate"] = {
+            "objective": _mat_scalar(m["objective"]),
+            "Q": Q,
+            "P": np.asarray(m["P"], dtype=float) if "P" in m else np.linalg.inv(Q),
+            "multipliers": {"kind": _mat_scalar(m.get("multiplier", "structured")), "M": M.reshape(M.shape if M.size else (0, 0))},
+            "alpha": _mat_scalar(m.get("alpha", np.nan)),
+            "beta": None if beta.size == 0 or not np.all(np.isfinite(beta)) else beta,
+            "r2": _mat_scalar(m.get("r2", np.nan)),
+            "gamma2": _mat_scalar(m.get("gamma2", np.nan)),
+            "motor_limits_enforced": bool(_mat_scalar(m.get("motor_limits_enforced", 0.0))),
+            "margin": _mat_scalar(m["margin"]),
+        }
+    return data
+
+
 def load_gains(path: str | Path) -> dict[str, Any]:
-    """Read a gains.json; InputError with the key path on anything malformed."""
+    """Read a gains.json (or a .mat with a matrix K); InputError with the key path on anything
+    malformed."""
     p = Path(path)
     try:
         if p.stat().st_size > MAX_GAINS_BYTES:
             raise InputError(f"{p}: file is larger than 8 MiB")
-        data = json.loads(p.read_text(encoding="utf-8"))
+        data = _load_mat(p) if p.suffix.lower() == ".mat" else json.loads(p.read_text(encoding="utf-8"))
     except InputError:
         raise
     except FileNotFoundError:
