@@ -160,7 +160,22 @@ def fig_network(res, model) -> Any:
 
 def fig_lyapunov(res, model) -> Any:
     plt = _plt()
-    fig, ax = plt.subplots(figsize=(8, 4.5))
+    vr = res.nonlinear_V_over_level
+    if vr is None:
+        fig, ax = plt.subplots(figsize=(8, 4.5))
+    else:
+        fig, (ax, ax2) = plt.subplots(2, 1, figsize=(9, 8))
+        t = res.sim.t[:-1]
+        ax2.semilogy(t, vr.max(axis=0), color="tab:red", lw=1.2, label="max over Monte Carlo runs")
+        ax2.semilogy(t, np.median(vr, axis=0), color="tab:blue", lw=1, label="median")
+        ax2.axhline(1.0, color="k", lw=1.5, label="ellipsoid level (V = level)")
+        ax2.fill_between(t, 0, 1, where=~res.sim.settled[:-1], transform=ax2.get_xaxis_transform(), color="grey",
+                         alpha=0.1, label="transient (excluded)")
+        ax2.set_xlabel("time t [s]")
+        ax2.set_ylabel("V(xi) / level [-]")
+        ax2.set_title("Nonlinear robot: V of its true lifted state relative to the certified ellipsoid")
+        ax2.legend(fontsize=7)
+        ax2.grid(alpha=0.3, which="both")
     cert = res.certificate
     traces = res.lifted_traces
     for i, (name, V) in enumerate(sorted(traces.items())):
@@ -189,6 +204,7 @@ def fig_lyapunov(res, model) -> Any:
     ax.set_title("Lyapunov function on the lifted model under time-varying delays (dotted: median)")
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3, which="both")
+    fig.tight_layout()
     return fig
 
 

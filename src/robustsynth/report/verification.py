@@ -67,6 +67,13 @@ def verification_markdown(model: Any, res: Any, vd: dict[str, Any], figures: dic
                      fmt(mc["extreme_maxima"][k] * sc), fmt(cert * sc) if cert is not None else "—",
                      fmt(ratio, 3) if ratio is not None else "—"])
     out.append(table(["quantity (after transients)", "mean", "p95", "max", "extreme switching", "certified", "worst / certified"], rows))
+    vl = mc.get("V_over_level")
+    if vl:
+        out.append(
+            f"\nLyapunov function of the nonlinear robot's lifted state after the transients: max V/level ="
+            f" {vl['max_after_transients']:.3f}; {100 * vl['fraction_of_settled_steps_outside']:.2f} % of the settled"
+            " steps lie outside the certified ellipsoid (V/level > 1).\n"
+        )
     m_all = mc["maxima"]["motor_speed_all"]["max"]
     if cfg.robot.max_motor_speed is not None:
         note = "exceeds" if m_all > cfg.robot.max_motor_speed else "stays within"

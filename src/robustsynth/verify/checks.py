@@ -56,6 +56,7 @@ class VerificationResult:
     lifted_traces: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
     K: np.ndarray | None = field(default=None, repr=False)
     gains: dict[str, Any] = field(default_factory=dict, repr=False)
+    nonlinear_V_over_level: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def failed_checks(self) -> list[str]:
@@ -253,7 +254,7 @@ def _stats(x: np.ndarray) -> dict[str, float]:
             "worst_run": int(np.argmax(x))}
 
 
-def _nonlinear(model, K, cert: CertificateCheck, runs: int, seed: int, progress):
+def _nonlinear(model, K, cert: CertificateCheck, P: np.ndarray | None, runs: int, seed: int, progress):
     vc = model.config.verification
     path = make_path(vc.path, model.V)
     steps = max(1, int(math.floor(path.duration / model.Ts + 1e-9)))
@@ -279,6 +280,18 @@ def _nonlinear(model, K, cert: CertificateCheck, runs: int, seed: int, progress)
         "nonlinear_slack": slack,
     }
     both = {k: np.concatenate([mx[k], mx_ext[k]]) for k in mx}
+    v_ratio = None
+    if ub and P is not None:
+        # Lyapunov function of the nonlinear robot's true lifted state, relative to the invariant level:
+        # <= 1 means inside the certified ellipsoid (reported, not a pass/fail rule)
+        xi_true = np.concatenate([sim.e[:, :-1], sim.xi[:, :, model.n_e :]], axis=2)
+        v_ratio = _V(xi_true, P) / float(cert.figures["ellipsoid_level"])
+        st = sim.settled[:-1]
+        if np.any(st):
+            mc["V_over_level"] = {
+                "max_after_transients": float(np.max(v_ratio[:, st])),
+                "fraction_of_settled_steps_outside": float(np.mean(v_ratio[:, st] > 1.0)),
+            }
     if ub:
         for key, unit in (("e_x", "m"), ("e_y", "m"), ("e_theta", "rad")):
             worst = float(np.max(both[key]))
@@ -299,7 +312,7 @@ def _nonlinear(model, K, cert: CertificateCheck, runs: int, seed: int, progress)
         worst = float(np.max(both["e_y"]))
         checks.append(_check("nonlinear: no divergence (max |e_y| after transients)", finite and worst <= DIVERGENCE_LIMIT,
                              worst, DIVERGENCE_LIMIT, "no certified bound to compare with; divergence limit in m"))
-    return checks, mc, sim, ext, scen
+    return checks, mc, sim, ext, scen, v_ratio
 
 
 def verify(model, gains: dict[str, Any], runs: int | None = None, seed: int | None = None,
@@ -336,7 +349,9 @@ def verify(model, gains: dict[str, Any], runs: int | None = None, seed: int | No
     cert_rate = cert.figures.get("decay_rate") if cert.passed else None
     fchecks, frozen = _frozen(model, K, cert_rate)
     lchecks, lifted, traces = _lifted(model, K, cert, gains)
-    nchecks, mc, sim, ext, scen = _nonlinear(model, K, cert, runs, seed, progress)
+    P = np.asarray(cert_data["P"], dtype=float) if cert.passed else None
+    nchecks, mc, sim, ext, scen, v_ratio = _nonlinear(model, K, cert, P, runs, seed, progress)
     checks += fchecks + lchecks + nchecks
     passed = all(c["passed"] for c in checks)
-    return VerificationResult(passed, tuple(checks), cert, mc, lifted, frozen, sim, ext, scen, traces, K, dict(gains))
+    return VerificationResult(passed, tuple(checks), cert, mc, lifted, frozen, sim, ext, scen, traces, K, dict(gains),
+                              v_ratio)
