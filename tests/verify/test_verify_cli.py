@@ -129,3 +129,18 @@ def test_verify_mat_with_only_K(run_dir, tmp_path) -> None:
     bad.write_bytes(b"not a mat file")
     r = CliRunner().invoke(main, ["verify", "--gains", str(bad), "-o", str(tmp_path / "w"), "--no-plots"])
     assert r.exit_code == 2 and "not a readable MATLAB .mat file" in r.output
+
+
+def test_path_shorter_than_transient_fails_instead_of_passing_vacuously(run_dir, tmp_path) -> None:
+    import yaml
+
+    from ..conftest import default_dict
+
+    d = default_dict()
+    d["verification"] = {"path": [[0, 0], [1.0, 0]], "transient": 5.0, "runs": 5}  # 2 s of path
+    cfg = tmp_path / "short.yaml"
+    cfg.write_text(yaml.safe_dump(d))
+    r = CliRunner().invoke(main, ["verify", str(cfg), "--gains", str(run_dir / "gains.json"), "-o", str(tmp_path / "v"),
+                                  "--no-plots"])
+    assert r.exit_code == 1
+    assert "FAILED: nonlinear: steps after the transients exist" in r.output

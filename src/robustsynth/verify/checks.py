@@ -268,6 +268,11 @@ def _nonlinear(model, K, cert: CertificateCheck, P: np.ndarray | None, runs: int
     ub = cert.figures.get("ultimate_bound") if cert.passed else None
     slack = vc.nonlinear_slack
     checks = [_check("nonlinear: every run finite", finite, None, None, f"{runs} Monte Carlo runs + 4 extreme-switching runs")]
+    n_settled = int(np.sum(sim.settled))
+    if n_settled == 0:  # otherwise every maximum below would be vacuous
+        checks.append(_check("nonlinear: steps after the transients exist", False, 0, 1,
+                             "no sampling instant lies outside the transients: lengthen verification.path or "
+                             "shorten verification.transient"))
     mc: dict[str, Any] = {
         "runs": runs, "seed": seed, "steps": steps, "duration_s": steps * model.Ts, "transient_s": vc.transient,
         "settled_steps": int(np.sum(sim.settled)),
