@@ -16,12 +16,11 @@ import time
 import cvxpy as cp
 import numpy as np
 
-from _common import config, motor_lmis
+from _common import config, motor_lmis, solve_optimal
 from robustsynth.model import build_model
 from robustsynth.model.lifting import lift
 from robustsynth.model.linearize import Gamma, Gamma_D, Phi
 from robustsynth.synthesis import synthesize
-from robustsynth.synthesis.solve import SOLVER_OPTIONS
 
 
 def vertices(m):
@@ -49,18 +48,14 @@ def solve(m, alpha):
     Q = cp.Variable((n_s, n_s), symmetric=True)
     Y = cp.Variable((n_u, n_s))
     beta = cp.Variable(n_w)
-    cons = [cp.sum(beta) <= alpha] + motor_lmis(cp, np, m, Q, Y)
+    cons = [cp.sum(beta) <= alpha] + motor_lmis(m, Q, Y)
     for Av, Bv in vertices(m):
         AQ = Av @ Q + Bv @ Y
         L = cp.bmat([[-(1 - alpha) * Q, np.zeros((n_s, n_w)), AQ.T], [np.zeros((n_w, n_s)), -cp.diag(beta), Bw.T],
                      [AQ, Bw, -Q]])
         cons.append((L + L.T) / 2 << -1e-7 * np.eye(L.shape[0]))
     p = cp.Problem(cp.Minimize(0.1 * Q[0, 0] + Q[1, 1] + 0.1 * Q[2, 2]), cons)
-    try:
-        p.solve(**SOLVER_OPTIONS["clarabel"])
-    except cp.error.SolverError:
-        return None
-    if p.status != "optimal":
+    if not solve_optimal(p):
         return None
     return float(np.sqrt(beta.value.sum() / alpha * Q.value[1, 1]))
 

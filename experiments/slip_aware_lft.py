@@ -23,9 +23,8 @@ from __future__ import annotations
 import cvxpy as cp
 import numpy as np
 
-from _common import config, motor_lmis
+from _common import config, motor_lmis, solve_optimal
 from robustsynth.model import build_model
-from robustsynth.synthesis.solve import SOLVER_OPTIONS
 from robustsynth.verify.simulate import draw_scenario, make_path, simulate
 
 
@@ -185,13 +184,9 @@ def solve(m, alpha, lft, motor):
         [CQ, Dqp @ M, Z((n_p, n_w)), Z((n_p, n_s)), -M]])
     cons = [(L + L.T) / 2 << -1e-7 * np.eye(L.shape[0]), cp.sum(beta) <= alpha]
     if motor:
-        cons += motor_lmis(cp, np, m, Q, Y)
+        cons += motor_lmis(m, Q, Y)
     p = cp.Problem(cp.Minimize(0.1 * Q[0, 0] + Q[1, 1] + 0.1 * Q[2, 2]), cons)
-    try:
-        p.solve(**SOLVER_OPTIONS["clarabel"])
-    except cp.error.SolverError:
-        return None
-    if p.status != "optimal":
+    if not solve_optimal(p):
         return None
     return Y.value @ np.linalg.inv(Q.value), np.sqrt(beta.value.sum() / alpha * np.diag(Q.value)[:3])
 

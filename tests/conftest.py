@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import copy
 from typing import Any
 
 import pytest
@@ -15,6 +14,7 @@ settings.register_profile("robustsynth", derandomize=True, database=None)
 settings.load_profile("robustsynth")
 
 from robustsynth.config import Config, default_config_text
+from robustsynth.config import default_config as _default_with
 
 
 def default_dict() -> dict[str, Any]:
@@ -23,14 +23,7 @@ def default_dict() -> dict[str, Any]:
 
 def make_config(**overrides: Any) -> Config:
     """Default config with dotted-path overrides: make_config(**{"network.delay.max": 0.2})."""
-    d = copy.deepcopy(default_dict())
-    for path, value in overrides.items():
-        node = d
-        keys = path.split(".")
-        for k in keys[:-1]:
-            node = node.setdefault(k, {})
-        node[keys[-1]] = value
-    return Config.model_validate(d)
+    return _default_with(**overrides)
 
 
 @pytest.fixture

@@ -8,6 +8,7 @@ name                   module                        what
 =====================  ============================  ==========================================
 load_config            robustsynth.config            YAML file -> validated frozen Config
 parse_config           robustsynth.config            YAML text -> Config
+default_config         robustsynth.config            embedded default with dotted-path overrides
 Config                 robustsynth.config            the scenario (robot, network, slip, ...)
 build_model            robustsynth.model             Config -> lifted norm-bounded Model
 Model                  robustsynth.model             eqs. 25, 31-33 with its Delta structure
@@ -28,6 +29,7 @@ __version__ = "0.1.0"
 _EXPORTS = {
     "load_config": "robustsynth.config",
     "parse_config": "robustsynth.config",
+    "default_config": "robustsynth.config",
     "Config": "robustsynth.config",
     "build_model": "robustsynth.model",
     "Model": "robustsynth.model",

@@ -29,6 +29,7 @@ __all__ = [
     "load_config",
     "parse_config",
     "default_config_text",
+    "default_config",
     "config_schema",
 ]
 
@@ -320,6 +321,22 @@ def parse_config(text: str | bytes, source: str = "<config>") -> Config:
 def default_config_text() -> str:
     """The embedded default configuration (package data)."""
     return resources.files("robustsynth").joinpath("data/default.yaml").read_text(encoding="utf-8")
+
+
+def default_config(**overrides: Any) -> Config:
+    """The embedded default with dotted-path overrides, validated like a file:
+    ``default_config(**{"network.delay.max": 0.2, "robot.max_motor_speed": None})``."""
+    data = yaml.safe_load(default_config_text())
+    for path, value in overrides.items():
+        node = data
+        keys = path.split(".")
+        for k in keys[:-1]:
+            node = node.setdefault(k, {})
+        node[keys[-1]] = value
+    try:
+        return Config.model_validate(data)
+    except ValidationError as exc:
+        raise ConfigError(_format_validation_error(exc)) from None
 
 
 def load_config(path: str | Path | None = None) -> Config:

@@ -13,7 +13,7 @@ from typing import Any
 import cvxpy as cp
 import numpy as np
 
-__all__ = ["LMIProblem", "build_stability", "build_invariance", "build_hinf", "multiplier"]
+__all__ = ["LMIProblem", "build_stability", "build_invariance", "build_hinf", "multiplier", "motor_constraints"]
 
 
 @dataclass
@@ -75,7 +75,7 @@ def _common(model: Any, kind: str):
     return Q, Y, M, AQ, CQ, Bp
 
 
-def _motor_constraints(model: Any, Q: Any, Y: Any) -> list[Any]:
+def motor_constraints(model: Any, Q: Any, Y: Any) -> list[Any]:
     """[[u_i^2, c_i^T Y], [Y^T c_i, Q]] >= 0 with u_i = rho_max - V^D / R  (math.md §5c)."""
     cfg = model.config
     rho_max = cfg.robot.max_motor_speed
@@ -131,7 +131,7 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
     if n_q:
         cons.append(M >> margin * np.eye(n_q))
     if motor:
-        cons += _motor_constraints(model, Q, Y)
+        cons += motor_constraints(model, Q, Y)
     obj = cp.Minimize(sum(float(weights[i]) * Q[i, i] for i in range(3)))
     prob = cp.Problem(obj, cons)
     return LMIProblem(prob, Q, Y, M, {"alpha": alpha, "one_minus_alpha": one_minus}, {"beta": beta})
