@@ -107,12 +107,16 @@ class SlipRange(_Node):
 class SlipConfig(_Node):
     right: SlipRange = Field(description="range of mu_r (right track)")
     left: SlipRange = Field(description="range of mu_l (left track)")
+    max_rate: Annotated[float, Field(gt=0, le=1e4)] | None = Field(
+        default=None,
+        description="largest |d mu / dt| of either track [1/s]; null: slip may jump anywhere in its range every period",
+    )
 
 
 class ErrorWeights(_Node):
-    e_x: Annotated[float, Field(ge=0, le=1e6)] = Field(default=0.1, description="weight on e_x [1/m]")
+    e_x: Annotated[float, Field(ge=0, le=1e6)] = Field(default=0.01, description="weight on e_x [1/m]")
     e_y: Annotated[float, Field(ge=0, le=1e6)] = Field(default=1.0, description="weight on e_y [1/m]")
-    e_theta: Annotated[float, Field(ge=0, le=1e6)] = Field(default=0.1, description="weight on e_theta [1/rad]")
+    e_theta: Annotated[float, Field(ge=0, le=1e6)] = Field(default=0.01, description="weight on e_theta [1/rad]")
 
     @model_validator(mode="after")
     def _not_all_zero(self) -> "ErrorWeights":
@@ -122,8 +126,24 @@ class ErrorWeights(_Node):
 
 
 class SynthesisConfig(_Node):
+    model: Literal["slip-aware", "paper"] = Field(
+        default="slip-aware",
+        description="slip-aware: exact in slip (it multiplies the command), the certificate the robot obeys; "
+        "paper: the seed paper's linearization at mu = 1 (reproduction and comparison)",
+    )
     objective: Literal["ultimate-bound", "stability", "hinf"] = Field(
         default="ultimate-bound", description="what the LMIs optimize (see README)"
+    )
+    lyapunov: Literal["common", "slip-dependent"] = Field(
+        default="common", description="one Lyapunov matrix, or one per slip corner (slip-aware model)"
+    )
+    integral_action: bool = Field(
+        default=False, description="integrator states int_e_x, int_e_y appended to the lifted state (zero steady error)"
+    )
+    delay_description: Literal["auto", "polytopic", "norm-bounded"] = Field(
+        default="auto",
+        description="slip-aware model: delay instants by the exact-hull triangle vertices (polytopic), by the "
+        "norm-bounded embedding with multipliers, or auto (polytopic for one uncertain instant)",
     )
     multiplier: Literal["structured", "full"] = Field(
         default="structured", description="S-procedure multiplier for Delta: one per block or one scalar"
@@ -143,10 +163,20 @@ class SynthesisConfig(_Node):
         default=1e-7, description="LMIs are solved as M <= -margin*I (scaled units)"
     )
 
+    @model_validator(mode="after")
+    def _consistent(self) -> "SynthesisConfig":
+        if self.lyapunov == "slip-dependent" and self.model == "paper":
+            raise ValueError(f"{_FIELD}lyapunov: slip-dependent needs synthesis.model: slip-aware (the paper's model has no slip corners)")
+        if self.lyapunov == "slip-dependent" and self.objective == "hinf":
+            raise ValueError(f"{_FIELD}lyapunov: slip-dependent is available for ultimate-bound and stability, not hinf")
+        return self
+
 
 class InitialOffset(_Node):
+    """Offset added to the steady state of each run's initial slip (zero: start inside the certified set)."""
+
     x: Annotated[float, Field(ge=-100, le=100)] = Field(default=0.0, description="initial e_x [m]")
-    y: Annotated[float, Field(ge=-100, le=100)] = Field(default=0.05, description="initial e_y [m]")
+    y: Annotated[float, Field(ge=-100, le=100)] = Field(default=0.0, description="initial e_y [m]")
     theta: Annotated[float, Field(ge=-math.pi, le=math.pi)] = Field(default=0.0, description="initial e_theta [rad]")
 
 
@@ -168,7 +198,9 @@ class VerificationConfig(_Node):
     initial_offset: InitialOffset = Field(default_factory=InitialOffset, description="initial pose error")
     noise: NoiseConfig = Field(default_factory=NoiseConfig, description="measurement noise")
     transient: Annotated[float, Field(ge=0, le=1e4)] = Field(
-        default=5.0, description="time after the start and after each waypoint excluded from the maxima [s]"
+        default=5.0,
+        description="for a gain without a certificate: time excluded from the maxima after a waypoint (and after an "
+        "initial offset) [s]; with a certificate the exclusion ends when the robot re-enters the certified set",
     )
     frozen_grid: Annotated[int, Field(ge=2, le=100_000)] = Field(
         default=201, description="delay grid points per uncertain instant for the frozen-delay check"
@@ -184,8 +216,15 @@ class VerificationConfig(_Node):
         description="clip the motor speeds to +-robot.max_motor_speed at the actuator, as real motors do",
     )
     nonlinear_slack: Annotated[float, Field(ge=1, le=1e3)] = Field(
-        default=1.5,
-        description="the nonlinear Monte Carlo fails when a maximum exceeds slack x its certified bound",
+        default=1.0,
+        description="the nonlinear Monte Carlo fails when a maximum exceeds slack x its certified bound "
+        "(1: the certificate itself; a value above 1 is reported as a relaxed, non-certified verdict)",
+    )
+    adversarial_runs: Annotated[int, Field(ge=0, le=10_000)] = Field(
+        default=20, description="nonlinear runs of the greedy adversarial slip/delay search (0: skip)"
+    )
+    adversarial_steps: Annotated[int, Field(ge=1, le=100_000)] = Field(
+        default=300, description="steps of each adversarial run (a straight segment)"
     )
 
     @field_validator("path", mode="before")

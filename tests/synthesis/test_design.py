@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from robustsynth.errors import InfeasibleError
 from robustsynth.model import build_model
 from robustsynth.synthesis import synthesize
-from robustsynth.verify.certificate import check_certificate
+from robustsynth.verify.certificate import check_certificate, lyapunov_of
 from robustsynth.verify.lifted import (
     alternating_delays,
     closed_loop_run,
@@ -54,15 +54,30 @@ def test_default_certificate_rechecks(default_model, ub_result, stab_result) -> 
         assert chk.figures == res.certified
 
 
-def test_tampered_gain_fails_the_check(default_model, ub_result) -> None:
+@pytest.fixture(scope="module")
+def nb_model():
+    """Slip-aware model with the norm-bounded delay description (multipliers per slip corner)."""
+    return build_model(make_config(**{"synthesis.delay_description": "norm-bounded"}))
+
+
+@pytest.fixture(scope="module")
+def nb_result(nb_model):
+    return synthesize(nb_model)
+
+
+def test_tampered_gain_fails_the_check(default_model, ub_result, nb_model, nb_result) -> None:
     for factor in (-1.0, 0.0, 20.0):
         assert not check_certificate(default_model, factor * ub_result.K, ub_result.certificate).passed
-    cert = dict(ub_result.certificate)
-    M = np.array(cert["multipliers"]["M"], dtype=float)
-    M[0, 2] = M[2, 0] = 1e-3  # outside Delta's block structure
-    cert["multipliers"] = dict(cert["multipliers"], M=M)
-    chk = check_certificate(default_model, ub_result.K, cert)
+    assert check_certificate(nb_model, nb_result.K, nb_result.certificate).passed
+    cert = dict(nb_result.certificate)
+    Ms = [np.array(M, dtype=float) for M in cert["multipliers"]["M"]]
+    Ms[2][0, 2] = Ms[2][2, 0] = 1e-3  # outside Delta's block structure, at one vertex
+    cert["multipliers"] = dict(cert["multipliers"], M=Ms)
+    chk = check_certificate(nb_model, nb_result.K, cert)
     assert not chk.passed and "outside the blocks" in chk.reason
+    # a certificate of the other model kind is refused with a reason naming it
+    chk = check_certificate(default_model, ub_result.K, dict(ub_result.certificate, model="paper"))
+    assert not chk.passed and "'paper' model" in chk.reason
 
 
 def test_motor_limit_respected(default_model, ub_result) -> None:
@@ -86,32 +101,68 @@ def _ellipsoid_starts(P, level, N, rng, n_s):
     return z * radii
 
 
-def test_lifted_simulations_stay_in_certified_ellipsoid(default_model, ub_result) -> None:
-    m, res = default_model, ub_result
-    P = np.asarray(res.certificate["P"])
+def _stays_inside(m, res, seed: int = 11) -> None:
+    """Lifted simulations of the model's exact map (slip and delays switching among the corners and
+    extremes, and uniformly random inside the box) started in the certified set never leave it."""
+    lyap = lyapunov_of(m, res.certificate)
     level = res.certified["ellipsoid_level"]
-    rng = np.random.default_rng(11)
+    rng = np.random.default_rng(seed)
     N, steps = 200, 80
-    xi0 = _ellipsoid_starts(P, level, N, rng, m.n_s)
     corners = slip_vertices(m)
-    d = corners[rng.integers(0, 4, size=(N, steps))]
+    mu = corners[rng.integers(0, corners.shape[0], size=(N, steps))]
+    (rl, rh), (ll, lh) = m.slip_ranges
+    mu[N // 2 :] = np.stack([rng.uniform(rl, rh, (N - N // 2, steps)), rng.uniform(ll, lh, (N - N // 2, steps))], axis=-1)
+    z = rng.normal(size=(N, m.n_s))
+    xi0 = z * np.sqrt(level / lyap.V(z, mu[:, 0]))[:, None] * rng.uniform(0.2, 1.0, size=(N, 1))
+    xi0[: N // 4] *= 1.0 / np.sqrt(lyap.V(xi0[: N // 4], mu[: N // 4, 0]) / level)[:, None]  # on the boundary
     for taus in (random_delays(m, rng, N, steps), alternating_delays(m, N, steps), alternating_delays(m, N, steps, 3)):
-        xi = closed_loop_run(m, res.K, taus, d, xi0)
-        V = np.einsum("nki,ij,nkj->nk", xi, P, xi)
-        assert np.max(V) <= level * (1 + LEVEL_TOL)
-    xi, _, _ = greedy_worst_case(m, res.K, P, xi0[:50], 60)
-    V = np.einsum("nki,ij,nkj->nk", xi, P, xi)
-    assert np.max(V) <= level * (1 + LEVEL_TOL)
+        xi = closed_loop_run(m, res.K, taus, mu, xi0)
+        assert np.max(lyap.V(xi[:, :-1], mu)) <= level * (1 + LEVEL_TOL)
+        assert np.max(lyap.V_max(xi[:, 1:])) <= level * (1 + LEVEL_TOL)
+    xi, _, _ = greedy_worst_case(m, res.K, lyap.V_max, xi0[:50], 60)
+    assert np.max(lyap.V_max(xi[:, 1:])) <= level * (1 + LEVEL_TOL)
 
 
-def test_stability_decay_holds_along_worst_case_search(default_model, stab_result) -> None:
+def test_lifted_simulations_stay_in_certified_set(default_model, ub_result) -> None:
+    _stays_inside(default_model, ub_result)
+
+
+def test_lifted_simulations_stay_in_certified_set_norm_bounded(nb_model, nb_result) -> None:
+    _stays_inside(nb_model, nb_result, seed=12)
+
+
+def test_slip_dependent_lyapunov_certifies_and_is_no_worse() -> None:
+    m = build_model(make_config(**{"synthesis.lyapunov": "slip-dependent"}))
+    res = synthesize(m, **FAST)
+    assert res.certificate["lyapunov"] == "slip-dependent" and len(res.certificate["S"]) == 4
+    assert check_certificate(m, res.K, res.certificate).passed
+    common = synthesize(build_model(make_config()), **FAST)
+    assert res.certified["ultimate_bound"]["e_y"] <= common.certified["ultimate_bound"]["e_y"] * (1 + SEARCH_REL)
+    _stays_inside(m, res, seed=13)
+    bad = dict(res.certificate, S=[np.asarray(S) * 0.5 for S in res.certificate["S"]])
+    assert not check_certificate(m, res.K, bad).passed
+
+
+def test_integral_action_certifies_and_zeroes_the_steady_error() -> None:
+    m = build_model(make_config(**{"synthesis.integral_action": True, "robot.max_motor_speed": 20.0}))
+    assert m.state_names[-2:] == ("int_e_x", "int_e_y") and m.n_s == 7
+    res = synthesize(m, **FAST)
+    assert check_certificate(m, res.K, res.certificate).passed
+    xi = m.equilibrium(res.K, m.corners)  # constant slip at every corner
+    assert np.max(np.abs(xi[:, :3])) <= 1e-12
+    _stays_inside(m, res, seed=14)
+
+
+def test_stability_decay_holds_for_the_deviation_from_steady_state(default_model, stab_result) -> None:
     m, res = default_model, stab_result
-    P = np.asarray(res.certificate["P"])
+    lyap = lyapunov_of(m, res.certificate)
     r2 = res.certified["decay_rate"] ** 2
     rng = np.random.default_rng(5)
-    xi0 = rng.normal(size=(40, m.n_s))
-    xi, _, _ = greedy_worst_case(m, res.K, P, xi0, 40, slip=False)
-    V = np.einsum("nki,ij,nkj->nk", xi, P, xi)
+    N, steps = 100, 40
+    xi0 = rng.normal(size=(N, m.n_s))
+    mu = slip_vertices(m)[rng.integers(0, 4, size=(N, steps))]
+    xi = closed_loop_run(m, res.K, random_delays(m, rng, N, steps), mu, xi0, affine=False)
+    V = lyap.V(xi, None)
     assert np.all(V[:, 1:] <= r2 * V[:, :-1] * (1 + LEVEL_TOL))
 
 
@@ -149,13 +200,25 @@ def test_hinf_certificate(default_model) -> None:
 
 
 def test_infeasible_motor_limit_raises() -> None:
-    m = build_model(make_config(**{"robot.max_motor_speed": 5.6}))  # V^D/R = 5.56 rad/s
+    # physically feasible (mu = 0.6 needs 9.26 rad/s) but no gain keeps the whole invariant set below it
+    m = build_model(make_config(**{"robot.max_motor_speed": 9.3}))
     with pytest.raises(InfeasibleError, match="robot.max_motor_speed"):
         synthesize(m, **FAST)
 
 
+@pytest.mark.parametrize("kind", ["slip-aware", "paper"])
+def test_physically_infeasible_before_any_lmi(kind) -> None:
+    # mu_l = 0.4 needs V/(R mu) = 0.5 / (0.09 * 0.4) = 13.9 rad/s > 12 rad/s, whatever the model
+    m = build_model(make_config(**{"slip.left.min": 0.4, "synthesis.model": kind}))
+    with pytest.raises(InfeasibleError, match=r"left track with slip mu = 0.4 .* 13.9 rad/s .*robot.max_motor_speed = 12 rad/s"):
+        synthesize(m)
+
+
 def test_infeasible_below_nominal_motor_speed() -> None:
-    m = build_model(make_config(**{"robot.max_motor_speed": 5.0}))
+    # slip above 1 needs less than V^D/R (physically fine: 0.5 / (0.09 * 1.15) = 4.83 rad/s), but the
+    # invariant set is centred at the reference command, which alone needs V^D/R = 5.56 rad/s
+    m = build_model(make_config(**{"robot.max_motor_speed": 5.0, "slip.right.min": 1.15, "slip.left.min": 1.15,
+                                   "slip.right.max": 1.2, "slip.left.max": 1.2}))
     with pytest.raises(InfeasibleError, match="below V\\^D/R"):
         synthesize(m)
 
@@ -172,6 +235,5 @@ def test_random_configs_certify_and_recheck(tmax, smin, V) -> None:
     res = synthesize(m, **FAST)
     chk = check_certificate(m, res.K, res.certificate)
     assert chk.passed
-    P = np.asarray(res.certificate["P"])
     s = frozen_instant_grid(m, 201)
     assert np.max(frozen_spectral_radius(m, res.K, s)) <= res.certified["decay_rate"] + SPECTRAL_TOL

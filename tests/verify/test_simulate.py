@@ -11,7 +11,14 @@ from hypothesis import strategies as st
 from robustsynth.model import build_model
 from robustsynth.synthesis import synthesize
 from robustsynth.verify.reference import ivp_arc, simulate_run
-from robustsynth.verify.simulate import arc_step, draw_scenario, make_path, simulate
+from robustsynth.verify.simulate import (
+    arc_step,
+    draw_scenario,
+    greedy_nonlinear,
+    make_path,
+    simulate,
+    steady_state_start,
+)
 
 from ..conftest import make_config
 
@@ -38,6 +45,8 @@ def setups():
         "d_lo>=1": {"network.delay.min": 0.12, "network.delay.max": 0.22, "verification.noise.position": 0.005,
                     "verification.noise.heading": 0.01},
         "saturated": {"verification.motor_saturation": True},
+        "integral": {"synthesis.integral_action": True, "robot.max_motor_speed": None},
+        "offset": {"verification.initial_offset.y": 0.05},
     }.items():
         m = build_model(make_config(**over))
         res = synthesize(m, objective="stability")
@@ -45,12 +54,16 @@ def setups():
     return out
 
 
-@pytest.mark.parametrize("name", ["paper", "multi-period", "d_lo>=1", "saturated"])
-def test_vectorized_equals_per_run_reference(setups, name) -> None:
+@pytest.mark.parametrize("name,steady", [("paper", False), ("paper", True), ("multi-period", True), ("d_lo>=1", False),
+                                         ("saturated", True), ("integral", True)])
+def test_vectorized_equals_per_run_reference(setups, name, steady) -> None:
     m, K = setups[name]
     path = make_path(m.config.verification.path, m.V)
     steps = int(path.duration / m.Ts)
     scen = draw_scenario(m, 6, seed=3, steps=steps, path=path)
+    if steady:
+        scen = steady_state_start(m, K, path, scen)
+        assert scen.du0 is not None
     vec = simulate(m, K, path, scen)
     for n in range(scen.runs):
         q, e, du = simulate_run(m, K, path, scen, n)
@@ -60,7 +73,7 @@ def test_vectorized_equals_per_run_reference(setups, name) -> None:
 
 
 def test_constant_delay_no_slip_converges_to_zero(setups) -> None:
-    m, K = setups["paper"]
+    m, K = setups["offset"]
     path = make_path(((0.0, 0.0), (20.0, 0.0)), m.V)  # straight: no waypoint transient
     steps = int(path.duration / m.Ts)
     for delays in ("constant-min", "constant-max"):
@@ -74,10 +87,59 @@ def test_slip_profiles_stay_in_bounds(setups) -> None:
     m, _ = setups["paper"]
     path = make_path(m.config.verification.path, m.V)
     scen = draw_scenario(m, 30, seed=1, steps=300, path=path)
-    assert set(scen.profiles) == {"constant", "random-walk", "steps"}
+    assert set(scen.profiles) == {"constant", "random-walk", "steps", "corners"}
     assert np.all(scen.mu >= 0.6 - 1e-12) and np.all(scen.mu <= 1.0 + 1e-12)
     walk = scen.mu[[i for i, p in enumerate(scen.profiles) if p == "random-walk"]]
     assert np.all(np.std(walk, axis=1) > 0)
+    corners = scen.mu[[i for i, p in enumerate(scen.profiles) if p == "corners"]]
+    assert np.all(np.isin(corners, [0.6, 1.0]))  # only box corners, and they do switch
+    assert np.all(np.max(np.abs(np.diff(corners, axis=1)), axis=(1, 2)) == pytest.approx(0.4))
+
+
+RATE_TOL = 1e-12  # round-off on a slip increment
+
+
+def test_rate_bounded_slip_profiles_respect_the_rate() -> None:
+    m = build_model(make_config(**{"slip.max_rate": 0.5}))
+    path = make_path(m.config.verification.path, m.V)
+    scen = draw_scenario(m, 40, seed=4, steps=300, path=path)
+    step = np.max(np.abs(np.diff(scen.mu, axis=1)))
+    assert step <= 0.5 * m.Ts + RATE_TOL and step > 0.5 * m.Ts * 0.99  # ramps use the whole rate
+    assert np.all(scen.mu >= 0.6 - RATE_TOL) and np.all(scen.mu <= 1.0 + RATE_TOL)
+
+
+STEADY_TOL = 1e-12  # a steady state of the lifted model is one of the nonlinear robot, to round-off
+
+
+@pytest.mark.parametrize("name", ["paper", "multi-period", "integral"])
+def test_steady_state_is_an_equilibrium_of_the_nonlinear_robot(setups, name) -> None:
+    """Started at xi*(mu) of the lifted slip-aware model, under that constant slip and any delays,
+    the nonlinear robot keeps its error exactly: the slip-compensated command makes it move at u^D."""
+    m, K = setups[name]
+    path = make_path(((0.0, 0.0), (30.0, 0.0)), m.V)
+    scen = steady_state_start(m, K, path, draw_scenario(m, 8, seed=5, steps=200, path=path, slip="constant"))
+    sim = simulate(m, K, path, scen)
+    e_star = m.equilibrium(K, scen.mu[:, 0])[:, :3]
+    assert np.max(np.abs(sim.e - e_star[:, None, :])) <= STEADY_TOL * 1e3  # 200 steps of round-off
+    assert np.max(np.abs(e_star[:, 2])) <= STEADY_TOL
+    if m.integral:
+        assert np.max(np.abs(e_star)) <= STEADY_TOL
+
+
+def test_greedy_nonlinear_pushes_harder_than_random_runs(setups) -> None:
+    """The adversary's choice maximizes V of the next state among its candidates: its V must exceed
+    that of the same robot under random slip and delays from the same starts."""
+    m = build_model(make_config())
+    res = synthesize(m, alpha_points=7)
+    from robustsynth.verify.certificate import lyapunov_of
+
+    lyap = lyapunov_of(m, res.certificate)
+    mu0 = np.array([[0.6, 1.0], [1.0, 0.6], [0.6, 0.6], [1.0, 1.0]])
+    adv = greedy_nonlinear(m, res.K, lyap.V_max, mu0, 60)
+    assert np.all(np.isfinite(adv["xi"])) and np.all(np.isin(adv["mu"], [0.6, 1.0]))
+    path = make_path(((0.0, 0.0), (40.0, 0.0)), m.V)
+    rnd = simulate(m, res.K, path, steady_state_start(m, res.K, path, draw_scenario(m, 40, seed=6, steps=60, path=path)))
+    assert np.max(lyap.V_max(adv["xi"])) > np.max(lyap.V_max(rnd.true_xi()))
 
 
 def test_scenarios_are_reproducible(setups) -> None:

@@ -132,6 +132,8 @@ def test_verify_mat_with_only_K(run_dir, tmp_path) -> None:
 
 
 def test_path_shorter_than_transient_fails_instead_of_passing_vacuously(run_dir, tmp_path) -> None:
+    """A gain without a certificate is judged after fixed transients; a path shorter than them must
+    fail a check rather than pass with no step looked at."""
     import yaml
 
     from ..conftest import default_dict
@@ -140,7 +142,28 @@ def test_path_shorter_than_transient_fails_instead_of_passing_vacuously(run_dir,
     d["verification"] = {"path": [[0, 0], [1.0, 0]], "transient": 5.0, "runs": 5}  # 2 s of path
     cfg = tmp_path / "short.yaml"
     cfg.write_text(yaml.safe_dump(d))
-    r = CliRunner().invoke(main, ["verify", str(cfg), "--gains", str(run_dir / "gains.json"), "-o", str(tmp_path / "v"),
-                                  "--no-plots"])
+    g = json.loads((run_dir / "gains.json").read_text())
+    bare = tmp_path / "bare.json"
+    bare.write_text(json.dumps({"K": g["K"]}))
+    r = CliRunner().invoke(main, ["verify", str(cfg), "--gains", str(bare), "-o", str(tmp_path / "v"), "--no-plots"])
     assert r.exit_code == 1
     assert "FAILED: nonlinear: steps after the transients exist" in r.output
+
+
+def test_certified_gain_is_judged_from_the_start_of_a_short_path(run_dir, tmp_path) -> None:
+    """With a certificate the runs start in the certified set (steady state of their first slip), so
+    every step of a path without waypoints is covered and judged against the certificate itself."""
+    import yaml
+
+    from ..conftest import default_dict
+
+    d = default_dict()
+    d["verification"] = {"path": [[0, 0], [1.0, 0]], "runs": 5, "adversarial_runs": 2, "adversarial_steps": 20}
+    cfg = tmp_path / "short.yaml"
+    cfg.write_text(yaml.safe_dump(d))
+    r = CliRunner().invoke(main, ["verify", str(cfg), "--gains", str(run_dir / "gains.json"), "-o", str(tmp_path / "v"),
+                                  "--no-plots"])
+    assert r.exit_code == 0, r.output
+    v = json.loads((tmp_path / "v" / "verification.json").read_text())
+    mc = v["monte_carlo"]
+    assert mc["certified_steps"] == 5 * mc["steps"] and mc["nonlinear_slack"] == 1.0

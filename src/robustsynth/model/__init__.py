@@ -1,6 +1,16 @@
-"""The seed paper's model: kinematics, linearized error, lifted delay model, norm-bounded form.
+"""The model family: the seed paper's lifted norm-bounded model and the slip-aware model.
 
 :func:`build_model` turns a :class:`~robustsynth.config.Config` into a frozen :class:`Model`.
+Every kind hands synthesis and verification the same interface (theory.md §3-5):
+
+- ``vertices``: the uncertain lifted model as LFT vertices (:class:`~.vertices.Vertex`), the only
+  thing the LMIs and the certificate check read;
+- ``exact(s_tilde, mu)`` and ``constant(mu)``: the exact lifted map ``xi+ = A xi + B du + c`` of the
+  kind, for given switching instants and slip (what the lifted-model checks simulate);
+- ``robot_exact`` / ``equilibrium``: the slip-aware map the real robot follows (whatever the kind),
+  and its steady state under constant slip;
+- ``hull_coordinates``: explicit convex (and Delta) coordinates that reproduce ``exact`` from the
+  vertices (the coverage test).
 """
 
 from __future__ import annotations
@@ -13,20 +23,31 @@ from ..config import Config
 from .kinematics import J_inverse, J_matrix
 from .lifting import delay_indices, instant_ranges, lift, lifted_exact, s_tilde_sequence
 from .linearize import Gamma, Gamma_D, Phi, continuous_matrices
+from .slip import corner_weights, slip_corners, slip_matrix
 from .uncertainty import SlipBox, UncertainInstant, delta_for, embed, slip_box
+from .vertices import Vertex, apply_slip, augment_integral, delay_vertex_gammas, triangle_coordinates
 
-__all__ = ["Model", "build_model", "UncertainInstant", "SlipBox", "state_names", "INPUT_NAMES"]
+__all__ = ["Model", "Vertex", "build_model", "UncertainInstant", "SlipBox", "state_names", "INPUT_NAMES",
+           "MODEL_KINDS", "MAX_POLYTOPIC_INSTANTS"]
 
 INPUT_NAMES = ("dV", "omega")
 ERROR_NAMES = ("e_x", "e_y", "e_theta")
 SLIP_NAMES = ("dmu_r", "dmu_l")
+INTEGRATOR_NAMES = ("int_e_x", "int_e_y")
+MODEL_KINDS = ("slip-aware", "paper")
+# 'auto' uses the exact-hull (polytopic) delay description up to this many uncertain instants
+# (4 * 3^n vertices); beyond it the norm-bounded embedding, whose size grows linearly.
+MAX_POLYTOPIC_INSTANTS = 1
+_WIDTH_TOL = 1e-12
 
 
-def state_names(d_hi: int) -> tuple[str, ...]:
-    """e_x, e_y, e_theta, dV[k-1], omega[k-1], ..., dV[k-d_hi], omega[k-d_hi] (math.md §7)."""
+def state_names(d_hi: int, integral: bool = False) -> tuple[str, ...]:
+    """e_x, e_y, e_theta, dV[k-1], omega[k-1], ..., dV[k-d_hi], omega[k-d_hi] [, int_e_x, int_e_y]."""
     names = list(ERROR_NAMES)
     for j in range(1, d_hi + 1):
         names += [f"dV[k-{j}]", f"omega[k-{j}]"]
+    if integral:
+        names += list(INTEGRATOR_NAMES)
     return tuple(names)
 
 
@@ -38,13 +59,16 @@ def _frozen(a: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Model:
-    """Lifted, norm-bounded model of the networked tracking error (eqs. 25, 31-33).
+    """Lifted model of the networked tracking error (eqs. 25, 31-33) and its vertex description.
 
+    ``A, B, B_d, B_p, C_q, D_q`` are the nominal (mu = 1) norm-bounded form of the paper,
     ``xi_{k+1} = A xi_k + B du_k + B_d d_k + B_p p_k``, ``p_k = Delta_k q_k``,
-    ``q_k = C_q xi_k + D_q du_k``, ``Delta_k = blockdiag(delta1 I2, delta2, ...)``, |delta| <= 1.
+    ``q_k = C_q xi_k + D_q du_k`` (with the integrator rows when ``integral``); ``vertices`` is what
+    the LMIs use for this ``kind``.
     """
 
     config: Config
+    kind: str
     d_lo: int
     d_hi: int
     Ts: float
@@ -63,6 +87,10 @@ class Model:
     D_q: np.ndarray
     instants: tuple[UncertainInstant, ...]
     slip: SlipBox
+    corners: np.ndarray  # (n_c, 2): slip corners (mu_r, mu_l)
+    vertices: tuple[Vertex, ...]
+    delay_description: str  # 'norm-bounded' or 'polytopic' (what the vertices use)
+    integral: bool
     J: np.ndarray = field(repr=False)
     J_inv: np.ndarray = field(repr=False)
 
@@ -70,8 +98,12 @@ class Model:
     n_u: int = 2
 
     @property
+    def n_z(self) -> int:
+        return 2 if self.integral else 0
+
+    @property
     def n_s(self) -> int:
-        return self.n_e + self.d_hi * self.n_u
+        return self.n_e + self.d_hi * self.n_u + self.n_z
 
     @property
     def n_q(self) -> int:
@@ -79,7 +111,7 @@ class Model:
 
     @property
     def state_names(self) -> tuple[str, ...]:
-        return state_names(self.d_hi)
+        return state_names(self.d_hi, self.integral)
 
     @property
     def input_names(self) -> tuple[str, ...]:
@@ -90,26 +122,135 @@ class Model:
         """Slip input in normalized box coordinates: B_d W (d = W w, |w_i| <= 1)."""
         return self.B_d @ self.slip.W
 
-    def exact(self, s_tilde: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Exact (A~(s~), B~(s~)) for switching instants ``s_tilde[..., j]`` (eq. 25)."""
+    @property
+    def n_w(self) -> int:
+        """Columns of every vertex's E (the bounded disturbance w, |w_i| <= 1)."""
+        return self.vertices[0].E.shape[1]
+
+    @property
+    def slip_ranges(self) -> tuple[tuple[float, float], tuple[float, float]]:
+        s = self.config.slip
+        return (s.right.min, s.right.max), (s.left.min, s.left.max)
+
+    # ------------------------------------------------------------------ exact maps
+
+    def _base_exact(self, s_tilde: np.ndarray, mu: np.ndarray | None, slip_aware: bool):
         A, B, _ = lifted_exact(self.A_c, self.B_c, self.B_D_c, self.Ts, s_tilde)
+        if slip_aware and mu is not None:
+            M = slip_matrix(mu, self.config.robot.track_distance)
+            A, B = apply_slip(A, B, M, self.n_e, self.n_u, self.d_hi)
+        if self.integral:
+            A, B = augment_integral(A, B, self.Ts, self.n_e)
         return A, B
 
+    def exact(self, s_tilde: np.ndarray, mu: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Exact (A~, B~) of this kind for switching instants ``s_tilde[..., j]`` and slip ``mu[..., 2]``
+        (eq. 25; the paper's kind ignores mu, the slip-aware kind multiplies the commands by M(mu))."""
+        return self._base_exact(s_tilde, mu, self.kind == "slip-aware")
+
+    def robot_exact(self, s_tilde: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The slip-aware exact map, which the real robot follows to first order whatever the kind."""
+        return self._base_exact(s_tilde, mu, True)
+
+    def constant(self, mu: np.ndarray) -> np.ndarray:
+        """c(mu) = B~_d (mu - 1), the constant term of the exact map, shape (..., n_s)."""
+        return (np.asarray(mu, dtype=float) - 1.0) @ np.asarray(self.B_d).T
+
+    def disturbance_coordinates(self, mu: np.ndarray) -> np.ndarray:
+        """w (..., n_w) with ``sum_i lambda_i E_i w = c(mu)`` for the hull weights lambda: the slip box
+        coordinates for the paper's kind, w = 1 (the constant column) for the slip-aware kind."""
+        mu = np.asarray(mu, dtype=float)
+        if self.kind == "paper":
+            return self.slip.coordinates(mu - 1.0)
+        return np.ones(mu.shape[:-1] + (1,))
+
     def delta(self, s_tilde: np.ndarray) -> np.ndarray:
-        """diag(Delta) that reproduces :meth:`exact` at ``s_tilde`` in the embedding (eqs. 31-33)."""
+        """diag(Delta) that reproduces the exact delay matrices in the norm-bounded embedding (eqs. 31-33)."""
         return delta_for(self.instants, self.Ts, s_tilde)
 
     def s_tilde(self, taus: np.ndarray) -> np.ndarray:
         """Switching instants for packet delays ``taus[..., i]`` of packets sent at t_{i-d_hi}."""
         return s_tilde_sequence(taus, self.Ts, self.d_hi)
 
+    def nominal_instants(self) -> np.ndarray:
+        """A fixed admissible instant vector (the middle of every range), shape (d_hi,)."""
+        return self.instant_ranges.mean(axis=1)
+
+    def equilibrium(self, K: np.ndarray, mu: np.ndarray) -> np.ndarray:
+        """Steady state xi*(mu) of the robot's lifted closed loop under constant slip (..., n_s):
+        ``xi* = (A + B K) xi* + c(mu)``; independent of the delay (the stored commands are all du*)."""
+        mu = np.asarray(mu, dtype=float)
+        A, B = self.robot_exact(self.nominal_instants(), mu)
+        Acl = A + B @ np.asarray(K, dtype=float)
+        rhs = np.broadcast_to(self.constant(mu), Acl.shape[:-1])
+        return np.linalg.solve(np.eye(self.n_s) - Acl, rhs[..., None])[..., 0]
+
+    # ------------------------------------------------------------------ hull coordinates
+
+    def corner_weights(self, mu: np.ndarray) -> np.ndarray:
+        return corner_weights(mu, *self.slip_ranges)
+
+    def hull_coordinates(self, s_tilde: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Convex weights (..., n_vertices) and diag(Delta) (..., n_q) such that
+        ``sum_i lambda_i (A_i + B_p Delta C_q_i, B_i + B_p Delta D_q_i, E_i w(mu))`` is the exact
+        ``(A~(s~, mu), B~(s~, mu), c(mu))`` of this kind."""
+        s_tilde = np.asarray(s_tilde, dtype=float)
+        mu = np.asarray(mu, dtype=float)
+        batch = np.broadcast_shapes(s_tilde.shape[:-1], mu.shape[:-1])
+        s_tilde = np.broadcast_to(s_tilde, batch + s_tilde.shape[-1:])
+        mu = np.broadcast_to(mu, batch + (2,))
+        dlt = self.delta(s_tilde) if self.n_q else np.zeros(batch + (0,))
+        if self.kind == "paper":
+            return np.ones(batch + (1,)), dlt
+        lam = self.corner_weights(mu)  # (..., n_c)
+        if self.delay_description == "norm-bounded":
+            return lam, dlt
+        # polytopic: corner-major, then the product of the per-instant triangle coordinates
+        tri = [np.ones(batch + (1,))]
+        for j in range(self.d_hi):
+            lo, hi = self.instant_ranges[j]
+            if hi - lo <= _WIDTH_TOL * max(self.Ts, 1.0):
+                continue
+            t = triangle_coordinates(self.Ts - s_tilde[..., j], self.Ts - hi, self.Ts - lo)
+            tri.append(t)
+        w = tri[0]
+        for t in tri[1:]:
+            w = (w[..., :, None] * t[..., None, :]).reshape(batch + (-1,))
+        out = (lam[..., :, None] * w[..., None, :]).reshape(batch + (-1,))
+        return out, np.zeros(batch + (0,))
+
+    def from_hull(self, weights: np.ndarray, delta: np.ndarray, w: np.ndarray):
+        """Recombine the vertices: (A, B, c) for hull weights, diag(Delta) and disturbance w."""
+        A = sum(weights[..., i, None, None] * (v.A + (v.B_p * delta[..., None, :]) @ v.C_q) for i, v in enumerate(self.vertices))
+        B = sum(weights[..., i, None, None] * (v.B + (v.B_p * delta[..., None, :]) @ v.D_q) for i, v in enumerate(self.vertices))
+        c = sum(weights[..., i, None] * (w @ v.E.T) for i, v in enumerate(self.vertices))
+        return A, B, c
+
+
+def _augment_rows(X: np.ndarray, n_z: int) -> np.ndarray:
+    return np.vstack([X, np.zeros((n_z, X.shape[1]))]) if n_z else X
+
+
+def _augment_cols(X: np.ndarray, n_z: int) -> np.ndarray:
+    return np.hstack([X, np.zeros((X.shape[0], n_z))]) if n_z else X
+
+
+def _resolve_delay_description(requested: str, n_uncertain: int) -> str:
+    if requested == "auto":
+        return "polytopic" if n_uncertain <= MAX_POLYTOPIC_INSTANTS else "norm-bounded"
+    return requested
+
 
 def build_model(config: Config) -> Model:
-    """Build the lifted norm-bounded model of ``config`` (math.md §1-4)."""
+    """Build the model of ``config`` (kind ``config.synthesis.model``; theory.md §1-5)."""
     R = config.robot.gear_radius
     D = config.robot.track_distance
     V = config.reference.speed
     Ts = config.network.sampling_time
+    syn = config.synthesis
+    kind = syn.model
+    integral = syn.integral_action
+    n_z = 2 if integral else 0
     tmin, tmax = config.network.delay.min, config.network.delay.max
     A_c, B_c, B_D_c = continuous_matrices(V, D)
     d_lo, d_hi = delay_indices(tmin, tmax, Ts)
@@ -120,8 +261,46 @@ def build_model(config: Config) -> Model:
     GD = Gamma_D(A_c, B_D_c, Ts)
     A, B, B_d = lift(Ph, Gammas0, Gamma(A_c, B_c, Ts), GD)
     slip = slip_box((config.slip.right.min, config.slip.right.max), (config.slip.left.min, config.slip.left.max))
+    corners = slip_corners((config.slip.right.min, config.slip.right.max), (config.slip.left.min, config.slip.left.max))
+    # nominal matrices in the (possibly augmented) state
+    if integral:
+        A, B = augment_integral(A, B, Ts, n_e)
+    B_d = _augment_rows(B_d, n_z)
+    B_p = _augment_rows(B_p, n_z)
+    C_q = _augment_cols(C_q, n_z)
+    n_s = A.shape[0]
+    delay_description = "norm-bounded"
+    vertices: list[Vertex] = []
+    if kind == "paper":
+        vertices.append(Vertex(A, B, B_d @ slip.W, B_p, C_q, D_q, 0, "nominal (mu = 1), slip as additive box"))
+    else:
+        delay_description = _resolve_delay_description(syn.delay_description, len(instants))
+        for m, mu in enumerate(corners):
+            M = slip_matrix(mu, D)
+            c = (mu - 1.0) @ B_d.T
+            E = c[:, None]
+            name = f"mu=({mu[0]:g}, {mu[1]:g})"
+            if delay_description == "norm-bounded":
+                Am, Bm = apply_slip(A, B, M, n_e, n_u, d_hi)
+                T = np.eye(n_s)
+                for j in range(d_hi):
+                    T[n_e + j * n_u : n_e + (j + 1) * n_u, n_e + j * n_u : n_e + (j + 1) * n_u] = M
+                vertices.append(Vertex(Am, Bm, E, B_p, C_q @ T, D_q @ M, m, name))
+            else:
+                labels, gammas, _ = delay_vertex_gammas(A_c, B_c, Ts, ranges, _WIDTH_TOL * max(Ts, 1.0))
+                At, Bt, _ = lift(Ph, gammas, Gamma(A_c, B_c, Ts), GD)
+                At, Bt = apply_slip(At, Bt, M, n_e, n_u, d_hi)
+                if integral:
+                    At, Bt = augment_integral(At, Bt, Ts, n_e)
+                for t, lab in enumerate(labels):
+                    vertices.append(Vertex(At[t], Bt[t], E, np.zeros((n_s, 0)), np.zeros((0, n_s)),
+                                           np.zeros((0, n_u)), m, f"{name}; {lab}"))
+    frozen_vertices = tuple(
+        Vertex(*(_frozen(x) for x in (v.A, v.B, v.E, v.B_p, v.C_q, v.D_q)), v.corner, v.label) for v in vertices
+    )
     return Model(
         config=config,
+        kind=kind,
         d_lo=d_lo,
         d_hi=d_hi,
         Ts=Ts,
@@ -140,37 +319,52 @@ def build_model(config: Config) -> Model:
         D_q=_frozen(D_q),
         instants=instants,
         slip=slip,
+        corners=_frozen(corners),
+        vertices=frozen_vertices,
+        delay_description=delay_description,
+        integral=integral,
         J=_frozen(J_matrix(R, D)),
         J_inv=_frozen(J_inverse(R, D)),
     )
 
 
 def coverage_check(model: Model, n_sequences: int = 1000, steps: int = 20, seed: int = 0) -> dict:
-    """Embedding coverage on random admissible delay sequences and on the instant-range corners.
-
-    Returns the largest |Delta_ii| and the largest residual between the exact matrices and
-    the embedding with that Delta.
-    """
-    cfg = model.config.network
+    """Coverage of the vertex description on random admissible (slip, delay history) samples, the
+    delay extremes and the slip corners: the exact lifted matrices of the model's kind and its
+    constant term are rebuilt from the vertices with explicit hull weights (>= 0, summing to 1) and
+    Delta (|Delta_ii| <= 1).  Returns the sample count, the extremes of the coordinates and the
+    largest residual."""
+    cfg = model.config
+    dl = cfg.network.delay
     rng = np.random.default_rng(seed)
-    taus = rng.uniform(cfg.delay.min, cfg.delay.max, size=(n_sequences, steps + model.d_hi))
+    taus = rng.uniform(dl.min, dl.max, size=(n_sequences, steps + model.d_hi))
     # extremes: alternate min/max, and constant min / max
-    taus[0, :] = cfg.delay.min
-    taus[1, :] = cfg.delay.max
-    taus[2, ::2] = cfg.delay.min
-    taus[2, 1::2] = cfg.delay.max
+    taus[0, :] = dl.min
+    taus[1, :] = dl.max
+    taus[2, ::2] = dl.min
+    taus[2, 1::2] = dl.max
     s = model.s_tilde(taus).reshape(-1, model.d_hi)
     corners = np.array(np.meshgrid(*[r for r in model.instant_ranges], indexing="ij")).reshape(model.d_hi, -1).T
     s = np.vstack([s, corners])
-    A_ex, B_ex = model.exact(s)
-    dlt = model.delta(s)
-    A_emb = model.A + np.einsum("ij,nj,jk->nik", model.B_p, dlt, model.C_q)
-    B_emb = model.B + np.einsum("ij,nj,jk->nik", model.B_p, dlt, model.D_q)
-    res = max(float(np.max(np.abs(A_ex - A_emb), initial=0.0)), float(np.max(np.abs(B_ex - B_emb), initial=0.0)))
+    (rl, rh), (ll, lh) = model.slip_ranges
+    mu = np.stack([rng.uniform(rl, rh, s.shape[0]), rng.uniform(ll, lh, s.shape[0])], axis=1)
+    mu[: model.corners.shape[0]] = model.corners  # every slip corner at least once
+    mu[-1] = [rh, lh]
+    A_ex, B_ex = model.exact(s, mu)
+    c_ex = model.constant(mu)
+    lam, dlt = model.hull_coordinates(s, mu)
+    A_h, B_h, c_h = model.from_hull(lam, dlt, model.disturbance_coordinates(mu))
+    res = max(float(np.max(np.abs(A_ex - A_h), initial=0.0)), float(np.max(np.abs(B_ex - B_h), initial=0.0)),
+              float(np.max(np.abs(c_ex - c_h), initial=0.0)))
     max_delta = float(np.max(np.abs(dlt), initial=0.0))
+    min_weight = float(np.min(lam))
+    sum_err = float(np.max(np.abs(lam.sum(axis=-1) - 1.0)))
     return {
         "samples": int(s.shape[0]),
+        "vertices": len(model.vertices),
         "max_abs_delta": max_delta,
+        "min_weight": min_weight,
+        "max_weight_sum_error": sum_err,
         "max_residual": res,
-        "passed": bool(max_delta <= 1.0 + 1e-12 and res <= 1e-12),
+        "passed": bool(max_delta <= 1.0 + 1e-12 and min_weight >= -1e-12 and sum_err <= 1e-12 and res <= 1e-12),
     }

@@ -79,9 +79,8 @@ def fig_errors(res, model) -> Any:
             ax.axhline(-b, color="tab:green", ls="--", lw=1)
         for ts in model_path_switches(res, model):
             ax.axvline(ts, color="grey", lw=0.8, ls=":")
-        unsettled = ~sim.settled
-        ax.fill_between(sim.t, 0, 1, where=unsettled, transform=ax.get_xaxis_transform(), color="grey", alpha=0.1,
-                        label="transient (excluded)")
+        ax.fill_between(sim.t, 0, 1, where=~_covered(res), transform=ax.get_xaxis_transform(), color="grey", alpha=0.1,
+                        label="excluded (some run outside the set after a waypoint)")
         ax.set_ylabel(f"{name} [{unit}]")
         ax.grid(alpha=0.3)
     axes[0].legend(loc="upper right", fontsize=7, ncol=3)
@@ -89,6 +88,13 @@ def fig_errors(res, model) -> Any:
     axes[0].set_title("Tracking error in the segment frame L (dotted: waypoint switches)")
     fig.tight_layout()
     return fig
+
+
+def _covered(res) -> np.ndarray:
+    """(steps + 1,) True where every run's step is covered by the verdict's rule (res.mask)."""
+    mask = res.mask if res.mask is not None else np.broadcast_to(res.sim.settled[None, :-1], res.sim.rho.shape[:2])
+    cov = np.all(mask, axis=0)
+    return np.concatenate([cov, cov[-1:]])
 
 
 def model_path_switches(res, model) -> list[float]:
@@ -143,7 +149,7 @@ def fig_network(res, model) -> Any:
     ax.legend(fontsize=7, loc="upper right")
     ax.grid(alpha=0.3)
     ax = axes[1]
-    colors = {"constant": "tab:blue", "random-walk": "tab:orange", "steps": "tab:green"}
+    colors = {"constant": "tab:blue", "random-walk": "tab:orange", "steps": "tab:green", "corners": "tab:purple"}
     for n in range(min(3, scen_mu.shape[0])):
         ax.plot(tk, scen_mu[n, :, 0], lw=1, color=list(colors.values())[n % 3], label=f"mu_r run {n}")
         ax.plot(tk, scen_mu[n, :, 1], lw=1, ls="--", color=list(colors.values())[n % 3], label=f"mu_l run {n}")
@@ -169,8 +175,8 @@ def fig_lyapunov(res, model) -> Any:
         ax2.semilogy(t, vr.max(axis=0), color="tab:red", lw=1.2, label="max over Monte Carlo runs")
         ax2.semilogy(t, np.median(vr, axis=0), color="tab:blue", lw=1, label="median")
         ax2.axhline(1.0, color="k", lw=1.5, label="ellipsoid level (V = level)")
-        ax2.fill_between(t, 0, 1, where=~res.sim.settled[:-1], transform=ax2.get_xaxis_transform(), color="grey",
-                         alpha=0.1, label="transient (excluded)")
+        ax2.fill_between(t, 0, 1, where=~_covered(res)[:-1], transform=ax2.get_xaxis_transform(), color="grey",
+                         alpha=0.1, label="excluded (after a waypoint, until back in the set)")
         ax2.set_xlabel("time t [s]")
         ax2.set_ylabel("V(xi) / level [-]")
         ax2.set_title("Nonlinear robot: V of its true lifted state relative to the certified ellipsoid")
@@ -212,18 +218,21 @@ def fig_ellipsoid(res, model) -> Any:
     plt = _plt()
     fig, axes = plt.subplots(1, 2, figsize=(10, 4.5))
     sim = res.sim
-    st = sim.settled
-    e = sim.e[:, st] if np.any(st) else sim.e
+    mask = res.mask if res.mask is not None else np.broadcast_to(sim.settled[None, :-1], sim.rho.shape[:2])
+    e = sim.e[:, :-1][mask] if np.any(mask) else sim.e.reshape(-1, 3)
     pairs = [((1, 2), ("e_y [cm]", "e_theta [deg]"), (100.0, 180 / np.pi)), ((0, 1), ("e_x [cm]", "e_y [cm]"), (100.0, 100.0))]
     cert = res.certificate
     for ax, (idx, labels, scales) in zip(axes, pairs):
         pts = e[..., list(idx)].reshape(-1, 2) * np.array(scales)
-        ax.plot(pts[:, 0], pts[:, 1], ".", ms=1, alpha=0.15, color="tab:blue", label="nonlinear MC states after transients")
+        ax.plot(pts[:, 0], pts[:, 1], ".", ms=1, alpha=0.15, color="tab:blue", label="nonlinear MC states (certified steps)")
         if cert.passed and cert.figures.get("ellipsoid_level") is not None:
-            Q = np.asarray(res.gains["certificate"]["Q"], dtype=float)
-            Qs = Q[np.ix_(idx, idx)]
-            b = _ellipse(Qs, cert.figures["ellipsoid_level"]) * np.array(scales)
-            ax.plot(b[:, 0], b[:, 1], color="tab:green", lw=1.5, label="certified ellipsoid (projection)")
+            c = res.gains["certificate"]
+            mats = [c["Q"]] if c.get("lyapunov", "common") == "common" else c["S"]
+            for j, Q in enumerate(mats):
+                Qs = np.asarray(Q, dtype=float)[np.ix_(idx, idx)]
+                b = _ellipse(Qs, cert.figures["ellipsoid_level"]) * np.array(scales)
+                ax.plot(b[:, 0], b[:, 1], color="tab:green", lw=1.5, ls="-" if j == 0 else "--",
+                        label="certified set (projection)" if j == 0 else ("per slip corner" if j == 1 else None))
         ax.set_xlabel(labels[0])
         ax.set_ylabel(labels[1])
         ax.grid(alpha=0.3)

@@ -39,8 +39,17 @@ def gains_dict(model: Any, result: Any) -> dict[str, Any]:
     certified = {k: figs.get(k) for k in CERTIFIED_KEYS}
     certificate: dict[str, Any] = {
         "objective": cert["objective"],
+        "model": cert["model"],
+        "vertices": cert["vertices"],
+        "lyapunov": cert["lyapunov"],
         "P": cert["P"],
-        "Q": cert["Q"],
+    }
+    if cert["lyapunov"] == "common":
+        certificate["Q"] = cert["Q"]
+    else:
+        certificate["G"] = cert["G"]
+        certificate["S"] = cert["S"]
+    certificate.update({
         "multipliers": cert["multipliers"],
         "alpha": cert.get("alpha"),
         "beta": cert.get("beta"),
@@ -51,7 +60,7 @@ def gains_dict(model: Any, result: Any) -> dict[str, Any]:
         "margin": cert["margin"],
         "min_eig_margin_found": cert["min_eig_margin_found"],
         "checks": list(result.check.checks),
-    }
+    })
     out = {
         "schema_version": SCHEMA_VERSION,
         "robustsynth_version": __version__,
@@ -88,19 +97,31 @@ def _mat_value(v: Any) -> Any:
     return v
 
 
+def _stack(mats: list[Any]) -> np.ndarray:
+    """A list of equally shaped matrices as one 3-D array (vertex, row, col); empty ones as (n, 0, 0)."""
+    arrs = [np.asarray(m, dtype=float) for m in mats]
+    if not arrs:
+        return np.zeros((0, 0, 0))
+    return np.stack([a.reshape(a.shape if a.size else (0, 0)) for a in arrs])
+
+
 def gains_mat_vars(gd: dict[str, Any]) -> dict[str, Any]:
-    """The same names as gains.json, MATLAB-friendly (null -> NaN, lists of names -> cell arrays)."""
+    """The same names as gains.json, MATLAB-friendly (null -> NaN, lists of names -> cell arrays,
+    per-vertex multipliers M and per-corner S as 3-D arrays indexed first by vertex / corner)."""
     c = gd["certificate"]
+    lyap = {"P": np.asarray(c["P"], dtype=float), "Q": np.asarray(c["Q"], dtype=float)} if c["lyapunov"] == "common" else {
+        "P": _stack(c["P"]), "G": np.asarray(c["G"], dtype=float), "S": _stack(c["S"])}
     return {
         "K": np.asarray(gd["K"], dtype=float),
         "state_names": _mat_value(gd["state_names"]),
         "input_names": _mat_value(gd["input_names"]),
         "law": gd["law"],
         "objective": gd["objective"],
+        "model": c["model"],
+        "lyapunov": c["lyapunov"],
         "certified": _mat_value(gd["certified"]),
-        "P": np.asarray(c["P"], dtype=float),
-        "Q": np.asarray(c["Q"], dtype=float),
-        "M": np.asarray(c["multipliers"]["M"], dtype=float),
+        **lyap,
+        "M": _stack(c["multipliers"]["M"]),
         "alpha": _mat_value(c["alpha"]),
         "beta": np.asarray(c["beta"] if c["beta"] is not None else np.nan, dtype=float),
         "r2": _mat_value(c["r2"]),

@@ -51,50 +51,73 @@ def verification_markdown(model: Any, res: Any, vd: dict[str, Any], figures: dic
     rows = [[c["name"], "pass" if c["passed"] else "**FAIL**", _val(c["value"]), _val(c["threshold"]), c["detail"]] for c in res.checks]
     out.append(table(["check", "result", "value", "threshold", "detail"], rows))
     mc = res.monte_carlo
-    out.append(
-        f"\n## Monte Carlo on the nonlinear robot\n\n{mc['runs']} runs (seed {mc['seed']}), {mc['steps']} steps of "
-        f"{cfg.network.sampling_time:g} s along the path {list(map(list, cfg.verification.path))}; delays {mc['delays']};"
-        f" slip profiles {mc['slip_profiles']}; maxima taken after a {mc['transient_s']:g} s transient at the start and"
-        " after each waypoint.\n\n"
-    )
-    rows = []
-    units = {"e_x": ("cm", 100), "e_y": ("cm", 100), "e_theta": ("rad", 1), "motor_speed": ("rad/s", 1)}
-    for k, (u, sc) in units.items():
-        m = mc["maxima"][k]
-        cert = mc["certified"].get(k)
-        ratio = mc["ratio_to_certified"].get(k)
-        rows.append([f"max |{k}| [{u}]", fmt(m["mean"] * sc), fmt(m["p95"] * sc), fmt(m["max"] * sc),
-                     fmt(mc["extreme_maxima"][k] * sc), fmt(cert * sc) if cert is not None else "—",
-                     fmt(ratio, 3) if ratio is not None else "—"])
-    out.append(table(["quantity (after transients)", "mean", "p95", "max", "extreme switching", "certified", "worst / certified"], rows))
-    vl = mc.get("V_over_level")
-    if vl:
-        out.append(
-            f"\nLyapunov function of the nonlinear robot's lifted state after the transients: max V/level ="
-            f" {vl['max_after_transients']:.3f}; {100 * vl['fraction_of_settled_steps_outside']:.2f} % of the settled"
-            " steps lie outside the certified ellipsoid (V/level > 1).\n"
-        )
-    m_all = mc["maxima"]["motor_speed_all"]["max"]
-    if cfg.robot.max_motor_speed is not None:
-        note = "exceeds" if m_all > cfg.robot.max_motor_speed else "stays within"
-        out.append(
-            f"\nOver whole runs, transients included, the commanded motor speed reaches {m_all:.3f} rad/s, which {note}"
-            f" rho_max = {cfg.robot.max_motor_speed:g} rad/s: the certificate covers the ellipsoid, and the waypoint turns"
-            " start each segment outside it.\n"
-        )
-    ratios = [r for r in mc["ratio_to_certified"].values() if r is not None]
-    if ratios and max(ratios) > 1:
-        out.append(
-            f"\nThe nonlinear robot exceeds the linear certificate by up to {100 * (max(ratios) - 1):.1f} % (allowed: "
-            f"{100 * (mc['nonlinear_slack'] - 1):.0f} %): the paper's linearization drops the slip's effect on the"
-            " input and on the forward speed, and the heading enters through sin(e_theta).\n"
-        )
+    out.append(nonlinear_markdown(cfg, mc))
     if figures:
         out.append("\n## Figures\n\n")
         from .plots import FIGURES
 
         for name, rel in figures.items():
             out.append(f"### {FIGURES[name]}\n\n![{FIGURES[name]}]({rel})\n\n")
+    return "".join(out)
+
+
+def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
+    """The nonlinear robot's section: how the runs were made, what is excluded, maxima vs certificate."""
+    out = [
+        f"\n## The nonlinear robot\n\n{mc['runs']} Monte Carlo runs (seed {mc['seed']}), {mc['steps']} steps of "
+        f"{cfg.network.sampling_time:g} s along the path {list(map(list, cfg.verification.path))}; delays {mc['delays']};"
+        f" slip profiles {mc['slip_profiles']}"
+        + (f", slip rate at most {mc['slip_max_rate']:g} /s" if mc.get("slip_max_rate") else ", slip may jump every period")
+        + f". Runs start at the {mc['start']}. Maxima are taken over the steps in the {mc['excluded']}.\n\n"
+    ]
+    rows = []
+    units = {"e_x": ("cm", 100), "e_y": ("cm", 100), "e_theta": ("rad", 1), "motor_speed": ("rad/s", 1)}
+    adv = mc.get("adversarial")
+    for k, (u, sc) in units.items():
+        m = mc["maxima"][k]
+        cert = mc["certified"].get(k)
+        ratio = mc["ratio_to_certified"].get(k)
+        rows.append([f"max |{k}| [{u}]", fmt(m["mean"] * sc), fmt(m["p95"] * sc), fmt(m["max"] * sc),
+                     fmt(mc["extreme_maxima"][k] * sc), fmt(adv["max"][k] * sc) if adv else "—",
+                     fmt(cert * sc) if cert is not None else "—", fmt(ratio, 3) if ratio is not None else "—"])
+    out.append(table(["quantity", "mean", "p95", "max", "extreme switching", "adversarial", "certified",
+                      "worst / certified"], rows))
+    if adv:
+        out.append(f"\nAdversarial search: {adv['runs']} runs of {adv['steps']} steps, {adv['search']}; "
+                   f"max V/level = {adv['max_V_over_level']:.4f}, "
+                   f"{100 * adv['fraction_of_steps_outside']:.2f} % of its steps outside the certified set.\n")
+    vl = mc.get("V_over_level")
+    if vl:
+        out.append(
+            f"\nLyapunov function of the robot's true lifted state on the certified steps: max V/level ="
+            f" {vl['max_in_certified_steps']:.4f}; {100 * vl['fraction_of_certified_steps_outside']:.3f} % of them lie"
+            " outside the certified set (V/level > 1).\n"
+        )
+        if vl["waypoints"]:
+            out.append("\nAfter each waypoint the segment's frame changes, the state starts outside the set, and the"
+                       " certificate promises only attraction; these steps are excluded until the robot is back:\n\n")
+            out.append(table(["waypoint at [s]", "max V/level at the switch", "longest time to re-enter [s]",
+                              "runs not back before the next waypoint"],
+                             [[fmt(w["t_switch_s"]), fmt(w["max_V_over_level_at_switch"], 4),
+                               fmt(w["max_time_to_reenter_s"]), str(w["runs_not_reentered"])] for w in vl["waypoints"]]))
+    ss = mc.get("steady_state")
+    if ss:
+        out.append(f"\nSteady state under constant slip (each corner of the slip box): |e_x*| <= "
+                   f"{100 * ss['max_abs']['e_x']:.3f} cm, |e_y*| <= {100 * ss['max_abs']['e_y']:.3f} cm.\n")
+    m_all = mc["maxima"]["motor_speed_all"]["max"]
+    if cfg.robot.max_motor_speed is not None:
+        note = "exceeds" if m_all > cfg.robot.max_motor_speed else "stays within"
+        out.append(
+            f"\nOver whole runs, waypoint transients included, the commanded motor speed reaches {m_all:.3f} rad/s, which"
+            f" {note} rho_max = {cfg.robot.max_motor_speed:g} rad/s: the certificate covers the invariant set, and the"
+            " waypoint turns start each segment outside it.\n"
+        )
+    ratios = [r for r in mc["ratio_to_certified"].values() if r is not None]
+    if ratios and max(ratios) > 1:
+        out.append(
+            f"\nThe nonlinear robot exceeds the certificate by up to {100 * (max(ratios) - 1):.1f} % (allowed: "
+            f"{100 * (mc['nonlinear_slack'] - 1):.0f} %).\n"
+        )
     return "".join(out)
 
 
@@ -129,8 +152,9 @@ def report_markdown(model: Any, gains: dict[str, Any], vd: dict[str, Any], figur
         f" [synthesis](synthesis.md), [verification](verification.md); gain in `gains.json` / `gains.mat`.\n\n"
     )
     out.append("## What is proven, and what the robot did\n\n")
-    def worst(k: str) -> float:  # what the verdict uses: Monte Carlo and extreme-switching runs
-        return max(mc["maxima"][k]["max"], mc["extreme_maxima"][k])
+    def worst(k: str) -> float:  # what the verdict uses: Monte Carlo, extreme-switching and adversarial runs
+        adv = (mc.get("adversarial") or {}).get("max", {}).get(k, 0.0)
+        return max(mc["maxima"][k]["max"], mc["extreme_maxima"][k], adv)
 
     rows = [["decay rate r per step", fmt(c.get("decay_rate")), "—", "—"]]
     for k, u, sc in (("e_x", "cm", 100), ("e_y", "cm", 100), ("e_theta", "rad", 1)):
@@ -141,8 +165,10 @@ def report_markdown(model: Any, gains: dict[str, Any], vd: dict[str, Any], figur
                      fmt(mc["ratio_to_certified"].get("motor_speed"), 3)])
     if c.get("hinf_gain") is not None:
         rows.append(["l2 gain slip → weighted error", fmt(c["hinf_gain"]), "—", "—"])
-    out.append(table(["quantity", "certified (linear lifted model)",
-                      f"nonlinear robot, max after transients ({mc['runs']} Monte Carlo + 4 extreme runs)", "ratio"], rows))
+    n_adv = (mc.get("adversarial") or {}).get("runs", 0)
+    out.append(table(["quantity", f"certified ({model.kind} model)",
+                      f"nonlinear robot, max on certified steps ({mc['runs']} Monte Carlo + 4 extreme"
+                      + (f" + {n_adv} adversarial" if n_adv else "") + " runs)", "ratio"], rows))
     failed = [ch["name"] for ch in vd["checks"] if not ch["passed"]]
     if failed:
         out.append("\nFailed checks: " + "; ".join(failed) + ".\n")

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..config import SynthesisConfig
 from ..errors import InfeasibleError, InputError, SolverFailure
+from ..model.slip import check_physical_feasibility
 from ..verify.certificate import CertificateCheck, check_certificate
 from .lmis import LMIProblem, build_hinf, build_invariance, build_stability
 from .solve import Outcome, SolveRecord, solve, solver_version
@@ -58,42 +59,50 @@ class _Runner:
         self.fallbacks = 0
         self.solves = 0
         self.failures = 0
+        self.failed_at: dict[float, bool] = {}  # alpha -> the solver failed (not: infeasible)
+        self.last_kind = ""
 
-    def run(self) -> tuple[Outcome, dict | None, np.ndarray | None, CertificateCheck | None]:
+    def run(self, fallback: bool = True) -> tuple[Outcome, dict | None, np.ndarray | None, CertificateCheck | None]:
         holder: dict[str, Any] = {}
 
         def accept() -> bool:
             vals = self.lp.values()
             try:
-                K = np.linalg.solve(vals["Q"].T, vals["Y"].T).T  # K = Y Q^-1
-                cert = self.make_cert(vals)  # computes P = Q^-1
+                X = vals["Q"] if "Q" in vals else vals["G"]
+                K = np.linalg.solve(X.T, vals["Y"].T).T  # K = Y Q^-1 (or Y G^-1)
+                cert = self.make_cert(vals)  # computes P = Q^-1 (or S_m^-1)
             except np.linalg.LinAlgError:
                 return False
             chk = check_certificate(self.model, K, cert)
             holder.update(cert=cert, K=K, check=chk)
             return chk.passed
 
-        out = solve(self.lp.problem, self.primary, accept)
+        out = solve(self.lp.problem, self.primary, accept, fallback=fallback)
         self.solves += len(out.attempts)
         self.records.extend(out.attempts)
         if out.fallback_used:
             self.fallbacks += 1
+        self.last_kind = out.kind
         if out.kind == "failed":
             self.failures += 1
+        alpha = self.lp.params.get("alpha")
+        if alpha is not None:
+            self.failed_at[float(alpha.value)] = out.kind == "failed"
         if out.kind == "ok":
             return out, holder["cert"], holder["K"], holder["check"]
         return out, None, None, None
 
 
 def _cert_common(model: Any, vals: dict, kind: str, margin: float, objective: str) -> dict[str, Any]:
-    Q = vals["Q"]
-    return {
-        "objective": objective,
-        "Q": Q,
-        "P": np.linalg.inv(Q),
-        "multipliers": {"kind": kind, "M": vals["M"], "blocks": [i.j for i in model.instants]},
-        "margin": margin,
-    }
+    out: dict[str, Any] = {"objective": objective, "model": model.kind, "vertices": len(model.vertices)}
+    if "Q" in vals:
+        out.update(lyapunov="common", Q=vals["Q"], P=np.linalg.inv(vals["Q"]))
+    else:
+        out.update(lyapunov="slip-dependent", G=vals["G"], S=vals["S"], P=[np.linalg.inv(S) for S in vals["S"]])
+    out["multipliers"] = {"kind": kind, "M": vals["M"], "blocks": [i.j for i in model.instants]
+                          if model.n_q and any(v.n_q for v in model.vertices) else []}
+    out["margin"] = margin
+    return out
 
 
 def _weights(settings: SynthesisConfig) -> np.ndarray:
@@ -106,7 +115,7 @@ def _delay_text(model: Any) -> str:
 
 
 def _run_stability(model: Any, s: SynthesisConfig, search: list) -> tuple[_Best, _Runner]:
-    lp = build_stability(model, s.multiplier, s.margin)
+    lp = build_stability(model, s.multiplier, s.margin, s.lyapunov)
     best = _Best()
 
     def make_cert(vals: dict) -> dict:
@@ -116,9 +125,11 @@ def _run_stability(model: Any, s: SynthesisConfig, search: list) -> tuple[_Best,
 
     runner = _Runner(model, lp, s.solver, make_cert)
 
-    def feasible(r: float) -> bool:
+    def feasible(r: float, fallback: bool = False) -> bool:
+        # bisection points use the primary solver only (a failure counts as 'not certified', which
+        # is conservative); the first point, r ~ 1, is retried with the fallback when it fails
         lp.params["r2"].value = r * r
-        out, cert, K, chk = runner.run()
+        out, cert, K, chk = runner.run(fallback=fallback)
         search.append({"r": r, "status": out.kind})
         if out.kind == "ok":
             best.value, best.cert, best.K, best.check, best.record = r, cert, K, chk, out.record
@@ -126,8 +137,8 @@ def _run_stability(model: Any, s: SynthesisConfig, search: list) -> tuple[_Best,
         return False
 
     hi = 1.0 - 1e-6
-    if not feasible(hi):
-        if runner.failures:
+    if not feasible(hi) and not (runner.last_kind == "failed" and feasible(hi, fallback=True)):
+        if runner.last_kind == "failed":
             raise SolverFailure(f"stability: the solvers failed ({runner.records[-1].status})")
         raise InfeasibleError(
             f"stability: no gain robustly stabilizes the robot for {_delay_text(model)}: "
@@ -144,7 +155,7 @@ def _run_stability(model: Any, s: SynthesisConfig, search: list) -> tuple[_Best,
 
 
 def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool) -> tuple[_Best, _Runner]:
-    lp = build_invariance(model, s.multiplier, s.margin, _weights(s), motor)
+    lp = build_invariance(model, s.multiplier, s.margin, _weights(s), motor, s.lyapunov)
     w = _weights(s)
     best = _Best()
 
@@ -158,13 +169,16 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool) -
     runner = _Runner(model, lp, s.solver, make_cert)
     cache: dict[float, float] = {}
 
-    def evaluate(log_a: float) -> float:
-        if log_a in cache:
+    def evaluate(log_a: float, fallback: bool = False) -> float:
+        # The scan uses the primary solver only: a point it cannot solve costs a slow fallback
+        # and rarely matters once its neighbours are solved.  Only when no point at all was
+        # certified are the failed ones retried with the fallback solver (below).
+        if log_a in cache and not fallback:
             return cache[log_a]
         a = float(np.exp(log_a))
         lp.params["alpha"].value = a
         lp.params["one_minus_alpha"].value = 1.0 - a
-        out, cert, K, chk = runner.run()
+        out, cert, K, chk = runner.run(fallback=fallback)
         val = math.inf
         if out.kind == "ok":
             ub = chk.figures["ultimate_bound"]
@@ -186,6 +200,10 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool) -
             break
         if len(vals) >= 2 and math.isfinite(vals[-2]) and not math.isfinite(vals[-1]):
             break
+    if best.cert is None:
+        failed = [g for g, v in zip(grid, vals) if not math.isfinite(v) and runner.failed_at.get(float(np.exp(g)))]
+        for g in failed:
+            vals[list(grid).index(g)] = evaluate(float(g), fallback=True)
     if best.cert is None:
         return best, runner
     grid = grid[: len(vals)]
@@ -239,6 +257,10 @@ def synthesize(model: Any, settings: SynthesisConfig | None = None, **overrides:
     search: list[dict[str, Any]] = []
     notes: list[str] = []
     cfg = model.config
+    if s.lyapunov == "slip-dependent" and (model.kind != "slip-aware" or s.objective == "hinf"):
+        raise InputError("synthesis.lyapunov: slip-dependent needs synthesis.model: slip-aware and the "
+                         "ultimate-bound or stability objective")
+    check_physical_feasibility(cfg)  # physics first: no LMI can beat a motor that is too slow
     if s.objective == "stability":
         best, runner = _run_stability(model, s, search)
     elif s.objective == "hinf":
@@ -247,7 +269,7 @@ def synthesize(model: Any, settings: SynthesisConfig | None = None, **overrides:
             _raise_no_solution(runner, "hinf", f"hinf: no gain gives a finite l2 gain for {_delay_text(model)}: "
                                "narrow network.delay or lower reference.speed")
     else:
-        if model.B_w.shape[1] == 0:
+        if all(not np.any(np.asarray(v.E)) for v in model.vertices):
             raise InputError(
                 "slip: every slip range has zero width and centre 1, so the ultimate bound is 0; "
                 "use synthesis.objective: stability"

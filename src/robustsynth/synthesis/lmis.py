@@ -1,8 +1,21 @@
-"""cvxpy builders of the synthesis LMIs (math.md §5), one compiled problem per objective.
+"""cvxpy builders of the synthesis LMIs over the model's vertices (theory.md §6), one compiled
+problem per objective.
 
-Each builder returns an :class:`LMIProblem` whose ``cvxpy.Parameter`` s (``r2``, ``alpha``) are
-changed between solves, so bisection and line search re-use one compiled problem (DPP).
-Strict inequalities are written ``L << -margin * I`` with an explicit identity.
+Every LMI is written in the form ``L >= margin * I`` (explicit identity) and is affine in the
+vertex data (A_i, B_i, E_i, C_q_i, D_q_i), so holding at every vertex it holds on their hull.
+With a **common** Lyapunov matrix ``Q = P^-1`` and ``Y = K Q``, vertex i reads
+
+    [[(1-alpha) Q, 0,      (A_i Q + B_i Y)',  (C_qi Q + D_qi Y)'],
+     [0,           diag b, E_i',              0                ],
+     [A_i Q + B_i Y, E_i,  Q - B_p M_i B_p',  0                ],
+     [C_qi Q + D_qi Y, 0,  0,                 M_i              ]]  >=  margin I,
+
+(M_i = Lambda_i^-1 the S-procedure multiplier of vertex i, with Delta's block structure).  With
+**slip-dependent** matrices S_m (one per slip corner) and a slack G (``Y = K G``,
+de Oliveira-Bernussou-Geromel 1999; Daafouz-Bernussou 2001) the (1,1) block becomes
+``(1-alpha)(G + G' - S_m)`` for the vertex's corner m, ``Q`` in the products becomes ``G`` and the
+(3,3) block ``S_n - B_p M B_p'`` for every next corner n.  ``Parameter`` s (``alpha``, ``r2``)
+change between solves, so line search and bisection reuse one compiled problem (DPP).
 """
 
 from __future__ import annotations
@@ -19,24 +32,36 @@ __all__ = ["LMIProblem", "build_stability", "build_invariance", "build_hinf", "m
 @dataclass
 class LMIProblem:
     problem: cp.Problem
-    Q: cp.Variable
     Y: cp.Variable
-    M: Any  # cvxpy expression (structured) with the shape of Delta
+    lyapunov: str  # 'common' or 'slip-dependent'
+    Q: cp.Variable | None = None
+    G: cp.Variable | None = None
+    S: list[cp.Variable] = field(default_factory=list)
+    M: list[Any] = field(default_factory=list)  # per vertex (cvxpy expressions)
     params: dict[str, cp.Parameter] = field(default_factory=dict)
     extra: dict[str, cp.Variable] = field(default_factory=dict)
 
-    def values(self) -> dict[str, np.ndarray]:
-        Q = np.asarray(self.Q.value)
-        out = {"Q": (Q + Q.T) / 2.0, "Y": np.asarray(self.Y.value)}
-        M = self.M.value if hasattr(self.M, "value") else self.M
-        M = np.zeros((0, 0)) if M is None else np.asarray(M, dtype=float).reshape(self.M.shape)
-        out["M"] = (M + M.T) / 2.0
+    def values(self) -> dict[str, Any]:
+        """Symmetrized values of the certificate's variables (numpy)."""
+        sym = lambda X: (np.asarray(X) + np.asarray(X).T) / 2.0  # noqa: E731
+        out: dict[str, Any] = {"Y": np.asarray(self.Y.value)}
+        if self.lyapunov == "common":
+            out["Q"] = sym(self.Q.value)
+        else:
+            out["G"] = np.asarray(self.G.value)
+            out["S"] = [sym(S.value) for S in self.S]
+        Ms = []
+        for M in self.M:
+            v = M.value if hasattr(M, "value") else M
+            v = np.zeros((0, 0)) if v is None else np.asarray(v, dtype=float).reshape(M.shape)
+            Ms.append(sym(v))
+        out["M"] = Ms
         for k, v in self.extra.items():
             out[k] = np.asarray(v.value)
         return out
 
 
-def multiplier(n_blocks: int, kind: str) -> tuple[Any, list[cp.Variable]]:
+def multiplier(n_blocks: int, kind: str, tag: str = "") -> tuple[Any, list[cp.Variable]]:
     """M = Lambda^-1 with the structure of Delta = blockdiag(d1 I2, d2, ...).
 
     ``structured``: a 2x2 symmetric block per repeated scalar d1 I2 (a D-scaling) and a scalar
@@ -45,12 +70,12 @@ def multiplier(n_blocks: int, kind: str) -> tuple[Any, list[cp.Variable]]:
     if n == 0:
         return cp.Constant(np.zeros((0, 0))), []
     if kind == "full":
-        mu = cp.Variable(name="mu")
+        mu = cp.Variable(name=f"mu{tag}")
         return mu * np.eye(n), [mu]
     terms, variables = [], []
     for b in range(n_blocks):
-        S = cp.Variable((2, 2), symmetric=True, name=f"S{b}")
-        m = cp.Variable(name=f"m{b}")
+        S = cp.Variable((2, 2), symmetric=True, name=f"S{tag}_{b}")
+        m = cp.Variable(name=f"m{tag}_{b}")
         E = np.zeros((n, 2))
         E[3 * b : 3 * b + 2] = np.eye(2)
         f = np.zeros((n, 1))
@@ -64,19 +89,53 @@ def _sym(L: Any) -> Any:
     return (L + L.T) / 2.0
 
 
-def _common(model: Any, kind: str):
-    n_s, n_u, n_q = model.n_s, model.n_u, model.n_q
-    Q = cp.Variable((n_s, n_s), symmetric=True, name="Q")
-    Y = cp.Variable((n_u, n_s), name="Y")
-    M, _ = multiplier(len(model.instants), kind)
-    A, B, Bp, Cq, Dq = (np.asarray(x) for x in (model.A, model.B, model.B_p, model.C_q, model.D_q))
-    AQ = A @ Q + B @ Y
-    CQ = Cq @ Q + Dq @ Y if n_q else None
-    return Q, Y, M, AQ, CQ, Bp
+class _Lyap:
+    """The Lyapunov variables: X (what multiplies A and C_q), left(m) and right(n) blocks."""
+
+    def __init__(self, model: Any, kind: str):
+        n_s = model.n_s
+        self.kind = kind
+        self.Y = cp.Variable((model.n_u, n_s), name="Y")
+        if kind == "common":
+            self.Q = cp.Variable((n_s, n_s), symmetric=True, name="Q")
+            self.X = self.Q
+            self.G = None
+            self.S: list[cp.Variable] = []
+            self.modes = 1
+        else:
+            self.Q = None
+            self.G = cp.Variable((n_s, n_s), name="G")
+            self.X = self.G
+            self.modes = int(model.corners.shape[0])
+            self.S = [cp.Variable((n_s, n_s), symmetric=True, name=f"S{m}") for m in range(self.modes)]
+
+    def mode(self, vertex: Any) -> int:
+        return 0 if self.kind == "common" else int(vertex.corner)
+
+    def left(self, m: int) -> Any:
+        return self.Q if self.kind == "common" else self.G + self.G.T - self.S[m]
+
+    def right(self, n: int) -> Any:
+        return self.Q if self.kind == "common" else self.S[n]
+
+    def scale(self, floor: float) -> list[Any]:
+        mats = [self.Q] if self.kind == "common" else self.S
+        return [X >> floor * np.eye(X.shape[0]) for X in mats]
+
+    def diag_bound(self, i: int) -> tuple[Any, list[Any]]:
+        """An expression >= every Lyapunov matrix's (i, i) entry (epigraph for slip-dependent)."""
+        if self.kind == "common":
+            return self.Q[i, i], []
+        t = cp.Variable(name=f"t{i}")
+        return t, [t >= S[i, i] for S in self.S]
+
+    def problem_kwargs(self) -> dict[str, Any]:
+        return {"Y": self.Y, "lyapunov": self.kind, "Q": self.Q, "G": self.G, "S": self.S}
 
 
 def motor_constraints(model: Any, Q: Any, Y: Any) -> list[Any]:
-    """[[u_i^2, c_i^T Y], [Y^T c_i, Q]] >= 0 with u_i = rho_max - V^D / R  (math.md §5c)."""
+    """[[u^2, c_i' Y], [Y' c_i, Q]] >= 0 with u = rho_max - V^D / R  (theory.md §6c), for each row c_i
+    of J^-1; ``Q`` may be any expression standing for the Lyapunov matrix (G + G' - S_m)."""
     cfg = model.config
     rho_max = cfg.robot.max_motor_speed
     ubar = rho_max - cfg.reference.speed / cfg.robot.gear_radius
@@ -91,56 +150,92 @@ def motor_constraints(model: Any, Q: Any, Y: Any) -> list[Any]:
     return cons
 
 
-def build_stability(model: Any, kind: str, margin: float) -> LMIProblem:
-    """Robust decay rate r (math.md §5a); scale fixed by Q >= I; parameter r2 = r^2."""
-    Q, Y, M, AQ, CQ, Bp = _common(model, kind)
-    n_s, n_q = model.n_s, model.n_q
+def _vertex_parts(v: Any, lv: _Lyap):
+    AX = np.asarray(v.A) @ lv.X + np.asarray(v.B) @ lv.Y
+    CX = np.asarray(v.C_q) @ lv.X + np.asarray(v.D_q) @ lv.Y if v.n_q else None
+    return AX, CX
+
+
+def _multipliers(model: Any, kind: str, margin: float) -> tuple[list[Any], list[Any]]:
+    Ms, cons = [], []
+    for i, v in enumerate(model.vertices):
+        n_b = v.n_q // 3
+        M, _ = multiplier(n_b, kind, tag=str(i))
+        Ms.append(M)
+        if v.n_q:
+            cons.append(M >> margin * np.eye(v.n_q))
+    return Ms, cons
+
+
+def build_stability(model: Any, kind: str, margin: float, lyapunov: str = "common") -> LMIProblem:
+    """Robust decay rate r (theory.md §6a); scale fixed by Q >= I (S_m >= I); parameter r2 = r^2."""
+    lv = _Lyap(model, lyapunov)
+    n_s = model.n_s
     r2 = cp.Parameter(nonneg=True, name="r2", value=0.9)
-    if n_q:
-        Z = np.zeros((n_s, n_q))
-        L = cp.bmat([[-r2 * Q, AQ.T, CQ.T], [AQ, -Q + Bp @ M @ Bp.T, Z], [CQ, Z.T, -M]])
-    else:
-        L = cp.bmat([[-r2 * Q, AQ.T], [AQ, -Q]])
-    cons = [_sym(L) << -margin * np.eye(L.shape[0]), Q >> np.eye(n_s)]
-    if n_q:
-        cons.append(M >> margin * np.eye(n_q))
-    prob = cp.Problem(cp.Minimize(cp.trace(Q) / n_s), cons)
-    return LMIProblem(prob, Q, Y, M, {"r2": r2})
+    Ms, cons = _multipliers(model, kind, margin)
+    for v, M in zip(model.vertices, Ms):
+        AX, CX = _vertex_parts(v, lv)
+        m = lv.mode(v)
+        Bp = np.asarray(v.B_p)
+        for n in range(lv.modes):
+            if v.n_q:
+                Z = np.zeros((n_s, v.n_q))
+                L = cp.bmat([[r2 * lv.left(m), AX.T, CX.T], [AX, lv.right(n) - Bp @ M @ Bp.T, Z], [CX, Z.T, M]])
+            else:
+                L = cp.bmat([[r2 * lv.left(m), AX.T], [AX, lv.right(n)]])
+            cons.append(_sym(L) >> margin * np.eye(L.shape[0]))
+    cons += lv.scale(1.0)
+    mats = [lv.Q] if lyapunov == "common" else lv.S
+    prob = cp.Problem(cp.Minimize(sum(cp.trace(X) for X in mats) / (n_s * len(mats))), cons)
+    return LMIProblem(prob, M=Ms, params={"r2": r2}, **lv.problem_kwargs())
 
 
-def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, motor: bool) -> LMIProblem:
-    """Invariant, attracting ellipsoid under bounded slip (math.md §5b); parameter alpha.
-
-    Minimizes sum_i weights_i * Q_ii, i.e. the weighted squared bounds on e_x, e_y, e_theta."""
-    Q, Y, M, AQ, CQ, Bp = _common(model, kind)
-    n_s, n_q = model.n_s, model.n_q
-    Bw = np.asarray(model.B_w)
-    n_w = Bw.shape[1]
+def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, motor: bool,
+                     lyapunov: str = "common") -> LMIProblem:
+    """Invariant, attracting ellipsoid under every admissible delay and slip (theory.md §6b);
+    parameter alpha.  Minimizes sum_i weights_i * (bound on state i)^2 / level over e_x, e_y, e_theta."""
+    lv = _Lyap(model, lyapunov)
+    n_s, n_w = model.n_s, model.n_w
     alpha = cp.Parameter(nonneg=True, name="alpha", value=0.1)
     one_minus = cp.Parameter(nonneg=True, name="one_minus_alpha", value=0.9)
     beta = cp.Variable(n_w, name="beta")
+    Ms, cons = _multipliers(model, kind, margin)
     Zsw = np.zeros((n_s, n_w))
-    rows = [[-one_minus * Q, Zsw, AQ.T], [Zsw.T, -cp.diag(beta), Bw.T], [AQ, Bw, -Q + (Bp @ M @ Bp.T if n_q else 0)]]
-    if n_q:
-        rows[0].append(CQ.T)
-        rows[1].append(np.zeros((n_w, n_q)))
-        rows[2].append(np.zeros((n_s, n_q)))
-        rows.append([CQ, np.zeros((n_q, n_w)), np.zeros((n_q, n_s)), -M])
-    L = cp.bmat(rows)
-    cons = [_sym(L) << -margin * np.eye(L.shape[0]), cp.sum(beta) <= alpha, Q >> margin * np.eye(n_s)]
-    if n_q:
-        cons.append(M >> margin * np.eye(n_q))
+    for v, M in zip(model.vertices, Ms):
+        AX, CX = _vertex_parts(v, lv)
+        E = np.asarray(v.E)
+        Bp = np.asarray(v.B_p)
+        m = lv.mode(v)
+        for n in range(lv.modes):
+            rows = [[one_minus * lv.left(m), Zsw, AX.T], [Zsw.T, cp.diag(beta), E.T],
+                    [AX, E, lv.right(n) - (Bp @ M @ Bp.T if v.n_q else 0)]]
+            if v.n_q:
+                rows[0].append(CX.T)
+                rows[1].append(np.zeros((n_w, v.n_q)))
+                rows[2].append(np.zeros((n_s, v.n_q)))
+                rows.append([CX, np.zeros((v.n_q, n_w)), np.zeros((v.n_q, n_s)), M])
+            L = cp.bmat(rows)
+            cons.append(_sym(L) >> margin * np.eye(L.shape[0]))
+    cons += [cp.sum(beta) <= alpha] + lv.scale(margin)
     if motor:
-        cons += motor_constraints(model, Q, Y)
-    obj = cp.Minimize(sum(float(weights[i]) * Q[i, i] for i in range(3)))
-    prob = cp.Problem(obj, cons)
-    return LMIProblem(prob, Q, Y, M, {"alpha": alpha, "one_minus_alpha": one_minus}, {"beta": beta})
+        for m in range(lv.modes):
+            cons += motor_constraints(model, lv.left(m), lv.Y)
+    terms = []
+    for i in range(3):
+        t, c = lv.diag_bound(i)
+        terms.append(float(weights[i]) * t)
+        cons += c
+    prob = cp.Problem(cp.Minimize(sum(terms)), cons)
+    return LMIProblem(prob, M=Ms, params={"alpha": alpha, "one_minus_alpha": one_minus}, extra={"beta": beta},
+                      **lv.problem_kwargs())
 
 
 def build_hinf(model: Any, kind: str, margin: float, weights: np.ndarray) -> LMIProblem:
-    """l2 gain gamma from the slip deviation d to z = diag(weights) e (math.md §5d); minimizes gamma^2."""
-    Q, Y, M, AQ, CQ, Bp = _common(model, kind)
-    n_s, n_q = model.n_s, model.n_q
+    """l2 gain gamma from the slip deviation d to z = diag(weights) e (theory.md §6d), common Q over
+    the vertices; minimizes gamma^2."""
+    lv = _Lyap(model, "common")
+    Q = lv.Q
+    n_s = model.n_s
     Bd = np.asarray(model.B_d)
     n_d = Bd.shape[1]
     Cz = np.zeros((3, n_s))
@@ -149,21 +244,24 @@ def build_hinf(model: Any, kind: str, margin: float, weights: np.ndarray) -> LMI
     g = cp.Variable(nonneg=True, name="gamma2")
     CzQ = Cz @ Q
     Z = np.zeros
-    rows = [
-        [-Q, Z((n_s, n_d)), AQ.T, CzQ.T],
-        [Z((n_d, n_s)), -g * np.eye(n_d), Bd.T, Z((n_d, n_z))],
-        [AQ, Bd, -Q + (Bp @ M @ Bp.T if n_q else 0), Z((n_s, n_z))],
-        [CzQ, Z((n_z, n_d)), Z((n_z, n_s)), -np.eye(n_z)],
-    ]
-    if n_q:
-        rows[0].append(CQ.T)
-        rows[1].append(Z((n_d, n_q)))
-        rows[2].append(Z((n_s, n_q)))
-        rows[3].append(Z((n_z, n_q)))
-        rows.append([CQ, Z((n_q, n_d)), Z((n_q, n_s)), Z((n_q, n_z)), -M])
-    L = cp.bmat(rows)
-    cons = [_sym(L) << -margin * np.eye(L.shape[0]), Q >> margin * np.eye(n_s)]
-    if n_q:
-        cons.append(M >> margin * np.eye(n_q))
+    Ms, cons = _multipliers(model, kind, margin)
+    for v, M in zip(model.vertices, Ms):
+        AX, CX = _vertex_parts(v, lv)
+        Bp = np.asarray(v.B_p)
+        rows = [
+            [Q, Z((n_s, n_d)), AX.T, CzQ.T],
+            [Z((n_d, n_s)), g * np.eye(n_d), Bd.T, Z((n_d, n_z))],
+            [AX, Bd, Q - (Bp @ M @ Bp.T if v.n_q else 0), Z((n_s, n_z))],
+            [CzQ, Z((n_z, n_d)), Z((n_z, n_s)), np.eye(n_z)],
+        ]
+        if v.n_q:
+            rows[0].append(CX.T)
+            rows[1].append(Z((n_d, v.n_q)))
+            rows[2].append(Z((n_s, v.n_q)))
+            rows[3].append(Z((n_z, v.n_q)))
+            rows.append([CX, Z((v.n_q, n_d)), Z((v.n_q, n_s)), Z((v.n_q, n_z)), M])
+        L = cp.bmat(rows)
+        cons.append(_sym(L) >> margin * np.eye(L.shape[0]))
+    cons += lv.scale(margin)
     prob = cp.Problem(cp.Minimize(g), cons)
-    return LMIProblem(prob, Q, Y, M, {}, {"gamma2": g})
+    return LMIProblem(prob, M=Ms, extra={"gamma2": g}, **lv.problem_kwargs())

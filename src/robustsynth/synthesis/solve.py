@@ -80,19 +80,19 @@ def _attempt(problem: cp.Problem, name: str) -> SolveRecord:
     return SolveRecord(name, str(problem.status), int(iters) if iters is not None else None, time.perf_counter() - t0)
 
 
-def solve(problem: cp.Problem, primary: str, accept: Callable[[], bool]) -> Outcome:
+def solve(problem: cp.Problem, primary: str, accept: Callable[[], bool], fallback: bool = True) -> Outcome:
     """Solve with ``primary``; on a solver error, an inaccurate status or a point that ``accept``
     rejects (the numpy certificate check), retry once with the other solver.
 
-    A clean 'infeasible' from the solver is final (no retry).  The fallback's 'optimal_inaccurate'
-    point is still offered to ``accept``: the numpy check, not the status, decides."""
+    A clean 'infeasible' from the solver is final (no retry).  An 'optimal_inaccurate' point (of
+    either solver) is still offered to ``accept``: the numpy check, not the status, decides."""
     attempts: list[SolveRecord] = []
-    for i, name in enumerate((primary, FALLBACK[primary])):
+    for name in (primary, FALLBACK[primary]) if fallback else (primary,):
         rec = _attempt(problem, name)
         attempts.append(rec)
         if rec.status == cp.INFEASIBLE:
             return Outcome("infeasible", rec, attempts)
-        if rec.status == cp.OPTIMAL or (i > 0 and rec.status == cp.OPTIMAL_INACCURATE):
+        if rec.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
             if accept():
                 return Outcome("ok", rec, attempts)
             rec.error = rec.error or "returned point failed the numpy certificate check"

@@ -1,8 +1,9 @@
 """Independent, numpy-only re-check of an LMI certificate (math.md §5-6).
 
-The LMIs are rebuilt from the certificate's values (``Q``, the multiplier ``M``, ``beta``,
-``alpha`` / ``r2`` / ``gamma2``) and the gain ``K`` *as written* (``Y = K Q``), never from the
-solver's internal variables; each must have its largest eigenvalue at most ``-threshold``.
+The LMIs are rebuilt at every vertex of the model from the certificate's values (``Q`` or
+``G, S_m``, the multipliers ``M_i``, ``beta``, ``alpha`` / ``r2`` / ``gamma2``) and the gain ``K``
+*as written* (``Y = K Q`` or ``Y = K G``), never from the solver's internal variables; each must
+have its smallest eigenvalue at least ``threshold``.
 The certified figures (decay rate, ellipsoid bounds in m and rad, motor-speed bound in rad/s,
 l2 gain) are computed here from the same values, so every number written as certified has
 passed this check.
@@ -23,9 +24,11 @@ __all__ = [
     "lmi_invariance",
     "lmi_hinf",
     "multiplier_structure_error",
+    "Lyapunov",
+    "lyapunov_of",
 ]
 
-# A certificate passes when every LMI satisfies  lambda_max <= -CHECK_FRACTION * margin,
+# A certificate passes when every LMI satisfies  lambda_min >= CHECK_FRACTION * margin,
 # i.e. it keeps at least this fraction of the margin it was solved with.
 CHECK_FRACTION = 0.5
 SYMMETRY_TOL = 1e-9  # relative asymmetry allowed in Q and M read from a file
@@ -40,7 +43,7 @@ class CertificateCheck:
 
     @property
     def min_eig_margin(self) -> float:
-        """Smallest -lambda_max over the LMIs (the margin actually found)."""
+        """Smallest margin lambda_min(L) over the LMIs (the margin actually found)."""
         vals = [c["margin_found"] for c in self.checks if c.get("margin_found") is not None]
         return float(min(vals)) if vals else float("nan")
 
@@ -49,60 +52,61 @@ def _sym(X: np.ndarray) -> np.ndarray:
     return (X + X.T) / 2.0
 
 
-def lmi_stability(A, B, Bp, Cq, Dq, Q, Y, M, r2):
-    """[[-r2 Q, (AQ+BY)^T, (CqQ+DqY)^T], [AQ+BY, -Q + Bp M Bp^T, 0], [CqQ+DqY, 0, -M]]  (math.md §5a)."""
-    AQ = A @ Q + B @ Y
-    n_s, n_q = Q.shape[0], M.shape[0]
+def lmi_stability(v, X, left, right, Y, M, r2):
+    """Vertex v: [[r2 left, (A X + B Y)', (C_q X + D_q Y)'], [A X + B Y, right - B_p M B_p', 0],
+    [C_q X + D_q Y, 0, M]] (>= 0 certifies V(xi+) <= r^2 V(xi) at the vertex; theory.md §6a)."""
+    AX = v.A @ X + v.B @ Y
+    n_s, n_q = X.shape[0], v.B_p.shape[1]
     if n_q == 0:
-        return _sym(np.block([[-r2 * Q, AQ.T], [AQ, -Q]]))
-    CQ = Cq @ Q + Dq @ Y
+        return _sym(np.block([[r2 * left, AX.T], [AX, right]]))
+    CX = v.C_q @ X + v.D_q @ Y
     Z = np.zeros((n_s, n_q))
-    return _sym(np.block([[-r2 * Q, AQ.T, CQ.T], [AQ, -Q + Bp @ M @ Bp.T, Z], [CQ, Z.T, -M]]))
+    return _sym(np.block([[r2 * left, AX.T, CX.T], [AX, right - v.B_p @ M @ v.B_p.T, Z], [CX, Z.T, M]]))
 
 
-def lmi_invariance(A, B, Bp, Cq, Dq, Bw, Q, Y, M, beta, alpha):
-    """V(xi+) <= (1-alpha) V(xi) + sum beta_i w_i^2 for all |Delta| <= 1 (math.md §5b), as
+def lmi_invariance(v, X, left, right, Y, M, beta, alpha):
+    """Vertex v: V(xi+) <= (1-alpha) V(xi) + sum beta_i w_i^2 for all |Delta| <= 1 (theory.md §6b), as
 
-    [[-(1-alpha) Q, 0, (AQ+BY)^T, (CqQ+DqY)^T], [0, -diag(beta), Bw^T, 0],
-     [AQ+BY, Bw, -Q + Bp M Bp^T, 0], [CqQ+DqY, 0, 0, -M]]."""
-    AQ = A @ Q + B @ Y
-    n_s, n_q, n_w = Q.shape[0], M.shape[0], Bw.shape[1]
+    [[(1-alpha) left, 0, (AX+BY)', (C_qX+D_qY)'], [0, diag(beta), E', 0],
+     [AX+BY, E, right - B_p M B_p', 0], [C_qX+D_qY, 0, 0, M]] >= 0."""
+    AX = v.A @ X + v.B @ Y
+    n_s, n_q, n_w = X.shape[0], v.B_p.shape[1], v.E.shape[1]
     Zsw = np.zeros((n_s, n_w))
     rows = [
-        [-(1.0 - alpha) * Q, Zsw, AQ.T],
-        [Zsw.T, -np.diag(beta), Bw.T],
-        [AQ, Bw, -Q + (Bp @ M @ Bp.T if n_q else 0.0)],
+        [(1.0 - alpha) * left, Zsw, AX.T],
+        [Zsw.T, np.diag(beta), v.E.T],
+        [AX, v.E, right - (v.B_p @ M @ v.B_p.T if n_q else 0.0)],
     ]
     if n_q:
-        CQ = Cq @ Q + Dq @ Y
-        rows[0].append(CQ.T)
+        CX = v.C_q @ X + v.D_q @ Y
+        rows[0].append(CX.T)
         rows[1].append(np.zeros((n_w, n_q)))
         rows[2].append(np.zeros((n_s, n_q)))
-        rows.append([CQ, np.zeros((n_q, n_w)), np.zeros((n_q, n_s)), -M])
+        rows.append([CX, np.zeros((n_q, n_w)), np.zeros((n_q, n_s)), M])
     return _sym(np.block(rows))
 
 
-def lmi_hinf(A, B, Bp, Cq, Dq, Bd, Cz, Q, Y, M, gamma2):
-    """Bounded-real LMI with the uncertainty (math.md §5d):
-    [[-Q, 0, (AQ+BY)^T, (Cz Q)^T, (CqQ+DqY)^T], [0, -g I, Bd^T, 0, 0],
-     [AQ+BY, Bd, -Q + Bp M Bp^T, 0, 0], [Cz Q, 0, 0, -I, 0], [CqQ+DqY, 0, 0, 0, -M]]."""
-    AQ = A @ Q + B @ Y
+def lmi_hinf(v, Bd, Cz, Q, Y, M, gamma2):
+    """Bounded-real LMI at vertex v (theory.md §6d):
+    [[Q, 0, (AQ+BY)', (Cz Q)', (C_qQ+D_qY)'], [0, g I, Bd', 0, 0],
+     [AQ+BY, Bd, Q - B_p M B_p', 0, 0], [Cz Q, 0, 0, I, 0], [C_qQ+D_qY, 0, 0, 0, M]] >= 0."""
+    AQ = v.A @ Q + v.B @ Y
     CzQ = Cz @ Q
-    n_s, n_q, n_d, n_z = Q.shape[0], M.shape[0], Bd.shape[1], Cz.shape[0]
+    n_s, n_q, n_d, n_z = Q.shape[0], v.B_p.shape[1], Bd.shape[1], Cz.shape[0]
     Z = np.zeros
     rows = [
-        [-Q, Z((n_s, n_d)), AQ.T, CzQ.T],
-        [Z((n_d, n_s)), -gamma2 * np.eye(n_d), Bd.T, Z((n_d, n_z))],
-        [AQ, Bd, -Q + (Bp @ M @ Bp.T if n_q else 0.0), Z((n_s, n_z))],
-        [CzQ, Z((n_z, n_d)), Z((n_z, n_s)), -np.eye(n_z)],
+        [Q, Z((n_s, n_d)), AQ.T, CzQ.T],
+        [Z((n_d, n_s)), gamma2 * np.eye(n_d), Bd.T, Z((n_d, n_z))],
+        [AQ, Bd, Q - (v.B_p @ M @ v.B_p.T if n_q else 0.0), Z((n_s, n_z))],
+        [CzQ, Z((n_z, n_d)), Z((n_z, n_s)), np.eye(n_z)],
     ]
     if n_q:
-        CQ = Cq @ Q + Dq @ Y
+        CQ = v.C_q @ Q + v.D_q @ Y
         rows[0].append(CQ.T)
         rows[1].append(Z((n_d, n_q)))
         rows[2].append(Z((n_s, n_q)))
         rows[3].append(Z((n_z, n_q)))
-        rows.append([CQ, Z((n_q, n_d)), Z((n_q, n_s)), Z((n_q, n_z)), -M])
+        rows.append([CQ, Z((n_q, n_d)), Z((n_q, n_s)), Z((n_q, n_z)), M])
     return _sym(np.block(rows))
 
 
@@ -138,95 +142,157 @@ def _symmetric(X: np.ndarray, name: str) -> str:
     return ""
 
 
-def _item(name: str, lam_max: float, threshold: float) -> dict[str, Any]:
-    return {
+def _item(name: str, lam_min: float, threshold: float, worst: str = "") -> dict[str, Any]:
+    """One condition 'lambda_min(L) >= threshold' (reported in the 'largest eigenvalue of -L' form)."""
+    out = {
         "name": name,
-        "max_eig": float(lam_max),
+        "max_eig": float(-lam_min),
         "threshold": float(-threshold),
-        "margin_found": float(-lam_max),
-        "passed": bool(lam_max <= -threshold),
+        "margin_found": float(lam_min),
+        "passed": bool(lam_min >= threshold),
     }
+    if worst:
+        out["worst"] = worst
+    return out
 
 
 def check_certificate(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateCheck:
     """Re-check ``cert`` for gain ``K`` on ``model``; never raises on a bad certificate."""
     try:
         return _check(model, K, cert)
-    except (KeyError, ValueError, TypeError, np.linalg.LinAlgError) as exc:
+    except (KeyError, ValueError, TypeError, IndexError, np.linalg.LinAlgError) as exc:
         return CertificateCheck(False, (), {}, f"certificate unreadable: {exc}")
+
+
+def _fail(reason: str, checks=(), figures=None) -> CertificateCheck:
+    return CertificateCheck(False, tuple(checks), figures or {}, reason)
+
+
+def _lyapunov_parts(model: Any, cert: Mapping[str, Any], n_s: int):
+    """(kind, X, [left_m], [right_n], [P_m]) from the certificate, or a reason string."""
+    kind = cert.get("lyapunov", "common")
+    if kind == "common":
+        Q = _arr(cert["Q"], "Q")
+        if Q.shape != (n_s, n_s):
+            return f"Q has shape {Q.shape}, expected {(n_s, n_s)}"
+        err = _symmetric(Q, "Q")
+        if err:
+            return err
+        return kind, Q, [Q], [Q], [Q]
+    if kind != "slip-dependent":
+        return f"unknown lyapunov kind {kind!r}"
+    G = _arr(cert["G"], "G")
+    S = [_arr(x, f"S[{m}]") for m, x in enumerate(cert["S"])]
+    n_c = model.corners.shape[0]
+    if G.shape != (n_s, n_s):
+        return f"G has shape {G.shape}, expected {(n_s, n_s)}"
+    if len(S) != n_c:
+        return f"S has {len(S)} matrices, expected one per slip corner ({n_c})"
+    for m, Sm in enumerate(S):
+        if Sm.shape != (n_s, n_s):
+            return f"S[{m}] has shape {Sm.shape}, expected {(n_s, n_s)}"
+        err = _symmetric(Sm, f"S[{m}]")
+        if err:
+            return err
+    return kind, G, [G + G.T - Sm for Sm in S], S, S
 
 
 def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateCheck:
     objective = cert["objective"]
     K = _arr(K, "K")
     n_s, n_u = model.n_s, model.n_u
+    made_for = cert.get("model", "paper")
+    if made_for != model.kind:
+        return _fail(f"the certificate was made for the {made_for!r} model, the config asks for {model.kind!r} "
+                     "(synthesis.model)")
     if K.shape != (n_u, n_s):
-        return CertificateCheck(False, (), {}, f"K has shape {K.shape}, expected {(n_u, n_s)}")
-    Q = _arr(cert["Q"], "Q")
-    if Q.shape != (n_s, n_s):
-        return CertificateCheck(False, (), {}, f"Q has shape {Q.shape}, expected {(n_s, n_s)}")
+        return _fail(f"K has shape {K.shape}, expected {(n_u, n_s)}")
+    parts = _lyapunov_parts(model, cert, n_s)
+    if isinstance(parts, str):
+        return _fail(parts)
+    lyap, X, lefts, rights, mats = parts
     mult = cert["multipliers"]
-    M = _arr(mult["M"], "multipliers.M").reshape(model.n_q, model.n_q)
+    n_v = len(model.vertices)
+    raw = mult["M"]
+    if len(raw) != n_v:
+        return _fail(f"multipliers.M has {len(raw)} entries, expected one per vertex ({n_v})")
+    Ms = []
+    for i, (x, v) in enumerate(zip(raw, model.vertices)):
+        M = _arr(x, f"multipliers.M[{i}]").reshape(v.n_q, v.n_q)
+        err = _symmetric(M, f"multipliers.M[{i}]") or multiplier_structure_error(M, v.n_q // 3, mult.get("kind", "structured"))
+        if err:
+            return _fail(err)
+        Ms.append(M)
     margin = float(cert["margin"])
     if not margin > 0:
-        return CertificateCheck(False, (), {}, "margin must be > 0")
-    for X, nm in ((Q, "Q"), (M, "multipliers.M")):
-        err = _symmetric(X, nm)
-        if err:
-            return CertificateCheck(False, (), {}, err)
-    err = multiplier_structure_error(M, len(model.instants), mult.get("kind", "structured"))
-    if err:
-        return CertificateCheck(False, (), {}, err)
-    if "P" in cert:
-        P = _arr(cert["P"], "P")
-        if P.shape != Q.shape or np.max(np.abs(P @ Q - np.eye(n_s))) > 1e-6:
-            return CertificateCheck(False, (), {}, "P is not the inverse of Q")
+        return _fail("margin must be > 0")
+    if "P" in cert and cert["P"] is not None:
+        Ps = cert["P"] if lyap == "slip-dependent" else [cert["P"]]
+        for Pm, Sm in zip(Ps, mats):
+            Pm = _arr(Pm, "P")
+            if Pm.shape != Sm.shape or np.max(np.abs(Pm @ Sm - np.eye(n_s))) > 1e-6:
+                return _fail("P is not the inverse of the Lyapunov matrix")
     threshold = CHECK_FRACTION * margin
-    Y = K @ Q
-    A, B, Bp, Cq, Dq = (np.asarray(x) for x in (model.A, model.B, model.B_p, model.C_q, model.D_q))
-    eig = lambda X: float(np.linalg.eigvalsh(X)[-1])  # noqa: E731
-    checks = [_item("Q > 0", -float(np.linalg.eigvalsh(Q)[0]), threshold)]
-    if model.n_q:
-        checks.append(_item("M > 0 (multiplier)", -float(np.linalg.eigvalsh(M)[0]), threshold))
+    Y = K @ X
+    lmin = lambda L: float(np.linalg.eigvalsh(L)[0])  # noqa: E731
+    checks = []
+    for m, Sm in enumerate(mats):
+        nm = "Q > 0" if lyap == "common" else f"S[{m}] > 0"
+        checks.append(_item(nm, lmin(Sm), threshold))
+    if any(v.n_q for v in model.vertices):
+        worst = min(((lmin(M), i) for i, (M, v) in enumerate(zip(Ms, model.vertices)) if v.n_q))
+        checks.append(_item(f"M_i > 0 (multipliers, {sum(1 for v in model.vertices if v.n_q)} vertices)", worst[0],
+                            threshold, model.vertices[worst[1]].label))
+
+    def vertex_family(name: str, build) -> dict[str, Any]:
+        worst_val, worst_lab, count = np.inf, "", 0
+        for i, v in enumerate(model.vertices):
+            m = 0 if lyap == "common" else int(v.corner)
+            for n in range(len(rights)):
+                val = lmin(build(v, Ms[i], lefts[m], rights[n]))
+                count += 1
+                if val < worst_val:
+                    worst_val = val
+                    worst_lab = v.label + ("" if lyap == "common" else f" -> corner {n}")
+        return _item(f"{name} at {count} vertex conditions", worst_val, threshold, worst_lab)
+
     figures: dict[str, Any] = {"robust_stability": False, "decay_rate": None, "ultimate_bound": None,
                                "motor_speed_bound": None, "hinf_gain": None}
     cfg = model.config
     if objective == "stability":
         r2 = float(cert["r2"])
         if not 0 < r2 < 1:
-            return CertificateCheck(False, tuple(checks), figures, "r2 must be in (0, 1)")
-        checks.append(_item("decay LMI (5a)", eig(lmi_stability(A, B, Bp, Cq, Dq, Q, Y, M, r2)), threshold))
+            return _fail("r2 must be in (0, 1)", checks, figures)
+        checks.append(vertex_family("decay LMI (6a)", lambda v, M, lf, rt: lmi_stability(v, X, lf, rt, Y, M, r2)))
         figures["decay_rate"] = float(np.sqrt(r2))
     elif objective == "ultimate-bound":
         alpha = float(cert["alpha"])
         beta = _arr(cert["beta"], "beta").reshape(-1)
-        Bw = np.asarray(model.B_w)
-        if beta.shape != (Bw.shape[1],):
-            return CertificateCheck(False, tuple(checks), figures, f"beta has {beta.size} entries, expected {Bw.shape[1]}")
+        if beta.shape != (model.n_w,):
+            return _fail(f"beta has {beta.size} entries, expected {model.n_w}", checks, figures)
         if not 0 < alpha < 1:
-            return CertificateCheck(False, tuple(checks), figures, "alpha must be in (0, 1)")
+            return _fail("alpha must be in (0, 1)", checks, figures)
         if np.any(beta <= 0):
-            return CertificateCheck(False, tuple(checks), figures, "beta must be > 0")
-        L = lmi_invariance(A, B, Bp, Cq, Dq, Bw, Q, Y, M, beta, alpha)
-        checks.append(_item("invariance LMI (5b)", eig(L), threshold))
+            return _fail("beta must be > 0", checks, figures)
+        checks.append(vertex_family("invariance LMI (6b)",
+                                    lambda v, M, lf, rt: lmi_invariance(v, X, lf, rt, Y, M, beta, alpha)))
         level = float(np.sum(beta) / alpha)  # {xi' P xi <= level} is invariant and attracting
         figures["decay_rate"] = float(np.sqrt(1.0 - alpha))
         figures["ellipsoid_level"] = level
-        diag = np.maximum(np.diag(Q), 0.0)  # figures are discarded below unless every check passes
+        diag = np.max([np.maximum(np.diag(Sm), 0.0) for Sm in mats], axis=0)  # worst slip corner
         figures["ultimate_bound"] = {
             "e_x": float(np.sqrt(level * diag[0])),
             "e_y": float(np.sqrt(level * diag[1])),
             "e_theta": float(np.sqrt(level * diag[2])),
         }
         R = cfg.robot.gear_radius
-        KQK = K @ Q @ K.T
         J_inv = np.asarray(model.J_inv)
-        dev = np.sqrt(np.maximum(level * np.einsum("ij,jk,ik->i", J_inv, KQK, J_inv), 0.0))
-        figures["motor_speed_bound"] = float(cfg.reference.speed / R + np.max(dev))
+        dev = max(float(np.max(np.einsum("ij,jk,ik->i", J_inv, K @ Sm @ K.T, J_inv))) for Sm in mats)
+        figures["motor_speed_bound"] = float(cfg.reference.speed / R + np.sqrt(max(level * dev, 0.0)))
         rho_max = cfg.robot.max_motor_speed
         if rho_max is not None and cert.get("motor_limits_enforced", False):
             checks.append({
-                "name": "motor speed on the ellipsoid (5c) [rad/s]",
+                "name": "motor speed on the invariant set (6c) [rad/s]",
                 "max_eig": None,
                 "threshold": float(rho_max),
                 "margin_found": None,
@@ -234,17 +300,53 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
                 "passed": bool(figures["motor_speed_bound"] <= rho_max),
             })
     elif objective == "hinf":
+        if lyap != "common":
+            return _fail("hinf certificates use a common Lyapunov matrix")
         g = float(cert["gamma2"])
         w = cfg.synthesis.weights
         Cz = np.zeros((3, n_s))
         Cz[:3, :3] = np.diag([w.e_x, w.e_y, w.e_theta])
-        L = lmi_hinf(A, B, Bp, Cq, Dq, np.asarray(model.B_d), Cz, Q, Y, M, g)
-        checks.append(_item("bounded-real LMI (5d)", eig(L), threshold))
+        Bd = np.asarray(model.B_d)
+        checks.append(vertex_family("bounded-real LMI (6d)", lambda v, M, lf, rt: lmi_hinf(v, Bd, Cz, X, Y, M, g)))
         figures["hinf_gain"] = float(np.sqrt(g))
     else:
-        return CertificateCheck(False, (), {}, f"unknown objective {objective!r}")
+        return _fail(f"unknown objective {objective!r}")
     passed = all(c["passed"] for c in checks)
     figures["robust_stability"] = passed
     if not passed:
         figures = {k: (False if k == "robust_stability" else None) for k in figures}
     return CertificateCheck(passed, tuple(checks), figures, "" if passed else "an LMI fails the margin check")
+
+
+@dataclass(frozen=True)
+class Lyapunov:
+    """V(xi, mu) = xi' S(mu)^-1 xi of a certificate: S(mu) = Q (common) or the convex combination
+    sum_m lambda_m(mu) S_m of the slip-corner matrices (slip-dependent), lambda the model's corner
+    weights.  ``V_max`` is the largest value over the slip corners (an upper bound for any mu)."""
+
+    model: Any
+    S: tuple[np.ndarray, ...]
+    P: tuple[np.ndarray, ...]
+
+    def V(self, xi: np.ndarray, mu: np.ndarray | None = None) -> np.ndarray:
+        xi = np.asarray(xi, dtype=float)
+        if len(self.S) == 1 or mu is None:
+            return self.V_max(xi)
+        lam = self.model.corner_weights(np.asarray(mu, dtype=float))
+        S = np.einsum("...m,mij->...ij", lam, np.array(self.S))
+        sol = np.linalg.solve(S, xi[..., None])[..., 0]
+        return np.einsum("...i,...i->...", xi, sol)
+
+    def V_max(self, xi: np.ndarray) -> np.ndarray:
+        xi = np.asarray(xi, dtype=float)
+        vals = [np.einsum("...i,ij,...j->...", xi, P, xi) for P in self.P]
+        return np.max(vals, axis=0)
+
+
+def lyapunov_of(model: Any, cert: Mapping[str, Any]) -> Lyapunov:
+    """The Lyapunov function of a (checked) certificate."""
+    if cert.get("lyapunov", "common") == "slip-dependent":
+        S = tuple(np.asarray(x, dtype=float) for x in cert["S"])
+    else:
+        S = (np.asarray(cert["Q"], dtype=float),)
+    return Lyapunov(model, S, tuple(np.linalg.inv(x) for x in S))

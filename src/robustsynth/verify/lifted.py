@@ -3,8 +3,6 @@ random, extreme-switching and greedy worst-case delay/slip sequences, and frozen
 
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 
 __all__ = [
@@ -18,18 +16,21 @@ __all__ = [
 ]
 
 
-def closed_loop_run(model, K: np.ndarray, taus: np.ndarray, d: np.ndarray, xi0: np.ndarray) -> np.ndarray:
-    """xi[n, k] for runs n; ``taus`` (N, steps + d_hi) packet delays, ``d`` (N, steps, 2) slip
-    deviation, ``xi0`` (N, n_s).  Returns (N, steps + 1, n_s)."""
+def closed_loop_run(model, K: np.ndarray, taus: np.ndarray, mu: np.ndarray, xi0: np.ndarray,
+                    affine: bool = True) -> np.ndarray:
+    """xi[n, k] for runs n of the model's exact lifted map ``xi+ = (A + B K) xi + c(mu)``;
+    ``taus`` (N, steps + d_hi) packet delays, ``mu`` (N, steps, 2) slip, ``xi0`` (N, n_s).
+    Returns (N, steps + 1, n_s); ``affine=False`` drops c (the homogeneous part, which governs the
+    deviation from the steady state of a constant slip)."""
     s = model.s_tilde(taus)  # (N, steps, d_hi)
-    A, B = model.exact(s)
+    A, B = model.exact(s, mu)
     Acl = A + B @ K  # (N, steps, n_s, n_s)
-    Bd = np.asarray(model.B_d)
+    c = model.constant(mu) if affine else np.zeros(mu.shape[:-1] + (model.n_s,))  # (N, steps, n_s)
     N, steps = s.shape[:2]
     xi = np.empty((N, steps + 1, model.n_s))
     xi[:, 0] = xi0
     for k in range(steps):
-        xi[:, k + 1] = np.einsum("nij,nj->ni", Acl[:, k], xi[:, k]) + d[:, k] @ Bd.T
+        xi[:, k + 1] = np.einsum("nij,nj->ni", Acl[:, k], xi[:, k]) + c[:, k]
     return xi
 
 
@@ -46,17 +47,16 @@ def alternating_delays(model, N: int, steps: int, period: int = 1) -> np.ndarray
 
 
 def slip_vertices(model) -> np.ndarray:
-    """The 4 corners of the slip-deviation box, shape (4, 2)."""
-    sl = model.slip
-    return np.array(list(itertools.product((sl.d_min[0], sl.d_max[0]), (sl.d_min[1], sl.d_max[1]))))
+    """The corners (mu_r, mu_l) of the slip box, shape (n_c, 2)."""
+    return np.asarray(model.corners)
 
 
-def greedy_worst_case(model, K, P, xi0: np.ndarray, steps: int, n_tau: int = 9, slip: bool = True):
-    """Greedy search for large V = xi' P xi: each step, over a grid of the new packet's delay and
-    the slip-box corners, take the choice that maximizes V(xi_{k+1}).  Returns (xi, taus, d)."""
+def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 9, slip: bool = True):
+    """Greedy search for large V: each step, over a grid of the new packet's delay and the slip
+    corners, take the choice that maximizes ``V_fn(xi_{k+1})``.  Returns (xi, taus, mu)."""
     dl = model.config.network.delay
     tau_grid = np.linspace(dl.min, dl.max, n_tau)
-    d_cands = slip_vertices(model) if slip else np.zeros((1, 2))
+    mu_cands = slip_vertices(model) if slip else np.ones((1, 2))
     N = xi0.shape[0]
     d_hi = model.d_hi
     hist = np.full((N, d_hi), (dl.min + dl.max) / 2.0)  # delays of the last d_hi packets
@@ -64,23 +64,22 @@ def greedy_worst_case(model, K, P, xi0: np.ndarray, steps: int, n_tau: int = 9, 
     xi[:, 0] = xi0
     taus_out = np.empty((N, steps + d_hi))
     taus_out[:, :d_hi] = hist
-    d_out = np.empty((N, steps, 2))
-    Bd = np.asarray(model.B_d)
+    mu_out = np.empty((N, steps, 2))
+    n_m = mu_cands.shape[0]
     for k in range(steps):
         # candidate delay of packet k (the newest): s~ depends on it and on the history
         cand = np.concatenate([np.repeat(hist[:, None, :], n_tau, axis=1), np.broadcast_to(tau_grid[None, :, None], (N, n_tau, 1))], axis=2)
         s = model.s_tilde(cand)[:, :, 0, :]  # (N, n_tau, d_hi)
-        A, B = model.exact(s)
-        nxt = np.einsum("ntij,nj->nti", A + B @ K, xi[:, k])  # (N, n_tau, n_s)
-        nxt = nxt[:, :, None, :] + (d_cands @ Bd.T)[None, None, :, :]  # (N, n_tau, n_d, n_s)
-        V = np.einsum("ntdi,ij,ntdj->ntd", nxt, P, nxt)
+        A, B = model.exact(s[:, :, None, :], mu_cands[None, None, :, :])  # (N, n_tau, n_m, ...)
+        nxt = np.einsum("ntmij,nj->ntmi", A + B @ K, xi[:, k]) + model.constant(mu_cands)[None, None]
+        V = V_fn(nxt)  # (N, n_tau, n_m)
         flat = V.reshape(N, -1).argmax(axis=1)
-        ti, di = np.unravel_index(flat, V.shape[1:])
+        ti, di = np.unravel_index(flat, (n_tau, n_m))
         xi[:, k + 1] = nxt[np.arange(N), ti, di]
-        d_out[:, k] = d_cands[di]
+        mu_out[:, k] = mu_cands[di]
         taus_out[:, k + d_hi] = tau_grid[ti]
         hist = np.concatenate([hist[:, 1:], tau_grid[ti][:, None]], axis=1)
-    return xi, taus_out, d_out
+    return xi, taus_out, mu_out
 
 
 def frozen_instant_grid(model, n: int) -> np.ndarray:
@@ -103,6 +102,7 @@ def frozen_instant_grid(model, n: int) -> np.ndarray:
 
 
 def frozen_spectral_radius(model, K: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """Spectral radius of A~(s~) + B~(s~) K for each frozen instant vector (row of ``s``)."""
-    A, B = model.exact(s)
-    return np.max(np.abs(np.linalg.eigvals(A + B @ K)), axis=-1)
+    """Spectral radius of A~(s~, mu) + B~(s~, mu) K for each frozen instant vector (row of ``s``),
+    the largest over the slip corners (for the paper's kind the slip does not enter A~, B~)."""
+    A, B = model.exact(s[:, None, :], np.asarray(model.corners)[None, :, :])
+    return np.max(np.abs(np.linalg.eigvals(A + B @ K)), axis=(-1, -2))

@@ -35,17 +35,21 @@ def simulate_run(model, K: np.ndarray, path: PathGeometry, scen: Scenario, n: in
     uD = np.array([V, 0.0])
     cfg = model.config
     rho_sat = cfg.robot.max_motor_speed if cfg.verification.motor_saturation else None
-    u_hat = [uD.copy() for _ in range(d_hi)]  # packets sent before t_0 carry du = 0
+    # packets sent before t_0 carry the stored commands (zero unless the run starts at a steady state)
+    past = [np.zeros(2) for _ in range(d_hi)] if scen.du0 is None else [scen.du0[n, j].copy() for j in range(d_hi)]
+    u_hat = [uD + past[d_hi - 1 - i] for i in range(d_hi)]  # in sending order: du_{-d_hi}, ..., du_{-1}
+    z = np.zeros(model.n_z) if scen.z0 is None or not model.n_z else scen.z0[n].copy()
     q = scen.q0[n].copy()
     qs, es, dus = [q.copy()], [], []
-    past = [np.zeros(2) for _ in range(d_hi)]  # du_{k-1}, ..., du_{k-d_hi}
     for k in range(steps):
         t0 = k * Ts
         seg = path.segment(t0)
         es.append(frame_error(path, seg, q, t0))
         e_meas = frame_error(path, seg, q + scen.noise[n, k], t0)
-        xi = np.concatenate([e_meas] + past)
+        xi = np.concatenate([e_meas] + past + [z])
         du = K @ xi
+        if model.n_z:
+            z = z + Ts * e_meas[:2]
         dus.append(du)
         past = [du] + past[:-1]
         u_hat.append(uD + du)

@@ -28,10 +28,14 @@ __all__ = [
     "frame_error",
     "wrap_angle",
     "saturate",
+    "period",
+    "controller_state",
+    "steady_state_start",
+    "greedy_nonlinear",
     "SLIP_PROFILES",
 ]
 
-SLIP_PROFILES = ("constant", "random-walk", "steps")
+SLIP_PROFILES = ("constant", "random-walk", "steps", "corners")
 
 
 def wrap_angle(a: np.ndarray) -> np.ndarray:
@@ -115,6 +119,8 @@ class Scenario:
     noise: np.ndarray  # (N, steps, 3): measurement noise on (x, y, theta)
     q0: np.ndarray  # (N, 3): initial pose
     profiles: tuple[str, ...]  # slip profile of each run
+    du0: np.ndarray | None = None  # (N, d_hi, 2): stored commands du_{-1}, ..., du_{-d_hi} (None: zero)
+    z0: np.ndarray | None = None  # (N, 2): integrator states at t_0 (None: zero)
 
     @property
     def runs(self) -> int:
@@ -125,16 +131,37 @@ class Scenario:
         return self.mu.shape[1]
 
 
-def _slip_profiles(rng: np.random.Generator, kinds: list[str], steps: int, lo: np.ndarray, hi: np.ndarray, Ts: float):
+def _rate_limit(target: np.ndarray, start: np.ndarray, max_step: float | None) -> np.ndarray:
+    """Follow ``target`` (N, steps, 2) from ``start`` (N, 2) with |mu_{k+1} - mu_k| <= max_step."""
+    if max_step is None:
+        return target
+    out = np.empty_like(target)
+    cur = start.copy()
+    for k in range(target.shape[1]):
+        cur = cur + np.clip(target[:, k] - cur, -max_step, max_step)
+        out[:, k] = cur
+    return out
+
+
+def _slip_profiles(rng: np.random.Generator, kinds: list[str], steps: int, lo: np.ndarray, hi: np.ndarray, Ts: float,
+                   max_rate: float | None = None):
+    """Slip (N, steps, 2) per profile: constant; random walk (std 5 % of the range per sqrt(s),
+    reflected at the bounds); steps (a new random level every ~3 s); corners (a random corner of
+    the box held 1-5 periods).  With ``max_rate`` every profile moves at most max_rate * Ts per
+    period (steps and corners become ramps at the largest rate)."""
     N = len(kinds)
     mu = np.empty((N, steps, 2))
     kinds_arr = np.array(kinds)
     width = hi - lo
+    max_step = None if max_rate is None else max_rate * Ts
     # constant
     start = lo + width * rng.random((N, 2))
     mu[:] = start[:, None, :]
     # random walk: std 5% of the range per sqrt(s), reflected at the bounds
-    inc = rng.normal(scale=0.05 * math.sqrt(Ts), size=(N, steps, 2)) * width
+    scale = 0.05 * math.sqrt(Ts) * width
+    inc = rng.normal(size=(N, steps, 2)) * scale
+    if max_step is not None:
+        inc = np.clip(inc, -max_step, max_step)
     walk = start[:, None, :] + np.cumsum(inc, axis=1)
     span = np.where(width > 0, width, 1.0)
     x = np.mod(walk - lo, 2 * span)
@@ -149,8 +176,25 @@ def _slip_profiles(rng: np.random.Generator, kinds: list[str], steps: int, lo: n
     levels = lo + width * rng.random((N, steps, 2))
     idx = np.maximum.accumulate(np.where(jumps, np.arange(steps)[None, :], 0), axis=1)
     stepped = np.take_along_axis(levels, idx[:, :, None].repeat(2, axis=2), axis=1)
+    stepped[:, 0] = start
     sel = kinds_arr == "steps"
-    mu[sel] = stepped[sel]
+    mu[sel] = _rate_limit(stepped, start, max_step)[sel]
+    # corners: a random corner held for 1-5 periods (the switching the certificate allows)
+    hold = rng.integers(1, 6, size=(N, steps))
+    switch = np.zeros((N, steps), dtype=bool)
+    nxt = np.zeros(N, dtype=int)
+    for k in range(steps):
+        on = nxt == k
+        switch[on, k] = True
+        nxt[on] = k + hold[on, k]
+    pick = rng.integers(0, 2, size=(N, steps, 2))
+    corner = np.where(pick == 0, lo, hi)
+    idx = np.maximum.accumulate(np.where(switch, np.arange(steps)[None, :], 0), axis=1)
+    cornered = np.take_along_axis(corner, idx[:, :, None].repeat(2, axis=2), axis=1)
+    sel = kinds_arr == "corners"
+    c0 = cornered[:, 0].copy()
+    mu[sel] = _rate_limit(cornered, c0, max_step)[sel]
+    start = np.where((kinds_arr == "corners")[:, None], c0, start)
     return mu
 
 
@@ -158,7 +202,8 @@ def draw_scenario(model, runs: int, seed: int, steps: int, path: PathGeometry, d
                   slip: str | None = None) -> Scenario:
     """Seeded random scenario. ``delays``: 'random' (uniform iid), 'alternating' (min/max),
     'constant-min', 'constant-max'.  ``slip``: a profile for every run, or None to cycle through
-    SLIP_PROFILES; 'none' for mu = 1."""
+    SLIP_PROFILES; 'none' for mu = 1.  Runs start at the pose of the config's initial offset with no
+    stored commands; :func:`steady_state_start` moves them to the steady state of their first slip."""
     cfg = model.config
     vc = cfg.verification
     rng = np.random.default_rng(seed)
@@ -178,15 +223,46 @@ def draw_scenario(model, runs: int, seed: int, steps: int, path: PathGeometry, d
         kinds = ["none"] * runs
         mu = np.ones((runs, steps, 2))
     else:
-        kinds = [slip] * runs if slip else [SLIP_PROFILES[n % 3] for n in range(runs)]
-        mu = _slip_profiles(rng, kinds, steps, lo, hi, model.Ts)
+        kinds = [slip] * runs if slip else [SLIP_PROFILES[n % len(SLIP_PROFILES)] for n in range(runs)]
+        mu = _slip_profiles(rng, kinds, steps, lo, hi, model.Ts, cfg.slip.max_rate)
     sd = np.array([vc.noise.position, vc.noise.position, vc.noise.heading])
     noise = rng.normal(size=(runs, steps, 3)) * sd if np.any(sd > 0) else np.zeros((runs, steps, 3))
     off = vc.initial_offset
+    e_off = np.array([off.x, off.y, off.theta])
+    q0 = np.tile(_pose_from_error(path, e_off), (runs, 1))
+    return Scenario(taus, mu, noise, q0, tuple(kinds))
+
+
+def _pose_from_error(path: PathGeometry, e: np.ndarray) -> np.ndarray:
+    """World pose at t = 0 whose error in the first segment's frame is ``e`` (..., 3)."""
+    e = np.asarray(e, dtype=float)
     th0 = path.headings[0]
     c, s = math.cos(th0), math.sin(th0)
-    q0 = np.array([path.waypoints[0, 0] + c * off.x - s * off.y, path.waypoints[0, 1] + s * off.x + c * off.y, th0 + off.theta])
-    return Scenario(taus, mu, noise, np.tile(q0, (runs, 1)), tuple(kinds))
+    q = np.empty_like(e)
+    q[..., 0] = path.waypoints[0, 0] + c * e[..., 0] - s * e[..., 1]
+    q[..., 1] = path.waypoints[0, 1] + s * e[..., 0] + c * e[..., 1]
+    q[..., 2] = th0 + e[..., 2]
+    return q
+
+
+def steady_state_start(model, K: np.ndarray, path: PathGeometry, scen: Scenario) -> Scenario:
+    """The same scenario started at the steady state xi*(mu_0) of each run's first slip (plus the
+    config's initial offset): error e*, stored commands du* and integrators z* of the robot's
+    slip-aware lifted closed loop under that constant slip.  A gain without a steady state (e.g.
+    K = 0) leaves the scenario as it was."""
+    from dataclasses import replace
+
+    try:
+        xi = model.equilibrium(K, scen.mu[:, 0])  # (N, n_s)
+    except np.linalg.LinAlgError:
+        return scen  # no steady state for this gain (I - A - B K singular): runs start on the path
+    if not np.all(np.isfinite(xi)):
+        return scen
+    off = model.config.verification.initial_offset
+    e = xi[:, : model.n_e] + np.array([off.x, off.y, off.theta])
+    du0 = xi[:, model.n_e : model.n_e + model.d_hi * model.n_u].reshape(-1, model.d_hi, model.n_u)
+    z0 = xi[:, model.n_s - model.n_z :] if model.n_z else None
+    return replace(scen, q0=_pose_from_error(path, e), du0=du0, z0=z0)
 
 
 @dataclass(frozen=True)
@@ -198,7 +274,43 @@ class SimResult:
     du: np.ndarray  # (N, steps, 2)
     rho: np.ndarray  # (N, steps, 2) commanded motor speeds J^-1 u_hat_k
     segment: np.ndarray  # (steps + 1,) segment index at t_k
-    settled: np.ndarray  # (steps + 1,) bool: outside the transients
+    settled: np.ndarray  # (steps + 1,) bool: outside the fixed transients (see verify for the certified rule)
+
+    def true_xi(self, n_e: int = 3) -> np.ndarray:
+        """The robot's true lifted state at t_0..t_{steps-1}: true error, stored commands, integrators."""
+        return np.concatenate([self.e[:, :-1], self.xi[:, :, n_e:]], axis=2)
+
+
+def period(q: np.ndarray, U: np.ndarray, S: np.ndarray, M: np.ndarray, Ts: float, J: np.ndarray,
+           J_inv: np.ndarray, rho_sat: float | None) -> np.ndarray:
+    """Move the robot through one sampling period: ``U[..., j]`` = u_hat_{k-j} acts on
+    [s~_j, s~_{j-1}) (s~_{d_hi} = 0, s~_{-1} = Ts), the robot receives M u_hat (exact arcs)."""
+    d_hi = S.shape[-1]
+    start = np.zeros(q.shape[:-1])
+    for j in range(d_hi, -1, -1):
+        end = S[..., j - 1] if j > 0 else np.full(q.shape[:-1], Ts)
+        u_eff = np.einsum("...ij,...j->...i", M, saturate(U[..., j, :], J, J_inv, rho_sat))
+        q = arc_step(q, u_eff[..., 0], u_eff[..., 1], end - start)
+        start = end
+    return q
+
+
+def _initial_memory(model, scen: Scenario):
+    N = scen.runs
+    uD = np.array([model.V, 0.0])
+    U = np.tile(uD, (N, model.d_hi + 1, 1))  # before step k: U[:, j] = u_hat_{k-1-j}
+    if scen.du0 is not None:
+        U[:, : model.d_hi] = uD + scen.du0
+        U[:, model.d_hi] = uD + scen.du0[:, -1]  # shifted out before it could act
+    z = np.zeros((N, model.n_z)) if scen.z0 is None or not model.n_z else np.array(scen.z0, dtype=float)
+    return U, z
+
+
+def controller_state(e_meas: np.ndarray, U: np.ndarray, z: np.ndarray, uD: np.ndarray, d_hi: int) -> np.ndarray:
+    """xi_k = [e_meas; du_{k-1}; ...; du_{k-d_hi}; z_k] from the stored commands (before step k's shift,
+    U[:, j] = u_hat_{k-1-j})."""
+    N = e_meas.shape[0]
+    return np.concatenate([e_meas, (U[:, :d_hi] - uD).reshape(N, -1), z], axis=1)
 
 
 def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient: float = 0.0,
@@ -214,7 +326,7 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
     rho_sat = cfg.robot.max_motor_speed if cfg.verification.motor_saturation else None
     S = model.s_tilde(scen.taus)  # (N, steps, d_hi)
     uD = np.array([V, 0.0])
-    U = np.tile(uD, (N, d_hi + 1, 1))  # U[:, j] = u_hat_{k-j}
+    U, z = _initial_memory(model, scen)
     q = scen.q0.copy()
     t = np.arange(steps + 1) * Ts
     seg = np.array([path.segment(tk) for tk in t])
@@ -226,19 +338,15 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
     for k in range(steps):
         E[:, k] = frame_error(path, seg[k], q, t[k])
         e_meas = frame_error(path, seg[k], q + scen.noise[:, k], t[k])
-        xi = np.concatenate([e_meas, (U[:, :d_hi] - uD).reshape(N, -1)], axis=1)
+        xi = controller_state(e_meas, U, z, uD, d_hi)
         du = xi @ K.T
+        if model.n_z:
+            z = z + Ts * e_meas[:, :2]  # z_{k+1} = z_k + Ts (e_x, e_y)_k
         U[:, 1:] = U[:, :-1]
         U[:, 0] = uD + du
         XI[:, k], DU[:, k] = xi, du
         M = JHJinv(scen.mu[:, k, 0], scen.mu[:, k, 1], D)  # (N, 2, 2)
-        start = np.zeros(N)
-        for j in range(d_hi, -1, -1):  # u_hat_{k-j} acts on [s~_j, s~_{j-1}), s~_{d_hi} = 0, s~_{-1} = Ts
-            end = S[:, k, j - 1] if j > 0 else np.full(N, Ts)
-            h = end - start
-            u_eff = np.einsum("nij,nj->ni", M, saturate(U[:, j], J, J_inv, rho_sat))
-            q = arc_step(q, u_eff[:, 0], u_eff[:, 1], h)
-            start = end
+        q = period(q, U, S[:, k], M, Ts, J, J_inv, rho_sat)
         Q[:, k + 1] = q
         if progress is not None and (k % 50 == 0 or k == steps - 1):
             progress(k + 1, steps)
@@ -247,3 +355,77 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
     since_switch = t - path.t_start[seg]
     settled = (t >= transient) & (since_switch >= transient)
     return SimResult(t, Q, E, XI, DU, rho, seg, settled)
+
+
+def greedy_nonlinear(model, K: np.ndarray, V_fn: Callable[[np.ndarray], np.ndarray], mu0: np.ndarray, steps: int,
+                     n_tau: int = 9) -> dict[str, np.ndarray]:
+    """Greedy adversary on the nonlinear robot along a straight line: every period, among the slip
+    corners and ``n_tau`` delays of the newest packet, take the pair whose next true lifted state has
+    the largest ``V_fn`` (a Lyapunov function; larger = further out of the certified set).  Runs start
+    at the steady state of ``mu0`` (N, 2).  Returns the true lifted states (N, steps + 1, n_s), the
+    chosen slip (N, steps, 2) and delays (N, steps), and the commanded motor speeds (N, steps, 2)."""
+    K = np.asarray(K, dtype=float)
+    cfg = model.config
+    Ts, d_hi, V = model.Ts, model.d_hi, model.V
+    D = cfg.robot.track_distance
+    J_inv, J = np.asarray(model.J_inv), np.asarray(model.J)
+    rho_sat = cfg.robot.max_motor_speed if cfg.verification.motor_saturation else None
+    dl = cfg.network.delay
+    taus = np.linspace(dl.min, dl.max, n_tau)
+    corners = np.asarray(model.corners)
+    max_step = None if cfg.slip.max_rate is None else cfg.slip.max_rate * Ts
+    N = mu0.shape[0]
+    path = make_path(((0.0, 0.0), (V * Ts * (steps + 10), 0.0)), V)
+    xi0 = model.equilibrium(K, mu0)
+    scen = Scenario(np.zeros((N, d_hi)), mu0[:, None, :], np.zeros((N, 1, 3)), _pose_from_error(path, xi0[:, :3]), (),
+                    xi0[:, 3 : 3 + d_hi * 2].reshape(N, d_hi, 2), xi0[:, model.n_s - model.n_z :] if model.n_z else None)
+    U, z = _initial_memory(model, scen)
+    q = scen.q0.copy()
+    uD = np.array([V, 0.0])
+    hist = np.full((N, d_hi), (dl.min + dl.max) / 2.0)
+    mu_prev = mu0.copy()
+    XI = np.empty((N, steps + 1, model.n_s))
+    MU = np.empty((N, steps, 2))
+    TAU = np.empty((N, steps))
+    RHO = np.empty((N, steps, 2))
+    for k in range(steps + 1):
+        tk = k * Ts
+        e = frame_error(path, 0, q, tk)
+        xi = controller_state(e, U, z, uD, d_hi)
+        XI[:, k] = xi
+        if k == steps:
+            break
+        du = xi @ K.T
+        if model.n_z:
+            z = z + Ts * e[:, :2]
+        U[:, 1:] = U[:, :-1]
+        U[:, 0] = uD + du
+        RHO[:, k] = (uD + du) @ J_inv.T
+        # candidates: slip (corners, or the rate-limited moves towards them) x newest delay
+        if max_step is None:
+            cand_mu = np.broadcast_to(corners, (N,) + corners.shape)
+        else:
+            cand_mu = mu_prev[:, None, :] + np.clip(corners[None] - mu_prev[:, None, :], -max_step, max_step)
+        n_c = cand_mu.shape[1]
+        seq = np.concatenate([np.repeat(hist[:, None, :], n_tau, axis=1),
+                              np.broadcast_to(taus[None, :, None], (N, n_tau, 1))], axis=2)
+        S = model.s_tilde(seq)[:, :, 0, :]  # (N, n_tau, d_hi)
+        Mc = JHJinv(cand_mu[..., 0], cand_mu[..., 1], D)  # (N, n_c, 2, 2)
+        qq = np.broadcast_to(q[:, None, None, :], (N, n_c, n_tau, 3))
+        UU = np.broadcast_to(U[:, None, None], (N, n_c, n_tau) + U.shape[1:])
+        SS = np.broadcast_to(S[:, None], (N, n_c, n_tau, d_hi))
+        MM = np.broadcast_to(Mc[:, :, None], (N, n_c, n_tau, 2, 2))
+        q_next = period(qq, UU, SS, MM, Ts, J, J_inv, rho_sat)  # (N, n_c, n_tau, 3)
+        e_next = frame_error(path, 0, q_next, tk + Ts)
+        rest = np.concatenate([(U[:, :d_hi] - uD).reshape(N, -1), z], axis=1)
+        xi_next = np.concatenate([e_next, np.broadcast_to(rest[:, None, None, :], (N, n_c, n_tau, rest.shape[1]))], axis=-1)
+        val = V_fn(xi_next).reshape(N, -1)
+        best = val.argmax(axis=1)
+        ci, ti = np.unravel_index(best, (n_c, n_tau))
+        r = np.arange(N)
+        q = q_next[r, ci, ti]
+        MU[:, k] = cand_mu[r, ci]
+        TAU[:, k] = taus[ti]
+        mu_prev = MU[:, k]
+        hist = np.concatenate([hist[:, 1:], taus[ti][:, None]], axis=1)
+    return {"xi": XI, "mu": MU, "tau": TAU, "rho": RHO}
