@@ -62,6 +62,7 @@ class SynthesisStage:
     result: Any  # robustsynth.synthesis.SynthesisResult
     gains: dict[str, Any]
     files: tuple[Path, ...]
+    comparison: dict[str, Any] | None = None
 
 
 def _remove(outdir: Path, names: tuple[str, ...]) -> None:
@@ -72,8 +73,9 @@ def _remove(outdir: Path, names: tuple[str, ...]) -> None:
             pass
 
 
-def synthesis_stage(model: Model, outdir: str | Path, **overrides: Any) -> SynthesisStage:
-    """Synthesize and certify a gain; write gains.json (last), gains.mat, synthesis.md.
+def synthesis_stage(model: Model, outdir: str | Path, compare: bool = True, **overrides: Any) -> SynthesisStage:
+    """Synthesize and certify a gain; write gains.json (last), gains.mat, synthesis.md (with the
+    paper-vs-slip-aware comparison unless ``compare`` is False).
 
     Files that depend on the gain (verification, report) are removed first.  When no certified
     gain is found, the old gain files are removed too, so nothing stale looks current."""
@@ -90,13 +92,18 @@ def synthesis_stage(model: Model, outdir: str | Path, **overrides: Any) -> Synth
             _remove(outdir, SYNTHESIS_FILES + VERIFICATION_FILES + RUN_FILES)
         raise
     gd = gains_dict(model, result)
+    cmp = None
+    if compare:
+        from .comparison import compare_models
+
+        cmp = compare_models(model, gd)
     files = {
         "gains.mat": mat_bytes(gains_mat_vars(gd)),
-        "synthesis.md": synthesis_markdown(model, result, gd).encode("utf-8"),
+        "synthesis.md": synthesis_markdown(model, result, gd, cmp).encode("utf-8"),
         "gains.json": json_bytes(gd),
     }
     written = commit_files(outdir, files, primary="gains.json", invalidate=VERIFICATION_FILES + RUN_FILES)
-    return SynthesisStage(model, result, gd, tuple(written))
+    return SynthesisStage(model, result, gd, tuple(written), cmp)
 
 
 ProgressFn = Callable[[int, int], None]
@@ -173,6 +180,7 @@ def run(
     plots: bool = True,
     progress: ProgressFn | None = None,
     on_stage: Callable[[str], None] | None = None,
+    compare: bool = True,
     **synthesis_overrides: Any,
 ) -> RunResult:
     """build-model -> synthesize -> verify, then report.md and summary.json.
@@ -190,7 +198,7 @@ def run(
     ms = model_stage(config, outdir)
     say("synthesize")
     try:
-        ss = synthesis_stage(ms.model, outdir, **synthesis_overrides)
+        ss = synthesis_stage(ms.model, outdir, compare=compare, **synthesis_overrides)
     except RobustSynthError as exc:
         status = "infeasible" if isinstance(exc, InfeasibleError) else "solver-failure"
         summary = summary_dict(ms.model, None, None, status)
@@ -200,8 +208,15 @@ def run(
     say("verify")
     vs = verification_stage(ms.model, outdir, runs=runs, seed=seed, fmt=fmt, plots=plots, progress=progress)
     rel = {k: str(v.relative_to(outdir)) for k, v in vs.figures.items()}
+    cmp = None
+    if compare and ss.comparison:
+        from .comparison import compare_models
+
+        say("compare")
+        other = next((r.get("gains") for r in ss.comparison["rows"] if r["model"] != ms.model.kind), None)
+        cmp = compare_models(ms.model, ss.gains, vs.data, runs, seed, other_gains=other)
     files = {
-        "report.md": report_markdown(ms.model, ss.gains, vs.data, rel).encode("utf-8"),
+        "report.md": report_markdown(ms.model, ss.gains, vs.data, rel, cmp).encode("utf-8"),
         "summary.json": json_bytes(summary_dict(ms.model, ss.gains, vs.data, "certified")),
     }
     written = commit_files(outdir, files, primary="summary.json")

@@ -85,13 +85,14 @@ def model_dict(model: Model, coverage: dict[str, Any]) -> dict[str, Any]:
 def model_markdown(model: Model, coverage: dict[str, Any]) -> str:
     c = model.config
     sn, un = model.state_names, model.input_names
-    out = [f"# Model of `{c.name}`\n\n"]
+    out = [f"# Model of `{c.name}` (kind `{model.kind}`)\n\n"]
     out.append(
-        "Lifted norm-bounded model of the networked tracking error (seed paper eqs. 25, 31–33):\n\n"
+        "Lifted norm-bounded model of the networked tracking error (seed paper eqs. 25, 31–33), nominal at mu = 1:\n\n"
         "    xi[k+1] = A xi[k] + B du[k] + B_d d[k] + B_p p[k],  p[k] = Delta[k] q[k],"
         "  q[k] = C_q xi[k] + D_q du[k]\n\n"
         "with `Delta[k] = blockdiag(delta1 I2, delta2, …)`, `|delta| <= 1`.\n"
     )
+    out.append(kind_markdown(model))
     out.append("\n## Parameters\n\n")
     out.append(
         table(
@@ -150,9 +151,50 @@ def model_markdown(model: Model, coverage: dict[str, Any]) -> str:
     )
     out.append("\n## Coverage check\n\n")
     out.append(
-        f"{coverage['samples']} switching-instant vectors (random admissible delay sequences, alternating and"
-        f" constant extremes, and the corners of the instant ranges): largest |Delta_ii| ="
-        f" {coverage['max_abs_delta']:.6g}, largest residual |exact − embedded| = {coverage['max_residual']:.3g}."
-        f" **{'passed' if coverage['passed'] else 'FAILED'}**.\n"
+        f"{coverage['samples']} (slip, switching-instant) samples (random admissible delay sequences, alternating and"
+        f" constant extremes, the corners of the instant ranges, every slip corner): the exact lifted matrices of the"
+        f" `{model.kind}` model and its constant term rebuilt from the {coverage['vertices']} vertices with explicit"
+        f" convex weights (smallest {coverage['min_weight']:.3g}, sums off by at most {coverage['max_weight_sum_error']:.2g})"
+        f" and Delta (largest |Delta_ii| = {coverage['max_abs_delta']:.6g}): largest residual"
+        f" {coverage['max_residual']:.3g}. **{'passed' if coverage['passed'] else 'FAILED'}**.\n"
     )
+    return "".join(out)
+
+
+NEGLECTED = (
+    "Exact in slip and delay; linearized once, around the slip-compensated operating point (e_theta = 0, the robot "
+    "moving at u^D), where the error kinematics `e_x' = v cos e_theta - V^D`, `e_y' = v sin e_theta`, "
+    "`e_theta' = w` (with `(v, w) = M(mu) u_hat`) become `e_x' = a_1`, `e_y' = V^D e_theta`, `e_theta' = a_2`, "
+    "`a = M(mu)(u^D + du) - u^D`. The terms dropped, all of second order in (e_theta, a):\n\n"
+    "- in `e_x'`: `-(V^D + a_1)(1 - cos e_theta)`;\n"
+    "- in `e_y'`: `V^D (sin e_theta - e_theta) + a_1 sin e_theta` — i.e. the forward-speed factor "
+    "`sigma = v sinc(e_theta) / V^D` is taken as 1 (it is 1 at the operating point);\n"
+    "- nothing else: slip (constant within a period) multiplies every command that acts in the period exactly "
+    "(`M(mu)`), the delays enter exactly through the switching instants, and the constant term "
+    "`c(mu) = B~_d (mu - 1)` is exact.\n"
+)
+
+
+def kind_markdown(model: Model) -> str:
+    """What the model kind covers, what it neglects, and its vertex description."""
+    if model.kind == "paper":
+        return ("\n## What this model neglects\n\nThe seed paper's linearization at `(e, du, d) = 0`: slip enters only"
+                " as the additive `B_D d`. The robot really receives `M(mu) (u^D + du)` (`M = J H J^-1`), so the"
+                " correction is multiplied by the slip, and the forward speed is `V^D (mu_r + mu_l)/2` at `du = 0`."
+                " A certificate of this model does not hold for the robot under slip (use `synthesis.model: slip-aware`;"
+                " `robustsynth verify` shows the gap). The LMIs use one vertex: the norm-bounded form below with the slip"
+                " as a box disturbance `B_d W w`.\n")
+    corners = ", ".join(f"({fmt(m[0])}, {fmt(m[1])})" for m in model.corners)
+    desc = ("the exact hull of each uncertain instant: the curve (h, h²/2) lies in the triangle of its end points and"
+            " the crossing of its end tangents (3 vertices per instant)" if model.delay_description == "polytopic" else
+            "the norm-bounded embedding below (the same Delta at every slip corner, one multiplier per vertex)")
+    out = ["\n## Slip-aware model\n\n", NEGLECTED,
+           f"\nVertices: the {model.corners.shape[0]} slip corners (mu_r, mu_l) = {corners} (the slip matrix"
+           f" `M(mu)` is affine in mu) times the delay description — {desc}: {len(model.vertices)} vertices. At vertex i"
+           " the command columns of the error rows are multiplied by `M(mu_i)` and the constant column"
+           " `c_i = B~_d (mu_i - 1)` is tied to the vertex (`E_i = c_i`, `w = 1`). Treating the instants of successive"
+           " periods, and slip and delay, as independent is a relaxation (it covers more than in-order delivery"
+           " allows).\n"]
+    if model.integral:
+        out.append("\nIntegral action: states `int_e_x, int_e_y` appended last, `z[k+1] = z[k] + Ts (e_x, e_y)[k]`.\n")
     return "".join(out)

@@ -132,7 +132,7 @@ def gains_mat_vars(gd: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any]) -> str:
+def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: dict[str, Any] | None = None) -> str:
     cfg = model.config
     figs = result.certified
     c = gd["certificate"]
@@ -145,15 +145,28 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any]) -> str:
         f" ({'one block per Delta block' if result.multiplier == 'structured' else 'mu I, the paper’s |Delta| <= 1'}).\n\n"
     )
     out.append("## Assumptions\n\n")
+    rate = cfg.slip.max_rate
     out.append(
         f"- delays tau in [{cfg.network.delay.min:g}, {cfg.network.delay.max:g}] s, sampling Ts = {cfg.network.sampling_time:g} s,"
         f" d_lo = {model.d_lo}, d_hi = {model.d_hi}, in-order delivery, no packet loss;\n"
         f"- slip mu_r in [{cfg.slip.right.min:g}, {cfg.slip.right.max:g}], mu_l in [{cfg.slip.left.min:g}, {cfg.slip.left.max:g}],"
-        " constant within a sampling period; a non-symmetric range is written as centre + box and the centre is"
-        " treated as one more bounded slip component (so no equilibrium shift is assumed);\n"
-        "- the paper's linearization (eq. `lineare`) around the straight segment: the guarantees are for the linear"
-        " lifted model; `robustsynth verify` measures how the nonlinear robot compares.\n\n"
+        " constant within a sampling period, " + ("free to jump anywhere in its range every period" if rate is None else
+        f"changing at most {rate:g} /s (the certificate does not use the rate bound; verification's profiles respect it)")
+        + ";\n"
     )
+    if model.kind == "paper":
+        out.append(
+            "- model `paper`: the seed paper's linearization at mu = 1 (slip only as the additive box `B_d W w`); the"
+            " robot does not follow it under slip (see model.md), so these guarantees are for the paper's model only;\n\n"
+        )
+    else:
+        out.append(
+            f"- model `slip-aware`: exact in slip and delay, linearized at the slip-compensated operating point; the"
+            f" neglected terms (model.md) are of second order in (e_theta, speed deviation) — the forward-speed factor"
+            f" sigma is taken as 1. LMIs at {len(model.vertices)} vertices ({model.corners.shape[0]} slip corners,"
+            f" delays {model.delay_description}), Lyapunov matrix `{cfg.synthesis.lyapunov}`"
+            + (", integral action on e_x, e_y" if model.integral else "") + ".\n\n"
+        )
     out.append("## Certified figures\n\n")
     ub = figs.get("ultimate_bound") or {}
     rows = [
@@ -168,8 +181,10 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any]) -> str:
     out.append(table(["quantity", "value", "unit"], rows))
     if ub:
         out.append(
-            f"\nThe bounds hold on the ellipsoid `xi' P xi <= {c['ellipsoid_level']:.6g}`, which every trajectory"
-            f" enters (V decays at least as `(1-alpha)^k`, alpha = {c['alpha']:.4g}) and never leaves."
+            f"\nThe bounds hold on the set `xi' P xi <= {c['ellipsoid_level']:.6g}`"
+            + (" (P = S(mu)^-1, one matrix per slip corner; the bounds are the largest over the corners)"
+               if c.get("lyapunov") == "slip-dependent" else "")
+            + f", which every trajectory enters (V decays at least as `(1-alpha)^k`, alpha = {c['alpha']:.4g}) and never leaves."
             f" In centimetres: |e_y| <= {100 * ub['e_y']:.2f} cm, |e_x| <= {100 * ub['e_x']:.2f} cm.\n"
         )
     if cfg.robot.max_motor_speed is not None:
@@ -212,4 +227,7 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any]) -> str:
     )
     if result.notes:
         out.append("\nNotes: " + "; ".join(result.notes) + ".\n")
+    from .comparison import comparison_markdown
+
+    out.append(comparison_markdown(comparison))
     return "".join(out)

@@ -140,7 +140,8 @@ def summary_dict(model: Any, gains: dict[str, Any] | None, vd: dict[str, Any] | 
     return out
 
 
-def report_markdown(model: Any, gains: dict[str, Any], vd: dict[str, Any], figures: dict[str, str]) -> str:
+def report_markdown(model: Any, gains: dict[str, Any], vd: dict[str, Any], figures: dict[str, str],
+                    comparison: dict[str, Any] | None = None) -> str:
     cfg = model.config
     c = gains["certified"]
     ub = c.get("ultimate_bound") or {}
@@ -172,6 +173,10 @@ def report_markdown(model: Any, gains: dict[str, Any], vd: dict[str, Any], figur
     failed = [ch["name"] for ch in vd["checks"] if not ch["passed"]]
     if failed:
         out.append("\nFailed checks: " + "; ".join(failed) + ".\n")
+    out.append(nonlinear_markdown(cfg, mc))
+    from .comparison import comparison_markdown
+
+    out.append(comparison_markdown(comparison))
     out.append("\n## Figures\n\n")
     from .plots import FIGURES
 

@@ -1,0 +1,76 @@
+"""Paper model vs slip-aware model, side by side for one config (the same robot, the same runs).
+
+For the configured model kind and the other one: the certified bounds, the steady offsets of the
+real (slip-aware) robot under each constant slip corner, and, when asked, what the nonlinear robot
+does with each gain on the same Monte Carlo runs (same seed) and whether that gain's own
+certificate holds for it.  Plain data; the Markdown is in :mod:`robustsynth.report.comparison`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+__all__ = ["other_kind", "compare_models"]
+
+
+def other_kind(kind: str) -> str:
+    return "paper" if kind == "slip-aware" else "slip-aware"
+
+
+def _row(model: Any, gains: dict[str, Any] | None, vd: dict[str, Any] | None, status: str, message: str = "") -> dict:
+    from .verify.checks import steady_offsets
+    import numpy as np
+
+    row: dict[str, Any] = {"model": model.kind, "status": status, "message": message, "certified": None,
+                           "steady_state": None, "nonlinear": None}
+    if gains is None:
+        return row
+    row["certified"] = gains["certified"]
+    row["steady_state"] = steady_offsets(model, np.asarray(gains["K"], dtype=float))["max_abs"]
+    if vd is not None:
+        mc = vd["monte_carlo"]
+        adv = (mc.get("adversarial") or {}).get("max", {})
+        row["nonlinear"] = {
+            "verification_passed": vd["passed"],
+            "max": {k: max(mc["maxima"][k]["max"], mc["extreme_maxima"][k], adv.get(k, 0.0))
+                    for k in ("e_x", "e_y", "e_theta", "motor_speed")},
+            "max_V_over_level": max((mc.get("V_over_level") or {}).get("max_in_certified_steps", float("nan")),
+                                    (mc.get("adversarial") or {}).get("max_V_over_level", 0.0)),
+        }
+    return row
+
+
+def compare_models(model: Any, gains: dict[str, Any], vd: dict[str, Any] | None = None, runs: int | None = None,
+                   seed: int | None = None, other_gains: dict[str, Any] | None = None) -> dict[str, Any] | None:
+    """Rows for ``model``'s kind (its ``gains`` and, if given, verification data ``vd``) and for the
+    other kind (synthesized here; verified on the same runs when ``vd`` is given).  None when the
+    objective certifies no bounds (only ultimate-bound designs are compared)."""
+    from .errors import RobustSynthError
+    from .model import build_model
+    from .report.synthesis import gains_dict
+    from .report.verification import verification_dict
+    from .synthesis import synthesize
+    from .verify import verify
+
+    if gains.get("objective") != "ultimate-bound":
+        return None
+    cfg = model.config
+    other_cfg = cfg.model_copy(update={"synthesis": cfg.synthesis.model_copy(
+        update={"model": other_kind(model.kind), "lyapunov": "common"})})
+    other = build_model(other_cfg)
+    rows = [_row(model, gains, vd, "certified")]
+    try:
+        og = other_gains if other_gains is not None else gains_dict(other, synthesize(other))
+    except RobustSynthError as exc:
+        rows.append(_row(other, None, None, "infeasible" if exc.exit_code == 3 else "solver-failure", str(exc)))
+    else:
+        ovd = None
+        if vd is not None:
+            ores = verify(other, og, runs=runs, seed=seed)
+            ovd = verification_dict(other, ores, "(comparison)", og["gains_id"])
+        rows.append(_row(other, og, ovd, "certified"))
+        rows[-1]["gains"] = og  # reused by a later call (not written to files)
+    order = {"paper": 0, "slip-aware": 1}
+    rows.sort(key=lambda r: order[r["model"]])
+    return {"rows": rows, "runs": (vd or {}).get("monte_carlo", {}).get("runs"),
+            "seed": (vd or {}).get("monte_carlo", {}).get("seed")}
