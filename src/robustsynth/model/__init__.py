@@ -23,7 +23,7 @@ from ..config import Config
 from .kinematics import J_inverse, J_matrix
 from .lifting import delay_indices, instant_ranges, lift, lifted_exact, s_tilde_sequence
 from .linearize import Gamma, Gamma_D, Phi, continuous_matrices
-from .slip import corner_weights, slip_corners, slip_matrix
+from .slip import corner_weights, next_corner_weights, slip_corners, slip_matrix
 from .uncertainty import SlipBox, UncertainInstant, delta_for, embed, slip_box
 from .vertices import Vertex, apply_slip, augment_integral, delay_vertex_gammas, triangle_coordinates
 
@@ -189,6 +189,22 @@ class Model:
 
     def corner_weights(self, mu: np.ndarray) -> np.ndarray:
         return corner_weights(mu, *self.slip_ranges)
+
+    @property
+    def slip_step(self) -> float | None:
+        """Largest slip change in one period (slip.max_rate * Ts), None without a rate bound."""
+        rate = self.config.slip.max_rate
+        return None if rate is None else rate * self.Ts
+
+    @property
+    def rate_bounded(self) -> bool:
+        """True when the rate bound restricts the next slip (narrower than some track's range)."""
+        step = self.slip_step
+        return step is not None and any(step < hi - lo for lo, hi in self.slip_ranges if hi > lo)
+
+    def next_corner_weights(self, m: int) -> np.ndarray:
+        """Weights (n_next, n_c) over the corners of the slips that can follow corner m (one period)."""
+        return next_corner_weights(self.corners[m], *self.slip_ranges, self.slip_step)
 
     def hull_coordinates(self, s_tilde: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Convex weights (..., n_vertices) and diag(Delta) (..., n_q) such that

@@ -16,7 +16,7 @@ import numpy as np
 from ..errors import InfeasibleError
 from .kinematics import JHJinv
 
-__all__ = ["slip_corners", "corner_weights", "slip_matrix", "compensated_command", "required_motor_speeds",
+__all__ = ["slip_corners", "corner_weights", "next_corner_weights", "slip_matrix", "compensated_command", "required_motor_speeds",
            "check_physical_feasibility"]
 
 _WIDTH_TOL = 1e-12
@@ -44,6 +44,28 @@ def corner_weights(mu: np.ndarray, mu_r: tuple[float, float], mu_l: tuple[float,
             t = (mu[..., i] - lo) / (hi - lo)
             per_track.append([1.0 - t, t])
     return np.stack([a * b for a, b in itertools.product(*per_track)], axis=-1)
+
+
+def next_corner_weights(corner: np.ndarray, mu_r: tuple[float, float], mu_l: tuple[float, float],
+                        max_step: float | None) -> np.ndarray:
+    """Corner weights (n_next, n_c) of the slips that can follow ``corner`` in one period.
+
+    Without a rate bound (or a track whose range is narrower than one period's step) the next slip
+    is anywhere in the box: the unit vectors.  With ``max_step`` = max_rate * Ts smaller than a
+    track's width, that track's next value is ``corner +- max_step``, whose bilinear weights
+    extrapolate beyond [0, 1]: a slip-dependent Lyapunov LMI is multi-affine in (mu_k, dmu), so
+    holding at these vertices it holds for every mu_k in the box and |dmu| <= max_step."""
+    per_track = []
+    for i, (lo, hi) in enumerate((mu_r, mu_l)):
+        vals = _track_values(lo, hi)
+        if len(vals) == 1 or max_step is None or max_step >= hi - lo:
+            per_track.append(vals)
+        else:
+            per_track.append([corner[i] - max_step, corner[i] + max_step])
+    nxt = np.array(list(itertools.product(*per_track)), dtype=float)
+    if all(len(_track_values(lo, hi)) == 1 or max_step is None or max_step >= hi - lo for lo, hi in (mu_r, mu_l)):
+        return np.eye(len(slip_corners(mu_r, mu_l)))
+    return corner_weights(nxt, mu_r, mu_l)
 
 
 def slip_matrix(mu: np.ndarray, D: float) -> np.ndarray:

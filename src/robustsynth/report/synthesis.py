@@ -49,6 +49,7 @@ def gains_dict(model: Any, result: Any) -> dict[str, Any]:
     else:
         certificate["G"] = cert["G"]
         certificate["S"] = cert["S"]
+        certificate["slip_step"] = cert.get("slip_step")
     certificate.update({
         "multipliers": cert["multipliers"],
         "alpha": cert.get("alpha"),

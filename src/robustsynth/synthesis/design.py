@@ -98,7 +98,8 @@ def _cert_common(model: Any, vals: dict, kind: str, margin: float, objective: st
     if "Q" in vals:
         out.update(lyapunov="common", Q=vals["Q"], P=np.linalg.inv(vals["Q"]))
     else:
-        out.update(lyapunov="slip-dependent", G=vals["G"], S=vals["S"], P=[np.linalg.inv(S) for S in vals["S"]])
+        out.update(lyapunov="slip-dependent", G=vals["G"], S=vals["S"], P=[np.linalg.inv(S) for S in vals["S"]],
+                   slip_step=model.slip_step if model.rate_bounded else None)
     out["multipliers"] = {"kind": kind, "M": vals["M"], "blocks": [i.j for i in model.instants]
                           if model.n_q and any(v.n_q for v in model.vertices) else []}
     out["margin"] = margin

@@ -14,7 +14,9 @@ With a **common** Lyapunov matrix ``Q = P^-1`` and ``Y = K Q``, vertex i reads
 **slip-dependent** matrices S_m (one per slip corner) and a slack G (``Y = K G``,
 de Oliveira-Bernussou-Geromel 1999; Daafouz-Bernussou 2001) the (1,1) block becomes
 ``(1-alpha)(G + G' - S_m)`` for the vertex's corner m, ``Q`` in the products becomes ``G`` and the
-(3,3) block ``S_n - B_p M B_p'`` for every next corner n.  ``Parameter`` s (``alpha``, ``r2``)
+(3,3) block ``S_next - B_p M B_p'`` for every slip that may follow: every corner n when slip may
+jump, or, under ``slip.max_rate``, the bilinear interpolation of the S_n at ``corner_m +- max_rate Ts``
+(the LMI is multi-affine in (mu_k, mu_{k+1} - mu_k), so these vertices cover every admissible pair).  ``Parameter`` s (``alpha``, ``r2``)
 change between solves, so line search and bisection reuse one compiled problem (DPP).
 """
 
@@ -115,8 +117,13 @@ class _Lyap:
     def left(self, m: int) -> Any:
         return self.Q if self.kind == "common" else self.G + self.G.T - self.S[m]
 
-    def right(self, n: int) -> Any:
-        return self.Q if self.kind == "common" else self.S[n]
+    def rights(self, model: Any, m: int) -> list[Any]:
+        """The Lyapunov matrices of the next period from corner m: every corner when slip may jump,
+        the (extrapolated) interpolations at corner_m +- max_rate Ts under a rate bound."""
+        if self.kind == "common":
+            return [self.Q]
+        W = model.next_corner_weights(m)
+        return [sum(float(w[n]) * self.S[n] for n in range(self.modes) if w[n] != 0.0) for w in W]
 
     def scale(self, floor: float) -> list[Any]:
         mats = [self.Q] if self.kind == "common" else self.S
@@ -177,12 +184,12 @@ def build_stability(model: Any, kind: str, margin: float, lyapunov: str = "commo
         AX, CX = _vertex_parts(v, lv)
         m = lv.mode(v)
         Bp = np.asarray(v.B_p)
-        for n in range(lv.modes):
+        for right in lv.rights(model, m):
             if v.n_q:
                 Z = np.zeros((n_s, v.n_q))
-                L = cp.bmat([[r2 * lv.left(m), AX.T, CX.T], [AX, lv.right(n) - Bp @ M @ Bp.T, Z], [CX, Z.T, M]])
+                L = cp.bmat([[r2 * lv.left(m), AX.T, CX.T], [AX, right - Bp @ M @ Bp.T, Z], [CX, Z.T, M]])
             else:
-                L = cp.bmat([[r2 * lv.left(m), AX.T], [AX, lv.right(n)]])
+                L = cp.bmat([[r2 * lv.left(m), AX.T], [AX, right]])
             cons.append(_sym(L) >> margin * np.eye(L.shape[0]))
     cons += lv.scale(1.0)
     mats = [lv.Q] if lyapunov == "common" else lv.S
@@ -206,9 +213,9 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
         E = np.asarray(v.E)
         Bp = np.asarray(v.B_p)
         m = lv.mode(v)
-        for n in range(lv.modes):
+        for right in lv.rights(model, m):
             rows = [[one_minus * lv.left(m), Zsw, AX.T], [Zsw.T, cp.diag(beta), E.T],
-                    [AX, E, lv.right(n) - (Bp @ M @ Bp.T if v.n_q else 0)]]
+                    [AX, E, right - (Bp @ M @ Bp.T if v.n_q else 0)]]
             if v.n_q:
                 rows[0].append(CX.T)
                 rows[1].append(np.zeros((n_w, v.n_q)))

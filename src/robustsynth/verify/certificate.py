@@ -169,7 +169,7 @@ def _fail(reason: str, checks=(), figures=None) -> CertificateCheck:
 
 
 def _lyapunov_parts(model: Any, cert: Mapping[str, Any], n_s: int):
-    """(kind, X, [left_m], [right_n], [P_m]) from the certificate, or a reason string."""
+    """(kind, X, [left_m], rights(m) -> [right], [S_m]) from the certificate, or a reason string."""
     kind = cert.get("lyapunov", "common")
     if kind == "common":
         Q = _arr(cert["Q"], "Q")
@@ -178,7 +178,7 @@ def _lyapunov_parts(model: Any, cert: Mapping[str, Any], n_s: int):
         err = _symmetric(Q, "Q")
         if err:
             return err
-        return kind, Q, [Q], [Q], [Q]
+        return kind, Q, [Q], lambda m: [Q], [Q]
     if kind != "slip-dependent":
         return f"unknown lyapunov kind {kind!r}"
     G = _arr(cert["G"], "G")
@@ -194,7 +194,22 @@ def _lyapunov_parts(model: Any, cert: Mapping[str, Any], n_s: int):
         err = _symmetric(Sm, f"S[{m}]")
         if err:
             return err
-    return kind, G, [G + G.T - Sm for Sm in S], S, S
+    # the certificate holds for slip changes up to its slip_step per period (None: any change); it
+    # covers the config when the config allows no more than that
+    from ..model.slip import next_corner_weights
+
+    cert_step = cert.get("slip_step")
+    config_step = model.slip_step if model.rate_bounded else None
+    if cert_step is not None and (config_step is None or config_step > float(cert_step) * (1 + 1e-12)):
+        allowed = "any change (slip.max_rate: null)" if config_step is None else f"{config_step:g}"
+        return (f"the certificate assumes slip changes of at most {float(cert_step):g} per period; the config allows "
+                f"{allowed}")
+
+    def rights(m: int) -> list[np.ndarray]:
+        W = next_corner_weights(model.corners[m], *model.slip_ranges, None if cert_step is None else float(cert_step))
+        return [sum(w[n] * S[n] for n in range(n_c)) for w in W]
+
+    return kind, G, [G + G.T - Sm for Sm in S], rights, S
 
 
 def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateCheck:
@@ -248,12 +263,12 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
         worst_val, worst_lab, count = np.inf, "", 0
         for i, v in enumerate(model.vertices):
             m = 0 if lyap == "common" else int(v.corner)
-            for n in range(len(rights)):
-                val = lmin(build(v, Ms[i], lefts[m], rights[n]))
+            for n, right in enumerate(rights(m)):
+                val = lmin(build(v, Ms[i], lefts[m], right))
                 count += 1
                 if val < worst_val:
                     worst_val = val
-                    worst_lab = v.label + ("" if lyap == "common" else f" -> corner {n}")
+                    worst_lab = v.label + ("" if lyap == "common" else f" -> next slip {n}")
         return _item(f"{name} at {count} vertex conditions", worst_val, threshold, worst_lab)
 
     figures: dict[str, Any] = {"robust_stability": False, "decay_rate": None, "ultimate_bound": None,
@@ -327,6 +342,13 @@ class Lyapunov:
     model: Any
     S: tuple[np.ndarray, ...]
     P: tuple[np.ndarray, ...]
+    slip_step: float | None = None  # a rate-bounded certificate: the slip moves at most this per period
+
+    @property
+    def any_next_slip(self) -> bool:
+        """True when the LMIs hold for every next slip (common Q, or slip may jump): then from one step
+        on the state lies in the set of every slip, and ``V_max`` <= level."""
+        return len(self.S) == 1 or self.slip_step is None
 
     def V(self, xi: np.ndarray, mu: np.ndarray | None = None) -> np.ndarray:
         xi = np.asarray(xi, dtype=float)
@@ -345,8 +367,10 @@ class Lyapunov:
 
 def lyapunov_of(model: Any, cert: Mapping[str, Any]) -> Lyapunov:
     """The Lyapunov function of a (checked) certificate."""
+    step = None
     if cert.get("lyapunov", "common") == "slip-dependent":
         S = tuple(np.asarray(x, dtype=float) for x in cert["S"])
+        step = None if cert.get("slip_step") is None else float(cert["slip_step"])
     else:
         S = (np.asarray(cert["Q"], dtype=float),)
-    return Lyapunov(model, S, tuple(np.linalg.inv(x) for x in S))
+    return Lyapunov(model, S, tuple(np.linalg.inv(x) for x in S), step)

@@ -28,6 +28,7 @@ import numpy as np
 from ..errors import InputError
 from .certificate import CertificateCheck, check_certificate, lyapunov_of
 from .lifted import (
+    rate_limited_slip,
     alternating_delays,
     closed_loop_run,
     frozen_instant_grid,
@@ -195,7 +196,9 @@ def _lifted(model, K, cert: CertificateCheck, gains: dict) -> tuple[list[dict], 
     traces: dict[str, np.ndarray] = {}
     summary: dict[str, Any] = {"runs": N, "steps": steps}
     checks = []
-    mu = corners[rng.integers(0, n_c, size=(N, steps + 1))]
+    # slip sequences the certificate covers: corners switching every period, or rate-limited moves
+    mu = corners[rng.integers(0, n_c, size=(N, steps + 1))] if lyap.slip_step is None else \
+        rate_limited_slip(model, rng, N, steps + 1)
     z = rng.normal(size=(N, model.n_s))
     if objective == "ultimate-bound":
         level = float(cert.figures["ellipsoid_level"])
@@ -217,12 +220,14 @@ def _lifted(model, K, cert: CertificateCheck, gains: dict) -> tuple[list[dict], 
                 rhs = (1 - alpha) * V[:, :-1] + (w**2) @ beta
                 worst_dec = max(worst_dec, float(np.max((V[:, 1:] - rhs) / np.maximum(V[:, :-1], level))))
                 if start_name == "boundary":
-                    # from step 1 on the state lies in the set of *every* slip (the LMIs hold for
-                    # every next corner), so the largest value over the corners is checked
-                    worst_ratio = max(worst_ratio, float(np.max(lyap.V_max(xi[:, 1:])) / level))
+                    # when the LMIs hold for every next slip, from step 1 on the state lies in the set
+                    # of every slip, and the largest value over the corners is checked
+                    Vc = lyap.V_max(xi[:, 1:]) if lyap.any_next_slip else V[:, 1:]
+                    worst_ratio = max(worst_ratio, float(np.max(Vc)) / level)
                 traces[f"{name}/{start_name}"] = V
-        xg, _, _ = greedy_worst_case(model, K, lyap.V_max, xi_in[: min(N, 50)], min(steps, 100))
-        Vg = lyap.V_max(xg)
+        n_g = min(N, 50)
+        xg, _, mug = greedy_worst_case(model, K, lyap.V, xi_in[:n_g], min(steps, 100), mu0=mu[:n_g, 0])
+        Vg = lyap.V_max(xg) if lyap.any_next_slip else np.concatenate([lyap.V(xg[:, :1], mu[:n_g, :1]), lyap.V(xg[:, 1:], mug)], axis=1)
         traces["greedy/boundary"] = Vg
         worst_ratio = max(worst_ratio, float(np.max(Vg[:, 1:]) / level))
         checks.append(_check("lifted model: V(xi+) <= (1-alpha) V(xi) + sum beta_i w_i^2", worst_dec <= LEVEL_TOL,
@@ -348,9 +353,9 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
             rng = np.random.default_rng(seed + 3)
             corners = slip_vertices(model)
             mu0 = corners[rng.integers(0, corners.shape[0], size=vc.adversarial_runs)]
-            adv = greedy_nonlinear(model, K, lyap.V_max, mu0, vc.adversarial_steps)
+            adv = greedy_nonlinear(model, K, lyap.V, mu0, vc.adversarial_steps)
             adv_e = adv["xi"][:, :-1, : model.n_e]
-            adv_v = np.concatenate([lyap.V(adv["xi"][:, :-1], adv["mu"]), lyap.V_max(adv["xi"][:, -1:])], axis=1) / level
+            adv_v = lyap.V(adv["xi"][:, :-1], adv["mu"]) / level
             mc["adversarial"] = {
                 "runs": vc.adversarial_runs, "steps": vc.adversarial_steps,
                 "search": "greedy: each period the slip corner and newest delay (9-point grid) that maximize V of the "

@@ -10,6 +10,8 @@ __all__ = [
     "random_delays",
     "alternating_delays",
     "slip_vertices",
+    "slip_candidates",
+    "rate_limited_slip",
     "greedy_worst_case",
     "frozen_spectral_radius",
     "frozen_instant_grid",
@@ -51,12 +53,43 @@ def slip_vertices(model) -> np.ndarray:
     return np.asarray(model.corners)
 
 
-def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 9, slip: bool = True):
-    """Greedy search for large V: each step, over a grid of the new packet's delay and the slip
-    corners, take the choice that maximizes ``V_fn(xi_{k+1})``.  Returns (xi, taus, mu)."""
+def slip_candidates(model, mu_prev: np.ndarray) -> np.ndarray:
+    """Slips (N, n_c, 2) an adversary may pick next: the corners, or with ``slip.max_rate`` the
+    largest admissible moves towards them."""
+    corners = slip_vertices(model)
+    step = model.slip_step
+    if step is None:
+        return np.broadcast_to(corners, mu_prev.shape[:-1] + corners.shape)
+    return mu_prev[..., None, :] + np.clip(corners - mu_prev[..., None, :], -step, step)
+
+
+def rate_limited_slip(model, rng: np.random.Generator, N: int, steps: int) -> np.ndarray:
+    """Slip sequences (N, steps, 2): random corners held 1-5 periods, approached at the largest rate
+    ``slip.max_rate`` allows (jumps when there is no rate bound)."""
+    corners = slip_vertices(model)
+    target = corners[rng.integers(0, corners.shape[0], size=(N, steps))]
+    hold = rng.integers(1, 6, size=(N, steps))
+    for k in range(1, steps):
+        keep = (k % hold[:, k]) != 0
+        target[keep, k] = target[keep, k - 1]
+    step = model.slip_step
+    if step is None:
+        return target
+    out = np.empty_like(target)
+    cur = corners[rng.integers(0, corners.shape[0], size=N)].astype(float)
+    for k in range(steps):
+        cur = cur + np.clip(target[:, k] - cur, -step, step)
+        out[:, k] = cur
+    return out
+
+
+def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 9, slip: bool = True,
+                      mu0: np.ndarray | None = None):
+    """Greedy search for large V: each step, over a grid of the new packet's delay and the slips the
+    adversary may pick (:func:`slip_candidates`), take the choice that maximizes
+    ``V_fn(xi_{k+1}, mu)``.  Returns (xi, taus, mu)."""
     dl = model.config.network.delay
     tau_grid = np.linspace(dl.min, dl.max, n_tau)
-    mu_cands = slip_vertices(model) if slip else np.ones((1, 2))
     N = xi0.shape[0]
     d_hi = model.d_hi
     hist = np.full((N, d_hi), (dl.min + dl.max) / 2.0)  # delays of the last d_hi packets
@@ -65,18 +98,21 @@ def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 
     taus_out = np.empty((N, steps + d_hi))
     taus_out[:, :d_hi] = hist
     mu_out = np.empty((N, steps, 2))
-    n_m = mu_cands.shape[0]
+    mu_prev = np.ones((N, 2)) if mu0 is None else np.array(mu0, dtype=float)
     for k in range(steps):
+        mu_cands = slip_candidates(model, mu_prev) if slip else np.ones((N, 1, 2))
+        n_m = mu_cands.shape[1]
         # candidate delay of packet k (the newest): s~ depends on it and on the history
         cand = np.concatenate([np.repeat(hist[:, None, :], n_tau, axis=1), np.broadcast_to(tau_grid[None, :, None], (N, n_tau, 1))], axis=2)
         s = model.s_tilde(cand)[:, :, 0, :]  # (N, n_tau, d_hi)
-        A, B = model.exact(s[:, :, None, :], mu_cands[None, None, :, :])  # (N, n_tau, n_m, ...)
-        nxt = np.einsum("ntmij,nj->ntmi", A + B @ K, xi[:, k]) + model.constant(mu_cands)[None, None]
-        V = V_fn(nxt)  # (N, n_tau, n_m)
+        A, B = model.exact(s[:, :, None, :], mu_cands[:, None, :, :])  # (N, n_tau, n_m, ...)
+        nxt = np.einsum("ntmij,nj->ntmi", A + B @ K, xi[:, k]) + model.constant(mu_cands)[:, None]
+        V = V_fn(nxt, np.broadcast_to(mu_cands[:, None], nxt.shape[:-1] + (2,)))  # (N, n_tau, n_m)
         flat = V.reshape(N, -1).argmax(axis=1)
         ti, di = np.unravel_index(flat, (n_tau, n_m))
         xi[:, k + 1] = nxt[np.arange(N), ti, di]
-        mu_out[:, k] = mu_cands[di]
+        mu_out[:, k] = mu_cands[np.arange(N), di]
+        mu_prev = mu_out[:, k]
         taus_out[:, k + d_hi] = tau_grid[ti]
         hist = np.concatenate([hist[:, 1:], tau_grid[ti][:, None]], axis=1)
     return xi, taus_out, mu_out

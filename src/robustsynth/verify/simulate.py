@@ -357,11 +357,11 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
     return SimResult(t, Q, E, XI, DU, rho, seg, settled)
 
 
-def greedy_nonlinear(model, K: np.ndarray, V_fn: Callable[[np.ndarray], np.ndarray], mu0: np.ndarray, steps: int,
+def greedy_nonlinear(model, K: np.ndarray, V_fn: Callable[[np.ndarray, np.ndarray], np.ndarray], mu0: np.ndarray, steps: int,
                      n_tau: int = 9) -> dict[str, np.ndarray]:
     """Greedy adversary on the nonlinear robot along a straight line: every period, among the slip
     corners and ``n_tau`` delays of the newest packet, take the pair whose next true lifted state has
-    the largest ``V_fn`` (a Lyapunov function; larger = further out of the certified set).  Runs start
+    the largest ``V_fn(xi, mu)`` (a Lyapunov function; larger = further out of the certified set).  Runs start
     at the steady state of ``mu0`` (N, 2).  Returns the true lifted states (N, steps + 1, n_s), the
     chosen slip (N, steps, 2) and delays (N, steps), and the commanded motor speeds (N, steps, 2)."""
     K = np.asarray(K, dtype=float)
@@ -372,8 +372,8 @@ def greedy_nonlinear(model, K: np.ndarray, V_fn: Callable[[np.ndarray], np.ndarr
     rho_sat = cfg.robot.max_motor_speed if cfg.verification.motor_saturation else None
     dl = cfg.network.delay
     taus = np.linspace(dl.min, dl.max, n_tau)
-    corners = np.asarray(model.corners)
-    max_step = None if cfg.slip.max_rate is None else cfg.slip.max_rate * Ts
+    from .lifted import slip_candidates
+
     N = mu0.shape[0]
     path = make_path(((0.0, 0.0), (V * Ts * (steps + 10), 0.0)), V)
     xi0 = model.equilibrium(K, mu0)
@@ -402,10 +402,7 @@ def greedy_nonlinear(model, K: np.ndarray, V_fn: Callable[[np.ndarray], np.ndarr
         U[:, 0] = uD + du
         RHO[:, k] = (uD + du) @ J_inv.T
         # candidates: slip (corners, or the rate-limited moves towards them) x newest delay
-        if max_step is None:
-            cand_mu = np.broadcast_to(corners, (N,) + corners.shape)
-        else:
-            cand_mu = mu_prev[:, None, :] + np.clip(corners[None] - mu_prev[:, None, :], -max_step, max_step)
+        cand_mu = slip_candidates(model, mu_prev)
         n_c = cand_mu.shape[1]
         seq = np.concatenate([np.repeat(hist[:, None, :], n_tau, axis=1),
                               np.broadcast_to(taus[None, :, None], (N, n_tau, 1))], axis=2)
@@ -419,7 +416,7 @@ def greedy_nonlinear(model, K: np.ndarray, V_fn: Callable[[np.ndarray], np.ndarr
         e_next = frame_error(path, 0, q_next, tk + Ts)
         rest = np.concatenate([(U[:, :d_hi] - uD).reshape(N, -1), z], axis=1)
         xi_next = np.concatenate([e_next, np.broadcast_to(rest[:, None, None, :], (N, n_c, n_tau, rest.shape[1]))], axis=-1)
-        val = V_fn(xi_next).reshape(N, -1)
+        val = V_fn(xi_next, np.broadcast_to(cand_mu[:, :, None, :], (N, n_c, n_tau, 2))).reshape(N, -1)
         best = val.argmax(axis=1)
         ci, ti = np.unravel_index(best, (n_c, n_tau))
         r = np.arange(N)
