@@ -19,6 +19,7 @@ from robustsynth.verify.lifted import (
     frozen_spectral_radius,
     greedy_worst_case,
     random_delays,
+    rate_limited_slip,
     slip_vertices,
 )
 
@@ -103,7 +104,8 @@ def _ellipsoid_starts(P, level, N, rng, n_s):
 
 def _stays_inside(m, res, seed: int = 11) -> None:
     """Lifted simulations of the model's exact map (slip and delays switching among the corners and
-    extremes, and uniformly random inside the box) started in the certified set never leave it."""
+    extremes, and uniformly random inside the box; rate-limited when the certificate assumes a rate)
+    started in the certified set never leave it."""
     lyap = lyapunov_of(m, res.certificate)
     level = res.certified["ellipsoid_level"]
     rng = np.random.default_rng(seed)
@@ -112,15 +114,19 @@ def _stays_inside(m, res, seed: int = 11) -> None:
     mu = corners[rng.integers(0, corners.shape[0], size=(N, steps))]
     (rl, rh), (ll, lh) = m.slip_ranges
     mu[N // 2 :] = np.stack([rng.uniform(rl, rh, (N - N // 2, steps)), rng.uniform(ll, lh, (N - N // 2, steps))], axis=-1)
+    if not lyap.any_next_slip:
+        mu = rate_limited_slip(m, rng, N, steps)
+        assert np.max(np.abs(np.diff(mu, axis=1))) <= m.slip_step + 1e-12
     z = rng.normal(size=(N, m.n_s))
     xi0 = z * np.sqrt(level / lyap.V(z, mu[:, 0]))[:, None] * rng.uniform(0.2, 1.0, size=(N, 1))
     xi0[: N // 4] *= 1.0 / np.sqrt(lyap.V(xi0[: N // 4], mu[: N // 4, 0]) / level)[:, None]  # on the boundary
     for taus in (random_delays(m, rng, N, steps), alternating_delays(m, N, steps), alternating_delays(m, N, steps, 3)):
         xi = closed_loop_run(m, res.K, taus, mu, xi0)
         assert np.max(lyap.V(xi[:, :-1], mu)) <= level * (1 + LEVEL_TOL)
-        assert np.max(lyap.V_max(xi[:, 1:])) <= level * (1 + LEVEL_TOL)
-    xi, _, _ = greedy_worst_case(m, res.K, lyap.V_max, xi0[:50], 60)
-    assert np.max(lyap.V_max(xi[:, 1:])) <= level * (1 + LEVEL_TOL)
+        if lyap.any_next_slip:
+            assert np.max(lyap.V_max(xi[:, 1:])) <= level * (1 + LEVEL_TOL)
+    xi, _, mug = greedy_worst_case(m, res.K, lyap.V, xi0[:50], 60, mu0=mu[:50, 0])
+    assert np.max(lyap.V(xi[:, 1:], mug)) <= level * (1 + LEVEL_TOL)
 
 
 def test_lifted_simulations_stay_in_certified_set(default_model, ub_result) -> None:
@@ -141,6 +147,28 @@ def test_slip_dependent_lyapunov_certifies_and_is_no_worse() -> None:
     _stays_inside(m, res, seed=13)
     bad = dict(res.certificate, S=[np.asarray(S) * 0.5 for S in res.certificate["S"]])
     assert not check_certificate(m, res.K, bad).passed
+
+
+def test_rate_bounded_slip_certificate() -> None:
+    """With slip.max_rate the slip-dependent LMIs only need the slips one period away; the certificate
+    is tighter than the switching one, holds on rate-limited sequences, and is refused for a config
+    whose slip may change faster."""
+    m = build_model(make_config(**{"synthesis.lyapunov": "slip-dependent", "slip.max_rate": 0.5}))
+    assert m.rate_bounded and m.slip_step == pytest.approx(0.05)
+    W = m.next_corner_weights(0)
+    assert W.shape == (4, 4) and np.allclose(W.sum(axis=1), 1.0) and np.min(W) < 0  # extrapolated
+    res = synthesize(m, **FAST)
+    assert res.certificate["slip_step"] == pytest.approx(0.05)
+    assert check_certificate(m, res.K, res.certificate).passed
+    switching = synthesize(build_model(make_config(**{"synthesis.lyapunov": "slip-dependent"})), **FAST)
+    assert res.certified["ultimate_bound"]["e_y"] < switching.certified["ultimate_bound"]["e_y"]
+    _stays_inside(m, res, seed=15)
+    for faster in ({"slip.max_rate": None}, {"slip.max_rate": 1.0}):
+        m2 = build_model(make_config(**{"synthesis.lyapunov": "slip-dependent", **faster}))
+        chk = check_certificate(m2, res.K, res.certificate)
+        assert not chk.passed and "slip changes of at most 0.05" in chk.reason
+    slower = build_model(make_config(**{"synthesis.lyapunov": "slip-dependent", "slip.max_rate": 0.2}))
+    assert check_certificate(slower, res.K, res.certificate).passed  # a slower slip is covered
 
 
 def test_integral_action_certifies_and_zeroes_the_steady_error() -> None:
