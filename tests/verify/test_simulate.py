@@ -135,7 +135,7 @@ def test_greedy_nonlinear_pushes_harder_than_random_runs(setups) -> None:
 
     lyap = lyapunov_of(m, res.certificate)
     mu0 = np.array([[0.6, 1.0], [1.0, 0.6], [0.6, 0.6], [1.0, 1.0]])
-    adv = greedy_nonlinear(m, res.K, lyap.V_max, mu0, 60)
+    adv = greedy_nonlinear(m, res.K, lyap.V, mu0, 60)
     assert np.all(np.isfinite(adv["xi"])) and np.all(np.isin(adv["mu"], [0.6, 1.0]))
     path = make_path(((0.0, 0.0), (40.0, 0.0)), m.V)
     rnd = simulate(m, res.K, path, steady_state_start(m, res.K, path, draw_scenario(m, 40, seed=6, steps=60, path=path)))

@@ -1,7 +1,7 @@
 """The model family: the seed paper's lifted norm-bounded model and the slip-aware model.
 
 :func:`build_model` turns a :class:`~robustsynth.config.Config` into a frozen :class:`Model`.
-Every kind hands synthesis and verification the same interface (theory.md §3-5):
+Every kind hands synthesis and verification the same interface (docs/theory.md §3-5):
 
 - ``vertices``: the uncertain lifted model as LFT vertices (:class:`~.vertices.Vertex`), the only
   thing the LMIs and the certificate check read;
@@ -258,7 +258,7 @@ def _resolve_delay_description(requested: str, n_uncertain: int) -> str:
 
 
 def build_model(config: Config) -> Model:
-    """Build the model of ``config`` (kind ``config.synthesis.model``; theory.md §1-5)."""
+    """Build the model of ``config`` (kind ``config.synthesis.model``; docs/theory.md §1-5)."""
     R = config.robot.gear_radius
     D = config.robot.track_distance
     V = config.reference.speed

@@ -1,4 +1,4 @@
-"""Time-varying network delay and the lifted discrete model (eq. LTI_error2, eq. 25, math.md §3).
+"""Time-varying network delay and the lifted discrete model (eq. LTI_error2, eq. 25, docs/theory.md §3).
 
 Within ``[t_k, t_k+1)`` the actuator holds ``du_{k-j}`` from ``t_k + s~_j`` on, with
 ``Ts >= s~_0 >= ... >= s~_{d_hi} = 0`` (in-order delivery).  Summation by parts gives

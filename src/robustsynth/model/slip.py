@@ -1,4 +1,4 @@
-"""Slip as the robot really feels it: ``u_eff = M(mu) u_hat`` with ``M = J H J^-1`` (theory.md §2).
+"""Slip as the robot really feels it: ``u_eff = M(mu) u_hat`` with ``M = J H J^-1`` (docs/theory.md §2).
 
 The paper linearizes at mu = 1, so slip only adds ``B_D d``.  The robot, however, receives
 ``M(mu) (u^D + du)``: slip *multiplies* the correction, and under constant slip the controller

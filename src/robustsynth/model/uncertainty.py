@@ -1,4 +1,4 @@
-"""Norm-bounded embedding of the delay uncertainty (eqs. 31-33, math.md §4) and the slip box.
+"""Norm-bounded embedding of the delay uncertainty (eqs. 31-33, docs/theory.md §4) and the slip box.
 
 For an uncertain instant j, ``h = Ts - s~_j`` ranges over ``[h_min, h_max]`` and
 ``Gamma(h) = h B + g A B`` with ``g = h^2/2``.  We take as nominal the centre of the box spanned by
@@ -7,8 +7,7 @@ For an uncertain instant j, ``h = Ts - s~_j`` ranges over ``[h_min, h_max]`` and
     Gamma(h) = Gamma_0 - [a1 B, a2 A B e2] diag(delta1 I2, delta2) [I2; e2^T],
     delta1 = (h_c - h)/a1,  delta2 = (g_c - g)/a2,  |delta_i| <= 1,
 
-with ``a1 = (h_max - h_min)/2`` and ``a2 = (h_max^2 - h_min^2)/4``.  (The mid-range instant of
-math.md gives the same a1 and an a2 larger by (h_max - h_min)^2/8; the box centre is never worse.)
+with ``a1 = (h_max - h_min)/2`` and ``a2 = (h_max^2 - h_min^2)/4``.  (The mid-range instant gives the same a1 and an a2 larger by (h_max - h_min)^2/8; the box centre is never worse.)
 The block multiplies ``du_{k-j} - du_{k-j-1}``; ``A B`` has only its second column non-zero.
 """
 

@@ -1,4 +1,4 @@
-"""Vertex descriptions of the uncertain lifted model (theory.md §4-5).
+"""Vertex descriptions of the uncertain lifted model (docs/theory.md §4-5).
 
 Every model of the family hands synthesis and verification the same thing: a tuple of
 :class:`Vertex` es, each an LFT in the delay ``(A_i, B_i, E_i, B_p, C_q_i, D_q_i)`` that may have

@@ -19,16 +19,16 @@ CERTIFIED_KEYS = ("robust_stability", "decay_rate", "ultimate_bound", "motor_spe
 OBJECTIVE_TEXT = {
     "ultimate-bound": (
         "smallest ellipsoid `xi' P xi <= level` that is invariant and attracting for every admissible delay "
-        "sequence and every slip in its box (math.md §5b), minimizing the weighted squared bounds on "
+        "sequence and every slip in its box (docs/theory.md §6b), minimizing the weighted squared bounds on "
         "e_x, e_y, e_theta; line search over alpha"
     ),
     "stability": (
         "robust quadratic stability for all |Delta_k| <= 1 (the paper's stated goal) with the best decay rate r, "
-        "`V(xi[k+1]) <= r^2 V(xi[k])` without slip (math.md §5a); bisection on r"
+        "`V(xi[k+1]) <= r^2 V(xi[k])` without slip (docs/theory.md §6a); bisection on r"
     ),
     "hinf": (
         "smallest l2 gain gamma from the slip deviation d to the weighted error z = diag(w) e, for every "
-        "admissible delay sequence (math.md §5d)"
+        "admissible delay sequence (docs/theory.md §6d)"
     ),
 }
 

@@ -1,4 +1,4 @@
-"""LMI synthesis of the robust state feedback ``du_k = K xi_k`` (math.md §5-6).
+"""LMI synthesis of the robust state feedback ``du_k = K xi_k`` (docs/theory.md §6).
 
 :func:`synthesize` runs one objective, checks every returned point with the numpy certificate
 check (:mod:`robustsynth.verify.certificate`) and returns a :class:`SynthesisResult` whose

@@ -1,4 +1,4 @@
-"""cvxpy builders of the synthesis LMIs over the model's vertices (theory.md §6), one compiled
+"""cvxpy builders of the synthesis LMIs over the model's vertices (docs/theory.md §6), one compiled
 problem per objective.
 
 Every LMI is written in the form ``L >= margin * I`` (explicit identity) and is affine in the
@@ -141,7 +141,7 @@ class _Lyap:
 
 
 def motor_constraints(model: Any, Q: Any, Y: Any) -> list[Any]:
-    """[[u^2, c_i' Y], [Y' c_i, Q]] >= 0 with u = rho_max - V^D / R  (theory.md §6c), for each row c_i
+    """[[u^2, c_i' Y], [Y' c_i, Q]] >= 0 with u = rho_max - V^D / R  (docs/theory.md §6c), for each row c_i
     of J^-1; ``Q`` may be any expression standing for the Lyapunov matrix (G + G' - S_m)."""
     cfg = model.config
     rho_max = cfg.robot.max_motor_speed
@@ -175,7 +175,7 @@ def _multipliers(model: Any, kind: str, margin: float) -> tuple[list[Any], list[
 
 
 def build_stability(model: Any, kind: str, margin: float, lyapunov: str = "common") -> LMIProblem:
-    """Robust decay rate r (theory.md §6a); scale fixed by Q >= I (S_m >= I); parameter r2 = r^2."""
+    """Robust decay rate r (docs/theory.md §6a); scale fixed by Q >= I (S_m >= I); parameter r2 = r^2."""
     lv = _Lyap(model, lyapunov)
     n_s = model.n_s
     r2 = cp.Parameter(nonneg=True, name="r2", value=0.9)
@@ -199,7 +199,7 @@ def build_stability(model: Any, kind: str, margin: float, lyapunov: str = "commo
 
 def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, motor: bool,
                      lyapunov: str = "common") -> LMIProblem:
-    """Invariant, attracting ellipsoid under every admissible delay and slip (theory.md §6b);
+    """Invariant, attracting ellipsoid under every admissible delay and slip (docs/theory.md §6b);
     parameter alpha.  Minimizes sum_i weights_i * (bound on state i)^2 / level over e_x, e_y, e_theta."""
     lv = _Lyap(model, lyapunov)
     n_s, n_w = model.n_s, model.n_w
@@ -238,7 +238,7 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
 
 
 def build_hinf(model: Any, kind: str, margin: float, weights: np.ndarray) -> LMIProblem:
-    """l2 gain gamma from the slip deviation d to z = diag(weights) e (theory.md §6d), common Q over
+    """l2 gain gamma from the slip deviation d to z = diag(weights) e (docs/theory.md §6d), common Q over
     the vertices; minimizes gamma^2."""
     lv = _Lyap(model, "common")
     Q = lv.Q

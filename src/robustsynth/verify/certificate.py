@@ -1,4 +1,4 @@
-"""Independent, numpy-only re-check of an LMI certificate (math.md §5-6).
+"""Independent, numpy-only re-check of an LMI certificate (docs/theory.md §6).
 
 The LMIs are rebuilt at every vertex of the model from the certificate's values (``Q`` or
 ``G, S_m``, the multipliers ``M_i``, ``beta``, ``alpha`` / ``r2`` / ``gamma2``) and the gain ``K``
@@ -54,7 +54,7 @@ def _sym(X: np.ndarray) -> np.ndarray:
 
 def lmi_stability(v, X, left, right, Y, M, r2):
     """Vertex v: [[r2 left, (A X + B Y)', (C_q X + D_q Y)'], [A X + B Y, right - B_p M B_p', 0],
-    [C_q X + D_q Y, 0, M]] (>= 0 certifies V(xi+) <= r^2 V(xi) at the vertex; theory.md §6a)."""
+    [C_q X + D_q Y, 0, M]] (>= 0 certifies V(xi+) <= r^2 V(xi) at the vertex; docs/theory.md §6a)."""
     AX = v.A @ X + v.B @ Y
     n_s, n_q = X.shape[0], v.B_p.shape[1]
     if n_q == 0:
@@ -65,7 +65,7 @@ def lmi_stability(v, X, left, right, Y, M, r2):
 
 
 def lmi_invariance(v, X, left, right, Y, M, beta, alpha):
-    """Vertex v: V(xi+) <= (1-alpha) V(xi) + sum beta_i w_i^2 for all |Delta| <= 1 (theory.md §6b), as
+    """Vertex v: V(xi+) <= (1-alpha) V(xi) + sum beta_i w_i^2 for all |Delta| <= 1 (docs/theory.md §6b), as
 
     [[(1-alpha) left, 0, (AX+BY)', (C_qX+D_qY)'], [0, diag(beta), E', 0],
      [AX+BY, E, right - B_p M B_p', 0], [C_qX+D_qY, 0, 0, M]] >= 0."""
@@ -87,7 +87,7 @@ def lmi_invariance(v, X, left, right, Y, M, beta, alpha):
 
 
 def lmi_hinf(v, Bd, Cz, Q, Y, M, gamma2):
-    """Bounded-real LMI at vertex v (theory.md §6d):
+    """Bounded-real LMI at vertex v (docs/theory.md §6d):
     [[Q, 0, (AQ+BY)', (Cz Q)', (C_qQ+D_qY)'], [0, g I, Bd', 0, 0],
      [AQ+BY, Bd, Q - B_p M B_p', 0, 0], [Cz Q, 0, 0, I, 0], [C_qQ+D_qY, 0, 0, 0, M]] >= 0."""
     AQ = v.A @ Q + v.B @ Y

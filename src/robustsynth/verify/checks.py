@@ -296,7 +296,7 @@ def _certified_mask(sim: SimResult, v_ratio: np.ndarray, starts_inside: bool) ->
 
 
 def steady_offsets(model, K: np.ndarray) -> dict[str, Any]:
-    """Steady state of the robot under each constant slip corner (theory.md §2): e*, du*."""
+    """Steady state of the robot under each constant slip corner (docs/theory.md §2): e*, du*."""
     corners = np.asarray(model.corners)
     xi = model.equilibrium(K, corners)
     return {
