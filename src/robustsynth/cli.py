@@ -5,6 +5,8 @@ No mathematics here; heavy modules are imported inside the commands.
 
 from __future__ import annotations
 
+import os
+import signal
 import sys
 from pathlib import Path
 from typing import Any, Callable
@@ -12,7 +14,7 @@ from typing import Any, Callable
 import click
 
 from . import __version__
-from .errors import EXIT_OK, RobustSynthError
+from .errors import EXIT_INTERRUPTED, EXIT_OK, Interrupted, RobustSynthError
 
 CONFIG_ARG = click.argument("config", required=False, type=click.Path(dir_okay=False, path_type=Path))
 OUTDIR_OPT = click.option(
@@ -35,12 +37,35 @@ class _Ctx:
             click.echo(msg, err=True)
 
 
+EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE: the reader went away (e.g. `| head`)
+
+
+def _quiet_stdout() -> None:
+    """After a broken pipe: point stdout at /dev/null so the interpreter's final flush is silent."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+
+
 def _guard(fn: Callable[..., int | None]) -> Callable[..., None]:
-    """Run a command body; a RobustSynthError becomes one stderr line and its exit code."""
+    """Run a command body; a RobustSynthError becomes one stderr line and its exit code; an
+    interrupt (SIGINT, SIGTERM) the line 'interrupted' and 130 / 143; a closed pipe 141."""
 
     def wrapper(*args: Any, **kwargs: Any) -> None:
         try:
             code = fn(*args, **kwargs)
+            sys.stdout.flush()
+        except Interrupted as exc:
+            click.echo(f"{exc}", err=True)
+            sys.exit(exc.exit_code)
+        except KeyboardInterrupt:
+            click.echo("interrupted", err=True)
+            sys.exit(EXIT_INTERRUPTED)
+        except BrokenPipeError:
+            _quiet_stdout()
+            sys.exit(EXIT_BROKEN_PIPE)
         except RobustSynthError as exc:
             click.echo(f"error: {exc}", err=True)
             sys.exit(exc.exit_code)
@@ -75,9 +100,38 @@ def main(ctx: click.Context, quiet: bool, verbose: bool) -> None:
     Exit codes: 0 ok, 1 verification failed, 2 bad input or usage, 3 infeasible, 4 solver failure.
     """
     ctx.obj = _Ctx(quiet, verbose)
+    _install_signal_handlers()
+
+
+def _on_term(signum: int, _frame: Any) -> None:
+    raise Interrupted(signum)
+
+
+def _install_signal_handlers() -> None:
+    """SIGTERM stops like Ctrl-C (exit 143); a file-size limit makes a write fail (EFBIG, exit 2)
+    instead of killing the process."""
+    try:
+        signal.signal(signal.SIGTERM, _on_term)
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    except ValueError:  # not the main thread (e.g. an embedding application)
+        pass
+
+
+def _set_flag(ctx: click.Context, param: click.Parameter, value: bool) -> None:
+    if value and isinstance(ctx.find_object(_Ctx), _Ctx):
+        setattr(ctx.find_object(_Ctx), param.name, True)
+
+
+def _verbosity(fn):
+    """-q/--quiet and -v/--verbose also after the subcommand (robustsynth run -q)."""
+    fn = click.option("-v", "--verbose", is_flag=True, expose_value=False, callback=_set_flag,
+                      help="Print the steps as they run (stderr).")(fn)
+    return click.option("-q", "--quiet", is_flag=True, expose_value=False, callback=_set_flag,
+                        help="Print nothing but errors.")(fn)
 
 
 @main.command()
+@_verbosity
 @_guard
 def schema() -> None:
     """Print the JSON Schema of the configuration file."""
@@ -89,6 +143,7 @@ def schema() -> None:
 
 
 @main.command("default-config")
+@_verbosity
 @_guard
 def default_config() -> None:
     """Print the embedded default configuration (YAML)."""
@@ -98,6 +153,7 @@ def default_config() -> None:
 
 
 @main.command("build-model")
+@_verbosity
 @CONFIG_ARG
 @OUTDIR_OPT
 @click.pass_obj
@@ -137,6 +193,7 @@ def _synth_opts(fn):
 
 
 @main.command()
+@_verbosity
 @CONFIG_ARG
 @OUTDIR_OPT
 @_synth_opts
@@ -213,6 +270,7 @@ def _report_checks(obj: _Ctx, result: Any) -> None:
 
 
 @main.command("verify")
+@_verbosity
 @CONFIG_ARG
 @click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Gains file [default: OUTDIR/gains.json].")
@@ -244,6 +302,7 @@ def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
 
 
 @main.command("run")
+@_verbosity
 @CONFIG_ARG
 @OUTDIR_OPT
 @_synth_opts

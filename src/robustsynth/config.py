@@ -86,9 +86,13 @@ class NetworkConfig(_Node):
     def _lifting_size(self) -> "NetworkConfig":
         ratio = self.delay.max / self.sampling_time
         if ratio > MAX_D_HI + 1e-9:
+            hint = ""
+            if self.delay.max >= 1.0 and self.delay.max / 1000.0 <= MAX_D_HI * self.sampling_time:
+                hint = (f"; times are in seconds: {self.delay.max:g} looks like milliseconds"
+                        f" (did you mean {self.delay.max / 1000.0:g} s?)")
             raise ValueError(
                 f"{_FIELD}delay.max: must be <= {MAX_D_HI} * network.sampling_time (got {self.delay.max:g} s ="
-                f" {ratio:.4g} periods; the lifted state would have {3 + 2 * math.ceil(ratio - 1e-9)} entries)"
+                f" {ratio:.4g} periods; the lifted state would have {3 + 2 * math.ceil(ratio - 1e-9)} entries){hint}"
             )
         return self
 

@@ -14,6 +14,10 @@ __all__ = [
     "InfeasibleError",
     "SolverFailure",
     "VerificationFailed",
+    "OutputError",
+    "Interrupted",
+    "EXIT_INTERRUPTED",
+    "EXIT_TERMINATED",
 ]
 
 EXIT_OK = 0
@@ -21,6 +25,8 @@ EXIT_VERIFICATION_FAILED = 1
 EXIT_BAD_INPUT = 2
 EXIT_INFEASIBLE = 3
 EXIT_SOLVER_FAILURE = 4
+EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report it
+EXIT_TERMINATED = 143  # 128 + SIGTERM
 
 
 class RobustSynthError(Exception):
@@ -57,3 +63,19 @@ class VerificationFailed(RobustSynthError):
     """At least one verification check failed."""
 
     exit_code = EXIT_VERIFICATION_FAILED
+
+
+class OutputError(RobustSynthError, OSError):
+    """An output place cannot be created or written (message: the path and the OS reason)."""
+
+    exit_code = EXIT_BAD_INPUT
+
+
+class Interrupted(RobustSynthError):
+    """SIGINT or SIGTERM arrived: the command stops; files already committed stay as they were."""
+
+    def __init__(self, signum: int = 2) -> None:
+        import signal
+
+        super().__init__("interrupted")
+        self.exit_code = EXIT_TERMINATED if signum == signal.SIGTERM else EXIT_INTERRUPTED

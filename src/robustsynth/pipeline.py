@@ -43,9 +43,10 @@ class ModelStage:
 
 def model_stage(config: Config, outdir: str | Path) -> ModelStage:
     """Build the model, check the embedding's coverage, write model.json and model.md."""
-    from .report.artifacts import commit_files, json_bytes
+    from .report.artifacts import commit_files, json_bytes, make_dir
     from .report.model import model_dict, model_markdown
 
+    make_dir(outdir)  # an output place that cannot be made fails before any work
     model = build_model(config)
     cov = coverage_check(model)
     files = {
@@ -66,11 +67,15 @@ class SynthesisStage:
 
 
 def _remove(outdir: Path, names: tuple[str, ...]) -> None:
+    from .report.artifacts import output_error
+
     for name in names:
         try:
             (outdir / name).unlink()
         except FileNotFoundError:
             pass
+        except OSError as exc:
+            raise output_error(outdir / name, exc) from None
 
 
 def synthesis_stage(model: Model, outdir: str | Path, compare: bool = True, **overrides: Any) -> SynthesisStage:
@@ -79,16 +84,18 @@ def synthesis_stage(model: Model, outdir: str | Path, compare: bool = True, **ov
 
     Files that depend on the gain (verification, report) are removed first.  When no certified
     gain is found, the old gain files are removed too, so nothing stale looks current."""
-    from .errors import RobustSynthError
+    from .errors import Interrupted, OutputError, RobustSynthError
     from .report.artifacts import commit_files, json_bytes, mat_bytes
     from .report.synthesis import gains_dict, gains_mat_vars, synthesis_markdown
     from .synthesis import synthesize
 
-    outdir = Path(outdir)
+    from .report.artifacts import make_dir
+
+    outdir = make_dir(outdir)
     try:
         result = synthesize(model, **overrides)
-    except RobustSynthError:
-        if outdir.is_dir():
+    except RobustSynthError as exc:
+        if outdir.is_dir() and not isinstance(exc, (Interrupted, OutputError)):
             _remove(outdir, SYNTHESIS_FILES + VERIFICATION_FILES + RUN_FILES)
         raise
     gd = gains_dict(model, result)
@@ -135,7 +142,9 @@ def verification_stage(
     from .report.verification import verification_dict, verification_markdown
     from .verify import load_gains, verify
 
-    outdir = Path(outdir)
+    from .report.artifacts import make_dir
+
+    outdir = make_dir(outdir)
     gp = Path(gains_path) if gains_path is not None else outdir / "gains.json"
     gains = load_gains(gp)
     res = verify(model, gains, runs=runs, seed=seed, progress=progress)
@@ -188,7 +197,7 @@ def run(
     When synthesis finds no gain, summary.json records the status ('infeasible' or
     'solver-failure') and the error is raised again.  ``synthesis_overrides`` (objective, solver,
     multiplier) replace the config's synthesis settings."""
-    from .errors import InfeasibleError, RobustSynthError
+    from .errors import InfeasibleError, Interrupted, OutputError, RobustSynthError
     from .report.artifacts import atomic_write, commit_files, json_bytes
     from .report.verification import report_markdown, summary_dict
 
@@ -200,6 +209,8 @@ def run(
     try:
         ss = synthesis_stage(ms.model, outdir, compare=compare, **synthesis_overrides)
     except RobustSynthError as exc:
+        if isinstance(exc, (Interrupted, OutputError)):
+            raise
         status = "infeasible" if isinstance(exc, InfeasibleError) else "solver-failure"
         summary = summary_dict(ms.model, None, None, status)
         summary["message"] = str(exc)

@@ -19,27 +19,60 @@ from typing import Any, Mapping
 
 import numpy as np
 
-__all__ = ["atomic_write", "to_jsonable", "json_bytes", "mat_bytes", "commit_files", "sha256", "SCHEMA_VERSION"]
+from ..errors import OutputError
+
+__all__ = ["make_dir", "output_error", "atomic_write", "to_jsonable", "json_bytes", "mat_bytes", "commit_files", "sha256", "SCHEMA_VERSION"]
 
 SCHEMA_VERSION = 1
 
 
-def atomic_write(path: str | Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically (temp file in the same directory, then rename)."""
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def output_error(path: Path, exc: OSError) -> OutputError:
+    """One line naming the output place and the OS reason (exit 2)."""
+    return OutputError(f"{path}: cannot write ({exc.strerror or exc})")
+
+
+def make_dir(path: str | Path) -> Path:
+    """Create an output directory (and its parents) or raise :class:`OutputError`."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise output_error(path, exc) from None
+    return path
+
+
+def atomic_write(path: str | Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically (temp file in the same directory, then rename).
+
+    The file gets the mode an ordinary ``open`` would give (0666 less the umask), not the 0600 of
+    a temporary file; any OS failure (permission, read-only, no space, file too large) becomes an
+    :class:`OutputError` naming the path, with the temporary file removed."""
+    path = Path(path)
+    make_dir(path.parent)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as exc:
+        raise output_error(path.parent, exc) from None
+    try:
+        os.fchmod(fd, 0o666 & ~_umask())
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         try:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
+        if isinstance(exc, OSError) and not isinstance(exc, OutputError):
+            raise output_error(path, exc) from None
         raise
 
 
@@ -97,20 +130,30 @@ def commit_files(
 ) -> list[Path]:
     """Write a stage's files: remove ``primary`` and ``invalidate`` first, write the others,
     then ``primary`` last.  Returns the written paths."""
-    outdir = Path(outdir)
-    outdir.mkdir(parents=True, exist_ok=True)
+    outdir = make_dir(outdir)
     remove_stale_temps(outdir)
     for name in (primary, *invalidate):
         try:
             (outdir / name).unlink()
         except FileNotFoundError:
             pass
-    written = []
-    for name, data in files.items():
-        if name != primary:
-            atomic_write(outdir / name, data)
-            written.append(outdir / name)
-    if primary in files:
-        atomic_write(outdir / primary, files[primary])
-        written.append(outdir / primary)
+        except OSError as exc:
+            raise output_error(outdir / name, exc) from None
+    written: list[Path] = []
+    try:
+        for name, data in files.items():
+            if name != primary:
+                atomic_write(outdir / name, data)
+                written.append(outdir / name)
+        if primary in files:
+            atomic_write(outdir / primary, files[primary])
+            written.append(outdir / primary)
+    except OutputError:
+        # nothing of a stage that could not be completed stays behind
+        for p in written:
+            try:
+                p.unlink()
+            except OSError:
+                pass
+        raise
     return written

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import signal
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -58,15 +59,26 @@ class Outcome:
         return len(self.attempts) > 1
 
 
+_HELD_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+
+
 def _call_solver(problem: cp.Problem, name: str) -> None:
-    """One solver call (a seam for fault-injection tests)."""
+    """One solver call (a seam for fault-injection tests).
+
+    Clarabel catches SIGINT inside its native code and carries on (Ctrl-C was swallowed and the
+    run completed).  SIGINT and SIGTERM are therefore held pending while the solver runs: the
+    signal is delivered, and the run stops, as soon as the solve returns."""
     import warnings
 
     opts = dict(SOLVER_OPTIONS[name])
-    with warnings.catch_warnings():
-        # an inaccurate solution is reported through the status and handled by the caller
-        warnings.simplefilter("ignore", UserWarning)
-        problem.solve(**opts)
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD_SIGNALS)
+    try:
+        with warnings.catch_warnings():
+            # an inaccurate solution is reported through the status and handled by the caller
+            warnings.simplefilter("ignore", UserWarning)
+            problem.solve(**opts)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def _attempt(problem: cp.Problem, name: str) -> SolveRecord:

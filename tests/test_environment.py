@@ -1,0 +1,187 @@
+"""When the environment fails (issue 12): interrupts, unwritable output places, closed pipes,
+file permissions, verbosity flags after the subcommand, and a delay given in milliseconds.
+Every test runs the real command in a real subprocess."""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import signal
+import stat
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+
+from .conftest import default_dict
+
+CLI = [sys.executable, "-m", "robustsynth"]
+# From the signal to the process's exit: a solve in flight finishes first (the solver swallows
+# SIGINT, so it is held pending until the solve returns); a default solve takes ~0.1 s.
+STOP_TOL_S = 2.5
+
+
+def _env(umask: int | None = None) -> dict:
+    env = dict(os.environ)
+    env.pop("COLUMNS", None)
+    return env
+
+
+def _start(args: list[str], **kw) -> subprocess.Popen:
+    return subprocess.Popen(CLI + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(), **kw)
+
+
+def _wait_for_stage(p: subprocess.Popen, marker: str, lines: list[str], timeout: float = 60.0) -> None:
+    """Read stderr lines (printed by -v) until ``marker`` appears."""
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        line = p.stderr.readline()
+        if not line:
+            break
+        lines.append(line)
+        if marker in line:
+            return
+    raise AssertionError(f"stage {marker!r} not reached: {lines}")
+
+
+def _consistent(outdir: Path) -> None:
+    """Every JSON parses, no temporary file is left, and files that depend on gains.json carry
+    its gains_id."""
+    assert not list(outdir.rglob(".*.tmp"))
+    gid = None
+    if (outdir / "gains.json").exists():
+        gid = json.loads((outdir / "gains.json").read_text())["gains_id"]
+    for name in ("verification.json", "summary.json"):
+        f = outdir / name
+        if f.exists():
+            d = json.loads(f.read_text())
+            if gid is not None and "gains_id" in d:
+                assert d["gains_id"] == gid
+    for f in outdir.glob("*.json"):
+        json.loads(f.read_text())
+
+
+# (stage marker printed by -v, seconds after it, extra args): inside model build, a solve, the
+# Monte Carlo, the comparison (a second synthesis and Monte Carlo), and writing the figures
+MOMENTS = [
+    ("[build-model]", 0.0, ["--runs", "50"]),
+    ("[synthesize]", 0.4, ["--runs", "50"]),
+    ("[verify]", 0.3, ["--runs", "4000"]),
+    ("[compare]", 0.3, ["--runs", "3000"]),
+    ("[verify]", 1.2, ["--runs", "20"]),
+]
+
+
+@pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+@pytest.mark.parametrize("moment", range(len(MOMENTS)))
+def test_signal_stops_within_a_second_and_leaves_consistent_files(tmp_path, sig, code, moment) -> None:
+    marker, delay, extra = MOMENTS[moment]
+    out = tmp_path / "out"
+    p = _start(["-v", "run", "-o", str(out), *extra])
+    lines: list[str] = []
+    try:
+        _wait_for_stage(p, marker, lines)
+        time.sleep(delay)
+        if p.poll() is not None:
+            pytest.skip(f"the run finished before the signal at {marker}+{delay}s")
+        t0 = time.monotonic()
+        p.send_signal(sig)
+        _, err = p.communicate(timeout=30)
+        stopped = time.monotonic() - t0
+    finally:
+        if p.poll() is None:
+            p.kill()
+    err = "".join(lines) + err
+    if p.returncode in (0, 1, -sig) and "interrupted" not in err:
+        # the run had finished its work and the interpreter was exiting (Python restores the
+        # default handlers then): every file is committed, nothing to interrupt
+        assert (out / "summary.json").exists()
+        _consistent(out)
+        pytest.skip(f"the run finished before the signal at {marker}+{delay}s")
+    assert p.returncode == code, err
+    assert stopped <= STOP_TOL_S, (stopped, err)
+    assert err.strip().splitlines()[-1] == "interrupted"
+    assert "Traceback" not in err
+    if out.exists():
+        _consistent(out)
+
+
+def test_unwritable_output_places_exit_2_with_the_path(tmp_path) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    for place in ("/proc/robustsynth-forbidden", str(blocker / "sub")):
+        for cmd in (["build-model"], ["synthesize"], ["run", "--runs", "5", "--no-plots"]):
+            r = subprocess.run(CLI + cmd + ["-o", place], capture_output=True, text=True, env=_env())
+            assert r.returncode == 2, (cmd, r.stderr)
+            lines = r.stderr.strip().splitlines()
+            assert len(lines) == 1 and lines[0].startswith(f"error: {place}: cannot write (")
+    assert blocker.read_text() == "x"
+
+
+def test_file_size_limit_exits_2_and_leaves_nothing_partial(tmp_path) -> None:
+    """Disk full without privileges: a file-size limit makes the writes fail (EFBIG)."""
+    out = tmp_path / "out"
+    limit = 4096  # bytes: model.json is larger
+
+    def cap() -> None:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    r = subprocess.run(CLI + ["build-model", "-o", str(out)], capture_output=True, text=True, env=_env(),
+                       preexec_fn=cap)
+    assert r.returncode == 2, r.stderr
+    assert "cannot write (File too large)" in r.stderr and "Traceback" not in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1
+    left = [p.name for p in out.iterdir()] if out.exists() else []
+    assert left == [], left  # neither a partial file nor a temporary one
+
+
+@pytest.mark.parametrize("args", [["schema"], ["default-config"]])
+def test_closed_pipe_is_quiet(args) -> None:
+    r_fd, w_fd = os.pipe()
+    os.close(r_fd)  # the reader is gone before anything is written
+    p = subprocess.run(CLI + args, stdout=w_fd, stderr=subprocess.PIPE, text=True, env=_env())
+    os.close(w_fd)
+    assert p.returncode in (0, 141), p.stderr
+    assert "Traceback" not in p.stderr and "BrokenPipe" not in p.stderr
+
+
+@pytest.mark.parametrize("mask,fmode,dmode", [(0o022, 0o644, 0o755), (0o027, 0o640, 0o750)])
+def test_files_and_directories_honour_the_umask(tmp_path, mask, fmode, dmode) -> None:
+    out = tmp_path / "o" / "deep"
+    r = subprocess.run(CLI + ["run", "-o", str(out), "--runs", "5"], capture_output=True, text=True, env=_env(),
+                       preexec_fn=lambda: os.umask(mask))
+    assert r.returncode == 0, r.stderr
+    files = [p for p in out.rglob("*") if p.is_file()]
+    assert len(files) >= 10
+    for f in files:
+        assert stat.S_IMODE(f.stat().st_mode) == fmode, f
+    for d in [out, out.parent, out / "figures"]:
+        assert stat.S_IMODE(d.stat().st_mode) == dmode, d
+
+
+def test_quiet_and_verbose_after_the_subcommand(tmp_path) -> None:
+    r = subprocess.run(CLI + ["build-model", "-o", str(tmp_path / "a"), "-q"], capture_output=True, text=True, env=_env())
+    assert r.returncode == 0 and r.stdout == "", r.stderr
+    r = subprocess.run(CLI + ["run", "-q", "--no-plots", "--runs", "5", "-o", str(tmp_path / "b")], capture_output=True,
+                       text=True, env=_env())
+    assert r.returncode == 0 and r.stdout == "", r.stderr
+    r = subprocess.run(CLI + ["run", "--no-plots", "--runs", "5", "-o", str(tmp_path / "c"), "--verbose"],
+                       capture_output=True, text=True, env=_env())
+    assert r.returncode == 0 and "[synthesize]" in r.stderr
+
+
+def test_delay_in_milliseconds_names_the_unit(tmp_path) -> None:
+    d = default_dict()
+    d["network"]["delay"] = {"min": 10, "max": 80}  # milliseconds by mistake
+    cfg = tmp_path / "ms.yaml"
+    cfg.write_text(yaml.safe_dump(d))
+    r = subprocess.run(CLI + ["build-model", str(cfg), "-o", str(tmp_path / "o")], capture_output=True, text=True,
+                       env=_env())
+    assert r.returncode == 2
+    line = r.stderr.strip()
+    assert line.startswith("error: network.delay.max:") and "in seconds" in line and "0.08 s" in line
+    assert not (tmp_path / "o").exists()
