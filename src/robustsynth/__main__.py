@@ -1,3 +1,3 @@
-from .cli import main
+from robustsynth.cli import entry
 
-main()
+entry()

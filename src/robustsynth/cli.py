@@ -328,3 +328,25 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
     _report_checks(obj, res.verification.result)
     obj.say(f"report: {out / 'report.md'}")
     return EXIT_OK if res.passed else EXIT_VERIFICATION_FAILED
+
+
+def entry() -> None:
+    """The console script: ``main`` with interrupts and closed pipes handled also outside the
+    command bodies (start-up, argument parsing), where click would print 'Aborted!' and exit 1."""
+    try:
+        main.main(standalone_mode=False)
+    except click.exceptions.Exit as exc:  # --help, --version
+        sys.exit(exc.exit_code)
+    except (KeyboardInterrupt, click.exceptions.Abort):
+        click.echo("interrupted", err=True)
+        sys.exit(EXIT_INTERRUPTED)
+    except Interrupted as exc:
+        click.echo(f"{exc}", err=True)
+        sys.exit(exc.exit_code)
+    except BrokenPipeError:
+        _quiet_stdout()
+        sys.exit(EXIT_BROKEN_PIPE)
+    except click.ClickException as exc:  # usage errors: click's message, exit 2
+        exc.show()
+        sys.exit(exc.exit_code)
+    sys.exit(EXIT_OK)
