@@ -14,7 +14,7 @@ from typing import Any, Callable
 import click
 
 from . import __version__
-from .errors import EXIT_INTERRUPTED, EXIT_OK, Interrupted, RobustSynthError
+from .errors import EXIT_INTERRUPTED, EXIT_OK, Interrupted, RobustSynthError, check_interrupt, on_signal
 
 CONFIG_ARG = click.argument("config", required=False, type=click.Path(dir_okay=False, path_type=Path))
 OUTDIR_OPT = click.option(
@@ -57,6 +57,7 @@ def _guard(fn: Callable[..., int | None]) -> Callable[..., None]:
         try:
             code = fn(*args, **kwargs)
             sys.stdout.flush()
+            check_interrupt()  # a signal whose exception Python swallowed (see errors.on_signal)
         except Interrupted as exc:
             click.echo(f"{exc}", err=True)
             sys.exit(exc.exit_code)
@@ -103,15 +104,12 @@ def main(ctx: click.Context, quiet: bool, verbose: bool) -> None:
     _install_signal_handlers()
 
 
-def _on_term(signum: int, _frame: Any) -> None:
-    raise Interrupted(signum)
-
-
 def _install_signal_handlers() -> None:
-    """SIGTERM stops like Ctrl-C (exit 143); a file-size limit makes a write fail (EFBIG, exit 2)
-    instead of killing the process."""
+    """SIGINT and SIGTERM stop the command (exit 130 / 143, see errors.on_signal); a file-size
+    limit makes a write fail (EFBIG, exit 2) instead of killing the process."""
     try:
-        signal.signal(signal.SIGTERM, _on_term)
+        signal.signal(signal.SIGINT, on_signal)
+        signal.signal(signal.SIGTERM, on_signal)
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
     except ValueError:  # not the main thread (e.g. an embedding application)
         pass
@@ -335,6 +333,7 @@ def entry() -> None:
     command bodies (start-up, argument parsing), where click would print 'Aborted!' and exit 1."""
     try:
         main.main(standalone_mode=False)
+        check_interrupt()
     except click.exceptions.Exit as exc:  # --help, --version
         sys.exit(exc.exit_code)
     except (KeyboardInterrupt, click.exceptions.Abort):

@@ -18,6 +18,8 @@ __all__ = [
     "Interrupted",
     "EXIT_INTERRUPTED",
     "EXIT_TERMINATED",
+    "on_signal",
+    "check_interrupt",
 ]
 
 EXIT_OK = 0
@@ -79,3 +81,23 @@ class Interrupted(RobustSynthError):
 
         super().__init__("interrupted")
         self.exit_code = EXIT_TERMINATED if signum == signal.SIGTERM else EXIT_INTERRUPTED
+
+
+# Signals the CLI's handler has seen.  Raising from a signal handler is not enough: Python
+# swallows an exception raised while it runs a weakref callback or a finalizer ("Exception
+# ignored in ..."), e.g. during an import.  So the handler also records the signal, and
+# check_interrupt() (called at every solve, simulation step, figure and stage) raises it again.
+_PENDING: list[int] = []
+
+
+def on_signal(signum: int, _frame: object = None) -> None:
+    """Signal handler installed by the CLI for SIGINT and SIGTERM."""
+    _PENDING.append(signum)
+    raise Interrupted(signum)
+
+
+def check_interrupt() -> None:
+    """Raise :class:`Interrupted` if a signal arrived (a no-op for library users: nothing is
+    recorded unless the CLI's handler is installed)."""
+    if _PENDING:
+        raise Interrupted(_PENDING[0])

@@ -201,8 +201,15 @@ def run(
     from .report.artifacts import atomic_write, commit_files, json_bytes
     from .report.verification import report_markdown, summary_dict
 
+    from .errors import check_interrupt
+
     outdir = Path(outdir) if outdir is not None else default_outdir(config)
-    say = on_stage or (lambda _s: None)
+
+    def say(stage: str) -> None:
+        check_interrupt()
+        if on_stage is not None:
+            on_stage(stage)
+
     say("build-model")
     ms = model_stage(config, outdir)
     say("synthesize")

@@ -277,7 +277,10 @@ def write_figures(res, model, outdir: str | Path, fmt: str = "png") -> dict[str,
         "frozen": lambda: fig_frozen(res, model),
     }
     written = {}
+    from ..errors import check_interrupt
+
     for name, make in makers.items():
+        check_interrupt()
         fig = make()
         buf = io.BytesIO()
         meta = {"Software": None} if fmt == "png" else ({"Creator": None, "Producer": None, "CreationDate": None} if fmt == "pdf" else {"Date": None})

@@ -9,6 +9,8 @@ from typing import Any, Callable
 
 import cvxpy as cp
 
+from ..errors import check_interrupt
+
 __all__ = ["SolveRecord", "Outcome", "solve", "SOLVER_OPTIONS", "solver_version"]
 
 SOLVER_OPTIONS: dict[str, dict[str, Any]] = {
@@ -100,7 +102,9 @@ def solve(problem: cp.Problem, primary: str, accept: Callable[[], bool], fallbac
     either solver) is still offered to ``accept``: the numpy check, not the status, decides."""
     attempts: list[SolveRecord] = []
     for name in (primary, FALLBACK[primary]) if fallback else (primary,):
+        check_interrupt()
         rec = _attempt(problem, name)
+        check_interrupt()  # an interrupt is never a failed or infeasible point
         attempts.append(rec)
         if rec.status == cp.INFEASIBLE:
             return Outcome("infeasible", rec, attempts)

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import check_interrupt
+
 __all__ = [
     "closed_loop_run",
     "random_delays",
@@ -32,6 +34,7 @@ def closed_loop_run(model, K: np.ndarray, taus: np.ndarray, mu: np.ndarray, xi0:
     xi = np.empty((N, steps + 1, model.n_s))
     xi[:, 0] = xi0
     for k in range(steps):
+        check_interrupt()
         xi[:, k + 1] = np.einsum("nij,nj->ni", Acl[:, k], xi[:, k]) + c[:, k]
     return xi
 
@@ -100,6 +103,7 @@ def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 
     mu_out = np.empty((N, steps, 2))
     mu_prev = np.ones((N, 2)) if mu0 is None else np.array(mu0, dtype=float)
     for k in range(steps):
+        check_interrupt()
         mu_cands = slip_candidates(model, mu_prev) if slip else np.ones((N, 1, 2))
         n_m = mu_cands.shape[1]
         # candidate delay of packet k (the newest): s~ depends on it and on the history

@@ -15,6 +15,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..errors import check_interrupt
 from ..model.kinematics import JHJinv
 
 __all__ = [
@@ -336,6 +337,7 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
     DU = np.empty((N, steps, 2))
     Q[:, 0] = q
     for k in range(steps):
+        check_interrupt()
         E[:, k] = frame_error(path, seg[k], q, t[k])
         e_meas = frame_error(path, seg[k], q + scen.noise[:, k], t[k])
         xi = controller_state(e_meas, U, z, uD, d_hi)
@@ -389,6 +391,7 @@ def greedy_nonlinear(model, K: np.ndarray, V_fn: Callable[[np.ndarray, np.ndarra
     TAU = np.empty((N, steps))
     RHO = np.empty((N, steps, 2))
     for k in range(steps + 1):
+        check_interrupt()
         tk = k * Ts
         e = frame_error(path, 0, q, tk)
         xi = controller_state(e, U, z, uD, d_hi)
