@@ -104,6 +104,17 @@ def main(ctx: click.Context, quiet: bool, verbose: bool) -> None:
     _install_signal_handlers()
 
 
+_DEFAULT_UNRAISABLE = sys.unraisablehook
+
+
+def _unraisable(info: Any) -> None:
+    """An interrupt raised where Python cannot propagate it (a weakref callback during an import)
+    is not printed: it was recorded, and the next checkpoint raises it (errors.on_signal)."""
+    if isinstance(info.exc_value, Interrupted):
+        return
+    _DEFAULT_UNRAISABLE(info)
+
+
 def _install_signal_handlers() -> None:
     """SIGINT and SIGTERM stop the command (exit 130 / 143, see errors.on_signal); a file-size
     limit makes a write fail (EFBIG, exit 2) instead of killing the process."""
@@ -111,6 +122,7 @@ def _install_signal_handlers() -> None:
         signal.signal(signal.SIGINT, on_signal)
         signal.signal(signal.SIGTERM, on_signal)
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        sys.unraisablehook = _unraisable
     except ValueError:  # not the main thread (e.g. an embedding application)
         pass
 
