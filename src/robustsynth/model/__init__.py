@@ -276,8 +276,10 @@ def build_model(config: Config) -> Model:
     Ph = Phi(A_c, Ts)
     GD = Gamma_D(A_c, B_D_c, Ts)
     A, B, B_d = lift(Ph, Gammas0, Gamma(A_c, B_c, Ts), GD)
-    slip = slip_box((config.slip.right.min, config.slip.right.max), (config.slip.left.min, config.slip.left.max))
-    corners = slip_corners((config.slip.right.min, config.slip.right.max), (config.slip.left.min, config.slip.left.max))
+    mu_r = (config.slip.right.min, config.slip.right.max)
+    mu_l = (config.slip.left.min, config.slip.left.max)
+    slip = slip_box(mu_r, mu_l)
+    corners = slip_corners(mu_r, mu_l)
     # nominal matrices in the (possibly augmented) state
     if integral:
         A, B = augment_integral(A, B, Ts, n_e)
@@ -291,6 +293,9 @@ def build_model(config: Config) -> Model:
         vertices.append(Vertex(A, B, B_d @ slip.W, B_p, C_q, D_q, 0, "nominal (mu = 1), slip as additive box"))
     else:
         delay_description = _resolve_delay_description(syn.delay_description, len(instants))
+        if delay_description == "polytopic":  # the delay vertices, the same for every slip corner
+            labels, gammas, _ = delay_vertex_gammas(A_c, B_c, Ts, ranges, _WIDTH_TOL * max(Ts, 1.0))
+            A_t, B_t, _ = lift(Ph, gammas, Gamma(A_c, B_c, Ts), GD)
         for m, mu in enumerate(corners):
             M = slip_matrix(mu, D)
             c = (mu - 1.0) @ B_d.T
@@ -303,9 +308,7 @@ def build_model(config: Config) -> Model:
                     T[n_e + j * n_u : n_e + (j + 1) * n_u, n_e + j * n_u : n_e + (j + 1) * n_u] = M
                 vertices.append(Vertex(Am, Bm, E, B_p, C_q @ T, D_q @ M, m, name))
             else:
-                labels, gammas, _ = delay_vertex_gammas(A_c, B_c, Ts, ranges, _WIDTH_TOL * max(Ts, 1.0))
-                At, Bt, _ = lift(Ph, gammas, Gamma(A_c, B_c, Ts), GD)
-                At, Bt = apply_slip(At, Bt, M, n_e, n_u, d_hi)
+                At, Bt = apply_slip(A_t, B_t, M, n_e, n_u, d_hi)
                 if integral:
                     At, Bt = augment_integral(At, Bt, Ts, n_e)
                 for t, lab in enumerate(labels):

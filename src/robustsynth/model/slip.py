@@ -63,9 +63,7 @@ def next_corner_weights(corner: np.ndarray, mu_r: tuple[float, float], mu_l: tup
         else:
             per_track.append([corner[i] - max_step, corner[i] + max_step])
     nxt = np.array(list(itertools.product(*per_track)), dtype=float)
-    if all(len(_track_values(lo, hi)) == 1 or max_step is None or max_step >= hi - lo for lo, hi in (mu_r, mu_l)):
-        return np.eye(len(slip_corners(mu_r, mu_l)))
-    return corner_weights(nxt, mu_r, mu_l)
+    return corner_weights(nxt, mu_r, mu_l)  # at the corners themselves: the unit vectors
 
 
 def slip_matrix(mu: np.ndarray, D: float) -> np.ndarray:

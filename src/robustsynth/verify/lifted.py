@@ -68,22 +68,13 @@ def slip_candidates(model, mu_prev: np.ndarray) -> np.ndarray:
 
 def rate_limited_slip(model, rng: np.random.Generator, N: int, steps: int) -> np.ndarray:
     """Slip sequences (N, steps, 2): random corners held 1-5 periods, approached at the largest rate
-    ``slip.max_rate`` allows (jumps when there is no rate bound)."""
-    corners = slip_vertices(model)
-    target = corners[rng.integers(0, corners.shape[0], size=(N, steps))]
-    hold = rng.integers(1, 6, size=(N, steps))
-    for k in range(1, steps):
-        keep = (k % hold[:, k]) != 0
-        target[keep, k] = target[keep, k - 1]
-    step = model.slip_step
-    if step is None:
-        return target
-    out = np.empty_like(target)
-    cur = corners[rng.integers(0, corners.shape[0], size=N)].astype(float)
-    for k in range(steps):
-        cur = cur + np.clip(target[:, k] - cur, -step, step)
-        out[:, k] = cur
-    return out
+    ``slip.max_rate`` allows (jumps when there is no rate bound): the simulator's 'corners' profile."""
+    from .simulate import slip_profiles
+
+    cfg = model.config.slip
+    lo = np.array([cfg.right.min, cfg.left.min])
+    hi = np.array([cfg.right.max, cfg.left.max])
+    return slip_profiles(rng, ["corners"] * N, steps, lo, hi, model.Ts, cfg.max_rate)
 
 
 def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 9, slip: bool = True,

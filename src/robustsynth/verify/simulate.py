@@ -33,6 +33,7 @@ __all__ = [
     "controller_state",
     "steady_state_start",
     "greedy_nonlinear",
+    "slip_profiles",
     "SLIP_PROFILES",
 ]
 
@@ -144,7 +145,7 @@ def _rate_limit(target: np.ndarray, start: np.ndarray, max_step: float | None) -
     return out
 
 
-def _slip_profiles(rng: np.random.Generator, kinds: list[str], steps: int, lo: np.ndarray, hi: np.ndarray, Ts: float,
+def slip_profiles(rng: np.random.Generator, kinds: list[str], steps: int, lo: np.ndarray, hi: np.ndarray, Ts: float,
                    max_rate: float | None = None):
     """Slip (N, steps, 2) per profile: constant; random walk (std 5 % of the range per sqrt(s),
     reflected at the bounds); steps (a new random level every ~3 s); corners (a random corner of
@@ -225,7 +226,7 @@ def draw_scenario(model, runs: int, seed: int, steps: int, path: PathGeometry, d
         mu = np.ones((runs, steps, 2))
     else:
         kinds = [slip] * runs if slip else [SLIP_PROFILES[n % len(SLIP_PROFILES)] for n in range(runs)]
-        mu = _slip_profiles(rng, kinds, steps, lo, hi, model.Ts, cfg.slip.max_rate)
+        mu = slip_profiles(rng, kinds, steps, lo, hi, model.Ts, cfg.slip.max_rate)
     sd = np.array([vc.noise.position, vc.noise.position, vc.noise.heading])
     noise = rng.normal(size=(runs, steps, 3)) * sd if np.any(sd > 0) else np.zeros((runs, steps, 3))
     off = vc.initial_offset
@@ -260,10 +261,15 @@ def steady_state_start(model, K: np.ndarray, path: PathGeometry, scen: Scenario)
     if not np.all(np.isfinite(xi)):
         return scen
     off = model.config.verification.initial_offset
-    e = xi[:, : model.n_e] + np.array([off.x, off.y, off.theta])
-    du0 = xi[:, model.n_e : model.n_e + model.d_hi * model.n_u].reshape(-1, model.d_hi, model.n_u)
-    z0 = xi[:, model.n_s - model.n_z :] if model.n_z else None
-    return replace(scen, q0=_pose_from_error(path, e), du0=du0, z0=z0)
+    e, du0, z0 = _split_state(model, xi)
+    return replace(scen, q0=_pose_from_error(path, e + np.array([off.x, off.y, off.theta])), du0=du0, z0=z0)
+
+
+def _split_state(model, xi: np.ndarray):
+    """(e, stored commands (N, d_hi, 2), integrators or None) of lifted states xi (N, n_s)."""
+    n_e, n_u = model.n_e, model.n_u
+    du = xi[:, n_e : n_e + model.d_hi * n_u].reshape(-1, model.d_hi, n_u)
+    return xi[:, :n_e], du, (xi[:, model.n_s - model.n_z :] if model.n_z else None)
 
 
 @dataclass(frozen=True)
@@ -378,9 +384,8 @@ def greedy_nonlinear(model, K: np.ndarray, V_fn: Callable[[np.ndarray, np.ndarra
 
     N = mu0.shape[0]
     path = make_path(((0.0, 0.0), (V * Ts * (steps + 10), 0.0)), V)
-    xi0 = model.equilibrium(K, mu0)
-    scen = Scenario(np.zeros((N, d_hi)), mu0[:, None, :], np.zeros((N, 1, 3)), _pose_from_error(path, xi0[:, :3]), (),
-                    xi0[:, 3 : 3 + d_hi * 2].reshape(N, d_hi, 2), xi0[:, model.n_s - model.n_z :] if model.n_z else None)
+    e0, du0, z0 = _split_state(model, model.equilibrium(K, mu0))
+    scen = Scenario(np.zeros((N, d_hi)), mu0[:, None, :], np.zeros((N, 1, 3)), _pose_from_error(path, e0), (), du0, z0)
     U, z = _initial_memory(model, scen)
     q = scen.q0.copy()
     uD = np.array([V, 0.0])
