@@ -340,6 +340,41 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
     return EXIT_OK if res.passed else EXIT_VERIFICATION_FAILED
 
 
+@main.command("margin")
+@_verbosity
+@CONFIG_ARG
+@click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Gains file [default: OUTDIR/gains.json].")
+@OUTDIR_OPT
+@click.option("--lyapunov", type=click.Choice(["common", "slip-dependent", "auto"]), default=None,
+              help="Certificates tried at each point [default: synthesis.lyapunov]; auto: common, then "
+                   "slip-dependent where it fails (tighter, slower).")
+@click.option("--json", "as_json", is_flag=True, help="Print margin.json to stdout instead of one line per margin.")
+@click.pass_obj
+@_guard
+def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path | None, lyapunov: str | None,
+               as_json: bool) -> None:
+    """How far can the delay bound and the slip range be pushed for a given gain?
+
+    For each margin: the furthest certified value (analysis LMIs, K fixed, checked in numpy) and the
+    nearest value at which an instability is exhibited (periodic delay/slip sequences of the lifted
+    closed loop), with the destabilizing sequence.  Writes OUTDIR/margin.json.
+    """
+    from .pipeline import margin_stage
+
+    cfg = _load(config)
+    out = _outdir(cfg, outdir)
+    st = margin_stage(cfg, out, gains, lyapunov, on_step=obj.detail)
+    if as_json:
+        import json
+
+        click.echo(json.dumps(st.data, indent=2))
+        return
+    for m in st.report.margins:
+        obj.say(m.line())
+    obj.say(f"wrote {', '.join(str(p) for p in st.files)}")
+
+
 def entry() -> None:
     """The console script: ``main`` with interrupts and closed pipes handled also outside the
     command bodies (start-up, argument parsing), where click would print 'Aborted!' and exit 1."""

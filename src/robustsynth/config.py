@@ -31,6 +31,8 @@ __all__ = [
     "default_config_text",
     "default_config",
     "config_schema",
+    "config_with",
+    "check_config_key",
 ]
 
 MAX_CONFIG_BYTES = 1 << 20  # 1 MiB
@@ -375,6 +377,61 @@ def default_config(**overrides: Any) -> Config:
         keys = path.split(".")
         for k in keys[:-1]:
             node = node.setdefault(k, {})
+        node[keys[-1]] = value
+    try:
+        return Config.model_validate(data)
+    except ValidationError as exc:
+        raise ConfigError(_format_validation_error(exc)) from None
+
+
+def _node_class(annotation: Any) -> type[BaseModel] | None:
+    """The BaseModel class of a field annotation (through Annotated / Optional), else None."""
+    import typing
+
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    for arg in typing.get_args(annotation):
+        cls = _node_class(arg)
+        if cls is not None:
+            return cls
+    return None
+
+
+def check_config_key(path: str) -> None:
+    """ConfigError naming ``path`` unless it is a dotted path to a leaf of the configuration
+    (``network.delay.max``), with the keys that exist there."""
+    node: type[BaseModel] = Config
+    parts = path.split(".")
+    for i, part in enumerate(parts):
+        fields = node.model_fields
+        if part not in fields:
+            where = ".".join(parts[:i]) or "the top level"
+            import difflib
+
+            close = difflib.get_close_matches(part, list(fields), n=1)
+            hint = f" (did you mean {'.'.join(parts[:i] + close)}?)" if close else f"; keys at {where}: {', '.join(fields)}"
+            raise ConfigError(f"{path}: no such config key{hint}")
+        sub = _node_class(fields[part].annotation)
+        if i < len(parts) - 1 and sub is None:
+            raise ConfigError(f"{path}: {'.'.join(parts[: i + 1])} is a value, not a section")
+        if i == len(parts) - 1 and sub is not None:
+            raise ConfigError(f"{path}: is a section; name one of its keys ({', '.join(sub.model_fields)})")
+        if sub is not None:
+            node = sub
+
+
+def config_with(config: Config, overrides: dict[str, Any]) -> Config:
+    """``config`` with dotted-path ``overrides`` applied and validated like a file (ConfigError with
+    the key path on a bad value or an unknown key)."""
+    data = config.model_dump(mode="python")
+    for path, value in overrides.items():
+        check_config_key(path)
+        node = data
+        keys = path.split(".")
+        for k in keys[:-1]:
+            if node.get(k) is None:
+                node[k] = {}
+            node = node[k]
         node[keys[-1]] = value
     try:
         return Config.model_validate(data)

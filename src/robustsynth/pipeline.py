@@ -22,6 +22,8 @@ __all__ = [
     "RunResult",
     "run",
     "default_outdir",
+    "MarginStage",
+    "margin_stage",
 ]
 
 MODEL_FILES = ("model.json", "model.md")
@@ -239,3 +241,30 @@ def run(
     }
     written = commit_files(outdir, files, primary="summary.json")
     return RunResult(ms, ss, vs, tuple(ms.files + ss.files + vs.files + tuple(written)))
+
+
+@dataclass(frozen=True)
+class MarginStage:
+    report: Any  # robustsynth.margin.MarginReport
+    data: dict[str, Any]
+    files: tuple[Path, ...]
+
+
+def margin_stage(config: Config, outdir: str | Path, gains_path: str | Path | None = None,
+                 lyapunov: str | None = None, on_step: Callable[[str], None] | None = None) -> MarginStage:
+    """Delay and slip margins of a gains file (default ``outdir/gains.json``); write margin.json."""
+    from .margin import margin
+    from .report.artifacts import commit_files, json_bytes, make_dir
+    from .report.synthesis import gains_id
+    from .verify import load_gains
+
+    outdir = make_dir(outdir)
+    gp = Path(gains_path) if gains_path is not None else outdir / "gains.json"
+    gains = load_gains(gp)
+    import numpy as np
+
+    rep = margin(config, np.asarray(gains["K"], dtype=float), lyapunov=lyapunov, on_step=on_step)
+    data = rep.to_dict()
+    data["meta"].update(gains=str(gp), gains_id=gains_id(gains), config=config.name)
+    written = commit_files(outdir, {"margin.json": json_bytes(data)}, primary="margin.json")
+    return MarginStage(rep, data, tuple(written))

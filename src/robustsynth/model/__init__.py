@@ -257,8 +257,12 @@ def _resolve_delay_description(requested: str, n_uncertain: int) -> str:
     return requested
 
 
-def build_model(config: Config) -> Model:
-    """Build the model of ``config`` (kind ``config.synthesis.model``; docs/theory.md §1-5)."""
+def build_model(config: Config, min_lifting: int | None = None) -> Model:
+    """Build the model of ``config`` (kind ``config.synthesis.model``; docs/theory.md §1-5).
+
+    ``min_lifting``: keep at least this many past inputs in the lifted state even when the delay
+    bound needs fewer (the extra switching instants are fixed at 0): to analyse a gain designed for
+    a longer lifting on a shorter delay range."""
     R = config.robot.gear_radius
     D = config.robot.track_distance
     V = config.reference.speed
@@ -270,6 +274,7 @@ def build_model(config: Config) -> Model:
     tmin, tmax = config.network.delay.min, config.network.delay.max
     A_c, B_c, B_D_c = continuous_matrices(V, D)
     d_lo, d_hi = delay_indices(tmin, tmax, Ts)
+    d_hi = max(d_hi, int(min_lifting or 0))
     ranges = instant_ranges(tmin, tmax, Ts, d_hi)
     n_e, n_u = B_c.shape
     instants, Gammas0, B_p, C_q, D_q = embed(A_c, B_c, Ts, ranges, n_e, n_u, d_hi)

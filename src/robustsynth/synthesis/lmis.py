@@ -63,6 +63,9 @@ class LMIProblem:
         return out
 
 
+ANALYSIS_KAPPA = 1e4  # analysis of a given gain: Lyapunov matrices with I <= X <= kappa I
+
+
 def multiplier(n_blocks: int, kind: str, tag: str = "") -> tuple[Any, list[cp.Variable]]:
     """M = Lambda^-1 with the structure of Delta = blockdiag(d1 I2, d2, ...).
 
@@ -94,10 +97,9 @@ def _sym(L: Any) -> Any:
 class _Lyap:
     """The Lyapunov variables: X (what multiplies A and C_q), left(m) and right(n) blocks."""
 
-    def __init__(self, model: Any, kind: str):
+    def __init__(self, model: Any, kind: str, K: np.ndarray | None = None):
         n_s = model.n_s
         self.kind = kind
-        self.Y = cp.Variable((model.n_u, n_s), name="Y")
         if kind == "common":
             self.Q = cp.Variable((n_s, n_s), symmetric=True, name="Q")
             self.X = self.Q
@@ -110,6 +112,8 @@ class _Lyap:
             self.X = self.G
             self.modes = int(model.corners.shape[0])
             self.S = [cp.Variable((n_s, n_s), symmetric=True, name=f"S{m}") for m in range(self.modes)]
+        # synthesis: Y = K X is the variable; analysis of a given K: Y = K X is affine in X
+        self.Y = cp.Variable((model.n_u, n_s), name="Y") if K is None else np.asarray(K, dtype=float) @ self.X
 
     def mode(self, vertex: Any) -> int:
         return 0 if self.kind == "common" else int(vertex.corner)
@@ -174,12 +178,21 @@ def _multipliers(model: Any, kind: str, margin: float) -> tuple[list[Any], list[
     return Ms, cons
 
 
-def build_stability(model: Any, kind: str, margin: float, lyapunov: str = "common") -> LMIProblem:
-    """Robust decay rate r (docs/theory.md §6a); scale fixed by Q >= I (S_m >= I); parameter r2 = r^2."""
-    lv = _Lyap(model, lyapunov)
+def build_stability(model: Any, kind: str, margin: float, lyapunov: str = "common",
+                    K: np.ndarray | None = None) -> LMIProblem:
+    """Robust decay rate r (docs/theory.md §6a); scale fixed by Q >= I (S_m >= I); parameter r2 = r^2.
+
+    With ``K`` given the gain is fixed (analysis): ``Y = K Q`` (``K G``) is then an expression and the
+    problem asks for a Lyapunov certificate of that gain only."""
+    lv = _Lyap(model, lyapunov, K)
     n_s = model.n_s
     r2 = cp.Parameter(nonneg=True, name="r2", value=0.9)
     Ms, cons = _multipliers(model, kind, margin)
+    # analysis: maximize the smallest eigenvalue t of the LMIs with I <= X <= kappa I, so the point
+    # returned sits as far inside the feasible set as it can (a feasibility problem minimizing
+    # trace(Q) would land on its boundary, where the numpy check cannot confirm it)
+    t = cp.Variable(name="t") if K is not None else None
+    floor = margin if t is None else t
     for v, M in zip(model.vertices, Ms):
         AX, CX = _vertex_parts(v, lv)
         m = lv.mode(v)
@@ -190,9 +203,13 @@ def build_stability(model: Any, kind: str, margin: float, lyapunov: str = "commo
                 L = cp.bmat([[r2 * lv.left(m), AX.T, CX.T], [AX, right - Bp @ M @ Bp.T, Z], [CX, Z.T, M]])
             else:
                 L = cp.bmat([[r2 * lv.left(m), AX.T], [AX, right]])
-            cons.append(_sym(L) >> margin * np.eye(L.shape[0]))
+            cons.append(_sym(L) >> floor * np.eye(L.shape[0]))
     cons += lv.scale(1.0)
     mats = [lv.Q] if lyapunov == "common" else lv.S
+    if t is not None:
+        cons += [X << ANALYSIS_KAPPA * np.eye(n_s) for X in mats]
+        return LMIProblem(cp.Problem(cp.Maximize(t), cons), M=Ms, params={"r2": r2}, extra={"t": t},
+                          **lv.problem_kwargs())
     prob = cp.Problem(cp.Minimize(sum(cp.trace(X) for X in mats) / (n_s * len(mats))), cons)
     return LMIProblem(prob, M=Ms, params={"r2": r2}, **lv.problem_kwargs())
 

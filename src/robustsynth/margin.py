@@ -1,0 +1,345 @@
+"""Robustness margins of a given gain: how far can the delay bound and the slip range be pushed?
+
+For each margin two numbers bracket the truth:
+
+- **certified**: the furthest value at which the gain has a robust-stability certificate (the
+  analysis LMIs of :mod:`robustsynth.synthesis.analysis`, K fixed, every accepted point re-checked in
+  numpy), found by bisection;
+- **exhibited**: the nearest value at which an instability is *shown*: a periodic delay/slip
+  sequence whose lifted closed-loop product has spectral radius above 1 (constant delays and slips
+  are the period-1 case).  The sequence is returned as the witness.
+
+The truth lies between them; the gap is how conservative the certificate is (or how weak the
+search).  The analysis is always done on the slip-aware model (slip multiplies the command, as on
+the robot), whatever model the gain was designed on.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from dataclasses import asdict, dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+
+from .config import Config, config_with
+from .errors import InputError, check_interrupt
+
+__all__ = ["Margin", "MarginReport", "margin", "find_instability", "pad_gain", "EXHIBIT_TOL"]
+
+EXHIBIT_TOL = 1e-6  # a period product with spectral radius^(1/p) > 1 + this is an exhibited instability
+SLIP_FLOOR = 0.05  # smallest slip coefficient searched (M(mu) is singular at 0)
+SLIP_TOL = 0.005  # bisection tolerance on mu_min
+DELAY_TOL_PERIODS = 0.01  # bisection tolerance on tau_max, in sampling periods
+SEARCH_DELAYS = 5  # delay values per period in the switching search (tau_min .. tau_max)
+SEARCH_PERIOD = 3  # longest period of the switching sequences searched
+
+
+@dataclass(frozen=True)
+class Margin:
+    """One margin: the configured value, the certified and exhibited ends, the witness."""
+
+    name: str
+    unit: str
+    direction: str  # 'max' (larger is better: delay) or 'min' (smaller is better: slip)
+    configured: float | None
+    certified: float | None
+    exhibited: float | None
+    witness: dict[str, Any] | None
+    searched: tuple[float, float] | None
+    note: str = ""
+    evaluations: tuple[dict[str, Any], ...] = ()
+
+    @property
+    def gap(self) -> float | None:
+        """|exhibited - certified| / exhibited: the share of the true margin the certificate may miss."""
+        if self.certified is None or self.exhibited is None or self.exhibited == 0:
+            return None
+        return abs(self.exhibited - self.certified) / abs(self.exhibited)
+
+    def to_dict(self) -> dict[str, Any]:
+        d = {k: v for k, v in asdict(self).items() if k not in {"name", "evaluations"}}
+        d["searched"] = list(self.searched) if self.searched is not None else None
+        d["gap"] = self.gap
+        d["evaluations"] = list(self.evaluations)
+        return d
+
+    def line(self) -> str:
+        def f(x: float | None) -> str:
+            return "none" if x is None else f"{x:.4g}"
+
+        unit = f" {self.unit}" if self.unit else ""
+        text = (f"{self.name}: configured {f(self.configured)}{unit}, certified {f(self.certified)}{unit}, "
+                f"exhibited {f(self.exhibited)}{unit}")
+        if self.gap is not None:
+            text += f" (gap {100 * self.gap:.1f} %)"
+        if self.exhibited is None and self.searched is not None:
+            text += f" (no instability found in [{self.searched[0]:.4g}, {self.searched[1]:.4g}])"
+        if self.note and self.certified is None and self.exhibited is None and self.searched is None:
+            text += f" ({self.note})"
+        return text
+
+
+@dataclass(frozen=True)
+class MarginReport:
+    delay_max: Margin
+    slip_min: Margin
+    dropouts: Margin
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def margins(self) -> tuple[Margin, ...]:
+        return (self.delay_max, self.slip_min, self.dropouts)
+
+    def to_dict(self) -> dict[str, Any]:
+        out = {m.name: m.to_dict() for m in self.margins}
+        out["meta"] = dict(self.meta)
+        return out
+
+
+# --------------------------------------------------------------------------------------- gains
+
+
+def _lifting_of(K: np.ndarray, integral: bool) -> int:
+    n_z = 2 if integral else 0
+    past = K.shape[1] - 3 - n_z
+    if K.ndim != 2 or K.shape[0] != 2 or past < 2 or past % 2:
+        raise InputError(f"K has shape {K.shape}: expected 2 rows and 3 + 2 d_hi{' + 2' if integral else ''} "
+                         "columns (e, past inputs" + (", integrators)" if integral else ")"))
+    return past // 2
+
+
+def pad_gain(K: np.ndarray, model: Any) -> np.ndarray:
+    """The same control law on a longer lifted state: zero columns for the older inputs it ignores."""
+    K = np.asarray(K, dtype=float)
+    n_z = model.n_z
+    d_k = _lifting_of(K, model.integral)
+    if d_k > model.d_hi:
+        raise InputError(f"K uses {d_k} past inputs; the model keeps {model.d_hi} (build it with min_lifting)")
+    out = np.zeros((model.n_u, model.n_s))
+    out[:, : 3 + 2 * d_k] = K[:, : 3 + 2 * d_k]
+    if n_z:
+        out[:, -n_z:] = K[:, -n_z:]
+    return out
+
+
+# ------------------------------------------------------------------------ exhibited instability
+
+
+def find_instability(model: Any, K: np.ndarray, n_delays: int = SEARCH_DELAYS, max_period: int = SEARCH_PERIOD,
+                     tol: float = EXHIBIT_TOL) -> dict[str, Any] | None:
+    """Search periodic delay/slip sequences of the lifted closed loop (model's exact map) for one
+    whose period product has spectral radius^(1/p) > 1 + tol.  Delays on an ``n_delays`` grid of
+    [tau_min, tau_max], slips at the corners (held constant when ``slip.max_rate`` forbids jumps).
+    Returns the worst witness found, or None."""
+    dl = model.config.network.delay
+    grid = np.unique(np.linspace(dl.min, dl.max, n_delays))
+    corners = np.asarray(model.corners)
+    d_hi = model.d_hi
+    best: dict[str, Any] | None = None
+    for p in range(1, max_period + 1):
+        check_interrupt()
+        dseq = np.array(list(itertools.product(grid, repeat=p)))  # (n_d^p, p)
+        if model.rate_bounded or p == 1:
+            sseq = np.repeat(corners[:, None, :], p, axis=1)  # (n_c, p, 2)
+        else:
+            idx = np.array(list(itertools.product(range(len(corners)), repeat=p)))
+            sseq = corners[idx]  # (n_c^p, p, 2)
+        # periodic delays: packet i (i = -d_hi .. p-1) has delay dseq[i mod p]
+        cols = (np.arange(-d_hi, p) % p)
+        s = model.s_tilde(dseq[:, cols])  # (n_d^p, p, d_hi)
+        A, B = model.exact(s[:, None], sseq[None])  # (n_d^p, n_s^p, p, n_s, n_s)
+        Acl = A + B @ K
+        prod = Acl[..., 0, :, :]
+        for k in range(1, p):
+            prod = Acl[..., k, :, :] @ prod
+        rho = np.max(np.abs(np.linalg.eigvals(prod)), axis=-1) ** (1.0 / p)
+        i, j = np.unravel_index(int(np.argmax(rho)), rho.shape)
+        r = float(rho[i, j])
+        if r > 1.0 + tol and (best is None or r > best["spectral_radius"]):
+            best = {"delays": [float(x) for x in dseq[i]], "slip": [[float(a), float(b)] for a, b in sseq[j]],
+                    "period": p, "spectral_radius": r}
+        if best is not None and p == 1:
+            break  # a frozen instability is the simplest witness
+    return best
+
+
+# ------------------------------------------------------------------------------------ the search
+
+
+Evaluator = Callable[[float], bool]
+
+
+def _bisect(ok: Evaluator, good: float, bad: float, tol: float) -> float:
+    """Largest step towards ``bad`` where ``ok`` holds, knowing ok(good) and not ok(bad)."""
+    while abs(bad - good) > tol:
+        mid = (good + bad) / 2.0
+        if ok(mid):
+            good = mid
+        else:
+            bad = mid
+    return good
+
+
+class _Search:
+    """One margin's evaluations of a gain on configs differing in one quantity."""
+
+    def __init__(self, config: Config, K: np.ndarray, set_value: Callable[[float], dict[str, Any]],
+                 lyapunov: str, say: Callable[[str], None]):
+        self.config, self.K, self.set_value, self.lyapunov, self.say = config, K, set_value, lyapunov, say
+        self.lifting = _lifting_of(K, config.synthesis.integral_action)
+        self.evaluations: list[dict[str, Any]] = []
+
+    def model(self, x: float):
+        from .model import build_model
+
+        cfg = config_with(self.config, {"synthesis.model": "slip-aware", **self.set_value(x)})
+        model = build_model(cfg, min_lifting=self.lifting)
+        return model, pad_gain(self.K, model)
+
+    def certified(self, x: float) -> bool:
+        from .synthesis.analysis import analyze_stability
+
+        check_interrupt()
+        model, K = self.model(x)
+        s = self.config.synthesis
+        res = analyze_stability(model, K, lyapunov=self.lyapunov, multiplier=s.multiplier, margin=s.margin,
+                                solver=s.solver)
+        self.evaluations.append({"value": x, "test": "certificate", "result": res.status, "lyapunov": res.lyapunov,
+                                 "time_s": round(res.solve_time_s, 3)})
+        self.say(f"  {x:.5g}: certificate {res.status}" + (f" ({res.lyapunov})" if res.lyapunov else ""))
+        return res.certified
+
+    def unstable(self, x: float) -> dict[str, Any] | None:
+        check_interrupt()
+        model, K = self.model(x)
+        w = find_instability(model, K)
+        self.evaluations.append({"value": x, "test": "instability search", "result": "found" if w else "none"})
+        return w
+
+
+def _delay_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[str], None]) -> Margin:
+    dl, Ts = config.network.delay, config.network.sampling_time
+    from .config import MAX_D_HI
+
+    top = MAX_D_HI * Ts
+    search = _Search(config, K, lambda x: {"network.delay.max": float(x)}, lyapunov, say)
+    tol = DELAY_TOL_PERIODS * Ts
+    say("delay_max: instability search")
+    # exhibited: scan tau_max up from tau_min in tenths of a period, then bisect the first bracket
+    step = Ts / 10.0
+    grid = np.arange(dl.min, top + 1e-12, step)
+    witness, prev, first_bad = None, None, None
+    for x in grid:
+        w = search.unstable(float(x))
+        if w is not None:
+            witness, first_bad = w, float(x)
+            break
+        prev = float(x)
+    exhibited = None
+    if witness is not None:
+        if prev is not None:
+            while first_bad - prev > tol / 4:
+                mid = (prev + first_bad) / 2.0
+                w = search.unstable(mid)
+                if w is not None:
+                    witness, first_bad = w, mid
+                else:
+                    prev = mid
+        exhibited = max(witness["delays"])  # the witness is admissible for any tau_max >= this
+    say("delay_max: certificate bisection")
+    hi = exhibited if exhibited is not None else top
+    certified: float | None
+    if search.certified(dl.max):
+        lo = dl.max
+        if hi <= lo or search.certified(hi):
+            certified = hi if hi > lo else lo
+        else:
+            certified = _bisect(search.certified, lo, hi, tol)
+    elif dl.max > dl.min and search.certified(dl.min):
+        certified = _bisect(search.certified, dl.min, dl.max, tol)
+    else:
+        certified = None
+    note = ("certified: largest tau_max [s] with a robust-stability certificate (tau_min as configured); "
+            "exhibited: smallest tau_max admitting the witness delay sequence")
+    if exhibited is None:
+        note += f"; no instability found for tau_max up to {top:g} s ({MAX_D_HI} periods)"
+    return Margin("delay_max", "s", "max", float(dl.max), certified, exhibited, witness, (float(dl.min), float(top)),
+                  note, tuple(search.evaluations))
+
+
+def _slip_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[str], None]) -> Margin:
+    sl = config.slip
+    mu_hi = min(sl.right.max, sl.left.max)
+    configured = min(sl.right.min, sl.left.min)
+    search = _Search(config, K, lambda x: {"slip.right.min": float(x), "slip.left.min": float(x)}, lyapunov, say)
+    say("slip_min: instability search")
+    grid = np.arange(mu_hi, SLIP_FLOOR - 1e-12, -0.05)
+    witness, prev, first_bad = None, None, None
+    for x in grid:
+        w = search.unstable(float(x))
+        if w is not None:
+            witness, first_bad = w, float(x)
+            break
+        prev = float(x)
+    exhibited = None
+    if witness is not None:
+        if prev is not None:
+            while prev - first_bad > SLIP_TOL / 4:
+                mid = (prev + first_bad) / 2.0
+                w = search.unstable(mid)
+                if w is not None:
+                    witness, first_bad = w, mid
+                else:
+                    prev = mid
+        exhibited = min(min(s) for s in witness["slip"])  # admissible for any mu_min <= this
+    say("slip_min: certificate bisection")
+    lo = exhibited if exhibited is not None else SLIP_FLOOR
+    certified: float | None
+    if search.certified(configured):
+        if lo >= configured:
+            certified = configured
+        elif search.certified(lo):
+            certified = lo
+        else:
+            certified = _bisect(search.certified, configured, lo, SLIP_TOL)
+    elif configured < mu_hi and search.certified(mu_hi):
+        certified = _bisect(search.certified, mu_hi, configured, SLIP_TOL)
+    else:
+        certified = None
+    note = ("certified: smallest mu_min (both tracks, mu_max as configured) with a robust-stability certificate; "
+            "exhibited: largest mu_min admitting the witness slip sequence")
+    if sl.right.min != sl.left.min:
+        note += f"; the configured mins differ ({sl.right.min:g}, {sl.left.min:g}): configured = the smaller"
+    if exhibited is None:
+        note += f"; no instability found for mu_min down to {SLIP_FLOOR:g}"
+    return Margin("slip_min", "", "min", float(configured), certified, exhibited, witness,
+                  (float(SLIP_FLOOR), float(mu_hi)), note, tuple(search.evaluations))
+
+
+def margin(config: Config, K: np.ndarray, *, lyapunov: str | None = None,
+           on_step: Callable[[str], None] | None = None) -> MarginReport:
+    """Delay and slip margins of the gain ``K`` (du_k = K xi_k) on the robot of ``config``.
+
+    ``lyapunov``: the certificates tried at each point: 'common', 'slip-dependent', or 'auto'
+    (common, then slip-dependent where common fails: tighter, and several times slower);
+    default ``config.synthesis.lyapunov``."""
+    say = on_step or (lambda _msg: None)
+    lyapunov = lyapunov or config.synthesis.lyapunov
+    if lyapunov not in ("common", "slip-dependent", "auto"):
+        raise InputError(f"lyapunov: must be common, slip-dependent or auto (got {lyapunov!r})")
+    K = np.asarray(K, dtype=float)
+    _lifting_of(K, config.synthesis.integral_action)  # a gain of the wrong shape fails here, not mid-search
+    t0 = time.perf_counter()
+    d = _delay_margin(config, K, lyapunov, say)
+    t1 = time.perf_counter()
+    s = _slip_margin(config, K, lyapunov, say)
+    t2 = time.perf_counter()
+    drop = Margin("dropouts", "packets", "max", None, None, None, None, None,
+                  "packet loss is not modelled yet (issue 10): no dropout margin")
+    meta = {"model": "slip-aware", "lyapunov": lyapunov, "exhibit_tol": EXHIBIT_TOL,
+            "search": {"delays_per_period": SEARCH_DELAYS, "longest_period": SEARCH_PERIOD,
+                       "slip": "corners, held constant" if config.slip.max_rate is not None else "corners, switching"},
+            "time_s": {"delay_max": round(t1 - t0, 3), "slip_min": round(t2 - t1, 3), "total": round(t2 - t0, 3)}}
+    return MarginReport(d, s, drop, meta)

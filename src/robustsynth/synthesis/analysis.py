@@ -1,0 +1,89 @@
+"""Analysis of a *given* gain: is ``du_k = K xi_k`` robustly stable on a model?
+
+The stability LMI of §6a with ``Y = K Q`` (or ``K G``) fixed by ``K`` is an LMI in the Lyapunov
+variables and multipliers only.  As in synthesis, the solver's point counts only after
+:func:`robustsynth.verify.certificate.check_certificate` has rebuilt every vertex LMI in numpy
+from the values, with the gain as given.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..verify.certificate import CertificateCheck, check_certificate
+from .lmis import build_stability
+from .solve import solve
+
+__all__ = ["AnalysisResult", "analyze_stability", "STABILITY_R"]
+
+STABILITY_R = 1.0 - 1e-6  # 'robustly stable' = a certified decay rate r <= this (as in synthesis)
+
+
+@dataclass(frozen=True)
+class AnalysisResult:
+    """``certified``: a checked certificate exists (``check``/``certificate``); ``status`` is
+    'certified', 'infeasible' (no Lyapunov function of the kinds tried) or 'failed' (solvers)."""
+
+    certified: bool
+    status: str
+    lyapunov: str | None = None
+    certificate: dict[str, Any] | None = None
+    check: CertificateCheck | None = None
+    solve_time_s: float = 0.0
+    attempts: tuple[str, ...] = field(default_factory=tuple)
+
+
+def _one(model: Any, K: np.ndarray, lyapunov: str, multiplier: str, margin: float, solver: str,
+         r: float) -> tuple[str, dict | None, CertificateCheck | None]:
+    lp = build_stability(model, multiplier, margin, lyapunov, K=K)
+    lp.params["r2"].value = r * r
+    held: dict[str, Any] = {}
+
+    def accept() -> bool:
+        vals = lp.values()
+        held["t"] = float(vals["t"])
+        if not held["t"] >= margin:  # the best point misses the margin: no certificate (not a failure)
+            return True
+        cert: dict[str, Any] = {"objective": "stability", "model": model.kind, "vertices": len(model.vertices),
+                                "r2": r * r, "margin": margin}
+        if lyapunov == "common":
+            cert.update(lyapunov="common", Q=vals["Q"])
+        else:
+            cert.update(lyapunov="slip-dependent", G=vals["G"], S=vals["S"],
+                        slip_step=model.slip_step if model.rate_bounded else None)
+        cert["multipliers"] = {"kind": multiplier, "M": vals["M"]}
+        chk = check_certificate(model, K, cert)
+        held.update(cert=cert, check=chk)
+        return chk.passed
+
+    out = solve(lp.problem, solver, accept, fallback=True)
+    if out.kind == "ok":
+        if "cert" in held:
+            return "certified", held["cert"], held["check"]
+        return "infeasible", None, None
+    return out.kind, None, None
+
+
+def analyze_stability(model: Any, K: np.ndarray, *, lyapunov: str = "auto", multiplier: str = "structured",
+                      margin: float = 1e-7, solver: str = "clarabel", r: float = STABILITY_R) -> AnalysisResult:
+    """Look for a certificate that ``K`` has decay rate <= ``r`` for every admissible delay and slip
+    of ``model``.  ``lyapunov='auto'`` tries a common matrix, then (slip-aware model) one per slip
+    corner, which is never more conservative."""
+    kinds = ["common", "slip-dependent"] if lyapunov == "auto" else [lyapunov]
+    if model.kind != "slip-aware":
+        kinds = [k for k in kinds if k == "common"]
+    t0 = time.perf_counter()
+    tried: list[str] = []
+    statuses = []
+    for kind in kinds:
+        status, cert, chk = _one(model, np.asarray(K, dtype=float), kind, multiplier, margin, solver, r)
+        tried.append(f"{kind}: {status}")
+        statuses.append(status)
+        if status == "certified":
+            return AnalysisResult(True, status, kind, cert, chk, time.perf_counter() - t0, tuple(tried))
+    status = "infeasible" if "infeasible" in statuses else "failed"
+    return AnalysisResult(False, status, None, None, None, time.perf_counter() - t0, tuple(tried))
