@@ -375,6 +375,51 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
     obj.say(f"wrote {', '.join(str(p) for p in st.files)}")
 
 
+def _sweep_progress(obj: _Ctx):
+    """points done/total, not certified so far, ETA: one rewritten stderr line on a terminal."""
+    if obj.quiet or not sys.stderr.isatty():
+        return None
+
+    def cb(done: int, total: int, bad: int, eta: float | None) -> None:
+        eta_s = "" if eta is None else f", ETA {int(eta) // 60}:{int(eta) % 60:02d}"
+        click.echo(f"\r{done}/{total} points, {bad} not certified{eta_s}   ", nl=done == total, err=True)
+
+    return cb
+
+
+@main.command("sweep")
+@_verbosity
+@click.argument("spec", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Output directory [default: results/sweeps/<sweep file name>/].")
+@click.option("--verify", "verify_runs", type=click.IntRange(min=1, max=100_000), default=None, metavar="RUNS",
+              help="Also verify each certified gain with RUNS Monte Carlo runs.")
+@click.option("--workers", type=click.IntRange(min=1, max=1024), default=None,
+              help="Local worker processes [default: all cores; 1: in this process].")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="Run the points on this dask.distributed scheduler (pip install 'robustsynth[dask]').")
+@click.option("--force", is_flag=True, help="Recompute points already stored under OUTDIR/points/.")
+@click.pass_obj
+@_guard
+def sweep_cmd(obj: _Ctx, spec: Path, outdir: Path | None, verify_runs: int | None, workers: int | None,
+              scheduler: str | None, force: bool) -> None:
+    """Synthesize (and verify) a gain at every point of a sweep over config keys.
+
+    SPEC names a base config and axes over dotted config keys (grid or zip).  Writes sweep.csv,
+    sweep.json, the figure, and one file per point under points/ (a rerun skips those).
+    """
+    from .sweeps import load_sweep, sweep
+
+    sp = load_sweep(spec)
+    out = outdir if outdir is not None else Path("results") / "sweeps" / spec.stem
+    obj.detail(f"{len(sp.points())} points over {', '.join(sp.keys)} ({sp.mode})")
+    res = sweep(sp, out, verify_runs=verify_runs, workers=workers, scheduler=scheduler, force=force,
+                progress=_sweep_progress(obj))
+    counts = ", ".join(f"{n} {s}" for s, n in res.counts.items() if n)
+    obj.say(f"sweep: {len(res.rows)} points: {counts} ({res.engine['kind']}, {res.time_s:.1f} s)")
+    obj.say(f"wrote {', '.join(str(p) for p in res.files)} and {out / 'points'}/")
+
+
 def entry() -> None:
     """The console script: ``main`` with interrupts and closed pipes handled also outside the
     command bodies (start-up, argument parsing), where click would print 'Aborted!' and exit 1."""

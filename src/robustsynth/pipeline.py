@@ -253,7 +253,7 @@ class MarginStage:
 def margin_stage(config: Config, outdir: str | Path, gains_path: str | Path | None = None,
                  lyapunov: str | None = None, on_step: Callable[[str], None] | None = None) -> MarginStage:
     """Delay and slip margins of a gains file (default ``outdir/gains.json``); write margin.json."""
-    from .margin import margin
+    from .margins import margin
     from .report.artifacts import commit_files, json_bytes, make_dir
     from .report.synthesis import gains_id
     from .verify import load_gains

@@ -290,3 +290,122 @@ def write_figures(res, model, outdir: str | Path, fmt: str = "png") -> dict[str,
         atomic_write(path, buf.getvalue())
         written[name] = path
     return written
+
+
+# ------------------------------------------------------------------------------------ sweeps
+
+_SWEEP_FIGURES = {  # figure key -> (row column, label, scale)
+    "e_x": ("e_x_m", "certified |e_x| [cm]", 100.0),
+    "e_y": ("e_y_m", "certified |e_y| [cm]", 100.0),
+    "e_theta": ("e_theta_rad", "certified |e_theta| [rad]", 1.0),
+    "rho": ("rho_bound_rad_s", "certified |rho| [rad/s]", 1.0),
+    "decay_rate": ("decay_rate", "certified decay rate", 1.0),
+    "hinf_gain": ("hinf_gain", "certified l2 gain", 1.0),
+}
+_STATUS_MARK = {"infeasible": ("x", "tab:red"), "solver-failure": ("s", "tab:orange"), "invalid": ("^", "tab:gray")}
+
+
+def _axis_positions(values: list[Any]) -> tuple[np.ndarray, list[str] | None]:
+    """Numeric axes plot at their values; others (strings, booleans) at 0, 1, ... with labels."""
+    if all(isinstance(v, (int, float)) and not isinstance(v, bool) and v is not None for v in values):
+        return np.asarray(values, dtype=float), None
+    return np.arange(len(values), dtype=float), [str(v) for v in values]
+
+
+def fig_sweep_1d(result) -> Any:
+    plt = _plt()
+    key = result.spec.keys[0]
+    rows = result.rows
+    x, labels = _axis_positions([r[key] for r in rows])
+    ok = np.array([r["status"] == "certified" for r in rows])
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    plotted = False
+    for col, lab, style in (("e_x_m", "certified |e_x|", "-o"), ("e_y_m", "certified |e_y|", "-s")):
+        y = np.array([np.nan if r.get(col) is None else 100.0 * r[col] for r in rows])
+        if np.any(np.isfinite(y)):
+            ax.plot(x, y, style, label=lab, ms=4)
+            plotted = True
+    if "max_e_y_m" in result.columns:
+        y = np.array([np.nan if r.get("max_e_y_m") is None else 100.0 * r["max_e_y_m"] for r in rows])
+        if np.any(np.isfinite(y)):
+            ax.plot(x, y, "--", color="k", lw=1, label="nonlinear robot max |e_y|")
+    ax.set_ylabel("[cm]")
+    if not plotted:
+        key_fig = result.spec.figure
+        col, lab, scale = _SWEEP_FIGURES[key_fig]
+        y = np.array([np.nan if r.get(col) is None else scale * r[col] for r in rows])
+        ax.plot(x, y, "-o", ms=4, label=lab)
+        ax.set_ylabel(lab)
+    for status, (marker, color) in _STATUS_MARK.items():
+        sel = np.array([r["status"] == status for r in rows])
+        if np.any(sel):
+            ax.plot(x[sel], np.zeros(sel.sum()), marker, color=color, ms=8, ls="none", label=status, clip_on=False)
+    if labels is not None:
+        ax.set_xticks(x, labels)
+    ax.set_xlabel(key)
+    ax.set_ylim(bottom=0)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title(f"{int(ok.sum())} of {len(rows)} points certified")
+    fig.tight_layout()
+    return fig
+
+
+def fig_sweep_2d(result) -> Any:
+    plt = _plt()
+    k0, k1 = result.spec.keys[:2]
+    v0 = list(result.spec.axes[0][1])
+    v1 = list(result.spec.axes[1][1])
+    col, lab, scale = _SWEEP_FIGURES[result.spec.figure]
+    Z = np.full((len(v0), len(v1)), np.nan)
+    status = np.empty((len(v0), len(v1)), dtype=object)
+    for r in result.rows:  # grid order: the last axis varies fastest
+        i, j = divmod(r["index"], len(v1))
+        status[i, j] = r["status"]
+        if r["status"] == "certified" and r.get(col) is not None:
+            Z[i, j] = scale * r[col]
+    x, xl = _axis_positions(v1)
+    y, yl = _axis_positions(v0)
+    fig, ax = plt.subplots(figsize=(7, 5))
+    xi, yi = np.arange(len(v1)), np.arange(len(v0))
+    mesh = ax.pcolormesh(xi, yi, np.ma.masked_invalid(Z), shading="nearest", cmap="viridis")
+    fig.colorbar(mesh, ax=ax, label=lab)
+    ok = (status == "certified").astype(float)
+    if 0 < ok.sum() < ok.size and min(ok.shape) > 1:
+        ax.contour(xi, yi, ok, levels=[0.5], colors="w", linewidths=2)
+    for st, (marker, color) in _STATUS_MARK.items():
+        jj, ii = np.nonzero((status == st).T)
+        if jj.size:
+            ax.plot(jj, ii, marker, color=color, ms=8, ls="none", label=st)
+    ax.set_xticks(xi, xl if xl is not None else [f"{v:g}" for v in x], rotation=45 if len(v1) > 8 else 0)
+    ax.set_yticks(yi, yl if yl is not None else [f"{v:g}" for v in y])
+    ax.set_xlabel(k1)
+    ax.set_ylabel(k0)
+    if any(status[i, j] != "certified" for i in range(len(v0)) for j in range(len(v1))):
+        ax.legend(fontsize=8, loc="upper right")
+    ax.set_title(f"{lab}; white line: boundary of the certified region")
+    fig.tight_layout()
+    return fig
+
+
+def write_sweep_figure(result, outdir: str | Path, fmt: str = "png") -> Path | None:
+    """sweep.<fmt>: 1-D (or zip) sweeps as curves against the first axis, 2-D grids as a heatmap;
+    none for more axes."""
+    import io
+
+    from .artifacts import atomic_write
+
+    spec = result.spec
+    if spec.mode == "grid" and len(spec.keys) == 2:
+        fig = fig_sweep_2d(result)
+    elif spec.mode == "zip" or len(spec.keys) == 1:
+        fig = fig_sweep_1d(result)
+    else:
+        return None
+    plt = _plt()
+    buf = io.BytesIO()
+    fig.savefig(buf, format=fmt, dpi=100, metadata={"Software": None} if fmt == "png" else None)
+    plt.close(fig)
+    path = Path(outdir) / f"sweep.{fmt}"
+    atomic_write(path, buf.getvalue())
+    return path

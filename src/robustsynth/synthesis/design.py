@@ -195,12 +195,16 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool) -
     for g in grid:
         vals.append(evaluate(float(g)))
         # Scan upwards; stop once past the minimum (two rises in a row) or at the end of the
-        # feasible interval (a failure after a success): the points beyond cost solver time
-        # (near-infeasible LMIs trigger the fallback solver) and cannot improve the bound.
+        # feasible interval (an infeasible point after a success): the points beyond cost solver
+        # time and cannot improve the bound.  A solver *failure* is not the end of the interval (a
+        # sweep found one at alpha = 0.007 cut a scan whose minimum lay near 0.15, a bound 13x too
+        # large): the scan goes on, and stops only after two failures in a row.
         if len(vals) >= 3 and math.isfinite(vals[-3]) and vals[-1] > vals[-2] > vals[-3]:
             break
-        if len(vals) >= 2 and math.isfinite(vals[-2]) and not math.isfinite(vals[-1]):
-            break
+        if any(math.isfinite(v) for v in vals[:-1]) and not math.isfinite(vals[-1]):
+            failed_last = runner.failed_at.get(float(np.exp(g)), False)
+            if not failed_last or (len(vals) >= 2 and not math.isfinite(vals[-2])):
+                break
     if best.cert is None:
         failed = [g for g, v in zip(grid, vals) if not math.isfinite(v) and runner.failed_at.get(float(np.exp(g)))]
         for g in failed:

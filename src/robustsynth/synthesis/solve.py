@@ -83,12 +83,63 @@ def _call_solver(problem: cp.Problem, name: str) -> None:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
+class _NativeStderr:
+    """Hold what native code writes to file descriptor 2 during a solve, so that a solver panic's
+    report (Rust prints it, with a backtrace under RUST_BACKTRACE=1) does not reach the user's
+    terminal; anything else written is passed on afterwards."""
+
+    def __enter__(self) -> "_NativeStderr":
+        import os
+        import sys
+        import tempfile
+
+        self.saved = None
+        try:
+            sys.stderr.flush()
+            self.buf = tempfile.TemporaryFile()
+            self.saved = os.dup(2)
+            os.dup2(self.buf.fileno(), 2)
+        except (OSError, ValueError, AttributeError):  # no usable fd 2 (embedded): leave it alone
+            self.saved = None
+        return self
+
+    def release(self, keep: bool) -> None:
+        import os
+
+        if self.saved is None:
+            return
+        os.dup2(self.saved, 2)
+        os.close(self.saved)
+        self.saved = None
+        if keep:
+            self.buf.seek(0)
+            data = self.buf.read()
+            if data:
+                try:
+                    os.write(2, data)
+                except OSError:
+                    pass
+        self.buf.close()
+
+    def __exit__(self, *exc: Any) -> None:
+        self.release(keep=True)
+
+
 def _attempt(problem: cp.Problem, name: str) -> SolveRecord:
     t0 = time.perf_counter()
-    try:
-        _call_solver(problem, name)
-    except (cp.error.SolverError, ValueError, ArithmeticError) as exc:
-        return SolveRecord(name, "solver_error", None, time.perf_counter() - t0, str(exc).splitlines()[0][:200])
+    with _NativeStderr() as err:
+        try:
+            _call_solver(problem, name)
+        except (cp.error.SolverError, ValueError, ArithmeticError) as exc:
+            return SolveRecord(name, "solver_error", None, time.perf_counter() - t0, str(exc).splitlines()[0][:200])
+        except BaseException as exc:  # noqa: BLE001
+            # a panic in a solver's native code (Clarabel's Rust: pyo3_runtime.PanicException derives
+            # from BaseException, e.g. "Eigval error" in a PSD cone step) is a failed attempt, not a crash
+            if type(exc).__name__ != "PanicException":
+                raise
+            err.release(keep=False)
+            msg = (str(exc).splitlines() or ["panic"])[0][:200]
+            return SolveRecord(name, "solver_error", None, time.perf_counter() - t0, f"solver panicked: {msg}")
     stats = problem.solver_stats
     iters = getattr(stats, "num_iters", None)
     return SolveRecord(name, str(problem.status), int(iters) if iters is not None else None, time.perf_counter() - t0)
