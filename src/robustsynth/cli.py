@@ -416,7 +416,8 @@ def sweep_cmd(obj: _Ctx, spec: Path, outdir: Path | None, verify_runs: int | Non
     res = sweep(sp, out, verify_runs=verify_runs, workers=workers, scheduler=scheduler, force=force,
                 progress=_sweep_progress(obj))
     counts = ", ".join(f"{n} {s}" for s, n in res.counts.items() if n)
-    obj.say(f"sweep: {len(res.rows)} points: {counts} ({res.engine['kind']}, {res.time_s:.1f} s)")
+    reused = f", {res.reused} read from {out / 'points'}" if res.reused else ""
+    obj.say(f"sweep: {len(res.rows)} points: {counts} ({res.engine['kind']}, {res.time_s:.1f} s{reused})")
     obj.say(f"wrote {', '.join(str(p) for p in res.files)} and {out / 'points'}/")
 
 

@@ -409,7 +409,7 @@ def check_config_key(path: str) -> None:
             import difflib
 
             close = difflib.get_close_matches(part, list(fields), n=1)
-            hint = f" (did you mean {'.'.join(parts[:i] + close)}?)" if close else f"; keys at {where}: {', '.join(fields)}"
+            hint = f" (did you mean {'.'.join(parts[:i] + close + parts[i + 1:])}?)" if close else f"; keys at {where}: {', '.join(fields)}"
             raise ConfigError(f"{path}: no such config key{hint}")
         sub = _node_class(fields[part].annotation)
         if i < len(parts) - 1 and sub is None:

@@ -75,3 +75,58 @@ def test_synthesize_cli_writes_consistent_files(tmp_path) -> None:
     mat = loadmat(tmp_path / "gains.mat")
     assert mat["K"].shape == (2, 5)
     assert "Certificate check" in (tmp_path / "synthesis.md").read_text()
+
+
+class PanicException(BaseException):
+    """Stands in for pyo3_runtime.PanicException (a Rust panic in a solver; derives from BaseException)."""
+
+
+def test_a_solver_panic_is_a_failed_attempt_and_its_native_report_is_held_back(monkeypatch, capfd) -> None:
+    import os
+
+    real = solve_mod._call_solver
+
+    def panicking(problem, name):
+        if name == "clarabel":
+            os.write(2, b"thread '<unnamed>' panicked at psdtrianglecone.rs\nstack backtrace:\n")
+            raise PanicException("Eigval error: Eigen(1)")
+        return real(problem, name)
+
+    monkeypatch.setattr(solve_mod, "_call_solver", panicking)
+    res = synthesize(build_model(make_config()), objective="hinf")
+    assert res.solver["name"] == "scs" and res.check.passed
+    err = capfd.readouterr().err
+    assert "panicked" not in err and "backtrace" not in err
+
+
+def test_other_native_stderr_still_reaches_the_user(monkeypatch, capfd) -> None:
+    import os
+
+    real = solve_mod._call_solver
+
+    def chatty(problem, name):
+        os.write(2, b"solver says hello\n")
+        return real(problem, name)
+
+    monkeypatch.setattr(solve_mod, "_call_solver", chatty)
+    synthesize(build_model(make_config()), objective="hinf")
+    assert "solver says hello" in capfd.readouterr().err
+
+
+def test_a_real_clarabel_panic_config_still_certifies_quietly(monkeypatch, capfd) -> None:
+    """With Clarabel 0.11 this config panics inside one alpha-scan solve ("Eigval error" in a PSD
+    cone step); the scan goes on, the gain is certified, and nothing of the panic is printed."""
+    real = solve_mod._attempt
+    errors: list[str] = []
+
+    def watch(problem, name):  # observes the real attempts; changes nothing
+        rec = real(problem, name)
+        errors.append(rec.error)
+        return rec
+
+    monkeypatch.setattr(solve_mod, "_attempt", watch)
+    res = synthesize(build_model(make_config(**{"network.delay.max": 0.04, "slip.left.min": 0.5})))
+    assert res.check.passed
+    assert "panicked" not in capfd.readouterr().err
+    if not any("solver panicked" in e for e in errors):
+        pytest.skip("this Clarabel build does not panic on the config any more (the path is covered above)")

@@ -94,6 +94,7 @@ class SweepResult:
     files: tuple[Path, ...] = ()
     counts: dict[str, int] = field(default_factory=dict)
     time_s: float = 0.0
+    reused: int = 0  # points read from outdir/points/ instead of computed
 
     def column(self, name: str) -> list[Any]:
         return [r.get(name) for r in self.rows]
@@ -178,7 +179,8 @@ def _dask(payloads: list[dict[str, Any]], address: str) -> Iterator[dict[str, An
     try:
         futures = client.map(run_point, payloads, key=[f"robustsynth-point-{p['key']}-{i}" for i, p in enumerate(payloads)],
                              pure=False)
-        ac = as_completed(futures)
+        with client.as_current():
+            ac = as_completed(futures)
         for fut in ac:
             check_interrupt()
             yield fut.result()
@@ -207,11 +209,13 @@ def sweep(spec: SweepSpec, outdir: str | Path, *, verify_runs: int | None = None
     """Run every point of ``spec``; write ``outdir/points/``, ``sweep.csv``, ``sweep.json`` (and the
     figure, unless ``write`` is False).  ``workers``: local processes (default: all cores; 1 runs
     in this process); ``scheduler``: the address of a dask.distributed scheduler."""
-    from ..report.artifacts import atomic_write, json_bytes, make_dir
+    from ..report.artifacts import atomic_write, json_bytes, make_dir, remove_stale_temps
 
     t0 = time.perf_counter()
     outdir = make_dir(outdir)
     points_dir = make_dir(outdir / "points")
+    remove_stale_temps(outdir)
+    remove_stale_temps(points_dir)  # a killed sweep's half-written point
     points = spec.points()
     payloads: dict[int, dict[str, Any]] = {}
     results: dict[int, dict[str, Any] | None] = {}
@@ -264,7 +268,8 @@ def sweep(spec: SweepSpec, outdir: str | Path, *, verify_runs: int | None = None
             progress(done, total, bad, rate * (total - done))
     rows = tuple(_row(i, points[i], results.get(i), invalid.get(i, ""), verify_runs) for i in range(total))
     counts = {s: sum(1 for r in rows if r["status"] == s) for s in STATUSES}
-    result = SweepResult(spec, rows, _columns(spec, verify_runs), engine, (), counts, time.perf_counter() - t0)
+    reused = sum(1 for i in results if i not in payloads and i not in invalid)
+    result = SweepResult(spec, rows, _columns(spec, verify_runs), engine, (), counts, time.perf_counter() - t0, reused)
     if not write:
         return result
     files = [outdir / "sweep.csv", outdir / "sweep.json"]
@@ -275,7 +280,7 @@ def sweep(spec: SweepSpec, outdir: str | Path, *, verify_runs: int | None = None
     fig = write_sweep_figure(result, outdir)
     if fig is not None:
         files.append(fig)
-    return SweepResult(spec, rows, result.columns, engine, tuple(files), counts, time.perf_counter() - t0)
+    return SweepResult(spec, rows, result.columns, engine, tuple(files), counts, time.perf_counter() - t0, reused)
 
 
 def csv_bytes(result: SweepResult) -> bytes:

@@ -1,0 +1,136 @@
+"""Margins of a given gain: certified <= truth <= exhibited, a witness that really destabilizes
+(period product eigenvalues vs a simulation of the lifted loop), and the margin command's files."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from robustsynth.cli import main
+from robustsynth.config import config_with
+from robustsynth.margins import EXHIBIT_TOL, find_instability, margin, pad_gain
+from robustsynth.model import build_model
+from robustsynth.synthesis import synthesize
+from robustsynth.synthesis.analysis import analyze_stability
+from robustsynth.verify.lifted import closed_loop_run
+
+from .conftest import make_config
+
+GROWTH_RTOL = 0.01  # simulated per-step growth rate vs spectral radius^(1/p) of the period product
+PERIODS = 200  # periods simulated for the growth rate
+
+
+@pytest.fixture(scope="module")
+def cfg():
+    return make_config()
+
+
+@pytest.fixture(scope="module")
+def K(cfg):
+    return synthesize(build_model(cfg)).K
+
+
+@pytest.fixture(scope="module")
+def report(cfg, K):
+    return margin(cfg, K)
+
+
+def _periodic(model, witness, periods):
+    p = witness["period"]
+    d = np.asarray(witness["delays"])
+    steps = p * periods
+    taus = d[(np.arange(steps + model.d_hi) - model.d_hi) % p][None, :]
+    mu = np.asarray(witness["slip"])[np.arange(steps) % p][None, :, :]
+    return taus, mu
+
+
+def test_witness_growth_matches_its_spectral_radius(cfg, K) -> None:
+    """A witness found well past the margin: the lifted loop driven by it grows at the rate the
+    eigenvalues of its period product give (independent code paths: eigvals vs step-by-step)."""
+    m = build_model(config_with(cfg, {"network.delay.max": 0.3}), min_lifting=1)
+    Kp = pad_gain(K, m)
+    w = find_instability(m, Kp)
+    assert w is not None and w["spectral_radius"] > 1.05
+    taus, mu = _periodic(m, w, PERIODS)
+    xi0 = np.random.default_rng(0).normal(size=(1, m.n_s))
+    xi = closed_loop_run(m, Kp, taus, mu, xi0, affine=False)
+    n = np.linalg.norm(xi[0], axis=1)
+    steps = xi.shape[1] - 1
+    half = steps // 2  # measure the rate over the second half (transients gone)
+    rate = (n[-1] / n[half]) ** (1.0 / (steps - half))
+    assert rate == pytest.approx(w["spectral_radius"], rel=GROWTH_RTOL)
+
+
+def test_delay_margin_brackets_the_truth(cfg, K, report) -> None:
+    d = report.delay_max
+    assert d.configured == cfg.network.delay.max
+    assert d.certified is not None and d.exhibited is not None
+    assert d.configured <= d.certified <= d.exhibited
+    w = d.witness
+    assert max(w["delays"]) == pytest.approx(d.exhibited)
+    assert min(w["delays"]) >= cfg.network.delay.min - 1e-12
+    assert w["spectral_radius"] > 1.0 + EXHIBIT_TOL
+    # the witness is unstable on the model at tau_max = exhibited ...
+    m = build_model(config_with(cfg, {"network.delay.max": d.exhibited}), min_lifting=1)
+    Kp = pad_gain(K, m)
+    again = find_instability(m, Kp)
+    assert again is not None
+    # ... and the certified end has a certificate that an independent re-run finds again
+    m = build_model(config_with(cfg, {"network.delay.max": d.certified}), min_lifting=1)
+    assert analyze_stability(m, pad_gain(K, m), lyapunov="common").certified
+    assert d.gap is not None and 0.0 <= d.gap < 1.0
+
+
+def test_slip_margin(cfg, report) -> None:
+    s = report.slip_min
+    assert s.configured == min(cfg.slip.right.min, cfg.slip.left.min)
+    assert s.certified is not None and s.certified <= s.configured
+    if s.exhibited is not None:
+        assert s.exhibited <= s.certified
+    else:
+        assert "no instability found" in s.line()
+
+
+def test_dropouts_say_they_are_not_modelled(report) -> None:
+    d = report.dropouts.to_dict()
+    assert d["certified"] is None and d["exhibited"] is None and "not modelled" in d["note"]
+
+
+def test_pad_gain_is_the_same_law(cfg, K) -> None:
+    """Zero columns for older inputs: identical error trajectories on the longer lifting."""
+    m1 = build_model(cfg)
+    m2 = build_model(cfg, min_lifting=m1.d_hi + 2)
+    rng = np.random.default_rng(1)
+    taus = rng.uniform(cfg.network.delay.min, cfg.network.delay.max, size=(4, 30 + m2.d_hi))
+    mu = rng.uniform(0.6, 1.0, size=(4, 30, 2))
+    x0 = rng.normal(scale=0.01, size=(4, m1.n_s))
+    x0_long = np.concatenate([x0, np.zeros((4, m2.n_s - m1.n_s))], axis=1)
+    a = closed_loop_run(m1, K, taus[:, m2.d_hi - m1.d_hi:], mu, x0)
+    b = closed_loop_run(m2, pad_gain(K, m2), taus, mu, x0_long)
+    np.testing.assert_allclose(a[:, :, :3], b[:, :, :3], rtol=0, atol=1e-12)
+
+
+def test_margin_cli_json_matches_the_file(tmp_path, cfg, K) -> None:
+    gains = tmp_path / "gains.json"
+    gains.write_text(json.dumps({"K": K.tolist()}))
+    r = CliRunner().invoke(main, ["margin", "--gains", str(gains), "-o", str(tmp_path), "--json"])
+    assert r.exit_code == 0, r.output
+    printed = json.loads(r.output)
+    on_disk = json.loads((tmp_path / "margin.json").read_text())
+    assert printed == on_disk
+    for key in ("delay_max", "slip_min", "dropouts"):
+        assert {"configured", "certified", "exhibited", "witness"} <= set(printed[key])
+    assert printed["delay_max"]["witness"]["delays"] and printed["delay_max"]["witness"]["slip"]
+
+
+def test_margin_cli_rejects_a_gain_of_the_wrong_shape(tmp_path) -> None:
+    gains = tmp_path / "gains.json"
+    gains.write_text(json.dumps({"K": [[1.0, 2.0, 3.0]]}))
+    r = CliRunner().invoke(main, ["margin", "--gains", str(gains), "-o", str(tmp_path / "o")])
+    assert r.exit_code == 2
+    lines = r.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: K has shape (1, 3)")
+    assert not (tmp_path / "o" / "margin.json").exists()
