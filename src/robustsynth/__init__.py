@@ -16,6 +16,9 @@ synthesize             robustsynth.synthesis         Model -> certified gain (LM
 check_certificate      robustsynth.verify            numpy-only re-check of an LMI certificate
 verify                 robustsynth.verify            gain -> checks, Monte Carlo on the robot
 run                    robustsynth.pipeline          build-model -> synthesize -> verify
+margin                 robustsynth.margins           delay / slip margins of a given gain
+sweep                  robustsynth.sweeps            synthesize (and verify) over a grid of keys
+load_sweep             robustsynth.sweeps            sweep YAML file -> SweepSpec
 =====================  ============================  ==========================================
 """
 
@@ -38,6 +41,11 @@ _EXPORTS = {
     "check_certificate": "robustsynth.verify.certificate",
     "verify": "robustsynth.verify",
     "run": "robustsynth.pipeline",
+    "margin": "robustsynth.margins",
+    "MarginReport": "robustsynth.margins",
+    "sweep": "robustsynth.sweeps",
+    "load_sweep": "robustsynth.sweeps",
+    "SweepResult": "robustsynth.sweeps",
 }
 
 __all__ = [*_EXPORTS, "__version__"]

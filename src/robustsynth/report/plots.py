@@ -368,8 +368,23 @@ def fig_sweep_2d(result) -> Any:
     y, yl = _axis_positions(v0)
     fig, ax = plt.subplots(figsize=(7, 5))
     xi, yi = np.arange(len(v1)), np.arange(len(v0))
-    mesh = ax.pcolormesh(xi, yi, np.ma.masked_invalid(Z), shading="nearest", cmap="viridis")
-    fig.colorbar(mesh, ax=ax, label=lab)
+    finite = Z[np.isfinite(Z)]
+    norm = None
+    if finite.size and finite.min() > 0 and finite.max() / finite.min() > 20:  # bounds spanning decades
+        from matplotlib.colors import LogNorm
+
+        norm = LogNorm(vmin=finite.min(), vmax=finite.max())
+    mesh = ax.pcolormesh(xi, yi, np.ma.masked_invalid(Z), shading="nearest", cmap="viridis", norm=norm)
+    fig.colorbar(mesh, ax=ax, label=lab + (" (log scale)" if norm is not None else ""))
+    if Z.size <= 150:  # the values themselves, readable on a small grid
+        from matplotlib import patheffects
+
+        outline = [patheffects.withStroke(linewidth=2, foreground="k")]
+        for i in range(Z.shape[0]):
+            for j in range(Z.shape[1]):
+                if np.isfinite(Z[i, j]):
+                    ax.text(j, i, f"{Z[i, j]:.3g}", ha="center", va="center", fontsize=7, color="w",
+                            path_effects=outline)
     ok = (status == "certified").astype(float)
     if 0 < ok.sum() < ok.size and min(ok.shape) > 1:
         ax.contour(xi, yi, ok, levels=[0.5], colors="w", linewidths=2)
@@ -382,7 +397,7 @@ def fig_sweep_2d(result) -> Any:
     ax.set_xlabel(k1)
     ax.set_ylabel(k0)
     if any(status[i, j] != "certified" for i in range(len(v0)) for j in range(len(v1))):
-        ax.legend(fontsize=8, loc="upper right")
+        ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=3, frameon=False)
     ax.set_title(f"{lab}; white line: boundary of the certified region")
     fig.tight_layout()
     return fig
