@@ -80,12 +80,29 @@ class DelayRange(_Node):
         return v
 
 
+class Dropouts(_Node):
+    max_consecutive: Annotated[int, Field(ge=0, le=MAX_D_HI)] = Field(
+        default=0,
+        description="largest number of consecutive commands the network may lose (0: none); the actuator "
+        "holds the last command it received, order is preserved",
+    )
+
+
 class NetworkConfig(_Node):
     sampling_time: Annotated[float, Field(ge=1e-6, le=100)] = Field(description="Ts: sensor sampling period [s]")
     delay: DelayRange = Field(description="bounds of the total delay tau = tau_SC + tau_CA + tau_C [s]")
+    dropouts: Dropouts = Field(default_factory=Dropouts, description="packet loss on the command link")
 
     @model_validator(mode="after")
     def _lifting_size(self) -> "NetworkConfig":
+        m = self.dropouts.max_consecutive
+        if m and (self.delay.max + m * self.sampling_time) / self.sampling_time > MAX_D_HI + 1e-9:
+            raise ValueError(
+                f"{_FIELD}dropouts.max_consecutive: {m} lost commands after a delay of up to {self.delay.max:g} s "
+                f"reach {self.delay.max + m * self.sampling_time:g} s = delay.max + max_consecutive * sampling_time; "
+                f"the lifting supports up to {MAX_D_HI} * network.sampling_time = {MAX_D_HI * self.sampling_time:g} s "
+                f"(max_consecutive <= {int(MAX_D_HI - math.ceil(self.delay.max / self.sampling_time - 1e-9))} here)"
+            )
         ratio = self.delay.max / self.sampling_time
         if ratio > MAX_D_HI + 1e-9:
             hint = ""
@@ -197,6 +214,22 @@ Waypoint = Annotated[tuple[Coord, Coord], Field(description="(x, y) [m]")]
 _DEFAULT_PATH: tuple[tuple[float, float], ...] = ((0.0, 0.0), (6.0, 0.0), (10.0, 2.0), (16.0, 2.0))
 
 
+class LossChannel(_Node):
+    """Gilbert-Elliott (bursty) loss channel of the simulator: a good state that delivers and a bad
+    state that loses; stationary loss probability and mean burst length set its two transition
+    probabilities."""
+
+    probability: Annotated[float, Field(ge=0, lt=1)] = Field(
+        default=0.2, description="long-run fraction of commands lost (used only when network.dropouts.max_consecutive > 0)"
+    )
+    mean_burst: Annotated[float, Field(ge=1, le=1e4)] = Field(default=2.0, description="mean length of a loss burst [packets]")
+    exceed_cap: bool = Field(
+        default=False,
+        description="also run bursts longer than network.dropouts.max_consecutive (outside the model): reported "
+        "apart, not part of the verdict",
+    )
+
+
 class VerificationConfig(_Node):
     runs: Annotated[int, Field(ge=1, le=100_000)] = Field(default=200, description="Monte Carlo runs")
     seed: Annotated[int, Field(ge=0, le=2**32 - 1)] = Field(default=0, description="random seed")
@@ -232,6 +265,7 @@ class VerificationConfig(_Node):
     adversarial_steps: Annotated[int, Field(ge=1, le=100_000)] = Field(
         default=300, description="steps of each adversarial run (a straight segment)"
     )
+    dropouts: LossChannel = Field(default_factory=LossChannel, description="the simulated lossy channel")
 
     @field_validator("path", mode="before")
     @classmethod

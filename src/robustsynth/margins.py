@@ -17,6 +17,7 @@ the robot), whatever model the gain was designed on.
 from __future__ import annotations
 
 import itertools
+import math
 import time
 from dataclasses import asdict, dataclass, field
 from typing import Any, Callable
@@ -25,8 +26,9 @@ import numpy as np
 
 from .config import Config, config_with
 from .errors import InputError, check_interrupt
+from .model import pad_gain
 
-__all__ = ["Margin", "MarginReport", "margin", "find_instability", "pad_gain", "EXHIBIT_TOL"]
+__all__ = ["Margin", "MarginReport", "margin", "find_instability", "witness_delays", "pad_gain", "EXHIBIT_TOL"]
 
 EXHIBIT_TOL = 1e-6  # a period product with spectral radius^(1/p) > 1 + this is an exhibited instability
 SLIP_FLOOR = 0.05  # smallest slip coefficient searched (M(mu) is singular at 0)
@@ -34,6 +36,7 @@ SLIP_TOL = 0.005  # bisection tolerance on mu_min
 DELAY_TOL_PERIODS = 0.01  # bisection tolerance on tau_max, in sampling periods
 SEARCH_DELAYS = 5  # delay values per period in the switching search (tau_min .. tau_max)
 SEARCH_PERIOD = 3  # longest period of the switching sequences searched
+DROPOUT_SEARCH = 6  # the loss margin is searched up to this many losses beyond the configured cap
 
 
 @dataclass(frozen=True)
@@ -56,6 +59,8 @@ class Margin:
         """|exhibited - certified| / exhibited: the share of the true margin the certificate may miss."""
         if self.certified is None or self.exhibited is None or self.exhibited == 0:
             return None
+        if self.unit == "packets":  # integers: the truth is in [certified, exhibited - 1]
+            return max(0.0, self.exhibited - 1 - self.certified) / self.exhibited
         return abs(self.exhibited - self.certified) / abs(self.exhibited)
 
     def to_dict(self) -> dict[str, Any]:
@@ -110,46 +115,70 @@ def _lifting_of(K: np.ndarray, integral: bool) -> int:
     return past // 2
 
 
-def pad_gain(K: np.ndarray, model: Any) -> np.ndarray:
-    """The same control law on a longer lifted state: zero columns for the older inputs it ignores."""
-    K = np.asarray(K, dtype=float)
-    n_z = model.n_z
-    d_k = _lifting_of(K, model.integral)
-    if d_k > model.d_hi:
-        raise InputError(f"K uses {d_k} past inputs; the model keeps {model.d_hi} (build it with min_lifting)")
-    out = np.zeros((model.n_u, model.n_s))
-    out[:, : 3 + 2 * d_k] = K[:, : 3 + 2 * d_k]
-    if n_z:
-        out[:, -n_z:] = K[:, -n_z:]
-    return out
-
-
 # ------------------------------------------------------------------------ exhibited instability
+
+
+def _max_cyclic_run(lost: np.ndarray) -> np.ndarray:
+    """Longest run of True per row, counted around the period (rows are periodic)."""
+    p = lost.shape[1]
+    twice = np.concatenate([lost, lost], axis=1)
+    best = np.zeros(lost.shape[0], dtype=int)
+    run = np.zeros(lost.shape[0], dtype=int)
+    for i in range(2 * p):
+        run = np.where(twice[:, i], run + 1, 0)
+        best = np.maximum(best, run)
+    return np.minimum(best, p)
+
+
+def _delay_sequences(grid: np.ndarray, p: int, max_lost: int) -> np.ndarray:
+    """Periodic packet-delay sequences (n, p): every combination of the grid and, on a lossy link,
+    lost packets (``inf``), with at most ``max_lost`` in a row around the period and one received."""
+    alphabet = np.append(grid, np.inf) if max_lost else grid
+    seqs = np.array(list(itertools.product(alphabet, repeat=p)))
+    if max_lost:
+        lost = np.isinf(seqs)
+        seqs = seqs[(_max_cyclic_run(lost) <= max_lost) & ~np.all(lost, axis=1)]
+    return seqs
+
+
+def _bursts(grid: np.ndarray, max_lost: int) -> list[np.ndarray]:
+    """Longer periods a loss margin needs: a burst of ``max_lost`` losses, then one or two packets."""
+    if max_lost < SEARCH_PERIOD:
+        return []
+    burst = np.full(max_lost, np.inf)
+    one = np.array([np.append(burst, g) for g in grid])
+    two = np.array([np.append(burst, [a, b]) for a in grid for b in grid])
+    return [one, two]
 
 
 def find_instability(model: Any, K: np.ndarray, n_delays: int = SEARCH_DELAYS, max_period: int = SEARCH_PERIOD,
                      tol: float = EXHIBIT_TOL) -> dict[str, Any] | None:
     """Search periodic delay/slip sequences of the lifted closed loop (model's exact map) for one
     whose period product has spectral radius^(1/p) > 1 + tol.  Delays on an ``n_delays`` grid of
-    [tau_min, tau_max], slips at the corners (held constant when ``slip.max_rate`` forbids jumps).
-    Returns the worst witness found, or None."""
+    [tau_min, tau_max] and, on a lossy link, lost packets (at most ``network.dropouts.max_consecutive``
+    in a row; bursts of that length are searched even when longer than ``max_period``); slips at the
+    corners (held constant when ``slip.max_rate`` forbids jumps).  Returns the worst witness
+    (``delays`` with null for a lost packet, ``lost``, ``slip``, ``period``, ``spectral_radius``) or None."""
     dl = model.config.network.delay
     grid = np.unique(np.linspace(dl.min, dl.max, n_delays))
     corners = np.asarray(model.corners)
-    d_hi = model.d_hi
+    d_hi, m = model.d_hi, model.dropouts
     best: dict[str, Any] | None = None
-    for p in range(1, max_period + 1):
+    families = [_delay_sequences(grid, p, m) for p in range(1, max_period + 1)] + _bursts(grid, m)
+    for dseq in families:
         check_interrupt()
-        dseq = np.array(list(itertools.product(grid, repeat=p)))  # (n_d^p, p)
-        if model.rate_bounded or p == 1:
-            sseq = np.repeat(corners[:, None, :], p, axis=1)  # (n_c, p, 2)
+        if dseq.size == 0:
+            continue
+        p = dseq.shape[1]
+        if model.rate_bounded or p == 1 or p > max_period:
+            sseq = np.repeat(corners[:, None, :], p, axis=1)  # (n_c, p, 2): slip held
         else:
             idx = np.array(list(itertools.product(range(len(corners)), repeat=p)))
             sseq = corners[idx]  # (n_c^p, p, 2)
-        # periodic delays: packet i (i = -d_hi .. p-1) has delay dseq[i mod p]
-        cols = (np.arange(-d_hi, p) % p)
-        s = model.s_tilde(dseq[:, cols])  # (n_d^p, p, d_hi)
-        A, B = model.exact(s[:, None], sseq[None])  # (n_d^p, n_s^p, p, n_s, n_s)
+        # periodic packets i = -d_hi .. p + m: the later ones let a lost packet meet its successor
+        cols = np.arange(-d_hi, p + m + 1) % p
+        s = model.s_tilde(dseq[:, cols])[:, :p]  # (n_seq, p, d_hi)
+        A, B = model.exact(s[:, None], sseq[None])  # (n_seq, n_slipseq, p, n_s, n_s)
         Acl = A + B @ K
         prod = Acl[..., 0, :, :]
         for k in range(1, p):
@@ -158,11 +187,17 @@ def find_instability(model: Any, K: np.ndarray, n_delays: int = SEARCH_DELAYS, m
         i, j = np.unravel_index(int(np.argmax(rho)), rho.shape)
         r = float(rho[i, j])
         if r > 1.0 + tol and (best is None or r > best["spectral_radius"]):
-            best = {"delays": [float(x) for x in dseq[i]], "slip": [[float(a), float(b)] for a, b in sseq[j]],
-                    "period": p, "spectral_radius": r}
+            best = {"delays": [None if np.isinf(x) else float(x) for x in dseq[i]],
+                    "lost": [bool(np.isinf(x)) for x in dseq[i]],
+                    "slip": [[float(a), float(b)] for a, b in sseq[j]], "period": p, "spectral_radius": r}
         if best is not None and p == 1:
             break  # a frozen instability is the simplest witness
     return best
+
+
+def witness_delays(witness: dict[str, Any]) -> np.ndarray:
+    """A witness's delays as an array with ``inf`` for lost packets."""
+    return np.array([np.inf if d is None else d for d in witness["delays"]], dtype=float)
 
 
 # ------------------------------------------------------------------------------------ the search
@@ -247,7 +282,7 @@ def _delay_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[s
                     witness, first_bad = w, mid
                 else:
                     prev = mid
-        exhibited = max(witness["delays"])  # the witness is admissible for any tau_max >= this
+        exhibited = float(np.max(witness_delays(witness)[~np.isinf(witness_delays(witness))]))  # admissible for tau_max >= this
     say("delay_max: certificate bisection")
     hi = exhibited if exhibited is not None else top
     certified: float | None
@@ -318,6 +353,41 @@ def _slip_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[st
                   (float(SLIP_FLOOR), float(mu_hi)), note, tuple(search.evaluations))
 
 
+def _dropout_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[str], None]) -> Margin:
+    """Largest certified number of consecutive lost commands, and the smallest at which periodic
+    loss/delay/slip sequences exhibit an instability (both searched up to the lifting's limit)."""
+    from .config import MAX_D_HI
+
+    Ts = config.network.sampling_time
+    configured = config.network.dropouts.max_consecutive
+    top = int(MAX_D_HI - math.ceil(config.network.delay.max / Ts - 1e-9))
+    top = min(top, configured + DROPOUT_SEARCH)
+    search = _Search(config, K, lambda x: {"network.dropouts.max_consecutive": int(round(x))}, lyapunov, say)
+    say("dropouts: instability search")
+    witness, exhibited = None, None
+    for m in range(0, top + 1):
+        w = search.unstable(float(m))
+        if w is not None:
+            witness = w
+            lost = np.asarray(w["lost"], dtype=bool)
+            exhibited = int(_max_cyclic_run(lost[None, :])[0])  # admissible for any cap >= this
+            break
+    say("dropouts: certificates")
+    certified: int | None = None
+    hi = exhibited - 1 if exhibited is not None else top
+    for m in range(0, hi + 1):  # upwards: each certificate covers every smaller cap
+        if not search.certified(float(m)):
+            break
+        certified = m
+    note = (f"certified: the largest max_consecutive with a robust-stability certificate (searched up to {hi}); "
+            "exhibited: the longest burst in the witness (a periodic loss/delay/slip sequence)")
+    if exhibited is None:
+        note += f"; no instability found for bursts up to {top}"
+    return Margin("dropouts", "packets", "max", float(configured), None if certified is None else float(certified),
+                  None if exhibited is None else float(exhibited), witness, (0.0, float(top)), note,
+                  tuple(search.evaluations))
+
+
 def margin(config: Config, K: np.ndarray, *, lyapunov: str | None = None,
            on_step: Callable[[str], None] | None = None) -> MarginReport:
     """Delay and slip margins of the gain ``K`` (du_k = K xi_k) on the robot of ``config``.
@@ -336,10 +406,11 @@ def margin(config: Config, K: np.ndarray, *, lyapunov: str | None = None,
     t1 = time.perf_counter()
     s = _slip_margin(config, K, lyapunov, say)
     t2 = time.perf_counter()
-    drop = Margin("dropouts", "packets", "max", None, None, None, None, None,
-                  "packet loss is not modelled yet (issue 10): no dropout margin")
+    drop = _dropout_margin(config, K, lyapunov, say)
+    t3 = time.perf_counter()
     meta = {"model": "slip-aware", "lyapunov": lyapunov, "exhibit_tol": EXHIBIT_TOL,
             "search": {"delays_per_period": SEARCH_DELAYS, "longest_period": SEARCH_PERIOD,
                        "slip": "corners, held constant" if config.slip.max_rate is not None else "corners, switching"},
-            "time_s": {"delay_max": round(t1 - t0, 3), "slip_min": round(t2 - t1, 3), "total": round(t2 - t0, 3)}}
+            "time_s": {"delay_max": round(t1 - t0, 3), "slip_min": round(t2 - t1, 3), "dropouts": round(t3 - t2, 3),
+                       "total": round(t3 - t0, 3)}}
     return MarginReport(d, s, drop, meta)

@@ -21,7 +21,14 @@ def _integrate_reference(model, taus, dus, d, e0):
     Ts, d_hi = model.Ts, model.d_hi
     n_pk = taus.shape[0]
     send = (np.arange(n_pk) - d_hi) * Ts
-    arrive = np.maximum.accumulate(send + taus)  # in-order delivery
+    # in-order delivery of the packets that are not lost (delay inf): a packet is delivered at the
+    # latest arrival among itself and the received packets sent before it; a lost one never arrives
+    arrive = np.full(n_pk, np.inf)
+    latest = -np.inf
+    for i in range(n_pk):
+        if np.isfinite(taus[i]):
+            latest = max(latest, send[i] + taus[i])
+            arrive[i] = latest
     K = n_pk - d_hi
     A, B, BD = np.asarray(model.A_c), np.asarray(model.B_c), np.asarray(model.B_D_c)
     Bfull = np.hstack([B, BD])
@@ -111,3 +118,56 @@ def test_s_tilde_is_monotone_and_in_range() -> None:
     s = s_tilde_sequence(taus, Ts, d_hi)
     assert np.all(np.diff(s, axis=-1) <= 0)
     assert np.all((s >= 0) & (s <= Ts))
+
+
+LOSS_CASES = {  # (tau_min, tau_max, max_consecutive losses)
+    "one lost, tau_max < Ts": (0.01, 0.08, 1),
+    "bursts of 3": (0.01, 0.08, 3),
+    "two periods of delay, bursts of 2": (0.03, 0.17, 2),
+    "d_lo = 1, one lost": (0.12, 0.25, 1),
+}
+
+
+@pytest.mark.parametrize("case", list(LOSS_CASES.values()), ids=list(LOSS_CASES))
+def test_lossy_link_matches_integration(case) -> None:
+    """Random delays and bursty losses (at most m in a row): a lost command never acts, the actuator
+    holds the last one received; the lifted model with the effective delays matches an integration
+    that knows nothing of effective delays (its packets simply never arrive)."""
+    from robustsynth.model.network import gilbert_elliott, longest_burst, with_losses
+
+    tmin, tmax, m = case
+    cfg = make_config(**{"network.delay.min": tmin, "network.delay.max": tmax, "network.dropouts.max_consecutive": m})
+    model = build_model(cfg)
+    assert model.d_hi == delay_indices(tmin, tmax + m * model.Ts, model.Ts)[1]
+    rng = np.random.default_rng(11)
+    bursts = []
+    for _ in range(8):
+        K = 40
+        n = K + model.d_hi
+        taus = rng.uniform(tmin, tmax, size=n)
+        lost = gilbert_elliott(rng, (1, n), 0.4, 2.0, m)[0]
+        lost[0] = False  # the lifted state starts with packet 0 in force (it holds no older command)
+        bursts.append(int(longest_burst(lost)[0]))
+        taus = with_losses(taus, lost)
+        dus = rng.normal(scale=0.3, size=(n, 2))
+        d = rng.uniform(-0.4, 0.0, size=(K, 2))
+        e0 = rng.normal(scale=0.1, size=3)
+        ref = _integrate_reference(model, taus, dus, d, e0)
+        got = _lifted_run(model, taus, dus, d, e0)
+        assert np.max(np.abs(ref - got)) <= LIFT_TOL
+    assert max(bursts) == m  # the longest admissible burst was exercised
+
+
+def test_loss_channel_statistics() -> None:
+    """Gilbert-Elliott: long-run loss fraction and mean burst length as configured, bursts capped."""
+    from robustsynth.model.network import gilbert_elliott, longest_burst
+
+    STAT_TOL = 0.03  # relative, on 400 x 2000 packets
+    rng = np.random.default_rng(0)
+    lost = gilbert_elliott(rng, (400, 2000), 0.2, 3.0, None)
+    assert lost.mean() == pytest.approx(0.2, rel=STAT_TOL)
+    starts = lost[:, 1:] & ~lost[:, :-1]
+    assert lost[:, 1:].sum() / starts.sum() == pytest.approx(3.0, rel=STAT_TOL)
+    capped = gilbert_elliott(rng, (400, 2000), 0.2, 3.0, 2)
+    assert longest_burst(capped).max() == 2
+    assert not gilbert_elliott(rng, (5, 50), 0.5, 2.0, 0).any()

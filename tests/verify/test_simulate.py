@@ -47,6 +47,7 @@ def setups():
         "saturated": {"verification.motor_saturation": True},
         "integral": {"synthesis.integral_action": True, "robot.max_motor_speed": None},
         "offset": {"verification.initial_offset.y": 0.05},
+        "lossy": {"network.dropouts.max_consecutive": 3, "verification.dropouts.probability": 0.3},
     }.items():
         m = build_model(make_config(**over))
         res = synthesize(m, objective="stability")
@@ -55,7 +56,7 @@ def setups():
 
 
 @pytest.mark.parametrize("name,steady", [("paper", False), ("paper", True), ("multi-period", True), ("d_lo>=1", False),
-                                         ("saturated", True), ("integral", True)])
+                                         ("saturated", True), ("integral", True), ("lossy", True), ("lossy", False)])
 def test_vectorized_equals_per_run_reference(setups, name, steady) -> None:
     m, K = setups[name]
     path = make_path(m.config.verification.path, m.V)
@@ -166,3 +167,19 @@ def test_saturation_clips_motor_speeds_and_changes_the_turns(setups) -> None:
     free = simulate(setups["paper"][0], K, path, scen)
     assert np.max(np.abs(free.rho)) > 12.0  # the turns ask for more than the motors give...
     assert np.max(np.abs(sat.q - free.q)) > 1e-6  # ...so clipping changes the motion
+
+
+def test_lossy_scenarios_lose_packets_in_capped_bursts(setups) -> None:
+    from robustsynth.model.network import longest_burst
+
+    m, _ = setups["lossy"]
+    path = make_path(m.config.verification.path, m.V)
+    scen = draw_scenario(m, 40, seed=2, steps=300, path=path)
+    lost = np.isinf(scen.taus)
+    assert lost.mean() == pytest.approx(0.3, abs=0.05)  # the configured long-run loss fraction
+    assert longest_burst(lost).max() == 3  # capped at network.dropouts.max_consecutive
+    wild = draw_scenario(m, 40, seed=2, steps=300, path=path, losses="uncapped")
+    assert longest_burst(np.isinf(wild.taus)).max() > 3
+    clean = draw_scenario(m, 40, seed=2, steps=300, path=path, losses=False)
+    assert not np.isinf(clean.taus).any()
+    np.testing.assert_array_equal(clean.mu, scen.mu)  # losses come from their own stream

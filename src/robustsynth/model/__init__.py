@@ -27,7 +27,7 @@ from .slip import corner_weights, next_corner_weights, slip_corners, slip_matrix
 from .uncertainty import SlipBox, UncertainInstant, delta_for, embed, slip_box
 from .vertices import Vertex, apply_slip, augment_integral, delay_vertex_gammas, triangle_coordinates
 
-__all__ = ["Model", "Vertex", "build_model", "UncertainInstant", "SlipBox", "state_names", "INPUT_NAMES",
+__all__ = ["Model", "Vertex", "build_model", "pad_gain", "UncertainInstant", "SlipBox", "state_names", "INPUT_NAMES",
            "MODEL_KINDS", "MAX_POLYTOPIC_INSTANTS"]
 
 INPUT_NAMES = ("dV", "omega")
@@ -96,6 +96,7 @@ class Model:
 
     n_e: int = 3
     n_u: int = 2
+    dropouts: int = 0  # at most this many consecutive commands lost (network.dropouts.max_consecutive)
 
     @property
     def n_z(self) -> int:
@@ -271,7 +272,10 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
     kind = syn.model
     integral = syn.integral_action
     n_z = 2 if integral else 0
-    tmin, tmax = config.network.delay.min, config.network.delay.max
+    dropouts = config.network.dropouts.max_consecutive
+    # a lost command is superseded when its successor arrives: an effective delay of up to
+    # tau_max + m Ts with a zero-length active interval (docs/theory.md, packet loss)
+    tmin, tmax = config.network.delay.min, config.network.delay.max + dropouts * config.network.sampling_time
     A_c, B_c, B_D_c = continuous_matrices(V, D)
     d_lo, d_hi = delay_indices(tmin, tmax, Ts)
     d_hi = max(d_hi, int(min_lifting or 0))
@@ -347,6 +351,7 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
         vertices=frozen_vertices,
         delay_description=delay_description,
         integral=integral,
+        dropouts=dropouts,
         J=_frozen(J_matrix(R, D)),
         J_inv=_frozen(J_inverse(R, D)),
     )
@@ -367,6 +372,12 @@ def coverage_check(model: Model, n_sequences: int = 1000, steps: int = 20, seed:
     taus[1, :] = dl.max
     taus[2, ::2] = dl.min
     taus[2, 1::2] = dl.max
+    if model.dropouts:  # random bursts of up to m lost commands (inf) on all but the extremes
+        from .network import gilbert_elliott, with_losses
+
+        lost = gilbert_elliott(rng, taus.shape, 0.3, max(1.0, model.dropouts), model.dropouts)
+        lost[:3] = False
+        taus = with_losses(taus, lost)
     s = model.s_tilde(taus).reshape(-1, model.d_hi)
     corners = np.array(np.meshgrid(*[r for r in model.instant_ranges], indexing="ij")).reshape(model.d_hi, -1).T
     s = np.vstack([s, corners])
@@ -392,3 +403,31 @@ def coverage_check(model: Model, n_sequences: int = 1000, steps: int = 20, seed:
         "max_residual": res,
         "passed": bool(max_delta <= 1.0 + 1e-12 and min_weight >= -1e-12 and sum_err <= 1e-12 and res <= 1e-12),
     }
+
+
+def pad_gain(K: np.ndarray, model: Model) -> np.ndarray:
+    """The same control law ``du_k = K xi_k`` on ``model``'s (possibly longer) lifted state: zero
+    columns for the older inputs the gain does not use, integrator columns kept last."""
+    from ..errors import InputError
+
+    K = np.asarray(K, dtype=float)
+    n_z = model.n_z
+    past = K.shape[1] - 3 - n_z if K.ndim == 2 else -1
+    if K.ndim != 2 or K.shape[0] != model.n_u or past < 2 or past % 2:
+        raise InputError(f"K has shape {K.shape}: expected {model.n_u} rows and 3 + 2 d_hi"
+                         + (" + 2" if n_z else "") + " columns (e, past inputs" + (", integrators)" if n_z else ")"))
+    d_k = past // 2
+    if d_k > model.d_hi:
+        raise InputError(f"K uses {d_k} past inputs; the model keeps {model.d_hi} (build it with min_lifting)")
+    out = np.zeros((model.n_u, model.n_s))
+    out[:, : 3 + 2 * d_k] = K[:, : 3 + 2 * d_k]
+    if n_z:
+        out[:, -n_z:] = K[:, -n_z:]
+    return out
+
+
+def lifted_slice(model: Model, longer: Model) -> np.ndarray:
+    """Indices of ``model``'s lifted state inside the state of ``longer`` (same config, longer lifting)."""
+    head = np.arange(3 + 2 * model.d_hi)
+    tail = np.arange(longer.n_s - model.n_z, longer.n_s)
+    return np.concatenate([head, tail])

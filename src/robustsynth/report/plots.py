@@ -141,7 +141,12 @@ def fig_network(res, model) -> Any:
     fig, axes = plt.subplots(2, 1, figsize=(9, 5), sharex=True)
     ax = axes[0]
     taus = scen_taus[0, model.d_hi :] * 1000
-    ax.plot(tk, taus, ".", ms=3, color="tab:purple", label="tau_k (sample run)")
+    lost = np.isinf(taus)
+    ax.plot(tk[~lost], taus[~lost], ".", ms=3, color="tab:purple", label="tau_k (sample run)")
+    if lost.any():  # lost commands (network.dropouts): marked above the delay range
+        y = cfg.network.delay.max * 1000 + 0.15 * cfg.network.sampling_time * 1000
+        ax.plot(tk[lost], np.full(lost.sum(), y), "x", ms=4, color="tab:red",
+                label=f"lost ({lost.sum()} of {lost.size}, bursts <= {cfg.network.dropouts.max_consecutive})")
     ax.axhline(cfg.network.delay.min * 1000, color="k", ls="--", lw=1, label="tau_min, tau_max")
     ax.axhline(cfg.network.delay.max * 1000, color="k", ls="--", lw=1)
     ax.axhline(cfg.network.sampling_time * 1000, color="grey", ls=":", lw=1, label="Ts")

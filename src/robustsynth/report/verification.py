@@ -100,6 +100,29 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
                               "runs not back before the next waypoint"],
                              [[fmt(w["t_switch_s"]), fmt(w["max_V_over_level_at_switch"], 4),
                                fmt(w["max_time_to_reenter_s"]), str(w["runs_not_reentered"])] for w in vl["waypoints"]]))
+    dr = mc.get("dropouts")
+    if dr:
+        ch = dr["channel"]
+        out.append(f"\nLossy link: {ch['model']} channel (loss probability {ch['probability']:g}, mean burst "
+                   f"{ch['mean_burst']:g} packets), bursts cut at {dr['max_consecutive']}: {dr['lost_packets']} commands "
+                   f"lost ({100 * dr['lost_fraction']:.1f} %), longest burst {dr['longest_burst']}"
+                   + (f"; the adversary dropped {100 * dr['adversary_lost_fraction']:.1f} % of its packets"
+                      if "adversary_lost_fraction" in dr else "") + ".\n")
+    bc = mc.get("beyond_cap")
+    if bc:
+        out.append(f"\n**Outside the model** (`verification.dropouts.exceed_cap`, not part of the verdict): {bc['runs']} runs "
+                   f"on the same channel with bursts not cut; {bc['runs_outside_model']} of them have a burst longer than "
+                   f"{cfg.network.dropouts.max_consecutive} (longest {bc['longest_burst']}), "
+                   f"{100 * bc['lost_fraction']:.1f} % lost.")
+        mo = bc.get("max_outside")
+        if mo:
+            out.append(f" Over whole runs they reach |e_x| = {100 * mo['e_x']:.2f} cm, |e_y| = {100 * mo['e_y']:.2f} cm, "
+                       f"|e_theta| = {mo['e_theta']:.4f} rad, |rho| = {mo['motor_speed']:.3f} rad/s")
+            if "max_V_over_level_outside" in bc:
+                r = bc["ratio_to_certified_outside"]
+                out.append(f"; max V/level {bc['max_V_over_level_outside']:.3f}, |e_y| {r['e_y']:.2f} x certified")
+            out.append(".")
+        out.append("\n")
     ss = mc.get("steady_state")
     if ss:
         out.append(f"\nSteady state under constant slip (each corner of the slip box): |e_x*| <= "

@@ -307,6 +307,63 @@ def steady_offsets(model, K: np.ndarray) -> dict[str, Any]:
     }
 
 
+def _loss_stats(model, scen, adv) -> dict[str, Any]:
+    from ..model.network import longest_burst
+
+    ch = model.config.verification.dropouts
+    lost = np.isinf(scen.taus[:, model.d_hi:])
+    out = {"max_consecutive": model.dropouts, "channel": {"model": "Gilbert-Elliott", "probability": ch.probability,
+                                                          "mean_burst": ch.mean_burst},
+           "lost_fraction": float(lost.mean()), "longest_burst": int(longest_burst(lost).max(initial=0)),
+           "lost_packets": int(lost.sum())}
+    if adv is not None:
+        out["adversary_lost_fraction"] = float(np.mean(np.isinf(adv["tau"])))
+    return out
+
+
+def _beyond_cap(model, K, gains: dict, cert: CertificateCheck, ub, runs: int, seed: int) -> dict[str, Any]:
+    """Runs on the configured channel with bursts *not* cut at the cap: outside the model when a
+    burst is longer than ``max_consecutive``.  Reported apart; not part of the verdict.  The robot
+    is simulated on a lifting long enough to hold the command in force through the longest burst
+    (the same control law, see :func:`robustsynth.model.pad_gain`)."""
+    from ..model import build_model, lifted_slice, pad_gain
+    from ..model.network import longest_burst
+
+    vc = model.config.verification
+    path = make_path(vc.path, model.V)
+    steps = max(1, int(math.floor(path.duration / model.Ts + 1e-9)))
+    probe = draw_scenario(model, runs, seed + 5, steps, path, losses="uncapped")
+    burst = longest_burst(np.isinf(probe.taus))
+    longer = build_model(model.config, min_lifting=model.d_hi + max(0, int(burst.max(initial=0)) - model.dropouts))
+    Kp = pad_gain(K, longer)
+    scen = steady_state_start(longer, Kp, path, draw_scenario(longer, runs, seed + 5, steps, path, losses="uncapped"))
+    sim = simulate(longer, Kp, path, scen, vc.transient)
+    burst = longest_burst(np.isinf(scen.taus))
+    outside = burst > model.dropouts
+    e = np.abs(sim.e[:, :-1])
+    out: dict[str, Any] = {
+        "runs": runs,
+        "runs_outside_model": int(outside.sum()),
+        "longest_burst": int(burst.max(initial=0)),
+        "lost_fraction": float(np.mean(np.isinf(scen.taus[:, longer.d_hi:]))),
+        "finite": bool(np.all(np.isfinite(sim.q))),
+        "max_outside": None, "max_inside": None,
+        "note": "not part of the verdict: bursts longer than network.dropouts.max_consecutive are outside the model; "
+                "maxima over whole runs (waypoint transients included)",
+    }
+    for name, sel in (("max_outside", outside), ("max_inside", ~outside)):
+        if sel.any():
+            out[name] = {"e_x": float(np.max(e[sel, :, 0])), "e_y": float(np.max(e[sel, :, 1])),
+                         "e_theta": float(np.max(e[sel, :, 2])), "motor_speed": float(np.max(np.abs(sim.rho[sel])))}
+    if ub and outside.any():
+        lyap = lyapunov_of(model, gains["certificate"])
+        xi = sim.true_xi()[..., lifted_slice(model, longer)]
+        v = lyap.V(xi, scen.mu) / float(cert.figures["ellipsoid_level"])
+        out["max_V_over_level_outside"] = float(np.max(v[outside]))
+        out["ratio_to_certified_outside"] = {k: out["max_outside"][k] / ub[k] for k in ("e_x", "e_y", "e_theta")}
+    return out
+
+
 def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: int, progress):
     vc = model.config.verification
     path = make_path(vc.path, model.V)
@@ -329,7 +386,9 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
         + ("" if starts_inside else " + the configured initial offset"),
         "slip_profiles": {p: int(sum(1 for x in scen.profiles if x == p)) for p in sorted(set(scen.profiles))},
         "slip_max_rate": model.config.slip.max_rate,
-        "delays": "uniform iid in [tau_min, tau_max]; plus 4 runs alternating min/max with corner-switching slip",
+        "delays": "uniform iid in [tau_min, tau_max]; plus 4 runs alternating min/max with corner-switching slip"
+        + ("; commands lost on a Gilbert-Elliott channel, bursts capped at network.dropouts.max_consecutive"
+           if model.dropouts else ""),
         "certified": {},
         "ratio_to_certified": {},
         "nonlinear_slack": slack,
@@ -380,6 +439,10 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
         rule = f"fixed transients of {vc.transient:g} s after each waypoint" + ("" if starts_inside else " and the start")
         mask = np.broadcast_to(sim.settled[None, :-1], sim.rho.shape[:2])
         mask_ext = np.broadcast_to(ext.settled[None, :-1], ext.rho.shape[:2])
+    if model.dropouts:
+        mc["dropouts"] = _loss_stats(model, scen, adv)
+    if vc.dropouts.exceed_cap:
+        mc["beyond_cap"] = _beyond_cap(model, K, gains, cert, ub, runs, seed)
     mc["excluded"] = rule
     mx = _maxima(sim.e[:, :-1], sim.rho, mask)
     mx_ext = _maxima(ext.e[:, :-1], ext.rho, mask_ext)

@@ -10,6 +10,8 @@ from ..errors import check_interrupt
 __all__ = [
     "closed_loop_run",
     "random_delays",
+    "delay_candidates",
+    "loss_allowed",
     "alternating_delays",
     "slip_vertices",
     "slip_candidates",
@@ -40,8 +42,35 @@ def closed_loop_run(model, K: np.ndarray, taus: np.ndarray, mu: np.ndarray, xi0:
 
 
 def random_delays(model, rng: np.random.Generator, N: int, steps: int) -> np.ndarray:
+    """Uniform iid delays; with ``network.dropouts`` also bursts of lost packets (``inf``) from the
+    configured channel, capped at ``max_consecutive``."""
     dl = model.config.network.delay
-    return rng.uniform(dl.min, dl.max, size=(N, steps + model.d_hi))
+    taus = rng.uniform(dl.min, dl.max, size=(N, steps + model.d_hi))
+    if model.dropouts:
+        from ..model.network import gilbert_elliott, with_losses
+
+        ch = model.config.verification.dropouts
+        lost = gilbert_elliott(rng, taus.shape, ch.probability, ch.mean_burst, model.dropouts)
+        lost[:, : model.d_hi] = False
+        taus = with_losses(taus, lost)
+    return taus
+
+
+def delay_candidates(model, n_tau: int) -> np.ndarray:
+    """The newest packet's delays an adversary may pick: an ``n_tau`` grid of [tau_min, tau_max],
+    and ``inf`` (lost) when the link may lose packets."""
+    dl = model.config.network.delay
+    grid = np.linspace(dl.min, dl.max, n_tau)
+    return np.append(grid, np.inf) if model.dropouts else grid
+
+
+def loss_allowed(model, hist: np.ndarray) -> np.ndarray:
+    """(N,) whether the next packet may be lost: fewer than ``max_consecutive`` losses end ``hist``."""
+    m = model.dropouts
+    if not m:
+        return np.zeros(hist.shape[0], dtype=bool)
+    tail = hist[:, -m:] if hist.shape[1] >= m else hist
+    return ~np.all(np.isinf(tail), axis=1) | (tail.shape[1] < m)
 
 
 def alternating_delays(model, N: int, steps: int, period: int = 1) -> np.ndarray:
@@ -83,10 +112,11 @@ def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 
     adversary may pick (:func:`slip_candidates`), take the choice that maximizes
     ``V_fn(xi_{k+1}, mu)``.  Returns (xi, taus, mu)."""
     dl = model.config.network.delay
-    tau_grid = np.linspace(dl.min, dl.max, n_tau)
+    tau_grid = delay_candidates(model, n_tau)
+    n_tau = tau_grid.size
     N = xi0.shape[0]
     d_hi = model.d_hi
-    hist = np.full((N, d_hi), (dl.min + dl.max) / 2.0)  # delays of the last d_hi packets
+    hist = np.full((N, d_hi), (dl.min + dl.max) / 2.0)  # delays of the last d_hi packets (inf: lost)
     xi = np.empty((N, steps + 1, model.n_s))
     xi[:, 0] = xi0
     taus_out = np.empty((N, steps + d_hi))
@@ -103,6 +133,8 @@ def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 
         A, B = model.exact(s[:, :, None, :], mu_cands[:, None, :, :])  # (N, n_tau, n_m, ...)
         nxt = np.einsum("ntmij,nj->ntmi", A + B @ K, xi[:, k]) + model.constant(mu_cands)[:, None]
         V = V_fn(nxt, np.broadcast_to(mu_cands[:, None], nxt.shape[:-1] + (2,)))  # (N, n_tau, n_m)
+        if model.dropouts:  # losing the newest packet only while the burst is below the cap
+            V = np.where(np.isinf(tau_grid)[None, :, None] & ~loss_allowed(model, hist)[:, None, None], -np.inf, V)
         flat = V.reshape(N, -1).argmax(axis=1)
         ti, di = np.unravel_index(flat, (n_tau, n_m))
         xi[:, k + 1] = nxt[np.arange(N), ti, di]

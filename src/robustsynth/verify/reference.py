@@ -31,7 +31,14 @@ def simulate_run(model, K: np.ndarray, path: PathGeometry, scen: Scenario, n: in
     steps = scen.steps
     taus = scen.taus[n]
     send = (np.arange(steps + d_hi) - d_hi) * Ts
-    arrive = np.maximum.accumulate(send + taus)
+    # in order: a received packet is delivered at the latest arrival among itself and the received
+    # packets sent before it; a lost one (delay inf) never arrives
+    arrive = np.full(taus.shape, np.inf)
+    latest = -np.inf
+    for i, tau in enumerate(taus):
+        if np.isfinite(tau):
+            latest = max(latest, send[i] + tau)
+            arrive[i] = latest
     uD = np.array([V, 0.0])
     cfg = model.config
     rho_sat = cfg.robot.max_motor_speed if cfg.verification.motor_saturation else None

@@ -16,6 +16,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import check_interrupt
+from ..model.network import gilbert_elliott, with_losses
 from ..model.kinematics import JHJinv
 
 __all__ = [
@@ -201,10 +202,12 @@ def slip_profiles(rng: np.random.Generator, kinds: list[str], steps: int, lo: np
 
 
 def draw_scenario(model, runs: int, seed: int, steps: int, path: PathGeometry, delays: str = "random",
-                  slip: str | None = None) -> Scenario:
+                  slip: str | None = None, losses: bool | str = True) -> Scenario:
     """Seeded random scenario. ``delays``: 'random' (uniform iid), 'alternating' (min/max),
     'constant-min', 'constant-max'.  ``slip``: a profile for every run, or None to cycle through
-    SLIP_PROFILES; 'none' for mu = 1.  Runs start at the pose of the config's initial offset with no
+    SLIP_PROFILES; 'none' for mu = 1.  With ``network.dropouts.max_consecutive`` > 0 commands are lost
+    on the configured Gilbert-Elliott channel (``verification.dropouts``; delay ``inf``), bursts cut
+    at the cap (``losses='uncapped'``: not cut; False: no losses).  Runs start at the pose of the config's initial offset with no
     stored commands; :func:`steady_state_start` moves them to the steady state of their first slip."""
     cfg = model.config
     vc = cfg.verification
@@ -219,6 +222,13 @@ def draw_scenario(model, runs: int, seed: int, steps: int, path: PathGeometry, d
         taus = np.full((runs, n_pk), dl.min if delays == "constant-min" else dl.max)
     else:
         raise ValueError(f"unknown delay pattern {delays!r}")
+    m = cfg.network.dropouts.max_consecutive
+    if m and losses:  # bursty losses from their own stream: the other draws do not depend on them
+        ch = vc.dropouts
+        lost = gilbert_elliott(np.random.default_rng([seed, 1]), (runs, n_pk), ch.probability, ch.mean_burst,
+                               None if losses == "uncapped" else m)
+        lost[:, : model.d_hi] = False  # commands sent before t_0 arrived (the run starts in their steady state)
+        taus = with_losses(taus, lost)
     lo = np.array([cfg.slip.right.min, cfg.slip.left.min])
     hi = np.array([cfg.slip.right.max, cfg.slip.left.max])
     if slip == "none":
@@ -379,8 +389,10 @@ def greedy_nonlinear(model, K: np.ndarray, V_fn: Callable[[np.ndarray, np.ndarra
     J_inv, J = np.asarray(model.J_inv), np.asarray(model.J)
     rho_sat = cfg.robot.max_motor_speed if cfg.verification.motor_saturation else None
     dl = cfg.network.delay
-    taus = np.linspace(dl.min, dl.max, n_tau)
-    from .lifted import slip_candidates
+    from .lifted import delay_candidates, loss_allowed, slip_candidates
+
+    taus = delay_candidates(model, n_tau)  # with a lossy link also inf: the newest packet is lost
+    n_tau = taus.size
 
     N = mu0.shape[0]
     path = make_path(((0.0, 0.0), (V * Ts * (steps + 10), 0.0)), V)
@@ -424,7 +436,10 @@ def greedy_nonlinear(model, K: np.ndarray, V_fn: Callable[[np.ndarray, np.ndarra
         e_next = frame_error(path, 0, q_next, tk + Ts)
         rest = np.concatenate([(U[:, :d_hi] - uD).reshape(N, -1), z], axis=1)
         xi_next = np.concatenate([e_next, np.broadcast_to(rest[:, None, None, :], (N, n_c, n_tau, rest.shape[1]))], axis=-1)
-        val = V_fn(xi_next, np.broadcast_to(cand_mu[:, :, None, :], (N, n_c, n_tau, 2))).reshape(N, -1)
+        val = V_fn(xi_next, np.broadcast_to(cand_mu[:, :, None, :], (N, n_c, n_tau, 2)))
+        if model.dropouts:  # a loss only while the burst is below the cap
+            val = np.where(np.isinf(taus)[None, None, :] & ~loss_allowed(model, hist)[:, None, None], -np.inf, val)
+        val = val.reshape(N, -1)
         best = val.argmax(axis=1)
         ci, ti = np.unravel_index(best, (n_c, n_tau))
         r = np.arange(N)
