@@ -141,3 +141,34 @@ def test_valid_configs_roundtrip(R, D, V, Ts, t1, t2, m1, m2, rho) -> None:
     d["slip"]["right"] = {"min": min(m1, m2), "max": max(m1, m2)}
     cfg = parse_config(_dump(d))
     assert Config.model_validate(cfg.model_dump(mode="json")) == cfg
+
+
+@pytest.mark.parametrize("value, expected", [
+    (-1, "network.dropouts.max_consecutive: Input should be greater than or equal to 0"),
+    (1.5, "network.dropouts.max_consecutive: Input should be a valid integer (got float)"),
+    ("2", "network.dropouts.max_consecutive: Input should be a valid integer (got str)"),
+    (20, "network.dropouts.max_consecutive: 20 lost commands after a delay of up to 0.08 s reach 2.08 s"),
+])
+def test_bad_dropouts_name_the_key_and_the_limit(value, expected) -> None:
+    d = default_dict()
+    d["network"]["dropouts"] = {"max_consecutive": value}
+    with pytest.raises(ConfigError) as ei:
+        parse_config(yaml.safe_dump(d))
+    assert str(ei.value).startswith(expected), str(ei.value)
+    if value == 20:
+        assert "the lifting supports up to 20 * network.sampling_time = 2 s (max_consecutive <= 19 here)" in str(ei.value)
+
+
+def test_cli_exits_2_on_a_bad_dropout_cap(tmp_path) -> None:
+    from click.testing import CliRunner
+
+    from robustsynth.cli import main
+
+    d = default_dict()
+    d["network"]["dropouts"] = {"max_consecutive": -2}
+    p = tmp_path / "c.yaml"
+    p.write_text(yaml.safe_dump(d))
+    r = CliRunner().invoke(main, ["synthesize", str(p), "-o", str(tmp_path / "o")])
+    assert r.exit_code == 2
+    assert r.output.strip().splitlines() == ["error: network.dropouts.max_consecutive: Input should be greater than or equal to 0"]
+    assert not (tmp_path / "o").exists()

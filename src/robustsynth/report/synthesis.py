@@ -149,10 +149,16 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
     rate = cfg.slip.max_rate
     out.append(
         f"- delays tau in [{cfg.network.delay.min:g}, {cfg.network.delay.max:g}] s, sampling Ts = {cfg.network.sampling_time:g} s,"
-        f" d_lo = {model.d_lo}, d_hi = {model.d_hi}, in-order delivery, no packet loss;\n"
-        f"- slip mu_r in [{cfg.slip.right.min:g}, {cfg.slip.right.max:g}], mu_l in [{cfg.slip.left.min:g}, {cfg.slip.left.max:g}],"
+        f" d_lo = {model.d_lo}, d_hi = {model.d_hi}, in-order delivery, "
+        + ("no packet loss;\n" if not model.dropouts else
+           f"at most {model.dropouts} commands lost in a row (the actuator holds the last one received; covered as an "
+           f"effective delay of up to {cfg.network.delay.max + model.dropouts * cfg.network.sampling_time:g} s);\n")
+        + f"- slip mu_r in [{cfg.slip.right.min:g}, {cfg.slip.right.max:g}], mu_l in [{cfg.slip.left.min:g}, {cfg.slip.left.max:g}],"
         " constant within a sampling period, " + ("free to jump anywhere in its range every period" if rate is None else
-        f"changing at most {rate:g} /s (the certificate does not use the rate bound; verification's profiles respect it)")
+        f"changing at most {rate:g} /s (" + ("the slip-dependent certificate uses the rate bound"
+                                              if cfg.synthesis.lyapunov == "slip-dependent" else
+                                              "a common Lyapunov matrix does not use the rate bound")
+        + "; verification's profiles respect it)")
         + ";\n"
     )
     if model.kind == "paper":

@@ -112,7 +112,8 @@ def _weights(settings: SynthesisConfig) -> np.ndarray:
 
 
 def _delay_text(model: Any) -> str:
-    return f"delays up to {model.config.network.delay.max:g} s"
+    m = model.config.network.dropouts.max_consecutive
+    return f"delays up to {model.config.network.delay.max:g} s" + (f" and {m} lost commands in a row" if m else "")
 
 
 def _run_stability(model: Any, s: SynthesisConfig, search: list) -> tuple[_Best, _Runner]:
