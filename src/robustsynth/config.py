@@ -163,10 +163,12 @@ class SynthesisConfig(_Node):
     integral_action: bool = Field(
         default=False, description="integrator states int_e_x, int_e_y appended to the lifted state (zero steady error)"
     )
-    delay_description: Literal["auto", "polytopic", "norm-bounded"] = Field(
+    delay_description: Literal["auto", "polytopic", "norm-bounded", "lossy-polytopic"] = Field(
         default="auto",
         description="slip-aware model: delay instants by the exact-hull triangle vertices (polytopic), by the "
-        "norm-bounded embedding with multipliers, or auto (polytopic for one uncertain instant)",
+        "norm-bounded embedding with multipliers, by the vertices of the instants a lossy link can really produce "
+        "(lossy-polytopic; needs network.delay.max <= network.sampling_time), or auto (lossy-polytopic on a lossy "
+        "link with delay.max <= Ts, else polytopic for one uncertain instant, else norm-bounded)",
     )
     multiplier: Literal["structured", "full"] = Field(
         default="structured", description="S-procedure multiplier for Delta: one per block or one scalar"

@@ -254,34 +254,43 @@ class _Search:
         return w
 
 
+def _first_instability(search: "_Search", grid: np.ndarray, tol: float) -> dict[str, Any] | None:
+    """Walk ``grid`` (from the configured side outwards) until the search exhibits an instability,
+    then bisect between the last clean value and that one to ``tol``; the witness found last."""
+    witness, prev, bad = None, None, None
+    for x in grid:
+        witness = search.unstable(float(x))
+        if witness is not None:
+            bad = float(x)
+            break
+        prev = float(x)
+    if witness is None or prev is None:
+        return witness
+    while abs(bad - prev) > tol:
+        mid = (prev + bad) / 2.0
+        w = search.unstable(mid)
+        if w is not None:
+            witness, bad = w, mid
+        else:
+            prev = mid
+    return witness
+
+
 def _delay_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[str], None]) -> Margin:
     dl, Ts = config.network.delay, config.network.sampling_time
     from .config import MAX_D_HI
 
-    top = MAX_D_HI * Ts
+    # the lifting holds tau_max + m Ts <= MAX_D_HI Ts (m lost commands in a row)
+    top = (MAX_D_HI - config.network.dropouts.max_consecutive) * Ts
     search = _Search(config, K, lambda x: {"network.delay.max": float(x)}, lyapunov, say)
     tol = DELAY_TOL_PERIODS * Ts
     say("delay_max: instability search")
     # exhibited: scan tau_max up from tau_min in tenths of a period, then bisect the first bracket
     step = Ts / 10.0
     grid = np.arange(dl.min, top + 1e-12, step)
-    witness, prev, first_bad = None, None, None
-    for x in grid:
-        w = search.unstable(float(x))
-        if w is not None:
-            witness, first_bad = w, float(x)
-            break
-        prev = float(x)
+    witness = _first_instability(search, grid, tol / 4)
     exhibited = None
     if witness is not None:
-        if prev is not None:
-            while first_bad - prev > tol / 4:
-                mid = (prev + first_bad) / 2.0
-                w = search.unstable(mid)
-                if w is not None:
-                    witness, first_bad = w, mid
-                else:
-                    prev = mid
         exhibited = float(np.max(witness_delays(witness)[~np.isinf(witness_delays(witness))]))  # admissible for tau_max >= this
     say("delay_max: certificate bisection")
     hi = exhibited if exhibited is not None else top
@@ -299,7 +308,7 @@ def _delay_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[s
     note = ("certified: largest tau_max [s] with a robust-stability certificate (tau_min as configured); "
             "exhibited: smallest tau_max admitting the witness delay sequence")
     if exhibited is None:
-        note += f"; no instability found for tau_max up to {top:g} s ({MAX_D_HI} periods)"
+        note += f"; no instability found for tau_max up to {top:g} s (the lifting's limit)"
     return Margin("delay_max", "s", "max", float(dl.max), certified, exhibited, witness, (float(dl.min), float(top)),
                   note, tuple(search.evaluations))
 
@@ -311,23 +320,9 @@ def _slip_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[st
     search = _Search(config, K, lambda x: {"slip.right.min": float(x), "slip.left.min": float(x)}, lyapunov, say)
     say("slip_min: instability search")
     grid = np.arange(mu_hi, SLIP_FLOOR - 1e-12, -0.05)
-    witness, prev, first_bad = None, None, None
-    for x in grid:
-        w = search.unstable(float(x))
-        if w is not None:
-            witness, first_bad = w, float(x)
-            break
-        prev = float(x)
+    witness = _first_instability(search, grid, SLIP_TOL / 4)
     exhibited = None
     if witness is not None:
-        if prev is not None:
-            while prev - first_bad > SLIP_TOL / 4:
-                mid = (prev + first_bad) / 2.0
-                w = search.unstable(mid)
-                if w is not None:
-                    witness, first_bad = w, mid
-                else:
-                    prev = mid
         exhibited = min(min(s) for s in witness["slip"])  # admissible for any mu_min <= this
     say("slip_min: certificate bisection")
     lo = exhibited if exhibited is not None else SLIP_FLOOR

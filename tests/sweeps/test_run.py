@@ -33,6 +33,7 @@ axes:
 """
 POLL_S = 0.05  # how often the kill test looks for stored points
 WAIT_S = 120.0  # how long it waits for them at most
+ORPHAN_S = 10.0  # how long the workers of a killed driver may take to exit
 
 
 def _no_time(rows):
@@ -112,21 +113,48 @@ def test_verify_adds_the_robot_columns(tmp_path, spec_path) -> None:
         assert row["max_e_y_m"] <= row["e_y_m"]
 
 
-def test_sigkill_loses_only_points_in_flight(tmp_path) -> None:
+def _children(pid: int) -> set[int]:
+    out: set[int] = set()
+    for task in Path(f"/proc/{pid}/task").glob("*"):
+        try:
+            out |= {int(x) for x in (task / "children").read_text().split()}
+        except OSError:
+            pass
+    return out
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state not in ("Z", "X")  # a zombie has exited (nobody may reap it in a container)
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_sigkill_loses_only_points_in_flight(tmp_path, workers) -> None:
+    """The driver is killed with SIGKILL: stored points are whole, local workers exit with it (no
+    orphan finishing its point), and a rerun reuses exactly the stored points."""
     (tmp_path / "base.yaml").write_text(BASE)
     (tmp_path / "k.yaml").write_text("base: base.yaml\naxes:\n  network.delay.max: [0.02, 0.03, 0.04, 0.05, 0.06, 0.07]\n")
     out = tmp_path / "out"
     proc = subprocess.Popen([sys.executable, "-m", "robustsynth", "sweep", str(tmp_path / "k.yaml"), "-o", str(out),
-                             "--workers", "1", "-q"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+                             "--workers", str(workers), "-q"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     t0 = time.monotonic()
+    kids: set[int] = set()
     try:
         while len(list((out / "points").glob("*.json"))) < 2:
             assert proc.poll() is None, "the sweep ended before it could be killed"
             assert time.monotonic() - t0 < WAIT_S
             time.sleep(POLL_S)
+        kids = _children(proc.pid)
     finally:
         os.kill(proc.pid, signal.SIGKILL)
         proc.wait()
+    t1 = time.monotonic()
+    while any(_alive(k) for k in kids) and time.monotonic() - t1 < ORPHAN_S:
+        time.sleep(POLL_S)
+    assert not any(_alive(k) for k in kids), "worker processes outlived the killed driver"
     stored = list((out / "points").glob("*.json"))
     for p in stored:
         assert json.loads(p.read_text())["status"] == "certified"  # each file whole (atomic writes)

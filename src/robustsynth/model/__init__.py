@@ -20,12 +20,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..config import Config
+from ..errors import ConfigError
 from .kinematics import J_inverse, J_matrix
 from .lifting import delay_indices, instant_ranges, lift, lifted_exact, s_tilde_sequence
 from .linearize import Gamma, Gamma_D, Phi, continuous_matrices
 from .slip import corner_weights, next_corner_weights, slip_corners, slip_matrix
 from .uncertainty import SlipBox, UncertainInstant, delta_for, embed, slip_box
-from .vertices import Vertex, apply_slip, augment_integral, delay_vertex_gammas, triangle_coordinates
+from .vertices import (Vertex, apply_slip, augment_integral, delay_vertex_gammas, loss_hull_coordinates,
+                       loss_instant_grid, loss_vertex_gammas, triangle_coordinates)
 
 __all__ = ["Model", "Vertex", "build_model", "pad_gain", "UncertainInstant", "SlipBox", "state_names", "INPUT_NAMES",
            "MODEL_KINDS", "MAX_POLYTOPIC_INSTANTS"]
@@ -207,6 +209,14 @@ class Model:
         """Weights (n_next, n_c) over the corners of the slips that can follow corner m (one period)."""
         return next_corner_weights(self.corners[m], *self.slip_ranges, self.slip_step)
 
+    def reachable_instants(self, n: int) -> np.ndarray | None:
+        """Switching-instant vectors the link can produce, delays on an n-point grid, when the model
+        describes exactly those (lossy-polytopic); None when every vector in the instant ranges counts."""
+        if self.delay_description != "lossy-polytopic":
+            return None
+        dl = self.config.network.delay
+        return loss_instant_grid(self.Ts, dl.min, dl.max, self.dropouts, self.d_hi, n)
+
     def hull_coordinates(self, s_tilde: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Convex weights (..., n_vertices) and diag(Delta) (..., n_q) such that
         ``sum_i lambda_i (A_i + B_p Delta C_q_i, B_i + B_p Delta D_q_i, E_i w(mu))`` is the exact
@@ -222,6 +232,12 @@ class Model:
         lam = self.corner_weights(mu)  # (..., n_c)
         if self.delay_description == "norm-bounded":
             return lam, dlt
+        if self.delay_description == "lossy-polytopic":
+            cfg = self.config
+            w = loss_hull_coordinates(s_tilde, self.Ts, cfg.network.delay.min, cfg.network.delay.max, self.dropouts,
+                                      self.d_hi, _WIDTH_TOL * max(self.Ts, 1.0))
+            out = (lam[..., :, None] * w[..., None, :]).reshape(batch + (-1,))
+            return out, np.zeros(batch + (0,))
         # polytopic: corner-major, then the product of the per-instant triangle coordinates
         tri = [np.ones(batch + (1,))]
         for j in range(self.d_hi):
@@ -301,8 +317,16 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
     if kind == "paper":
         vertices.append(Vertex(A, B, B_d @ slip.W, B_p, C_q, D_q, 0, "nominal (mu = 1), slip as additive box"))
     else:
+        tau_hi = config.network.delay.max  # of a received command (lost ones: the effective tmax)
         delay_description = _resolve_delay_description(syn.delay_description, len(instants))
-        if delay_description == "polytopic":  # the delay vertices, the same for every slip corner
+        if syn.delay_description == "lossy-polytopic" or (syn.delay_description == "auto" and dropouts and tau_hi <= Ts):
+            if tau_hi > Ts * (1 + 1e-12):
+                raise ConfigError(f"synthesis.delay_description: lossy-polytopic needs network.delay.max <= "
+                                  f"network.sampling_time (got {tau_hi:g} > {Ts:g}); use auto or norm-bounded")
+            delay_description = "lossy-polytopic"
+            labels, gammas = loss_vertex_gammas(A_c, B_c, Ts, tmin, tau_hi, dropouts, d_hi, _WIDTH_TOL * max(Ts, 1.0))
+            A_t, B_t, _ = lift(Ph, gammas, Gamma(A_c, B_c, Ts), GD)
+        elif delay_description == "polytopic":  # the delay vertices, the same for every slip corner
             labels, gammas, _ = delay_vertex_gammas(A_c, B_c, Ts, ranges, _WIDTH_TOL * max(Ts, 1.0))
             A_t, B_t, _ = lift(Ph, gammas, Gamma(A_c, B_c, Ts), GD)
         for m, mu in enumerate(corners):
@@ -379,7 +403,10 @@ def coverage_check(model: Model, n_sequences: int = 1000, steps: int = 20, seed:
         lost[:3] = False
         taus = with_losses(taus, lost)
     s = model.s_tilde(taus).reshape(-1, model.d_hi)
-    corners = np.array(np.meshgrid(*[r for r in model.instant_ranges], indexing="ij")).reshape(model.d_hi, -1).T
+    if model.delay_description == "lossy-polytopic":  # only the instants a lossy link produces
+        corners = model.reachable_instants(5)
+    else:
+        corners = np.array(np.meshgrid(*[r for r in model.instant_ranges], indexing="ij")).reshape(model.d_hi, -1).T
     s = np.vstack([s, corners])
     (rl, rh), (ll, lh) = model.slip_ranges
     mu = np.stack([rng.uniform(rl, rh, s.shape[0]), rng.uniform(ll, lh, s.shape[0])], axis=1)

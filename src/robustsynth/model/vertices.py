@@ -114,3 +114,80 @@ def delay_vertex_gammas(A_c: np.ndarray, B_c: np.ndarray, Ts: float, ranges: np.
         labels.append(", ".join(c[0] for c in combo))
         gammas.append(np.stack([c[1] for c in combo]))
     return labels, np.array(gammas), unc
+
+
+def loss_pieces(Ts: float, tau_min: float, tau_max: float, m: int, d_hi: int) -> list[tuple[str, int]]:
+    """The pieces of the reachable switching instants on a link that loses at most m commands in a
+    row, for tau_max <= Ts (docs/theory.md §3): ``('R', g)``: the newest command arrives after
+    tau in [tau_min, tau_max] and the g before it were lost, s~ = (tau x (g+1), 0, ...);
+    ``('L', g)``: the newest g commands are lost, s~ = (Ts x g, 0, ...)."""
+    pieces = [("R", g) for g in range(0, min(m, d_hi - 1) + 1)]
+    pieces += [("L", g) for g in range(1, min(m, d_hi) + 1)]
+    return pieces
+
+
+def loss_vertex_gammas(A_c: np.ndarray, B_c: np.ndarray, Ts: float, tau_min: float, tau_max: float, m: int,
+                       d_hi: int, width_tol: float):
+    """Delay vertices of the exact reachable set under loss (:func:`loss_pieces`): labels and
+    per-instant Gammas (n_v, d_hi, n_e, n_u).  A piece R_g ties instants 0..g to one delay, so its
+    vertices are the three triangle vertices of (h, h^2/2), h = Ts - tau, applied to all of them."""
+    AB = A_c @ B_c
+    G = lambda h, q: h * B_c + q * AB  # noqa: E731
+    zero = G(Ts, Ts**2 / 2.0)  # s~ = 0: the command was in force for the whole period
+    h_min, h_max = Ts - tau_max, Ts - tau_min
+    tri = triangle(h_min, h_max) if h_max - h_min > width_tol else np.array([[h_max, h_max**2 / 2.0]])
+    labels, gammas = [], []
+    for kind, g in loss_pieces(Ts, tau_min, tau_max, m, d_hi):
+        if kind == "R":
+            for v, (h, q) in enumerate(tri):
+                name = ("tau=max", "tau=min", "tangents")[v] if len(tri) == 3 else "tau"
+                labels.append(f"received after {g} lost, {name}")
+                gammas.append(np.stack([G(h, q) if j <= g else zero for j in range(d_hi)]))
+        else:
+            labels.append(f"newest {g} lost")
+            gammas.append(np.stack([G(0.0, 0.0) if j < g else zero for j in range(d_hi)]))
+    return labels, np.array(gammas)
+
+
+def loss_hull_coordinates(s_tilde: np.ndarray, Ts: float, tau_min: float, tau_max: float, m: int, d_hi: int,
+                          width_tol: float, tol: float = 1e-12) -> np.ndarray:
+    """Convex weights (..., n_v) over :func:`loss_vertex_gammas` for reachable instants ``s_tilde``
+    (..., d_hi); raises ValueError for instants outside the reachable set."""
+    s = np.asarray(s_tilde, dtype=float)
+    pieces = loss_pieces(Ts, tau_min, tau_max, m, d_hi)
+    h_min, h_max = Ts - tau_max, Ts - tau_min
+    n_tri = 3 if h_max - h_min > width_tol else 1
+    sizes = [n_tri if k == "R" else 1 for k, _ in pieces]
+    offsets = np.concatenate([[0], np.cumsum(sizes)])
+    flat = s.reshape(-1, d_hi)
+    out = np.zeros((flat.shape[0], int(offsets[-1])))
+    for n, row in enumerate(flat):
+        lead = int(np.argmax(np.abs(row - row[0]) > tol)) if np.any(np.abs(row - row[0]) > tol) else d_hi
+        rest_zero = np.all(np.abs(row[lead:]) <= tol)
+        if abs(row[0] - Ts) <= tol and ("L", lead) in pieces and rest_zero:
+            out[n, offsets[pieces.index(("L", lead))]] = 1.0
+            continue
+        g = min(lead - 1, min(m, d_hi - 1))
+        ok = rest_zero or np.all(np.abs(row[g + 1:]) <= tol)
+        if not ok or not (tau_min - tol <= row[0] <= tau_max + tol) or np.any(np.abs(row[: g + 1] - row[0]) > tol):
+            raise ValueError(f"switching instants {row.tolist()} are not reachable on this lossy link")
+        i = offsets[pieces.index(("R", g))]
+        if n_tri == 3:
+            out[n, i : i + 3] = triangle_coordinates(Ts - row[0], h_min, h_max)
+        else:
+            out[n, i] = 1.0
+    return out.reshape(s.shape[:-1] + (int(offsets[-1]),))
+
+
+def loss_instant_grid(Ts: float, tau_min: float, tau_max: float, m: int, d_hi: int, n: int) -> np.ndarray:
+    """Reachable switching-instant vectors (rows, (n_rows, d_hi)) on a lossy link (tau_max <= Ts):
+    every piece of :func:`loss_pieces`, the delay on an n-point grid."""
+    taus = np.linspace(tau_min, tau_max, max(n, 1)) if tau_max > tau_min else np.array([tau_min])
+    rows = []
+    for kind, g in loss_pieces(Ts, tau_min, tau_max, m, d_hi):
+        if kind == "R":
+            for t in taus:
+                rows.append([t if j <= g else 0.0 for j in range(d_hi)])
+        else:
+            rows.append([Ts if j < g else 0.0 for j in range(d_hi)])
+    return np.array(rows)

@@ -139,7 +139,23 @@ def _worker_init() -> None:
     # the driver handles Ctrl-C / SIGTERM and stops the pool; a worker must not print a traceback
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    _die_with_parent()
     import robustsynth.synthesis  # noqa: F401  (warm: cvxpy and the solvers are imported once per worker)
+
+
+def _die_with_parent() -> None:
+    """Linux: SIGTERM this worker when the driver dies, even by SIGKILL (otherwise an orphaned worker
+    would finish its point and linger).  Elsewhere a no-op."""
+    import ctypes
+    import ctypes.util
+
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+        libc.prctl(1, signal.SIGTERM, 0, 0, 0)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+    if os.getppid() == 1:  # the driver died before prctl took effect
+        os._exit(1)
 
 
 def _local(payloads: list[dict[str, Any]], workers: int) -> Iterator[dict[str, Any]]:

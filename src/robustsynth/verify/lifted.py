@@ -147,7 +147,11 @@ def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 
 
 def frozen_instant_grid(model, n: int) -> np.ndarray:
     """Admissible frozen switching-instant vectors s~ (rows): every uncertain instant on an
-    n-point grid of its range, combined monotonically (s~_0 >= s~_1 >= ...); fixed ones fixed."""
+    n-point grid of its range, combined monotonically (s~_0 >= s~_1 >= ...); fixed ones fixed.  On a
+    lossy link described exactly (lossy-polytopic): the vectors the link can produce."""
+    reach = model.reachable_instants(n)
+    if reach is not None:
+        return reach
     axes = []
     for j in range(model.d_hi):
         lo, hi = model.instant_ranges[j]
