@@ -47,7 +47,9 @@ def setups():
         "saturated": {"verification.motor_saturation": True},
         "integral": {"synthesis.integral_action": True, "robot.max_motor_speed": None},
         "offset": {"verification.initial_offset.y": 0.05},
-        "lossy": {"network.dropouts.max_consecutive": 3, "verification.dropouts.probability": 0.3},
+        # the simulator, not the description, is under test: the quick norm-bounded one
+        "lossy": {"network.dropouts.max_consecutive": 3, "verification.dropouts.probability": 0.3,
+                  "synthesis.delay_description": "norm-bounded"},
     }.items():
         m = build_model(make_config(**over))
         res = synthesize(m, objective="stability")
