@@ -26,7 +26,8 @@ import numpy as np
 
 from .config import Config, config_with
 from .errors import InputError, check_interrupt
-from .model import pad_gain
+from .model import gain_lifting, pad_gain
+from .model.network import longest_burst
 
 __all__ = ["Margin", "MarginReport", "margin", "find_instability", "witness_delays", "pad_gain", "EXHIBIT_TOL"]
 
@@ -103,31 +104,12 @@ class MarginReport:
         return out
 
 
-# --------------------------------------------------------------------------------------- gains
-
-
-def _lifting_of(K: np.ndarray, integral: bool) -> int:
-    n_z = 2 if integral else 0
-    past = K.shape[1] - 3 - n_z
-    if K.ndim != 2 or K.shape[0] != 2 or past < 2 or past % 2:
-        raise InputError(f"K has shape {K.shape}: expected 2 rows and 3 + 2 d_hi{' + 2' if integral else ''} "
-                         "columns (e, past inputs" + (", integrators)" if integral else ")"))
-    return past // 2
-
-
 # ------------------------------------------------------------------------ exhibited instability
 
 
 def _max_cyclic_run(lost: np.ndarray) -> np.ndarray:
     """Longest run of True per row, counted around the period (rows are periodic)."""
-    p = lost.shape[1]
-    twice = np.concatenate([lost, lost], axis=1)
-    best = np.zeros(lost.shape[0], dtype=int)
-    run = np.zeros(lost.shape[0], dtype=int)
-    for i in range(2 * p):
-        run = np.where(twice[:, i], run + 1, 0)
-        best = np.maximum(best, run)
-    return np.minimum(best, p)
+    return np.minimum(longest_burst(np.concatenate([lost, lost], axis=1)), lost.shape[1])
 
 
 def _delay_sequences(grid: np.ndarray, p: int, max_lost: int) -> np.ndarray:
@@ -223,7 +205,7 @@ class _Search:
     def __init__(self, config: Config, K: np.ndarray, set_value: Callable[[float], dict[str, Any]],
                  lyapunov: str, say: Callable[[str], None]):
         self.config, self.K, self.set_value, self.lyapunov, self.say = config, K, set_value, lyapunov, say
-        self.lifting = _lifting_of(K, config.synthesis.integral_action)
+        self.lifting = gain_lifting(K, config.synthesis.integral_action)
         self.evaluations: list[dict[str, Any]] = []
 
     def model(self, x: float):
@@ -395,7 +377,7 @@ def margin(config: Config, K: np.ndarray, *, lyapunov: str | None = None,
     if lyapunov not in ("common", "slip-dependent", "auto"):
         raise InputError(f"lyapunov: must be common, slip-dependent or auto (got {lyapunov!r})")
     K = np.asarray(K, dtype=float)
-    _lifting_of(K, config.synthesis.integral_action)  # a gain of the wrong shape fails here, not mid-search
+    gain_lifting(K, config.synthesis.integral_action)  # a gain of the wrong shape fails here, not mid-search
     t0 = time.perf_counter()
     d = _delay_margin(config, K, lyapunov, say)
     t1 = time.perf_counter()

@@ -29,7 +29,7 @@ from .uncertainty import SlipBox, UncertainInstant, delta_for, embed, slip_box
 from .vertices import (Vertex, apply_slip, augment_integral, delay_vertex_gammas, loss_hull_coordinates,
                        loss_instant_grid, loss_vertex_gammas, triangle_coordinates)
 
-__all__ = ["Model", "Vertex", "build_model", "pad_gain", "UncertainInstant", "SlipBox", "state_names", "INPUT_NAMES",
+__all__ = ["Model", "Vertex", "build_model", "pad_gain", "gain_lifting", "UncertainInstant", "SlipBox", "state_names", "INPUT_NAMES",
            "MODEL_KINDS", "MAX_POLYTOPIC_INSTANTS"]
 
 INPUT_NAMES = ("dV", "omega")
@@ -432,6 +432,19 @@ def coverage_check(model: Model, n_sequences: int = 1000, steps: int = 20, seed:
     }
 
 
+def gain_lifting(K: np.ndarray, integral: bool) -> int:
+    """How many past inputs a gain ``K`` (2 x (3 + 2 d + 2 integral)) acts on; InputError otherwise."""
+    from ..errors import InputError
+
+    K = np.asarray(K, dtype=float)
+    n_z = 2 if integral else 0
+    past = K.shape[1] - 3 - n_z if K.ndim == 2 else -1
+    if K.ndim != 2 or K.shape[0] != len(INPUT_NAMES) or past < 2 or past % 2:
+        raise InputError(f"K has shape {K.shape}: expected {len(INPUT_NAMES)} rows and 3 + 2 d_hi"
+                         + (" + 2" if n_z else "") + " columns (e, past inputs" + (", integrators)" if n_z else ")"))
+    return past // 2
+
+
 def pad_gain(K: np.ndarray, model: Model) -> np.ndarray:
     """The same control law ``du_k = K xi_k`` on ``model``'s (possibly longer) lifted state: zero
     columns for the older inputs the gain does not use, integrator columns kept last."""
@@ -439,11 +452,7 @@ def pad_gain(K: np.ndarray, model: Model) -> np.ndarray:
 
     K = np.asarray(K, dtype=float)
     n_z = model.n_z
-    past = K.shape[1] - 3 - n_z if K.ndim == 2 else -1
-    if K.ndim != 2 or K.shape[0] != model.n_u or past < 2 or past % 2:
-        raise InputError(f"K has shape {K.shape}: expected {model.n_u} rows and 3 + 2 d_hi"
-                         + (" + 2" if n_z else "") + " columns (e, past inputs" + (", integrators)" if n_z else ")"))
-    d_k = past // 2
+    d_k = gain_lifting(K, model.integral)
     if d_k > model.d_hi:
         raise InputError(f"K uses {d_k} past inputs; the model keeps {model.d_hi} (build it with min_lifting)")
     out = np.zeros((model.n_u, model.n_s))

@@ -23,12 +23,11 @@ from ..config import config_to_dict, config_with
 from ..errors import ConfigError, InfeasibleError, InputError, Interrupted, SolverFailure, check_interrupt
 from .spec import SweepSpec
 
-__all__ = ["SweepResult", "sweep", "run_point", "ROW_FIELDS", "point_key"]
+__all__ = ["SweepResult", "sweep", "run_point", "point_key"]
 
 # the figures of a row (SI units, named in the column); verification columns follow when --verify
 FIGURE_FIELDS = ("e_x_m", "e_y_m", "e_theta_rad", "rho_bound_rad_s", "decay_rate", "hinf_gain")
 VERIFY_FIELDS = ("verified", "max_e_x_m", "max_e_y_m", "max_e_theta_rad", "max_rho_rad_s")
-ROW_FIELDS = ("index",)  # then the axis keys, "status", FIGURE_FIELDS, [VERIFY_FIELDS], "time_s", "gains_id", "message"
 STATUSES = ("certified", "infeasible", "solver-failure", "invalid")
 
 ProgressFn = Callable[[int, int, int, float | None], None]  # done, total, not certified so far, eta [s]

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..verify.certificate import CertificateCheck, check_certificate
+from .design import _cert_common
 from .lmis import build_stability
 from .solve import solve
 
@@ -48,14 +49,8 @@ def _one(model: Any, K: np.ndarray, lyapunov: str, multiplier: str, margin: floa
         held["t"] = float(vals["t"])
         if not held["t"] >= margin:  # the best point misses the margin: no certificate (not a failure)
             return True
-        cert: dict[str, Any] = {"objective": "stability", "model": model.kind, "vertices": len(model.vertices),
-                                "r2": r * r, "margin": margin}
-        if lyapunov == "common":
-            cert.update(lyapunov="common", Q=vals["Q"])
-        else:
-            cert.update(lyapunov="slip-dependent", G=vals["G"], S=vals["S"],
-                        slip_step=model.slip_step if model.rate_bounded else None)
-        cert["multipliers"] = {"kind": multiplier, "M": vals["M"]}
+        cert = _cert_common(model, vals, multiplier, margin, "stability")  # as synthesis writes it
+        cert["r2"] = r * r
         chk = check_certificate(model, K, cert)
         held.update(cert=cert, check=chk)
         return chk.passed

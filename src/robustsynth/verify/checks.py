@@ -328,17 +328,20 @@ def _beyond_cap(model, K, gains: dict, cert: CertificateCheck, ub, runs: int, se
     (the same control law, see :func:`robustsynth.model.pad_gain`)."""
     from ..model import build_model, lifted_slice, pad_gain
     from ..model.network import longest_burst
+    from dataclasses import replace
 
     vc = model.config.verification
     path = make_path(vc.path, model.V)
     steps = max(1, int(math.floor(path.duration / model.Ts + 1e-9)))
-    probe = draw_scenario(model, runs, seed + 5, steps, path, losses="uncapped")
-    burst = longest_burst(np.isinf(probe.taus))
-    longer = build_model(model.config, min_lifting=model.d_hi + max(0, int(burst.max(initial=0)) - model.dropouts))
-    Kp = pad_gain(K, longer)
-    scen = steady_state_start(longer, Kp, path, draw_scenario(longer, runs, seed + 5, steps, path, losses="uncapped"))
-    sim = simulate(longer, Kp, path, scen, vc.transient)
+    scen = draw_scenario(model, runs, seed + 5, steps, path, losses="uncapped")
     burst = longest_burst(np.isinf(scen.taus))
+    extra = max(0, int(burst.max(initial=0)) - model.dropouts)
+    longer = build_model(model.config, min_lifting=model.d_hi + extra)
+    Kp = pad_gain(K, longer)
+    # the longer lifting needs `extra` more packets sent before t_0: received, like the others there
+    pre = np.full((runs, longer.d_hi - model.d_hi), model.config.network.delay.min)
+    scen = steady_state_start(longer, Kp, path, replace(scen, taus=np.concatenate([pre, scen.taus], axis=1)))
+    sim = simulate(longer, Kp, path, scen, vc.transient)
     outside = burst > model.dropouts
     e = np.abs(sim.e[:, :-1])
     out: dict[str, Any] = {
