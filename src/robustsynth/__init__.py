@@ -19,6 +19,8 @@ run                    robustsynth.pipeline          build-model -> synthesize -
 margin                 robustsynth.margins           delay / slip margins of a given gain
 sweep                  robustsynth.sweeps            synthesize (and verify) over a grid of keys
 load_sweep             robustsynth.sweeps            sweep YAML file -> SweepSpec
+Controller             robustsynth.runtime           the deployed control law (one robot, no numpy)
+to_statespace          robustsynth.interop           closed loop as a python-control StateSpace
 =====================  ============================  ==========================================
 """
 
@@ -46,6 +48,8 @@ _EXPORTS = {
     "sweep": "robustsynth.sweeps",
     "load_sweep": "robustsynth.sweeps",
     "SweepResult": "robustsynth.sweeps",
+    "Controller": "robustsynth.runtime",
+    "to_statespace": "robustsynth.interop",
 }
 
 __all__ = [*_EXPORTS, "__version__"]

@@ -375,6 +375,33 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
     obj.say(f"wrote {', '.join(str(p) for p in st.files)}")
 
 
+@main.command("export")
+@_verbosity
+@click.argument("gains", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--to", "target", type=click.Choice(["c", "python", "ros2", "json"]), required=True,
+              help="c: rs_controller.h/.c (C99, no heap) + rs_harness.c; python: rs_controller.py (no numpy); "
+                   "ros2: a ros__parameters YAML; json: the controller description.")
+@click.option("-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), required=True,
+              help="Directory for the generated files.")
+@click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Take the path from this config [default: the config stored in GAINS].")
+@click.pass_obj
+@_guard
+def export_cmd(obj: _Ctx, gains: Path, target: str, outdir: Path, config: Path | None) -> None:
+    """Generate the controller of GAINS (gains.json or .mat) for the robot.
+
+    The generated code implements the law the simulator verified, operation for operation: the
+    gain, sampling time, command memory, integrators, path and motor mapping are baked in.
+    """
+    from .runtime.export import export_controller
+
+    d, files = export_controller(gains, target, outdir, config)
+    if not d.get("certified"):
+        obj.say(f"warning: {gains} carries no certified figures: this controller has no certificate "
+                "(run `robustsynth verify --gains` on it first)")
+    obj.say(f"wrote {', '.join(str(p) for p in files)}")
+
+
 def _sweep_progress(obj: _Ctx):
     """points done/total, not certified so far, ETA: one rewritten stderr line on a terminal."""
     if obj.quiet or not sys.stderr.isatty():

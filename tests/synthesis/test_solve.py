@@ -74,6 +74,18 @@ def test_synthesize_cli_writes_consistent_files(tmp_path) -> None:
 
     mat = loadmat(tmp_path / "gains.mat")
     assert mat["K"].shape == (2, 5)
+    # what the C / ROS 2 exports carry (issue 11): sampling time, lifting, path, limits, the config
+    cfg = g["config"]
+    assert mat["Ts"].item() == cfg["network"]["sampling_time"] and mat["d_hi"].item() == 1
+    assert mat["path"].tolist() == cfg["verification"]["path"]
+    assert mat["max_motor_speed"].item() == cfg["robot"]["max_motor_speed"]
+    assert mat["reference_speed"].item() == cfg["reference"]["speed"] and not mat["integral_action"].item()
+    assert json.loads(str(mat["config_json"][0])) == cfg
+    from robustsynth.runtime import Controller
+
+    from_mat, from_json = Controller.from_files(tmp_path / "gains.mat"), Controller.from_files(tmp_path / "gains.json")
+    assert from_mat.description["path"] == from_json.description["path"] and from_mat.Ts == from_json.Ts
+    assert from_mat.step(0.3, 0.2, 0.01, 0.02) == from_json.step(0.3, 0.2, 0.01, 0.02)
     assert "Certificate check" in (tmp_path / "synthesis.md").read_text()
 
 

@@ -185,3 +185,29 @@ def test_lossy_scenarios_lose_packets_in_capped_bursts(setups) -> None:
     clean = draw_scenario(m, 40, seed=2, steps=300, path=path, losses=False)
     assert not np.isinf(clean.taus).any()
     np.testing.assert_array_equal(clean.mu, scen.mu)  # losses come from their own stream
+
+
+DEPLOY_TOL = 1e-12  # simulator's commands vs the deployed Controller (issue 11); both run runtime.law
+
+
+@pytest.mark.parametrize("name", ["paper", "d_lo>=1", "integral", "multi-period"])
+def test_simulator_commands_are_the_deployed_controllers(setups, name) -> None:
+    """A full Monte Carlo run (the config's runs, steady-state starts, noise where configured): the
+    commands the simulator applied equal Controller.step on the measured poses, step by step."""
+    from robustsynth.config import config_to_dict
+    from robustsynth.runtime import Controller, controller_description
+
+    m, K = setups[name]
+    path = make_path(m.config.verification.path, m.V)
+    steps = int(path.duration / m.Ts)
+    scen = steady_state_start(m, K, path, draw_scenario(m, m.config.verification.runs, seed=5, steps=steps, path=path))
+    sim = simulate(m, K, path, scen)
+    ctl = Controller(controller_description({"K": K.tolist(), "config": config_to_dict(m.config)}))
+    meas = sim.q[:, :-1] + scen.noise[:, :steps]
+    worst = 0.0
+    for n in range(scen.runs):
+        ctl.reset(past=scen.du0[n].reshape(-1).tolist(), integrators=None if scen.z0 is None else scen.z0[n].tolist())
+        cmd = np.array([ctl.step(sim.t[k], *meas[n, k]) for k in range(steps)])
+        worst = max(worst, float(np.max(np.abs(cmd - (np.array([m.V, 0.0]) + sim.du[n])))))
+    assert worst <= DEPLOY_TOL
+    assert len(set(sim.segment.tolist())) > 1  # the run crossed waypoints

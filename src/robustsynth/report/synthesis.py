@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 from typing import Any
 
 import numpy as np
@@ -130,6 +132,27 @@ def gains_mat_vars(gd: dict[str, Any]) -> dict[str, Any]:
         "multiplier": c["multipliers"]["kind"],
         "motor_limits_enforced": bool(c["motor_limits_enforced"]),
         "margin": c["margin"],
+        **_controller_mat_vars(gd),
+    }
+
+
+def _controller_mat_vars(gd: dict[str, Any]) -> dict[str, Any]:
+    """What the C and ROS 2 exports carry: sampling time, lifting, integrators, path, limits."""
+    from ..runtime import controller_description
+
+    d = controller_description(gd)
+    rho = d["max_motor_speed"]
+    return {
+        "Ts": float(d["sampling_time"]),
+        "d_hi": float(d["d_hi"]),
+        "integral_action": bool(d["integral_action"]),
+        "reference_speed": float(d["reference_speed"]),
+        "path": np.asarray(d["path"], dtype=float),
+        "segment_eps": float(d["segment_eps"]),
+        "gear_radius": float(d["gear_radius"]),
+        "track_distance": float(d["track_distance"]),
+        "max_motor_speed": float(rho) if rho is not None else np.nan,
+        "config_json": json.dumps(gd["config"]),  # the whole config (MATLAB: jsondecode(config_json))
     }
 
 

@@ -89,6 +89,11 @@ def _load_mat(p: Path) -> dict[str, Any]:
     if "K" not in m:
         raise InputError(f"{p}: K: required variable is missing")
     data: dict[str, Any] = {"K": m["K"]}  # validated by load_gains like a JSON K
+    if "config_json" in m:  # ours: the config the gain was designed and verified with
+        try:
+            data["config"] = json.loads(_mat_scalar(m["config_json"]))
+        except (TypeError, ValueError):
+            raise InputError(f"{p}: config_json: not valid JSON") from None
     if all(k in m for k in ("objective", "M", "margin")) and ("Q" in m or "S" in m):
         lyap = _mat_scalar(m.get("lyapunov", "common")) or "common"
         Ms = np.asarray(m["M"], dtype=float)

@@ -10,7 +10,7 @@ piecewise constant on the sampling grid.  The only Python loop is over time step
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
@@ -18,6 +18,9 @@ import numpy as np
 from ..errors import check_interrupt
 from ..model.network import gilbert_elliott, with_losses
 from ..model.kinematics import JHJinv
+from ..runtime.law import Law, PathTable, segment_at
+from ..runtime.law import frame_error as law_frame_error
+from ..runtime.law import wrap_angle as law_wrap_angle
 
 __all__ = [
     "PathGeometry",
@@ -31,7 +34,7 @@ __all__ = [
     "wrap_angle",
     "saturate",
     "period",
-    "controller_state",
+    "control_law",
     "steady_state_start",
     "greedy_nonlinear",
     "slip_profiles",
@@ -42,8 +45,8 @@ SLIP_PROFILES = ("constant", "random-walk", "steps", "corners")
 
 
 def wrap_angle(a: np.ndarray) -> np.ndarray:
-    """Angle in [-pi, pi)."""
-    return (np.asarray(a) + np.pi) % (2.0 * np.pi) - np.pi
+    """Angle in [-pi, pi) (the deployed controller's wrap)."""
+    return law_wrap_angle(np.asarray(a, dtype=float))
 
 
 def arc_step(q: np.ndarray, v: np.ndarray, w: np.ndarray, h: np.ndarray | float) -> np.ndarray:
@@ -71,7 +74,8 @@ def saturate(u_hat: np.ndarray, J: np.ndarray, J_inv: np.ndarray, rho_max: float
 
 @dataclass(frozen=True)
 class PathGeometry:
-    """Polyline path followed at speed V^D; segment i is the frame L_i (origin, heading)."""
+    """Polyline path followed at speed V^D; segment i is the frame L_i (origin, heading).  The
+    numbers are those of the deployed controller's :class:`~robustsynth.runtime.law.PathTable`."""
 
     waypoints: np.ndarray  # (n+1, 2)
     headings: np.ndarray  # (n,)
@@ -79,38 +83,29 @@ class PathGeometry:
     t_start: np.ndarray  # (n,) time the desired point leaves waypoint i
     duration: float
     speed: float
+    table: PathTable = field(repr=False, compare=False)
 
     def segment(self, t: float) -> int:
-        i = int(np.searchsorted(self.t_start, t + 1e-12, side="right") - 1)
-        return min(max(i, 0), len(self.lengths) - 1)
+        return segment_at(self.table.t_start, t)
 
     def desired_pose(self, t: float) -> np.ndarray:
         i = self.segment(t)
         s = self.speed * (t - self.t_start[i])
-        c, sn = math.cos(self.headings[i]), math.sin(self.headings[i])
+        c, sn = self.table.cos[i], self.table.sin[i]
         return np.array([self.waypoints[i, 0] + s * c, self.waypoints[i, 1] + s * sn, self.headings[i]])
 
 
 def make_path(waypoints, speed: float) -> PathGeometry:
-    W = np.asarray(waypoints, dtype=float)
-    d = np.diff(W, axis=0)
-    lengths = np.hypot(d[:, 0], d[:, 1])
-    headings = np.arctan2(d[:, 1], d[:, 0])
-    t_start = np.concatenate([[0.0], np.cumsum(lengths)[:-1]]) / speed
-    return PathGeometry(W, headings, lengths, t_start, float(np.sum(lengths) / speed), speed)
+    tab = PathTable(np.asarray(waypoints, dtype=float).tolist(), speed)
+    return PathGeometry(np.array(tab.waypoints), np.array(tab.heading), np.array(tab.length), np.array(tab.t_start),
+                        tab.duration, tab.speed, tab)
 
 
 def frame_error(path: PathGeometry, seg: int, q: np.ndarray, t: float) -> np.ndarray:
-    """e = R(theta_0)(q - q_0) - [V^D (t - t_seg), 0, 0] in frame L of segment ``seg`` (eqs. 13, 16, 17)."""
-    th0 = path.headings[seg]
-    c, s = math.cos(th0), math.sin(th0)
-    dx = q[..., 0] - path.waypoints[seg, 0]
-    dy = q[..., 1] - path.waypoints[seg, 1]
-    e = np.empty_like(q)
-    e[..., 0] = c * dx + s * dy - path.speed * (t - path.t_start[seg])
-    e[..., 1] = -s * dx + c * dy
-    e[..., 2] = wrap_angle(q[..., 2] - th0)
-    return e
+    """e = R(theta_0)(q - q_0) - [V^D (t - t_seg), 0, 0] in frame L of segment ``seg`` (eqs. 13, 16,
+    17): the deployed controller's :func:`~robustsynth.runtime.law.frame_error` on arrays."""
+    q = np.asarray(q, dtype=float)
+    return np.stack(law_frame_error(path.table, seg, t, q[..., 0], q[..., 1], q[..., 2]), axis=-1)
 
 
 @dataclass(frozen=True)
@@ -319,15 +314,25 @@ def _initial_memory(model, scen: Scenario):
     if scen.du0 is not None:
         U[:, : model.d_hi] = uD + scen.du0
         U[:, model.d_hi] = uD + scen.du0[:, -1]  # shifted out before it could act
-    z = np.zeros((N, model.n_z)) if scen.z0 is None or not model.n_z else np.array(scen.z0, dtype=float)
-    return U, z
+    return U
 
 
-def controller_state(e_meas: np.ndarray, U: np.ndarray, z: np.ndarray, uD: np.ndarray, d_hi: int) -> np.ndarray:
-    """xi_k = [e_meas; du_{k-1}; ...; du_{k-d_hi}; z_k] from the stored commands (before step k's shift,
-    U[:, j] = u_hat_{k-1-j})."""
-    N = e_meas.shape[0]
-    return np.concatenate([e_meas, (U[:, :d_hi] - uD).reshape(N, -1), z], axis=1)
+def control_law(model, K: np.ndarray, path: PathGeometry, scen: Scenario) -> Law:
+    """The deployed controller's :class:`~robustsynth.runtime.law.Law` for the N runs of ``scen``:
+    its memory holds one value per run (numpy arrays), started from ``scen.du0`` and ``scen.z0``."""
+    N = scen.runs
+    law = Law(np.asarray(K, dtype=float).tolist(), model.Ts, bool(model.n_z), path.table)
+    if law.d_hi != model.d_hi:
+        raise ValueError(f"K has columns for {law.d_hi} past inputs, the model keeps {model.d_hi}")
+    du0 = np.zeros((N, model.d_hi, 2)) if scen.du0 is None else np.asarray(scen.du0, dtype=float)
+    z0 = np.zeros((N, model.n_z)) if scen.z0 is None or not model.n_z else np.asarray(scen.z0, dtype=float)
+    law.reset(past=[du0[:, j, i].copy() for j in range(model.d_hi) for i in range(2)],
+              z=[z0[:, i].copy() for i in range(model.n_z)])
+    return law
+
+
+def _xi(law: Law) -> np.ndarray:
+    return np.stack(law.xi, axis=1)
 
 
 def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient: float = 0.0,
@@ -343,7 +348,7 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
     rho_sat = cfg.robot.max_motor_speed if cfg.verification.motor_saturation else None
     S = model.s_tilde(scen.taus)  # (N, steps, d_hi)
     uD = np.array([V, 0.0])
-    U, z = _initial_memory(model, scen)
+    U = _initial_memory(model, scen)
     q = scen.q0.copy()
     t = np.arange(steps + 1) * Ts
     seg = np.array([path.segment(tk) for tk in t])
@@ -352,17 +357,16 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
     XI = np.empty((N, steps, model.n_s))
     DU = np.empty((N, steps, 2))
     Q[:, 0] = q
+    law = control_law(model, K, path, scen)  # the deployed controller, one memory per run
     for k in range(steps):
         check_interrupt()
         E[:, k] = frame_error(path, seg[k], q, t[k])
-        e_meas = frame_error(path, seg[k], q + scen.noise[:, k], t[k])
-        xi = controller_state(e_meas, U, z, uD, d_hi)
-        du = xi @ K.T
-        if model.n_z:
-            z = z + Ts * e_meas[:, :2]  # z_{k+1} = z_k + Ts (e_x, e_y)_k
+        meas = q + scen.noise[:, k]
+        dv, dw = law.correction(t[k], meas[:, 0], meas[:, 1], meas[:, 2])  # also z_{k+1} = z_k + Ts (e_x, e_y)_k
+        du = np.stack([dv, dw], axis=1)
         U[:, 1:] = U[:, :-1]
         U[:, 0] = uD + du
-        XI[:, k], DU[:, k] = xi, du
+        XI[:, k], DU[:, k] = _xi(law), du
         M = JHJinv(scen.mu[:, k, 0], scen.mu[:, k, 1], D)  # (N, 2, 2)
         q = period(q, U, S[:, k], M, Ts, J, J_inv, rho_sat)
         Q[:, k + 1] = q
@@ -398,7 +402,7 @@ def greedy_nonlinear(model, K: np.ndarray, V_fn: Callable[[np.ndarray, np.ndarra
     path = make_path(((0.0, 0.0), (V * Ts * (steps + 10), 0.0)), V)
     e0, du0, z0 = _split_state(model, model.equilibrium(K, mu0))
     scen = Scenario(np.zeros((N, d_hi)), mu0[:, None, :], np.zeros((N, 1, 3)), _pose_from_error(path, e0), (), du0, z0)
-    U, z = _initial_memory(model, scen)
+    U = _initial_memory(model, scen)
     q = scen.q0.copy()
     uD = np.array([V, 0.0])
     hist = np.full((N, d_hi), (dl.min + dl.max) / 2.0)
@@ -407,17 +411,15 @@ def greedy_nonlinear(model, K: np.ndarray, V_fn: Callable[[np.ndarray, np.ndarra
     MU = np.empty((N, steps, 2))
     TAU = np.empty((N, steps))
     RHO = np.empty((N, steps, 2))
+    law = control_law(model, K, path, scen)
     for k in range(steps + 1):
         check_interrupt()
         tk = k * Ts
-        e = frame_error(path, 0, q, tk)
-        xi = controller_state(e, U, z, uD, d_hi)
-        XI[:, k] = xi
+        dv, dw = law.correction(tk, q[:, 0], q[:, 1], q[:, 2])
+        XI[:, k] = _xi(law)
         if k == steps:
             break
-        du = xi @ K.T
-        if model.n_z:
-            z = z + Ts * e[:, :2]
+        du = np.stack([dv, dw], axis=1)
         U[:, 1:] = U[:, :-1]
         U[:, 0] = uD + du
         RHO[:, k] = (uD + du) @ J_inv.T
@@ -434,7 +436,7 @@ def greedy_nonlinear(model, K: np.ndarray, V_fn: Callable[[np.ndarray, np.ndarra
         MM = np.broadcast_to(Mc[:, :, None], (N, n_c, n_tau, 2, 2))
         q_next = period(qq, UU, SS, MM, Ts, J, J_inv, rho_sat)  # (N, n_c, n_tau, 3)
         e_next = frame_error(path, 0, q_next, tk + Ts)
-        rest = np.concatenate([(U[:, :d_hi] - uD).reshape(N, -1), z], axis=1)
+        rest = np.stack(law.past + law.z, axis=1)  # the controller's memory after step k
         xi_next = np.concatenate([e_next, np.broadcast_to(rest[:, None, None, :], (N, n_c, n_tau, rest.shape[1]))], axis=-1)
         val = V_fn(xi_next, np.broadcast_to(cand_mu[:, :, None, :], (N, n_c, n_tau, 2)))
         if model.dropouts:  # a loss only while the burst is below the cap

@@ -1,0 +1,65 @@
+"""The deployed controller: Controller.step (Python, one robot), the exported pure-Python module,
+and the exported C step, on every committed gain shape (d_hi 1 and 3) and with integral action.
+
+Targets (issue 11): Controller.step >= 200 000 steps/s; the C step <= 1 us."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _rate(step, n: int = 200_000) -> float:
+    Ts = 0.1
+    t0 = time.perf_counter()
+    for k in range(n):
+        step((k % 600) * Ts, 0.001 * (k % 7), 0.002 * (k % 5), 0.0)
+    return n / (time.perf_counter() - t0)
+
+
+def main() -> dict[str, float]:
+    import importlib.util
+
+    from robustsynth.runtime import Controller, controller_description
+    from robustsynth.runtime.export import export_files
+
+    out: dict[str, float] = {}
+    g = json.loads((ROOT / "results" / "delay-multi-period" / "gains.json").read_text())
+    g_int = dict(g, K=[row[:3] + row[3:] + [0.01, 0.02] for row in g["K"]],
+                 config=dict(g["config"], synthesis=dict(g["config"]["synthesis"], integral_action=True)))
+    cc = shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
+    for label, gains in (("default (d_hi 1)", json.loads((ROOT / "results" / "default" / "gains.json").read_text())),
+                         ("delay-multi-period (d_hi 3)", g), ("d_hi 3 + integrators", g_int)):
+        d = controller_description(gains)
+        ctl = Controller(d)
+        rate = _rate(ctl.step)
+        out[f"{label} python"] = rate
+        with tempfile.TemporaryDirectory() as tmp:
+            for name, data in {**export_files(d, "python"), **export_files(d, "c")}.items():
+                (Path(tmp) / name).write_bytes(data)
+            spec = importlib.util.spec_from_file_location("rs_controller_bench", Path(tmp) / "rs_controller.py")
+            mod = importlib.util.module_from_spec(spec)
+            spec.loader.exec_module(mod)  # type: ignore[union-attr]
+            rate_py = _rate(mod.Controller().step)
+            line = (f"{label}: Controller.step {rate:,.0f} steps/s (target >= 200,000), "
+                    f"exported rs_controller.py {rate_py:,.0f} steps/s")
+            if cc:
+                exe = Path(tmp) / "rs_harness"
+                subprocess.run([cc, "-std=c99", "-O2", "-o", str(exe), str(Path(tmp) / "rs_harness.c"),
+                                str(Path(tmp) / "rs_controller.c"), "-lm"], check=True)
+                res = subprocess.run([str(exe), "--bench", "20000000"], capture_output=True, text=True, check=True)
+                ns = float(res.stdout.split()[0])
+                out[f"{label} c_ns"] = ns
+                line += f", C rs_step {ns:.1f} ns (target <= 1000 ns; cc -O2)"
+            print(line)
+    return out
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,69 @@
+"""Interoperability with python-control (optional extra ``robustsynth[control]``).
+
+:func:`to_statespace` gives the closed-loop lifted system of a gain at fixed switching instants
+and slip as a discrete-time ``control.StateSpace`` (dt = Ts) with named signals:
+
+    xi_{k+1} = (A(s) + B(s) K) xi_k + B(s) w_k + c(mu) v_k
+    y_k      = [e_k; du_k] = [I 0] xi_k ; K xi_k + w_k
+
+Inputs: ``w_dV``, ``w_omega`` (a disturbance added to the command the controller sends, stored
+in its memory like the command) and ``slip`` (the slip offset c(mu) = B~_d (mu - 1); a unit step
+of it, from xi = 0, is the transition to the steady state of the constant slip mu).  Outputs: the
+errors and the corrections sent.  The time-varying delay and slip of the certificate are not in a
+frozen system: use it for intuition and classical analysis, not as a guarantee.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .errors import InputError
+
+__all__ = ["to_statespace", "closed_loop_matrices"]
+
+
+def _gain(model: Any, gains: Any) -> np.ndarray:
+    if hasattr(gains, "K"):  # a SynthesisResult
+        gains = gains.K
+    K = np.asarray(gains["K"] if isinstance(gains, dict) else gains, dtype=float)
+    if K.shape != (model.n_u, model.n_s):
+        raise InputError(f"K: has shape {K.shape}, the model needs {(model.n_u, model.n_s)}")
+    return K
+
+
+def closed_loop_matrices(model: Any, gains: Any, instants: Any = None, slip: Any = None) -> dict[str, np.ndarray]:
+    """(A, B, C, D) of :func:`to_statespace` as numpy arrays, with the instants and slip used."""
+    K = _gain(model, gains)
+    s = model.nominal_instants() if instants is None else np.asarray(instants, dtype=float).reshape(-1)
+    if s.shape != (model.d_hi,):
+        raise InputError(f"instants: need {model.d_hi} switching instants (one per stored command), got {s.size}")
+    if np.any(s < 0) or np.any(s > model.Ts):
+        raise InputError(f"instants: must lie in [0, Ts = {model.Ts:g}] s")
+    (r_lo, r_hi), (l_lo, l_hi) = model.slip_ranges
+    mu = np.array([(r_lo + r_hi) / 2.0, (l_lo + l_hi) / 2.0]) if slip is None else np.asarray(slip, dtype=float).reshape(-1)
+    if mu.shape != (2,) or np.any(mu <= 0):
+        raise InputError("slip: need (mu_r, mu_l), both > 0")
+    A, B = model.exact(s, mu)
+    c = model.constant(mu)
+    n_e = model.n_e
+    C = np.vstack([np.eye(n_e, model.n_s), K])
+    D = np.vstack([np.zeros((n_e, model.n_u + 1)), np.hstack([np.eye(model.n_u), np.zeros((model.n_u, 1))])])
+    return {"A": A + B @ K, "B": np.hstack([B, c[:, None]]), "C": C, "D": D, "instants": s, "slip": mu}
+
+
+def to_statespace(model: Any, gains: Any, instants: Any = None, slip: Any = None):
+    """The closed loop of ``gains`` (a gains mapping, a SynthesisResult or K) on ``model`` at the
+    switching instants ``instants`` (d_hi values in [0, Ts]; default the middle of each range)
+    and slip ``slip`` = (mu_r, mu_l) (default the middle of the slip box), as a discrete-time
+    ``control.StateSpace`` with dt = Ts and named states, inputs and outputs."""
+    try:
+        import control
+    except ImportError:
+        raise InputError("python-control is not installed: pip install 'robustsynth[control]'") from None
+    m = closed_loop_matrices(model, gains, instants, slip)
+    return control.ss(m["A"], m["B"], m["C"], m["D"], model.Ts, name=f"{model.config.name}-closed-loop",
+                      states=list(model.state_names),
+                      inputs=["w_dV", "w_omega", "slip"],
+                      outputs=[*model.state_names[: model.n_e], "dV", "omega"])

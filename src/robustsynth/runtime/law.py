@@ -1,0 +1,181 @@
+"""The control law as it runs on the robot, in plain Python: no numpy, no imports beyond ``math``
+and ``bisect``.
+
+This one file is the controller everywhere:
+
+* :class:`robustsynth.runtime.Controller` drives one robot with it (floats);
+* the simulator that verifies a gain (:mod:`robustsynth.verify.simulate`) runs the same
+  :class:`Law` with numpy arrays of N robots in place of the floats: every operation below is
+  arithmetic that works on both, in the same order, so the simulated commands are the deployed
+  ones bit for bit;
+* ``robustsynth export --to python`` copies this file verbatim and appends the controller
+  description (gain, path, limits) as ``DESCRIPTION``.
+
+At each sampling instant t_k = k Ts the controller
+
+1. picks the path segment whose desired point is active at t_k (the segment i with the largest
+   ``t_start[i] <= t_k + SEGMENT_EPS``; after the last waypoint the last segment goes on);
+2. measures the error in that segment's frame L_i (eqs. 13, 16, 17 of the seed paper):
+   ``e_x = c dx + s dy - V^D (t - t_start[i])``, ``e_y = -s dx + c dy``,
+   ``e_theta = wrap(theta - heading[i])`` with ``(dx, dy)`` the position relative to waypoint i and
+   ``(c, s)`` the cosine and sine of the segment's heading;
+3. forms the lifted state ``xi_k = [e_x, e_y, e_theta, du_{k-1}, ..., du_{k-d_hi}, z_x, z_y]``
+   (the commands it sent itself, newest first, each ``(dV, omega)``; the integrators only with
+   integral action) and the correction ``du_k = K xi_k``;
+4. updates the integrators ``z_{k+1} = z_k + Ts (e_x, e_y)`` and the command memory;
+5. sends ``u_hat_k = (V^D + dV_k, omega_k)``.
+"""
+
+import math
+from bisect import bisect_right
+
+__all__ = ["PathTable", "Law", "Controller", "segment_at", "frame_error", "wrap_angle", "SEGMENT_EPS"]
+
+SEGMENT_EPS = 1e-12  # [s] an instant within this of a waypoint time belongs to the new segment
+_PI = math.pi
+_TWO_PI = 2.0 * math.pi
+
+
+def wrap_angle(a):
+    """Angle in [-pi, pi) (floor modulo: the same for floats and numpy arrays)."""
+    return (a + _PI) % _TWO_PI - _PI
+
+
+class PathTable:
+    """A polyline followed at constant speed: per segment its origin, heading (and its cosine and
+    sine), length and the time the desired point leaves the origin."""
+
+    def __init__(self, waypoints, speed):
+        pts = [(float(p[0]), float(p[1])) for p in waypoints]
+        if len(pts) < 2:
+            raise ValueError("a path needs at least two waypoints")
+        self.speed = float(speed)
+        if not self.speed > 0.0:
+            raise ValueError("the reference speed must be positive")
+        self.waypoints = pts
+        self.x0, self.y0, self.heading, self.cos, self.sin, self.length, self.t_start = [], [], [], [], [], [], []
+        travelled = 0.0
+        for (xa, ya), (xb, yb) in zip(pts[:-1], pts[1:]):
+            h = math.atan2(yb - ya, xb - xa)
+            self.x0.append(xa)
+            self.y0.append(ya)
+            self.heading.append(h)
+            self.cos.append(math.cos(h))
+            self.sin.append(math.sin(h))
+            self.length.append(math.hypot(xb - xa, yb - ya))
+            self.t_start.append(travelled / self.speed)
+            travelled += self.length[-1]
+        self.duration = travelled / self.speed
+
+
+def segment_at(t_start, t):
+    """Index of the segment active at time ``t`` (see the module docstring, step 1)."""
+    i = bisect_right(t_start, t + SEGMENT_EPS) - 1
+    return min(max(i, 0), len(t_start) - 1)
+
+
+def frame_error(path, seg, t, x, y, theta):
+    """(e_x, e_y, e_theta) of the pose (x, y, theta) at time t in the frame of segment ``seg``."""
+    c, s = path.cos[seg], path.sin[seg]
+    dx = x - path.x0[seg]
+    dy = y - path.y0[seg]
+    return (c * dx + s * dy - path.speed * (t - path.t_start[seg]), -s * dx + c * dy,
+            wrap_angle(theta - path.heading[seg]))
+
+
+def _dot(row, xi):
+    acc = 0.0
+    for a, b in zip(row, xi):
+        acc = acc + a * b
+    return acc
+
+
+class Law:
+    """``du_k = K xi_k`` with its memory: the last ``d_hi`` corrections and the integrators.
+
+    ``K`` is 2 rows of ``3 + 2 d_hi (+ 2 with integrators)`` numbers. The memory entries are floats
+    for one robot or numpy arrays (one value per robot) for a vectorized simulation."""
+
+    def __init__(self, K, Ts, integral, path):
+        self.K = [tuple(float(v) for v in row) for row in K]
+        self.n_z = 2 if integral else 0
+        past = len(self.K[0]) - 3 - self.n_z if len(self.K) == 2 else -1
+        if len(self.K) != 2 or past < 2 or past % 2 or len(self.K[1]) != len(self.K[0]):
+            raise ValueError("K must have 2 rows of 3 + 2 d_hi" + (" + 2" if integral else "") + " numbers")
+        self.d_hi = past // 2
+        self.Ts = float(Ts)
+        self.path = path
+        self.reset()
+
+    def reset(self, past=None, z=None):
+        """Forget the past: stored corrections ``[dV_{k-1}, omega_{k-1}, dV_{k-2}, ...]`` and
+        integrators set to ``past`` and ``z`` (zero when omitted)."""
+        self.past = list(past) if past is not None else [0.0] * (2 * self.d_hi)
+        self.z = list(z) if z is not None else [0.0] * self.n_z
+        self.xi = None  # the last lifted state used
+
+    def correction(self, t, x, y, theta):
+        """du_k = (dV, omega) for the measured pose at t_k; advances the memory by one period."""
+        seg = segment_at(self.path.t_start, t)
+        ex, ey, eth = frame_error(self.path, seg, t, x, y, theta)
+        xi = [ex, ey, eth] + self.past + self.z
+        dv = _dot(self.K[0], xi)
+        dw = _dot(self.K[1], xi)
+        if self.n_z:
+            self.z = [self.z[0] + self.Ts * ex, self.z[1] + self.Ts * ey]
+        self.past = [dv, dw] + self.past[:-2]
+        self.xi = xi
+        return dv, dw
+
+
+class Controller:
+    """``u_hat_k = [V^D, 0] + K xi_k`` for one robot, exactly as verified, from a controller
+    description (the mapping ``robustsynth export --to json`` writes).
+
+    Call :meth:`step` once per sampling instant t_k = k Ts with the time since the start of the
+    path and the measured pose in the world frame; it returns the command (V_hat, omega_hat) to
+    send.  :meth:`motor_speeds` maps a command to the motor speeds (rho_r, rho_l) = J^-1 u_hat.  The
+    law was verified with the commanded (not the clipped) corrections in its memory: clip in the
+    motor driver, not here."""
+
+    def __init__(self, description):
+        d = description
+        self.description = d
+        self.path = PathTable(d["path"], d["reference_speed"])
+        self.law = Law(d["K"], d["sampling_time"], d["integral_action"], self.path)
+        if self.law.d_hi != d["d_hi"]:
+            raise ValueError("d_hi is %d but K has columns for %d past inputs" % (d["d_hi"], self.law.d_hi))
+        self.Ts = float(d["sampling_time"])
+        self.V = float(d["reference_speed"])
+        R, D = float(d["gear_radius"]), float(d["track_distance"])
+        self._inv_R, self._half_D_over_R = 1.0 / R, D / (2.0 * R)  # J^-1 = [[1/R, D/2R], [1/R, -D/2R]]
+        self.max_motor_speed = d.get("max_motor_speed")
+
+    @property
+    def d_hi(self):
+        return self.law.d_hi
+
+    def reset(self, past=None, integrators=None):
+        """Past commands and integrators to zero (or to ``past`` = [dV_{k-1}, omega_{k-1}, ...,
+        newest first] and ``integrators`` = [int_e_x, int_e_y], e.g. a steady state); the path
+        restarts at t = 0."""
+        self.law.reset(past, integrators)
+
+    def step(self, t, x, y, theta):
+        """The command (V_hat, omega_hat) for the pose measured at t_k (once per sampling instant)."""
+        dv, dw = self.law.correction(t, x, y, theta)
+        return self.V + dv, dw
+
+    def motor_speeds(self, V_hat, omega_hat):
+        """(rho_r, rho_l) = J^-1 (V_hat, omega_hat) [rad/s], not clipped."""
+        return (V_hat * self._inv_R + omega_hat * self._half_D_over_R,
+                V_hat * self._inv_R - omega_hat * self._half_D_over_R)
+
+    @property
+    def state(self):
+        """The lifted state xi the last step used (empty before the first step)."""
+        return list(self.law.xi or [])
+
+    def __repr__(self):
+        return "Controller(name=%r, Ts=%g, d_hi=%d, integral=%s, segments=%d)" % (
+            self.description.get("name"), self.Ts, self.d_hi, bool(self.law.n_z), len(self.path.t_start))

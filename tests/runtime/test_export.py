@@ -1,0 +1,135 @@
+"""robustsynth export: C99 (compiled with the system compiler), the pure-Python module, ROS 2
+parameters and JSON, each against runtime.Controller on random poses across segment switches."""
+
+from __future__ import annotations
+
+import ast
+import importlib.util
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from robustsynth.runtime import Controller
+from robustsynth.runtime.export import export_controller
+from robustsynth.verify.simulate import make_path
+
+ROOT = Path(__file__).resolve().parents[2]
+GAINS = sorted((ROOT / "results").glob("*/gains.json"))
+EXPORT_TOL = 1e-12  # generated controller vs Controller.step (issue 11)
+STEPS = 10_000  # random steps per gain (issue 11: >= 10 000, including segment switches)
+CC = shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
+
+
+def _episodes(ctl: Controller, seed: int):
+    """STEPS (t, x, y, theta) in episodes along the whole path (reset between them): measured poses
+    a few cm / degrees around the desired pose, with now and then a large error."""
+    rng = np.random.default_rng(seed)
+    path = make_path(ctl.description["path"], ctl.V)
+    n = int(path.duration / ctl.Ts) + 30
+    rows: list[tuple[float, ...] | None] = []
+    while len([r for r in rows if r is not None]) < STEPS:
+        rows.append(None)  # reset
+        scale = rng.choice([0.01, 0.05, 0.5])
+        for k in range(n):
+            t = k * ctl.Ts
+            q = path.desired_pose(t) + rng.normal(0.0, scale, 3) * [1.0, 1.0, 2.0]
+            rows.append((float(t), *map(float, q)))
+    return rows
+
+
+def _reference(ctl: Controller, rows) -> np.ndarray:
+    out = []
+    for r in rows:
+        if r is None:
+            ctl.reset()
+        else:
+            out.append(ctl.step(*r))
+    return np.array(out)
+
+
+def _crosses_waypoints(ctl: Controller, rows) -> bool:
+    return len({ctl.path.t_start.index(max(s for s in ctl.path.t_start if s <= r[0] + 1e-12)) for r in rows if r}) > 1
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
+@pytest.mark.parametrize("gains", GAINS, ids=lambda p: p.parent.name)
+def test_c_export_compiles_strictly_and_reproduces_the_commands(gains: Path, tmp_path: Path) -> None:
+    _, files = export_controller(gains, "c", tmp_path)
+    assert {p.name for p in files} == {"rs_controller.h", "rs_controller.c", "rs_harness.c"}
+    src = (tmp_path / "rs_controller.c").read_text()
+    assert "malloc" not in src and [ln for ln in src.splitlines() if ln.startswith("#include")] == [
+        "#include <math.h>", '#include "rs_controller.h"']
+    exe = tmp_path / "rs_harness"
+    subprocess.run([CC, "-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2", "-o", str(exe),
+                    str(tmp_path / "rs_harness.c"), str(tmp_path / "rs_controller.c"), "-lm"], check=True,
+                   capture_output=True, text=True)
+    ctl = Controller.from_files(gains)
+    rows = _episodes(ctl, seed=len(gains.parent.name))
+    assert _crosses_waypoints(ctl, rows)
+    text = "".join("reset\n" if r is None else "%r %r %r %r\n" % r for r in rows)
+    out = subprocess.run([str(exe)], input=text, capture_output=True, text=True, check=True).stdout
+    got = np.array([[float(v) for v in ln.split()] for ln in out.splitlines()])
+    want = _reference(ctl, rows)
+    assert got.shape == want.shape and got.shape[0] >= STEPS
+    assert np.max(np.abs(got - want)) <= EXPORT_TOL
+
+
+@pytest.mark.parametrize("gains", GAINS, ids=lambda p: p.parent.name)
+def test_python_export_is_dependency_free_and_reproduces_the_commands(gains: Path, tmp_path: Path) -> None:
+    export_controller(gains, "python", tmp_path)
+    f = tmp_path / "rs_controller.py"
+    tree = ast.parse(f.read_text())
+    imported = {a.name.split(".")[0] for node in ast.walk(tree) if isinstance(node, ast.Import) for a in node.names}
+    imported |= {(node.module or ".").split(".")[0] for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)}
+    assert imported <= {"math", "bisect"}
+    spec = importlib.util.spec_from_file_location(f"rs_controller_{gains.parent.name.replace('-', '_')}", f)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    ctl = Controller.from_files(gains)
+    rows = _episodes(ctl, seed=7)
+    exported = mod.Controller()
+    got = np.array([exported.step(*r) if r is not None else (exported.reset() or (np.nan, np.nan)) for r in rows])
+    got = got[~np.isnan(got[:, 0])]
+    assert np.max(np.abs(got - _reference(ctl, rows))) <= EXPORT_TOL
+    assert exported.motor_speeds(0.5, 0.1) == ctl.motor_speeds(0.5, 0.1)
+
+
+def test_ros2_and_json_carry_the_controller(tmp_path: Path) -> None:
+    gains = ROOT / "results" / "delay-multi-period" / "gains.json"
+    ctl = Controller.from_files(gains)
+    export_controller(gains, "ros2", tmp_path)
+    export_controller(gains, "json", tmp_path)
+    p = yaml.safe_load((tmp_path / "rs_controller.ros2.yaml").read_text())["robustsynth_controller"]["ros__parameters"]
+    d = json.loads((tmp_path / "rs_controller.json").read_text())
+    assert d == json.loads(json.dumps(ctl.description))
+    K = np.array(p["K"]).reshape(p["K_rows"], p["K_cols"])
+    assert np.array_equal(K, np.array(ctl.description["K"]))  # floats round-trip exactly
+    assert p["d_hi"] == ctl.d_hi == 3 and p["sampling_time"] == ctl.Ts and p["has_motor_limit"]
+    assert [list(xy) for xy in zip(p["path_x"], p["path_y"])] == ctl.description["path"]
+    assert all(v is not None for v in p.values())  # ROS 2 parameters have no null
+
+
+def test_export_cli_writes_atomically_and_refuses_bad_input(tmp_path: Path) -> None:
+    gains = ROOT / "results" / "default" / "gains.json"
+    run = lambda *a: subprocess.run([sys.executable, "-m", "robustsynth", "export", *a], capture_output=True, text=True)
+    r = run(str(gains), "--to", "c", "-o", str(tmp_path / "c"))
+    assert r.returncode == 0 and "rs_controller.h" in r.stdout
+    r = run(str(gains), "--to", "fortran", "-o", str(tmp_path / "f"))
+    assert r.returncode == 2 and not (tmp_path / "f").exists()
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"K": [[1, 2]]}')
+    r = run(str(bad), "--to", "c", "-o", str(tmp_path / "bad"))
+    assert r.returncode == 2 and r.stderr.startswith("error: K: has 2") is False and "K: has 1 x 2 entries" in r.stderr
+    assert "Traceback" not in r.stderr and not (tmp_path / "bad").exists()
+    # a gain without a certificate is exported with a warning
+    g = json.loads(gains.read_text())
+    plain = tmp_path / "plain.json"
+    plain.write_text(json.dumps({"K": g["K"], "config": g["config"]}))
+    r = run(str(plain), "--to", "json", "-o", str(tmp_path / "plain"))
+    assert r.returncode == 0 and "no certificate" in r.stdout
