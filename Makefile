@@ -28,7 +28,7 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(PY) benchmarks/run_all.py
 
-## make baselines: regenerate results/<name>/summary.json for every config in configs/
+## make baselines: regenerate results/baselines/<name>/{summary,gains}.json for every config in configs/
 baselines: $(STAMP)
 	$(PY) -m robustsynth.regression --write
 

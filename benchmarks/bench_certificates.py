@@ -23,7 +23,7 @@ VARIANTS = {
 
 def main() -> dict[str, dict]:
     from robustsynth import build_model, default_config, synthesize
-    from robustsynth.verify import verify  # (the package name shadows the function: issue 13)
+    from robustsynth import verify
     from robustsynth.errors import RobustSynthError
     from robustsynth.report.synthesis import gains_dict
 

@@ -30,11 +30,11 @@ def main() -> dict[str, float]:
     from robustsynth.runtime.export import export_files
 
     out: dict[str, float] = {}
-    g = json.loads((ROOT / "results" / "delay-multi-period" / "gains.json").read_text())
+    g = json.loads((ROOT / "results" / "baselines" / "delay-multi-period" / "gains.json").read_text())
     g_int = dict(g, K=[row[:3] + row[3:] + [0.01, 0.02] for row in g["K"]],
                  config=dict(g["config"], synthesis=dict(g["config"]["synthesis"], integral_action=True)))
     cc = shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
-    for label, gains in (("default (d_hi 1)", json.loads((ROOT / "results" / "default" / "gains.json").read_text())),
+    for label, gains in (("default (d_hi 1)", json.loads((ROOT / "results" / "baselines" / "default" / "gains.json").read_text())),
                          ("delay-multi-period (d_hi 3)", g), ("d_hi 3 + integrators", g_int)):
         d = controller_description(gains)
         ctl = Controller(d)

@@ -19,8 +19,8 @@ def main() -> dict[str, float]:
 
     from robustsynth import build_model, load_config
     from robustsynth.synthesis import synthesize
-    from robustsynth.verify.reference import simulate_run
-    from robustsynth.verify.simulate import draw_scenario, make_path, simulate
+    from robustsynth.verification.reference import simulate_run
+    from robustsynth.verification.simulate import draw_scenario, make_path, simulate
 
     model = build_model(load_config())
     K = synthesize(model).K

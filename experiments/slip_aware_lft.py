@@ -25,7 +25,7 @@ import numpy as np
 
 from _common import config, motor_lmis, solve_optimal
 from robustsynth.model import build_model
-from robustsynth.verify.simulate import draw_scenario, make_path, simulate
+from robustsynth.verification.simulate import draw_scenario, make_path, simulate
 
 
 def slip_ranges(m):

@@ -92,3 +92,68 @@ def test_real_subprocess_run(tmp_path) -> None:
     r = subprocess.run([sys.executable, "-m", "robustsynth", "build-model", str(tmp_path / "nope.yaml")],
                        capture_output=True, text=True, timeout=60)
     assert r.returncode == 2 and r.stderr.startswith("error: ") and "Traceback" not in r.stderr
+
+
+def test_public_verify_is_the_function_even_after_the_subpackage_is_imported() -> None:
+    code = ("import robustsynth.verification.checks; from robustsynth import verify; "
+            "print(callable(verify), verify.__module__)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["True", "robustsynth.verification.checks"]
+
+
+def test_default_config_name_names_the_output_directory(tmp_path) -> None:
+    r = CliRunner().invoke(main, ["default-config", "--name", "my-robot"])
+    assert r.exit_code == 0 and "name: \"my-robot\"" in r.output
+    r = CliRunner().invoke(main, ["default-config", "--name", "baselines"])
+    assert r.exit_code == 2 and "reserved" in r.output and len(r.output.strip().splitlines()) == 1
+
+
+def test_a_stage_clears_what_another_config_left(tmp_path) -> None:
+    """build-model of another config on a full run's directory removes that run's gains and reports
+    instead of leaving a foreign model beside them."""
+    r = CliRunner().invoke(main, ["run", "-o", str(tmp_path), "--runs", "3", "--no-plots", "--objective", "stability"])
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "gains.json").exists() and (tmp_path / "report.md").exists()
+    r = CliRunner().invoke(main, ["build-model", "-o", str(tmp_path)])  # same config: nothing removed
+    assert r.exit_code == 0 and "removed" not in r.output and (tmp_path / "gains.json").exists()
+    other = tmp_path / "other.yaml"
+    other.write_text(CliRunner().invoke(main, ["default-config", "--name", "other"]).output)
+    r = CliRunner().invoke(main, ["build-model", str(other), "-o", str(tmp_path)])
+    assert r.exit_code == 0 and "another config had left" in r.output
+    assert sorted(p.name for p in tmp_path.iterdir() if p.is_file() and p.suffix != ".yaml") == ["model.json", "model.md"]
+    assert json.loads((tmp_path / "model.json").read_text())["config"]["name"] == "other"
+
+
+def test_demo_output_is_not_a_committed_baseline() -> None:
+    """`make demo` writes results/default/, which git ignores; the baselines live in results/baselines/."""
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    demo = re.search(r"^demo:.*\n\t(.*)$", (root / "Makefile").read_text(), flags=re.M).group(1)
+    out = re.search(r"-o (\S+)", demo).group(1)
+    assert out == "results/default"
+    r = subprocess.run(["git", "check-ignore", "-q", f"{out}/gains.json"], cwd=root)
+    if r.returncode == 128:
+        pytest.skip("not a git checkout")
+    assert r.returncode == 0, f"{out}/gains.json would be tracked by git"
+    assert subprocess.run(["git", "check-ignore", "-q", "results/baselines/default/gains.json"], cwd=root).returncode == 1
+
+
+def test_verbose_synthesis_prints_the_search(tmp_path) -> None:
+    r = CliRunner().invoke(main, ["synthesize", "-o", str(tmp_path), "-v"])
+    assert r.exit_code == 0, r.output
+    lines = r.stderr.splitlines()
+    assert any(ln.startswith("ultimate-bound: scan of alpha") for ln in lines)
+    scan = [ln for ln in lines if ln.startswith("  alpha = ")]
+    assert len(scan) >= 5 and all("clarabel" in ln or "scs" in ln for ln in scan)
+
+
+def test_progress_bar_starts_with_the_first_report() -> None:
+    from robustsynth.cli import _LazyBar
+
+    bar = _LazyBar()
+    assert bar.bar is None  # nothing before the Monte Carlo starts: its ETA counts the simulation only
+    bar(1, 100)
+    assert bar.bar is not None and bar.last == 1
+    bar.render_finish()

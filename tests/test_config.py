@@ -172,3 +172,50 @@ def test_cli_exits_2_on_a_bad_dropout_cap(tmp_path) -> None:
     assert r.exit_code == 2
     assert r.output.strip().splitlines() == ["error: network.dropouts.max_consecutive: Input should be greater than or equal to 0"]
     assert not (tmp_path / "o").exists()
+
+
+def test_every_problem_is_named_with_did_you_mean() -> None:
+    """A misspelled key is named with the key it stands for (not only as that key missing), and
+    every other problem of the document is named too, on one line."""
+    d = default_dict()
+    d["robot"]["track_distnace"] = d["robot"].pop("track_distance")
+    d["robot"]["gear_radius"] = -1.0
+    d["verification"] = {"runz": 5}
+    with pytest.raises(ConfigError) as exc:
+        parse_config(_dump(d))
+    msg = str(exc.value)
+    assert "\n" not in msg
+    assert "robot.track_distnace: unknown key (did you mean robot.track_distance?)" in msg
+    assert "robot.gear_radius: " in msg and "verification.runz: unknown key (did you mean verification.runs?)" in msg
+    assert "robot.track_distance: required key is missing" not in msg  # said once, as the near-miss
+    d = default_dict()
+    d["robot"]["wheels"] = 4
+    del d["robot"]["track_distance"]
+    msg = str(pytest.raises(ConfigError, parse_config, _dump(d)).value)
+    assert "robot.wheels: unknown key;" in msg or msg.endswith("robot.wheels: unknown key")
+    assert "robot.track_distance: required key is missing" in msg  # no near-miss: both named
+
+
+def test_slack_is_fenced_at_one_and_motors_saturate_by_default() -> None:
+    assert load_config(None).verification.motor_saturation is True
+    d = default_dict()
+    d["verification"] = {"nonlinear_slack": 3.0}
+    with pytest.raises(ConfigError, match=r"verification\.nonlinear_slack: Input should be less than or equal to 1"):
+        parse_config(_dump(d))
+
+
+@pytest.mark.parametrize("name", ["baselines", "sweeps"])
+def test_reserved_names_are_refused(name) -> None:
+    d = default_dict()
+    d["name"] = name
+    with pytest.raises(ConfigError, match=rf"name: '{name}' is reserved"):
+        parse_config(_dump(d))
+
+
+def test_default_config_name_option() -> None:
+    from robustsynth.config import named_default_config_text
+
+    text = named_default_config_text("my-robot")
+    assert parse_config(text).name == "my-robot" and text.startswith("#")  # comments kept
+    with pytest.raises(ConfigError, match=r"^--name: "):
+        named_default_config_text("../evil")

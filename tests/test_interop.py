@@ -15,7 +15,7 @@ from robustsynth.config import Config
 from robustsynth.errors import InputError
 from robustsynth.interop import closed_loop_matrices, to_statespace
 from robustsynth.model import build_model
-from robustsynth.verify.lifted import closed_loop_run
+from robustsynth.verification.lifted import closed_loop_run
 
 ROOT = Path(__file__).resolve().parents[1]
 POLE_TOL = 1e-9  # python-control's poles vs numpy eigvals of the same matrix
@@ -24,7 +24,7 @@ RESPONSE_TOL = 1e-10  # step response vs closed_loop_run (same recursion, differ
 
 @pytest.fixture(scope="module", params=["default", "delay-multi-period"])
 def case(request):
-    g = json.loads((ROOT / "results" / request.param / "gains.json").read_text())
+    g = json.loads((ROOT / "results" / "baselines" / request.param / "gains.json").read_text())
     return build_model(Config.model_validate(g["config"])), g
 
 

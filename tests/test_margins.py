@@ -15,7 +15,7 @@ from robustsynth.margins import EXHIBIT_TOL, find_instability, margin, pad_gain,
 from robustsynth.model import build_model
 from robustsynth.synthesis import synthesize
 from robustsynth.synthesis.analysis import analyze_stability
-from robustsynth.verify.lifted import closed_loop_run
+from robustsynth.verification.lifted import closed_loop_run
 
 from .conftest import make_config
 

@@ -1,4 +1,4 @@
-"""Every config in configs/ re-run and compared with its committed results/<name>/summary.json
+"""Every config in configs/ re-run and compared with its committed results/baselines/<name>/summary.json
 (tolerances named in robustsynth.regression).  Regenerate with `make baselines`."""
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ def test_required_configs_exist() -> None:
 @pytest.mark.parametrize("cfg", CONFIGS, ids=[p.stem for p in CONFIGS])
 def test_config_matches_baseline(cfg, tmp_path) -> None:
     got = run_config(cfg, tmp_path)
-    base = ROOT / "results" / got["name"] / "summary.json"
+    base = ROOT / "results" / "baselines" / got["name"] / "summary.json"
     assert base.exists(), f"no baseline for {cfg.name}: run make baselines"
     diffs = compare(json.loads(base.read_text()), got)
     assert not diffs, "\n".join(diffs)

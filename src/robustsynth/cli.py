@@ -154,12 +154,14 @@ def schema() -> None:
 
 @main.command("default-config")
 @_verbosity
+@click.option("--name", "name", default=None,
+              help="Set the scenario name (and so the output directory results/NAME/) [default: default].")
 @_guard
-def default_config() -> None:
+def default_config(name: str | None) -> None:
     """Print the embedded default configuration (YAML)."""
-    from .config import default_config_text
+    from .config import default_config_text, named_default_config_text
 
-    click.echo(default_config_text(), nl=False)
+    click.echo(default_config_text() if name is None else named_default_config_text(name), nl=False)
 
 
 @main.command("build-model")
@@ -178,6 +180,7 @@ def build_model_cmd(obj: _Ctx, config: Path | None, outdir: Path | None) -> None
     cfg = _load(config)
     out = _outdir(cfg, outdir)
     st = model_stage(cfg, out)
+    _say_cleared(obj, out, st.cleared)
     m = st.model
     obj.say(
         f"model '{cfg.name}': d_lo={m.d_lo} d_hi={m.d_hi} n_s={m.n_s} "
@@ -193,6 +196,9 @@ SYNTH_OPTS = [
     click.option("--solver", type=click.Choice(["clarabel", "scs"]), default=None, help="Override synthesis.solver."),
     click.option("--multiplier", type=click.Choice(["structured", "full"]), default=None,
                  help="Override synthesis.multiplier."),
+    click.option("--diagnose/--no-diagnose", "diagnose", default=None,
+                 help="Re-solve with each constraint relaxed (motor limit, slip range, delay, slip rate) to show "
+                      "which one binds [default: when the certified |e_y| exceeds half the track distance]."),
 ]
 
 
@@ -210,7 +216,7 @@ def _synth_opts(fn):
 @click.pass_obj
 @_guard
 def synthesize(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str | None, solver: str | None,
-               multiplier: str | None) -> None:
+               multiplier: str | None, diagnose: bool | None) -> None:
     """Solve the LMIs for a certified robust gain; write gains.json, gains.mat, synthesis.md."""
     from .model import build_model
     from .pipeline import synthesis_stage
@@ -218,9 +224,27 @@ def synthesize(obj: _Ctx, config: Path | None, outdir: Path | None, objective: s
     cfg = _load(config)
     out = _outdir(cfg, outdir)
     obj.detail(f"building the model of '{cfg.name}'")
-    st = synthesis_stage(build_model(cfg), out, objective=objective, solver=solver, multiplier=multiplier)
+    st = synthesis_stage(build_model(cfg), out, on_step=obj.detail, diagnose=diagnose, objective=objective,
+                         solver=solver, multiplier=multiplier)
+    _say_cleared(obj, out, st.cleared)
     obj.say(_certified_line(st.gains))
+    _say_diagnosis(obj, st.diagnosis)
     obj.say(f"wrote {', '.join(str(p) for p in st.files)}")
+
+
+def _say_diagnosis(obj: _Ctx, diagnosis: list[Any] | None) -> None:
+    """Where the design is stuck, one line per relaxed constraint, the most effective first."""
+    if not diagnosis:
+        return
+    obj.say("where the design is stuck (one re-synthesis per relaxed constraint; see synthesis.md):")
+    for r in diagnosis:
+        obj.say(f"  {r.constraint}: " + (f"|e_y| <= {100 * r.e_y:.2f} cm ({100 * r.change:+.0f} %)"
+                                         if r.e_y is not None and r.change is not None else r.status))
+
+
+def _say_cleared(obj: _Ctx, out: Path, cleared: tuple[str, ...]) -> None:
+    if cleared:
+        obj.say(f"removed {len(cleared)} file(s) another config had left in {out}: {', '.join(cleared)}")
 
 
 def _certified_line(gains: dict[str, Any]) -> str:
@@ -239,19 +263,32 @@ def _certified_line(gains: dict[str, Any]) -> str:
     return " ".join(parts[:1]) + " " + ", ".join(parts[1:])
 
 
+class _LazyBar:
+    """A Monte Carlo progress bar on stderr that starts at the first progress report, so that its
+    ETA is measured on the simulation alone (not on the model building and synthesis before it)."""
+
+    def __init__(self) -> None:
+        self.bar: Any = None
+        self.last = 0
+
+    def __call__(self, done: int, total: int) -> None:
+        if self.bar is None:
+            self.bar = click.progressbar(length=100, label="Monte Carlo", file=sys.stderr)
+        pct = int(100 * done / max(total, 1))
+        self.bar.update(pct - self.last)
+        self.last = pct
+
+    def render_finish(self) -> None:
+        if self.bar is not None:
+            self.bar.render_finish()
+
+
 def _progress(obj: _Ctx):
-    """A progress bar on stderr when it is a terminal (and not --quiet); else None."""
+    """A progress bar on stderr when it is a terminal (and not --quiet); else (None, None)."""
     if obj.quiet or not sys.stderr.isatty():
         return None, None
-    bar = click.progressbar(length=100, label="Monte Carlo", file=sys.stderr)
-    state = {"last": 0}
-
-    def cb(done: int, total: int) -> None:
-        pct = int(100 * done / max(total, 1))
-        bar.update(pct - state["last"])
-        state["last"] = pct
-
-    return cb, bar
+    bar = _LazyBar()
+    return bar, bar
 
 
 VERIFY_OPTS = [
@@ -284,7 +321,8 @@ def _report_checks(obj: _Ctx, result: Any) -> None:
 @CONFIG_ARG
 @click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Gains file [default: OUTDIR/gains.json].")
-@OUTDIR_OPT
+@click.option("-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Output directory [default: the directory of --gains, else results/<config name>/].")
 @_verify_opts
 @click.pass_obj
 @_guard
@@ -299,7 +337,7 @@ def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
     from .pipeline import verification_stage
 
     cfg = _load(config)
-    out = _outdir(cfg, outdir)
+    out = outdir if outdir is not None else (gains.parent if gains is not None else _outdir(cfg, None))
     cb, bar = _progress(obj)
     try:
         st = verification_stage(build_model(cfg), out, gains, runs, seed, fmt, not no_plots, cb)
@@ -320,7 +358,8 @@ def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
 @click.pass_obj
 @_guard
 def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str | None, solver: str | None,
-            multiplier: str | None, runs: int | None, seed: int | None, fmt: str, no_plots: bool) -> int:
+            multiplier: str | None, diagnose: bool | None, runs: int | None, seed: int | None, fmt: str,
+            no_plots: bool) -> int:
     """build-model, synthesize and verify in one go; write report.md and summary.json."""
     from .errors import EXIT_VERIFICATION_FAILED
     from .pipeline import run
@@ -329,12 +368,14 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
     out = _outdir(cfg, outdir)
     cb, bar = _progress(obj)
     try:
-        res = run(cfg, out, runs, seed, fmt, not no_plots, cb, on_stage=lambda s: obj.detail(f"[{s}]"),
-                  objective=objective, solver=solver, multiplier=multiplier)
+        res = run(cfg, out, runs, seed, fmt, not no_plots, cb, on_stage=lambda s: obj.detail(f"[{s}]"), on_step=obj.detail,
+                  diagnose=diagnose, objective=objective, solver=solver, multiplier=multiplier)
     finally:
         if bar is not None:
             bar.render_finish()
+    _say_cleared(obj, out, res.model.cleared)
     obj.say(_certified_line(res.synthesis.gains))
+    _say_diagnosis(obj, res.synthesis.diagnosis)
     _report_checks(obj, res.verification.result)
     obj.say(f"report: {out / 'report.md'}")
     return EXIT_OK if res.passed else EXIT_VERIFICATION_FAILED

@@ -18,7 +18,7 @@ def other_kind(kind: str) -> str:
 
 
 def _row(model: Any, gains: dict[str, Any] | None, vd: dict[str, Any] | None, status: str, message: str = "") -> dict:
-    from .verify.checks import steady_offsets
+    from .verification.checks import steady_offsets
     import numpy as np
 
     row: dict[str, Any] = {"model": model.kind, "status": status, "message": message, "certified": None,
@@ -50,7 +50,7 @@ def compare_models(model: Any, gains: dict[str, Any], vd: dict[str, Any] | None 
     from .report.synthesis import gains_dict
     from .report.verification import verification_dict
     from .synthesis import synthesize
-    from .verify import verify
+    from .verification import verify
 
     if gains.get("objective") != "ultimate-bound":
         return None

@@ -5,6 +5,7 @@ Each stage is a function from frozen inputs to a frozen result; no printing, no 
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
@@ -22,6 +23,7 @@ __all__ = [
     "RunResult",
     "run",
     "default_outdir",
+    "clear_foreign",
     "MarginStage",
     "margin_stage",
 ]
@@ -36,11 +38,42 @@ def default_outdir(config: Config) -> Path:
     return Path("results") / config.name
 
 
+def clear_foreign(outdir: str | Path, config: Config) -> list[str]:
+    """Remove the files another config left in ``outdir``: when its model.json, gains.json or
+    summary.json was written for a different config, every file of every stage goes (a foreign
+    model beside an old gain and report would read as one run).  Returns the removed names."""
+    from .config import config_to_dict
+
+    outdir = Path(outdir)
+    mine = config_to_dict(config)
+    foreign = False
+    for name in ("model.json", "gains.json", "summary.json"):
+        try:
+            data = json.loads((outdir / name).read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            continue
+        other = data.get("config") if isinstance(data, dict) else None
+        if name == "summary.json" and isinstance(data, dict):
+            other = data.get("config", mine if data.get("name") == config.name else None)
+        if other != mine:
+            foreign = True
+            break
+    if not foreign:
+        return []
+    names = list(MODEL_FILES + SYNTHESIS_FILES + VERIFICATION_FILES + RUN_FILES + ("margin.json",))
+    if (outdir / "figures").is_dir():
+        names += [f"figures/{p.name}" for p in sorted((outdir / "figures").iterdir()) if p.is_file()]
+    removed = [n for n in names if (outdir / n).exists()]
+    _remove(outdir, tuple(removed))
+    return removed
+
+
 @dataclass(frozen=True)
 class ModelStage:
     model: Model
     coverage: dict[str, Any]
     files: tuple[Path, ...]
+    cleared: tuple[str, ...] = ()  # files of another config removed from the output directory
 
 
 def model_stage(config: Config, outdir: str | Path) -> ModelStage:
@@ -50,13 +83,14 @@ def model_stage(config: Config, outdir: str | Path) -> ModelStage:
 
     make_dir(outdir)  # an output place that cannot be made fails before any work
     model = build_model(config)
+    cleared = clear_foreign(outdir, config)
     cov = coverage_check(model)
     files = {
         "model.md": model_markdown(model, cov).encode("utf-8"),
         "model.json": json_bytes(model_dict(model, cov)),
     }
     written = commit_files(outdir, files, primary="model.json")
-    return ModelStage(model, cov, tuple(written))
+    return ModelStage(model, cov, tuple(written), tuple(cleared))
 
 
 @dataclass(frozen=True)
@@ -66,6 +100,8 @@ class SynthesisStage:
     gains: dict[str, Any]
     files: tuple[Path, ...]
     comparison: dict[str, Any] | None = None
+    cleared: tuple[str, ...] = ()  # files of another config removed from the output directory
+    diagnosis: list[Any] | None = None  # synthesis.diagnose.Relaxation, most effective first
 
 
 def _remove(outdir: Path, names: tuple[str, ...]) -> None:
@@ -80,7 +116,9 @@ def _remove(outdir: Path, names: tuple[str, ...]) -> None:
             raise output_error(outdir / name, exc) from None
 
 
-def synthesis_stage(model: Model, outdir: str | Path, compare: bool = True, **overrides: Any) -> SynthesisStage:
+def synthesis_stage(model: Model, outdir: str | Path, compare: bool = True,
+                    on_step: Callable[[str], None] | None = None, diagnose: bool | None = None,
+                    **overrides: Any) -> SynthesisStage:
     """Synthesize and certify a gain; write gains.json (last), gains.mat, synthesis.md (with the
     paper-vs-slip-aware comparison unless ``compare`` is False).
 
@@ -89,18 +127,26 @@ def synthesis_stage(model: Model, outdir: str | Path, compare: bool = True, **ov
     from .errors import Interrupted, OutputError, RobustSynthError
     from .report.artifacts import commit_files, json_bytes, mat_bytes
     from .report.synthesis import gains_dict, gains_mat_vars, synthesis_markdown
-    from .synthesis import synthesize
-
     from .report.artifacts import make_dir
+    from .synthesis import synthesize
+    from .synthesis.diagnose import diagnose as run_diagnosis
+    from .synthesis.diagnose import is_large
 
     outdir = make_dir(outdir)
+    cleared = clear_foreign(outdir, model.config)
     try:
-        result = synthesize(model, **overrides)
+        result = synthesize(model, on_step=on_step, **overrides)
     except RobustSynthError as exc:
         if outdir.is_dir() and not isinstance(exc, (Interrupted, OutputError)):
             _remove(outdir, SYNTHESIS_FILES + VERIFICATION_FILES + RUN_FILES)
         raise
     gd = gains_dict(model, result)
+    diagnosis = None
+    if result.objective == "ultimate-bound" and (diagnose or (diagnose is None and is_large(model.config, result.certified))):
+        if on_step is not None:
+            on_step("where is the design stuck? one synthesis per relaxed constraint")
+        diagnosis = run_diagnosis(model.config, result.certified, motor=bool(result.certificate.get("motor_limits_enforced")),
+                                  on_step=on_step, **{k: v for k, v in overrides.items() if v is not None})
     cmp = None
     if compare:
         from .comparison import compare_models
@@ -108,11 +154,11 @@ def synthesis_stage(model: Model, outdir: str | Path, compare: bool = True, **ov
         cmp = compare_models(model, gd)
     files = {
         "gains.mat": mat_bytes(gains_mat_vars(gd)),
-        "synthesis.md": synthesis_markdown(model, result, gd, cmp).encode("utf-8"),
+        "synthesis.md": synthesis_markdown(model, result, gd, cmp, diagnosis).encode("utf-8"),
         "gains.json": json_bytes(gd),
     }
     written = commit_files(outdir, files, primary="gains.json", invalidate=VERIFICATION_FILES + RUN_FILES)
-    return SynthesisStage(model, result, gd, tuple(written), cmp)
+    return SynthesisStage(model, result, gd, tuple(written), cmp, tuple(cleared), diagnosis)
 
 
 ProgressFn = Callable[[int, int], None]
@@ -121,7 +167,7 @@ ProgressFn = Callable[[int, int], None]
 @dataclass(frozen=True)
 class VerificationStage:
     model: Model
-    result: Any  # robustsynth.verify.VerificationResult
+    result: Any  # robustsynth.verification.VerificationResult
     data: dict[str, Any]
     figures: dict[str, Path]
     files: tuple[Path, ...]
@@ -142,7 +188,7 @@ def verification_stage(
     from .report.artifacts import commit_files, json_bytes
     from .report.synthesis import gains_id
     from .report.verification import verification_dict, verification_markdown
-    from .verify import load_gains, verify
+    from .verification import load_gains, verify
 
     from .report.artifacts import make_dir
 
@@ -192,6 +238,8 @@ def run(
     progress: ProgressFn | None = None,
     on_stage: Callable[[str], None] | None = None,
     compare: bool = True,
+    on_step: Callable[[str], None] | None = None,
+    diagnose: bool | None = None,
     **synthesis_overrides: Any,
 ) -> RunResult:
     """build-model -> synthesize -> verify, then report.md and summary.json.
@@ -216,7 +264,7 @@ def run(
     ms = model_stage(config, outdir)
     say("synthesize")
     try:
-        ss = synthesis_stage(ms.model, outdir, compare=compare, **synthesis_overrides)
+        ss = synthesis_stage(ms.model, outdir, compare=compare, on_step=on_step, diagnose=diagnose, **synthesis_overrides)
     except RobustSynthError as exc:
         if isinstance(exc, (Interrupted, OutputError)):
             raise
@@ -256,7 +304,7 @@ def margin_stage(config: Config, outdir: str | Path, gains_path: str | Path | No
     from .margins import margin
     from .report.artifacts import commit_files, json_bytes, make_dir
     from .report.synthesis import gains_id
-    from .verify import load_gains
+    from .verification import load_gains
 
     outdir = make_dir(outdir)
     gp = Path(gains_path) if gains_path is not None else outdir / "gains.json"

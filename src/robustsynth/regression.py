@@ -1,4 +1,4 @@
-"""Regression on ``configs/``: run every config and compare with ``results/<name>/summary.json``.
+"""Regression on ``configs/``: run every config and compare with ``results/baselines/<name>/summary.json``.
 
     python -m robustsynth.regression --write   # regenerate the baselines (make baselines)
     python -m robustsynth.regression           # compare (what the test in make test does)
@@ -31,7 +31,7 @@ def run_config(config_path: Path, outdir: Path) -> dict[str, Any]:
 
     cfg = load_config(config_path)
     try:
-        run(cfg, outdir, plots=False, compare=False)  # the comparison is for reading, not regression
+        run(cfg, outdir, plots=False, compare=False, diagnose=False)  # comparison and diagnosis are for reading
     except RobustSynthError:
         pass  # run() recorded the status in summary.json
     return json.loads((outdir / "summary.json").read_text())
@@ -112,9 +112,9 @@ def main(argv: list[str] | None = None) -> int:
     import argparse
 
     ap = argparse.ArgumentParser(prog="python -m robustsynth.regression", description=__doc__.splitlines()[0])
-    ap.add_argument("--write", action="store_true", help="regenerate results/<name>/summary.json and gains.json")
+    ap.add_argument("--write", action="store_true", help="regenerate results/baselines/<name>/summary.json and gains.json")
     ap.add_argument("--configs", type=Path, default=Path("configs"))
-    ap.add_argument("--results", type=Path, default=Path("results"))
+    ap.add_argument("--results", type=Path, default=Path("results") / "baselines")
     a = ap.parse_args(argv)
     if a.write:
         write_baselines(a.configs, a.results)

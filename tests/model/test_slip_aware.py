@@ -18,7 +18,7 @@ from robustsynth.model.slip import (
     slip_matrix,
 )
 from robustsynth.model.vertices import triangle, triangle_coordinates
-from robustsynth.verify.simulate import frame_error, make_path, period
+from robustsynth.verification.simulate import frame_error, make_path, period
 
 from ..conftest import make_config
 

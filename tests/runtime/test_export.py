@@ -17,10 +17,10 @@ import yaml
 
 from robustsynth.runtime import Controller
 from robustsynth.runtime.export import export_controller
-from robustsynth.verify.simulate import make_path
+from robustsynth.verification.simulate import make_path
 
 ROOT = Path(__file__).resolve().parents[2]
-GAINS = sorted((ROOT / "results").glob("*/gains.json"))
+GAINS = sorted((ROOT / "results" / "baselines").glob("*/gains.json"))
 EXPORT_TOL = 1e-12  # generated controller vs Controller.step (issue 11)
 STEPS = 10_000  # random steps per gain (issue 11: >= 10 000, including segment switches)
 CC = shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
@@ -101,7 +101,7 @@ def test_python_export_is_dependency_free_and_reproduces_the_commands(gains: Pat
 
 
 def test_ros2_and_json_carry_the_controller(tmp_path: Path) -> None:
-    gains = ROOT / "results" / "delay-multi-period" / "gains.json"
+    gains = ROOT / "results" / "baselines" / "delay-multi-period" / "gains.json"
     ctl = Controller.from_files(gains)
     export_controller(gains, "ros2", tmp_path)
     export_controller(gains, "json", tmp_path)
@@ -116,7 +116,7 @@ def test_ros2_and_json_carry_the_controller(tmp_path: Path) -> None:
 
 
 def test_export_cli_writes_atomically_and_refuses_bad_input(tmp_path: Path) -> None:
-    gains = ROOT / "results" / "default" / "gains.json"
+    gains = ROOT / "results" / "baselines" / "default" / "gains.json"
     run = lambda *a: subprocess.run([sys.executable, "-m", "robustsynth", "export", *a], capture_output=True, text=True)
     r = run(str(gains), "--to", "c", "-o", str(tmp_path / "c"))
     assert r.returncode == 0 and "rs_controller.h" in r.stdout

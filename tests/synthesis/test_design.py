@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 from robustsynth.errors import InfeasibleError
 from robustsynth.model import build_model
 from robustsynth.synthesis import synthesize
-from robustsynth.verify.certificate import check_certificate, lyapunov_of
-from robustsynth.verify.lifted import (
+from robustsynth.verification.certificate import check_certificate, lyapunov_of
+from robustsynth.verification.lifted import (
     alternating_delays,
     closed_loop_run,
     frozen_instant_grid,

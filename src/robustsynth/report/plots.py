@@ -98,7 +98,7 @@ def _covered(res) -> np.ndarray:
 
 
 def model_path_switches(res, model) -> list[float]:
-    from ..verify.simulate import make_path
+    from ..verification.simulate import make_path
 
     p = make_path(model.config.verification.path, model.V)
     return list(p.t_start[1:])

@@ -156,7 +156,24 @@ def _controller_mat_vars(gd: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: dict[str, Any] | None = None) -> str:
+def diagnosis_markdown(model: Any, result: Any, diagnosis: list[Any] | None) -> str:
+    """Where the design is stuck: one re-synthesis per relaxed constraint (synthesis.diagnose)."""
+    if not diagnosis:
+        return ""
+    e_y = result.certified["ultimate_bound"]["e_y"]
+    rows = [[r.constraint, r.status, fmt(100 * r.e_y) if r.e_y is not None else "—",
+             f"{100 * r.change:+.0f} %" if r.change is not None else "—", f"{r.time_s:.1f}"] for r in diagnosis]
+    best = diagnosis[0]
+    lead = (f"The certified |e_y| <= {100 * e_y:.2f} cm responds most to the **{best.name}**: "
+            f"{best.constraint} gives {100 * best.e_y:.2f} cm ({100 * best.change:+.0f} %)."
+            if best.change is not None else "No relaxation tried gave a certified design.")
+    return ("\n## Where the design is stuck\n\n" + lead + " Each row re-solves with one constraint relaxed and "
+            "everything else as configured; the relaxed designs certify their own problem, not this one.\n\n"
+            + table(["relaxed", "status", "certified |e_y| [cm]", "change", "time [s]"], rows))
+
+
+def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: dict[str, Any] | None = None,
+                       diagnosis: list[Any] | None = None) -> str:
     cfg = model.config
     figs = result.certified
     c = gd["certificate"]
@@ -260,4 +277,5 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
     from .comparison import comparison_markdown
 
     out.append(comparison_markdown(comparison))
+    out.append(diagnosis_markdown(model, result, diagnosis))
     return "".join(out)

@@ -144,6 +144,30 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
     return "".join(out)
 
 
+def transients_markdown(mc: dict[str, Any]) -> str:
+    """The waypoint turns: what the verdict excludes, said in report.md rather than hidden."""
+    tr = mc.get("transients")
+    if not tr:
+        return ""
+    mx = tr["max"]
+    out = [f"\n**Turns and other excluded steps** ({100 * tr['excluded_steps_fraction']:.1f} % of the steps, "
+           f"rule: {mc['excluded']}): the robot reaches |e_x| = {100 * mx['e_x']:.2f} cm, |e_y| = {100 * mx['e_y']:.2f} cm, "
+           f"|e_theta| = {mx['e_theta']:.3f} rad there."]
+    lim = tr.get("motor_limit")
+    if lim is not None:
+        peak = tr["max_commanded_motor_speed"]
+        if peak > lim:
+            out.append(f" The controller asks for up to {peak:.2f} rad/s against rho_max = {lim:g} rad/s "
+                       f"({100 * tr['steps_above_limit_fraction']:.2f} % of all steps, at most "
+                       f"{tr['longest_above_limit_s']:.1f} s in a row); "
+                       + ("the simulated motors saturate there, as real ones do." if tr["saturated"] else
+                          "**the simulation does not saturate the motors** (`verification.motor_saturation: false`): "
+                          "a real robot would not follow these runs."))
+        else:
+            out.append(f" The commanded motor speed stays within rho_max = {lim:g} rad/s throughout (peak {peak:.2f}).")
+    return "".join(out) + "\n"
+
+
 def summary_dict(model: Any, gains: dict[str, Any] | None, vd: dict[str, Any] | None, status: str) -> dict[str, Any]:
     """results/<name>/summary.json: what the regression compares (certified figures, feasibility,
     verdict, Monte Carlo maxima at the config's seed)."""
@@ -196,6 +220,7 @@ def report_markdown(model: Any, gains: dict[str, Any], vd: dict[str, Any], figur
     failed = [ch["name"] for ch in vd["checks"] if not ch["passed"]]
     if failed:
         out.append("\nFailed checks: " + "; ".join(failed) + ".\n")
+    out.append(transients_markdown(mc))
     out.append(nonlinear_markdown(cfg, mc))
     from .comparison import comparison_markdown
 

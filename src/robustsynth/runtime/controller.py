@@ -82,7 +82,7 @@ class Controller(_PureController):
         from ``config_path``, else from the config stored in the gains file, else the embedded
         default."""
         from ..config import load_config
-        from ..verify.checks import load_gains
+        from ..verification.checks import load_gains
 
         gains = load_gains(gains_path)
         return cls(controller_description(gains, load_config(config_path) if config_path is not None else None))

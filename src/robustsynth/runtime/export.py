@@ -278,7 +278,7 @@ def export_controller(gains_path: str | Path, target: str, outdir: str | Path,
     from ..config import load_config
     from ..errors import InputError
     from ..report.artifacts import commit_files
-    from ..verify.checks import load_gains
+    from ..verification.checks import load_gains
     from .controller import controller_description
 
     if target not in TARGETS:

@@ -63,7 +63,7 @@ def run_point(payload: dict[str, Any]) -> dict[str, Any]:
         out.update(status="certified", figures=res.certified, gains=to_jsonable(gd), gains_id=gains_id(gd))
         runs = payload.get("verify_runs")
         if runs:
-            from ..verify import verify
+            from ..verification import verify
 
             v = verify(model, gd, runs=runs)
             mx = v.monte_carlo.get("maxima", {})

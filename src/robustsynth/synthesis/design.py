@@ -12,7 +12,7 @@ import numpy as np
 from ..config import SynthesisConfig
 from ..errors import InfeasibleError, InputError, SolverFailure
 from ..model.slip import check_physical_feasibility
-from ..verify.certificate import CertificateCheck, check_certificate
+from ..verification.certificate import CertificateCheck, check_certificate
 from .lmis import LMIProblem, build_hinf, build_invariance, build_stability
 from .solve import Outcome, SolveRecord, solve, solver_version
 
@@ -116,7 +116,11 @@ def _delay_text(model: Any) -> str:
     return f"delays up to {model.config.network.delay.max:g} s" + (f" and {m} lost commands in a row" if m else "")
 
 
-def _run_stability(model: Any, s: SynthesisConfig, search: list) -> tuple[_Best, _Runner]:
+def _attempts(out: Any) -> str:
+    return ", ".join(f"{a.name} {a.status} {a.solve_time_s:.2f} s" for a in out.attempts)
+
+
+def _run_stability(model: Any, s: SynthesisConfig, search: list, say: Callable[[str], None]) -> tuple[_Best, _Runner]:
     lp = build_stability(model, s.multiplier, s.margin, s.lyapunov)
     best = _Best()
 
@@ -133,6 +137,7 @@ def _run_stability(model: Any, s: SynthesisConfig, search: list) -> tuple[_Best,
         lp.params["r2"].value = r * r
         out, cert, K, chk = runner.run(fallback=fallback)
         search.append({"r": r, "status": out.kind})
+        say(f"  decay rate r = {r:.6f}: {'certified' if out.kind == 'ok' else out.kind} ({_attempts(out)})")
         if out.kind == "ok":
             best.value, best.cert, best.K, best.check, best.record = r, cert, K, chk, out.record
             return True
@@ -156,7 +161,8 @@ def _run_stability(model: Any, s: SynthesisConfig, search: list) -> tuple[_Best,
     return best, runner
 
 
-def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool) -> tuple[_Best, _Runner]:
+def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
+                    say: Callable[[str], None] = lambda _m: None) -> tuple[_Best, _Runner]:
     lp = build_invariance(model, s.multiplier, s.margin, _weights(s), motor, s.lyapunov)
     w = _weights(s)
     best = _Best()
@@ -188,6 +194,9 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool) -
             if val < best.value:
                 best.value, best.cert, best.K, best.check, best.record = val, cert, K, chk, out.record
         search.append({"alpha": a, "status": out.kind, "objective": None if math.isinf(val) else val})
+        what = (f"certified, |e_y| <= {100 * chk.figures['ultimate_bound']['e_y']:.2f} cm" if out.kind == "ok" else out.kind)
+        say(f"  alpha = {a:.4g}: {what} ({_attempts(out)}); best so far "
+            + (f"|e_y| <= {100 * best.check.figures['ultimate_bound']['e_y']:.2f} cm" if best.check is not None else "none"))
         cache[log_a] = val
         return val
 
@@ -230,7 +239,7 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool) -
     return best, runner
 
 
-def _run_hinf(model: Any, s: SynthesisConfig, search: list) -> tuple[_Best, _Runner]:
+def _run_hinf(model: Any, s: SynthesisConfig, search: list, say: Callable[[str], None]) -> tuple[_Best, _Runner]:
     lp = build_hinf(model, s.multiplier, s.margin, _weights(s))
     best = _Best()
 
@@ -243,19 +252,23 @@ def _run_hinf(model: Any, s: SynthesisConfig, search: list) -> tuple[_Best, _Run
     runner = _Runner(model, lp, s.solver, make_cert)
     out, cert, K, chk = runner.run()
     search.append({"status": out.kind})
+    say(f"  hinf: {'certified' if out.kind == 'ok' else out.kind} ({_attempts(out)})")
     if out.kind == "ok":
         best.value, best.cert, best.K, best.check, best.record = cert["gamma2"], cert, K, chk, out.record
     return best, runner
 
 
-def synthesize(model: Any, settings: SynthesisConfig | None = None, **overrides: Any) -> SynthesisResult:
+def synthesize(model: Any, settings: SynthesisConfig | None = None, *, on_step: Callable[[str], None] | None = None,
+               **overrides: Any) -> SynthesisResult:
     """Design and certify ``du_k = K xi_k`` for ``model``.
 
     ``settings`` defaults to ``model.config.synthesis``; keyword ``overrides`` (``objective``,
     ``solver``, ``multiplier``, ...) replace single settings.  Raises :class:`InfeasibleError`
     (exit 3) when the LMIs have no solution and :class:`SolverFailure` (exit 4) when the solvers
-    fail or no returned point passes the certificate check.
+    fail or no returned point passes the certificate check.  ``on_step`` receives one line per
+    solve (the alpha scan, the decay-rate bisection): what was tried, by which solver, how long.
     """
+    say = on_step if on_step is not None else (lambda _m: None)
     s = settings if settings is not None else model.config.synthesis
     if overrides:
         s = s.model_copy(update={k: v for k, v in overrides.items() if v is not None})
@@ -268,9 +281,11 @@ def synthesize(model: Any, settings: SynthesisConfig | None = None, **overrides:
                          "ultimate-bound or stability objective")
     check_physical_feasibility(cfg)  # physics first: no LMI can beat a motor that is too slow
     if s.objective == "stability":
-        best, runner = _run_stability(model, s, search)
+        say(f"{s.objective}: bisection on the decay rate ({model.kind} model, {len(model.vertices)} vertices)")
+        best, runner = _run_stability(model, s, search, say)
     elif s.objective == "hinf":
-        best, runner = _run_hinf(model, s, search)
+        say(f"{s.objective}: one solve ({model.kind} model, {len(model.vertices)} vertices)")
+        best, runner = _run_hinf(model, s, search, say)
         if best.cert is None:
             _raise_no_solution(runner, "hinf", f"hinf: no gain gives a finite l2 gain for {_delay_text(model)}: "
                                "narrow network.delay or lower reference.speed")
@@ -288,7 +303,9 @@ def synthesize(model: Any, settings: SynthesisConfig | None = None, **overrides:
                 f"{cfg.reference.speed / cfg.robot.gear_radius:.4g} rad/s needed to follow the path: "
                 "raise robot.max_motor_speed or lower reference.speed"
             )
-        best, runner = _run_invariance(model, s, search, motor)
+        say(f"{s.objective}: scan of alpha ({s.alpha_points} points, then golden section; {model.kind} model, "
+            f"{len(model.vertices)} vertices, motor limits {'on' if motor else 'off'})")
+        best, runner = _run_invariance(model, s, search, motor, say)
         if best.cert is None:
             if runner.failures and runner.failures == len(search):
                 raise SolverFailure("ultimate-bound: every solve failed, also with the fallback solver")
@@ -306,9 +323,10 @@ def synthesize(model: Any, settings: SynthesisConfig | None = None, **overrides:
             )
         if not motor and rho_max is not None and s.motor_limits is False:
             notes.append("motor limits not enforced (synthesis.motor_limits: false)")
-    if runner.fallbacks:
-        notes.append(f"fallback solver used in {runner.fallbacks} of {len(search)} solves")
     rec = best.record
+    if runner.fallbacks and rec is not None:
+        notes.append(f"fallback solver used in {runner.fallbacks} of {len(search)} solves; the accepted K is "
+                     f"from {rec.name}")
     if best.cert is None or best.check is None or not best.check.passed or rec is None:
         raise SolverFailure(f"{s.objective}: no certified point")  # unreachable: each branch above raised
     cert = dict(best.cert)

@@ -271,6 +271,30 @@ def _maxima(e: np.ndarray, rho: np.ndarray, mask: np.ndarray) -> dict[str, np.nd
     }
 
 
+def _transients(model, sim: SimResult, mask: np.ndarray) -> dict[str, Any]:
+    """What the verdict does not cover: the steps outside ``mask`` (after waypoints, until the robot
+    is back in the certified set, or the fixed transients), and the motor commands over whole runs
+    against the physical limit."""
+    e = np.abs(sim.e[:, :-1])
+    off = ~mask
+    rho = np.max(np.abs(sim.rho), axis=2)  # (N, T) larger commanded motor speed
+    rho_max = model.config.robot.max_motor_speed
+    out: dict[str, Any] = {
+        "excluded_steps_fraction": float(np.mean(off)),
+        "max": {k: float(np.max(np.where(off, e[..., i], 0.0))) for i, k in enumerate(("e_x", "e_y", "e_theta"))},
+        "max_commanded_motor_speed": float(np.max(rho)),
+        "motor_limit": rho_max,
+        "saturated": bool(model.config.verification.motor_saturation and rho_max is not None),
+    }
+    if rho_max is not None:
+        above = rho > rho_max
+        from ..model.network import longest_burst
+
+        out["steps_above_limit_fraction"] = float(np.mean(above))
+        out["longest_above_limit_s"] = float(np.max(longest_burst(above), initial=0)) * model.Ts
+    return out
+
+
 def _stats(x: np.ndarray) -> dict[str, float]:
     return {"max": float(np.max(x)), "p95": float(np.percentile(x, 95)), "mean": float(np.mean(x)),
             "worst_run": int(np.argmax(x))}
@@ -457,6 +481,7 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
     mc["maxima"] = {k: _stats(v) for k, v in mx.items()}
     mc["extreme_maxima"] = {k: float(np.max(v)) for k, v in mx_ext.items()}
     mc["certified_steps"] = int(np.sum(mask))
+    mc["transients"] = _transients(model, sim, mask)
     if int(np.sum(mask)) == 0:  # otherwise every maximum below would be vacuous
         checks.append(_check("nonlinear: steps after the transients exist", False, 0, 1,
                              "no sampling instant is covered: lengthen verification.path or shorten verification.transient"))
@@ -484,12 +509,38 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
         worst = worst_of["e_y"]
         checks.append(_check("nonlinear: no divergence (max |e_y| after transients)", finite and worst <= DIVERGENCE_LIMIT,
                              worst, DIVERGENCE_LIMIT, "no certified bound to compare with; divergence limit in m"))
+    rho_max = model.config.robot.max_motor_speed
+    if rho_max is not None and (not ub or cert.figures.get("motor_speed_bound") is None):
+        # no certified motor bound to judge by: the physical limit itself, on the steps judged
+        worst = worst_of["motor_speed"]
+        checks.append(_check("nonlinear: max commanded |rho| <= rho_max", worst <= rho_max, worst, rho_max,
+                             f"(rad/s) the motors' physical limit, on the steps in the {rule}"))
     return checks, mc, sim, ext, scen, v_ratio, np.asarray(mask)
 
 
-def verify(model, gains: dict[str, Any], runs: int | None = None, seed: int | None = None,
+def as_gains(model, gains: Any) -> dict[str, Any]:
+    """A gains.json mapping from what a user holds: the mapping itself, the result of
+    :func:`~robustsynth.synthesis.synthesize`, or a bare matrix K (no certificate)."""
+    if isinstance(gains, dict):
+        return gains
+    if hasattr(gains, "K") and hasattr(gains, "certificate"):  # a SynthesisResult
+        from ..report.synthesis import gains_dict
+
+        return gains_dict(model, gains)
+    try:
+        K = np.asarray(gains, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"gains: expected a gains mapping, a SynthesisResult or a matrix K (got {type(gains).__name__})") from None
+    if K.ndim != 2:
+        raise InputError(f"gains: a matrix K needs 2 dimensions (got shape {K.shape})")
+    return {"K": K.tolist()}
+
+
+def verify(model, gains: Any, runs: int | None = None, seed: int | None = None,
            progress: Callable[[int, int], None] | None = None) -> VerificationResult:
-    """Run every check of ``gains`` (a gains.json mapping) against ``model``."""
+    """Run every check of ``gains`` against ``model``: a gains.json mapping (:func:`load_gains`),
+    the result of :func:`~robustsynth.synthesis.synthesize`, or a bare matrix K."""
+    gains = as_gains(model, gains)
     vc = model.config.verification
     runs = vc.runs if runs is None else runs
     seed = vc.seed if seed is None else seed
@@ -500,14 +551,28 @@ def verify(model, gains: dict[str, Any], runs: int | None = None, seed: int | No
         raise InputError(f"K: has shape {K.shape}, the config's model needs {(model.n_u, model.n_s)} "
                          f"(d_hi = {model.d_hi}); was the gain made for another delay range?")
     cert_data = gains.get("certificate")
+    source = "gains file"
     if isinstance(cert_data, dict):
         cert = check_certificate(model, K, cert_data)
     else:
-        cert = CertificateCheck(False, (), {}, "no certificate in the gains file")
+        # a gain from elsewhere: search a robust-stability certificate for this fixed K (the analysis
+        # LMIs of `robustsynth margin`); it counts only once re-checked in numpy, like any other
+        from ..synthesis.analysis import analyze_stability
+
+        ana = analyze_stability(model, K, lyapunov="auto")
+        if ana.certified:
+            cert, cert_data, source = ana.check, ana.certificate, f"analysis of the fixed K ({ana.lyapunov} Lyapunov)"
+            gains = dict(gains, certificate=cert_data)
+        else:
+            cert = CertificateCheck(False, (), {}, "no certificate in the gains file, and none found for the fixed K "
+                                    f"by the analysis LMIs ({'; '.join(ana.attempts)})")
+            source = None
     checks = [_check("certificate: LMIs re-checked in numpy", cert.passed,
                      None if not cert.checks else cert.min_eig_margin,
                      None if not cert.checks else 0.5 * float(cert_data.get("margin", float("nan"))),
-                     cert.reason or f"{len(cert.checks)} conditions, smallest margin found {cert.min_eig_margin:.3g}")]
+                     cert.reason or f"{len(cert.checks)} conditions, smallest margin found {cert.min_eig_margin:.3g}"
+                     + ("" if source == "gains file" else f"; certificate from the {source}: robust stability with "
+                        f"decay rate {cert.figures.get('decay_rate', float('nan')):.4g}, no error bounds"))]
     claimed = gains.get("certified") or {}
     if cert.passed and isinstance(claimed, dict):
         mism = [k for k in ("decay_rate", "motor_speed_bound", "hinf_gain")
@@ -524,5 +589,6 @@ def verify(model, gains: dict[str, Any], runs: int | None = None, seed: int | No
     nchecks, mc, sim, ext, scen, v_ratio, mask = _nonlinear(model, K, cert, gains, runs, seed, progress)
     checks += fchecks + lchecks + nchecks
     passed = all(c["passed"] for c in checks)
+    mc["certificate_source"] = source
     return VerificationResult(passed, tuple(checks), cert, mc, lifted, frozen, sim, ext, scen, traces, K, dict(gains),
                               v_ratio, mask)

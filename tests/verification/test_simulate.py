@@ -10,8 +10,8 @@ from hypothesis import strategies as st
 
 from robustsynth.model import build_model
 from robustsynth.synthesis import synthesize
-from robustsynth.verify.reference import ivp_arc, simulate_run
-from robustsynth.verify.simulate import (
+from robustsynth.verification.reference import ivp_arc, simulate_run
+from robustsynth.verification.simulate import (
     arc_step,
     draw_scenario,
     greedy_nonlinear,
@@ -44,7 +44,7 @@ def setups():
         "multi-period": {"network.delay.min": 0.03, "network.delay.max": 0.25},
         "d_lo>=1": {"network.delay.min": 0.12, "network.delay.max": 0.22, "verification.noise.position": 0.005,
                     "verification.noise.heading": 0.01},
-        "saturated": {"verification.motor_saturation": True},
+        "ideal-actuator": {"verification.motor_saturation": False},  # saturation is the default
         "integral": {"synthesis.integral_action": True, "robot.max_motor_speed": None},
         "offset": {"verification.initial_offset.y": 0.05},
         # the simulator, not the description, is under test: the quick norm-bounded one
@@ -58,7 +58,7 @@ def setups():
 
 
 @pytest.mark.parametrize("name,steady", [("paper", False), ("paper", True), ("multi-period", True), ("d_lo>=1", False),
-                                         ("saturated", True), ("integral", True), ("lossy", True), ("lossy", False)])
+                                         ("ideal-actuator", True), ("integral", True), ("lossy", True), ("lossy", False)])
 def test_vectorized_equals_per_run_reference(setups, name, steady) -> None:
     m, K = setups[name]
     path = make_path(m.config.verification.path, m.V)
@@ -134,7 +134,7 @@ def test_greedy_nonlinear_pushes_harder_than_random_runs(setups) -> None:
     that of the same robot under random slip and delays from the same starts."""
     m = build_model(make_config())
     res = synthesize(m, alpha_points=7)
-    from robustsynth.verify.certificate import lyapunov_of
+    from robustsynth.verification.certificate import lyapunov_of
 
     lyap = lyapunov_of(m, res.certificate)
     mu0 = np.array([[0.6, 1.0], [1.0, 0.6], [0.6, 0.6], [1.0, 1.0]])
@@ -154,9 +154,10 @@ def test_scenarios_are_reproducible(setups) -> None:
 
 
 def test_saturation_clips_motor_speeds_and_changes_the_turns(setups) -> None:
-    from robustsynth.verify.simulate import saturate
+    from robustsynth.verification.simulate import saturate
 
-    m, K = setups["saturated"]
+    m, K = setups["paper"]
+    assert m.config.verification.motor_saturation  # the default: real motors saturate
     J, J_inv = np.asarray(m.J), np.asarray(m.J_inv)
     u = np.array([[0.5, 3.0], [2.0, 0.0], [0.4, -0.1]])
     rho = saturate(u, J, J_inv, 12.0) @ J_inv.T
@@ -166,7 +167,7 @@ def test_saturation_clips_motor_speeds_and_changes_the_turns(setups) -> None:
     steps = int(path.duration / m.Ts)
     scen = draw_scenario(m, 4, seed=2, steps=steps, path=path)
     sat = simulate(m, K, path, scen)
-    free = simulate(setups["paper"][0], K, path, scen)
+    free = simulate(setups["ideal-actuator"][0], K, path, scen)
     assert np.max(np.abs(free.rho)) > 12.0  # the turns ask for more than the motors give...
     assert np.max(np.abs(sat.q - free.q)) > 1e-6  # ...so clipping changes the motion
 
