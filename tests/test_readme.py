@@ -60,3 +60,18 @@ def test_quick_start_shell_block_runs(tmp_path: Path) -> None:
         ran += 1
     assert ran == 4
     assert (cwd / "results" / "my-robot" / "report.md").exists()  # named by default-config --name
+
+
+def test_docs_are_self_contained() -> None:
+    """Every reference in the README, docs/ and docstrings points into the repository: no
+    ../shared, no math.md or slip-aware.md a user does not have, and every relative link exists."""
+    texts = {p: p.read_text(encoding="utf-8") for p in
+             [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")), *sorted((ROOT / "src").rglob("*.py"))]}
+    for p, text in texts.items():
+        for outside in ("../shared", "math.md", "slip-aware.md", "style.md"):
+            assert outside not in text, f"{p.relative_to(ROOT)} refers to {outside}"
+        if p.suffix == ".md":
+            for link in re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", text):
+                if "://" in link or link.startswith(("figures/", "results/")):
+                    continue  # web pages; files a run writes
+                assert (p.parent / link).exists(), f"{p.relative_to(ROOT)} links to missing {link}"

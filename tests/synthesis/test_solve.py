@@ -35,6 +35,7 @@ def test_clarabel_failure_falls_back_to_scs(monkeypatch) -> None:
     assert res.solver["name"] == "scs"
     assert res.solver["fallback_used"] is True
     assert res.check.passed
+    assert any("the accepted K is from scs" in n for n in res.notes)  # gains.json says which solver's K it is
 
 
 def test_both_solvers_failing_exits_4(monkeypatch, tmp_path) -> None:
