@@ -5,7 +5,7 @@ from __future__ import annotations
 import cvxpy as cp
 
 from robustsynth.config import default_config as config  # noqa: F401  (the default with dotted overrides)
-from robustsynth.synthesis.lmis import motor_constraints as motor_lmis  # noqa: F401  (math.md §5c)
+from robustsynth.synthesis.lmis import motor_constraints as motor_lmis  # noqa: F401  (docs/theory.md §6, motor limits)
 from robustsynth.synthesis.solve import SOLVER_OPTIONS
 
 

@@ -1,4 +1,4 @@
-"""Experiment: the exact-hull polytopic delay model (math.md §4, "a tighter alternative for later").
+"""Experiment: the exact-hull polytopic delay model (docs/theory.md §5, the exact-hull delay vertices).
 
 The curve (h, h^2/2) lies in the triangle spanned by its ends and the crossing of the end
 tangents; the lifted matrices are affine in each instant's (h, g), so one invariance LMI per vertex

@@ -1,4 +1,4 @@
-"""Experiment: a certificate that also covers slip's multiplicative effect (math.md §2).
+"""Experiment: a certificate that also covers slip's multiplicative effect (docs/theory.md §2).
 
 Linearized in e and du but exact in the slip mu (constant over a period), the error obeys
 ``e_dot = s A e + B M du + B_D d`` with ``s = (mu_r + mu_l)/2`` and ``M = J H J^-1 = s I + d N``,

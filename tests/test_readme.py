@@ -66,7 +66,8 @@ def test_docs_are_self_contained() -> None:
     """Every reference in the README, docs/ and docstrings points into the repository: no
     ../shared, no math.md or slip-aware.md a user does not have, and every relative link exists."""
     texts = {p: p.read_text(encoding="utf-8") for p in
-             [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")), *sorted((ROOT / "src").rglob("*.py"))]}
+             [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")), *sorted((ROOT / "src").rglob("*.py")),
+              *sorted((ROOT / "experiments").glob("*.*")), *sorted((ROOT / "benchmarks").glob("*.py"))]}
     for p, text in texts.items():
         for outside in ("../shared", "math.md", "slip-aware.md", "style.md"):
             assert outside not in text, f"{p.relative_to(ROOT)} refers to {outside}"
