@@ -130,7 +130,7 @@ def test_pad_gain_is_the_same_law(cfg, K) -> None:
 def test_margin_cli_json_matches_the_file(tmp_path, cfg, K) -> None:
     gains = tmp_path / "gains.json"
     gains.write_text(json.dumps({"K": K.tolist()}))
-    r = CliRunner().invoke(main, ["margin", "--gains", str(gains), "-o", str(tmp_path), "--json"])
+    r = CliRunner().invoke(main, ["margin", "--gains", str(gains), "--json"])  # no -o: beside the gain
     assert r.exit_code == 0, r.output
     printed = json.loads(r.output)
     on_disk = json.loads((tmp_path / "margin.json").read_text())

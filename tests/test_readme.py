@@ -60,6 +60,7 @@ def test_quick_start_shell_block_runs(tmp_path: Path) -> None:
         ran += 1
     assert ran == 4
     assert (cwd / "results" / "my-robot" / "report.md").exists()  # named by default-config --name
+    assert (cwd / "results" / "my-robot-stability" / "verification.json").exists()  # verify --gains: beside the gain
 
 
 def test_docs_are_self_contained() -> None:

@@ -386,7 +386,8 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
 @CONFIG_ARG
 @click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Gains file [default: OUTDIR/gains.json].")
-@OUTDIR_OPT
+@click.option("-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Output directory [default: the directory of --gains, else results/<config name>/].")
 @click.option("--lyapunov", type=click.Choice(["common", "slip-dependent", "auto"]), default=None,
               help="Certificates tried at each point [default: synthesis.lyapunov]; auto: common, then "
                    "slip-dependent where it fails (tighter, slower).")
@@ -404,7 +405,7 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
     from .pipeline import margin_stage
 
     cfg = _load(config)
-    out = _outdir(cfg, outdir)
+    out = outdir if outdir is not None else (gains.parent if gains is not None else _outdir(cfg, None))
     st = margin_stage(cfg, out, gains, lyapunov, on_step=obj.detail)
     if as_json:
         import json
