@@ -174,6 +174,15 @@ def main(argv: list[str]) -> None:
 # level is convex in the gain.  Each step can only lower the certified weighted bound.
 
 
+def _solved(prob) -> bool:
+    """Clarabel; True when it reports an optimal point."""
+    try:
+        prob.solve(solver=cp.CLARABEL)
+    except cp.SolverError:
+        return False
+    return prob.status == "optimal"
+
+
 def _disturbance(model, n):
     cfg = model.config
     V, D = model.V, cfg.robot.track_distance
@@ -213,11 +222,7 @@ def q_step(model, verts, S_z, E, K, rho_max, alphas, w=np.array([0.01, 1.0, 0.01
                 cons.append(H[i] @ Q @ H[i] <= room ** 2)
         obj = sum(w[i] * Q[i, i] for i in range(3))
         prob = cp.Problem(cp.Minimize(obj), cons)
-        try:
-            prob.solve(solver=cp.CLARABEL)
-        except cp.SolverError:
-            continue
-        if prob.status != "optimal":
+        if not _solved(prob):
             continue
         Qv = (Q.value + Q.value.T) / 2
         if best is None or prob.value < best[0]:
@@ -332,11 +337,7 @@ def q_step_sd(model, verts, S_z, E, K, alphas, w=np.array([0.01, 1.0, 0.01])):
         for Sm in S:
             cons.append(sum(w[i] * Sm[i, i] for i in range(3)) <= t)
         prob = cp.Problem(cp.Minimize(t), cons)
-        try:
-            prob.solve(solver=cp.CLARABEL)
-        except cp.SolverError:
-            continue
-        if prob.status != "optimal":
+        if not _solved(prob):
             continue
         Sv = [(Sm.value + Sm.value.T) / 2 for Sm in S]
         if best is None or prob.value < best[0]:
