@@ -21,6 +21,10 @@ OUTDIR_OPT = click.option(
     "-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
     help="Output directory [default: results/<config name>/].",
 )
+GAINS_OUTDIR_OPT = click.option(
+    "-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
+    help="Output directory [default: the directory of --gains, else results/<config name>/].",
+)
 
 
 class _Ctx:
@@ -87,6 +91,13 @@ def _outdir(cfg: Any, outdir: Path | None) -> Path:
     from .pipeline import default_outdir
 
     return outdir if outdir is not None else default_outdir(cfg)
+
+
+def _gains_outdir(cfg: Any, outdir: Path | None, gains: Path | None) -> Path:
+    """-o if given, else beside --gains (the files belong to that gain), else results/<name>/."""
+    if outdir is not None:
+        return outdir
+    return gains.parent if gains is not None else _outdir(cfg, None)
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -321,8 +332,7 @@ def _report_checks(obj: _Ctx, result: Any) -> None:
 @CONFIG_ARG
 @click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Gains file [default: OUTDIR/gains.json].")
-@click.option("-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="Output directory [default: the directory of --gains, else results/<config name>/].")
+@GAINS_OUTDIR_OPT
 @_verify_opts
 @click.pass_obj
 @_guard
@@ -337,7 +347,7 @@ def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
     from .pipeline import verification_stage
 
     cfg = _load(config)
-    out = outdir if outdir is not None else (gains.parent if gains is not None else _outdir(cfg, None))
+    out = _gains_outdir(cfg, outdir, gains)
     cb, bar = _progress(obj)
     try:
         st = verification_stage(build_model(cfg), out, gains, runs, seed, fmt, not no_plots, cb)
@@ -386,8 +396,7 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
 @CONFIG_ARG
 @click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Gains file [default: OUTDIR/gains.json].")
-@click.option("-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="Output directory [default: the directory of --gains, else results/<config name>/].")
+@GAINS_OUTDIR_OPT
 @click.option("--lyapunov", type=click.Choice(["common", "slip-dependent", "auto"]), default=None,
               help="Certificates tried at each point [default: synthesis.lyapunov]; auto: common, then "
                    "slip-dependent where it fails (tighter, slower).")
@@ -405,7 +414,7 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
     from .pipeline import margin_stage
 
     cfg = _load(config)
-    out = outdir if outdir is not None else (gains.parent if gains is not None else _outdir(cfg, None))
+    out = _gains_outdir(cfg, outdir, gains)
     st = margin_stage(cfg, out, gains, lyapunov, on_step=obj.detail)
     if as_json:
         import json

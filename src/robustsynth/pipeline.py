@@ -52,11 +52,13 @@ def clear_foreign(outdir: str | Path, config: Config) -> list[str]:
             data = json.loads((outdir / name).read_text(encoding="utf-8"))
         except (OSError, ValueError):
             continue
-        other = data.get("config") if isinstance(data, dict) else None
-        if name == "summary.json" and isinstance(data, dict):
-            other = data.get("config", mine if data.get("name") == config.name else None)
-        if other != mine:
+        if not isinstance(data, dict):
             foreign = True
+        elif name == "summary.json":  # a summary names its config, it does not hold it
+            foreign = data.get("name") != config.name
+        else:
+            foreign = data.get("config") != mine
+        if foreign:
             break
     if not foreign:
         return []

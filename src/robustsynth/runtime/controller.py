@@ -28,7 +28,7 @@ def controller_description(gains: dict[str, Any], config: Any | None = None) -> 
 
     from ..config import Config, _format_validation_error, load_config
     from ..errors import InputError
-    from ..model import state_names
+    from ..model import gain_lifting, state_names
 
     stored = gains.get("config")
     try:
@@ -44,12 +44,11 @@ def controller_description(gains: dict[str, Any], config: Any | None = None) -> 
                 raise InputError(f"{key}: {b!r} in the config, but the gain was designed with {a!r}")
     integral = cfg.synthesis.integral_action
     K = [[float(v) for v in row] for row in gains["K"]]
-    n_z = 2 if integral else 0
-    past = len(K[0]) - 3 - n_z if len(K) == 2 and len(K[0]) == len(K[1]) else -1
-    if past < 2 or past % 2:
+    try:
+        d_hi = gain_lifting(K, integral)
+    except (InputError, ValueError):  # ragged rows too
         raise InputError(f"K: has {len(K)} x {len(K[0]) if K else 0} entries; a controller needs 2 rows of "
-                         f"3 + 2 d_hi{' + 2' if integral else ''} (integral_action is {str(integral).lower()})")
-    d_hi = past // 2
+                         f"3 + 2 d_hi{' + 2' if integral else ''} (integral_action is {str(integral).lower()})") from None
     names = gains.get("state_names")
     rob = cfg.robot
     return {

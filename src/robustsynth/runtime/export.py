@@ -46,10 +46,10 @@ def c_files(d: dict[str, Any]) -> dict[str, bytes]:
     """rs_controller.h / rs_controller.c (C99, only <math.h>, no heap) and rs_harness.c, a test
     and timing harness: ``rs_harness < steps.txt`` reads lines ``t x y theta`` (or ``reset``) and
     prints ``V omega`` with 17 digits; ``rs_harness --bench N`` times N steps."""
-    from .law import Controller, PathTable
+    from .law import Controller
 
-    path = PathTable(d["path"], d["reference_speed"])
     ctl = Controller(d)  # validates the description
+    path = ctl.path
     n_s, d_hi, n_z, n_seg = len(d["K"][0]), ctl.d_hi, ctl.law.n_z, len(path.t_start)
     R, D = float(d["gear_radius"]), float(d["track_distance"])
     rho = d.get("max_motor_speed")

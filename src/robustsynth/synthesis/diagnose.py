@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 from ..config import Config, config_with
-from ..errors import Interrupted, RobustSynthError
+from ..errors import InfeasibleError, Interrupted, RobustSynthError
 
 __all__ = ["Relaxation", "diagnose", "is_large", "LARGE_E_Y_OF_TRACK"]
 
@@ -83,7 +83,7 @@ def diagnose(config: Config, certified: dict[str, Any], *, motor: bool = True,
         except Interrupted:
             raise
         except RobustSynthError as exc:
-            e_y, status = None, "infeasible" if type(exc).__name__ == "InfeasibleError" else "solver-failure"
+            e_y, status = None, "infeasible" if isinstance(exc, InfeasibleError) else "solver-failure"
         change = (e_y / base - 1.0) if (e_y is not None and base) else None
         out.append(Relaxation(name, label, over, status, e_y, change, time.perf_counter() - t0))
         say(f"  relaxed {label}: " + (f"|e_y| <= {100 * e_y:.2f} cm ({100 * change:+.0f} %)" if e_y is not None else status))

@@ -11,8 +11,10 @@ Pass/fail rules (also in the README):
   run finite; it re-enters the certified set after every waypoint; on the steps the invariance
   claim covers (from the start, and after each waypoint from the re-entry on) its true lifted state
   stays in the certified set and |e_x|, |e_y|, |e_theta| and the commanded motor speed stay within
-  ``nonlinear_slack`` (default 1: the certificate itself) x the certified bounds.  A gain without a
-  certificate is judged after fixed transients: no divergence (|e_y| <= 1 m).
+  the certified bounds themselves (``nonlinear_slack`` is fixed at 1); the motors saturate at
+  rho_max in the simulation (``verification.motor_saturation``).  A gain without a certificate gets
+  one searched for its fixed K (analysis LMIs, re-checked in numpy); either way it is judged after
+  fixed transients: no divergence (|e_y| <= 1 m), commanded |rho| <= rho_max.
 """
 
 from __future__ import annotations
