@@ -9,7 +9,7 @@ Four questions, one subcommand each (run from the repo root with the project's v
 
     .venv/bin/python experiments/integral_gap.py physics [cap]   # gain search on the linear model
     .venv/bin/python experiments/integral_gap.py certify          # certificates for the gain found
-    .venv/bin/python experiments/integral_gap.py vertex-dependent # Lyapunov matrix per slip corner x delay vertex
+    .venv/bin/python experiments/integral_gap.py vertex-dependent [memory]  # per slip corner x delay vertex (path)
     .venv/bin/python experiments/integral_gap.py range            # moving centre + slip range (S-procedure)
 
 Measured 2026-11-26 (2 cores; figures are solver outputs on the exact slip-aware *linear* lifted
@@ -31,7 +31,9 @@ map; they compare formulations and certify nothing):
    what the aggressive gain handles worst.
 3. ``vertex-dependent``: one Lyapunov matrix per (slip corner, delay vertex) -- poly-quadratic in
    the delay too (Daafouz-Bernussou), common slack, every pair of vertices under the rate bound --
-   certifies **3.78 cm** (e_y weight only) against 3.93 cm slip-dependent: 4 %.
+   certifies **3.78 cm** (e_y weight only) against 3.93 cm slip-dependent: 4 %.  Keyed on the
+   previous delay vertex as well (``vertex-dependent 1``, a path-dependent function, 36 matrices,
+   577 LMIs, ~30 s per alpha): **3.64 cm**.  Diminishing returns.
 4. ``range``: the moving-centre design of ``integral_equilibrium.py`` sees each period's slip change
    as a box disturbance, so it certifies against endless ramps.  Adding the slip itself to the state
    (s = nu - nu_c, |s| <= range by the S-procedure) excludes them: for the same gain 12.75 -> **9.52
@@ -238,15 +240,18 @@ def certify(path: str | None = None):
 
 # ---------------------------------------------------------------------------- vertex-dependent
 
-def vertex_dependent(alphas=(0.05, 0.08, 0.12)):
-    """Synthesis with S_(corner, delay vertex), common slack G, every (vertex, next vertex) pair."""
+def vertex_dependent(memory: int = 0, alphas=(0.05, 0.08, 0.12)):
+    """Synthesis with S_(corner, delay vertices), common slack G, every admissible (vertex, next vertex)
+    pair: ``memory`` 0 keys S on the current delay vertex, 1 on the previous and the current one (a
+    path-dependent Lyapunov function; the LMI stays multi-affine in the three periods' weights)."""
     model, _ = model_and_gain()
     n, n_w = model.n_s, model.n_w
     V = model.vertices
     n_c = model.corners.shape[0]
     n_d = len(V) // n_c  # vertices are corner-major
+    paths = list(itertools.product(range(n_d), repeat=memory + 1))
     G, Y = cp.Variable((n, n)), cp.Variable((model.n_u, n))
-    S = {(m, d): cp.Variable((n, n), symmetric=True) for m in range(n_c) for d in range(n_d)}
+    S = {(m, p): cp.Variable((n, n), symmetric=True) for m in range(n_c) for p in paths}
     alpha = cp.Parameter(nonneg=True, value=0.1)
     beta, t = cp.Variable(n_w), cp.Variable()
     cons = [cp.sum(beta) <= alpha] + [s >> MARGIN * np.eye(n) for s in S.values()]
@@ -256,24 +261,29 @@ def vertex_dependent(alphas=(0.05, 0.08, 0.12)):
     for i, v in enumerate(V):
         m, d = int(v.corner), i % n_d
         AX = np.asarray(v.A) @ G + np.asarray(v.B) @ Y
-        E, left = np.asarray(v.E), G + G.T - S[(m, d)]
-        for wts in model.next_corner_weights(m):
-            for d2 in range(n_d):
-                right = sum(float(wn) * S[(nn, d2)] for nn, wn in enumerate(wts) if wn != 0)
-                L = cp.bmat([[(1 - alpha) * left, np.zeros((n, n_w)), AX.T], [np.zeros((n_w, n)), cp.diag(beta), E.T],
-                             [AX, E, right]])
-                cons.append(_sym(L) >> MARGIN * np.eye(L.shape[0]))
-        for row in np.asarray(model.J_inv) @ Y:
-            blk = cp.bmat([[np.array([[ub ** 2]]), cp.reshape(row, (1, n), order="C")],
-                           [cp.reshape(row, (n, 1), order="C"), left]])
-            cons.append(_sym(blk) >> 0)
+        E = np.asarray(v.E)
+        for p in paths:
+            if p[-1] != d:
+                continue
+            left = G + G.T - S[(m, p)]
+            for wts in model.next_corner_weights(m):
+                for d2 in range(n_d):
+                    q = p[1:] + (d2,)
+                    right = sum(float(wn) * S[(nn, q)] for nn, wn in enumerate(wts) if wn != 0)
+                    L = cp.bmat([[(1 - alpha) * left, np.zeros((n, n_w)), AX.T],
+                                 [np.zeros((n_w, n)), cp.diag(beta), E.T], [AX, E, right]])
+                    cons.append(_sym(L) >> MARGIN * np.eye(L.shape[0]))
+            for row in np.asarray(model.J_inv) @ Y:
+                blk = cp.bmat([[np.array([[ub ** 2]]), cp.reshape(row, (1, n), order="C")],
+                               [cp.reshape(row, (n, 1), order="C"), left]])
+                cons.append(_sym(blk) >> 0)
     prob = cp.Problem(cp.Minimize(t), cons)
     for a in alphas:
         alpha.value = a
         t0 = time.time()
         b = _sqrt_value(prob, t)
-        print(f"alpha {a}: " + ("-" if b is None else f"|e_y| <= {100 * b:.3f} cm") + f" ({time.time() - t0:.1f} s)",
-              flush=True)
+        print(f"memory {memory}, alpha {a}: " + ("-" if b is None else f"|e_y| <= {100 * b:.3f} cm")
+              + f" ({time.time() - t0:.1f} s)", flush=True)
     res = synthesize(build_model(default_config(**{**SETTING, "synthesis.weights.e_x": 0.0,
                                                    "synthesis.weights.e_theta": 0.0})))
     print(f"package, slip-dependent, weight on e_y only: |e_y| <= {100 * res.check.figures['ultimate_bound']['e_y']:.3f} cm")
@@ -342,7 +352,7 @@ if __name__ == "__main__":
     elif cmd == "certify":
         certify(args[0] if args else None)
     elif cmd == "vertex-dependent":
-        vertex_dependent()
+        vertex_dependent(int(args[0]) if args else 0)
     elif cmd == "range":
         slip_range()
     else:
