@@ -299,7 +299,9 @@ def vertex_dependent(memory: int = 0, alphas=(0.05, 0.08, 0.12), setting=None):
 # ------------------------------------------------------------------------------------- range
 
 def range_analysis(verts, E, dnu, r, K, a, use_range):
-    """Primal: V(x+) <= (1-a) V(x) + sum b q^2 + sum tau (r^2 - s^2) with x = [eta; s]; level 1."""
+    """Primal: V(x+) <= (1-a) V(x) + sum b q^2 + sum tau (r^2 - s^2) with x = [eta; s]; level 1.
+    The S-procedure term adds +E' T E to (1-a) P; in the dual (Q = P^-1) form it would be
+    +Q E' T E Q, which is not an LMI, so a fixed gain is analysed in the primal form."""
     n = E.shape[0]
     N = n + 2 if use_range else n
     P = cp.Variable((N, N), symmetric=True)
