@@ -19,8 +19,8 @@ map; they compare formulations and certify nothing):
    half-periods 1-16 periods, differential / one-track / common, 4 delay patterns; 400 random walks
    at the largest rate with random delays), 120 periods each from the steady state of the first
    slip.  The certified 4.27 cm gain reaches **2.53 cm** on them.  A Nelder-Mead search over the 14
-   gain entries (worst |e_y| over the scenarios, every frozen delay/slip vertex with spectral radius
-   <= cap) reaches **1.27 cm** with cap 0.92 (**1.21 cm** with cap 0.95), 2 rounds, ~2.5 min.  The
+   gain entries (worst |e_y| over the scenarios, closed-loop spectral radius <= cap for 9 constant
+   delays across the range at each of the 4 slip corners) reaches **1.27 cm** with cap 0.92 (**1.21 cm** with cap 0.95), 2 rounds, ~2.5 min.  The
    physics does not forbid the 1.5 cm target: the gain found is more aggressive (K_e_y -134 vs -69,
    integral -183 vs -50) and as robust in the frozen sense (radius 0.92 vs 0.94).
 2. ``certify``: that gain has *no* one-step quadratic certificate: the stability analysis of the
