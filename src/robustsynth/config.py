@@ -159,8 +159,9 @@ class SynthesisConfig(_Node):
     objective: Literal["ultimate-bound", "stability", "hinf"] = Field(
         default="ultimate-bound", description="what the LMIs optimize (see README)"
     )
-    lyapunov: Literal["common", "slip-dependent"] = Field(
-        default="common", description="one Lyapunov matrix, or one per slip corner (slip-aware model)"
+    lyapunov: Literal["common", "slip-dependent", "delay-dependent"] = Field(
+        default="common", description="one Lyapunov matrix, one per slip corner, or one per slip corner and "
+        "delay vertex (slip-aware model; delay-dependent needs polytopic delays)"
     )
     integral_action: bool = Field(
         default=False, description="integrator states int_e_x, int_e_y appended to the lifted state (zero steady error)"
@@ -192,10 +193,13 @@ class SynthesisConfig(_Node):
 
     @model_validator(mode="after")
     def _consistent(self) -> "SynthesisConfig":
-        if self.lyapunov == "slip-dependent" and self.model == "paper":
-            raise ValueError(f"{_FIELD}lyapunov: slip-dependent needs synthesis.model: slip-aware (the paper's model has no slip corners)")
-        if self.lyapunov == "slip-dependent" and self.objective == "hinf":
-            raise ValueError(f"{_FIELD}lyapunov: slip-dependent is available for ultimate-bound and stability, not hinf")
+        if self.lyapunov != "common" and self.model == "paper":
+            raise ValueError(f"{_FIELD}lyapunov: {self.lyapunov} needs synthesis.model: slip-aware (the paper's model has no slip corners)")
+        if self.lyapunov != "common" and self.objective == "hinf":
+            raise ValueError(f"{_FIELD}lyapunov: {self.lyapunov} is available for ultimate-bound and stability, not hinf")
+        if self.lyapunov == "delay-dependent" and self.delay_description == "norm-bounded":
+            raise ValueError(f"{_FIELD}lyapunov: delay-dependent needs delay vertices (delay_description polytopic, "
+                             "lossy-polytopic or auto), not norm-bounded")
         return self
 
 

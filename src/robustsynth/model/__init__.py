@@ -205,9 +205,52 @@ class Model:
         step = self.slip_step
         return step is not None and any(step < hi - lo for lo, hi in self.slip_ranges if hi > lo)
 
+    @property
+    def delay_vertex_count(self) -> int:
+        """Delay vertices per slip corner: the vertices are corner-major, so vertex i has slip corner
+        ``i // n`` and delay vertex ``i % n`` (1 for the paper's model and the norm-bounded embedding)."""
+        return max(1, len(self.vertices) // max(1, int(np.asarray(self.corners).shape[0])))
+
     def next_corner_weights(self, m: int) -> np.ndarray:
         """Weights (n_next, n_c) over the corners of the slips that can follow corner m (one period)."""
         return next_corner_weights(self.corners[m], *self.slip_ranges, self.slip_step)
+
+    def lyapunov_count(self, kind: str) -> int:
+        """How many Lyapunov matrices a certificate of ``kind`` has (see :meth:`lyapunov_conditions`)."""
+        n_c = int(np.asarray(self.corners).shape[0])
+        return {"common": 1, "slip-dependent": n_c, "delay-dependent": n_c * self.delay_vertex_count}[kind]
+
+    def lyapunov_conditions(self, kind: str, slip_step: float | None) -> list[list[tuple[int, list[tuple[float, int]], str]]]:
+        """Per vertex i, the pairs (left, right, label) of one-period conditions a certificate of ``kind``
+        must meet: ``left`` indexes the Lyapunov matrix of this period, ``right`` is the combination
+        [(weight, index)] of the next period's.
+
+        - ``common``: one matrix (index 0) on both sides;
+        - ``slip-dependent``: one per slip corner m (index m); the right side is S at every slip that
+          may follow corner m within ``slip_step`` (None: every corner) -- bilinear interpolation
+          weights, which extrapolate;
+        - ``delay-dependent``: one per slip corner m and delay vertex d (index m * n_d + d); vertex i
+          (corner m, delay vertex d) has S_(m, d) on the left and, on the right, every next slip as
+          above with every next delay vertex.  The conditions are multi-affine in this and the next
+          period's slip and delay weights, so they hold for every admissible pair; with
+          ``V(xi, mu) = max_d xi' S(mu, d)^-1 xi`` (S(mu, d) the corner interpolation) they give
+          ``V(xi+, mu+) <= (1 - alpha) V(xi, mu) + ...`` without knowing the delays."""
+        if kind == "common":
+            return [[(0, [(1.0, 0)], "")] for _ in self.vertices]
+        n_d = self.delay_vertex_count if kind == "delay-dependent" else 1
+        out = []
+        for i, v in enumerate(self.vertices):
+            m = int(v.corner)
+            d = i % n_d
+            W = next_corner_weights(self.corners[m], *self.slip_ranges, slip_step)
+            conds = []
+            for a, w in enumerate(W):
+                for d2 in range(n_d):
+                    right = [(float(w[n]), n * n_d + d2) for n in range(w.size) if w[n] != 0.0]
+                    lab = f" -> next slip {a}" + (f", next delay vertex {d2}" if n_d > 1 else "")
+                    conds.append((m * n_d + d, right, lab))
+            out.append(conds)
+        return out
 
     def reachable_instants(self, n: int) -> np.ndarray | None:
         """Switching-instant vectors the link can produce, delays on an n-point grid, when the model

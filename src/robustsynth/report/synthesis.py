@@ -195,8 +195,8 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
            f"effective delay of up to {cfg.network.delay.max + model.dropouts * cfg.network.sampling_time:g} s);\n")
         + f"- slip mu_r in [{cfg.slip.right.min:g}, {cfg.slip.right.max:g}], mu_l in [{cfg.slip.left.min:g}, {cfg.slip.left.max:g}],"
         " constant within a sampling period, " + ("free to jump anywhere in its range every period" if rate is None else
-        f"changing at most {rate:g} /s (" + ("the slip-dependent certificate uses the rate bound"
-                                              if cfg.synthesis.lyapunov == "slip-dependent" else
+        f"changing at most {rate:g} /s (" + (f"the {cfg.synthesis.lyapunov} certificate uses the rate bound"
+                                              if cfg.synthesis.lyapunov != "common" else
                                               "a common Lyapunov matrix does not use the rate bound")
         + "; verification's profiles respect it)")
         + ";\n"
@@ -230,7 +230,10 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
         out.append(
             f"\nThe bounds hold on the set `xi' P xi <= {c['ellipsoid_level']:.6g}`"
             + (" (P = S(mu)^-1, one matrix per slip corner; the bounds are the largest over the corners)"
-               if c.get("lyapunov") == "slip-dependent" else "")
+               if c.get("lyapunov") == "slip-dependent" else
+               " (for every delay vertex d, P = S(mu, d)^-1, one matrix per slip corner and delay vertex: the set is the"
+               " intersection over d, so it needs no knowledge of the delay; the bounds are the largest over the matrices)"
+               if c.get("lyapunov") == "delay-dependent" else "")
             + f", which every trajectory enters (V decays at least as `(1-alpha)^k`, alpha = {c['alpha']:.4g}) and never leaves."
             f" In centimetres: |e_y| <= {100 * ub['e_y']:.2f} cm, |e_x| <= {100 * ub['e_x']:.2f} cm.\n"
         )

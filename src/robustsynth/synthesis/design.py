@@ -18,6 +18,7 @@ from .solve import Outcome, SolveRecord, solve, solver_version
 
 __all__ = ["SynthesisResult", "synthesize"]
 
+MAX_DELAY_VERTICES = 9  # delay-dependent Lyapunov matrices: conditions grow with the square of this
 ALPHA_RANGE = (0.005, 0.95)  # line search range of alpha (log-spaced grid, then golden section)
 GOLDEN_STEPS = 10
 
@@ -98,7 +99,7 @@ def _cert_common(model: Any, vals: dict, kind: str, margin: float, objective: st
     if "Q" in vals:
         out.update(lyapunov="common", Q=vals["Q"], P=np.linalg.inv(vals["Q"]))
     else:
-        out.update(lyapunov="slip-dependent", G=vals["G"], S=vals["S"], P=[np.linalg.inv(S) for S in vals["S"]],
+        out.update(lyapunov=vals["lyapunov"], G=vals["G"], S=vals["S"], P=[np.linalg.inv(S) for S in vals["S"]],
                    slip_step=model.slip_step if model.rate_bounded else None)
     out["multipliers"] = {"kind": kind, "M": vals["M"], "blocks": [i.j for i in model.instants]
                           if model.n_q and any(v.n_q for v in model.vertices) else []}
@@ -276,9 +277,13 @@ def synthesize(model: Any, settings: SynthesisConfig | None = None, *, on_step: 
     search: list[dict[str, Any]] = []
     notes: list[str] = []
     cfg = model.config
-    if s.lyapunov == "slip-dependent" and (model.kind != "slip-aware" or s.objective == "hinf"):
-        raise InputError("synthesis.lyapunov: slip-dependent needs synthesis.model: slip-aware and the "
+    if s.lyapunov != "common" and (model.kind != "slip-aware" or s.objective == "hinf"):
+        raise InputError(f"synthesis.lyapunov: {s.lyapunov} needs synthesis.model: slip-aware and the "
                          "ultimate-bound or stability objective")
+    if s.lyapunov == "delay-dependent" and not 1 < model.delay_vertex_count <= MAX_DELAY_VERTICES:
+        raise InputError(f"synthesis.lyapunov: delay-dependent needs 2 to {MAX_DELAY_VERTICES} delay vertices per slip "
+                         f"corner; this model has {model.delay_vertex_count} ({model.delay_description} delays, "
+                         f"d_hi = {model.d_hi}): use slip-dependent")
     check_physical_feasibility(cfg)  # physics first: no LMI can beat a motor that is too slow
     if s.objective == "stability":
         say(f"{s.objective}: bisection on the decay rate ({model.kind} model, {len(model.vertices)} vertices)")

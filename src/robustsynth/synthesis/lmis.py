@@ -16,8 +16,10 @@ de Oliveira-Bernussou-Geromel 1999; Daafouz-Bernussou 2001) the (1,1) block beco
 ``(1-alpha)(G + G' - S_m)`` for the vertex's corner m, ``Q`` in the products becomes ``G`` and the
 (3,3) block ``S_next - B_p M B_p'`` for every slip that may follow: every corner n when slip may
 jump, or, under ``slip.max_rate``, the bilinear interpolation of the S_n at ``corner_m +- max_rate Ts``
-(the LMI is multi-affine in (mu_k, mu_{k+1} - mu_k), so these vertices cover every admissible pair).  ``Parameter`` s (``alpha``, ``r2``)
-change between solves, so line search and bisection reuse one compiled problem (DPP).
+(the LMI is multi-affine in (mu_k, mu_{k+1} - mu_k), so these vertices cover every admissible pair).
+**Delay-dependent**: one S per slip corner and delay vertex, with the next period's at every next
+delay vertex as well (``Model.lyapunov_conditions``).  ``Parameter`` s (``alpha``, ``r2``) change
+between solves, so line search and bisection reuse one compiled problem (DPP).
 """
 
 from __future__ import annotations
@@ -46,7 +48,7 @@ class LMIProblem:
     def values(self) -> dict[str, Any]:
         """Symmetrized values of the certificate's variables (numpy)."""
         sym = lambda X: (np.asarray(X) + np.asarray(X).T) / 2.0  # noqa: E731
-        out: dict[str, Any] = {"Y": np.asarray(self.Y.value)}
+        out: dict[str, Any] = {"Y": np.asarray(self.Y.value), "lyapunov": self.lyapunov}
         if self.lyapunov == "common":
             out["Q"] = sym(self.Q.value)
         else:
@@ -95,46 +97,50 @@ def _sym(L: Any) -> Any:
 
 
 class _Lyap:
-    """The Lyapunov variables: X (what multiplies A and C_q), left(m) and right(n) blocks."""
+    """The Lyapunov variables: X (what multiplies A and C_q), and per vertex the (left, right) blocks
+    of its conditions (``Model.lyapunov_conditions``)."""
 
     def __init__(self, model: Any, kind: str, K: np.ndarray | None = None):
         n_s = model.n_s
         self.kind = kind
+        self._conds = model.lyapunov_conditions(kind, model.slip_step)
         if kind == "common":
             self.Q = cp.Variable((n_s, n_s), symmetric=True, name="Q")
             self.X = self.Q
             self.G = None
             self.S: list[cp.Variable] = []
-            self.modes = 1
         else:
             self.Q = None
             self.G = cp.Variable((n_s, n_s), name="G")
             self.X = self.G
-            self.modes = int(model.corners.shape[0])
-            self.S = [cp.Variable((n_s, n_s), symmetric=True, name=f"S{m}") for m in range(self.modes)]
+            self.S = [cp.Variable((n_s, n_s), symmetric=True, name=f"S{j}") for j in range(model.lyapunov_count(kind))]
+        self.modes = len(self.mats)
         # synthesis: Y = K X is the variable; analysis of a given K: Y = K X is affine in X
         self.Y = cp.Variable((model.n_u, n_s), name="Y") if K is None else np.asarray(K, dtype=float) @ self.X
 
-    def mode(self, vertex: Any) -> int:
-        return 0 if self.kind == "common" else int(vertex.corner)
+    @property
+    def mats(self) -> list[Any]:
+        return [self.Q] if self.kind == "common" else self.S
 
-    def left(self, m: int) -> Any:
-        return self.Q if self.kind == "common" else self.G + self.G.T - self.S[m]
+    def left(self, j: int) -> Any:
+        return self.Q if self.kind == "common" else self.G + self.G.T - self.S[j]
 
-    def rights(self, model: Any, m: int) -> list[Any]:
-        """The Lyapunov matrices of the next period from corner m: every corner when slip may jump,
-        the (extrapolated) interpolations at corner_m +- max_rate Ts under a rate bound."""
-        if self.kind == "common":
-            return [self.Q]
-        W = model.next_corner_weights(m)
-        return [sum(float(w[n]) * self.S[n] for n in range(self.modes) if w[n] != 0.0) for w in W]
+    def _next(self, right: list[tuple[float, int]]) -> Any:
+        (w0, n0), *rest = right
+        expr = self.mats[n0] if w0 == 1.0 else w0 * self.mats[n0]
+        for w, n in rest:
+            expr = expr + w * self.mats[n]
+        return expr
+
+    def conditions(self, i: int) -> list[tuple[Any, Any]]:
+        """(left, right) blocks of vertex i's conditions: this period's Lyapunov matrix and the next's."""
+        return [(self.left(j), self._next(right)) for j, right, _ in self._conds[i]]
 
     def scale(self, floor: float) -> list[Any]:
-        mats = [self.Q] if self.kind == "common" else self.S
-        return [X >> floor * np.eye(X.shape[0]) for X in mats]
+        return [X >> floor * np.eye(X.shape[0]) for X in self.mats]
 
     def diag_bound(self, i: int) -> tuple[Any, list[Any]]:
-        """An expression >= every Lyapunov matrix's (i, i) entry (epigraph for slip-dependent)."""
+        """An expression >= every Lyapunov matrix's (i, i) entry (epigraph for several matrices)."""
         if self.kind == "common":
             return self.Q[i, i], []
         t = cp.Variable(name=f"t{i}")
@@ -193,19 +199,18 @@ def build_stability(model: Any, kind: str, margin: float, lyapunov: str = "commo
     # trace(Q) would land on its boundary, where the numpy check cannot confirm it)
     t = cp.Variable(name="t") if K is not None else None
     floor = margin if t is None else t
-    for v, M in zip(model.vertices, Ms):
+    for i, (v, M) in enumerate(zip(model.vertices, Ms)):
         AX, CX = _vertex_parts(v, lv)
-        m = lv.mode(v)
         Bp = np.asarray(v.B_p)
-        for right in lv.rights(model, m):
+        for left, right in lv.conditions(i):
             if v.n_q:
                 Z = np.zeros((n_s, v.n_q))
-                L = cp.bmat([[r2 * lv.left(m), AX.T, CX.T], [AX, right - Bp @ M @ Bp.T, Z], [CX, Z.T, M]])
+                L = cp.bmat([[r2 * left, AX.T, CX.T], [AX, right - Bp @ M @ Bp.T, Z], [CX, Z.T, M]])
             else:
-                L = cp.bmat([[r2 * lv.left(m), AX.T], [AX, right]])
+                L = cp.bmat([[r2 * left, AX.T], [AX, right]])
             cons.append(_sym(L) >> floor * np.eye(L.shape[0]))
     cons += lv.scale(1.0)
-    mats = [lv.Q] if lyapunov == "common" else lv.S
+    mats = lv.mats
     if t is not None:
         cons += [X << ANALYSIS_KAPPA * np.eye(n_s) for X in mats]
         return LMIProblem(cp.Problem(cp.Maximize(t), cons), M=Ms, params={"r2": r2}, extra={"t": t},
@@ -225,13 +230,12 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
     beta = cp.Variable(n_w, name="beta")
     Ms, cons = _multipliers(model, kind, margin)
     Zsw = np.zeros((n_s, n_w))
-    for v, M in zip(model.vertices, Ms):
+    for i, (v, M) in enumerate(zip(model.vertices, Ms)):
         AX, CX = _vertex_parts(v, lv)
         E = np.asarray(v.E)
         Bp = np.asarray(v.B_p)
-        m = lv.mode(v)
-        for right in lv.rights(model, m):
-            rows = [[one_minus * lv.left(m), Zsw, AX.T], [Zsw.T, cp.diag(beta), E.T],
+        for left, right in lv.conditions(i):
+            rows = [[one_minus * left, Zsw, AX.T], [Zsw.T, cp.diag(beta), E.T],
                     [AX, E, right - (Bp @ M @ Bp.T if v.n_q else 0)]]
             if v.n_q:
                 rows[0].append(CX.T)
@@ -242,8 +246,8 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
             cons.append(_sym(L) >> margin * np.eye(L.shape[0]))
     cons += [cp.sum(beta) <= alpha] + lv.scale(margin)
     if motor:
-        for m in range(lv.modes):
-            cons += motor_constraints(model, lv.left(m), lv.Y)
+        for j in range(lv.modes):
+            cons += motor_constraints(model, lv.left(j), lv.Y)
     terms = []
     for i in range(3):
         t, c = lv.diag_bound(i)

@@ -169,7 +169,9 @@ def _fail(reason: str, checks=(), figures=None) -> CertificateCheck:
 
 
 def _lyapunov_parts(model: Any, cert: Mapping[str, Any], n_s: int):
-    """(kind, X, [left_m], rights(m) -> [right], [S_m]) from the certificate, or a reason string."""
+    """(kind, X, conditions, mats) from the certificate, or a reason string: ``conditions[i]`` lists
+    vertex i's (left block, right block, label) (``Model.lyapunov_conditions``), ``mats`` the
+    Lyapunov matrices."""
     kind = cert.get("lyapunov", "common")
     if kind == "common":
         Q = _arr(cert["Q"], "Q")
@@ -178,16 +180,18 @@ def _lyapunov_parts(model: Any, cert: Mapping[str, Any], n_s: int):
         err = _symmetric(Q, "Q")
         if err:
             return err
-        return kind, Q, [Q], lambda m: [Q], [Q]
-    if kind != "slip-dependent":
+        conds = [[(Q, Q, "")] for _ in model.vertices]
+        return kind, Q, conds, [Q]
+    if kind not in ("slip-dependent", "delay-dependent"):
         return f"unknown lyapunov kind {kind!r}"
     G = _arr(cert["G"], "G")
     S = [_arr(x, f"S[{m}]") for m, x in enumerate(cert["S"])]
-    n_c = model.corners.shape[0]
     if G.shape != (n_s, n_s):
         return f"G has shape {G.shape}, expected {(n_s, n_s)}"
-    if len(S) != n_c:
-        return f"S has {len(S)} matrices, expected one per slip corner ({n_c})"
+    want = model.lyapunov_count(kind)
+    if len(S) != want:
+        per = "slip corner" if kind == "slip-dependent" else "slip corner and delay vertex"
+        return f"S has {len(S)} matrices, expected one per {per} ({want})"
     for m, Sm in enumerate(S):
         if Sm.shape != (n_s, n_s):
             return f"S[{m}] has shape {Sm.shape}, expected {(n_s, n_s)}"
@@ -196,20 +200,15 @@ def _lyapunov_parts(model: Any, cert: Mapping[str, Any], n_s: int):
             return err
     # the certificate holds for slip changes up to its slip_step per period (None: any change); it
     # covers the config when the config allows no more than that
-    from ..model.slip import next_corner_weights
-
     cert_step = cert.get("slip_step")
     config_step = model.slip_step if model.rate_bounded else None
     if cert_step is not None and (config_step is None or config_step > float(cert_step) * (1 + 1e-12)):
         allowed = "any change (slip.max_rate: null)" if config_step is None else f"{config_step:g}"
         return (f"the certificate assumes slip changes of at most {float(cert_step):g} per period; the config allows "
                 f"{allowed}")
-
-    def rights(m: int) -> list[np.ndarray]:
-        W = next_corner_weights(model.corners[m], *model.slip_ranges, None if cert_step is None else float(cert_step))
-        return [sum(w[n] * S[n] for n in range(n_c)) for w in W]
-
-    return kind, G, [G + G.T - Sm for Sm in S], rights, S
+    table = model.lyapunov_conditions(kind, None if cert_step is None else float(cert_step))
+    conds = [[(G + G.T - S[j], sum(w * S[n] for w, n in right), lab) for j, right, lab in row] for row in table]
+    return kind, G, conds, S
 
 
 def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateCheck:
@@ -225,7 +224,7 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
     parts = _lyapunov_parts(model, cert, n_s)
     if isinstance(parts, str):
         return _fail(parts)
-    lyap, X, lefts, rights, mats = parts
+    lyap, X, conds, mats = parts
     mult = cert["multipliers"]
     n_v = len(model.vertices)
     raw = mult["M"]
@@ -242,7 +241,7 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
     if not margin > 0:
         return _fail("margin must be > 0")
     if "P" in cert and cert["P"] is not None:
-        Ps = cert["P"] if lyap == "slip-dependent" else [cert["P"]]
+        Ps = [cert["P"]] if lyap == "common" else cert["P"]
         for Pm, Sm in zip(Ps, mats):
             Pm = _arr(Pm, "P")
             if Pm.shape != Sm.shape or np.max(np.abs(Pm @ Sm - np.eye(n_s))) > 1e-6:
@@ -262,13 +261,12 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
     def vertex_family(name: str, build) -> dict[str, Any]:
         worst_val, worst_lab, count = np.inf, "", 0
         for i, v in enumerate(model.vertices):
-            m = 0 if lyap == "common" else int(v.corner)
-            for n, right in enumerate(rights(m)):
-                val = lmin(build(v, Ms[i], lefts[m], right))
+            for left, right, lab in conds[i]:
+                val = lmin(build(v, Ms[i], left, right))
                 count += 1
                 if val < worst_val:
                     worst_val = val
-                    worst_lab = v.label + ("" if lyap == "common" else f" -> next slip {n}")
+                    worst_lab = v.label + lab
         return _item(f"{name} at {count} vertex conditions", worst_val, threshold, worst_lab)
 
     figures: dict[str, Any] = {"robust_stability": False, "decay_rate": None, "ultimate_bound": None,
@@ -335,14 +333,18 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
 
 @dataclass(frozen=True)
 class Lyapunov:
-    """V(xi, mu) = xi' S(mu)^-1 xi of a certificate: S(mu) = Q (common) or the convex combination
-    sum_m lambda_m(mu) S_m of the slip-corner matrices (slip-dependent), lambda the model's corner
-    weights.  ``V_max`` is the largest value over the slip corners (an upper bound for any mu)."""
+    """V(xi, mu) of a certificate: ``xi' S(mu)^-1 xi`` with S(mu) = Q (common) or the convex
+    combination sum_m lambda_m(mu) S_m of the slip-corner matrices (slip-dependent), lambda the
+    model's corner weights; delay-dependent: ``max_d xi' S(mu, d)^-1 xi`` over the delay vertices d,
+    S(mu, d) = sum_m lambda_m(mu) S_(m, d) -- a piecewise-quadratic function that needs no delay
+    (``Model.lyapunov_conditions``).  ``V_max`` is the largest value over every matrix (an upper
+    bound for any mu)."""
 
     model: Any
     S: tuple[np.ndarray, ...]
     P: tuple[np.ndarray, ...]
     slip_step: float | None = None  # a rate-bounded certificate: the slip moves at most this per period
+    delay_vertices: int = 1  # delay-dependent: matrices S_(m, d) at index m * delay_vertices + d
 
     @property
     def any_next_slip(self) -> bool:
@@ -355,9 +357,15 @@ class Lyapunov:
         if len(self.S) == 1 or mu is None:
             return self.V_max(xi)
         lam = self.model.corner_weights(np.asarray(mu, dtype=float))
-        S = np.einsum("...m,mij->...ij", lam, np.array(self.S))
-        sol = np.linalg.solve(S, xi[..., None])[..., 0]
-        return np.einsum("...i,...i->...", xi, sol)
+        n_d = self.delay_vertices
+        allS = np.array(self.S).reshape((-1, n_d) + self.S[0].shape)  # (n_c, n_d, n, n)
+        out = None
+        for d in range(n_d):
+            S = np.einsum("...m,mij->...ij", lam, allS[:, d])
+            sol = np.linalg.solve(S, xi[..., None])[..., 0]
+            val = np.einsum("...i,...i->...", xi, sol)
+            out = val if out is None else np.maximum(out, val)
+        return out
 
     def V_max(self, xi: np.ndarray) -> np.ndarray:
         xi = np.asarray(xi, dtype=float)
@@ -368,9 +376,12 @@ class Lyapunov:
 def lyapunov_of(model: Any, cert: Mapping[str, Any]) -> Lyapunov:
     """The Lyapunov function of a (checked) certificate."""
     step = None
-    if cert.get("lyapunov", "common") == "slip-dependent":
+    kind = cert.get("lyapunov", "common")
+    n_d = 1
+    if kind in ("slip-dependent", "delay-dependent"):
         S = tuple(np.asarray(x, dtype=float) for x in cert["S"])
         step = None if cert.get("slip_step") is None else float(cert["slip_step"])
+        n_d = model.delay_vertex_count if kind == "delay-dependent" else 1
     else:
         S = (np.asarray(cert["Q"], dtype=float),)
-    return Lyapunov(model, S, tuple(np.linalg.inv(x) for x in S), step)
+    return Lyapunov(model, S, tuple(np.linalg.inv(x) for x in S), step, n_d)

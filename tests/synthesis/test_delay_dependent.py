@@ -1,0 +1,123 @@
+"""Delay-dependent Lyapunov matrices (one per slip corner and delay vertex): the conditions' layout,
+the certificate (numpy re-check, tampering), the class containing the slip-dependent one, and the
+piecewise-quadratic V = max_d xi' S(mu, d)^-1 xi decreasing along exact lifted trajectories."""
+
+from __future__ import annotations
+
+import cvxpy as cp
+import numpy as np
+import pytest
+
+from robustsynth.errors import InputError
+from robustsynth.model import build_model
+from robustsynth.synthesis import synthesize
+from robustsynth.synthesis.design import _cert_common, _weights
+from robustsynth.synthesis.lmis import build_invariance
+from robustsynth.verification.certificate import Lyapunov, check_certificate, lyapunov_of
+from robustsynth.verification.lifted import alternating_delays, closed_loop_run, random_delays, slip_vertices
+
+from ..conftest import make_config
+
+ALPHA = 0.22  # near the best alpha of the default robot for both kinds
+CLASS_REL = 1e-3  # the delay-dependent optimum may exceed the slip-dependent one by solver accuracy only
+DECREASE_TOL = 1e-9  # V(xi+) - (1-alpha) V(xi) - sum beta, relative to max(V, level): round-off only
+
+
+def _solve_at(model, lyapunov: str, alpha: float = ALPHA):
+    """One invariance solve at a fixed alpha, with the certificate synthesis would write."""
+    s = model.config.synthesis
+    lp = build_invariance(model, s.multiplier, s.margin, _weights(s), True, lyapunov)
+    lp.params["alpha"].value = alpha
+    lp.params["one_minus_alpha"].value = 1.0 - alpha
+    lp.problem.solve(solver=cp.CLARABEL)
+    assert lp.problem.status == "optimal"
+    vals = lp.values()
+    K = np.linalg.solve(vals["G"].T, vals["Y"].T).T
+    cert = _cert_common(model, vals, s.multiplier, s.margin, "ultimate-bound")
+    cert.update(alpha=alpha, beta=vals["beta"], motor_limits_enforced=True)
+    return K, cert, float(lp.problem.value)
+
+
+@pytest.fixture(scope="module")
+def model():
+    return build_model(make_config(**{"synthesis.lyapunov": "delay-dependent"}))
+
+
+@pytest.fixture(scope="module")
+def solved(model):
+    return _solve_at(model, "delay-dependent")
+
+
+def test_conditions_layout(model):
+    n_c, n_d = model.corners.shape[0], model.delay_vertex_count
+    assert (n_c, n_d) == (4, 3)
+    assert model.lyapunov_count("delay-dependent") == n_c * n_d
+    table = model.lyapunov_conditions("delay-dependent", None)
+    for i, (v, conds) in enumerate(zip(model.vertices, table)):
+        # left: the vertex's own (corner, delay vertex); right: every next corner (slip may jump) x
+        # every next delay vertex, each once
+        assert {j for j, _, _ in conds} == {int(v.corner) * n_d + i % n_d}
+        rights = sorted(n for _, right, _ in conds for w, n in right if w == 1.0)
+        assert rights == list(range(n_c * n_d))
+    # the slip-dependent layout is the special case with one delay vertex
+    sd = model.lyapunov_conditions("slip-dependent", None)
+    assert all({j for j, _, _ in c} == {int(v.corner)} for v, c in zip(model.vertices, sd))
+
+
+def test_certificate_rechecked_and_tampering_fails(model, solved):
+    K, cert, _ = solved
+    chk = check_certificate(model, K, cert)
+    assert chk.passed, chk.reason
+    assert "144 vertex conditions" in " ".join(c["name"] for c in chk.checks)
+    bad = dict(cert, S=[0.5 * S if j == 4 else S for j, S in enumerate(cert["S"])])
+    bad["P"] = [np.linalg.inv(S) for S in bad["S"]]
+    assert not check_certificate(model, K, bad).passed
+    short = dict(cert, S=cert["S"][:4], P=cert["P"][:4])
+    res = check_certificate(model, K, short)
+    assert not res.passed and "one per slip corner and delay vertex (12)" in res.reason
+
+
+def test_contains_the_slip_dependent_class(model, solved):
+    """S_(m, d) = S_m for every d is a delay-dependent point: at the same alpha the optimum is no worse."""
+    _, _, dd = solved
+    _, _, sd = _solve_at(model, "slip-dependent")
+    assert dd <= sd * (1 + CLASS_REL)
+
+
+def test_piecewise_quadratic_V_decreases_without_the_delays(model, solved):
+    """The checked certificate's V = max_d ... obeys V(xi+) <= (1-alpha) V(xi) + sum beta on exact
+    lifted runs (random and alternating delays, slip jumping between corners), computed from the
+    states and slips only."""
+    K, cert, _ = solved
+    lyap = lyapunov_of(model, cert)
+    level = float(np.sum(cert["beta"]) / cert["alpha"])
+    rng = np.random.default_rng(7)
+    N, steps = 200, 60
+    corners = slip_vertices(model)
+    n_d = model.delay_vertex_count
+    single = [Lyapunov(model, lyap.S[d::n_d], lyap.P[d::n_d]) for d in range(n_d)]  # one delay vertex's quadratic
+    worst, worst_single = -np.inf, np.full(n_d, -np.inf)
+
+    def excess(V):
+        ex = V[:, 1:] - (1 - cert["alpha"]) * V[:, :-1] - np.sum(cert["beta"])
+        return float(np.max(ex / np.maximum(V[:, :-1], level)))
+
+    for taus in (random_delays(model, rng, N, steps), alternating_delays(model, N, steps)):
+        mu = corners[rng.integers(0, corners.shape[0], size=(N, steps + 1))]
+        xi0 = rng.normal(scale=0.05, size=(N, model.n_s))
+        xi = closed_loop_run(model, K, taus, mu[:, :steps], xi0)
+        worst = max(worst, excess(lyap.V(xi, mu)))
+        worst_single = np.maximum(worst_single, [excess(s.V(xi, mu)) for s in single])
+    assert worst <= DECREASE_TOL
+    # the check can fail: no single delay vertex's quadratic decreases on these runs (the max over
+    # the delay vertices is what the proof needs)
+    assert np.all(worst_single > 0)
+
+
+def test_refused_without_delay_vertices():
+    # d_hi = 3: 'auto' picks the norm-bounded embedding, one delay vertex per corner
+    m = build_model(make_config(**{"synthesis.lyapunov": "delay-dependent", "network.delay.max": 0.25}))
+    with pytest.raises(InputError, match="delay-dependent needs 2 to 9 delay vertices"):
+        synthesize(m)
+    with pytest.raises(ValueError, match="delay-dependent needs delay vertices"):
+        make_config(**{"synthesis.lyapunov": "delay-dependent", "synthesis.delay_description": "norm-bounded"})
