@@ -1,5 +1,5 @@
 """Issue 8's targets, measured: for the default robot with each certificate variant (paper model,
-slip-aware common Q, slip-dependent, delay-dependent, rate-bounded, integral action), the synthesis time, the
+slip-aware common Q, slip-dependent, delay- and path-dependent, rate-bounded, integral action), the synthesis time, the
 certified |e_y|, and what the nonlinear robot does on >= 1000 Monte Carlo runs plus the extreme and
 adversarial runs (largest |e_y|, certified / observed, samples outside the certified set, verdict).
 
@@ -17,6 +17,7 @@ VARIANTS = {
     "slip-aware, common Q (default)": {},
     "slip-aware, slip-dependent Lyapunov": {"synthesis.lyapunov": "slip-dependent"},
     "slip-aware, delay-dependent Lyapunov": {"synthesis.lyapunov": "delay-dependent"},
+    "slip-aware, path-dependent Lyapunov": {"synthesis.lyapunov": "path-dependent"},
     "slip-aware, slip-dependent, slip.max_rate 0.5": {"synthesis.lyapunov": "slip-dependent", "slip.max_rate": 0.5},
     "slip-aware, integral action, rho_max 20": {"synthesis.integral_action": True, "robot.max_motor_speed": 20.0},
     "integral, rho_max 20, max_rate 0.5, delay-dep.": {"synthesis.integral_action": True, "robot.max_motor_speed": 20.0,

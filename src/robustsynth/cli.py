@@ -397,7 +397,7 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
 @click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Gains file [default: OUTDIR/gains.json].")
 @GAINS_OUTDIR_OPT
-@click.option("--lyapunov", type=click.Choice(["common", "slip-dependent", "delay-dependent", "auto"]), default=None,
+@click.option("--lyapunov", type=click.Choice(["common", "slip-dependent", "delay-dependent", "path-dependent", "auto"]), default=None,
               help="Certificates tried at each point [default: synthesis.lyapunov]; auto: common, then "
                    "slip-dependent where it fails (tighter, slower).")
 @click.option("--json", "as_json", is_flag=True, help="Print margin.json to stdout instead of one line per margin.")

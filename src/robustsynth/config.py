@@ -159,9 +159,10 @@ class SynthesisConfig(_Node):
     objective: Literal["ultimate-bound", "stability", "hinf"] = Field(
         default="ultimate-bound", description="what the LMIs optimize (see README)"
     )
-    lyapunov: Literal["common", "slip-dependent", "delay-dependent"] = Field(
-        default="common", description="one Lyapunov matrix, one per slip corner, or one per slip corner and "
-        "delay vertex (slip-aware model; delay-dependent needs polytopic delays)"
+    lyapunov: Literal["common", "slip-dependent", "delay-dependent", "path-dependent"] = Field(
+        default="common", description="one Lyapunov matrix, one per slip corner, one per slip corner and "
+        "delay vertex, or one per slip corner and the delay vertices of two periods (slip-aware model; "
+        "delay- and path-dependent need polytopic delays)"
     )
     integral_action: bool = Field(
         default=False, description="integrator states int_e_x, int_e_y appended to the lifted state (zero steady error)"
@@ -197,8 +198,8 @@ class SynthesisConfig(_Node):
             raise ValueError(f"{_FIELD}lyapunov: {self.lyapunov} needs synthesis.model: slip-aware (the paper's model has no slip corners)")
         if self.lyapunov != "common" and self.objective == "hinf":
             raise ValueError(f"{_FIELD}lyapunov: {self.lyapunov} is available for ultimate-bound and stability, not hinf")
-        if self.lyapunov == "delay-dependent" and self.delay_description == "norm-bounded":
-            raise ValueError(f"{_FIELD}lyapunov: delay-dependent needs delay vertices (delay_description polytopic, "
+        if self.lyapunov in ("delay-dependent", "path-dependent") and self.delay_description == "norm-bounded":
+            raise ValueError(f"{_FIELD}lyapunov: {self.lyapunov} needs delay vertices (delay_description polytopic, "
                              "lossy-polytopic or auto), not norm-bounded")
         return self
 

@@ -370,13 +370,15 @@ def margin(config: Config, K: np.ndarray, *, lyapunov: str | None = None,
     """Delay and slip margins of the gain ``K`` (du_k = K xi_k) on the robot of ``config``.
 
     ``lyapunov``: the certificates tried at each point: 'common', 'slip-dependent',
-    'delay-dependent' (one matrix per slip corner only where a point's delays have no vertices), or
+    'delay-dependent' or 'path-dependent' (one matrix per slip corner only where a point's delays
+    have no vertices), or
     'auto' (common, then slip-dependent where common fails: tighter, and several times slower);
     default ``config.synthesis.lyapunov``."""
     say = on_step or (lambda _msg: None)
     lyapunov = lyapunov or config.synthesis.lyapunov
-    if lyapunov not in ("common", "slip-dependent", "delay-dependent", "auto"):
-        raise InputError(f"lyapunov: must be common, slip-dependent, delay-dependent or auto (got {lyapunov!r})")
+    if lyapunov not in ("common", "slip-dependent", "delay-dependent", "path-dependent", "auto"):
+        raise InputError(f"lyapunov: must be common, slip-dependent, delay-dependent, path-dependent or auto "
+                         f"(got {lyapunov!r})")
     K = np.asarray(K, dtype=float)
     gain_lifting(K, config.synthesis.integral_action)  # a gain of the wrong shape fails here, not mid-search
     t0 = time.perf_counter()

@@ -218,7 +218,8 @@ class Model:
     def lyapunov_count(self, kind: str) -> int:
         """How many Lyapunov matrices a certificate of ``kind`` has (see :meth:`lyapunov_conditions`)."""
         n_c = int(np.asarray(self.corners).shape[0])
-        return {"common": 1, "slip-dependent": n_c, "delay-dependent": n_c * self.delay_vertex_count}[kind]
+        n_d = self.delay_vertex_count
+        return {"common": 1, "slip-dependent": n_c, "delay-dependent": n_c * n_d, "path-dependent": n_c * n_d * n_d}[kind]
 
     def lyapunov_conditions(self, kind: str, slip_step: float | None) -> list[list[tuple[int, list[tuple[float, int]], str]]]:
         """Per vertex i, the pairs (left, right, label) of one-period conditions a certificate of ``kind``
@@ -234,23 +235,40 @@ class Model:
           above with every next delay vertex.  The conditions are multi-affine in this and the next
           period's slip and delay weights, so they hold for every admissible pair; with
           ``V(xi, mu) = max_d xi' S(mu, d)^-1 xi`` (S(mu, d) the corner interpolation) they give
-          ``V(xi+, mu+) <= (1 - alpha) V(xi, mu) + ...`` without knowing the delays."""
+          ``V(xi+, mu+) <= (1 - alpha) V(xi, mu) + ...`` without knowing the delays;
+        - ``path-dependent``: one per slip corner m, delay vertex a of the previous period and b of
+          this one (index (m * n_d + a) * n_d + b); vertex i (corner m, delay vertex b) has
+          S_(m, a, b) on the left for every a and S_(n, b, c) on the right for every next slip and
+          every c.  With ``V(xi, mu, prev) = max_b xi' S(mu, prev, b)^-1 xi`` (prev: the previous
+          period's delay weights) the same inequality holds; V needs the previous period's delay."""
         if kind == "common":
             return [[(0, [(1.0, 0)], "")] for _ in self.vertices]
-        n_d = self.delay_vertex_count if kind == "delay-dependent" else 1
+        n_d = self.delay_vertex_count if kind in ("delay-dependent", "path-dependent") else 1
+        pasts = range(n_d) if kind == "path-dependent" else [None]
         out = []
         for i, v in enumerate(self.vertices):
             m = int(v.corner)
             d = i % n_d
             W = next_corner_weights(self.corners[m], *self.slip_ranges, slip_step)
             conds = []
-            for a, w in enumerate(W):
-                for d2 in range(n_d):
-                    right = [(float(w[n]), n * n_d + d2) for n in range(w.size) if w[n] != 0.0]
-                    lab = f" -> next slip {a}" + (f", next delay vertex {d2}" if n_d > 1 else "")
-                    conds.append((m * n_d + d, right, lab))
+            for a in pasts:
+                left = m * n_d + d if a is None else (m * n_d + a) * n_d + d
+                for k, w in enumerate(W):
+                    for d2 in range(n_d):
+                        right = [(float(w[n]), n * n_d + d2 if a is None else (n * n_d + d) * n_d + d2)
+                                 for n in range(w.size) if w[n] != 0.0]
+                        lab = ("" if a is None else f" (previous delay vertex {a})") + f" -> next slip {k}" + (
+                            f", next delay vertex {d2}" if n_d > 1 else "")
+                        conds.append((left, right, lab))
             out.append(conds)
         return out
+
+    def delay_weights(self, s_tilde: np.ndarray) -> np.ndarray:
+        """Convex weights (..., n_d) of one period's switching instants over the delay vertices (the
+        delay part of :meth:`hull_coordinates`)."""
+        w, _ = self.hull_coordinates(s_tilde, np.ones(2))
+        n_c = max(1, len(self.vertices) // self.delay_vertex_count)
+        return w.reshape(w.shape[:-1] + (n_c, self.delay_vertex_count)).sum(axis=-2)
 
     def reachable_instants(self, n: int) -> np.ndarray | None:
         """Switching-instant vectors the link can produce, delays on an n-point grid, when the model

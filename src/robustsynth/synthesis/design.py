@@ -280,8 +280,8 @@ def synthesize(model: Any, settings: SynthesisConfig | None = None, *, on_step: 
     if s.lyapunov != "common" and (model.kind != "slip-aware" or s.objective == "hinf"):
         raise InputError(f"synthesis.lyapunov: {s.lyapunov} needs synthesis.model: slip-aware and the "
                          "ultimate-bound or stability objective")
-    if s.lyapunov == "delay-dependent" and not 1 < model.delay_vertex_count <= MAX_DELAY_VERTICES:
-        raise InputError(f"synthesis.lyapunov: delay-dependent needs 2 to {MAX_DELAY_VERTICES} delay vertices per slip "
+    if s.lyapunov in ("delay-dependent", "path-dependent") and not 1 < model.delay_vertex_count <= MAX_DELAY_VERTICES:
+        raise InputError(f"synthesis.lyapunov: {s.lyapunov} needs 2 to {MAX_DELAY_VERTICES} delay vertices per slip "
                          f"corner; this model has {model.delay_vertex_count} ({model.delay_description} delays, "
                          f"d_hi = {model.d_hi}): use slip-dependent")
     check_physical_feasibility(cfg)  # physics first: no LMI can beat a motor that is too slow

@@ -182,7 +182,7 @@ def _lyapunov_parts(model: Any, cert: Mapping[str, Any], n_s: int):
             return err
         conds = [[(Q, Q, "")] for _ in model.vertices]
         return kind, Q, conds, [Q]
-    if kind not in ("slip-dependent", "delay-dependent"):
+    if kind not in ("slip-dependent", "delay-dependent", "path-dependent"):
         return f"unknown lyapunov kind {kind!r}"
     G = _arr(cert["G"], "G")
     S = [_arr(x, f"S[{m}]") for m, x in enumerate(cert["S"])]
@@ -190,7 +190,8 @@ def _lyapunov_parts(model: Any, cert: Mapping[str, Any], n_s: int):
         return f"G has shape {G.shape}, expected {(n_s, n_s)}"
     want = model.lyapunov_count(kind)
     if len(S) != want:
-        per = "slip corner" if kind == "slip-dependent" else "slip corner and delay vertex"
+        per = {"slip-dependent": "slip corner", "delay-dependent": "slip corner and delay vertex"}.get(
+            kind, "slip corner and pair of delay vertices")
         return f"S has {len(S)} matrices, expected one per {per} ({want})"
     for m, Sm in enumerate(S):
         if Sm.shape != (n_s, n_s):
@@ -336,32 +337,60 @@ class Lyapunov:
     """V(xi, mu) of a certificate: ``xi' S(mu)^-1 xi`` with S(mu) = Q (common) or the convex
     combination sum_m lambda_m(mu) S_m of the slip-corner matrices (slip-dependent), lambda the
     model's corner weights; delay-dependent: ``max_d xi' S(mu, d)^-1 xi`` over the delay vertices d,
-    S(mu, d) = sum_m lambda_m(mu) S_(m, d) -- a piecewise-quadratic function that needs no delay
-    (``Model.lyapunov_conditions``).  ``V_max`` is the largest value over every matrix (an upper
-    bound for any mu)."""
+    S(mu, d) = sum_m lambda_m(mu) S_(m, d) -- a piecewise-quadratic function that needs no delay;
+    path-dependent: ``max_b xi' S(mu, prev, b)^-1 xi`` with ``prev`` the previous period's delay
+    weights (``Model.delay_weights``), the largest over the previous delay vertices where it is not
+    known (NaN) -- an upper bound (``Model.lyapunov_conditions``).  ``V_max`` is the largest value
+    over every matrix (an upper bound for any mu and delays)."""
 
     model: Any
     S: tuple[np.ndarray, ...]
     P: tuple[np.ndarray, ...]
     slip_step: float | None = None  # a rate-bounded certificate: the slip moves at most this per period
-    delay_vertices: int = 1  # delay-dependent: matrices S_(m, d) at index m * delay_vertices + d
+    delay_vertices: int = 1  # delay-dependent: S_(m, d) at index m * n_d + d; path-dependent: S_(m, a, b)
+    path: bool = False  # at (m * n_d + a) * n_d + b, a the previous period's delay vertex
 
     @property
     def any_next_slip(self) -> bool:
-        """True when the LMIs hold for every next slip (common Q, or slip may jump): then from one step
-        on the state lies in the set of every slip, and ``V_max`` <= level."""
-        return len(self.S) == 1 or self.slip_step is None
+        """True when the LMIs hold for every next slip and delay (common Q, or slip may jump and the
+        matrices do not depend on a past delay): then from one step on the state lies in the set of
+        every slip, and ``V_max`` <= level."""
+        return len(self.S) == 1 or (self.slip_step is None and not self.path)
 
-    def V(self, xi: np.ndarray, mu: np.ndarray | None = None) -> np.ndarray:
+    def V(self, xi: np.ndarray, mu: np.ndarray | None = None, prev: np.ndarray | None = None) -> np.ndarray:
+        """``prev`` (..., n_d): the previous period's delay weights (path-dependent only; None or NaN
+        rows: unknown, the largest value over the previous delay vertices)."""
         xi = np.asarray(xi, dtype=float)
         if len(self.S) == 1 or mu is None:
             return self.V_max(xi)
         lam = self.model.corner_weights(np.asarray(mu, dtype=float))
         n_d = self.delay_vertices
-        allS = np.array(self.S).reshape((-1, n_d) + self.S[0].shape)  # (n_c, n_d, n, n)
+        n = self.S[0].shape[0]
+        if not self.path:
+            return self._max_over_d(xi, lam, np.array(self.S).reshape((-1, n_d, n, n)))
+        allS = np.array(self.S).reshape((-1, n_d, n_d, n, n))  # (n_c, a, b, n, n)
+        batch = xi.shape[:-1]
+        if prev is None:
+            prev = np.full(batch + (n_d,), np.nan)
+        prev = np.broadcast_to(np.asarray(prev, dtype=float), batch + (n_d,))
+        known = np.all(np.isfinite(prev), axis=-1)
+        out = np.zeros(batch)
+        if np.any(known):
+            # unknown rows get placeholder weights (their value is replaced below)
+            S_prev = np.einsum("...a,mabij->...mbij", np.where(known[..., None], prev, 1.0 / n_d), allS)  # (..., n_c, b, n, n)
+            out = np.where(known, self._max_over_d(xi, lam, S_prev, batched=True), out)
+        if not np.all(known):
+            worst = np.max([self._max_over_d(xi, lam, allS[:, a]) for a in range(n_d)], axis=0)
+            out = np.where(known, out, worst)
+        return out
+
+    @staticmethod
+    def _max_over_d(xi, lam, mats, batched: bool = False):
+        """max_d xi' (sum_m lam_m mats[m, d])^-1 xi; ``mats`` (n_c, n_d, n, n), or (..., n_c, n_d, n, n)."""
         out = None
-        for d in range(n_d):
-            S = np.einsum("...m,mij->...ij", lam, allS[:, d])
+        for d in range(mats.shape[-3]):
+            M = mats[..., d, :, :]
+            S = np.einsum("...m,...mij->...ij", lam, M) if batched else np.einsum("...m,mij->...ij", lam, M)
             sol = np.linalg.solve(S, xi[..., None])[..., 0]
             val = np.einsum("...i,...i->...", xi, sol)
             out = val if out is None else np.maximum(out, val)
@@ -378,10 +407,10 @@ def lyapunov_of(model: Any, cert: Mapping[str, Any]) -> Lyapunov:
     step = None
     kind = cert.get("lyapunov", "common")
     n_d = 1
-    if kind in ("slip-dependent", "delay-dependent"):
+    if kind in ("slip-dependent", "delay-dependent", "path-dependent"):
         S = tuple(np.asarray(x, dtype=float) for x in cert["S"])
         step = None if cert.get("slip_step") is None else float(cert["slip_step"])
-        n_d = model.delay_vertex_count if kind == "delay-dependent" else 1
+        n_d = model.delay_vertex_count if kind != "slip-dependent" else 1
     else:
         S = (np.asarray(cert["Q"], dtype=float),)
-    return Lyapunov(model, S, tuple(np.linalg.inv(x) for x in S), step, n_d)
+    return Lyapunov(model, S, tuple(np.linalg.inv(x) for x in S), step, n_d, kind == "path-dependent")

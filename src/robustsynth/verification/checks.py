@@ -221,9 +221,10 @@ def _lifted(model, K, cert: CertificateCheck, gains: dict) -> tuple[list[dict], 
         worst_ratio, worst_dec = 0.0, -np.inf
         w = model.disturbance_coordinates(mu[:, :steps])  # c(mu) = sum lambda_i E_i w
         for name, taus in patterns.items():
+            prev = _previous_delays(model, lyap, taus=taus)
             for start_name, xi0 in (("boundary", xi_in), ("outside", xi_out)):
                 xi = closed_loop_run(model, K, taus, mu[:, :steps], xi0)
-                V = lyap.V(xi, mu)
+                V = lyap.V(xi, mu, prev)
                 rhs = (1 - alpha) * V[:, :-1] + (w**2) @ beta
                 worst_dec = max(worst_dec, float(np.max((V[:, 1:] - rhs) / np.maximum(V[:, :-1], level))))
                 if start_name == "boundary":
@@ -233,8 +234,9 @@ def _lifted(model, K, cert: CertificateCheck, gains: dict) -> tuple[list[dict], 
                     worst_ratio = max(worst_ratio, float(np.max(Vc)) / level)
                 traces[f"{name}/{start_name}"] = V
         n_g = min(N, 50)
-        xg, _, mug = greedy_worst_case(model, K, lyap.V, xi_in[:n_g], min(steps, 100), mu0=mu[:n_g, 0])
-        Vg = lyap.V_max(xg) if lyap.any_next_slip else np.concatenate([lyap.V(xg[:, :1], mu[:n_g, :1]), lyap.V(xg[:, 1:], mug)], axis=1)
+        xg, tg, mug = greedy_worst_case(model, K, lyap.V, xi_in[:n_g], min(steps, 100), mu0=mu[:n_g, 0], with_delay=lyap.path)
+        Vg = lyap.V_max(xg) if lyap.any_next_slip else np.concatenate(
+            [lyap.V(xg[:, :1], mu[:n_g, :1]), lyap.V(xg[:, 1:], mug, _previous_delays(model, lyap, taus=tg, part=slice(1, None)))], axis=1)
         traces["greedy/boundary"] = Vg
         worst_ratio = max(worst_ratio, float(np.max(Vg[:, 1:]) / level))
         checks.append(_check("lifted model: V(xi+) <= (1-alpha) V(xi) + sum beta_i w_i^2", worst_dec <= LEVEL_TOL,
@@ -249,7 +251,7 @@ def _lifted(model, K, cert: CertificateCheck, gains: dict) -> tuple[list[dict], 
         worst = -np.inf
         for name, taus in (("random", random_delays(model, rng, N, steps)), ("alternating", alternating_delays(model, N, steps))):
             xi = closed_loop_run(model, K, taus, mu_h[:, :steps], z, affine=False)
-            V = lyap.V(xi, mu_h)
+            V = lyap.V(xi, mu_h, _previous_delays(model, lyap, taus=taus))
             traces[f"{name}/homogeneous"] = V
             worst = max(worst, float(np.max(V[:, 1:] / V[:, :-1])))
         thr = r2 if objective == "stability" else 1.0
@@ -257,6 +259,18 @@ def _lifted(model, K, cert: CertificateCheck, gains: dict) -> tuple[list[dict], 
                              worst, thr, "largest V ratio per step; random and alternating delays, slip corners"))
         summary.update({"max_V_ratio": worst})
     return checks, summary, traces
+
+
+def _previous_delays(model, lyap, taus: np.ndarray | None = None, s_tilde: np.ndarray | None = None,
+                     part: slice = slice(None)) -> np.ndarray | None:
+    """For a path-dependent certificate, the previous period's delay weights at samples 0..T of runs
+    whose periods have switching instants ``s_tilde`` (N, T, d_hi) (or the packet delays ``taus``):
+    (N, T + 1, n_d)[:, part], NaN at sample 0 (unknown: V takes the largest value over the previous
+    delay vertices).  None otherwise."""
+    if not lyap.path:
+        return None
+    dw = model.delay_weights(model.s_tilde(taus) if s_tilde is None else s_tilde)
+    return np.concatenate([np.full(dw.shape[:1] + (1,) + dw.shape[2:], np.nan), dw], axis=1)[:, part]
 
 
 def _maxima(e: np.ndarray, rho: np.ndarray, mask: np.ndarray) -> dict[str, np.ndarray]:
@@ -434,8 +448,8 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
     if ub:
         lyap = lyapunov_of(model, gains["certificate"])
         level = float(cert.figures["ellipsoid_level"])
-        v_ratio = lyap.V(sim.true_xi(), scen.mu) / level
-        v_ext = lyap.V(ext.true_xi(), ext_scen.mu) / level
+        v_ratio = lyap.V(sim.true_xi(), scen.mu, _previous_delays(model, lyap, taus=scen.taus, part=slice(None, -1))) / level
+        v_ext = lyap.V(ext.true_xi(), ext_scen.mu, _previous_delays(model, lyap, taus=ext_scen.taus, part=slice(None, -1))) / level
         mask, switches = _certified_mask(sim, v_ratio, starts_inside)
         mask_ext, sw_ext = _certified_mask(ext, v_ext, starts_inside)
         rule = "certified set (V/level <= 1): from the start, and after each waypoint from the robot's re-entry on"
@@ -446,9 +460,9 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
             rng = np.random.default_rng(seed + 3)
             corners = slip_vertices(model)
             mu0 = corners[rng.integers(0, corners.shape[0], size=vc.adversarial_runs)]
-            adv = greedy_nonlinear(model, K, lyap.V, mu0, vc.adversarial_steps)
+            adv = greedy_nonlinear(model, K, lyap.V, mu0, vc.adversarial_steps, with_delay=lyap.path)
             adv_e = adv["xi"][:, :-1, : model.n_e]
-            adv_v = lyap.V(adv["xi"][:, :-1], adv["mu"]) / level
+            adv_v = lyap.V(adv["xi"][:, :-1], adv["mu"], _previous_delays(model, lyap, s_tilde=adv["s_tilde"], part=slice(None, -1))) / level
             mc["adversarial"] = {
                 "runs": vc.adversarial_runs, "steps": vc.adversarial_steps,
                 "search": "greedy: each period the slip corner and newest delay (9-point grid) that maximize V of the "

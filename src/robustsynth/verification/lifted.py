@@ -107,10 +107,11 @@ def rate_limited_slip(model, rng: np.random.Generator, N: int, steps: int) -> np
 
 
 def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 9, slip: bool = True,
-                      mu0: np.ndarray | None = None):
+                      mu0: np.ndarray | None = None, with_delay: bool = False):
     """Greedy search for large V: each step, over a grid of the new packet's delay and the slips the
     adversary may pick (:func:`slip_candidates`), take the choice that maximizes
-    ``V_fn(xi_{k+1}, mu)``.  Returns (xi, taus, mu)."""
+    ``V_fn(xi_{k+1}, mu)`` (``V_fn(xi_{k+1}, mu, prev=...)`` with the period's delay weights when
+    ``with_delay``: a path-dependent Lyapunov function).  Returns (xi, taus, mu)."""
     dl = model.config.network.delay
     tau_grid = delay_candidates(model, n_tau)
     n_tau = tau_grid.size
@@ -132,7 +133,12 @@ def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 
         s = model.s_tilde(cand)[:, :, 0, :]  # (N, n_tau, d_hi)
         A, B = model.exact(s[:, :, None, :], mu_cands[:, None, :, :])  # (N, n_tau, n_m, ...)
         nxt = np.einsum("ntmij,nj->ntmi", A + B @ K, xi[:, k]) + model.constant(mu_cands)[:, None]
-        V = V_fn(nxt, np.broadcast_to(mu_cands[:, None], nxt.shape[:-1] + (2,)))  # (N, n_tau, n_m)
+        mus = np.broadcast_to(mu_cands[:, None], nxt.shape[:-1] + (2,))
+        if with_delay:
+            dw = model.delay_weights(s)  # (N, n_tau, n_d): this period's delay, the next state's "previous"
+            V = V_fn(nxt, mus, prev=np.broadcast_to(dw[:, :, None], nxt.shape[:-1] + dw.shape[-1:]))
+        else:
+            V = V_fn(nxt, mus)  # (N, n_tau, n_m)
         if model.dropouts:  # losing the newest packet only while the burst is below the cap
             V = np.where(np.isinf(tau_grid)[None, :, None] & ~loss_allowed(model, hist)[:, None, None], -np.inf, V)
         flat = V.reshape(N, -1).argmax(axis=1)

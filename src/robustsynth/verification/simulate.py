@@ -379,13 +379,15 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
     return SimResult(t, Q, E, XI, DU, rho, seg, settled)
 
 
-def greedy_nonlinear(model, K: np.ndarray, V_fn: Callable[[np.ndarray, np.ndarray], np.ndarray], mu0: np.ndarray, steps: int,
-                     n_tau: int = 9) -> dict[str, np.ndarray]:
+def greedy_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray], mu0: np.ndarray, steps: int,
+                     n_tau: int = 9, with_delay: bool = False) -> dict[str, np.ndarray]:
     """Greedy adversary on the nonlinear robot along a straight line: every period, among the slip
     corners and ``n_tau`` delays of the newest packet, take the pair whose next true lifted state has
     the largest ``V_fn(xi, mu)`` (a Lyapunov function; larger = further out of the certified set).  Runs start
     at the steady state of ``mu0`` (N, 2).  Returns the true lifted states (N, steps + 1, n_s), the
-    chosen slip (N, steps, 2) and delays (N, steps), and the commanded motor speeds (N, steps, 2)."""
+    chosen slip (N, steps, 2), delays (N, steps) and switching instants (N, steps, d_hi), and the
+    commanded motor speeds (N, steps, 2).  ``with_delay``: ``V_fn(xi, mu, prev=...)`` gets the
+    period's delay weights (a path-dependent Lyapunov function)."""
     K = np.asarray(K, dtype=float)
     cfg = model.config
     Ts, d_hi, V = model.Ts, model.d_hi, model.V
@@ -410,6 +412,7 @@ def greedy_nonlinear(model, K: np.ndarray, V_fn: Callable[[np.ndarray, np.ndarra
     XI = np.empty((N, steps + 1, model.n_s))
     MU = np.empty((N, steps, 2))
     TAU = np.empty((N, steps))
+    STI = np.empty((N, steps, d_hi))
     RHO = np.empty((N, steps, 2))
     law = control_law(model, K, path, scen)
     for k in range(steps + 1):
@@ -438,7 +441,12 @@ def greedy_nonlinear(model, K: np.ndarray, V_fn: Callable[[np.ndarray, np.ndarra
         e_next = frame_error(path, 0, q_next, tk + Ts)
         rest = np.stack(law.past + law.z, axis=1)  # the controller's memory after step k
         xi_next = np.concatenate([e_next, np.broadcast_to(rest[:, None, None, :], (N, n_c, n_tau, rest.shape[1]))], axis=-1)
-        val = V_fn(xi_next, np.broadcast_to(cand_mu[:, :, None, :], (N, n_c, n_tau, 2)))
+        mus = np.broadcast_to(cand_mu[:, :, None, :], (N, n_c, n_tau, 2))
+        if with_delay:
+            dw = model.delay_weights(S)  # (N, n_tau, n_d)
+            val = V_fn(xi_next, mus, prev=np.broadcast_to(dw[:, None], (N, n_c, n_tau, dw.shape[-1])))
+        else:
+            val = V_fn(xi_next, mus)
         if model.dropouts:  # a loss only while the burst is below the cap
             val = np.where(np.isinf(taus)[None, None, :] & ~loss_allowed(model, hist)[:, None, None], -np.inf, val)
         val = val.reshape(N, -1)
@@ -448,6 +456,7 @@ def greedy_nonlinear(model, K: np.ndarray, V_fn: Callable[[np.ndarray, np.ndarra
         q = q_next[r, ci, ti]
         MU[:, k] = cand_mu[r, ci]
         TAU[:, k] = taus[ti]
+        STI[:, k] = S[r, ti]
         mu_prev = MU[:, k]
         hist = np.concatenate([hist[:, 1:], taus[ti][:, None]], axis=1)
-    return {"xi": XI, "mu": MU, "tau": TAU, "rho": RHO}
+    return {"xi": XI, "mu": MU, "tau": TAU, "s_tilde": STI, "rho": RHO}
