@@ -238,7 +238,8 @@ def fig_ellipsoid(res, model) -> Any:
                 b = _ellipse(Qs, cert.figures["ellipsoid_level"]) * np.array(scales)
                 ax.plot(b[:, 0], b[:, 1], color="tab:green", lw=1.5, ls="-" if j == 0 else "--",
                         label="certified set (projection)" if j == 0 else (
-                            ("per slip corner" if c.get("lyapunov") == "slip-dependent" else "per slip corner and delay vertex")
+                            {"slip-dependent": "per slip corner", "delay-dependent": "per slip corner and delay vertex"}.get(
+                                c.get("lyapunov"), "per slip corner and pair of delay vertices")
                             if j == 1 else None))
         ax.set_xlabel(labels[0])
         ax.set_ylabel(labels[1])

@@ -233,7 +233,10 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
                if c.get("lyapunov") == "slip-dependent" else
                " (for every delay vertex d, P = S(mu, d)^-1, one matrix per slip corner and delay vertex: the set is the"
                " intersection over d, so it needs no knowledge of the delay; the bounds are the largest over the matrices)"
-               if c.get("lyapunov") == "delay-dependent" else "")
+               if c.get("lyapunov") == "delay-dependent" else
+               " (P = S(mu, prev, b)^-1 for the previous period's delay weights prev and every delay vertex b, one matrix"
+               " per slip corner and pair of delay vertices; the bounds are the largest over the matrices)"
+               if c.get("lyapunov") == "path-dependent" else "")
             + f", which every trajectory enters (V decays at least as `(1-alpha)^k`, alpha = {c['alpha']:.4g}) and never leaves."
             f" In centimetres: |e_y| <= {100 * ub['e_y']:.2f} cm, |e_x| <= {100 * ub['e_x']:.2f} cm.\n"
         )
