@@ -187,3 +187,24 @@ def test_delay_in_milliseconds_names_the_unit(tmp_path) -> None:
     line = r.stderr.strip()
     assert line.startswith("error: network.delay.max:") and "in seconds" in line and "0.08 s" in line
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_an_error_caused_by_a_signal_is_reported_as_the_interrupt(monkeypatch, capsys, sig, code) -> None:
+    """A signal can break what it interrupts in ways that surface as another exception: seen in CI,
+    SIGTERM during `import cvxpy` made scipy's extension fail with 'ImportError: initialization
+    failed' (exit 1, a traceback).  Once a signal arrived, the CLI reports the interrupt instead; an
+    error without a signal still propagates."""
+    from robustsynth import cli, errors
+
+    def broken() -> None:
+        raise ImportError("initialization failed")
+
+    monkeypatch.setattr(errors, "_PENDING", [sig])
+    with pytest.raises(SystemExit) as ex:
+        cli._guard(broken)()
+    assert ex.value.code == code
+    assert capsys.readouterr().err.strip() == "interrupted"
+    monkeypatch.setattr(errors, "_PENDING", [])
+    with pytest.raises(ImportError):
+        cli._guard(broken)()

@@ -14,7 +14,7 @@ from typing import Any, Callable
 import click
 
 from . import __version__
-from .errors import EXIT_INTERRUPTED, EXIT_OK, Interrupted, RobustSynthError, check_interrupt, on_signal
+from .errors import EXIT_INTERRUPTED, EXIT_OK, Interrupted, RobustSynthError, check_interrupt, on_signal, pending_interrupt
 
 CONFIG_ARG = click.argument("config", required=False, type=click.Path(dir_okay=False, path_type=Path))
 OUTDIR_OPT = click.option(
@@ -71,7 +71,14 @@ def _guard(fn: Callable[..., int | None]) -> Callable[..., None]:
         except BrokenPipeError:
             _quiet_stdout()
             sys.exit(EXIT_BROKEN_PIPE)
-        except RobustSynthError as exc:
+        except Exception as exc:
+            # after a signal, whatever broke is its consequence (e.g. an import it interrupted)
+            pending = pending_interrupt()
+            if pending is not None:
+                click.echo(f"{pending}", err=True)
+                sys.exit(pending.exit_code)
+            if not isinstance(exc, RobustSynthError):
+                raise
             click.echo(f"error: {exc}", err=True)
             sys.exit(exc.exit_code)
         sys.exit(EXIT_OK if code is None else code)
@@ -519,4 +526,11 @@ def entry() -> None:
     except click.ClickException as exc:  # usage errors: click's message, exit 2
         exc.show()
         sys.exit(exc.exit_code)
+    except Exception:
+        # after a signal, whatever broke is its consequence (e.g. an import it interrupted)
+        pending = pending_interrupt()
+        if pending is None:
+            raise
+        click.echo(f"{pending}", err=True)
+        sys.exit(pending.exit_code)
     sys.exit(EXIT_OK)

@@ -96,6 +96,13 @@ def on_signal(signum: int, _frame: object = None) -> None:
     raise Interrupted(signum)
 
 
+def pending_interrupt() -> "Interrupted | None":
+    """The interrupt of a signal that arrived, if any: an exception raised after it (say an
+    extension module whose initialization the signal broke: 'ImportError: initialization failed')
+    is its consequence and is reported as the interrupt."""
+    return Interrupted(_PENDING[0]) if _PENDING else None
+
+
 def check_interrupt() -> None:
     """Raise :class:`Interrupted` if a signal arrived (a no-op for library users: nothing is
     recorded unless the CLI's handler is installed)."""
