@@ -18,7 +18,8 @@ de Oliveira-Bernussou-Geromel 1999; Daafouz-Bernussou 2001) the (1,1) block beco
 jump, or, under ``slip.max_rate``, the bilinear interpolation of the S_n at ``corner_m +- max_rate Ts``
 (the LMI is multi-affine in (mu_k, mu_{k+1} - mu_k), so these vertices cover every admissible pair).
 **Delay-dependent**: one S per slip corner and delay vertex, with the next period's at every next
-delay vertex as well (``Model.lyapunov_conditions``).  ``Parameter`` s (``alpha``, ``r2``) change
+delay vertex as well; **path-dependent**: one per slip corner, previous and current delay vertex
+(``Model.lyapunov_conditions``).  ``Parameter`` s (``alpha``, ``r2``) change
 between solves, so line search and bisection reuse one compiled problem (DPP).
 """
 
