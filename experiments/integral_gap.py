@@ -175,13 +175,13 @@ def invariance_bound(model, K, alpha, lyapunov):
     lv = _Lyap(model, lyapunov, K)
     n_s, n_w = model.n_s, model.n_w
     beta = cp.Variable(n_w)
-    Ms, cons = _multipliers(model, "structured", MARGIN)
+    _, cons = _multipliers(model, "structured", MARGIN)
     Z = np.zeros((n_s, n_w))
-    for v, M in zip(model.vertices, Ms):
+    for i, v in enumerate(model.vertices):
         AX, _ = _vertex_parts(v, lv)
-        E, m = np.asarray(v.E), lv.mode(v)
-        for right in lv.rights(model, m):
-            L = cp.bmat([[(1 - alpha) * lv.left(m), Z, AX.T], [Z.T, cp.diag(beta), E.T], [AX, E, right]])
+        E = np.asarray(v.E)
+        for left, right in lv.conditions(i):
+            L = cp.bmat([[(1 - alpha) * left, Z, AX.T], [Z.T, cp.diag(beta), E.T], [AX, E, right]])
             cons.append(_sym(L) >> MARGIN * np.eye(L.shape[0]))
     cons += [cp.sum(beta) <= alpha] + lv.scale(MARGIN)
     t, c = lv.diag_bound(1)
