@@ -244,22 +244,23 @@ class Model:
         if kind == "common":
             return [[(0, [(1.0, 0)], "")] for _ in self.vertices]
         n_d = self.delay_vertex_count if kind in ("delay-dependent", "path-dependent") else 1
-        pasts = range(n_d) if kind == "path-dependent" else [None]
+        path = kind == "path-dependent"
+
+        def index(m: int, a: int, b: int) -> int:  # S of slip corner m, previous delay vertex a, current b
+            return (m * n_d + a) * n_d + b if path else m * n_d + b
+
         out = []
         for i, v in enumerate(self.vertices):
-            m = int(v.corner)
-            d = i % n_d
+            m, b = int(v.corner), i % n_d
             W = next_corner_weights(self.corners[m], *self.slip_ranges, slip_step)
             conds = []
-            for a in pasts:
-                left = m * n_d + d if a is None else (m * n_d + a) * n_d + d
+            for a in range(n_d if path else 1):
                 for k, w in enumerate(W):
-                    for d2 in range(n_d):
-                        right = [(float(w[n]), n * n_d + d2 if a is None else (n * n_d + d) * n_d + d2)
-                                 for n in range(w.size) if w[n] != 0.0]
-                        lab = ("" if a is None else f" (previous delay vertex {a})") + f" -> next slip {k}" + (
-                            f", next delay vertex {d2}" if n_d > 1 else "")
-                        conds.append((left, right, lab))
+                    for c in range(n_d):
+                        right = [(float(w[n]), index(n, b, c)) for n in range(w.size) if w[n] != 0.0]
+                        lab = (f" (previous delay vertex {a})" if path else "") + f" -> next slip {k}" + (
+                            f", next delay vertex {c}" if n_d > 1 else "")
+                        conds.append((index(m, a, b), right, lab))
             out.append(conds)
         return out
 

@@ -115,7 +115,6 @@ class _Lyap:
             self.G = cp.Variable((n_s, n_s), name="G")
             self.X = self.G
             self.S = [cp.Variable((n_s, n_s), symmetric=True, name=f"S{j}") for j in range(model.lyapunov_count(kind))]
-        self.modes = len(self.mats)
         # synthesis: Y = K X is the variable; analysis of a given K: Y = K X is affine in X
         self.Y = cp.Variable((model.n_u, n_s), name="Y") if K is None else np.asarray(K, dtype=float) @ self.X
 
@@ -247,7 +246,7 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
             cons.append(_sym(L) >> margin * np.eye(L.shape[0]))
     cons += [cp.sum(beta) <= alpha] + lv.scale(margin)
     if motor:
-        for j in range(lv.modes):
+        for j in range(len(lv.mats)):
             cons += motor_constraints(model, lv.left(j), lv.Y)
     terms = []
     for i in range(3):
