@@ -370,27 +370,23 @@ class Lyapunov:
             return self._max_over_d(xi, lam, np.array(self.S).reshape((-1, n_d, n, n)))
         allS = np.array(self.S).reshape((-1, n_d, n_d, n, n))  # (n_c, a, b, n, n)
         batch = xi.shape[:-1]
-        if prev is None:
-            prev = np.full(batch + (n_d,), np.nan)
-        prev = np.broadcast_to(np.asarray(prev, dtype=float), batch + (n_d,))
+        lam = np.broadcast_to(lam, batch + lam.shape[-1:])
+        prev = np.full(batch + (n_d,), np.nan) if prev is None else np.broadcast_to(np.asarray(prev, dtype=float), batch + (n_d,))
         known = np.all(np.isfinite(prev), axis=-1)
-        out = np.zeros(batch)
-        if np.any(known):
-            # unknown rows get placeholder weights (their value is replaced below)
-            S_prev = np.einsum("...a,mabij->...mbij", np.where(known[..., None], prev, 1.0 / n_d), allS)  # (..., n_c, b, n, n)
-            out = np.where(known, self._max_over_d(xi, lam, S_prev, batched=True), out)
-        if not np.all(known):
-            worst = np.max([self._max_over_d(xi, lam, allS[:, a]) for a in range(n_d)], axis=0)
-            out = np.where(known, out, worst)
+        out = np.empty(batch)
+        if np.any(known):  # S(mu, prev, b) for the known previous weights
+            out[known] = self._max_over_d(xi[known], lam[known], np.einsum("ka,mabij->kmbij", prev[known], allS))
+        if not np.all(known):  # the largest over the previous delay vertex a
+            u = ~known
+            out[u] = np.max([self._max_over_d(xi[u], lam[u], allS[:, a]) for a in range(n_d)], axis=0)
         return out
 
     @staticmethod
-    def _max_over_d(xi, lam, mats, batched: bool = False):
-        """max_d xi' (sum_m lam_m mats[m, d])^-1 xi; ``mats`` (n_c, n_d, n, n), or (..., n_c, n_d, n, n)."""
+    def _max_over_d(xi, lam, mats):
+        """max_d xi' (sum_m lam_m mats[..., m, d])^-1 xi; ``mats`` (n_c, n_d, n, n) or per sample."""
         out = None
         for d in range(mats.shape[-3]):
-            M = mats[..., d, :, :]
-            S = np.einsum("...m,...mij->...ij", lam, M) if batched else np.einsum("...m,mij->...ij", lam, M)
+            S = np.einsum("...m,...mij->...ij", lam, mats[..., d, :, :])
             sol = np.linalg.solve(S, xi[..., None])[..., 0]
             val = np.einsum("...i,...i->...", xi, sol)
             out = val if out is None else np.maximum(out, val)
