@@ -53,6 +53,19 @@ def _quiet_stdout() -> None:
         pass
 
 
+def _exit_interrupted(exc: Interrupted) -> None:
+    click.echo(f"{exc}", err=True)
+    sys.exit(exc.exit_code)
+
+
+def _exit_if_signalled() -> None:
+    """After a signal, whatever broke is its consequence (e.g. an import it interrupted): report the
+    interrupt instead (``errors.pending_interrupt``)."""
+    pending = pending_interrupt()
+    if pending is not None:
+        _exit_interrupted(pending)
+
+
 def _guard(fn: Callable[..., int | None]) -> Callable[..., None]:
     """Run a command body; a RobustSynthError becomes one stderr line and its exit code; an
     interrupt (SIGINT, SIGTERM) the line 'interrupted' and 130 / 143; a closed pipe 141."""
@@ -63,8 +76,7 @@ def _guard(fn: Callable[..., int | None]) -> Callable[..., None]:
             sys.stdout.flush()
             check_interrupt()  # a signal whose exception Python swallowed (see errors.on_signal)
         except Interrupted as exc:
-            click.echo(f"{exc}", err=True)
-            sys.exit(exc.exit_code)
+            _exit_interrupted(exc)
         except KeyboardInterrupt:
             click.echo("interrupted", err=True)
             sys.exit(EXIT_INTERRUPTED)
@@ -72,11 +84,7 @@ def _guard(fn: Callable[..., int | None]) -> Callable[..., None]:
             _quiet_stdout()
             sys.exit(EXIT_BROKEN_PIPE)
         except Exception as exc:
-            # after a signal, whatever broke is its consequence (e.g. an import it interrupted)
-            pending = pending_interrupt()
-            if pending is not None:
-                click.echo(f"{pending}", err=True)
-                sys.exit(pending.exit_code)
+            _exit_if_signalled()
             if not isinstance(exc, RobustSynthError):
                 raise
             click.echo(f"error: {exc}", err=True)
@@ -518,8 +526,7 @@ def entry() -> None:
         click.echo("interrupted", err=True)
         sys.exit(EXIT_INTERRUPTED)
     except Interrupted as exc:
-        click.echo(f"{exc}", err=True)
-        sys.exit(exc.exit_code)
+        _exit_interrupted(exc)
     except BrokenPipeError:
         _quiet_stdout()
         sys.exit(EXIT_BROKEN_PIPE)
@@ -527,10 +534,6 @@ def entry() -> None:
         exc.show()
         sys.exit(exc.exit_code)
     except Exception:
-        # after a signal, whatever broke is its consequence (e.g. an import it interrupted)
-        pending = pending_interrupt()
-        if pending is None:
-            raise
-        click.echo(f"{pending}", err=True)
-        sys.exit(pending.exit_code)
+        _exit_if_signalled()
+        raise
     sys.exit(EXIT_OK)
