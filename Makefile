@@ -20,9 +20,11 @@ install: $(STAMP)
 demo: $(STAMP)
 	$(VENV)/bin/robustsynth run -o results/default
 
-## make test: install, then run the test suite
+## make test: install, then run the test suite on TEST_WORKERS processes (pytest-xdist), one BLAS
+## thread each so the workers do not oversubscribe the cores
+TEST_WORKERS ?= 2
 test: $(STAMP)
-	$(PY) -m pytest -q
+	OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 $(PY) -m pytest -q -n $(TEST_WORKERS)
 
 ## make bench: start-up, synthesis and Monte Carlo benchmarks (prints figures)
 bench: $(STAMP)

@@ -49,7 +49,14 @@ def _with(path: str, value):
     return _dump(d)
 
 
-_DELETE = object()
+class _Delete:
+    """Sentinel: remove the key (a stable repr keeps the test ids the same in every process)."""
+
+    def __repr__(self) -> str:
+        return "<delete>"
+
+
+_DELETE = _Delete()
 
 BAD = [
     ("robot.gear_radius", 0.0, "robot.gear_radius: "),
