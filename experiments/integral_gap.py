@@ -111,7 +111,7 @@ import numpy as np
 from robustsynth import build_model, default_config, synthesize
 from robustsynth.synthesis.lmis import _Lyap, _multipliers, _sym, _vertex_parts
 from robustsynth.synthesis.analysis import analyze_stability
-from robustsynth.verification.lifted import closed_loop_run, frozen_instant_grid, greedy_worst_case
+from robustsynth.verification.lifted import closed_loop_run, frozen_instant_grid, frozen_spectral_radius, greedy_worst_case
 
 SETTING = {"synthesis.integral_action": True, "robot.max_motor_speed": 20.0, "slip.max_rate": 0.5,
            "synthesis.lyapunov": "slip-dependent"}
@@ -173,11 +173,18 @@ def worst_ey(model, K, mus, taus):
 
 
 def frozen_radius(model, K, grid):
-    r = 0.0
-    for mu in np.asarray(model.corners):
-        A, B = model.exact(grid, np.broadcast_to(mu, grid.shape[:-1] + (2,)))
-        r = max(r, float(np.max(np.abs(np.linalg.eigvals(A + B @ K)))))
-    return r
+    return float(frozen_spectral_radius(model, K, grid).max())
+
+
+def corner_maps(model, grid):
+    """The exact (A, B) at every slip corner and frozen instant vector of ``grid``: (n_c, n_grid, ...)."""
+    return model.exact(grid[None], np.asarray(model.corners)[:, None])
+
+
+def box_model(box_r, box_l):
+    """The integral setting with the slip confined to box_r x box_l."""
+    return build_model(default_config(**{**SETTING, "slip.right.min": box_r[0], "slip.right.max": box_r[1],
+                                         "slip.left.min": box_l[0], "slip.left.max": box_l[1]}))
 
 
 def physics(cap: float = 0.92, rounds: int = 2, out: str | None = None):
@@ -422,9 +429,7 @@ def _local_bound(K, box_r, box_l, centred: bool):
     the set centred at 0 or at the equilibrium of the box centre (the constant columns shifted)."""
     import dataclasses
 
-    cfg = default_config(**{**SETTING, "slip.right.min": box_r[0], "slip.right.max": box_r[1],
-                            "slip.left.min": box_l[0], "slip.left.max": box_l[1]})
-    model = build_model(cfg)
+    model = box_model(box_r, box_l)
     if centred:
         xs = model.equilibrium(K, np.array([sum(box_r) / 2, sum(box_l) / 2]))
         verts = []
@@ -442,15 +447,12 @@ def switching(path: str):
     quadratic functions certify it?"""
     model, Kc = model_and_gain()
     K = np.load(path)
-    grid = frozen_instant_grid(model, 6)
+    A, B = corner_maps(model, frozen_instant_grid(model, 6))
     f = lambda x: "infeasible" if x is None else f"{100 * x:.2f} cm"  # noqa: E731
     for name, G in (("certified", Kc), ("searched", K)):
-        frozen = []
-        for mu in np.asarray(model.corners):
-            A, B = model.exact(grid, np.broadcast_to(mu, grid.shape[:-1] + (2,)))
-            frozen.append(A + B @ G)
+        frozen = A + B @ G  # (corner, delay, n, n)
         delay_only = max(_products_radius(m, 6) for m in frozen)
-        both = _products_radius(np.concatenate([m[[0, 2, 5]] for m in frozen]), 5)
+        both = _products_radius(frozen[:, [0, 2, 5]].reshape((-1,) + frozen.shape[-2:]), 5)
         rng = np.random.default_rng(1)
         mu0 = np.concatenate([np.asarray(model.corners), rng.uniform(0.6, 1.0, (28, 2))])
         xi, _, _ = greedy_worst_case(model, G, lambda x, m, **k: np.abs(x[..., 1]), model.equilibrium(G, mu0), 200, mu0=mu0)
@@ -527,8 +529,7 @@ def cell_relaxation(path: str, n: int = 8, reach: int = 1, n_dirs: int = 400):
     keys = list(itertools.product(range(n), range(n)))
     maps, pts = {}, {}
     for i, j in keys:
-        cell = build_model(default_config(**{**SETTING, "slip.right.min": edges[i], "slip.right.max": edges[i + 1],
-                                             "slip.left.min": edges[j], "slip.left.max": edges[j + 1]}))
+        cell = box_model((edges[i], edges[i + 1]), (edges[j], edges[j + 1]))
         maps[(i, j)] = (np.array([np.asarray(v.A) + np.asarray(v.B) @ K for v in cell.vertices]),
                         np.array([np.asarray(v.E)[:, 0] for v in cell.vertices]))
         g = np.linspace(0, 1, 3)
@@ -608,8 +609,7 @@ def adversarial(rounds: int = 4, cap: float = 0.92, n_dirs: int = 400, jsr_cap: 
             out = max(out, float(np.abs(xi[0, :, 1]).max()) if np.all(np.isfinite(xi)) else 10.0)
         return out
 
-    six = frozen_instant_grid(model, 6)
-    parts = [model.exact(six, np.broadcast_to(mu, six.shape[:-1] + (2,))) for mu in np.asarray(model.corners)]
+    parts = list(zip(*corner_maps(model, frozen_instant_grid(model, 6))))  # (A, B) per slip corner
 
     def switching_radius(K):
         return max(_products_radius(A + B @ K, 4) for A, B in parts)
