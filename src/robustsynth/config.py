@@ -270,10 +270,11 @@ class VerificationConfig(_Node):
         "(a relaxed verdict would not be a certificate; kept so that old configs still read)",
     )
     adversarial_runs: Annotated[int, Field(ge=0, le=10_000)] = Field(
-        default=20, description="nonlinear runs of the greedy adversarial slip/delay search (0: skip)"
+        default=20, description="width of the adversarial slip/delay search on the nonlinear robot: the histories it "
+        "keeps each period for each of its objectives (V, |e_x|, |e_y|, |e_theta|, |rho|); 0: skip"
     )
     adversarial_steps: Annotated[int, Field(ge=1, le=100_000)] = Field(
-        default=300, description="steps of each adversarial run (a straight segment)"
+        default=300, description="periods of the adversarial search (a straight segment)"
     )
     dropouts: LossChannel = Field(default_factory=LossChannel, description="the simulated lossy channel")
 

@@ -177,3 +177,19 @@ def test_path_certificate_and_V_with_the_previous_delay(path_solved, solved):
                 worst_wrong = max(worst_wrong, val)
     assert worst <= DECREASE_TOL
     assert worst_wrong > 0
+
+
+def test_path_dependent_adversary_replays(path_solved):
+    """The nonlinear adversary evaluates a path-dependent V with the period's delay weights, as verify
+    does: the worst history, replayed by the simulator, reaches the V the search reported."""
+    from robustsynth.verification.simulate import adversarial_nonlinear
+
+    from ..verification.test_simulate import REPLAY_TOL, replay_worst
+
+    pm, (K, cert, _) = path_solved
+    lyap = lyapunov_of(pm, cert)
+    corners = slip_vertices(pm)
+    adv = adversarial_nonlinear(pm, K, lyap.V, corners, 40, width=4, with_delay=True)
+    h = adv["worst"]["V"]
+    assert h["value"] == adv["max_V"]
+    assert abs(replay_worst(pm, K, lyap, corners, h)["V"] - h["value"]) <= REPLAY_TOL * max(1.0, h["value"])

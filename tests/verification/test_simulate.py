@@ -10,11 +10,14 @@ from hypothesis import strategies as st
 
 from robustsynth.model import build_model
 from robustsynth.synthesis import synthesize
+from robustsynth.verification.lifted import slip_vertices
 from robustsynth.verification.reference import ivp_arc, simulate_run
 from robustsynth.verification.simulate import (
     arc_step,
+    ADVERSARY_OBJECTIVES,
+    adversarial_nonlinear,
+    adversary_start,
     draw_scenario,
-    greedy_nonlinear,
     make_path,
     simulate,
     steady_state_start,
@@ -129,20 +132,82 @@ def test_steady_state_is_an_equilibrium_of_the_nonlinear_robot(setups, name) -> 
         assert np.max(np.abs(e_star)) <= STEADY_TOL
 
 
-def test_greedy_nonlinear_pushes_harder_than_random_runs(setups) -> None:
-    """The adversary's choice maximizes V of the next state among its candidates: its V must exceed
-    that of the same robot under random slip and delays from the same starts."""
+def test_adversary_pushes_harder_than_random_runs(setups) -> None:
+    """The adversary's greedy histories maximize V of the next state among their candidates: their V
+    must exceed that of the same robot under random slip and delays from the same starts."""
     m = build_model(make_config())
     res = synthesize(m, alpha_points=7)
     from robustsynth.verification.certificate import lyapunov_of
 
     lyap = lyapunov_of(m, res.certificate)
     mu0 = np.array([[0.6, 1.0], [1.0, 0.6], [0.6, 0.6], [1.0, 1.0]])
-    adv = greedy_nonlinear(m, res.K, lyap.V, mu0, 60)
-    assert np.all(np.isfinite(adv["xi"])) and np.all(np.isin(adv["mu"], [0.6, 1.0]))
+    adv = adversarial_nonlinear(m, res.K, lyap.V, mu0, 60)
+    assert adv["V"].shape == (60, 4 + 1) and np.all(np.isin(adv["worst"]["V"]["mu"], [0.6, 1.0]))
     path = make_path(((0.0, 0.0), (40.0, 0.0)), m.V)
     rnd = simulate(m, res.K, path, steady_state_start(m, res.K, path, draw_scenario(m, 40, seed=6, steps=60, path=path)))
-    assert np.max(lyap.V_max(adv["xi"])) > np.max(lyap.V_max(rnd.true_xi()))
+    assert adv["max_V"] > np.max(lyap.V_max(rnd.true_xi()))
+    # a wider search keeps the same greedy histories (one per start, independent of the rest): never less V
+    wide = adversarial_nonlinear(m, res.K, lyap.V, mu0, 60, width=8, objectives=ADVERSARY_OBJECTIVES)
+    assert np.array_equal(wide["V"][:, :4], adv["V"][:, :4])
+    assert wide["max_V"] >= np.max(adv["V"][:, :4])
+
+
+REPLAY_TOL = 1e-9  # the search's robot, one period per candidate, vs the simulator over the replayed history
+
+
+@pytest.fixture(scope="module")
+def certified():
+    """Certified gains: slip jumping (common Q), and rate-limited slip (slip-dependent S(mu))."""
+    from robustsynth.verification.certificate import lyapunov_of
+
+    out = {}
+    for name, over in {"jumps": {}, "rate-limited": {"slip.max_rate": 0.5, "synthesis.lyapunov": "slip-dependent"}}.items():
+        m = build_model(make_config(**over))
+        res = synthesize(m, alpha_points=3)
+        out[name] = (m, res.K, lyapunov_of(m, res.certificate))
+    return out
+
+
+def replay_worst(m, K, lyap, mu0, h):
+    """Replay a worst history of :func:`adversarial_nonlinear` with :func:`simulate` (one period more:
+    the slip V was taken at, the last delay held) and evaluate every objective at the state it reached."""
+    from dataclasses import replace
+
+    T = h["mu"].shape[0]
+    path, start = adversary_start(m, K, mu0[h["start"]][None], T + 1)
+    mu = np.concatenate([h["mu"], h["mu_next"][None]])[None]  # the next period's slip: the one V was taken at
+    taus = np.append(h["tau"], h["tau"][-1])[None]
+    sim = simulate(m, K, path, replace(start, taus=taus, mu=mu, noise=np.zeros((1, T + 1, 3))))
+    xi = sim.true_xi()[0, T]
+    prev = m.delay_weights(m.s_tilde(taus))[0, T - 1] if lyap.path else None  # period T-1's delay weights
+    return {"V": float(lyap.V(xi, h["mu_next"], prev)), "e_x": abs(sim.e[0, T, 0]), "e_y": abs(sim.e[0, T, 1]),
+            "e_theta": abs(sim.e[0, T, 2]), "motor_speed": float(np.max(np.abs(sim.rho[0, T])))}
+
+
+@pytest.mark.parametrize("name", ["jumps", "rate-limited"])
+def test_adversary_histories_replay_and_are_admissible(certified, name) -> None:
+    """Every objective's worst history is admissible (slip in the box, within the rate bound from the
+    start's slip on; delays in [tau_min, tau_max]) and, replayed by the simulator, reaches the value
+    the search reported, which is also its reported maximum."""
+    m, K, lyap = certified[name]
+    mu0 = slip_vertices(m)
+    adv = adversarial_nonlinear(m, K, lyap.V, mu0, 80, width=6, objectives=ADVERSARY_OBJECTIVES)
+    assert adv["V"].shape == (80, mu0.shape[0] + 6 * len(ADVERSARY_OBJECTIVES))
+    dl, step = m.config.network.delay, m.slip_step
+    for o, h in adv["worst"].items():
+        mu = np.concatenate([mu0[h["start"]][None], h["mu"], h["mu_next"][None]])
+        assert np.all((mu >= 0.6) & (mu <= 1.0))
+        if step is not None:
+            assert np.max(np.abs(np.diff(mu, axis=0))) <= step * (1 + 1e-12)
+        else:
+            assert np.all(np.isin(h["mu"], [0.6, 1.0]))
+        assert np.all((h["tau"] >= dl.min) & (h["tau"] <= dl.max))
+        got = replay_worst(m, K, lyap, mu0, h)
+        assert abs(got[o] - h["value"]) <= REPLAY_TOL * max(1.0, h["value"]), (o, got[o], h["value"])
+        ref = adv["max_V"] if o == "V" else adv["max"][o]
+        assert h["value"] == ref or (o == "motor_speed" and h["value"] <= ref)  # |rho| also counts the start
+    if step is not None:  # slow slip: the beam must still find histories that move the robot sideways
+        assert adv["max"]["e_y"] > 0.005
 
 
 def test_scenarios_are_reproducible(setups) -> None:

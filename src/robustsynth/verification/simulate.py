@@ -36,7 +36,9 @@ __all__ = [
     "period",
     "control_law",
     "steady_state_start",
-    "greedy_nonlinear",
+    "adversarial_nonlinear",
+    "adversary_start",
+    "ADVERSARY_OBJECTIVES",
     "slip_profiles",
     "SLIP_PROFILES",
 ]
@@ -379,84 +381,159 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
     return SimResult(t, Q, E, XI, DU, rho, seg, settled)
 
 
-def greedy_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray], mu0: np.ndarray, steps: int,
-                     n_tau: int = 9, with_delay: bool = False) -> dict[str, np.ndarray]:
-    """Greedy adversary on the nonlinear robot along a straight line: every period, among the slip
-    corners and ``n_tau`` delays of the newest packet, take the pair whose next true lifted state has
-    the largest ``V_fn(xi, mu)`` (a Lyapunov function; larger = further out of the certified set).  Runs start
-    at the steady state of ``mu0`` (N, 2).  Returns the true lifted states (N, steps + 1, n_s), the
-    chosen slip (N, steps, 2), delays (N, steps) and switching instants (N, steps, d_hi), and the
-    commanded motor speeds (N, steps, 2).  ``with_delay``: ``V_fn(xi, mu, prev=...)`` gets the
-    period's delay weights (a path-dependent Lyapunov function)."""
+ADVERSARY_OBJECTIVES = ("V", "e_x", "e_y", "e_theta", "motor_speed")
+
+
+def _top_distinct(score: np.ndarray, width: int) -> np.ndarray:
+    """Indices of the ``width`` largest finite scores, distinct values first (equal scores are
+    almost always the same state reached twice); short of distinct ones, the next best repeated.
+    Ties are broken by index, so the search is deterministic."""
+    finite = np.flatnonzero(np.isfinite(score))
+    order = finite[np.argsort(-score[finite], kind="stable")]
+    s = score[order]
+    new = np.ones(s.size, dtype=bool)
+    new[1:] = np.abs(np.diff(s)) > 1e-12 * np.maximum(1.0, np.abs(s[1:]))
+    picked = np.concatenate([order[new], order[~new]])[:width]
+    return np.resize(picked, width)  # fewer admissible candidates than width: cycle through them
+
+
+def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray], mu0: np.ndarray, steps: int,
+                          width: int = 1, objectives: tuple[str, ...] = ("V",), n_tau: int = 9,
+                          with_delay: bool = False) -> dict:
+    """Beam search for the slip and delay history that takes the nonlinear robot furthest out, along
+    a straight line from the steady states of the slips ``mu0`` (N, 2).
+
+    Every period each kept history is continued with every slip the adversary may pick
+    (:func:`~robustsynth.verification.lifted.slip_candidates`: the corners, or with ``slip.max_rate``
+    the largest moves towards them) and ``n_tau`` delays of the newest packet (and its loss, on a
+    lossy link below the burst cap); the robot moves one period (exact arcs, saturating motors).
+    Each candidate is a sample of an admissible history: the next true lifted state xi_{k+1} with,
+    for V, the next period's slip mu_{k+1} the adversary may pick that makes V largest (xi_{k+1} does
+    not depend on it) and, for a path-dependent ``V_fn``, the period's delay weights.  Kept each
+    period: for each start its greedy history (its candidate of largest V), and for each objective
+    the ``width`` candidates with the largest score (distinct scores first); so the search finds at
+    least the V of the greedy adversary from the same starts.
+
+    Objectives (:data:`ADVERSARY_OBJECTIVES`): ``"V"``, ``max V_fn(xi_{k+1}, mu_{k+1}[, prev])`` (out
+    of the certified set); ``"e_x"``, ``"e_y"``, ``"e_theta"``, the absolute error; ``"motor_speed"``, the
+    largest |rho| the controller commands at t_{k+1}.
+
+    Returns ``max`` (the largest |e_x|, |e_y|, |e_theta|, |rho| over every candidate), ``max_V``,
+    ``V`` and ``tau`` (steps, P) of the kept candidates, and ``worst``: for each objective the
+    history of its best candidate, ``{"mu": (T, 2), "tau": (d_hi + T,), "start": index into mu0,
+    "value": float, "mu_next": (2,)}`` (the first d_hi delays are the start's; ``mu_next``: the slip V
+    was evaluated with), to replay with :func:`simulate` from :func:`adversary_start`."""
+    from .lifted import delay_candidates, loss_allowed, slip_candidates
+
+    unknown = set(objectives) - set(ADVERSARY_OBJECTIVES)
+    if unknown or not objectives or width < 1:
+        raise ValueError(f"objectives must be a non-empty subset of {ADVERSARY_OBJECTIVES} and width >= 1")
     K = np.asarray(K, dtype=float)
     cfg = model.config
     Ts, d_hi, V = model.Ts, model.d_hi, model.V
     D = cfg.robot.track_distance
     J_inv, J = np.asarray(model.J_inv), np.asarray(model.J)
     rho_sat = cfg.robot.max_motor_speed if cfg.verification.motor_saturation else None
-    dl = cfg.network.delay
-    from .lifted import delay_candidates, loss_allowed, slip_candidates
-
     taus = delay_candidates(model, n_tau)  # with a lossy link also inf: the newest packet is lost
     n_tau = taus.size
-
-    N = mu0.shape[0]
-    path = make_path(((0.0, 0.0), (V * Ts * (steps + 10), 0.0)), V)
-    e0, du0, z0 = _split_state(model, model.equilibrium(K, mu0))
-    scen = Scenario(np.zeros((N, d_hi)), mu0[:, None, :], np.zeros((N, 1, 3)), _pose_from_error(path, e0), (), du0, z0)
+    path, scen = adversary_start(model, K, mu0, steps)
+    N = scen.runs
     U = _initial_memory(model, scen)
     q = scen.q0.copy()
     uD = np.array([V, 0.0])
-    hist = np.full((N, d_hi), (dl.min + dl.max) / 2.0)
-    mu_prev = mu0.copy()
-    XI = np.empty((N, steps + 1, model.n_s))
-    MU = np.empty((N, steps, 2))
-    TAU = np.empty((N, steps))
-    STI = np.empty((N, steps, d_hi))
-    RHO = np.empty((N, steps, 2))
+    hist = scen.taus.copy()  # delays of the last d_hi packets
+    mu_prev = np.array(mu0, dtype=float)
     law = control_law(model, K, path, scen)
-    for k in range(steps + 1):
+    best = {o: (-np.inf, -1, -1, None) for o in objectives}  # objective -> (score, step, kept index, V's slip)
+    maxima = {"e_x": 0.0, "e_y": 0.0, "e_theta": 0.0, "motor_speed": 0.0}
+    max_V = -np.inf
+    parents, MU, TAU, VK = [], [], [], []
+    for k in range(steps):
         check_interrupt()
         tk = k * Ts
         dv, dw = law.correction(tk, q[:, 0], q[:, 1], q[:, 2])
-        XI[:, k] = _xi(law)
-        if k == steps:
-            break
-        du = np.stack([dv, dw], axis=1)
+        U = U.copy()
         U[:, 1:] = U[:, :-1]
-        U[:, 0] = uD + du
-        RHO[:, k] = (uD + du) @ J_inv.T
-        # candidates: slip (corners, or the rate-limited moves towards them) x newest delay
-        cand_mu = slip_candidates(model, mu_prev)
+        U[:, 0] = uD + np.stack([dv, dw], axis=1)
+        if k == 0:
+            rho0 = U[:, 0] @ J_inv.T
+            maxima["motor_speed"] = float(np.max(np.abs(rho0)))
+        P = q.shape[0]
+        cand_mu = slip_candidates(model, mu_prev)  # (P, n_c, 2)
         n_c = cand_mu.shape[1]
         seq = np.concatenate([np.repeat(hist[:, None, :], n_tau, axis=1),
-                              np.broadcast_to(taus[None, :, None], (N, n_tau, 1))], axis=2)
-        S = model.s_tilde(seq)[:, :, 0, :]  # (N, n_tau, d_hi)
-        Mc = JHJinv(cand_mu[..., 0], cand_mu[..., 1], D)  # (N, n_c, 2, 2)
-        qq = np.broadcast_to(q[:, None, None, :], (N, n_c, n_tau, 3))
-        UU = np.broadcast_to(U[:, None, None], (N, n_c, n_tau) + U.shape[1:])
-        SS = np.broadcast_to(S[:, None], (N, n_c, n_tau, d_hi))
-        MM = np.broadcast_to(Mc[:, :, None], (N, n_c, n_tau, 2, 2))
-        q_next = period(qq, UU, SS, MM, Ts, J, J_inv, rho_sat)  # (N, n_c, n_tau, 3)
+                              np.broadcast_to(taus[None, :, None], (P, n_tau, 1))], axis=2)
+        S = model.s_tilde(seq)[:, :, 0, :]  # (P, n_tau, d_hi)
+        shape = (P, n_c, n_tau)
+        q_next = period(np.broadcast_to(q[:, None, None, :], shape + (3,)),
+                        np.broadcast_to(U[:, None, None], shape + U.shape[1:]),
+                        np.broadcast_to(S[:, None], shape + (d_hi,)),
+                        np.broadcast_to(JHJinv(cand_mu[..., 0], cand_mu[..., 1], D)[:, :, None], shape + (2, 2)),
+                        Ts, J, J_inv, rho_sat)
         e_next = frame_error(path, 0, q_next, tk + Ts)
         rest = np.stack(law.past + law.z, axis=1)  # the controller's memory after step k
-        xi_next = np.concatenate([e_next, np.broadcast_to(rest[:, None, None, :], (N, n_c, n_tau, rest.shape[1]))], axis=-1)
-        mus = np.broadcast_to(cand_mu[:, :, None, :], (N, n_c, n_tau, 2))
+        xi_next = np.concatenate([e_next, np.broadcast_to(rest[:, None, None, :], shape + rest.shape[1:])], axis=-1)
+        # the sample (xi_{k+1}, mu_{k+1}): xi_{k+1} does not depend on the next period's slip, which the
+        # adversary picks among its candidates to make V largest
+        nxt_mu = slip_candidates(model, cand_mu)  # (P, n_c, n_c', 2)
+        n_n = nxt_mu.shape[2]
+        xi_b = np.broadcast_to(xi_next[:, :, :, None, :], shape + (n_n, xi_next.shape[-1]))
+        mu_b = np.broadcast_to(nxt_mu[:, :, None], shape + (n_n, 2))
         if with_delay:
-            dw = model.delay_weights(S)  # (N, n_tau, n_d)
-            val = V_fn(xi_next, mus, prev=np.broadcast_to(dw[:, None], (N, n_c, n_tau, dw.shape[-1])))
+            dwt = model.delay_weights(S)  # (P, n_tau, n_d): this period's, the next sample's "previous"
+            v_all = V_fn(xi_b, mu_b, prev=np.broadcast_to(dwt[:, None, :, None], shape + (n_n, dwt.shape[-1])))
         else:
-            val = V_fn(xi_next, mus)
+            v_all = V_fn(xi_b, mu_b)
+        v_arg = np.argmax(v_all, axis=-1)
+        v = np.take_along_axis(v_all, v_arg[..., None], axis=-1)[..., 0]
+        rho = np.max(np.abs((uD + xi_next @ K.T) @ J_inv.T), axis=-1)
+        scores = {"V": v, "e_x": np.abs(e_next[..., 0]), "e_y": np.abs(e_next[..., 1]),
+                  "e_theta": np.abs(e_next[..., 2]), "motor_speed": rho}
         if model.dropouts:  # a loss only while the burst is below the cap
-            val = np.where(np.isinf(taus)[None, None, :] & ~loss_allowed(model, hist)[:, None, None], -np.inf, val)
-        val = val.reshape(N, -1)
-        best = val.argmax(axis=1)
-        ci, ti = np.unravel_index(best, (n_c, n_tau))
-        r = np.arange(N)
-        q = q_next[r, ci, ti]
-        MU[:, k] = cand_mu[r, ci]
-        TAU[:, k] = taus[ti]
-        STI[:, k] = S[r, ti]
-        mu_prev = MU[:, k]
-        hist = np.concatenate([hist[:, 1:], taus[ti][:, None]], axis=1)
-    return {"xi": XI, "mu": MU, "tau": TAU, "s_tilde": STI, "rho": RHO}
+            bad = np.isinf(taus)[None, None, :] & ~loss_allowed(model, hist)[:, None, None]
+            scores = {o: np.where(bad, -np.inf, x) for o, x in scores.items()}
+        flat = {o: x.reshape(-1) for o, x in scores.items()}
+        for o in maxima:
+            maxima[o] = max(maxima[o], float(np.max(flat[o])))
+        max_V = max(max_V, float(np.max(flat["V"])))
+        per = n_c * n_tau  # the first N histories are greedy, one per start: each goes on with its largest V
+        greedy = np.arange(N) * per + np.argmax(flat["V"].reshape(P, per)[:N], axis=1)
+        keep = np.concatenate([greedy] + [_top_distinct(flat[o], width) for o in objectives])
+        pi, ci, ti = np.unravel_index(keep, shape)
+        for j, o in enumerate(objectives):
+            i = N + j * width
+            if flat[o][keep[i]] > best[o][0]:
+                best[o] = (float(flat[o][keep[i]]), k, i, nxt_mu[pi[i], ci[i], v_arg[pi[i], ci[i], ti[i]]])
+        q = q_next[pi, ci, ti]
+        U = U[pi]
+        law.past = [x[pi] for x in law.past]
+        law.z = [x[pi] for x in law.z]
+        mu_prev = cand_mu[pi, ci]
+        hist = np.concatenate([hist[pi, 1:], taus[ti][:, None]], axis=1)
+        parents.append(pi)
+        MU.append(mu_prev)
+        TAU.append(taus[ti])
+        VK.append(flat["V"][keep])
+    worst = {}
+    for o, (value, k, i, mu_v) in best.items():
+        mu_h, tau_h = np.empty((k + 1, 2)), np.empty(k + 1)
+        for j in range(k, -1, -1):  # walk the history back to its start
+            mu_h[j], tau_h[j] = MU[j][i], TAU[j][i]
+            i = parents[j][i]
+        worst[o] = {"mu": mu_h, "tau": np.concatenate([scen.taus[i], tau_h]), "start": int(i), "value": value,
+                    "mu_next": mu_v}
+    return {"max": maxima, "max_V": max_V, "V": np.array(VK), "tau": np.array(TAU), "worst": worst}
+
+
+def adversary_start(model, K: np.ndarray, mu0: np.ndarray, steps: int) -> tuple[PathGeometry, Scenario]:
+    """The straight line and the starts of :func:`adversarial_nonlinear`: the steady states of the
+    slips ``mu0`` (N, 2), the last d_hi packets delayed by the middle of [tau_min, tau_max].  The
+    scenario holds no slip or delays beyond the start (``mu`` is ``mu0``, one period)."""
+    mu0 = np.asarray(mu0, dtype=float)
+    N, d_hi, V = mu0.shape[0], model.d_hi, model.V
+    dl = model.config.network.delay
+    path = make_path(((0.0, 0.0), (V * model.Ts * (steps + 10), 0.0)), V)
+    e0, du0, z0 = _split_state(model, model.equilibrium(np.asarray(K, dtype=float), mu0))
+    scen = Scenario(np.full((N, d_hi), (dl.min + dl.max) / 2.0), mu0[:, None, :], np.zeros((N, 1, 3)),
+                    _pose_from_error(path, e0), (), du0, z0)
+    return path, scen
