@@ -7,14 +7,14 @@ Pass/fail rules (also in the README):
 - lifted model of the gain's kind, time-varying delays and slip (random, alternating, greedy worst
   case): V decreases as certified and states that start in the certified set never leave it
   (relative 1e-9);
-- the nonlinear robot (Monte Carlo from steady states, extreme switching, greedy adversary): every
-  run finite; it re-enters the certified set after every waypoint; on the steps the invariance
-  claim covers (from the start, and after each waypoint from the re-entry on) its true lifted state
-  stays in the certified set and |e_x|, |e_y|, |e_theta| and the commanded motor speed stay within
-  the certified bounds themselves (``nonlinear_slack`` is fixed at 1); the motors saturate at
-  rho_max in the simulation (``verification.motor_saturation``).  A gain without a certificate gets
-  one searched for its fixed K (analysis LMIs, re-checked in numpy); either way it is judged after
-  fixed transients: no divergence (|e_y| <= 1 m), commanded |rho| <= rho_max.
+- the nonlinear robot (Monte Carlo from steady states, extreme switching, a beam-search
+  adversary): every run finite; it re-enters the certified set after every waypoint; on the steps
+  the invariance claim covers (from the start, and after each waypoint from the re-entry on) its
+  true lifted state stays in the certified set and |e_x|, |e_y|, |e_theta| and the commanded motor
+  speed stay within the certified bounds themselves (``nonlinear_slack`` is fixed at 1); the motors
+  saturate at rho_max in the simulation (``verification.motor_saturation``).  A gain without a
+  certificate gets one searched for its fixed K (analysis LMIs, re-checked in numpy); either way it
+  is judged after fixed transients: no divergence (|e_y| <= 1 m), commanded |rho| <= rho_max.
 """
 
 from __future__ import annotations
