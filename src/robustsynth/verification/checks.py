@@ -466,9 +466,10 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
                 "runs": vc.adversarial_runs, "steps": vc.adversarial_steps,
                 "search": f"beam search from the steady states of the slip corners, on a straight line: every period "
                           f"each kept history goes on with every slip the adversary may pick and 9 delays of the newest "
-                          f"packet, and the {vc.adversarial_runs} next states with the largest "
-                          + ", the largest ".join({"V": "V", "e_x": "|e_x|", "e_y": "|e_y|", "e_theta": "|e_theta|",
-                                                    "motor_speed": "|rho|"}[o] for o in objectives) + " are kept",
+                          f"packet; kept are each start's greedy history (largest V) and, for each of "
+                          + ", ".join({"V": "V", "e_x": "|e_x|", "e_y": "|e_y|", "e_theta": "|e_theta|",
+                                       "motor_speed": "|rho|"}[o] for o in objectives)
+                          + f", the {vc.adversarial_runs} next states that make it largest",
                 "max": dict(adv["max"]),
                 "max_V_over_level": adv["max_V"] / level,
                 "fraction_of_steps_outside": float(np.mean(adv_v > 1.0)),
