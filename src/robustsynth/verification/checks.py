@@ -262,15 +262,13 @@ def _lifted(model, K, cert: CertificateCheck, gains: dict) -> tuple[list[dict], 
     return checks, summary, traces
 
 
-def _previous_delays(model, lyap, taus: np.ndarray | None = None, s_tilde: np.ndarray | None = None,
-                     part: slice = slice(None)) -> np.ndarray | None:
+def _previous_delays(model, lyap, taus: np.ndarray, part: slice = slice(None)) -> np.ndarray | None:
     """For a path-dependent certificate, the previous period's delay weights at samples 0..T of runs
-    whose periods have switching instants ``s_tilde`` (N, T, d_hi) (or the packet delays ``taus``):
-    (N, T + 1, n_d)[:, part], NaN at sample 0 (unknown: V takes the largest value over the previous
-    delay vertices).  None otherwise."""
+    whose packets have the delays ``taus`` (N, T + d_hi): (N, T + 1, n_d)[:, part], NaN at sample 0
+    (unknown: V takes the largest value over the previous delay vertices).  None otherwise."""
     if not lyap.path:
         return None
-    dw = model.delay_weights(model.s_tilde(taus) if s_tilde is None else s_tilde)
+    dw = model.delay_weights(model.s_tilde(taus))
     return np.concatenate([np.full(dw.shape[:1] + (1,) + dw.shape[2:], np.nan), dw], axis=1)[:, part]
 
 
@@ -458,7 +456,8 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
         checks.append(_check("nonlinear: re-enters the certified set after every waypoint", not_back == 0, not_back, 0,
                              "runs that did not re-enter before the next waypoint (the set is attracting)"))
         if vc.adversarial_runs:
-            objectives = ADVERSARY_OBJECTIVES if "motor_speed_bound" in cert.figures else ADVERSARY_OBJECTIVES[:-1]
+            objectives = tuple(o for o in ADVERSARY_OBJECTIVES  # |rho| only against a certified motor bound
+                               if o != "motor_speed" or "motor_speed_bound" in cert.figures)
             adv = adversarial_nonlinear(model, K, lyap.V, slip_vertices(model), vc.adversarial_steps,
                                         width=vc.adversarial_runs, objectives=objectives, with_delay=lyap.path)
             adv_v = adv["V"] / level

@@ -455,9 +455,8 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
         U = U.copy()
         U[:, 1:] = U[:, :-1]
         U[:, 0] = uD + np.stack([dv, dw], axis=1)
-        if k == 0:
-            rho0 = U[:, 0] @ J_inv.T
-            maxima["motor_speed"] = float(np.max(np.abs(rho0)))
+        if k == 0:  # the starts' own commands
+            maxima["motor_speed"] = float(np.max(np.abs(U[:, 0] @ J_inv.T)))
         P = q.shape[0]
         cand_mu = slip_candidates(model, mu_prev)  # (P, n_c, 2)
         n_c = cand_mu.shape[1]
