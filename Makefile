@@ -3,15 +3,25 @@ PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
+EXTRAS := test,dask,control
+# constraints.txt: the exact versions the suite last passed with (every package, the extras, pip
+# and the build backend).  PIP_CONSTRAINT (not -c) so that it also holds in pip's isolated build
+# environment.  `make lock` refreshes it from the newest releases, after the suite passed on them.
+LOCK   := constraints.txt
+LOCKED := PIP_CONSTRAINT=$(CURDIR)/$(LOCK)
+# make test-latest: the same suite on the newest releases, in a venv of its own, unpinned
+LATEST := .venv-latest
+TESTENV := OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
 
-.PHONY: demo test bench baselines install clean
+.PHONY: demo test test-latest lock bench baselines install clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
 
-$(STAMP): pyproject.toml | $(PY)
-	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[test,dask,control]'
+$(STAMP): pyproject.toml $(LOCK) | $(PY)
+	$(LOCKED) $(PY) -m pip install --quiet --upgrade pip
+	$(LOCKED) $(PY) -m pip install --quiet -e '.[$(EXTRAS)]'
+	$(PY) -m pip check
 	touch $(STAMP)
 
 install: $(STAMP)
@@ -24,7 +34,27 @@ demo: $(STAMP)
 ## thread each so the workers do not oversubscribe the cores
 TEST_WORKERS ?= 2
 test: $(STAMP)
-	OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 $(PY) -m pytest -q -n $(TEST_WORKERS)
+	$(TESTENV) $(PY) -m pytest -q -n $(TEST_WORKERS)
+
+## make test-latest: a fresh venv (.venv-latest) with the newest releases of every dependency (no
+## lock), then the whole suite: a new cvxpy / Clarabel / numpy is noticed before users hit it
+test-latest:
+	rm -rf $(LATEST)
+	$(PYTHON) -m venv $(LATEST)
+	env -u PIP_CONSTRAINT $(LATEST)/bin/python -m pip install --quiet --upgrade pip setuptools
+	env -u PIP_CONSTRAINT $(LATEST)/bin/python -m pip install --quiet --upgrade --upgrade-strategy eager -e '.[$(EXTRAS)]'
+	$(LATEST)/bin/python -m pip check
+	@$(LATEST)/bin/python -m pip freeze --exclude-editable | grep -iE '^(numpy|scipy|cvxpy|clarabel|scs|pydantic|click|matplotlib)=='
+	$(TESTENV) $(LATEST)/bin/python -m pytest -q -n $(TEST_WORKERS) -p no:cacheprovider
+
+## make lock: run test-latest, and only if it passed write its versions to constraints.txt (commit it)
+lock: test-latest
+	{ echo "# The exact versions robustsynth's suite passed with (make test-latest on $$(date -u +%F),"; \
+	  echo "# Python $$($(LATEST)/bin/python -c 'import platform; print(platform.python_version())')). make demo / make test install through it;"; \
+	  echo "# refresh with 'make lock'. Unpinned installs: see README, Installing."; \
+	  $(LATEST)/bin/python -m pip freeze --all --exclude-editable | grep -viE '^wheel=='; } > $(LOCK).tmp
+	mv $(LOCK).tmp $(LOCK)
+	@echo "wrote $(LOCK): review 'git diff $(LOCK)', then commit it"
 
 ## make bench: start-up, synthesis and Monte Carlo benchmarks (prints figures)
 bench: $(STAMP)
@@ -35,4 +65,4 @@ baselines: $(STAMP)
 	$(PY) -m robustsynth.regression --write
 
 clean:
-	rm -rf $(VENV) .pytest_cache .hypothesis
+	rm -rf $(VENV) $(LATEST) .pytest_cache .hypothesis

@@ -11,6 +11,7 @@ import signal
 import stat
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -20,9 +21,14 @@ import yaml
 from .conftest import default_dict
 
 CLI = [sys.executable, "-m", "robustsynth"]
-# From the signal to the process's exit: a solve in flight finishes first (the solver swallows
-# SIGINT, so it is held pending until the solve returns); a default solve takes ~0.1 s.
-STOP_TOL_S = 2.5
+# The claim (README, exit codes): a run stops "within about a second" of SIGINT / SIGTERM.  That is
+# a speed figure, measured from the signal by `benchmarks/bench_interrupts.py` (make bench).  Here
+# the time from the signal to the exit only has to stay under a cap that tells a prompt stop from a
+# run that carried on to its end (the runs below last minutes), loose enough for a loaded CI machine.
+STOP_CAP_S = 20.0
+# How long a test waits for an event (the stage marker, the handlers installed) before it gives up:
+# a cap for a hung run, not a budget: the waits end as soon as the event happens.
+EVENT_CAP_S = 600.0
 
 
 def _env(umask: int | None = None) -> dict:
@@ -31,21 +37,59 @@ def _env(umask: int | None = None) -> dict:
     return env
 
 
-def _start(args: list[str], **kw) -> subprocess.Popen:
-    return subprocess.Popen(CLI + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env(), **kw)
+class _Stderr:
+    """Reads a child's stderr on a thread; :meth:`wait_for` returns as soon as a line containing the
+    marker arrives (or stderr closes, when the run ended first)."""
+
+    def __init__(self, p: subprocess.Popen) -> None:
+        self.lines: list[str] = []
+        self._cond = threading.Condition()
+        self._closed = False
+        self._thread = threading.Thread(target=self._read, args=(p.stderr,), daemon=True)
+        self._thread.start()
+
+    def _read(self, stream) -> None:
+        for line in stream:
+            with self._cond:
+                self.lines.append(line)
+                self._cond.notify_all()
+        with self._cond:
+            self._closed = True
+            self._cond.notify_all()
+
+    def wait_for(self, marker: str, cap: float = EVENT_CAP_S) -> bool:
+        """True when the marker was printed, False when stderr closed without it."""
+        with self._cond:
+            seen = self._cond.wait_for(lambda: self._closed or any(marker in ln for ln in self.lines), timeout=cap)
+            if not seen:
+                raise AssertionError(f"neither {marker!r} nor the end of the run within {cap} s: {self.lines}")
+            return any(marker in ln for ln in self.lines)
+
+    def text(self) -> str:
+        self._thread.join(timeout=EVENT_CAP_S)
+        return "".join(self.lines)
 
 
-def _wait_for_stage(p: subprocess.Popen, marker: str, lines: list[str], timeout: float = 60.0) -> None:
-    """Read stderr lines (printed by -v) until ``marker`` appears."""
+def _caught_signals(pid: int) -> int:
+    """The mask of signals the process has handlers for (Linux: /proc/PID/status, SigCgt)."""
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except OSError:  # it has exited
+        return 0
+    for line in status.splitlines():
+        if line.startswith("SigCgt:"):
+            return int(line.split()[1], 16)
+    return 0
+
+
+def _wait_for_handlers(p: subprocess.Popen, cap: float = EVENT_CAP_S) -> None:
+    """Until the CLI has installed its SIGTERM handler (Python itself catches only SIGINT at start):
+    before that, a signal meets the interpreter's defaults, which no command can change."""
+    bit = 1 << (signal.SIGTERM - 1)
     t0 = time.monotonic()
-    while time.monotonic() - t0 < timeout:
-        line = p.stderr.readline()
-        if not line:
-            break
-        lines.append(line)
-        if marker in line:
-            return
-    raise AssertionError(f"stage {marker!r} not reached: {lines}")
+    while p.poll() is None and not _caught_signals(p.pid) & bit:
+        assert time.monotonic() - t0 < cap, "the CLI never installed its signal handlers"
+        time.sleep(0.005)
 
 
 def _consistent(outdir: Path) -> None:
@@ -68,7 +112,7 @@ def _consistent(outdir: Path) -> None:
 # (stage marker printed by -v, seconds after it, extra args): inside model build, a solve, the
 # Monte Carlo, the comparison (a second synthesis and Monte Carlo), and writing the figures
 MOMENTS = [
-    ("", 0.3, ["--runs", "50"]),  # start-up: imports and argument parsing
+    ("", 0.3, ["--runs", "50"]),  # start-up: 0.3 s after the handlers are installed (imports)
     ("[build-model]", 0.0, ["--runs", "50"]),
     ("[synthesize]", 0.4, ["--runs", "50"]),
     ("[verify]", 0.3, ["--runs", "4000"]),
@@ -79,35 +123,40 @@ MOMENTS = [
 
 @pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
 @pytest.mark.parametrize("moment", range(len(MOMENTS)))
-def test_signal_stops_within_a_second_and_leaves_consistent_files(tmp_path, sig, code, moment) -> None:
+def test_signal_stops_promptly_and_leaves_consistent_files(tmp_path, sig, code, moment) -> None:
+    """Each moment is an event the test waits for (the handlers installed, a stage's marker), then a
+    short pause into that stage; the stop is timed from the signal."""
     marker, delay, extra = MOMENTS[moment]
     out = tmp_path / "out"
-    p = _start(["-v", "run", "-o", str(out), *extra])
-    lines: list[str] = []
+    p = subprocess.Popen(CLI + ["-v", "run", "-o", str(out), *extra], stdout=subprocess.DEVNULL,
+                         stderr=subprocess.PIPE, text=True, env=_env())
+    err = _Stderr(p)
     try:
-        if marker:
-            _wait_for_stage(p, marker, lines)
+        _wait_for_handlers(p)
+        if marker and not err.wait_for(marker):
+            pytest.skip(f"the run finished before {marker}")
         time.sleep(delay)
         if p.poll() is not None:
-            pytest.skip(f"the run finished before the signal at {marker}+{delay}s")
+            pytest.skip(f"the run finished before the signal at {marker or 'start-up'}+{delay}s")
         t0 = time.monotonic()
         p.send_signal(sig)
-        _, err = p.communicate(timeout=30)
+        p.wait(timeout=EVENT_CAP_S)
         stopped = time.monotonic() - t0
     finally:
         if p.poll() is None:
             p.kill()
-    err = "".join(lines) + err
-    if p.returncode in (0, 1, -sig) and "interrupted" not in err:
+            p.wait()
+    text = err.text()
+    if p.returncode in (0, 1, -sig) and "interrupted" not in text:
         # the run had finished its work and the interpreter was exiting (Python restores the
         # default handlers then): every file is committed, nothing to interrupt
-        assert (out / "summary.json").exists()
+        assert (out / "summary.json").exists(), text
         _consistent(out)
-        pytest.skip(f"the run finished before the signal at {marker}+{delay}s")
-    assert p.returncode == code, err
-    assert stopped <= STOP_TOL_S, (stopped, err)
-    assert err.strip().splitlines()[-1] == "interrupted"
-    assert "Traceback" not in err and "Exception ignored" not in err
+        pytest.skip(f"the run finished before the signal at {marker or 'start-up'}+{delay}s")
+    assert p.returncode == code, text
+    assert stopped <= STOP_CAP_S, (stopped, text)
+    assert text.strip().splitlines()[-1] == "interrupted"
+    assert "Traceback" not in text and "Exception ignored" not in text
     if out.exists():
         _consistent(out)
 

@@ -516,7 +516,10 @@ def sweep_cmd(obj: _Ctx, spec: Path, outdir: Path | None, verify_runs: int | Non
 
 def entry() -> None:
     """The console script: ``main`` with interrupts and closed pipes handled also outside the
-    command bodies (start-up, argument parsing), where click would print 'Aborted!' and exit 1."""
+    command bodies (start-up, argument parsing), where click would print 'Aborted!' and exit 1.
+    The handlers go in before click parses anything, so that the window in which a signal meets
+    the interpreter's defaults is only the interpreter's own start-up."""
+    _install_signal_handlers()
     try:
         main.main(standalone_mode=False)
         check_interrupt()
