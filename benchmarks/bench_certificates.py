@@ -29,7 +29,7 @@ def main() -> dict[str, dict]:
     from robustsynth import build_model, default_config, synthesize
     from robustsynth import verify
     from robustsynth.errors import RobustSynthError
-    from robustsynth.report.synthesis import gains_dict
+    from robustsynth.artifacts.gains import gains_dict
 
     out: dict[str, dict] = {}
     print(f"{'variant':48s} {'synth [s]':>9s} {'cert |e_y| [cm]':>15s} {'robot max [cm]':>14s} {'cert/robot':>10s}"

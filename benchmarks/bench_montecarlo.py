@@ -20,7 +20,9 @@ def main() -> dict[str, float]:
     from robustsynth import build_model, load_config
     from robustsynth.synthesis import synthesize
     from robustsynth.verification.reference import simulate_run
-    from robustsynth.verification.simulate import draw_scenario, make_path, simulate
+    from robustsynth.plants.path import make_path
+    from robustsynth.scenarios import draw_scenario
+    from robustsynth.verification.simulate import simulate
 
     model = build_model(load_config())
     K = synthesize(model).K

@@ -111,7 +111,12 @@ import numpy as np
 from robustsynth import build_model, default_config, synthesize
 from robustsynth.synthesis.lmis import _Lyap, _multipliers, _sym, _vertex_parts
 from robustsynth.synthesis.analysis import analyze_stability
-from robustsynth.verification.lifted import closed_loop_run, frozen_instant_grid, frozen_spectral_radius, greedy_worst_case
+from robustsynth.verification.lifted import (
+    closed_loop_run,
+    frozen_instant_grid,
+    frozen_spectral_radius,
+    greedy_worst_case,
+)
 
 SETTING = {"synthesis.integral_action": True, "robot.max_motor_speed": 20.0, "slip.max_rate": 0.5,
            "synthesis.lyapunov": "slip-dependent"}

@@ -25,7 +25,9 @@ import numpy as np
 
 from _common import config, motor_lmis, solve_optimal
 from robustsynth.model import build_model
-from robustsynth.verification.simulate import draw_scenario, make_path, simulate
+from robustsynth.plants.path import make_path
+from robustsynth.scenarios import draw_scenario
+from robustsynth.verification.simulate import simulate
 
 
 def slip_ranges(m):

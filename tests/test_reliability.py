@@ -20,8 +20,8 @@ from click.testing import CliRunner
 from robustsynth.cli import main
 from robustsynth.config import load_config
 from robustsynth.model import build_model
-from robustsynth.report.synthesis import gains_id
-from robustsynth.verification.certificate import check_certificate
+from robustsynth.artifacts.gains import gains_id
+from robustsynth.certificate import check_certificate
 
 from .conftest import default_dict
 

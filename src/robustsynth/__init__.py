@@ -13,8 +13,9 @@ Config                 robustsynth.config            the scenario (robot, networ
 build_model            robustsynth.model             Config -> lifted norm-bounded Model
 Model                  robustsynth.model             eqs. 25, 31-33 with its Delta structure
 synthesize             robustsynth.synthesis         Model -> certified gain (LMIs)
-check_certificate      robustsynth.verification      numpy-only re-check of an LMI certificate
+check_certificate      robustsynth.certificate       numpy-only re-check of an LMI certificate
 verify                 robustsynth.verification      gain -> checks, Monte Carlo on the robot
+load_gains             robustsynth.artifacts.gains   gains.json / .mat -> mapping (one-line errors)
 run                    robustsynth.pipeline          build-model -> synthesize -> verify
 margin                 robustsynth.margins           delay / slip margins of a given gain
 sweep                  robustsynth.sweeps            synthesize (and verify) over a grid of keys
@@ -40,8 +41,9 @@ _EXPORTS = {
     "Model": "robustsynth.model",
     "synthesize": "robustsynth.synthesis",
     "SynthesisResult": "robustsynth.synthesis",
-    "check_certificate": "robustsynth.verification.certificate",
+    "check_certificate": "robustsynth.certificate",
     "verify": "robustsynth.verification",
+    "load_gains": "robustsynth.artifacts.gains",
     "run": "robustsynth.pipeline",
     "margin": "robustsynth.margins",
     "MarginReport": "robustsynth.margins",

@@ -47,7 +47,7 @@ def compare_models(model: Any, gains: dict[str, Any], vd: dict[str, Any] | None 
     objective certifies no bounds (only ultimate-bound designs are compared)."""
     from .errors import RobustSynthError
     from .model import build_model
-    from .report.synthesis import gains_dict
+    from .artifacts.gains import gains_dict
     from .report.verification import verification_dict
     from .synthesis import synthesize
     from .verification import verify

@@ -80,7 +80,7 @@ class ModelStage:
 
 def model_stage(config: Config, outdir: str | Path) -> ModelStage:
     """Build the model, check the embedding's coverage, write model.json and model.md."""
-    from .report.artifacts import commit_files, json_bytes, make_dir
+    from .artifacts.files import commit_files, json_bytes, make_dir
     from .report.model import model_dict, model_markdown
 
     make_dir(outdir)  # an output place that cannot be made fails before any work
@@ -107,7 +107,7 @@ class SynthesisStage:
 
 
 def _remove(outdir: Path, names: tuple[str, ...]) -> None:
-    from .report.artifacts import output_error
+    from .artifacts.files import output_error
 
     for name in names:
         try:
@@ -127,9 +127,10 @@ def synthesis_stage(model: Model, outdir: str | Path, compare: bool = True,
     Files that depend on the gain (verification, report) are removed first.  When no certified
     gain is found, the old gain files are removed too, so nothing stale looks current."""
     from .errors import Interrupted, OutputError, RobustSynthError
-    from .report.artifacts import commit_files, json_bytes, mat_bytes
-    from .report.synthesis import gains_dict, gains_mat_vars, synthesis_markdown
-    from .report.artifacts import make_dir
+    from .artifacts.files import commit_files, json_bytes, mat_bytes
+    from .artifacts.gains import gains_dict, gains_mat_vars
+    from .report.synthesis import synthesis_markdown
+    from .artifacts.files import make_dir
     from .synthesis import synthesize
     from .synthesis.diagnose import diagnose as run_diagnosis
     from .synthesis.diagnose import is_large
@@ -187,12 +188,13 @@ def verification_stage(
 ) -> VerificationStage:
     """Verify a gains file (default ``outdir/gains.json``); write figures, verification.md and
     verification.json (last).  The run's report and summary are removed first."""
-    from .report.artifacts import commit_files, json_bytes
-    from .report.synthesis import gains_id
+    from .artifacts.files import commit_files, json_bytes
+    from .artifacts.gains import gains_id
     from .report.verification import verification_dict, verification_markdown
-    from .verification import load_gains, verify
+    from .artifacts.gains import load_gains
+    from .verification import verify
 
-    from .report.artifacts import make_dir
+    from .artifacts.files import make_dir
 
     outdir = make_dir(outdir)
     gp = Path(gains_path) if gains_path is not None else outdir / "gains.json"
@@ -250,7 +252,7 @@ def run(
     'solver-failure') and the error is raised again.  ``synthesis_overrides`` (objective, solver,
     multiplier) replace the config's synthesis settings."""
     from .errors import InfeasibleError, Interrupted, OutputError, RobustSynthError
-    from .report.artifacts import atomic_write, commit_files, json_bytes
+    from .artifacts.files import atomic_write, commit_files, json_bytes
     from .report.verification import report_markdown, summary_dict
 
     from .errors import check_interrupt
@@ -304,9 +306,9 @@ def margin_stage(config: Config, outdir: str | Path, gains_path: str | Path | No
                  lyapunov: str | None = None, on_step: Callable[[str], None] | None = None) -> MarginStage:
     """Delay and slip margins of a gains file (default ``outdir/gains.json``); write margin.json."""
     from .margins import margin
-    from .report.artifacts import commit_files, json_bytes, make_dir
-    from .report.synthesis import gains_id
-    from .verification import load_gains
+    from .artifacts.files import commit_files, json_bytes, make_dir
+    from .artifacts.gains import gains_id
+    from .artifacts.gains import load_gains
 
     outdir = make_dir(outdir)
     gp = Path(gains_path) if gains_path is not None else outdir / "gains.json"

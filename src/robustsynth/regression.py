@@ -73,7 +73,7 @@ def _configs(configs_dir: Path) -> list[Path]:
 
 
 def write_baselines(configs_dir: Path, results_dir: Path) -> None:
-    from .report.artifacts import atomic_write
+    from .artifacts.files import atomic_write
 
     for cfg_path in _configs(configs_dir):
         with tempfile.TemporaryDirectory() as tmp:

@@ -18,7 +18,8 @@ from robustsynth.model.slip import (
     slip_matrix,
 )
 from robustsynth.model.vertices import triangle, triangle_coordinates
-from robustsynth.verification.simulate import frame_error, make_path, period
+from robustsynth.plants.kinematic import period
+from robustsynth.plants.path import frame_error, make_path
 
 from ..conftest import make_config
 

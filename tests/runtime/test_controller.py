@@ -14,8 +14,8 @@ import yaml
 from robustsynth.errors import InputError
 from robustsynth.model.kinematics import motor_speeds
 from robustsynth.runtime import Controller, controller_description
-from robustsynth.runtime.law import PathTable, segment_at
-from robustsynth.verification.simulate import make_path
+from robustsynth.law import PathTable, segment_at
+from robustsynth.plants.path import make_path
 
 ROOT = Path(__file__).resolve().parents[2]
 GAINS = sorted((ROOT / "results" / "baselines").glob("*/gains.json"))

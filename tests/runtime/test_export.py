@@ -17,7 +17,7 @@ import yaml
 
 from robustsynth.runtime import Controller
 from robustsynth.runtime.export import export_controller
-from robustsynth.verification.simulate import make_path
+from robustsynth.plants.path import make_path
 
 ROOT = Path(__file__).resolve().parents[2]
 GAINS = sorted((ROOT / "results" / "baselines").glob("*/gains.json"))

@@ -9,7 +9,7 @@ import pytest
 from robustsynth.model import build_model
 from robustsynth.synthesis import synthesize
 from robustsynth.synthesis.analysis import STABILITY_R, analyze_stability
-from robustsynth.verification.certificate import check_certificate
+from robustsynth.certificate import check_certificate
 from robustsynth.verification.lifted import frozen_instant_grid, frozen_spectral_radius
 
 from ..conftest import make_config

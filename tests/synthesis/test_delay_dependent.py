@@ -13,8 +13,9 @@ from robustsynth.model import build_model
 from robustsynth.synthesis import synthesize
 from robustsynth.synthesis.design import _cert_common, _Runner, _weights
 from robustsynth.synthesis.lmis import build_invariance
-from robustsynth.verification.certificate import Lyapunov, check_certificate, lyapunov_of
-from robustsynth.verification.lifted import alternating_delays, closed_loop_run, random_delays, slip_vertices
+from robustsynth.certificate import Lyapunov, check_certificate, lyapunov_of
+from robustsynth.scenarios import alternating_delays, random_delays, slip_vertices
+from robustsynth.verification.lifted import closed_loop_run
 
 from ..conftest import make_config
 

@@ -11,16 +11,13 @@ from hypothesis import strategies as st
 from robustsynth.errors import InfeasibleError
 from robustsynth.model import build_model
 from robustsynth.synthesis import synthesize
-from robustsynth.verification.certificate import check_certificate, lyapunov_of
+from robustsynth.certificate import check_certificate, lyapunov_of
+from robustsynth.scenarios import alternating_delays, random_delays, rate_limited_slip, slip_vertices
 from robustsynth.verification.lifted import (
-    alternating_delays,
     closed_loop_run,
     frozen_instant_grid,
     frozen_spectral_radius,
     greedy_worst_case,
-    random_delays,
-    rate_limited_slip,
-    slip_vertices,
 )
 
 from ..conftest import make_config

@@ -10,18 +10,12 @@ from hypothesis import strategies as st
 
 from robustsynth.model import build_model
 from robustsynth.synthesis import synthesize
-from robustsynth.verification.lifted import slip_vertices
+from robustsynth.scenarios import slip_vertices
 from robustsynth.verification.reference import ivp_arc, simulate_run
-from robustsynth.verification.simulate import (
-    arc_step,
-    ADVERSARY_OBJECTIVES,
-    adversarial_nonlinear,
-    adversary_start,
-    draw_scenario,
-    make_path,
-    simulate,
-    steady_state_start,
-)
+from robustsynth.plants.kinematic import arc_step
+from robustsynth.plants.path import make_path
+from robustsynth.scenarios import draw_scenario, steady_state_start
+from robustsynth.verification.simulate import adversarial_nonlinear, ADVERSARY_OBJECTIVES, adversary_start, simulate
 
 from ..conftest import make_config
 
@@ -137,7 +131,7 @@ def test_adversary_pushes_harder_than_random_runs(setups) -> None:
     must exceed that of the same robot under random slip and delays from the same starts."""
     m = build_model(make_config())
     res = synthesize(m, alpha_points=7)
-    from robustsynth.verification.certificate import lyapunov_of
+    from robustsynth.certificate import lyapunov_of
 
     lyap = lyapunov_of(m, res.certificate)
     mu0 = np.array([[0.6, 1.0], [1.0, 0.6], [0.6, 0.6], [1.0, 1.0]])
@@ -158,7 +152,7 @@ REPLAY_TOL = 1e-9  # the search's robot, one period per candidate, vs the simula
 @pytest.fixture(scope="module")
 def certified():
     """Certified gains: slip jumping (common Q), and rate-limited slip (slip-dependent S(mu))."""
-    from robustsynth.verification.certificate import lyapunov_of
+    from robustsynth.certificate import lyapunov_of
 
     out = {}
     for name, over in {"jumps": {}, "rate-limited": {"slip.max_rate": 0.5, "synthesis.lyapunov": "slip-dependent"}}.items():
@@ -219,7 +213,7 @@ def test_scenarios_are_reproducible(setups) -> None:
 
 
 def test_saturation_clips_motor_speeds_and_changes_the_turns(setups) -> None:
-    from robustsynth.verification.simulate import saturate
+    from robustsynth.plants.kinematic import saturate
 
     m, K = setups["paper"]
     assert m.config.verification.motor_saturation  # the default: real motors saturate

@@ -34,7 +34,7 @@ def test_run_writes_everything(run_dir) -> None:
 
 
 def test_verification_json_is_consistent(run_dir) -> None:
-    from robustsynth.report.synthesis import gains_id
+    from robustsynth.artifacts.gains import gains_id
 
     v = json.loads((run_dir / "verification.json").read_text())
     assert v["passed"] is True

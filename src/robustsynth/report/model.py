@@ -7,7 +7,7 @@ from typing import Any
 from ..config import config_to_dict
 from ..model import ERROR_NAMES, SLIP_NAMES, Model
 from .. import __version__
-from .artifacts import SCHEMA_VERSION
+from ..artifacts.files import SCHEMA_VERSION
 from .markdown import fmt, matrix_table, table
 
 __all__ = ["model_dict", "model_markdown", "q_names", "p_names"]

@@ -98,7 +98,7 @@ def _covered(res) -> np.ndarray:
 
 
 def model_path_switches(res, model) -> list[float]:
-    from ..verification.simulate import make_path
+    from ..plants.path import make_path
 
     p = make_path(model.config.verification.path, model.V)
     return list(p.t_start[1:])
@@ -271,7 +271,7 @@ def write_figures(res, model, outdir: str | Path, fmt: str = "png") -> dict[str,
     """Render every figure into ``outdir/figures/`` (atomically); returns name -> path."""
     import io
 
-    from .artifacts import atomic_write
+    from ..artifacts.files import atomic_write
 
     plt = _plt()
     outdir = Path(outdir) / "figures"
@@ -416,7 +416,7 @@ def write_sweep_figure(result, outdir: str | Path, fmt: str = "png") -> Path | N
     none for more axes."""
     import io
 
-    from .artifacts import atomic_write
+    from ..artifacts.files import atomic_write
 
     spec = result.spec
     if spec.mode == "grid" and len(spec.keys) == 2:

@@ -1,22 +1,16 @@
-"""gains.json, gains.mat and synthesis.md (the files of ``robustsynth synthesize``)."""
+"""synthesis.md, the report of ``robustsynth synthesize`` (gains.json and gains.mat are
+:mod:`robustsynth.artifacts.gains`)."""
 
 from __future__ import annotations
-
-import json
 
 from typing import Any
 
 import numpy as np
 
-from ..config import config_to_dict
-from .. import __version__
-from .artifacts import SCHEMA_VERSION
+from ..artifacts.gains import LAW
 from .markdown import fmt, matrix_table, table
 
-__all__ = ["gains_dict", "gains_id", "gains_mat_vars", "synthesis_markdown", "LAW", "CERTIFIED_KEYS"]
-
-LAW = "du_k = K xi_k"
-CERTIFIED_KEYS = ("robust_stability", "decay_rate", "ultimate_bound", "motor_speed_bound", "hinf_gain")
+__all__ = ["synthesis_markdown", "diagnosis_markdown"]
 
 OBJECTIVE_TEXT = {
     "ultimate-bound": (
@@ -33,127 +27,6 @@ OBJECTIVE_TEXT = {
         "admissible delay sequence (docs/theory.md §6d)"
     ),
 }
-
-
-def gains_dict(model: Any, result: Any) -> dict[str, Any]:
-    figs = result.certified
-    cert = result.certificate
-    certified = {k: figs.get(k) for k in CERTIFIED_KEYS}
-    certificate: dict[str, Any] = {
-        "objective": cert["objective"],
-        "model": cert["model"],
-        "vertices": cert["vertices"],
-        "lyapunov": cert["lyapunov"],
-        "P": cert["P"],
-    }
-    if cert["lyapunov"] == "common":
-        certificate["Q"] = cert["Q"]
-    else:
-        certificate["G"] = cert["G"]
-        certificate["S"] = cert["S"]
-        certificate["slip_step"] = cert.get("slip_step")
-    certificate.update({
-        "multipliers": cert["multipliers"],
-        "alpha": cert.get("alpha"),
-        "beta": cert.get("beta"),
-        "r2": cert.get("r2"),
-        "gamma2": cert.get("gamma2"),
-        "ellipsoid_level": figs.get("ellipsoid_level"),
-        "motor_limits_enforced": cert.get("motor_limits_enforced", False),
-        "margin": cert["margin"],
-        "min_eig_margin_found": cert["min_eig_margin_found"],
-        "checks": list(result.check.checks),
-    })
-    out = {
-        "schema_version": SCHEMA_VERSION,
-        "robustsynth_version": __version__,
-        "config": config_to_dict(model.config),
-        "K": result.K,
-        "state_names": list(model.state_names),
-        "input_names": list(model.input_names),
-        "law": LAW,
-        "objective": result.objective,
-        "certified": certified,
-        "certificate": certificate,
-        "solver": {k: result.solver[k] for k in ("name", "version", "status", "iterations", "solve_time_s", "fallback_used")},
-        "notes": list(result.notes),
-    }
-    out["gains_id"] = gains_id(out)
-    return out
-
-
-def gains_id(gd: dict[str, Any]) -> str:
-    """sha256 of what defines a gain (config, K, certificate): identical for identical gains,
-    unlike a hash of the file, which also holds the solver's timing."""
-    from .artifacts import json_bytes, sha256
-
-    return sha256(json_bytes({"config": gd.get("config"), "K": gd.get("K"), "certificate": gd.get("certificate")}))
-
-
-def _mat_value(v: Any) -> Any:
-    if v is None:
-        return np.nan
-    if isinstance(v, dict):
-        return {k: _mat_value(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple)) and v and isinstance(v[0], str):
-        return np.array(v, dtype=object)
-    return v
-
-
-def _stack(mats: list[Any]) -> np.ndarray:
-    """A list of equally shaped matrices as one 3-D array (vertex, row, col); empty ones as (n, 0, 0)."""
-    arrs = [np.asarray(m, dtype=float) for m in mats]
-    if not arrs:
-        return np.zeros((0, 0, 0))
-    return np.stack([a.reshape(a.shape if a.size else (0, 0)) for a in arrs])
-
-
-def gains_mat_vars(gd: dict[str, Any]) -> dict[str, Any]:
-    """The same names as gains.json, MATLAB-friendly (null -> NaN, lists of names -> cell arrays,
-    per-vertex multipliers M and per-corner S as 3-D arrays indexed first by vertex / corner)."""
-    c = gd["certificate"]
-    lyap = {"P": np.asarray(c["P"], dtype=float), "Q": np.asarray(c["Q"], dtype=float)} if c["lyapunov"] == "common" else {
-        "P": _stack(c["P"]), "G": np.asarray(c["G"], dtype=float), "S": _stack(c["S"])}
-    return {
-        "K": np.asarray(gd["K"], dtype=float),
-        "state_names": _mat_value(gd["state_names"]),
-        "input_names": _mat_value(gd["input_names"]),
-        "law": gd["law"],
-        "objective": gd["objective"],
-        "model": c["model"],
-        "lyapunov": c["lyapunov"],
-        "certified": _mat_value(gd["certified"]),
-        **lyap,
-        "M": _stack(c["multipliers"]["M"]),
-        "alpha": _mat_value(c["alpha"]),
-        "beta": np.asarray(c["beta"] if c["beta"] is not None else np.nan, dtype=float),
-        "r2": _mat_value(c["r2"]),
-        "gamma2": _mat_value(c["gamma2"]),
-        "multiplier": c["multipliers"]["kind"],
-        "motor_limits_enforced": bool(c["motor_limits_enforced"]),
-        "margin": c["margin"],
-        **_controller_mat_vars(gd),
-    }
-
-
-def _controller_mat_vars(gd: dict[str, Any]) -> dict[str, Any]:
-    """What the C and ROS 2 exports carry: sampling time, lifting, integrators, path, limits."""
-    from ..runtime import controller_description
-
-    d = controller_description(gd)
-    rho = d["max_motor_speed"]
-    return {
-        "Ts": float(d["sampling_time"]),
-        "d_hi": float(d["d_hi"]),
-        "integral_action": bool(d["integral_action"]),
-        "reference_speed": float(d["reference_speed"]),
-        "path": np.asarray(d["path"], dtype=float),
-        "segment_eps": float(d["segment_eps"]),
-        "gear_radius": float(d["gear_radius"]),
-        "track_distance": float(d["track_distance"]),
-        "max_motor_speed": float(rho) if rho is not None else np.nan,
-        "config_json": json.dumps(gd["config"]),  # the whole config (MATLAB: jsondecode(config_json))
-    }
 
 
 def diagnosis_markdown(model: Any, result: Any, diagnosis: list[Any] | None) -> str:

@@ -6,7 +6,7 @@ from typing import Any
 
 from ..config import config_to_dict
 from .. import __version__
-from .artifacts import SCHEMA_VERSION
+from ..artifacts.files import SCHEMA_VERSION
 from .markdown import fmt, table
 
 __all__ = ["verification_dict", "verification_markdown", "report_markdown", "summary_dict"]

@@ -46,7 +46,7 @@ def c_files(d: dict[str, Any]) -> dict[str, bytes]:
     """rs_controller.h / rs_controller.c (C99, only <math.h>, no heap) and rs_harness.c, a test
     and timing harness: ``rs_harness < steps.txt`` reads lines ``t x y theta`` (or ``reset``) and
     prints ``V omega`` with 17 digits; ``rs_harness --bench N`` times N steps."""
-    from .law import Controller
+    from ..law import Controller
 
     ctl = Controller(d)  # validates the description
     path = ctl.path
@@ -206,7 +206,7 @@ int main(int argc, char **argv)
 def python_module(d: dict[str, Any]) -> bytes:
     """rs_controller.py: :mod:`.law` verbatim, then ``DESCRIPTION`` and ``Controller()`` bound to it
     (pure Python, no numpy)."""
-    src = resources.files("robustsynth.runtime").joinpath("law.py").read_text(encoding="utf-8")
+    src = resources.files("robustsynth").joinpath("law.py").read_text(encoding="utf-8")
     head = f'"""rs_controller: the certified networked-robot controller, {_header_comment(d, "python", "")}\n\n' \
            'Usage: ``c = Controller(); V, omega = c.step(t, x, y, theta)`` once per sampling instant."""\n\n'
     body = src.split('"""', 2)[2].lstrip("\n")  # the law without its module docstring
@@ -277,9 +277,8 @@ def export_controller(gains_path: str | Path, target: str, outdir: str | Path,
     description and the written paths."""
     from ..config import load_config
     from ..errors import InputError
-    from ..report.artifacts import commit_files
-    from ..verification.checks import load_gains
-    from .controller import controller_description
+    from ..artifacts.files import commit_files
+    from ..artifacts.gains import controller_description, load_gains
 
     if target not in TARGETS:
         raise InputError(f"--to: must be one of {', '.join(TARGETS)} (got {target!r})")

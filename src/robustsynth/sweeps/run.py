@@ -48,8 +48,8 @@ def run_point(payload: dict[str, Any]) -> dict[str, Any]:
     interrupt escapes; every other outcome is a status."""
     from ..config import Config
     from ..model import build_model
-    from ..report.artifacts import to_jsonable
-    from ..report.synthesis import gains_dict, gains_id
+    from ..artifacts.files import to_jsonable
+    from ..artifacts.gains import gains_dict, gains_id
     from ..synthesis import synthesize
 
     t0 = time.perf_counter()
@@ -224,7 +224,7 @@ def sweep(spec: SweepSpec, outdir: str | Path, *, verify_runs: int | None = None
     """Run every point of ``spec``; write ``outdir/points/``, ``sweep.csv``, ``sweep.json`` (and the
     figure, unless ``write`` is False).  ``workers``: local processes (default: all cores; 1 runs
     in this process); ``scheduler``: the address of a dask.distributed scheduler."""
-    from ..report.artifacts import atomic_write, json_bytes, make_dir, remove_stale_temps
+    from ..artifacts.files import atomic_write, json_bytes, make_dir, remove_stale_temps
 
     t0 = time.perf_counter()
     outdir = make_dir(outdir)

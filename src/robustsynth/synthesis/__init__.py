@@ -1,7 +1,7 @@
 """LMI synthesis of the robust state feedback ``du_k = K xi_k`` (docs/theory.md §6).
 
 :func:`synthesize` runs one objective, checks every returned point with the numpy certificate
-check (:mod:`robustsynth.verification.certificate`) and returns a :class:`SynthesisResult` whose
+check (:mod:`robustsynth.certificate`) and returns a :class:`SynthesisResult` whose
 certified figures come from that check.  cvxpy is imported only inside this package.
 """
 

@@ -2,7 +2,7 @@
 
 The stability LMI of §6a with ``Y = K Q`` (or ``K G``) fixed by ``K`` is an LMI in the Lyapunov
 variables and multipliers only.  As in synthesis, the solver's point counts only after
-:func:`robustsynth.verification.certificate.check_certificate` has rebuilt every vertex LMI in numpy
+:func:`robustsynth.certificate.check_certificate` has rebuilt every vertex LMI in numpy
 from the values, with the gain as given.
 """
 
@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from ..verification.certificate import CertificateCheck, check_certificate
+from ..certificate import CertificateCheck, check_certificate
 from .design import _cert_common
 from .lmis import build_stability
 from .solve import solve

@@ -12,7 +12,7 @@ import numpy as np
 from ..config import SynthesisConfig
 from ..errors import InfeasibleError, InputError, SolverFailure
 from ..model.slip import check_physical_feasibility
-from ..verification.certificate import CertificateCheck, check_certificate
+from ..certificate import CertificateCheck, check_certificate
 from .lmis import LMIProblem, build_hinf, build_invariance, build_stability
 from .solve import Outcome, SolveRecord, solve, solver_version
 

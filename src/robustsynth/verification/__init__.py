@@ -3,6 +3,6 @@ model under time-varying delays, and Monte Carlo on the nonlinear networked robo
 
 from __future__ import annotations
 
-from .checks import VerificationResult, load_gains, verify
+from .checks import VerificationResult, verify
 
-__all__ = ["verify", "load_gains", "VerificationResult"]
+__all__ = ["verify", "VerificationResult"]

@@ -19,35 +19,26 @@ Pass/fail rules (also in the README):
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 
+from ..artifacts.gains import as_gains
 from ..errors import InputError
-from .certificate import CertificateCheck, check_certificate, lyapunov_of
-from .lifted import (
-    rate_limited_slip,
-    alternating_delays,
-    closed_loop_run,
-    frozen_instant_grid,
-    frozen_spectral_radius,
-    greedy_worst_case,
-    random_delays,
-    slip_vertices,
-)
-from .simulate import (ADVERSARY_OBJECTIVES, SimResult, adversarial_nonlinear, draw_scenario, make_path, simulate,
-                       steady_state_start)
+from ..plants.path import make_path
+from ..scenarios import (alternating_delays, draw_scenario, random_delays, rate_limited_slip, slip_vertices,
+                         steady_state_start)
+from ..certificate import CertificateCheck, check_certificate, lyapunov_of
+from .lifted import closed_loop_run, frozen_instant_grid, frozen_spectral_radius, greedy_worst_case
+from .simulate import ADVERSARY_OBJECTIVES, SimResult, adversarial_nonlinear, simulate
 
-__all__ = ["VerificationResult", "verify", "load_gains", "SPECTRAL_TOL", "LEVEL_TOL", "DIVERGENCE_LIMIT"]
+__all__ = ["VerificationResult", "verify", "SPECTRAL_TOL", "LEVEL_TOL", "DIVERGENCE_LIMIT"]
 
 SPECTRAL_TOL = 1e-6  # frozen spectral radius may exceed the certified rate by round-off only
 LEVEL_TOL = 1e-9  # relative round-off allowed on V in the lifted-model checks
 DIVERGENCE_LIMIT = 1.0  # m: |e_y| beyond this after the transients is divergence (no-bound objectives)
-MAX_GAINS_BYTES = 8 << 20
 
 
 @dataclass(frozen=True)
@@ -70,88 +61,6 @@ class VerificationResult:
     @property
     def failed_checks(self) -> list[str]:
         return [c["name"] for c in self.checks if not c["passed"]]
-
-
-def _mat_scalar(v: Any) -> Any:
-    a = np.asarray(v)
-    if a.dtype.kind in "US":
-        return str(a.reshape(-1)[0]) if a.size else ""
-    a = a.astype(float).reshape(-1)
-    return None if a.size == 0 or not np.isfinite(a[0]) else float(a[0])
-
-
-def _load_mat(p: Path) -> dict[str, Any]:
-    """A gains.mat (ours, or any .mat with a matrix K) as the gains.json mapping.  The certificate
-    is rebuilt when its parts (objective, Q, M, margin, ...) are present."""
-    from scipy.io import loadmat
-
-    try:
-        m = loadmat(p, squeeze_me=False)
-    except Exception as exc:  # scipy raises several types for a damaged file
-        raise InputError(f"{p}: not a readable MATLAB .mat file ({exc})") from None
-    if "K" not in m:
-        raise InputError(f"{p}: K: required variable is missing")
-    data: dict[str, Any] = {"K": m["K"]}  # validated by load_gains like a JSON K
-    if "config_json" in m:  # ours: the config the gain was designed and verified with
-        try:
-            data["config"] = json.loads(_mat_scalar(m["config_json"]))
-        except (TypeError, ValueError):
-            raise InputError(f"{p}: config_json: not valid JSON") from None
-    if all(k in m for k in ("objective", "M", "margin")) and ("Q" in m or "S" in m):
-        lyap = _mat_scalar(m.get("lyapunov", "common")) or "common"
-        Ms = np.asarray(m["M"], dtype=float)
-        Ms = [Ms[i] for i in range(Ms.shape[0])] if Ms.ndim == 3 else [Ms.reshape(Ms.shape if Ms.size else (0, 0))]
-        beta = np.asarray(m.get("beta", np.nan), dtype=float).reshape(-1)
-        cert: dict[str, Any] = {
-            "objective": _mat_scalar(m["objective"]),
-            "model": _mat_scalar(m.get("model", "paper")),
-            "lyapunov": lyap,
-            "multipliers": {"kind": _mat_scalar(m.get("multiplier", "structured")), "M": Ms},
-            "alpha": _mat_scalar(m.get("alpha", np.nan)),
-            "beta": None if beta.size == 0 or not np.all(np.isfinite(beta)) else beta,
-            "r2": _mat_scalar(m.get("r2", np.nan)),
-            "gamma2": _mat_scalar(m.get("gamma2", np.nan)),
-            "motor_limits_enforced": bool(_mat_scalar(m.get("motor_limits_enforced", 0.0))),
-            "margin": _mat_scalar(m["margin"]),
-        }
-        if lyap == "common":
-            cert["Q"] = np.asarray(m["Q"], dtype=float)
-            cert["P"] = np.asarray(m["P"], dtype=float) if "P" in m else np.linalg.inv(cert["Q"])
-        else:
-            S = np.asarray(m["S"], dtype=float)
-            cert["S"] = [S[i] for i in range(S.shape[0])]
-            cert["G"] = np.asarray(m["G"], dtype=float)
-        data["certificate"] = cert
-    return data
-
-
-def load_gains(path: str | Path) -> dict[str, Any]:
-    """Read a gains.json (or a .mat with a matrix K); InputError with the key path on anything
-    malformed."""
-    p = Path(path)
-    try:
-        if p.stat().st_size > MAX_GAINS_BYTES:
-            raise InputError(f"{p}: file is larger than 8 MiB")
-        data = _load_mat(p) if p.suffix.lower() == ".mat" else json.loads(p.read_text(encoding="utf-8"))
-    except InputError:
-        raise
-    except FileNotFoundError:
-        raise InputError(f"{p}: gains file not found (run `robustsynth synthesize` first or pass --gains)") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"{p}: cannot read ({exc})") from None
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{p}: invalid JSON at line {exc.lineno}: {exc.msg}") from None
-    if not isinstance(data, dict):
-        raise InputError(f"{p}: must be a JSON object")
-    if "K" not in data:
-        raise InputError(f"{p}: K: required key is missing")
-    try:
-        K = np.asarray(data["K"], dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{p}: K: must be a matrix of numbers (list of rows)") from None
-    if K.ndim != 2 or not np.all(np.isfinite(K)):
-        raise InputError(f"{p}: K: must be a finite matrix (list of rows)")
-    return data
 
 
 def _check(name: str, passed: bool, value: Any, threshold: Any, detail: str) -> dict[str, Any]:
@@ -535,27 +444,9 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
     return checks, mc, sim, ext, scen, v_ratio, np.asarray(mask)
 
 
-def as_gains(model, gains: Any) -> dict[str, Any]:
-    """A gains.json mapping from what a user holds: the mapping itself, the result of
-    :func:`~robustsynth.synthesis.synthesize`, or a bare matrix K (no certificate)."""
-    if isinstance(gains, dict):
-        return gains
-    if hasattr(gains, "K") and hasattr(gains, "certificate"):  # a SynthesisResult
-        from ..report.synthesis import gains_dict
-
-        return gains_dict(model, gains)
-    try:
-        K = np.asarray(gains, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"gains: expected a gains mapping, a SynthesisResult or a matrix K (got {type(gains).__name__})") from None
-    if K.ndim != 2:
-        raise InputError(f"gains: a matrix K needs 2 dimensions (got shape {K.shape})")
-    return {"K": K.tolist()}
-
-
 def verify(model, gains: Any, runs: int | None = None, seed: int | None = None,
            progress: Callable[[int, int], None] | None = None) -> VerificationResult:
-    """Run every check of ``gains`` against ``model``: a gains.json mapping (:func:`load_gains`),
+    """Run every check of ``gains`` against ``model``: a gains.json mapping (:func:`~robustsynth.artifacts.gains.load_gains`),
     the result of :func:`~robustsynth.synthesis.synthesize`, or a bare matrix K."""
     gains = as_gains(model, gains)
     vc = model.config.verification

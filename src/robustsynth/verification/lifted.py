@@ -1,21 +1,16 @@
-"""Vectorized simulation of the lifted linear model (eq. 25) in closed loop, ``du_k = K xi_k``:
-random, extreme-switching and greedy worst-case delay/slip sequences, and frozen delays."""
+"""Vectorized simulation of the lifted linear model (eq. 25) in closed loop, ``du_k = K xi_k``,
+under the sequences of :mod:`robustsynth.scenarios` (random, extreme switching), a greedy
+worst-case search, and frozen delays."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from ..errors import check_interrupt
+from ..scenarios import delay_candidates, loss_allowed, slip_candidates
 
 __all__ = [
     "closed_loop_run",
-    "random_delays",
-    "delay_candidates",
-    "loss_allowed",
-    "alternating_delays",
-    "slip_vertices",
-    "slip_candidates",
-    "rate_limited_slip",
     "greedy_worst_case",
     "frozen_spectral_radius",
     "frozen_instant_grid",
@@ -39,71 +34,6 @@ def closed_loop_run(model, K: np.ndarray, taus: np.ndarray, mu: np.ndarray, xi0:
         check_interrupt()
         xi[:, k + 1] = np.einsum("nij,nj->ni", Acl[:, k], xi[:, k]) + c[:, k]
     return xi
-
-
-def random_delays(model, rng: np.random.Generator, N: int, steps: int) -> np.ndarray:
-    """Uniform iid delays; with ``network.dropouts`` also bursts of lost packets (``inf``) from the
-    configured channel, capped at ``max_consecutive``."""
-    dl = model.config.network.delay
-    taus = rng.uniform(dl.min, dl.max, size=(N, steps + model.d_hi))
-    if model.dropouts:
-        from ..model.network import gilbert_elliott, with_losses
-
-        ch = model.config.verification.dropouts
-        lost = gilbert_elliott(rng, taus.shape, ch.probability, ch.mean_burst, model.dropouts)
-        lost[:, : model.d_hi] = False
-        taus = with_losses(taus, lost)
-    return taus
-
-
-def delay_candidates(model, n_tau: int) -> np.ndarray:
-    """The newest packet's delays an adversary may pick: an ``n_tau`` grid of [tau_min, tau_max],
-    and ``inf`` (lost) when the link may lose packets."""
-    dl = model.config.network.delay
-    grid = np.linspace(dl.min, dl.max, n_tau)
-    return np.append(grid, np.inf) if model.dropouts else grid
-
-
-def loss_allowed(model, hist: np.ndarray) -> np.ndarray:
-    """(N,) whether the next packet may be lost: fewer than ``max_consecutive`` losses end ``hist``."""
-    m = model.dropouts
-    if not m:
-        return np.zeros(hist.shape[0], dtype=bool)
-    tail = hist[:, -m:] if hist.shape[1] >= m else hist
-    return ~np.all(np.isinf(tail), axis=1) | (tail.shape[1] < m)
-
-
-def alternating_delays(model, N: int, steps: int, period: int = 1) -> np.ndarray:
-    """min/max switching with a given period (in packets), phase shifted across runs."""
-    dl = model.config.network.delay
-    i = np.arange(steps + model.d_hi)[None, :] + np.arange(N)[:, None]
-    return np.where((i // period) % 2 == 0, dl.min, dl.max)
-
-
-def slip_vertices(model) -> np.ndarray:
-    """The corners (mu_r, mu_l) of the slip box, shape (n_c, 2)."""
-    return np.asarray(model.corners)
-
-
-def slip_candidates(model, mu_prev: np.ndarray) -> np.ndarray:
-    """Slips (N, n_c, 2) an adversary may pick next: the corners, or with ``slip.max_rate`` the
-    largest admissible moves towards them."""
-    corners = slip_vertices(model)
-    step = model.slip_step
-    if step is None:
-        return np.broadcast_to(corners, mu_prev.shape[:-1] + corners.shape)
-    return mu_prev[..., None, :] + np.clip(corners - mu_prev[..., None, :], -step, step)
-
-
-def rate_limited_slip(model, rng: np.random.Generator, N: int, steps: int) -> np.ndarray:
-    """Slip sequences (N, steps, 2): random corners held 1-5 periods, approached at the largest rate
-    ``slip.max_rate`` allows (jumps when there is no rate bound): the simulator's 'corners' profile."""
-    from .simulate import slip_profiles
-
-    cfg = model.config.slip
-    lo = np.array([cfg.right.min, cfg.left.min])
-    hi = np.array([cfg.right.max, cfg.left.max])
-    return slip_profiles(rng, ["corners"] * N, steps, lo, hi, model.Ts, cfg.max_rate)
 
 
 def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 9, slip: bool = True,

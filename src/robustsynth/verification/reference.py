@@ -1,6 +1,6 @@
 """Straightforward per-run reference implementations, for tests and benchmarks only.
 
-:func:`simulate_run` replays one run of a :class:`~.simulate.Scenario` with explicit actuation
+:func:`simulate_run` replays one run of a :class:`~robustsynth.scenarios.Scenario` with explicit actuation
 events (absolute arrival times, in-order by a running maximum) instead of the vectorized
 switching instants; ``integrator='ivp'`` integrates the kinematics with ``solve_ivp`` instead of
 the exact arcs."""
@@ -10,7 +10,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..model.kinematics import G_matrix, JHJinv
-from .simulate import PathGeometry, Scenario, arc_step, frame_error, saturate
+from ..plants.kinematic import arc_step, saturate
+from ..plants.path import PathGeometry, frame_error
+from ..scenarios import Scenario
 
 __all__ = ["simulate_run", "ivp_arc"]
 

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from robustsynth.report.artifacts import atomic_write, commit_files, json_bytes, to_jsonable
+from robustsynth.artifacts.files import atomic_write, commit_files, json_bytes, to_jsonable
 from robustsynth.report.markdown import table
 
 

@@ -1,0 +1,2 @@
+"""What robustsynth writes and reads: :mod:`.files` (atomic, deterministic output files) and
+:mod:`.gains` (the gains file's format: writing, reading, its id and the controller description)."""

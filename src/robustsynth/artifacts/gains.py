@@ -1,0 +1,310 @@
+"""The gains file: one home for its format.
+
+``gains.json`` (and ``gains.mat``, the same names MATLAB-friendly) is what ``synthesize`` writes
+and what ``verify``, ``margin``, ``export`` and the deployed :class:`~robustsynth.runtime.Controller`
+read.  This module owns all of it: the schema (:data:`SCHEMA_VERSION` of the output files), the
+mapping written (:func:`gains_dict`) and its id (:func:`gains_id`), the ``.mat`` variables
+(:func:`gains_mat_vars`), reading either file with one-line errors (:func:`load_gains`), what a
+user may hand to the API instead (:func:`as_gains`), and the controller description derived from
+it (:func:`controller_description`, what ``export --to json`` writes and the exports bake in).
+
+It sits below everything that uses the file (runtime, verification, report, export, CLI) and
+imports only the config, the model's naming helpers and the control law's constants.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import __version__
+from ..errors import InputError
+from .files import SCHEMA_VERSION
+
+__all__ = ["gains_dict", "gains_id", "gains_mat_vars", "load_gains", "as_gains", "controller_description",
+           "LAW", "CERTIFIED_KEYS", "DESCRIPTION_FORMAT", "MAX_GAINS_BYTES", "SCHEMA_VERSION"]
+
+LAW = "du_k = K xi_k"
+CERTIFIED_KEYS = ("robust_stability", "decay_rate", "ultimate_bound", "motor_speed_bound", "hinf_gain")
+DESCRIPTION_FORMAT = "robustsynth-controller/1"
+MAX_GAINS_BYTES = 8 << 20
+
+
+def gains_dict(model: Any, result: Any) -> dict[str, Any]:
+    """The gains.json mapping of a synthesis result: the gain, the certified figures, the
+    certificate (everything the numpy re-check needs), the solver's record and the config."""
+    from ..config import config_to_dict
+
+    figs = result.certified
+    cert = result.certificate
+    certified = {k: figs.get(k) for k in CERTIFIED_KEYS}
+    certificate: dict[str, Any] = {
+        "objective": cert["objective"],
+        "model": cert["model"],
+        "vertices": cert["vertices"],
+        "lyapunov": cert["lyapunov"],
+        "P": cert["P"],
+    }
+    if cert["lyapunov"] == "common":
+        certificate["Q"] = cert["Q"]
+    else:
+        certificate["G"] = cert["G"]
+        certificate["S"] = cert["S"]
+        certificate["slip_step"] = cert.get("slip_step")
+    certificate.update({
+        "multipliers": cert["multipliers"],
+        "alpha": cert.get("alpha"),
+        "beta": cert.get("beta"),
+        "r2": cert.get("r2"),
+        "gamma2": cert.get("gamma2"),
+        "ellipsoid_level": figs.get("ellipsoid_level"),
+        "motor_limits_enforced": cert.get("motor_limits_enforced", False),
+        "margin": cert["margin"],
+        "min_eig_margin_found": cert["min_eig_margin_found"],
+        "checks": list(result.check.checks),
+    })
+    out = {
+        "schema_version": SCHEMA_VERSION,
+        "robustsynth_version": __version__,
+        "config": config_to_dict(model.config),
+        "K": result.K,
+        "state_names": list(model.state_names),
+        "input_names": list(model.input_names),
+        "law": LAW,
+        "objective": result.objective,
+        "certified": certified,
+        "certificate": certificate,
+        "solver": {k: result.solver[k] for k in ("name", "version", "status", "iterations", "solve_time_s", "fallback_used")},
+        "notes": list(result.notes),
+    }
+    out["gains_id"] = gains_id(out)
+    return out
+
+
+def gains_id(gd: dict[str, Any]) -> str:
+    """sha256 of what defines a gain (config, K, certificate): identical for identical gains,
+    unlike a hash of the file, which also holds the solver's timing."""
+    from .files import json_bytes, sha256
+
+    return sha256(json_bytes({"config": gd.get("config"), "K": gd.get("K"), "certificate": gd.get("certificate")}))
+
+
+def _mat_value(v: Any) -> Any:
+    if v is None:
+        return np.nan
+    if isinstance(v, dict):
+        return {k: _mat_value(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)) and v and isinstance(v[0], str):
+        return np.array(v, dtype=object)
+    return v
+
+
+def _stack(mats: list[Any]) -> np.ndarray:
+    """A list of equally shaped matrices as one 3-D array (vertex, row, col); empty ones as (n, 0, 0)."""
+    arrs = [np.asarray(m, dtype=float) for m in mats]
+    if not arrs:
+        return np.zeros((0, 0, 0))
+    return np.stack([a.reshape(a.shape if a.size else (0, 0)) for a in arrs])
+
+
+def gains_mat_vars(gd: dict[str, Any]) -> dict[str, Any]:
+    """The same names as gains.json, MATLAB-friendly (null -> NaN, lists of names -> cell arrays,
+    per-vertex multipliers M and per-corner S as 3-D arrays indexed first by vertex / corner)."""
+    c = gd["certificate"]
+    lyap = {"P": np.asarray(c["P"], dtype=float), "Q": np.asarray(c["Q"], dtype=float)} if c["lyapunov"] == "common" else {
+        "P": _stack(c["P"]), "G": np.asarray(c["G"], dtype=float), "S": _stack(c["S"])}
+    return {
+        "K": np.asarray(gd["K"], dtype=float),
+        "state_names": _mat_value(gd["state_names"]),
+        "input_names": _mat_value(gd["input_names"]),
+        "law": gd["law"],
+        "objective": gd["objective"],
+        "model": c["model"],
+        "lyapunov": c["lyapunov"],
+        "certified": _mat_value(gd["certified"]),
+        **lyap,
+        "M": _stack(c["multipliers"]["M"]),
+        "alpha": _mat_value(c["alpha"]),
+        "beta": np.asarray(c["beta"] if c["beta"] is not None else np.nan, dtype=float),
+        "r2": _mat_value(c["r2"]),
+        "gamma2": _mat_value(c["gamma2"]),
+        "multiplier": c["multipliers"]["kind"],
+        "motor_limits_enforced": bool(c["motor_limits_enforced"]),
+        "margin": c["margin"],
+        **_controller_mat_vars(gd),
+    }
+
+
+def _controller_mat_vars(gd: dict[str, Any]) -> dict[str, Any]:
+    """What the C and ROS 2 exports carry: sampling time, lifting, integrators, path, limits."""
+    d = controller_description(gd)
+    rho = d["max_motor_speed"]
+    return {
+        "Ts": float(d["sampling_time"]),
+        "d_hi": float(d["d_hi"]),
+        "integral_action": bool(d["integral_action"]),
+        "reference_speed": float(d["reference_speed"]),
+        "path": np.asarray(d["path"], dtype=float),
+        "segment_eps": float(d["segment_eps"]),
+        "gear_radius": float(d["gear_radius"]),
+        "track_distance": float(d["track_distance"]),
+        "max_motor_speed": float(rho) if rho is not None else np.nan,
+        "config_json": json.dumps(gd["config"]),  # the whole config (MATLAB: jsondecode(config_json))
+    }
+
+
+def _mat_scalar(v: Any) -> Any:
+    a = np.asarray(v)
+    if a.dtype.kind in "US":
+        return str(a.reshape(-1)[0]) if a.size else ""
+    a = a.astype(float).reshape(-1)
+    return None if a.size == 0 or not np.isfinite(a[0]) else float(a[0])
+
+
+def _load_mat(p: Path) -> dict[str, Any]:
+    """A gains.mat (ours, or any .mat with a matrix K) as the gains.json mapping.  The certificate
+    is rebuilt when its parts (objective, Q, M, margin, ...) are present."""
+    from scipy.io import loadmat
+
+    try:
+        m = loadmat(p, squeeze_me=False)
+    except Exception as exc:  # scipy raises several types for a damaged file
+        raise InputError(f"{p}: not a readable MATLAB .mat file ({exc})") from None
+    if "K" not in m:
+        raise InputError(f"{p}: K: required variable is missing")
+    data: dict[str, Any] = {"K": m["K"]}  # validated by load_gains like a JSON K
+    if "config_json" in m:  # ours: the config the gain was designed and verified with
+        try:
+            data["config"] = json.loads(_mat_scalar(m["config_json"]))
+        except (TypeError, ValueError):
+            raise InputError(f"{p}: config_json: not valid JSON") from None
+    if all(k in m for k in ("objective", "M", "margin")) and ("Q" in m or "S" in m):
+        lyap = _mat_scalar(m.get("lyapunov", "common")) or "common"
+        Ms = np.asarray(m["M"], dtype=float)
+        Ms = [Ms[i] for i in range(Ms.shape[0])] if Ms.ndim == 3 else [Ms.reshape(Ms.shape if Ms.size else (0, 0))]
+        beta = np.asarray(m.get("beta", np.nan), dtype=float).reshape(-1)
+        cert: dict[str, Any] = {
+            "objective": _mat_scalar(m["objective"]),
+            "model": _mat_scalar(m.get("model", "paper")),
+            "lyapunov": lyap,
+            "multipliers": {"kind": _mat_scalar(m.get("multiplier", "structured")), "M": Ms},
+            "alpha": _mat_scalar(m.get("alpha", np.nan)),
+            "beta": None if beta.size == 0 or not np.all(np.isfinite(beta)) else beta,
+            "r2": _mat_scalar(m.get("r2", np.nan)),
+            "gamma2": _mat_scalar(m.get("gamma2", np.nan)),
+            "motor_limits_enforced": bool(_mat_scalar(m.get("motor_limits_enforced", 0.0))),
+            "margin": _mat_scalar(m["margin"]),
+        }
+        if lyap == "common":
+            cert["Q"] = np.asarray(m["Q"], dtype=float)
+            cert["P"] = np.asarray(m["P"], dtype=float) if "P" in m else np.linalg.inv(cert["Q"])
+        else:
+            S = np.asarray(m["S"], dtype=float)
+            cert["S"] = [S[i] for i in range(S.shape[0])]
+            cert["G"] = np.asarray(m["G"], dtype=float)
+        data["certificate"] = cert
+    return data
+
+
+def load_gains(path: str | Path) -> dict[str, Any]:
+    """Read a gains.json (or a .mat with a matrix K); InputError with the key path on anything
+    malformed."""
+    p = Path(path)
+    try:
+        if p.stat().st_size > MAX_GAINS_BYTES:
+            raise InputError(f"{p}: file is larger than 8 MiB")
+        data = _load_mat(p) if p.suffix.lower() == ".mat" else json.loads(p.read_text(encoding="utf-8"))
+    except InputError:
+        raise
+    except FileNotFoundError:
+        raise InputError(f"{p}: gains file not found (run `robustsynth synthesize` first or pass --gains)") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"{p}: cannot read ({exc})") from None
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{p}: invalid JSON at line {exc.lineno}: {exc.msg}") from None
+    if not isinstance(data, dict):
+        raise InputError(f"{p}: must be a JSON object")
+    if "K" not in data:
+        raise InputError(f"{p}: K: required key is missing")
+    try:
+        K = np.asarray(data["K"], dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{p}: K: must be a matrix of numbers (list of rows)") from None
+    if K.ndim != 2 or not np.all(np.isfinite(K)):
+        raise InputError(f"{p}: K: must be a finite matrix (list of rows)")
+    return data
+
+
+def as_gains(model, gains: Any) -> dict[str, Any]:
+    """A gains.json mapping from what a user holds: the mapping itself, the result of
+    :func:`~robustsynth.synthesis.synthesize`, or a bare matrix K (no certificate)."""
+    if isinstance(gains, dict):
+        return gains
+    if hasattr(gains, "K") and hasattr(gains, "certificate"):  # a SynthesisResult
+        return gains_dict(model, gains)
+    try:
+        K = np.asarray(gains, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"gains: expected a gains mapping, a SynthesisResult or a matrix K (got {type(gains).__name__})") from None
+    if K.ndim != 2:
+        raise InputError(f"gains: a matrix K needs 2 dimensions (got shape {K.shape})")
+    return {"K": K.tolist()}
+
+
+def controller_description(gains: dict[str, Any], config: Any | None = None) -> dict[str, Any]:
+    """Everything a controller needs, as plain data (what ``export --to json`` writes): the gain,
+    sampling time, lifting, integrators, path, reference speed and the motor mapping and limit.
+
+    ``config`` (a :class:`~robustsynth.config.Config`) supplies the path; by default the config
+    stored in the gains file (the one it was verified with), else the embedded default.  A config
+    whose sampling time, reference speed or integral action differs from the gain's is refused:
+    the gain would run a law nobody verified."""
+    from pydantic import ValidationError
+
+    from ..config import Config, _format_validation_error, load_config
+    from ..model import gain_lifting, state_names
+    from ..law import SEGMENT_EPS  # the law is plain Python and imports nothing of ours
+
+    stored = gains.get("config")
+    try:
+        base = Config.model_validate(stored) if isinstance(stored, dict) else None
+    except ValidationError as exc:
+        raise InputError(f"config (in the gains file): {_format_validation_error(exc)}") from None
+    cfg = config if config is not None else (base if base is not None else load_config(None))
+    if base is not None and config is not None:
+        for key, a, b in (("network.sampling_time", base.network.sampling_time, cfg.network.sampling_time),
+                          ("reference.speed", base.reference.speed, cfg.reference.speed),
+                          ("synthesis.integral_action", base.synthesis.integral_action, cfg.synthesis.integral_action)):
+            if a != b:
+                raise InputError(f"{key}: {b!r} in the config, but the gain was designed with {a!r}")
+    integral = cfg.synthesis.integral_action
+    K = [[float(v) for v in row] for row in gains["K"]]
+    try:
+        d_hi = gain_lifting(K, integral)
+    except (InputError, ValueError):  # ragged rows too
+        raise InputError(f"K: has {len(K)} x {len(K[0]) if K else 0} entries; a controller needs 2 rows of "
+                         f"3 + 2 d_hi{' + 2' if integral else ''} (integral_action is {str(integral).lower()})") from None
+    names = gains.get("state_names")
+    rob = cfg.robot
+    return {
+        "format": DESCRIPTION_FORMAT,
+        "name": cfg.name,
+        "gains_id": gains.get("gains_id"),
+        "law": "u_hat_k = [V^D, 0] + K xi_k, xi_k = [e_x, e_y, e_theta, du_{k-1}, ..., du_{k-d_hi}(, int_e_x, int_e_y)]",
+        "K": K,
+        "state_names": list(names) if isinstance(names, list) and len(names) == len(K[0]) else list(state_names(d_hi, integral)),
+        "input_names": ["dV", "omega"],
+        "sampling_time": cfg.network.sampling_time,
+        "d_hi": d_hi,
+        "integral_action": integral,
+        "reference_speed": cfg.reference.speed,
+        "path": [[float(x), float(y)] for x, y in cfg.verification.path],
+        "segment_eps": SEGMENT_EPS,
+        "gear_radius": rob.gear_radius,
+        "track_distance": rob.track_distance,
+        "max_motor_speed": rob.max_motor_speed,
+        "certified": gains.get("certified"),
+    }

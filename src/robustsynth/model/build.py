@@ -1,0 +1,192 @@
+"""Config -> :class:`~.model.Model`: :func:`build_model` (docs/theory.md §1-5) and the coverage
+test of the vertex description (:func:`coverage_check`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..config import Config
+from ..errors import ConfigError
+from .kinematics import J_inverse, J_matrix
+from .lifting import delay_indices, instant_ranges, lift
+from .linearize import Gamma, Gamma_D, Phi, continuous_matrices
+from .slip import slip_corners, slip_matrix
+from .uncertainty import embed, slip_box
+from .model import MAX_POLYTOPIC_INSTANTS, WIDTH_TOL, Model, frozen_array
+from .vertices import Vertex, apply_slip, augment_integral, delay_vertex_gammas, loss_vertex_gammas
+
+__all__ = ["build_model", "coverage_check"]
+
+
+def _augment_rows(X: np.ndarray, n_z: int) -> np.ndarray:
+    return np.vstack([X, np.zeros((n_z, X.shape[1]))]) if n_z else X
+
+
+def _augment_cols(X: np.ndarray, n_z: int) -> np.ndarray:
+    return np.hstack([X, np.zeros((X.shape[0], n_z))]) if n_z else X
+
+
+def _resolve_delay_description(requested: str, n_uncertain: int) -> str:
+    if requested == "auto":
+        return "polytopic" if n_uncertain <= MAX_POLYTOPIC_INSTANTS else "norm-bounded"
+    return requested
+
+
+def build_model(config: Config, min_lifting: int | None = None) -> Model:
+    """Build the model of ``config`` (kind ``config.synthesis.model``; docs/theory.md §1-5).
+
+    ``min_lifting``: keep at least this many past inputs in the lifted state even when the delay
+    bound needs fewer (the extra switching instants are fixed at 0): to analyse a gain designed for
+    a longer lifting on a shorter delay range."""
+    R = config.robot.gear_radius
+    D = config.robot.track_distance
+    V = config.reference.speed
+    Ts = config.network.sampling_time
+    syn = config.synthesis
+    kind = syn.model
+    integral = syn.integral_action
+    n_z = 2 if integral else 0
+    dropouts = config.network.dropouts.max_consecutive
+    # a lost command is superseded when its successor arrives: an effective delay of up to
+    # tau_max + m Ts with a zero-length active interval (docs/theory.md, packet loss)
+    tmin, tmax = config.network.delay.min, config.network.delay.max + dropouts * config.network.sampling_time
+    A_c, B_c, B_D_c = continuous_matrices(V, D)
+    d_lo, d_hi = delay_indices(tmin, tmax, Ts)
+    d_hi = max(d_hi, int(min_lifting or 0))
+    ranges = instant_ranges(tmin, tmax, Ts, d_hi)
+    n_e, n_u = B_c.shape
+    instants, Gammas0, B_p, C_q, D_q = embed(A_c, B_c, Ts, ranges, n_e, n_u, d_hi)
+    Ph = Phi(A_c, Ts)
+    GD = Gamma_D(A_c, B_D_c, Ts)
+    A, B, B_d = lift(Ph, Gammas0, Gamma(A_c, B_c, Ts), GD)
+    mu_r = (config.slip.right.min, config.slip.right.max)
+    mu_l = (config.slip.left.min, config.slip.left.max)
+    slip = slip_box(mu_r, mu_l)
+    corners = slip_corners(mu_r, mu_l)
+    # nominal matrices in the (possibly augmented) state
+    if integral:
+        A, B = augment_integral(A, B, Ts, n_e)
+    B_d = _augment_rows(B_d, n_z)
+    B_p = _augment_rows(B_p, n_z)
+    C_q = _augment_cols(C_q, n_z)
+    n_s = A.shape[0]
+    delay_description = "norm-bounded"
+    vertices: list[Vertex] = []
+    if kind == "paper":
+        vertices.append(Vertex(A, B, B_d @ slip.W, B_p, C_q, D_q, 0, "nominal (mu = 1), slip as additive box"))
+    else:
+        tau_hi = config.network.delay.max  # of a received command (lost ones: the effective tmax)
+        delay_description = _resolve_delay_description(syn.delay_description, len(instants))
+        if syn.delay_description == "lossy-polytopic" or (syn.delay_description == "auto" and dropouts and tau_hi <= Ts):
+            if tau_hi > Ts * (1 + 1e-12):
+                raise ConfigError(f"synthesis.delay_description: lossy-polytopic needs network.delay.max <= "
+                                  f"network.sampling_time (got {tau_hi:g} > {Ts:g}); use auto or norm-bounded")
+            delay_description = "lossy-polytopic"
+            labels, gammas = loss_vertex_gammas(A_c, B_c, Ts, tmin, tau_hi, dropouts, d_hi, WIDTH_TOL * max(Ts, 1.0))
+            A_t, B_t, _ = lift(Ph, gammas, Gamma(A_c, B_c, Ts), GD)
+        elif delay_description == "polytopic":  # the delay vertices, the same for every slip corner
+            labels, gammas, _ = delay_vertex_gammas(A_c, B_c, Ts, ranges, WIDTH_TOL * max(Ts, 1.0))
+            A_t, B_t, _ = lift(Ph, gammas, Gamma(A_c, B_c, Ts), GD)
+        for m, mu in enumerate(corners):
+            M = slip_matrix(mu, D)
+            c = (mu - 1.0) @ B_d.T
+            E = c[:, None]
+            name = f"mu=({mu[0]:g}, {mu[1]:g})"
+            if delay_description == "norm-bounded":
+                Am, Bm = apply_slip(A, B, M, n_e, n_u, d_hi)
+                T = np.eye(n_s)
+                for j in range(d_hi):
+                    T[n_e + j * n_u : n_e + (j + 1) * n_u, n_e + j * n_u : n_e + (j + 1) * n_u] = M
+                vertices.append(Vertex(Am, Bm, E, B_p, C_q @ T, D_q @ M, m, name))
+            else:
+                At, Bt = apply_slip(A_t, B_t, M, n_e, n_u, d_hi)
+                if integral:
+                    At, Bt = augment_integral(At, Bt, Ts, n_e)
+                for t, lab in enumerate(labels):
+                    vertices.append(Vertex(At[t], Bt[t], E, np.zeros((n_s, 0)), np.zeros((0, n_s)),
+                                           np.zeros((0, n_u)), m, f"{name}; {lab}"))
+    frozen_vertices = tuple(
+        Vertex(*(frozen_array(x) for x in (v.A, v.B, v.E, v.B_p, v.C_q, v.D_q)), v.corner, v.label) for v in vertices
+    )
+    return Model(
+        config=config,
+        kind=kind,
+        d_lo=d_lo,
+        d_hi=d_hi,
+        Ts=Ts,
+        V=V,
+        instant_ranges=frozen_array(ranges),
+        A_c=frozen_array(A_c),
+        B_c=frozen_array(B_c),
+        B_D_c=frozen_array(B_D_c),
+        Phi=frozen_array(Ph),
+        Gamma_D=frozen_array(GD),
+        A=frozen_array(A),
+        B=frozen_array(B),
+        B_d=frozen_array(B_d),
+        B_p=frozen_array(B_p),
+        C_q=frozen_array(C_q),
+        D_q=frozen_array(D_q),
+        instants=instants,
+        slip=slip,
+        corners=frozen_array(corners),
+        vertices=frozen_vertices,
+        delay_description=delay_description,
+        integral=integral,
+        dropouts=dropouts,
+        J=frozen_array(J_matrix(R, D)),
+        J_inv=frozen_array(J_inverse(R, D)),
+    )
+
+
+def coverage_check(model: Model, n_sequences: int = 1000, steps: int = 20, seed: int = 0) -> dict:
+    """Coverage of the vertex description on random admissible (slip, delay history) samples, the
+    delay extremes and the slip corners: the exact lifted matrices of the model's kind and its
+    constant term are rebuilt from the vertices with explicit hull weights (>= 0, summing to 1) and
+    Delta (|Delta_ii| <= 1).  Returns the sample count, the extremes of the coordinates and the
+    largest residual."""
+    cfg = model.config
+    dl = cfg.network.delay
+    rng = np.random.default_rng(seed)
+    taus = rng.uniform(dl.min, dl.max, size=(n_sequences, steps + model.d_hi))
+    # extremes: alternate min/max, and constant min / max
+    taus[0, :] = dl.min
+    taus[1, :] = dl.max
+    taus[2, ::2] = dl.min
+    taus[2, 1::2] = dl.max
+    if model.dropouts:  # random bursts of up to m lost commands (inf) on all but the extremes
+        from .network import gilbert_elliott, with_losses
+
+        lost = gilbert_elliott(rng, taus.shape, 0.3, max(1.0, model.dropouts), model.dropouts)
+        lost[:3] = False
+        taus = with_losses(taus, lost)
+    s = model.s_tilde(taus).reshape(-1, model.d_hi)
+    if model.delay_description == "lossy-polytopic":  # only the instants a lossy link produces
+        corners = model.reachable_instants(5)
+    else:
+        corners = np.array(np.meshgrid(*[r for r in model.instant_ranges], indexing="ij")).reshape(model.d_hi, -1).T
+    s = np.vstack([s, corners])
+    (rl, rh), (ll, lh) = model.slip_ranges
+    mu = np.stack([rng.uniform(rl, rh, s.shape[0]), rng.uniform(ll, lh, s.shape[0])], axis=1)
+    mu[: model.corners.shape[0]] = model.corners  # every slip corner at least once
+    mu[-1] = [rh, lh]
+    A_ex, B_ex = model.exact(s, mu)
+    c_ex = model.constant(mu)
+    lam, dlt = model.hull_coordinates(s, mu)
+    A_h, B_h, c_h = model.from_hull(lam, dlt, model.disturbance_coordinates(mu))
+    res = max(float(np.max(np.abs(A_ex - A_h), initial=0.0)), float(np.max(np.abs(B_ex - B_h), initial=0.0)),
+              float(np.max(np.abs(c_ex - c_h), initial=0.0)))
+    max_delta = float(np.max(np.abs(dlt), initial=0.0))
+    min_weight = float(np.min(lam))
+    sum_err = float(np.max(np.abs(lam.sum(axis=-1) - 1.0)))
+    return {
+        "samples": int(s.shape[0]),
+        "vertices": len(model.vertices),
+        "max_abs_delta": max_delta,
+        "min_weight": min_weight,
+        "max_weight_sum_error": sum_err,
+        "max_residual": res,
+        "passed": bool(max_delta <= 1.0 + 1e-12 and min_weight >= -1e-12 and sum_err <= 1e-12 and res <= 1e-12),
+    }
+
+

@@ -1,0 +1,359 @@
+"""The :class:`Model`: what synthesis and verification read of a scenario (docs/theory.md §3-5).
+
+Every kind (the seed paper's lifted norm-bounded model, the slip-aware model) hands on the same
+interface:
+
+- ``vertices``: the uncertain lifted model as LFT vertices (:class:`~.vertices.Vertex`), the only
+  thing the LMIs and the certificate check read;
+- ``exact(s_tilde, mu)`` and ``constant(mu)``: the exact lifted map ``xi+ = A xi + B du + c`` of the
+  kind, for given switching instants and slip (what the lifted-model checks simulate);
+- ``robot_exact`` / ``equilibrium``: the slip-aware map the real robot follows (whatever the kind),
+  and its steady state under constant slip;
+- ``hull_coordinates``: explicit convex (and Delta) coordinates that reproduce ``exact`` from the
+  vertices (the coverage test).
+
+Also the lifted state's layout: its names (:func:`state_names`) and how a gain's columns map onto
+it (:func:`gain_lifting`, :func:`pad_gain`, :func:`lifted_slice`).  :mod:`.build` makes a Model.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..config import Config
+from .lifting import lifted_exact, s_tilde_sequence
+from .slip import corner_weights, next_corner_weights, slip_matrix
+from .uncertainty import SlipBox, UncertainInstant, delta_for
+from .vertices import (Vertex, apply_slip, augment_integral, loss_hull_coordinates,
+                       loss_instant_grid, triangle_coordinates)
+
+__all__ = ["Model", "state_names", "gain_lifting", "pad_gain", "lifted_slice", "INPUT_NAMES", "ERROR_NAMES",
+           "SLIP_NAMES", "INTEGRATOR_NAMES", "MODEL_KINDS", "MAX_POLYTOPIC_INSTANTS", "WIDTH_TOL"]
+
+INPUT_NAMES = ("dV", "omega")
+ERROR_NAMES = ("e_x", "e_y", "e_theta")
+SLIP_NAMES = ("dmu_r", "dmu_l")
+INTEGRATOR_NAMES = ("int_e_x", "int_e_y")
+MODEL_KINDS = ("slip-aware", "paper")
+# 'auto' uses the exact-hull (polytopic) delay description up to this many uncertain instants
+# (4 * 3^n vertices); beyond it the norm-bounded embedding, whose size grows linearly.
+MAX_POLYTOPIC_INSTANTS = 1
+WIDTH_TOL = 1e-12
+
+
+def state_names(d_hi: int, integral: bool = False) -> tuple[str, ...]:
+    """e_x, e_y, e_theta, dV[k-1], omega[k-1], ..., dV[k-d_hi], omega[k-d_hi] [, int_e_x, int_e_y]."""
+    names = list(ERROR_NAMES)
+    for j in range(1, d_hi + 1):
+        names += [f"dV[k-{j}]", f"omega[k-{j}]"]
+    if integral:
+        names += list(INTEGRATOR_NAMES)
+    return tuple(names)
+
+
+def frozen_array(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True)
+class Model:
+    """Lifted model of the networked tracking error (eqs. 25, 31-33) and its vertex description.
+
+    ``A, B, B_d, B_p, C_q, D_q`` are the nominal (mu = 1) norm-bounded form of the paper,
+    ``xi_{k+1} = A xi_k + B du_k + B_d d_k + B_p p_k``, ``p_k = Delta_k q_k``,
+    ``q_k = C_q xi_k + D_q du_k`` (with the integrator rows when ``integral``); ``vertices`` is what
+    the LMIs use for this ``kind``.
+    """
+
+    config: Config
+    kind: str
+    d_lo: int
+    d_hi: int
+    Ts: float
+    V: float
+    instant_ranges: np.ndarray  # (d_hi, 2): [lo, hi] of s~_j
+    A_c: np.ndarray
+    B_c: np.ndarray
+    B_D_c: np.ndarray
+    Phi: np.ndarray
+    Gamma_D: np.ndarray
+    A: np.ndarray
+    B: np.ndarray
+    B_d: np.ndarray
+    B_p: np.ndarray
+    C_q: np.ndarray
+    D_q: np.ndarray
+    instants: tuple[UncertainInstant, ...]
+    slip: SlipBox
+    corners: np.ndarray  # (n_c, 2): slip corners (mu_r, mu_l)
+    vertices: tuple[Vertex, ...]
+    delay_description: str  # 'norm-bounded' or 'polytopic' (what the vertices use)
+    integral: bool
+    J: np.ndarray = field(repr=False)
+    J_inv: np.ndarray = field(repr=False)
+
+    n_e: int = 3
+    n_u: int = 2
+    dropouts: int = 0  # at most this many consecutive commands lost (network.dropouts.max_consecutive)
+
+    @property
+    def n_z(self) -> int:
+        return 2 if self.integral else 0
+
+    @property
+    def n_s(self) -> int:
+        return self.n_e + self.d_hi * self.n_u + self.n_z
+
+    @property
+    def n_q(self) -> int:
+        return self.B_p.shape[1]
+
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        return state_names(self.d_hi, self.integral)
+
+    @property
+    def input_names(self) -> tuple[str, ...]:
+        return INPUT_NAMES
+
+    @property
+    def B_w(self) -> np.ndarray:
+        """Slip input in normalized box coordinates: B_d W (d = W w, |w_i| <= 1)."""
+        return self.B_d @ self.slip.W
+
+    @property
+    def n_w(self) -> int:
+        """Columns of every vertex's E (the bounded disturbance w, |w_i| <= 1)."""
+        return self.vertices[0].E.shape[1]
+
+    @property
+    def slip_ranges(self) -> tuple[tuple[float, float], tuple[float, float]]:
+        s = self.config.slip
+        return (s.right.min, s.right.max), (s.left.min, s.left.max)
+
+    # ------------------------------------------------------------------ exact maps
+
+    def _base_exact(self, s_tilde: np.ndarray, mu: np.ndarray | None, slip_aware: bool):
+        A, B, _ = lifted_exact(self.A_c, self.B_c, self.B_D_c, self.Ts, s_tilde)
+        if slip_aware and mu is not None:
+            M = slip_matrix(mu, self.config.robot.track_distance)
+            A, B = apply_slip(A, B, M, self.n_e, self.n_u, self.d_hi)
+        if self.integral:
+            A, B = augment_integral(A, B, self.Ts, self.n_e)
+        return A, B
+
+    def exact(self, s_tilde: np.ndarray, mu: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Exact (A~, B~) of this kind for switching instants ``s_tilde[..., j]`` and slip ``mu[..., 2]``
+        (eq. 25; the paper's kind ignores mu, the slip-aware kind multiplies the commands by M(mu))."""
+        return self._base_exact(s_tilde, mu, self.kind == "slip-aware")
+
+    def robot_exact(self, s_tilde: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The slip-aware exact map, which the real robot follows to first order whatever the kind."""
+        return self._base_exact(s_tilde, mu, True)
+
+    def constant(self, mu: np.ndarray) -> np.ndarray:
+        """c(mu) = B~_d (mu - 1), the constant term of the exact map, shape (..., n_s)."""
+        return (np.asarray(mu, dtype=float) - 1.0) @ np.asarray(self.B_d).T
+
+    def disturbance_coordinates(self, mu: np.ndarray) -> np.ndarray:
+        """w (..., n_w) with ``sum_i lambda_i E_i w = c(mu)`` for the hull weights lambda: the slip box
+        coordinates for the paper's kind, w = 1 (the constant column) for the slip-aware kind."""
+        mu = np.asarray(mu, dtype=float)
+        if self.kind == "paper":
+            return self.slip.coordinates(mu - 1.0)
+        return np.ones(mu.shape[:-1] + (1,))
+
+    def delta(self, s_tilde: np.ndarray) -> np.ndarray:
+        """diag(Delta) that reproduces the exact delay matrices in the norm-bounded embedding (eqs. 31-33)."""
+        return delta_for(self.instants, self.Ts, s_tilde)
+
+    def s_tilde(self, taus: np.ndarray) -> np.ndarray:
+        """Switching instants for packet delays ``taus[..., i]`` of packets sent at t_{i-d_hi}."""
+        return s_tilde_sequence(taus, self.Ts, self.d_hi)
+
+    def nominal_instants(self) -> np.ndarray:
+        """A fixed admissible instant vector (the middle of every range), shape (d_hi,)."""
+        return self.instant_ranges.mean(axis=1)
+
+    def equilibrium(self, K: np.ndarray, mu: np.ndarray) -> np.ndarray:
+        """Steady state xi*(mu) of the robot's lifted closed loop under constant slip (..., n_s):
+        ``xi* = (A + B K) xi* + c(mu)``; independent of the delay (the stored commands are all du*)."""
+        mu = np.asarray(mu, dtype=float)
+        A, B = self.robot_exact(self.nominal_instants(), mu)
+        Acl = A + B @ np.asarray(K, dtype=float)
+        rhs = np.broadcast_to(self.constant(mu), Acl.shape[:-1])
+        return np.linalg.solve(np.eye(self.n_s) - Acl, rhs[..., None])[..., 0]
+
+    # ------------------------------------------------------------------ hull coordinates
+
+    def corner_weights(self, mu: np.ndarray) -> np.ndarray:
+        return corner_weights(mu, *self.slip_ranges)
+
+    @property
+    def slip_step(self) -> float | None:
+        """Largest slip change in one period (slip.max_rate * Ts), None without a rate bound."""
+        rate = self.config.slip.max_rate
+        return None if rate is None else rate * self.Ts
+
+    @property
+    def rate_bounded(self) -> bool:
+        """True when the rate bound restricts the next slip (narrower than some track's range)."""
+        step = self.slip_step
+        return step is not None and any(step < hi - lo for lo, hi in self.slip_ranges if hi > lo)
+
+    @property
+    def delay_vertex_count(self) -> int:
+        """Delay vertices per slip corner: the vertices are corner-major, so vertex i has slip corner
+        ``i // n`` and delay vertex ``i % n`` (1 for the paper's model and the norm-bounded embedding)."""
+        return max(1, len(self.vertices) // max(1, int(np.asarray(self.corners).shape[0])))
+
+    def next_corner_weights(self, m: int) -> np.ndarray:
+        """Weights (n_next, n_c) over the corners of the slips that can follow corner m (one period)."""
+        return next_corner_weights(self.corners[m], *self.slip_ranges, self.slip_step)
+
+    def lyapunov_count(self, kind: str) -> int:
+        """How many Lyapunov matrices a certificate of ``kind`` has (see :meth:`lyapunov_conditions`)."""
+        n_c = int(np.asarray(self.corners).shape[0])
+        n_d = self.delay_vertex_count
+        return {"common": 1, "slip-dependent": n_c, "delay-dependent": n_c * n_d, "path-dependent": n_c * n_d * n_d}[kind]
+
+    def lyapunov_conditions(self, kind: str, slip_step: float | None) -> list[list[tuple[int, list[tuple[float, int]], str]]]:
+        """Per vertex i, the pairs (left, right, label) of one-period conditions a certificate of ``kind``
+        must meet: ``left`` indexes the Lyapunov matrix of this period, ``right`` is the combination
+        [(weight, index)] of the next period's.
+
+        - ``common``: one matrix (index 0) on both sides;
+        - ``slip-dependent``: one per slip corner m (index m); the right side is S at every slip that
+          may follow corner m within ``slip_step`` (None: every corner) -- bilinear interpolation
+          weights, which extrapolate;
+        - ``delay-dependent``: one per slip corner m and delay vertex d (index m * n_d + d); vertex i
+          (corner m, delay vertex d) has S_(m, d) on the left and, on the right, every next slip as
+          above with every next delay vertex.  The conditions are multi-affine in this and the next
+          period's slip and delay weights, so they hold for every admissible pair; with
+          ``V(xi, mu) = max_d xi' S(mu, d)^-1 xi`` (S(mu, d) the corner interpolation) they give
+          ``V(xi+, mu+) <= (1 - alpha) V(xi, mu) + ...`` without knowing the delays;
+        - ``path-dependent``: one per slip corner m, delay vertex a of the previous period and b of
+          this one (index (m * n_d + a) * n_d + b); vertex i (corner m, delay vertex b) has
+          S_(m, a, b) on the left for every a and S_(n, b, c) on the right for every next slip and
+          every c.  With ``V(xi, mu, prev) = max_b xi' S(mu, prev, b)^-1 xi`` (prev: the previous
+          period's delay weights) the same inequality holds; V needs the previous period's delay."""
+        if kind == "common":
+            return [[(0, [(1.0, 0)], "")] for _ in self.vertices]
+        n_d = self.delay_vertex_count if kind in ("delay-dependent", "path-dependent") else 1
+        path = kind == "path-dependent"
+
+        def index(m: int, a: int, b: int) -> int:  # S of slip corner m, previous delay vertex a, current b
+            return (m * n_d + a) * n_d + b if path else m * n_d + b
+
+        out = []
+        for i, v in enumerate(self.vertices):
+            m, b = int(v.corner), i % n_d
+            W = next_corner_weights(self.corners[m], *self.slip_ranges, slip_step)
+            conds = []
+            for a in range(n_d if path else 1):
+                for k, w in enumerate(W):
+                    for c in range(n_d):
+                        right = [(float(w[n]), index(n, b, c)) for n in range(w.size) if w[n] != 0.0]
+                        lab = (f" (previous delay vertex {a})" if path else "") + f" -> next slip {k}" + (
+                            f", next delay vertex {c}" if n_d > 1 else "")
+                        conds.append((index(m, a, b), right, lab))
+            out.append(conds)
+        return out
+
+    def delay_weights(self, s_tilde: np.ndarray) -> np.ndarray:
+        """Convex weights (..., n_d) of one period's switching instants over the delay vertices (the
+        delay part of :meth:`hull_coordinates`)."""
+        w, _ = self.hull_coordinates(s_tilde, np.ones(2))
+        n_c = max(1, len(self.vertices) // self.delay_vertex_count)
+        return w.reshape(w.shape[:-1] + (n_c, self.delay_vertex_count)).sum(axis=-2)
+
+    def reachable_instants(self, n: int) -> np.ndarray | None:
+        """Switching-instant vectors the link can produce, delays on an n-point grid, when the model
+        describes exactly those (lossy-polytopic); None when every vector in the instant ranges counts."""
+        if self.delay_description != "lossy-polytopic":
+            return None
+        dl = self.config.network.delay
+        return loss_instant_grid(self.Ts, dl.min, dl.max, self.dropouts, self.d_hi, n)
+
+    def hull_coordinates(self, s_tilde: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Convex weights (..., n_vertices) and diag(Delta) (..., n_q) such that
+        ``sum_i lambda_i (A_i + B_p Delta C_q_i, B_i + B_p Delta D_q_i, E_i w(mu))`` is the exact
+        ``(A~(s~, mu), B~(s~, mu), c(mu))`` of this kind."""
+        s_tilde = np.asarray(s_tilde, dtype=float)
+        mu = np.asarray(mu, dtype=float)
+        batch = np.broadcast_shapes(s_tilde.shape[:-1], mu.shape[:-1])
+        s_tilde = np.broadcast_to(s_tilde, batch + s_tilde.shape[-1:])
+        mu = np.broadcast_to(mu, batch + (2,))
+        dlt = self.delta(s_tilde) if self.n_q else np.zeros(batch + (0,))
+        if self.kind == "paper":
+            return np.ones(batch + (1,)), dlt
+        lam = self.corner_weights(mu)  # (..., n_c)
+        if self.delay_description == "norm-bounded":
+            return lam, dlt
+        if self.delay_description == "lossy-polytopic":
+            cfg = self.config
+            w = loss_hull_coordinates(s_tilde, self.Ts, cfg.network.delay.min, cfg.network.delay.max, self.dropouts,
+                                      self.d_hi, WIDTH_TOL * max(self.Ts, 1.0))
+            out = (lam[..., :, None] * w[..., None, :]).reshape(batch + (-1,))
+            return out, np.zeros(batch + (0,))
+        # polytopic: corner-major, then the product of the per-instant triangle coordinates
+        tri = [np.ones(batch + (1,))]
+        for j in range(self.d_hi):
+            lo, hi = self.instant_ranges[j]
+            if hi - lo <= WIDTH_TOL * max(self.Ts, 1.0):
+                continue
+            t = triangle_coordinates(self.Ts - s_tilde[..., j], self.Ts - hi, self.Ts - lo)
+            tri.append(t)
+        w = tri[0]
+        for t in tri[1:]:
+            w = (w[..., :, None] * t[..., None, :]).reshape(batch + (-1,))
+        out = (lam[..., :, None] * w[..., None, :]).reshape(batch + (-1,))
+        return out, np.zeros(batch + (0,))
+
+    def from_hull(self, weights: np.ndarray, delta: np.ndarray, w: np.ndarray):
+        """Recombine the vertices: (A, B, c) for hull weights, diag(Delta) and disturbance w."""
+        A = sum(weights[..., i, None, None] * (v.A + (v.B_p * delta[..., None, :]) @ v.C_q) for i, v in enumerate(self.vertices))
+        B = sum(weights[..., i, None, None] * (v.B + (v.B_p * delta[..., None, :]) @ v.D_q) for i, v in enumerate(self.vertices))
+        c = sum(weights[..., i, None] * (w @ v.E.T) for i, v in enumerate(self.vertices))
+        return A, B, c
+
+
+def gain_lifting(K: np.ndarray, integral: bool) -> int:
+    """How many past inputs a gain ``K`` (2 x (3 + 2 d + 2 integral)) acts on; InputError otherwise."""
+    from ..errors import InputError
+
+    K = np.asarray(K, dtype=float)
+    n_z = 2 if integral else 0
+    past = K.shape[1] - 3 - n_z if K.ndim == 2 else -1
+    if K.ndim != 2 or K.shape[0] != len(INPUT_NAMES) or past < 2 or past % 2:
+        raise InputError(f"K has shape {K.shape}: expected {len(INPUT_NAMES)} rows and 3 + 2 d_hi"
+                         + (" + 2" if n_z else "") + " columns (e, past inputs" + (", integrators)" if n_z else ")"))
+    return past // 2
+
+
+def pad_gain(K: np.ndarray, model: Model) -> np.ndarray:
+    """The same control law ``du_k = K xi_k`` on ``model``'s (possibly longer) lifted state: zero
+    columns for the older inputs the gain does not use, integrator columns kept last."""
+    from ..errors import InputError
+
+    K = np.asarray(K, dtype=float)
+    n_z = model.n_z
+    d_k = gain_lifting(K, model.integral)
+    if d_k > model.d_hi:
+        raise InputError(f"K uses {d_k} past inputs; the model keeps {model.d_hi} (build it with min_lifting)")
+    out = np.zeros((model.n_u, model.n_s))
+    out[:, : 3 + 2 * d_k] = K[:, : 3 + 2 * d_k]
+    if n_z:
+        out[:, -n_z:] = K[:, -n_z:]
+    return out
+
+
+def lifted_slice(model: Model, longer: Model) -> np.ndarray:
+    """Indices of ``model``'s lifted state inside the state of ``longer`` (same config, longer lifting)."""
+    head = np.arange(3 + 2 * model.d_hi)
+    tail = np.arange(longer.n_s - model.n_z, longer.n_s)
+    return np.concatenate([head, tail])

@@ -1,0 +1,114 @@
+"""The tracked robot the controller acts on, with the network that delivers its commands.
+
+Unicycle kinematics with slip, ``q_dot = G(theta) J H J^-1 u_hat`` (eq. 12), integrated exactly
+between actuation events (constant V, omega: arcs); the motors saturate at rho_max.  The network
+delivers the command sent at t_k from t_k + tau_k on, in order: within period k the commands
+u_hat_k, ..., u_hat_{k-d_hi} act in turn on the intervals the switching instants s~ mark.  Slip is
+constant within a period.
+
+:class:`KinematicRobot` is the interface the Monte Carlo and the adversary drive (and the one a
+physics-engine robot or a log replayer will offer): ``memory`` (the commands in flight at t_0),
+``send`` (the command of t_k enters the network) and ``period`` (the robot moves to t_{k+1}).
+Every method works on any leading shape of runs, so a search can branch a state into candidates.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..model.kinematics import JHJinv
+from ..law import wrap_angle as law_wrap_angle
+
+__all__ = ["KinematicRobot", "arc_step", "saturate", "period", "wrap_angle"]
+
+
+def wrap_angle(a: np.ndarray) -> np.ndarray:
+    """Angle in [-pi, pi) (the deployed controller's wrap)."""
+    return law_wrap_angle(np.asarray(a, dtype=float))
+
+
+def arc_step(q: np.ndarray, v: np.ndarray, w: np.ndarray, h: np.ndarray | float) -> np.ndarray:
+    """Exact pose after moving with constant (v, w) for time h: an arc (a line when w = 0).
+
+    dx = v h sinc(w h / 2) cos(theta + w h / 2), dy likewise with sin; stable for w -> 0."""
+    th = q[..., 2]
+    half = w * h / 2.0
+    chord = v * h * np.sinc(half / np.pi)  # np.sinc(x) = sin(pi x)/(pi x)
+    out = np.empty_like(q)
+    out[..., 0] = q[..., 0] + chord * np.cos(th + half)
+    out[..., 1] = q[..., 1] + chord * np.sin(th + half)
+    out[..., 2] = th + w * h
+    return out
+
+
+def saturate(u_hat: np.ndarray, J: np.ndarray, J_inv: np.ndarray, rho_max: float | None) -> np.ndarray:
+    """The command the actuator can apply: motor speeds rho = J^-1 u_hat clipped to +-rho_max,
+    mapped back, u = J rho (identity when rho_max is None)."""
+    if rho_max is None:
+        return u_hat
+    rho = np.clip(u_hat @ J_inv.T, -rho_max, rho_max)
+    return rho @ J.T
+
+
+def period(q: np.ndarray, U: np.ndarray, S: np.ndarray, M: np.ndarray, Ts: float, J: np.ndarray,
+           J_inv: np.ndarray, rho_sat: float | None) -> np.ndarray:
+    """Move the robot through one sampling period: ``U[..., j]`` = u_hat_{k-j} acts on
+    [s~_j, s~_{j-1}) (s~_{d_hi} = 0, s~_{-1} = Ts), the robot receives M u_hat (exact arcs)."""
+    d_hi = S.shape[-1]
+    start = np.zeros(q.shape[:-1])
+    for j in range(d_hi, -1, -1):
+        end = S[..., j - 1] if j > 0 else np.full(q.shape[:-1], Ts)
+        u_eff = np.einsum("...ij,...j->...i", M, saturate(U[..., j, :], J, J_inv, rho_sat))
+        q = arc_step(q, u_eff[..., 0], u_eff[..., 1], end - start)
+        start = end
+    return q
+
+
+@dataclass(frozen=True)
+class KinematicRobot:
+    """N tracked robots of one model behind the network (exact arcs, saturating motors, slip).
+
+    The state of a run is its pose ``q`` (..., 3) and the network's command memory ``U``
+    (..., d_hi + 1, 2), ``U[..., j]`` = u_hat_{k-j} once u_hat_k was sent."""
+
+    Ts: float
+    d_hi: int
+    speed: float  # V^D: the commanded forward speed before any correction
+    track_distance: float
+    J: np.ndarray
+    J_inv: np.ndarray
+    rho_max: float | None  # motor saturation (None: ideal motors)
+
+    @classmethod
+    def of(cls, model) -> "KinematicRobot":
+        """The robot of a :class:`~robustsynth.model.Model` (saturating when
+        ``verification.motor_saturation``)."""
+        cfg = model.config
+        return cls(model.Ts, model.d_hi, model.V, cfg.robot.track_distance, np.asarray(model.J),
+                   np.asarray(model.J_inv), cfg.robot.max_motor_speed if cfg.verification.motor_saturation else None)
+
+    def memory(self, du0: np.ndarray | None, runs: int) -> np.ndarray:
+        """The commands in flight before t_0: V^D + du0 (``du0`` (N, d_hi, 2) the stored
+        corrections du_{-1}, ..., du_{-d_hi}; None: none); the oldest slot, shifted out before
+        it could act, repeats du_{-d_hi}."""
+        uD = np.array([self.speed, 0.0])
+        U = np.tile(uD, (runs, self.d_hi + 1, 1))  # before step k: U[:, j] = u_hat_{k-1-j}
+        if du0 is not None:
+            U[:, : self.d_hi] = uD + du0
+            U[:, self.d_hi] = uD + du0[:, -1]
+        return U
+
+    def send(self, U: np.ndarray, u_hat: np.ndarray) -> np.ndarray:
+        """The memory after the command ``u_hat`` (..., 2) of t_k was sent (a new array)."""
+        out = np.empty_like(U)
+        out[..., 1:, :] = U[..., :-1, :]
+        out[..., 0, :] = u_hat
+        return out
+
+    def period(self, q: np.ndarray, U: np.ndarray, S: np.ndarray, mu: np.ndarray) -> np.ndarray:
+        """The poses at t_{k+1} from ``q`` at t_k: the commands ``U`` act on the intervals of the
+        switching instants ``S`` (..., d_hi), under slip ``mu`` (..., 2) = (mu_r, mu_l)."""
+        M = JHJinv(mu[..., 0], mu[..., 1], self.track_distance)
+        return period(q, U, S, M, self.Ts, self.J, self.J_inv, self.rho_max)

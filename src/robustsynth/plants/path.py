@@ -1,0 +1,65 @@
+"""The path a robot follows and the frames its error is measured in.
+
+A polyline of waypoints driven at the reference speed V^D: segment i is the frame L_i (origin,
+heading) of eqs. 13, 16, 17.  The numbers are the deployed controller's
+(:class:`~robustsynth.law.PathTable`), on numpy arrays of N robots."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..law import PathTable, segment_at
+from ..law import frame_error as law_frame_error
+
+__all__ = ["PathGeometry", "make_path", "frame_error", "pose_from_error"]
+
+
+@dataclass(frozen=True)
+class PathGeometry:
+    """Polyline path followed at speed V^D; segment i is the frame L_i (origin, heading).  The
+    numbers are those of the deployed controller's :class:`~robustsynth.law.PathTable`."""
+
+    waypoints: np.ndarray  # (n+1, 2)
+    headings: np.ndarray  # (n,)
+    lengths: np.ndarray  # (n,)
+    t_start: np.ndarray  # (n,) time the desired point leaves waypoint i
+    duration: float
+    speed: float
+    table: PathTable = field(repr=False, compare=False)
+
+    def segment(self, t: float) -> int:
+        return segment_at(self.table.t_start, t)
+
+    def desired_pose(self, t: float) -> np.ndarray:
+        i = self.segment(t)
+        s = self.speed * (t - self.t_start[i])
+        c, sn = self.table.cos[i], self.table.sin[i]
+        return np.array([self.waypoints[i, 0] + s * c, self.waypoints[i, 1] + s * sn, self.headings[i]])
+
+
+def make_path(waypoints, speed: float) -> PathGeometry:
+    tab = PathTable(np.asarray(waypoints, dtype=float).tolist(), speed)
+    return PathGeometry(np.array(tab.waypoints), np.array(tab.heading), np.array(tab.length), np.array(tab.t_start),
+                        tab.duration, tab.speed, tab)
+
+
+def frame_error(path: PathGeometry, seg: int, q: np.ndarray, t: float) -> np.ndarray:
+    """e = R(theta_0)(q - q_0) - [V^D (t - t_seg), 0, 0] in frame L of segment ``seg`` (eqs. 13, 16,
+    17): the deployed controller's :func:`~robustsynth.law.frame_error` on arrays."""
+    q = np.asarray(q, dtype=float)
+    return np.stack(law_frame_error(path.table, seg, t, q[..., 0], q[..., 1], q[..., 2]), axis=-1)
+
+
+def pose_from_error(path: PathGeometry, e: np.ndarray) -> np.ndarray:
+    """World pose at t = 0 whose error in the first segment's frame is ``e`` (..., 3)."""
+    e = np.asarray(e, dtype=float)
+    th0 = path.headings[0]
+    c, s = math.cos(th0), math.sin(th0)
+    q = np.empty_like(e)
+    q[..., 0] = path.waypoints[0, 0] + c * e[..., 0] - s * e[..., 1]
+    q[..., 1] = path.waypoints[0, 1] + s * e[..., 0] + c * e[..., 1]
+    q[..., 2] = th0 + e[..., 2]
+    return q

@@ -1,0 +1,252 @@
+"""What the world may do to the loop: the slip, delay and loss sequences the checks draw, and the
+starts of their runs.
+
+Used by both judges of a gain: the lifted linear model (:mod:`robustsynth.verification.lifted`) and
+the robot in closed loop (:mod:`robustsynth.verification.simulate`).  A :class:`Scenario` is
+everything random about N runs, drawn up front, so that any implementation can replay it;
+:func:`slip_profiles` and :func:`random_delays` are the random sequences; :func:`delay_candidates`,
+:func:`slip_candidates` and :func:`loss_allowed` are the choices an adversary has each period."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .model.network import gilbert_elliott, with_losses
+from .plants.path import PathGeometry, pose_from_error
+
+__all__ = [
+    "Scenario",
+    "SLIP_PROFILES",
+    "slip_profiles",
+    "draw_scenario",
+    "steady_state_start",
+    "split_state",
+    "random_delays",
+    "alternating_delays",
+    "delay_candidates",
+    "loss_allowed",
+    "slip_vertices",
+    "slip_candidates",
+    "rate_limited_slip",
+]
+
+SLIP_PROFILES = ("constant", "random-walk", "steps", "corners")
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """Everything random about N runs, drawn up front (so any implementation can replay it)."""
+
+    taus: np.ndarray  # (N, steps + d_hi): delay of the packet sent at t_{i - d_hi}
+    mu: np.ndarray  # (N, steps, 2): (mu_r, mu_l) on [t_k, t_k+1)
+    noise: np.ndarray  # (N, steps, 3): measurement noise on (x, y, theta)
+    q0: np.ndarray  # (N, 3): initial pose
+    profiles: tuple[str, ...]  # slip profile of each run
+    du0: np.ndarray | None = None  # (N, d_hi, 2): stored commands du_{-1}, ..., du_{-d_hi} (None: zero)
+    z0: np.ndarray | None = None  # (N, 2): integrator states at t_0 (None: zero)
+
+    @property
+    def runs(self) -> int:
+        return self.taus.shape[0]
+
+    @property
+    def steps(self) -> int:
+        return self.mu.shape[1]
+
+
+def _rate_limit(target: np.ndarray, start: np.ndarray, max_step: float | None) -> np.ndarray:
+    """Follow ``target`` (N, steps, 2) from ``start`` (N, 2) with |mu_{k+1} - mu_k| <= max_step."""
+    if max_step is None:
+        return target
+    out = np.empty_like(target)
+    cur = start.copy()
+    for k in range(target.shape[1]):
+        cur = cur + np.clip(target[:, k] - cur, -max_step, max_step)
+        out[:, k] = cur
+    return out
+
+
+def slip_profiles(rng: np.random.Generator, kinds: list[str], steps: int, lo: np.ndarray, hi: np.ndarray, Ts: float,
+                   max_rate: float | None = None):
+    """Slip (N, steps, 2) per profile: constant; random walk (std 5 % of the range per sqrt(s),
+    reflected at the bounds); steps (a new random level every ~3 s); corners (a random corner of
+    the box held 1-5 periods).  With ``max_rate`` every profile moves at most max_rate * Ts per
+    period (steps and corners become ramps at the largest rate)."""
+    N = len(kinds)
+    mu = np.empty((N, steps, 2))
+    kinds_arr = np.array(kinds)
+    width = hi - lo
+    max_step = None if max_rate is None else max_rate * Ts
+    # constant
+    start = lo + width * rng.random((N, 2))
+    mu[:] = start[:, None, :]
+    # random walk: std 5% of the range per sqrt(s), reflected at the bounds
+    scale = 0.05 * math.sqrt(Ts) * width
+    inc = rng.normal(size=(N, steps, 2)) * scale
+    if max_step is not None:
+        inc = np.clip(inc, -max_step, max_step)
+    walk = start[:, None, :] + np.cumsum(inc, axis=1)
+    span = np.where(width > 0, width, 1.0)
+    x = np.mod(walk - lo, 2 * span)
+    walk = lo + np.where(x > span, 2 * span - x, x)
+    walk = np.where(width > 0, walk, lo)
+    sel = kinds_arr == "random-walk"
+    mu[sel] = walk[sel]
+    # steps: a new random level every ~3 s (geometric holding times)
+    p = min(1.0, Ts / 3.0)
+    jumps = rng.random((N, steps)) < p
+    jumps[:, 0] = True
+    levels = lo + width * rng.random((N, steps, 2))
+    idx = np.maximum.accumulate(np.where(jumps, np.arange(steps)[None, :], 0), axis=1)
+    stepped = np.take_along_axis(levels, idx[:, :, None].repeat(2, axis=2), axis=1)
+    stepped[:, 0] = start
+    sel = kinds_arr == "steps"
+    mu[sel] = _rate_limit(stepped, start, max_step)[sel]
+    # corners: a random corner held for 1-5 periods (the switching the certificate allows)
+    hold = rng.integers(1, 6, size=(N, steps))
+    switch = np.zeros((N, steps), dtype=bool)
+    nxt = np.zeros(N, dtype=int)
+    for k in range(steps):
+        on = nxt == k
+        switch[on, k] = True
+        nxt[on] = k + hold[on, k]
+    pick = rng.integers(0, 2, size=(N, steps, 2))
+    corner = np.where(pick == 0, lo, hi)
+    idx = np.maximum.accumulate(np.where(switch, np.arange(steps)[None, :], 0), axis=1)
+    cornered = np.take_along_axis(corner, idx[:, :, None].repeat(2, axis=2), axis=1)
+    sel = kinds_arr == "corners"
+    c0 = cornered[:, 0].copy()
+    mu[sel] = _rate_limit(cornered, c0, max_step)[sel]
+    start = np.where((kinds_arr == "corners")[:, None], c0, start)
+    return mu
+
+
+def draw_scenario(model, runs: int, seed: int, steps: int, path: PathGeometry, delays: str = "random",
+                  slip: str | None = None, losses: bool | str = True) -> Scenario:
+    """Seeded random scenario. ``delays``: 'random' (uniform iid), 'alternating' (min/max),
+    'constant-min', 'constant-max'.  ``slip``: a profile for every run, or None to cycle through
+    SLIP_PROFILES; 'none' for mu = 1.  With ``network.dropouts.max_consecutive`` > 0 commands are lost
+    on the configured Gilbert-Elliott channel (``verification.dropouts``; delay ``inf``), bursts cut
+    at the cap (``losses='uncapped'``: not cut; False: no losses).  Runs start at the pose of the config's initial offset with no
+    stored commands; :func:`steady_state_start` moves them to the steady state of their first slip."""
+    cfg = model.config
+    vc = cfg.verification
+    rng = np.random.default_rng(seed)
+    dl = cfg.network.delay
+    n_pk = steps + model.d_hi
+    if delays == "random":
+        taus = rng.uniform(dl.min, dl.max, size=(runs, n_pk))
+    elif delays == "alternating":
+        taus = np.where((np.arange(n_pk)[None, :] + np.arange(runs)[:, None]) % 2 == 0, dl.min, dl.max) * np.ones((runs, 1))
+    elif delays in ("constant-min", "constant-max"):
+        taus = np.full((runs, n_pk), dl.min if delays == "constant-min" else dl.max)
+    else:
+        raise ValueError(f"unknown delay pattern {delays!r}")
+    m = cfg.network.dropouts.max_consecutive
+    if m and losses:  # bursty losses from their own stream: the other draws do not depend on them
+        ch = vc.dropouts
+        lost = gilbert_elliott(np.random.default_rng([seed, 1]), (runs, n_pk), ch.probability, ch.mean_burst,
+                               None if losses == "uncapped" else m)
+        lost[:, : model.d_hi] = False  # commands sent before t_0 arrived (the run starts in their steady state)
+        taus = with_losses(taus, lost)
+    lo = np.array([cfg.slip.right.min, cfg.slip.left.min])
+    hi = np.array([cfg.slip.right.max, cfg.slip.left.max])
+    if slip == "none":
+        kinds = ["none"] * runs
+        mu = np.ones((runs, steps, 2))
+    else:
+        kinds = [slip] * runs if slip else [SLIP_PROFILES[n % len(SLIP_PROFILES)] for n in range(runs)]
+        mu = slip_profiles(rng, kinds, steps, lo, hi, model.Ts, cfg.slip.max_rate)
+    sd = np.array([vc.noise.position, vc.noise.position, vc.noise.heading])
+    noise = rng.normal(size=(runs, steps, 3)) * sd if np.any(sd > 0) else np.zeros((runs, steps, 3))
+    off = vc.initial_offset
+    e_off = np.array([off.x, off.y, off.theta])
+    q0 = np.tile(pose_from_error(path, e_off), (runs, 1))
+    return Scenario(taus, mu, noise, q0, tuple(kinds))
+
+
+def steady_state_start(model, K: np.ndarray, path: PathGeometry, scen: Scenario) -> Scenario:
+    """The same scenario started at the steady state xi*(mu_0) of each run's first slip (plus the
+    config's initial offset): error e*, stored commands du* and integrators z* of the robot's
+    slip-aware lifted closed loop under that constant slip.  A gain without a steady state (e.g.
+    K = 0) leaves the scenario as it was."""
+    try:
+        xi = model.equilibrium(K, scen.mu[:, 0])  # (N, n_s)
+    except np.linalg.LinAlgError:
+        return scen  # no steady state for this gain (I - A - B K singular): runs start on the path
+    if not np.all(np.isfinite(xi)):
+        return scen
+    off = model.config.verification.initial_offset
+    e, du0, z0 = split_state(model, xi)
+    return replace(scen, q0=pose_from_error(path, e + np.array([off.x, off.y, off.theta])), du0=du0, z0=z0)
+
+
+def split_state(model, xi: np.ndarray):
+    """(e, stored commands (N, d_hi, 2), integrators or None) of lifted states xi (N, n_s)."""
+    n_e, n_u = model.n_e, model.n_u
+    du = xi[:, n_e : n_e + model.d_hi * n_u].reshape(-1, model.d_hi, n_u)
+    return xi[:, :n_e], du, (xi[:, model.n_s - model.n_z :] if model.n_z else None)
+
+
+def random_delays(model, rng: np.random.Generator, N: int, steps: int) -> np.ndarray:
+    """Uniform iid delays; with ``network.dropouts`` also bursts of lost packets (``inf``) from the
+    configured channel, capped at ``max_consecutive``."""
+    dl = model.config.network.delay
+    taus = rng.uniform(dl.min, dl.max, size=(N, steps + model.d_hi))
+    if model.dropouts:
+        ch = model.config.verification.dropouts
+        lost = gilbert_elliott(rng, taus.shape, ch.probability, ch.mean_burst, model.dropouts)
+        lost[:, : model.d_hi] = False
+        taus = with_losses(taus, lost)
+    return taus
+
+
+def delay_candidates(model, n_tau: int) -> np.ndarray:
+    """The newest packet's delays an adversary may pick: an ``n_tau`` grid of [tau_min, tau_max],
+    and ``inf`` (lost) when the link may lose packets."""
+    dl = model.config.network.delay
+    grid = np.linspace(dl.min, dl.max, n_tau)
+    return np.append(grid, np.inf) if model.dropouts else grid
+
+
+def loss_allowed(model, hist: np.ndarray) -> np.ndarray:
+    """(N,) whether the next packet may be lost: fewer than ``max_consecutive`` losses end ``hist``."""
+    m = model.dropouts
+    if not m:
+        return np.zeros(hist.shape[0], dtype=bool)
+    tail = hist[:, -m:] if hist.shape[1] >= m else hist
+    return ~np.all(np.isinf(tail), axis=1) | (tail.shape[1] < m)
+
+
+def alternating_delays(model, N: int, steps: int, period: int = 1) -> np.ndarray:
+    """min/max switching with a given period (in packets), phase shifted across runs."""
+    dl = model.config.network.delay
+    i = np.arange(steps + model.d_hi)[None, :] + np.arange(N)[:, None]
+    return np.where((i // period) % 2 == 0, dl.min, dl.max)
+
+
+def slip_vertices(model) -> np.ndarray:
+    """The corners (mu_r, mu_l) of the slip box, shape (n_c, 2)."""
+    return np.asarray(model.corners)
+
+
+def slip_candidates(model, mu_prev: np.ndarray) -> np.ndarray:
+    """Slips (N, n_c, 2) an adversary may pick next: the corners, or with ``slip.max_rate`` the
+    largest admissible moves towards them."""
+    corners = slip_vertices(model)
+    step = model.slip_step
+    if step is None:
+        return np.broadcast_to(corners, mu_prev.shape[:-1] + corners.shape)
+    return mu_prev[..., None, :] + np.clip(corners - mu_prev[..., None, :], -step, step)
+
+
+def rate_limited_slip(model, rng: np.random.Generator, N: int, steps: int) -> np.ndarray:
+    """Slip sequences (N, steps, 2): random corners held 1-5 periods, approached at the largest rate
+    ``slip.max_rate`` allows (jumps when there is no rate bound): the simulator's 'corners' profile."""
+    cfg = model.config.slip
+    lo = np.array([cfg.right.min, cfg.left.min])
+    hi = np.array([cfg.right.max, cfg.left.max])
+    return slip_profiles(rng, ["corners"] * N, steps, lo, hi, model.Ts, cfg.max_rate)
