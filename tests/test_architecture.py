@@ -1,0 +1,134 @@
+"""The house's layers (docs/architecture.md): every module of robustsynth imports only from its own
+floor or below, and no modules import each other in a circle.  Every import counts, also those
+inside functions (the lazy ones keep `robustsynth --help` fast, but they are dependencies all the
+same).  A new module must be given a floor here, so that its place is a decision."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+SRC = Path(__file__).resolve().parents[1] / "src"
+PKG = "robustsynth"
+
+# bottom -> top; a name covers the module and everything under it (longest match wins)
+LAYERS: list[tuple[str, ...]] = [
+    ("robustsynth", "robustsynth.errors", "robustsynth.law"),  # the face (lazy names), errors, the pure control law
+    ("robustsynth.config",),
+    ("robustsynth.model",),
+    ("robustsynth.certificate",),  # the numpy re-check of LMI certificates: the proof checker
+    ("robustsynth.artifacts",),  # output files, the gains file's format
+    ("robustsynth.runtime",),  # the controller on the robot, its exports
+    ("robustsynth.plants",),  # what the controller acts on
+    ("robustsynth.scenarios",),  # what the world may do: slip, delays, losses, starts
+    ("robustsynth.synthesis",),  # LMIs (the only user of cvxpy)
+    ("robustsynth.verification",),  # the judges: lifted model, robot in closed loop, verdicts
+    ("robustsynth.report", "robustsynth.interop"),
+    ("robustsynth.comparison", "robustsynth.margins", "robustsynth.sweeps"),
+    ("robustsynth.pipeline", "robustsynth.regression"),
+    ("robustsynth.cli", "robustsynth.__main__"),
+]
+
+
+def _module_name(path: Path) -> str:
+    parts = list(path.relative_to(SRC).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return ".".join(parts)
+
+
+def _imports(path: Path) -> set[str]:
+    """The robustsynth modules ``path`` imports (absolute names; `from X import y` counts y as a
+    module when X.y is one)."""
+    mod = _module_name(path)
+    package = mod if path.name == "__init__.py" else mod.rsplit(".", 1)[0]
+    out: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            out |= {a.name for a in node.names if a.name.split(".")[0] == PKG}
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[: len(base) - (node.level - 1)]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            if target.split(".")[0] != PKG:
+                continue
+            for a in node.names:
+                sub = f"{target}.{a.name}"
+                out.add(sub if sub in MODULES else target)
+    return out - {mod}
+
+
+MODULES = {_module_name(p): p for p in sorted((SRC / PKG).rglob("*.py"))}
+
+
+def _floor(mod: str) -> int:
+    best, floor = -1, None
+    for i, names in enumerate(LAYERS):
+        for n in names:
+            if (mod == n or mod.startswith(n + ".")) and len(n) > best:
+                best, floor = len(n), i
+    assert floor is not None, f"{mod}: no floor in tests/test_architecture.py LAYERS (give it one)"
+    return floor
+
+
+GRAPH = {m: _imports(p) for m, p in MODULES.items()}
+
+
+def test_every_module_has_a_floor() -> None:
+    for m in MODULES:
+        _floor(m)
+
+
+@pytest.mark.parametrize("mod", sorted(MODULES))
+def test_imports_run_down_the_floors(mod: str) -> None:
+    up = [f"{t} (floor {_floor(t)})" for t in sorted(GRAPH[mod]) if t in MODULES and _floor(t) > _floor(mod)]
+    assert not up, f"{mod} (floor {_floor(mod)}) imports from above: {', '.join(up)}"
+
+
+def _circle(graph: dict[str, set[str]]) -> list[str] | None:
+    """A circle of the graph (depth-first search: a back edge closes one), or None."""
+    state: dict[str, int] = {}  # 1 on the stack, 2 done
+    stack: list[str] = []
+
+    def visit(m: str) -> list[str] | None:
+        state[m] = 1
+        stack.append(m)
+        for t in sorted(graph[m]):
+            if t not in graph:
+                continue
+            if state.get(t) == 1:
+                return stack[stack.index(t):] + [t]
+            if t not in state and (found := visit(t)):
+                return found
+        stack.pop()
+        state[m] = 2
+        return None
+
+    for m in sorted(graph):
+        if m not in state and (found := visit(m)):
+            return found
+    return None
+
+
+def test_no_import_circles() -> None:
+    found = _circle(GRAPH)
+    assert found is None, "import circle: " + " -> ".join(found)
+
+
+def test_the_checker_sees_upward_imports_and_circles(tmp_path, monkeypatch) -> None:
+    """The rules can fail: a synthetic module of the runtime importing the synthesis (inside a
+    function) is found importing from above, and modules that import each other are a circle."""
+    fake = tmp_path / "src" / PKG / "runtime" / "fake.py"
+    fake.parent.mkdir(parents=True)
+    fake.write_text("def f():\n    from ..synthesis import synthesize\n    from .. import law\n")
+    monkeypatch.setattr(__import__(__name__, fromlist=["SRC"]), "SRC", tmp_path / "src")
+    found = _imports(fake)
+    assert {"robustsynth.synthesis", "robustsynth.law"} <= found
+    assert _floor("robustsynth.synthesis") > _floor("robustsynth.runtime.fake")
+    assert _circle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
+    assert _circle({"a": {"b"}, "b": set()}) is None
