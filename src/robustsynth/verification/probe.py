@@ -1,0 +1,128 @@
+"""Probe the whole certified set on the nonlinear robot: one period from states on its boundary.
+
+The Monte Carlo and the adversary start from steady states and visit only part of the certified set
+``{V <= level}``; the invariance claim is about every state in it.  This probe takes states *on the
+boundary* ``V(xi) = level``: random directions, and the directions that maximize each bounded figure
+(|e_x|, |e_y|, |e_theta|, each motor speed).  Each state comes with stored past commands, which are
+part of xi, a slip corner and the delays of the packets acting in the period.  The period is then
+run twice:
+
+- on the **nonlinear robot**: the deployed law computes du_k from the pose, and the kinematic plant
+  moves through exact arcs, with saturating motors and in-order delivery;
+- on the **exact lifted map** the certificate is about: ``Model.robot_exact`` plus ``constant``.
+
+For each run it reports V(xi+)/level, with V taken at the next slip that makes it largest.  A value
+above 1 is a state of the certified set that leaves it in one period.  On the linear map the
+certificate forbids that.  On the nonlinear robot nothing does yet: the kinematic terms the
+linearization drops (docs/theory.md §2) are not in the certificate.  Slip is constant within the
+period, as the model assumes.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..law import Law
+from ..plants.kinematic import KinematicRobot
+from ..plants.path import frame_error, make_path, pose_from_error
+from ..scenarios import random_delays, slip_candidates, slip_vertices
+
+__all__ = ["boundary_probe", "probe_directions"]
+
+
+def probe_directions(model: Any, K: np.ndarray, lyap: Any, random: int, rng: np.random.Generator) -> np.ndarray:
+    """Directions (n, n_s) of the lifted state to probe.  They are ``random`` ones spread evenly over
+    the ellipsoids ``xi' S^-1 xi <= 1`` of the Lyapunov matrices S (``L u``, with ``S = L L'`` and u
+    Gaussian; a piece S is picked at random for each).  Then, for every S, +- the maximizer
+    ``S c'`` of each bounded figure c xi: e_x, e_y, e_theta and the two motor speeds of the new
+    command, ``J^-1 K xi``."""
+    n_s = model.n_s
+    rows = [np.eye(n_s)[i] for i in range(3)] + list(np.asarray(model.J_inv) @ np.asarray(K, dtype=float))
+    extreme = [s * S @ c for S in lyap.S for c in rows for s in (1.0, -1.0)]
+    L = np.array([np.linalg.cholesky(S) for S in lyap.S])
+    pick = rng.integers(0, len(lyap.S), size=random)
+    even = np.einsum("nij,nj->ni", L[pick], rng.normal(size=(random, n_s)))
+    return np.vstack([even, np.array(extreme)])
+
+
+def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: int = 2000,
+                   seed: int = 0) -> dict[str, Any]:
+    """One period from ``samples`` random and every figure-maximizing boundary state.  Each gets a
+    slip corner and random admissible delays, and the first few runs get constant minimum or
+    maximum delays.  Returns the largest V(xi+)/level on the nonlinear robot and on the exact
+    lifted map, the fraction of runs above 1, the largest per-period difference between the two
+    in e_x, e_y and e_theta, and the worst run.  States whose stored commands exceed the motor
+    limit are dropped: the controller never sent them from inside the set."""
+    rng = np.random.default_rng(seed)
+    K = np.asarray(K, dtype=float)
+    dirs = probe_directions(model, K, lyap, samples, rng)
+    N = dirs.shape[0]
+    corners = slip_vertices(model)
+    mu = corners[rng.integers(0, corners.shape[0], size=N)]
+    # on the boundary of the set of this slip (with the largest value over an unknown previous delay)
+    scale = np.sqrt(level / lyap.V(dirs, mu))
+    xi = dirs * scale[:, None]
+    taus = random_delays(model, rng, N, 1)  # (N, 1 + d_hi): the packets acting in the period
+    dl = model.config.network.delay
+    taus[: min(N, 8) : 2] = dl.min
+    taus[1 : min(N, 8) : 2] = dl.max
+    S = model.s_tilde(taus)[:, 0]  # (N, d_hi)
+    dw = model.delay_weights(S) if lyap.path else None
+    n_e, n_u, d_hi, n_z = model.n_e, model.n_u, model.d_hi, model.n_z
+    du_past = xi[:, n_e : n_e + d_hi * n_u].reshape(N, d_hi, n_u)
+    # admissible past: the stored commands were sent from states of the set, within the motor limit
+    # the certificate enforces there (a state with others in its memory is never reached)
+    rho_max = model.config.robot.max_motor_speed
+    uD = np.array([model.V, 0.0])
+    if rho_max is not None:
+        rho = np.abs((uD + du_past) @ np.asarray(model.J_inv).T)
+        admissible = np.all(rho <= rho_max * (1.0 + 1e-9), axis=(1, 2))
+    else:
+        admissible = np.ones(N, dtype=bool)
+
+    # the nonlinear robot on a straight line along x, at the pose of the error e
+    path = make_path(((0.0, 0.0), (model.V * model.Ts * 20.0, 0.0)), model.V)
+    q0 = pose_from_error(path, xi[:, :n_e])
+    law = Law(K.tolist(), model.Ts, bool(n_z), path.table)
+    law.reset(past=[du_past[:, j, i].copy() for j in range(d_hi) for i in range(n_u)],
+              z=[xi[:, model.n_s - n_z + i].copy() for i in range(n_z)])
+    dv, dom = law.correction(0.0, q0[:, 0], q0[:, 1], q0[:, 2])
+    du = np.stack([dv, dom], axis=1)
+    robot = KinematicRobot.of(model)
+    U = robot.send(robot.memory(du_past, N), uD + du)
+    q1 = robot.period(q0, U, S, mu)
+    e1 = frame_error(path, 0, q1, model.Ts)
+    xi_nl = np.concatenate([e1, np.stack(law.past + law.z, axis=1)], axis=1)
+
+    # the exact lifted map of the certificate, same states, slips and delays
+    A, B = model.robot_exact(S, mu)
+    xi_lin = np.einsum("nij,nj->ni", A, xi) + np.einsum("nij,nj->ni", B, du) + model.constant(mu)
+
+    keep = admissible
+    xi, mu, taus, xi_nl, xi_lin = xi[keep], mu[keep], taus[keep], xi_nl[keep], xi_lin[keep]
+    dw = dw[keep] if dw is not None else None
+    nxt = slip_candidates(model, mu)  # (n, n_c, 2): the next slips the world may pick
+
+    def v_next(x: np.ndarray) -> np.ndarray:
+        xb = np.broadcast_to(x[:, None, :], nxt.shape[:2] + x.shape[1:])
+        if lyap.path:
+            return np.max(lyap.V(xb, nxt, prev=np.broadcast_to(dw[:, None, :], nxt.shape[:2] + dw.shape[1:])), axis=1)
+        return np.max(lyap.V(xb, nxt), axis=1)
+
+    r_nl, r_lin = v_next(xi_nl) / level, v_next(xi_lin) / level
+    worst = int(np.argmax(r_nl))
+    gap = np.max(np.abs(xi_nl[:, :n_e] - xi_lin[:, :n_e]), axis=0)
+    return {
+        "samples": int(np.count_nonzero(keep)),
+        "directions": {"random": int(samples), "figure_maximizing": int(N - samples),
+                       "dropped_inadmissible_memory": int(N - np.count_nonzero(keep))},
+        "max_V_over_level_nonlinear": float(np.max(r_nl)),
+        "max_V_over_level_linear": float(np.max(r_lin)),
+        "fraction_outside_nonlinear": float(np.mean(r_nl > 1.0)),
+        "fraction_outside_linear": float(np.mean(r_lin > 1.0)),
+        "max_period_gap": {"e_x": float(gap[0]), "e_y": float(gap[1]), "e_theta": float(gap[2])},
+        "worst": {"xi": xi[worst], "mu": mu[worst], "tau": taus[worst], "xi_next": xi_nl[worst],
+                  "V_over_level": float(r_nl[worst]), "V_over_level_linear": float(r_lin[worst])},
+    }
