@@ -16,6 +16,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from .verified import assembly_radius, gamma, proves_at_least, round_up, rump_shift
+
 __all__ = [
     "CHECK_FRACTION",
     "CertificateCheck",
@@ -52,19 +54,25 @@ def _sym(X: np.ndarray) -> np.ndarray:
     return (X + X.T) / 2.0
 
 
-def lmi_stability(v, X, left, right, Y, M, r2):
+def _minus(a, b, mag: bool):
+    """a - b, or a + b for the magnitude of a formula (see :func:`robustsynth.verified.assembly_radius`)."""
+    return a + b if mag else a - b
+
+
+def lmi_stability(v, X, left, right, Y, M, r2, mag: bool = False):
     """Vertex v: [[r2 left, (A X + B Y)', (C_q X + D_q Y)'], [A X + B Y, right - B_p M B_p', 0],
-    [C_q X + D_q Y, 0, M]] (>= 0 certifies V(xi+) <= r^2 V(xi) at the vertex; docs/theory.md §6a)."""
+    [C_q X + D_q Y, 0, M]] (>= 0 certifies V(xi+) <= r^2 V(xi) at the vertex; docs/theory.md §6a).
+    ``mag``: the inputs are absolute values and the subtraction is an addition (the magnitude)."""
     AX = v.A @ X + v.B @ Y
     n_s, n_q = X.shape[0], v.B_p.shape[1]
     if n_q == 0:
         return _sym(np.block([[r2 * left, AX.T], [AX, right]]))
     CX = v.C_q @ X + v.D_q @ Y
     Z = np.zeros((n_s, n_q))
-    return _sym(np.block([[r2 * left, AX.T, CX.T], [AX, right - v.B_p @ M @ v.B_p.T, Z], [CX, Z.T, M]]))
+    return _sym(np.block([[r2 * left, AX.T, CX.T], [AX, _minus(right, v.B_p @ M @ v.B_p.T, mag), Z], [CX, Z.T, M]]))
 
 
-def lmi_invariance(v, X, left, right, Y, M, beta, alpha):
+def lmi_invariance(v, X, left, right, Y, M, beta, alpha, mag: bool = False):
     """Vertex v: V(xi+) <= (1-alpha) V(xi) + sum beta_i w_i^2 for all |Delta| <= 1 (docs/theory.md §6b), as
 
     [[(1-alpha) left, 0, (AX+BY)', (C_qX+D_qY)'], [0, diag(beta), E', 0],
@@ -75,7 +83,7 @@ def lmi_invariance(v, X, left, right, Y, M, beta, alpha):
     rows = [
         [(1.0 - alpha) * left, Zsw, AX.T],
         [Zsw.T, np.diag(beta), v.E.T],
-        [AX, v.E, right - (v.B_p @ M @ v.B_p.T if n_q else 0.0)],
+        [AX, v.E, _minus(right, v.B_p @ M @ v.B_p.T if n_q else 0.0, mag)],
     ]
     if n_q:
         CX = v.C_q @ X + v.D_q @ Y
@@ -86,7 +94,7 @@ def lmi_invariance(v, X, left, right, Y, M, beta, alpha):
     return _sym(np.block(rows))
 
 
-def lmi_hinf(v, Bd, Cz, Q, Y, M, gamma2):
+def lmi_hinf(v, Bd, Cz, Q, Y, M, gamma2, mag: bool = False):
     """Bounded-real LMI at vertex v (docs/theory.md §6d):
     [[Q, 0, (AQ+BY)', (Cz Q)', (C_qQ+D_qY)'], [0, g I, Bd', 0, 0],
      [AQ+BY, Bd, Q - B_p M B_p', 0, 0], [Cz Q, 0, 0, I, 0], [C_qQ+D_qY, 0, 0, 0, M]] >= 0."""
@@ -97,7 +105,7 @@ def lmi_hinf(v, Bd, Cz, Q, Y, M, gamma2):
     rows = [
         [Q, Z((n_s, n_d)), AQ.T, CzQ.T],
         [Z((n_d, n_s)), gamma2 * np.eye(n_d), Bd.T, Z((n_d, n_z))],
-        [AQ, Bd, Q - (v.B_p @ M @ v.B_p.T if n_q else 0.0), Z((n_s, n_z))],
+        [AQ, Bd, _minus(Q, v.B_p @ M @ v.B_p.T if n_q else 0.0, mag), Z((n_s, n_z))],
         [CzQ, Z((n_z, n_d)), Z((n_z, n_s)), np.eye(n_z)],
     ]
     if n_q:
@@ -142,18 +150,42 @@ def _symmetric(X: np.ndarray, name: str) -> str:
     return ""
 
 
-def _item(name: str, lam_min: float, threshold: float, worst: str = "") -> dict[str, Any]:
-    """One condition 'lambda_min(L) >= threshold' (reported in the 'largest eigenvalue of -L' form)."""
+def _item(name: str, lam_min: float, threshold: float, worst: str = "", verified: bool = True,
+          allowance: float = 0.0, unproven: str = "") -> dict[str, Any]:
+    """One family of conditions 'lambda_min(L) >= threshold' (reported in the 'largest eigenvalue of
+    -L' form).  ``lam_min`` is the floating-point judgement (eigvalsh, the smallest over the family);
+    ``verified`` whether every member was proven in verified arithmetic (:func:`robustsynth.verified.
+    proves_at_least`), ``allowance`` the largest rounding allowance it had to add to the threshold,
+    ``unproven`` the first member that passed in floating point but could not be proven."""
+    float_ok = bool(lam_min >= threshold)
     out = {
         "name": name,
         "max_eig": float(-lam_min),
         "threshold": float(-threshold),
         "margin_found": float(lam_min),
-        "passed": bool(lam_min >= threshold),
+        "passed": bool(float_ok and verified),
+        "verified": bool(verified),
+        "test": VERIFIED_TEST,
+        "rounding_allowance": float(allowance),
     }
     if worst:
         out["worst"] = worst
+    if float_ok and not verified:
+        out["status"] = "not proven (rounding)"
+        out["unproven"] = unproven
     return out
+
+
+VERIFIED_TEST = ("floating-point Cholesky of L - (threshold + assembly radius + Rump shift) I (Rump, BIT 46, 2006)")
+
+
+def _proof(L: np.ndarray, mag: np.ndarray | None, terms: int, threshold: float) -> tuple[bool, float]:
+    """(proven, allowance): L >= threshold I for the exactly assembled matrix, whose float version
+    is L with the magnitude ``mag`` of its formula (None: L is data, no assembly error)."""
+    if mag is None and np.any(L != L.T):  # data read from a file may be symmetric to SYMMETRY_TOL only:
+        L, mag, terms = _sym(L), np.abs(L), 1  # prove its symmetric part (the part a quadratic form sees)
+    radius = 0.0 if mag is None else assembly_radius(mag, terms)
+    return proves_at_least(L, threshold, radius), radius + rump_shift(np.maximum(np.abs(np.diag(L)), 1e-300))
 
 
 def check_certificate(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateCheck:
@@ -170,7 +202,8 @@ def _fail(reason: str, checks=(), figures=None) -> CertificateCheck:
 
 def _lyapunov_parts(model: Any, cert: Mapping[str, Any], n_s: int):
     """(kind, X, conditions, mats) from the certificate, or a reason string: ``conditions[i]`` lists
-    vertex i's (left block, right block, label) (``Model.lyapunov_conditions``), ``mats`` the
+    vertex i's (left block, right block, label, |left| magnitude, |right| magnitude)
+    (``Model.lyapunov_conditions``; the magnitudes bound the blocks' own rounding), ``mats`` the
     Lyapunov matrices."""
     kind = cert.get("lyapunov", "common")
     if kind == "common":
@@ -180,7 +213,7 @@ def _lyapunov_parts(model: Any, cert: Mapping[str, Any], n_s: int):
         err = _symmetric(Q, "Q")
         if err:
             return err
-        conds = [[(Q, Q, "")] for _ in model.vertices]
+        conds = [[(Q, Q, "", np.abs(Q), np.abs(Q))] for _ in model.vertices]
         return kind, Q, conds, [Q]
     if kind not in ("slip-dependent", "delay-dependent", "path-dependent"):
         return f"unknown lyapunov kind {kind!r}"
@@ -208,7 +241,9 @@ def _lyapunov_parts(model: Any, cert: Mapping[str, Any], n_s: int):
         return (f"the certificate assumes slip changes of at most {float(cert_step):g} per period; the config allows "
                 f"{allowed}")
     table = model.lyapunov_conditions(kind, None if cert_step is None else float(cert_step))
-    conds = [[(G + G.T - S[j], sum(w * S[n] for w, n in right), lab) for j, right, lab in row] for row in table]
+    aG, aS = np.abs(G), [np.abs(x) for x in S]
+    conds = [[(G + G.T - S[j], sum(w * S[n] for w, n in right), lab,
+               aG + aG.T + aS[j], sum(abs(w) * aS[n] for w, n in right)) for j, right, lab in row] for row in table]
     return kind, G, conds, S
 
 
@@ -249,26 +284,43 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
                 return _fail("P is not the inverse of the Lyapunov matrix")
     threshold = CHECK_FRACTION * margin
     Y = K @ X
+    aX, aY = np.abs(X), np.abs(K) @ np.abs(X)  # Y's magnitude: Y = K X is computed, not given
+    aMs = [np.abs(M) for M in Ms]
     lmin = lambda L: float(np.linalg.eigvalsh(L)[0])  # noqa: E731
     checks = []
     for m, Sm in enumerate(mats):
         nm = "Q > 0" if lyap == "common" else f"S[{m}] > 0"
-        checks.append(_item(nm, lmin(Sm), threshold))
+        ok, allow = _proof(Sm, None, 0, threshold)
+        checks.append(_item(nm, lmin(Sm), threshold, verified=ok, allowance=allow, unproven="" if ok else nm))
     if any(v.n_q for v in model.vertices):
-        worst = min(((lmin(M), i) for i, (M, v) in enumerate(zip(Ms, model.vertices)) if v.n_q))
-        checks.append(_item(f"M_i > 0 (multipliers, {sum(1 for v in model.vertices if v.n_q)} vertices)", worst[0],
-                            threshold, model.vertices[worst[1]].label))
+        idx = [i for i, v in enumerate(model.vertices) if v.n_q]
+        worst = min((lmin(Ms[i]), i) for i in idx)
+        proofs = [(_proof(Ms[i], None, 0, threshold), i) for i in idx]
+        bad = [model.vertices[i].label for (ok, _), i in proofs if not ok]
+        checks.append(_item(f"M_i > 0 (multipliers, {len(idx)} vertices)", worst[0], threshold,
+                            model.vertices[worst[1]].label, verified=not bad,
+                            allowance=max(a for (_, a), _ in proofs), unproven=bad[0] if bad else ""))
+    abs_vertices = [_AbsVertex(v) for v in model.vertices]
 
     def vertex_family(name: str, build) -> dict[str, Any]:
-        worst_val, worst_lab, count = np.inf, "", 0
+        """Every vertex condition: its smallest eigenvalue (floating point) and its verified proof
+        (``build(v, M, left, right, Y, mag)`` assembles the matrix, or its magnitude)."""
+        worst_val, worst_lab, count, allowance, unproven = np.inf, "", 0, 0.0, ""
         for i, v in enumerate(model.vertices):
-            for left, right, lab in conds[i]:
-                val = lmin(build(v, Ms[i], left, right))
+            for left, right, lab, aleft, aright in conds[i]:
+                L = build(v, Ms[i], left, right, Y, False)
+                val = lmin(L)
                 count += 1
                 if val < worst_val:
                     worst_val = val
                     worst_lab = v.label + lab
-        return _item(f"{name} at {count} vertex conditions", worst_val, threshold, worst_lab)
+                mag = build(abs_vertices[i], aMs[i], aleft, aright, aY, True)
+                ok, allow = _proof(L, mag, 2 * L.shape[0] + X.shape[0] * (K.shape[0] + 1) + len(mats), threshold)
+                allowance = max(allowance, allow)
+                if not ok and not unproven:
+                    unproven = v.label + lab
+        return _item(f"{name} at {count} vertex conditions", worst_val, threshold, worst_lab,
+                     verified=not unproven, allowance=allowance, unproven=unproven)
 
     figures: dict[str, Any] = {"robust_stability": False, "decay_rate": None, "ultimate_bound": None,
                                "motor_speed_bound": None, "hinf_gain": None}
@@ -277,8 +329,9 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
         r2 = float(cert["r2"])
         if not 0 < r2 < 1:
             return _fail("r2 must be in (0, 1)", checks, figures)
-        checks.append(vertex_family("decay LMI (6a)", lambda v, M, lf, rt: lmi_stability(v, X, lf, rt, Y, M, r2)))
-        figures["decay_rate"] = float(np.sqrt(r2))
+        checks.append(vertex_family("decay LMI (6a)", lambda v, M, lf, rt, y, mag: lmi_stability(
+            v, aX if mag else X, lf, rt, y, M, r2, mag)))
+        figures["decay_rate"] = round_up(np.sqrt(r2), 2)
     elif objective == "ultimate-bound":
         alpha = float(cert["alpha"])
         beta = _arr(cert["beta"], "beta").reshape(-1)
@@ -288,21 +341,26 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
             return _fail("alpha must be in (0, 1)", checks, figures)
         if np.any(beta <= 0):
             return _fail("beta must be > 0", checks, figures)
-        checks.append(vertex_family("invariance LMI (6b)",
-                                    lambda v, M, lf, rt: lmi_invariance(v, X, lf, rt, Y, M, beta, alpha)))
-        level = float(np.sum(beta) / alpha)  # {xi' P xi <= level} is invariant and attracting
-        figures["decay_rate"] = float(np.sqrt(1.0 - alpha))
+        checks.append(vertex_family("invariance LMI (6b)", lambda v, M, lf, rt, y, mag: lmi_invariance(
+            v, aX if mag else X, lf, rt, y, M, np.abs(beta) if mag else beta, alpha, mag)))
+        # the figures are claimed as bounds: rounded outwards (any level >= sum beta / alpha is invariant)
+        level = round_up(float(np.sum(beta) / alpha), beta.size + 1)  # {xi' P xi <= level}: invariant, attracting
+        figures["decay_rate"] = round_up(np.sqrt(1.0 - alpha), 2)
         figures["ellipsoid_level"] = level
         diag = np.max([np.maximum(np.diag(Sm), 0.0) for Sm in mats], axis=0)  # worst slip corner
         figures["ultimate_bound"] = {
-            "e_x": float(np.sqrt(level * diag[0])),
-            "e_y": float(np.sqrt(level * diag[1])),
-            "e_theta": float(np.sqrt(level * diag[2])),
+            "e_x": round_up(np.sqrt(level * diag[0]), 2),
+            "e_y": round_up(np.sqrt(level * diag[1]), 2),
+            "e_theta": round_up(np.sqrt(level * diag[2]), 2),
         }
         R = cfg.robot.gear_radius
         J_inv = np.asarray(model.J_inv)
-        dev = max(float(np.max(np.einsum("ij,jk,ik->i", J_inv, K @ Sm @ K.T, J_inv))) for Sm in mats)
-        figures["motor_speed_bound"] = float(cfg.reference.speed / R + np.sqrt(max(level * dev, 0.0)))
+        # c S c' with c = J^-1 K, bounded above with its rounding: + gamma |c| |S| |c|'
+        g = gamma(2 * n_s + 2 * n_u + 4)
+        aJK = np.abs(J_inv) @ np.abs(K)
+        dev = max(float(np.max(np.einsum("ij,jk,ik->i", J_inv, K @ Sm @ K.T, J_inv)
+                               + g * (1 + g) * np.einsum("ij,jk,ik->i", aJK, np.abs(Sm), aJK))) for Sm in mats)
+        figures["motor_speed_bound"] = round_up(cfg.reference.speed / R + np.sqrt(max(round_up(level * dev), 0.0)), 3)
         rho_max = cfg.robot.max_motor_speed
         if rho_max is not None and cert.get("motor_limits_enforced", False):
             checks.append({
@@ -321,15 +379,31 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
         Cz = np.zeros((3, n_s))
         Cz[:3, :3] = np.diag([w.e_x, w.e_y, w.e_theta])
         Bd = np.asarray(model.B_d)
-        checks.append(vertex_family("bounded-real LMI (6d)", lambda v, M, lf, rt: lmi_hinf(v, Bd, Cz, X, Y, M, g)))
-        figures["hinf_gain"] = float(np.sqrt(g))
+        checks.append(vertex_family("bounded-real LMI (6d)", lambda v, M, lf, rt, y, mag: lmi_hinf(
+            v, np.abs(Bd) if mag else Bd, np.abs(Cz) if mag else Cz, aX if mag else X, y, M, g, mag)))
+        figures["hinf_gain"] = round_up(np.sqrt(g), 2)
     else:
         return _fail(f"unknown objective {objective!r}")
     passed = all(c["passed"] for c in checks)
     figures["robust_stability"] = passed
     if not passed:
         figures = {k: (False if k == "robust_stability" else None) for k in figures}
-    return CertificateCheck(passed, tuple(checks), figures, "" if passed else "an LMI fails the margin check")
+    unproven = [c for c in checks if c.get("status") == "not proven (rounding)"]
+    reason = "" if passed else (
+        f"not proven (rounding): {unproven[0]['name']} passes in floating point (smallest eigenvalue "
+        f"{unproven[0]['margin_found']:.3g} >= {-unproven[0]['threshold']:.3g}) but the verified test does not"
+        + (f" (first at {unproven[0]['unproven']})" if unproven[0].get("unproven") else "")
+        if unproven and all(c["passed"] or c.get("status") for c in checks) else "an LMI fails the margin check")
+    return CertificateCheck(passed, tuple(checks), figures, reason)
+
+
+class _AbsVertex:
+    """A vertex with every matrix replaced by its absolute value (for the magnitude of a formula)."""
+
+    def __init__(self, v: Any) -> None:
+        for name in ("A", "B", "E", "B_p", "C_q", "D_q"):
+            setattr(self, name, np.abs(np.asarray(getattr(v, name))))
+        self.label = v.label
 
 
 @dataclass(frozen=True)

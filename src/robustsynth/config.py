@@ -169,7 +169,7 @@ class SynthesisConfig(_Node):
     )
     delay_description: Literal["auto", "polytopic", "norm-bounded", "lossy-polytopic"] = Field(
         default="auto",
-        description="slip-aware model: delay instants by the exact-hull triangle vertices (polytopic), by the "
+        description="slip-aware model: delay instants by the vertices of a triangle covering each instant's curve (polytopic), by the "
         "norm-bounded embedding with multipliers, by the vertices of the instants a lossy link can really produce "
         "(lossy-polytopic; needs network.delay.max <= network.sampling_time), or auto (lossy-polytopic on a lossy "
         "link with delay.max <= Ts, else polytopic for one uncertain instant, else norm-bounded)",

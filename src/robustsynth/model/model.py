@@ -37,7 +37,7 @@ ERROR_NAMES = ("e_x", "e_y", "e_theta")
 SLIP_NAMES = ("dmu_r", "dmu_l")
 INTEGRATOR_NAMES = ("int_e_x", "int_e_y")
 MODEL_KINDS = ("slip-aware", "paper")
-# 'auto' uses the exact-hull (polytopic) delay description up to this many uncertain instants
+# 'auto' uses the covering-triangle (polytopic) delay description up to this many uncertain instants
 # (4 * 3^n vertices); beyond it the norm-bounded embedding, whose size grows linearly.
 MAX_POLYTOPIC_INSTANTS = 1
 WIDTH_TOL = 1e-12

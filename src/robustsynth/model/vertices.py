@@ -10,9 +10,10 @@ multiplier) therefore holds everywhere.
 - ``paper``: one vertex, the norm-bounded form of eqs. 31-33, slip as the additive box ``B_w w``.
 - ``slip-aware``: per slip corner m the command columns are multiplied by ``M(mu_m)`` and the
   constant column ``c_m = B~_d (mu_m - 1)`` is tied to the vertex (E_m = c_m, w = 1); delays either
-  by the norm-bounded embedding (same Delta for every corner) or by the exact hull: the curve
-  (h, h^2/2) lies in the triangle of its end points and the crossing of its end tangents, so each
-  uncertain instant contributes 3 vertices (4 * 3^n_b in all).
+  by the norm-bounded embedding (same Delta for every corner) or by a covering triangle: the curve
+  (h, h^2/2) lies in the triangle of its end points and the crossing of its end tangents, which
+  contains its convex hull (strictly: it is not the hull itself), so each uncertain instant
+  contributes 3 vertices (4 * 3^n_b in all).
 """
 
 from __future__ import annotations

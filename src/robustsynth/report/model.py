@@ -188,8 +188,8 @@ def kind_markdown(model: Model) -> str:
                 " `robustsynth verify` shows the gap). The LMIs use one vertex: the norm-bounded form below with the slip"
                 " as a box disturbance `B_d W w`.\n")
     corners = ", ".join(f"({fmt(m[0])}, {fmt(m[1])})" for m in model.corners)
-    desc = ("the exact hull of each uncertain instant: the curve (h, h²/2) lies in the triangle of its end points and"
-            " the crossing of its end tangents (3 vertices per instant)" if model.delay_description == "polytopic" else
+    desc = ("a covering triangle for each uncertain instant: the curve (h, h²/2) lies in the triangle of its end points"
+            " and the crossing of its end tangents, which contains the curve's convex hull (3 vertices per instant)" if model.delay_description == "polytopic" else
             "the norm-bounded embedding below (the same Delta at every slip corner, one multiplier per vertex)")
     out = ["\n## Slip-aware model\n\n", NEGLECTED,
            f"\nVertices: the {model.corners.shape[0]} slip corners (mu_r, mu_l) = {corners} (the slip matrix"

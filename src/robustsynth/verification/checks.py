@@ -493,7 +493,9 @@ def verify(model, gains: Any, runs: int | None = None, seed: int | None = None,
     checks = [_check("certificate: LMIs re-checked in numpy", cert.passed,
                      None if not cert.checks else cert.min_eig_margin,
                      None if not cert.checks else 0.5 * float(cert_data.get("margin", float("nan"))),
-                     cert.reason or f"{len(cert.checks)} conditions, smallest margin found {cert.min_eig_margin:.3g}"
+                     cert.reason or f"{len(cert.checks)} conditions, smallest margin found {cert.min_eig_margin:.3g}, every "
+                     "LMI proven in verified arithmetic (largest rounding allowance "
+                     f"{max((c.get('rounding_allowance') or 0.0) for c in cert.checks):.1e})"
                      + ("" if source == "gains file" else f"; certificate from the {source}: robust stability with "
                         f"decay rate {cert.figures.get('decay_rate', float('nan')):.4g}, no error bounds"))]
     claimed = gains.get("certified") or {}

@@ -1,0 +1,113 @@
+"""Verified positive definiteness (issue 29): Rump's test proves what it says and refuses what it
+cannot prove, the assembly radius bounds the rounding of an LMI's assembly (cross-checked against
+an evaluation in extended precision), and a certificate whose margin sits below the rounding level
+is reported "not proven (rounding)", never certified."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from robustsynth.artifacts.gains import load_gains
+from robustsynth.certificate import check_certificate, lmi_invariance
+from robustsynth.config import load_config
+from robustsynth.model import build_model
+from robustsynth.verified import UNIT_ROUNDOFF, assembly_radius, is_pd, proves_at_least, round_up, rump_shift
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _random_spd(rng, n: int, lam_min: float, cond: float = 1e3) -> np.ndarray:
+    Qm, _ = np.linalg.qr(rng.normal(size=(n, n)))
+    lam = np.geomspace(lam_min, lam_min * cond, n)
+    A = (Qm * lam) @ Qm.T
+    return (A + A.T) / 2.0
+
+
+@given(n=st.integers(1, 40), seed=st.integers(0, 2**32 - 1), cond=st.sampled_from([1.0, 1e3, 1e8]))
+@settings(max_examples=60, deadline=None)
+def test_well_conditioned_pd_is_proven_and_indefinite_never(n, seed, cond) -> None:
+    rng = np.random.default_rng(seed)
+    A = _random_spd(rng, n, 1.0, cond)
+    assert is_pd(A)
+    B = A.copy()
+    B[n - 1, n - 1] = -1e-3 * np.max(np.abs(A))  # a negative diagonal entry: never positive definite
+    assert not is_pd(B)
+    assert not is_pd(-A)
+
+
+def test_below_the_rounding_level_is_not_proven_though_eigvalsh_passes() -> None:
+    """[[1, 1 - e], [1 - e, 1]] with e = 2^-51 has eigenvalues 2 - e and e ~ 4.4e-16: positive
+    definite, and eigvalsh finds its smallest eigenvalue above 1e-16.  A gap that small against a
+    unit diagonal lies within the rounding of any Cholesky factorization: the test must refuse it."""
+    e = 2.0**-51
+    A = np.array([[1.0, 1.0 - e], [1.0 - e, 1.0]])
+    t = 1e-16
+    assert np.linalg.eigvalsh(A)[0] >= t  # floating point says: passes the threshold
+    assert not proves_at_least(A, t)
+    assert is_pd(np.array([[1.0, 0.5], [0.5, 1.0]]))
+    # a diagonal matrix is scaled entry by entry (exactly, by powers of two): its tiny but exact
+    # positive entry is proven, as it should be
+    assert proves_at_least(np.diag([1.0, 5e-8 * (1 + 1e-12)]), 5e-8)
+    assert not proves_at_least(np.diag([1.0, 5e-8]), 5e-8)  # equality is not "at least" with a proof
+
+
+def test_the_shift_and_outward_rounding_are_upper_bounds() -> None:
+    d = np.array([1.0, 0.25, 0.5])
+    c = rump_shift(d)
+    assert c >= sum((k + 3) * UNIT_ROUNDOFF * x for k, x in enumerate(d))
+    for x in (1.0, 3.0e-7, 123.456):
+        assert round_up(x) > x and round_up(x) <= x * (1 + 8 * UNIT_ROUNDOFF)
+
+
+@pytest.fixture(scope="module")
+def default_cert():
+    m = build_model(load_config(ROOT / "configs" / "default.yaml"))
+    g = load_gains(ROOT / "results" / "baselines" / "default" / "gains.json")
+    return m, np.asarray(g["K"], dtype=float), g["certificate"]
+
+
+def test_assembly_radius_bounds_the_rounding_of_an_lmi(default_cert) -> None:
+    """The invariance LMI of each vertex assembled in double precision, against the same formula
+    evaluated in extended precision (numpy longdouble): the difference stays within the radius."""
+    m, K, cert = default_cert
+    if np.finfo(np.longdouble).eps >= np.finfo(float).eps:
+        pytest.skip("this platform's longdouble is double precision: no independent reference")
+    Q = np.asarray(cert["Q"], dtype=float)
+    beta = np.asarray(cert["beta"], dtype=float)
+    alpha = float(cert["alpha"])
+    worst = 0.0
+    for v in m.vertices:
+        M = np.zeros((0, 0))
+        L = lmi_invariance(v, Q, Q, Q, K @ Q, M, beta, alpha)
+        ld = lambda a: np.asarray(a, dtype=np.longdouble)  # noqa: E731
+        vl = type("V", (), {k: ld(getattr(v, k)) for k in ("A", "B", "E", "B_p", "C_q", "D_q")})
+        Lx = lmi_invariance(vl, ld(Q), ld(Q), ld(Q), ld(K) @ ld(Q), ld(M), ld(beta), np.longdouble(alpha))
+        av = type("V", (), {k: np.abs(getattr(v, k)) for k in ("A", "B", "E", "B_p", "C_q", "D_q")})
+        mag = lmi_invariance(av, np.abs(Q), np.abs(Q), np.abs(Q), np.abs(K) @ np.abs(Q), M, beta, alpha, mag=True)
+        radius = assembly_radius(mag, 2 * L.shape[0] + Q.shape[0] * 3)
+        err = float(np.max(np.sum(np.abs(L.astype(np.longdouble) - Lx), axis=1)))
+        assert err <= radius
+        worst = max(worst, err / radius)
+    assert worst > 1e-4  # the radius is a bound, not a wild overestimate
+
+
+def test_a_margin_below_the_rounding_level_is_not_proven(default_cert) -> None:
+    """The certificate's own threshold moved to just below its smallest eigenvalue, closer than the
+    rounding allowance: eigvalsh passes, the verified test cannot, and the verdict says so."""
+    m, K, cert = default_cert
+    ok = check_certificate(m, K, cert)
+    assert ok.passed and all(c["verified"] for c in ok.checks if "verified" in c)
+    fam = next(c for c in ok.checks if c["name"].startswith("invariance LMI"))
+    found, allowance = fam["margin_found"], fam["rounding_allowance"]
+    tight = dict(cert, margin=2.0 * (found - 0.01 * allowance))  # threshold = margin / 2
+    res = check_certificate(m, K, tight)
+    fam = next(c for c in res.checks if c["name"].startswith("invariance LMI"))
+    assert fam["margin_found"] >= -fam["threshold"]  # floating point alone would pass it
+    assert fam["status"] == "not proven (rounding)" and not fam["passed"]
+    assert not res.passed and res.reason.startswith("not proven (rounding)")
+    assert res.figures["ultimate_bound"] is None  # nothing is claimed
