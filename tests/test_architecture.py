@@ -26,7 +26,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("robustsynth.synthesis",),  # LMIs (the only user of cvxpy)
     ("robustsynth.verification",),  # the judges: lifted model, robot in closed loop, verdicts
     ("robustsynth.report", "robustsynth.interop"),
-    ("robustsynth.comparison", "robustsynth.margins", "robustsynth.sweeps"),
+    ("robustsynth.comparison", "robustsynth.margins", "robustsynth.sweeps", "robustsynth.identification"),
     ("robustsynth.pipeline", "robustsynth.regression"),
     ("robustsynth.cli", "robustsynth.__main__"),
 ]

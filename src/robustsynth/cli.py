@@ -349,10 +349,12 @@ def _report_checks(obj: _Ctx, result: Any) -> None:
               help="Gains file [default: OUTDIR/gains.json].")
 @GAINS_OUTDIR_OPT
 @_verify_opts
+@click.option("--log", "logdir", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Also write each Monte Carlo run as a robot log (CSV, the format identify and check-log read) here.")
 @click.pass_obj
 @_guard
 def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path | None, runs: int | None,
-               seed: int | None, fmt: str, no_plots: bool) -> int:
+               seed: int | None, fmt: str, no_plots: bool, logdir: Path | None) -> int:
     """Check a gain against the config: certificate, frozen delays, lifted model, nonlinear Monte Carlo.
 
     Exit 1 when any check fails.
@@ -371,6 +373,11 @@ def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
             bar.render_finish()
     _report_checks(obj, st.result)
     obj.say(f"wrote {out / 'verification.json'}, {out / 'verification.md'}" + (f" and {len(st.figures)} figures" if st.figures else ""))
+    if logdir is not None:
+        from .pipeline import write_run_logs
+
+        logs = write_run_logs(st.model, st.result, logdir)
+        obj.say(f"wrote {len(logs)} run logs to {logdir}/")
     return EXIT_OK if st.result.passed else EXIT_VERIFICATION_FAILED
 
 
@@ -439,6 +446,90 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
     for m in st.report.margins:
         obj.say(m.line())
     obj.say(f"wrote {', '.join(str(p) for p in st.files)}")
+
+
+@main.command("identify")
+@_verbosity
+@click.argument("logs", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", "out", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write the config fragment here, with <stem>.md and <stem>.png beside it [default: print it].")
+@click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="The robot's config (gear radius, track distance) [default: the embedded default].")
+@click.option("--model", type=click.Choice(["tracks", "icr"]), default="tracks", show_default=True,
+              help="Slip description to identify (tracks: one traction factor per track).")
+@click.option("--coverage", type=click.FloatRange(0.5, 1.0), default=0.995, show_default=True,
+              help="Fraction of the per-period slip estimates the box covers (before widening).")
+@click.option("--max-motor-speed", type=click.FloatRange(min=0, min_open=True), default=None,
+              help="Skip periods with a command beyond this motor speed [rad/s] (saturated motors).")
+@click.option("--no-plots", is_flag=True, help="Skip the figure.")
+@click.pass_obj
+@_guard
+def identify_cmd(obj: _Ctx, logs: tuple[Path, ...], out: Path | None, config: Path | None, model: str, coverage: float,
+                 max_motor_speed: float | None, no_plots: bool) -> None:
+    """Delay range, longest loss burst and slip box from robot logs (CSV, see the README's log format).
+
+    The result is a config fragment with the data behind each number as comments.
+    """
+    from .pipeline import identification_stage
+
+    if model == "icr":
+        from .errors import InputError
+
+        raise InputError("--model: 'icr' is not available yet (the ICR slip description is not built); use tracks")
+    ident, text, written = identification_stage(list(logs), _load(config), out, coverage, model, max_motor_speed,
+                                                not no_plots)
+    if out is None:
+        click.echo(text, nl=False)
+    else:
+        obj.say(f"identified from {ident.logs} log(s), {ident.slip.mu.shape[0]} periods: wrote "
+                + ", ".join(str(p) for p in written))
+
+
+@main.command("check-log")
+@_verbosity
+@click.argument("logs", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="The config whose assumptions are checked.")
+@click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Check the assumptions of the config stored in this gains file instead.")
+@click.option("--tolerance", type=click.FloatRange(0.0, 1.0), default=0.005, show_default=True,
+              help="Fraction of samples allowed outside an assumption before it counts as violated.")
+@click.option("--max-motor-speed", type=click.FloatRange(min=0, min_open=True), default=None,
+              help="Skip slip estimates of periods with a command beyond this motor speed [rad/s].")
+@click.pass_obj
+@_guard
+def check_log_cmd(obj: _Ctx, logs: tuple[Path, ...], config: Path | None, gains: Path | None, tolerance: float,
+                  max_motor_speed: float | None) -> int:
+    """Does the robot of these logs stay inside the config's assumptions (delay, losses, slip)?
+
+    Exit 1 if any assumption is violated by more than --tolerance of its samples.
+    """
+    from .artifacts.logs import read_log
+    from .errors import EXIT_VERIFICATION_FAILED, InputError
+    from .identification import check_log
+
+    if (config is None) == (gains is None):
+        raise InputError("check-log: give exactly one of --config and --gains")
+    if gains is not None:
+        from .artifacts.gains import load_gains
+        from .config import Config
+
+        stored = load_gains(gains).get("config")
+        if not isinstance(stored, dict):
+            raise InputError(f"{gains}: config: the gains file holds no config (use --config)")
+        cfg = Config.model_validate(stored)
+    else:
+        cfg = _load(config)
+    rows = check_log([read_log(p) for p in logs], cfg, max_motor_speed)
+    bad = 0
+    for r in rows:
+        viol = r["fraction_outside"] > tolerance
+        bad += viol
+        worst = "" if r["worst"] is None else f", worst {r['worst']:.4g}" + (f" at {r['where']}" if r["where"] else "")
+        obj.say(f"{'VIOLATED' if viol else 'ok':8s} {r['assumption']} in [{r['range'][0]:g}, {r['range'][1]:g}] "
+                f"({r['unit']}): {r['outside']} of {r['samples']} outside ({100 * r['fraction_outside']:.2f} %){worst}")
+    obj.say(f"check-log: {len(rows) - bad} of {len(rows)} assumptions hold (tolerance {100 * tolerance:g} %)")
+    return EXIT_VERIFICATION_FAILED if bad else EXIT_OK
 
 
 @main.command("export")

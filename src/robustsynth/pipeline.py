@@ -220,6 +220,50 @@ def verification_stage(
     return VerificationStage(model, res, vd, figures, tuple(list(figures.values()) + written))
 
 
+def write_run_logs(model: Model, result: Any, logdir: str | Path) -> list[Path]:
+    """The verification's Monte Carlo runs as robot logs (one CSV per run, the format `identify` and
+    `check-log` read) in ``logdir``."""
+    from .artifacts.files import make_dir
+    from .artifacts.logs import write_log
+    from .verification.simulate import run_logs
+
+    logdir = make_dir(logdir)
+    paths = []
+    for log in run_logs(model, result.sim, result.scenario):
+        p = logdir / log.path
+        write_log(p, log)
+        paths.append(p)
+    return paths
+
+
+def identification_stage(log_paths: list[Path], cfg: Any, out: Path | None, coverage: float, model: str,
+                         max_motor_speed: float | None, plots: bool = True) -> tuple[Any, str, list[Path]]:
+    """`robustsynth identify`: the identification, its config fragment, and (with ``out``) the files
+    written: the fragment, ``<stem>.md`` (the data behind it) and ``<stem>.png`` (histograms)."""
+    from .artifacts.files import atomic_write, make_dir
+    from .artifacts.logs import read_log
+    from .identification import fragment_yaml, identify, report_markdown
+
+    logs = [read_log(p) for p in log_paths]
+    ident = identify(logs, cfg.robot.gear_radius, cfg.robot.track_distance, coverage, model, max_motor_speed)
+    text = fragment_yaml(ident)
+    written: list[Path] = []
+    if out is not None:
+        make_dir(out.parent if str(out.parent) else Path("."))
+        fig = None
+        if plots:
+            from .report.plots import identification_figure
+
+            fig = identification_figure(ident, out.with_suffix(".png"))
+            written.append(fig)
+        md = out.with_suffix(".md")
+        atomic_write(md, report_markdown(ident, text, fig.name if fig else None).encode("utf-8"))
+        written.append(md)
+        atomic_write(out, text.encode("utf-8"))  # last: a fragment exists only with its report
+        written.append(out)
+    return ident, text, written
+
+
 @dataclass(frozen=True)
 class RunResult:
     model: ModelStage

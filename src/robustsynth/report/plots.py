@@ -5,6 +5,7 @@ computes a check."""
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 from typing import Any
 
@@ -432,3 +433,39 @@ def write_sweep_figure(result, outdir: str | Path, fmt: str = "png") -> Path | N
     path = Path(outdir) / f"sweep.{fmt}"
     atomic_write(path, buf.getvalue())
     return path
+
+
+def identification_figure(ident: Any, path: Path) -> Path:
+    """Histograms of the measured delays and of each slip estimate against the identified box, and
+    the slip estimates against the commanded turn rate."""
+    from ..artifacts.files import atomic_write
+
+    plt = _plt()
+    fig, axes = plt.subplots(2, 2, figsize=(10, 7))
+    ax = axes[0, 0]
+    ax.hist(ident.delays * 1000.0, bins=60, color="0.5")
+    for x in ident.delay_range:
+        ax.axvline(x * 1000.0, color="C3")
+    ax.set_xlabel("delay applied - sent [ms]")
+    ax.set_ylabel("commands")
+    ax.set_title("delay (red: the identified range)")
+    for i, (side, axx) in enumerate((("right", axes[0, 1]), ("left", axes[1, 0]))):
+        axx.hist(ident.slip.mu[:, i], bins=80, color="0.5")
+        for x in ident.box[side]:
+            axx.axvline(x, color="C3")
+        axx.set_xlabel(f"mu_{side[0]} per period [-]")
+        axx.set_ylabel("periods")
+        axx.set_title(f"slip, {side} track (red: the box)")
+    ax = axes[1, 1]
+    ax.scatter(ident.slip.turn_rate, ident.slip.mu[:, 0], s=3, label="mu_r", alpha=0.4)
+    ax.scatter(ident.slip.turn_rate, ident.slip.mu[:, 1], s=3, label="mu_l", alpha=0.4)
+    ax.set_xlabel("commanded |omega| / |V| over the period [rad/m]")
+    ax.set_ylabel("estimate [-]")
+    ax.set_title("slip estimates against the turn rate")
+    ax.legend(loc="best")
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    plt.close(fig)
+    atomic_write(path, buf.getvalue())
+    return Path(path)

@@ -28,6 +28,7 @@ __all__ = [
     "adversarial_nonlinear",
     "adversary_start",
     "ADVERSARY_OBJECTIVES",
+    "run_logs",
 ]
 
 
@@ -252,3 +253,22 @@ def adversary_start(model, K: np.ndarray, mu0: np.ndarray, steps: int) -> tuple[
     scen = Scenario(np.full((N, d_hi), (dl.min + dl.max) / 2.0), mu0[:, None, :], np.zeros((N, 1, 3)),
                     pose_from_error(path, e0), (), du0, z0)
     return path, scen
+
+
+def run_logs(model, sim: SimResult, scen: Scenario, name: str = "run") -> list:
+    """The Monte Carlo runs as robot logs (:mod:`robustsynth.artifacts.logs`): per run and sampling
+    instant the measured pose (with the scenario's sensor noise), the command sent then (as motor
+    speeds), its send time t_k and the instant it started acting, t_k + tau_k (empty when lost)."""
+    from ..artifacts.logs import RobotLog
+
+    N, steps = scen.runs, scen.steps
+    t = sim.t[:steps]
+    meas = sim.q[:, :steps] + scen.noise[:, :steps]
+    tau = scen.taus[:, model.d_hi : model.d_hi + steps]
+    logs = []
+    for n in range(N):
+        applied = t + tau[n]
+        logs.append(RobotLog(f"{name}_{n:03d}.csv", t.copy(), meas[n, :, 0], meas[n, :, 1], meas[n, :, 2],
+                             np.arange(steps, dtype=float), sim.rho[n, :, 0], sim.rho[n, :, 1], t.copy(),
+                             np.where(np.isfinite(applied), applied, np.nan)))
+    return logs

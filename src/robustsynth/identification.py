@@ -1,0 +1,306 @@
+"""The bounds a certificate rests on, read from the robot's own logs (`identify`), and a check that a
+robot stays inside a config's assumptions (`check-log`).
+
+From logs in the format of :mod:`robustsynth.artifacts.logs`:
+
+- **delay**: ``applied - sent`` of every received command; the range covers all of them.
+- **losses**: the longest run of consecutive commands that never acted.
+- **slip** (the paper's per-track factors, ``slip.model: tracks``): one estimate of (mu_r, mu_l) per
+  sampling period. The commands that acted in the period, and for how long, follow from the
+  applied times, with in-order delivery. The robot is moved from the measured pose at t_k through
+  exact arcs under ``u = J H(mu) rho``, and mu is fitted (Gauss-Newton, 2 unknowns, 3 equations) to
+  the measured pose at t_{k+1}. The slip box covers ``coverage`` of the estimates (central
+  quantiles) and is widened by twice the estimates' standard uncertainty. That uncertainty comes
+  from the fit's residual: the pose noise seen in the data. Estimates more than POOR_SIGMA times as
+  uncertain as the median (a period in which one track barely turns) are left out of the box.
+
+Periods are skipped when the command acting at t_k is unknown (before the first applied command),
+when the robot barely moves, or when a command exceeds the motor limit (if one is given): saturated
+motors do not turn at the commanded speed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Sequence
+
+import numpy as np
+
+from .artifacts.logs import RobotLog
+from .errors import InputError
+from .plants.kinematic import arc_step, wrap_angle
+
+__all__ = ["SlipEstimates", "Identification", "estimate_slip", "identify", "fragment_yaml", "report_markdown", "check_log",
+           "MODELS"]
+
+MODELS = ("tracks",)
+WIDEN_SIGMA = 2.0  # the box is widened by this many standard uncertainties of an estimate
+FIT_TOL = 1e-9  # the fit's own numerical error on mu (noise-free logs): the least widening
+MIN_TRAVEL_M = 1e-3  # a period in which the commands move the robot less than this says little about slip
+GN_STEPS = 6
+POOR_SIGMA = 3.0  # an estimate whose uncertainty exceeds this many times the median is left out of the box
+CHECK_SIGMA = 3.0  # check-log: an estimate is outside a range when beyond it by more than this many uncertainties
+
+
+@dataclass(frozen=True)
+class SlipEstimates:
+    """Per-period estimates over all logs (only the periods used)."""
+
+    mu: np.ndarray  # (n, 2): (mu_r, mu_l)
+    sigma: np.ndarray  # (n, 2): standard uncertainty of each estimate
+    turn_rate: np.ndarray  # (n,): commanded omega / V over the period (rad/m), for the report
+    where: list[tuple[str, int]]  # (file, row of t_k) of each estimate
+    skipped: dict[str, int] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Identification:
+    logs: int
+    instants: int
+    sampling_time: float
+    delays: np.ndarray
+    delay_range: tuple[float, float]
+    lost: int
+    longest_burst: int
+    slip: SlipEstimates
+    coverage: float
+    box: dict[str, tuple[float, float]]  # "right" / "left" -> (min, max)
+    widening: dict[str, float]
+
+
+def _segments(log: RobotLog) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per period k (t_k -> t_{k+1}): the indices of the acting commands (-1: padding) and how long
+    each acts (n-1, S), and whether the period's commands are all known (n-1,)."""
+    rec = np.flatnonzero(np.isfinite(log.applied))
+    app = log.applied[rec]
+    t0, t1 = log.t[:-1], log.t[1:]
+    lo = np.searchsorted(app, t0, side="right")  # first switch after t_k
+    hi = np.searchsorted(app, t1, side="left")  # switches strictly inside (t_k, t_{k+1})
+    known = lo >= 1
+    S = int(np.max(hi - lo, initial=0)) + 1
+    P = t0.size
+    idx = np.full((P, S), -1)
+    dur = np.zeros((P, S))
+    for j in range(S):
+        i = lo - 1 + j  # the command acting in segment j
+        valid = known & (i < hi)
+        start = np.where(j == 0, t0, app[np.clip(i, 0, app.size - 1)])
+        nxt = np.where(i + 1 < hi, app[np.clip(i + 1, 0, app.size - 1)], t1)
+        idx[:, j] = np.where(valid, rec[np.clip(i, 0, rec.size - 1)], -1)
+        dur[:, j] = np.where(valid, nxt - start, 0.0)
+    return idx, dur, known, hi - lo
+
+
+def _end_pose(q0: np.ndarray, rho: np.ndarray, dur: np.ndarray, mu: np.ndarray, R: float, D: float) -> np.ndarray:
+    """Poses after the segments: rho (P, S, 2) motor speeds, dur (P, S), mu (P, 2)."""
+    q = q0
+    for j in range(dur.shape[1]):
+        wr, wl = mu[:, 0] * rho[:, j, 0], mu[:, 1] * rho[:, j, 1]
+        q = arc_step(q, R / 2.0 * (wr + wl), R / D * (wr - wl), dur[:, j])
+    return q
+
+
+def _residual(q0, q1, rho, dur, mu, R, D) -> np.ndarray:
+    qe = _end_pose(q0, rho, dur, mu, R, D)
+    c, s = np.cos(q0[:, 2]), np.sin(q0[:, 2])
+    dx, dy = qe[:, 0] - q1[:, 0], qe[:, 1] - q1[:, 1]
+    return np.stack([c * dx + s * dy, -s * dx + c * dy, wrap_angle(qe[:, 2] - q1[:, 2])], axis=1)
+
+
+def estimate_slip(logs: Sequence[RobotLog], gear_radius: float, track_distance: float,
+                  max_motor_speed: float | None = None) -> SlipEstimates:
+    """One (mu_r, mu_l) per usable period of every log (the tracks model)."""
+    R, D = float(gear_radius), float(track_distance)
+    mus, sigmas, turns, where = [], [], [], []
+    skipped = {"unknown command": 0, "too little motion": 0, "motor limit": 0}
+    res_sq, dof = 0.0, 0
+    per_log = []
+    for log in logs:
+        idx, dur, known, _ = _segments(log)
+        rho_all = np.stack([log.rho_r, log.rho_l], axis=1)
+        rho = np.where(idx[..., None] >= 0, rho_all[np.clip(idx, 0, None)], 0.0)
+        travel = np.sum(dur * np.abs(R / 2.0 * (rho[..., 0] + rho[..., 1])), axis=1)
+        turn = np.sum(dur * np.abs(R / D * (rho[..., 0] - rho[..., 1])), axis=1)
+        ok = known.copy()
+        skipped["unknown command"] += int(np.sum(~known))
+        little = ok & (travel < MIN_TRAVEL_M) & (turn * D < MIN_TRAVEL_M)
+        skipped["too little motion"] += int(np.sum(little))
+        ok &= ~little
+        if max_motor_speed is not None:
+            sat = ok & np.any((np.abs(rho) > max_motor_speed) & (idx[..., None] >= 0), axis=(1, 2))
+            skipped["motor limit"] += int(np.sum(sat))
+            ok &= ~sat
+        q = np.stack([log.x, log.y, log.theta], axis=1)
+        q0, q1, rho, dur = q[:-1][ok], q[1:][ok], rho[ok], dur[ok]
+        mu = np.ones((q0.shape[0], 2))
+        Jm = np.zeros((q0.shape[0], 3, 2))
+        for _ in range(GN_STEPS):
+            r = _residual(q0, q1, rho, dur, mu, R, D)
+            for i in range(2):
+                h = 1e-6
+                step = mu.copy()
+                step[:, i] += h
+                Jm[:, :, i] = (_residual(q0, q1, rho, dur, step, R, D) - r) / h
+            JtJ = np.einsum("pki,pkj->pij", Jm, Jm)
+            Jtr = np.einsum("pki,pk->pi", Jm, r)
+            mu = mu - np.linalg.solve(JtJ + 1e-18 * np.eye(2), Jtr[..., None])[..., 0]
+        r = _residual(q0, q1, rho, dur, mu, R, D)
+        res_sq += float(np.sum(r**2))  # one variance for the three equations: a rough, not a rigorous, uncertainty
+        dof += r.shape[0]  # three equations, two unknowns per period
+        rows = np.flatnonzero(ok) + 2
+        per_log.append((mu, np.linalg.inv(JtJ + 1e-18 * np.eye(2)), (turn / np.maximum(travel, 1e-12))[ok],
+                        [(log.path, int(rw)) for rw in rows]))
+    var = res_sq / dof if dof else 0.0  # residual variance per equation (positions dominate)
+    for mu, cov, tr, wh in per_log:
+        mus.append(mu)
+        sigmas.append(np.sqrt(np.maximum(var * np.diagonal(cov, axis1=1, axis2=2), 0.0)))
+        turns.append(tr)
+        where += wh
+    cat = (lambda xs, shape: np.concatenate(xs) if xs else np.zeros(shape))  # noqa: E731
+    return SlipEstimates(cat(mus, (0, 2)), cat(sigmas, (0, 2)), cat(turns, (0,)), where, skipped)
+
+
+def _longest_burst(lost: np.ndarray) -> int:
+    best = run = 0
+    for x in lost:
+        run = run + 1 if x else 0
+        best = max(best, run)
+    return best
+
+
+def identify(logs: Sequence[RobotLog], gear_radius: float, track_distance: float, coverage: float = 0.995,
+             model: str = "tracks", max_motor_speed: float | None = None) -> Identification:
+    """The delay range, the longest loss burst and the slip box that cover the logs."""
+    if model not in MODELS:
+        raise InputError(f"--model: {model!r} is not available (one of {', '.join(MODELS)}; the ICR slip model "
+                         "is not built yet)")
+    if not 0.5 <= coverage <= 1.0:
+        raise InputError(f"--coverage: must be in [0.5, 1] (got {coverage:g})")
+    if not logs:
+        raise InputError("identify: no log given")
+    delays = np.concatenate([lg.delays[np.isfinite(lg.delays)] for lg in logs])
+    if delays.size == 0:
+        raise InputError(f"{logs[0].path}: column 'applied': no command was ever applied")
+    est = estimate_slip(logs, gear_radius, track_distance, max_motor_speed)
+    if est.mu.shape[0] < 10:
+        raise InputError(f"{logs[0].path}: only {est.mu.shape[0]} periods could be used to estimate slip "
+                         f"(skipped: {est.skipped}); a log needs the robot moving under known commands")
+    q = (1.0 - coverage) / 2.0
+    box, widen = {}, {}
+    for i, side in enumerate(("right", "left")):
+        sg = est.sigma[:, i]
+        good = sg <= POOR_SIGMA * float(np.median(sg)) + FIT_TOL  # poorly excited periods say little
+        w = WIDEN_SIGMA * float(np.median(sg)) + FIT_TOL
+        lo = float(np.quantile(est.mu[good, i], q)) - w
+        hi = float(np.quantile(est.mu[good, i], 1.0 - q)) + w
+        box[side] = (max(lo, 1e-3), hi)
+        widen[side] = w
+    lost = [~np.isfinite(lg.applied) for lg in logs]
+    steps = np.concatenate([np.diff(lg.t) for lg in logs])
+    return Identification(
+        logs=len(logs), instants=int(sum(len(lg) for lg in logs)), sampling_time=float(np.median(steps)),
+        delays=delays, delay_range=(float(np.min(delays)), float(np.max(delays))),
+        lost=int(sum(int(np.sum(x)) for x in lost)), longest_burst=max(_longest_burst(x) for x in lost),
+        slip=est, coverage=coverage, box=box, widening=widen)
+
+
+def _g(x: float) -> str:
+    return f"{x:.4g}"
+
+
+def fragment_yaml(ident: Identification) -> str:
+    """A config fragment (network and slip sections) with the data behind each number as comments."""
+    s = ident.slip
+    d = ident.delays
+    n = s.mu.shape[0]
+    lines = [
+        f"# identified by robustsynth identify from {ident.logs} log(s): {ident.instants} sampling instants,",
+        f"# {n} periods used for slip ({', '.join(f'{k}: {v}' for k, v in s.skipped.items() if v) or 'none skipped'})",
+        "network:",
+        f"  sampling_time: {_g(ident.sampling_time)}  # median time step of the logs",
+        "  delay:",
+        f"    min: {_g(ident.delay_range[0])}  # smallest of {d.size} measured delays (applied - sent); "
+        f"1st percentile {_g(float(np.quantile(d, 0.01)))}",
+        f"    max: {_g(ident.delay_range[1])}  # largest; 99th percentile {_g(float(np.quantile(d, 0.99)))}",
+        "  dropouts:",
+        f"    max_consecutive: {ident.longest_burst}  # longest run of lost commands; {ident.lost} of "
+        f"{ident.instants} lost ({100 * ident.lost / max(ident.instants, 1):.2f} %)",
+        "slip:",
+    ]
+    for i, side in enumerate(("right", "left")):
+        lo, hi = ident.box[side]
+        lines.append(f"  {side}:  # mu_{side[0]}: covers {100 * ident.coverage:g} % of {n} estimates "
+                     f"(range {_g(float(np.min(s.mu[:, i])))} .. {_g(float(np.max(s.mu[:, i])))}), widened by "
+                     f"{WIDEN_SIGMA:g} sigma = {_g(ident.widening[side])}")
+        lines.append(f"    min: {_g(lo)}")
+        lines.append(f"    max: {_g(hi)}")
+    return "\n".join(lines) + "\n"
+
+
+def check_log(logs: Sequence[RobotLog], cfg: Any, max_motor_speed: float | None = None) -> list[dict[str, Any]]:
+    """Per assumption of ``cfg`` (delay range, loss cap, each slip range): how many samples lie
+    outside, the worst value and where.  A slip estimate counts as outside when it lies beyond the
+    range by more than CHECK_SIGMA of its own uncertainty; poorly determined estimates (POOR_SIGMA)
+    are not counted."""
+    out = []
+    dl = cfg.network.delay
+    d = [(lg.delays, lg.path) for lg in logs]
+    vals = np.concatenate([x[np.isfinite(x)] for x, _ in d]) if d else np.zeros(0)
+    worst, where = None, ""
+    for x, path in d:
+        for k in np.flatnonzero(np.isfinite(x) & ((x < dl.min) | (x > dl.max))):
+            excess = max(dl.min - x[k], x[k] - dl.max)
+            if worst is None or excess > worst[0]:
+                worst, where = (excess, float(x[k])), f"{path}, row {k + 2}"
+    n_out = int(np.sum((vals < dl.min) | (vals > dl.max)))
+    out.append({"assumption": "network.delay", "range": [dl.min, dl.max], "samples": int(vals.size), "outside": n_out,
+                "fraction_outside": n_out / max(vals.size, 1), "worst": worst[1] if worst else None, "where": where,
+                "unit": "s"})
+    cap = cfg.network.dropouts.max_consecutive
+    bursts = [(_longest_burst(~np.isfinite(lg.applied)), lg.path) for lg in logs]
+    b, bp = max(bursts) if bursts else (0, "")
+    out.append({"assumption": "network.dropouts.max_consecutive", "range": [0, cap], "samples": len(logs),
+                "outside": sum(1 for x, _ in bursts if x > cap), "fraction_outside": sum(1 for x, _ in bursts if x > cap)
+                / max(len(logs), 1), "worst": b, "where": bp if b > cap else "", "unit": "commands in a row"})
+    est = estimate_slip(logs, cfg.robot.gear_radius, cfg.robot.track_distance, max_motor_speed)
+    for i, side in enumerate(("right", "left")):
+        rng = getattr(cfg.slip, side)
+        good = est.sigma[:, i] <= POOR_SIGMA * float(np.median(est.sigma[:, i])) + FIT_TOL if est.mu.size else []
+        m, sg = est.mu[good, i], est.sigma[good, i]
+        where_i = [w for w, g in zip(est.where, good) if g]
+        beyond = np.maximum(rng.min - m, m - rng.max) - CHECK_SIGMA * sg - FIT_TOL
+        bad = np.flatnonzero(beyond > 0)
+        k = int(np.argmax(np.maximum(rng.min - m, m - rng.max))) if m.size else -1
+        out.append({"assumption": f"slip.{side}", "range": [rng.min, rng.max], "samples": int(m.size), "outside": int(bad.size),
+                    "fraction_outside": bad.size / max(m.size, 1), "worst": float(m[k]) if k >= 0 else None,
+                    "where": f"{where_i[k][0]}, row {where_i[k][1]}" if k >= 0 and bad.size else "", "unit": "—"})
+    return out
+
+
+
+def report_markdown(ident: Identification, fragment: str, figure: str | None) -> str:
+    """The identification report: the fragment, the data behind each number, the skipped periods."""
+    s, d = ident.slip, ident.delays
+    qs = (0.0, 0.005, 0.5, 0.995, 1.0)
+    rows = [f"| delay [s] | {d.size} | " + " | ".join(_g(float(np.quantile(d, q))) for q in qs) + " |"]
+    for i, side in enumerate(("right", "left")):
+        rows.append(f"| mu_{side[0]} | {s.mu.shape[0]} | " + " | ".join(_g(float(np.quantile(s.mu[:, i], q))) for q in qs)
+                    + " |")
+    out = [
+        "# Identification\n\n",
+        f"{ident.logs} log(s), {ident.instants} sampling instants, sampling time {_g(ident.sampling_time)} s.\n\n",
+        "## Config fragment\n\n```yaml\n" + fragment + "```\n\n",
+        "## The data\n\n| quantity | samples | min | 0.5 % | median | 99.5 % | max |\n|---|---|---|---|---|---|---|\n",
+        "\n".join(rows) + "\n\n",
+        f"Commands lost: {ident.lost} ({100 * ident.lost / max(ident.instants, 1):.2f} %), longest run "
+        f"{ident.longest_burst}.\n\n",
+        f"Slip: one estimate of (mu_r, mu_l) per sampling period, fitted to the measured poses through exact arcs "
+        f"under the commands that acted in the period. Median standard uncertainty of an estimate: "
+        f"mu_r {_g(float(np.median(s.sigma[:, 0])))}, mu_l {_g(float(np.median(s.sigma[:, 1])))} (from the fit's residual,"
+        f" i.e. the pose noise). The box covers {100 * ident.coverage:g} % of the estimates and is widened by "
+        f"{WIDEN_SIGMA:g} of those uncertainties. Periods skipped: "
+        + (", ".join(f"{k} {v}" for k, v in s.skipped.items() if v) or "none") + ".\n",
+    ]
+    if figure:
+        out.append(f"\n![delay and slip estimates against the box]({figure})\n")
+    return "".join(out)

@@ -1,0 +1,89 @@
+"""The robot log format: a written log reads back to the same numbers, and every malformed log is
+refused with one line naming the file, the row and the column (exit 2 from the CLI)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from robustsynth.artifacts.logs import LOG_COLUMNS, RobotLog, read_log, write_log
+from robustsynth.errors import InputError
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _log(n: int = 6) -> RobotLog:
+    t = np.arange(n) * 0.1
+    applied = t + 0.03
+    applied[2] = np.nan  # lost
+    return RobotLog("x.csv", t, np.linspace(0, 0.25, n), np.zeros(n), np.zeros(n), np.arange(n, dtype=float),
+                    np.full(n, 5.5), np.full(n, 5.6), t.copy(), applied)
+
+
+def _text(rows: list[list[str]], header=LOG_COLUMNS) -> str:
+    return ",".join(header) + "\n" + "\n".join(",".join(r) for r in rows) + "\n"
+
+
+def _good_rows(n: int = 4) -> list[list[str]]:
+    return [[f"{0.1 * k:.1f}", "0", "0", "0", str(k), "5", "5", f"{0.1 * k:.1f}", f"{0.1 * k + 0.02:.2f}"] for k in range(n)]
+
+
+def test_round_trip(tmp_path) -> None:
+    log = _log()
+    write_log(tmp_path / "a.csv", log)
+    back = read_log(tmp_path / "a.csv")
+    for name in ("t", "x", "y", "theta", "seq", "rho_r", "rho_l", "sent"):
+        assert np.array_equal(getattr(back, name), getattr(log, name)), name
+    assert np.isnan(back.applied[2]) and np.array_equal(back.applied[~np.isnan(back.applied)], log.applied[~np.isnan(log.applied)])
+
+
+def test_the_sample_log_in_the_repo_reads() -> None:
+    log = read_log(ROOT / "docs" / "sample-log.csv")
+    assert len(log) >= 100 and np.any(np.isnan(log.applied))
+
+
+def _bad(tmp_path, text: str) -> str:
+    p = tmp_path / "bad.csv"
+    p.write_text(text)
+    with pytest.raises(InputError) as e:
+        read_log(p)
+    msg = str(e.value)
+    assert msg.startswith(str(p)) and "\n" not in msg
+    return msg
+
+
+def test_malformed_logs_name_file_row_and_column(tmp_path) -> None:
+    rows = _good_rows()
+    assert "column 'theta' is missing" in _bad(tmp_path, _text([r[:3] + r[4:] for r in rows], LOG_COLUMNS[:3] + LOG_COLUMNS[4:]))
+    back = [r.copy() for r in rows]
+    back[2][0] = "0.05"
+    assert "row 4, column 't'" in _bad(tmp_path, _text(back)) and "does not increase" in _bad(tmp_path, _text(back))
+    nan = [r.copy() for r in rows]
+    nan[1][1] = "nan"
+    assert "row 3, column 'x': NaN" in _bad(tmp_path, _text(nan))
+    ms = [[f"{100 * k}", "0", "0", "0", str(k), "5", "5", f"{100 * k}", f"{100 * k + 20}"] for k in range(4)]
+    assert "milliseconds" in _bad(tmp_path, _text(ms))
+    assert "empty" in _bad(tmp_path, "")
+    early = [r.copy() for r in rows]
+    early[1][8] = "0.05"
+    assert "row 3, column 'applied'" in _bad(tmp_path, _text(early))
+    gap = [r.copy() for r in rows]
+    gap[3][4] = "7"
+    assert "row 5, column 'seq'" in _bad(tmp_path, _text(gap))
+    word = [r.copy() for r in rows]
+    word[0][5] = "fast"
+    assert "row 2, column 'rho_r': 'fast' is not a number" in _bad(tmp_path, _text(word))
+
+
+def test_cli_exit_2_one_line_no_traceback(tmp_path) -> None:
+    p = tmp_path / "bad.csv"
+    p.write_text(_text([r[:3] + r[4:] for r in _good_rows()], LOG_COLUMNS[:3] + LOG_COLUMNS[4:]))
+    for cmd in (["identify", str(p)], ["check-log", str(p), "--config", str(ROOT / "configs" / "default.yaml")]):
+        r = subprocess.run([sys.executable, "-m", "robustsynth", *cmd], capture_output=True, text=True)
+        assert r.returncode == 2, r.stderr
+        lines = r.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith(f"error: {p}: row 1: column 'theta' is missing"), r.stderr
