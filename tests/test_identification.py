@@ -104,3 +104,17 @@ def test_cli_identify_and_check_log(logs, tmp_path) -> None:
     assert r.returncode == 1 and "VIOLATED network.delay" in r.stdout
     r = run("identify", *paths, "--model", "icr")
     assert r.returncode == 2 and "not available yet" in r.stderr
+
+
+def test_a_command_overtaken_by_a_newer_one_never_acts() -> None:
+    """In-order delivery: seq 1 arrives (0.15 s) after seq 2 was applied (0.13 s), so only seq 0 and
+    seq 2 act in the period [0.1, 0.2): 0.1-0.13 under seq 0, 0.13-0.2 under seq 2."""
+    from robustsynth.artifacts.logs import RobotLog
+    from robustsynth.identification import _segments
+
+    t = np.array([0.0, 0.1, 0.2, 0.3])
+    log = RobotLog("o.csv", t, np.zeros(4), np.zeros(4), np.zeros(4), np.arange(4.0), np.ones(4), np.ones(4), t.copy(),
+                   np.array([0.02, 0.15, 0.13, 0.33]))
+    idx, dur, known, _ = _segments(log)
+    used = [(int(i), round(float(d), 12)) for i, d in zip(idx[1], dur[1]) if i >= 0]
+    assert used == [(0, 0.03), (2, 0.07)]

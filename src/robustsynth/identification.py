@@ -72,6 +72,10 @@ def _segments(log: RobotLog) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nda
     """Per period k (t_k -> t_{k+1}): the indices of the acting commands (-1: padding) and how long
     each acts (n-1, S), and whether the period's commands are all known (n-1,)."""
     rec = np.flatnonzero(np.isfinite(log.applied))
+    # in-order delivery: a command applied after a newer one (higher seq) was applied never acts
+    if rec.size:
+        later_min = np.minimum.accumulate(log.applied[rec][::-1])[::-1]  # earliest application from i on
+        rec = rec[log.applied[rec] <= later_min]
     app = log.applied[rec]
     t0, t1 = log.t[:-1], log.t[1:]
     lo = np.searchsorted(app, t0, side="right")  # first switch after t_k
@@ -238,7 +242,7 @@ def fragment_yaml(ident: Identification) -> str:
 
 
 def check_log(logs: Sequence[RobotLog], cfg: Any, max_motor_speed: float | None = None) -> list[dict[str, Any]]:
-    """Per assumption of ``cfg`` (delay range, loss cap, each slip range): how many samples lie
+    """Per assumption of ``cfg`` (delay range, in-order delivery, loss cap, each slip range): how many samples lie
     outside, the worst value and where.  A slip estimate counts as outside when it lies beyond the
     range by more than CHECK_SIGMA of its own uncertainty; poorly determined estimates (POOR_SIGMA)
     are not counted."""
@@ -256,6 +260,18 @@ def check_log(logs: Sequence[RobotLog], cfg: Any, max_motor_speed: float | None 
     out.append({"assumption": "network.delay", "range": [dl.min, dl.max], "samples": int(vals.size), "outside": n_out,
                 "fraction_outside": n_out / max(vals.size, 1), "worst": worst[1] if worst else None, "where": where,
                 "unit": "s"})
+    overtaken, first = 0, ""
+    for lg in logs:
+        rec = np.flatnonzero(np.isfinite(lg.applied))
+        if rec.size:
+            later_min = np.minimum.accumulate(lg.applied[rec][::-1])[::-1]
+            bad = rec[lg.applied[rec] > later_min]
+            overtaken += int(bad.size)
+            if bad.size and not first:
+                first = f"{lg.path}, row {int(bad[0]) + 2}"
+    out.append({"assumption": "in-order delivery", "range": [0, 0], "samples": int(vals.size), "outside": overtaken,
+                "fraction_outside": overtaken / max(vals.size, 1), "worst": None, "where": first,
+                "unit": "commands applied after a newer one"})
     cap = cfg.network.dropouts.max_consecutive
     bursts = [(_longest_burst(~np.isfinite(lg.applied)), lg.path) for lg in logs]
     b, bp = max(bursts) if bursts else (0, "")
