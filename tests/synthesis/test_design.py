@@ -281,3 +281,15 @@ def test_the_search_from_the_common_alpha_matches_the_full_scan(monkeypatch) -> 
     assert abs(e_h - e_f) <= ALPHA_SEARCH_REL * e_f
     assert hinted.solver["solves"] < full.solver["solves"]
     assert hinted.check.passed and full.check.passed
+
+
+@pytest.mark.parametrize("kw,expected", [({"objective": "stabilty"}, "objective: Input should be"),
+                                         ({"objectiv": "stability"}, "objectiv: unknown key"),
+                                         ({"alpha_points": 1}, "alpha_points: Input should be greater")])
+def test_python_api_rejects_what_the_cli_rejects(default_model, kw, expected) -> None:
+    """Issue 27: a misspelt objective ran ultimate-bound and recorded the typo; a misspelt key was ignored."""
+    from robustsynth.errors import InputError
+
+    with pytest.raises(InputError, match=expected) as e:
+        synthesize(default_model, **kw)
+    assert e.value.exit_code == 2 and str(e.value).startswith("synthesize(): ")

@@ -315,7 +315,17 @@ def synthesize(model: Any, settings: SynthesisConfig | None = None, *, on_step: 
     say = on_step if on_step is not None else (lambda _m: None)
     s = settings if settings is not None else model.config.synthesis
     if overrides:
-        s = s.model_copy(update={k: v for k, v in overrides.items() if v is not None})
+        # validated as strictly as the config file and the CLI: an unknown key or value is an error
+        from pydantic import ValidationError
+
+        from ..config import _format_validation_error
+
+        data = s.model_dump()
+        data.update({k: v for k, v in overrides.items() if v is not None})
+        try:
+            s = SynthesisConfig.model_validate(data)
+        except ValidationError as exc:
+            raise InputError(f"synthesize(): {_format_validation_error(exc)}") from None
     t0 = time.perf_counter()
     search: list[dict[str, Any]] = []
     notes: list[str] = []
