@@ -115,6 +115,6 @@ def test_a_command_overtaken_by_a_newer_one_never_acts() -> None:
     t = np.array([0.0, 0.1, 0.2, 0.3])
     log = RobotLog("o.csv", t, np.zeros(4), np.zeros(4), np.zeros(4), np.arange(4.0), np.ones(4), np.ones(4), t.copy(),
                    np.array([0.02, 0.15, 0.13, 0.33]))
-    idx, dur, known, _ = _segments(log)
+    idx, dur, known = _segments(log)
     used = [(int(i), round(float(d), 12)) for i, d in zip(idx[1], dur[1]) if i >= 0]
     assert used == [(0, 0.03), (2, 0.07)]

@@ -3,10 +3,10 @@
 The LMIs are rebuilt at every vertex of the model from the certificate's values (``Q`` or
 ``G, S_m``, the multipliers ``M_i``, ``beta``, ``alpha`` / ``r2`` / ``gamma2``) and the gain ``K``
 *as written* (``Y = K Q`` or ``Y = K G``), never from the solver's internal variables; each must
-have its smallest eigenvalue at least ``threshold``.
+be proven ``>= threshold I`` in verified arithmetic (:mod:`robustsynth.verified`).
 The certified figures (decay rate, ellipsoid bounds in m and rad, motor-speed bound in rad/s,
 l2 gain) are computed here from the same values, so every number written as certified has
-passed this check.
+passed this check; they are rounded outwards.
 """
 
 from __future__ import annotations

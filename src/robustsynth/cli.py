@@ -472,10 +472,6 @@ def identify_cmd(obj: _Ctx, logs: tuple[Path, ...], out: Path | None, config: Pa
     """
     from .pipeline import identification_stage
 
-    if model == "icr":
-        from .errors import InputError
-
-        raise InputError("--model: 'icr' is not available yet (the ICR slip description is not built); use tracks")
     ident, text, written = identification_stage(list(logs), _load(config), out, coverage, model, max_motor_speed,
                                                 not no_plots)
     if out is None:
@@ -511,13 +507,11 @@ def check_log_cmd(obj: _Ctx, logs: tuple[Path, ...], config: Path | None, gains:
     if (config is None) == (gains is None):
         raise InputError("check-log: give exactly one of --config and --gains")
     if gains is not None:
-        from .artifacts.gains import load_gains
-        from .config import Config
+        from .artifacts.gains import load_gains, stored_config
 
-        stored = load_gains(gains).get("config")
-        if not isinstance(stored, dict):
+        cfg = stored_config(load_gains(gains))
+        if cfg is None:
             raise InputError(f"{gains}: config: the gains file holds no config (use --config)")
-        cfg = Config.model_validate(stored)
     else:
         cfg = _load(config)
     rows = check_log([read_log(p) for p in logs], cfg, max_motor_speed)

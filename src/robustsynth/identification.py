@@ -28,6 +28,7 @@ import numpy as np
 
 from .artifacts.logs import RobotLog
 from .errors import InputError
+from .model.network import longest_burst
 from .plants.kinematic import arc_step, wrap_angle
 
 __all__ = ["SlipEstimates", "Identification", "estimate_slip", "identify", "fragment_yaml", "report_markdown", "check_log",
@@ -68,14 +69,21 @@ class Identification:
     widening: dict[str, float]
 
 
-def _segments(log: RobotLog) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _received(log: RobotLog) -> tuple[np.ndarray, np.ndarray]:
+    """(rows of the commands that act, rows of those overtaken): with in-order delivery a command
+    applied after a newer one (higher seq) was applied never acts."""
+    rec = np.flatnonzero(np.isfinite(log.applied))
+    if not rec.size:
+        return rec, rec
+    later_min = np.minimum.accumulate(log.applied[rec][::-1])[::-1]  # earliest application from i on
+    acts = log.applied[rec] <= later_min
+    return rec[acts], rec[~acts]
+
+
+def _segments(log: RobotLog) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per period k (t_k -> t_{k+1}): the indices of the acting commands (-1: padding) and how long
     each acts (n-1, S), and whether the period's commands are all known (n-1,)."""
-    rec = np.flatnonzero(np.isfinite(log.applied))
-    # in-order delivery: a command applied after a newer one (higher seq) was applied never acts
-    if rec.size:
-        later_min = np.minimum.accumulate(log.applied[rec][::-1])[::-1]  # earliest application from i on
-        rec = rec[log.applied[rec] <= later_min]
+    rec, _ = _received(log)
     app = log.applied[rec]
     t0, t1 = log.t[:-1], log.t[1:]
     lo = np.searchsorted(app, t0, side="right")  # first switch after t_k
@@ -92,7 +100,7 @@ def _segments(log: RobotLog) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nda
         nxt = np.where(i + 1 < hi, app[np.clip(i + 1, 0, app.size - 1)], t1)
         idx[:, j] = np.where(valid, rec[np.clip(i, 0, rec.size - 1)], -1)
         dur[:, j] = np.where(valid, nxt - start, 0.0)
-    return idx, dur, known, hi - lo
+    return idx, dur, known
 
 
 def _end_pose(q0: np.ndarray, rho: np.ndarray, dur: np.ndarray, mu: np.ndarray, R: float, D: float) -> np.ndarray:
@@ -120,7 +128,7 @@ def estimate_slip(logs: Sequence[RobotLog], gear_radius: float, track_distance: 
     res_sq, dof = 0.0, 0
     per_log = []
     for log in logs:
-        idx, dur, known, _ = _segments(log)
+        idx, dur, known = _segments(log)
         rho_all = np.stack([log.rho_r, log.rho_l], axis=1)
         rho = np.where(idx[..., None] >= 0, rho_all[np.clip(idx, 0, None)], 0.0)
         travel = np.sum(dur * np.abs(R / 2.0 * (rho[..., 0] + rho[..., 1])), axis=1)
@@ -164,20 +172,16 @@ def estimate_slip(logs: Sequence[RobotLog], gear_radius: float, track_distance: 
     return SlipEstimates(cat(mus, (0, 2)), cat(sigmas, (0, 2)), cat(turns, (0,)), where, skipped)
 
 
-def _longest_burst(lost: np.ndarray) -> int:
-    best = run = 0
-    for x in lost:
-        run = run + 1 if x else 0
-        best = max(best, run)
-    return best
+def _longest_burst(log: RobotLog) -> int:
+    return int(longest_burst(~np.isfinite(log.applied))[0])
 
 
 def identify(logs: Sequence[RobotLog], gear_radius: float, track_distance: float, coverage: float = 0.995,
              model: str = "tracks", max_motor_speed: float | None = None) -> Identification:
     """The delay range, the longest loss burst and the slip box that cover the logs."""
     if model not in MODELS:
-        raise InputError(f"--model: {model!r} is not available (one of {', '.join(MODELS)}; the ICR slip model "
-                         "is not built yet)")
+        raise InputError(f"--model: {model!r} is not available yet (one of {', '.join(MODELS)}; the ICR slip "
+                         "description is not built)")
     if not 0.5 <= coverage <= 1.0:
         raise InputError(f"--coverage: must be in [0.5, 1] (got {coverage:g})")
     if not logs:
@@ -199,12 +203,11 @@ def identify(logs: Sequence[RobotLog], gear_radius: float, track_distance: float
         hi = float(np.quantile(est.mu[good, i], 1.0 - q)) + w
         box[side] = (max(lo, 1e-3), hi)
         widen[side] = w
-    lost = [~np.isfinite(lg.applied) for lg in logs]
     steps = np.concatenate([np.diff(lg.t) for lg in logs])
     return Identification(
         logs=len(logs), instants=int(sum(len(lg) for lg in logs)), sampling_time=float(np.median(steps)),
         delays=delays, delay_range=(float(np.min(delays)), float(np.max(delays))),
-        lost=int(sum(int(np.sum(x)) for x in lost)), longest_burst=max(_longest_burst(x) for x in lost),
+        lost=int(sum(int(np.sum(~np.isfinite(lg.applied))) for lg in logs)), longest_burst=max(map(_longest_burst, logs)),
         slip=est, coverage=coverage, box=box, widening=widen)
 
 
@@ -262,18 +265,15 @@ def check_log(logs: Sequence[RobotLog], cfg: Any, max_motor_speed: float | None 
                 "unit": "s"})
     overtaken, first = 0, ""
     for lg in logs:
-        rec = np.flatnonzero(np.isfinite(lg.applied))
-        if rec.size:
-            later_min = np.minimum.accumulate(lg.applied[rec][::-1])[::-1]
-            bad = rec[lg.applied[rec] > later_min]
-            overtaken += int(bad.size)
-            if bad.size and not first:
-                first = f"{lg.path}, row {int(bad[0]) + 2}"
+        _, bad = _received(lg)
+        overtaken += int(bad.size)
+        if bad.size and not first:
+            first = f"{lg.path}, row {int(bad[0]) + 2}"
     out.append({"assumption": "in-order delivery", "range": [0, 0], "samples": int(vals.size), "outside": overtaken,
                 "fraction_outside": overtaken / max(vals.size, 1), "worst": None, "where": first,
                 "unit": "commands applied after a newer one"})
     cap = cfg.network.dropouts.max_consecutive
-    bursts = [(_longest_burst(~np.isfinite(lg.applied)), lg.path) for lg in logs]
+    bursts = [(_longest_burst(lg), lg.path) for lg in logs]
     b, bp = max(bursts) if bursts else (0, "")
     out.append({"assumption": "network.dropouts.max_consecutive", "range": [0, cap], "samples": len(logs),
                 "outside": sum(1 for x, _ in bursts if x > cap), "fraction_outside": sum(1 for x, _ in bursts if x > cap)

@@ -127,10 +127,9 @@ def synthesis_stage(model: Model, outdir: str | Path, compare: bool = True,
     Files that depend on the gain (verification, report) are removed first.  When no certified
     gain is found, the old gain files are removed too, so nothing stale looks current."""
     from .errors import Interrupted, OutputError, RobustSynthError
-    from .artifacts.files import commit_files, json_bytes, mat_bytes
+    from .artifacts.files import commit_files, json_bytes, make_dir, mat_bytes
     from .artifacts.gains import gains_dict, gains_mat_vars
     from .report.synthesis import synthesis_markdown
-    from .artifacts.files import make_dir
     from .synthesis import synthesize
     from .synthesis.diagnose import diagnose as run_diagnosis
     from .synthesis.diagnose import is_large
@@ -188,13 +187,10 @@ def verification_stage(
 ) -> VerificationStage:
     """Verify a gains file (default ``outdir/gains.json``); write figures, verification.md and
     verification.json (last).  The run's report and summary are removed first."""
-    from .artifacts.files import commit_files, json_bytes
-    from .artifacts.gains import gains_id
+    from .artifacts.files import commit_files, json_bytes, make_dir
+    from .artifacts.gains import gains_id, load_gains
     from .report.verification import verification_dict, verification_markdown
-    from .artifacts.gains import load_gains
     from .verification import verify
-
-    from .artifacts.files import make_dir
 
     outdir = make_dir(outdir)
     gp = Path(gains_path) if gains_path is not None else outdir / "gains.json"
@@ -249,7 +245,7 @@ def identification_stage(log_paths: list[Path], cfg: Any, out: Path | None, cove
     text = fragment_yaml(ident)
     written: list[Path] = []
     if out is not None:
-        make_dir(out.parent if str(out.parent) else Path("."))
+        make_dir(out.parent)
         fig = None
         if plots:
             from .report.plots import identification_figure
@@ -351,8 +347,7 @@ def margin_stage(config: Config, outdir: str | Path, gains_path: str | Path | No
     """Delay and slip margins of a gains file (default ``outdir/gains.json``); write margin.json."""
     from .margins import margin
     from .artifacts.files import commit_files, json_bytes, make_dir
-    from .artifacts.gains import gains_id
-    from .artifacts.gains import load_gains
+    from .artifacts.gains import gains_id, load_gains
 
     outdir = make_dir(outdir)
     gp = Path(gains_path) if gains_path is not None else outdir / "gains.json"

@@ -24,7 +24,7 @@ from .. import __version__
 from ..errors import InputError
 from .files import SCHEMA_VERSION
 
-__all__ = ["gains_dict", "gains_id", "gains_mat_vars", "load_gains", "as_gains", "controller_description",
+__all__ = ["gains_dict", "gains_id", "gains_mat_vars", "load_gains", "as_gains", "stored_config", "controller_description",
            "LAW", "CERTIFIED_KEYS", "DESCRIPTION_FORMAT", "MAX_GAINS_BYTES", "SCHEMA_VERSION"]
 
 LAW = "du_k = K xi_k"
@@ -254,6 +254,20 @@ def as_gains(model, gains: Any) -> dict[str, Any]:
     return {"K": K.tolist()}
 
 
+def stored_config(gains: dict[str, Any]) -> Any:
+    """The config stored in a gains mapping (the one the gain was designed and verified with), as a
+    validated :class:`~robustsynth.config.Config`; None when there is none; InputError if invalid."""
+    from pydantic import ValidationError
+
+    from ..config import Config, _format_validation_error
+
+    stored = gains.get("config")
+    try:
+        return Config.model_validate(stored) if isinstance(stored, dict) else None
+    except ValidationError as exc:
+        raise InputError(f"config (in the gains file): {_format_validation_error(exc)}") from None
+
+
 def controller_description(gains: dict[str, Any], config: Any | None = None) -> dict[str, Any]:
     """Everything a controller needs, as plain data (what ``export --to json`` writes): the gain,
     sampling time, lifting, integrators, path, reference speed and the motor mapping and limit.
@@ -262,17 +276,11 @@ def controller_description(gains: dict[str, Any], config: Any | None = None) -> 
     stored in the gains file (the one it was verified with), else the embedded default.  A config
     whose sampling time, reference speed or integral action differs from the gain's is refused:
     the gain would run a law nobody verified."""
-    from pydantic import ValidationError
-
-    from ..config import Config, _format_validation_error, load_config
-    from ..model import gain_lifting, state_names
+    from ..config import load_config
     from ..law import SEGMENT_EPS  # the law is plain Python and imports nothing of ours
+    from ..model import gain_lifting, state_names
 
-    stored = gains.get("config")
-    try:
-        base = Config.model_validate(stored) if isinstance(stored, dict) else None
-    except ValidationError as exc:
-        raise InputError(f"config (in the gains file): {_format_validation_error(exc)}") from None
+    base = stored_config(gains)
     cfg = config if config is not None else (base if base is not None else load_config(None))
     if base is not None and config is not None:
         for key, a, b in (("network.sampling_time", base.network.sampling_time, cfg.network.sampling_time),

@@ -184,8 +184,8 @@ def _golden(evaluate: Callable[[float], float], a: float, b: float, early: bool)
 
 
 def _walk(evaluate: Callable[[float], float], x0: float, step: float, lo: float, hi: float) -> list[tuple[float, float]]:
-    """From x0 (log alpha), one grid step at a time in each direction while the objective falls:
-    the points evaluated, which bracket the minimum near x0."""
+    """From x0 (log alpha), one ``step`` at a time in each direction while the objective falls: the
+    points evaluated, which bracket the minimum near x0."""
     pts = [(x0, evaluate(x0))]
     if not math.isfinite(pts[0][1]):
         return pts
