@@ -1,24 +1,42 @@
-"""Issue 22: how far is each committed gain's certificate from a proof for the nonlinear robot?
+"""Issue 22: the certificate for the nonlinear robot against the linearized one, per committed config.
 
-Per config in configs/ with a certified gain in results/baselines/: the certified |e_y| (proven for
-the linearization) and the boundary probe that `verify` runs. The probe takes states on V = level
-(the verify's seed and sample count) and runs one period on the exact lifted map and on the
-nonlinear robot. It reports max V+/level for each, the fraction of states that leave the set, and
-the largest per-period difference between the two in e_x and e_y. A nonlinear certificate, with its
-|e_y|, continuous-time figures and synthesis time, is still open, so those columns are not here yet.
+Per config in configs/ with a certified gain in results/baselines/ (or those named on the command
+line): the committed gain's certified |e_y| and |e_theta(t)| between samples, and its boundary probe
+(verify's seed and sample count; one period on the exact lifted map and on the nonlinear robot,
+max V+/level).  Then both certificates are synthesized side by side in this run, with the config's
+own settings and ``synthesis.kinematics`` linearized / nonlinear (heading bound searched): their
+|e_y|, the ratio, the nonlinear one's heading bound and its boundary probe on the nonlinear robot
+(its claim: <= 1), and both synthesis times.  "none" is exit 3: no heading bound gave a certificate.
 
     .venv/bin/python benchmarks/run_all.py bench_nonlinear_proof
+    .venv/bin/python benchmarks/bench_nonlinear_proof.py default nonlinear-proof   # a subset
 """
 
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def main() -> dict[str, dict[str, float]]:
+def _synth(cfg, kinematics: str):
+    from robustsynth import build_model
+    from robustsynth.errors import InfeasibleError, SolverFailure
+    from robustsynth.synthesis import synthesize
+
+    c = cfg.model_copy(update={"synthesis": cfg.synthesis.model_copy(update={"kinematics": kinematics})})
+    m = build_model(c)
+    t0 = time.perf_counter()
+    try:
+        r = synthesize(m)
+    except (InfeasibleError, SolverFailure) as exc:
+        return m, None, time.perf_counter() - t0, type(exc).__name__
+    return m, r, time.perf_counter() - t0, ""
+
+
+def main(names: list[str] | None = None) -> dict[str, dict[str, float]]:
     import numpy as np
 
     from robustsynth import build_model, load_config
@@ -28,34 +46,48 @@ def main() -> dict[str, dict[str, float]]:
     from robustsynth.verification.probe import boundary_probe
 
     out: dict[str, dict[str, float]] = {}
-    print("| config | certified |e_y| (linearization) | probed states | lifted map: max V+/level | nonlinear robot: max "
-          "V+/level | states leaving | per-period gap e_x / e_y | probe time |")
+    print("| config | committed gain: \\|e_y\\|, \\|e_theta(t)\\| between samples | its probe: nonlinear max V+/level | "
+          "linearized \\|e_y\\| (synthesis time) | nonlinear \\|e_y\\| (synthesis time) | ratio | heading bound | "
+          "nonlinear gain's probe: max V+/level |")
     print("|---|---|---|---|---|---|---|---|")
     for cfg_path in sorted((ROOT / "configs").glob("*.yaml")):
+        if names and cfg_path.stem not in names:
+            continue
         gains_path = ROOT / "results" / "baselines" / cfg_path.stem / "gains.json"
         if not gains_path.exists():
             continue  # infeasible: nothing certified
         cfg = load_config(cfg_path)
+        if cfg.synthesis.objective != "ultimate-bound" or cfg.synthesis.model != "slip-aware":
+            continue
         m = build_model(cfg)
         g = load_gains(gains_path)
         K = np.asarray(g["K"], dtype=float)
         chk = check_certificate(m, K, g["certificate"])
-        if not chk.passed or "ellipsoid_level" not in chk.figures:
-            print(f"| {cfg_path.stem} | no invariant set certified | | | | | | |")
-            continue
-        t0 = time.perf_counter()
-        r = boundary_probe(m, K, lyapunov_of(m, g["certificate"]), float(chk.figures["ellipsoid_level"]),
-                           samples=PROBE_SAMPLES, seed=cfg.verification.seed)
-        dt = time.perf_counter() - t0
-        gap = r["max_period_gap"]
-        e_y = chk.figures["ultimate_bound"]["e_y"]
-        print(f"| {cfg_path.stem} | {100 * e_y:.2f} cm | {r['samples']} | {r['max_V_over_level_linear']:.4f} | "
-              f"{r['max_V_over_level_nonlinear']:.4f} | {100 * r['fraction_outside_nonlinear']:.3f} % | "
-              f"{1000 * gap['e_x']:.1f} / {1000 * gap['e_y']:.1f} mm | {dt:.2f} s |")
-        out[cfg_path.stem] = {"e_y": e_y, "linear": r["max_V_over_level_linear"],
-                              "nonlinear": r["max_V_over_level_nonlinear"], "time_s": dt}
+        r0 = boundary_probe(m, K, lyapunov_of(m, g["certificate"]), float(chk.figures["ellipsoid_level"]),
+                            samples=PROBE_SAMPLES, seed=cfg.verification.seed)
+        lin_cfg = cfg.model_copy(update={"synthesis": cfg.synthesis.model_copy(update={"kinematics": "linearized"})})
+        _, rl, tl, el = _synth(lin_cfg, "linearized")
+        mn, rn, tn, en = _synth(cfg, "nonlinear")
+        ey_l = rl.certified["ultimate_bound"]["e_y"] if rl else float("nan")
+        row = {"committed_e_y": chk.figures["ultimate_bound"]["e_y"], "committed_probe": r0["max_V_over_level_nonlinear"],
+               "linear_e_y": ey_l, "linear_s": tl, "nonlinear_s": tn}
+        if rn is not None:
+            mm = mn.with_heading_bound(rn.certificate["heading_bound"])
+            rp = boundary_probe(mm, rn.K, lyapunov_of(mm, rn.certificate), float(rn.check.figures["ellipsoid_level"]),
+                                samples=PROBE_SAMPLES, seed=cfg.verification.seed)
+            ey_n = rn.certified["ultimate_bound"]["e_y"]
+            row.update(nonlinear_e_y=ey_n, heading_bound=rn.certificate["heading_bound"],
+                       nonlinear_probe=rp["max_V_over_level_nonlinear"])
+            nl = f"{100 * ey_n:.2f} cm ({tn:.1f} s) | {ey_n / ey_l:.2f} | {rn.certificate['heading_bound']:g} rad | " \
+                 f"{rp['max_V_over_level_nonlinear']:.4f}"
+        else:
+            nl = f"none, {en} ({tn:.1f} s) | | | "
+        hw = chk.figures.get("heading_within_period")
+        print(f"| {cfg_path.stem} | {100 * row['committed_e_y']:.2f} cm, {hw:.3f} rad | {row['committed_probe']:.4f} | "
+              f"{100 * ey_l:.2f} cm ({tl:.1f} s) | {nl} |", flush=True)
+        out[cfg_path.stem] = row
     return out
 
 
 if __name__ == "__main__":
-    main()
+    main(sys.argv[1:] or None)

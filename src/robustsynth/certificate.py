@@ -28,6 +28,7 @@ __all__ = [
     "multiplier_structure_error",
     "Lyapunov",
     "lyapunov_of",
+    "heading_within_period",
 ]
 
 # A certificate passes when every LMI satisfies  lambda_min >= CHECK_FRACTION * margin,
@@ -75,8 +76,8 @@ def lmi_stability(v, X, left, right, Y, M, r2, mag: bool = False):
 def lmi_invariance(v, X, left, right, Y, M, beta, alpha, mag: bool = False):
     """Vertex v: V(xi+) <= (1-alpha) V(xi) + sum beta_i w_i^2 for all |Delta| <= 1 (docs/theory.md §6b), as
 
-    [[(1-alpha) left, 0, (AX+BY)', (C_qX+D_qY)'], [0, diag(beta), E', 0],
-     [AX+BY, E, right - B_p M B_p', 0], [C_qX+D_qY, 0, 0, M]] >= 0."""
+    [[(1-alpha) left, 0, (AX+BY)', (C_qX+D_qY)'], [0, diag(beta), E', F_q'],
+     [AX+BY, E, right - B_p M B_p', 0], [C_qX+D_qY, F_q, 0, M]] >= 0."""
     AX = v.A @ X + v.B @ Y
     n_s, n_q, n_w = X.shape[0], v.B_p.shape[1], v.E.shape[1]
     Zsw = np.zeros((n_s, n_w))
@@ -87,10 +88,11 @@ def lmi_invariance(v, X, left, right, Y, M, beta, alpha, mag: bool = False):
     ]
     if n_q:
         CX = v.C_q @ X + v.D_q @ Y
+        F = np.zeros((n_q, n_w)) if v.F_q is None else v.F_q  # q = C_q xi + D_q du + F_q w
         rows[0].append(CX.T)
-        rows[1].append(np.zeros((n_w, n_q)))
+        rows[1].append(F.T)
         rows[2].append(np.zeros((n_s, n_q)))
-        rows.append([CX, np.zeros((n_q, n_w)), np.zeros((n_q, n_s)), M])
+        rows.append([CX, F, np.zeros((n_q, n_s)), M])
     return _sym(np.block(rows))
 
 
@@ -118,8 +120,15 @@ def lmi_hinf(v, Bd, Cz, Q, Y, M, gamma2, mag: bool = False):
     return _sym(np.block(rows))
 
 
-def multiplier_structure_error(M: np.ndarray, n_blocks: int, kind: str) -> str:
-    """'' when M has the structure the S-procedure needs for Delta = blockdiag(d1 I2, d2, ...)."""
+def multiplier_structure_error(M: np.ndarray, n_blocks: int, kind: str, diagonal: bool = False) -> str:
+    """'' when M has the structure the S-procedure needs for Delta = blockdiag(d1 I2, d2, ...), or for a
+    diagonal Delta of independent scalars (``diagonal``: M must be diagonal)."""
+    if diagonal:
+        if M.ndim != 2 or M.shape[0] != M.shape[1]:
+            return f"multiplier has shape {M.shape}, expected a square diagonal matrix"
+        if np.any(M[~np.eye(M.shape[0], dtype=bool)] != 0.0):
+            return "multiplier of independent scalar channels must be diagonal (the S-procedure would not hold)"
+        return ""
     n = 3 * n_blocks
     if M.shape != (n, n):
         return f"multiplier has shape {M.shape}, expected {(n, n)}"
@@ -257,6 +266,14 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
                      "(synthesis.model)")
     if K.shape != (n_u, n_s):
         return _fail(f"K has shape {K.shape}, expected {(n_u, n_s)}")
+    kin = cert.get("kinematics", "linearized")
+    if kin != model.kinematics:
+        return _fail(f"the certificate is for {kin} kinematics, the config asks for {model.kinematics} "
+                     "(synthesis.kinematics)")
+    if kin == "nonlinear":  # the kinematic channels of the certificate's own heading bound
+        hb = float(cert["heading_bound"])
+        if hb != model.heading_bound:
+            model = model.with_heading_bound(hb)
     parts = _lyapunov_parts(model, cert, n_s)
     if isinstance(parts, str):
         return _fail(parts)
@@ -269,7 +286,8 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
     Ms = []
     for i, (x, v) in enumerate(zip(raw, model.vertices)):
         M = _arr(x, f"multipliers.M[{i}]").reshape(v.n_q, v.n_q)
-        err = _symmetric(M, f"multipliers.M[{i}]") or multiplier_structure_error(M, v.n_q // 3, mult.get("kind", "structured"))
+        err = _symmetric(M, f"multipliers.M[{i}]") or multiplier_structure_error(
+            M, v.n_q // 3, mult.get("kind", "structured"), v.diagonal)
         if err:
             return _fail(err)
         Ms.append(M)
@@ -361,6 +379,18 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
         dev = max(float(np.max(np.einsum("ij,jk,ik->i", J_inv, K @ Sm @ K.T, J_inv)
                                + g * (1 + g) * np.einsum("ij,jk,ik->i", aJK, np.abs(Sm), aJK))) for Sm in mats)
         figures["motor_speed_bound"] = round_up(cfg.reference.speed / R + np.sqrt(max(round_up(level * dev), 0.0)), 3)
+        if model.channels:  # |e_theta(t)| between samples on the set (docs/theory.md §9)
+            figures["heading_within_period"] = heading_within_period(model, K, mats, level)
+        if model.heading_bound is not None:
+            figures["heading_bound"] = model.heading_bound
+            checks.append({
+                "name": "|e_theta(t)| within every period on the set <= heading bound [rad]",
+                "max_eig": None,
+                "threshold": float(model.heading_bound),
+                "margin_found": None,
+                "value": figures["heading_within_period"],
+                "passed": bool(figures["heading_within_period"] <= model.heading_bound),
+            })
         rho_max = cfg.robot.max_motor_speed
         if rho_max is not None and cert.get("motor_limits_enforced", False):
             checks.append({
@@ -397,12 +427,31 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
     return CertificateCheck(passed, tuple(checks), figures, reason)
 
 
+def heading_within_period(model: Any, K: np.ndarray, mats: list[np.ndarray], level: float) -> float:
+    """An upper bound on |e_theta(t)| for t in every period, over the set {V <= level}: e_theta is
+    piecewise linear in t, so its extremes are at the break points, ``r xi + g`` (r = C_h + D_h K) at
+    each vertex; the supremum over the set is ``|g| + sqrt(level r S r')`` (its rounding bound added),
+    convex in (r, g), so the vertices' largest covers every delay and slip."""
+    n = K.shape[0] + 2 * model.n_s + 4
+    g = gamma(n)
+    out = 0.0
+    for ch in model.channels:
+        R = ch.C_h + ch.D_h @ K
+        aR = np.abs(ch.C_h) + np.abs(ch.D_h) @ np.abs(K)
+        for S in mats:
+            q = np.einsum("ij,jk,ik->i", R, S, R) + g * (1 + g) * np.einsum("ij,jk,ik->i", aR, np.abs(S), aR)
+            val = np.abs(ch.g_h) * (1 + g) + np.sqrt(np.maximum(level * q, 0.0))
+            out = max(out, float(np.max(val)))
+    return round_up(out, 8)  # the product with level, the square root and the sum
+
+
 class _AbsVertex:
     """A vertex with every matrix replaced by its absolute value (for the magnitude of a formula)."""
 
     def __init__(self, v: Any) -> None:
         for name in ("A", "B", "E", "B_p", "C_q", "D_q"):
             setattr(self, name, np.abs(np.asarray(getattr(v, name))))
+        self.F_q = None if v.F_q is None else np.abs(np.asarray(v.F_q))
         self.label = v.label
 
 

@@ -286,6 +286,8 @@ def _certified_line(gains: dict[str, Any]) -> str:
         parts.append(f"|rho| <= {c['motor_speed_bound']:.3f} rad/s")
     if c.get("hinf_gain") is not None:
         parts.append(f"l2 gain {c['hinf_gain']:.4g}")
+    if gains.get("certificate", {}).get("kinematics") == "nonlinear":
+        parts.append(f"for the nonlinear robot (|e_theta(t)| <= {gains['certificate']['heading_bound']:g} rad)")
     return " ".join(parts[:1]) + " " + ", ".join(parts[1:])
 
 

@@ -174,6 +174,17 @@ class SynthesisConfig(_Node):
         "(lossy-polytopic; needs network.delay.max <= network.sampling_time), or auto (lossy-polytopic on a lossy "
         "link with delay.max <= Ts, else polytopic for one uncertain instant, else norm-bounded)",
     )
+    kinematics: Literal["linearized", "nonlinear"] = Field(
+        default="linearized",
+        description="linearized: the certificate is for the linearization at the slip-compensated point "
+        "(docs/theory.md §2); nonlinear: it also covers the kinematic terms the linearization drops, over the "
+        "exact arcs of each period, for headings within synthesis.heading_bound (docs/theory.md §9)",
+    )
+    heading_bound: Literal["auto"] | Annotated[float, Field(gt=0, le=1.0)] = Field(
+        default="auto",
+        description="nonlinear kinematics: the bound on |e_theta(t)| within every period that the certificate "
+        "assumes and proves on its own set [rad]; auto searches for the one with the smallest weighted bound",
+    )
     multiplier: Literal["structured", "full"] = Field(
         default="structured", description="S-procedure multiplier for Delta: one per block or one scalar"
     )
@@ -201,6 +212,15 @@ class SynthesisConfig(_Node):
         if self.lyapunov in ("delay-dependent", "path-dependent") and self.delay_description == "norm-bounded":
             raise ValueError(f"{_FIELD}lyapunov: {self.lyapunov} needs delay vertices (delay_description polytopic, "
                              "lossy-polytopic or auto), not norm-bounded")
+        if self.kinematics == "nonlinear":
+            if self.model != "slip-aware":
+                raise ValueError(f"{_FIELD}kinematics: nonlinear needs synthesis.model: slip-aware")
+            if self.objective != "ultimate-bound":
+                raise ValueError(f"{_FIELD}kinematics: nonlinear is available for objective ultimate-bound "
+                                 f"(an invariant set), not {self.objective}")
+            if self.delay_description == "norm-bounded":
+                raise ValueError(f"{_FIELD}kinematics: nonlinear needs delay vertices (delay_description "
+                                 "polytopic, lossy-polytopic or auto), not norm-bounded")
         return self
 
 

@@ -41,6 +41,9 @@ def gains_dict(model: Any, result: Any) -> dict[str, Any]:
     figs = result.certified
     cert = result.certificate
     certified = {k: figs.get(k) for k in CERTIFIED_KEYS}
+    for k in ("heading_within_period", "heading_bound"):  # |e_theta(t)| between samples; the nonlinear proof's bound
+        if figs.get(k) is not None:
+            certified[k] = figs[k]
     certificate: dict[str, Any] = {
         "objective": cert["objective"],
         "model": cert["model"],
@@ -66,6 +69,9 @@ def gains_dict(model: Any, result: Any) -> dict[str, Any]:
         "min_eig_margin_found": cert["min_eig_margin_found"],
         "checks": list(result.check.checks),
     })
+    if cert.get("kinematics", "linearized") != "linearized":  # the certificate covers the exact arcs (theory §9)
+        certificate["kinematics"] = cert["kinematics"]
+        certificate["heading_bound"] = cert["heading_bound"]
     out = {
         "schema_version": SCHEMA_VERSION,
         "robustsynth_version": __version__,
@@ -134,6 +140,8 @@ def gains_mat_vars(gd: dict[str, Any]) -> dict[str, Any]:
         "multiplier": c["multipliers"]["kind"],
         "motor_limits_enforced": bool(c["motor_limits_enforced"]),
         "margin": c["margin"],
+        "kinematics": c.get("kinematics", "linearized"),
+        "heading_bound": _mat_value(c.get("heading_bound")),
         **_controller_mat_vars(gd),
     }
 
@@ -198,6 +206,10 @@ def _load_mat(p: Path) -> dict[str, Any]:
             "motor_limits_enforced": bool(_mat_scalar(m.get("motor_limits_enforced", 0.0))),
             "margin": _mat_scalar(m["margin"]),
         }
+        kin = _mat_scalar(m.get("kinematics", "linearized")) or "linearized"
+        if kin != "linearized":
+            cert["kinematics"] = kin
+            cert["heading_bound"] = _mat_scalar(m.get("heading_bound", np.nan))
         if lyap == "common":
             cert["Q"] = np.asarray(m["Q"], dtype=float)
             cert["P"] = np.asarray(m["P"], dtype=float) if "P" in m else np.linalg.inv(cert["Q"])

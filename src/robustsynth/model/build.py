@@ -12,7 +12,8 @@ from .lifting import delay_indices, instant_ranges, lift
 from .linearize import Gamma, Gamma_D, Phi, continuous_matrices
 from .slip import slip_corners, slip_matrix
 from .uncertainty import embed, slip_box
-from .model import MAX_POLYTOPIC_INSTANTS, WIDTH_TOL, Model, frozen_array
+from .model import DEFAULT_HEADING_BOUND, MAX_POLYTOPIC_INSTANTS, WIDTH_TOL, Model, frozen_array
+from .nonlinear import vertex_channels
 from .vertices import Vertex, apply_slip, augment_integral, delay_vertex_gammas, loss_vertex_gammas
 
 __all__ = ["build_model", "coverage_check"]
@@ -26,9 +27,9 @@ def _augment_cols(X: np.ndarray, n_z: int) -> np.ndarray:
     return np.hstack([X, np.zeros((X.shape[0], n_z))]) if n_z else X
 
 
-def _resolve_delay_description(requested: str, n_uncertain: int) -> str:
-    if requested == "auto":
-        return "polytopic" if n_uncertain <= MAX_POLYTOPIC_INSTANTS else "norm-bounded"
+def _resolve_delay_description(requested: str, n_uncertain: int, nonlinear: bool = False) -> str:
+    if requested == "auto":  # the kinematic channels need delay vertices (model/nonlinear.py)
+        return "polytopic" if n_uncertain <= MAX_POLYTOPIC_INSTANTS or nonlinear else "norm-bounded"
     return requested
 
 
@@ -72,11 +73,13 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
     n_s = A.shape[0]
     delay_description = "norm-bounded"
     vertices: list[Vertex] = []
+    channels: list = []
     if kind == "paper":
         vertices.append(Vertex(A, B, B_d @ slip.W, B_p, C_q, D_q, 0, "nominal (mu = 1), slip as additive box"))
     else:
         tau_hi = config.network.delay.max  # of a received command (lost ones: the effective tmax)
-        delay_description = _resolve_delay_description(syn.delay_description, len(instants))
+        nonlinear = syn.kinematics == "nonlinear"
+        delay_description = _resolve_delay_description(syn.delay_description, len(instants), nonlinear)
         if syn.delay_description == "lossy-polytopic" or (syn.delay_description == "auto" and dropouts and tau_hi <= Ts):
             if tau_hi > Ts * (1 + 1e-12):
                 raise ConfigError(f"synthesis.delay_description: lossy-polytopic needs network.delay.max <= "
@@ -105,10 +108,13 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
                 for t, lab in enumerate(labels):
                     vertices.append(Vertex(At[t], Bt[t], E, np.zeros((n_s, 0)), np.zeros((0, n_s)),
                                            np.zeros((0, n_u)), m, f"{name}; {lab}"))
+                    # the kinematic channels: gammas[t, j] = h_j B + (h_j^2/2) A B (vertices.py)
+                    coords = np.stack([gammas[t, :, 0, 0], gammas[t, :, 1, 1] / V], axis=1)
+                    channels.append(vertex_channels(mu, coords, V, Ts, M, n_s, n_e, n_u, d_hi))
     frozen_vertices = tuple(
         Vertex(*(frozen_array(x) for x in (v.A, v.B, v.E, v.B_p, v.C_q, v.D_q)), v.corner, v.label) for v in vertices
     )
-    return Model(
+    model = Model(
         config=config,
         kind=kind,
         d_lo=d_lo,
@@ -136,7 +142,13 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
         dropouts=dropouts,
         J=frozen_array(J_matrix(R, D)),
         J_inv=frozen_array(J_inverse(R, D)),
+        channels=tuple(channels),
+        base_vertices=frozen_vertices,
     )
+    if kind != "paper" and syn.kinematics == "nonlinear":
+        hb = syn.heading_bound
+        model = model.with_heading_bound(DEFAULT_HEADING_BOUND if hb == "auto" else float(hb))
+    return model
 
 
 def coverage_check(model: Model, n_sequences: int = 1000, steps: int = 20, seed: int = 0) -> dict:

@@ -18,7 +18,7 @@ it (:func:`gain_lifting`, :func:`pad_gain`, :func:`lifted_slice`).  :mod:`.build
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -30,7 +30,8 @@ from .vertices import (Vertex, apply_slip, augment_integral, loss_hull_coordinat
                        loss_instant_grid, triangle_coordinates)
 
 __all__ = ["Model", "state_names", "gain_lifting", "pad_gain", "lifted_slice", "INPUT_NAMES", "ERROR_NAMES",
-           "SLIP_NAMES", "INTEGRATOR_NAMES", "MODEL_KINDS", "MAX_POLYTOPIC_INSTANTS", "WIDTH_TOL"]
+           "SLIP_NAMES", "INTEGRATOR_NAMES", "MODEL_KINDS", "MAX_POLYTOPIC_INSTANTS", "WIDTH_TOL",
+           "DEFAULT_HEADING_BOUND"]
 
 INPUT_NAMES = ("dV", "omega")
 ERROR_NAMES = ("e_x", "e_y", "e_theta")
@@ -40,6 +41,8 @@ MODEL_KINDS = ("slip-aware", "paper")
 # 'auto' uses the covering-triangle (polytopic) delay description up to this many uncertain instants
 # (4 * 3^n vertices); beyond it the norm-bounded embedding, whose size grows linearly.
 MAX_POLYTOPIC_INSTANTS = 1
+# nonlinear kinematics with heading_bound: auto: the model is built at this bound, synthesis searches
+DEFAULT_HEADING_BOUND = 0.3
 WIDTH_TOL = 1e-12
 
 
@@ -99,6 +102,39 @@ class Model:
     n_e: int = 3
     n_u: int = 2
     dropouts: int = 0  # at most this many consecutive commands lost (network.dropouts.max_consecutive)
+    # the kinematic channels of every vertex (model/nonlinear.py; delay vertices only, else empty) and
+    # the linearized vertices they augment; heading_bound is set when ``vertices`` carry them
+    channels: tuple = field(default=(), repr=False)
+    base_vertices: tuple = field(default=(), repr=False)
+    heading_bound: float | None = None
+
+    @property
+    def kinematics(self) -> str:
+        """'nonlinear' when the vertices carry the kinematic channels (docs/theory.md §9)."""
+        return "nonlinear" if self.heading_bound is not None else "linearized"
+
+    def linearized(self) -> "Model":
+        """The model without the kinematic channels (itself when it has none)."""
+        if self.heading_bound is None:
+            return self
+        return replace(self, vertices=self.base_vertices, heading_bound=None)
+
+    def with_heading_bound(self, theta_bar: float) -> "Model":
+        """The same model whose vertices carry the kinematic channels for |e_theta(t)| <= theta_bar."""
+        from ..errors import InputError
+        from .nonlinear import augment, channel_scales
+
+        if not self.channels:
+            raise InputError("synthesis.kinematics: nonlinear needs delay vertices (delay_description polytopic "
+                             "or lossy-polytopic) and the slip-aware model")
+        theta_bar = float(theta_bar)
+        if not 0.0 < theta_bar <= 1.0:
+            raise InputError(f"synthesis.heading_bound: {theta_bar:g} rad is outside (0, 1]")
+        scales = channel_scales(list(self.channels), theta_bar, self.V)
+        verts = tuple(augment(v, ch, theta_bar, self.V, scales) for v, ch in zip(self.base_vertices, self.channels))
+        frozen = tuple(replace(v, **{k: frozen_array(getattr(v, k)) for k in ("A", "B", "E", "B_p", "C_q", "D_q", "F_q")})
+                       for v in verts)
+        return replace(self, vertices=frozen, heading_bound=theta_bar)
 
     @property
     def n_z(self) -> int:
@@ -294,12 +330,16 @@ class Model:
         lam = self.corner_weights(mu)  # (..., n_c)
         if self.delay_description == "norm-bounded":
             return lam, dlt
+        if self.heading_bound is not None:  # the linearization: the kinematic factors at 0
+            from .nonlinear import linearization_delta
+
+            dlt = np.broadcast_to(linearization_delta(self.channels[0]), batch + (self.n_q_vertex,))
         if self.delay_description == "lossy-polytopic":
             cfg = self.config
             w = loss_hull_coordinates(s_tilde, self.Ts, cfg.network.delay.min, cfg.network.delay.max, self.dropouts,
                                       self.d_hi, WIDTH_TOL * max(self.Ts, 1.0))
             out = (lam[..., :, None] * w[..., None, :]).reshape(batch + (-1,))
-            return out, np.zeros(batch + (0,))
+            return out, dlt if self.heading_bound is not None else np.zeros(batch + (0,))
         # polytopic: corner-major, then the product of the per-instant triangle coordinates
         tri = [np.ones(batch + (1,))]
         for j in range(self.d_hi):
@@ -312,13 +352,18 @@ class Model:
         for t in tri[1:]:
             w = (w[..., :, None] * t[..., None, :]).reshape(batch + (-1,))
         out = (lam[..., :, None] * w[..., None, :]).reshape(batch + (-1,))
-        return out, np.zeros(batch + (0,))
+        return out, dlt if self.heading_bound is not None else np.zeros(batch + (0,))
+
+    @property
+    def n_q_vertex(self) -> int:
+        """Delta channels of the vertices (the same at every vertex)."""
+        return self.vertices[0].n_q if self.vertices else 0
 
     def from_hull(self, weights: np.ndarray, delta: np.ndarray, w: np.ndarray):
         """Recombine the vertices: (A, B, c) for hull weights, diag(Delta) and disturbance w."""
         A = sum(weights[..., i, None, None] * (v.A + (v.B_p * delta[..., None, :]) @ v.C_q) for i, v in enumerate(self.vertices))
         B = sum(weights[..., i, None, None] * (v.B + (v.B_p * delta[..., None, :]) @ v.D_q) for i, v in enumerate(self.vertices))
-        c = sum(weights[..., i, None] * (w @ v.E.T) for i, v in enumerate(self.vertices))
+        c = sum(weights[..., i, None] * (w @ v.E.T + ((w @ v.F.T) * delta) @ v.B_p.T) for i, v in enumerate(self.vertices))
         return A, B, c
 
 

@@ -28,10 +28,12 @@ __all__ = ["Vertex", "apply_slip", "augment_integral", "triangle", "triangle_coo
 
 @dataclass(frozen=True)
 class Vertex:
-    """One vertex: ``xi+ = A xi + B du + E w + B_p p``, ``p = Delta q``, ``q = C_q xi + D_q du``.
+    """One vertex: ``xi+ = A xi + B du + E w + B_p p``, ``p = Delta q``, ``q = C_q xi + D_q du + F_q w``.
 
     ``corner`` indexes the slip corner (the Lyapunov matrix of a slip-dependent certificate);
-    ``label`` names the vertex in reports."""
+    ``label`` names the vertex in reports.  ``diagonal``: Delta is diagonal with independent
+    scalars (the kinematic channels of :mod:`.nonlinear`, a diagonal multiplier); otherwise it has
+    the delay embedding's blocks (d1 I2, d2) per instant.  ``F_q`` None: no disturbance in q."""
 
     A: np.ndarray
     B: np.ndarray
@@ -41,10 +43,17 @@ class Vertex:
     D_q: np.ndarray
     corner: int
     label: str
+    F_q: np.ndarray | None = None
+    diagonal: bool = False
 
     @property
     def n_q(self) -> int:
         return self.B_p.shape[1]
+
+    @property
+    def F(self) -> np.ndarray:
+        """F_q, zeros when the vertex has none: shape (n_q, n_w)."""
+        return np.zeros((self.n_q, self.E.shape[1])) if self.F_q is None else self.F_q
 
 
 def apply_slip(A: np.ndarray, B: np.ndarray, M: np.ndarray, n_e: int, n_u: int, d_hi: int):

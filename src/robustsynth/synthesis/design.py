@@ -106,6 +106,9 @@ def _cert_common(model: Any, vals: dict, kind: str, margin: float, objective: st
     out["multipliers"] = {"kind": kind, "M": vals["M"], "blocks": [i.j for i in model.instants]
                           if model.n_q and any(v.n_q for v in model.vertices) else []}
     out["margin"] = margin
+    out["kinematics"] = model.kinematics
+    if model.heading_bound is not None:
+        out["heading_bound"] = float(model.heading_bound)
     return out
 
 
@@ -205,7 +208,7 @@ def _walk(evaluate: Callable[[float], float], x0: float, step: float, lo: float,
 
 def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     say: Callable[[str], None] = lambda _m: None,
-                    alpha_hint: float | None = None) -> tuple[_Best, _Runner]:
+                    alpha_hint: float | None = None, retry: bool = True) -> tuple[_Best, _Runner]:
     """The alpha line search of the invariance LMIs.  Without a hint: a log grid of alpha_points
     scanned upwards, then golden section around its best point.  With ``alpha_hint`` (the best alpha
     of a cheaper certificate class): walk from the hint in half grid steps while the bound falls,
@@ -271,7 +274,7 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
             failed_last = runner.failed_at.get(float(np.exp(g)), False)
             if not failed_last or (len(vals) >= 2 and not math.isfinite(vals[-2])):
                 break
-    if best.cert is None:
+    if best.cert is None and retry:
         failed = [g for g, v in zip(grid, vals) if not math.isfinite(v) and runner.failed_at.get(float(np.exp(g)))]
         for g in failed:
             vals[list(grid).index(g)] = evaluate(float(g), fallback=True)
@@ -361,32 +364,10 @@ def synthesize(model: Any, settings: SynthesisConfig | None = None, *, on_step: 
                 f"{cfg.reference.speed / cfg.robot.gear_radius:.4g} rad/s needed to follow the path: "
                 "raise robot.max_motor_speed or lower reference.speed"
             )
-        hint = None
-        if s.lyapunov != "common":
-            # the common certificate is cheap (one Lyapunov matrix) and its best alpha lies near the
-            # richer classes' (measured: within a grid step on every class of the default robot)
-            common, _ = _run_invariance(model, s.model_copy(update={"lyapunov": "common"}), [], motor)
-            hint = float(common.cert["alpha"]) if common.cert is not None else None
-        how = (f"walk of alpha from the common certificate's {hint:.4g}" if hint is not None
-               else f"scan of alpha over {s.alpha_points} points")
-        say(f"{s.objective}: {how}, then golden section ({model.kind} model, {len(model.vertices)} vertices, "
-            f"motor limits {'on' if motor else 'off'})")
-        best, runner = _run_invariance(model, s, search, motor, say, alpha_hint=hint)
-        if best.cert is None:
-            if runner.failures and runner.failures == len(search):
-                raise SolverFailure("ultimate-bound: every solve failed, also with the fallback solver")
-            if motor:
-                probe, _ = _run_invariance(model, s.model_copy(update={"alpha_points": 5}), [], False)
-                if probe.cert is not None:
-                    raise InfeasibleError(
-                        f"ultimate-bound: no gain keeps |rho| <= {rho_max:g} rad/s for {_delay_text(model)}: "
-                        "raise robot.max_motor_speed or lower reference.speed"
-                    )
-            raise InfeasibleError(
-                f"ultimate-bound: no gain makes an ellipsoid invariant for {_delay_text(model)} and slip in "
-                f"[{cfg.slip.right.min:g}, {cfg.slip.right.max:g}] x [{cfg.slip.left.min:g}, {cfg.slip.left.max:g}]: "
-                "narrow network.delay or slip, or lower reference.speed"
-            )
+        if model.heading_bound is not None:
+            best, runner = _run_nonlinear(model, s, search, motor, say)
+        else:
+            best, runner = _run_linearized(model, s, search, motor, say)
         if not motor and rho_max is not None and s.motor_limits is False:
             notes.append("motor limits not enforced (synthesis.motor_limits: false)")
     rec = best.record
@@ -417,6 +398,115 @@ def synthesize(model: Any, settings: SynthesisConfig | None = None, *, on_step: 
         timings={"total_s": time.perf_counter() - t0, "solve_s": solver["solve_time_s"]},
         notes=tuple(notes),
     )
+
+
+def _run_linearized(model: Any, s: SynthesisConfig, search: list, motor: bool,
+                    say: Callable[[str], None]) -> tuple[_Best, _Runner]:
+    """The ultimate-bound search on the linearized kinematics (docs/theory.md §6b); raises when no
+    gain is certified."""
+    cfg = model.config
+    rho_max = cfg.robot.max_motor_speed
+    hint = None
+    if s.lyapunov != "common":
+        # the common certificate is cheap (one Lyapunov matrix) and its best alpha lies near the
+        # richer classes' (measured: within a grid step on every class of the default robot)
+        common, _ = _run_invariance(model, s.model_copy(update={"lyapunov": "common"}), [], motor)
+        hint = float(common.cert["alpha"]) if common.cert is not None else None
+    how = (f"walk of alpha from the common certificate's {hint:.4g}" if hint is not None
+           else f"scan of alpha over {s.alpha_points} points")
+    say(f"{s.objective}: {how}, then golden section ({model.kind} model, {len(model.vertices)} vertices, "
+        f"motor limits {'on' if motor else 'off'})")
+    best, runner = _run_invariance(model, s, search, motor, say, alpha_hint=hint)
+    if best.cert is None:
+        if runner.failures and runner.failures == len(search):
+            raise SolverFailure("ultimate-bound: every solve failed, also with the fallback solver")
+        if motor:
+            probe, _ = _run_invariance(model, s.model_copy(update={"alpha_points": 5}), [], False)
+            if probe.cert is not None:
+                raise InfeasibleError(
+                    f"ultimate-bound: no gain keeps |rho| <= {rho_max:g} rad/s for {_delay_text(model)}: "
+                    "raise robot.max_motor_speed or lower reference.speed"
+                )
+        raise InfeasibleError(
+            f"ultimate-bound: no gain makes an ellipsoid invariant for {_delay_text(model)} and slip in "
+            f"[{cfg.slip.right.min:g}, {cfg.slip.right.max:g}] x [{cfg.slip.left.min:g}, {cfg.slip.left.max:g}]: "
+            "narrow network.delay or slip, or lower reference.speed"
+        )
+    return best, runner
+
+
+HEADING_GRID = (0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.7)  # heading_bound: auto tries these [rad]
+
+
+def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
+                   say: Callable[[str], None]) -> tuple[_Best, _Runner]:
+    """The ultimate-bound search with the kinematic channels (docs/theory.md §9): for the configured
+    heading bound, or for each of HEADING_GRID (auto), the alpha search, walking from the
+    linearized common certificate's best alpha; the smallest weighted bound wins.  Raises
+    InfeasibleError naming the heading and forward-speed ranges of the linearized set when no bound
+    gives a certificate."""
+    lin = model.linearized()
+    common, _ = _run_invariance(lin, s.model_copy(update={"lyapunov": "common", "kinematics": "linearized"}), [], motor)
+    hint = float(common.cert["alpha"]) if common.cert is not None else None
+    auto = s.heading_bound == "auto"
+    if auto:  # upwards from about the linearized set's own heading: a smaller bound rarely helps
+        start = 0.9 * float(common.check.figures.get("heading_within_period", 0.0)) if common.check is not None else 0.0
+        bounds = tuple(b for b in HEADING_GRID if b >= start) or HEADING_GRID[-1:]
+    else:
+        bounds = (float(s.heading_bound),)
+    best, runner, tried = _Best(), None, []
+    for tb in bounds:
+        m = model.with_heading_bound(tb)
+        say(f"{s.objective}, nonlinear kinematics with |e_theta(t)| <= {tb:g} rad: alpha "
+            + (f"walk from {hint:.4g}" if hint is not None else f"scan over {s.alpha_points} points")
+            + f" ({len(m.vertices)} vertices, {m.vertices[0].n_q} kinematic channels each)")
+        try:
+            b, r = _run_invariance(m, s, search, motor, say, alpha_hint=hint, retry=not auto)
+        except InfeasibleError as exc:  # the heading bound is below the slip's own turn
+            say(f"  {exc}")
+            tried.append((tb, "below the slip's own turn within a period"))
+            continue
+        tried.append((tb, "certified" if b.cert is not None else ("solver failed" if r.failures == r.solves else "infeasible")))
+        if runner is None:
+            runner = r
+        if b.cert is not None and b.value < best.value:
+            best, runner = b, r
+        elif best.cert is not None:  # past the best bound: larger headings cost more
+            break
+    if best.cert is None:
+        if runner is not None and runner.failures and runner.failures == len(search):
+            raise SolverFailure("ultimate-bound (nonlinear kinematics): every solve failed, also with the fallback")
+        raise InfeasibleError(_nonlinear_infeasible(model, common, tried))
+    return best, runner
+
+
+def _nonlinear_infeasible(model: Any, common: _Best, tried: list) -> str:
+    """Exit 3's message: which heading bounds failed, and the heading and forward-speed ranges of the
+    linearized certificate's set, which the kinematic terms grow with."""
+    what = ", ".join(f"{tb:g} rad ({why})" for tb, why in tried)
+    msg = f"synthesis.kinematics: nonlinear: found no invariant set for the nonlinear robot with |e_theta(t)| within {what}"
+    if common.cert is not None and common.check is not None:
+        from ..certificate import lyapunov_of
+
+        lin = model.linearized()
+        f = common.check.figures
+        lev = float(f["ellipsoid_level"])
+        lyap = lyapunov_of(lin, common.cert)
+        K = np.asarray(common.K)
+        uD = np.array([model.V, 0.0])
+        from ..model.slip import slip_matrix
+
+        speed = 0.0
+        for mu in model.corners:
+            M = slip_matrix(mu, model.config.robot.track_distance)
+            r = M[0] @ K
+            speed = max(speed, abs(float(M[0] @ uD) - model.V) + max(float(np.sqrt(lev * r @ S @ r)) for S in lyap.S))
+        msg += (f". The linearized certificate's set ({100 * f['ultimate_bound']['e_y']:.2f} cm) holds headings up to "
+                f"{f.get('heading_within_period', f['ultimate_bound']['e_theta']):.3g} rad within a period and forward-speed "
+                f"deviations up to {speed:.3g} m/s (V^D = {model.V:g} m/s): on it a sin e_theta alone reaches "
+                f"{speed * np.sin(min(f.get('heading_within_period', 0.3), 1.0)):.3g} m/s. Narrow slip, lower "
+                "reference.speed, or use synthesis.kinematics: linearized (whose proof is for the linearization)")
+    return msg
 
 
 def _raise_no_solution(runner: _Runner, objective: str, infeasible_msg: str) -> None:

@@ -31,7 +31,8 @@ from typing import Any
 import cvxpy as cp
 import numpy as np
 
-__all__ = ["LMIProblem", "build_stability", "build_invariance", "build_hinf", "multiplier", "motor_constraints"]
+__all__ = ["LMIProblem", "build_stability", "build_invariance", "build_hinf", "multiplier", "motor_constraints",
+           "heading_constraints"]
 
 
 @dataclass
@@ -167,6 +168,34 @@ def motor_constraints(model: Any, Q: Any, Y: Any) -> list[Any]:
     return cons
 
 
+def heading_constraints(model: Any, lv: _Lyap) -> list[Any]:
+    """|e_theta(t)| <= theta_bar within every period on the set {V <= 1} (docs/theory.md §9): for each
+    vertex's heading rows r xi + d du + g (``KinematicChannels``) and each Lyapunov matrix,
+    ``[[(theta_bar - |g|)^2, r X + d Y], [., left]] >= 0``; the kinematic channels assume it."""
+    from ..errors import InfeasibleError
+
+    theta_bar = float(model.heading_bound)
+    cons = []
+    seen: set[bytes] = set()
+    for ch in model.channels:
+        for c, d, g in zip(ch.C_h, ch.D_h, ch.g_h):
+            key = np.concatenate([c, d, [g]]).tobytes()
+            if key in seen:
+                continue
+            seen.add(key)
+            room = theta_bar - abs(float(g))
+            if room <= 0:
+                raise InfeasibleError(
+                    f"synthesis.heading_bound: {theta_bar:g} rad is smaller than the turn the slip alone causes within "
+                    f"one period ({abs(float(g)):.3g} rad): no set can keep |e_theta(t)| below it")
+            for j in range(len(lv.mats)):
+                row = c @ lv.X + d @ lv.Y
+                blk = cp.bmat([[np.array([[room**2 * (1.0 - 1e-6)]]), cp.reshape(row, (1, model.n_s), order="C")],
+                               [cp.reshape(row, (model.n_s, 1), order="C"), lv.left(j)]])
+                cons.append(_sym(blk) >> 0)
+    return cons
+
+
 def _vertex_parts(v: Any, lv: _Lyap):
     AX = np.asarray(v.A) @ lv.X + np.asarray(v.B) @ lv.Y
     CX = np.asarray(v.C_q) @ lv.X + np.asarray(v.D_q) @ lv.Y if v.n_q else None
@@ -176,8 +205,10 @@ def _vertex_parts(v: Any, lv: _Lyap):
 def _multipliers(model: Any, kind: str, margin: float) -> tuple[list[Any], list[Any]]:
     Ms, cons = [], []
     for i, v in enumerate(model.vertices):
-        n_b = v.n_q // 3
-        M, _ = multiplier(n_b, kind, tag=str(i))
+        if v.diagonal:  # independent scalars (the kinematic channels): a diagonal multiplier
+            M = cp.diag(cp.Variable(v.n_q, name=f"d{i}"))
+        else:
+            M, _ = multiplier(v.n_q // 3, kind, tag=str(i))
         Ms.append(M)
         if v.n_q:
             cons.append(M >> margin * np.eye(v.n_q))
@@ -190,6 +221,7 @@ def build_stability(model: Any, kind: str, margin: float, lyapunov: str = "commo
 
     With ``K`` given the gain is fixed (analysis): ``Y = K Q`` (``K G``) is then an expression and the
     problem asks for a Lyapunov certificate of that gain only."""
+    model = model.linearized()  # no constant column here: the stability LMI is about the linearization
     lv = _Lyap(model, lyapunov, K)
     n_s = model.n_s
     r2 = cp.Parameter(nonneg=True, name="r2", value=0.9)
@@ -239,15 +271,17 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
                     [AX, E, right - (Bp @ M @ Bp.T if v.n_q else 0)]]
             if v.n_q:
                 rows[0].append(CX.T)
-                rows[1].append(np.zeros((n_w, v.n_q)))
+                rows[1].append(np.asarray(v.F).T)  # q = C_q xi + D_q du + F_q w
                 rows[2].append(np.zeros((n_s, v.n_q)))
-                rows.append([CX, np.zeros((v.n_q, n_w)), np.zeros((v.n_q, n_s)), M])
+                rows.append([CX, np.asarray(v.F), np.zeros((v.n_q, n_s)), M])
             L = cp.bmat(rows)
             cons.append(_sym(L) >> margin * np.eye(L.shape[0]))
     cons += [cp.sum(beta) <= alpha] + lv.scale(margin)
     if motor:
         for j in range(len(lv.mats)):
             cons += motor_constraints(model, lv.left(j), lv.Y)
+    if model.heading_bound is not None:
+        cons += heading_constraints(model, lv)
     terms = []
     for i in range(3):
         t, c = lv.diag_bound(i)
@@ -261,6 +295,7 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
 def build_hinf(model: Any, kind: str, margin: float, weights: np.ndarray) -> LMIProblem:
     """l2 gain gamma from the slip deviation d to z = diag(weights) e (docs/theory.md §6d), common Q over
     the vertices; minimizes gamma^2."""
+    model = model.linearized()
     lv = _Lyap(model, "common")
     Q = lv.Q
     n_s = model.n_s
