@@ -83,7 +83,8 @@ def main(names: list[str] | None = None) -> dict[str, dict[str, float]]:
         else:
             nl = f"none, {en} ({tn:.1f} s) | | | "
         hw = chk.figures.get("heading_within_period")
-        print(f"| {cfg_path.stem} | {100 * row['committed_e_y']:.2f} cm, {hw:.3f} rad | {row['committed_probe']:.4f} | "
+        hw = "—" if hw is None else f"{hw:.3f} rad"  # norm-bounded delays: no break points to bound
+        print(f"| {cfg_path.stem} | {100 * row['committed_e_y']:.2f} cm, {hw} | {row['committed_probe']:.4f} | "
               f"{100 * ey_l:.2f} cm ({tl:.1f} s) | {nl} |", flush=True)
         out[cfg_path.stem] = row
     return out
