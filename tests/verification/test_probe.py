@@ -80,3 +80,17 @@ def test_the_worst_run_replays_through_the_simulator(heavy) -> None:
                     ("probe",), du0, z0)
     sim = simulate(m, K, path, scen)
     assert np.max(np.abs(sim.e[0, 1] - w["xi_next"][: m.n_e])) <= REPLAY_TOL
+
+
+def test_boundary_starts_lie_on_the_boundary_with_admissible_memory(heavy) -> None:
+    """The adversary's boundary starts: V = level at their slip, stored commands within the motor
+    limit, at most MAX_BOUNDARY_STARTS."""
+    from robustsynth.verification.probe import MAX_BOUNDARY_STARTS, boundary_states
+
+    m, K, lyap, level = heavy
+    xi, mu = boundary_states(m, K, lyap, level, seed=0)
+    assert 0 < xi.shape[0] <= MAX_BOUNDARY_STARTS and mu.shape == (xi.shape[0], 2)
+    assert np.allclose(lyap.V(xi, mu) / level, 1.0, rtol=1e-12)
+    past = xi[:, m.n_e : m.n_e + m.d_hi * m.n_u].reshape(-1, m.d_hi, m.n_u)
+    rho = np.abs((np.array([m.V, 0.0]) + past) @ np.asarray(m.J_inv).T)
+    assert np.all(rho <= m.config.robot.max_motor_speed * (1 + 1e-9))

@@ -113,6 +113,9 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
             f" {100 * bp['fraction_outside_nonlinear']:.2f} % of these states leave the set. The two differ by up to"
             f" {1000 * bp['max_period_gap']['e_x']:.1f} mm in e_x and {1000 * bp['max_period_gap']['e_y']:.1f} mm in e_y"
             " per period. "
+            + (f"The adversary's beam search from {bp['adversary']['starts']} of these states (each figure's maximizer"
+               f" at every slip corner) over {bp['adversary']['steps']} periods reaches max V/level ="
+               f" {bp['adversary']['max_V_over_level']:.4f}. " if bp.get("adversary") else "")
             + ("The certificate covers these terms (nonlinear kinematics, docs/theory.md §9): a value above 1 would"
                " contradict it.\n" if nonlinear else
                "The certificate proves the bounds for the robot's linearization; the kinematic terms it drops"

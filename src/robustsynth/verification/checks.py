@@ -31,7 +31,9 @@ from ..plants.path import make_path
 from ..scenarios import (alternating_delays, draw_scenario, random_delays, rate_limited_slip, slip_vertices,
                          steady_state_start)
 from ..certificate import CertificateCheck, check_certificate, lyapunov_of
-from .probe import boundary_probe
+from .probe import boundary_probe, boundary_states
+
+BOUNDARY_ADVERSARY_STEPS = 50  # the adversary from the boundary: what matters happens in the first periods
 from .lifted import closed_loop_run, frozen_instant_grid, frozen_spectral_radius, greedy_worst_case
 from .simulate import ADVERSARY_OBJECTIVES, SimResult, adversarial_nonlinear, simulate
 
@@ -398,11 +400,25 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
         nonlinear_proof = gains["certificate"].get("kinematics", "linearized") == "nonlinear"
         mc["boundary_probe"] = {k: v for k, v in probe.items() if k != "worst"}
         mc["boundary_probe"]["in_verdict"] = nonlinear_proof
+        if vc.adversarial_runs:  # the beam search again, now from the boundary (multi-period histories)
+            xb, mb = boundary_states(model, K, lyap, level, seed=seed)
+            if xb.shape[0]:
+                steps_b = min(vc.adversarial_steps, BOUNDARY_ADVERSARY_STEPS)
+                adv_b = adversarial_nonlinear(model, K, lyap.V, mb, steps_b, width=vc.adversarial_runs, objectives=("V",),
+                                              with_delay=lyap.path, starts=xb)
+                mc["boundary_probe"]["adversary"] = {"starts": int(xb.shape[0]), "steps": steps_b,
+                                                     "max_V_over_level": adv_b["max_V"] / level}
         if nonlinear_proof:
             bp = probe["max_V_over_level_nonlinear"]
             checks.append(_check("nonlinear: one period from the boundary of the certified set stays in it", bp <= 1.0 + LEVEL_TOL,
                                  bp, 1.0, f"max V(xi+)/level over {probe['samples']} boundary states (exact arcs, slip corners, "
                                  "admissible delays): the nonlinear certificate's claim"))
+            if "adversary" in mc["boundary_probe"]:
+                ab = mc["boundary_probe"]["adversary"]
+                checks.append(_check("nonlinear: the adversary from the boundary of the certified set keeps it there",
+                                     ab["max_V_over_level"] <= 1.0 + LEVEL_TOL, ab["max_V_over_level"], 1.0,
+                                     f"beam search over {ab['steps']} periods from {ab['starts']} boundary states (each "
+                                     "figure's maximizer at every slip corner)"))
         worst_v = max(mc["V_over_level"]["max_in_certified_steps"], mc["adversarial"]["max_V_over_level"] if adv else 0.0)
         checks.append(_check("nonlinear: the robot's lifted state stays in the certified set", worst_v <= 1.0 + LEVEL_TOL,
                              worst_v, 1.0, f"max V/level on the certified steps of the Monte Carlo, extreme and adversarial "

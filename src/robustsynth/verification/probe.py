@@ -29,7 +29,9 @@ from ..plants.kinematic import KinematicRobot
 from ..plants.path import frame_error, make_path, pose_from_error
 from ..scenarios import random_delays, slip_candidates, slip_vertices
 
-__all__ = ["boundary_probe", "probe_directions"]
+__all__ = ["boundary_probe", "probe_directions", "boundary_states", "MAX_BOUNDARY_STARTS"]
+
+MAX_BOUNDARY_STARTS = 64  # the adversary's boundary starts: the figure-maximizing states, at most this many
 
 
 def probe_directions(model: Any, K: np.ndarray, lyap: Any, random: int, rng: np.random.Generator) -> np.ndarray:
@@ -45,6 +47,30 @@ def probe_directions(model: Any, K: np.ndarray, lyap: Any, random: int, rng: np.
     pick = rng.integers(0, len(lyap.S), size=random)
     even = np.einsum("nij,nj->ni", L[pick], rng.normal(size=(random, n_s)))
     return np.vstack([even, np.array(extreme)])
+
+
+def boundary_states(model: Any, K: np.ndarray, lyap: Any, level: float, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Start states on the boundary V = level for the adversary (:func:`~robustsynth.verification.
+    simulate.adversarial_nonlinear`): the maximizers of each bounded figure (:func:`probe_directions`
+    without random ones) at every slip corner, those whose stored commands are within the motor
+    limit, at most MAX_BOUNDARY_STARTS (a random subset).  Returns (xi (N, n_s), mu (N, 2))."""
+    rng = np.random.default_rng(seed)
+    dirs = probe_directions(model, np.asarray(K, dtype=float), lyap, 0, rng)
+    corners = slip_vertices(model)
+    xi = np.repeat(dirs, corners.shape[0], axis=0)
+    mu = np.tile(corners, (dirs.shape[0], 1))
+    xi = xi * np.sqrt(level / lyap.V(xi, mu))[:, None]
+    n_e, n_u, d_hi = model.n_e, model.n_u, model.d_hi
+    rho_max = model.config.robot.max_motor_speed
+    if rho_max is not None:
+        past = xi[:, n_e : n_e + d_hi * n_u].reshape(-1, d_hi, n_u)
+        rho = np.abs((np.array([model.V, 0.0]) + past) @ np.asarray(model.J_inv).T)
+        ok = np.all(rho <= rho_max * (1.0 + 1e-9), axis=(1, 2))
+        xi, mu = xi[ok], mu[ok]
+    if xi.shape[0] > MAX_BOUNDARY_STARTS:
+        pick = np.sort(rng.choice(xi.shape[0], MAX_BOUNDARY_STARTS, replace=False))
+        xi, mu = xi[pick], mu[pick]
+    return xi, mu
 
 
 def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: int = 2000,

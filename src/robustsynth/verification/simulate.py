@@ -123,7 +123,7 @@ def _top_distinct(score: np.ndarray, width: int) -> np.ndarray:
 
 def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray], mu0: np.ndarray, steps: int,
                           width: int = 1, objectives: tuple[str, ...] = ("V",), n_tau: int = 9,
-                          with_delay: bool = False) -> dict:
+                          with_delay: bool = False, starts: np.ndarray | None = None) -> dict:
     """Beam search for the slip and delay history that takes the nonlinear robot furthest out, along
     a straight line from the steady states of the slips ``mu0`` (N, 2).
 
@@ -146,7 +146,10 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
     ``V`` and ``tau`` (steps, P) of the kept candidates, and ``worst``: for each objective the
     history of its best candidate, ``{"mu": (T, 2), "tau": (d_hi + T,), "start": index into mu0,
     "value": float, "mu_next": (2,)}`` (the first d_hi delays are the start's; ``mu_next``: the slip V
-    was evaluated with), to replay with :func:`simulate` from :func:`adversary_start`."""
+    was evaluated with), to replay with :func:`simulate` from :func:`adversary_start`.
+
+    ``starts`` (N, n_s): lifted states to start from instead of the steady states (the boundary of
+    the certified set, :func:`~robustsynth.verification.probe.boundary_states`), with slips ``mu0``."""
     unknown = set(objectives) - set(ADVERSARY_OBJECTIVES)
     if unknown or not objectives or width < 1:
         raise ValueError(f"objectives must be a non-empty subset of {ADVERSARY_OBJECTIVES} and width >= 1")
@@ -156,7 +159,7 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
     J_inv = robot.J_inv
     taus = delay_candidates(model, n_tau)  # with a lossy link also inf: the newest packet is lost
     n_tau = taus.size
-    path, scen = adversary_start(model, K, mu0, steps)
+    path, scen = adversary_start(model, K, mu0, steps, starts)
     N = scen.runs
     U = robot.memory(scen.du0, N)
     q = scen.q0.copy()
@@ -241,15 +244,18 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
     return {"max": maxima, "max_V": max_V, "V": np.array(VK), "tau": np.array(TAU), "worst": worst}
 
 
-def adversary_start(model, K: np.ndarray, mu0: np.ndarray, steps: int) -> tuple[PathGeometry, Scenario]:
+def adversary_start(model, K: np.ndarray, mu0: np.ndarray, steps: int,
+                    starts: np.ndarray | None = None) -> tuple[PathGeometry, Scenario]:
     """The straight line and the starts of :func:`adversarial_nonlinear`: the steady states of the
-    slips ``mu0`` (N, 2), the last d_hi packets delayed by the middle of [tau_min, tau_max].  The
-    scenario holds no slip or delays beyond the start (``mu`` is ``mu0``, one period)."""
+    slips ``mu0`` (N, 2) (or the lifted states ``starts``), the last d_hi packets delayed by the
+    middle of [tau_min, tau_max].  The scenario holds no slip or delays beyond the start (``mu`` is
+    ``mu0``, one period)."""
     mu0 = np.asarray(mu0, dtype=float)
     N, d_hi, V = mu0.shape[0], model.d_hi, model.V
     dl = model.config.network.delay
     path = make_path(((0.0, 0.0), (V * model.Ts * (steps + 10), 0.0)), V)
-    e0, du0, z0 = split_state(model, model.equilibrium(np.asarray(K, dtype=float), mu0))
+    xi0 = model.equilibrium(np.asarray(K, dtype=float), mu0) if starts is None else np.asarray(starts, dtype=float)
+    e0, du0, z0 = split_state(model, xi0)
     scen = Scenario(np.full((N, d_hi), (dl.min + dl.max) / 2.0), mu0[:, None, :], np.zeros((N, 1, 3)),
                     pose_from_error(path, e0), (), du0, z0)
     return path, scen
