@@ -29,6 +29,7 @@ __all__ = [
     "Lyapunov",
     "lyapunov_of",
     "heading_within_period",
+    "between_samples",
 ]
 
 # A certificate passes when every LMI satisfies  lambda_min >= CHECK_FRACTION * margin,
@@ -381,6 +382,8 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
         figures["motor_speed_bound"] = round_up(cfg.reference.speed / R + np.sqrt(max(round_up(level * dev), 0.0)), 3)
         if model.channels:  # |e_theta(t)| between samples on the set (docs/theory.md §9)
             figures["heading_within_period"] = heading_within_period(model, K, mats, level)
+        figures["ultimate_bound_between_samples"] = between_samples(
+            model, K, mats, level, figures["ultimate_bound"], figures.get("heading_within_period"))
         if model.heading_bound is not None:
             figures["heading_bound"] = model.heading_bound
             checks.append({
@@ -443,6 +446,53 @@ def heading_within_period(model: Any, K: np.ndarray, mats: list[np.ndarray], lev
             val = np.abs(ch.g_h) * (1 + g) + np.sqrt(np.maximum(level * q, 0.0))
             out = max(out, float(np.max(val)))
     return round_up(out, 8)  # the product with level, the square root and the sum
+
+
+def _sup_on_set(rows: np.ndarray, mats: list[np.ndarray], level: float) -> float:
+    """max over the rows r and the Lyapunov matrices S of sqrt(level r S r') (the largest |r xi| on the
+    set), with the rounding of r S r' added."""
+    g = gamma(2 * rows.shape[1] + 4)
+    q = max(float(np.max(np.einsum("ij,jk,ik->i", rows, S, rows)
+                         + g * (1 + g) * np.einsum("ij,jk,ik->i", np.abs(rows), np.abs(S), np.abs(rows)))) for S in mats)
+    return float(np.sqrt(max(level * q, 0.0)))
+
+
+def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: float, sampled: dict[str, float],
+                    heading: float | None) -> dict[str, float | None]:
+    """Bounds on |e_x(t)|, |e_y(t)|, |e_theta(t)| for every t, not only at the sampling instants
+    (docs/theory.md §9).  Both ends of a period lie in the set, so within it each error is at most
+    its sampled bound plus its distance from the chord between the ends, which is at most
+    ``Ts^2/8 sup|f''| + Ts/4 sum |jumps of f'|`` (the Green's function of f'' on [0, Ts] lies in
+    [0, Ts/4] and integrates to at most Ts^2/8).  On the exact arcs ``e_y' = v sin e_theta`` and
+    ``e_x' = v cos e_theta - V`` (``f'' = +-v omega cos/sin``, jumps ``|dv|`` times sin / cos at the d_hi
+    switching instants); on the linearization ``e_y' = V e_theta`` (``f'' = V omega``, no jumps) and
+    ``e_x' = a`` (only jumps).  v, omega and the jumps dv of the commands in flight are bounded on the
+    set at every slip corner (affine in the slip).  e_theta(t): :func:`heading_within_period`."""
+    from .model.slip import slip_matrix
+
+    n_s, n_e, n_u, d_hi = model.n_s, model.n_e, model.n_u, model.d_hi
+    Ts, V = model.Ts, model.V
+    cmds = [np.asarray(K, dtype=float)]
+    for j in range(1, d_hi + 1):
+        E = np.zeros((n_u, n_s))
+        E[:, n_e + (j - 1) * n_u : n_e + j * n_u] = np.eye(n_u)
+        cmds.append(E)
+    uD = np.array([V, 0.0])
+    vbar = wbar = dvbar = 0.0
+    for mu in np.asarray(model.corners):
+        M = slip_matrix(mu, model.config.robot.track_distance)
+        vbar = max(vbar, abs(float(M[0] @ uD)) + _sup_on_set(np.array([M[0] @ c for c in cmds]), mats, level))
+        wbar = max(wbar, abs(float(M[1] @ uD)) + _sup_on_set(np.array([M[1] @ c for c in cmds]), mats, level))
+        dvbar = max(dvbar, _sup_on_set(np.array([M[0] @ (cmds[j] - cmds[j + 1]) for j in range(d_hi)]), mats, level))
+    if model.heading_bound is not None:
+        s = float(np.sin(min(float(heading), np.pi / 2)))
+        ey = Ts * Ts / 8 * vbar * wbar + Ts / 4 * d_hi * dvbar * s
+        ex = Ts * Ts / 8 * vbar * wbar * s + Ts / 4 * d_hi * dvbar
+    else:
+        ey = Ts * Ts / 8 * V * wbar
+        ex = Ts / 4 * d_hi * dvbar
+    return {"e_x": round_up(sampled["e_x"] + ex, 12), "e_y": round_up(sampled["e_y"] + ey, 12),
+            "e_theta": heading}
 
 
 class _AbsVertex:

@@ -107,7 +107,9 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
         ["bound on |e_x|", fmt(ub.get("e_x")) if ub else "—", "m"],
         ["bound on |e_y|", fmt(ub.get("e_y")) if ub else "—", "m"],
         ["bound on |e_theta|", fmt(ub.get("e_theta")) if ub else "—", "rad"],
-        ["bound on |e_theta(t)| between samples", fmt(figs.get("heading_within_period")), "rad"],
+        ["bound on |e_x(t)| for all t (between samples too)", fmt((figs.get("ultimate_bound_between_samples") or {}).get("e_x")), "m"],
+        ["bound on |e_y(t)| for all t (between samples too)", fmt((figs.get("ultimate_bound_between_samples") or {}).get("e_y")), "m"],
+        ["bound on |e_theta(t)| for all t (between samples too)", fmt(figs.get("heading_within_period")), "rad"],
         ["bound on |rho_r|, |rho_l| on the ellipsoid", fmt(figs.get("motor_speed_bound")), "rad/s"],
         ["l2 gain slip -> weighted error", fmt(figs.get("hinf_gain")), "—"],
     ]
