@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
-EXTRAS := test,dask,control
+EXTRAS := test,dask,control,physics
 # constraints.txt: the exact versions the suite last passed with (every package, the extras, pip
 # and the build backend).  PIP_CONSTRAINT (not -c) so that it also holds in pip's isolated build
 # environment.  `make lock` refreshes it from the newest releases, after the suite passed on them.

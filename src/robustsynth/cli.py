@@ -528,6 +528,50 @@ def check_log_cmd(obj: _Ctx, logs: tuple[Path, ...], config: Path | None, gains:
     return EXIT_VERIFICATION_FAILED if bad else EXIT_OK
 
 
+@main.command("validate")
+@_verbosity
+@click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="The gains file to validate.")
+@click.option("--episodes", type=click.IntRange(min=1, max=10_000), default=4, show_default=True,
+              help="Closed-loop episodes along the config's path (the first from the path's start, the others perturbed).")
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the delays and the perturbed starts.")
+@click.option("-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Output directory (default results/<name>/validation).")
+@click.pass_obj
+@_guard
+def validate_cmd(obj: _Ctx, config: Path, gains: Path, episodes: int, seed: int, outdir: Path | None) -> int:
+    """Run the deployed law on a physics-engine robot (MuJoCo; slip from contact and friction).
+
+    Writes validation.json and the episodes as robot logs (logs/, identify's format).  Exit 1 when
+    an error on a straight segment exceeds its certified bound, or when the slip the engine showed
+    (estimated by identify) leaves the config's slip box.
+    """
+    from .errors import EXIT_VERIFICATION_FAILED
+    from .model import build_model
+    from .pipeline import validation_stage
+
+    cfg = _load(config)
+    out = outdir if outdir is not None else Path("results") / cfg.name / "validation"
+    vd = validation_stage(build_model(cfg), gains, out, episodes=episodes, seed=seed)
+    sm, c = vd["straight_max"], vd["certified"]
+    obj.say("straight segments: " + ", ".join(
+        f"|{k}| {v * (100 if k != 'e_theta' else 1):.3g} {'cm' if k != 'e_theta' else 'rad'}"
+        + (f" (certified {c[k] * (100 if k != 'e_theta' else 1):.3g}, ratio {v / c[k]:.2f})" if c.get(k) else "")
+        for k, v in sm.items()))
+    tm = vd["turn_max"]
+    obj.say(f"turns (not certified): |e_y| {100 * tm['e_y']:.3g} cm, |e_theta| {tm['e_theta']:.3g} rad; "
+            f"torque-saturated up to {vd['torque_saturated_s']:.1f} s per episode")
+    sl = vd["slip"]
+    if sl.get("estimated"):
+        b = sl["estimated"]
+        obj.say(f"slip the engine showed (identify): right [{b['right'][0]:.3f}, {b['right'][1]:.3f}], left "
+                f"[{b['left'][0]:.3f}, {b['left'][1]:.3f}] — " + ("inside" if sl["inside_box"] else "OUTSIDE")
+                + " the config's box: the certificate " + ("covers it" if sl["inside_box"] else "does not apply to this robot"))
+    obj.say(f"validation {'passed' if vd['passed'] else 'FAILED'}: {episodes} episodes; wrote {out / 'validation.json'}")
+    return EXIT_OK if vd["passed"] else EXIT_VERIFICATION_FAILED
+
+
 @main.command("export")
 @_verbosity
 @click.argument("gains", type=click.Path(dir_okay=False, path_type=Path))

@@ -317,6 +317,30 @@ class VerificationConfig(_Node):
         return v
 
 
+class PhysicsConfig(_Node):
+    """The physics-engine robot of ``robustsynth validate`` (MuJoCo; R, D and the motor limit come from
+    ``robot:``).  The defaults reproduce the feasibility study's robot (shared docs/physics.md)."""
+
+    chassis_mass: Annotated[float, Field(gt=0, le=1e4)] = Field(default=20.0, description="chassis mass [kg]")
+    chassis_size: Annotated[list[Annotated[float, Field(gt=0, le=100)]], Field(min_length=3, max_length=3)] = Field(
+        default=[0.6, 0.5, 0.15], description="chassis box length, width, height [m]")
+    clearance: Annotated[float, Field(ge=0, le=10)] = Field(
+        default=0.065, description="gap between the chassis' bottom and the ground [m]")
+    payload_mass: Annotated[float, Field(ge=0, le=1e4)] = Field(default=0.0, description="payload mass [kg] (0: none)")
+    payload_x: Annotated[float, Field(ge=-10, le=10)] = Field(
+        default=0.0, description="payload position ahead of the chassis centre [m]")
+    friction: Annotated[float, Field(gt=0, le=10)] = Field(default=1.0, description="ground sliding friction [-]")
+    wheels_per_track: Annotated[int, Field(ge=2, le=40)] = Field(default=6, description="contact wheels per track")
+    wheel_span: Annotated[float, Field(gt=0, le=100)] = Field(
+        default=0.5, description="distance between a track's first and last contact wheel [m]")
+    wheel_mass: Annotated[float, Field(gt=0, le=1e3)] = Field(default=0.2, description="mass of one contact wheel [kg]")
+    wheel_armature: Annotated[float, Field(ge=0, le=100)] = Field(default=0.02, description="rotor inertia per wheel [kg m^2]")
+    track_torque: Annotated[float, Field(gt=0, le=1e5)] = Field(default=20.0, description="torque limit per track [N m]")
+    servo_gain: Annotated[float, Field(gt=0, le=1e5)] = Field(
+        default=10.0, description="velocity servo gain per wheel [N m s/rad]")
+    timestep: Annotated[float, Field(gt=0, le=0.01)] = Field(default=0.002, description="physics time step [s]")
+
+
 class Config(_Node):
     """A whole scenario: one robot, its network, its slip, and how to design and verify."""
 
@@ -329,6 +353,7 @@ class Config(_Node):
     slip: SlipConfig
     synthesis: SynthesisConfig = Field(default_factory=SynthesisConfig)
     verification: VerificationConfig = Field(default_factory=VerificationConfig)
+    physics: PhysicsConfig = Field(default_factory=PhysicsConfig)
 
     @field_validator("name")
     @classmethod

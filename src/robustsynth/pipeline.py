@@ -216,6 +216,51 @@ def verification_stage(
     return VerificationStage(model, res, vd, figures, tuple(list(figures.values()) + written))
 
 
+def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, episodes: int = 4, seed: int = 0,
+                     progress: ProgressFn | None = None) -> dict[str, Any]:
+    """``robustsynth validate``: the deployed law on the physics robot (:mod:`.verification.physics`);
+    writes the episodes as robot logs under ``outdir/logs/`` and ``validation.json`` (last)."""
+    from .artifacts.files import commit_files, json_bytes, make_dir
+    from .artifacts.gains import gains_id, load_gains
+    from .artifacts.logs import write_log
+    from .errors import InputError
+    from .plants.physics import available
+    from .verification.physics import validate_physics
+
+    why = available()
+    if why:
+        raise InputError(f"validate: {why}")
+    outdir = make_dir(outdir)
+    gains = load_gains(gains_path)
+    res = validate_physics(model, gains, episodes=episodes, seed=seed, progress=progress)
+    logdir = make_dir(outdir / "logs")
+    for log in res["logs"]:
+        write_log(logdir / log.path, log)
+    vd = dict(res["validation"], gains_id=gains_id(gains), config=model.config.name)
+    vd["slip"] = _observed_slip(model, res["logs"])
+    vd["passed"] = bool(vd["passed"] and vd["slip"].get("inside_box", True))
+    commit_files(outdir, {"validation.json": json_bytes(vd)}, primary="validation.json")
+    return vd
+
+
+def _observed_slip(model: Model, logs: list) -> dict[str, Any]:
+    """The slip box ``identify`` estimates from the validation's episodes, and whether the config's box
+    holds it (a certificate for a box the physics leaves does not apply to that robot)."""
+    from .errors import InputError
+    from .identification import identify
+
+    cfg = model.config
+    try:
+        ident = identify(logs, cfg.robot.gear_radius, cfg.robot.track_distance, max_motor_speed=cfg.robot.max_motor_speed)
+    except InputError as exc:
+        return {"estimated": None, "reason": str(exc)}
+    box = {k: [float(a), float(b)] for k, (a, b) in ident.box.items()}
+    conf = {"right": (cfg.slip.right.min, cfg.slip.right.max), "left": (cfg.slip.left.min, cfg.slip.left.max)}
+    inside = all(conf[s][0] <= box[s][0] and box[s][1] <= conf[s][1] for s in box)
+    return {"estimated": box, "config": {k: list(v) for k, v in conf.items()}, "inside_box": bool(inside),
+            "periods": int(ident.slip.mu.shape[0])}
+
+
 def write_run_logs(model: Model, result: Any, logdir: str | Path) -> list[Path]:
     """The verification's Monte Carlo runs as robot logs (one CSV per run, the format `identify` and
     `check-log` read) in ``logdir``."""

@@ -1,0 +1,125 @@
+"""``robustsynth validate``: the deployed law on a physics-engine robot (MuJoCo), closing its loop
+over the emulated network along the config's path (issue 25).
+
+Nothing here is assumed about slip: it emerges from contact and friction
+(:mod:`robustsynth.plants.physics`).  Each episode runs the deployed :class:`~robustsynth.law.Law`
+at the sampling instants, sends its command through the network (the config's delays and losses,
+in order, as in ``verify``), and the engine moves the robot through the period.  On straight
+segments (after ``verification.transient`` seconds from each waypoint, and from a perturbed start)
+the largest errors are compared with the certified bounds; the turns are reported beside them.
+The episodes come back as robot logs (``identify``'s format); the pipeline estimates from them the
+slip the engine showed and compares it with the config's box.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Callable
+
+import numpy as np
+
+from ..law import Law
+from ..plants.path import frame_error, make_path, pose_from_error
+
+__all__ = ["validate_physics", "PERTURBATION"]
+
+PERTURBATION = (0.02, 0.02, 0.05)  # perturbed starts: uniform offsets up to this in e_x, e_y [m], e_theta [rad]
+TORQUE_SATURATED = 0.999  # a period counts as torque-saturated when a track's peak reaches this share of the limit
+
+
+def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed: int = 0,
+                     progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+    """Run ``episodes`` closed-loop episodes on the physics robot; returns the validation mapping
+    (per episode and overall maxima against the certified figures, the verdict) and the logs."""
+    from ..artifacts.logs import RobotLog
+    from ..plants.physics import PhysicsRobot
+    from ..scenarios import random_delays
+
+    cfg = model.config
+    K = np.asarray(gains["K"], dtype=float)
+    V, Ts, d_hi = model.V, model.Ts, model.d_hi
+    path = make_path(cfg.verification.path, V)
+    duration = float(path.table.t_start[-1]) + float(np.hypot(*np.subtract(cfg.verification.path[-1],
+                                                                             cfg.verification.path[-2]))) / V
+    steps = int(math.ceil(duration / Ts))
+    rng = np.random.default_rng(seed)
+    N = episodes
+    offsets = np.zeros((N, 3))
+    offsets[1:] = rng.uniform(-1.0, 1.0, (N - 1, 3)) * np.array(PERTURBATION)
+    q0 = pose_from_error(path, offsets)
+    robot = PhysicsRobot(cfg, N)
+    robot.reset(q0, V)
+    taus = random_delays(model, rng, N, steps)  # (N, d_hi + steps): the d_hi packets before t_0 first
+    S = model.s_tilde(taus)  # (N, steps, d_hi)
+    law = Law(K.tolist(), Ts, bool(model.n_z), path.table)
+    law.reset(past=[np.zeros(N) for _ in range(2 * d_hi)], z=[np.zeros(N) for _ in range(model.n_z)])
+    uD = np.array([V, 0.0])
+    U = np.tile(uD, (N, d_hi + 1, 1))
+    R, D = cfg.robot.gear_radius, cfg.robot.track_distance
+    J_inv = np.array([[1.0 / R, D / (2.0 * R)], [1.0 / R, -D / (2.0 * R)]])
+    rho_max = cfg.robot.max_motor_speed
+    limit = cfg.physics.track_torque
+    E = np.zeros((N, steps, 3))
+    Q = np.zeros((N, steps, 3))
+    RHO = np.zeros((N, steps, 2))
+    sat = np.zeros((N, steps), dtype=bool)
+    theta_prev = q0[:, 2].copy()
+    for k in range(steps):
+        t = k * Ts
+        q = robot.pose()
+        q[:, 2] = theta_prev + (q[:, 2] - theta_prev + math.pi) % (2 * math.pi) - math.pi  # unwrap
+        theta_prev = q[:, 2]
+        Q[:, k] = q
+        seg = path.segment(t)
+        E[:, k] = frame_error(path, seg, q, t)
+        dv, dw = law.correction(t, q[:, 0], q[:, 1], q[:, 2])
+        u = uD + np.stack([np.asarray(dv, dtype=float) * np.ones(N), np.asarray(dw, dtype=float) * np.ones(N)], axis=1)
+        RHO[:, k] = u @ J_inv.T
+        U = np.concatenate([u[:, None], U[:, :-1]], axis=1)
+        peak = robot.period(U, S[:, k])
+        sat[:, k] = np.any(peak >= TORQUE_SATURATED * limit, axis=1)
+        if progress is not None:
+            progress(k + 1, steps)
+    # straight segments: from `transient` after each waypoint (and after a perturbed start) on
+    tk = np.arange(steps) * Ts
+    straight = np.ones((N, steps), dtype=bool)
+    tr = cfg.verification.transient
+    for ts in path.table.t_start[1:]:
+        straight[:, (tk >= ts) & (tk < ts + tr)] = False
+    straight[1:, tk < tr] = False
+    cert = gains.get("certified") or {}
+    ub = cert.get("ultimate_bound") or {}
+    names = ("e_x", "e_y", "e_theta")
+    per_episode = []
+    for n in range(N):
+        m = straight[n]
+        ep = {"start_offset": offsets[n].tolist(),
+              "straight_max": {nm: float(np.max(np.abs(E[n, m, i]), initial=0.0)) for i, nm in enumerate(names)},
+              "turn_max": {nm: float(np.max(np.abs(E[n, ~m, i]), initial=0.0)) for i, nm in enumerate(names)},
+              "max_motor_speed_commanded": float(np.max(np.abs(RHO[n]))),
+              "torque_saturated_s": float(np.sum(sat[n]) * Ts)}
+        ep["passed"] = all(ep["straight_max"][nm] <= ub[nm] for nm in names if nm in ub)
+        per_episode.append(ep)
+    overall = {nm: max(ep["straight_max"][nm] for ep in per_episode) for nm in names}
+    turns = {nm: max(ep["turn_max"][nm] for ep in per_episode) for nm in names}
+    out = {
+        "engine": "physics (MuJoCo)", "episodes": N, "seed": seed, "steps": steps, "duration_s": steps * Ts,
+        "straight_rule": f"from {tr:g} s after each waypoint (and after a perturbed start) on",
+        "certified": {nm: ub.get(nm) for nm in names},
+        "straight_max": overall,
+        "ratio_to_certified": {nm: (overall[nm] / ub[nm] if ub.get(nm) else None) for nm in names},
+        "turn_max": turns,
+        "max_motor_speed_commanded": max(ep["max_motor_speed_commanded"] for ep in per_episode),
+        "max_motor_speed": rho_max,
+        "torque_saturated_s": max(ep["torque_saturated_s"] for ep in per_episode),
+        "per_episode": per_episode,
+    }
+    logs = []
+    for n in range(N):
+        # the instant each command was delivered: t_k + tau_k (lost: NaN)
+        tau = taus[n, d_hi : d_hi + steps]
+        applied = np.where(np.isfinite(tau), tk + tau, np.nan)
+        logs.append(RobotLog(f"episode_{n:03d}.csv", tk.copy(), Q[n, :, 0], Q[n, :, 1], Q[n, :, 2],
+                             np.arange(steps, dtype=float), RHO[n, :, 0], RHO[n, :, 1], tk.copy(), applied))
+    out["passed"] = bool(all(ep["passed"] for ep in per_episode))
+    return {"validation": out, "logs": logs}
