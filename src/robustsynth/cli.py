@@ -531,8 +531,11 @@ def check_log_cmd(obj: _Ctx, logs: tuple[Path, ...], config: Path | None, gains:
 @main.command("validate")
 @_verbosity
 @click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), required=True,
-              help="The gains file to validate.")
+@click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="The gains file to validate (not with --excite).")
+@click.option("--excite", is_flag=True,
+              help="Instead: drive the physics robot open loop (turns at several rates, speed changes) and write the "
+                   "episodes as robot logs for identify.")
 @click.option("--episodes", type=click.IntRange(min=1, max=10_000), default=4, show_default=True,
               help="Closed-loop episodes along the config's path (the first from the path's start, the others perturbed).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the delays and the perturbed starts.")
@@ -540,19 +543,27 @@ def check_log_cmd(obj: _Ctx, logs: tuple[Path, ...], config: Path | None, gains:
               help="Output directory (default results/<name>/validation).")
 @click.pass_obj
 @_guard
-def validate_cmd(obj: _Ctx, config: Path, gains: Path, episodes: int, seed: int, outdir: Path | None) -> int:
+def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, episodes: int, seed: int,
+                 outdir: Path | None) -> int:
     """Run the deployed law on a physics-engine robot (MuJoCo; slip from contact and friction).
 
     Writes validation.json and the episodes as robot logs (logs/, identify's format).  Exit 1 when
     an error on a straight segment exceeds its certified bound, or when the slip the engine showed
     (estimated by identify) leaves the config's slip box.
     """
-    from .errors import EXIT_VERIFICATION_FAILED
+    from .errors import EXIT_VERIFICATION_FAILED, InputError
     from .model import build_model
-    from .pipeline import validation_stage
+    from .pipeline import excitation_stage, validation_stage
 
+    if excite == (gains is not None):
+        raise InputError("validate: give exactly one of --gains (validate a gain) and --excite (excitation logs)")
     cfg = _load(config)
-    out = outdir if outdir is not None else Path("results") / cfg.name / "validation"
+    out = outdir if outdir is not None else Path("results") / cfg.name / ("excitation" if excite else "validation")
+    if excite:
+        paths = excitation_stage(build_model(cfg), out, episodes=episodes, seed=seed)
+        obj.say(f"excitation: {len(paths)} episodes written to {out / 'logs'}; next: robustsynth identify "
+                f"{out / 'logs'}/*.csv --max-motor-speed {cfg.robot.max_motor_speed or 'R'} -o FRAGMENT.yaml")
+        return EXIT_OK
     vd = validation_stage(build_model(cfg), gains, out, episodes=episodes, seed=seed)
     sm, c = vd["straight_max"], vd["certified"]
     obj.say("straight segments: " + ", ".join(
@@ -565,9 +576,13 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path, episodes: int, seed: int,
     sl = vd["slip"]
     if sl.get("estimated"):
         b = sl["estimated"]
-        obj.say(f"slip the engine showed (identify): right [{b['right'][0]:.3f}, {b['right'][1]:.3f}], left "
+        obj.say(f"slip the engine showed on the straight segments (identify): right [{b['right'][0]:.3f}, {b['right'][1]:.3f}], left "
                 f"[{b['left'][0]:.3f}, {b['left'][1]:.3f}] — " + ("inside" if sl["inside_box"] else "OUTSIDE")
                 + " the config's box: the certificate " + ("covers it" if sl["inside_box"] else "does not apply to this robot"))
+    whole = vd.get("slip_whole_episodes", {}).get("estimated")
+    if whole:
+        obj.say(f"  with the turns: right [{whole['right'][0]:.3f}, {whole['right'][1]:.3f}], left [{whole['left'][0]:.3f}, "
+                f"{whole['left'][1]:.3f}] (the turns are not certified)")
     obj.say(f"validation {'passed' if vd['passed'] else 'FAILED'}: {episodes} episodes; wrote {out / 'validation.json'}")
     return EXIT_OK if vd["passed"] else EXIT_VERIFICATION_FAILED
 

@@ -475,7 +475,8 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
             break
     if best.cert is None:
         if runner is not None and runner.failures and runner.failures == len(search):
-            raise SolverFailure("ultimate-bound (nonlinear kinematics): every solve failed, also with the fallback")
+            raise SolverFailure("ultimate-bound (nonlinear kinematics): every solve failed (numerical trouble, usually "
+                                "near infeasibility). " + _nonlinear_infeasible(model, common, tried))
         raise InfeasibleError(_nonlinear_infeasible(model, common, tried))
     return best, runner
 

@@ -21,7 +21,7 @@ import numpy as np
 from ..law import Law
 from ..plants.path import frame_error, make_path, pose_from_error
 
-__all__ = ["validate_physics", "PERTURBATION"]
+__all__ = ["validate_physics", "excite_physics", "PERTURBATION"]
 
 PERTURBATION = (0.02, 0.02, 0.05)  # perturbed starts: uniform offsets up to this in e_x, e_y [m], e_theta [rad]
 TORQUE_SATURATED = 0.999  # a period counts as torque-saturated when a track's peak reaches this share of the limit
@@ -122,4 +122,60 @@ def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed:
         logs.append(RobotLog(f"episode_{n:03d}.csv", tk.copy(), Q[n, :, 0], Q[n, :, 1], Q[n, :, 2],
                              np.arange(steps, dtype=float), RHO[n, :, 0], RHO[n, :, 1], tk.copy(), applied))
     out["passed"] = bool(all(ep["passed"] for ep in per_episode))
-    return {"validation": out, "logs": logs}
+    return {"validation": out, "logs": logs, "straight": straight}
+
+
+EXCITATION_TURNS = (0.0, 0.5, -0.5, 1.0, -1.0, 2.0, -2.0)  # omega / V [rad/m] of the excitation's stretches
+EXCITATION_SPEEDS = (0.6, 1.0, 1.4)  # forward speed of a stretch / V^D
+EXCITATION_HOLD = 3.0  # seconds per stretch
+
+
+def excite_physics(model: Any, episodes: int = 4, seed: int = 0) -> list:
+    """Open-loop excitation of the physics robot for ``identify``: each episode drives stretches of
+    EXCITATION_HOLD seconds at every turn rate of EXCITATION_TURNS and speed of EXCITATION_SPEEDS
+    (shuffled per episode), the commands sent through the emulated network (the config's delays and
+    losses).  Commands beyond the motor limit are scaled down to it.  Returns the episodes as robot
+    logs."""
+    from ..artifacts.logs import RobotLog
+    from ..plants.physics import PhysicsRobot
+    from ..scenarios import random_delays
+
+    cfg = model.config
+    V, Ts, d_hi = model.V, model.Ts, model.d_hi
+    rng = np.random.default_rng(seed)
+    R, D = cfg.robot.gear_radius, cfg.robot.track_distance
+    J_inv = np.array([[1.0 / R, D / (2.0 * R)], [1.0 / R, -D / (2.0 * R)]])
+    rho_max = cfg.robot.max_motor_speed
+    combos = [(s * V, s * V * w) for w in EXCITATION_TURNS for s in EXCITATION_SPEEDS]
+    hold = max(1, int(round(EXCITATION_HOLD / Ts)))
+    steps = hold * len(combos)
+    cmd = np.zeros((episodes, steps, 2))
+    for n in range(episodes):
+        for i, c in enumerate(rng.permutation(len(combos))):
+            cmd[n, i * hold : (i + 1) * hold] = combos[c]
+    if rho_max is not None:  # scale a command down to the motor limit
+        peak = np.max(np.abs(cmd @ J_inv.T), axis=-1, keepdims=True)
+        cmd = cmd * np.minimum(1.0, rho_max / np.maximum(peak, 1e-12))
+    robot = PhysicsRobot(cfg, episodes)
+    robot.reset(np.zeros((episodes, 3)), V)
+    taus = random_delays(model, rng, episodes, steps)
+    S = model.s_tilde(taus)
+    U = np.tile(np.array([V, 0.0]), (episodes, d_hi + 1, 1))
+    Q = np.zeros((episodes, steps, 3))
+    theta_prev = np.zeros(episodes)
+    for k in range(steps):
+        q = robot.pose()
+        q[:, 2] = theta_prev + (q[:, 2] - theta_prev + math.pi) % (2 * math.pi) - math.pi
+        theta_prev = q[:, 2]
+        Q[:, k] = q
+        U = np.concatenate([cmd[:, k][:, None], U[:, :-1]], axis=1)
+        robot.period(U, S[:, k])
+    tk = np.arange(steps) * Ts
+    rho = cmd @ J_inv.T
+    logs = []
+    for n in range(episodes):
+        tau = taus[n, d_hi : d_hi + steps]
+        logs.append(RobotLog(f"excite_{n:03d}.csv", tk.copy(), Q[n, :, 0], Q[n, :, 1], Q[n, :, 2],
+                             np.arange(steps, dtype=float), rho[n, :, 0], rho[n, :, 1], tk.copy(),
+                             np.where(np.isfinite(tau), tk + tau, np.nan)))
+    return logs
