@@ -541,10 +541,11 @@ def check_log_cmd(obj: _Ctx, logs: tuple[Path, ...], config: Path | None, gains:
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the delays and the perturbed starts.")
 @click.option("-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Output directory (default results/<name>/validation).")
+@click.option("--no-plots", is_flag=True, help="Skip the figure.")
 @click.pass_obj
 @_guard
 def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, episodes: int, seed: int,
-                 outdir: Path | None) -> int:
+                 outdir: Path | None, no_plots: bool) -> int:
     """Run the deployed law on a physics-engine robot (MuJoCo; slip from contact and friction).
 
     Writes validation.json and the episodes as robot logs (logs/, identify's format).  Exit 1 when
@@ -564,7 +565,12 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
         obj.say(f"excitation: {len(paths)} episodes written to {out / 'logs'}; next: robustsynth identify "
                 f"{out / 'logs'}/*.csv --max-motor-speed {cfg.robot.max_motor_speed or 'R'} -o FRAGMENT.yaml")
         return EXIT_OK
-    vd = validation_stage(build_model(cfg), gains, out, episodes=episodes, seed=seed)
+    cb, bar = _progress(obj)
+    try:
+        vd = validation_stage(build_model(cfg), gains, out, episodes=episodes, seed=seed, progress=cb, plots=not no_plots)
+    finally:
+        if bar is not None:
+            bar.render_finish()
     sm, c = vd["straight_max"], vd["certified"]
     obj.say("straight segments: " + ", ".join(
         f"|{k}| {v * (100 if k != 'e_theta' else 1):.3g} {'cm' if k != 'e_theta' else 'rad'}"

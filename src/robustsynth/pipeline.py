@@ -217,7 +217,7 @@ def verification_stage(
 
 
 def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, episodes: int = 4, seed: int = 0,
-                     progress: ProgressFn | None = None) -> dict[str, Any]:
+                     progress: ProgressFn | None = None, plots: bool = True) -> dict[str, Any]:
     """``robustsynth validate``: the deployed law on the physics robot (:mod:`.verification.physics`);
     writes the episodes as robot logs under ``outdir/logs/`` and ``validation.json`` (last)."""
     from .artifacts.files import commit_files, json_bytes, make_dir
@@ -243,6 +243,12 @@ def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, e
     vd["slip"]["where"] = "straight segments (the steps the certificate covers)"
     vd["slip_whole_episodes"] = _observed_slip(model, res["logs"])
     vd["passed"] = bool(vd["passed"] and vd["slip"].get("inside_box", True))
+    if plots:
+        from .report.plots import validation_figure
+
+        res["validation"]["passed"] = vd["passed"]
+        validation_figure(res, model.config.verification.path, outdir / "validation.png")
+        vd["figure"] = "validation.png"
     commit_files(outdir, {"validation.json": json_bytes(vd)}, primary="validation.json")
     return vd
 

@@ -469,3 +469,47 @@ def identification_figure(ident: Any, path: Path) -> Path:
     plt.close(fig)
     atomic_write(path, buf.getvalue())
     return Path(path)
+
+
+def validation_figure(res: dict[str, Any], waypoints: Any, path: Path) -> Path:
+    """``validate``: the path with the physics robot's trajectories, and e_x, e_y, e_theta over time
+    for every episode with the certified bounds as bands (grey: the turns, not certified)."""
+    from ..artifacts.files import atomic_write
+
+    plt = _plt()
+    v = res["validation"]
+    t, E, Q, straight = res["t"], res["e"], res["q"], res["straight"]
+    fig = plt.figure(figsize=(11, 8))
+    gs = fig.add_gridspec(3, 2, width_ratios=[1.1, 1.0])
+    ax = fig.add_subplot(gs[:, 0])
+    wp = np.asarray(waypoints, dtype=float)
+    ax.plot(wp[:, 0], wp[:, 1], "k--", lw=1, label="path")
+    for n in range(Q.shape[0]):
+        ax.plot(Q[n, :, 0], Q[n, :, 1], lw=0.8, label="episodes" if n == 0 else None)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title("physics robot along the path (errors: right)")
+    ax.legend(loc="lower right", fontsize=8)
+    names = (("e_x", 100.0, "cm"), ("e_y", 100.0, "cm"), ("e_theta", 1.0, "rad"))
+    turns = ~np.all(straight, axis=0)
+    for i, (nm, sc, unit) in enumerate(names):
+        a = fig.add_subplot(gs[i, 1])
+        for n in range(E.shape[0]):
+            a.plot(t, E[n, :, i] * sc, lw=0.7)
+        b = v["certified"].get(nm)
+        if b is not None:
+            a.axhspan(-b * sc, b * sc, color="C2", alpha=0.12, label=f"certified ±{b * sc:.3g} {unit}")
+        a.fill_between(t, 0, 1, where=turns, color="0.85", transform=a.get_xaxis_transform(), label="after a waypoint or a perturbed start (not judged)")
+        a.set_ylabel(f"{nm} [{unit}]")
+        a.legend(loc="upper right", fontsize=7)
+        if i == 2:
+            a.set_xlabel("t [s]")
+    fig.suptitle(f"validate: {v['episodes']} episodes on the physics robot — "
+                 + ("passed" if v.get("passed") else "FAILED"), fontsize=11)
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    plt.close(fig)
+    atomic_write(path, buf.getvalue())
+    return Path(path)

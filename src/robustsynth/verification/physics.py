@@ -122,7 +122,7 @@ def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed:
         logs.append(RobotLog(f"episode_{n:03d}.csv", tk.copy(), Q[n, :, 0], Q[n, :, 1], Q[n, :, 2],
                              np.arange(steps, dtype=float), RHO[n, :, 0], RHO[n, :, 1], tk.copy(), applied))
     out["passed"] = bool(all(ep["passed"] for ep in per_episode))
-    return {"validation": out, "logs": logs, "straight": straight}
+    return {"validation": out, "logs": logs, "straight": straight, "t": tk, "e": E, "q": Q}
 
 
 EXCITATION_TURNS = (0.0, 0.5, -0.5, 1.0, -1.0, 2.0, -2.0)  # omega / V [rad/m] of the excitation's stretches
