@@ -8,10 +8,10 @@ import math
 
 import pytest
 import yaml
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from robustsynth.config import Config, load_config, parse_config
+from robustsynth.config import MAX_MOTION_PER_PERIOD, Config, load_config, parse_config
 from robustsynth.errors import ConfigError
 
 from .conftest import default_dict
@@ -99,7 +99,7 @@ def test_bad_values_name_the_key_path(path, value, expected) -> None:
     "text,expected",
     [
         ("- 1\n- 2\n", "the document must be a mapping"),
-        ("", "the document must be a mapping"),
+        ("", "the document is empty"),
         ("a: &x [1]\nb: *x\n", "YAML aliases are not allowed"),
         ("a: !!python/object/apply:os.system ['true']\n", "invalid YAML"),
         ("name: a\nname: b\n", "duplicate key 'name'"),
@@ -141,6 +141,7 @@ def test_billion_laughs_is_refused_quickly() -> None:
 )
 @settings(max_examples=100, deadline=None)
 def test_valid_configs_roundtrip(R, D, V, Ts, t1, t2, m1, m2, rho) -> None:
+    assume(V * Ts <= MAX_MOTION_PER_PERIOD)  # beyond: refused as a likely unit mistake (test below)
     d = default_dict()
     d["robot"] = {"gear_radius": R, "track_distance": D, "max_motor_speed": rho}
     d["reference"]["speed"] = V
@@ -177,7 +178,7 @@ def test_cli_exits_2_on_a_bad_dropout_cap(tmp_path) -> None:
     p.write_text(yaml.safe_dump(d))
     r = CliRunner().invoke(main, ["synthesize", str(p), "-o", str(tmp_path / "o")])
     assert r.exit_code == 2
-    assert r.output.strip().splitlines() == ["error: network.dropouts.max_consecutive: Input should be greater than or equal to 0"]
+    assert r.output.strip().splitlines() == ["error: network.dropouts.max_consecutive: Input should be greater than or equal to 0 (got -2)"]
     assert not (tmp_path / "o").exists()
 
 
@@ -226,3 +227,37 @@ def test_default_config_name_option() -> None:
     assert parse_config(text).name == "my-robot" and text.startswith("#")  # comments kept
     with pytest.raises(ConfigError, match=r"^--name: "):
         named_default_config_text("../evil")
+
+
+
+@pytest.mark.parametrize("Ts, hint", [(50.0, "did you mean 0.05 s?"), (5.0, "did you mean 0.005 s?"), (0.5, "")])
+def test_implausible_motion_per_period_is_named_a_unit_mistake(Ts, hint) -> None:
+    """sampling_time in ms (50 instead of 0.05): the robot would move metres per period; one line
+    naming the key, the motion and the likely unit."""
+    d = default_dict()
+    d["network"] = {"sampling_time": Ts, "delay": {"min": 0.0, "max": 0.01}}
+    d["reference"]["speed"] = 5.0
+    with pytest.raises(ConfigError) as exc:
+        parse_config(_dump(d))
+    msg = str(exc.value)
+    assert msg.startswith("network.sampling_time:") and "per sampling period" in msg and hint in msg
+    assert "\n" not in msg
+
+
+def test_an_empty_file_and_a_bound_say_what_they_got(tmp_path) -> None:
+    p = tmp_path / "empty.yaml"
+    p.write_text("")
+    with pytest.raises(ConfigError, match="the document is empty"):
+        load_config(p)
+    d = default_dict()
+    d["robot"]["gear_radius"] = -0.09
+    with pytest.raises(ConfigError, match=r"robot.gear_radius: Input should be greater than 0 \(got -0.09\)"):
+        parse_config(_dump(d))
+
+
+def test_load_config_takes_a_mapping_with_the_same_rules() -> None:
+    d = default_dict()
+    assert load_config(d) == parse_config(_dump(d))
+    d["network"]["delay"]["maxx"] = 0.1
+    with pytest.raises(ConfigError, match="network.delay.maxx: unknown key"):
+        load_config(d)

@@ -11,6 +11,7 @@ import math
 from importlib import resources
 import json
 from pathlib import Path
+from collections.abc import Mapping
 from typing import Annotated, Any, Literal
 
 import yaml
@@ -44,6 +45,7 @@ Pos = Annotated[float, Field(gt=0)]
 NonNeg = Annotated[float, Field(ge=0)]
 RESERVED_NAMES = {"baselines": "regression baselines", "sweeps": "sweep tables"}  # results/<name>/ of a run
 MAX_D_HI = 20  # longest delay, in sampling periods (the lifted state grows with it)
+MAX_MOTION_PER_PERIOD = 2.0  # [m]: reference.speed * sampling_time above this is named a likely unit mistake
 # Tokens in validator messages: _SIBLING is replaced by the sibling key's full path; a message
 # starting with _FIELD "name: ..." (from a model validator) is reported at that field's path.
 _SIBLING = "@sibling:"
@@ -355,6 +357,19 @@ class Config(_Node):
     verification: VerificationConfig = Field(default_factory=VerificationConfig)
     physics: PhysicsConfig = Field(default_factory=PhysicsConfig)
 
+    @model_validator(mode="after")
+    def _plausible_motion(self) -> "Config":
+        step = self.reference.speed * self.network.sampling_time
+        if step > MAX_MOTION_PER_PERIOD:
+            Ts = self.network.sampling_time
+            hint = (f"; times are in seconds: {Ts:g} looks like milliseconds (did you mean {Ts / 1000.0:g} s?)"
+                    if Ts >= 1.0 else "")
+            raise ValueError(
+                f"{_FIELD}network.sampling_time: {Ts:g} s at reference.speed {self.reference.speed:g} m/s moves the "
+                f"robot {step:.3g} m per sampling period (more than {MAX_MOTION_PER_PERIOD:g} m: implausible for "
+                f"feedback on a tracking error){hint}")
+        return self
+
     @field_validator("name")
     @classmethod
     def _name_not_reserved(cls, v: str) -> str:
@@ -431,6 +446,8 @@ def _one_problem(e: dict[str, Any]) -> tuple[str, str]:
         msg = "required key is missing"
     elif e["type"] in {"float_type", "int_type", "string_type", "bool_type", "model_type", "tuple_type"}:
         msg += f" (got {type(e.get('input')).__name__})"
+    elif e["type"] in {"greater_than", "greater_than_equal", "less_than", "less_than_equal", "too_short", "too_long"}:
+        msg += f" (got {e.get('input')!r})"
     return path, msg
 
 
@@ -479,6 +496,9 @@ def parse_config(text: str | bytes, source: str = "<config>") -> Config:
         raise ConfigError(f"{source}: {where}invalid YAML: {problem}") from None
     except RecursionError:
         raise ConfigError(f"{source}: YAML nesting is too deep") from None
+    if data is None:
+        raise ConfigError(f"{source}: the document is empty (expected the sections robot:, reference:, network:, "
+                          "slip:, ...; `robustsynth default-config` prints a complete one)")
     if not isinstance(data, dict):
         raise ConfigError(f"{source}: the document must be a mapping (got {type(data).__name__})")
     try:
@@ -581,10 +601,18 @@ def config_with(config: Config, overrides: dict[str, Any]) -> Config:
         raise ConfigError(_format_validation_error(exc)) from None
 
 
-def load_config(path: str | Path | None = None) -> Config:
-    """Load a configuration file; ``None`` gives the embedded default."""
+def load_config(path: str | Path | Mapping[str, Any] | None = None) -> Config:
+    """Load a configuration file (or validate a mapping with the same rules and messages); ``None``
+    gives the embedded default.  To change single values of the default: ``default_config(**{"network.
+    delay.max": 0.09})``; of a loaded config: ``cfg.model_copy(update=...)`` per section, or dump,
+    edit and reload (``load_config(config_to_dict(cfg) | {...})``)."""
     if path is None:
         return parse_config(default_config_text(), "<default config>")
+    if isinstance(path, Mapping):
+        try:
+            return Config.model_validate(dict(path))
+        except ValidationError as exc:
+            raise ConfigError(_format_validation_error(exc)) from None
     p = Path(path)
     try:
         if p.is_dir():
