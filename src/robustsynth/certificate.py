@@ -426,8 +426,20 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
         f"not proven (rounding): {unproven[0]['name']} passes in floating point (smallest eigenvalue "
         f"{unproven[0]['margin_found']:.3g} >= {-unproven[0]['threshold']:.3g}) but the verified test does not"
         + (f" (first at {unproven[0]['unproven']})" if unproven[0].get("unproven") else "")
-        if unproven and all(c["passed"] or c.get("status") for c in checks) else "an LMI fails the margin check")
+        if unproven and all(c["passed"] or c.get("status") for c in checks) else _failed_reason(checks))
     return CertificateCheck(passed, tuple(checks), figures, reason)
+
+
+def _failed_reason(checks: list[dict[str, Any]]) -> str:
+    """The first failed condition in words: what was found against what is required."""
+    bad = [c for c in checks if not c["passed"]]
+    if not bad:
+        return "an LMI fails the margin check"
+    c = bad[0]
+    if c.get("margin_found") is not None:
+        return (f"{c['name']} fails: smallest eigenvalue {c['margin_found']:.3g}, required >= {-c['threshold']:.3g}"
+                + (f" (at {c['worst']})" if c.get("worst") else ""))
+    return f"{c['name']} fails: {c.get('value')} against {c.get('threshold')}"
 
 
 def heading_within_period(model: Any, K: np.ndarray, mats: list[np.ndarray], level: float) -> float:

@@ -337,7 +337,9 @@ def _verify_opts(fn):
 def _report_checks(obj: _Ctx, result: Any) -> None:
     for c in result.checks:
         if not c["passed"]:
-            click.echo(f"FAILED: {c['name']} (value {c['value']}, threshold {c['threshold']})", err=True)
+            what = f" (value {c['value']:.4g}, threshold {c['threshold']:.4g})" if isinstance(c.get("value"), (int, float)) \
+                and isinstance(c.get("threshold"), (int, float)) else ""
+            click.echo(f"FAILED: {c['name']}{what}" + (f": {c['detail']}" if c.get("detail") else ""), err=True)
     mc = result.monte_carlo
     ratios = ", ".join(f"{k} {v:.3f}" for k, v in mc["ratio_to_certified"].items())
     obj.say(f"verification {'passed' if result.passed else 'FAILED'}: {len(result.checks)} checks, "

@@ -4,6 +4,7 @@ the failing checks, figures are produced and non-empty, files are consistent."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -196,3 +197,23 @@ def test_certified_gain_is_judged_from_the_start_of_a_short_path(run_dir, tmp_pa
     v = json.loads((tmp_path / "v" / "verification.json").read_text())
     mc = v["monte_carlo"]
     assert mc["certified_steps"] == 5 * mc["steps"] and mc["nonlinear_slack"] == 1.0
+
+
+def test_a_gain_for_another_config_names_it_and_the_physics(tmp_path) -> None:
+    """Issue 27: verify of the default gain on a config with another slip range says which config the
+    gain was made for and what differs, and that the new config cannot be followed within the motor
+    limit (mu 0.3 needs 18.5 rad/s > 12)."""
+    from click.testing import CliRunner
+
+    from robustsynth.cli import main
+
+    root = Path(__file__).resolve().parents[2]
+    cfg = tmp_path / "other.yaml"
+    cfg.write_text((root / "configs" / "default.yaml").read_text().replace("{min: 0.6, max: 1.0}", "{min: 0.3, max: 1.0}")
+                   .replace("name: default", "name: other"))
+    r = CliRunner().invoke(main, ["verify", str(cfg), "--gains", str(root / "results" / "baselines" / "default" / "gains.json"),
+                                  "-o", str(tmp_path / "out"), "--no-plots", "--runs", "3"])
+    assert r.exit_code == 1
+    assert "made for config 'default'" in r.output and "slip.right.min 0.6 -> 0.3" in r.output
+    assert "required >= 5e-08" in r.output
+    assert "physically infeasible" in r.output and "18.5 rad/s" in r.output

@@ -474,6 +474,38 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
     return checks, mc, sim, ext, scen, v_ratio, np.asarray(mask)
 
 
+def _provenance(model: Any, gains: dict[str, Any]) -> str:
+    """'the gain was made for config NAME, which differs in: key a -> b, ...' ('' when the gains file
+    holds no config or the same design settings)."""
+    from ..artifacts.gains import stored_config
+    from ..config import config_to_dict
+
+    try:
+        made = stored_config(gains)
+    except InputError:
+        return "the config stored in the gains file is not valid"
+    if made is None:
+        return ""
+
+    def flat(d: Any, pre: str = "") -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for k, v in d.items():
+            key = f"{pre}{k}"
+            if isinstance(v, dict):
+                out.update(flat(v, key + "."))
+            else:
+                out[key] = v
+        return out
+
+    a, b = flat(config_to_dict(made)), flat(config_to_dict(model.config))
+    keys = [k for k in sorted(set(a) | set(b)) if k != "name" and not k.startswith(("verification.", "physics."))
+            and a.get(k) != b.get(k)]
+    if not keys:
+        return ""
+    shown = ", ".join(f"{k} {a.get(k)!r} -> {b.get(k)!r}" for k in keys[:6]) + (f" and {len(keys) - 6} more" if len(keys) > 6 else "")
+    return f"the gain was made for config {made.name!r}, which differs from this one in: {shown}"
+
+
 def verify(model, gains: Any, runs: int | None = None, seed: int | None = None,
            progress: Callable[[int, int], None] | None = None) -> VerificationResult:
     """Run every check of ``gains`` against ``model``: a gains.json mapping (:func:`~robustsynth.artifacts.gains.load_gains`),
@@ -513,6 +545,10 @@ def verify(model, gains: Any, runs: int | None = None, seed: int | None = None,
             cert = CertificateCheck(False, (), {}, "no certificate in the gains file, and none found for the fixed K "
                                     f"by the analysis LMIs ({'; '.join(ana.attempts)})")
             source = None
+    if not cert.passed and source == "gains file":  # say what the gain was made for, and what differs
+        made_for = _provenance(model, gains)
+        if made_for:
+            cert = CertificateCheck(False, cert.checks, cert.figures, f"{cert.reason}; {made_for}")
     checks = [_check("certificate: LMIs re-checked in numpy", cert.passed,
                      None if not cert.checks else cert.min_eig_margin,
                      None if not cert.checks else 0.5 * float(cert_data.get("margin", float("nan"))),
@@ -531,6 +567,13 @@ def verify(model, gains: Any, runs: int | None = None, seed: int | None = None,
             mism += [f"ultimate_bound.{k}" for k in ubf if not math.isclose(float(ubc.get(k, float("nan"))), ubf[k], rel_tol=1e-6)]
         checks.append(_check("certificate: figures in the file match the re-check", not mism, None, None,
                              "mismatch: " + ", ".join(mism) if mism else "all certified figures reproduced (rel 1e-6)"))
+    try:  # a config no controller can follow (a motor too slow for its slip) is named as such
+        from ..model.slip import check_physical_feasibility
+
+        check_physical_feasibility(model.config)
+    except Exception as exc:  # InfeasibleError: the one-line reason
+        checks.append(_check("physics: the config's slip can be compensated within the motor limit", False, None, None,
+                             str(exc)))
     cert_rate = cert.figures.get("decay_rate") if cert.passed else None
     fchecks, frozen = _frozen(model, K, cert_rate)
     lchecks, lifted, traces = _lifted(model, K, cert, gains)
