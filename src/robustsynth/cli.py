@@ -254,6 +254,8 @@ def synthesize(obj: _Ctx, config: Path | None, outdir: Path | None, objective: s
                          solver=solver, multiplier=multiplier)
     _say_cleared(obj, out, st.cleared)
     obj.say(_certified_line(st.gains))
+    for note in st.gains.get("notes") or ():
+        obj.say(f"note: {note}")
     _say_diagnosis(obj, st.diagnosis)
     obj.say(f"wrote {', '.join(str(p) for p in st.files)}")
 

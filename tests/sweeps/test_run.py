@@ -162,3 +162,31 @@ def test_sigkill_loses_only_points_in_flight(tmp_path, workers) -> None:
     res = sweep(load_sweep(tmp_path / "k.yaml"), out, workers=1)
     assert res.reused == len(stored) and res.counts["certified"] == 6
     assert not list((out / "points").glob(".*.tmp"))
+
+
+def test_a_row_that_fails_verification_says_which_checks() -> None:
+    """Issue 27: the CSV row itself names the failed checks (not only points/<hash>.json)."""
+    from robustsynth.sweeps.run import _row
+
+    res = {"status": "certified", "figures": {"ultimate_bound": {"e_x": 1.0, "e_y": 2.29, "e_theta": 2.24}},
+           "verification": {"passed": False, "max": {}, "failed_checks": ["nonlinear: max |e_y| <= certified"]},
+           "gains_id": "x", "message": "certified |e_theta| <= 2.24 rad lies beyond", "time_s": 1.0}
+    row = _row(0, {"network.delay.max": 0.2}, res, "", verify_runs=20)
+    assert row["verified"] is False
+    assert row["message"].startswith("verification failed: nonlinear: max |e_y| <= certified")
+    assert "beyond" in row["message"]
+
+
+def test_validity_notes_flag_bounds_beyond_the_model() -> None:
+    from robustsynth.model import build_model
+    from robustsynth.synthesis.design import validity_notes
+
+    from ..conftest import make_config
+
+    m = build_model(make_config())
+    assert validity_notes(m, {"ultimate_bound": {"e_x": 0.08, "e_y": 0.044, "e_theta": 0.31}}, {}) == []
+    notes = validity_notes(m, {"ultimate_bound": {"e_x": 0.08, "e_y": 2.29, "e_theta": 2.24}}, {})
+    assert len(notes) == 2 and "linearization" in notes[0] and "segment" in notes[1]
+    # a nonlinear certificate proves its own heading bound: no heading note
+    assert len(validity_notes(m, {"ultimate_bound": {"e_x": 0.08, "e_y": 0.04, "e_theta": 0.6}},
+                              {"kinematics": "nonlinear"})) == 0

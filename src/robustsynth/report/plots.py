@@ -355,7 +355,8 @@ def fig_sweep_1d(result) -> Any:
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    ax.set_title(f"{int(ok.sum())} of {len(rows)} points certified")
+    nv = sum(1 for r in rows if r.get("status") == "certified" and r.get("verified") is False)
+    ax.set_title(f"{int(ok.sum())} of {len(rows)} points certified" + (f", {nv} failed verification" if nv else ""))
     fig.tight_layout()
     return fig
 

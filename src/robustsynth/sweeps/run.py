@@ -60,7 +60,8 @@ def run_point(payload: dict[str, Any]) -> dict[str, Any]:
         model = build_model(cfg)
         res = synthesize(model)
         gd = gains_dict(model, res)
-        out.update(status="certified", figures=res.certified, gains=to_jsonable(gd), gains_id=gains_id(gd))
+        out.update(status="certified", figures=res.certified, gains=to_jsonable(gd), gains_id=gains_id(gd),
+                   message="; ".join(res.notes))
         runs = payload.get("verify_runs")
         if runs:
             from ..verification import verify
@@ -116,7 +117,11 @@ def _row(index: int, point: dict[str, Any], res: dict[str, Any] | None, invalid_
         mx = v.get("max") or {}
         row.update({"verified": v.get("passed"), "max_e_x_m": mx.get("e_x"), "max_e_y_m": mx.get("e_y"),
                     "max_e_theta_rad": mx.get("e_theta"), "max_rho_rad_s": mx.get("motor_speed")})
-    row.update({"time_s": res.get("time_s"), "gains_id": res.get("gains_id", ""), "message": res.get("message", "")})
+    msg = res.get("message", "")
+    failed = (res.get("verification") or {}).get("failed_checks") or []
+    if failed:  # which checks failed, in the row itself (not only in points/<hash>.json)
+        msg = f"verification failed: {'; '.join(failed)}" + (f"; {msg}" if msg else "")
+    row.update({"time_s": res.get("time_s"), "gains_id": res.get("gains_id", ""), "message": msg})
     return row
 
 
@@ -283,6 +288,8 @@ def sweep(spec: SweepSpec, outdir: str | Path, *, verify_runs: int | None = None
             progress(done, total, bad, rate * (total - done))
     rows = tuple(_row(i, points[i], results.get(i), invalid.get(i, ""), verify_runs) for i in range(total))
     counts = {s: sum(1 for r in rows if r["status"] == s) for s in STATUSES}
+    if verify_runs:  # certified but failing verification: said beside the statuses
+        counts["verification-failed"] = sum(1 for r in rows if r["status"] == "certified" and r.get("verified") is False)
     reused = sum(1 for i in results if i not in payloads and i not in invalid)
     result = SweepResult(spec, rows, _columns(spec, verify_runs), engine, (), counts, time.perf_counter() - t0, reused)
     if not write:

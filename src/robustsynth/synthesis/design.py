@@ -371,6 +371,8 @@ def synthesize(model: Any, settings: SynthesisConfig | None = None, *, on_step: 
         if not motor and rho_max is not None and s.motor_limits is False:
             notes.append("motor limits not enforced (synthesis.motor_limits: false)")
     rec = best.record
+    if best.check is not None:
+        notes += validity_notes(model, best.check.figures, best.cert or {})
     if runner.fallbacks and rec is not None:
         notes.append(f"fallback solver used in {runner.fallbacks} of {len(search)} solves; the accepted K is "
                      f"from {rec.name}")
@@ -508,6 +510,29 @@ def _nonlinear_infeasible(model: Any, common: _Best, tried: list) -> str:
                 f"{speed * np.sin(min(f.get('heading_within_period', 0.3), 1.0)):.3g} m/s. Narrow slip, lower "
                 "reference.speed, or use synthesis.kinematics: linearized (whose proof is for the linearization)")
     return msg
+
+
+LINEARIZATION_HEADING = 0.5  # [rad]: beyond it sin e_theta differs from e_theta by more than 4 %
+
+
+def validity_notes(model: Any, figures: dict[str, Any], cert: dict[str, Any]) -> list[str]:
+    """Certified bounds that leave the region where the model they are proven for holds, in words:
+    a heading beyond what the linearization covers (a nonlinear certificate covers its own heading
+    bound), errors larger than half the shortest path segment (the segment frames stop meaning much)."""
+    ub = figures.get("ultimate_bound") or {}
+    out = []
+    th = ub.get("e_theta")
+    if th is not None and cert.get("kinematics", "linearized") == "linearized" and th > LINEARIZATION_HEADING:
+        out.append(f"certified |e_theta| <= {th:.3g} rad lies beyond where the linearization holds (~{LINEARIZATION_HEADING:g} "
+                   "rad: sin e_theta ~ e_theta); the bound is proven for the linearization only "
+                   "(synthesis.kinematics: nonlinear proves its own heading bound)")
+    wp = np.asarray(model.config.verification.path, dtype=float)
+    seg = float(np.min(np.hypot(*np.diff(wp, axis=0).T))) if wp.shape[0] > 1 else math.inf
+    big = max((ub.get(k) or 0.0) for k in ("e_x", "e_y")) if ub else 0.0
+    if big > seg / 2:
+        out.append(f"a certified position bound ({100 * big:.3g} cm) exceeds half the shortest path segment "
+                   f"({seg / 2:.3g} m): the robot may be nearer another segment than its own")
+    return out
 
 
 def _raise_no_solution(runner: _Runner, objective: str, infeasible_msg: str) -> None:
