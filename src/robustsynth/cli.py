@@ -124,7 +124,8 @@ def main(ctx: click.Context, quiet: bool, verbose: bool) -> None:
     """Certified robust state feedback for a skid-slip tracked robot over a delaying network.
 
     CONFIG is a YAML scenario file; without it the embedded default is used.
-    Exit codes: 0 ok, 1 verification failed, 2 bad input or usage, 3 infeasible, 4 solver failure.
+    Exit codes: 0 ok, 1 verification failed, 2 bad input or usage, 3 infeasible, 4 solver failure,
+    130 interrupted (Ctrl-C), 143 terminated (SIGTERM).
     """
     ctx.obj = _Ctx(quiet, verbose)
     _install_signal_handlers()
@@ -197,9 +198,10 @@ def default_config(name: str | None) -> None:
 @click.pass_obj
 @_guard
 def build_model_cmd(obj: _Ctx, config: Path | None, outdir: Path | None) -> None:
-    """Build the lifted norm-bounded model; write model.json and model.md.
+    """Build the lifted model and check its vertex description; write model.json and model.md.
 
-    The model is the seed paper's eq. 25 with the uncertainty of eqs. 31-33.
+    synthesis.model slip-aware (default): exact in slip and delay, its vertices cover every
+    admissible slip and delay; paper: the seed paper's eq. 25 with the uncertainty of eqs. 31-33.
     """
     from .pipeline import model_stage
 

@@ -78,8 +78,8 @@ class Margin:
         unit = f" {self.unit}" if self.unit else ""
         text = (f"{self.name}: configured {f(self.configured)}{unit}, certified {f(self.certified)}{unit}, "
                 f"exhibited {f(self.exhibited)}{unit}")
-        if self.gap is not None:
-            text += f" (gap {100 * self.gap:.1f} %)"
+        if self.gap is not None:  # the share of the exhibited margin the certificate may miss
+            text += f" (the certificate may miss {100 * self.gap:.1f} % of the exhibited margin)"
         if self.exhibited is None and self.searched is not None:
             text += f" (no instability found in [{self.searched[0]:.4g}, {self.searched[1]:.4g}])"
         if self.note and self.certified is None and self.exhibited is None and self.searched is None:

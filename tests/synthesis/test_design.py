@@ -293,3 +293,17 @@ def test_python_api_rejects_what_the_cli_rejects(default_model, kw, expected) ->
     with pytest.raises(InputError, match=expected) as e:
         synthesize(default_model, **kw)
     assert e.value.exit_code == 2 and str(e.value).startswith("synthesize(): ")
+
+
+def test_a_result_saves_itself_and_verify_takes_the_path(tmp_path) -> None:
+    """Issue 27: SynthesisResult.save writes gains.json / gains.mat; verify(model, path) reads it."""
+    from robustsynth.artifacts.gains import load_gains
+    from robustsynth.verification import verify
+
+    model = build_model(make_config())
+    res = synthesize(model, alpha_points=5)
+    paths = res.save(model, tmp_path)
+    assert {p.name for p in paths} == {"gains.json", "gains.mat"}
+    assert np.array_equal(np.asarray(load_gains(tmp_path / "gains.json")["K"]), res.K)  # JSON keeps every digit
+    v = verify(model, str(tmp_path / "gains.json"), runs=2)
+    assert v.checks[0]["passed"]

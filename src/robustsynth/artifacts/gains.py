@@ -251,10 +251,13 @@ def load_gains(path: str | Path) -> dict[str, Any]:
 
 
 def as_gains(model, gains: Any) -> dict[str, Any]:
-    """A gains.json mapping from what a user holds: the mapping itself, the result of
-    :func:`~robustsynth.synthesis.synthesize`, or a bare matrix K (no certificate)."""
+    """A gains.json mapping from what a user holds: the mapping itself, a path to a gains file
+    (.json or .mat), the result of :func:`~robustsynth.synthesis.synthesize`, or a bare matrix K
+    (no certificate)."""
     if isinstance(gains, dict):
         return gains
+    if isinstance(gains, (str, Path)):
+        return load_gains(gains)
     if hasattr(gains, "K") and hasattr(gains, "certificate"):  # a SynthesisResult
         return gains_dict(model, gains)
     try:

@@ -43,6 +43,16 @@ class SynthesisResult:
     def certified(self) -> dict[str, Any]:
         return dict(self.check.figures)
 
+    def save(self, model: Any, outdir: Any) -> list[Any]:
+        """Write gains.json and gains.mat of this result for ``model`` into ``outdir`` (atomically,
+        gains.json last): what ``robustsynth synthesize`` writes, without the report."""
+        from ..artifacts.files import commit_files, json_bytes, mat_bytes
+        from ..artifacts.gains import gains_dict, gains_mat_vars
+
+        gd = gains_dict(model, self)
+        return commit_files(outdir, {"gains.mat": mat_bytes(gains_mat_vars(gd)), "gains.json": json_bytes(gd)},
+                            primary="gains.json")
+
 
 @dataclass
 class _Best:
