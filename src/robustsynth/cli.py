@@ -315,6 +315,14 @@ class _LazyBar:
             self.bar.render_finish()
 
 
+def _stage_lines(obj: _Ctx) -> Callable[[str], None]:
+    """Where a command can take long: its stages and steps as lines on stderr when that is a terminal
+    (and not --quiet); otherwise only with -v."""
+    if not obj.quiet and sys.stderr.isatty():
+        return lambda m: click.echo(m, err=True)
+    return obj.detail
+
+
 def _progress(obj: _Ctx):
     """A progress bar on stderr when it is a terminal (and not --quiet); else (None, None)."""
     if obj.quiet or not sys.stderr.isatty():
@@ -408,7 +416,8 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
     out = _outdir(cfg, outdir)
     cb, bar = _progress(obj)
     try:
-        res = run(cfg, out, runs, seed, fmt, not no_plots, cb, on_stage=lambda s: obj.detail(f"[{s}]"), on_step=obj.detail,
+        stage = _stage_lines(obj)
+        res = run(cfg, out, runs, seed, fmt, not no_plots, cb, on_stage=lambda s: stage(f"[{s}]"), on_step=obj.detail,
                   diagnose=diagnose, objective=objective, solver=solver, multiplier=multiplier)
     finally:
         if bar is not None:
@@ -445,7 +454,7 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
 
     cfg = _load(config)
     out = _gains_outdir(cfg, outdir, gains)
-    st = margin_stage(cfg, out, gains, lyapunov, on_step=obj.detail)
+    st = margin_stage(cfg, out, gains, lyapunov, on_step=_stage_lines(obj))
     if as_json:
         import json
 
