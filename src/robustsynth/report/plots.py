@@ -44,7 +44,7 @@ def fig_path(res, model) -> Any:
     plt = _plt()
     sim = res.sim
     W = np.asarray(model.config.verification.path)
-    fig, ax = plt.subplots(figsize=(8, 4.5))
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(8, 7), gridspec_kw={"height_ratios": [1.3, 1.0]})
     for n in range(sim.q.shape[0]):
         ax.plot(sim.q[n, :, 0], sim.q[n, :, 1], color="tab:blue", alpha=0.06, lw=0.8)
     ax.plot([], [], color="tab:blue", alpha=0.4, label=f"Monte Carlo runs ({sim.q.shape[0]})")
@@ -57,6 +57,21 @@ def fig_path(res, model) -> Any:
     ax.set_title("Path in the plane: desired polyline and the robot over the network")
     ax.legend(loc="best", fontsize=8)
     ax.grid(alpha=0.3)
+    # at the path's scale the tracking error is invisible: the cross-track error itself, in cm
+    t = sim.t[: sim.e.shape[1]]
+    ey = 100.0 * sim.e[:, :, 1]
+    ax2.fill_between(t, ey.min(axis=0), ey.max(axis=0), color="tab:blue", alpha=0.25, label="Monte Carlo min–max")
+    ax2.plot(t, ey[0], color="tab:red", lw=1, label="sample run (run 0)")
+    ub = (res.certificate.figures.get("ultimate_bound") or {}) if res.certificate.passed else {}
+    if ub.get("e_y") is not None:
+        ax2.axhspan(-100 * ub["e_y"], 100 * ub["e_y"], color="tab:green", alpha=0.1, label=f"certified ±{100 * ub['e_y']:.2f} cm")
+    for ts in model_path_switches(res, model):
+        ax2.axvline(ts, color="0.6", lw=0.8, ls=":")
+    ax2.set_xlabel("time t [s] (dotted: waypoints)")
+    ax2.set_ylabel("cross-track error e_y [cm]")
+    ax2.legend(loc="upper right", fontsize=7, framealpha=0.85)
+    ax2.grid(alpha=0.3)
+    fig.tight_layout()
     return fig
 
 
@@ -120,12 +135,14 @@ def fig_commands(res, model) -> Any:
             for s in (1, -1):
                 ax.axhline(s * cfg.robot.max_motor_speed, color="k", ls="--", lw=1, label="rho_max" if s == 1 else None)
             msb = res.certificate.figures.get("motor_speed_bound") if res.certificate.passed else None
-            if msb is not None:
-                ax.axhline(msb, color="tab:green", ls=":", lw=1, label="certified on the ellipsoid")
+            if msb is not None:  # drawn wide under rho_max: the certificate often uses all of it
+                for s in (1, -1):
+                    ax.axhline(s * msb, color="tab:green", lw=4, alpha=0.35, zorder=0,
+                               label=f"certified on the set: ±{msb:.2f} (rho_max ±{cfg.robot.max_motor_speed:g})" if s == 1 else None)
         ax.set_ylabel(f"{name} [{unit}]")
         ax.grid(alpha=0.3)
-    axes[0, 0].legend(fontsize=7)
-    axes[1, 0].legend(fontsize=7)
+    axes[0, 0].legend(fontsize=7, framealpha=0.85)
+    axes[1, 0].legend(fontsize=7, loc="lower right", framealpha=0.85)
     for ax in axes[1]:
         ax.set_xlabel("time t [s]")
     fig.suptitle("Commands du_k = K xi_k and nominal motor speeds rho = J^-1 u_hat")
@@ -256,14 +273,16 @@ def fig_frozen(res, model) -> Any:
     fig, ax = plt.subplots(figsize=(7, 4))
     fr = res.frozen
     ax.plot(np.asarray(fr["tau"]) * 1000, fr["spectral_radius_vs_tau"], color="tab:blue", lw=1.5, label="rho(A~(tau) + B~(tau) K)")
-    ax.axhline(1.0, color="k", ls="--", lw=1, label="stability limit")
+    ax.axhline(1.0, color="k", ls="--", lw=2, alpha=0.6, label="stability limit (1)")
     r = res.certificate.figures.get("decay_rate") if res.certificate.passed else None
     if r is not None:
         ax.axhline(r, color="tab:green", ls=":", lw=1.2, label=f"certified decay rate r = {r:.3f}")
     ax.set_xlabel("constant delay tau [ms]")
     ax.set_ylabel("spectral radius [-]")
-    ax.set_title("Closed loop with the delay frozen at tau")
-    ax.legend(fontsize=8)
+    corners = ", ".join(f"({a:g}, {b:g})" for a, b in np.asarray(model.corners))
+    ax.set_title("Closed loop with the delay frozen at tau\n(the largest over the slip corners (mu_r, mu_l): "
+                 + corners + ")", fontsize=10)
+    ax.legend(fontsize=8, loc="center right", framealpha=0.85)
     ax.grid(alpha=0.3)
     return fig
 
