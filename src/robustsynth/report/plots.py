@@ -455,11 +455,21 @@ def write_sweep_figure(result, outdir: str | Path, fmt: str = "png") -> Path | N
     return path
 
 
+def _save_png(plt: Any, fig: Any, path: Path) -> Path:
+    """Lay out, render to PNG and write atomically; the figure is closed."""
+    from ..artifacts.files import atomic_write
+
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    plt.close(fig)
+    atomic_write(path, buf.getvalue())
+    return Path(path)
+
+
 def identification_figure(ident: Any, path: Path) -> Path:
     """Histograms of the measured delays and of each slip estimate against the identified box, and
     the slip estimates against the commanded turn rate."""
-    from ..artifacts.files import atomic_write
-
     plt = _plt()
     fig, axes = plt.subplots(2, 2, figsize=(10, 7))
     ax = axes[0, 0]
@@ -483,18 +493,12 @@ def identification_figure(ident: Any, path: Path) -> Path:
     ax.set_ylabel("estimate [-]")
     ax.set_title("slip estimates against the turn rate")
     ax.legend(loc="best")
-    fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    plt.close(fig)
-    atomic_write(path, buf.getvalue())
-    return Path(path)
+    return _save_png(plt, fig, path)
 
 
 def validation_figure(res: dict[str, Any], waypoints: Any, path: Path) -> Path:
     """``validate``: the path with the physics robot's trajectories, and e_x, e_y, e_theta over time
     for every episode with the certified bounds as bands (grey: the turns, not certified)."""
-    from ..artifacts.files import atomic_write
 
     plt = _plt()
     v = res["validation"]
@@ -527,9 +531,4 @@ def validation_figure(res: dict[str, Any], waypoints: Any, path: Path) -> Path:
             a.set_xlabel("t [s]")
     fig.suptitle(f"validate: {v['episodes']} episodes on the physics robot — "
                  + ("passed" if v.get("passed") else "FAILED"), fontsize=11)
-    fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    plt.close(fig)
-    atomic_write(path, buf.getvalue())
-    return Path(path)
+    return _save_png(plt, fig, path)
