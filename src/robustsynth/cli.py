@@ -554,12 +554,14 @@ def check_log_cmd(obj: _Ctx, logs: tuple[Path, ...], config: Path | None, gains:
 @click.option("--episodes", type=click.IntRange(min=1, max=10_000), default=4, show_default=True,
               help="Closed-loop episodes along the config's path (the first from the path's start, the others perturbed).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the delays and the perturbed starts.")
+@click.option("--workers", type=click.IntRange(min=1, max=256), default=1, show_default=True,
+              help="Processes to run the episodes on (the results do not depend on it).")
 @click.option("-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Output directory (default results/<name>/validation).")
 @click.option("--no-plots", is_flag=True, help="Skip the figure.")
 @click.pass_obj
 @_guard
-def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, episodes: int, seed: int,
+def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, episodes: int, seed: int, workers: int,
                  outdir: Path | None, no_plots: bool) -> int:
     """Run the deployed law on a physics-engine robot (MuJoCo; slip from contact and friction).
 
@@ -582,7 +584,8 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
         return EXIT_OK
     cb, bar = _progress(obj)
     try:
-        vd = validation_stage(build_model(cfg), gains, out, episodes=episodes, seed=seed, progress=cb, plots=not no_plots)
+        vd = validation_stage(build_model(cfg), gains, out, episodes=episodes, seed=seed, progress=cb, plots=not no_plots,
+                              workers=workers)
     finally:
         if bar is not None:
             bar.render_finish()

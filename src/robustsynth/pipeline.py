@@ -217,7 +217,7 @@ def verification_stage(
 
 
 def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, episodes: int = 4, seed: int = 0,
-                     progress: ProgressFn | None = None, plots: bool = True) -> dict[str, Any]:
+                     progress: ProgressFn | None = None, plots: bool = True, workers: int = 1) -> dict[str, Any]:
     """``robustsynth validate``: the deployed law on the physics robot (:mod:`.verification.physics`);
     writes the episodes as robot logs under ``outdir/logs/`` and ``validation.json`` (last)."""
     from .artifacts.files import commit_files, json_bytes, make_dir
@@ -232,7 +232,8 @@ def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, e
         raise InputError(f"validate: {why}")
     outdir = make_dir(outdir)
     gains = load_gains(gains_path)
-    res = validate_physics(model, gains, episodes=episodes, seed=seed, progress=progress)
+    res = validate_physics(model, gains, episodes=episodes, seed=seed, progress=progress if workers == 1 else None,
+                           workers=workers)
     logdir = make_dir(outdir / "logs")
     for log in res["logs"]:
         write_log(logdir / log.path, log)

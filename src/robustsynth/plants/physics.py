@@ -118,6 +118,17 @@ class PhysicsRobot:
         """(N, 3): x, y, yaw of each chassis (yaw unwrapped by the caller if needed)."""
         return np.array([[d.qpos[0], d.qpos[1], _yaw(d.qpos[3:7])] for d in self.data])
 
+    def body_velocity(self) -> np.ndarray:
+        """(N, 3): forward and lateral velocity in the body frame [m/s] and yaw rate [rad/s].  With the
+        yaw rate omega, the instantaneous centre of rotation lies ``x_ICR = -v_lat / omega`` ahead of
+        the chassis centre (the skid-steer ICR description)."""
+        out = []
+        for d in self.data:
+            th = _yaw(d.qpos[3:7])
+            vx, vy = float(d.qvel[0]), float(d.qvel[1])
+            out.append([math.cos(th) * vx + math.sin(th) * vy, -math.sin(th) * vx + math.cos(th) * vy, float(d.qvel[5])])
+        return np.array(out)
+
     def motor_torques(self) -> np.ndarray:
         """(N, 2): the summed actuator torque per track (right, left) [N m]."""
         n = self.n_w

@@ -27,11 +27,11 @@ PERTURBATION = (0.02, 0.02, 0.05)  # perturbed starts: uniform offsets up to thi
 TORQUE_SATURATED = 0.999  # a period counts as torque-saturated when a track's peak reaches this share of the limit
 
 
-def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed: int = 0,
-                     progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
-    """Run ``episodes`` closed-loop episodes on the physics robot; returns the validation mapping
-    (per episode and overall maxima against the certified figures, the verdict) and the logs."""
-    from ..artifacts.logs import RobotLog
+def _run_episodes(model: Any, gains: dict[str, Any], first: int, count: int, seed: int,
+                  progress: Callable[[int, int], None] | None = None) -> dict[str, np.ndarray]:
+    """Episodes ``first .. first + count - 1`` in one process: each has its own random stream
+    (``seed``, index), so the results do not depend on how episodes are split over workers.
+    Episode 0 starts on the path; the others from offsets up to PERTURBATION."""
     from ..plants.physics import PhysicsRobot
     from ..scenarios import random_delays
 
@@ -39,17 +39,19 @@ def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed:
     K = np.asarray(gains["K"], dtype=float)
     V, Ts, d_hi = model.V, model.Ts, model.d_hi
     path = make_path(cfg.verification.path, V)
-    duration = float(path.table.t_start[-1]) + float(np.hypot(*np.subtract(cfg.verification.path[-1],
-                                                                             cfg.verification.path[-2]))) / V
-    steps = int(math.ceil(duration / Ts))
-    rng = np.random.default_rng(seed)
-    N = episodes
+    steps = _steps(model)
+    N = count
     offsets = np.zeros((N, 3))
-    offsets[1:] = rng.uniform(-1.0, 1.0, (N - 1, 3)) * np.array(PERTURBATION)
+    taus = []
+    for i in range(N):
+        rng = np.random.default_rng([seed, first + i])
+        if first + i > 0:
+            offsets[i] = rng.uniform(-1.0, 1.0, 3) * np.array(PERTURBATION)
+        taus.append(random_delays(model, rng, 1, steps)[0])
+    taus = np.array(taus)  # (N, d_hi + steps): the d_hi packets before t_0 first
     q0 = pose_from_error(path, offsets)
     robot = PhysicsRobot(cfg, N)
     robot.reset(q0, V)
-    taus = random_delays(model, rng, N, steps)  # (N, d_hi + steps): the d_hi packets before t_0 first
     S = model.s_tilde(taus)  # (N, steps, d_hi)
     law = Law(K.tolist(), Ts, bool(model.n_z), path.table)
     law.reset(past=[np.zeros(N) for _ in range(2 * d_hi)], z=[np.zeros(N) for _ in range(model.n_z)])
@@ -57,7 +59,6 @@ def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed:
     U = np.tile(uD, (N, d_hi + 1, 1))
     R, D = cfg.robot.gear_radius, cfg.robot.track_distance
     J_inv = np.array([[1.0 / R, D / (2.0 * R)], [1.0 / R, -D / (2.0 * R)]])
-    rho_max = cfg.robot.max_motor_speed
     limit = cfg.physics.track_torque
     E = np.zeros((N, steps, 3))
     Q = np.zeros((N, steps, 3))
@@ -80,6 +81,45 @@ def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed:
         sat[:, k] = np.any(peak >= TORQUE_SATURATED * limit, axis=1)
         if progress is not None:
             progress(k + 1, steps)
+    return {"offsets": offsets, "taus": taus, "E": E, "Q": Q, "RHO": RHO, "sat": sat}
+
+
+def _steps(model: Any) -> int:
+    cfg = model.config
+    path = make_path(cfg.verification.path, model.V)
+    duration = float(path.table.t_start[-1]) + float(np.hypot(*np.subtract(cfg.verification.path[-1],
+                                                                             cfg.verification.path[-2]))) / model.V
+    return int(math.ceil(duration / model.Ts))
+
+
+def _chunk(args: tuple) -> dict[str, np.ndarray]:
+    return _run_episodes(*args)
+
+
+def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed: int = 0,
+                     progress: Callable[[int, int], None] | None = None, workers: int = 1) -> dict[str, Any]:
+    """Run ``episodes`` closed-loop episodes on the physics robot (``workers`` processes: the
+    episodes split between them, the same results); returns the validation mapping (per episode and
+    overall maxima against the certified figures, the verdict) and the logs."""
+    from ..artifacts.logs import RobotLog
+
+    cfg = model.config
+    V, Ts, d_hi = model.V, model.Ts, model.d_hi
+    path = make_path(cfg.verification.path, V)
+    steps = _steps(model)
+    N = episodes
+    workers = max(1, min(int(workers), N))
+    if workers == 1:
+        parts = [_run_episodes(model, gains, 0, N, seed, progress)]
+    else:
+        from concurrent.futures import ProcessPoolExecutor
+
+        bounds = np.linspace(0, N, workers + 1).astype(int)
+        jobs = [(model, gains, int(a), int(b - a), seed) for a, b in zip(bounds[:-1], bounds[1:])]
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            parts = list(pool.map(_chunk, jobs))
+    offsets, taus, E, Q, RHO, sat = (np.concatenate([p[k] for p in parts]) for k in ("offsets", "taus", "E", "Q", "RHO", "sat"))
+    rho_max = cfg.robot.max_motor_speed
     # straight segments: from `transient` after each waypoint (and after a perturbed start) on
     tk = np.arange(steps) * Ts
     straight = np.ones((N, steps), dtype=bool)
