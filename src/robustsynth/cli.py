@@ -556,13 +556,15 @@ def check_log_cmd(obj: _Ctx, logs: tuple[Path, ...], config: Path | None, gains:
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the delays and the perturbed starts.")
 @click.option("--workers", type=click.IntRange(min=1, max=256), default=1, show_default=True,
               help="Processes to run the episodes on (the results do not depend on it).")
+@click.option("--engine", type=click.Choice(["physics", "kinematic"]), default="physics", show_default=True,
+              help="physics: MuJoCo (slip from contact); kinematic: the model's own robot, one slip per episode from the box.")
 @click.option("-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Output directory (default results/<name>/validation).")
 @click.option("--no-plots", is_flag=True, help="Skip the figure.")
 @click.pass_obj
 @_guard
 def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, episodes: int, seed: int, workers: int,
-                 outdir: Path | None, no_plots: bool) -> int:
+                 engine: str, outdir: Path | None, no_plots: bool) -> int:
     """Run the deployed law on a physics-engine robot (MuJoCo; slip from contact and friction).
 
     Writes validation.json and the episodes as robot logs (logs/, identify's format).  Exit 1 when
@@ -585,7 +587,7 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
     cb, bar = _progress(obj)
     try:
         vd = validation_stage(build_model(cfg), gains, out, episodes=episodes, seed=seed, progress=cb, plots=not no_plots,
-                              workers=workers)
+                              workers=workers, engine=engine)
     finally:
         if bar is not None:
             bar.render_finish()

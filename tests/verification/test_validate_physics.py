@@ -107,3 +107,15 @@ def test_workers_split_the_episodes_without_changing_them() -> None:
     two = validate_physics(m, g, episodes=3, seed=1, workers=2)
     assert np.array_equal(one["e"], two["e"]) and np.array_equal(one["q"], two["q"])
     assert one["validation"]["per_episode"] == two["validation"]["per_episode"]
+
+
+def test_the_kinematic_engine_recovers_its_own_slip(tmp_path) -> None:
+    """--engine kinematic: the model's own robot with one slip per episode from the box; identify finds
+    slips inside the box, and the straight segments stay within the certified bounds."""
+    r = CliRunner().invoke(main, ["validate", str(ROOT / "configs" / "default.yaml"), "--engine", "kinematic", "--gains",
+                                  str(ROOT / "results" / "baselines" / "default" / "gains.json"), "--episodes", "3",
+                                  "--no-plots", "-o", str(tmp_path)])
+    assert r.exit_code == 0, r.output
+    vd = json.loads((tmp_path / "validation.json").read_text())
+    assert vd["engine"].startswith("kinematic") and vd["slip"]["inside_box"]
+    assert vd["torque_saturated_s"] == 0.0

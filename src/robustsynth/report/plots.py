@@ -513,7 +513,7 @@ def validation_figure(res: dict[str, Any], waypoints: Any, path: Path) -> Path:
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    ax.set_title("physics robot along the path (errors: right)")
+    ax.set_title("the robot along the path (errors: right)")
     ax.legend(loc="lower right", fontsize=8)
     names = (("e_x", 100.0, "cm"), ("e_y", 100.0, "cm"), ("e_theta", 1.0, "rad"))
     turns = ~np.all(straight, axis=0)
@@ -529,6 +529,6 @@ def validation_figure(res: dict[str, Any], waypoints: Any, path: Path) -> Path:
         a.legend(loc="upper right", fontsize=7)
         if i == 2:
             a.set_xlabel("t [s]")
-    fig.suptitle(f"validate: {v['episodes']} episodes on the physics robot — "
+    fig.suptitle(f"validate: {v['episodes']} episodes, {v['engine']} — "
                  + ("passed" if v.get("passed") else "FAILED"), fontsize=11)
     return _save_png(plt, fig, path)

@@ -27,8 +27,33 @@ PERTURBATION = (0.02, 0.02, 0.05)  # perturbed starts: uniform offsets up to thi
 TORQUE_SATURATED = 0.999  # a period counts as torque-saturated when a track's peak reaches this share of the limit
 
 
+class _KinematicEngine:
+    """The kinematic robot (exact arcs, the config's slip model) behind the physics robot's interface,
+    for ``validate --engine kinematic``: each episode has one slip drawn uniformly from the config's box."""
+
+    def __init__(self, model: Any, mu: np.ndarray) -> None:
+        from ..plants.kinematic import KinematicRobot
+
+        self.robot = KinematicRobot.of(model)
+        self.mu = np.asarray(mu, dtype=float)
+        self.q = np.zeros((self.mu.shape[0], 3))
+
+    def reset(self, q0: np.ndarray, speed: float) -> None:
+        self.q = np.array(q0, dtype=float)
+
+    def pose(self) -> np.ndarray:
+        return self.q.copy()
+
+    def period(self, U: np.ndarray, S: np.ndarray) -> np.ndarray:
+        self.q = self.robot.period(self.q, U, S, self.mu)
+        return np.zeros((self.q.shape[0], 2))  # no torques in this model
+
+
+ENGINES = ("physics", "kinematic")
+
+
 def _run_episodes(model: Any, gains: dict[str, Any], first: int, count: int, seed: int,
-                  progress: Callable[[int, int], None] | None = None) -> dict[str, np.ndarray]:
+                  progress: Callable[[int, int], None] | None = None, engine: str = "physics") -> dict[str, np.ndarray]:
     """Episodes ``first .. first + count - 1`` in one process: each has its own random stream
     (``seed``, index), so the results do not depend on how episodes are split over workers.
     Episode 0 starts on the path; the others from offsets up to PERTURBATION."""
@@ -42,15 +67,17 @@ def _run_episodes(model: Any, gains: dict[str, Any], first: int, count: int, see
     steps = _steps(model)
     N = count
     offsets = np.zeros((N, 3))
-    taus = []
+    taus, mus = [], []
     for i in range(N):
         rng = np.random.default_rng([seed, first + i])
         if first + i > 0:
             offsets[i] = rng.uniform(-1.0, 1.0, 3) * np.array(PERTURBATION)
         taus.append(random_delays(model, rng, 1, steps)[0])
+        (rl, rh), (ll, lh) = model.slip_ranges
+        mus.append([rng.uniform(rl, rh), rng.uniform(ll, lh)])
     taus = np.array(taus)  # (N, d_hi + steps): the d_hi packets before t_0 first
     q0 = pose_from_error(path, offsets)
-    robot = PhysicsRobot(cfg, N)
+    robot = PhysicsRobot(cfg, N) if engine == "physics" else _KinematicEngine(model, np.array(mus))
     robot.reset(q0, V)
     S = model.s_tilde(taus)  # (N, steps, d_hi)
     law = Law(K.tolist(), Ts, bool(model.n_z), path.table)
@@ -93,11 +120,13 @@ def _steps(model: Any) -> int:
 
 
 def _chunk(args: tuple) -> dict[str, np.ndarray]:
-    return _run_episodes(*args)
+    model, gains, first, count, seed, engine = args
+    return _run_episodes(model, gains, first, count, seed, None, engine)
 
 
 def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed: int = 0,
-                     progress: Callable[[int, int], None] | None = None, workers: int = 1) -> dict[str, Any]:
+                     progress: Callable[[int, int], None] | None = None, workers: int = 1,
+                     engine: str = "physics") -> dict[str, Any]:
     """Run ``episodes`` closed-loop episodes on the physics robot (``workers`` processes: the
     episodes split between them, the same results); returns the validation mapping (per episode and
     overall maxima against the certified figures, the verdict) and the logs."""
@@ -109,13 +138,17 @@ def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed:
     steps = _steps(model)
     N = episodes
     workers = max(1, min(int(workers), N))
+    if engine not in ENGINES:
+        from ..errors import InputError
+
+        raise InputError(f"--engine: {engine!r} is not one of {', '.join(ENGINES)}")
     if workers == 1:
-        parts = [_run_episodes(model, gains, 0, N, seed, progress)]
+        parts = [_run_episodes(model, gains, 0, N, seed, progress, engine)]
     else:
         from concurrent.futures import ProcessPoolExecutor
 
         bounds = np.linspace(0, N, workers + 1).astype(int)
-        jobs = [(model, gains, int(a), int(b - a), seed) for a, b in zip(bounds[:-1], bounds[1:])]
+        jobs = [(model, gains, int(a), int(b - a), seed, engine) for a, b in zip(bounds[:-1], bounds[1:])]
         with ProcessPoolExecutor(max_workers=workers) as pool:
             parts = list(pool.map(_chunk, jobs))
     offsets, taus, E, Q, RHO, sat = (np.concatenate([p[k] for p in parts]) for k in ("offsets", "taus", "E", "Q", "RHO", "sat"))
@@ -143,7 +176,7 @@ def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed:
     overall = {nm: max(ep["straight_max"][nm] for ep in per_episode) for nm in names}
     turns = {nm: max(ep["turn_max"][nm] for ep in per_episode) for nm in names}
     out = {
-        "engine": "physics (MuJoCo)", "episodes": N, "seed": seed, "steps": steps, "duration_s": steps * Ts,
+        "engine": "physics (MuJoCo)" if engine == "physics" else "kinematic (exact arcs, one slip per episode from the box)", "episodes": N, "seed": seed, "steps": steps, "duration_s": steps * Ts,
         "straight_rule": f"from {tr:g} s after each waypoint (and after a perturbed start) on",
         "certified": {nm: ub.get(nm) for nm in names},
         "straight_max": overall,
