@@ -230,8 +230,10 @@ def fig_lyapunov(res, model) -> Any:
         ax.text(0.5, 0.5, "no valid certificate: V is not available", ha="center", transform=ax.transAxes)
     ax.set_xlabel("step k")
     ax.set_ylabel("V(xi_k) = xi' P xi [-]")
-    ax.set_title("Lyapunov function on the lifted model under time-varying delays (dotted: median)")
-    ax.legend(fontsize=7)
+    ax.set_title("Lyapunov function on the lifted model under time-varying delays (dotted: median)\n"
+                 "runs named delays/start: random, alternating or greedy delays; starting on the set's boundary "
+                 "(V = level) or outside it (V = 25 level)", fontsize=9)
+    ax.legend(fontsize=7, framealpha=0.85)
     ax.grid(alpha=0.3, which="both")
     fig.tight_layout()
     return fig
@@ -340,6 +342,29 @@ def _axis_positions(values: list[Any]) -> tuple[np.ndarray, list[str] | None]:
     return np.arange(len(values), dtype=float), [str(v) for v in values]
 
 
+def _key_label(key: str) -> str:
+    """A config key with its unit, from the config's own field descriptions ('... [m/s]')."""
+    import re
+
+    from ..config import Config
+
+    node: Any = Config
+    field = None
+    for part in key.split("."):
+        fields = getattr(node, "model_fields", None)
+        if not fields or part not in fields:
+            return key
+        field = fields[part]
+        node = field.annotation
+    m = re.search(r"\[([^\]]+)\]", (field.description or "") if field is not None else "")
+    return f"{key} [{m.group(1)}]" if m else key
+
+
+def _short(v: float) -> str:
+    """A cell value that fits its cell: 3 significant digits, thousands as k."""
+    return f"{v / 1000:.3g}k" if abs(v) >= 1000 else f"{v:.3g}"
+
+
 def fig_sweep_1d(result) -> Any:
     plt = _plt()
     key = result.spec.keys[0]
@@ -357,7 +382,7 @@ def fig_sweep_1d(result) -> Any:
         y = np.array([np.nan if r.get("max_e_y_m") is None else 100.0 * r["max_e_y_m"] for r in rows])
         if np.any(np.isfinite(y)):
             ax.plot(x, y, "--", color="k", lw=1, label="nonlinear robot max |e_y|")
-    ax.set_ylabel("[cm]")
+    ax.set_ylabel("certified bound, observed maximum [cm]")
     if not plotted:
         key_fig = result.spec.figure
         col, lab, scale = _SWEEP_FIGURES[key_fig]
@@ -370,7 +395,7 @@ def fig_sweep_1d(result) -> Any:
             ax.plot(x[sel], np.zeros(sel.sum()), marker, color=color, ms=8, ls="none", label=status, clip_on=False)
     if labels is not None:
         ax.set_xticks(x, labels)
-    ax.set_xlabel(key)
+    ax.set_xlabel(_key_label(key))
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
@@ -412,19 +437,20 @@ def fig_sweep_2d(result) -> Any:
         for i in range(Z.shape[0]):
             for j in range(Z.shape[1]):
                 if np.isfinite(Z[i, j]):
-                    ax.text(j, i, f"{Z[i, j]:.3g}", ha="center", va="center", fontsize=7, color="w",
+                    ax.text(j, i, _short(Z[i, j]), ha="center", va="center", fontsize=7, color="w",
                             path_effects=outline)
     ok = (status == "certified").astype(float)
     if 0 < ok.sum() < ok.size and min(ok.shape) > 1:
-        ax.contour(xi, yi, ok, levels=[0.5], colors="w", linewidths=2)
+        ax.contour(xi, yi, ok, levels=[0.5], colors="k", linewidths=4)  # a white line on a black one:
+        ax.contour(xi, yi, ok, levels=[0.5], colors="w", linewidths=1.5)  # visible on every colour
     for st, (marker, color) in _STATUS_MARK.items():
         jj, ii = np.nonzero((status == st).T)
         if jj.size:
             ax.plot(jj, ii, marker, color=color, ms=8, ls="none", label=st)
     ax.set_xticks(xi, xl if xl is not None else [f"{v:g}" for v in x], rotation=45 if len(v1) > 8 else 0)
     ax.set_yticks(yi, yl if yl is not None else [f"{v:g}" for v in y])
-    ax.set_xlabel(k1)
-    ax.set_ylabel(k0)
+    ax.set_xlabel(_key_label(k1))
+    ax.set_ylabel(_key_label(k0))
     if any(status[i, j] != "certified" for i in range(len(v0)) for j in range(len(v1))):
         ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=3, frameon=False)
     ax.set_title(f"{lab}; white line: boundary of the certified region")

@@ -218,7 +218,7 @@ def _walk(evaluate: Callable[[float], float], x0: float, step: float, lo: float,
 
 def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     say: Callable[[str], None] = lambda _m: None,
-                    alpha_hint: float | None = None, retry: bool = True) -> tuple[_Best, _Runner]:
+                    alpha_hint: float | None = None, retry: bool = True, probe_only: bool = False) -> tuple[_Best, _Runner]:
     """The alpha line search of the invariance LMIs.  Without a hint: a log grid of alpha_points
     scanned upwards, then golden section around its best point.  With ``alpha_hint`` (the best alpha
     of a cheaper certificate class): walk from the hint in half grid steps while the bound falls,
@@ -262,6 +262,9 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         return val
 
     grid = np.linspace(math.log(ALPHA_RANGE[0]), math.log(ALPHA_RANGE[1]), s.alpha_points)
+    if probe_only and alpha_hint is not None:  # one solve at the hint (is this class worth a search?)
+        evaluate(math.log(alpha_hint))
+        return best, runner
     if alpha_hint is not None:
         lo, hi = float(grid[0]), float(grid[-1])
         pts = _walk(evaluate, min(max(math.log(alpha_hint), lo), hi), 0.5 * float(grid[1] - grid[0]), lo, hi)
@@ -473,6 +476,12 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
             + (f"walk from {hint:.4g}" if hint is not None else f"scan over {s.alpha_points} points")
             + f" ({len(m.vertices)} vertices, {m.vertices[0].n_q} kinematic channels each)")
         try:
+            if best.cert is not None:  # one solve at the best alpha first: a larger bound that is worse there stops
+                pb, _ = _run_invariance(m, s, search, motor, say, alpha_hint=float(best.cert["alpha"]), retry=False,
+                                        probe_only=True)
+                if pb.cert is None or pb.value >= best.value:
+                    tried.append((tb, "not better at the best alpha"))
+                    break
             b, r = _run_invariance(m, s, search, motor, say, alpha_hint=hint, retry=not auto)
         except InfeasibleError as exc:  # the heading bound is below the slip's own turn
             say(f"  {exc}")
