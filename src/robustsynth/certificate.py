@@ -268,6 +268,10 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
     if K.shape != (n_u, n_s):
         return _fail(f"K has shape {K.shape}, expected {(n_u, n_s)}")
     kin = cert.get("kinematics", "linearized")
+    if objective in ("stability", "hinf") and kin == "linearized":
+        # these LMIs are written on the linearization (synthesis.lmis.build_stability / build_hinf),
+        # also when the config asks for nonlinear kinematics (robust stability of a fixed K: margins)
+        model = model.linearized()
     if kin != model.kinematics:
         return _fail(f"the certificate is for {kin} kinematics, the config asks for {model.kinematics} "
                      "(synthesis.kinematics)")
