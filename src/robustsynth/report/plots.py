@@ -99,10 +99,11 @@ def fig_errors(res, model) -> Any:
                         label="excluded (some run outside the set after a waypoint)")
         ax.set_ylabel(f"{name} [{unit}]")
         ax.grid(alpha=0.3)
-    axes[0].legend(loc="upper right", fontsize=7, ncol=3)
+    handles, labels = axes[0].get_legend_handles_labels()
     axes[-1].set_xlabel("time t [s]")
     axes[0].set_title("Tracking error in the segment frame L (dotted: waypoint switches)")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.05, 1, 1))
+    fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=7, frameon=False)  # below the plots, off the data
     return fig
 
 
@@ -169,7 +170,7 @@ def fig_network(res, model) -> Any:
     ax.axhline(cfg.network.delay.max * 1000, color="k", ls="--", lw=1)
     ax.axhline(cfg.network.sampling_time * 1000, color="grey", ls=":", lw=1, label="Ts")
     ax.set_ylabel("delay [ms]")
-    ax.legend(fontsize=7, loc="upper right")
+    ax.legend(fontsize=7, loc="upper right", framealpha=0.85)
     ax.grid(alpha=0.3)
     ax = axes[1]
     colors = {"constant": "tab:blue", "random-walk": "tab:orange", "steps": "tab:green", "corners": "tab:purple"}
@@ -180,7 +181,7 @@ def fig_network(res, model) -> Any:
     ax.axhline(max(cfg.slip.right.max, cfg.slip.left.max), color="k", ls=":", lw=1)
     ax.set_ylabel("slip mu [-]")
     ax.set_xlabel("time t [s]")
-    ax.legend(fontsize=7, ncol=3, loc="lower right")
+    ax.legend(fontsize=7, ncol=3, loc="lower right", bbox_to_anchor=(1.0, 1.0), frameon=False)  # off the traces
     ax.grid(alpha=0.3)
     axes[0].set_title("Network delay and track slip realizations (runs 0–2: constant, random walk, steps)")
     fig.tight_layout()
