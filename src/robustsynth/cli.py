@@ -252,7 +252,7 @@ def synthesize(obj: _Ctx, config: Path | None, outdir: Path | None, objective: s
     cfg = _load(config)
     out = _outdir(cfg, outdir)
     obj.detail(f"building the model of '{cfg.name}'")
-    st = synthesis_stage(build_model(cfg), out, on_step=obj.detail, diagnose=diagnose, objective=objective,
+    st = synthesis_stage(build_model(cfg), out, on_step=_stage_lines(obj), diagnose=diagnose, objective=objective,
                          solver=solver, multiplier=multiplier)
     _say_cleared(obj, out, st.cleared)
     obj.say(_certified_line(st.gains))
