@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
+from .artifacts.files import remove_files
 from .config import Config
 from .model import Model, build_model, coverage_check
 
@@ -66,7 +67,7 @@ def clear_foreign(outdir: str | Path, config: Config) -> list[str]:
     if (outdir / "figures").is_dir():
         names += [f"figures/{p.name}" for p in sorted((outdir / "figures").iterdir()) if p.is_file()]
     removed = [n for n in names if (outdir / n).exists()]
-    _remove(outdir, tuple(removed))
+    remove_files(outdir, tuple(removed))
     return removed
 
 
@@ -106,18 +107,6 @@ class SynthesisStage:
     diagnosis: list[Any] | None = None  # synthesis.diagnose.Relaxation, most effective first
 
 
-def _remove(outdir: Path, names: tuple[str, ...]) -> None:
-    from .artifacts.files import output_error
-
-    for name in names:
-        try:
-            (outdir / name).unlink()
-        except FileNotFoundError:
-            pass
-        except OSError as exc:
-            raise output_error(outdir / name, exc) from None
-
-
 def synthesis_stage(model: Model, outdir: str | Path, compare: bool = True,
                     on_step: Callable[[str], None] | None = None, diagnose: bool | None = None,
                     **overrides: Any) -> SynthesisStage:
@@ -140,7 +129,7 @@ def synthesis_stage(model: Model, outdir: str | Path, compare: bool = True,
         result = synthesize(model, on_step=on_step, **overrides)
     except RobustSynthError as exc:
         if outdir.is_dir() and not isinstance(exc, (Interrupted, OutputError)):
-            _remove(outdir, SYNTHESIS_FILES + VERIFICATION_FILES + RUN_FILES)
+            remove_files(outdir, SYNTHESIS_FILES + VERIFICATION_FILES + RUN_FILES)
         raise
     gd = gains_dict(model, result)
     diagnosis = None
@@ -196,7 +185,7 @@ def verification_stage(
     gp = Path(gains_path) if gains_path is not None else outdir / "gains.json"
     gains = load_gains(gp)
     res = verify(model, gains, runs=runs, seed=seed, progress=progress)
-    _remove(outdir, ("verification.json",) + RUN_FILES)
+    remove_files(outdir, ("verification.json",) + RUN_FILES)
     figures: dict[str, Path] = {}
     if plots:
         from .report.plots import write_figures

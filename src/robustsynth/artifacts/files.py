@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import OutputError
 
-__all__ = ["make_dir", "output_error", "atomic_write", "to_jsonable", "json_bytes", "mat_bytes", "commit_files", "sha256", "SCHEMA_VERSION"]
+__all__ = ["make_dir", "output_error", "atomic_write", "remove_files", "to_jsonable", "json_bytes", "mat_bytes", "commit_files", "sha256", "SCHEMA_VERSION"]
 
 SCHEMA_VERSION = 1
 
@@ -122,6 +122,17 @@ def remove_stale_temps(outdir: Path) -> None:
             pass
 
 
+def remove_files(outdir: Path, names: tuple[str, ...] | list[str]) -> None:
+    """Remove ``outdir/name`` for each name that exists; OutputError (one line) if one cannot be."""
+    for name in names:
+        try:
+            (outdir / name).unlink()
+        except FileNotFoundError:
+            pass
+        except OSError as exc:
+            raise output_error(outdir / name, exc) from None
+
+
 def commit_files(
     outdir: str | Path,
     files: Mapping[str, bytes],
@@ -132,13 +143,7 @@ def commit_files(
     then ``primary`` last.  Returns the written paths."""
     outdir = make_dir(outdir)
     remove_stale_temps(outdir)
-    for name in (primary, *invalidate):
-        try:
-            (outdir / name).unlink()
-        except FileNotFoundError:
-            pass
-        except OSError as exc:
-            raise output_error(outdir / name, exc) from None
+    remove_files(outdir, (primary, *invalidate))
     written: list[Path] = []
     try:
         for name, data in files.items():
