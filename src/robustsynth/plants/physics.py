@@ -21,6 +21,8 @@ from typing import Any
 
 import numpy as np
 
+from ..model.kinematics import J_inverse
+
 __all__ = ["PhysicsRobot", "mjcf", "available"]
 
 
@@ -96,8 +98,7 @@ class PhysicsRobot:
         self.Ts = self.config.network.sampling_time
         self.dt = self.model.opt.timestep
         self.substeps = max(1, int(round(self.Ts / self.dt)))
-        R, D = self.config.robot.gear_radius, self.config.robot.track_distance
-        self.J_inv = np.array([[1.0 / R, D / (2.0 * R)], [1.0 / R, -D / (2.0 * R)]])
+        self.J_inv = J_inverse(self.config.robot.gear_radius, self.config.robot.track_distance)
         self.rho_max = self.config.robot.max_motor_speed
         self.n_w = self.config.physics.wheels_per_track
         self.z0 = float(self.model.body("chassis").pos[2])
@@ -113,10 +114,15 @@ class PhysicsRobot:
             d.qvel[6:] = speed / R
             d.ctrl[:] = speed / R
             self._mj.mj_forward(self.model, d)
+        self._theta = np.asarray(q0, dtype=float)[:, 2].copy()
 
     def pose(self) -> np.ndarray:
-        """(N, 3): x, y, yaw of each chassis (yaw unwrapped by the caller if needed)."""
-        return np.array([[d.qpos[0], d.qpos[1], _yaw(d.qpos[3:7])] for d in self.data])
+        """(N, 3): x, y, yaw of each chassis; the yaw continuous since :meth:`reset` (unwrapped
+        against the previous call's, so called at least once per half turn)."""
+        q = np.array([[d.qpos[0], d.qpos[1], _yaw(d.qpos[3:7])] for d in self.data])
+        q[:, 2] = self._theta + (q[:, 2] - self._theta + math.pi) % (2 * math.pi) - math.pi
+        self._theta = q[:, 2].copy()
+        return q
 
     def body_velocity(self) -> np.ndarray:
         """(N, 3): forward and lateral velocity in the body frame [m/s] and yaw rate [rad/s].  With the

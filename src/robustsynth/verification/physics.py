@@ -84,19 +84,15 @@ def _run_episodes(model: Any, gains: dict[str, Any], first: int, count: int, see
     law.reset(past=[np.zeros(N) for _ in range(2 * d_hi)], z=[np.zeros(N) for _ in range(model.n_z)])
     uD = np.array([V, 0.0])
     U = np.tile(uD, (N, d_hi + 1, 1))
-    R, D = cfg.robot.gear_radius, cfg.robot.track_distance
-    J_inv = np.array([[1.0 / R, D / (2.0 * R)], [1.0 / R, -D / (2.0 * R)]])
+    J_inv = np.asarray(model.J_inv)
     limit = cfg.physics.track_torque
     E = np.zeros((N, steps, 3))
     Q = np.zeros((N, steps, 3))
     RHO = np.zeros((N, steps, 2))
     sat = np.zeros((N, steps), dtype=bool)
-    theta_prev = q0[:, 2].copy()
     for k in range(steps):
         t = k * Ts
         q = robot.pose()
-        q[:, 2] = theta_prev + (q[:, 2] - theta_prev + math.pi) % (2 * math.pi) - math.pi  # unwrap
-        theta_prev = q[:, 2]
         Q[:, k] = q
         seg = path.segment(t)
         E[:, k] = frame_error(path, seg, q, t)
@@ -112,11 +108,8 @@ def _run_episodes(model: Any, gains: dict[str, Any], first: int, count: int, see
 
 
 def _steps(model: Any) -> int:
-    cfg = model.config
-    path = make_path(cfg.verification.path, model.V)
-    duration = float(path.table.t_start[-1]) + float(np.hypot(*np.subtract(cfg.verification.path[-1],
-                                                                             cfg.verification.path[-2]))) / model.V
-    return int(math.ceil(duration / model.Ts))
+    """Sampling instants along the config's path (its duration at V^D, rounded up)."""
+    return int(math.ceil(make_path(model.config.verification.path, model.V).duration / model.Ts))
 
 
 def _chunk(args: tuple) -> dict[str, np.ndarray]:
@@ -216,8 +209,7 @@ def excite_physics(model: Any, episodes: int = 4, seed: int = 0) -> list:
     cfg = model.config
     V, Ts, d_hi = model.V, model.Ts, model.d_hi
     rng = np.random.default_rng(seed)
-    R, D = cfg.robot.gear_radius, cfg.robot.track_distance
-    J_inv = np.array([[1.0 / R, D / (2.0 * R)], [1.0 / R, -D / (2.0 * R)]])
+    J_inv = np.asarray(model.J_inv)
     rho_max = cfg.robot.max_motor_speed
     combos = [(s * V, s * V * w) for w in EXCITATION_TURNS for s in EXCITATION_SPEEDS]
     hold = max(1, int(round(EXCITATION_HOLD / Ts)))
@@ -235,12 +227,8 @@ def excite_physics(model: Any, episodes: int = 4, seed: int = 0) -> list:
     S = model.s_tilde(taus)
     U = np.tile(np.array([V, 0.0]), (episodes, d_hi + 1, 1))
     Q = np.zeros((episodes, steps, 3))
-    theta_prev = np.zeros(episodes)
     for k in range(steps):
-        q = robot.pose()
-        q[:, 2] = theta_prev + (q[:, 2] - theta_prev + math.pi) % (2 * math.pi) - math.pi
-        theta_prev = q[:, 2]
-        Q[:, k] = q
+        Q[:, k] = robot.pose()
         U = np.concatenate([cmd[:, k][:, None], U[:, :-1]], axis=1)
         robot.period(U, S[:, k])
     tk = np.arange(steps) * Ts
