@@ -30,6 +30,7 @@ __all__ = [
     "lyapunov_of",
     "heading_within_period",
     "between_samples",
+    "sup_on_set",
 ]
 
 # A certificate passes when every LMI satisfies  lambda_min >= CHECK_FRACTION * margin,
@@ -458,18 +459,22 @@ def heading_within_period(model: Any, K: np.ndarray, mats: list[np.ndarray], lev
         R = ch.C_h + ch.D_h @ K
         aR = np.abs(ch.C_h) + np.abs(ch.D_h) @ np.abs(K)
         for S in mats:
-            q = np.einsum("ij,jk,ik->i", R, S, R) + g * (1 + g) * np.einsum("ij,jk,ik->i", aR, np.abs(S), aR)
-            val = np.abs(ch.g_h) * (1 + g) + np.sqrt(np.maximum(level * q, 0.0))
+            val = np.abs(ch.g_h) * (1 + g) + np.sqrt(np.maximum(level * _form_upper(R, aR, S, g), 0.0))
             out = max(out, float(np.max(val)))
     return round_up(out, 8)  # the product with level, the square root and the sum
 
 
-def _sup_on_set(rows: np.ndarray, mats: list[np.ndarray], level: float) -> float:
+def _form_upper(R: np.ndarray, aR: np.ndarray, S: np.ndarray, g: float) -> np.ndarray:
+    """r S r' for every row r of R, plus its rounding bound g (1 + g) |r| |S| |r|' (aR: the rows'
+    magnitudes, which bound their own rounding when they were computed)."""
+    return np.einsum("ij,jk,ik->i", R, S, R) + g * (1 + g) * np.einsum("ij,jk,ik->i", aR, np.abs(S), aR)
+
+
+def sup_on_set(rows: np.ndarray, mats: list[np.ndarray], level: float) -> float:
     """max over the rows r and the Lyapunov matrices S of sqrt(level r S r') (the largest |r xi| on the
     set), with the rounding of r S r' added."""
     g = gamma(2 * rows.shape[1] + 4)
-    q = max(float(np.max(np.einsum("ij,jk,ik->i", rows, S, rows)
-                         + g * (1 + g) * np.einsum("ij,jk,ik->i", np.abs(rows), np.abs(S), np.abs(rows)))) for S in mats)
+    q = max(float(np.max(_form_upper(rows, np.abs(rows), S, g))) for S in mats)
     return float(np.sqrt(max(level * q, 0.0)))
 
 
@@ -497,9 +502,9 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
     vbar = wbar = dvbar = 0.0
     for mu in np.asarray(model.corners):
         M = slip_matrix(mu, model.config.robot.track_distance)
-        vbar = max(vbar, abs(float(M[0] @ uD)) + _sup_on_set(np.array([M[0] @ c for c in cmds]), mats, level))
-        wbar = max(wbar, abs(float(M[1] @ uD)) + _sup_on_set(np.array([M[1] @ c for c in cmds]), mats, level))
-        dvbar = max(dvbar, _sup_on_set(np.array([M[0] @ (cmds[j] - cmds[j + 1]) for j in range(d_hi)]), mats, level))
+        vbar = max(vbar, abs(float(M[0] @ uD)) + sup_on_set(np.array([M[0] @ c for c in cmds]), mats, level))
+        wbar = max(wbar, abs(float(M[1] @ uD)) + sup_on_set(np.array([M[1] @ c for c in cmds]), mats, level))
+        dvbar = max(dvbar, sup_on_set(np.array([M[0] @ (cmds[j] - cmds[j + 1]) for j in range(d_hi)]), mats, level))
     if model.heading_bound is not None:
         s = float(np.sin(min(float(heading), np.pi / 2)))
         ey = Ts * Ts / 8 * vbar * wbar + Ts / 4 * d_hi * dvbar * s

@@ -12,7 +12,7 @@ from .lifting import delay_indices, instant_ranges, lift
 from .linearize import Gamma, Gamma_D, Phi, continuous_matrices
 from .slip import slip_corners, slip_matrix
 from .uncertainty import embed, slip_box
-from .model import DEFAULT_HEADING_BOUND, MAX_POLYTOPIC_INSTANTS, WIDTH_TOL, Model, frozen_array
+from .model import DEFAULT_HEADING_BOUND, MAX_POLYTOPIC_INSTANTS, WIDTH_TOL, Model, frozen_array, frozen_vertex
 from .nonlinear import vertex_channels
 from .vertices import Vertex, apply_slip, augment_integral, delay_vertex_gammas, loss_vertex_gammas
 
@@ -111,9 +111,7 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
                     # the kinematic channels: gammas[t, j] = h_j B + (h_j^2/2) A B (vertices.py)
                     coords = np.stack([gammas[t, :, 0, 0], gammas[t, :, 1, 1] / V], axis=1)
                     channels.append(vertex_channels(mu, coords, V, Ts, M, n_s, n_e, n_u, d_hi))
-    frozen_vertices = tuple(
-        Vertex(*(frozen_array(x) for x in (v.A, v.B, v.E, v.B_p, v.C_q, v.D_q)), v.corner, v.label) for v in vertices
-    )
+    frozen_vertices = tuple(frozen_vertex(v) for v in vertices)
     model = Model(
         config=config,
         kind=kind,

@@ -62,6 +62,12 @@ def frozen_array(a: np.ndarray) -> np.ndarray:
     return a
 
 
+def frozen_vertex(v: Vertex) -> Vertex:
+    """The vertex with read-only copies of its matrices."""
+    mats = ("A", "B", "E", "B_p", "C_q", "D_q", "F_q")
+    return replace(v, **{k: frozen_array(getattr(v, k)) for k in mats if getattr(v, k) is not None})
+
+
 @dataclass(frozen=True)
 class Model:
     """Lifted model of the networked tracking error (eqs. 25, 31-33) and its vertex description.
@@ -132,9 +138,7 @@ class Model:
             raise InputError(f"synthesis.heading_bound: {theta_bar:g} rad is outside (0, 1]")
         scales = channel_scales(list(self.channels), theta_bar, self.V)
         verts = tuple(augment(v, ch, theta_bar, self.V, scales) for v, ch in zip(self.base_vertices, self.channels))
-        frozen = tuple(replace(v, **{k: frozen_array(getattr(v, k)) for k in ("A", "B", "E", "B_p", "C_q", "D_q", "F_q")})
-                       for v in verts)
-        return replace(self, vertices=frozen, heading_bound=theta_bar)
+        return replace(self, vertices=tuple(frozen_vertex(v) for v in verts), heading_bound=theta_bar)
 
     @property
     def n_z(self) -> int:
@@ -330,16 +334,19 @@ class Model:
         lam = self.corner_weights(mu)  # (..., n_c)
         if self.delay_description == "norm-bounded":
             return lam, dlt
-        if self.heading_bound is not None:  # the linearization: the kinematic factors at 0
+        # delay vertices have no delay Delta; with the kinematic channels, the one of the linearization
+        if self.heading_bound is not None:  # (every kinematic factor at 0)
             from .nonlinear import linearization_delta
 
-            dlt = np.broadcast_to(linearization_delta(self.channels[0]), batch + (self.n_q_vertex,))
+            dlt = np.broadcast_to(linearization_delta(self.channels[0]), batch + (self.vertices[0].n_q,))
+        else:
+            dlt = np.zeros(batch + (0,))
         if self.delay_description == "lossy-polytopic":
             cfg = self.config
             w = loss_hull_coordinates(s_tilde, self.Ts, cfg.network.delay.min, cfg.network.delay.max, self.dropouts,
                                       self.d_hi, WIDTH_TOL * max(self.Ts, 1.0))
             out = (lam[..., :, None] * w[..., None, :]).reshape(batch + (-1,))
-            return out, dlt if self.heading_bound is not None else np.zeros(batch + (0,))
+            return out, dlt
         # polytopic: corner-major, then the product of the per-instant triangle coordinates
         tri = [np.ones(batch + (1,))]
         for j in range(self.d_hi):
@@ -352,12 +359,7 @@ class Model:
         for t in tri[1:]:
             w = (w[..., :, None] * t[..., None, :]).reshape(batch + (-1,))
         out = (lam[..., :, None] * w[..., None, :]).reshape(batch + (-1,))
-        return out, dlt if self.heading_bound is not None else np.zeros(batch + (0,))
-
-    @property
-    def n_q_vertex(self) -> int:
-        """Delta channels of the vertices (the same at every vertex)."""
-        return self.vertices[0].n_q if self.vertices else 0
+        return out, dlt
 
     def from_hull(self, weights: np.ndarray, delta: np.ndarray, w: np.ndarray):
         """Recombine the vertices: (A, B, c) for hull weights, diag(Delta) and disturbance w."""

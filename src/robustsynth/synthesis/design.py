@@ -508,21 +508,17 @@ def _nonlinear_infeasible(model: Any, common: _Best, tried: list) -> str:
     what = ", ".join(f"{tb:g} rad ({why})" for tb, why in tried)
     msg = f"synthesis.kinematics: nonlinear: found no invariant set for the nonlinear robot with |e_theta(t)| within {what}"
     if common.cert is not None and common.check is not None:
-        from ..certificate import lyapunov_of
-
-        lin = model.linearized()
-        f = common.check.figures
-        lev = float(f["ellipsoid_level"])
-        lyap = lyapunov_of(lin, common.cert)
-        K = np.asarray(common.K)
-        uD = np.array([model.V, 0.0])
+        from ..certificate import lyapunov_of, sup_on_set
         from ..model.slip import slip_matrix
 
-        speed = 0.0
+        f = common.check.figures
+        S = list(lyapunov_of(model.linearized(), common.cert).S)
+        K = np.asarray(common.K)
+        uD = np.array([model.V, 0.0])
+        speed = 0.0  # the largest forward-speed deviation a on the set, at every slip corner
         for mu in model.corners:
             M = slip_matrix(mu, model.config.robot.track_distance)
-            r = M[0] @ K
-            speed = max(speed, abs(float(M[0] @ uD) - model.V) + max(float(np.sqrt(lev * r @ S @ r)) for S in lyap.S))
+            speed = max(speed, abs(float(M[0] @ uD) - model.V) + sup_on_set(np.array([M[0] @ K]), S, float(f["ellipsoid_level"])))
         msg += (f". The linearized certificate's set ({100 * f['ultimate_bound']['e_y']:.2f} cm) holds headings up to "
                 f"{f.get('heading_within_period', f['ultimate_bound']['e_theta']):.3g} rad within a period and forward-speed "
                 f"deviations up to {speed:.3g} m/s (V^D = {model.V:g} m/s): on it a sin e_theta alone reaches "

@@ -188,8 +188,8 @@ def heading_constraints(model: Any, lv: _Lyap) -> list[Any]:
                 raise InfeasibleError(
                     f"synthesis.heading_bound: {theta_bar:g} rad is smaller than the turn the slip alone causes within "
                     f"one period ({abs(float(g)):.3g} rad): no set can keep |e_theta(t)| below it")
+            row = c @ lv.X + d @ lv.Y
             for j in range(len(lv.mats)):
-                row = c @ lv.X + d @ lv.Y
                 blk = cp.bmat([[np.array([[room**2 * (1.0 - 1e-6)]]), cp.reshape(row, (1, model.n_s), order="C")],
                                [cp.reshape(row, (model.n_s, 1), order="C"), lv.left(j)]])
                 cons.append(_sym(blk) >> 0)
