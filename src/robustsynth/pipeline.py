@@ -212,21 +212,15 @@ def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, e
     writes the episodes as robot logs under ``outdir/logs/`` and ``validation.json`` (last)."""
     from .artifacts.files import commit_files, json_bytes, make_dir
     from .artifacts.gains import gains_id, load_gains
-    from .artifacts.logs import write_log
-    from .errors import InputError
-    from .plants.physics import available
     from .verification.physics import validate_physics
 
-    why = available() if engine == "physics" else ""
-    if why:
-        raise InputError(f"validate: {why}")
+    if engine == "physics":
+        _require_physics()
     outdir = make_dir(outdir)
     gains = load_gains(gains_path)
     res = validate_physics(model, gains, episodes=episodes, seed=seed, progress=progress if workers == 1 else None,
                            workers=workers, engine=engine)
-    logdir = make_dir(outdir / "logs")
-    for log in res["logs"]:
-        write_log(logdir / log.path, log)
+    _write_logs(res["logs"], outdir / "logs")
     vd = dict(res["validation"], gains_id=gains_id(gains), config=model.config.name)
     # the slip the certificate has to cover: on the straight segments it certifies; the turns' (ICR
     # effects: the per-track factors grow with the turn rate) reported beside it
@@ -248,21 +242,10 @@ def excitation_stage(model: Model, outdir: str | Path, episodes: int = 4, seed: 
     """``robustsynth validate --excite``: open-loop excitation of the physics robot (turns at several
     rates, speed changes; :func:`.verification.physics.excite_physics`) written as robot logs under
     ``outdir/logs/`` for ``identify``."""
-    from .artifacts.files import make_dir
-    from .artifacts.logs import write_log
-    from .errors import InputError
-    from .plants.physics import available
     from .verification.physics import excite_physics
 
-    why = available()
-    if why:
-        raise InputError(f"validate: {why}")
-    logdir = make_dir(Path(outdir) / "logs")
-    paths = []
-    for log in excite_physics(model, episodes=episodes, seed=seed):
-        write_log(logdir / log.path, log)
-        paths.append(logdir / log.path)
-    return paths
+    _require_physics()
+    return _write_logs(excite_physics(model, episodes=episodes, seed=seed), Path(outdir) / "logs")
 
 
 def _pieces(logs: list, keep: Any) -> list:
@@ -303,17 +286,32 @@ def _observed_slip(model: Model, logs: list) -> dict[str, Any]:
 def write_run_logs(model: Model, result: Any, logdir: str | Path) -> list[Path]:
     """The verification's Monte Carlo runs as robot logs (one CSV per run, the format `identify` and
     `check-log` read) in ``logdir``."""
+    from .verification.simulate import run_logs
+
+    return _write_logs(run_logs(model, result.sim, result.scenario), logdir)
+
+
+def _write_logs(logs: list, logdir: str | Path) -> list[Path]:
+    """Robot logs as CSV files in ``logdir`` (created), each under its own name."""
     from .artifacts.files import make_dir
     from .artifacts.logs import write_log
-    from .verification.simulate import run_logs
 
     logdir = make_dir(logdir)
     paths = []
-    for log in run_logs(model, result.sim, result.scenario):
-        p = logdir / log.path
-        write_log(p, log)
-        paths.append(p)
+    for log in logs:
+        write_log(logdir / log.path, log)
+        paths.append(logdir / log.path)
     return paths
+
+
+def _require_physics() -> None:
+    """InputError (exit 2) naming how to install MuJoCo when it cannot be imported."""
+    from .errors import InputError
+    from .plants.physics import available
+
+    why = available()
+    if why:
+        raise InputError(f"validate: {why}")
 
 
 def identification_stage(log_paths: list[Path], cfg: Any, out: Path | None, coverage: float, model: str,
