@@ -90,7 +90,7 @@ def lmi_invariance(v, X, left, right, Y, M, beta, alpha, mag: bool = False):
     ]
     if n_q:
         CX = v.C_q @ X + v.D_q @ Y
-        F = np.zeros((n_q, n_w)) if v.F_q is None else v.F_q  # q = C_q xi + D_q du + F_q w
+        F = v.F  # q = C_q xi + D_q du + F_q w
         rows[0].append(CX.T)
         rows[1].append(F.T)
         rows[2].append(np.zeros((n_s, n_q)))
@@ -522,7 +522,7 @@ class _AbsVertex:
     def __init__(self, v: Any) -> None:
         for name in ("A", "B", "E", "B_p", "C_q", "D_q"):
             setattr(self, name, np.abs(np.asarray(getattr(v, name))))
-        self.F_q = None if v.F_q is None else np.abs(np.asarray(v.F_q))
+        self.F = np.abs(np.asarray(v.F))
         self.label = v.label
 
 
