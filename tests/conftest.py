@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 import yaml
 from hypothesis import settings
@@ -29,3 +31,17 @@ def make_config(**overrides: Any) -> Config:
 @pytest.fixture
 def default_config() -> Config:
     return make_config()
+
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def committed_gain(name: str) -> tuple[Any, np.ndarray, dict[str, Any]]:
+    """The model of configs/<name>.yaml, and the gain K and certificate of its committed baseline
+    (results/baselines/<name>/gains.json)."""
+    from robustsynth.artifacts.gains import load_gains
+    from robustsynth.config import load_config
+    from robustsynth.model import build_model
+
+    g = load_gains(ROOT / "results" / "baselines" / name / "gains.json")
+    return build_model(load_config(ROOT / "configs" / f"{name}.yaml")), np.asarray(g["K"], dtype=float), g["certificate"]

@@ -5,20 +5,17 @@ is reported "not proven (rounding)", never certified."""
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from robustsynth.artifacts.gains import load_gains
 from robustsynth.certificate import check_certificate, lmi_invariance
-from robustsynth.config import load_config
-from robustsynth.model import build_model
 from robustsynth.verified import UNIT_ROUNDOFF, assembly_radius, is_pd, proves_at_least, round_up, rump_shift
 
-ROOT = Path(__file__).resolve().parents[1]
+from .conftest import committed_gain
+
 
 
 def _random_spd(rng, n: int, lam_min: float, cond: float = 1e3) -> np.ndarray:
@@ -66,9 +63,7 @@ def test_the_shift_and_outward_rounding_are_upper_bounds() -> None:
 
 @pytest.fixture(scope="module")
 def default_cert():
-    m = build_model(load_config(ROOT / "configs" / "default.yaml"))
-    g = load_gains(ROOT / "results" / "baselines" / "default" / "gains.json")
-    return m, np.asarray(g["K"], dtype=float), g["certificate"]
+    return committed_gain("default")
 
 
 def test_assembly_radius_bounds_the_rounding_of_an_lmi(default_cert) -> None:

@@ -19,7 +19,7 @@ from robustsynth.errors import ConfigError
 from robustsynth.model import build_model
 from robustsynth.verification.probe import boundary_probe
 
-from ..conftest import make_config
+from ..conftest import committed_gain, make_config
 
 ROOT = Path(__file__).resolve().parents[2]
 LEVEL_TOL = 1e-9  # V/level: round-off only
@@ -28,9 +28,7 @@ LEVEL_TOL = 1e-9  # V/level: round-off only
 @pytest.fixture(scope="module")
 def committed():
     """The committed nonlinear-proof gain (results/baselines), its model and certificate."""
-    m = build_model(load_config(ROOT / "configs" / "nonlinear-proof.yaml"))
-    g = load_gains(ROOT / "results" / "baselines" / "nonlinear-proof" / "gains.json")
-    return m, np.asarray(g["K"], dtype=float), g["certificate"]
+    return committed_gain("nonlinear-proof")
 
 
 def test_the_committed_certificate_passes_and_bounds_the_heading(committed) -> None:

@@ -5,33 +5,28 @@ nonlinear run replays through the simulator, and the probe does find states that
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from robustsynth.artifacts.gains import load_gains
 from robustsynth.certificate import check_certificate, lyapunov_of
-from robustsynth.config import load_config
-from robustsynth.model import build_model
 from robustsynth.plants.path import make_path, pose_from_error
 from robustsynth.scenarios import Scenario
 from robustsynth.verification.probe import boundary_probe, probe_directions
 from robustsynth.verification.simulate import simulate
 
-ROOT = Path(__file__).resolve().parents[2]
+from ..conftest import committed_gain
+
 LEVEL_TOL = 1e-9  # V/level: round-off only (the same tolerance as verify's lifted-model checks)
 THETA_TOL = 1e-12  # e_theta is linear in the commands: robot and lifted map agree to round-off
 REPLAY_TOL = 1e-12  # the probe's one period vs the simulator's first step, same law and plant
 
 
 def _baseline(name: str):
-    m = build_model(load_config(ROOT / "configs" / f"{name}.yaml"))
-    g = load_gains(ROOT / "results" / "baselines" / name / "gains.json")
-    K = np.asarray(g["K"], dtype=float)
-    chk = check_certificate(m, K, g["certificate"])
+    m, K, cert = committed_gain(name)
+    chk = check_certificate(m, K, cert)
     assert chk.passed, chk.reason
-    return m, K, lyapunov_of(m, g["certificate"]), float(chk.figures["ellipsoid_level"])
+    return m, K, lyapunov_of(m, cert), float(chk.figures["ellipsoid_level"])
 
 
 @pytest.fixture(scope="module")
