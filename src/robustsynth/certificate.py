@@ -31,6 +31,7 @@ __all__ = [
     "heading_within_period",
     "between_samples",
     "sup_on_set",
+    "set_max",
 ]
 
 # A certificate passes when every LMI satisfies  lambda_min >= CHECK_FRACTION * margin,
@@ -371,24 +372,27 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
         level = round_up(float(np.sum(beta) / alpha), beta.size + 1)  # {xi' P xi <= level}: invariant, attracting
         figures["decay_rate"] = round_up(np.sqrt(1.0 - alpha), 2)
         figures["ellipsoid_level"] = level
-        diag = np.max([np.maximum(np.diag(Sm), 0.0) for Sm in mats], axis=0)  # worst slip corner
+        # per bounded figure the largest value the set allows over every slip (and previous delay), the
+        # smallest over the delay vertices V takes its maximum over (set_max; docs/theory.md §6i)
+        inner = model.delay_vertex_count if lyap in ("delay-dependent", "path-dependent") else 1
+        diags = np.array([np.diag(Sm) for Sm in mats])
         figures["ultimate_bound"] = {
-            "e_x": round_up(np.sqrt(level * diag[0]), 2),
-            "e_y": round_up(np.sqrt(level * diag[1]), 2),
-            "e_theta": round_up(np.sqrt(level * diag[2]), 2),
+            name: round_up(np.sqrt(level * set_max(diags[:, k], inner)), 2)
+            for k, name in enumerate(("e_x", "e_y", "e_theta"))
         }
         R = cfg.robot.gear_radius
         J_inv = np.asarray(model.J_inv)
         # c S c' with c = J^-1 K, bounded above with its rounding: + gamma |c| |S| |c|'
         g = gamma(2 * n_s + 2 * n_u + 4)
         aJK = np.abs(J_inv) @ np.abs(K)
-        dev = max(float(np.max(np.einsum("ij,jk,ik->i", J_inv, K @ Sm @ K.T, J_inv)
-                               + g * (1 + g) * np.einsum("ij,jk,ik->i", aJK, np.abs(Sm), aJK))) for Sm in mats)
+        devs = np.array([np.einsum("ij,jk,ik->i", J_inv, K @ Sm @ K.T, J_inv)
+                         + g * (1 + g) * np.einsum("ij,jk,ik->i", aJK, np.abs(Sm), aJK) for Sm in mats])
+        dev = max(set_max(devs[:, i], inner) for i in range(devs.shape[1]))
         figures["motor_speed_bound"] = round_up(cfg.reference.speed / R + np.sqrt(max(round_up(level * dev), 0.0)), 3)
         if model.channels:  # |e_theta(t)| between samples on the set (docs/theory.md §9)
-            figures["heading_within_period"] = heading_within_period(model, K, mats, level)
+            figures["heading_within_period"] = heading_within_period(model, K, mats, level, inner)
         figures["ultimate_bound_between_samples"] = between_samples(
-            model, K, mats, level, figures["ultimate_bound"], figures.get("heading_within_period"))
+            model, K, mats, level, figures["ultimate_bound"], figures.get("heading_within_period"), inner)
         if model.heading_bound is not None:
             figures["heading_bound"] = model.heading_bound
             checks.append({
@@ -447,7 +451,7 @@ def _failed_reason(checks: list[dict[str, Any]]) -> str:
     return f"{c['name']} fails: {c.get('value')} against {c.get('threshold')}"
 
 
-def heading_within_period(model: Any, K: np.ndarray, mats: list[np.ndarray], level: float) -> float:
+def heading_within_period(model: Any, K: np.ndarray, mats: list[np.ndarray], level: float, inner: int = 1) -> float:
     """An upper bound on |e_theta(t)| for t in every period, over the set {V <= level}: e_theta is
     piecewise linear in t, so its extremes are at the break points, ``r xi + g`` (r = C_h + D_h K) at
     each vertex; the supremum over the set is ``|g| + sqrt(level r S r')`` (its rounding bound added),
@@ -458,9 +462,10 @@ def heading_within_period(model: Any, K: np.ndarray, mats: list[np.ndarray], lev
     for ch in model.channels:
         R = ch.C_h + ch.D_h @ K
         aR = np.abs(ch.C_h) + np.abs(ch.D_h) @ np.abs(K)
-        for S in mats:
-            val = np.abs(ch.g_h) * (1 + g) + np.sqrt(np.maximum(level * _form_upper(R, aR, S, g), 0.0))
-            out = max(out, float(np.max(val)))
+        q = np.array([_form_upper(R, aR, S, g) for S in mats])  # (n_mats, n_rows)
+        for i in range(q.shape[1]):
+            val = abs(float(ch.g_h[i])) * (1 + g) + np.sqrt(max(level * set_max(q[:, i], inner), 0.0))
+            out = max(out, float(val))
     return round_up(out, 8)  # the product with level, the square root and the sum
 
 
@@ -470,16 +475,49 @@ def _form_upper(R: np.ndarray, aR: np.ndarray, S: np.ndarray, g: float) -> np.nd
     return np.einsum("ij,jk,ik->i", R, S, R) + g * (1 + g) * np.einsum("ij,jk,ik->i", aR, np.abs(S), aR)
 
 
-def sup_on_set(rows: np.ndarray, mats: list[np.ndarray], level: float) -> float:
-    """max over the rows r and the Lyapunov matrices S of sqrt(level r S r') (the largest |r xi| on the
-    set), with the rounding of r S r' added."""
+def set_max(q: np.ndarray, inner: int = 1) -> float:
+    """An upper bound on ``max c S(mu, ...) c'`` that the set {V <= level} allows, from ``q[j]`` >= c S_j c'
+    (one per Lyapunov matrix, in the certificate's order), ``|c xi|^2 <= level * set_max(q)`` on it
+    (docs/theory.md §6i).
+
+    ``inner``: how many consecutive matrices V takes its maximum over (the delay vertices d of a
+    delay- or path-dependent certificate, 1 otherwise).  On the set, ``xi' S(mu, d)^-1 xi <= level`` for
+    every d, so ``|c xi|^2 <= level sum_d theta_d c S(mu, d) c'`` for any convex weights theta, and
+    ``c S(mu, d) c'`` is a convex combination of the corners' (and previous delay vertices') values: the
+    bound is ``min_theta max_outer sum_d theta_d q[outer, d]`` (a small linear program), never above
+    ``min_d max_outer q`` nor the largest q.  Any theta gives a valid bound, so the program's accuracy
+    only decides how tight it is; the value is evaluated at its theta and rounded up."""
+    q = np.maximum(np.asarray(q, dtype=float).reshape(-1, inner), 0.0)
+    best = float(np.min(np.max(q, axis=0)))  # theta a unit vector: min over d of max over the rest
+    if inner > 1 and q.shape[0] > 1:
+        from scipy.optimize import linprog
+
+        n_o = q.shape[0]
+        # min s  s.t.  q theta - s <= 0, sum theta = 1, theta >= 0
+        res = linprog(np.r_[np.zeros(inner), 1.0], A_ub=np.c_[q, -np.ones(n_o)], b_ub=np.zeros(n_o),
+                      A_eq=np.r_[np.ones(inner), 0.0][None, :], b_eq=[1.0],
+                      bounds=[(0, None)] * inner + [(None, None)], method="highs")
+        if res.status == 0:
+            theta = np.maximum(res.x[:inner], 0.0)
+            total = float(np.sum(theta))
+            if total > 0:
+                # sum(theta q) / sum(theta): weights that sum to one whatever the rounding of theta
+                val = round_up(float(np.max(q @ theta)) / total, inner + 2)
+                best = min(best, val)
+    return best
+
+
+def sup_on_set(rows: np.ndarray, mats: list[np.ndarray], level: float, inner: int = 1) -> float:
+    """max over the rows r of the largest |r xi| on the set, sqrt(level * set_max(r S r')), with the
+    rounding of r S r' added (``inner``: :func:`set_max`)."""
     g = gamma(2 * rows.shape[1] + 4)
-    q = max(float(np.max(_form_upper(rows, np.abs(rows), S, g))) for S in mats)
-    return float(np.sqrt(max(level * q, 0.0)))
+    q = np.array([_form_upper(rows, np.abs(rows), S, g) for S in mats])  # (n_mats, n_rows)
+    top = max(set_max(q[:, i], inner) for i in range(q.shape[1]))
+    return float(np.sqrt(max(round_up(level * top), 0.0)))
 
 
 def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: float, sampled: dict[str, float],
-                    heading: float | None) -> dict[str, float | None]:
+                    heading: float | None, inner: int = 1) -> dict[str, float | None]:
     """Bounds on |e_x(t)|, |e_y(t)|, |e_theta(t)| for every t, not only at the sampling instants
     (docs/theory.md §9).  Both ends of a period lie in the set, so within it each error is at most
     its sampled bound plus its distance from the chord between the ends, which is at most
@@ -502,9 +540,10 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
     vbar = wbar = dvbar = 0.0
     for mu in np.asarray(model.corners):
         M = slip_matrix(mu, model.config.robot.track_distance)
-        vbar = max(vbar, abs(float(M[0] @ uD)) + sup_on_set(np.array([M[0] @ c for c in cmds]), mats, level))
-        wbar = max(wbar, abs(float(M[1] @ uD)) + sup_on_set(np.array([M[1] @ c for c in cmds]), mats, level))
-        dvbar = max(dvbar, sup_on_set(np.array([M[0] @ (cmds[j] - cmds[j + 1]) for j in range(d_hi)]), mats, level))
+        vbar = max(vbar, abs(float(M[0] @ uD)) + sup_on_set(np.array([M[0] @ c for c in cmds]), mats, level, inner))
+        wbar = max(wbar, abs(float(M[1] @ uD)) + sup_on_set(np.array([M[1] @ c for c in cmds]), mats, level, inner))
+        dvbar = max(dvbar, sup_on_set(np.array([M[0] @ (cmds[j] - cmds[j + 1]) for j in range(d_hi)]), mats, level,
+                                      inner))
     if model.heading_bound is not None:
         s = float(np.sin(min(float(heading), np.pi / 2)))
         ey = Ts * Ts / 8 * vbar * wbar + Ts / 4 * d_hi * dvbar * s
