@@ -187,6 +187,12 @@ class SynthesisConfig(_Node):
         description="nonlinear kinematics: the bound on |e_theta(t)| within every period that the certificate "
         "assumes and proves on its own set [rad]; auto searches for the one with the smallest weighted bound",
     )
+    symmetry: Literal["auto", "off"] = Field(
+        default="auto",
+        description="auto: when the slip box is the same for both tracks, use the robot's left/right mirror "
+        "symmetry (a mirror-invariant certificate, the same optimum, about half the LMIs; docs/theory.md §6h); "
+        "off: pose every vertex condition (for comparison)",
+    )
     multiplier: Literal["structured", "full"] = Field(
         default="structured", description="S-procedure multiplier for Delta: one per block or one scalar"
     )

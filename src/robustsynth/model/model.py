@@ -29,7 +29,7 @@ from .uncertainty import SlipBox, UncertainInstant, delta_for
 from .vertices import (Vertex, apply_slip, augment_integral, loss_hull_coordinates,
                        loss_instant_grid, triangle_coordinates)
 
-__all__ = ["Model", "state_names", "gain_lifting", "pad_gain", "lifted_slice", "INPUT_NAMES", "ERROR_NAMES",
+__all__ = ["Model", "Mirror", "state_names", "gain_lifting", "pad_gain", "lifted_slice", "INPUT_NAMES", "ERROR_NAMES",
            "SLIP_NAMES", "INTEGRATOR_NAMES", "MODEL_KINDS", "MAX_POLYTOPIC_INSTANTS", "WIDTH_TOL",
            "DEFAULT_HEADING_BOUND"]
 
@@ -66,6 +66,18 @@ def frozen_vertex(v: Vertex) -> Vertex:
     """The vertex with read-only copies of its matrices."""
     mats = ("A", "B", "E", "B_p", "C_q", "D_q", "F_q")
     return replace(v, **{k: frozen_array(getattr(v, k)) for k in mats if getattr(v, k) is not None})
+
+
+@dataclass(frozen=True)
+class Mirror:
+    """The left/right mirror symmetry of a model (:meth:`Model.mirror`): the reflection's signs on the
+    lifted state (``t``) and on the command (``tu``), and the permutations it induces on the vertices
+    and on a certificate's Lyapunov matrices (involutions)."""
+
+    t: np.ndarray
+    tu: np.ndarray
+    vertex: tuple[int, ...]
+    lyapunov: tuple[int, ...]
 
 
 @dataclass(frozen=True)
@@ -260,6 +272,46 @@ class Model:
         n_c = int(np.asarray(self.corners).shape[0])
         n_d = self.delay_vertex_count
         return {"common": 1, "slip-dependent": n_c, "delay-dependent": n_c * n_d, "path-dependent": n_c * n_d * n_d}[kind]
+
+    def mirror(self, kind: str) -> "Mirror | None":
+        """The robot's left/right mirror symmetry, when this model has it (docs/theory.md §6h): the
+        reflection ``T`` (e_y, e_theta, omega and int_e_y change sign) maps vertex i's data onto vertex
+        ``vertex[i]``'s, whose slip corner has the tracks swapped, ``A_s(i) = T A_i T``,
+        ``B_s(i) = T B_i T_u``, ``E_s(i) = T E_i (+-)``.  Then a certificate of ``kind`` may be taken
+        mirror-invariant at no loss (average it with its mirror image), and each condition of a mirrored
+        pair is the other's congruence.  None when a slip box is not symmetric (the tracks' ranges
+        differ), the vertices carry uncertainty channels (n_q > 0), or the data are not mirror images."""
+        if any(v.n_q for v in self.vertices):
+            return None
+        corners = np.asarray(self.corners, dtype=float)
+        swap = []
+        for c in corners:
+            hit = np.flatnonzero(np.all(np.abs(corners - c[::-1]) <= 1e-12, axis=1))
+            if hit.size != 1:
+                return None
+            swap.append(int(hit[0]))
+        t = np.array([-1.0 if n.startswith(("e_y", "e_theta", "omega", "int_e_y")) else 1.0 for n in self.state_names])
+        tu = np.array([1.0 if n == "dV" else -1.0 for n in INPUT_NAMES])
+        n_d = self.delay_vertex_count
+        sigma = [swap[int(v.corner)] * n_d + i % n_d for i, v in enumerate(self.vertices)]
+        close = lambda a, b: np.allclose(a, b, rtol=1e-10, atol=1e-12)  # noqa: E731
+        for i, v in enumerate(self.vertices):
+            w = self.vertices[sigma[i]]
+            tE = t[:, None] * np.asarray(v.E)
+            if int(w.corner) != swap[int(v.corner)] or not (
+                    close(w.A, t[:, None] * np.asarray(v.A) * t) and close(w.B, t[:, None] * np.asarray(v.B) * tu)
+                    and all(close(w.E[:, k], tE[:, k]) or close(w.E[:, k], -tE[:, k]) for k in range(tE.shape[1]))):
+                return None
+        n_c = corners.shape[0]
+        if kind == "common":
+            lyap = [0]
+        elif kind == "slip-dependent":
+            lyap = swap
+        elif kind == "delay-dependent":
+            lyap = [swap[j // n_d] * n_d + j % n_d for j in range(n_c * n_d)]
+        else:
+            lyap = [swap[j // (n_d * n_d)] * n_d * n_d + j % (n_d * n_d) for j in range(n_c * n_d * n_d)]
+        return Mirror(t=t, tu=tu, vertex=tuple(sigma), lyapunov=tuple(lyap))
 
     def lyapunov_conditions(self, kind: str, slip_step: float | None) -> list[list[tuple[int, list[tuple[float, int]], str]]]:
         """Per vertex i, the pairs (left, right, label) of one-period conditions a certificate of ``kind``

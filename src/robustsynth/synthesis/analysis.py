@@ -41,7 +41,7 @@ class AnalysisResult:
 def _one(model: Any, K: np.ndarray, lyapunov: str, multiplier: str, margin: float, solver: str,
          r: float) -> tuple[str, dict | None, CertificateCheck | None]:
     model = model.linearized()  # robust stability of a fixed K: a statement about the linearization
-    lp = build_stability(model, multiplier, margin, lyapunov, K=K)
+    lp = build_stability(model, multiplier, margin, lyapunov, K=K, symmetry=model.config.synthesis.symmetry == "auto")
     lp.params["r2"].value = r * r
     held: dict[str, Any] = {}
 

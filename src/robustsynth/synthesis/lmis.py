@@ -94,30 +94,99 @@ def multiplier(n_blocks: int, kind: str, tag: str = "") -> tuple[Any, list[cp.Va
     return sum(terms[1:], terms[0]), variables
 
 
+def _selector(n: int, idx: np.ndarray) -> np.ndarray:
+    """The n x len(idx) matrix whose columns are the unit vectors of ``idx``."""
+    P = np.zeros((n, idx.size))
+    P[idx, np.arange(idx.size)] = 1.0
+    return P
+
+
 def _sym(L: Any) -> Any:
     return (L + L.T) / 2.0
 
 
 class _Lyap:
     """The Lyapunov variables: X (what multiplies A and C_q), and per vertex the (left, right) blocks
-    of its conditions (``Model.lyapunov_conditions``)."""
+    of its conditions (``Model.lyapunov_conditions``).
 
-    def __init__(self, model: Any, kind: str, K: np.ndarray | None = None):
+    With ``mirror`` (the model's left/right symmetry, ``Model.mirror``) the certificate is taken
+    mirror-invariant, at no loss (docs/theory.md §6h): G, Q, Y and the Lyapunov matrices of symmetric
+    slip corners have no entries between even and odd states, a mirrored corner's matrix is
+    ``T S T`` of its partner's, and of each mirrored pair of conditions only one is posed."""
+
+    def __init__(self, model: Any, kind: str, K: np.ndarray | None = None, mirror: Any = None):
         n_s = model.n_s
         self.kind = kind
         self._conds = model.lyapunov_conditions(kind, model.slip_step)
+        if mirror is not None and K is not None:
+            Kf = np.asarray(K, dtype=float)
+            if not np.allclose(mirror.tu[:, None] * Kf * mirror.t, Kf, rtol=0.0, atol=1e-12 * max(1.0, np.abs(Kf).max())):
+                mirror = None  # a gain that is not mirror-symmetric: its certificate need not be
+        self.mirror = mirror
         if kind == "common":
-            self.Q = cp.Variable((n_s, n_s), symmetric=True, name="Q")
+            self.Q = self._var(n_s, "Q", symmetric=True, structured=mirror is not None)
             self.X = self.Q
             self.G = None
-            self.S: list[cp.Variable] = []
+            self.S: list[Any] = []
+            self.own = [0]
         else:
             self.Q = None
-            self.G = cp.Variable((n_s, n_s), name="G")
+            self.G = self._var(n_s, "G", symmetric=False, structured=mirror is not None)
             self.X = self.G
-            self.S = [cp.Variable((n_s, n_s), symmetric=True, name=f"S{j}") for j in range(model.lyapunov_count(kind))]
+            count = model.lyapunov_count(kind)
+            sig = mirror.lyapunov if mirror is not None else tuple(range(count))
+            self.own = [j for j in range(count) if j <= sig[j]]  # the matrices that are variables
+            S: dict[int, Any] = {}
+            for j in self.own:
+                S[j] = self._var(n_s, f"S{j}", symmetric=True, structured=mirror is not None and sig[j] == j)
+            for j in range(count):
+                if j not in S:  # a mirrored corner's matrix: T S T of its partner's
+                    S[j] = cp.multiply(np.outer(mirror.t, mirror.t), S[sig[j]])
+            self.S = [S[j] for j in range(count)]
         # synthesis: Y = K X is the variable; analysis of a given K: Y = K X is affine in X
-        self.Y = cp.Variable((model.n_u, n_s), name="Y") if K is None else np.asarray(K, dtype=float) @ self.X
+        if K is not None:
+            self.Y = np.asarray(K, dtype=float) @ self.X
+        elif mirror is None:
+            self.Y = cp.Variable((model.n_u, n_s), name="Y")
+        else:  # row r of Y only on the states of the command's parity (T_u Y T = Y)
+            rows = []
+            for r, sign in enumerate(mirror.tu):
+                cols = np.flatnonzero(mirror.t == sign)
+                Er = np.zeros((model.n_u, 1))
+                Er[r, 0] = 1.0
+                rows.append(Er @ cp.Variable((1, cols.size), name=f"Y{r}") @ _selector(n_s, cols).T)
+            self.Y = sum(rows[1:], rows[0])
+        self._keep = self._kept_conditions(model)
+
+    def _var(self, n: int, name: str, symmetric: bool, structured: bool) -> Any:
+        if not structured:
+            return cp.Variable((n, n), symmetric=symmetric, name=name)
+        parts = []
+        for sign, tag in ((1.0, "even"), (-1.0, "odd")):
+            idx = np.flatnonzero(self.mirror.t == sign)
+            if idx.size:
+                P = _selector(n, idx)
+                parts.append(P @ cp.Variable((idx.size, idx.size), symmetric=symmetric, name=f"{name}_{tag}") @ P.T)
+        return sum(parts[1:], parts[0])
+
+    def _kept_conditions(self, model: Any) -> list[list[bool]]:
+        """Per vertex, which conditions are posed: all without a mirror; with one, of a condition and
+        its mirror image (the congruence by T of each other) the one with the smaller key."""
+        keep = [[True] * len(c) for c in self._conds]
+        if self.mirror is None:
+            return keep
+        sv, sl = self.mirror.vertex, self.mirror.lyapunov
+
+        def key(i: int, j: int, right: list, v: tuple, l: tuple) -> tuple:
+            return (v[i], l[j], tuple(sorted((l[n], round(w, 12)) for w, n in right)))
+
+        ident = tuple(range(max(len(sv), len(sl))))
+        keys = {key(i, j, r, ident, ident) for i, cs in enumerate(self._conds) for j, r, _ in cs}
+        for i, cs in enumerate(self._conds):
+            for c, (j, right, _) in enumerate(cs):
+                k, mk = key(i, j, right, ident, ident), key(i, j, right, sv, sl)
+                keep[i][c] = k <= mk or mk not in keys
+        return keep
 
     @property
     def mats(self) -> list[Any]:
@@ -135,32 +204,64 @@ class _Lyap:
 
     def conditions(self, i: int) -> list[tuple[Any, Any]]:
         """(left, right) blocks of vertex i's conditions: this period's Lyapunov matrix and the next's."""
-        return [(self.left(j), self._next(right)) for j, right, _ in self._conds[i]]
+        return [(self.left(j), self._next(right)) for (j, right, _), k in zip(self._conds[i], self._keep[i]) if k]
+
+    def grouped(self, i: int) -> tuple[list[tuple[Any, Any]], list[Any]]:
+        """Vertex i's conditions with one ``right`` per left matrix: a variable Z_ij below every next
+        period's matrix that may follow (``right - Z_ij >= 0``, the second list).  Exact, not a
+        relaxation: the next period's matrix enters its LMI only as ``+ right`` in one diagonal block,
+        so the LMI holds for every right exactly when it holds for the Schur complement W_ij of the
+        other blocks, and Z_ij = W_ij satisfies both (docs/theory.md §6h).  The big LMI is written once
+        per left matrix instead of once per (left, next) pair; the pairs keep small n_s x n_s LMIs."""
+        groups: dict[int, list[Any]] = {}
+        for (j, right, _), k in zip(self._conds[i], self._keep[i]):
+            if k:
+                groups.setdefault(j, []).append(self._next(right))
+        pairs, below = [], []
+        n_s = self.X.shape[0]
+        for j, rights in groups.items():
+            if len(rights) == 1:
+                pairs.append((self.left(j), rights[0]))
+                continue
+            Z = cp.Variable((n_s, n_s), symmetric=True, name=f"Z{i}_{j}")
+            pairs.append((self.left(j), Z))
+            below += [R - Z >> 0 for R in rights]
+        return pairs, below
+
+    def motor_rows(self, model: Any, j: int) -> list[int] | None:
+        """Rows of J^-1 whose motor LMI matrix j needs: all, except for a mirror-invariant matrix, whose
+        left-track LMI is the congruence of its right-track one (J^-1's rows are mirror images)."""
+        J_inv = np.asarray(model.J_inv)
+        if self.mirror is None or self.mirror.lyapunov[j] != j or not np.allclose(J_inv[1], J_inv[0] * self.mirror.tu):
+            return None
+        return [0]
 
     def scale(self, floor: float) -> list[Any]:
-        return [X >> floor * np.eye(X.shape[0]) for X in self.mats]
+        return [self.mats[j] >> floor * np.eye(self.X.shape[0]) for j in self.own]
 
     def diag_bound(self, i: int) -> tuple[Any, list[Any]]:
         """An expression >= every Lyapunov matrix's (i, i) entry (epigraph for several matrices)."""
         if self.kind == "common":
             return self.Q[i, i], []
         t = cp.Variable(name=f"t{i}")
-        return t, [t >= S[i, i] for S in self.S]
+        return t, [t >= self.S[j][i, i] for j in self.own]  # a mirrored matrix has its partner's diagonal
 
     def problem_kwargs(self) -> dict[str, Any]:
         return {"Y": self.Y, "lyapunov": self.kind, "Q": self.Q, "G": self.G, "S": self.S}
 
 
-def motor_constraints(model: Any, Q: Any, Y: Any) -> list[Any]:
+def motor_constraints(model: Any, Q: Any, Y: Any, rows: Any = None) -> list[Any]:
     """[[u^2, c_i' Y], [Y' c_i, Q]] >= 0 with u = rho_max - V^D / R  (docs/theory.md §6c), for each row c_i
-    of J^-1; ``Q`` may be any expression standing for the Lyapunov matrix (G + G' - S_m)."""
+    of J^-1 (or those in ``rows``); ``Q`` may be any expression standing for the Lyapunov matrix
+    (G + G' - S_m)."""
     cfg = model.config
     rho_max = cfg.robot.max_motor_speed
     ubar = rho_max - cfg.reference.speed / cfg.robot.gear_radius
     # solve against a bound a hair tighter than the limit so that the numpy check has headroom
     ubar_solve = ubar * (1.0 - 1e-6)
     cons = []
-    for c in np.asarray(model.J_inv):
+    J_inv = np.asarray(model.J_inv)
+    for c in J_inv if rows is None else J_inv[list(rows)]:
         row = c @ Y  # (n_s,)
         blk = cp.bmat([[np.array([[ubar_solve**2]]), cp.reshape(row, (1, model.n_s), order="C")],
                        [cp.reshape(row, (model.n_s, 1), order="C"), Q]])
@@ -216,13 +317,13 @@ def _multipliers(model: Any, kind: str, margin: float) -> tuple[list[Any], list[
 
 
 def build_stability(model: Any, kind: str, margin: float, lyapunov: str = "common",
-                    K: np.ndarray | None = None) -> LMIProblem:
+                    K: np.ndarray | None = None, symmetry: bool = True) -> LMIProblem:
     """Robust decay rate r (docs/theory.md §6a); scale fixed by Q >= I (S_m >= I); parameter r2 = r^2.
 
     With ``K`` given the gain is fixed (analysis): ``Y = K Q`` (``K G``) is then an expression and the
     problem asks for a Lyapunov certificate of that gain only."""
     model = model.linearized()  # no constant column here: the stability LMI is about the linearization
-    lv = _Lyap(model, lyapunov, K)
+    lv = _Lyap(model, lyapunov, K, model.mirror(lyapunov) if symmetry else None)
     n_s = model.n_s
     r2 = cp.Parameter(nonneg=True, name="r2", value=0.9)
     Ms, cons = _multipliers(model, kind, margin)
@@ -234,7 +335,9 @@ def build_stability(model: Any, kind: str, margin: float, lyapunov: str = "commo
     for i, (v, M) in enumerate(zip(model.vertices, Ms)):
         AX, CX = _vertex_parts(v, lv)
         Bp = np.asarray(v.B_p)
-        for left, right in lv.conditions(i):
+        pairs, below = lv.grouped(i)
+        cons += below
+        for left, right in pairs:
             if v.n_q:
                 Z = np.zeros((n_s, v.n_q))
                 L = cp.bmat([[r2 * left, AX.T, CX.T], [AX, right - Bp @ M @ Bp.T, Z], [CX, Z.T, M]])
@@ -252,10 +355,11 @@ def build_stability(model: Any, kind: str, margin: float, lyapunov: str = "commo
 
 
 def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, motor: bool,
-                     lyapunov: str = "common") -> LMIProblem:
+                     lyapunov: str = "common", symmetry: bool = True) -> LMIProblem:
     """Invariant, attracting ellipsoid under every admissible delay and slip (docs/theory.md §6b);
-    parameter alpha.  Minimizes sum_i weights_i * (bound on state i)^2 / level over e_x, e_y, e_theta."""
-    lv = _Lyap(model, lyapunov)
+    parameter alpha.  Minimizes sum_i weights_i * (bound on state i)^2 / level over e_x, e_y, e_theta.
+    ``symmetry``: use the model's mirror symmetry when it has one (the same optimum, fewer LMIs)."""
+    lv = _Lyap(model, lyapunov, mirror=model.mirror(lyapunov) if symmetry else None)
     n_s, n_w = model.n_s, model.n_w
     alpha = cp.Parameter(nonneg=True, name="alpha", value=0.1)
     one_minus = cp.Parameter(nonneg=True, name="one_minus_alpha", value=0.9)
@@ -266,7 +370,9 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
         AX, CX = _vertex_parts(v, lv)
         E = np.asarray(v.E)
         Bp = np.asarray(v.B_p)
-        for left, right in lv.conditions(i):
+        pairs, below = lv.grouped(i)
+        cons += below
+        for left, right in pairs:
             rows = [[one_minus * left, Zsw, AX.T], [Zsw.T, cp.diag(beta), E.T],
                     [AX, E, right - (Bp @ M @ Bp.T if v.n_q else 0)]]
             if v.n_q:
@@ -278,8 +384,8 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
             cons.append(_sym(L) >> margin * np.eye(L.shape[0]))
     cons += [cp.sum(beta) <= alpha] + lv.scale(margin)
     if motor:
-        for j in range(len(lv.mats)):
-            cons += motor_constraints(model, lv.left(j), lv.Y)
+        for j in lv.own:
+            cons += motor_constraints(model, lv.left(j), lv.Y, rows=lv.motor_rows(model, j))
     if model.heading_bound is not None:
         cons += heading_constraints(model, lv)
     terms = []

@@ -11,7 +11,7 @@ import cvxpy as cp
 
 from ..errors import check_interrupt
 
-__all__ = ["SolveRecord", "Outcome", "solve", "SOLVER_OPTIONS", "solver_version"]
+__all__ = ["SolveRecord", "Outcome", "solve", "SOLVER_OPTIONS", "solver_options", "solver_version"]
 
 SOLVER_OPTIONS: dict[str, dict[str, Any]] = {
     "clarabel": {
@@ -22,11 +22,28 @@ SOLVER_OPTIONS: dict[str, dict[str, Any]] = {
         "tol_infeas_abs": 1e-9,
         "tol_infeas_rel": 1e-9,
         "max_iter": 500,
+        # one thread: the KKT factors here are small and many; the solver's thread pool spent ~15 %
+        # of a path-dependent solve waiting (measured: bench_synthesis_profile), and make test and sweeps
+        # already run one solve per core
+        "max_threads": 1,  # (dropped below for a Clarabel without the setting)
     },
     # SCS is first-order: 1e-8 is tight for it; the iteration cap bounds a fallback to ~1 s here
     "scs": {"solver": cp.SCS, "eps_abs": 1e-8, "eps_rel": 1e-8, "max_iters": 20_000},
 }
 FALLBACK = {"clarabel": "scs", "scs": "clarabel"}
+
+
+def solver_options(name: str) -> dict[str, Any]:
+    opts = dict(SOLVER_OPTIONS[name])
+    if name == "clarabel":
+        try:
+            import clarabel
+
+            if not hasattr(clarabel.DefaultSettings(), "max_threads"):
+                opts.pop("max_threads", None)
+        except (ImportError, AttributeError):
+            opts.pop("max_threads", None)
+    return opts
 
 
 def solver_version(name: str) -> str:
@@ -44,8 +61,9 @@ class SolveRecord:
     name: str
     status: str
     iterations: int | None
-    solve_time_s: float
+    solve_time_s: float  # the whole call: cvxpy's canonicalization and unpacking, and the solver
     error: str = ""
+    solver_time_s: float | None = None  # the solver's own time (its report), when it gave one
 
 
 @dataclass
@@ -72,7 +90,7 @@ def _call_solver(problem: cp.Problem, name: str) -> None:
     signal is delivered, and the run stops, as soon as the solve returns."""
     import warnings
 
-    opts = dict(SOLVER_OPTIONS[name])
+    opts = solver_options(name)
     old = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD_SIGNALS)
     try:
         with warnings.catch_warnings():
@@ -142,7 +160,9 @@ def _attempt(problem: cp.Problem, name: str) -> SolveRecord:
             return SolveRecord(name, "solver_error", None, time.perf_counter() - t0, f"solver panicked: {msg}")
     stats = problem.solver_stats
     iters = getattr(stats, "num_iters", None)
-    return SolveRecord(name, str(problem.status), int(iters) if iters is not None else None, time.perf_counter() - t0)
+    own = getattr(stats, "solve_time", None)
+    return SolveRecord(name, str(problem.status), int(iters) if iters is not None else None, time.perf_counter() - t0,
+                       solver_time_s=float(own) if own is not None else None)
 
 
 def solve(problem: cp.Problem, primary: str, accept: Callable[[], bool], fallback: bool = True) -> Outcome:

@@ -1,0 +1,50 @@
+"""The alpha search's refinement (``synthesis.design._parabolic``) on functions whose minimum is
+known: few evaluations on a smooth valley, the minimum to the stop tolerance, and the golden-section
+fallback beside an infeasible (infinite) point."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from robustsynth.synthesis.design import HINT_STOP_REL, REFINE_STEPS, _parabolic
+
+
+def _recorder(f):
+    calls = []
+
+    def evaluate(x: float) -> float:
+        calls.append(x)
+        return f(x)
+
+    return evaluate, calls
+
+
+@pytest.mark.parametrize("x_star", [-1.7, -1.2, -0.9])
+def test_a_smooth_valley_is_found_in_a_step_or_two(x_star):
+    f = lambda x: 3.0 + 0.8 * (x - x_star) ** 2 + 0.1 * (x - x_star) ** 3  # noqa: E731
+    pts = [(x, f(x)) for x in (-2.2, -1.3, -0.4)]  # the walk's bracket: the best point inside
+    evaluate, calls = _recorder(f)
+    _parabolic(evaluate, pts)
+    assert 1 <= len(calls) <= REFINE_STEPS
+    best = min([f(x) for x, _ in pts] + [f(x) for x in calls])
+    assert best <= 3.0 * (1 + 10 * HINT_STOP_REL)  # the minimum's value to (ten times) the stop tolerance
+
+
+def test_an_infinite_neighbour_hands_over_to_the_golden_section():
+    f = lambda x: math.inf if x > -0.9 else 2.0 + (x + 1.0) ** 2  # noqa: E731  feasible up to -0.9
+    pts = [(-1.5, f(-1.5)), (-1.2, f(-1.2)), (-0.8, f(-0.8))]
+    evaluate, calls = _recorder(f)
+    _parabolic(evaluate, pts)
+    assert calls  # the golden section evaluated inside [-1.5, -0.8]
+    assert all(-1.5 < x < -0.8 for x in calls)
+    assert min(f(x) for x in calls) < f(-1.2)
+
+
+def test_a_minimum_at_the_end_of_the_walk_is_left_alone():
+    f = lambda x: x  # noqa: E731  decreasing to the left end
+    evaluate, calls = _recorder(f)
+    _parabolic(evaluate, [(x, f(x)) for x in np.linspace(-2, -1, 4)])
+    assert calls == []

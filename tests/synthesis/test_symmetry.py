@@ -1,0 +1,119 @@
+"""The robot's left/right mirror symmetry (docs/theory.md §6e): ``Model.mirror`` maps every vertex
+onto its mirror image, and the synthesis LMIs that use it (a mirror-invariant certificate, one
+condition of each mirrored pair, one "next" matrix Z per left matrix) reach the optimum of the full
+problem, while the certificate they return passes the numpy check of *every* condition, the
+dropped ones included."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from robustsynth.model import build_model
+from robustsynth.synthesis.design import _cert_common, _Runner, _weights
+from robustsynth.synthesis.lmis import _Lyap, build_invariance, build_stability
+
+from ..conftest import make_config
+
+ALPHA = 0.22  # near the best alpha of the default robot
+# the two optima agree to the solver's accuracy: at the product's 1e-9 tolerances they differ by up to
+# 1.5e-6 (common), at 1e-11 by 1e-8 (measured), so the difference is the solver's, not the symmetry's
+OPT_REL = 1e-5
+MIRROR_TOL = 1e-12  # the vertex data are mirror images up to round-off
+
+
+def _signs(model):
+    m = model.mirror("path-dependent")
+    return m, m.t, m.tu
+
+
+def test_mirror_maps_every_vertex_onto_its_image():
+    model = build_model(make_config())
+    mirror, t, tu = _signs(model)
+    T, Tu = np.diag(t), np.diag(tu)
+    assert sorted(mirror.vertex) == list(range(len(model.vertices)))
+    for i, v in enumerate(model.vertices):
+        w = model.vertices[mirror.vertex[i]]
+        assert mirror.vertex[mirror.vertex[i]] == i  # an involution
+        np.testing.assert_array_equal(model.corners[int(w.corner)], model.corners[int(v.corner)][::-1])
+        np.testing.assert_allclose(w.A, T @ v.A @ T, atol=MIRROR_TOL)
+        np.testing.assert_allclose(w.B, T @ v.B @ Tu, atol=MIRROR_TOL)
+    # e_y, e_theta and the yaw-rate commands are the odd states
+    assert [n for n, s in zip(model.state_names, t) if s < 0] == ["e_y", "e_theta", "omega[k-1]"]
+
+
+def test_mirror_is_the_exact_maps_symmetry():
+    """Independent of the vertices: the exact lifted map at swapped slip is the mirror image."""
+    model = build_model(make_config())
+    _, t, tu = _signs(model)
+    T, Tu = np.diag(t), np.diag(tu)
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        s = rng.uniform(*model.instant_ranges[0])
+        mu = rng.uniform(0.6, 1.0, size=2)
+        A, B = model.exact(np.array([s]), mu)
+        A2, B2 = model.exact(np.array([s]), mu[::-1])
+        np.testing.assert_allclose(A2, T @ A @ T, atol=MIRROR_TOL)
+        np.testing.assert_allclose(B2, T @ B @ Tu, atol=MIRROR_TOL)
+        c, c2 = model.constant(mu), model.constant(mu[::-1])
+        np.testing.assert_allclose(c2, t * c, atol=MIRROR_TOL)
+
+
+@pytest.mark.parametrize("over", [
+    {"slip.left.min": 0.7},  # the tracks' ranges differ: no symmetry
+    {"synthesis.delay_description": "norm-bounded"},  # uncertainty channels (n_q > 0)
+])
+def test_no_mirror_where_there_is_none(over):
+    model = build_model(make_config(**over))
+    assert model.mirror("common") is None
+
+
+def _solve(model, lyapunov: str, symmetry: bool, grouped: bool = True):
+    s = model.config.synthesis
+    lp = build_invariance(model, s.multiplier, s.margin, _weights(s), True, lyapunov, symmetry=symmetry)
+    lp.params["alpha"].value = ALPHA
+    lp.params["one_minus_alpha"].value = 1.0 - ALPHA
+
+    def make_cert(vals: dict) -> dict:
+        cert = _cert_common(model, vals, s.multiplier, s.margin, "ultimate-bound")
+        cert.update(alpha=ALPHA, beta=vals["beta"], motor_limits_enforced=True)
+        return cert
+
+    out, cert, K, chk = _Runner(model, lp, "clarabel", make_cert).run(fallback=False)
+    assert out.kind == "ok", out.record
+    return lp, K, cert, chk
+
+
+@pytest.mark.parametrize("lyapunov", ["common", "slip-dependent", "delay-dependent"])
+def test_symmetric_problem_reaches_the_full_optimum(lyapunov):
+    model = build_model(make_config(**{"synthesis.lyapunov": lyapunov}))
+    lp_full, _, _, _ = _solve(model, lyapunov, symmetry=False)
+    lp_sym, K, cert, chk = _solve(model, lyapunov, symmetry=True)
+    assert len(lp_sym.problem.constraints) < len(lp_full.problem.constraints)
+    assert lp_sym.problem.value == pytest.approx(lp_full.problem.value, rel=OPT_REL)
+    # the gain and the matrices are mirror-invariant ...
+    m = model.mirror(lyapunov)
+    np.testing.assert_allclose(m.tu[:, None] * K * m.t, K, atol=1e-9 * np.abs(K).max())
+    # ... and the certificate is checked on every vertex condition, not only on the ones posed
+    assert chk.passed
+    n_all = sum(len(c) for c in model.lyapunov_conditions(lyapunov, model.slip_step))
+    assert any(c["name"].endswith(f" at {n_all} vertex conditions") for c in chk.checks), [c["name"] for c in chk.checks]
+
+
+def test_one_next_matrix_per_left_is_exact(monkeypatch):
+    """The Z split (one LMI per left matrix, Z below every next matrix) against every (left, next)
+    pair posed as its own LMI, without symmetry: the same optimum."""
+    model = build_model(make_config(**{"synthesis.lyapunov": "delay-dependent"}))
+    lp_split, *_ = _solve(model, "delay-dependent", symmetry=False)
+    monkeypatch.setattr(_Lyap, "grouped", lambda self, i: (self.conditions(i), []))
+    lp_pairs, *_ = _solve(model, "delay-dependent", symmetry=False)
+    assert len(lp_split.problem.constraints) != len(lp_pairs.problem.constraints)
+    assert lp_split.problem.value == pytest.approx(lp_pairs.problem.value, rel=OPT_REL)
+
+
+def test_analysis_of_an_asymmetric_gain_uses_no_mirror():
+    model = build_model(make_config())
+    K = np.array([[-1.0, 0.3, 0.2, -0.1, 0.05], [0.4, -2.0, -3.0, 0.1, -0.2]])  # dV reacts to e_y: not symmetric
+    lp = build_stability(model, "structured", 1e-7, "common", K=K)
+    assert len(lp.problem.constraints) == len(build_stability(model, "structured", 1e-7, "common", K=K,
+                                                              symmetry=False).problem.constraints)
