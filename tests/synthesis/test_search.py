@@ -48,3 +48,15 @@ def test_a_minimum_at_the_end_of_the_walk_is_left_alone():
     evaluate, calls = _recorder(f)
     _parabolic(evaluate, [(x, f(x)) for x in np.linspace(-2, -1, 4)])
     assert calls == []
+
+
+def test_a_step_predicted_to_gain_nothing_is_not_taken():
+    """On a narrow bracket whose middle point is the minimum to within the tolerance, the parabola's
+    predicted gain is below HINT_STOP_REL: with ``predict`` no solve is spent; without it one is."""
+    f = lambda x: 1.0 + 0.5 * (x + 1.003) ** 2  # noqa: E731  predicted gain 4.5e-6 < HINT_STOP_REL
+    pts = [(x, f(x)) for x in (-1.1, -1.0, -0.9)]
+    evaluate, calls = _recorder(f)
+    _parabolic(evaluate, pts, predict=True)
+    assert calls == []
+    _parabolic(evaluate, pts, predict=False)
+    assert len(calls) >= 1
