@@ -32,7 +32,7 @@ def main() -> dict[str, float]:
     from robustsynth import build_model, load_config
     from robustsynth.synthesis import lmis
     from robustsynth.synthesis.design import synthesize
-    from robustsynth.synthesis.solve import SOLVER_OPTIONS
+    from robustsynth.synthesis.solve import solver_options
 
     model = build_model(load_config())
     s = model.config.synthesis
@@ -43,7 +43,7 @@ def main() -> dict[str, float]:
     lp = lmis.build_invariance(model, s.multiplier, s.margin, w, True)
     out["build_s"] = time.perf_counter() - t0
     alphas = np.linspace(0.05, 0.4, SOLVES)
-    opts = SOLVER_OPTIONS["clarabel"]
+    opts = solver_options("clarabel")
     reuse = []
     for a in alphas:
         lp.params["alpha"].value = a

@@ -27,7 +27,7 @@ def main() -> dict[str, dict[str, float]]:
     from robustsynth.certificate import check_certificate
     from robustsynth.synthesis.design import _cert_common, _weights
     from robustsynth.synthesis.lmis import build_invariance
-    from robustsynth.synthesis.solve import SOLVER_OPTIONS
+    from robustsynth.synthesis.solve import solver_options
 
     out: dict[str, dict[str, float]] = {}
     print("| class | conditions | LMI rows (sum) | model build | problem build | 1st solve: cvxpy + solver | "
@@ -48,7 +48,7 @@ def main() -> dict[str, dict[str, float]]:
             lp.params["alpha"].value = a
             lp.params["one_minus_alpha"].value = 1.0 - a
             t0 = time.perf_counter()
-            lp.problem.solve(**SOLVER_OPTIONS["clarabel"])
+            lp.problem.solve(**solver_options("clarabel"))
             total = time.perf_counter() - t0
             solver = float(lp.problem.solver_stats.solve_time or 0.0)
             solves.append((total - solver, solver))
