@@ -68,14 +68,21 @@ def compare(expected: dict[str, Any], got: dict[str, Any]) -> list[str]:
     return diffs
 
 
-def _configs(configs_dir: Path) -> list[Path]:
-    return sorted(configs_dir.glob("*.yaml"))
+def _configs(configs_dir: Path, names: list[str] | None = None) -> list[Path]:
+    paths = sorted(configs_dir.glob("*.yaml"))
+    if names:
+        unknown = sorted(set(names) - {p.stem for p in paths})
+        if unknown:
+            raise SystemExit(f"no config {', '.join(unknown)} in {configs_dir}")
+        paths = [p for p in paths if p.stem in names]
+    return paths
 
 
-def write_baselines(configs_dir: Path, results_dir: Path) -> None:
+def write_baselines(configs_dir: Path, results_dir: Path, names: list[str] | None = None) -> None:
+    """Regenerate the baselines of every config (or of those ``names``, e.g. ``default``)."""
     from .artifacts.files import atomic_write
 
-    for cfg_path in _configs(configs_dir):
+    for cfg_path in _configs(configs_dir, names):
         with tempfile.TemporaryDirectory() as tmp:
             summary = run_config(cfg_path, Path(tmp))
             dest = results_dir / summary["name"]
@@ -115,9 +122,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--write", action="store_true", help="regenerate results/baselines/<name>/summary.json and gains.json")
     ap.add_argument("--configs", type=Path, default=Path("configs"))
     ap.add_argument("--results", type=Path, default=Path("results") / "baselines")
+    ap.add_argument("names", nargs="*", help="with --write: only these configs (file names without .yaml)")
     a = ap.parse_args(argv)
+    if a.names and not a.write:
+        ap.error("config names go with --write")
     if a.write:
-        write_baselines(a.configs, a.results)
+        write_baselines(a.configs, a.results, a.names or None)
         return 0
     return check_all(a.configs, a.results)
 

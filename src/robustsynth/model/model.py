@@ -78,6 +78,34 @@ class Mirror:
     tu: np.ndarray
     vertex: tuple[int, ...]
     lyapunov: tuple[int, ...]
+    q_signs: tuple[np.ndarray, ...] = ()  # per vertex: the signs S_i of its uncertainty channels
+
+
+def _channel_signs(v: Vertex, w: Vertex, t: np.ndarray, tu: np.ndarray, s_w: np.ndarray, close) -> np.ndarray | None:
+    """The sign of each uncertainty channel k with which vertex ``w`` is the mirror image of ``v``
+    (``Model.mirror``), or None when some channel maps with neither sign.  A channel's input p (the
+    column of B_p) and output q (the rows of C_q, D_q, F_q) must map with the same sign when Delta
+    has blocks (d1 I2, d2: its multiplier then maps as S M S); with ``diagonal`` Delta (independent
+    scalars in [-1, 1], a diagonal multiplier) they may differ: the mirror then takes delta_k to
+    -delta_k, which is as admissible, and the multiplier is unchanged."""
+    Bp, Cq, Dq, F = (np.asarray(x, dtype=float) for x in (v.B_p, v.C_q, v.D_q, v.F))
+    images = (t[:, None] * Bp, (Cq * t).T, (Dq * tu).T, (F * s_w).T)  # channel k: column k of each
+    targets = (np.asarray(w.B_p, dtype=float), np.asarray(w.C_q, dtype=float).T, np.asarray(w.D_q, dtype=float).T,
+               np.asarray(w.F, dtype=float).T)
+    out = np.ones(v.n_q)
+    for k in range(v.n_q):
+        if v.diagonal:  # input and output signs independent
+            parts = [(images[:1], targets[:1]), (images[1:], targets[1:])]
+        else:
+            parts = [(images, targets)]
+        signs = []
+        for ims, tgs in parts:
+            ok = [all(close(tg[:, k], s * im[:, k]) for im, tg in zip(ims, tgs)) for s in (1.0, -1.0)]
+            if not any(ok):
+                return None
+            signs.append(1.0 if ok[0] else -1.0)
+        out[k] = signs[-1]  # the output's sign: the multiplier maps as S M S
+    return out
 
 
 @dataclass(frozen=True)
@@ -280,8 +308,15 @@ class Model:
         ``B_s(i) = T B_i T_u``, ``E_s(i) = T E_i (+-)``.  Then a certificate of ``kind`` may be taken
         mirror-invariant at no loss (average it with its mirror image), and each condition of a mirrored
         pair is the other's congruence.  None when a slip box is not symmetric (the tracks' ranges
-        differ), the vertices carry uncertainty channels (n_q > 0), or the data are not mirror images."""
-        if any(v.n_q for v in self.vertices):
+        differ) or the data are not mirror images.  Vertices with uncertainty channels (the
+        norm-bounded delay embedding, the kinematic channels of §9) map with a sign per channel,
+        ``B_p,s(i) = T B_p,i S_i``, ``C_q,s(i) = S_i C_q,i T``, ``D_q,s(i) = S_i D_q,i T_u``,
+        ``F_q,s(i) = S_i F_q,i (+-)`` (``q_signs[i]`` = diag S_i); their multipliers map as
+        ``M_s(i) = S_i M_i S_i``."""
+        if any(v.diagonal for v in self.vertices):
+            # the kinematic channels (§9) are mirror images too (a sign per channel), but the mirrored
+            # problem was numerically fragile: on configs/nonlinear-proof.yaml 17 of 27 solves returned
+            # points that failed the numpy check, against none without it (measured); not used
             return None
         corners = np.asarray(self.corners, dtype=float)
         swap = []
@@ -295,13 +330,20 @@ class Model:
         n_d = self.delay_vertex_count
         sigma = [swap[int(v.corner)] * n_d + i % n_d for i, v in enumerate(self.vertices)]
         close = lambda a, b: np.allclose(a, b, rtol=1e-10, atol=1e-12)  # noqa: E731
+        q_signs = []
         for i, v in enumerate(self.vertices):
             w = self.vertices[sigma[i]]
             tE = t[:, None] * np.asarray(v.E)
-            if int(w.corner) != swap[int(v.corner)] or not (
-                    close(w.A, t[:, None] * np.asarray(v.A) * t) and close(w.B, t[:, None] * np.asarray(v.B) * tu)
-                    and all(close(w.E[:, k], tE[:, k]) or close(w.E[:, k], -tE[:, k]) for k in range(tE.shape[1]))):
+            s_w = []
+            for k in range(tE.shape[1]):
+                s_w.append(1.0 if close(w.E[:, k], tE[:, k]) else -1.0 if close(w.E[:, k], -tE[:, k]) else 0.0)
+            if int(w.corner) != swap[int(v.corner)] or w.n_q != v.n_q or w.diagonal != v.diagonal or 0.0 in s_w or not (
+                    close(w.A, t[:, None] * np.asarray(v.A) * t) and close(w.B, t[:, None] * np.asarray(v.B) * tu)):
                 return None
+            signs = _channel_signs(v, w, t, tu, np.array(s_w), close)
+            if signs is None:
+                return None
+            q_signs.append(signs)
         n_c = corners.shape[0]
         if kind == "common":
             lyap = [0]
@@ -311,7 +353,7 @@ class Model:
             lyap = [swap[j // n_d] * n_d + j % n_d for j in range(n_c * n_d)]
         else:
             lyap = [swap[j // (n_d * n_d)] * n_d * n_d + j % (n_d * n_d) for j in range(n_c * n_d * n_d)]
-        return Mirror(t=t, tu=tu, vertex=tuple(sigma), lyapunov=tuple(lyap))
+        return Mirror(t=t, tu=tu, vertex=tuple(sigma), lyapunov=tuple(lyap), q_signs=tuple(q_signs))
 
     def lyapunov_conditions(self, kind: str, slip_step: float | None) -> list[list[tuple[int, list[tuple[float, int]], str]]]:
         """Per vertex i, the pairs (left, right, label) of one-period conditions a certificate of ``kind``

@@ -303,13 +303,26 @@ def _vertex_parts(v: Any, lv: _Lyap):
     return AX, CX
 
 
-def _multipliers(model: Any, kind: str, margin: float) -> tuple[list[Any], list[Any]]:
-    Ms, cons = [], []
+def _multipliers(model: Any, kind: str, margin: float, mirror: Any = None) -> tuple[list[Any], list[Any]]:
+    """Per vertex the S-procedure multiplier M_i (and M_i >= margin I).  With a mirror, a mirrored
+    vertex's multiplier is ``S M S`` of its partner's (S its channels' signs, ``Model.mirror``) and a
+    self-mirrored vertex's is S-invariant: the mirror image of a certificate is one (§6h)."""
+    Ms: list[Any] = []
+    cons = []
     for i, v in enumerate(model.vertices):
+        partner = i if mirror is None else mirror.vertex[i]
+        if partner < i:
+            s = np.asarray(mirror.q_signs[partner], dtype=float)
+            Ms.append(cp.multiply(np.outer(s, s), Ms[partner]) if v.n_q else Ms[partner])
+            continue
         if v.diagonal:  # independent scalars (the kinematic channels): a diagonal multiplier
             M = cp.diag(cp.Variable(v.n_q, name=f"d{i}"))
         else:
             M, _ = multiplier(v.n_q // 3, kind, tag=str(i))
+            if mirror is not None and partner == i and v.n_q:  # self-mirrored: S M S = M
+                s = np.asarray(mirror.q_signs[i], dtype=float)
+                if np.any(s < 0):
+                    M = cp.multiply((np.outer(s, s) > 0).astype(float), M)
         Ms.append(M)
         if v.n_q:
             cons.append(M >> margin * np.eye(v.n_q))
@@ -326,7 +339,7 @@ def build_stability(model: Any, kind: str, margin: float, lyapunov: str = "commo
     lv = _Lyap(model, lyapunov, K, model.mirror(lyapunov) if symmetry else None)
     n_s = model.n_s
     r2 = cp.Parameter(nonneg=True, name="r2", value=0.9)
-    Ms, cons = _multipliers(model, kind, margin)
+    Ms, cons = _multipliers(model, kind, margin, lv.mirror)
     # analysis: maximize the smallest eigenvalue t of the LMIs with I <= X <= kappa I, so the point
     # returned sits as far inside the feasible set as it can (a feasibility problem minimizing
     # trace(Q) would land on its boundary, where the numpy check cannot confirm it)
@@ -364,7 +377,7 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
     alpha = cp.Parameter(nonneg=True, name="alpha", value=0.1)
     one_minus = cp.Parameter(nonneg=True, name="one_minus_alpha", value=0.9)
     beta = cp.Variable(n_w, name="beta")
-    Ms, cons = _multipliers(model, kind, margin)
+    Ms, cons = _multipliers(model, kind, margin, lv.mirror)
     Zsw = np.zeros((n_s, n_w))
     for i, (v, M) in enumerate(zip(model.vertices, Ms)):
         AX, CX = _vertex_parts(v, lv)
