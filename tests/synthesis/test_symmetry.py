@@ -115,7 +115,8 @@ def test_symmetric_problem_reaches_the_full_optimum(lyapunov):
     # ... and the certificate is checked on every vertex condition, not only on the ones posed
     assert chk.passed
     n_all = sum(len(c) for c in model.lyapunov_conditions(lyapunov, model.slip_step))
-    assert any(c["name"].endswith(f" at {n_all} vertex conditions") for c in chk.checks), [c["name"] for c in chk.checks]
+    names = [c["name"] for c in chk.checks]
+    assert any(n.endswith(f" at {n_all} vertex conditions") for n in names), names
 
 
 def test_one_next_matrix_per_left_is_exact(monkeypatch):

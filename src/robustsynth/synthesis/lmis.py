@@ -120,7 +120,8 @@ class _Lyap:
         self._conds = model.lyapunov_conditions(kind, model.slip_step)
         if mirror is not None and K is not None:
             Kf = np.asarray(K, dtype=float)
-            if not np.allclose(mirror.tu[:, None] * Kf * mirror.t, Kf, rtol=0.0, atol=1e-12 * max(1.0, np.abs(Kf).max())):
+            tol = 1e-12 * max(1.0, float(np.abs(Kf).max()))
+            if not np.allclose(mirror.tu[:, None] * Kf * mirror.t, Kf, rtol=0.0, atol=tol):
                 mirror = None  # a gain that is not mirror-symmetric: its certificate need not be
         self.mirror = mirror
         if kind == "common":
