@@ -11,13 +11,12 @@ import pytest
 from robustsynth.errors import InputError
 from robustsynth.model import build_model
 from robustsynth.synthesis import synthesize
-from robustsynth.synthesis.design import _cert_common, _Runner, _weights
-from robustsynth.synthesis.lmis import build_invariance
 from robustsynth.certificate import Lyapunov, check_certificate, lyapunov_of
 from robustsynth.scenarios import alternating_delays, random_delays, slip_vertices
 from robustsynth.verification.lifted import closed_loop_run
 
 from ..conftest import make_config
+from .conftest import invariance_at
 
 ALPHA = 0.22  # near the best alpha of the default robot for both kinds
 CLASS_REL = 1e-3  # the delay-dependent optimum may exceed the slip-dependent one by solver accuracy only
@@ -25,25 +24,14 @@ DECREASE_TOL = 1e-9  # V(xi+) - (1-alpha) V(xi) - sum beta, relative to max(V, l
 
 
 def _solve_at(model, lyapunov: str, alpha: float = ALPHA):
-    """One invariance solve at a fixed alpha, taken as synthesis takes it: the product's solver
-    settings and its acceptance rule (``synthesis.solve``).  A point the solver calls 'optimal' or
+    """One invariance solve at a fixed alpha, taken as synthesis takes it (``invariance_at``): the
+    product's solver settings and its acceptance rule.  A point the solver calls 'optimal' or
     'optimal_inaccurate' is accepted only when every LMI, rebuilt in numpy from the values, passes
     the certificate check; the status string alone decides nothing (Clarabel 0.11 reports
     'optimal_inaccurate' for the path-dependent LMIs at the product's 1e-9 tolerances, on some
     machines also at its defaults, with a certificate that passes).  Clarabel only, no fallback:
     the newest Clarabel must certify these classes itself."""
-    s = model.config.synthesis
-    lp = build_invariance(model, s.multiplier, s.margin, _weights(s), True, lyapunov)
-    lp.params["alpha"].value = alpha
-    lp.params["one_minus_alpha"].value = 1.0 - alpha
-
-    def make_cert(vals: dict) -> dict:
-        cert = _cert_common(model, vals, s.multiplier, s.margin, "ultimate-bound")
-        cert.update(alpha=alpha, beta=vals["beta"], motor_limits_enforced=True)
-        return cert
-
-    out, cert, K, chk = _Runner(model, lp, "clarabel", make_cert).run(fallback=False)
-    assert out.kind == "ok", (out.record, chk)
+    lp, K, cert, chk = invariance_at(model, lyapunov, alpha)
     assert chk.passed  # what "ok" means: the numpy re-check of every vertex condition
     return K, cert, float(lp.problem.value)
 

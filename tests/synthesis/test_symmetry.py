@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from robustsynth.model import build_model
-from robustsynth.synthesis.design import _cert_common, _Runner, _weights
-from robustsynth.synthesis.lmis import _Lyap, build_invariance, build_stability
+from robustsynth.synthesis.lmis import _Lyap, build_stability
 
 from ..conftest import make_config
+from .conftest import invariance_at
 
 ALPHA = 0.22  # near the best alpha of the default robot
 # the two optima agree to the solver's accuracy: at the product's 1e-9 tolerances they differ by up to
@@ -86,20 +86,8 @@ def test_vertices_with_uncertainty_channels_are_mirrored_too(over):
     assert chk.passed
 
 
-def _solve(model, lyapunov: str, symmetry: bool, grouped: bool = True):
-    s = model.config.synthesis
-    lp = build_invariance(model, s.multiplier, s.margin, _weights(s), True, lyapunov, symmetry=symmetry)
-    lp.params["alpha"].value = ALPHA
-    lp.params["one_minus_alpha"].value = 1.0 - ALPHA
-
-    def make_cert(vals: dict) -> dict:
-        cert = _cert_common(model, vals, s.multiplier, s.margin, "ultimate-bound")
-        cert.update(alpha=ALPHA, beta=vals["beta"], motor_limits_enforced=True)
-        return cert
-
-    out, cert, K, chk = _Runner(model, lp, "clarabel", make_cert).run(fallback=False)
-    assert out.kind == "ok", out.record
-    return lp, K, cert, chk
+def _solve(model, lyapunov: str, symmetry: bool):
+    return invariance_at(model, lyapunov, ALPHA, symmetry=symmetry)
 
 
 @pytest.mark.parametrize("lyapunov", ["common", "slip-dependent", "delay-dependent"])
