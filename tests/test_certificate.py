@@ -1,14 +1,23 @@
-"""The certificate module's set bounds (docs/theory.md §6i): ``set_max`` bounds the largest |c xi| on
-the intersection over the delay vertices of the ellipsoids {xi' S(mu, d)^-1 xi <= level}, for every
-slip; checked against points sampled on that intersection's boundary, and against the old bound (the
-largest entry over every matrix), which it never exceeds."""
+"""The certificate module's set and turn bounds.
+
+- docs/theory.md §6i: ``set_max`` bounds the largest |c xi| on the intersection over the delay
+  vertices of the ellipsoids {xi' S(mu, d)^-1 xi <= level}, for every slip; checked against points
+  sampled on that intersection's boundary, and against the old bound (the largest entry over every
+  matrix), which it never exceeds.
+- docs/theory.md §10: ``turn_bounds`` bounds V after a waypoint's frame change from the set; checked
+  against states sampled on the set's boundary, and its verdicts (motor peak, dwell time, a nonlinear
+  certificate's heading bound)."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings, strategies as st
 
-from robustsynth.certificate import set_max
+from robustsynth.certificate import TURN_REENTRY, check_certificate, lyapunov_of, set_max, turn_bounds
+from robustsynth.model import build_model
+
+from .conftest import committed_gain
 
 SAMPLES = 4000  # boundary points per slip weight draw
 ROUND_REL = 1e-12  # round-off in the sampled |c xi|^2 (the bound is rounded up, the samples are not)
@@ -54,3 +63,80 @@ def test_two_ellipsoids_whose_intersection_is_small():
     q2 = np.array([10.0, 1.0, 1.0, 10.0])  # rows: corner m, columns: delay vertex d
     assert set_max(q2, 2) <= 5.5 * (1 + 1e-12)  # theta = (1/2, 1/2)
     assert np.min(q2.reshape(2, 2).max(axis=0)) == 10.0
+
+
+# ---------------------------------------------------------------- waypoint turns (docs/theory.md §10)
+
+TURN_SAMPLES = 20000
+
+
+def _with_path(model, path, **over):
+    cfg = model.config.model_copy(update={"verification": model.config.verification.model_copy(update={"path": path})})
+    if over:
+        cfg = cfg.model_copy(update={"robot": cfg.robot.model_copy(update=over)})
+    return build_model(cfg)
+
+
+def test_turn_bound_holds_for_states_on_the_boundary():
+    """The frame change of the default path's first turn, applied to states sampled on the boundary
+    of the committed gain's set: V/level after the switch never exceeds the certified bound."""
+    model, K, cert = committed_gain("default")
+    chk = check_certificate(model, K, cert)
+    turns = turn_bounds(model, K, cert, chk.figures)
+    assert [t["waypoint"] for t in turns] == [1, 2]
+    lyap = lyapunov_of(model, cert)
+    level = float(chk.figures["ellipsoid_level"])
+    rng = np.random.default_rng(3)
+    L = np.linalg.cholesky(lyap.S[0])
+    x = rng.normal(size=(TURN_SAMPLES, model.n_s))
+    x /= np.linalg.norm(x, axis=1, keepdims=True)
+    xi = np.sqrt(level) * x @ L.T  # xi' S^-1 xi = level
+    for t in turns:
+        d = t["turn_rad"]
+        J = np.eye(model.n_s)
+        J[:2, :2] = [[np.cos(d), np.sin(d)], [-np.sin(d), np.cos(d)]]
+        after = xi @ J.T
+        after[:, 2] -= d
+        v = lyap.V_max(after) / level
+        assert np.max(v) <= t["V_over_level_at_switch"]
+        assert np.max(v) >= 0.5 * t["V_over_level_at_switch"]  # and the bound is not wildly loose
+
+
+def test_a_straight_path_has_nothing_to_bound():
+    model, K, cert = committed_gain("default")
+    m = _with_path(model, ((0.0, 0.0), (5.0, 0.0), (10.0, 0.0)), max_motor_speed=None)
+    chk = check_certificate(m, K, dict(cert, motor_limits_enforced=False))
+    (t,) = turn_bounds(m, K, cert, chk.figures)
+    assert t["turn_rad"] == 0.0
+    assert t["V_over_level_at_switch"] == pytest.approx(1.0, rel=1e-9)
+    assert t["periods_to_reenter"] == 0 and t["certified"]
+
+
+def test_a_gentle_turn_without_a_motor_limit_is_certified_and_a_short_segment_is_not():
+    model, K, cert = committed_gain("default")
+    gentle = ((0.0, 0.0), (5.0, 0.0), (10.0, 0.5), (20.0, 0.5))
+    m = _with_path(model, gentle, max_motor_speed=None)
+    chk = check_certificate(m, K, dict(cert, motor_limits_enforced=False))
+    t1, t2 = turn_bounds(m, K, cert, chk.figures)
+    assert t1["certified"] and t2["certified"], (t1["reason"], t2["reason"])
+    assert 1.0 < t1["V_over_level_at_switch"]
+    # V_k <= level (1 + (1 - alpha)^k (r - 1)): back below TURN_REENTRY after periods_to_reenter
+    a, r, k = float(cert["alpha"]), t1["V_over_level_at_switch"], t1["periods_to_reenter"]
+    assert 1 + (1 - a) ** k * (r - 1) <= TURN_REENTRY < 1 + (1 - a) ** (k - 1) * (r - 1)
+    short = ((0.0, 0.0), (5.0, 0.0), (5.2, 0.02), (20.0, 0.02))  # 0.2 m: 0.4 s between the turns
+    m2 = _with_path(model, short, max_motor_speed=None)
+    t1, _ = turn_bounds(m2, K, cert, check_certificate(m2, K, dict(cert, motor_limits_enforced=False)).figures)
+    assert not t1["certified"] and "next waypoint" in t1["reason"]
+
+
+def test_the_default_turns_saturate_the_motors():
+    model, K, cert = committed_gain("default")
+    turns = turn_bounds(model, K, cert, check_certificate(model, K, cert).figures)
+    assert all(not t["certified"] and "motor peak" in t["reason"] for t in turns)
+    assert all(t["motor_speed_peak"] > model.config.robot.max_motor_speed for t in turns)
+
+
+def test_a_turn_beyond_the_nonlinear_heading_bound_is_not_certified():
+    model, K, cert = committed_gain("nonlinear-proof")
+    turns = turn_bounds(model, K, cert, check_certificate(model, K, cert).figures)
+    assert turns and all("heading bound" in t["reason"] for t in turns)

@@ -32,6 +32,8 @@ __all__ = [
     "between_samples",
     "sup_on_set",
     "set_max",
+    "turn_bounds",
+    "TURN_REENTRY",
 ]
 
 # A certificate passes when every LMI satisfies  lambda_min >= CHECK_FRACTION * margin,
@@ -643,3 +645,80 @@ def lyapunov_of(model: Any, cert: Mapping[str, Any]) -> Lyapunov:
     else:
         S = (np.asarray(cert["Q"], dtype=float),)
     return Lyapunov(model, S, tuple(np.linalg.inv(x) for x in S), step, n_d, kind == "path-dependent")
+
+
+TURN_REENTRY = 1.05  # a turn ends, for the bound, when V is back below this multiple of the level
+TURN_LINEARIZATION_HEADING = 0.5  # [rad]: beyond it the linearization's turn bound says little about the robot
+
+
+def turn_bounds(model: Any, K: np.ndarray, cert: Mapping[str, Any], figures: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """Bounds through each waypoint turn of ``verification.path`` from an ultimate-bound certificate
+    (docs/theory.md §10).
+
+    At the switch to segment i the errors change frame: ``xi' = J xi + o``, J rotating (e_x, e_y) by the
+    turn angle d and ``o = -d`` on e_theta; the stored commands are unchanged.  From the set
+    {V <= level}, ``V(xi') <= r level`` with ``sqrt(r level) = max_(j,k) sqrt(level lambda_max(L_j' J' P_k J L_j))
+    + sqrt(o' P_k o)`` (the triangle inequality in each P_k-norm, S_j = L_j L_j', every pair of the
+    certificate's matrices: V is at most the largest over them).  The certificate's decrease
+    ``V+ <= (1 - alpha) V + alpha level`` then gives ``V_k <= level + (1 - alpha)^k (r - 1) level``: the
+    errors stay within sqrt(r) times the set's bounds through the turn, and V is back below
+    TURN_REENTRY * level after k periods.  Those are statements about the model the certificate is
+    for; a turn is reported **not certified**, with the reason, when its motor peak exceeds
+    robot.max_motor_speed (the commands saturate, outside every model), when its heading peak exceeds
+    a nonlinear certificate's heading bound (outside its channels), when the next waypoint comes
+    before the re-entry (the turns would compound), or with integral action (the integrator's
+    frame change is not modelled).  Floating point, not verified arithmetic."""
+    ub = figures.get("ultimate_bound")
+    wp = np.asarray(model.config.verification.path, dtype=float)
+    if not ub or wp.shape[0] < 3 or "alpha" not in cert:
+        return []
+    lyap = lyapunov_of(model, cert)
+    level = float(figures["ellipsoid_level"])
+    alpha = float(cert["alpha"])
+    cfg = model.config
+    V, R = cfg.reference.speed, cfg.robot.gear_radius
+    rho_max = cfg.robot.max_motor_speed
+    seg = np.diff(wp, axis=0)
+    headings = np.arctan2(seg[:, 1], seg[:, 0])
+    lengths = np.hypot(seg[:, 0], seg[:, 1])
+    t_switch = np.cumsum(lengths)[:-1] / V
+    chol = [np.linalg.cholesky(S) for S in lyap.S]
+    heading_bound = figures.get("heading_bound")
+    out = []
+    for i in range(1, headings.size):
+        d = float(np.angle(np.exp(1j * (headings[i] - headings[i - 1]))))
+        J = np.eye(model.n_s)
+        c, s_ = np.cos(d), np.sin(d)
+        J[:2, :2] = [[c, s_], [-s_, c]]
+        o = np.zeros(model.n_s)
+        o[2] = -d
+        root = max(np.sqrt(level * max(float(np.linalg.eigvalsh(L.T @ J.T @ P @ J @ L)[-1]), 0.0)) + np.sqrt(float(o @ P @ o))
+                   for L in chol for P in lyap.P)
+        r = round_up(root * root / level, 4)
+        scale = float(np.sqrt(r))
+        peak = {k: round_up(scale * float(ub[k]), 2) for k in ("e_x", "e_y", "e_theta")}
+        motor = figures.get("motor_speed_bound")
+        motor_peak = None if motor is None else round_up(V / R + scale * (float(motor) - V / R), 3)
+        periods = 0 if r <= TURN_REENTRY else int(np.ceil(np.log((TURN_REENTRY - 1.0) / (r - 1.0)) / np.log(1.0 - alpha)))
+        reentry = periods * model.Ts
+        next_switch = float(lengths[i] / V)
+        why = []
+        if model.integral:
+            why.append("integral action: the integrator's frame change at a waypoint is not modelled")
+        if motor_peak is not None and rho_max is not None and motor_peak > rho_max:
+            why.append(f"its motor peak {motor_peak:.3g} rad/s exceeds robot.max_motor_speed {rho_max:g}: the commands "
+                       "saturate, outside the model")
+        if heading_bound is not None and peak["e_theta"] > float(heading_bound):
+            why.append(f"its heading peak {peak['e_theta']:.3g} rad exceeds the certificate's heading bound "
+                       f"{float(heading_bound):g} rad")
+        if i < headings.size - 1 and reentry > next_switch:
+            why.append(f"the next waypoint comes after {next_switch:.3g} s, before the re-entry after {reentry:.3g} s")
+        note = ""
+        if not why and heading_bound is None and peak["e_theta"] > TURN_LINEARIZATION_HEADING:
+            note = (f"its heading peak {peak['e_theta']:.3g} rad lies beyond where the linearization holds "
+                    f"(~{TURN_LINEARIZATION_HEADING:g} rad): a bound for the linearization only")
+        out.append({"waypoint": i, "t_switch_s": float(t_switch[i - 1]), "turn_rad": d,
+                    "V_over_level_at_switch": r, "peak": peak, "motor_speed_peak": motor_peak,
+                    "periods_to_reenter": periods, "time_to_reenter_s": reentry, "certified": not why,
+                    "reason": "; ".join(why), "note": note})
+    return out

@@ -356,6 +356,11 @@ def _report_checks(obj: _Ctx, result: Any) -> None:
     ratios = ", ".join(f"{k} {v:.3f}" for k, v in mc["ratio_to_certified"].items())
     obj.say(f"verification {'passed' if result.passed else 'FAILED'}: {len(result.checks)} checks, "
             f"{mc['runs']} Monte Carlo runs" + (f"; worst/certified: {ratios}" if ratios else ""))
+    turns = mc.get("turns") or []
+    bad = [t for t in turns if not t["certified"]]
+    if turns:
+        obj.say(f"waypoint turns (not in the verdict): {len(turns) - len(bad)} of {len(turns)} certified"
+                + (f"; waypoint {bad[0]['waypoint']}: {bad[0]['reason']}" if bad else ""))
 
 
 @main.command("verify")

@@ -7,6 +7,7 @@ from typing import Any
 from ..config import config_to_dict
 from .. import __version__
 from ..artifacts.files import SCHEMA_VERSION
+from ..certificate import TURN_REENTRY
 from .markdown import fmt, table
 
 __all__ = ["verification_dict", "verification_markdown", "report_markdown", "summary_dict"]
@@ -100,6 +101,32 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
                               "runs not back before the next waypoint"],
                              [[fmt(w["t_switch_s"]), fmt(w["max_V_over_level_at_switch"], 4),
                                fmt(w["max_time_to_reenter_s"]), str(w["runs_not_reentered"])] for w in vl["waypoints"]]))
+    turns = mc.get("turns")
+    if turns:
+        measured = {round(w["t_switch_s"], 6): w for w in (vl.get("waypoints") or [])} if vl else {}
+
+        def _measured(t: dict) -> dict:  # the simulated switch nearest to the certified one (one period apart)
+            near = [w for k, w in measured.items() if abs(k - t["t_switch_s"]) <= 1.0]
+            return min(near, key=lambda w: abs(w["t_switch_s"] - t["t_switch_s"])) if near else {}
+
+        n_ok = sum(1 for t in turns if t["certified"])
+        out.append(f"\n**Waypoint turns** (not part of the verdict; docs/theory.md §10): {n_ok} of {len(turns)} turns"
+                   " certified. From the certified set, the frame change bounds V/level at the switch; the decay then"
+                   f" bounds the errors through the turn and the time until V <= {TURN_REENTRY:g} level. Beside them,"
+                   " what the Monte Carlo runs measured:\n\n")
+        rows = []
+        for t in turns:
+            m = _measured(t)
+            rows.append([str(t["waypoint"]), fmt(t["turn_rad"], 3), fmt(t["V_over_level_at_switch"], 3),
+                         fmt(m.get("max_V_over_level_at_switch"), 3), fmt(100 * t["peak"]["e_y"], 3),
+                         fmt(t["peak"]["e_theta"], 3), fmt(t["motor_speed_peak"], 3), fmt(t["time_to_reenter_s"]),
+                         fmt(m.get("max_time_to_reenter_s")),
+                         "certified" + (f" ({t['note']})" if t["note"] else "") if t["certified"]
+                         else "not certified: " + t["reason"]])
+        out.append(table(["waypoint", "turn [rad]", "certified V/level at the switch", "measured max",
+                          "certified peak |e_y| [cm]", "certified peak |e_theta| [rad]",
+                          "certified peak |rho| [rad/s]", f"certified time to V <= {TURN_REENTRY:g} level [s]",
+                          "measured time to V <= level [s]", "status"], rows))
     bp = mc.get("boundary_probe")
     if bp:
         nonlinear = bp.get("in_verdict", False)

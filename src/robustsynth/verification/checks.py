@@ -31,7 +31,7 @@ from ..model.slip import check_physical_feasibility
 from ..plants.path import make_path
 from ..scenarios import (alternating_delays, draw_scenario, random_delays, rate_limited_slip, slip_vertices,
                          steady_state_start)
-from ..certificate import CertificateCheck, check_certificate, lyapunov_of
+from ..certificate import CertificateCheck, check_certificate, lyapunov_of, turn_bounds
 from .probe import boundary_probe, boundary_states
 
 BOUNDARY_ADVERSARY_STEPS = 50  # the adversary from the boundary: what matters happens in the first periods
@@ -377,9 +377,9 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
             adv_v = adv["V"] / level
             mc["adversarial"] = {
                 "runs": vc.adversarial_runs, "steps": vc.adversarial_steps,
-                "search": f"beam search from the steady states of the slip corners, on a straight line: every period "
-                          f"each kept history goes on with every slip the adversary may pick and 9 delays of the newest "
-                          f"packet; kept are each start's greedy history (largest V) and, for each of "
+                "search": "beam search from the steady states of the slip corners, on a straight line: every period "
+                          "each kept history goes on with every slip the adversary may pick and 9 delays of the newest "
+                          "packet; kept are each start's greedy history (largest V) and, for each of "
                           + ", ".join({"V": "V", "e_x": "|e_x|", "e_y": "|e_y|", "e_theta": "|e_theta|",
                                        "motor_speed": "|rho|"}[o] for o in objectives)
                           + f", the {vc.adversarial_runs} next states that make it largest",
@@ -409,6 +409,9 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
                                               with_delay=lyap.path, starts=xb)
                 mc["boundary_probe"]["adversary"] = {"starts": int(xb.shape[0]), "steps": steps_b,
                                                      "max_V_over_level": adv_b["max_V"] / level}
+        # waypoint turns: the certificate's bounds through each frame change, beside the verdict (the
+        # measured switch values are in V_over_level.waypoints); docs/theory.md §10
+        mc["turns"] = turn_bounds(model, K, gains["certificate"], cert.figures)
         if nonlinear_proof:
             bp = probe["max_V_over_level_nonlinear"]
             checks.append(_check("nonlinear: one period from the boundary of the certified set stays in it", bp <= 1.0 + LEVEL_TOL,
