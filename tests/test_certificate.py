@@ -10,11 +10,15 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
 from robustsynth.certificate import TURN_REENTRY, check_certificate, lyapunov_of, set_max, turn_bounds
+from robustsynth.law import PathTable
+from robustsynth.law import frame_error as law_frame_error
 from robustsynth.model import build_model
 
 from .conftest import committed_gain
@@ -77,38 +81,60 @@ def _with_path(model, path, **over):
     return build_model(cfg)
 
 
-def test_turn_bound_holds_for_states_on_the_boundary():
-    """The frame change of the default path's first turn, applied to states sampled on the boundary
-    of the committed gain's set: V/level after the switch never exceeds the certified bound."""
+@pytest.mark.parametrize("path, over", [
+    (((0.0, 0.0), (6.0, 0.0), (10.0, 2.0), (16.0, 2.0)), {}),  # the default: the second switch falls between samples
+    (((0.0, 0.0), (5.0005, 0.0), (10.0005, 0.5), (20.0, 0.5)), {"max_motor_speed": None}),  # both between samples
+])
+def test_turn_bound_holds_for_states_on_the_boundary(path, over):
+    """States on the boundary of the committed default gain's set, in the old segment's frame at the
+    first sample at or after the switch, turned into world poses and measured in the new frame by
+    the deployed law's own ``frame_error``: V/level after the switch never exceeds the bound."""
     model, K, cert = committed_gain("default")
-    chk = check_certificate(model, K, cert)
-    turns = turn_bounds(model, K, cert, chk.figures)
-    assert [t["waypoint"] for t in turns] == [1, 2]
-    lyap = lyapunov_of(model, cert)
+    m = _with_path(model, path, **over)
+    chk = check_certificate(m, K, dict(cert, motor_limits_enforced=not over))
+    lyap = lyapunov_of(m, cert)
     level = float(chk.figures["ellipsoid_level"])
+    tab = PathTable([list(p) for p in path], m.config.reference.speed)
     rng = np.random.default_rng(3)
     L = np.linalg.cholesky(lyap.S[0])
-    x = rng.normal(size=(TURN_SAMPLES, model.n_s))
+    x = rng.normal(size=(TURN_SAMPLES, m.n_s))
     x /= np.linalg.norm(x, axis=1, keepdims=True)
     xi = np.sqrt(level) * x @ L.T  # xi' S^-1 xi = level
-    for t in turns:
-        d = t["turn_rad"]
-        J = np.eye(model.n_s)
-        J[:2, :2] = [[np.cos(d), np.sin(d)], [-np.sin(d), np.cos(d)]]
-        after = xi @ J.T
-        after[:, 2] -= d
+    turns = turn_bounds(m, K, cert, chk.figures)
+    assert [t["waypoint"] for t in turns] == [1, 2]
+    for t in turns[:1]:  # the first turn starts from the set itself (later ones from what it left)
+        i = t["waypoint"]
+        tk = math.ceil(tab.t_start[i] / m.Ts - 1e-9) * m.Ts  # the law switches at this sample
+        c, s_ = tab.cos[i - 1], tab.sin[i - 1]
+        along = xi[:, 0] + tab.speed * (tk - tab.t_start[i - 1])  # the old segment, extended past its end
+        px = tab.x0[i - 1] + c * along - s_ * xi[:, 1]
+        py = tab.y0[i - 1] + s_ * along + c * xi[:, 1]
+        th = tab.heading[i - 1] + xi[:, 2]
+        np.testing.assert_allclose(np.array(law_frame_error(tab, i - 1, tk, px, py, th)).T, xi[:, :3], atol=1e-9)
+        after = xi.copy()
+        after[:, :3] = np.array(law_frame_error(tab, i, tk, px, py, th)).T
         v = lyap.V_max(after) / level
         assert np.max(v) <= t["V_over_level_at_switch"]
         assert np.max(v) >= 0.5 * t["V_over_level_at_switch"]  # and the bound is not wildly loose
 
 
-def test_a_straight_path_has_nothing_to_bound():
-    model, K, cert = committed_gain("default")
+@pytest.mark.parametrize("name, lyapunov", [("default", None), ("default", "slip-dependent")])
+def test_a_straight_path_has_nothing_to_bound(name, lyapunov):
+    """A waypoint that does not turn leaves the state where it is: r = 1 also for a certificate with
+    several Lyapunov matrices (whose cross pairs alone would say more)."""
+    model, K, cert = committed_gain(name)
+    if lyapunov is not None:
+        from robustsynth.synthesis import synthesize
+
+        model = build_model(model.config.model_copy(update={"synthesis": model.config.synthesis.model_copy(
+            update={"lyapunov": lyapunov})}))
+        res = synthesize(model)
+        K, cert = res.K, res.certificate
     m = _with_path(model, ((0.0, 0.0), (5.0, 0.0), (10.0, 0.0)), max_motor_speed=None)
     chk = check_certificate(m, K, dict(cert, motor_limits_enforced=False))
     (t,) = turn_bounds(m, K, cert, chk.figures)
     assert t["turn_rad"] == 0.0
-    assert t["V_over_level_at_switch"] == pytest.approx(1.0, rel=1e-9)
+    assert t["V_over_level_at_switch"] == 1.0
     assert t["periods_to_reenter"] == 0 and t["certified"]
 
 

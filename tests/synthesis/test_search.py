@@ -43,11 +43,14 @@ def test_an_infinite_neighbour_hands_over_to_the_golden_section():
     assert min(f(x) for x in calls) < f(-1.2)
 
 
-def test_a_minimum_at_the_end_of_the_walk_is_left_alone():
-    f = lambda x: x  # noqa: E731  decreasing to the left end
+def test_a_minimum_at_the_end_of_the_points_is_searched_towards_its_neighbour():
+    """No parabola through an end point: a golden section between it and its neighbour (a minimum
+    inside that interval is found; one at the very end stays there)."""
+    f = lambda x: (x + 1.9) ** 2  # noqa: E731  minimum between the first two points
     evaluate, calls = _recorder(f)
-    _parabolic(evaluate, [(x, f(x)) for x in np.linspace(-2, -1, 4)])
-    assert calls == []
+    _parabolic(evaluate, [(x, f(x)) for x in np.linspace(-2, -1, 5)])
+    assert calls and all(-2.0 < x < -1.75 for x in calls)
+    assert min(f(x) for x in calls) < f(-2.0)
 
 
 def test_a_step_predicted_to_gain_nothing_is_not_taken():

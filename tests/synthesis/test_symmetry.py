@@ -1,4 +1,4 @@
-"""The robot's left/right mirror symmetry (docs/theory.md §6e): ``Model.mirror`` maps every vertex
+"""The robot's left/right mirror symmetry (docs/theory.md §6h): ``Model.mirror`` maps every vertex
 onto its mirror image, and the synthesis LMIs that use it (a mirror-invariant certificate, one
 condition of each mirrored pair, one "next" matrix Z per left matrix) reach the optimum of the full
 problem, while the certificate they return passes the numpy check of *every* condition, the

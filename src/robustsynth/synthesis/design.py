@@ -257,8 +257,12 @@ def _parabolic(evaluate: Callable[[float], float], pts: list[tuple[float, float]
     pts = sorted(pts)
     for _ in range(REFINE_STEPS):
         i = int(np.argmin([f for _, f in pts]))
-        if i == 0 or i == len(pts) - 1:
-            return  # the minimum sits at an end of the range walked: nothing to interpolate
+        if i == 0 or i == len(pts) - 1:  # the minimum sits at an end of the points: no parabola
+            if len(pts) > 1:  # between it and its neighbour, as the golden section always did
+                j = 1 if i == 0 else len(pts) - 2
+                if math.isfinite(pts[j][1]):
+                    _golden(evaluate, min(pts[i][0], pts[j][0]), max(pts[i][0], pts[j][0]))
+            return
         (x1, f1), (x2, f2), (x3, f3) = pts[i - 1], pts[i], pts[i + 1]
         if not (math.isfinite(f1) and math.isfinite(f3)):
             _golden(evaluate, x1, x3)
