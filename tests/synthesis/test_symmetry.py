@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from robustsynth.model import build_model
-from robustsynth.synthesis.lmis import _Lyap, build_stability
+from robustsynth.synthesis.lmis import _Lyap, build_invariance, build_stability
 
 from ..conftest import make_config
 from .conftest import invariance_at
@@ -124,3 +124,31 @@ def test_analysis_of_an_asymmetric_gain_uses_no_mirror():
     lp = build_stability(model, "structured", 1e-7, "common", K=K)
     assert len(lp.problem.constraints) == len(build_stability(model, "structured", 1e-7, "common", K=K,
                                                               symmetry=False).problem.constraints)
+
+
+def test_an_infeasible_alpha_is_infeasible_not_a_solver_failure():
+    """At alpha = 0.449 the default robot has no invariant set.  Clarabel 0.11 reports an error on the
+    mirror-invariant problem there (the full one: 'infeasible'), so the runner solves the point again
+    without the mirror before any fallback solver: the outcome is 'infeasible' (exit 3 territory),
+    not 'failed' (exit 4)."""
+    from robustsynth.synthesis.design import _cert_common, _Runner, _weights
+
+    model = build_model(make_config())
+    s = model.config.synthesis
+    alpha = 0.449
+    lp = build_invariance(model, s.multiplier, s.margin, _weights(s), True, "common", symmetry=True)
+    assert lp.mirrored
+    lp.params["alpha"].value = alpha
+    lp.params["one_minus_alpha"].value = 1.0 - alpha
+
+    def make_cert(vals: dict) -> dict:
+        c = _cert_common(model, vals, s.multiplier, s.margin, "ultimate-bound")
+        c.update(alpha=alpha, beta=vals["beta"], motor_limits_enforced=True)
+        return c
+
+    runner = _Runner(model, lp, "clarabel", make_cert, full=lambda: build_invariance(
+        model, s.multiplier, s.margin, _weights(s), True, "common", symmetry=False))
+    out, *_ = runner.run(fallback=False)
+    assert out.kind == "infeasible"
+    first = out.attempts[0].status
+    assert runner.full_retries == (0 if first == "infeasible" else 1)

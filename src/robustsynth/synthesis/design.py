@@ -96,18 +96,49 @@ class _Best:
 
 
 class _Runner:
-    """Solves one compiled problem repeatedly; remembers attempts, counts and times."""
+    """Solves one compiled problem repeatedly; remembers attempts, counts and times.
 
-    def __init__(self, model: Any, lp: LMIProblem, primary: str, make_cert: Callable[[dict], dict]):
+    ``full`` builds the same problem without the mirror symmetry: when a mirror-invariant problem's
+    solve fails (Clarabel reports an error where the full problem reports 'infeasible', measured at
+    the default robot's infeasible alphas), the point is solved again on it before any fallback
+    solver, so that infeasibility is still told from a solver failure (exit 3, not 4)."""
+
+    def __init__(self, model: Any, lp: LMIProblem, primary: str, make_cert: Callable[[dict], dict],
+                 full: Callable[[], LMIProblem] | None = None):
         self.model, self.lp, self.primary, self.make_cert = model, lp, primary, make_cert
+        self._full_builder = full if lp.mirrored else None
+        self._full: LMIProblem | None = None
         self.records: list[SolveRecord] = []
         self.fallbacks = 0
         self.solves = 0
         self.failures = 0
+        self.full_retries = 0
         self.failed_at: dict[float, bool] = {}  # alpha -> the solver failed (not: infeasible)
         self.last_kind = ""
 
     def run(self, fallback: bool = True) -> tuple[Outcome, dict | None, np.ndarray | None, CertificateCheck | None]:
+        if self._full_builder is None:
+            out, res = self._run_on(self.lp, fallback)
+        else:
+            out, res = self._run_on(self.lp, False)
+            if out.kind == "failed":
+                if self._full is None:
+                    self._full = _build(self._full_builder)
+                for name, par in self.lp.params.items():
+                    self._full.params[name].value = par.value
+                self.full_retries += 1
+                first = out.attempts
+                out, res = self._run_on(self._full, fallback)
+                out = Outcome(out.kind, out.record, first + out.attempts)
+        self.last_kind = out.kind
+        if out.kind == "failed":
+            self.failures += 1
+        alpha = self.lp.params.get("alpha")
+        if alpha is not None:
+            self.failed_at[float(alpha.value)] = out.kind == "failed"
+        return (out, *res)
+
+    def _run_on(self, lp: LMIProblem, fallback: bool) -> tuple[Outcome, tuple]:
         holder: dict[str, Any] = {}
 
         split = _SPLIT.get()
@@ -121,7 +152,7 @@ class _Runner:
                     split.check_s += time.perf_counter() - t0
 
         def _accept() -> bool:
-            vals = self.lp.values()
+            vals = lp.values()
             try:
                 X = vals["Q"] if "Q" in vals else vals["G"]
                 K = np.linalg.solve(X.T, vals["Y"].T).T  # K = Y Q^-1 (or Y G^-1)
@@ -132,7 +163,7 @@ class _Runner:
             holder.update(cert=cert, K=K, check=chk)
             return chk.passed
 
-        out = solve(self.lp.problem, self.primary, accept, fallback=fallback)
+        out = solve(lp.problem, self.primary, accept, fallback=fallback)
         if split is not None:
             for rec in out.attempts:
                 split.add(rec)
@@ -140,15 +171,9 @@ class _Runner:
         self.records.extend(out.attempts)
         if out.fallback_used:
             self.fallbacks += 1
-        self.last_kind = out.kind
-        if out.kind == "failed":
-            self.failures += 1
-        alpha = self.lp.params.get("alpha")
-        if alpha is not None:
-            self.failed_at[float(alpha.value)] = out.kind == "failed"
         if out.kind == "ok":
-            return out, holder["cert"], holder["K"], holder["check"]
-        return out, None, None, None
+            return out, (holder["cert"], holder["K"], holder["check"])
+        return out, (None, None, None)
 
 
 def _cert_common(model: Any, vals: dict, kind: str, margin: float, objective: str) -> dict[str, Any]:
@@ -183,6 +208,7 @@ def _attempts(out: Any) -> str:
 
 def _run_stability(model: Any, s: SynthesisConfig, search: list, say: Callable[[str], None]) -> tuple[_Best, _Runner]:
     lp = _build(build_stability, model, s.multiplier, s.margin, s.lyapunov, symmetry=s.symmetry == "auto")
+    full = lambda: build_stability(model, s.multiplier, s.margin, s.lyapunov, symmetry=False)  # noqa: E731
     best = _Best()
 
     def make_cert(vals: dict) -> dict:
@@ -190,7 +216,7 @@ def _run_stability(model: Any, s: SynthesisConfig, search: list, say: Callable[[
         c["r2"] = float(lp.params["r2"].value)
         return c
 
-    runner = _Runner(model, lp, s.solver, make_cert)
+    runner = _Runner(model, lp, s.solver, make_cert, full=full)
 
     def feasible(r: float, fallback: bool = False) -> bool:
         # bisection points use the primary solver only (a failure counts as 'not certified', which
@@ -317,6 +343,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     when the hint is not feasible for this class)."""
     lp = _build(build_invariance, model, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,
                 symmetry=s.symmetry == "auto")
+    full = lambda: build_invariance(model, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,  # noqa: E731
+                                    symmetry=False)
     w = _weights(s)
     best = _Best()
 
@@ -327,7 +355,7 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         c["motor_limits_enforced"] = motor
         return c
 
-    runner = _Runner(model, lp, s.solver, make_cert)
+    runner = _Runner(model, lp, s.solver, make_cert, full=full)
     cache: dict[float, float] = {}
 
     def evaluate(log_a: float, fallback: bool = False) -> float:

@@ -46,6 +46,7 @@ class LMIProblem:
     M: list[Any] = field(default_factory=list)  # per vertex (cvxpy expressions)
     params: dict[str, cp.Parameter] = field(default_factory=dict)
     extra: dict[str, cp.Variable] = field(default_factory=dict)
+    mirrored: bool = False  # posed mirror-invariant (docs/theory.md §6h)
 
     def values(self) -> dict[str, Any]:
         """Symmetrized values of the certificate's variables (numpy)."""
@@ -248,7 +249,8 @@ class _Lyap:
         return t, [t >= self.S[j][i, i] for j in self.own]  # a mirrored matrix has its partner's diagonal
 
     def problem_kwargs(self) -> dict[str, Any]:
-        return {"Y": self.Y, "lyapunov": self.kind, "Q": self.Q, "G": self.G, "S": self.S}
+        return {"Y": self.Y, "lyapunov": self.kind, "Q": self.Q, "G": self.G, "S": self.S,
+                "mirrored": self.mirror is not None}
 
 
 def motor_constraints(model: Any, Q: Any, Y: Any, rows: Any = None) -> list[Any]:
