@@ -128,9 +128,9 @@ def test_analysis_of_an_asymmetric_gain_uses_no_mirror():
 
 def test_an_infeasible_alpha_is_infeasible_not_a_solver_failure():
     """At alpha = 0.449 the default robot has no invariant set.  Clarabel 0.11 reports an error on the
-    mirror-invariant problem there (the full one: 'infeasible'), so the runner solves the point again
-    without the mirror before any fallback solver: the outcome is 'infeasible' (exit 3 territory),
-    not 'failed' (exit 4)."""
+    mirror-invariant problem there (the full one: 'infeasible'), so a solve that asks for the
+    fallback solves the point again without the mirror first: the outcome is 'infeasible' (exit 3
+    territory), not 'failed' (exit 4).  Without the fallback, nothing more is tried."""
     from robustsynth.synthesis.design import _cert_common, _Runner, _weights
 
     model = build_model(make_config())
@@ -148,7 +148,9 @@ def test_an_infeasible_alpha_is_infeasible_not_a_solver_failure():
 
     runner = _Runner(model, lp, "clarabel", make_cert, full=lambda: build_invariance(
         model, s.multiplier, s.margin, _weights(s), True, "common", symmetry=False))
-    out, *_ = runner.run(fallback=False)
+    quick, *_ = runner.run(fallback=False)
+    assert len(quick.attempts) == 1 and runner.full_retries == 0
+    out, *_ = runner.run(fallback=True)
     assert out.kind == "infeasible"
     first = out.attempts[0].status
     assert runner.full_retries == (0 if first == "infeasible" else 1)
