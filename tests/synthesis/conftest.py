@@ -6,12 +6,16 @@ from robustsynth.synthesis.design import _cert_common, _Runner, _weights
 from robustsynth.synthesis.lmis import build_invariance
 
 
-def invariance_at(model, lyapunov: str, alpha: float, symmetry: bool = True):
-    """One invariance solve at a fixed alpha through the product's runner (its solver settings, and a
-    point accepted only when the numpy re-check of every vertex condition passes); Clarabel only, no
-    fallback.  Returns the LMI problem, K, the certificate and its check."""
+def invariance_runner(model, lyapunov: str, alpha: float, symmetry: bool = True):
+    """The invariance LMIs at a fixed alpha and the product's runner for them (its solver settings, a
+    point accepted only when the numpy re-check of every vertex condition passes, and the problem
+    without the mirror to retry on, as synthesis builds it).  Returns the LMI problem and the runner."""
     s = model.config.synthesis
-    lp = build_invariance(model, s.multiplier, s.margin, _weights(s), True, lyapunov, symmetry=symmetry)
+
+    def build(sym: bool):
+        return build_invariance(model, s.multiplier, s.margin, _weights(s), True, lyapunov, symmetry=sym)
+
+    lp = build(symmetry)
     lp.params["alpha"].value = alpha
     lp.params["one_minus_alpha"].value = 1.0 - alpha
 
@@ -20,6 +24,13 @@ def invariance_at(model, lyapunov: str, alpha: float, symmetry: bool = True):
         cert.update(alpha=alpha, beta=vals["beta"], motor_limits_enforced=True)
         return cert
 
-    out, cert, K, chk = _Runner(model, lp, "clarabel", make_cert).run(fallback=False)
+    return lp, _Runner(model, lp, "clarabel", make_cert, full=lambda: build(False))
+
+
+def invariance_at(model, lyapunov: str, alpha: float, symmetry: bool = True):
+    """One invariance solve at a fixed alpha through the product's runner; Clarabel only, no fallback.
+    Returns the LMI problem, K, the certificate and its check."""
+    lp, runner = invariance_runner(model, lyapunov, alpha, symmetry)
+    out, cert, K, chk = runner.run(fallback=False)
     assert out.kind == "ok", (out.record, chk)
     return lp, K, cert, chk

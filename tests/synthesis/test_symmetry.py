@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from robustsynth.model import build_model
-from robustsynth.synthesis.lmis import _Lyap, build_invariance, build_stability
+from robustsynth.synthesis.lmis import _Lyap, build_stability
 
 from ..conftest import make_config
-from .conftest import invariance_at
+from .conftest import invariance_at, invariance_runner
 
 ALPHA = 0.22  # near the best alpha of the default robot
 # the two optima agree to the solver's accuracy: at the product's 1e-9 tolerances they differ by up to
@@ -131,23 +131,8 @@ def test_an_infeasible_alpha_is_infeasible_not_a_solver_failure():
     mirror-invariant problem there (the full one: 'infeasible'), so a solve that asks for the
     fallback solves the point again without the mirror first: the outcome is 'infeasible' (exit 3
     territory), not 'failed' (exit 4).  Without the fallback, nothing more is tried."""
-    from robustsynth.synthesis.design import _cert_common, _Runner, _weights
-
-    model = build_model(make_config())
-    s = model.config.synthesis
-    alpha = 0.449
-    lp = build_invariance(model, s.multiplier, s.margin, _weights(s), True, "common", symmetry=True)
+    lp, runner = invariance_runner(build_model(make_config()), "common", 0.449)
     assert lp.mirrored
-    lp.params["alpha"].value = alpha
-    lp.params["one_minus_alpha"].value = 1.0 - alpha
-
-    def make_cert(vals: dict) -> dict:
-        c = _cert_common(model, vals, s.multiplier, s.margin, "ultimate-bound")
-        c.update(alpha=alpha, beta=vals["beta"], motor_limits_enforced=True)
-        return c
-
-    runner = _Runner(model, lp, "clarabel", make_cert, full=lambda: build_invariance(
-        model, s.multiplier, s.margin, _weights(s), True, "common", symmetry=False))
     quick, *_ = runner.run(fallback=False)
     assert len(quick.attempts) == 1 and runner.full_retries == 0
     out, *_ = runner.run(fallback=True)
