@@ -12,7 +12,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from robustsynth.certificate import check_certificate, lmi_invariance
-from robustsynth.verified import UNIT_ROUNDOFF, assembly_radius, is_pd, proves_at_least, round_up, rump_shift
+from robustsynth.verified import (UNIT_ROUNDOFF, assembly_radius, assembly_radius_batch, is_pd, is_pd_batch,
+                                  proves_at_least, proves_at_least_batch, round_up, round_up_array, rump_shift,
+                                  rump_shift_batch)
 
 from .conftest import committed_gain
 
@@ -106,3 +108,33 @@ def test_a_margin_below_the_rounding_level_is_not_proven(default_cert) -> None:
     assert fam["status"] == "not proven (rounding)" and not fam["passed"]
     assert not res.passed and res.reason.startswith("not proven (rounding)")
     assert res.figures["ultimate_bound"] is None  # nothing is claimed
+
+
+@given(n=st.integers(1, 12), seed=st.integers(0, 2**32 - 1))
+@settings(max_examples=40, deadline=None)
+def test_the_batched_tests_decide_as_the_one_matrix_tests(n, seed) -> None:
+    """The stack versions (the within-period vertices are proven as one stack) give, matrix by matrix,
+    exactly the one-matrix results: PD, indefinite, at the rounding level, asymmetric, a zero or
+    negative diagonal, a non-finite entry, and the empty matrix."""
+    rng = np.random.default_rng(seed)
+    mats = [_random_spd(rng, n, 1.0), _random_spd(rng, n, 1e-3, 1e8), _random_spd(rng, n, 1.0) - 2.0 * np.eye(n),
+            _random_spd(rng, n, 8 * n * UNIT_ROUNDOFF, 1.0), _random_spd(rng, n, 1.0) * 1e-200]
+    asym = _random_spd(rng, n, 1.0)
+    asym[0, -1] += 1e-3 if n > 1 else 0.0
+    zero_diag = _random_spd(rng, n, 1.0)
+    zero_diag[0, 0] = 0.0
+    nan = _random_spd(rng, n, 1.0)
+    nan[-1, -1] = np.nan
+    stack = np.array(mats + [asym, zero_diag, nan])
+    assert is_pd_batch(stack).tolist() == [is_pd(A) for A in stack]
+    radius = rng.uniform(0.0, 1e-6, stack.shape[0])
+    for t in (0.0, 1e-9, 0.5):
+        assert proves_at_least_batch(stack, t, radius).tolist() == [proves_at_least(A, t, r) for A, r in zip(stack, radius)]
+    finite = stack[:5]
+    assert np.array_equal(assembly_radius_batch(finite, 17), [assembly_radius(A, 17) for A in finite])
+    diags = np.abs(np.diagonal(finite, axis1=-2, axis2=-1)) + 1e-300
+    assert np.array_equal(rump_shift_batch(diags), [rump_shift(d) for d in diags])
+    xs = np.array([0.0, 1.0, -3.5, 1e-300, np.inf])
+    assert np.array_equal(round_up_array(xs, 4), [round_up(x, 4) for x in xs])
+    assert is_pd_batch(np.zeros((3, 0, 0))).tolist() == [True] * 3
+

@@ -16,10 +16,13 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .verified import assembly_radius, gamma, proves_at_least, round_up, rump_shift
+from .verified import (assembly_radius, assembly_radius_batch, gamma, proves_at_least, proves_at_least_batch, round_up,
+                       rump_shift, rump_shift_batch)
 
 __all__ = [
     "CHECK_FRACTION",
+    "VARYING_FAILURES",
+    "varying_failures",
     "CertificateCheck",
     "check_certificate",
     "lmi_stability",
@@ -39,6 +42,8 @@ __all__ = [
 # A certificate passes when every LMI satisfies  lambda_min >= CHECK_FRACTION * margin,
 # i.e. it keeps at least this fraction of the margin it was solved with.
 CHECK_FRACTION = 0.5
+# the key of the within-period family's item that lists its failing vertices (indices into Model.varying)
+VARYING_FAILURES = "failing_vertices"
 SYMMETRY_TOL = 1e-9  # relative asymmetry allowed in Q and M read from a file
 
 
@@ -56,8 +61,22 @@ class CertificateCheck:
         return float(min(vals)) if vals else float("nan")
 
 
+def _T(X: np.ndarray) -> np.ndarray:
+    """Transpose of a matrix or of every matrix of a stack."""
+    return np.swapaxes(X, -1, -2)
+
+
 def _sym(X: np.ndarray) -> np.ndarray:
-    return (X + X.T) / 2.0
+    return (X + _T(X)) / 2.0
+
+
+def _block(rows: list[list[Any]]) -> np.ndarray:
+    """``np.block`` for blocks that may be stacks (..., r, c): the others are broadcast to the stack."""
+    batch = np.broadcast_shapes(*[np.shape(b)[:-2] for row in rows for b in row])
+    if not batch:
+        return np.block(rows)
+    full = lambda b: np.broadcast_to(b, batch + np.shape(b)[-2:])  # noqa: E731
+    return np.concatenate([np.concatenate([full(b) for b in row], axis=-1) for row in rows], axis=-2)
 
 
 def _minus(a, b, mag: bool):
@@ -65,14 +84,18 @@ def _minus(a, b, mag: bool):
     return a + b if mag else a - b
 
 
+# The LMIs below take one vertex, or a stack of vertices without uncertainty channels (their matrices
+# (n, ., .)); they return the matrix, or the stack of matrices, to prove >= threshold I.
+
+
 def lmi_stability(v, X, left, right, Y, M, r2, mag: bool = False):
     """Vertex v: [[r2 left, (A X + B Y)', (C_q X + D_q Y)'], [A X + B Y, right - B_p M B_p', 0],
     [C_q X + D_q Y, 0, M]] (>= 0 certifies V(xi+) <= r^2 V(xi) at the vertex; docs/theory.md §6a).
     ``mag``: the inputs are absolute values and the subtraction is an addition (the magnitude)."""
     AX = v.A @ X + v.B @ Y
-    n_s, n_q = X.shape[0], v.B_p.shape[1]
+    n_s, n_q = X.shape[0], v.B_p.shape[-1]
     if n_q == 0:
-        return _sym(np.block([[r2 * left, AX.T], [AX, right]]))
+        return _sym(_block([[r2 * left, _T(AX)], [AX, right]]))
     CX = v.C_q @ X + v.D_q @ Y
     Z = np.zeros((n_s, n_q))
     return _sym(np.block([[r2 * left, AX.T, CX.T], [AX, _minus(right, v.B_p @ M @ v.B_p.T, mag), Z], [CX, Z.T, M]]))
@@ -84,12 +107,12 @@ def lmi_invariance(v, X, left, right, Y, M, beta, alpha, mag: bool = False):
     [[(1-alpha) left, 0, (AX+BY)', (C_qX+D_qY)'], [0, diag(beta), E', F_q'],
      [AX+BY, E, right - B_p M B_p', 0], [C_qX+D_qY, F_q, 0, M]] >= 0."""
     AX = v.A @ X + v.B @ Y
-    n_s, n_q, n_w = X.shape[0], v.B_p.shape[1], v.E.shape[1]
+    n_s, n_q, n_w = X.shape[0], v.B_p.shape[-1], v.E.shape[-1]
     Zsw = np.zeros((n_s, n_w))
     rows = [
-        [(1.0 - alpha) * left, Zsw, AX.T],
-        [Zsw.T, np.diag(beta), v.E.T],
-        [AX, v.E, _minus(right, v.B_p @ M @ v.B_p.T if n_q else 0.0, mag)],
+        [(1.0 - alpha) * left, Zsw, _T(AX)],
+        [Zsw.T, np.diag(beta), _T(v.E)],
+        [AX, v.E, _minus(right, v.B_p @ M @ v.B_p.T, mag) if n_q else right],
     ]
     if n_q:
         CX = v.C_q @ X + v.D_q @ Y
@@ -98,7 +121,7 @@ def lmi_invariance(v, X, left, right, Y, M, beta, alpha, mag: bool = False):
         rows[1].append(F.T)
         rows[2].append(np.zeros((n_s, n_q)))
         rows.append([CX, F, np.zeros((n_q, n_s)), M])
-    return _sym(np.block(rows))
+    return _sym(_block(rows))
 
 
 def lmi_hinf(v, Bd, Cz, Q, Y, M, gamma2, mag: bool = False):
@@ -107,12 +130,12 @@ def lmi_hinf(v, Bd, Cz, Q, Y, M, gamma2, mag: bool = False):
      [AQ+BY, Bd, Q - B_p M B_p', 0, 0], [Cz Q, 0, 0, I, 0], [C_qQ+D_qY, 0, 0, 0, M]] >= 0."""
     AQ = v.A @ Q + v.B @ Y
     CzQ = Cz @ Q
-    n_s, n_q, n_d, n_z = Q.shape[0], v.B_p.shape[1], Bd.shape[1], Cz.shape[0]
+    n_s, n_q, n_d, n_z = Q.shape[0], v.B_p.shape[-1], Bd.shape[1], Cz.shape[0]
     Z = np.zeros
     rows = [
-        [Q, Z((n_s, n_d)), AQ.T, CzQ.T],
+        [Q, Z((n_s, n_d)), _T(AQ), CzQ.T],
         [Z((n_d, n_s)), gamma2 * np.eye(n_d), Bd.T, Z((n_d, n_z))],
-        [AQ, Bd, _minus(Q, v.B_p @ M @ v.B_p.T if n_q else 0.0, mag), Z((n_s, n_z))],
+        [AQ, Bd, _minus(Q, v.B_p @ M @ v.B_p.T, mag) if n_q else Q, Z((n_s, n_z))],
         [CzQ, Z((n_z, n_d)), Z((n_z, n_s)), np.eye(n_z)],
     ]
     if n_q:
@@ -122,7 +145,7 @@ def lmi_hinf(v, Bd, Cz, Q, Y, M, gamma2, mag: bool = False):
         rows[2].append(Z((n_s, n_q)))
         rows[3].append(Z((n_z, n_q)))
         rows.append([CQ, Z((n_q, n_d)), Z((n_q, n_s)), Z((n_q, n_z)), M])
-    return _sym(np.block(rows))
+    return _sym(_block(rows))
 
 
 def multiplier_structure_error(M: np.ndarray, n_blocks: int, kind: str, diagonal: bool = False) -> str:
@@ -312,7 +335,6 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
     threshold = CHECK_FRACTION * margin
     Y = K @ X
     aX, aY = np.abs(X), np.abs(K) @ np.abs(X)  # Y's magnitude: Y = K X is computed, not given
-    aMs = [np.abs(M) for M in Ms]
     lmin = lambda L: float(np.linalg.eigvalsh(L)[0])  # noqa: E731
     checks = []
     for m, Sm in enumerate(mats):
@@ -327,13 +349,18 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
         checks.append(_item(f"M_i > 0 (multipliers, {len(idx)} vertices)", worst[0], threshold,
                             model.vertices[worst[1]].label, verified=not bad,
                             allowance=max(a for (_, a), _ in proofs), unproven=bad[0] if bad else ""))
-    abs_vertices = [_AbsVertex(v) for v in model.vertices]
+    # slip changing within a period (docs/theory.md §11): a common certificate must also hold at the
+    # vertices that cover every slip history; the others state that they assume it constant
+    varying, varying_reason = model.slip_variation(lyap)
+    terms = lambda k: 2 * k + X.shape[0] * (K.shape[0] + 1) + len(mats)  # noqa: E731  (products per entry)
 
-    def vertex_family(name: str, build) -> dict[str, Any]:
+    def vertex_family(name: str, build) -> list[dict[str, Any]]:
         """Every vertex condition: its smallest eigenvalue (floating point) and its verified proof
-        (``build(v, M, left, right, Y, mag)`` assembles the matrix, or its magnitude)."""
+        (``build(v, M, left, right, Y, mag)`` assembles the matrix, or its magnitude); one item per
+        family of vertices."""
         worst_val, worst_lab, count, allowance, unproven = np.inf, "", 0, 0.0, ""
         for i, v in enumerate(model.vertices):
+            av, aM = _AbsVertex(v), np.abs(Ms[i])
             for left, right, lab, aleft, aright in conds[i]:
                 L = build(v, Ms[i], left, right, Y, False)
                 val = lmin(L)
@@ -341,22 +368,42 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
                 if val < worst_val:
                     worst_val = val
                     worst_lab = v.label + lab
-                mag = build(abs_vertices[i], aMs[i], aleft, aright, aY, True)
-                ok, allow = _proof(L, mag, 2 * L.shape[0] + X.shape[0] * (K.shape[0] + 1) + len(mats), threshold)
+                mag = build(av, aM, aleft, aright, aY, True)
+                ok, allow = _proof(L, mag, terms(L.shape[0]), threshold)
                 allowance = max(allowance, allow)
                 if not ok and not unproven:
                     unproven = v.label + lab
-        return _item(f"{name} at {count} vertex conditions", worst_val, threshold, worst_lab,
-                     verified=not unproven, allowance=allowance, unproven=unproven)
+        items = [_item(f"{name} at {count} vertex conditions", worst_val, threshold, worst_lab,
+                       verified=not unproven, allowance=allowance, unproven=unproven)]
+        if varying:  # one stack: the common certificate's single condition at every vertex (§11)
+            left, right, _, aleft, aright = conds[0][0]
+            none = np.zeros((0, 0))
+            L = build(_Stack(varying), none, left, right, Y, False)
+            vals = np.linalg.eigvalsh(L)[:, 0]
+            radius = assembly_radius_batch(build(_Stack(varying, absolute=True), none, aleft, aright, aY, True),
+                                           terms(L.shape[-1]))
+            proven = proves_at_least_batch(L, threshold, radius)
+            allow = radius + rump_shift_batch(np.maximum(np.abs(np.diagonal(L, axis1=-2, axis2=-1)), 1e-300))
+            worst = int(np.argmin(vals))
+            bad = np.flatnonzero(~proven)
+            item = _item(f"{name} at {len(varying)} vertex conditions, slip changing within a period",
+                         float(vals[worst]), threshold, varying[worst].label, verified=not bad.size,
+                         allowance=float(np.max(allow)), unproven=varying[bad[0]].label if bad.size else "")
+            # the vertices that fail, worst first (synthesis adds them to its LMIs: Model.with_cuts)
+            failing = np.flatnonzero((vals < threshold) | ~proven)
+            item[VARYING_FAILURES] = [int(i) for i in failing[np.argsort(vals[failing], kind="stable")]]
+            items.append(item)
+        return items
 
     figures: dict[str, Any] = {"robust_stability": False, "decay_rate": None, "ultimate_bound": None,
                                "motor_speed_bound": None, "hinf_gain": None}
+    within = "covered" if varying else f"assumed constant: {varying_reason}"
     cfg = model.config
     if objective == "stability":
         r2 = float(cert["r2"])
         if not 0 < r2 < 1:
             return _fail("r2 must be in (0, 1)", checks, figures)
-        checks.append(vertex_family("decay LMI (6a)", lambda v, M, lf, rt, y, mag: lmi_stability(
+        checks.extend(vertex_family("decay LMI (6a)", lambda v, M, lf, rt, y, mag: lmi_stability(
             v, aX if mag else X, lf, rt, y, M, r2, mag)))
         figures["decay_rate"] = round_up(np.sqrt(r2), 2)
     elif objective == "ultimate-bound":
@@ -368,7 +415,7 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
             return _fail("alpha must be in (0, 1)", checks, figures)
         if np.any(beta <= 0):
             return _fail("beta must be > 0", checks, figures)
-        checks.append(vertex_family("invariance LMI (6b)", lambda v, M, lf, rt, y, mag: lmi_invariance(
+        checks.extend(vertex_family("invariance LMI (6b)", lambda v, M, lf, rt, y, mag: lmi_invariance(
             v, aX if mag else X, lf, rt, y, M, np.abs(beta) if mag else beta, alpha, mag)))
         # the figures are claimed as bounds: rounded outwards (any level >= sum beta / alpha is invariant)
         level = round_up(float(np.sum(beta) / alpha), beta.size + 1)  # {xi' P xi <= level}: invariant, attracting
@@ -423,7 +470,7 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
         Cz = np.zeros((3, n_s))
         Cz[:3, :3] = np.diag([w.e_x, w.e_y, w.e_theta])
         Bd = np.asarray(model.B_d)
-        checks.append(vertex_family("bounded-real LMI (6d)", lambda v, M, lf, rt, y, mag: lmi_hinf(
+        checks.extend(vertex_family("bounded-real LMI (6d)", lambda v, M, lf, rt, y, mag: lmi_hinf(
             v, np.abs(Bd) if mag else Bd, np.abs(Cz) if mag else Cz, aX if mag else X, y, M, g, mag)))
         figures["hinf_gain"] = round_up(np.sqrt(g), 2)
     else:
@@ -432,6 +479,7 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
     figures["robust_stability"] = passed
     if not passed:
         figures = {k: (False if k == "robust_stability" else None) for k in figures}
+    figures["slip_within_period"] = within
     unproven = [c for c in checks if c.get("status") == "not proven (rounding)"]
     reason = "" if passed else (
         f"not proven (rounding): {unproven[0]['name']} passes in floating point (smallest eigenvalue "
@@ -439,6 +487,17 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
         + (f" (first at {unproven[0]['unproven']})" if unproven[0].get("unproven") else "")
         if unproven and all(c["passed"] or c.get("status") for c in checks) else _failed_reason(checks))
     return CertificateCheck(passed, tuple(checks), figures, reason)
+
+
+def varying_failures(check: CertificateCheck) -> list[int] | None:
+    """The within-period vertices (indices into ``Model.varying``) a check failed on, when nothing else
+    failed; None otherwise (passed, or some other condition failed too)."""
+    if check.passed:
+        return None
+    failed = [c for c in check.checks if not c["passed"]]
+    if failed and all(VARYING_FAILURES in c for c in failed):
+        return list(dict.fromkeys(i for c in failed for i in c[VARYING_FAILURES]))
+    return None
 
 
 def _failed_reason(checks: list[dict[str, Any]]) -> str:
@@ -555,6 +614,16 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
         ex = Ts / 4 * d_hi * dvbar
     return {"e_x": round_up(sampled["e_x"] + ex, 12), "e_y": round_up(sampled["e_y"] + ey, 12),
             "e_theta": heading}
+
+
+class _Stack:
+    """Vertices without uncertainty channels as one stack: each matrix (n, ., .) (their absolute values
+    with ``absolute``, for the magnitude of a formula)."""
+
+    def __init__(self, verts: Any, absolute: bool = False) -> None:
+        f = np.abs if absolute else np.asarray
+        for name in ("A", "B", "E", "B_p", "C_q", "D_q"):
+            setattr(self, name, f(np.stack([np.asarray(getattr(v, name)) for v in verts])))
 
 
 class _AbsVertex:

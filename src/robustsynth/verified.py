@@ -24,7 +24,8 @@ import math
 
 import numpy as np
 
-__all__ = ["UNIT_ROUNDOFF", "gamma", "rump_shift", "is_pd", "proves_at_least", "round_up", "assembly_radius"]
+__all__ = ["UNIT_ROUNDOFF", "gamma", "rump_shift", "is_pd", "proves_at_least", "round_up", "assembly_radius",
+           "round_up_array", "rump_shift_batch", "is_pd_batch", "proves_at_least_batch", "assembly_radius_batch"]
 
 UNIT_ROUNDOFF = 2.0**-53  # u: rounding to nearest in double precision
 _ETA = 2.0**-1074  # the smallest positive subnormal
@@ -106,3 +107,72 @@ def assembly_radius(magnitude: np.ndarray, terms: int) -> float:
     g = gamma(terms + 4)
     row = float(np.max(np.sum(np.abs(magnitude), axis=1), initial=0.0))
     return round_up(g * (1.0 + g) * row, terms + 4)
+
+
+# ------------------------------------------------------------------ batched (a stack of matrices)
+# The same tests on a stack (n, k, k) at once: every constant is computed per matrix exactly as above
+# (tests/test_verified.py compares them with the one-matrix functions).
+
+
+def round_up_array(x: np.ndarray, ops: int = 1) -> np.ndarray:
+    """:func:`round_up` elementwise."""
+    x = np.asarray(x, dtype=float)
+    grown = x + np.abs(x) * (ops + 1) * UNIT_ROUNDOFF * 2.0
+    return np.where(np.isfinite(x), np.nextafter(grown, np.inf), x)
+
+
+def rump_shift_batch(diag: np.ndarray) -> np.ndarray:
+    """:func:`rump_shift` of every row of ``diag`` (n, k)."""
+    d = np.asarray(diag, dtype=float)
+    k = d.shape[-1]
+    alpha = (np.arange(1, k + 1) + 2) * UNIT_ROUNDOFF
+    c = np.sum(alpha * d, axis=-1) + 6.0 * k * (k + np.max(d, axis=-1)) * _ETA
+    return round_up_array(c, k + 2)
+
+
+def is_pd_batch(A: np.ndarray) -> np.ndarray:
+    """:func:`is_pd` of every matrix of the stack ``A`` (n, k, k): a bool array (n,)."""
+    A = np.asarray(A, dtype=float)
+    n, k = A.shape[0], A.shape[-1]
+    if k == 0:
+        return np.ones(n, dtype=bool)
+    d = np.diagonal(A, axis1=-2, axis2=-1)
+    ok = np.all(np.isfinite(A), axis=(-2, -1)) & np.all(A == np.swapaxes(A, -1, -2), axis=(-2, -1)) & np.all(d > 0.0, axis=-1)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        s = np.exp2(-np.ceil(0.5 * np.log2(np.where(d > 0.0, d, 1.0))))
+        As = A * s[:, :, None] * s[:, None, :]
+        exact = np.all(np.isfinite(As), axis=(-2, -1)) & np.all(As / s[:, :, None] / s[:, None, :] == A, axis=(-2, -1))
+    ok &= exact
+    c = rump_shift_batch(np.diagonal(As, axis1=-2, axis2=-1))
+    B = np.where(ok[:, None, None], As, np.eye(k))  # the matrices already refused: a placeholder
+    idx = np.arange(k)
+    B[:, idx, idx] = np.where(ok[:, None], np.nextafter(np.diagonal(As, axis1=-2, axis2=-1) - c[:, None], -np.inf), 1.0)
+    try:
+        np.linalg.cholesky(B)
+        return ok
+    except np.linalg.LinAlgError:  # some factorization failed: find which, one by one
+        out = ok.copy()
+        for i in np.flatnonzero(ok):
+            try:
+                np.linalg.cholesky(B[i])
+            except np.linalg.LinAlgError:
+                out[i] = False
+        return out
+
+
+def proves_at_least_batch(L_hat: np.ndarray, threshold: float, radius: np.ndarray) -> np.ndarray:
+    """:func:`proves_at_least` of every matrix of the stack (n, k, k) with its own ``radius`` (n,)."""
+    L = np.asarray(L_hat, dtype=float)
+    shift = round_up_array(float(threshold) + np.asarray(radius, dtype=float), 1)
+    B = L.copy()
+    idx = np.arange(L.shape[-1])
+    B[:, idx, idx] = np.nextafter(np.diagonal(L, axis1=-2, axis2=-1) - shift[:, None], -np.inf)
+    return is_pd_batch(B)
+
+
+def assembly_radius_batch(magnitude: np.ndarray, terms: int) -> np.ndarray:
+    """:func:`assembly_radius` of every matrix of the stack (n, k, k)."""
+    g = gamma(terms + 4)
+    mag = np.abs(np.asarray(magnitude, dtype=float))
+    row = np.max(np.sum(mag, axis=-1), axis=-1, initial=0.0)
+    return round_up_array(g * (1.0 + g) * row, terms + 4)

@@ -12,8 +12,8 @@ def invariance_runner(model, lyapunov: str, alpha: float, symmetry: bool = True)
     without the mirror to retry on, as synthesis builds it).  Returns the LMI problem and the runner."""
     s = model.config.synthesis
 
-    def build(sym: bool):
-        return build_invariance(model, s.multiplier, s.margin, _weights(s), True, lyapunov, symmetry=sym)
+    def build(sym: bool, mdl=model):
+        return build_invariance(mdl, s.multiplier, s.margin, _weights(s), True, lyapunov, symmetry=sym)
 
     lp = build(symmetry)
     lp.params["alpha"].value = alpha
@@ -24,7 +24,7 @@ def invariance_runner(model, lyapunov: str, alpha: float, symmetry: bool = True)
         cert.update(alpha=alpha, beta=vals["beta"], motor_limits_enforced=True)
         return cert
 
-    return lp, _Runner(model, lp, "clarabel", make_cert, full=lambda: build(False))
+    return lp, _Runner(model, lp, "clarabel", make_cert, full=lambda mdl: build(False, mdl))
 
 
 def invariance_at(model, lyapunov: str, alpha: float, symmetry: bool = True):

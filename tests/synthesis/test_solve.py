@@ -68,8 +68,10 @@ def test_synthesize_cli_writes_consistent_files(tmp_path) -> None:
     g = json.loads((tmp_path / "gains.json").read_text())
     assert g["law"] == "du_k = K xi_k" and g["objective"] == "stability"
     assert len(g["K"]) == 2 and len(g["K"][0]) == 5
-    assert set(g["certified"]) == {"robust_stability", "decay_rate", "ultimate_bound", "motor_speed_bound", "hinf_gain"}
+    assert set(g["certified"]) == {"robust_stability", "decay_rate", "ultimate_bound", "motor_speed_bound", "hinf_gain",
+                                   "slip_within_period"}
     assert g["certified"]["robust_stability"] is True and g["certified"]["ultimate_bound"] is None
+    assert g["certified"]["slip_within_period"] == "covered"  # the default robot: slip may change at any time
     assert set(g["solver"]) == {"name", "version", "status", "iterations", "solve_time_s", "fallback_used"}
     from scipy.io import loadmat
 

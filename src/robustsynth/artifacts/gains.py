@@ -41,7 +41,8 @@ def gains_dict(model: Any, result: Any) -> dict[str, Any]:
     figs = result.certified
     cert = result.certificate
     certified = {k: figs.get(k) for k in CERTIFIED_KEYS}
-    for k in ("heading_within_period", "heading_bound", "ultimate_bound_between_samples"):  # |e_theta(t)| between samples; the nonlinear proof's bound
+    # |e_theta(t)| between samples; the nonlinear proof's bound; whether slip may change within a period
+    for k in ("heading_within_period", "heading_bound", "ultimate_bound_between_samples", "slip_within_period"):
         if figs.get(k) is not None:
             certified[k] = figs[k]
     certificate: dict[str, Any] = {

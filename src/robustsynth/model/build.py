@@ -14,9 +14,14 @@ from .slip import slip_corners, slip_matrix
 from .uncertainty import embed, slip_box
 from .model import DEFAULT_HEADING_BOUND, MAX_POLYTOPIC_INSTANTS, WIDTH_TOL, Model, frozen_array, frozen_vertex
 from .nonlinear import vertex_channels
-from .vertices import Vertex, apply_slip, augment_integral, delay_vertex_gammas, loss_vertex_gammas
+from .vertices import (Vertex, apply_slip, augment_integral, delay_vertex_gammas, loss_vertex_gammas,
+                       varying_slip_vertices)
 
-__all__ = ["build_model", "coverage_check"]
+__all__ = ["build_model", "coverage_check", "MAX_VARYING_VERTICES"]
+
+# slip changing within a period (docs/theory.md §11): at most this many vertices, else the certificate
+# assumes slip constant within a period (16 per track pair and command interval, per delay vertex)
+MAX_VARYING_VERTICES = 4096
 
 
 def _augment_rows(X: np.ndarray, n_z: int) -> np.ndarray:
@@ -74,7 +79,10 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
     delay_description = "norm-bounded"
     vertices: list[Vertex] = []
     channels: list = []
+    varying: list[Vertex] | None = None
+    varying_reason = ""
     if kind == "paper":
+        varying_reason = "the paper's model describes slip as an additive box, not per command interval"
         vertices.append(Vertex(A, B, B_d @ slip.W, B_p, C_q, D_q, 0, "nominal (mu = 1), slip as additive box"))
     else:
         tau_hi = config.network.delay.max  # of a received command (lost ones: the effective tmax)
@@ -90,6 +98,17 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
         elif delay_description == "polytopic":  # the delay vertices, the same for every slip corner
             labels, gammas, _ = delay_vertex_gammas(A_c, B_c, Ts, ranges, WIDTH_TOL * max(Ts, 1.0))
             A_t, B_t, _ = lift(Ph, gammas, Gamma(A_c, B_c, Ts), GD)
+        if delay_description == "norm-bounded":
+            varying_reason = ("the norm-bounded delay description has no delay vertices to tie the slip averages "
+                              "to (synthesis.delay_description: polytopic or lossy-polytopic)")
+        else:
+            h = gammas[:, :, 0, 0]  # gammas[t, j] = h_j B + q_j A B (vertices.py): B[0, 0] = 1, (A B)[1, 1] = V
+            q = gammas[:, :, 1, 1] / V if V else np.zeros_like(h)
+            varying = varying_slip_vertices(Ph, A_c, B_c, Ts, V, D, mu_r, mu_l, h, q, labels, integral,
+                                            MAX_VARYING_VERTICES)
+            if varying is None:
+                varying_reason = (f"covering it would take more than {MAX_VARYING_VERTICES} vertices (the delay "
+                                  "range spans too many command intervals)")
         for m, mu in enumerate(corners):
             M = slip_matrix(mu, D)
             c = (mu - 1.0) @ B_d.T
@@ -142,6 +161,8 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
         J_inv=frozen_array(J_inverse(R, D)),
         channels=tuple(channels),
         base_vertices=frozen_vertices,
+        varying=tuple(frozen_vertex(v) for v in varying or ()),
+        varying_reason=varying_reason,
     )
     if kind != "paper" and syn.kinematics == "nonlinear":
         hb = syn.heading_bound

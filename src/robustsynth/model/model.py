@@ -153,6 +153,11 @@ class Model:
     channels: tuple = field(default=(), repr=False)
     base_vertices: tuple = field(default=(), repr=False)
     heading_bound: float | None = None
+    # slip that changes within a period (docs/theory.md §11): vertices whose hull contains the
+    # linearized lifted map for every slip history in the box, or () and why they are not built
+    # (read them through :meth:`slip_variation`)
+    varying: tuple = field(default=(), repr=False)
+    varying_reason: str = ""
 
     @property
     def kinematics(self) -> str:
@@ -179,6 +184,28 @@ class Model:
         scales = channel_scales(list(self.channels), theta_bar, self.V)
         verts = tuple(augment(v, ch, theta_bar, self.V, scales) for v, ch in zip(self.base_vertices, self.channels))
         return replace(self, vertices=tuple(frozen_vertex(v) for v in verts), heading_bound=theta_bar)
+
+    def slip_variation(self, lyapunov: str = "common") -> tuple[tuple[Vertex, ...], str]:
+        """The vertices that cover slip changing at any time within a period for a certificate of kind
+        ``lyapunov`` (docs/theory.md §11), and ``""``; or ``()`` and the reason a certificate of that
+        kind on this model assumes slip constant within each period."""
+        if self.heading_bound is not None:
+            return (), ("the kinematic channels (synthesis.kinematics: nonlinear) are built for slip constant "
+                        "within a period")
+        if lyapunov != "common":
+            return (), (f"a {lyapunov} certificate indexes its Lyapunov matrices by the slip at the sampling "
+                        "instants")
+        if not self.varying:
+            return (), self.varying_reason
+        return self.varying, ""
+
+    def with_cuts(self, indices: list[int]) -> "Model":
+        """The model whose LMI vertices also include the within-period vertices ``varying[indices]``
+        (constraint generation, docs/theory.md §11; common certificates only): appended after the
+        model's own vertices, so a certificate's per-vertex data for those come first.  Build its LMIs
+        without the mirror symmetry (the appended vertices have no mirror partner in the list)."""
+        extra = tuple(replace(self.varying[i], corner=0) for i in indices)
+        return replace(self, vertices=tuple(self.vertices) + extra)
 
     @property
     def n_z(self) -> int:
@@ -234,6 +261,26 @@ class Model:
     def robot_exact(self, s_tilde: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The slip-aware exact map, which the real robot follows to first order whatever the kind."""
         return self._base_exact(s_tilde, mu, True)
+
+    def switched_exact(self, s_tilde: np.ndarray, mu: np.ndarray, t_switch: np.ndarray,
+                       mu_after: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The slip-aware exact map ``xi+ = A xi + B du + c`` when the slip jumps from ``mu`` to
+        ``mu_after`` at ``t_switch`` in [0, Ts] within the period (docs/theory.md §11): each command
+        interval sees the slip's uniform and (Ts - t)-weighted averages over it.  With no jump
+        (t_switch = Ts, or mu_after = mu) it is :meth:`robot_exact` and :meth:`constant`."""
+        from .vertices import interval_coordinates, interval_slip_averages, varying_slip_maps
+
+        s = np.asarray(s_tilde, dtype=float)
+        h = self.Ts - s
+        L, W = interval_coordinates(h, h * h / 2.0, self.Ts)
+        bar, til = interval_slip_averages(s, self.Ts, t_switch, mu, mu_after)
+        D = self.config.robot.track_distance
+        A, B, c = varying_slip_maps(np.asarray(self.Phi), np.asarray(self.A_c), np.asarray(self.B_c), self.Ts, self.V, L,
+                                    W, slip_matrix(bar, D), slip_matrix(til, D))
+        if self.integral:
+            A, B = augment_integral(A, B, self.Ts, self.n_e)
+            c = np.concatenate([c, np.zeros(c.shape[:-1] + (self.n_z,))], axis=-1)
+        return A, B, c
 
     def constant(self, mu: np.ndarray) -> np.ndarray:
         """c(mu) = B~_d (mu - 1), the constant term of the exact map, shape (..., n_s)."""

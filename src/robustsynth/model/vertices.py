@@ -201,3 +201,118 @@ def loss_instant_grid(Ts: float, tau_min: float, tau_max: float, m: int, d_hi: i
         else:
             rows.append([Ts if j < g else 0.0 for j in range(d_hi)])
     return np.array(rows)
+
+
+# ---------------------------------------------------------------------------------------------------
+# slip that changes within a period (docs/theory.md §11)
+
+# per track and command interval, the (uniform, (Ts - t)-weighted) averages of the slip in normalized
+# coordinates ((mu - lo) / (hi - lo)) lie in this parallelogram: it contains every pair a measurable
+# slip in [lo, hi] can produce on any interval of the period (theory.md §11, the lens lemma)
+SLIP_AVERAGE_PARALLELOGRAM = ((0.0, 0.0), (0.5, 1.0), (1.0, 1.0), (0.5, 0.0))
+
+
+def interval_coordinates(h: np.ndarray, q: np.ndarray, Ts: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per command interval i = 0..d_hi (du_{k-i} acts on [s~_i, s~_{i-1}), s~_{-1} = Ts, s~_{d_hi} = 0)
+    its length L_i and weight W_i = int (Ts - t) dt over it, from the instants' delay coordinates
+    ``h_j = Ts - s~_j`` and ``q_j = h_j^2 / 2`` (..., d_hi); affine in (h, q), so a delay vertex's
+    coordinates give its own.  Returns (L, W), each (..., d_hi + 1)."""
+    h = np.asarray(h, dtype=float)
+    q = np.asarray(q, dtype=float)
+    zero = np.zeros(h.shape[:-1] + (1,))
+    hh = np.concatenate([zero, h, np.full_like(zero, Ts)], axis=-1)
+    qq = np.concatenate([zero, q, np.full_like(zero, Ts**2 / 2.0)], axis=-1)
+    return np.diff(hh, axis=-1), np.diff(qq, axis=-1)
+
+
+def interval_slip_averages(S: np.ndarray, Ts: float, t_switch: np.ndarray, mu_before: np.ndarray,
+                           mu_after: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The slip averages of every command interval when the slip jumps from ``mu_before`` to ``mu_after``
+    (..., 2) at ``t_switch`` (...) within the period: (uniform, (Ts - t)-weighted), each (..., d_hi + 1, 2).
+    An interval of zero length gets mu_before (it carries no weight)."""
+    S = np.asarray(S, dtype=float)
+    ts = np.asarray(t_switch, dtype=float)[..., None]
+    ends = np.concatenate([np.full(S.shape[:-1] + (1,), Ts), S, np.zeros(S.shape[:-1] + (1,))], axis=-1)
+    b, a = ends[..., :-1], ends[..., 1:]  # interval i: [a_i, b_i)
+    F = lambda t: Ts * t - t * t / 2.0  # noqa: E731  (antiderivative of Ts - t)
+    cut = np.clip(ts, a, b)
+    L, W = b - a, F(b) - F(a)
+    l_before, w_before = cut - a, F(cut) - F(a)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        f_l = np.where(L > 0, l_before / np.where(L > 0, L, 1.0), 1.0)
+        f_w = np.where(W > 0, w_before / np.where(W > 0, W, 1.0), 1.0)
+    mb, ma = np.asarray(mu_before, dtype=float)[..., None, :], np.asarray(mu_after, dtype=float)[..., None, :]
+    return f_l[..., None] * mb + (1.0 - f_l[..., None]) * ma, f_w[..., None] * mb + (1.0 - f_w[..., None]) * ma
+
+
+def varying_slip_maps(Phi: np.ndarray, A_c: np.ndarray, B_c: np.ndarray, Ts: float, V: float, L: np.ndarray,
+                      W: np.ndarray, M_bar: np.ndarray, M_til: np.ndarray):
+    """The lifted map (A, B, E) when command interval i has slip matrix ``M_bar[..., i]`` on average and
+    ``M_til[..., i]`` on its (Ts - t)-weighted average (..., d_hi + 1, 2, 2); L, W (..., d_hi + 1) from
+    :func:`interval_coordinates`.  Exact for any slip history (§11): the error rows are
+    ``Phi e + sum_i G_i (u^D + du_{k-i}) - Gamma(Ts) u^D`` with ``G_i = L_i B M_bar_i + W_i A B M_til_i``."""
+    n_e, n_u = B_c.shape
+    d_hi = L.shape[-1] - 1
+    AB = A_c @ B_c
+    G = L[..., None, None] * (B_c @ M_bar) + W[..., None, None] * (AB @ M_til)  # (..., d_hi + 1, n_e, n_u)
+    batch = G.shape[:-3]
+    n_s = n_e + d_hi * n_u
+    A = np.zeros(batch + (n_s, n_s))
+    B = np.zeros(batch + (n_s, n_u))
+    A[..., :n_e, :n_e] = Phi
+    B[..., :n_e, :] = G[..., 0, :, :]
+    for i in range(1, d_hi + 1):
+        A[..., :n_e, n_e + (i - 1) * n_u : n_e + i * n_u] = G[..., i, :, :]
+    B[..., n_e : n_e + n_u, :] = np.eye(n_u)
+    for j in range(1, d_hi):
+        A[..., n_e + j * n_u : n_e + (j + 1) * n_u, n_e + (j - 1) * n_u : n_e + j * n_u] = np.eye(n_u)
+    uD = np.array([V, 0.0])
+    gamma_Ts = Ts * B_c + Ts**2 / 2.0 * AB
+    E = np.zeros(batch + (n_s,))
+    E[..., :n_e] = G.sum(axis=-3) @ uD - gamma_Ts @ uD
+    return A, B, E
+
+
+def varying_slip_vertices(Phi: np.ndarray, A_c: np.ndarray, B_c: np.ndarray, Ts: float, V: float, D: float,
+                          mu_r: tuple[float, float], mu_l: tuple[float, float], h: np.ndarray, q: np.ndarray,
+                          labels: list[str], integral: bool, limit: int, tol: float = 1e-12):
+    """Vertices that contain the lifted map for every slip history within the box, slip free to change
+    at any time (docs/theory.md §11): per delay vertex (coordinates ``h``, ``q`` (n_v, d_hi)), every
+    combination of :data:`SLIP_AVERAGE_PARALLELOGRAM` points per track and command interval (an interval
+    of zero length at the vertex gets one point).  Returns a list of Vertex (no uncertainty channels,
+    ``corner`` -1: they belong to no slip corner), or None when there would be more than ``limit``."""
+    from .slip import slip_matrix
+
+    L_all, W_all = interval_coordinates(h, q, Ts)
+    para = np.array(SLIP_AVERAGE_PARALLELOGRAM)
+    (rl, rh), (ll, lh) = mu_r, mu_l
+    per_track = [(rl, rh), (ll, lh)]
+    # the (mu_bar, mu_til) values per track of each parallelogram point; a zero-width range has one
+    track_pts = []
+    for lo, hi in per_track:
+        pts = {(lo + (hi - lo) * u, lo + (hi - lo) * v) for u, v in para} if hi - lo > tol else {(lo, lo)}
+        track_pts.append(sorted(pts))
+    interval_pts = [(r, lft) for r in track_pts[0] for lft in track_pts[1]]  # (right (bar, til), left (bar, til))
+    counts = []
+    for L, W in zip(L_all, W_all):
+        live = (np.abs(L) > tol * Ts) | (np.abs(W) > tol * Ts * Ts)
+        counts.append(len(interval_pts) ** int(np.count_nonzero(live)))
+    if sum(counts) > limit:
+        return None
+    n_e, n_u = B_c.shape
+    out = []
+    for t, (L, W) in enumerate(zip(L_all, W_all)):
+        live = (np.abs(L) > tol * Ts) | (np.abs(W) > tol * Ts * Ts)
+        choices = [interval_pts if lv else [interval_pts[-1]] for lv in live]
+        combos = list(itertools.product(*choices))
+        bar = np.array([[[r[0], lft[0]] for r, lft in c] for c in combos])  # (n, d_hi + 1, 2)
+        til = np.array([[[r[1], lft[1]] for r, lft in c] for c in combos])
+        A, B, E = varying_slip_maps(Phi, A_c, B_c, Ts, V, L, W, slip_matrix(bar, D), slip_matrix(til, D))
+        if integral:
+            A, B = augment_integral(A, B, Ts, n_e)
+            E = np.concatenate([E, np.zeros(E.shape[:-1] + (2,))], axis=-1)
+        n_s = A.shape[-1]
+        for k in range(len(combos)):
+            out.append(Vertex(A[k], B[k], E[k][:, None], np.zeros((n_s, 0)), np.zeros((0, n_s)), np.zeros((0, n_u)),
+                              -1, f"{labels[t]}; slip averages #{k}"))
+    return out

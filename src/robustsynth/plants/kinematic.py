@@ -4,7 +4,7 @@ Unicycle kinematics with slip, ``q_dot = G(theta) J H J^-1 u_hat`` (eq. 12), int
 between actuation events (constant V, omega: arcs); the motors saturate at rho_max.  The network
 delivers the command sent at t_k from t_k + tau_k on, in order: within period k the commands
 u_hat_k, ..., u_hat_{k-d_hi} act in turn on the intervals the switching instants s~ mark.  Slip is
-constant within a period.
+constant within a period unless ``period`` is given a jump within it.
 
 :class:`KinematicRobot` is the interface the Monte Carlo and the adversary drive (and the one a
 physics-engine robot or a log replayer will offer): ``memory`` (the commands in flight at t_0),
@@ -53,16 +53,20 @@ def saturate(u_hat: np.ndarray, J: np.ndarray, J_inv: np.ndarray, rho_max: float
 
 
 def period(q: np.ndarray, U: np.ndarray, S: np.ndarray, M: np.ndarray, Ts: float, J: np.ndarray,
-           J_inv: np.ndarray, rho_sat: float | None) -> np.ndarray:
+           J_inv: np.ndarray, rho_sat: float | None, switch: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Move the robot through one sampling period: ``U[..., j]`` = u_hat_{k-j} acts on
-    [s~_j, s~_{j-1}) (s~_{d_hi} = 0, s~_{-1} = Ts), the robot receives M u_hat (exact arcs)."""
+    [s~_j, s~_{j-1}) (s~_{d_hi} = 0, s~_{-1} = Ts), the robot receives M u_hat (exact arcs).
+    ``switch = (t, M_after)``: from time t within the period on the robot receives M_after u_hat."""
     d_hi = S.shape[-1]
     start = np.zeros(q.shape[:-1])
     for j in range(d_hi, -1, -1):
         end = S[..., j - 1] if j > 0 else np.full(q.shape[:-1], Ts)
-        u_eff = np.einsum("...ij,...j->...i", M, saturate(U[..., j, :], J, J_inv, rho_sat))
-        q = arc_step(q, u_eff[..., 0], u_eff[..., 1], end - start)
-        start = end
+        u = saturate(U[..., j, :], J, J_inv, rho_sat)
+        pieces = [(M, end)] if switch is None else [(M, np.clip(switch[0], start, end)), (switch[1], end)]
+        for Mp, stop in pieces:
+            u_eff = np.einsum("...ij,...j->...i", Mp, u)
+            q = arc_step(q, u_eff[..., 0], u_eff[..., 1], stop - start)
+            start = stop
     return q
 
 
@@ -107,8 +111,13 @@ class KinematicRobot:
         out[..., 0, :] = u_hat
         return out
 
-    def period(self, q: np.ndarray, U: np.ndarray, S: np.ndarray, mu: np.ndarray) -> np.ndarray:
+    def period(self, q: np.ndarray, U: np.ndarray, S: np.ndarray, mu: np.ndarray,
+               switch: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
         """The poses at t_{k+1} from ``q`` at t_k: the commands ``U`` act on the intervals of the
-        switching instants ``S`` (..., d_hi), under slip ``mu`` (..., 2) = (mu_r, mu_l)."""
+        switching instants ``S`` (..., d_hi), under slip ``mu`` (..., 2) = (mu_r, mu_l); with
+        ``switch = (t, mu_after)`` the slip jumps to mu_after at time t (...) within the period."""
         M = JHJinv(mu[..., 0], mu[..., 1], self.track_distance)
-        return period(q, U, S, M, self.Ts, self.J, self.J_inv, self.rho_max)
+        if switch is not None:
+            t, after = switch
+            switch = (np.asarray(t, dtype=float), JHJinv(after[..., 0], after[..., 1], self.track_distance))
+        return period(q, U, S, M, self.Ts, self.J, self.J_inv, self.rho_max, switch)

@@ -66,8 +66,9 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
         + ("no packet loss;\n" if not model.dropouts else
            f"at most {model.dropouts} commands lost in a row (the actuator holds the last one received; covered as an "
            f"effective delay of up to {cfg.network.delay.max + model.dropouts * cfg.network.sampling_time:g} s);\n")
-        + f"- slip mu_r in [{cfg.slip.right.min:g}, {cfg.slip.right.max:g}], mu_l in [{cfg.slip.left.min:g}, {cfg.slip.left.max:g}],"
-        " constant within a sampling period, " + ("free to jump anywhere in its range every period" if rate is None else
+        + f"- slip mu_r in [{cfg.slip.right.min:g}, {cfg.slip.right.max:g}], mu_l in [{cfg.slip.left.min:g}, {cfg.slip.left.max:g}], "
+        + _within_text(result.certified.get("slip_within_period"), len(model.varying))
+        + ("free to jump anywhere in its range every period" if rate is None else
         f"changing at most {rate:g} /s (" + (f"the {cfg.synthesis.lyapunov} certificate uses the rate bound"
                                               if cfg.synthesis.lyapunov != "common" else
                                               "a common Lyapunov matrix does not use the rate bound")
@@ -181,3 +182,14 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
     out.append(comparison_markdown(comparison))
     out.append(diagnosis_markdown(model, result, diagnosis))
     return "".join(out)
+
+
+def _within_text(within: str | None, n: int) -> str:
+    """How the certificate treats slip that changes between sampling instants (docs/theory.md §11)."""
+    if within == "covered":
+        return (f"free to change at any time, also within a sampling period (covered: the LMI holds at {n} vertices of"
+                " the slip's averages over each command interval, docs/theory.md §11), ")
+    if within:
+        return f"**assumed constant within a sampling period** ({within.removeprefix('assumed constant: ')}), "
+    return "constant within a sampling period, "
+

@@ -140,6 +140,7 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
             f" {100 * bp['fraction_outside_nonlinear']:.2f} % of these states leave the set. The two differ by up to"
             f" {1000 * bp['max_period_gap']['e_x']:.1f} mm in e_x and {1000 * bp['max_period_gap']['e_y']:.1f} mm in e_y"
             " per period. "
+            + _mid_period_text(bp.get("mid_period") or {})
             + (f"The adversary's beam search from {bp['adversary']['starts']} of these states (each figure's maximizer"
                f" at every slip corner) over {bp['adversary']['steps']} periods reaches max V/level ="
                f" {bp['adversary']['max_V_over_level']:.4f}. " if bp.get("adversary") else "")
@@ -281,3 +282,15 @@ def report_markdown(model: Any, gains: dict[str, Any], vd: dict[str, Any], figur
     for name, rel in figures.items():
         out.append(f"### {FIGURES[name]}\n\n![{FIGURES[name]}]({rel})\n\n")
     return "".join(out)
+
+
+def _mid_period_text(mid: dict) -> str:
+    """The probe's runs with a slip jump within the period (docs/theory.md §11)."""
+    if not mid.get("runs"):
+        return ""
+    return (f"{mid['runs']} more runs had the slip jump to a random corner at a random time within the period"
+            + (" (covered by the certificate, so judged with the others): " if mid["covered"] else
+               " (**not covered**: this certificate assumes slip constant within a period, so they are reported, not"
+               " judged): ")
+            + f"max V(xi+)/level = {mid['max_V_over_level_linear']:.4f} on the exact map,"
+            f" {mid['max_V_over_level_nonlinear']:.4f} on the nonlinear robot. ")

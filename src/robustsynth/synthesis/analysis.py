@@ -14,8 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from ..certificate import CertificateCheck, check_certificate
-from .design import _cert_common
+from ..certificate import CertificateCheck, check_certificate, varying_failures
+from .design import CUTS_PER_ROUND, MAX_CUT_ROUNDS, _cert_common, _Cuts
 from .lmis import build_stability
 from .solve import solve
 
@@ -41,27 +41,43 @@ class AnalysisResult:
 def _one(model: Any, K: np.ndarray, lyapunov: str, multiplier: str, margin: float, solver: str,
          r: float) -> tuple[str, dict | None, CertificateCheck | None]:
     model = model.linearized()  # robust stability of a fixed K: a statement about the linearization
-    lp = build_stability(model, multiplier, margin, lyapunov, K=K, symmetry=model.config.synthesis.symmetry == "auto")
-    lp.params["r2"].value = r * r
-    held: dict[str, Any] = {}
+    cuts: list[int] = []  # within-period vertices added to the LMIs (constraint generation, as in synthesis)
+    for _ in range(MAX_CUT_ROUNDS + 1):
+        lmi_model = model.with_cuts(cuts) if cuts else model
+        lp = build_stability(lmi_model, multiplier, margin, lyapunov, K=K,
+                             symmetry=not cuts and model.config.synthesis.symmetry == "auto")
+        lp.params["r2"].value = r * r
+        held: dict[str, Any] = {}
 
-    def accept() -> bool:
-        vals = lp.values()
-        held["t"] = float(vals["t"])
-        if not held["t"] >= margin:  # the best point misses the margin: no certificate (not a failure)
-            return True
-        cert = _cert_common(model, vals, multiplier, margin, "stability")  # as synthesis writes it
-        cert["r2"] = r * r
-        chk = check_certificate(model, K, cert)
-        held.update(cert=cert, check=chk)
-        return chk.passed
+        def accept(lp: Any = lp, held: dict = held) -> bool:
+            vals = lp.values()
+            held["t"] = float(vals["t"])
+            if not held["t"] >= margin:  # the best point misses the margin: no certificate (not a failure)
+                return True
+            cert = _cert_common(model, vals, multiplier, margin, "stability")  # as synthesis writes it
+            cert["multipliers"]["M"] = list(cert["multipliers"]["M"])[: len(model.vertices)]
+            cert["r2"] = r * r
+            chk = check_certificate(model, K, cert)
+            held.update(cert=cert, check=chk)
+            failing = varying_failures(chk)
+            if failing:
+                raise _Cuts(failing)
+            return chk.passed
 
-    out = solve(lp.problem, solver, accept, fallback=True)
-    if out.kind == "ok":
-        if "cert" in held:
-            return "certified", held["cert"], held["check"]
-        return "infeasible", None, None
-    return out.kind, None, None
+        try:
+            out = solve(lp.problem, solver, accept, fallback=True)
+        except _Cuts as c:
+            new = [i for i in c.indices if i not in cuts][:CUTS_PER_ROUND]
+            if not new:
+                return "failed", None, None
+            cuts += new
+            continue
+        if out.kind == "ok":
+            if "cert" in held:
+                return "certified", held["cert"], held["check"]
+            return "infeasible", None, None
+        return out.kind, None, None
+    return "failed", None, None
 
 
 def analyze_stability(model: Any, K: np.ndarray, *, lyapunov: str = "auto", multiplier: str = "structured",

@@ -13,9 +13,9 @@ import numpy as np
 from ..config import SynthesisConfig
 from ..errors import InfeasibleError, InputError, SolverFailure
 from ..model.slip import check_physical_feasibility
-from ..certificate import CertificateCheck, check_certificate
+from ..certificate import CertificateCheck, check_certificate, varying_failures
 from .lmis import LMIProblem, build_hinf, build_invariance, build_stability
-from .solve import Outcome, SolveRecord, solve, solver_version
+from .solve import Outcome, Rejected, SolveRecord, solve, solver_version
 
 __all__ = ["SynthesisResult", "synthesize"]
 
@@ -95,22 +95,42 @@ class _Best:
     record: SolveRecord | None = None
 
 
+class _Cuts(Rejected):
+    """A solved point failed the re-check only at within-period vertices (``indices`` into Model.varying)."""
+
+    def __init__(self, indices: list[int]) -> None:
+        super().__init__(f"{len(indices)} within-period vertices fail")
+        self.indices = indices
+
+
+MAX_CUT_ROUNDS = 6  # constraint generation: rounds of within-period vertices added to the LMIs
+CUTS_PER_ROUND = 8  # the worst failing within-period vertices added per round
+
+
 class _Runner:
     """Solves one compiled problem repeatedly; remembers attempts, counts and times.
 
-    ``full`` builds the same problem without the mirror symmetry.  Clarabel 0.11 reports an error on
-    a mirror-invariant problem where the full problem reports 'infeasible' (measured at the default
-    robot's infeasible alphas).  A search point that fails counts as not certified either way, so
-    only a solve that asks for the fallback (``fallback=True``: the retries when nothing was
-    certified, the first decay rate) first solves the point again on the full problem: then
-    infeasibility is still told from a solver failure (exit 3, not 4), and the search itself does
-    not pay for a full solve at every infeasible alpha (the lossy link: 6 s instead of 10 s)."""
+    ``full(model)`` builds the same problem for a model without the mirror symmetry.  Clarabel 0.11
+    reports an error on a mirror-invariant problem where the full problem reports 'infeasible'
+    (measured at the default robot's infeasible alphas).  A search point that fails counts as not
+    certified either way, so only a solve that asks for the fallback (``fallback=True``: the retries
+    when nothing was certified, the first decay rate) first solves the point again on the full
+    problem: then infeasibility is still told from a solver failure (exit 3, not 4), and the search
+    itself does not pay for a full solve at every infeasible alpha (the lossy link: 6 s instead of 10 s).
+
+    Slip changing within a period (docs/theory.md §11) is covered by constraint generation: the LMIs
+    hold the model's own vertices; the re-check proves the certificate at every within-period vertex
+    too, and when a point fails only there, the worst of those vertices are added to the LMIs
+    (``Model.with_cuts``, built by ``full``) and the point is solved again, up to MAX_CUT_ROUNDS times.
+    The search goes on with the grown problem (``self.active``); its parameters are set on ``lp``."""
 
     def __init__(self, model: Any, lp: LMIProblem, primary: str, make_cert: Callable[[dict], dict],
-                 full: Callable[[], LMIProblem] | None = None):
+                 full: Callable[[Any], LMIProblem] | None = None):
         self.model, self.lp, self.primary, self.make_cert = model, lp, primary, make_cert
-        self._full_builder = full if lp.mirrored else None
+        self._builder = full
         self._full: LMIProblem | None = None
+        self.active = lp  # lp, or the problem with the within-period vertices added so far
+        self.cuts: list[int] = []
         self.records: list[SolveRecord] = []
         self.fallbacks = 0
         self.solves = 0
@@ -119,20 +139,29 @@ class _Runner:
         self.failed_at: dict[float, bool] = {}  # alpha -> the solver failed (not: infeasible)
         self.last_kind = ""
 
+    def _set_params(self, target: LMIProblem) -> None:
+        if target is not self.lp:
+            for name, par in self.lp.params.items():
+                target.params[name].value = par.value
+
     def run(self, fallback: bool = True) -> tuple[Outcome, dict | None, np.ndarray | None, CertificateCheck | None]:
-        if self._full_builder is None or not fallback:
-            out, res = self._run_on(self.lp, fallback)
-        else:
-            out, res = self._run_on(self.lp, False)
-            if out.kind == "failed":
-                if self._full is None:
-                    self._full = _build(self._full_builder)
-                for name, par in self.lp.params.items():
-                    self._full.params[name].value = par.value
-                self.full_retries += 1
-                first = out.attempts
-                out, res = self._run_on(self._full, fallback)
-                out = Outcome(out.kind, out.record, first + out.attempts)
+        spent: list[SolveRecord] = []
+        rounds = 0
+        while True:
+            try:
+                out, res = self._run_mirrored(fallback)
+                out = Outcome(out.kind, out.record, spent + out.attempts)
+                break
+            except _Cuts as c:
+                spent += c.attempts
+                new = [i for i in c.indices if i not in self.cuts][:CUTS_PER_ROUND]
+                if rounds >= MAX_CUT_ROUNDS or not new or self._builder is None:
+                    out, res = Outcome("failed", spent[-1], spent), (None, None, None)
+                    break
+                rounds += 1
+                self.cuts += new
+                self.active = _build(self._builder, self.model.with_cuts(self.cuts))
+                self._full = None
         self.last_kind = out.kind
         if out.kind == "failed":
             self.failures += 1
@@ -140,6 +169,29 @@ class _Runner:
         if alpha is not None:
             self.failed_at[float(alpha.value)] = out.kind == "failed"
         return (out, *res)
+
+    def _run_mirrored(self, fallback: bool) -> tuple[Outcome, tuple]:
+        self._set_params(self.active)
+        if not (self.active.mirrored and self._builder is not None) or not fallback:
+            return self._run_on(self.active, fallback)
+        out, res = self._run_on(self.active, False)
+        if out.kind == "failed":
+            if self._full is None:
+                self._full = _build(self._builder, self.model)
+            self._set_params(self._full)
+            self.full_retries += 1
+            first = out.attempts
+            out, res = self._run_on(self._full, fallback)
+            out = Outcome(out.kind, out.record, first + out.attempts)
+        return out, res
+
+    def _count(self, attempts: list[SolveRecord]) -> None:
+        split = _SPLIT.get()
+        if split is not None:
+            for rec in attempts:
+                split.add(rec)
+        self.solves += len(attempts)
+        self.records.extend(attempts)
 
     def _run_on(self, lp: LMIProblem, fallback: bool) -> tuple[Outcome, tuple]:
         holder: dict[str, Any] = {}
@@ -162,16 +214,22 @@ class _Runner:
                 cert = self.make_cert(vals)  # computes P = Q^-1 (or S_m^-1)
             except np.linalg.LinAlgError:
                 return False
+            n_own = len(self.model.vertices)  # the data of appended within-period vertices are not kept
+            cert["multipliers"]["M"] = list(cert["multipliers"]["M"])[:n_own]
+            cert["vertices"] = n_own
             chk = check_certificate(self.model, K, cert)
             holder.update(cert=cert, K=K, check=chk)
+            failing = varying_failures(chk)
+            if failing:
+                raise _Cuts(failing)
             return chk.passed
 
-        out = solve(lp.problem, self.primary, accept, fallback=fallback)
-        if split is not None:
-            for rec in out.attempts:
-                split.add(rec)
-        self.solves += len(out.attempts)
-        self.records.extend(out.attempts)
+        try:
+            out = solve(lp.problem, self.primary, accept, fallback=fallback)
+        except _Cuts as exc:
+            self._count(exc.attempts)
+            raise
+        self._count(out.attempts)
         if out.fallback_used:
             self.fallbacks += 1
         if out.kind == "ok":
@@ -211,7 +269,7 @@ def _attempts(out: Any) -> str:
 
 def _run_stability(model: Any, s: SynthesisConfig, search: list, say: Callable[[str], None]) -> tuple[_Best, _Runner]:
     lp = _build(build_stability, model, s.multiplier, s.margin, s.lyapunov, symmetry=s.symmetry == "auto")
-    full = lambda: build_stability(model, s.multiplier, s.margin, s.lyapunov, symmetry=False)  # noqa: E731
+    full = lambda mdl: build_stability(mdl, s.multiplier, s.margin, s.lyapunov, symmetry=False)  # noqa: E731
     best = _Best()
 
     def make_cert(vals: dict) -> dict:
@@ -346,8 +404,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     when the hint is not feasible for this class)."""
     lp = _build(build_invariance, model, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,
                 symmetry=s.symmetry == "auto")
-    full = lambda: build_invariance(model, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,  # noqa: E731
-                                    symmetry=False)
+    full = lambda mdl: build_invariance(mdl, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,  # noqa: E731
+                                        symmetry=False)
     w = _weights(s)
     best = _Best()
 
@@ -432,7 +490,8 @@ def _run_hinf(model: Any, s: SynthesisConfig, search: list, say: Callable[[str],
         c["gamma2"] = float(vals["gamma2"]) * (1.0 + 1e-6) + s.margin
         return c
 
-    runner = _Runner(model, lp, s.solver, make_cert)
+    runner = _Runner(model, lp, s.solver, make_cert,
+                     full=lambda mdl: build_hinf(mdl, s.multiplier, s.margin, _weights(s)))
     out, cert, K, chk = runner.run()
     search.append({"status": out.kind})
     say(f"  hinf: {'certified' if out.kind == 'ok' else out.kind} ({_attempts(out)})")

@@ -165,6 +165,13 @@ def _attempt(problem: cp.Problem, name: str) -> SolveRecord:
                        solver_time_s=float(own) if own is not None else None)
 
 
+class Rejected(Exception):
+    """Raised by the ``accept`` of :func:`solve` to end it at once, without the fallback solver: the
+    point is refused for a reason another solver cannot fix.  :func:`solve` sets ``attempts``."""
+
+    attempts: list[SolveRecord] = []
+
+
 def solve(problem: cp.Problem, primary: str, accept: Callable[[], bool], fallback: bool = True) -> Outcome:
     """Solve with ``primary``; on a solver error, an inaccurate status or a point that ``accept``
     rejects (the numpy certificate check), retry once with the other solver.
@@ -180,7 +187,13 @@ def solve(problem: cp.Problem, primary: str, accept: Callable[[], bool], fallbac
         if rec.status == cp.INFEASIBLE:
             return Outcome("infeasible", rec, attempts)
         if rec.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-            if accept():
+            try:
+                ok = accept()
+            except Rejected as exc:
+                rec.error = str(exc)
+                exc.attempts = attempts
+                raise
+            if ok:
                 return Outcome("ok", rec, attempts)
             rec.error = rec.error or "returned point failed the numpy certificate check"
     return Outcome("failed", attempts[-1], attempts)

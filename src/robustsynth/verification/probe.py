@@ -13,9 +13,14 @@ run twice:
 
 For each run it reports V(xi+)/level, with V taken at the next slip that makes it largest.  A value
 above 1 is a state of the certified set that leaves it in one period.  On the linear map the
-certificate forbids that.  On the nonlinear robot nothing does yet: the kinematic terms the
-linearization drops (docs/theory.md §2) are not in the certificate.  Slip is constant within the
-period, as the model assumes.
+certificate forbids that.  On the nonlinear robot a linearized certificate does not: the kinematic
+terms the linearization drops (docs/theory.md §2) are not in it (a nonlinear certificate covers them).
+
+When slip may change at any time (no ``slip.max_rate``), half as many random runs again get a slip
+jump to a random corner at a random time within the period (``Model.switched_exact`` on the linear side).  A
+certificate that covers slip changing within a period (docs/theory.md §11) is judged on every run;
+one that assumes slip constant within a period is judged on the others, and the jumps are reported
+beside (``mid_period``).
 """
 
 from __future__ import annotations
@@ -74,18 +79,22 @@ def boundary_states(model: Any, K: np.ndarray, lyap: Any, level: float, seed: in
 
 
 def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: int = 2000,
-                   seed: int = 0) -> dict[str, Any]:
+                   seed: int = 0, within_period: bool = False) -> dict[str, Any]:
     """One period from ``samples`` random and every figure-maximizing boundary state.  Each gets a
     slip corner and random admissible delays, and the first few runs get constant minimum or
     maximum delays.  Returns the largest V(xi+)/level on the nonlinear robot and on the exact
     lifted map, the fraction of runs above 1, the largest per-period difference between the two
     in e_x, e_y and e_theta, and the worst run.  States whose stored commands exceed the motor
-    limit are dropped: the controller never sent them from inside the set."""
+    limit are dropped: the controller never sent them from inside the set.  ``within_period``: the
+    certificate covers slip changing within a period (see the module's docstring)."""
     rng = np.random.default_rng(seed)
     K = np.asarray(K, dtype=float)
-    dirs = probe_directions(model, K, lyap, samples, rng)
-    N = dirs.shape[0]
     corners = slip_vertices(model)
+    # slip jumps within the period (the default slip class): samples // 2 more random runs, each with a
+    # jump to a random corner at a random time
+    n_jump = samples // 2 if model.slip_step is None and corners.shape[0] > 1 else 0
+    dirs = probe_directions(model, K, lyap, samples + n_jump, rng)
+    N = dirs.shape[0]
     mu = corners[rng.integers(0, corners.shape[0], size=N)]
     # on the boundary of the set of this slip (with the largest value over an unknown previous delay)
     scale = np.sqrt(level / lyap.V(dirs, mu))
@@ -116,20 +125,25 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
               z=[xi[:, model.n_s - n_z + i].copy() for i in range(n_z)])
     dv, dom = law.correction(0.0, q0[:, 0], q0[:, 1], q0[:, 2])
     du = np.stack([dv, dom], axis=1)
+    jumped = np.zeros(N, dtype=bool)
+    jumped[samples : samples + n_jump] = True
+    t_sw = np.where(jumped, rng.uniform(0.0, model.Ts, N), model.Ts)
+    mu_after = np.where(jumped[:, None], corners[rng.integers(0, corners.shape[0], size=N)], mu)
     robot = KinematicRobot.of(model)
     U = robot.send(robot.memory(du_past, N), uD + du)
-    q1 = robot.period(q0, U, S, mu)
+    q1 = robot.period(q0, U, S, mu, switch=(t_sw, mu_after))
     e1 = frame_error(path, 0, q1, model.Ts)
     xi_nl = np.concatenate([e1, np.stack(law.past + law.z, axis=1)], axis=1)
 
     # the exact lifted map of the certificate, same states, slips and delays
-    A, B = model.robot_exact(S, mu)
-    xi_lin = np.einsum("nij,nj->ni", A, xi) + np.einsum("nij,nj->ni", B, du) + model.constant(mu)
+    A, B, c = model.switched_exact(S, mu, t_sw, mu_after)
+    xi_lin = np.einsum("nij,nj->ni", A, xi) + np.einsum("nij,nj->ni", B, du) + c
 
     keep = admissible
-    xi, mu, taus, xi_nl, xi_lin = xi[keep], mu[keep], taus[keep], xi_nl[keep], xi_lin[keep]
+    xi, mu, mu_next, t_sw, taus = xi[keep], mu[keep], mu_after[keep], t_sw[keep], taus[keep]
+    xi_nl, xi_lin, jumped = xi_nl[keep], xi_lin[keep], jumped[keep]
     dw = dw[keep] if dw is not None else None
-    nxt = slip_candidates(model, mu)  # (n, n_c, 2): the next slips the world may pick
+    nxt = slip_candidates(model, mu_next)  # (n, n_c, 2): the next slips the world may pick (from the slip at t_k+1)
 
     def v_next(x: np.ndarray) -> np.ndarray:
         xb = np.broadcast_to(x[:, None, :], nxt.shape[:2] + x.shape[1:])
@@ -137,18 +151,26 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
             return np.max(lyap.V(xb, nxt, prev=np.broadcast_to(dw[:, None, :], nxt.shape[:2] + dw.shape[1:])), axis=1)
         return np.max(lyap.V(xb, nxt), axis=1)
 
-    r_nl, r_lin = v_next(xi_nl) / level, v_next(xi_lin) / level
-    worst = int(np.argmax(r_nl))
-    gap = np.max(np.abs(xi_nl[:, :n_e] - xi_lin[:, :n_e]), axis=0)
+    r_nl_all, r_lin_all = v_next(xi_nl) / level, v_next(xi_lin) / level
+    judged = np.ones_like(jumped) if within_period else ~jumped  # the runs the certificate speaks about
+    r_nl, r_lin = r_nl_all[judged], r_lin_all[judged]
+    worst = int(np.flatnonzero(judged)[np.argmax(r_nl)])
+    gap = np.max(np.abs(xi_nl[judged, :n_e] - xi_lin[judged, :n_e]), axis=0)
+    mid = {"runs": int(np.count_nonzero(jumped)), "covered": bool(within_period)}
+    if mid["runs"]:
+        mid.update(max_V_over_level_nonlinear=float(np.max(r_nl_all[jumped])),
+                   max_V_over_level_linear=float(np.max(r_lin_all[jumped])))
     return {
-        "samples": int(np.count_nonzero(keep)),
-        "directions": {"random": int(samples), "figure_maximizing": int(N - samples),
+        "samples": int(np.count_nonzero(judged)),
+        "directions": {"random": int(samples + n_jump), "figure_maximizing": int(N - samples - n_jump),
                        "dropped_inadmissible_memory": int(N - np.count_nonzero(keep))},
         "max_V_over_level_nonlinear": float(np.max(r_nl)),
         "max_V_over_level_linear": float(np.max(r_lin)),
         "fraction_outside_nonlinear": float(np.mean(r_nl > 1.0)),
         "fraction_outside_linear": float(np.mean(r_lin > 1.0)),
         "max_period_gap": {"e_x": float(gap[0]), "e_y": float(gap[1]), "e_theta": float(gap[2])},
-        "worst": {"xi": xi[worst], "mu": mu[worst], "tau": taus[worst], "xi_next": xi_nl[worst],
-                  "V_over_level": float(r_nl[worst]), "V_over_level_linear": float(r_lin[worst])},
+        "mid_period": mid,
+        "worst": {"xi": xi[worst], "mu": mu[worst], "mu_after": mu_next[worst], "t_switch": float(t_sw[worst]),
+                  "tau": taus[worst], "xi_next": xi_nl[worst],
+                  "V_over_level": float(r_nl_all[worst]), "V_over_level_linear": float(r_lin_all[worst])},
     }
