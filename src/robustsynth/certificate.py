@@ -352,6 +352,9 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
     # slip changing within a period (docs/theory.md §11): a common certificate must also hold at the
     # vertices that cover every slip history; the others state that they assume it constant
     varying, varying_reason = model.slip_variation(lyap)
+    if objective == "hinf" and varying:  # its gain is stated against the slip input B_d w (§6d), which slip
+        varying, varying_reason = (), ("the H-infinity gain is stated for the slip input B_d w, which does not "  # changing
+                                       "describe slip changing within a period")  # within a period is not
     terms = lambda k: 2 * k + X.shape[0] * (K.shape[0] + 1) + len(mats)  # noqa: E731  (products per entry)
 
     def vertex_family(name: str, build) -> list[dict[str, Any]]:
@@ -441,7 +444,8 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
         if model.channels:  # |e_theta(t)| between samples on the set (docs/theory.md §9)
             figures["heading_within_period"] = heading_within_period(model, K, mats, level, inner)
         figures["ultimate_bound_between_samples"] = between_samples(
-            model, K, mats, level, figures["ultimate_bound"], figures.get("heading_within_period"), inner)
+            model, K, mats, level, figures["ultimate_bound"], figures.get("heading_within_period"), inner,
+            within_period=bool(varying))
         if model.heading_bound is not None:
             figures["heading_bound"] = model.heading_bound
             checks.append({
@@ -578,7 +582,7 @@ def sup_on_set(rows: np.ndarray, mats: list[np.ndarray], level: float, inner: in
 
 
 def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: float, sampled: dict[str, float],
-                    heading: float | None, inner: int = 1) -> dict[str, float | None]:
+                    heading: float | None, inner: int = 1, within_period: bool = False) -> dict[str, float | None]:
     """Bounds on |e_x(t)|, |e_y(t)|, |e_theta(t)| for every t, not only at the sampling instants
     (docs/theory.md §9).  Both ends of a period lie in the set, so within it each error is at most
     its sampled bound plus its distance from the chord between the ends, which is at most
@@ -586,9 +590,16 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
     [0, Ts/4] and integrates to at most Ts^2/8).  On the exact arcs ``e_y' = v sin e_theta`` and
     ``e_x' = v cos e_theta - V`` (``f'' = +-v omega cos/sin``, jumps ``|dv|`` times sin / cos at the d_hi
     switching instants); on the linearization ``e_y' = V e_theta`` (``f'' = V omega``, no jumps) and
-    ``e_x' = a`` (only jumps).  v, omega and the jumps dv of the commands in flight are bounded on the
-    set at every slip corner (affine in the slip).  e_theta(t): :func:`heading_within_period`."""
-    from .model.slip import slip_matrix
+    ``e_x' = a`` (only jumps); with the icr slip model e_y' also holds v_y, whose jumps add to e_y's.
+    v, omega and the jumps dv of the commands in flight are bounded on the set at every slip corner
+    (multi-affine in the slip).  e_theta(t): :func:`heading_within_period`.
+
+    ``within_period``: slip may also change within the period (docs/theory.md §11).  Then e_x' = a(t)
+    jumps wherever the slip does, and the chord distance is bounded by ``Ts/4 (sup a - inf a)`` over
+    the period instead (for f' in [m, M]: |f(t) - chord(t)| <= t (Ts - t) / Ts (M - m)): the largest
+    difference of a between any two slip corners and any two commands in flight, on the set.  e_y'' =
+    V omega(t) is bounded pointwise, whatever the slip does."""
+    from .model.slip import lateral_row, slip_matrix
 
     n_s, n_e, n_u, d_hi = model.n_s, model.n_e, model.n_u, model.d_hi
     Ts, V = model.Ts, model.V
@@ -612,6 +623,22 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
     else:
         ey = Ts * Ts / 8 * V * wbar
         ex = Ts / 4 * d_hi * dvbar
+    if within_period:
+        D = model.config.robot.track_distance
+        Ms = [slip_matrix(mu, D) for mu in np.asarray(model.corners)]
+        osc = 0.0
+        for Ma in Ms:
+            for Mb in Ms:
+                const = float((Ma[0] - Mb[0]) @ uD)
+                for ca in cmds:
+                    rows = np.array([Ma[0] @ ca - Mb[0] @ cb for cb in cmds])
+                    osc = max(osc, abs(const) + sup_on_set(rows, mats, level, inner))
+        ex = Ts / 4 * osc
+    if model.icr:  # e_y' also holds the lateral velocity v_y = row(p) u: its jumps at the switching instants
+        D = model.config.robot.track_distance
+        dvy = max(sup_on_set(np.array([lateral_row(mu, D) @ (cmds[j] - cmds[j + 1]) for j in range(d_hi)]), mats,
+                             level, inner) for mu in np.asarray(model.corners))
+        ey += Ts / 4 * d_hi * dvy
     return {"e_x": round_up(sampled["e_x"] + ex, 12), "e_y": round_up(sampled["e_y"] + ey, 12),
             "e_theta": heading}
 

@@ -41,10 +41,10 @@ def closed_loop_matrices(model: Any, gains: Any, instants: Any = None, slip: Any
         raise InputError(f"instants: need {model.d_hi} switching instants (one per stored command), got {s.size}")
     if np.any(s < 0) or np.any(s > model.Ts):
         raise InputError(f"instants: must lie in [0, Ts = {model.Ts:g}] s")
-    (r_lo, r_hi), (l_lo, l_hi) = model.slip_ranges
-    mu = np.array([(r_lo + r_hi) / 2.0, (l_lo + l_hi) / 2.0]) if slip is None else np.asarray(slip, dtype=float).reshape(-1)
-    if mu.shape != (2,) or np.any(mu <= 0):
-        raise InputError("slip: need (mu_r, mu_l), both > 0")
+    mid = np.array([(lo + hi) / 2.0 for lo, hi in model.slip_ranges])
+    mu = mid if slip is None else np.asarray(slip, dtype=float).reshape(-1)
+    if mu.shape != mid.shape or np.any(mu[:2] <= 0):
+        raise InputError(f"slip: need ({', '.join(model.slip_names)}), the tracks' factors > 0")
     A, B = model.exact(s, mu)
     c = model.constant(mu)
     n_e = model.n_e

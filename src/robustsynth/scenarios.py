@@ -71,21 +71,23 @@ def _rate_limit(target: np.ndarray, start: np.ndarray, max_step: float | None) -
 
 def slip_profiles(rng: np.random.Generator, kinds: list[str], steps: int, lo: np.ndarray, hi: np.ndarray, Ts: float,
                    max_rate: float | None = None):
-    """Slip (N, steps, 2) per profile: constant; random walk (std 5 % of the range per sqrt(s),
+    """Slip (N, steps, n_p) per profile: constant; random walk (std 5 % of the range per sqrt(s),
     reflected at the bounds); steps (a new random level every ~3 s); corners (a random corner of
     the box held 1-5 periods).  With ``max_rate`` every profile moves at most max_rate * Ts per
     period (steps and corners become ramps at the largest rate)."""
     N = len(kinds)
-    mu = np.empty((N, steps, 2))
+    P = np.asarray(lo).size  # slip parameters: 2 (tracks) or 4 (icr; the rate bound is the tracks')
+    mu = np.empty((N, steps, P))
     kinds_arr = np.array(kinds)
     width = hi - lo
-    max_step = None if max_rate is None else max_rate * Ts
+    max_step = None if max_rate is None else (max_rate * Ts if P == 2 else
+                                               np.array([max_rate * Ts] * 2 + [np.inf] * (P - 2)))
     # constant
-    start = lo + width * rng.random((N, 2))
+    start = lo + width * rng.random((N, P))
     mu[:] = start[:, None, :]
     # random walk: std 5% of the range per sqrt(s), reflected at the bounds
     scale = 0.05 * math.sqrt(Ts) * width
-    inc = rng.normal(size=(N, steps, 2)) * scale
+    inc = rng.normal(size=(N, steps, P)) * scale
     if max_step is not None:
         inc = np.clip(inc, -max_step, max_step)
     walk = start[:, None, :] + np.cumsum(inc, axis=1)
@@ -99,9 +101,9 @@ def slip_profiles(rng: np.random.Generator, kinds: list[str], steps: int, lo: np
     p = min(1.0, Ts / 3.0)
     jumps = rng.random((N, steps)) < p
     jumps[:, 0] = True
-    levels = lo + width * rng.random((N, steps, 2))
+    levels = lo + width * rng.random((N, steps, P))
     idx = np.maximum.accumulate(np.where(jumps, np.arange(steps)[None, :], 0), axis=1)
-    stepped = np.take_along_axis(levels, idx[:, :, None].repeat(2, axis=2), axis=1)
+    stepped = np.take_along_axis(levels, idx[:, :, None].repeat(P, axis=2), axis=1)
     stepped[:, 0] = start
     sel = kinds_arr == "steps"
     mu[sel] = _rate_limit(stepped, start, max_step)[sel]
@@ -113,10 +115,10 @@ def slip_profiles(rng: np.random.Generator, kinds: list[str], steps: int, lo: np
         on = nxt == k
         switch[on, k] = True
         nxt[on] = k + hold[on, k]
-    pick = rng.integers(0, 2, size=(N, steps, 2))
+    pick = rng.integers(0, 2, size=(N, steps, P))
     corner = np.where(pick == 0, lo, hi)
     idx = np.maximum.accumulate(np.where(switch, np.arange(steps)[None, :], 0), axis=1)
-    cornered = np.take_along_axis(corner, idx[:, :, None].repeat(2, axis=2), axis=1)
+    cornered = np.take_along_axis(corner, idx[:, :, None].repeat(P, axis=2), axis=1)
     sel = kinds_arr == "corners"
     c0 = cornered[:, 0].copy()
     mu[sel] = _rate_limit(cornered, c0, max_step)[sel]
@@ -152,11 +154,11 @@ def draw_scenario(model, runs: int, seed: int, steps: int, path: PathGeometry, d
                                None if losses == "uncapped" else m)
         lost[:, : model.d_hi] = False  # commands sent before t_0 arrived (the run starts in their steady state)
         taus = with_losses(taus, lost)
-    lo = np.array([cfg.slip.right.min, cfg.slip.left.min])
-    hi = np.array([cfg.slip.right.max, cfg.slip.left.max])
+    lo = np.array([r[0] for r in model.slip_ranges])
+    hi = np.array([r[1] for r in model.slip_ranges])
     if slip == "none":
         kinds = ["none"] * runs
-        mu = np.ones((runs, steps, 2))
+        mu = np.tile(model.nominal_slip, (runs, steps, 1))
     else:
         kinds = [slip] * runs if slip else [SLIP_PROFILES[n % len(SLIP_PROFILES)] for n in range(runs)]
         mu = slip_profiles(rng, kinds, steps, lo, hi, model.Ts, cfg.slip.max_rate)
@@ -246,7 +248,6 @@ def slip_candidates(model, mu_prev: np.ndarray) -> np.ndarray:
 def rate_limited_slip(model, rng: np.random.Generator, N: int, steps: int) -> np.ndarray:
     """Slip sequences (N, steps, 2): random corners held 1-5 periods, approached at the largest rate
     ``slip.max_rate`` allows (jumps when there is no rate bound): the simulator's 'corners' profile."""
-    cfg = model.config.slip
-    lo = np.array([cfg.right.min, cfg.left.min])
-    hi = np.array([cfg.right.max, cfg.left.max])
-    return slip_profiles(rng, ["corners"] * N, steps, lo, hi, model.Ts, cfg.max_rate)
+    lo = np.array([r[0] for r in model.slip_ranges])
+    hi = np.array([r[1] for r in model.slip_ranges])
+    return slip_profiles(rng, ["corners"] * N, steps, lo, hi, model.Ts, model.config.slip.max_rate)

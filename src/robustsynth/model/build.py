@@ -10,12 +10,12 @@ from ..errors import ConfigError
 from .kinematics import J_inverse, J_matrix
 from .lifting import delay_indices, instant_ranges, lift
 from .linearize import Gamma, Gamma_D, Phi, continuous_matrices
-from .slip import slip_corners, slip_matrix
+from .slip import lateral_row, slip_corners, slip_matrix, slip_parameter_ranges
 from .uncertainty import embed, slip_box
 from .model import DEFAULT_HEADING_BOUND, MAX_POLYTOPIC_INSTANTS, WIDTH_TOL, Model, frozen_array, frozen_vertex
 from .nonlinear import vertex_channels
-from .vertices import (Vertex, apply_slip, augment_integral, delay_vertex_gammas, loss_vertex_gammas,
-                       varying_slip_vertices)
+from .vertices import (Vertex, add_lateral, apply_slip, augment_integral, delay_vertex_gammas, icr_constant,
+                       interval_coordinates, loss_vertex_gammas, varying_slip_vertices)
 
 __all__ = ["build_model", "coverage_check", "MAX_VARYING_VERTICES"]
 
@@ -59,16 +59,18 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
     A_c, B_c, B_D_c = continuous_matrices(V, D)
     d_lo, d_hi = delay_indices(tmin, tmax, Ts)
     d_hi = max(d_hi, int(min_lifting or 0))
-    ranges = instant_ranges(tmin, tmax, Ts, d_hi)
+    inst_ranges = instant_ranges(tmin, tmax, Ts, d_hi)
     n_e, n_u = B_c.shape
-    instants, Gammas0, B_p, C_q, D_q = embed(A_c, B_c, Ts, ranges, n_e, n_u, d_hi)
+    instants, Gammas0, B_p, C_q, D_q = embed(A_c, B_c, Ts, inst_ranges, n_e, n_u, d_hi)
     Ph = Phi(A_c, Ts)
     GD = Gamma_D(A_c, B_D_c, Ts)
     A, B, B_d = lift(Ph, Gammas0, Gamma(A_c, B_c, Ts), GD)
     mu_r = (config.slip.right.min, config.slip.right.max)
     mu_l = (config.slip.left.min, config.slip.left.max)
     slip = slip_box(mu_r, mu_l)
-    corners = slip_corners(mu_r, mu_l)
+    ranges = slip_parameter_ranges(config.slip)
+    icr = config.slip.model == "icr"
+    corners = slip_corners(*ranges)
     # nominal matrices in the (possibly augmented) state
     if integral:
         A, B = augment_integral(A, B, Ts, n_e)
@@ -87,7 +89,8 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
     else:
         tau_hi = config.network.delay.max  # of a received command (lost ones: the effective tmax)
         nonlinear = syn.kinematics == "nonlinear"
-        delay_description = _resolve_delay_description(syn.delay_description, len(instants), nonlinear)
+        # the kinematic channels and the icr slip model's lateral term need delay vertices
+        delay_description = _resolve_delay_description(syn.delay_description, len(instants), nonlinear or icr)
         if syn.delay_description == "lossy-polytopic" or (syn.delay_description == "auto" and dropouts and tau_hi <= Ts):
             if tau_hi > Ts * (1 + 1e-12):
                 raise ConfigError(f"synthesis.delay_description: lossy-polytopic needs network.delay.max <= "
@@ -96,7 +99,7 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
             labels, gammas = loss_vertex_gammas(A_c, B_c, Ts, tmin, tau_hi, dropouts, d_hi, WIDTH_TOL * max(Ts, 1.0))
             A_t, B_t, _ = lift(Ph, gammas, Gamma(A_c, B_c, Ts), GD)
         elif delay_description == "polytopic":  # the delay vertices, the same for every slip corner
-            labels, gammas, _ = delay_vertex_gammas(A_c, B_c, Ts, ranges, WIDTH_TOL * max(Ts, 1.0))
+            labels, gammas, _ = delay_vertex_gammas(A_c, B_c, Ts, inst_ranges, WIDTH_TOL * max(Ts, 1.0))
             A_t, B_t, _ = lift(Ph, gammas, Gamma(A_c, B_c, Ts), GD)
         if delay_description == "norm-bounded":
             varying_reason = ("the norm-bounded delay description has no delay vertices to tie the slip averages "
@@ -104,16 +107,21 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
         else:
             h = gammas[:, :, 0, 0]  # gammas[t, j] = h_j B + q_j A B (vertices.py): B[0, 0] = 1, (A B)[1, 1] = V
             q = gammas[:, :, 1, 1] / V if V else np.zeros_like(h)
+            lengths = interval_coordinates(h, q, Ts)[0]  # (n_d, d_hi + 1): each command interval's length
+        if icr:
+            varying_reason = ("the icr slip model is not affine in its parameters (the yaw factor multiplies the "
+                              "tracks' factors), so the slip averages of §11 do not describe it")
+        elif delay_description != "norm-bounded":
             varying = varying_slip_vertices(Ph, A_c, B_c, Ts, V, D, mu_r, mu_l, h, q, labels, integral,
                                             MAX_VARYING_VERTICES)
             if varying is None:
-                varying_reason = (f"covering it would take more than {MAX_VARYING_VERTICES} vertices (the delay "
-                                  "range spans too many command intervals)")
+                varying_reason = (f"the delay range spans more than two command intervals in a period (covering "
+                                  f"it would also take up to 16^intervals vertices, at most {MAX_VARYING_VERTICES})")
         for m, mu in enumerate(corners):
             M = slip_matrix(mu, D)
-            c = (mu - 1.0) @ B_d.T
+            c = (mu - 1.0) @ B_d.T if not icr else icr_constant(A_c, B_c, Ts, V, mu, D, n_s)
             E = c[:, None]
-            name = f"mu=({mu[0]:g}, {mu[1]:g})"
+            name = f"mu=({mu[0]:g}, {mu[1]:g})" + (f", yaw={mu[2]:g}, x_icr={mu[3]:g}" if icr else "")
             if delay_description == "norm-bounded":
                 Am, Bm = apply_slip(A, B, M, n_e, n_u, d_hi)
                 T = np.eye(n_s)
@@ -122,6 +130,8 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
                 vertices.append(Vertex(Am, Bm, E, B_p, C_q @ T, D_q @ M, m, name))
             else:
                 At, Bt = apply_slip(A_t, B_t, M, n_e, n_u, d_hi)
+                if icr:  # the lateral velocity: each command interval's length times v_y into e_y
+                    At, Bt = add_lateral(At, Bt, lengths, lateral_row(mu, D), n_e, n_u)
                 if integral:
                     At, Bt = augment_integral(At, Bt, Ts, n_e)
                 for t, lab in enumerate(labels):
@@ -138,7 +148,7 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
         d_hi=d_hi,
         Ts=Ts,
         V=V,
-        instant_ranges=frozen_array(ranges),
+        instant_ranges=frozen_array(inst_ranges),
         A_c=frozen_array(A_c),
         B_c=frozen_array(B_c),
         B_D_c=frozen_array(B_D_c),
@@ -197,10 +207,10 @@ def coverage_check(model: Model, n_sequences: int = 1000, steps: int = 20, seed:
     else:
         corners = np.array(np.meshgrid(*[r for r in model.instant_ranges], indexing="ij")).reshape(model.d_hi, -1).T
     s = np.vstack([s, corners])
-    (rl, rh), (ll, lh) = model.slip_ranges
-    mu = np.stack([rng.uniform(rl, rh, s.shape[0]), rng.uniform(ll, lh, s.shape[0])], axis=1)
+    ranges = model.slip_ranges
+    mu = np.stack([rng.uniform(lo, hi, s.shape[0]) for lo, hi in ranges], axis=1)
     mu[: model.corners.shape[0]] = model.corners  # every slip corner at least once
-    mu[-1] = [rh, lh]
+    mu[-1] = [hi for _, hi in ranges]
     A_ex, B_ex = model.exact(s, mu)
     c_ex = model.constant(mu)
     lam, dlt = model.hull_coordinates(s, mu)

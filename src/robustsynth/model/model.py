@@ -24,10 +24,11 @@ import numpy as np
 
 from ..config import Config
 from .lifting import lifted_exact, s_tilde_sequence
-from .slip import corner_weights, next_corner_weights, slip_matrix
+from .slip import (SLIP_PARAMETERS, corner_weights, lateral_row, next_corner_weights, nominal_slip, slip_matrix,
+                   slip_parameter_ranges)
 from .uncertainty import SlipBox, UncertainInstant, delta_for
-from .vertices import (Vertex, apply_slip, augment_integral, loss_hull_coordinates,
-                       loss_instant_grid, triangle_coordinates)
+from .vertices import (Vertex, add_lateral, apply_slip, augment_integral, interval_coordinates,
+                       loss_hull_coordinates, loss_instant_grid, triangle_coordinates)
 
 __all__ = ["Model", "Mirror", "state_names", "gain_lifting", "pad_gain", "lifted_slice", "INPUT_NAMES", "ERROR_NAMES",
            "SLIP_NAMES", "INTEGRATOR_NAMES", "MODEL_KINDS", "MAX_POLYTOPIC_INSTANTS", "WIDTH_TOL",
@@ -238,17 +239,35 @@ class Model:
         return self.vertices[0].E.shape[1]
 
     @property
-    def slip_ranges(self) -> tuple[tuple[float, float], tuple[float, float]]:
-        s = self.config.slip
-        return (s.right.min, s.right.max), (s.left.min, s.left.max)
+    def slip_ranges(self) -> tuple[tuple[float, float], ...]:
+        """(min, max) of each slip parameter: (mu_r, mu_l), and (yaw, x_icr) with slip.model icr."""
+        return slip_parameter_ranges(self.config.slip)
+
+    @property
+    def slip_names(self) -> tuple[str, ...]:
+        return SLIP_PARAMETERS[self.config.slip.model]
+
+    @property
+    def n_p(self) -> int:
+        """How many slip parameters (the last axis of every ``mu``)."""
+        return len(self.slip_names)
+
+    @property
+    def icr(self) -> bool:
+        return self.config.slip.model == "icr"
 
     # ------------------------------------------------------------------ exact maps
 
     def _base_exact(self, s_tilde: np.ndarray, mu: np.ndarray | None, slip_aware: bool):
         A, B, _ = lifted_exact(self.A_c, self.B_c, self.B_D_c, self.Ts, s_tilde)
         if slip_aware and mu is not None:
-            M = slip_matrix(mu, self.config.robot.track_distance)
+            D = self.config.robot.track_distance
+            M = slip_matrix(mu, D)
             A, B = apply_slip(A, B, M, self.n_e, self.n_u, self.d_hi)
+            if self.icr:  # the lateral velocity (docs/theory.md §12)
+                h = self.Ts - np.asarray(s_tilde, dtype=float)
+                A, B = add_lateral(A, B, interval_coordinates(h, h * h / 2.0, self.Ts)[0], lateral_row(mu, D),
+                                   self.n_e, self.n_u)
         if self.integral:
             A, B = augment_integral(A, B, self.Ts, self.n_e)
         return A, B
@@ -283,8 +302,17 @@ class Model:
         return A, B, c
 
     def constant(self, mu: np.ndarray) -> np.ndarray:
-        """c(mu) = B~_d (mu - 1), the constant term of the exact map, shape (..., n_s)."""
-        return (np.asarray(mu, dtype=float) - 1.0) @ np.asarray(self.B_d).T
+        """c(mu) = B~_d (mu - 1), the constant term of the exact map, shape (..., n_s) (with slip.model
+        icr: :func:`~.vertices.icr_constant`)."""
+        mu = np.asarray(mu, dtype=float)
+        if self.icr:  # icr_constant, for a batch of slips
+            D, Ts, uD = self.config.robot.track_distance, self.Ts, np.array([self.V, 0.0])
+            G = Ts * np.asarray(self.B_c) + Ts**2 / 2.0 * (np.asarray(self.A_c) @ np.asarray(self.B_c))
+            out = np.zeros(mu.shape[:-1] + (self.n_s,))
+            out[..., : self.n_e] = (slip_matrix(mu, D) @ uD - uD) @ G.T
+            out[..., 1] += Ts * (lateral_row(mu, D) @ uD)
+            return out
+        return (mu - 1.0) @ np.asarray(self.B_d).T
 
     def disturbance_coordinates(self, mu: np.ndarray) -> np.ndarray:
         """w (..., n_w) with ``sum_i lambda_i E_i w = c(mu)`` for the hull weights lambda: the slip box
@@ -321,6 +349,11 @@ class Model:
         return corner_weights(mu, *self.slip_ranges)
 
     @property
+    def nominal_slip(self) -> np.ndarray:
+        """The parameters of a robot that does not slip: (1, 1), or (1, 1, 1, 0) for the icr model."""
+        return nominal_slip(self.n_p)
+
+    @property
     def slip_step(self) -> float | None:
         """Largest slip change in one period (slip.max_rate * Ts), None without a rate bound."""
         rate = self.config.slip.max_rate
@@ -340,7 +373,7 @@ class Model:
 
     def next_corner_weights(self, m: int) -> np.ndarray:
         """Weights (n_next, n_c) over the corners of the slips that can follow corner m (one period)."""
-        return next_corner_weights(self.corners[m], *self.slip_ranges, self.slip_step)
+        return next_corner_weights(self.corners[m], self.slip_ranges, self.slip_step)
 
     def lyapunov_count(self, kind: str) -> int:
         """How many Lyapunov matrices a certificate of ``kind`` has (see :meth:`lyapunov_conditions`)."""
@@ -367,8 +400,9 @@ class Model:
             return None
         corners = np.asarray(self.corners, dtype=float)
         swap = []
+        order = [1, 0] + list(range(2, corners.shape[1]))  # the tracks swap; the yaw factor and x_icr stay
         for c in corners:
-            hit = np.flatnonzero(np.all(np.abs(corners - c[::-1]) <= 1e-12, axis=1))
+            hit = np.flatnonzero(np.all(np.abs(corners - c[order]) <= 1e-12, axis=1))
             if hit.size != 1:
                 return None
             swap.append(int(hit[0]))
@@ -433,7 +467,7 @@ class Model:
         out = []
         for i, v in enumerate(self.vertices):
             m, b = int(v.corner), i % n_d
-            W = next_corner_weights(self.corners[m], *self.slip_ranges, slip_step)
+            W = next_corner_weights(self.corners[m], self.slip_ranges, slip_step)
             conds = []
             for a in range(n_d if path else 1):
                 for k, w in enumerate(W):
@@ -448,7 +482,7 @@ class Model:
     def delay_weights(self, s_tilde: np.ndarray) -> np.ndarray:
         """Convex weights (..., n_d) of one period's switching instants over the delay vertices (the
         delay part of :meth:`hull_coordinates`)."""
-        w, _ = self.hull_coordinates(s_tilde, np.ones(2))
+        w, _ = self.hull_coordinates(s_tilde, self.nominal_slip)
         n_c = max(1, len(self.vertices) // self.delay_vertex_count)
         return w.reshape(w.shape[:-1] + (n_c, self.delay_vertex_count)).sum(axis=-2)
 
@@ -468,7 +502,7 @@ class Model:
         mu = np.asarray(mu, dtype=float)
         batch = np.broadcast_shapes(s_tilde.shape[:-1], mu.shape[:-1])
         s_tilde = np.broadcast_to(s_tilde, batch + s_tilde.shape[-1:])
-        mu = np.broadcast_to(mu, batch + (2,))
+        mu = np.broadcast_to(mu, batch + mu.shape[-1:])
         dlt = self.delta(s_tilde) if self.n_q else np.zeros(batch + (0,))
         if self.kind == "paper":
             return np.ones(batch + (1,)), dlt

@@ -16,72 +16,119 @@ import numpy as np
 from ..errors import InfeasibleError
 from .kinematics import JHJinv
 
-__all__ = ["slip_corners", "corner_weights", "next_corner_weights", "slip_matrix", "compensated_command", "required_motor_speeds",
-           "check_physical_feasibility"]
+__all__ = ["slip_corners", "corner_weights", "next_corner_weights", "slip_matrix", "lateral_row", "twist_matrix",
+           "compensated_command", "required_motor_speeds", "check_physical_feasibility", "SLIP_PARAMETERS",
+           "nominal_slip", "slip_parameter_ranges"]
 
 _WIDTH_TOL = 1e-12
+
+# The slip parameters of each slip.model (docs/theory.md §12): ``tracks`` is the paper's one factor
+# per track; ``icr`` adds the yaw factor kappa (the robot turns at kappa times the tracks' yaw rate:
+# an effective track width D / kappa) and the longitudinal offset x_icr [m] of the instantaneous
+# centre of rotation (the body slides sideways at v_y = -x_icr * omega).
+SLIP_PARAMETERS = {"tracks": ("mu_r", "mu_l"), "icr": ("mu_r", "mu_l", "yaw", "x_icr")}
+_NOMINAL = {"mu_r": 1.0, "mu_l": 1.0, "yaw": 1.0, "x_icr": 0.0}
+
+
+def nominal_slip(n_p: int) -> np.ndarray:
+    """The parameters of a robot that does not slip: (1, 1) or (1, 1, 1, 0)."""
+    names = SLIP_PARAMETERS["tracks" if n_p == 2 else "icr"]
+    return np.array([_NOMINAL[n] for n in names])
+
+
+def slip_parameter_ranges(slip_config) -> tuple[tuple[float, float], ...]:
+    """(min, max) of each slip parameter of the config's slip.model, in :data:`SLIP_PARAMETERS` order."""
+    out = [(slip_config.right.min, slip_config.right.max), (slip_config.left.min, slip_config.left.max)]
+    if getattr(slip_config, "model", "tracks") == "icr":
+        out += [(slip_config.yaw.min, slip_config.yaw.max), (slip_config.icr_offset.min, slip_config.icr_offset.max)]
+    return tuple(out)
 
 
 def _track_values(lo: float, hi: float) -> list[float]:
     return [lo] if hi - lo <= _WIDTH_TOL else [lo, hi]
 
 
-def slip_corners(mu_r: tuple[float, float], mu_l: tuple[float, float]) -> np.ndarray:
-    """Corners (mu_r, mu_l) of the slip box, shape (n_c, 2), n_c in {1, 2, 4}; a zero-width range
-    gives one value, so no corner is repeated."""
-    return np.array(list(itertools.product(_track_values(*mu_r), _track_values(*mu_l))), dtype=float)
+def slip_corners(*ranges: tuple[float, float]) -> np.ndarray:
+    """Corners of the slip box, shape (n_c, n_p), n_c = 2^(parameters with a nonzero width); a
+    zero-width range gives one value, so no corner is repeated."""
+    return np.array(list(itertools.product(*(_track_values(*r) for r in ranges))), dtype=float)
 
 
-def corner_weights(mu: np.ndarray, mu_r: tuple[float, float], mu_l: tuple[float, float]) -> np.ndarray:
-    """Bilinear convex weights lambda (..., n_c) with ``sum_m lambda_m corner_m = mu`` and, since M is
-    affine in mu, ``sum_m lambda_m M(corner_m) = M(mu)``; the order is that of :func:`slip_corners`."""
+def corner_weights(mu: np.ndarray, *ranges: tuple[float, float]) -> np.ndarray:
+    """Multilinear convex weights lambda (..., n_c) with ``sum_m lambda_m corner_m = mu``; every map
+    that is affine in each parameter separately (M, the twist, the lifted matrices) is then the same
+    combination of its values at the corners; the order is that of :func:`slip_corners`."""
     mu = np.asarray(mu, dtype=float)
     per_track = []
-    for i, (lo, hi) in enumerate((mu_r, mu_l)):
+    for i, (lo, hi) in enumerate(ranges):
         if hi - lo <= _WIDTH_TOL:
             per_track.append([np.ones(mu.shape[:-1])])
         else:
             t = (mu[..., i] - lo) / (hi - lo)
             per_track.append([1.0 - t, t])
-    return np.stack([a * b for a, b in itertools.product(*per_track)], axis=-1)
+    out = [np.ones(mu.shape[:-1])]
+    for w in per_track:
+        out = [a * b for a in out for b in w]
+    return np.stack(out, axis=-1)
 
 
-def next_corner_weights(corner: np.ndarray, mu_r: tuple[float, float], mu_l: tuple[float, float],
+def next_corner_weights(corner: np.ndarray, ranges: tuple[tuple[float, float], ...],
                         max_step: float | None) -> np.ndarray:
     """Corner weights (n_next, n_c) of the slips that can follow ``corner`` in one period.
 
     Without a rate bound (or a track whose range is narrower than one period's step) the next slip
     is anywhere in the box: the unit vectors.  With ``max_step`` = max_rate * Ts smaller than a
-    track's width, that track's next value is ``corner +- max_step``, whose bilinear weights
+    track's width, that track's next value is ``corner +- max_step``, whose multilinear weights
     extrapolate beyond [0, 1]: a slip-dependent Lyapunov LMI is multi-affine in (mu_k, dmu), so
-    holding at these vertices it holds for every mu_k in the box and |dmu| <= max_step."""
+    holding at these vertices it holds for every mu_k in the box and |dmu| <= max_step.  The rate
+    bound applies to the tracks' factors (the first two parameters); the others may jump."""
     per_track = []
-    for i, (lo, hi) in enumerate((mu_r, mu_l)):
+    for i, (lo, hi) in enumerate(ranges):
         vals = _track_values(lo, hi)
-        if len(vals) == 1 or max_step is None or max_step >= hi - lo:
+        if len(vals) == 1 or max_step is None or max_step >= hi - lo or i >= 2:
             per_track.append(vals)
         else:
             per_track.append([corner[i] - max_step, corner[i] + max_step])
     nxt = np.array(list(itertools.product(*per_track)), dtype=float)
-    return corner_weights(nxt, mu_r, mu_l)  # at the corners themselves: the unit vectors
+    return corner_weights(nxt, *ranges)  # at the corners themselves: the unit vectors
 
 
 def slip_matrix(mu: np.ndarray, D: float) -> np.ndarray:
-    """M(mu) = J H J^-1, shape (..., 2, 2), for ``mu[..., (mu_r, mu_l)]``."""
+    """M(mu) = J H J^-1, shape (..., 2, 2): the (v, omega) the robot gets for a command (v, omega),
+    for ``mu[..., (mu_r, mu_l)]``; with the icr parameters the yaw row is scaled by the yaw factor."""
     mu = np.asarray(mu, dtype=float)
-    return JHJinv(mu[..., 0], mu[..., 1], D)
+    M = JHJinv(mu[..., 0], mu[..., 1], D)
+    if mu.shape[-1] > 2:
+        M[..., 1, :] *= mu[..., 2, None]
+    return M
+
+
+def lateral_row(mu: np.ndarray, D: float) -> np.ndarray:
+    """The body's lateral velocity per command, v_y = row @ (v, omega), shape (..., 2): zero for the
+    tracks model, ``-x_icr`` times the yaw row of :func:`slip_matrix` for the icr model."""
+    mu = np.asarray(mu, dtype=float)
+    if mu.shape[-1] <= 2:
+        return np.zeros(mu.shape[:-1] + (2,))
+    return -mu[..., 3, None] * slip_matrix(mu, D)[..., 1, :]
+
+
+def twist_matrix(mu: np.ndarray, D: float) -> np.ndarray:
+    """The body twist (v_x, v_y, omega) per command (v, omega), shape (..., 3, 2)."""
+    M = slip_matrix(mu, D)
+    return np.stack([M[..., 0, :], lateral_row(mu, D), M[..., 1, :]], axis=-2)
 
 
 def compensated_command(mu: np.ndarray, V: float, D: float) -> np.ndarray:
     """du* = M(mu)^-1 u^D - u^D: the command deviation that makes the robot move at u^D (..., 2)."""
     uD = np.array([V, 0.0])
-    return np.linalg.solve(slip_matrix(mu, D), np.broadcast_to(uD, np.shape(mu))[..., None])[..., 0] - uD
+    M = slip_matrix(mu, D)
+    return np.linalg.solve(M, np.broadcast_to(uD, M.shape[:-1])[..., None])[..., 0] - uD
 
 
 def required_motor_speeds(mu: np.ndarray, V: float, R: float) -> np.ndarray:
     """rho* = J^-1 M(mu)^-1 u^D = H^-1 J^-1 u^D = (V/(R mu_r), V/(R mu_l)): what the motors must turn
     to hold the reference speed on straight ground under slip mu (..., 2)."""
-    mu = np.asarray(mu, dtype=float)
+    mu = np.asarray(mu, dtype=float)[..., :2]
     return V / (R * mu)
 
 

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Vertex", "apply_slip", "augment_integral", "triangle", "triangle_coordinates", "delay_vertex_gammas"]
+__all__ = ["Vertex", "apply_slip", "add_lateral", "icr_constant", "augment_integral", "triangle", "triangle_coordinates", "delay_vertex_gammas"]
 
 
 @dataclass(frozen=True)
@@ -73,6 +73,34 @@ def apply_slip(A: np.ndarray, B: np.ndarray, M: np.ndarray, n_e: int, n_u: int, 
         A[..., :n_e, cols] = A[..., :n_e, cols] @ M
     B[..., :n_e, :] = B[..., :n_e, :] @ M
     return A, B
+
+
+def add_lateral(A: np.ndarray, B: np.ndarray, lengths: np.ndarray, row: np.ndarray, n_e: int, n_u: int):
+    """Add the lateral velocity of the icr slip model (docs/theory.md §12) to the lifted map: command
+    interval i (du_{k-i}, of length ``lengths[..., i]``) moves e_y by ``L_i v_y``, ``v_y = row @ u``
+    (A e_y = 0: nothing else).  A (..., n_s, n_s), B (..., n_s, n_u), lengths (..., d_hi + 1)."""
+    A = np.array(A, dtype=float, copy=True)
+    B = np.array(B, dtype=float, copy=True)
+    L = np.asarray(lengths, dtype=float)
+    row = np.asarray(row, dtype=float)
+    B[..., 1, :] += L[..., 0, None] * row
+    for i in range(1, L.shape[-1]):
+        A[..., 1, n_e + (i - 1) * n_u : n_e + i * n_u] += L[..., i, None] * row
+    return A, B
+
+
+def icr_constant(A_c: np.ndarray, B_c: np.ndarray, Ts: float, V: float, mu: np.ndarray, D: float, n_s: int) -> np.ndarray:
+    """The constant column of the icr slip model's lifted map (n_s,): the period's error under the
+    reference command alone, ``Gamma(Ts) (M u^D - u^D) + Ts e_y v_y(u^D)`` (the tracks model's
+    ``B~_d (mu - 1)``, which it reproduces for yaw = 1, x_icr = 0)."""
+    from .slip import lateral_row, slip_matrix
+
+    uD = np.array([V, 0.0])
+    G = Ts * B_c + Ts**2 / 2.0 * (A_c @ B_c)
+    out = np.zeros(n_s)
+    out[: B_c.shape[0]] = G @ (slip_matrix(mu, D) @ uD - uD)
+    out[1] += Ts * float(lateral_row(mu, D) @ uD)
+    return out
 
 
 def augment_integral(A: np.ndarray, B: np.ndarray, Ts: float, n_e: int = 3):
@@ -280,7 +308,8 @@ def varying_slip_vertices(Phi: np.ndarray, A_c: np.ndarray, B_c: np.ndarray, Ts:
     at any time (docs/theory.md §11): per delay vertex (coordinates ``h``, ``q`` (n_v, d_hi)), every
     combination of :data:`SLIP_AVERAGE_PARALLELOGRAM` points per track and command interval (an interval
     of zero length at the vertex gets one point).  Returns a list of Vertex (no uncertainty channels,
-    ``corner`` -1: they belong to no slip corner), or None when there would be more than ``limit``."""
+    ``corner`` -1: they belong to no slip corner), or None when there would be more than ``limit`` or a
+    delay vertex has more than two command intervals of nonzero length."""
     from .slip import slip_matrix
 
     L_all, W_all = interval_coordinates(h, q, Ts)
@@ -296,6 +325,10 @@ def varying_slip_vertices(Phi: np.ndarray, A_c: np.ndarray, B_c: np.ndarray, Ts:
     counts = []
     for L, W in zip(L_all, W_all):
         live = (np.abs(L) > tol * Ts) | (np.abs(W) > tol * Ts * Ts)
+        if np.count_nonzero(live) > 2:
+            # the heading within the period (certificate.heading_within_period) takes one slip corner for
+            # the commands before a switching instant: exact with at most two command intervals
+            return None
         counts.append(len(interval_pts) ** int(np.count_nonzero(live)))
     if sum(counts) > limit:
         return None

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model.kinematics import JHJinv
+from ..model.slip import twist_matrix
 from ..law import wrap_angle as law_wrap_angle
 
 __all__ = ["KinematicRobot", "arc_step", "saturate", "period", "wrap_angle"]
@@ -29,16 +30,23 @@ def wrap_angle(a: np.ndarray) -> np.ndarray:
     return law_wrap_angle(np.asarray(a, dtype=float))
 
 
-def arc_step(q: np.ndarray, v: np.ndarray, w: np.ndarray, h: np.ndarray | float) -> np.ndarray:
-    """Exact pose after moving with constant (v, w) for time h: an arc (a line when w = 0).
-
-    dx = v h sinc(w h / 2) cos(theta + w h / 2), dy likewise with sin; stable for w -> 0."""
+def arc_step(q: np.ndarray, v: np.ndarray, w: np.ndarray, h: np.ndarray | float,
+             vy: np.ndarray | None = None) -> np.ndarray:
+    """Exact pose after moving with constant body velocity (v, vy) and yaw rate w for time h: an arc
+    (a line when w = 0).  The body frame turns by w h, so the displacement is the body velocity
+    rotated by theta + w h / 2 times h sinc(w h / 2): dx = h sinc(w h / 2) (v cos - vy sin)(theta + w h / 2),
+    dy likewise; stable for w -> 0.  ``vy`` None: no lateral velocity (the tracks model)."""
     th = q[..., 2]
     half = w * h / 2.0
-    chord = v * h * np.sinc(half / np.pi)  # np.sinc(x) = sin(pi x)/(pi x)
+    scale = h * np.sinc(half / np.pi)  # np.sinc(x) = sin(pi x)/(pi x)
+    chord = v * scale
     out = np.empty_like(q)
     out[..., 0] = q[..., 0] + chord * np.cos(th + half)
     out[..., 1] = q[..., 1] + chord * np.sin(th + half)
+    if vy is not None:
+        side = vy * scale
+        out[..., 0] -= side * np.sin(th + half)
+        out[..., 1] += side * np.cos(th + half)
     out[..., 2] = th + w * h
     return out
 
@@ -55,7 +63,8 @@ def saturate(u_hat: np.ndarray, J: np.ndarray, J_inv: np.ndarray, rho_max: float
 def period(q: np.ndarray, U: np.ndarray, S: np.ndarray, M: np.ndarray, Ts: float, J: np.ndarray,
            J_inv: np.ndarray, rho_sat: float | None, switch: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Move the robot through one sampling period: ``U[..., j]`` = u_hat_{k-j} acts on
-    [s~_j, s~_{j-1}) (s~_{d_hi} = 0, s~_{-1} = Ts), the robot receives M u_hat (exact arcs).
+    [s~_j, s~_{j-1}) (s~_{d_hi} = 0, s~_{-1} = Ts), the robot receives M u_hat (exact arcs): M
+    (..., 2, 2) gives (v, omega); a twist matrix (..., 3, 2) gives (v, v_y, omega) (the icr model).
     ``switch = (t, M_after)``: from time t within the period on the robot receives M_after u_hat."""
     d_hi = S.shape[-1]
     start = np.zeros(q.shape[:-1])
@@ -65,7 +74,10 @@ def period(q: np.ndarray, U: np.ndarray, S: np.ndarray, M: np.ndarray, Ts: float
         pieces = [(M, end)] if switch is None else [(M, np.clip(switch[0], start, end)), (switch[1], end)]
         for Mp, stop in pieces:
             u_eff = np.einsum("...ij,...j->...i", Mp, u)
-            q = arc_step(q, u_eff[..., 0], u_eff[..., 1], stop - start)
+            if u_eff.shape[-1] == 3:
+                q = arc_step(q, u_eff[..., 0], u_eff[..., 2], stop - start, u_eff[..., 1])
+            else:
+                q = arc_step(q, u_eff[..., 0], u_eff[..., 1], stop - start)
             start = stop
     return q
 
@@ -116,8 +128,16 @@ class KinematicRobot:
         """The poses at t_{k+1} from ``q`` at t_k: the commands ``U`` act on the intervals of the
         switching instants ``S`` (..., d_hi), under slip ``mu`` (..., 2) = (mu_r, mu_l); with
         ``switch = (t, mu_after)`` the slip jumps to mu_after at time t (...) within the period."""
-        M = JHJinv(mu[..., 0], mu[..., 1], self.track_distance)
+        M = self._map(mu)
         if switch is not None:
             t, after = switch
-            switch = (np.asarray(t, dtype=float), JHJinv(after[..., 0], after[..., 1], self.track_distance))
+            switch = (np.asarray(t, dtype=float), self._map(after))
         return period(q, U, S, M, self.Ts, self.J, self.J_inv, self.rho_max, switch)
+
+    def _map(self, mu: np.ndarray) -> np.ndarray:
+        """J H J^-1 (..., 2, 2) for the tracks model's (mu_r, mu_l); the twist matrix (..., 3, 2) for the
+        icr model's (mu_r, mu_l, yaw, x_icr)."""
+        mu = np.asarray(mu, dtype=float)
+        if mu.shape[-1] > 2:
+            return twist_matrix(mu, self.track_distance)
+        return JHJinv(mu[..., 0], mu[..., 1], self.track_distance)

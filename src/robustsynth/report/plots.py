@@ -282,8 +282,11 @@ def fig_frozen(res, model) -> Any:
         ax.axhline(r, color="tab:green", ls=":", lw=1.2, label=f"certified decay rate r = {r:.3f}")
     ax.set_xlabel("constant delay tau [ms]")
     ax.set_ylabel("spectral radius [-]")
-    corners = ", ".join(f"({a:g}, {b:g})" for a, b in np.asarray(model.corners))
-    ax.set_title("Closed loop with the delay frozen at tau\n(the largest over the slip corners (mu_r, mu_l): "
+    names = ", ".join(model.slip_names)
+    corners = ", ".join("(" + ", ".join(f"{x:g}" for x in c) + ")" for c in np.asarray(model.corners))
+    if len(corners) > 90:
+        corners = f"{np.asarray(model.corners).shape[0]} corners"
+    ax.set_title(f"Closed loop with the delay frozen at tau\n(the largest over the slip corners ({names}): "
                  + corners + ")", fontsize=10)
     ax.legend(fontsize=8, loc="center right", framealpha=0.85)
     ax.grid(alpha=0.3)

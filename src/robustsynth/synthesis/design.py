@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import time
 from contextvars import ContextVar
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Callable
 
 import numpy as np
@@ -156,7 +156,12 @@ class _Runner:
                 spent += c.attempts
                 new = [i for i in c.indices if i not in self.cuts][:CUTS_PER_ROUND]
                 if rounds >= MAX_CUT_ROUNDS or not new or self._builder is None:
-                    out, res = Outcome("failed", spent[-1], spent), (None, None, None)
+                    # not a solver failure: the point fails the re-check within the period after the
+                    # rounds (or at vertices already in the LMIs: the solver's accuracy); not certified
+                    why = ("within-period vertices already in the LMIs still fail (solver accuracy)" if not new else
+                           f"constraint generation did not converge in {rounds} rounds")
+                    last = replace(spent[-1], status=f"{spent[-1].status}; {why}")
+                    out, res = Outcome("failed", last, spent[:-1] + [last]), (None, None, None)
                     break
                 rounds += 1
                 self.cuts += new

@@ -52,18 +52,19 @@ def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 
     xi[:, 0] = xi0
     taus_out = np.empty((N, steps + d_hi))
     taus_out[:, :d_hi] = hist
-    mu_out = np.empty((N, steps, 2))
-    mu_prev = np.ones((N, 2)) if mu0 is None else np.array(mu0, dtype=float)
+    n_p = model.n_p
+    mu_out = np.empty((N, steps, n_p))
+    mu_prev = np.tile(model.nominal_slip, (N, 1)) if mu0 is None else np.array(mu0, dtype=float)
     for k in range(steps):
         check_interrupt()
-        mu_cands = slip_candidates(model, mu_prev) if slip else np.ones((N, 1, 2))
+        mu_cands = slip_candidates(model, mu_prev) if slip else np.tile(model.nominal_slip, (N, 1, 1))
         n_m = mu_cands.shape[1]
         # candidate delay of packet k (the newest): s~ depends on it and on the history
         cand = np.concatenate([np.repeat(hist[:, None, :], n_tau, axis=1), np.broadcast_to(tau_grid[None, :, None], (N, n_tau, 1))], axis=2)
         s = model.s_tilde(cand)[:, :, 0, :]  # (N, n_tau, d_hi)
         A, B = model.exact(s[:, :, None, :], mu_cands[:, None, :, :])  # (N, n_tau, n_m, ...)
         nxt = np.einsum("ntmij,nj->ntmi", A + B @ K, xi[:, k]) + model.constant(mu_cands)[:, None]
-        mus = np.broadcast_to(mu_cands[:, None], nxt.shape[:-1] + (2,))
+        mus = np.broadcast_to(mu_cands[:, None], nxt.shape[:-1] + (n_p,))
         if with_delay:
             dw = model.delay_weights(s)  # (N, n_tau, n_d): this period's delay, the next state's "previous"
             V = V_fn(nxt, mus, prev=np.broadcast_to(dw[:, :, None], nxt.shape[:-1] + dw.shape[-1:]))

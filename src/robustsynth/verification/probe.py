@@ -16,7 +16,7 @@ above 1 is a state of the certified set that leaves it in one period.  On the li
 certificate forbids that.  On the nonlinear robot a linearized certificate does not: the kinematic
 terms the linearization drops (docs/theory.md §2) are not in it (a nonlinear certificate covers them).
 
-When slip may change at any time (no ``slip.max_rate``), half as many random runs again get a slip
+When slip may change at any time (no ``slip.max_rate``; the tracks model), half as many random runs again get a slip
 jump to a random corner at a random time within the period (``Model.switched_exact`` on the linear side).  A
 certificate that covers slip changing within a period (docs/theory.md §11) is judged on every run;
 one that assumes slip constant within a period is judged on the others, and the jumps are reported
@@ -92,7 +92,7 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
     corners = slip_vertices(model)
     # slip jumps within the period (the default slip class): samples // 2 more random runs, each with a
     # jump to a random corner at a random time
-    n_jump = samples // 2 if model.slip_step is None and corners.shape[0] > 1 else 0
+    n_jump = samples // 2 if model.slip_step is None and corners.shape[0] > 1 and not model.icr else 0
     dirs = probe_directions(model, K, lyap, samples + n_jump, rng)
     N = dirs.shape[0]
     mu = corners[rng.integers(0, corners.shape[0], size=N)]

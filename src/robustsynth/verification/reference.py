@@ -17,12 +17,20 @@ from ..scenarios import Scenario
 __all__ = ["simulate_run", "ivp_arc"]
 
 
-def ivp_arc(q: np.ndarray, v: float, w: float, h: float, rtol: float = 1e-11, atol: float = 1e-12) -> np.ndarray:
+def ivp_arc(q: np.ndarray, v: float, w: float, h: float, rtol: float = 1e-11, atol: float = 1e-12,
+            vy: float = 0.0) -> np.ndarray:
+    """The pose after time h at body velocity (v, vy) and yaw rate w, by numerical integration of
+    x' = v cos th - vy sin th, y' = v sin th + vy cos th, th' = w (G(theta) for vy = 0)."""
     from scipy.integrate import solve_ivp
 
     if h <= 0:
         return q.copy()
-    sol = solve_ivp(lambda _t, x: G_matrix(x[2]) @ np.array([v, w]), (0.0, h), q, rtol=rtol, atol=atol, method="DOP853")
+
+    def rhs(_t, x):
+        out = G_matrix(x[2]) @ np.array([v, w])
+        return out + vy * np.array([-np.sin(x[2]), np.cos(x[2]), 0.0])
+
+    sol = solve_ivp(rhs, (0.0, h), q, rtol=rtol, atol=atol, method="DOP853")
     return sol.y[:, -1]
 
 
@@ -63,16 +71,21 @@ def simulate_run(model, K: np.ndarray, path: PathGeometry, scen: Scenario, n: in
         past = [du] + past[:-1]
         u_hat.append(uD + du)
         M = JHJinv(scen.mu[n, k, 0], scen.mu[n, k, 1], D)
+        if scen.mu.shape[-1] > 2:  # the icr model: yaw factor and lateral velocity (theory §12)
+            M = np.diag([1.0, scen.mu[n, k, 2]]) @ M
+            lat = -scen.mu[n, k, 3] * M[1]
         t1 = t0 + Ts
         events = [t0] + sorted(a for a in arrive if t0 < a < t1) + [t1]
         for a, b in zip(events[:-1], events[1:]):
             active = [i for i in range(len(u_hat)) if arrive[i] <= a]
             u = u_hat[active[-1]] if active else uD
-            ue = M @ saturate(u, np.asarray(model.J), np.asarray(model.J_inv), rho_sat)
+            us = saturate(u, np.asarray(model.J), np.asarray(model.J_inv), rho_sat)
+            ue = M @ us
+            vy = float(lat @ us) if scen.mu.shape[-1] > 2 else None
             if integrator == "arc":
-                q = arc_step(q, ue[0], ue[1], b - a)
+                q = arc_step(q, ue[0], ue[1], b - a, vy)
             else:
-                q = ivp_arc(q, ue[0], ue[1], b - a)
+                q = ivp_arc(q, ue[0], ue[1], b - a, vy=vy or 0.0)
         qs.append(q.copy())
     es.append(frame_error(path, path.segment(steps * Ts), q, steps * Ts))
     return np.array(qs), np.array(es), np.array(dus)

@@ -188,7 +188,7 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
         q_next = robot.period(np.broadcast_to(q[:, None, None, :], shape + (3,)),
                               np.broadcast_to(U[:, None, None], shape + U.shape[1:]),
                               np.broadcast_to(S[:, None], shape + (d_hi,)),
-                              np.broadcast_to(cand_mu[:, :, None, :], shape + (2,)))
+                              np.broadcast_to(cand_mu[:, :, None, :], shape + cand_mu.shape[-1:]))
         e_next = frame_error(path, 0, q_next, tk + Ts)
         rest = np.stack(law.past + law.z, axis=1)  # the controller's memory after step k
         xi_next = np.concatenate([e_next, np.broadcast_to(rest[:, None, None, :], shape + rest.shape[1:])], axis=-1)
@@ -197,7 +197,7 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
         nxt_mu = slip_candidates(model, cand_mu)  # (P, n_c, n_c', 2)
         n_n = nxt_mu.shape[2]
         xi_b = np.broadcast_to(xi_next[:, :, :, None, :], shape + (n_n, xi_next.shape[-1]))
-        mu_b = np.broadcast_to(nxt_mu[:, :, None], shape + (n_n, 2))
+        mu_b = np.broadcast_to(nxt_mu[:, :, None], shape + (n_n, nxt_mu.shape[-1]))
         if with_delay:
             dwt = model.delay_weights(S)  # (P, n_tau, n_d): this period's, the next sample's "previous"
             v_all = V_fn(xi_b, mu_b, prev=np.broadcast_to(dwt[:, None, :, None], shape + (n_n, dwt.shape[-1])))
@@ -235,7 +235,7 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
         VK.append(flat["V"][keep])
     worst = {}
     for o, (value, k, i, mu_v) in best.items():
-        mu_h, tau_h = np.empty((k + 1, 2)), np.empty(k + 1)
+        mu_h, tau_h = np.empty((k + 1, model.n_p)), np.empty(k + 1)
         for j in range(k, -1, -1):  # walk the history back to its start
             mu_h[j], tau_h[j] = MU[j][i], TAU[j][i]
             i = parents[j][i]
