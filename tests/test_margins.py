@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -148,3 +149,30 @@ def test_margin_cli_rejects_a_gain_of_the_wrong_shape(tmp_path) -> None:
     lines = r.output.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: K has shape (1, 3)")
     assert not (tmp_path / "o" / "margin.json").exists()
+
+
+def test_icr_margins_per_slip_parameter() -> None:
+    """slip.model icr: a margin per slip parameter (issue 24).  The ICR offset's: the certified end has a
+    certificate an independent re-run finds again, and the witness (its slip holds x_icr = exhibited)
+    grows on the lifted loop at the exhibited value, as its spectral radius says."""
+    from robustsynth.artifacts.gains import load_gains
+    from robustsynth.config import load_config
+    from robustsynth.margins import _icr_margin
+
+    root = Path(__file__).resolve().parents[1]
+    cfg = load_config(root / "configs" / "icr-physics.yaml")
+    K = np.asarray(load_gains(root / "results" / "baselines" / "icr-physics" / "gains.json")["K"], dtype=float)
+    x = _icr_margin(cfg, K, "common", lambda _m: None, "icr_offset_max")
+    assert x.name == "icr_offset_max" and x.configured == cfg.slip.icr_offset.max
+    assert x.certified is not None and x.exhibited is not None
+    assert x.configured <= x.certified <= x.exhibited
+    assert max(c[3] for c in x.witness["slip"]) == pytest.approx(x.exhibited)
+    m = build_model(config_with(cfg, {"slip.icr_offset.max": x.certified}))
+    assert analyze_stability(m, K, lyapunov="common").certified
+    m = build_model(config_with(cfg, {"slip.icr_offset.max": x.exhibited}))
+    taus, mu = _periodic(m, x.witness, PERIODS)
+    xi = closed_loop_run(m, K, taus, mu, np.random.default_rng(0).normal(size=(1, m.n_s)), affine=False)
+    n = np.linalg.norm(xi[0], axis=1)
+    half = (xi.shape[1] - 1) // 2
+    rate = (n[-1] / n[half]) ** (1.0 / (xi.shape[1] - 1 - half))
+    assert rate == pytest.approx(x.witness["spectral_radius"], rel=GROWTH_RTOL)

@@ -37,6 +37,9 @@ SLIP_TOL = 0.005  # bisection tolerance on mu_min
 DELAY_TOL_PERIODS = 0.01  # bisection tolerance on tau_max, in sampling periods
 SEARCH_DELAYS = 5  # delay values per period in the switching search (tau_min .. tau_max)
 SEARCH_PERIOD = 3  # longest period of the switching sequences searched
+MAX_SLIP_SEQUENCES = 256  # switching slip sequences per period length at most (else the slip is held)
+ICR_STEP = 0.05  # grid step of the icr parameters' instability walk (yaw factor; x_icr in m)
+ICR_TOL = 0.005  # bisection tolerance of the icr parameters' margins
 DROPOUT_SEARCH = 6  # the loss margin is searched up to this many losses beyond the configured cap
 
 
@@ -93,10 +96,11 @@ class MarginReport:
     slip_min: Margin
     dropouts: Margin
     meta: dict[str, Any] = field(default_factory=dict)
+    slip_parameters: tuple[Margin, ...] = ()  # slip.model icr: yaw_min, icr_offset_max
 
     @property
     def margins(self) -> tuple[Margin, ...]:
-        return (self.delay_max, self.slip_min, self.dropouts)
+        return (self.delay_max, self.slip_min, *self.slip_parameters, self.dropouts)
 
     def to_dict(self) -> dict[str, Any]:
         out = {m.name: m.to_dict() for m in self.margins}
@@ -152,7 +156,7 @@ def find_instability(model: Any, K: np.ndarray, n_delays: int = SEARCH_DELAYS, m
         if dseq.size == 0:
             continue
         p = dseq.shape[1]
-        if model.rate_bounded or p == 1 or p > max_period:
+        if model.rate_bounded or p == 1 or p > max_period or len(corners) ** p > MAX_SLIP_SEQUENCES:
             sseq = np.repeat(corners[:, None, :], p, axis=1)  # (n_c, p, 2): slip held
         else:
             idx = np.array(list(itertools.product(range(len(corners)), repeat=p)))
@@ -171,7 +175,7 @@ def find_instability(model: Any, K: np.ndarray, n_delays: int = SEARCH_DELAYS, m
         if r > 1.0 + tol and (best is None or r > best["spectral_radius"]):
             best = {"delays": [None if np.isinf(x) else float(x) for x in dseq[i]],
                     "lost": [bool(np.isinf(x)) for x in dseq[i]],
-                    "slip": [[float(a), float(b)] for a, b in sseq[j]], "period": p, "spectral_radius": r}
+                    "slip": [[float(x) for x in c] for c in sseq[j]], "period": p, "spectral_radius": r}
         if best is not None and p == 1:
             break  # a frozen instability is the simplest witness
     return best
@@ -305,7 +309,7 @@ def _slip_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[st
     witness = _first_instability(search, grid, SLIP_TOL / 4)
     exhibited = None
     if witness is not None:
-        exhibited = min(min(s) for s in witness["slip"])  # admissible for any mu_min <= this
+        exhibited = min(min(s[:2]) for s in witness["slip"])  # admissible for any mu_min <= this
     say("slip_min: certificate bisection")
     lo = exhibited if exhibited is not None else SLIP_FLOOR
     certified: float | None
@@ -328,6 +332,47 @@ def _slip_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[st
         note += f"; no instability found for mu_min down to {SLIP_FLOOR:g}"
     return Margin("slip_min", "", "min", float(configured), certified, exhibited, witness,
                   (float(SLIP_FLOOR), float(mu_hi)), note, tuple(search.evaluations))
+
+
+def _icr_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[str], None], name: str) -> Margin:
+    """The icr model's other slip parameters, one at a time, the rest as configured: ``yaw_min`` (how
+    little of the commanded yaw rate the robot may get; slip.yaw.min lowered) and ``icr_offset_max``
+    (how far ahead the ICR may sit; slip.icr_offset.max raised).  Certified: the furthest value with a
+    robust-stability certificate; exhibited: the nearest at which periodic delay/slip sequences are
+    unstable (the witness's own extreme parameter value)."""
+    sl = config.slip
+    if name == "yaw_min":
+        key, index, direction, configured, start, end = "slip.yaw.min", 2, "min", sl.yaw.min, sl.yaw.max, ICR_STEP
+    else:
+        key, index, direction, configured, start, end = "slip.icr_offset.max", 3, "max", sl.icr_offset.max, \
+            sl.icr_offset.min, 1.0
+    search = _Search(config, K, lambda x: {key: float(x)}, lyapunov, say)
+    say(f"{name}: instability search")
+    step = -ICR_STEP if direction == "min" else ICR_STEP
+    grid = np.arange(configured, end + step / 2 if direction == "max" else end - 1e-12, step)
+    witness = _first_instability(search, grid, ICR_TOL / 4)
+    exhibited = None
+    if witness is not None:
+        vals = [c[index] for c in witness["slip"]]
+        exhibited = min(vals) if direction == "min" else max(vals)
+    say(f"{name}: certificate bisection")
+    far = exhibited if exhibited is not None else float(end)
+    certified: float | None
+    if search.certified(configured):
+        certified = far if (far == configured or search.certified(far)) else _bisect(
+            search.certified, configured, far, ICR_TOL)
+    elif start != configured and search.certified(start):
+        certified = _bisect(search.certified, start, configured, ICR_TOL)
+    else:
+        certified = None
+    what = "yaw factor's minimum" if name == "yaw_min" else "ICR offset's maximum [m]"
+    note = (f"certified: the furthest {what} with a robust-stability certificate (the other parameters as "
+            f"configured); exhibited: the witness slip sequence's own extreme value")
+    if exhibited is None:
+        note += f"; no instability found up to {end:g}"
+    lo_hi = (float(min(configured, end)), float(max(configured, end)))
+    return Margin(name, "m" if name == "icr_offset_max" else "", direction, float(configured), certified, exhibited,
+                  witness, lo_hi, note, tuple(search.evaluations))
 
 
 def _dropout_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[str], None]) -> Margin:
@@ -388,9 +433,12 @@ def margin(config: Config, K: np.ndarray, *, lyapunov: str | None = None,
     t2 = time.perf_counter()
     drop = _dropout_margin(config, K, lyapunov, say)
     t3 = time.perf_counter()
+    extra = tuple(_icr_margin(config, K, lyapunov, say, n) for n in ("yaw_min", "icr_offset_max")) \
+        if config.slip.model == "icr" else ()
+    t4 = time.perf_counter()
     meta = {"model": "slip-aware", "lyapunov": lyapunov, "exhibit_tol": EXHIBIT_TOL,
             "search": {"delays_per_period": SEARCH_DELAYS, "longest_period": SEARCH_PERIOD,
                        "slip": "corners, held constant" if config.slip.max_rate is not None else "corners, switching"},
             "time_s": {"delay_max": round(t1 - t0, 3), "slip_min": round(t2 - t1, 3), "dropouts": round(t3 - t2, 3),
-                       "total": round(t3 - t0, 3)}}
-    return MarginReport(d, s, drop, meta)
+                       **({"slip_parameters": round(t4 - t3, 3)} if extra else {}), "total": round(t4 - t0, 3)}}
+    return MarginReport(d, s, drop, meta, extra)
