@@ -55,6 +55,8 @@ def compare_models(model: Any, gains: dict[str, Any], vd: dict[str, Any] | None 
     if gains.get("objective") != "ultimate-bound":
         return None
     cfg = model.config
+    if cfg.slip.model == "icr":  # the paper's model has no yaw factor or lateral slip (the config refuses it)
+        return None
     other_cfg = cfg.model_copy(update={"synthesis": cfg.synthesis.model_copy(
         update={"model": other_kind(model.kind), "lyapunov": "common"})})
     other = build_model(other_cfg)

@@ -236,12 +236,15 @@ def slip_vertices(model) -> np.ndarray:
 
 
 def slip_candidates(model, mu_prev: np.ndarray) -> np.ndarray:
-    """Slips (N, n_c, 2) an adversary may pick next: the corners, or with ``slip.max_rate`` the
-    largest admissible moves towards them."""
+    """Slips (N, n_c, n_p) an adversary may pick next: the corners, or with ``slip.max_rate`` the
+    largest admissible moves towards them (the rate bounds the tracks' factors; the icr model's yaw
+    factor and x_icr may jump to any corner)."""
     corners = slip_vertices(model)
     step = model.slip_step
     if step is None:
         return np.broadcast_to(corners, mu_prev.shape[:-1] + corners.shape)
+    if corners.shape[-1] > 2:
+        step = np.array([step, step] + [np.inf] * (corners.shape[-1] - 2))
     return mu_prev[..., None, :] + np.clip(corners - mu_prev[..., None, :], -step, step)
 
 

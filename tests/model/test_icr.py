@@ -12,7 +12,7 @@ import pytest
 from scipy.linalg import expm
 
 from robustsynth.config import load_config
-from robustsynth.errors import ConfigError
+from robustsynth.errors import ConfigError, InputError
 from robustsynth.model import build_model, coverage_check
 from robustsynth.model.slip import lateral_row, slip_matrix, twist_matrix
 from robustsynth.plants.kinematic import KinematicRobot, arc_step
@@ -144,3 +144,25 @@ def test_arc_step_with_lateral_velocity_matches_the_ode() -> None:
         q = rng.normal(size=3)
         v, w, vy, h = rng.uniform(0, 1), rng.uniform(-2, 2), rng.uniform(-0.1, 0.1), rng.uniform(0.0, 0.1)
         assert np.max(np.abs(arc_step(q, v, w, h, vy) - ivp_arc(q, v, w, h, vy=vy))) <= ODE_TOL
+
+
+def test_the_rate_bound_is_the_tracks_and_the_other_parameters_jump() -> None:
+    """slip.max_rate bounds mu_r, mu_l only: the adversary's next slips reach every yaw and x_icr corner,
+    and a rate wider than the tracks' range bounds nothing (whatever the other ranges are)."""
+    from robustsynth.scenarios import slip_candidates
+
+    m = build_model(_icr(**{"slip.max_rate": 0.1, "slip.right": {"min": 0.9, "max": 1.0},
+                            "slip.left": {"min": 0.9, "max": 1.0}}))
+    nxt = slip_candidates(m, m.corners[:1])[0]
+    assert set(np.round(nxt[:, 2], 12)) == {0.54, 0.67} and set(np.round(nxt[:, 3], 12)) == {0.0, 0.09}
+    assert np.max(np.abs(nxt[:, :2] - m.corners[0, :2])) <= 0.1 * m.Ts + 1e-12
+    wide = build_model(_icr(**{"slip.max_rate": 2.0, "slip.right": {"min": 0.9, "max": 1.0},
+                               "slip.left": {"min": 0.9, "max": 1.0}}))
+    assert m.rate_bounded and not wide.rate_bounded  # 0.2 per period covers [0.9, 1]; yaw's 0.13 does not count
+
+
+def test_check_log_refuses_the_icr_model() -> None:
+    from robustsynth.identification import check_log
+
+    with pytest.raises(InputError, match="slip.model: icr"):
+        check_log([], load_config(ICR))

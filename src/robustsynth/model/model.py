@@ -363,7 +363,7 @@ class Model:
     def rate_bounded(self) -> bool:
         """True when the rate bound restricts the next slip (narrower than some track's range)."""
         step = self.slip_step
-        return step is not None and any(step < hi - lo for lo, hi in self.slip_ranges if hi > lo)
+        return step is not None and any(step < hi - lo for lo, hi in self.slip_ranges[:2] if hi > lo)  # mu_r, mu_l
 
     @property
     def delay_vertex_count(self) -> int:

@@ -109,6 +109,9 @@ def model_markdown(model: Model, coverage: dict[str, Any]) -> str:
                  f"[{fmt(c.network.delay.min)}, {fmt(c.network.delay.max + model.dropouts * c.network.sampling_time)}]", "s"],
                 ["right slip", "mu_r", f"[{fmt(c.slip.right.min)}, {fmt(c.slip.right.max)}]", "—"],
                 ["left slip", "mu_l", f"[{fmt(c.slip.left.min)}, {fmt(c.slip.left.max)}]", "—"],
+                *([["yaw factor", "yaw", f"[{fmt(c.slip.yaw.min)}, {fmt(c.slip.yaw.max)}]", "—"],
+                   ["ICR offset", "x_icr", f"[{fmt(c.slip.icr_offset.min)}, {fmt(c.slip.icr_offset.max)}]", "m"]]
+                  if c.slip.model == "icr" else []),
                 ["delay indices", "d_lo, d_hi", f"{model.d_lo}, {model.d_hi}", "samples"],
                 ["lifted state size", "n_s", str(model.n_s), "—"],
                 ["uncertain instants", "d_hi − d_lo", str(len(model.instants)), "—"],
@@ -187,15 +190,18 @@ def kind_markdown(model: Model) -> str:
                 " A certificate of this model does not hold for the robot under slip (use `synthesis.model: slip-aware`;"
                 " `robustsynth verify` shows the gap). The LMIs use one vertex: the norm-bounded form below with the slip"
                 " as a box disturbance `B_d W w`.\n")
-    corners = ", ".join(f"({fmt(m[0])}, {fmt(m[1])})" for m in model.corners)
+    corners = ", ".join("(" + ", ".join(fmt(x) for x in m) + ")" for m in model.corners)
     desc = ("a covering triangle for each uncertain instant: the curve (h, h²/2) lies in the triangle of its end points"
             " and the crossing of its end tangents, which contains the curve's convex hull (3 vertices per instant)" if model.delay_description == "polytopic" else
             "the norm-bounded embedding below (the same Delta at every slip corner, one multiplier per vertex)")
     out = ["\n## Slip-aware model\n\n", NEGLECTED,
-           f"\nVertices: the {model.corners.shape[0]} slip corners (mu_r, mu_l) = {corners} (the slip matrix"
-           f" `M(mu)` is affine in mu) times the delay description — {desc}: {len(model.vertices)} vertices. At vertex i"
+           f"\nVertices: the {model.corners.shape[0]} slip corners ({', '.join(model.slip_names)}) = {corners} (the slip"
+           f" matrix `M(mu)` is {'multi-affine' if model.icr else 'affine'} in the slip) times the delay description —"
+           f" {desc}: {len(model.vertices)} vertices. At vertex i"
            " the command columns of the error rows are multiplied by `M(mu_i)` and the constant column"
-           " `c_i = B~_d (mu_i - 1)` is tied to the vertex (`E_i = c_i`, `w = 1`). Treating the instants of successive"
+           + (" (the period's error under the reference command alone, lateral velocity included: docs/theory.md §12)"
+              if model.icr else " `c_i = B~_d (mu_i - 1)`")
+           + " is tied to the vertex (`E_i = c_i`, `w = 1`). Treating the instants of successive"
            " periods, and slip and delay, as independent is a relaxation (it covers more than in-order delivery"
            " allows).\n"]
     if model.integral:

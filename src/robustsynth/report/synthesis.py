@@ -67,6 +67,9 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
            f"at most {model.dropouts} commands lost in a row (the actuator holds the last one received; covered as an "
            f"effective delay of up to {cfg.network.delay.max + model.dropouts * cfg.network.sampling_time:g} s);\n")
         + f"- slip mu_r in [{cfg.slip.right.min:g}, {cfg.slip.right.max:g}], mu_l in [{cfg.slip.left.min:g}, {cfg.slip.left.max:g}], "
+        + (f"yaw factor in [{cfg.slip.yaw.min:g}, {cfg.slip.yaw.max:g}], x_icr in [{cfg.slip.icr_offset.min:g}, "
+           f"{cfg.slip.icr_offset.max:g}] m (slip.model icr: lateral sliding, docs/theory.md §12), "
+           if cfg.slip.model == "icr" else "")
         + _within_text(result.certified.get("slip_within_period"), len(model.varying))
         + ("free to jump anywhere in its range every period" if rate is None else
         f"changing at most {rate:g} /s (" + (f"the {cfg.synthesis.lyapunov} certificate uses the rate bound"

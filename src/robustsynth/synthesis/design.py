@@ -653,7 +653,9 @@ def _run_linearized(model: Any, s: SynthesisConfig, search: list, motor: bool,
                 )
         raise InfeasibleError(
             f"ultimate-bound: no gain makes an ellipsoid invariant for {_delay_text(model)} and slip in "
-            f"[{cfg.slip.right.min:g}, {cfg.slip.right.max:g}] x [{cfg.slip.left.min:g}, {cfg.slip.left.max:g}]: "
+            f"[{cfg.slip.right.min:g}, {cfg.slip.right.max:g}] x [{cfg.slip.left.min:g}, {cfg.slip.left.max:g}]"
+            + (f" (yaw [{cfg.slip.yaw.min:g}, {cfg.slip.yaw.max:g}], x_icr [{cfg.slip.icr_offset.min:g}, "
+               f"{cfg.slip.icr_offset.max:g}] m)" if cfg.slip.model == "icr" else "") + ": "
             "narrow network.delay or slip, or lower reference.speed"
         )
     return best, runner

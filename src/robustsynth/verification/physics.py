@@ -73,8 +73,7 @@ def _run_episodes(model: Any, gains: dict[str, Any], first: int, count: int, see
         if first + i > 0:
             offsets[i] = rng.uniform(-1.0, 1.0, 3) * np.array(PERTURBATION)
         taus.append(random_delays(model, rng, 1, steps)[0])
-        (rl, rh), (ll, lh) = model.slip_ranges[:2]  # the kinematic comparison engine: the tracks' factors
-        mus.append([rng.uniform(rl, rh), rng.uniform(ll, lh)])
+        mus.append([rng.uniform(lo, hi) for lo, hi in model.slip_ranges])  # every slip parameter (icr: 4)
     taus = np.array(taus)  # (N, d_hi + steps): the d_hi packets before t_0 first
     q0 = pose_from_error(path, offsets)
     robot = PhysicsRobot(cfg, N) if engine == "physics" else _KinematicEngine(model, np.array(mus))
