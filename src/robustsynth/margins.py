@@ -299,6 +299,23 @@ def _delay_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[s
                   note, tuple(search.evaluations))
 
 
+def _certified_end(search: "_Search", configured: float, far: float, start: float, tol: float,
+                   beyond: Callable[[float, float], bool]) -> float | None:
+    """The furthest value with a certificate, searched from the configured one towards ``far`` (the
+    exhibited instability, or the search's end; ``beyond(a, b)``: a lies further out than b).  When the
+    configured value has none, the bisection runs between the other end of the range (``start``) and
+    it; None when neither has one."""
+    if search.certified(configured):
+        if not beyond(far, configured):
+            return configured
+        if search.certified(far):
+            return far
+        return _bisect(search.certified, configured, far, tol)
+    if beyond(configured, start) and search.certified(start):
+        return _bisect(search.certified, start, configured, tol)
+    return None
+
+
 def _slip_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[str], None]) -> Margin:
     sl = config.slip
     mu_hi = min(sl.right.max, sl.left.max)
@@ -312,18 +329,7 @@ def _slip_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[st
         exhibited = min(min(s[:2]) for s in witness["slip"])  # admissible for any mu_min <= this
     say("slip_min: certificate bisection")
     lo = exhibited if exhibited is not None else SLIP_FLOOR
-    certified: float | None
-    if search.certified(configured):
-        if lo >= configured:
-            certified = configured
-        elif search.certified(lo):
-            certified = lo
-        else:
-            certified = _bisect(search.certified, configured, lo, SLIP_TOL)
-    elif configured < mu_hi and search.certified(mu_hi):
-        certified = _bisect(search.certified, mu_hi, configured, SLIP_TOL)
-    else:
-        certified = None
+    certified = _certified_end(search, configured, lo, mu_hi, SLIP_TOL, lambda a, b: a < b)
     note = ("certified: smallest mu_min (both tracks, mu_max as configured) with a robust-stability certificate; "
             "exhibited: largest mu_min admitting the witness slip sequence")
     if sl.right.min != sl.left.min:
@@ -357,14 +363,8 @@ def _icr_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[str
         exhibited = min(vals) if direction == "min" else max(vals)
     say(f"{name}: certificate bisection")
     far = exhibited if exhibited is not None else float(end)
-    certified: float | None
-    if search.certified(configured):
-        certified = far if (far == configured or search.certified(far)) else _bisect(
-            search.certified, configured, far, ICR_TOL)
-    elif start != configured and search.certified(start):
-        certified = _bisect(search.certified, start, configured, ICR_TOL)
-    else:
-        certified = None
+    certified = _certified_end(search, configured, far, start, ICR_TOL,
+                               (lambda a, b: a < b) if direction == "min" else (lambda a, b: a > b))
     what = "yaw factor's minimum" if name == "yaw_min" else "ICR offset's maximum [m]"
     note = (f"certified: the furthest {what} with a robust-stability certificate (the other parameters as "
             f"configured); exhibited: the witness slip sequence's own extreme value")

@@ -106,7 +106,7 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
                               "to (synthesis.delay_description: polytopic or lossy-polytopic)")
         else:
             h = gammas[:, :, 0, 0]  # gammas[t, j] = h_j B + q_j A B (vertices.py): B[0, 0] = 1, (A B)[1, 1] = V
-            q = gammas[:, :, 1, 1] / V if V else np.zeros_like(h)
+            q = gammas[:, :, 1, 1] / V  # (V^D > 0)
             lengths = interval_coordinates(h, q, Ts)[0]  # (n_d, d_hi + 1): each command interval's length
         if icr:
             varying_reason = ("the icr slip model is not affine in its parameters (the yaw factor multiplies the "
@@ -137,9 +137,8 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
                 for t, lab in enumerate(labels):
                     vertices.append(Vertex(At[t], Bt[t], E, np.zeros((n_s, 0)), np.zeros((0, n_s)),
                                            np.zeros((0, n_u)), m, f"{name}; {lab}"))
-                    # the kinematic channels: gammas[t, j] = h_j B + (h_j^2/2) A B (vertices.py)
-                    coords = np.stack([gammas[t, :, 0, 0], gammas[t, :, 1, 1] / V], axis=1)
-                    channels.append(vertex_channels(mu, coords, V, Ts, M, n_s, n_e, n_u, d_hi))
+                    # the kinematic channels, from the delay vertex's coordinates (h_j, h_j^2/2)
+                    channels.append(vertex_channels(mu, np.stack([h[t], q[t]], axis=1), V, Ts, M, n_s, n_e, n_u, d_hi))
     frozen_vertices = tuple(frozen_vertex(v) for v in vertices)
     model = Model(
         config=config,

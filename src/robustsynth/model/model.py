@@ -27,8 +27,9 @@ from .lifting import lifted_exact, s_tilde_sequence
 from .slip import (SLIP_PARAMETERS, corner_weights, lateral_row, next_corner_weights, nominal_slip, slip_matrix,
                    slip_parameter_ranges)
 from .uncertainty import SlipBox, UncertainInstant, delta_for
-from .vertices import (Vertex, add_lateral, apply_slip, augment_integral, interval_coordinates,
-                       loss_hull_coordinates, loss_instant_grid, triangle_coordinates)
+from .vertices import (Vertex, add_lateral, apply_slip, augment_integral, icr_constant, interval_coordinates,
+                       interval_slip_averages, loss_hull_coordinates, loss_instant_grid, triangle_coordinates,
+                       varying_slip_maps)
 
 __all__ = ["Model", "Mirror", "state_names", "gain_lifting", "pad_gain", "lifted_slice", "INPUT_NAMES", "ERROR_NAMES",
            "SLIP_NAMES", "INTEGRATOR_NAMES", "MODEL_KINDS", "MAX_POLYTOPIC_INSTANTS", "WIDTH_TOL",
@@ -186,10 +187,13 @@ class Model:
         verts = tuple(augment(v, ch, theta_bar, self.V, scales) for v, ch in zip(self.base_vertices, self.channels))
         return replace(self, vertices=tuple(frozen_vertex(v) for v in verts), heading_bound=theta_bar)
 
-    def slip_variation(self, lyapunov: str = "common") -> tuple[tuple[Vertex, ...], str]:
+    def slip_variation(self, lyapunov: str = "common", objective: str = "ultimate-bound") -> tuple[tuple[Vertex, ...], str]:
         """The vertices that cover slip changing at any time within a period for a certificate of kind
-        ``lyapunov`` (docs/theory.md §11), and ``""``; or ``()`` and the reason a certificate of that
-        kind on this model assumes slip constant within each period."""
+        ``lyapunov`` and ``objective`` (docs/theory.md §11), and ``""``; or ``()`` and the reason such a
+        certificate on this model assumes slip constant within each period."""
+        if objective == "hinf":
+            return (), ("the H-infinity gain is stated for the slip input B_d w, which does not describe slip "
+                        "changing within a period")
         if self.heading_bound is not None:
             return (), ("the kinematic channels (synthesis.kinematics: nonlinear) are built for slip constant "
                         "within a period")
@@ -287,8 +291,6 @@ class Model:
         ``mu_after`` at ``t_switch`` in [0, Ts] within the period (docs/theory.md §11): each command
         interval sees the slip's uniform and (Ts - t)-weighted averages over it.  With no jump
         (t_switch = Ts, or mu_after = mu) it is :meth:`robot_exact` and :meth:`constant`."""
-        from .vertices import interval_coordinates, interval_slip_averages, varying_slip_maps
-
         s = np.asarray(s_tilde, dtype=float)
         h = self.Ts - s
         L, W = interval_coordinates(h, h * h / 2.0, self.Ts)
@@ -305,13 +307,9 @@ class Model:
         """c(mu) = B~_d (mu - 1), the constant term of the exact map, shape (..., n_s) (with slip.model
         icr: :func:`~.vertices.icr_constant`)."""
         mu = np.asarray(mu, dtype=float)
-        if self.icr:  # icr_constant, for a batch of slips
-            D, Ts, uD = self.config.robot.track_distance, self.Ts, np.array([self.V, 0.0])
-            G = Ts * np.asarray(self.B_c) + Ts**2 / 2.0 * (np.asarray(self.A_c) @ np.asarray(self.B_c))
-            out = np.zeros(mu.shape[:-1] + (self.n_s,))
-            out[..., : self.n_e] = (slip_matrix(mu, D) @ uD - uD) @ G.T
-            out[..., 1] += Ts * (lateral_row(mu, D) @ uD)
-            return out
+        if self.icr:
+            return icr_constant(np.asarray(self.A_c), np.asarray(self.B_c), self.Ts, self.V, mu,
+                                self.config.robot.track_distance, self.n_s)
         return (mu - 1.0) @ np.asarray(self.B_d).T
 
     def disturbance_coordinates(self, mu: np.ndarray) -> np.ndarray:

@@ -90,16 +90,17 @@ def add_lateral(A: np.ndarray, B: np.ndarray, lengths: np.ndarray, row: np.ndarr
 
 
 def icr_constant(A_c: np.ndarray, B_c: np.ndarray, Ts: float, V: float, mu: np.ndarray, D: float, n_s: int) -> np.ndarray:
-    """The constant column of the icr slip model's lifted map (n_s,): the period's error under the
-    reference command alone, ``Gamma(Ts) (M u^D - u^D) + Ts e_y v_y(u^D)`` (the tracks model's
-    ``B~_d (mu - 1)``, which it reproduces for yaw = 1, x_icr = 0)."""
+    """The constant column of the icr slip model's lifted map (..., n_s) for slips ``mu`` (..., 4): the
+    period's error under the reference command alone, ``Gamma(Ts) (M u^D - u^D) + Ts e_y v_y(u^D)``
+    (the tracks model's ``B~_d (mu - 1)``, which it reproduces for yaw = 1, x_icr = 0)."""
+    from .linearize import Gamma
     from .slip import lateral_row, slip_matrix
 
+    mu = np.asarray(mu, dtype=float)
     uD = np.array([V, 0.0])
-    G = Ts * B_c + Ts**2 / 2.0 * (A_c @ B_c)
-    out = np.zeros(n_s)
-    out[: B_c.shape[0]] = G @ (slip_matrix(mu, D) @ uD - uD)
-    out[1] += Ts * float(lateral_row(mu, D) @ uD)
+    out = np.zeros(mu.shape[:-1] + (n_s,))
+    out[..., : B_c.shape[0]] = (slip_matrix(mu, D) @ uD - uD) @ Gamma(A_c, B_c, Ts).T
+    out[..., 1] += Ts * (lateral_row(mu, D) @ uD)
     return out
 
 
@@ -279,12 +280,15 @@ def varying_slip_maps(Phi: np.ndarray, A_c: np.ndarray, B_c: np.ndarray, Ts: flo
     ``M_til[..., i]`` on its (Ts - t)-weighted average (..., d_hi + 1, 2, 2); L, W (..., d_hi + 1) from
     :func:`interval_coordinates`.  Exact for any slip history (§11): the error rows are
     ``Phi e + sum_i G_i (u^D + du_{k-i}) - Gamma(Ts) u^D`` with ``G_i = L_i B M_bar_i + W_i A B M_til_i``."""
+    from .linearize import Gamma
+
     n_e, n_u = B_c.shape
     d_hi = L.shape[-1] - 1
-    AB = A_c @ B_c
-    G = L[..., None, None] * (B_c @ M_bar) + W[..., None, None] * (AB @ M_til)  # (..., d_hi + 1, n_e, n_u)
+    G = L[..., None, None] * (B_c @ M_bar) + W[..., None, None] * ((A_c @ B_c) @ M_til)  # (..., d_hi + 1, n_e, n_u)
     batch = G.shape[:-3]
     n_s = n_e + d_hi * n_u
+    # lift()'s layout, with each command's block G_i itself (not a difference of Gammas: switched_exact
+    # without a jump is then robot_exact bit for bit)
     A = np.zeros(batch + (n_s, n_s))
     B = np.zeros(batch + (n_s, n_u))
     A[..., :n_e, :n_e] = Phi
@@ -294,10 +298,9 @@ def varying_slip_maps(Phi: np.ndarray, A_c: np.ndarray, B_c: np.ndarray, Ts: flo
     B[..., n_e : n_e + n_u, :] = np.eye(n_u)
     for j in range(1, d_hi):
         A[..., n_e + j * n_u : n_e + (j + 1) * n_u, n_e + (j - 1) * n_u : n_e + j * n_u] = np.eye(n_u)
-    uD = np.array([V, 0.0])
-    gamma_Ts = Ts * B_c + Ts**2 / 2.0 * AB
     E = np.zeros(batch + (n_s,))
-    E[..., :n_e] = G.sum(axis=-3) @ uD - gamma_Ts @ uD
+    uD = np.array([V, 0.0])
+    E[..., :n_e] = G.sum(axis=-3) @ uD - Gamma(A_c, B_c, Ts) @ uD
     return A, B, E
 
 

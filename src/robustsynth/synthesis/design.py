@@ -219,9 +219,6 @@ class _Runner:
                 cert = self.make_cert(vals)  # computes P = Q^-1 (or S_m^-1)
             except np.linalg.LinAlgError:
                 return False
-            n_own = len(self.model.vertices)  # the data of appended within-period vertices are not kept
-            cert["multipliers"]["M"] = list(cert["multipliers"]["M"])[:n_own]
-            cert["vertices"] = n_own
             chk = check_certificate(self.model, K, cert)
             holder.update(cert=cert, K=K, check=chk)
             failing = varying_failures(chk)
@@ -249,7 +246,9 @@ def _cert_common(model: Any, vals: dict, kind: str, margin: float, objective: st
     else:
         out.update(lyapunov=vals["lyapunov"], G=vals["G"], S=vals["S"], P=[np.linalg.inv(S) for S in vals["S"]],
                    slip_step=model.slip_step if model.rate_bounded else None)
-    out["multipliers"] = {"kind": kind, "M": vals["M"], "blocks": [i.j for i in model.instants]
+    # one multiplier per vertex of ``model``: an LMI that also held within-period vertices (Model.with_cuts,
+    # appended last) keeps none for those (they have no uncertainty channels)
+    out["multipliers"] = {"kind": kind, "M": list(vals["M"])[: len(model.vertices)], "blocks": [i.j for i in model.instants]
                           if model.n_q and any(v.n_q for v in model.vertices) else []}
     out["margin"] = margin
     out["kinematics"] = model.kinematics
