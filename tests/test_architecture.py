@@ -26,7 +26,8 @@ LAYERS: list[tuple[str, ...]] = [
     ("robustsynth.synthesis",),  # LMIs (the only user of cvxpy)
     ("robustsynth.verification",),  # the judges: lifted model, robot in closed loop, verdicts
     ("robustsynth.report", "robustsynth.interop"),
-    ("robustsynth.comparison", "robustsynth.margins", "robustsynth.sweeps", "robustsynth.identification"),
+    ("robustsynth.comparison", "robustsynth.margins", "robustsynth.sweeps", "robustsynth.identification",
+     "robustsynth.identification_icr"),
     ("robustsynth.pipeline", "robustsynth.regression"),
     ("robustsynth.cli", "robustsynth.__main__"),
 ]

@@ -102,8 +102,8 @@ def test_cli_identify_and_check_log(logs, tmp_path) -> None:
     (tmp_path / "narrow.yaml").write_text(yaml.safe_dump(narrow))
     r = run("check-log", *paths, "--config", str(tmp_path / "narrow.yaml"))
     assert r.returncode == 1 and "VIOLATED network.delay" in r.stdout
-    r = run("identify", *paths, "--model", "icr")
-    assert r.returncode == 2 and "not available yet" in r.stderr
+    r = run("identify", *paths, "--model", "bogus")
+    assert r.returncode == 2 and "--model" in r.stderr
 
 
 def test_a_command_overtaken_by_a_newer_one_never_acts() -> None:
@@ -118,3 +118,148 @@ def test_a_command_overtaken_by_a_newer_one_never_acts() -> None:
     idx, dur, known = _segments(log)
     used = [(int(i), round(float(d), 12)) for i, d in zip(idx[1], dur[1]) if i >= 0]
     assert used == [(0, 0.03), (2, 0.07)]
+
+
+# --- the icr model (issue 24): open-loop excitation of the model's own robot, a new slip every period or few
+ICR_TRUTH = {"right": (0.95, 1.02), "left": (0.95, 1.02), "yaw": (0.54, 0.67), "icr_offset": (0.0, 0.09)}
+ICR_NOISE = (4e-6, 1e-5)  # [m], [rad]: the icr box within 2 % needs 5x less noise than the tracks' (see README)
+ICR_EPISODES = 16  # x 629 periods: ~10 000
+
+
+def _icr_cfg(**over):
+    from robustsynth.config import config_with, load_config
+
+    from .conftest import ROOT
+
+    base = {"verification.noise.position": ICR_NOISE[0], "verification.noise.heading": ICR_NOISE[1],
+            "network.dropouts.max_consecutive": 2}
+    base.update(over)
+    return config_with(load_config(ROOT / "configs" / "icr-physics.yaml"), base)
+
+
+@pytest.fixture(scope="module")
+def icr_logs():
+    from robustsynth.verification.physics import excitation_slip, excitation_steps, excite
+
+    cfg = _icr_cfg()
+    m = build_model(cfg)
+    logs = excite(m, episodes=ICR_EPISODES, seed=0, engine="kinematic")
+    truth = excitation_slip(m, ICR_EPISODES, excitation_steps(m), 0)
+    return cfg, logs, truth
+
+
+def test_icr_lines_hold_the_true_slip_and_the_true_offset() -> None:
+    """Noise-free, one command per period: at s = 1/yaw the line gives the true traction factors and
+    x_icr is the true offset (the algebra of identification_icr against the simulator's arcs)."""
+    from robustsynth.identification import _icr_lines
+    from robustsynth.verification.physics import excitation_slip, excitation_steps, excite
+
+    cfg = _icr_cfg(**{"verification.noise.position": 0.0, "verification.noise.heading": 0.0,
+                      "network.delay.min": 0.0, "network.delay.max": 0.0, "network.dropouts.max_consecutive": 0})
+    m = build_model(cfg)
+    logs = excite(m, episodes=2, seed=4, engine="kinematic")
+    truth = excitation_slip(m, 2, excitation_steps(m), 4)
+    lines, periods, _ = _icr_lines(logs, cfg.robot.gear_radius, cfg.robot.track_distance, (0.0, 0.0), None)
+    rows = np.array([int(f[7:10]) for f, _ in (w for p in periods for w in p.where)])
+    k = np.array([r - 2 for p in periods for _, r in p.where])
+    tr = truth[rows, k]
+    s = 1.0 / tr[:, 2]
+    tol = 1e-7  # the Gauss-Newton fit through exact arcs (finite-difference Jacobian)
+    assert np.max(np.abs(lines.ar + lines.br * s - tr[:, 0])) < tol
+    assert np.max(np.abs(lines.al + lines.bl * s - tr[:, 1])) < tol
+    turning = np.isfinite(lines.x) & (np.abs(lines.omega) > 0.05)
+    assert turning.sum() > 500 and np.max(np.abs(lines.x[turning] - tr[turning, 3])) < 1e-6
+
+
+def test_icr_gauge_is_the_least_box_that_explains_every_period(icr_logs) -> None:
+    """The gauge LP's box: every period's line meets it (checked in closed form, not by the LP), and no
+    box that explains the data costs less -- in particular not the true box, which explains it too."""
+    from scipy.stats import norm
+
+    from robustsynth.identification import _icr_lines
+    from robustsynth.identification_icr import S_WEIGHT, feasible_s, gauge_box
+
+    cfg, logs, _ = icr_logs
+    lines, _, _ = _icr_lines(logs, cfg.robot.gear_radius, cfg.robot.track_distance, ICR_NOISE, cfg.robot.max_motor_speed)
+    z = float(norm.isf(0.05 / (2 * len(lines))))
+    box = gauge_box(lines, z)
+    lo, hi = feasible_s(lines, box, z)
+    slack = 1e-9  # the LP's feasibility tolerance, in s
+    assert np.all(lo <= hi + slack)
+    true_box = np.array([ICR_TRUTH["right"], ICR_TRUTH["left"], (1 / ICR_TRUTH["yaw"][1], 1 / ICR_TRUTH["yaw"][0])])
+    tlo, thi = feasible_s(lines, true_box, z)
+    assert np.mean(tlo <= thi) >= 0.999  # the truth explains (almost) every period within z sigma of its noise
+
+    def cost(b):
+        return b[0, 1] - b[0, 0] + b[1, 1] - b[1, 0] + S_WEIGHT * (b[2, 1] - b[2, 0])
+
+    assert cost(box) <= cost(true_box) + 1e-9
+
+
+def test_identify_icr_contains_the_truth_and_is_close_to_it(icr_logs) -> None:
+    cfg, logs, truth = icr_logs
+    ident = identify(logs, cfg.robot.gear_radius, cfg.robot.track_distance, model="icr",
+                     max_motor_speed=cfg.robot.max_motor_speed, pose_noise=ICR_NOISE)
+    assert ident.slip.mu.shape == (len(ident.slip.where), 4) and ident.slip.mu.shape[0] > 9000
+    for i, key in enumerate(("right", "left", "yaw", "icr_offset")):
+        lo, hi = ident.box[key]
+        tlo, thi = float(truth[..., i].min()), float(truth[..., i].max())
+        assert (tlo, thi) == pytest.approx(ICR_TRUTH[key], abs=1e-12)  # the profiles reach the box's corners
+        assert lo <= tlo and hi >= thi, (key, ident.box[key])
+        assert (tlo - lo) <= BOX_REL * (thi - tlo) and (hi - thi) <= BOX_REL * (thi - tlo), (key, ident.box[key])
+    assert ident.longest_burst == 2
+    frag = yaml.safe_load(fragment_yaml(ident))
+    assert frag["slip"]["model"] == "icr"
+    for key in ("right", "left", "yaw", "icr_offset"):  # rounded outwards: the fragment's box holds the identified one
+        assert frag["slip"][key]["min"] <= ident.box[key][0] and frag["slip"][key]["max"] >= ident.box[key][1]
+    from robustsynth.config import config_with
+
+    merged = config_with(cfg, {f"slip.{k}.{e}": frag["slip"][k][e] for k in ICR_TRUTH for e in ("min", "max")})
+    assert merged.slip.yaw.max == frag["slip"]["yaw"]["max"]  # the fragment is a valid config
+
+
+def test_identify_icr_needs_the_pose_noise(icr_logs) -> None:
+    from robustsynth.errors import InputError
+
+    cfg, logs, _ = icr_logs
+    with pytest.raises(InputError, match="--pose-noise"):
+        identify(logs, cfg.robot.gear_radius, cfg.robot.track_distance, model="icr")
+
+
+def test_check_log_icr_accepts_the_truth_and_blames_the_right_parameter(icr_logs) -> None:
+    cfg, logs, _ = icr_logs
+    ok = {r["assumption"]: r for r in check_log(logs, cfg, cfg.robot.max_motor_speed)}
+    assert {"slip.right", "slip.left", "slip.yaw", "slip.icr_offset"} <= set(ok)
+    assert all(r["fraction_outside"] <= 0.005 for r in ok.values()), ok
+    narrow = _icr_cfg(**{"slip.yaw.max": 0.62, "slip.icr_offset.max": 0.06})
+    bad = {r["assumption"]: r for r in check_log(logs, narrow, cfg.robot.max_motor_speed)}
+    assert bad["slip.yaw"]["fraction_outside"] > 0.05 and bad["slip.yaw"]["worst"] > 0.64 and "row" in bad["slip.yaw"]["where"]
+    assert bad["slip.icr_offset"]["fraction_outside"] > 0.05 and bad["slip.icr_offset"]["worst"] > 0.08
+    assert bad["slip.right"]["fraction_outside"] <= 0.005 and bad["slip.left"]["fraction_outside"] <= 0.005
+    traction = _icr_cfg(**{"slip.right.max": 0.99})
+    bad = {r["assumption"]: r for r in check_log(logs, traction, cfg.robot.max_motor_speed)}
+    assert bad["slip.right"]["fraction_outside"] > 0.05 and bad["slip.right"]["worst"] > 1.0
+    assert bad["slip.left"]["fraction_outside"] <= 0.005
+
+
+def test_cli_excite_kinematic_identify_icr_and_check_log(tmp_path) -> None:
+    from robustsynth.config import config_to_dict
+
+    cfg = _icr_cfg()
+    conf = tmp_path / "icr.yaml"
+    conf.write_text(yaml.safe_dump(config_to_dict(cfg)))
+    run = lambda *a: subprocess.run([sys.executable, "-m", "robustsynth", *a], capture_output=True, text=True)  # noqa: E731
+    r = run("validate", str(conf), "--excite", "--engine", "kinematic", "--episodes", "3", "-o", str(tmp_path / "exc"))
+    assert r.returncode == 0, r.stderr
+    paths = sorted(str(p) for p in (tmp_path / "exc" / "logs").glob("*.csv"))
+    assert len(paths) == 3 and "--model icr" in r.stdout
+    r = run("identify", *paths, "--config", str(conf), "--model", "icr", "-o", str(tmp_path / "frag.yaml"))
+    assert r.returncode == 0, r.stderr
+    frag = yaml.safe_load((tmp_path / "frag.yaml").read_text())
+    assert frag["slip"]["model"] == "icr" and set(frag["slip"]) >= {"yaw", "icr_offset"}
+    assert "yaw" in (tmp_path / "frag.md").read_text() and (tmp_path / "frag.png").exists()
+    r = run("check-log", *paths, "--config", str(conf))
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "ok       slip.yaw" in r.stdout and "slip.icr_offset" in r.stdout
+    r = run("identify", *paths, "--model", "icr", "--pose-noise", "-1", "0")
+    assert r.returncode == 2 and "--pose-noise" in r.stderr

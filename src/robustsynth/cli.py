@@ -478,16 +478,20 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
 @click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="The robot's config (gear radius, track distance) [default: the embedded default].")
 @click.option("--model", type=click.Choice(["tracks", "icr"]), default="tracks", show_default=True,
-              help="Slip description to identify (tracks: one traction factor per track).")
+              help="Slip description to identify (tracks: one traction factor per track; icr: also the yaw factor "
+                   "and the ICR offset, from turns).")
 @click.option("--coverage", type=click.FloatRange(0.5, 1.0), default=0.995, show_default=True,
               help="Fraction of the per-period slip estimates the box covers (before widening).")
+@click.option("--pose-noise", "pose_noise", type=click.FloatRange(min=0), nargs=2, default=None,
+              metavar="POSITION HEADING",
+              help="--model icr: std of the logged poses [m] [rad] [default: the config's verification.noise].")
 @click.option("--max-motor-speed", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Skip periods with a command beyond this motor speed [rad/s] (saturated motors).")
 @click.option("--no-plots", is_flag=True, help="Skip the figure.")
 @click.pass_obj
 @_guard
 def identify_cmd(obj: _Ctx, logs: tuple[Path, ...], out: Path | None, config: Path | None, model: str, coverage: float,
-                 max_motor_speed: float | None, no_plots: bool) -> None:
+                 pose_noise: tuple[float, float] | None, max_motor_speed: float | None, no_plots: bool) -> None:
     """Delay range, longest loss burst and slip box from robot logs (CSV, see the README's log format).
 
     The result is a config fragment with the data behind each number as comments.
@@ -495,7 +499,7 @@ def identify_cmd(obj: _Ctx, logs: tuple[Path, ...], out: Path | None, config: Pa
     from .pipeline import identification_stage
 
     ident, text, written = identification_stage(list(logs), _load(config), out, coverage, model, max_motor_speed,
-                                                not no_plots)
+                                                not no_plots, pose_noise)
     if out is None:
         click.echo(text, nl=False)
     else:
@@ -514,10 +518,13 @@ def identify_cmd(obj: _Ctx, logs: tuple[Path, ...], out: Path | None, config: Pa
               help="Fraction of samples allowed outside an assumption before it counts as violated.")
 @click.option("--max-motor-speed", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Skip slip estimates of periods with a command beyond this motor speed [rad/s].")
+@click.option("--pose-noise", "pose_noise", type=click.FloatRange(min=0), nargs=2, default=None,
+              metavar="POSITION HEADING",
+              help="slip.model icr: std of the logged poses [m] [rad] [default: the config's verification.noise].")
 @click.pass_obj
 @_guard
 def check_log_cmd(obj: _Ctx, logs: tuple[Path, ...], config: Path | None, gains: Path | None, tolerance: float,
-                  max_motor_speed: float | None) -> int:
+                  max_motor_speed: float | None, pose_noise: tuple[float, float] | None) -> int:
     """Does the robot of these logs stay inside the config's assumptions (delay, losses, slip)?
 
     Exit 1 if any assumption is violated by more than --tolerance of its samples.
@@ -536,7 +543,7 @@ def check_log_cmd(obj: _Ctx, logs: tuple[Path, ...], config: Path | None, gains:
             raise InputError(f"{gains}: config: the gains file holds no config (use --config)")
     else:
         cfg = _load(config)
-    rows = check_log([read_log(p) for p in logs], cfg, max_motor_speed)
+    rows = check_log([read_log(p) for p in logs], cfg, max_motor_speed, pose_noise)
     bad = 0
     for r in rows:
         viol = r["fraction_outside"] > tolerance
@@ -554,15 +561,16 @@ def check_log_cmd(obj: _Ctx, logs: tuple[Path, ...], config: Path | None, gains:
 @click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="The gains file to validate (not with --excite).")
 @click.option("--excite", is_flag=True,
-              help="Instead: drive the physics robot open loop (turns at several rates, speed changes) and write the "
-                   "episodes as robot logs for identify.")
+              help="Instead: drive the robot open loop (turns at several rates, speed changes) and write the "
+                   "episodes as robot logs for identify (with the config's verification.noise on the poses).")
 @click.option("--episodes", type=click.IntRange(min=1, max=10_000), default=4, show_default=True,
               help="Closed-loop episodes along the config's path (the first from the path's start, the others perturbed).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the delays and the perturbed starts.")
 @click.option("--workers", type=click.IntRange(min=1, max=256), default=1, show_default=True,
               help="Processes to run the episodes on (the results do not depend on it).")
 @click.option("--engine", type=click.Choice(["physics", "kinematic"]), default="physics", show_default=True,
-              help="physics: MuJoCo (slip from contact); kinematic: the model's own robot, one slip per episode from the box.")
+              help="physics: MuJoCo (slip from contact); kinematic: the model's own robot, one slip per episode from the "
+                   "box (--excite: the simulator's slip profiles, a new slip every period or few).")
 @click.option("-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Output directory (default results/<name>/validation).")
 @click.option("--no-plots", is_flag=True, help="Skip the figure.")
@@ -585,9 +593,11 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
     cfg = _load(config)
     out = outdir if outdir is not None else Path("results") / cfg.name / ("excitation" if excite else "validation")
     if excite:
-        paths = excitation_stage(build_model(cfg), out, episodes=episodes, seed=seed)
-        obj.say(f"excitation: {len(paths)} episodes written to {out / 'logs'}; next: robustsynth identify "
-                f"{out / 'logs'}/*.csv --max-motor-speed {cfg.robot.max_motor_speed or 'R'} -o FRAGMENT.yaml")
+        paths = excitation_stage(build_model(cfg), out, episodes=episodes, seed=seed, engine=engine)
+        icr = " --model icr" if cfg.slip.model == "icr" else ""
+        obj.say(f"excitation ({engine}): {len(paths)} episodes written to {out / 'logs'}; next: robustsynth identify "
+                f"{out / 'logs'}/*.csv --config {config}{icr} --max-motor-speed {cfg.robot.max_motor_speed or 'R'} "
+                "-o FRAGMENT.yaml")
         return EXIT_OK
     cb, bar = _progress(obj)
     try:

@@ -29,12 +29,17 @@ import numpy as np
 from .artifacts.logs import RobotLog
 from .errors import InputError
 from .model.network import longest_burst
+from .identification_icr import S_WEIGHT
 from .plants.kinematic import arc_step, wrap_angle
 
 __all__ = ["SlipEstimates", "Identification", "estimate_slip", "identify", "fragment_yaml", "report_markdown", "check_log",
            "MODELS"]
 
-MODELS = ("tracks",)
+MODELS = ("tracks", "icr")
+KEYS = {"tracks": ("right", "left"), "icr": ("right", "left", "yaw", "icr_offset")}  # config keys of the slip box
+ICR_NAMES = ("mu_r", "mu_l", "yaw", "x_icr")
+UNITS = {"mu_r": "-", "mu_l": "-", "yaw": "-", "x_icr": "m"}
+GAUGE_FALSE_ALARM = 0.05  # icr: the gauge's z is set so that any period's noise exceeds z sigma with these odds
 WIDEN_SIGMA = 2.0  # the box is widened by this many standard uncertainties of an estimate
 FIT_TOL = 1e-9  # the fit's own numerical error on mu (noise-free logs): the least widening
 MIN_TRAVEL_M = 1e-3  # a period in which the commands move the robot less than this says little about slip
@@ -47,11 +52,12 @@ CHECK_SIGMA = 3.0  # check-log: an estimate is outside a range when beyond it by
 class SlipEstimates:
     """Per-period estimates over all logs (only the periods used)."""
 
-    mu: np.ndarray  # (n, 2): (mu_r, mu_l)
-    sigma: np.ndarray  # (n, 2): standard uncertainty of each estimate
+    mu: np.ndarray  # (n, n_p): (mu_r, mu_l), with the icr model also (yaw, x_icr) (NaN: not seen in that period)
+    sigma: np.ndarray  # (n, n_p): standard uncertainty of each estimate (inf: the period says nothing about it)
     turn_rate: np.ndarray  # (n,): commanded omega / V over the period (rad/m), for the report
     where: list[tuple[str, int]]  # (file, row of t_k) of each estimate
     skipped: dict[str, int] = field(default_factory=dict)
+    names: tuple[str, ...] = ("mu_r", "mu_l")  # the columns of mu and sigma
 
 
 @dataclass(frozen=True)
@@ -65,8 +71,11 @@ class Identification:
     longest_burst: int
     slip: SlipEstimates
     coverage: float
-    box: dict[str, tuple[float, float]]  # "right" / "left" -> (min, max)
+    box: dict[str, tuple[float, float]]  # config key ("right", "left"; icr: also "yaw", "icr_offset") -> (min, max)
     widening: dict[str, float]
+    model: str = "tracks"
+    pose_noise: tuple[float, float] | None = None  # icr: the pose noise the uncertainties assume [m], [rad]
+    gauge: np.ndarray | None = None  # icr: the gauge box [[mu_r], [mu_l], [1/yaw]] (lo, hi) before widening
 
 
 def _received(log: RobotLog) -> tuple[np.ndarray, np.ndarray]:
@@ -119,14 +128,25 @@ def _residual(q0, q1, rho, dur, mu, R, D) -> np.ndarray:
     return np.stack([c * dx + s * dy, -s * dx + c * dy, wrap_angle(qe[:, 2] - q1[:, 2])], axis=1)
 
 
-def estimate_slip(logs: Sequence[RobotLog], gear_radius: float, track_distance: float,
-                  max_motor_speed: float | None = None) -> SlipEstimates:
-    """One (mu_r, mu_l) per usable period of every log (the tracks model)."""
-    R, D = float(gear_radius), float(track_distance)
-    mus, sigmas, turns, where = [], [], [], []
+@dataclass(frozen=True)
+class _Periods:
+    """One log's usable periods: poses at t_k and t_{k+1} (P, 3), the acting commands' motor speeds
+    (P, S, 2) and durations (P, S), the commanded travel [m] and turn [rad], and the log rows of t_k."""
+
+    q0: np.ndarray
+    q1: np.ndarray
+    rho: np.ndarray
+    dur: np.ndarray
+    travel: np.ndarray
+    turn: np.ndarray
+    where: list[tuple[str, int]]
+
+
+def _periods(logs: Sequence[RobotLog], R: float, D: float, max_motor_speed: float | None
+             ) -> tuple[list[_Periods], dict[str, int]]:
+    """Every log's usable periods, and how many were skipped and why."""
     skipped = {"unknown command": 0, "too little motion": 0, "motor limit": 0}
-    res_sq, dof = 0.0, 0
-    per_log = []
+    out = []
     for log in logs:
         idx, dur, known = _segments(log)
         rho_all = np.stack([log.rho_r, log.rho_l], axis=1)
@@ -143,9 +163,25 @@ def estimate_slip(logs: Sequence[RobotLog], gear_radius: float, track_distance: 
             skipped["motor limit"] += int(np.sum(sat))
             ok &= ~sat
         q = np.stack([log.x, log.y, log.theta], axis=1)
-        q0, q1, rho, dur = q[:-1][ok], q[1:][ok], rho[ok], dur[ok]
+        rows = np.flatnonzero(ok) + 2
+        out.append(_Periods(q[:-1][ok], q[1:][ok], rho[ok], dur[ok], travel[ok], turn[ok],
+                            [(log.path, int(rw)) for rw in rows]))
+    return out, skipped
+
+
+def estimate_slip(logs: Sequence[RobotLog], gear_radius: float, track_distance: float,
+                  max_motor_speed: float | None = None) -> SlipEstimates:
+    """One (mu_r, mu_l) per usable period of every log (the tracks model)."""
+    R, D = float(gear_radius), float(track_distance)
+    mus, sigmas, turns, where = [], [], [], []
+    res_sq, dof = 0.0, 0
+    per_log = []
+    periods, skipped = _periods(logs, R, D, max_motor_speed)
+    for pr in periods:
+        q0, q1, rho, dur = pr.q0, pr.q1, pr.rho, pr.dur
         mu = np.ones((q0.shape[0], 2))
         Jm = np.zeros((q0.shape[0], 3, 2))
+        JtJ = np.zeros((q0.shape[0], 2, 2))
         for _ in range(GN_STEPS):
             r = _residual(q0, q1, rho, dur, mu, R, D)
             for i in range(2):
@@ -159,9 +195,7 @@ def estimate_slip(logs: Sequence[RobotLog], gear_radius: float, track_distance: 
         r = _residual(q0, q1, rho, dur, mu, R, D)
         res_sq += float(np.sum(r**2))  # one variance for the three equations: a rough, not a rigorous, uncertainty
         dof += r.shape[0]  # three equations, two unknowns per period
-        rows = np.flatnonzero(ok) + 2
-        per_log.append((mu, np.linalg.inv(JtJ + 1e-18 * np.eye(2)), (turn / np.maximum(travel, 1e-12))[ok],
-                        [(log.path, int(rw)) for rw in rows]))
+        per_log.append((mu, np.linalg.inv(JtJ + 1e-18 * np.eye(2)), pr.turn / np.maximum(pr.travel, 1e-12), pr.where))
     var = res_sq / dof if dof else 0.0  # residual variance per equation (positions dominate)
     for mu, cov, tr, wh in per_log:
         mus.append(mu)
@@ -172,43 +206,118 @@ def estimate_slip(logs: Sequence[RobotLog], gear_radius: float, track_distance: 
     return SlipEstimates(cat(mus, (0, 2)), cat(sigmas, (0, 2)), cat(turns, (0,)), where, skipped)
 
 
+def _icr_lines(logs: Sequence[RobotLog], R: float, D: float, pose_noise: tuple[float, float],
+               max_motor_speed: float | None):
+    """The icr model's per-period lines over all logs, the periods behind them (None: no usable period) and the
+    skip counts."""
+    from .identification_icr import icr_lines
+
+    periods, skipped = _periods(logs, R, D, max_motor_speed)
+    if not sum(p.q0.shape[0] for p in periods):
+        return None, periods, skipped
+    S = max(p.dur.shape[1] for p in periods)
+
+    def pad(a: np.ndarray) -> np.ndarray:  # every log's periods with S command segments (zero-length padding)
+        return np.concatenate([a, np.zeros(a.shape[:1] + (S - a.shape[1],) + a.shape[2:])], axis=1)
+
+    cat = np.concatenate
+    lines = icr_lines(cat([p.q0 for p in periods]), cat([p.q1 for p in periods]), cat([pad(p.rho) for p in periods]),
+                      cat([pad(p.dur) for p in periods]), R, D, pose_noise)
+    return lines, periods, skipped
+
+
+def estimate_icr(logs: Sequence[RobotLog], gear_radius: float, track_distance: float, pose_noise: tuple[float, float],
+                 max_motor_speed: float | None = None) -> tuple[SlipEstimates, np.ndarray]:
+    """One (mu_r, mu_l, yaw, x_icr) per usable period of every log (the icr model, in the gauge of
+    :mod:`robustsynth.identification_icr`), and the gauge box [[mu_r], [mu_l], [s = 1/yaw]] (lo, hi)."""
+    from scipy.stats import norm
+
+    from .identification_icr import gauge_box, icr_estimates
+
+    R, D = float(gear_radius), float(track_distance)
+    lines, periods, skipped = _icr_lines(logs, R, D, pose_noise, max_motor_speed)
+    if lines is None:
+        return SlipEstimates(np.zeros((0, 4)), np.zeros((0, 4)), np.zeros(0), [], skipped, ICR_NAMES), np.zeros((3, 2))
+    z = float(norm.isf(GAUGE_FALSE_ALARM / (2.0 * len(lines))))  # a period's noise beyond z sigma: <= 5 % odds in all
+    box = gauge_box(lines, z)
+    est, sig = icr_estimates(lines, box, R, D, z)
+    turn = np.concatenate([p.turn / np.maximum(p.travel, 1e-12) for p in periods])
+    return SlipEstimates(est, sig, turn, [w for p in periods for w in p.where], skipped, ICR_NAMES), box
+
+
 def _longest_burst(log: RobotLog) -> int:
     return int(longest_burst(~np.isfinite(log.applied))[0])
 
 
+def _good(sg: np.ndarray) -> np.ndarray:
+    """The estimates that say something: finite, and at most POOR_SIGMA times as uncertain as the
+    median of those (a period in which one track barely turns, or a straight one for yaw and x_icr)."""
+    fin = np.isfinite(sg)
+    if not np.any(fin):
+        return fin
+    return fin & (sg <= POOR_SIGMA * float(np.median(sg[fin])) + FIT_TOL)
+
+
+def _median_sigma(sg: np.ndarray) -> float:
+    fin = np.isfinite(sg)
+    return float(np.median(sg[fin])) if np.any(fin) else 0.0
+
+
 def identify(logs: Sequence[RobotLog], gear_radius: float, track_distance: float, coverage: float = 0.995,
-             model: str = "tracks", max_motor_speed: float | None = None) -> Identification:
-    """The delay range, the longest loss burst and the slip box that cover the logs."""
+             model: str = "tracks", max_motor_speed: float | None = None,
+             pose_noise: tuple[float, float] | None = None) -> Identification:
+    """The delay range, the longest loss burst and the slip box that cover the logs.
+
+    ``model='icr'`` needs ``pose_noise`` = (position [m], heading [rad]), the std of the logged
+    poses: with as many unknowns as equations per period its fit cannot estimate the noise."""
     if model not in MODELS:
-        raise InputError(f"--model: {model!r} is not available yet (one of {', '.join(MODELS)}; the ICR slip "
-                         "description is not built)")
+        raise InputError(f"--model: {model!r} is not one of {', '.join(MODELS)}")
     if not 0.5 <= coverage <= 1.0:
         raise InputError(f"--coverage: must be in [0.5, 1] (got {coverage:g})")
     if not logs:
         raise InputError("identify: no log given")
+    if model == "icr" and (pose_noise is None or not all(np.isfinite(pose_noise)) or min(pose_noise) < 0):
+        raise InputError(f"--pose-noise: the icr model needs the pose noise (position [m], heading [rad], >= 0); got "
+                         f"{pose_noise}")
     delays = np.concatenate([lg.delays[np.isfinite(lg.delays)] for lg in logs])
     if delays.size == 0:
         raise InputError(f"{logs[0].path}: column 'applied': no command was ever applied")
-    est = estimate_slip(logs, gear_radius, track_distance, max_motor_speed)
+    gauge = None
+    if model == "icr":
+        est, gauge = estimate_icr(logs, gear_radius, track_distance, pose_noise, max_motor_speed)
+    else:
+        est = estimate_slip(logs, gear_radius, track_distance, max_motor_speed)
     if est.mu.shape[0] < 10:
         raise InputError(f"{logs[0].path}: only {est.mu.shape[0]} periods could be used to estimate slip "
                          f"(skipped: {est.skipped}); a log needs the robot moving under known commands")
     q = (1.0 - coverage) / 2.0
     box, widen = {}, {}
-    for i, side in enumerate(("right", "left")):
+    for i, key in enumerate(KEYS[model]):
         sg = est.sigma[:, i]
-        good = sg <= POOR_SIGMA * float(np.median(sg)) + FIT_TOL  # poorly excited periods say little
-        w = WIDEN_SIGMA * float(np.median(sg)) + FIT_TOL
-        lo = float(np.quantile(est.mu[good, i], q)) - w
-        hi = float(np.quantile(est.mu[good, i], 1.0 - q)) + w
-        box[side] = (max(lo, 1e-3), hi)
-        widen[side] = w
+        if gauge is not None and key == "yaw":  # the gauge's range of s = 1/yaw, widened in s
+            sg_s = sg / est.mu[:, 2] ** 2  # the uncertainty in s of the periods that say something about it
+            w = WIDEN_SIGMA * float(np.median(sg_s[_good(sg_s)])) + FIT_TOL
+            box[key], widen[key] = (1.0 / (gauge[2, 1] + w), 1.0 / max(gauge[2, 0] - w, 1e-3)), w
+            continue
+        w = WIDEN_SIGMA * _median_sigma(sg) + FIT_TOL
+        if gauge is not None and i < 2:  # the gauge's traction box: it explains every period (within z sigma)
+            lo, hi = gauge[i, 0] - w, gauge[i, 1] + w
+        else:  # the central quantiles of the estimates (tracks; x_icr)
+            good = _good(sg)
+            if not np.any(good):
+                raise InputError(f"{logs[0].path}: no period turns enough to estimate {est.names[i]} (the icr model needs "
+                                 "turns; see validate --excite)")
+            lo = float(np.quantile(est.mu[good, i], q)) - w
+            hi = float(np.quantile(est.mu[good, i], 1.0 - q)) + w
+        box[key] = (max(lo, 1e-3), hi) if key != "icr_offset" else (lo, hi)
+        widen[key] = w
     steps = np.concatenate([np.diff(lg.t) for lg in logs])
     return Identification(
         logs=len(logs), instants=int(sum(len(lg) for lg in logs)), sampling_time=float(np.median(steps)),
         delays=delays, delay_range=(float(np.min(delays)), float(np.max(delays))),
         lost=int(sum(int(np.sum(~np.isfinite(lg.applied))) for lg in logs)), longest_burst=max(map(_longest_burst, logs)),
-        slip=est, coverage=coverage, box=box, widening=widen)
+        slip=est, coverage=coverage, box=box, widening=widen, model=model,
+        pose_noise=None if pose_noise is None else (float(pose_noise[0]), float(pose_noise[1])), gauge=gauge)
 
 
 def _g(x: float) -> str:
@@ -234,25 +343,45 @@ def fragment_yaml(ident: Identification) -> str:
         f"{ident.instants} lost ({100 * ident.lost / max(ident.instants, 1):.2f} %)",
         "slip:",
     ]
-    for i, side in enumerate(("right", "left")):
-        lo, hi = ident.box[side]
-        lines.append(f"  {side}:  # mu_{side[0]}: covers {100 * ident.coverage:g} % of {n} estimates "
-                     f"(range {_g(float(np.min(s.mu[:, i])))} .. {_g(float(np.max(s.mu[:, i])))}), widened by "
-                     f"{WIDEN_SIGMA:g} sigma = {_g(ident.widening[side])}")
-        lines.append(f"    min: {_g(lo)}")
-        lines.append(f"    max: {_g(hi)}")
+    if ident.model == "icr":
+        pn = ident.pose_noise or (0.0, 0.0)
+        lines += [
+            "  model: icr  # mu_r, mu_l, yaw, x_icr (docs/theory.md §12); per period three numbers for four parameters:",
+            f"  # traction and yaw are the gauge box (least traction widths + {S_WEIGHT:g} x the 1/yaw width) that explains",
+            f"  # every period within its noise; pose noise assumed {_g(pn[0])} m, {_g(pn[1])} rad",
+        ]
+    for i, key in enumerate(KEYS[ident.model]):
+        lo, hi = ident.box[key]
+        name = s.names[i]
+        vals = s.mu[:, i][np.isfinite(s.mu[:, i])]
+        seen = f"range {_g(float(np.min(vals)))} .. {_g(float(np.max(vals)))}" if vals.size else "none seen"
+        how = (f"explains all {vals.size} estimates" if ident.model == "icr" and key != "icr_offset"
+               else f"covers {100 * ident.coverage:g} % of {vals.size} estimates")
+        unit = " [m]" if UNITS[name] == "m" else ""
+        lines.append(f"  {key}:  # {name}{unit}: {how} ({seen}), widened by {WIDEN_SIGMA:g} sigma = "
+                     f"{_g(ident.widening[key])}" + (" in 1/yaw" if key == "yaw" else ""))
+        lines.append(f"    min: {_round(lo, -1)}")
+        lines.append(f"    max: {_round(hi, +1)}")
     return "\n".join(lines) + "\n"
 
 
-def check_log(logs: Sequence[RobotLog], cfg: Any, max_motor_speed: float | None = None) -> list[dict[str, Any]]:
+def _round(x: float, direction: int, digits: int = 4) -> str:
+    """x rounded to ``digits`` significant digits away from the box's inside (down for a min, up for a max)."""
+    if x == 0 or not np.isfinite(x):
+        return _g(x)
+    scale = 10.0 ** (digits - 1 - int(np.floor(np.log10(abs(x)))))
+    r = (np.floor if direction < 0 else np.ceil)(x * scale - direction * 1e-9) / scale
+    return _g(float(r))
+
+
+def check_log(logs: Sequence[RobotLog], cfg: Any, max_motor_speed: float | None = None,
+              pose_noise: tuple[float, float] | None = None) -> list[dict[str, Any]]:
     """Per assumption of ``cfg`` (delay range, in-order delivery, loss cap, each slip range): how many samples lie
     outside, the worst value and where.  A slip estimate counts as outside when it lies beyond the
     range by more than CHECK_SIGMA of its own uncertainty; poorly determined estimates (POOR_SIGMA)
-    are not counted.  slip.model icr: refused (InputError) -- its slip is not estimated from logs yet."""
-    if getattr(cfg.slip, "model", "tracks") == "icr":
-        raise InputError("slip.model: icr: check-log cannot check this config's slip yet (the logs' slip is "
-                         "estimated with the tracks model, which folds the yaw factor into mu and has no x_icr; "
-                         "identify --model icr is not built)")
+    are not counted.  slip.model icr: each period is explained inside the box if it can be
+    (:func:`robustsynth.identification_icr.check_icr`), with ``pose_noise`` (default: the config's
+    verification.noise) as the logged poses' noise."""
     out = []
     dl = cfg.network.delay
     d = [(lg.delays, lg.path) for lg in logs]
@@ -282,6 +411,8 @@ def check_log(logs: Sequence[RobotLog], cfg: Any, max_motor_speed: float | None 
     out.append({"assumption": "network.dropouts.max_consecutive", "range": [0, cap], "samples": len(logs),
                 "outside": sum(1 for x, _ in bursts if x > cap), "fraction_outside": sum(1 for x, _ in bursts if x > cap)
                 / max(len(logs), 1), "worst": b, "where": bp if b > cap else "", "unit": "commands in a row"})
+    if getattr(cfg.slip, "model", "tracks") == "icr":
+        return out + _check_icr(logs, cfg, max_motor_speed, pose_noise)
     est = estimate_slip(logs, cfg.robot.gear_radius, cfg.robot.track_distance, max_motor_speed)
     for i, side in enumerate(("right", "left")):
         rng = getattr(cfg.slip, side)
@@ -297,15 +428,73 @@ def check_log(logs: Sequence[RobotLog], cfg: Any, max_motor_speed: float | None 
     return out
 
 
+def _check_icr(logs: Sequence[RobotLog], cfg: Any, max_motor_speed: float | None,
+               pose_noise: tuple[float, float] | None) -> list[dict[str, Any]]:
+    """check-log's slip rows for an icr config: one per parameter (see :func:`check_log`)."""
+    from .identification_icr import check_icr
+    from .model.slip import slip_parameter_ranges
+
+    noise = pose_noise if pose_noise is not None else (cfg.verification.noise.position, cfg.verification.noise.heading)
+    lines, periods, _ = _icr_lines(logs, cfg.robot.gear_radius, cfg.robot.track_distance, noise, max_motor_speed)
+    ranges = slip_parameter_ranges(cfg.slip)
+    where = [w for p in periods for w in p.where]
+    if lines is None:
+        value, outside, sigma = np.zeros((0, 4)), np.zeros((0, 4), dtype=bool), np.zeros((0, 4))
+    else:
+        from scipy.stats import norm
+
+        z_gauge = float(norm.isf(GAUGE_FALSE_ALARM / (2.0 * len(lines))))  # as identify's
+        value, outside, sigma = check_icr(lines, ranges, cfg.robot.gear_radius, cfg.robot.track_distance, CHECK_SIGMA,
+                                          z_gauge)
+    rows = []
+    for i, key in enumerate(KEYS["icr"]):
+        lo, hi = ranges[i]
+        seen = np.isfinite(value[:, i])
+        bad = np.flatnonzero(outside[:, i])
+        excess = np.where(seen, np.maximum(lo - value[:, i], value[:, i] - hi), -np.inf)
+        pool = outside[:, i] if bad.size else seen & _good(sigma[:, i])  # the worst of the flagged, else of the sure
+        k = int(np.argmax(np.where(pool, excess, -np.inf))) if np.any(pool) else -1
+        rows.append({"assumption": f"slip.{key}", "range": [lo, hi], "samples": int(np.sum(seen)), "outside": int(bad.size),
+                     "fraction_outside": bad.size / max(int(np.sum(seen)), 1),
+                     "worst": float(value[k, i]) if k >= 0 else None,
+                     "where": f"{where[k][0]}, row {where[k][1]}" if k >= 0 and bad.size else "",
+                     "unit": "m" if key == "icr_offset" else "—"})
+    return rows
+
 
 def report_markdown(ident: Identification, fragment: str, figure: str | None) -> str:
     """The identification report: the fragment, the data behind each number, the skipped periods."""
     s, d = ident.slip, ident.delays
     qs = (0.0, 0.005, 0.5, 0.995, 1.0)
     rows = [f"| delay [s] | {d.size} | " + " | ".join(_g(float(np.quantile(d, q))) for q in qs) + " |"]
-    for i, side in enumerate(("right", "left")):
-        rows.append(f"| mu_{side[0]} | {s.mu.shape[0]} | " + " | ".join(_g(float(np.quantile(s.mu[:, i], q))) for q in qs)
-                    + " |")
+    for i, name in enumerate(s.names):
+        v = s.mu[:, i][np.isfinite(s.mu[:, i])]
+        if v.size:
+            rows.append(f"| {name} | {v.size} | " + " | ".join(_g(float(np.quantile(v, q))) for q in qs) + " |")
+    if ident.model == "icr":
+        pn = ident.pose_noise or (0.0, 0.0)
+        sig = {n: _g(float(np.median(s.sigma[:, i][np.isfinite(s.sigma[:, i])]))) if np.isfinite(s.sigma[:, i]).any()
+               else "-" for i, n in enumerate(s.names)}
+        slip_text = (
+            "Slip (the icr model, docs/theory.md §13): per sampling period the measured poses give the body's mean twist "
+            "(v_x, v_y, omega), three numbers for four parameters. x_icr = -v_y / omega in every turning period; the "
+            "traction factors and the yaw factor consistent with a period lie on a line, and the box of (mu_r, mu_l, "
+            f"yaw) is the gauge: the least traction widths plus {S_WEIGHT:g} times the width in 1/yaw that every "
+            "period's line meets within its noise. The per-period estimates in the table are the points of those "
+            "lines nearest the middle of the gauge's yaw range. Uncertainties are propagated from the pose noise "
+            f"{_g(pn[0])} m, {_g(pn[1])} rad (given, not estimated: the fit has no residual); median standard "
+            "uncertainty of an estimate: " + ", ".join(f"{n} {v}" for n, v in sig.items())
+            + f". The traction and yaw ranges explain every period; x_icr's covers {100 * ident.coverage:g} % of its "
+            f"estimates; each is widened by {WIDEN_SIGMA:g} uncertainties. Periods skipped: "
+            + (", ".join(f"{k} {v}" for k, v in s.skipped.items() if v) or "none") + ".\n")
+    else:
+        slip_text = (
+            f"Slip: one estimate of (mu_r, mu_l) per sampling period, fitted to the measured poses through exact arcs "
+            f"under the commands that acted in the period. Median standard uncertainty of an estimate: "
+            f"mu_r {_g(float(np.median(s.sigma[:, 0])))}, mu_l {_g(float(np.median(s.sigma[:, 1])))} (from the fit's "
+            f"residual, i.e. the pose noise). The box covers {100 * ident.coverage:g} % of the estimates and is widened by "
+            f"{WIDEN_SIGMA:g} of those uncertainties. Periods skipped: "
+            + (", ".join(f"{k} {v}" for k, v in s.skipped.items() if v) or "none") + ".\n")
     out = [
         "# Identification\n\n",
         f"{ident.logs} log(s), {ident.instants} sampling instants, sampling time {_g(ident.sampling_time)} s.\n\n",
@@ -314,12 +503,7 @@ def report_markdown(ident: Identification, fragment: str, figure: str | None) ->
         "\n".join(rows) + "\n\n",
         f"Commands lost: {ident.lost} ({100 * ident.lost / max(ident.instants, 1):.2f} %), longest run "
         f"{ident.longest_burst}.\n\n",
-        f"Slip: one estimate of (mu_r, mu_l) per sampling period, fitted to the measured poses through exact arcs "
-        f"under the commands that acted in the period. Median standard uncertainty of an estimate: "
-        f"mu_r {_g(float(np.median(s.sigma[:, 0])))}, mu_l {_g(float(np.median(s.sigma[:, 1])))} (from the fit's residual,"
-        f" i.e. the pose noise). The box covers {100 * ident.coverage:g} % of the estimates and is widened by "
-        f"{WIDEN_SIGMA:g} of those uncertainties. Periods skipped: "
-        + (", ".join(f"{k} {v}" for k, v in s.skipped.items() if v) or "none") + ".\n",
+        slip_text,
     ]
     if figure:
         out.append(f"\n![delay and slip estimates against the box]({figure})\n")

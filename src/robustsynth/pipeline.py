@@ -238,14 +238,16 @@ def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, e
     return vd
 
 
-def excitation_stage(model: Model, outdir: str | Path, episodes: int = 4, seed: int = 0) -> list[Path]:
-    """``robustsynth validate --excite``: open-loop excitation of the physics robot (turns at several
-    rates, speed changes; :func:`.verification.physics.excite_physics`) written as robot logs under
-    ``outdir/logs/`` for ``identify``."""
-    from .verification.physics import excite_physics
+def excitation_stage(model: Model, outdir: str | Path, episodes: int = 4, seed: int = 0,
+                     engine: str = "physics") -> list[Path]:
+    """``robustsynth validate --excite``: open-loop excitation of the robot (turns at several rates,
+    speed changes; :func:`.verification.physics.excite`) written as robot logs under
+    ``outdir/logs/`` for ``identify``; ``engine='kinematic'``: the model's own robot, no MuJoCo."""
+    from .verification.physics import excite
 
-    _require_physics()
-    return _write_logs(excite_physics(model, episodes=episodes, seed=seed), Path(outdir) / "logs")
+    if engine == "physics":
+        _require_physics()
+    return _write_logs(excite(model, episodes=episodes, seed=seed, engine=engine), Path(outdir) / "logs")
 
 
 def _pieces(logs: list, keep: Any) -> list:
@@ -272,9 +274,9 @@ def _observed_slip(model: Model, logs: list) -> dict[str, Any]:
     from .identification import identify
 
     cfg = model.config
-    if cfg.slip.model == "icr":  # identify fits the tracks model: it would fold the yaw factor into mu
-        return {"estimated": None, "reason": "slip.model icr: the logs' slip is not estimated (identify --model icr "
-                "is not built), so the yaw factor and x_icr are not compared with the box"}
+    if cfg.slip.model == "icr":  # closed-loop episodes turn little: the icr fit needs excitation (and a noise model)
+        return {"estimated": None, "reason": "slip.model icr: the closed-loop episodes say little about the yaw factor "
+                "and x_icr; run validate --excite and identify --model icr on its logs"}
     try:
         ident = identify(logs, cfg.robot.gear_radius, cfg.robot.track_distance, max_motor_speed=cfg.robot.max_motor_speed)
     except InputError as exc:
@@ -318,15 +320,19 @@ def _require_physics() -> None:
 
 
 def identification_stage(log_paths: list[Path], cfg: Any, out: Path | None, coverage: float, model: str,
-                         max_motor_speed: float | None, plots: bool = True) -> tuple[Any, str, list[Path]]:
+                         max_motor_speed: float | None, plots: bool = True,
+                         pose_noise: tuple[float, float] | None = None) -> tuple[Any, str, list[Path]]:
     """`robustsynth identify`: the identification, its config fragment, and (with ``out``) the files
-    written: the fragment, ``<stem>.md`` (the data behind it) and ``<stem>.png`` (histograms)."""
+    written: the fragment, ``<stem>.md`` (the data behind it) and ``<stem>.png`` (histograms).  The icr
+    model's pose noise defaults to the config's ``verification.noise``."""
     from .artifacts.files import atomic_write, make_dir
     from .artifacts.logs import read_log
     from .identification import fragment_yaml, identify, report_markdown
 
     logs = [read_log(p) for p in log_paths]
-    ident = identify(logs, cfg.robot.gear_radius, cfg.robot.track_distance, coverage, model, max_motor_speed)
+    if model == "icr" and pose_noise is None:
+        pose_noise = (cfg.verification.noise.position, cfg.verification.noise.heading)
+    ident = identify(logs, cfg.robot.gear_radius, cfg.robot.track_distance, coverage, model, max_motor_speed, pose_noise)
     text = fragment_yaml(ident)
     written: list[Path] = []
     if out is not None:

@@ -501,24 +501,31 @@ def identification_figure(ident: Any, path: Path) -> Path:
     """Histograms of the measured delays and of each slip estimate against the identified box, and
     the slip estimates against the commanded turn rate."""
     plt = _plt()
-    fig, axes = plt.subplots(2, 2, figsize=(10, 7))
-    ax = axes[0, 0]
+    names = ident.slip.names
+    keys = list(ident.box)
+    cols = 2 if len(names) <= 2 else 3
+    fig, axes = plt.subplots(2, cols, figsize=(5 * cols, 7))
+    axes = axes.ravel()
+    ax = axes[0]
     ax.hist(ident.delays * 1000.0, bins=60, color="0.5")
     for x in ident.delay_range:
         ax.axvline(x * 1000.0, color="C3")
     ax.set_xlabel("delay applied - sent [ms]")
     ax.set_ylabel("commands")
     ax.set_title("delay (red: the identified range)")
-    for i, (side, axx) in enumerate((("right", axes[0, 1]), ("left", axes[1, 0]))):
-        axx.hist(ident.slip.mu[:, i], bins=80, color="0.5")
-        for x in ident.box[side]:
+    for i, (name, key) in enumerate(zip(names, keys)):
+        axx = axes[1 + i]
+        v = ident.slip.mu[:, i]
+        axx.hist(v[np.isfinite(v)], bins=80, color="0.5")
+        for x in ident.box[key]:
             axx.axvline(x, color="C3")
-        axx.set_xlabel(f"mu_{side[0]} per period [-]")
+        axx.set_xlabel(f"{name} per period [{'m' if name == 'x_icr' else '-'}]")
         axx.set_ylabel("periods")
-        axx.set_title(f"slip, {side} track (red: the box)")
-    ax = axes[1, 1]
-    ax.scatter(ident.slip.turn_rate, ident.slip.mu[:, 0], s=3, label="mu_r", alpha=0.4)
-    ax.scatter(ident.slip.turn_rate, ident.slip.mu[:, 1], s=3, label="mu_l", alpha=0.4)
+        axx.set_title(f"slip: {name} (red: the box)")
+    ax = axes[1 + len(names)]
+    for i, name in enumerate(names):
+        if name in ("mu_r", "mu_l", "yaw"):
+            ax.scatter(ident.slip.turn_rate, ident.slip.mu[:, i], s=3, label=name, alpha=0.4)
     ax.set_xlabel("commanded |omega| / |V| over the period [rad/m]")
     ax.set_ylabel("estimate [-]")
     ax.set_title("slip estimates against the turn rate")

@@ -21,7 +21,7 @@ import numpy as np
 from ..law import Law
 from ..plants.path import frame_error, make_path, pose_from_error
 
-__all__ = ["validate_physics", "excite_physics", "PERTURBATION"]
+__all__ = ["validate_physics", "excite", "excitation_slip", "excitation_steps", "PERTURBATION"]
 
 PERTURBATION = (0.02, 0.02, 0.05)  # perturbed starts: uniform offsets up to this in e_x, e_y [m], e_theta [rad]
 TORQUE_SATURATED = 0.999  # a period counts as torque-saturated when a track's peak reaches this share of the limit
@@ -32,10 +32,12 @@ class _KinematicEngine:
     for ``validate --engine kinematic``: each episode has one slip drawn uniformly from the config's box."""
 
     def __init__(self, model: Any, mu: np.ndarray) -> None:
+        """``mu`` (N, n_p): one slip per episode; (N, steps, n_p): one per period."""
         from ..plants.kinematic import KinematicRobot
 
         self.robot = KinematicRobot.of(model)
         self.mu = np.asarray(mu, dtype=float)
+        self.k = 0
         self.q = np.zeros((self.mu.shape[0], 3))
 
     def reset(self, q0: np.ndarray, speed: float) -> None:
@@ -45,7 +47,9 @@ class _KinematicEngine:
         return self.q.copy()
 
     def period(self, U: np.ndarray, S: np.ndarray) -> np.ndarray:
-        self.q = self.robot.period(self.q, U, S, self.mu)
+        mu = self.mu if self.mu.ndim == 2 else self.mu[:, self.k]
+        self.q = self.robot.period(self.q, U, S, mu)
+        self.k += 1
         return np.zeros((self.q.shape[0], 2))  # no torques in this model
 
 
@@ -195,15 +199,22 @@ EXCITATION_SPEEDS = (0.6, 1.0, 1.4)  # forward speed of a stretch / V^D
 EXCITATION_HOLD = 3.0  # seconds per stretch
 
 
-def excite_physics(model: Any, episodes: int = 4, seed: int = 0) -> list:
-    """Open-loop excitation of the physics robot for ``identify``: each episode drives stretches of
+def excite(model: Any, episodes: int = 4, seed: int = 0, engine: str = "physics") -> list:
+    """Open-loop excitation of the robot for ``identify``: each episode drives stretches of
     EXCITATION_HOLD seconds at every turn rate of EXCITATION_TURNS and speed of EXCITATION_SPEEDS
     (shuffled per episode), the commands sent through the emulated network (the config's delays and
     losses).  Commands beyond the motor limit are scaled down to it.  Returns the episodes as robot
-    logs."""
+    logs, the poses with the config's ``verification.noise``.
+
+    ``engine='kinematic'``: the model's own robot (exact arcs, the config's slip model), its slip
+    following the simulator's profiles per period (constant, random walk, steps, corners, cycled over
+    the episodes): logs with a known truth.  :func:`excitation_slip` gives that slip."""
     from ..artifacts.logs import RobotLog
-    from ..plants.physics import PhysicsRobot
+    from ..errors import InputError
     from ..scenarios import random_delays
+
+    if engine not in ENGINES:
+        raise InputError(f"--engine: {engine!r} is not one of {', '.join(ENGINES)}")
 
     cfg = model.config
     V, Ts, d_hi = model.V, model.Ts, model.d_hi
@@ -220,7 +231,12 @@ def excite_physics(model: Any, episodes: int = 4, seed: int = 0) -> list:
     if rho_max is not None:  # scale a command down to the motor limit
         peak = np.max(np.abs(cmd @ J_inv.T), axis=-1, keepdims=True)
         cmd = cmd * np.minimum(1.0, rho_max / np.maximum(peak, 1e-12))
-    robot = PhysicsRobot(cfg, episodes)
+    if engine == "physics":
+        from ..plants.physics import PhysicsRobot
+
+        robot = PhysicsRobot(cfg, episodes)
+    else:
+        robot = _KinematicEngine(model, excitation_slip(model, episodes, steps, seed))
     robot.reset(np.zeros((episodes, 3)), V)
     taus = random_delays(model, rng, episodes, steps)
     S = model.s_tilde(taus)
@@ -232,6 +248,8 @@ def excite_physics(model: Any, episodes: int = 4, seed: int = 0) -> list:
         robot.period(U, S[:, k])
     tk = np.arange(steps) * Ts
     rho = cmd @ J_inv.T
+    nz = cfg.verification.noise
+    Q = Q + rng.normal(size=Q.shape) * np.array([nz.position, nz.position, nz.heading])
     logs = []
     for n in range(episodes):
         tau = taus[n, d_hi : d_hi + steps]
@@ -239,3 +257,18 @@ def excite_physics(model: Any, episodes: int = 4, seed: int = 0) -> list:
                              np.arange(steps, dtype=float), rho[n, :, 0], rho[n, :, 1], tk.copy(),
                              np.where(np.isfinite(tau), tk + tau, np.nan)))
     return logs
+
+
+def excitation_steps(model: Any) -> int:
+    """Sampling periods of one excitation episode."""
+    return max(1, int(round(EXCITATION_HOLD / model.Ts))) * len(EXCITATION_TURNS) * len(EXCITATION_SPEEDS)
+
+
+def excitation_slip(model: Any, episodes: int, steps: int, seed: int) -> np.ndarray:
+    """The kinematic excitation's slip (episodes, steps, n_p): the simulator's profiles in the config's box."""
+    from ..scenarios import SLIP_PROFILES, slip_profiles
+
+    lo = np.array([r[0] for r in model.slip_ranges])
+    hi = np.array([r[1] for r in model.slip_ranges])
+    kinds = [SLIP_PROFILES[n % len(SLIP_PROFILES)] for n in range(episodes)]
+    return slip_profiles(np.random.default_rng([seed, 1]), kinds, steps, lo, hi, model.Ts, model.config.slip.max_rate)
