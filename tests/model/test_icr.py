@@ -12,7 +12,7 @@ import pytest
 from scipy.linalg import expm
 
 from robustsynth.config import load_config
-from robustsynth.errors import ConfigError, InputError
+from robustsynth.errors import ConfigError
 from robustsynth.model import build_model, coverage_check
 from robustsynth.model.slip import lateral_row, slip_matrix, twist_matrix
 from robustsynth.plants.kinematic import KinematicRobot, arc_step
@@ -161,8 +161,11 @@ def test_the_rate_bound_is_the_tracks_and_the_other_parameters_jump() -> None:
     assert m.rate_bounded and not wide.rate_bounded  # 0.2 per period covers [0.9, 1]; yaw's 0.13 does not count
 
 
-def test_check_log_refuses_the_icr_model() -> None:
+def test_check_log_checks_every_icr_parameter_even_without_periods() -> None:
+    """check-log on an icr config has a row per slip parameter (tests/test_identification.py checks them on
+    logs); with no usable period each has no samples and nothing outside."""
     from robustsynth.identification import check_log
 
-    with pytest.raises(InputError, match="slip.model: icr"):
-        check_log([], load_config(ICR))
+    rows = {r["assumption"]: r for r in check_log([], load_config(ICR))}
+    for key in ("right", "left", "yaw", "icr_offset"):
+        assert rows[f"slip.{key}"]["samples"] == 0 and rows[f"slip.{key}"]["outside"] == 0
