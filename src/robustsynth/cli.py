@@ -544,14 +544,22 @@ def check_log_cmd(obj: _Ctx, logs: tuple[Path, ...], config: Path | None, gains:
     else:
         cfg = _load(config)
     rows = check_log([read_log(p) for p in logs], cfg, max_motor_speed, pose_noise)
-    bad = 0
+    bad = unchecked = 0
     for r in rows:
+        rng = f"{r['assumption']} in [{r['range'][0]:g}, {r['range'][1]:g}] ({r['unit']})"
+        if not r["samples"]:
+            unchecked += 1
+            obj.say(f"{'n/a':8s} {rng}: not checked (no period of the logs says anything about it)")
+            continue
         viol = r["fraction_outside"] > tolerance
         bad += viol
         worst = "" if r["worst"] is None else f", worst {r['worst']:.4g}" + (f" at {r['where']}" if r["where"] else "")
-        obj.say(f"{'VIOLATED' if viol else 'ok':8s} {r['assumption']} in [{r['range'][0]:g}, {r['range'][1]:g}] "
-                f"({r['unit']}): {r['outside']} of {r['samples']} outside ({100 * r['fraction_outside']:.2f} %){worst}")
-    obj.say(f"check-log: {len(rows) - bad} of {len(rows)} assumptions hold (tolerance {100 * tolerance:g} %)")
+        obj.say(f"{'VIOLATED' if viol else 'ok':8s} {rng}: {r['outside']} of {r['samples']} outside "
+                f"({100 * r['fraction_outside']:.2f} %){worst}")
+    obj.say(f"check-log: {len(rows) - bad - unchecked} of {len(rows)} assumptions hold"
+            + (f", {unchecked} not checked" if unchecked else "") + f" (tolerance {100 * tolerance:g} %)"
+            + (f"; pose noise assumed {rows[-1]['pose_noise'][0]:g} m, {rows[-1]['pose_noise'][1]:g} rad"
+               if rows and rows[-1].get("pose_noise") else ""))
     return EXIT_VERIFICATION_FAILED if bad else EXIT_OK
 
 
@@ -594,7 +602,8 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
     out = outdir if outdir is not None else Path("results") / cfg.name / ("excitation" if excite else "validation")
     if excite:
         paths = excitation_stage(build_model(cfg), out, episodes=episodes, seed=seed, engine=engine)
-        icr = " --model icr" if cfg.slip.model == "icr" else ""
+        nz = cfg.verification.noise
+        icr = f" --model icr --pose-noise {nz.position:g} {nz.heading:g}" if cfg.slip.model == "icr" else ""
         obj.say(f"excitation ({engine}): {len(paths)} episodes written to {out / 'logs'}; next: robustsynth identify "
                 f"{out / 'logs'}/*.csv --config {config}{icr} --max-motor-speed {cfg.robot.max_motor_speed or 'R'} "
                 "-o FRAGMENT.yaml")

@@ -13,6 +13,9 @@ From logs in the format of :mod:`robustsynth.artifacts.logs`:
   quantiles) and is widened by twice the estimates' standard uncertainty. That uncertainty comes
   from the fit's residual: the pose noise seen in the data. Estimates more than POOR_SIGMA times as
   uncertain as the median (a period in which one track barely turns) are left out of the box.
+- **slip** (``slip.model: icr``, :mod:`robustsynth.identification_icr`): per period a line of
+  (mu_r, mu_l, 1/yaw) and x_icr; the box of traction and yaw is the stated gauge (the least box that
+  explains every period), x_icr's the central quantiles; the pose noise is given, not estimated.
 
 Periods are skipped when the command acting at t_k is unknown (before the first applied command),
 when the robot barely moves, or when a command exceeds the motor limit (if one is given): saturated
@@ -32,8 +35,8 @@ from .model.network import longest_burst
 from .identification_icr import S_WEIGHT
 from .plants.kinematic import arc_step, wrap_angle
 
-__all__ = ["SlipEstimates", "Identification", "estimate_slip", "identify", "fragment_yaml", "report_markdown", "check_log",
-           "MODELS"]
+__all__ = ["SlipEstimates", "Identification", "estimate_slip", "estimate_icr", "identify", "fragment_yaml",
+           "report_markdown", "check_log", "check_pose_noise", "config_pose_noise", "MODELS"]
 
 MODELS = ("tracks", "icr")
 KEYS = {"tracks": ("right", "left"), "icr": ("right", "left", "yaw", "icr_offset")}  # config keys of the slip box
@@ -208,11 +211,21 @@ def estimate_slip(logs: Sequence[RobotLog], gear_radius: float, track_distance: 
 
 def _icr_lines(logs: Sequence[RobotLog], R: float, D: float, pose_noise: tuple[float, float],
                max_motor_speed: float | None):
-    """The icr model's per-period lines over all logs, the periods behind them (None: no usable period) and the
+    """The icr model's per-period lines over all logs, the periods behind them (None: no usable
+    period; a period with a track at rest is skipped: its traction factor is not seen) and the
     skip counts."""
-    from .identification_icr import icr_lines
+    from .identification_icr import icr_lines, track_at_rest
 
     periods, skipped = _periods(logs, R, D, max_motor_speed)
+    skipped["a track at rest"] = 0
+    kept = []
+    for p in periods:
+        rest = track_at_rest(p.rho, p.dur)
+        skipped["a track at rest"] += int(np.sum(rest))
+        keep = ~rest
+        kept.append(_Periods(p.q0[keep], p.q1[keep], p.rho[keep], p.dur[keep], p.travel[keep], p.turn[keep],
+                             [w for w, k in zip(p.where, keep) if k]))
+    periods = kept
     if not sum(p.q0.shape[0] for p in periods):
         return None, periods, skipped
     S = max(p.dur.shape[1] for p in periods)
@@ -226,20 +239,57 @@ def _icr_lines(logs: Sequence[RobotLog], R: float, D: float, pose_noise: tuple[f
     return lines, periods, skipped
 
 
+def _gauge_z(n: int) -> float:
+    """The gauge's z: the chance that the noise of any of n periods' two traction factors exceeds z
+    sigma (either side) is at most GAUGE_FALSE_ALARM."""
+    from scipy.stats import norm
+
+    return float(norm.isf(GAUGE_FALSE_ALARM / (4.0 * max(n, 1))))
+
+
+def config_pose_noise(cfg: Any) -> tuple[float, float]:
+    """The icr model's default pose noise: the config's ``verification.noise``; refused when it is zero
+    (the default), which would claim exact poses for a real robot's log."""
+    nz = cfg.verification.noise
+    if nz.position == 0 and nz.heading == 0:
+        raise InputError("--pose-noise: the icr model needs the logged poses' noise and the config's "
+                         "verification.noise is 0; give --pose-noise POSITION HEADING [m] [rad] (0 0 for exact poses)")
+    return float(nz.position), float(nz.heading)
+
+
+def check_pose_noise(pose_noise: Any, source: str = "--pose-noise") -> tuple[float, float]:
+    """The icr model's pose noise (position [m], heading [rad]): two finite numbers >= 0 (InputError)."""
+    try:
+        pn = tuple(float(x) for x in pose_noise)
+    except (TypeError, ValueError):
+        pn = ()
+    if len(pn) != 2 or not all(np.isfinite(pn)) or min(pn) < 0:
+        raise InputError(f"{source}: the icr model needs the pose noise as two finite numbers >= 0 (position [m], "
+                         f"heading [rad]); got {pose_noise}")
+    return pn
+
+
 def estimate_icr(logs: Sequence[RobotLog], gear_radius: float, track_distance: float, pose_noise: tuple[float, float],
                  max_motor_speed: float | None = None) -> tuple[SlipEstimates, np.ndarray]:
     """One (mu_r, mu_l, yaw, x_icr) per usable period of every log (the icr model, in the gauge of
     :mod:`robustsynth.identification_icr`), and the gauge box [[mu_r], [mu_l], [s = 1/yaw]] (lo, hi)."""
-    from scipy.stats import norm
-
-    from .identification_icr import gauge_box, icr_estimates
+    from .identification_icr import S_RANGE, gauge_box, icr_estimates
 
     R, D = float(gear_radius), float(track_distance)
     lines, periods, skipped = _icr_lines(logs, R, D, pose_noise, max_motor_speed)
     if lines is None:
         return SlipEstimates(np.zeros((0, 4)), np.zeros((0, 4)), np.zeros(0), [], skipped, ICR_NAMES), np.zeros((3, 2))
-    z = float(norm.isf(GAUGE_FALSE_ALARM / (2.0 * len(lines))))  # a period's noise beyond z sigma: <= 5 % odds in all
+    where = logs[0].path if logs else "identify"
+    if int(np.sum(lines.turning & (lines.omega > 0))) < 3 or int(np.sum(lines.turning & (lines.omega < 0))) < 3:
+        raise InputError(f"{where}: the logs hardly turn ({int(np.sum(lines.turning))} turning periods): the icr model's "
+                         "yaw factor and x_icr need turns of both directions (record some: validate --excite)")
+    z = _gauge_z(len(lines))
     box = gauge_box(lines, z)
+    tol = 1e-6 * (S_RANGE[1] - S_RANGE[0])
+    if box[2, 0] <= S_RANGE[0] + tol or box[2, 1] >= S_RANGE[1] - tol:
+        raise InputError(f"{where}: the logs do not determine the yaw factor (the least box that explains them needs "
+                         f"yaw at the search's bound {1 / S_RANGE[1]:g} or {1 / S_RANGE[0]:g}): drive turns at several "
+                         "rates and speeds, forwards (validate --excite)")
     est, sig = icr_estimates(lines, box, R, D, z)
     turn = np.concatenate([p.turn / np.maximum(p.travel, 1e-12) for p in periods])
     return SlipEstimates(est, sig, turn, [w for p in periods for w in p.where], skipped, ICR_NAMES), box
@@ -276,9 +326,8 @@ def identify(logs: Sequence[RobotLog], gear_radius: float, track_distance: float
         raise InputError(f"--coverage: must be in [0.5, 1] (got {coverage:g})")
     if not logs:
         raise InputError("identify: no log given")
-    if model == "icr" and (pose_noise is None or not all(np.isfinite(pose_noise)) or min(pose_noise) < 0):
-        raise InputError(f"--pose-noise: the icr model needs the pose noise (position [m], heading [rad], >= 0); got "
-                         f"{pose_noise}")
+    if model == "icr":
+        pose_noise = check_pose_noise(pose_noise)
     delays = np.concatenate([lg.delays[np.isfinite(lg.delays)] for lg in logs])
     if delays.size == 0:
         raise InputError(f"{logs[0].path}: column 'applied': no command was ever applied")
@@ -295,12 +344,17 @@ def identify(logs: Sequence[RobotLog], gear_radius: float, track_distance: float
     for i, key in enumerate(KEYS[model]):
         sg = est.sigma[:, i]
         if gauge is not None and key == "yaw":  # the gauge's range of s = 1/yaw, widened in s
+            from .identification_icr import S_RANGE
+
             sg_s = sg / est.mu[:, 2] ** 2  # the uncertainty in s of the periods that say something about it
             w = WIDEN_SIGMA * float(np.median(sg_s[_good(sg_s)])) + FIT_TOL
-            box[key], widen[key] = (1.0 / (gauge[2, 1] + w), 1.0 / max(gauge[2, 0] - w, 1e-3)), w
+            box[key], widen[key] = (1.0 / (gauge[2, 1] + w), 1.0 / max(gauge[2, 0] - w, S_RANGE[0])), w
             continue
         w = WIDEN_SIGMA * _median_sigma(sg) + FIT_TOL
-        if gauge is not None and i < 2:  # the gauge's traction box: it explains every period (within z sigma)
+        if gauge is not None and i < 2:  # the gauge's traction box: it explains every period (within z sigma, of
+            from .identification_icr import MODEL_FLOOR  # which z times the lines' numerical floor is not noise)
+
+            w += _gauge_z(est.mu.shape[0]) * MODEL_FLOOR
             lo, hi = gauge[i, 0] - w, gauge[i, 1] + w
         else:  # the central quantiles of the estimates (tracks; x_icr)
             good = _good(sg)
@@ -366,12 +420,15 @@ def fragment_yaml(ident: Identification) -> str:
 
 
 def _round(x: float, direction: int, digits: int = 4) -> str:
-    """x rounded to ``digits`` significant digits away from the box's inside (down for a min, up for a max)."""
+    """x rounded to ``digits`` significant digits away from the box's inside (down for a min, up for a
+    max), written without an exponent (YAML reads '1e-05' as a string)."""
     if x == 0 or not np.isfinite(x):
         return _g(x)
     scale = 10.0 ** (digits - 1 - int(np.floor(np.log10(abs(x)))))
-    r = (np.floor if direction < 0 else np.ceil)(x * scale - direction * 1e-9) / scale
-    return _g(float(r))
+    r = float((np.floor if direction < 0 else np.ceil)(x * scale) / scale)
+    if (direction < 0 and r > x) or (direction > 0 and r < x):  # the division's rounding went inwards
+        r = float(np.nextafter(r, -np.inf if direction < 0 else np.inf))
+    return np.format_float_positional(r, trim="-")
 
 
 def check_log(logs: Sequence[RobotLog], cfg: Any, max_motor_speed: float | None = None,
@@ -381,7 +438,8 @@ def check_log(logs: Sequence[RobotLog], cfg: Any, max_motor_speed: float | None 
     range by more than CHECK_SIGMA of its own uncertainty; poorly determined estimates (POOR_SIGMA)
     are not counted.  slip.model icr: each period is explained inside the box if it can be
     (:func:`robustsynth.identification_icr.check_icr`), with ``pose_noise`` (default: the config's
-    verification.noise) as the logged poses' noise."""
+    verification.noise, refused when zero) as the logged poses' noise; a parameter no period says
+    anything about has 0 samples (not checked)."""
     out = []
     dl = cfg.network.delay
     d = [(lg.delays, lg.path) for lg in logs]
@@ -434,18 +492,14 @@ def _check_icr(logs: Sequence[RobotLog], cfg: Any, max_motor_speed: float | None
     from .identification_icr import check_icr
     from .model.slip import slip_parameter_ranges
 
-    noise = pose_noise if pose_noise is not None else (cfg.verification.noise.position, cfg.verification.noise.heading)
+    noise = check_pose_noise(pose_noise if pose_noise is not None else config_pose_noise(cfg))
     lines, periods, _ = _icr_lines(logs, cfg.robot.gear_radius, cfg.robot.track_distance, noise, max_motor_speed)
     ranges = slip_parameter_ranges(cfg.slip)
     where = [w for p in periods for w in p.where]
     if lines is None:
         value, outside, sigma = np.zeros((0, 4)), np.zeros((0, 4), dtype=bool), np.zeros((0, 4))
     else:
-        from scipy.stats import norm
-
-        z_gauge = float(norm.isf(GAUGE_FALSE_ALARM / (2.0 * len(lines))))  # as identify's
-        value, outside, sigma = check_icr(lines, ranges, cfg.robot.gear_radius, cfg.robot.track_distance, CHECK_SIGMA,
-                                          z_gauge)
+        value, outside, sigma = check_icr(lines, ranges, CHECK_SIGMA, _gauge_z(len(lines)))
     rows = []
     for i, key in enumerate(KEYS["icr"]):
         lo, hi = ranges[i]
@@ -458,7 +512,7 @@ def _check_icr(logs: Sequence[RobotLog], cfg: Any, max_motor_speed: float | None
                      "fraction_outside": bad.size / max(int(np.sum(seen)), 1),
                      "worst": float(value[k, i]) if k >= 0 else None,
                      "where": f"{where[k][0]}, row {where[k][1]}" if k >= 0 and bad.size else "",
-                     "unit": "m" if key == "icr_offset" else "—"})
+                     "unit": "m" if key == "icr_offset" else "—", "pose_noise": list(noise)})
     return rows
 
 
@@ -481,7 +535,7 @@ def report_markdown(ident: Identification, fragment: str, figure: str | None) ->
             "traction factors and the yaw factor consistent with a period lie on a line, and the box of (mu_r, mu_l, "
             f"yaw) is the gauge: the least traction widths plus {S_WEIGHT:g} times the width in 1/yaw that every "
             "period's line meets within its noise. The per-period estimates in the table are the points of those "
-            "lines nearest the middle of the gauge's yaw range. Uncertainties are propagated from the pose noise "
+            "lines whose traction lies nearest the middle of the box's traction. Uncertainties are propagated from the pose noise "
             f"{_g(pn[0])} m, {_g(pn[1])} rad (given, not estimated: the fit has no residual); median standard "
             "uncertainty of an estimate: " + ", ".join(f"{n} {v}" for n, v in sig.items())
             + f". The traction and yaw ranges explain every period; x_icr's covers {100 * ident.coverage:g} % of its "

@@ -41,13 +41,16 @@ import numpy as np
 
 from .plants.kinematic import arc_step, wrap_angle
 
-__all__ = ["IcrLines", "icr_lines", "gauge_box", "feasible_s", "icr_estimates", "check_icr", "S_RANGE", "S_WEIGHT",
-           "CHECK_SIGMA"]
+__all__ = ["IcrLines", "icr_lines", "gauge_box", "feasible_s", "icr_estimates", "check_icr", "track_at_rest", "S_RANGE",
+           "S_WEIGHT", "CHECK_SIGMA"]
 
-S_RANGE = (1.0 / 20.0, 1.0 / 0.05)  # s = 1 / yaw searched in [0.05, 20] (the config allows yaw in (0, 10])
+S_RANGE = (1.0 / 10.0, 1.0 / 0.05)  # s = 1 / yaw searched in [0.1, 20]: yaw in [0.05, 10] (the config's yaw <= 10)
 S_WEIGHT = 0.05  # the gauge's price of one unit of s = 1/yaw, against one unit of traction width
 CHECK_SIGMA = 3.0  # a period's line meets the box when within this many of its standard uncertainties
-MIN_TURN = 1e-3  # rad/s: below this measured yaw rate a period says nothing about yaw or x_icr
+MIN_TURN = 1e-3  # rad/s: below this measured yaw rate (or 3 sigma of its noise) a period says nothing about yaw, x_icr
+AT_REST = 1e-6  # a track whose mean motor speed is below this share of the other's is at rest: its mu is not seen
+MODEL_FLOOR = 1e-9  # the lines' own numerical error (mu, x_icr): the least uncertainty
+BEND = 4.0  # a two-command period's curve: its bend at the chord's middle, times this, bounds it over the range
 GN_STEPS = 4
 CUT_SEED_RANDOM = 400  # cutting planes: random periods in the first subset
 CUTS_PER_ROUND = 400  # cutting planes: at most this many violators added per round
@@ -57,19 +60,22 @@ _TOL = 1e-9
 
 @dataclass(frozen=True)
 class IcrLines:
-    """Per period: mu_r(s) = ar + br s, mu_l(s) = al + bl s (s = 1 / yaw), x_icr, their standard
-    uncertainties (sig_r, sig_l: of mu at fixed s; sig_x), the measured yaw rate, and the pieces the
-    exact refinement needs."""
+    """Per period: mu_r(s) = ar + br s, mu_l(s) = al + bl s, x_icr(s) = ax + bx s (s = 1 / yaw; x_icr
+    NaN where the period does not turn), their standard uncertainties (sig_r, sig_l: of mu at fixed s,
+    with the pose noise and the model's error; sig_x), the measured yaw rate, whether the period
+    turns (beyond MIN_TURN and 3 sigma of its noise), and the pieces the exact refinement needs."""
 
     ar: np.ndarray
     br: np.ndarray
     al: np.ndarray
     bl: np.ndarray
-    x: np.ndarray
+    ax: np.ndarray
+    bx: np.ndarray
     sig_r: np.ndarray
     sig_l: np.ndarray
     sig_x: np.ndarray
     omega: np.ndarray
+    turning: np.ndarray
     q0: np.ndarray
     q1: np.ndarray
     rho: np.ndarray
@@ -80,6 +86,16 @@ class IcrLines:
 
     def take(self, idx: np.ndarray) -> "IcrLines":
         return IcrLines(*(getattr(self, f)[idx] for f in self.__dataclass_fields__))
+
+    def x_at(self, s: np.ndarray) -> np.ndarray:
+        return self.ax + self.bx * s
+
+
+def track_at_rest(rho: np.ndarray, dur: np.ndarray) -> np.ndarray:
+    """Periods (P,) in which a track's mean motor speed is (nearly) zero: its traction factor is not
+    seen, so the period's line is not defined (the callers skip them)."""
+    rbar = np.abs(np.einsum("ps,psi->pi", dur, rho))
+    return np.min(rbar, axis=1) <= AT_REST * np.maximum(np.max(rbar, axis=1), 1e-300)
 
 
 def _mean_twist(q0: np.ndarray, q1: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -131,40 +147,45 @@ def _refine(q0, q1, rho, dur, p, s, R, D) -> np.ndarray:
 def icr_lines(q0: np.ndarray, q1: np.ndarray, rho: np.ndarray, dur: np.ndarray, R: float, D: float,
               noise: tuple[float, float]) -> IcrLines:
     """The per-period lines from poses q0 -> q1 (P, 3), the commands' motor speeds rho (P, S, 2)
-    acting for dur (P, S), and the pose noise (position [m], heading [rad], one std per sample)."""
+    acting for dur (P, S), and the pose noise (position [m], heading [rad], one std per sample).
+    No track may be at rest (:func:`track_at_rest`)."""
     T = dur.sum(axis=1)
     rbar = np.einsum("ps,psi->pi", dur, rho) / T[:, None]  # mean motor speeds over the period
     vx, vy, w = _mean_twist(q0, q1, T)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ar, br = vx / (R * rbar[:, 0]), w * D / (2.0 * R * rbar[:, 0])
-        al, bl = vx / (R * rbar[:, 1]), -w * D / (2.0 * R * rbar[:, 1])
-        x = np.where(np.abs(w) >= MIN_TURN, -vy / w, np.nan)
-    # first order: two poses per period, each with iid noise; the heading error also turns the displacement
+    # first order in the pose noise (two poses per period, iid): the displacement is seen in the frame
+    # of the mean heading (theta_0 + theta_1) / 2, whose error sh / sqrt(2) turns it sideways
     sp, sh = float(noise[0]), float(noise[1])
     L = np.hypot(q1[:, 0] - q0[:, 0], q1[:, 1] - q0[:, 1])
     s_vx = np.sqrt(2.0) * sp / T
-    s_vy = np.sqrt(2.0 * sp**2 + (L * sh) ** 2 + (L * sh / np.sqrt(2.0)) ** 2) / T
+    s_vy = np.sqrt(2.0 * sp**2 + (L * sh) ** 2 / 2.0) / T
     s_w = np.sqrt(2.0) * sh / T
+    turning = np.abs(w) >= np.maximum(MIN_TURN, 3.0 * s_w)
     with np.errstate(divide="ignore", invalid="ignore"):
+        ar, br = vx / (R * rbar[:, 0]), w * D / (2.0 * R * rbar[:, 0])
+        al, bl = vx / (R * rbar[:, 1]), -w * D / (2.0 * R * rbar[:, 1])
+        x = np.where(turning, -vy / w, 0.0)
         # the omega term's share of sig_r, sig_l depends on s: evaluated at the lumped s of the turning
         # periods (commanded over measured yaw rate with mu = 1), one value for the whole log set
         w_cmd = R / D * (rbar[:, 0] - rbar[:, 1])
-        turning = np.abs(w) >= MIN_TURN
         s_ref = float(np.clip(np.median(w_cmd[turning] / w[turning]), *S_RANGE)) if np.any(turning) else 1.0
         sig_r = np.hypot(s_vx, s_ref * D / 2.0 * s_w) / np.abs(R * rbar[:, 0])
         sig_l = np.hypot(s_vx, s_ref * D / 2.0 * s_w) / np.abs(R * rbar[:, 1])
-        sig_x = np.where(np.isfinite(x), np.hypot(s_vy, np.nan_to_num(x) * s_w) / np.abs(w), np.inf)
-    # the exact lines: (mu_r, mu_l, x_icr) fitted through the exact arcs at two values of s around s_ref
-    # (a line exactly for one command per period; a chord of a slightly bent curve when a delayed
-    # command switches within it)
-    s1, s2 = 0.8 * s_ref, 1.25 * s_ref
-    x0 = np.nan_to_num(x)
-    p1 = _refine(q0, q1, rho, dur, np.stack([ar + br * s1, al + bl * s1, x0], axis=1), s1, R, D)
-    p2 = _refine(q0, q1, rho, dur, np.stack([ar + br * s2, al + bl * s2, x0], axis=1), s2, R, D)
-    br, bl = (p2[:, 0] - p1[:, 0]) / (s2 - s1), (p2[:, 1] - p1[:, 1]) / (s2 - s1)
-    ar, al = p1[:, 0] - br * s1, p1[:, 1] - bl * s1
-    x = np.where(np.isfinite(x), 0.5 * (p1[:, 2] + p2[:, 2]), np.nan)
-    return IcrLines(ar, br, al, bl, x, sig_r, sig_l, sig_x, w, q0, q1, rho, dur)
+        sig_x = np.where(turning, np.hypot(s_vy, x * s_w) / np.abs(w), np.inf)
+    # the exact lines: (mu_r, mu_l, x_icr) fitted through the exact arcs at two values of s around s_ref:
+    # a line exactly for one command per period, the chord of a slightly bent curve when a delayed
+    # command switches within it; its bend at the middle (a third fit), times BEND, joins the uncertainty
+    s1, sm, s2 = 0.8 * s_ref, 0.9 * s_ref, 1.25 * s_ref
+    fits = [_refine(q0, q1, rho, dur, np.stack([ar + br * si, al + bl * si, x], axis=1), si, R, D) for si in (s1, sm, s2)]
+    p1, pm, p2 = fits
+    slope = (p2 - p1) / (s2 - s1)
+    bend = BEND * np.abs(pm - (p1 + slope * (sm - s1)))
+    ar, al, ax = p1[:, 0] - slope[:, 0] * s1, p1[:, 1] - slope[:, 1] * s1, p1[:, 2] - slope[:, 2] * s1
+    sig_r = np.sqrt(sig_r**2 + bend[:, 0] ** 2) + MODEL_FLOOR
+    sig_l = np.sqrt(sig_l**2 + bend[:, 1] ** 2) + MODEL_FLOOR
+    sig_x = np.sqrt(sig_x**2 + bend[:, 2] ** 2) + MODEL_FLOOR
+    ax = np.where(turning, ax, np.nan)
+    return IcrLines(ar, slope[:, 0], al, slope[:, 1], ax, np.where(turning, slope[:, 2], 0.0), sig_r, sig_l, sig_x, w,
+                    turning, q0, q1, rho, dur)
 
 
 def feasible_s(lines: IcrLines, box: np.ndarray, z: float = CHECK_SIGMA) -> tuple[np.ndarray, np.ndarray]:
@@ -203,6 +224,9 @@ def _lp(lines: IcrLines, z: float) -> np.ndarray:
         rhs += [z * sg - a, a + z * sg]
     rows += [sparse.hstack([bound(5, -1.0), sparse.eye(m)]), sparse.hstack([bound(4, 1.0), -sparse.eye(m)])]
     rhs += [np.zeros(m), np.zeros(m)]
+    order = sparse.csr_matrix(([1.0, -1.0] * 3, ([0, 0, 1, 1, 2, 2], [0, 1, 2, 3, 4, 5])), shape=(3, 6 + m))
+    rows.append(order)  # lo <= hi: the slack must not buy an inverted box
+    rhs.append(np.zeros(3))
     cost = np.zeros(6 + m)
     cost[:6] = (-1.0, 1.0, -1.0, 1.0, -S_WEIGHT, S_WEIGHT)
     bounds = [(None, None)] * 4 + [S_RANGE] * (2 + m)
@@ -227,8 +251,9 @@ def gauge_box(lines: IcrLines, z: float = CHECK_SIGMA, seed: int = 0) -> np.ndar
     for _ in range(MAX_ROUNDS):
         box = _lp(lines.take(idx), z)
         lo, hi = feasible_s(lines, box, z)
-        gap = lo - hi
-        bad = np.setdiff1d(np.flatnonzero(gap > 1e-9 * np.maximum(1.0, np.abs(lo))), idx)
+        gap = lo - hi  # inf for a flat line outside the box
+        scale = np.maximum(1.0, np.where(np.isfinite(lo), np.abs(lo), 1.0))
+        bad = np.setdiff1d(np.flatnonzero(gap > 1e-9 * scale), idx)
         if not bad.size:
             return box
         idx = np.union1d(idx, bad[np.argsort(gap[bad])[::-1][:CUTS_PER_ROUND]])
@@ -254,52 +279,60 @@ def icr_estimates(lines: IcrLines, box: np.ndarray, R: float, D: float, z: float
         s_near = -((lines.ar - ca) * lines.br / wa**2 + (lines.al - cb) * lines.bl / wb**2) / den
     s_near = np.where(np.isfinite(s_near) & (den > 1e-18), s_near, 0.5 * (box[2, 0] + box[2, 1]))
     s = np.clip(s_near, np.minimum(lo, hi), np.maximum(lo, hi))
-    p0 = np.stack([lines.ar + lines.br * s, lines.al + lines.bl * s, np.nan_to_num(lines.x)], axis=1)
+    p0 = np.stack([lines.ar + lines.br * s, lines.al + lines.bl * s, np.nan_to_num(lines.x_at(s))], axis=1)
     p = _refine(lines.q0, lines.q1, lines.rho, lines.dur, p0, s, R, D)
-    x = np.where(np.isfinite(lines.x), p[:, 2], np.nan)
-    turning = np.abs(lines.omega) >= MIN_TURN
+    turning = lines.turning
     with np.errstate(divide="ignore", invalid="ignore"):
         sig_s = np.minimum(lines.sig_r / np.abs(lines.br), lines.sig_l / np.abs(lines.bl))  # s moves the line's mu
-    est = np.stack([p[:, 0], p[:, 1], np.where(turning, 1.0 / s, np.nan), x], axis=1)
+    est = np.stack([p[:, 0], p[:, 1], np.where(turning, 1.0 / s, np.nan), np.where(turning, p[:, 2], np.nan)], axis=1)
     sig = np.stack([lines.sig_r, lines.sig_l, np.where(turning, sig_s / s**2, np.inf), lines.sig_x], axis=1)
     return est, sig
 
 
-def check_icr(lines: IcrLines, ranges: tuple[tuple[float, float], ...], R: float, D: float, z: float = CHECK_SIGMA,
+def check_icr(lines: IcrLines, ranges: tuple[tuple[float, float], ...], z: float = CHECK_SIGMA,
               z_gauge: float = CHECK_SIGMA) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``check-log`` on an icr config: per period and parameter (mu_r, mu_l, yaw, x_icr) a value and
     whether it lies outside its range by more than z sigma.
 
     A period's traction and yaw are one equation short, so which parameter to blame is not in the
     period alone.  A period whose line meets the config's box (within z sigma) is explained: none of
-    its traction and yaw values is outside (the values: its point nearest the middle of the yaw
-    range).  Any other period is explained within the logs' own gauge box (:func:`gauge_box`, what
-    ``identify`` reports), at the point of its line in that box with the fewest parameters outside the
-    config's ranges (beyond z sigma), and among those the least sum of excesses in sigmas: a robot whose right track pulls more than the config allows is
-    blamed on mu_r, not on a yaw factor and mu_l that could trade for it under one command.  If that
-    point lies within z sigma of every range, the parameter farthest out in sigmas is blamed (the
-    period is not explained).  x_icr: its estimate at the period's s against its range.
+    its traction and yaw values is outside (the values: its point at the middle of the box's range
+    of s = 1/yaw, clipped to where the line lies in the box).  Any other period is explained within
+    the logs' own gauge box (:func:`gauge_box`, what ``identify`` reports), at the point of its line in
+    that box with the fewest parameters outside the config's ranges (beyond z sigma), and among those
+    the least sum of excesses in sigmas: a robot whose right track pulls more than the config allows
+    is blamed on mu_r, not on a yaw factor and mu_l that could trade for it under one command.  If
+    that point lies within z sigma of every range, the parameter farthest out in sigmas is blamed
+    (the period is not explained).  x_icr (which moves with s when a delayed command switches within
+    the period) is outside only if no s the period allows (its interval in the config's box, or its
+    point in the gauge) brings it inside.
     NaN values: the period says nothing about that parameter (yaw and x_icr in straight periods).
     Returns (value, outside, sigma), each (n, 4); sigma: the value's standard uncertainty."""
-    (r_lo, r_hi), (l_lo, l_hi), (y_lo, y_hi), _ = ranges
+    (r_lo, r_hi), (l_lo, l_hi), (y_lo, y_hi), (x_lo, x_hi) = ranges
+    n = len(lines)
     cfg_box = np.array([[r_lo, r_hi], [l_lo, l_hi], [1.0 / y_hi, 1.0 / y_lo]])
     lo, hi = feasible_s(lines, cfg_box, z)
     explained = lo <= hi
-    turning = np.abs(lines.omega) >= MIN_TURN
-    s_k = np.clip(0.5 * (cfg_box[2, 0] + cfg_box[2, 1]), np.minimum(lo, hi), np.maximum(lo, hi))
+    turning = lines.turning
+    s_k = np.clip(0.5 * (cfg_box[2, 0] + cfg_box[2, 1]), np.where(explained, lo, -np.inf), np.where(explained, hi, np.inf))
+    s_a, s_b = np.where(explained, lo, s_k), np.where(explained, hi, s_k)  # the s the period allows, for x_icr
     with np.errstate(divide="ignore", invalid="ignore"):
         sig_s = np.minimum(lines.sig_r / np.abs(lines.br), lines.sig_l / np.abs(lines.bl))
     if not np.all(explained):
-        g_lo, g_hi = feasible_s(lines, gauge_box(lines, z_gauge), z_gauge)
-        g_lo, g_hi = np.minimum(g_lo, g_hi), np.maximum(g_lo, g_hi)  # an empty interval: its nearest point
+        gauge = gauge_box(lines, z_gauge)
+        g_lo, g_hi = feasible_s(lines, gauge, z_gauge)
+        empty = ~(g_lo <= g_hi)  # not after gauge_box's cutting planes; guarded all the same
+        mid = 0.5 * (gauge[2, 0] + gauge[2, 1])
+        g_lo, g_hi = np.where(empty, mid, g_lo), np.where(empty, mid, g_hi)
         with np.errstate(divide="ignore", invalid="ignore"):
             zi = z * (1.0 - 1e-6)  # the candidates where a parameter reaches z sigma, just inside
             zs = zi * sig_s
-            cands = [g_lo, g_hi] + [np.full(len(lines), c) for c in cfg_box[2]] + [cfg_box[2, 0] - zs, cfg_box[2, 1] + zs]
+            cands = [g_lo, g_hi] + [np.full(n, c) for c in cfg_box[2]] + [cfg_box[2, 0] - zs, cfg_box[2, 1] + zs]
             for a, b, sg, bounds in ((lines.ar, lines.br, lines.sig_r, (r_lo, r_hi)),
                                      (lines.al, lines.bl, lines.sig_l, (l_lo, l_hi))):
                 cands += [(v + d - a) / b for v in bounds for d in (-zi * sg, 0.0, zi * sg)]
-            S = np.clip(np.nan_to_num(np.stack(cands, axis=1), nan=1.0), g_lo[:, None], g_hi[:, None])
+            S = np.clip(np.nan_to_num(np.stack(cands, axis=1), nan=mid, posinf=mid, neginf=mid),
+                        g_lo[:, None], g_hi[:, None])
             A = lines.ar[:, None] + lines.br[:, None] * S
             B = lines.al[:, None] + lines.bl[:, None] * S
             ex = [np.maximum(0.0, np.maximum(r_lo - A, A - r_hi)) / lines.sig_r[:, None],
@@ -308,18 +341,22 @@ def check_icr(lines: IcrLines, ranges: tuple[tuple[float, float], ...], R: float
                   / sig_s[:, None]]
             # the fewest parameters out (beyond z sigma), then the least excess in sigmas
             cost = sum((e > z) * 1e9 + e for e in ex)
-        best = S[np.arange(len(lines)), np.argmin(np.nan_to_num(cost, nan=np.inf), axis=1)]
+        best = S[np.arange(n), np.argmin(np.nan_to_num(cost, nan=np.inf), axis=1)]
         s_k = np.where(explained, s_k, best)
+        s_a, s_b = np.where(explained, s_a, best), np.where(explained, s_b, best)
     value = np.stack([lines.ar + lines.br * s_k, lines.al + lines.bl * s_k, np.where(turning, 1.0 / s_k, np.nan),
-                      np.full(len(lines), np.nan)], axis=1)
-    p = np.stack([value[:, 0], value[:, 1], np.nan_to_num(lines.x)], axis=1)  # x_icr moves with s when a delayed
-    value[:, 3] = np.where(np.isfinite(lines.x), _refine(lines.q0, lines.q1, lines.rho, lines.dur, p, s_k, R, D)[:, 2],
-                           np.nan)  # command switches within the period
+                      lines.x_at(s_k)], axis=1)
     sig = np.stack([lines.sig_r, lines.sig_l, np.where(turning, sig_s / s_k**2, np.inf), lines.sig_x], axis=1)
     out = np.zeros(value.shape, dtype=bool)
     with np.errstate(invalid="ignore", divide="ignore"):
         excess = np.stack([np.maximum(lo_ - value[:, i], value[:, i] - hi_) for i, (lo_, hi_) in enumerate(ranges)], axis=1)
         norm = np.where(np.isfinite(value), excess / sig, -np.inf)
+        xa, xb = lines.x_at(s_a), lines.x_at(s_b)  # x_icr over the s the period allows: its nearest to the range
+        x_excess = np.maximum(x_lo - np.maximum(xa, xb), np.minimum(xa, xb) - x_hi)
+        value[:, 3] = np.where(x_excess > 0, np.where(np.minimum(xa, xb) > x_hi, np.minimum(xa, xb), np.maximum(xa, xb)),
+                               np.clip(value[:, 3], x_lo, x_hi) if x_hi >= x_lo else value[:, 3])
+        value[:, 3] = np.where(turning, value[:, 3], np.nan)
+        norm[:, 3] = np.where(turning, x_excess / lines.sig_x, -np.inf)
     for i in range(3):
         out[:, i] = ~explained & (norm[:, i] > z)
     nearest = np.flatnonzero(~explained & ~out[:, :3].any(axis=1))

@@ -331,7 +331,9 @@ def identification_stage(log_paths: list[Path], cfg: Any, out: Path | None, cove
 
     logs = [read_log(p) for p in log_paths]
     if model == "icr" and pose_noise is None:
-        pose_noise = (cfg.verification.noise.position, cfg.verification.noise.heading)
+        from .identification import config_pose_noise
+
+        pose_noise = config_pose_noise(cfg)
     ident = identify(logs, cfg.robot.gear_radius, cfg.robot.track_distance, coverage, model, max_motor_speed, pose_noise)
     text = fragment_yaml(ident)
     written: list[Path] = []

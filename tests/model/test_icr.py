@@ -166,6 +166,6 @@ def test_check_log_checks_every_icr_parameter_even_without_periods() -> None:
     logs); with no usable period each has no samples and nothing outside."""
     from robustsynth.identification import check_log
 
-    rows = {r["assumption"]: r for r in check_log([], load_config(ICR))}
+    rows = {r["assumption"]: r for r in check_log([], load_config(ICR), pose_noise=(1e-4, 1e-4))}
     for key in ("right", "left", "yaw", "icr_offset"):
         assert rows[f"slip.{key}"]["samples"] == 0 and rows[f"slip.{key}"]["outside"] == 0

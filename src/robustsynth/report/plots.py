@@ -521,7 +521,8 @@ def identification_figure(ident: Any, path: Path) -> Path:
             axx.axvline(x, color="C3")
         axx.set_xlabel(f"{name} per period [{'m' if name == 'x_icr' else '-'}]")
         axx.set_ylabel("periods")
-        axx.set_title(f"slip: {name} (red: the box)")
+        side = {"mu_r": "right track", "mu_l": "left track"}.get(name, name)
+        axx.set_title(f"slip, {side} (red: the box)")
     ax = axes[1 + len(names)]
     for i, name in enumerate(names):
         if name in ("mu_r", "mu_l", "yaw"):
