@@ -363,6 +363,31 @@ def test_identify_icr_refuses_logs_without_turns_and_skips_a_track_at_rest(icr_l
         identify(straight, cfg.robot.gear_radius, cfg.robot.track_distance, model="icr", pose_noise=ICR_NOISE)
     rows = {r["assumption"]: r for r in check_log(straight, cfg, None, ICR_NOISE)}
     assert rows["slip.yaw"]["samples"] == 0 and rows["slip.icr_offset"]["samples"] == 0
-    rest = [dataclasses.replace(lg, rho_l=np.where(np.arange(len(lg)) % 50 == 7, 0.0, lg.rho_l)) for lg in logs]
-    ident = identify(rest, cfg.robot.gear_radius, cfg.robot.track_distance, model="icr", pose_noise=ICR_NOISE)
+    from robustsynth.verification.physics import excite
+
+    wide = _icr_cfg(**{"robot.track_distance": 1.0})  # at 2 rad/m the inner track stands still
+    rest = excite(build_model(wide), episodes=4, seed=1, engine="kinematic")
+    ident = identify(rest, wide.robot.gear_radius, wide.robot.track_distance, model="icr", pose_noise=ICR_NOISE)
     assert ident.slip.skipped["a track at rest"] > 0
+
+
+def test_identify_icr_on_constant_slip_draws_its_figure(tmp_path) -> None:
+    """One slip for the whole log (a robot on one surface): every yaw estimate is the same number, and
+    the report's histograms still draw (one bin), with the true point inside the box."""
+    from robustsynth.config import config_to_dict
+
+    point = {f"slip.{k}.{e}": v for k, v in (("right", 0.98), ("left", 0.97), ("yaw", 0.6), ("icr_offset", 0.03))
+             for e in ("min", "max")}
+    cfg = _icr_cfg(**point)
+    conf = tmp_path / "one.yaml"
+    conf.write_text(yaml.safe_dump(config_to_dict(cfg)))
+    run = lambda *a: subprocess.run([sys.executable, "-m", "robustsynth", *a], capture_output=True, text=True)  # noqa: E731
+    r = run("validate", str(conf), "--excite", "--engine", "kinematic", "--episodes", "1", "-o", str(tmp_path / "exc"))
+    assert r.returncode == 0, r.stderr
+    paths = sorted(str(p) for p in (tmp_path / "exc" / "logs").glob("*.csv"))
+    r = run("identify", *paths, "--config", str(conf), "--model", "icr", "-o", str(tmp_path / "frag.yaml"))
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "frag.png").exists()
+    frag = yaml.safe_load((tmp_path / "frag.yaml").read_text())["slip"]
+    for key, (lo, hi) in (("right", (0.98,) * 2), ("left", (0.97,) * 2), ("yaw", (0.6,) * 2), ("icr_offset", (0.03,) * 2)):
+        assert frag[key]["min"] <= lo and frag[key]["max"] >= hi, (key, frag[key])

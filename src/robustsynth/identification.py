@@ -42,6 +42,7 @@ MODELS = ("tracks", "icr")
 KEYS = {"tracks": ("right", "left"), "icr": ("right", "left", "yaw", "icr_offset")}  # config keys of the slip box
 ICR_NAMES = ("mu_r", "mu_l", "yaw", "x_icr")
 UNITS = {"mu_r": "-", "mu_l": "-", "yaw": "-", "x_icr": "m"}
+MIN_TURNING = 10  # icr: fewer turning periods say nothing about the yaw factor and x_icr
 GAUGE_FALSE_ALARM = 0.05  # icr: the gauge's z is set so that any period's noise exceeds z sigma with these odds
 WIDEN_SIGMA = 2.0  # the box is widened by this many standard uncertainties of an estimate
 FIT_TOL = 1e-9  # the fit's own numerical error on mu (noise-free logs): the least widening
@@ -280,9 +281,9 @@ def estimate_icr(logs: Sequence[RobotLog], gear_radius: float, track_distance: f
     if lines is None:
         return SlipEstimates(np.zeros((0, 4)), np.zeros((0, 4)), np.zeros(0), [], skipped, ICR_NAMES), np.zeros((3, 2))
     where = logs[0].path if logs else "identify"
-    if int(np.sum(lines.turning & (lines.omega > 0))) < 3 or int(np.sum(lines.turning & (lines.omega < 0))) < 3:
+    if int(np.sum(lines.turning)) < MIN_TURNING:
         raise InputError(f"{where}: the logs hardly turn ({int(np.sum(lines.turning))} turning periods): the icr model's "
-                         "yaw factor and x_icr need turns of both directions (record some: validate --excite)")
+                         "yaw factor and x_icr need turns (record some: validate --excite)")
     z = _gauge_z(len(lines))
     box = gauge_box(lines, z)
     tol = 1e-6 * (S_RANGE[1] - S_RANGE[0])
@@ -348,7 +349,11 @@ def identify(logs: Sequence[RobotLog], gear_radius: float, track_distance: float
 
             sg_s = sg / est.mu[:, 2] ** 2  # the uncertainty in s of the periods that say something about it
             w = WIDEN_SIGMA * float(np.median(sg_s[_good(sg_s)])) + FIT_TOL
-            box[key], widen[key] = (1.0 / (gauge[2, 1] + w), 1.0 / max(gauge[2, 0] - w, S_RANGE[0])), w
+            if gauge[2, 0] - w <= S_RANGE[0] or gauge[2, 1] + w >= S_RANGE[1]:
+                raise InputError(f"{logs[0].path}: the logs do not determine the yaw factor (its range, widened by its "
+                                 f"uncertainty, reaches the search's bound {1 / S_RANGE[1]:g} or {1 / S_RANGE[0]:g}): "
+                                 "drive turns at several rates and speeds, forwards (validate --excite), or check --pose-noise")
+            box[key], widen[key] = (1.0 / (gauge[2, 1] + w), 1.0 / (gauge[2, 0] - w)), w
             continue
         w = WIDEN_SIGMA * _median_sigma(sg) + FIT_TOL
         if gauge is not None and i < 2:  # the gauge's traction box: it explains every period (within z sigma, of
@@ -378,6 +383,11 @@ def _g(x: float) -> str:
     return f"{x:.4g}"
 
 
+def _num(x: float) -> str:
+    """x to 4 significant digits as a YAML number (no exponent: PyYAML reads '2e-05' as a string)."""
+    return np.format_float_positional(float(f"{x:.4g}"), trim="-")
+
+
 def fragment_yaml(ident: Identification) -> str:
     """A config fragment (network and slip sections) with the data behind each number as comments."""
     s = ident.slip
@@ -387,11 +397,11 @@ def fragment_yaml(ident: Identification) -> str:
         f"# identified by robustsynth identify from {ident.logs} log(s): {ident.instants} sampling instants,",
         f"# {n} periods used for slip ({', '.join(f'{k}: {v}' for k, v in s.skipped.items() if v) or 'none skipped'})",
         "network:",
-        f"  sampling_time: {_g(ident.sampling_time)}  # median time step of the logs",
+        f"  sampling_time: {_num(ident.sampling_time)}  # median time step of the logs",
         "  delay:",
-        f"    min: {_g(ident.delay_range[0])}  # smallest of {d.size} measured delays (applied - sent); "
+        f"    min: {_round(ident.delay_range[0], -1)}  # smallest of {d.size} measured delays (applied - sent); "
         f"1st percentile {_g(float(np.quantile(d, 0.01)))}",
-        f"    max: {_g(ident.delay_range[1])}  # largest; 99th percentile {_g(float(np.quantile(d, 0.99)))}",
+        f"    max: {_round(ident.delay_range[1], +1)}  # largest; 99th percentile {_g(float(np.quantile(d, 0.99)))}",
         "  dropouts:",
         f"    max_consecutive: {ident.longest_burst}  # longest run of lost commands; {ident.lost} of "
         f"{ident.instants} lost ({100 * ident.lost / max(ident.instants, 1):.2f} %)",

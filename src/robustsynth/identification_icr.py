@@ -13,8 +13,8 @@ with s = 1 / yaw,
 so the traction factors consistent with a period lie on a *line* in (mu_r, mu_l, s): a robot whose
 tracks differ in traction and one that loses yaw rate move alike under one command.  Which box of
 (mu_r, mu_l, yaw) the logs show is therefore a convention, and identify states the one it uses
-(the *gauge*): the smallest traction box that every period's line meets (the sum of the two
-widths, a linear program), then, with that traction box, the smallest range of s (a second one).
+(the *gauge*): the box of least traction widths plus S_WEIGHT times its width in s that every
+period's line meets (one linear program; with the small S_WEIGHT the traction comes nearly first).
 Periods at different commands pin the box: on logs whose slip visits its box's corners under turns
 of both signs the gauge returns the true box (tests/test_identification.py).  The physical reading:
 what the straight driving shows is traction, and turning slip beyond it is lost yaw rate (the
@@ -50,7 +50,8 @@ CHECK_SIGMA = 3.0  # a period's line meets the box when within this many of its 
 MIN_TURN = 1e-3  # rad/s: below this measured yaw rate (or 3 sigma of its noise) a period says nothing about yaw, x_icr
 AT_REST = 1e-6  # a track whose mean motor speed is below this share of the other's is at rest: its mu is not seen
 MODEL_FLOOR = 1e-9  # the lines' own numerical error (mu, x_icr): the least uncertainty
-BEND = 4.0  # a two-command period's curve: its bend at the chord's middle, times this, bounds it over the range
+FIT_POINTS = (0.25, 0.5, 1.0, 2.0, 4.0)  # x s_ref: where the lines are fitted through the exact arcs
+BEND = 2.0  # a two-command period's curve: its largest deviation from the line at FIT_POINTS, times this
 GN_STEPS = 4
 CUT_SEED_RANDOM = 400  # cutting planes: random periods in the first subset
 CUTS_PER_ROUND = 400  # cutting planes: at most this many violators added per round
@@ -171,15 +172,19 @@ def icr_lines(q0: np.ndarray, q1: np.ndarray, rho: np.ndarray, dur: np.ndarray, 
         sig_r = np.hypot(s_vx, s_ref * D / 2.0 * s_w) / np.abs(R * rbar[:, 0])
         sig_l = np.hypot(s_vx, s_ref * D / 2.0 * s_w) / np.abs(R * rbar[:, 1])
         sig_x = np.where(turning, np.hypot(s_vy, x * s_w) / np.abs(w), np.inf)
-    # the exact lines: (mu_r, mu_l, x_icr) fitted through the exact arcs at two values of s around s_ref:
-    # a line exactly for one command per period, the chord of a slightly bent curve when a delayed
-    # command switches within it; its bend at the middle (a third fit), times BEND, joins the uncertainty
-    s1, sm, s2 = 0.8 * s_ref, 0.9 * s_ref, 1.25 * s_ref
-    fits = [_refine(q0, q1, rho, dur, np.stack([ar + br * si, al + bl * si, x], axis=1), si, R, D) for si in (s1, sm, s2)]
-    p1, pm, p2 = fits
-    slope = (p2 - p1) / (s2 - s1)
-    bend = BEND * np.abs(pm - (p1 + slope * (sm - s1)))
-    ar, al, ax = p1[:, 0] - slope[:, 0] * s1, p1[:, 1] - slope[:, 1] * s1, p1[:, 2] - slope[:, 2] * s1
+    # the exact lines: (mu_r, mu_l, x_icr) fitted through the exact arcs at FIT_POINTS x s_ref and the
+    # least-squares line through them: exact for one command per period; when a delayed command switches
+    # within it the points lie on a slightly bent curve, and BEND x the largest deviation from the line
+    # at the points joins the uncertainty (for s within FIT_POINTS' span: yaw within [1/4, 4] x the
+    # lumped yaw of the logs)
+    pts = np.asarray(FIT_POINTS) * s_ref
+    fits = np.stack([_refine(q0, q1, rho, dur, np.stack([ar + br * si, al + bl * si, x], axis=1), si, R, D)
+                     for si in pts], axis=0)  # (k, P, 3)
+    sc = pts - pts.mean()
+    slope = np.einsum("k,kpi->pi", sc, fits - fits.mean(axis=0)) / float(sc @ sc)
+    icpt = fits.mean(axis=0) - slope * pts.mean()
+    bend = BEND * np.max(np.abs(fits - (icpt[None] + slope[None] * pts[:, None, None])), axis=0)
+    ar, al, ax = icpt[:, 0], icpt[:, 1], icpt[:, 2]
     sig_r = np.sqrt(sig_r**2 + bend[:, 0] ** 2) + MODEL_FLOOR
     sig_l = np.sqrt(sig_l**2 + bend[:, 1] ** 2) + MODEL_FLOOR
     sig_x = np.sqrt(sig_x**2 + bend[:, 2] ** 2) + MODEL_FLOOR
@@ -321,7 +326,7 @@ def check_icr(lines: IcrLines, ranges: tuple[tuple[float, float], ...], z: float
     if not np.all(explained):
         gauge = gauge_box(lines, z_gauge)
         g_lo, g_hi = feasible_s(lines, gauge, z_gauge)
-        empty = ~(g_lo <= g_hi)  # not after gauge_box's cutting planes; guarded all the same
+        empty = g_lo > g_hi + 1e-9 * np.maximum(1.0, np.abs(np.nan_to_num(g_lo, posinf=1.0, neginf=1.0)))
         mid = 0.5 * (gauge[2, 0] + gauge[2, 1])
         g_lo, g_hi = np.where(empty, mid, g_lo), np.where(empty, mid, g_hi)
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -354,7 +359,7 @@ def check_icr(lines: IcrLines, ranges: tuple[tuple[float, float], ...], z: float
         xa, xb = lines.x_at(s_a), lines.x_at(s_b)  # x_icr over the s the period allows: its nearest to the range
         x_excess = np.maximum(x_lo - np.maximum(xa, xb), np.minimum(xa, xb) - x_hi)
         value[:, 3] = np.where(x_excess > 0, np.where(np.minimum(xa, xb) > x_hi, np.minimum(xa, xb), np.maximum(xa, xb)),
-                               np.clip(value[:, 3], x_lo, x_hi) if x_hi >= x_lo else value[:, 3])
+                               np.clip(value[:, 3], x_lo, x_hi))
         value[:, 3] = np.where(turning, value[:, 3], np.nan)
         norm[:, 3] = np.where(turning, x_excess / lines.sig_x, -np.inf)
     for i in range(3):

@@ -516,7 +516,9 @@ def identification_figure(ident: Any, path: Path) -> Path:
     for i, (name, key) in enumerate(zip(names, keys)):
         axx = axes[1 + i]
         v = ident.slip.mu[:, i]
-        axx.hist(v[np.isfinite(v)], bins=80, color="0.5")
+        v = v[np.isfinite(v)]
+        flat = v.size == 0 or np.ptp(v) <= 1e-9 * max(1.0, float(np.max(np.abs(v))))  # one value: one bin
+        axx.hist(v, bins=1 if flat else 80, color="0.5")
         for x in ident.box[key]:
             axx.axvline(x, color="C3")
         axx.set_xlabel(f"{name} per period [{'m' if name == 'x_icr' else '-'}]")
