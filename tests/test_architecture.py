@@ -27,7 +27,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("robustsynth.verification",),  # the judges: lifted model, robot in closed loop, verdicts
     ("robustsynth.report", "robustsynth.interop"),
     ("robustsynth.comparison", "robustsynth.margins", "robustsynth.sweeps", "robustsynth.identification",
-     "robustsynth.identification_icr"),
+     "robustsynth.identification_icr", "robustsynth.margins_lti"),
     ("robustsynth.pipeline", "robustsynth.regression"),
     ("robustsynth.cli", "robustsynth.__main__"),
 ]

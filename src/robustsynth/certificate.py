@@ -844,3 +844,66 @@ def turn_bounds(model: Any, K: np.ndarray, cert: Mapping[str, Any], figures: Map
         k_next = max(int(np.floor(next_switch / Ts)) - 1, 0)
         c_start = round_up(1.0 + (1.0 - alpha) ** k_next * max(r - 1.0, 0.0), 4)
     return out
+
+
+# ------------------------------------------------------------------ any linear plant (plant: kind: lti)
+
+
+def lti_vertex_blocks(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float,
+                      combos: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """The robust-stability blocks of an lti certificate (docs/theory.md §14), one per vertex, as
+    floats, with their magnitudes (the same formula on absolute values) and the number of terms per
+    entry: ``-[[M' P M - decay^2 P + sum_j eps_j rho_j^2 F_j' F_j, M' P E~], [E~' P M, E~' P E~ -
+    diag(eps_j I)]]`` for every piece combination (``combos`` (n_c, d): a piece per instant) and
+    end combination (``ends`` (n_e, d) in {0, 1}).  ``eps`` (n_c, d)."""
+    P = np.asarray(P, dtype=float)
+    d = pw.d_hi
+    n_s, n = pw.E.shape
+    Et = np.hstack([pw.E] * d)  # (n_s, d n)
+    blocks, mags = [], []
+    for c, combo in enumerate(combos):
+        for end in ends:
+            M = pw.M0.copy()
+            Mabs = np.abs(pw.M0)
+            for j in range(d):
+                i = combo[j]
+                G = pw.base[j][i] + end[j] * pw.width[j][i] * pw.slope[j][i]
+                Gabs = np.abs(pw.base[j][i]) + end[j] * pw.width[j][i] * np.abs(pw.slope[j][i])
+                M = M + pw.E @ G @ pw.F[j]
+                Mabs = Mabs + np.abs(pw.E) @ Gabs @ np.abs(pw.F[j])
+            top = M.T @ P @ M - decay**2 * P
+            top_abs = Mabs.T @ np.abs(P) @ Mabs + decay**2 * np.abs(P)
+            for j in range(d):
+                r2 = float(pw.rho[j][combo[j]]) ** 2
+                top = top + eps[c, j] * r2 * (pw.F[j].T @ pw.F[j])
+                top_abs = top_abs + abs(eps[c, j]) * r2 * (np.abs(pw.F[j]).T @ np.abs(pw.F[j]))
+            off = M.T @ P @ Et
+            off_abs = Mabs.T @ np.abs(P) @ np.abs(Et)
+            low = Et.T @ P @ Et - np.kron(np.diag(eps[c]), np.eye(n))
+            low_abs = np.abs(Et).T @ np.abs(P) @ np.abs(Et) + np.kron(np.diag(np.abs(eps[c])), np.eye(n))
+            X = np.block([[top, off], [off.T, low]])
+            Xa = np.block([[top_abs, off_abs], [off_abs.T, low_abs]])
+            blocks.append(-(X + X.T) / 2.0)
+            mags.append(Xa)
+    terms = (n_s + 2) * n_s + 2 * d  # the longest sum of products behind an entry (M' P M, plus the eps terms)
+    return np.array(blocks), np.array(mags), terms
+
+
+def check_lti_certificate(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, combos: np.ndarray,
+                          ends: np.ndarray) -> dict[str, Any]:
+    """The lti certificate re-checked in numpy: P proven positive definite and every vertex block
+    proven negative definite in verified arithmetic (Rump's test, with the blocks' assembly error as
+    a radius); the multipliers >= 0.  Returns {"ok", "failing", "vertices", "min_eig"}."""
+    P = np.asarray(P, dtype=float)
+    P = (P + P.T) / 2.0
+    eps = np.asarray(eps, dtype=float)
+    if not np.all(np.isfinite(P)) or not np.all(np.isfinite(eps)) or np.any(eps < 0):
+        return {"ok": False, "failing": -1, "vertices": 0, "min_eig": float("nan")}
+    if not proves_at_least(P, 0.0, assembly_radius(np.abs(P), 1)):
+        return {"ok": False, "failing": -1, "vertices": 0, "min_eig": float(np.min(np.linalg.eigvalsh(P)))}
+    blocks, mags, terms = lti_vertex_blocks(pw, P, eps, decay, combos, ends)
+    radius = assembly_radius_batch(mags, terms)
+    ok = proves_at_least_batch(blocks, 0.0, radius)
+    failing = np.flatnonzero(~ok)
+    return {"ok": bool(ok.all()), "failing": int(failing[0]) if failing.size else None, "vertices": int(len(blocks)),
+            "min_eig": float(np.min(np.linalg.eigvalsh(blocks)))}

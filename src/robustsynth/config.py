@@ -430,6 +430,93 @@ class Config(_Node):
         return v
 
 
+# --------------------------------------------------------------------------- any linear plant
+
+
+def _matrix(v: Any, what: str) -> list[list[float]]:
+    """A nested list of finite numbers (ints allowed) with rows of one length."""
+    if not isinstance(v, (list, tuple)) or not v or not all(isinstance(r, (list, tuple)) and r for r in v):
+        raise ValueError(f"{what}: must be a non-empty list of non-empty rows (a matrix)")
+    rows = []
+    for i, r in enumerate(v):
+        row = []
+        for j, x in enumerate(r):
+            if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(float(x)):
+                raise ValueError(f"{what}[{i}][{j}]: must be a finite number (got {x!r})")
+            row.append(float(x))
+        rows.append(row)
+    if len({len(r) for r in rows}) != 1:
+        raise ValueError(f"{what}: rows of different lengths {[len(r) for r in rows]}")
+    return rows
+
+
+class LtiPlantConfig(_Node):
+    """``x' = A x + B u`` (continuous time): from A and B here, or from a .mat / .npz file holding them."""
+
+    kind: Literal["lti"] = Field(description="lti: any linear plant (tracked-robot: the default, without this section)")
+    A: Any = Field(default=None, description="n x n state matrix (continuous time), a list of rows")
+    B: Any = Field(default=None, description="n x m input matrix, a list of rows")
+    file: str | None = Field(default=None, description="a .mat or .npz file with arrays A and B (instead of A, B here)")
+    states: list[str] | None = Field(default=None, description="the states' names (default x1, x2, ...)")
+    units: list[str] | None = Field(default=None, description="the states' units (default '-')")
+
+    @model_validator(mode="after")
+    def _shapes(self) -> "LtiPlantConfig":
+        if (self.file is None) == (self.A is None or self.B is None):
+            raise ValueError(f"{_FIELD}A: give A and B, or file (not both)")
+        if self.file is not None:
+            return self
+        try:
+            A = _matrix(self.A, "A")
+            B = _matrix(self.B, "B")
+        except ValueError as exc:
+            raise ValueError(f"{_FIELD}{exc}") from None
+        n = len(A)
+        if len(A[0]) != n:
+            raise ValueError(f"{_FIELD}A: must be square (got {n} x {len(A[0])})")
+        if len(B) != n:
+            raise ValueError(f"{_FIELD}B: must have n = {n} rows like A (got {len(B)})")
+        for key, names in (("states", self.states), ("units", self.units)):
+            if names is not None and len(names) != n:
+                raise ValueError(f"{_FIELD}{key}: {len(names)} names for {n} states")
+        return self
+
+
+class ControllerConfig(_Node):
+    gain: Any = Field(description="K of u_k = K x_k (m x n), or of the lifted state [x; u_{k-1}; ...] (m x (n + d m))")
+
+    @field_validator("gain")
+    @classmethod
+    def _gain(cls, v: Any) -> list[list[float]]:
+        return _matrix(v, "K")
+
+
+class LtiMarginConfig(_Node):
+    pieces: Annotated[int, Field(ge=1, le=64)] = Field(default=8, description="pieces per switching instant's range "
+                                                       "in the guaranteed over-approximation")
+    tolerance: Annotated[float, Field(gt=0, le=1)] = Field(default=1e-3, description="bisection tolerance of a margin [s]")
+    delay_far: Annotated[float, Field(gt=0, le=100)] | None = Field(default=None, description="largest delay searched "
+                                                                    "[s] (default 4 sampling periods)")
+
+
+class LtiConfig(_Node):
+    """A linear plant closed over the network with a given gain (``robustsynth margin``)."""
+
+    name: Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9][A-Za-z0-9._-]*$")] = Field(
+        description="scenario name; default output directory results/<name>/")
+    plant: LtiPlantConfig
+    controller: ControllerConfig
+    network: NetworkConfig
+    margin: LtiMarginConfig = Field(default_factory=LtiMarginConfig)
+
+    @field_validator("name")
+    @classmethod
+    def _name_not_reserved(cls, v: str) -> str:
+        if v in RESERVED_NAMES:
+            raise ValueError(f"{v!r} is reserved (results/{v}/ holds the committed {RESERVED_NAMES[v]}); choose another name")
+        return v
+
+
 # --------------------------------------------------------------------------- loading
 
 
@@ -526,6 +613,26 @@ def _format_validation_error(err: ValidationError) -> str:
     return "; ".join(out)
 
 
+def is_lti(data: Any) -> bool:
+    """Whether a config document (or object) describes a linear plant (``plant: kind: lti``)."""
+    if isinstance(data, LtiConfig):
+        return True
+    plant = data.get("plant") if isinstance(data, Mapping) else None
+    return isinstance(plant, Mapping) and plant.get("kind") == "lti"
+
+
+def _validate(data: dict[str, Any]) -> "Config | LtiConfig":
+    if is_lti(data):
+        return LtiConfig.model_validate(data)
+    plant = data.get("plant")
+    if plant is not None:  # the tracked robot needs no plant section; its kind may be named
+        if not (isinstance(plant, Mapping) and dict(plant) == {"kind": "tracked-robot"}):
+            kind = plant.get("kind") if isinstance(plant, Mapping) else plant
+            raise ConfigError(f"plant.kind: must be tracked-robot (the default: no plant section) or lti (got {kind!r})")
+        data = {k: v for k, v in data.items() if k != "plant"}
+    return Config.model_validate(data)
+
+
 def parse_config(text: str | bytes, source: str = "<config>") -> Config:
     """Parse and validate a YAML document (``text``) into a :class:`Config`."""
     if isinstance(text, bytes):
@@ -554,7 +661,7 @@ def parse_config(text: str | bytes, source: str = "<config>") -> Config:
     if not isinstance(data, dict):
         raise ConfigError(f"{source}: the document must be a mapping (got {type(data).__name__})")
     try:
-        return Config.model_validate(data)
+        return _validate(data)
     except ValidationError as exc:
         raise ConfigError(_format_validation_error(exc)) from None
     except RecursionError:
@@ -662,7 +769,7 @@ def load_config(path: str | Path | Mapping[str, Any] | None = None) -> Config:
         return parse_config(default_config_text(), "<default config>")
     if isinstance(path, Mapping):
         try:
-            return Config.model_validate(dict(path))
+            return _validate(dict(path))
         except ValidationError as exc:
             raise ConfigError(_format_validation_error(exc)) from None
     p = Path(path)

@@ -4,7 +4,8 @@
     python -m robustsynth.regression           # compare (what the test in make test does)
 
 Tolerances: certified figures relative 1e-3; Monte Carlo maxima relative 1e-2 (they depend on
-the gain, which solvers reproduce to their accuracy only); statuses, dimensions and verdicts exact.
+the gain, which solvers reproduce to their accuracy only); statuses, dimensions and verdicts exact;
+a linear plant's margins (``plant: kind: lti``) relative 1e-3 or absolute 2e-3 (bisections).
 """
 
 from __future__ import annotations
@@ -21,15 +22,26 @@ __all__ = ["run_config", "compare", "write_baselines", "CERTIFIED_REL", "MONTE_C
 
 CERTIFIED_REL = 1e-3
 MONTE_CARLO_REL = 1e-2
+MARGIN_ABS = 2e-3  # a linear plant's margins come from bisections to 1e-3 (margin.tolerance): two steps' worth
 
 
 def run_config(config_path: Path, outdir: Path) -> dict[str, Any]:
     """``robustsynth run`` without figures; returns the summary (also for infeasible configs)."""
-    from .config import load_config
+    from .config import is_lti, load_config
     from .errors import RobustSynthError
     from .pipeline import run
 
     cfg = load_config(config_path)
+    if is_lti(cfg):  # a linear plant: its gain's margins (certified and exhibited) are the summary
+        from .artifacts.files import atomic_write, json_bytes
+        from .pipeline import lti_margin_stage
+
+        data = lti_margin_stage(cfg, outdir, config_path)
+        summary = {"name": cfg.name, "status": "lti-margins",
+                   "margins": {k: {f: v[f] for f in ("configured", "certified", "exhibited")}
+                               for k, v in data["margins"].items()}}
+        atomic_write(outdir / "summary.json", json_bytes(summary))
+        return summary
     try:
         run(cfg, outdir, plots=False, compare=False, diagnose=False)  # comparison and diagnosis are for reading
     except RobustSynthError:
@@ -46,6 +58,14 @@ def _close(a: Any, b: Any, rel: float) -> bool:
 def compare(expected: dict[str, Any], got: dict[str, Any]) -> list[str]:
     """Differences between two summaries under the named tolerances (empty when they agree)."""
     diffs: list[str] = []
+    em_, gm_ = expected.get("margins") or {}, got.get("margins") or {}  # a linear plant's margins
+    for name in sorted(set(em_) | set(gm_)):
+        for f in ("configured", "certified", "exhibited"):
+            a, b = (em_.get(name) or {}).get(f), (gm_.get(name) or {}).get(f)
+            same = a is b if a is None or b is None else math.isclose(float(a), float(b), rel_tol=CERTIFIED_REL,
+                                                                        abs_tol=MARGIN_ABS)
+            if not same:
+                diffs.append(f"margins.{name}.{f}: expected {a}, got {b} (rel {CERTIFIED_REL:g}, abs {MARGIN_ABS:g})")
     for key in ("status", "objective", "dimensions", "verification_passed", "failed_checks"):
         if expected.get(key) != got.get(key):
             diffs.append(f"{key}: expected {expected.get(key)!r}, got {got.get(key)!r}")

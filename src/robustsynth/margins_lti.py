@@ -1,0 +1,217 @@
+"""``robustsynth margin`` on a linear plant (``plant: kind: lti``, docs/theory.md §14): how far can the
+delay bound and the loss cap be pushed for the configured gain?
+
+- **certified**: the largest value at which :func:`robustsynth.synthesis.lti.analyze_lti` finds a
+  common quadratic Lyapunov function for the guaranteed over-approximation, proven in numpy
+  (bisection);
+- **exhibited**: the smallest value at which a periodic delay/loss sequence of the exactly lifted
+  closed loop has spectral radius^(1/p) > 1 + EXHIBIT_TOL: constant delays on a fine grid, then
+  sequences of up to SEARCH_PERIOD packets on a coarser grid (with lost packets: inf), bisected; the
+  witness is the destabilizing sequence.
+
+A certified value is never above an exhibited one when both are right; the tests check it, and check
+the exhibited figures against an independent computation.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from typing import Any, Callable
+
+import numpy as np
+
+from .errors import check_interrupt
+
+__all__ = ["lti_margins", "find_lti_instability", "spectral_radius", "SEARCH_DELAYS", "SEARCH_PERIOD"]
+
+SEARCH_DELAYS = 9  # grid points of [tau_min, tau_max] in the switching search
+CONSTANT_DELAYS = 201  # grid points for constant (frozen) delays
+SEARCH_PERIOD = 3  # longest periodic sequence searched
+EXHIBIT_TOL = 1e-9
+SCAN = 20  # steps of the outward scan before the bisection
+PIECE_STAGES = (2, 4)  # coarse-to-fine pieces of the certificate bisection (then margin.pieces)
+MAX_VERTICES = 1024  # a certificate's vertex budget: fewer pieces per instant beyond it
+MAX_LOSSES = 3  # the loss margin is searched up to this many losses in a row
+
+
+def _lifting(tau_max: float, m_lost: int, Ts: float) -> int:
+    from .model.lifting import delay_indices
+
+    return delay_indices(0.0, tau_max + m_lost * Ts, Ts)[1]
+
+
+def spectral_radius(plant: dict, Ts: float, dseq: np.ndarray, m_lost: int = 0) -> np.ndarray:
+    """rho(product over one period)^(1/p) of the exactly lifted closed loop for periodic packet
+    delays ``dseq`` (n, p) (inf: lost), per row."""
+    from .model.lifting import s_tilde_sequence
+    from .model.lti import exact_closed_loop, pad_lti_gain
+
+    A, B, K = plant["A"], plant["B"], plant["K"]
+    n, m = B.shape
+    dseq = np.atleast_2d(np.asarray(dseq, dtype=float))
+    p = dseq.shape[1]
+    finite = dseq[np.isfinite(dseq)]
+    d = max(_lifting(float(finite.max()) if finite.size else 0.0, m_lost, Ts), (K.shape[1] - n) // m)
+    Kp = pad_lti_gain(K, n, m, d)
+    cols = np.arange(-d, p + m_lost + 1) % p  # the packets before, and after a burst its successor
+    s = s_tilde_sequence(dseq[:, cols], Ts, d)[:, :p]
+    M = exact_closed_loop(A, B, Kp, Ts, s)  # (n_seq, p, n_s, n_s)
+    prod = M[:, 0]
+    for k in range(1, p):
+        prod = M[:, k] @ prod
+    return np.max(np.abs(np.linalg.eigvals(prod)), axis=-1) ** (1.0 / p)
+
+
+def _sequences(grid: np.ndarray, p: int, m_lost: int) -> np.ndarray:
+    alphabet = np.append(grid, np.inf) if m_lost else grid
+    seqs = np.array(list(itertools.product(alphabet, repeat=p)), dtype=float)
+    if m_lost:
+        lost = np.isinf(seqs)
+        run = np.zeros(len(seqs), dtype=int)
+        cur = np.zeros(len(seqs), dtype=int)
+        for k in range(2 * p):  # around the period
+            cur = np.where(lost[:, k % p], cur + 1, 0)
+            run = np.maximum(run, cur)
+        seqs = seqs[(np.minimum(run, p) <= m_lost) & ~np.all(lost, axis=1)]
+    return seqs
+
+
+def find_lti_instability(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int = 0) -> dict | None:
+    """The worst destabilizing periodic sequence with delays in [tau_min, tau_max] and at most m_lost
+    losses in a row, or None."""
+    best = None
+    families = [np.linspace(tau_min, tau_max, CONSTANT_DELAYS)[:, None]]
+    grid = np.unique(np.linspace(tau_min, tau_max, SEARCH_DELAYS))
+    families += [_sequences(grid, p, m_lost) for p in range(1, SEARCH_PERIOD + 1)]
+    for dseq in families:
+        check_interrupt()
+        if dseq.size == 0:
+            continue
+        r = spectral_radius(plant, Ts, dseq, m_lost)
+        i = int(np.argmax(r))
+        if r[i] > 1.0 + EXHIBIT_TOL and (best is None or r[i] > best["spectral_radius"]):
+            best = {"delays": [None if np.isinf(x) else float(x) for x in dseq[i]], "period": int(dseq.shape[1]),
+                    "spectral_radius": float(r[i])}
+        if best is not None and dseq.shape[1] == 1:
+            break  # a frozen instability is the simplest witness
+    return best
+
+
+def _certify(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int, pieces: int) -> Any:
+    from .model.lti import over_approximation, pad_lti_gain
+    from .synthesis.lti import analyze_lti
+
+    n, m = plant["B"].shape
+    d = max(_lifting(tau_max, m_lost, Ts), (plant["K"].shape[1] - n) // m)
+    while pieces > 1 and (2 * pieces) ** d > MAX_VERTICES:  # long delays: fewer pieces per instant
+        pieces -= 1
+    K = pad_lti_gain(plant["K"], n, m, d)
+    pw = over_approximation(plant["A"], plant["B"], K, Ts, tau_min, tau_max + m_lost * Ts, d, pieces)
+    return analyze_lti(pw)
+
+
+def _first_bad(bad: Callable[[float], Any], lo: float, far: float, tol: float) -> tuple[float | None, Any]:
+    """Scan (lo, far] outwards for the first value where ``bad`` returns something, then bisect to tol."""
+    prev, hit, what = lo, None, None
+    for x in np.linspace(lo, far, SCAN + 1)[1:]:
+        w = bad(float(x))
+        if w is not None:
+            hit, what = float(x), w
+            break
+        prev = float(x)
+    if hit is None:
+        return None, None
+    while hit - prev > tol:
+        mid = 0.5 * (prev + hit)
+        w = bad(mid)
+        if w is not None:
+            hit, what = mid, w
+        else:
+            prev = mid
+    return hit, what
+
+
+def _last_good(good: Callable[[float], bool], lo: float, hi: float, tol: float) -> float | None:
+    """Largest value in [lo, hi] where ``good`` holds (bisection; ``good`` assumed monotone)."""
+    if not good(lo):
+        return None
+    if good(hi):
+        return hi
+    while hi - lo > tol:
+        mid = 0.5 * (lo + hi)
+        if good(mid):
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+def _exhibited_delay(plant: dict, Ts: float, t_lo: float, far: float, m_lost: int, tol: float) -> tuple[float | None, Any]:
+    """The smallest delay bound with a destabilizing sequence: the frozen delays on a fine grid of
+    [t_lo, far] first (one batch), then the switching search below the first frozen instability."""
+    grid = np.linspace(t_lo, far, 4 * CONSTANT_DELAYS)
+    r = spectral_radius(plant, Ts, grid[:, None], m_lost) if m_lost == 0 else np.zeros(grid.size)
+    unstable = np.flatnonzero(r > 1.0 + EXHIBIT_TOL)
+    top = float(grid[unstable[0]]) if unstable.size else far
+    return _first_bad(lambda x: find_lti_instability(plant, Ts, t_lo, x, m_lost), t_lo, top, tol)
+
+
+def _certified_delay(plant: dict, Ts: float, t_lo: float, top: float, m_lost: int, pieces: int, tol: float
+                     ) -> tuple[float | None, int]:
+    """The largest certified delay bound in [t_lo, top]: bisections with finer and finer pieces
+    (PIECE_STAGES, then ``pieces``), each from the last proven value up; every value returned is
+    proven by its own certificate.  Returns (value, solves)."""
+    solves = 0
+
+    def ok(x: float, N: int) -> bool:
+        nonlocal solves
+        solves += 1
+        return bool(_certify(plant, Ts, t_lo, x, m_lost, N).certified)
+
+    stages = [N for N in PIECE_STAGES if N < pieces] + [pieces]
+    lo: float | None = None
+    for N in stages:
+        start = t_lo if lo is None else lo
+        got = _last_good(lambda x, N=N: ok(x, N), start, top, tol)
+        if got is not None:
+            lo = got if lo is None else max(lo, got)
+        if lo is not None and top - lo <= tol:
+            break
+    return lo, solves
+
+
+def lti_margins(cfg, plant: dict, say: Callable[[str], None] = lambda s: None) -> dict[str, Any]:
+    """The delay margin (delay.max) and the loss margin (dropouts.max_consecutive) of the configured
+    gain: certified and exhibited, with the witness and the evaluations' count and time."""
+    net = cfg.network
+    Ts, t_lo, t_hi, m0 = net.sampling_time, net.delay.min, net.delay.max, net.dropouts.max_consecutive
+    pieces, tol = cfg.margin.pieces, cfg.margin.tolerance
+    far = cfg.margin.delay_far if cfg.margin.delay_far is not None else t_lo + 4 * Ts
+    out: dict[str, Any] = {}
+    t0 = time.perf_counter()
+    say("delay_max: instability search")
+    ex, witness = _exhibited_delay(plant, Ts, t_lo, far, m0, tol)
+    t1 = time.perf_counter()
+    say("delay_max: certificate bisection")
+    cert, solves = _certified_delay(plant, Ts, t_lo, ex if ex is not None else far, m0, pieces, tol)
+    out["delay_max"] = {"configured": t_hi, "certified": cert, "exhibited": ex, "witness": witness, "unit": "s",
+                        "search_s": round(t1 - t0, 3), "certificate_s": round(time.perf_counter() - t1, 3),
+                        "solves": solves}
+    t0 = time.perf_counter()
+    say("dropouts: instability and certificate search")
+    m_ex, m_w, m_cert = None, None, None
+    for m in range(0, MAX_LOSSES + 1):
+        w = find_lti_instability(plant, Ts, t_lo, t_hi, m)
+        if w is not None:
+            m_ex, m_w = m, w
+            break
+    for m in range(0, (m_ex if m_ex is not None else MAX_LOSSES + 1)):  # coarse pieces first: the first proof counts
+        if any(_certify(plant, Ts, t_lo, t_hi, m, N).certified for N in [*(N for N in PIECE_STAGES if N < pieces), pieces]):
+            m_cert = m
+        else:
+            break
+    out["dropouts"] = {"configured": m0, "certified": m_cert, "exhibited": m_ex, "witness": m_w,
+                       "searched_up_to": MAX_LOSSES, "unit": "commands in a row",
+                       "time_s": round(time.perf_counter() - t0, 3)}
+    return out

@@ -1,0 +1,212 @@
+"""Any linear plant over the network (``plant: kind: lti``, docs/theory.md §14): its exact lifted
+model under time-varying delay and bounded losses, and a *guaranteed* over-approximation of it.
+
+The plant ``x' = A x + B u`` receives the command ``u_k = K xi_k`` sent at t_k through the network;
+within a period the commands act from the switching instants ``s~_j`` on (in-order delivery,
+:mod:`.lifting`), so with ``G(theta) = int_0^theta e^{A r} dr B`` (Van Loan)
+
+    x_{k+1} = e^{A Ts} x_k + sum_{j<d_hi} G(Ts - s~_j) (u_{k-j} - u_{k-j-1}) + G(Ts) u_{k-d_hi},
+
+which :func:`.lifting.lift` assembles into ``xi_{k+1} = A~ xi_k + B~ u_k`` for any A (the robot's
+``Gamma`` is the special case A^2 = 0).  A lost command acts for zero time: it takes its
+successor's arrival, so with at most m losses in a row every instant lies in the ranges of the
+delays [tau_min, tau_max + m Ts] (:func:`.lifting.effective_delays`).
+
+**Over-approximation** (first-order Taylor on a grid, with a bounded remainder; the method of
+Hetel et al. 2006 / Cloosterman et al. 2009 in its simplest form): split the range of
+``theta_j = Ts - s~_j`` into pieces [theta_i, theta_i + delta]; on a piece
+
+    G(theta_i + t) = G(theta_i) + t e^{A theta_i} B + R_i(t),
+    ||R_i(t)||_2 <= ||e^{A theta_i}||_2 ||B||_2 (e^{a t} - 1 - a t) / a,   a = ||A||_2,
+
+from ``G(theta_i + t) - G(theta_i) = e^{A theta_i} G(t)`` and the series of ``G(t) - t B``.  The
+affine part takes its values at the piece's two ends (the vertices); the remainder is a
+norm-bounded uncertainty of radius rho_i (inflated by REMAINDER_INFLATION for the floating-point
+evaluation of the norms).  :func:`coverage_check` tests the containment on random instants.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .lifting import instant_ranges, lift
+
+__all__ = ["gamma", "exact_closed_loop", "Piecewise", "over_approximation", "coverage_check", "lti_plant", "pad_lti_gain",
+           "REMAINDER_INFLATION"]
+
+REMAINDER_INFLATION = 1e-9  # relative: the remainder bound's own rounding (norms by SVD, expm)
+
+
+def _augmented(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    n, m = B.shape
+    M = np.zeros((n + m, n + m))
+    M[:n, :n] = A
+    M[:n, n:] = B
+    return M
+
+
+def gamma(A: np.ndarray, B: np.ndarray, theta: np.ndarray | float) -> np.ndarray:
+    """G(theta) = int_0^theta e^{A r} dr B, batched over theta (..., n, m) (Van Loan: one block exponential)."""
+    from scipy.linalg import expm
+
+    theta = np.asarray(theta, dtype=float)
+    n = A.shape[0]
+    E = expm(_augmented(A, B) * theta[..., None, None])
+    return E[..., :n, n:]
+
+
+def _phi(A: np.ndarray, theta: np.ndarray | float) -> np.ndarray:
+    from scipy.linalg import expm
+
+    return expm(A * np.asarray(theta, dtype=float)[..., None, None])
+
+
+def exact_closed_loop(A: np.ndarray, B: np.ndarray, K: np.ndarray, Ts: float, s_tilde: np.ndarray) -> np.ndarray:
+    """The exactly lifted closed loop ``A~(s~) + B~(s~) K`` for switching instants ``s_tilde[..., j]``
+    (j = 0..d_hi-1), shape (..., n_s, n_s) with n_s = n + d_hi m; K is (m, n_s)."""
+    s_tilde = np.asarray(s_tilde, dtype=float)
+    Gs = gamma(A, B, Ts - s_tilde)
+    At, Bt, _ = lift(_phi(A, Ts), Gs, gamma(A, B, Ts), np.zeros((A.shape[0], 1)))
+    return At + Bt @ K
+
+
+@dataclass(frozen=True)
+class Piecewise:
+    """The over-approximation of ``G(Ts - s~_j)`` for each instant j: on piece i, ``base[j][i] +
+    t slope[j][i]`` for t in [0, width[j][i]], plus a remainder of norm <= rho[j][i]; and the
+    lifted closed loop's pieces: ``A~ + B~ K = M0 + sum_j E G_j F_j``."""
+
+    theta: list[np.ndarray]  # per instant: the pieces' starts (N_j,)
+    width: list[np.ndarray]  # (N_j,)
+    base: list[np.ndarray]  # (N_j, n, m): G(theta_i)
+    slope: list[np.ndarray]  # (N_j, n, m): e^{A theta_i} B
+    rho: list[np.ndarray]  # (N_j,): the remainder's bound on the piece
+    M0: np.ndarray  # (n_s, n_s): the closed loop without the instants' terms
+    E: np.ndarray  # (n_s, n): the uncertain terms enter the plant's rows
+    F: list[np.ndarray]  # per instant (m, n_s): G_j multiplies F_j xi
+
+    @property
+    def d_hi(self) -> int:
+        return len(self.theta)
+
+
+def over_approximation(A: np.ndarray, B: np.ndarray, K: np.ndarray, Ts: float, tau_min: float, tau_max: float,
+                       d_hi: int, pieces: int) -> Piecewise:
+    """The pieces of every instant's range (``pieces`` equal pieces per instant whose range is not a
+    point) and the closed loop's decomposition; ``tau_max`` includes the losses (tau_max + m Ts)."""
+    A, B, K = (np.asarray(x, dtype=float) for x in (A, B, K))
+    n, m = B.shape
+    n_s = n + d_hi * m
+    a = float(np.linalg.norm(A, 2))
+    b = float(np.linalg.norm(B, 2))
+    ranges = instant_ranges(tau_min, tau_max, Ts, d_hi)
+    thetas, widths, bases, slopes, rhos = [], [], [], [], []
+    for lo, hi in ranges:  # theta = Ts - s~ in [Ts - hi, Ts - lo]
+        t_lo, t_hi = Ts - hi, Ts - lo
+        N = 1 if t_hi - t_lo <= 0.0 else pieces
+        th = t_lo + (t_hi - t_lo) * np.arange(N) / N
+        w = np.full(N, (t_hi - t_lo) / N)
+        norms = np.linalg.norm(_phi(A, th), 2, axis=(-2, -1))
+        tail = np.where(a > 0, (np.expm1(a * w) - a * w) / max(a, 1e-300), 0.0)
+        thetas.append(th)
+        widths.append(w)
+        bases.append(gamma(A, B, th))
+        slopes.append(_phi(A, th) @ B)
+        rhos.append(norms * b * tail * (1.0 + REMAINDER_INFLATION))
+    # the closed loop with every G_j = 0: e^{A Ts}, G(Ts) on the oldest command, the shift register
+    M0 = exact_closed_loop(A, B, K, Ts, np.full(d_hi, Ts))  # s~ = Ts: G(0) = 0 for every instant
+    E = np.zeros((n_s, n))
+    E[:n] = np.eye(n)
+    F = []
+    for j in range(d_hi):  # G_j multiplies u_{k-j} - u_{k-j-1}; u_k = K xi
+        Fj = np.zeros((m, n_s))
+        Fj += K if j == 0 else 0.0
+        if j >= 1:
+            Fj[:, n + (j - 1) * m : n + j * m] += np.eye(m)
+        Fj[:, n + j * m : n + (j + 1) * m] -= np.eye(m)
+        F.append(Fj)
+    return Piecewise(thetas, widths, bases, slopes, rhos, M0, E, F)
+
+
+def coverage_check(A: np.ndarray, B: np.ndarray, K: np.ndarray, Ts: float, tau_min: float, tau_max: float, d_hi: int,
+                   pw: Piecewise, samples: int = 10_000, seed: int = 0) -> dict[str, float]:
+    """Random instants in their ranges: the exact closed loop is ``M0 + sum_j E (affine_j + R_j) F_j``
+    with ``||R_j|| <= rho`` of its piece; returns the worst remainder / bound and the worst
+    reconstruction residual (the decomposition itself)."""
+    rng = np.random.default_rng(seed)
+    ranges = instant_ranges(tau_min, tau_max, Ts, d_hi)
+    s = ranges[:, 0] + (ranges[:, 1] - ranges[:, 0]) * rng.random((samples, d_hi))
+    s = np.maximum.accumulate(s[:, ::-1], axis=1)[:, ::-1]  # in order: s~_0 >= s~_1 >= ...
+    exact = exact_closed_loop(A, B, K, Ts, s)
+    recon = np.broadcast_to(pw.M0, exact.shape).copy()
+    worst = 0.0
+    for j in range(d_hi):
+        theta = Ts - s[:, j]
+        i = np.clip(np.searchsorted(pw.theta[j], theta, side="right") - 1, 0, pw.theta[j].size - 1)
+        t = theta - pw.theta[j][i]
+        G = gamma(A, B, theta)
+        affine = pw.base[j][i] + t[:, None, None] * pw.slope[j][i]
+        R = G - affine
+        rn = np.linalg.norm(R, 2, axis=(-2, -1))
+        bound = pw.rho[j][i]
+        worst = max(worst, float(np.max(np.where(bound > 0, rn / np.maximum(bound, 1e-300), np.where(rn > 0, np.inf, 0.0)))))
+        recon += pw.E @ G @ pw.F[j]
+    return {"samples": float(samples), "remainder_ratio": worst,
+            "reconstruction": float(np.max(np.abs(recon - exact)))}
+
+
+def lti_plant(cfg, base_dir: str | None = None) -> dict:
+    """The plant of an lti config as arrays: {"A", "B", "K" (m x n_k), "states", "units",
+    "controllable"}.  A ``plant.file`` (.mat or .npz with arrays A and B) is read relative to
+    ``base_dir``; its problems raise InputError naming the file and the key."""
+    from pathlib import Path
+
+    from ..errors import InputError
+
+    pl = cfg.plant
+    if pl.file is not None:
+        path = Path(pl.file) if base_dir is None or Path(pl.file).is_absolute() else Path(base_dir) / pl.file
+        try:
+            if path.suffix == ".npz":
+                with np.load(path, allow_pickle=False) as z:
+                    data = {k: np.array(z[k]) for k in z.files}
+            elif path.suffix == ".mat":
+                from scipy.io import loadmat
+
+                data = loadmat(path)
+            else:
+                raise InputError(f"plant.file: {path}: must be a .mat or .npz file")
+        except InputError:
+            raise
+        except (OSError, ValueError) as exc:
+            raise InputError(f"plant.file: {path}: cannot read ({exc})") from None
+        for key in ("A", "B"):
+            if key not in data:
+                have = ", ".join(sorted(k for k in data if not k.startswith("__")))
+                raise InputError(f"plant.file: {path}: no array {key!r} (has {have})")
+        A, B = (np.atleast_2d(np.asarray(data[k], dtype=float)) for k in ("A", "B"))
+        if A.ndim != 2 or A.shape[0] != A.shape[1] or B.ndim != 2 or B.shape[0] != A.shape[0]:
+            raise InputError(f"plant.file: {path}: A must be n x n and B n x m (got {A.shape} and {B.shape})")
+        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
+            raise InputError(f"plant.file: {path}: A and B must be finite")
+    else:
+        A, B = np.asarray(pl.A, dtype=float), np.asarray(pl.B, dtype=float)
+    n, m = B.shape
+    K = np.asarray(cfg.controller.gain, dtype=float)
+    if K.shape[0] != m or K.shape[1] < n or (K.shape[1] - n) % m:
+        raise InputError(f"controller.gain: must be m x n = {m} x {n} (u_k = K x_k) or m x (n + d m) on the lifted "
+                         f"state (got {K.shape[0]} x {K.shape[1]})")
+    ctrb = np.hstack([np.linalg.matrix_power(A, i) @ B for i in range(n)])
+    return {"A": A, "B": B, "K": K, "states": list(pl.states or [f"x{i + 1}" for i in range(n)]),
+            "units": list(pl.units or ["-"] * n), "controllable": int(np.linalg.matrix_rank(ctrb)) == n}
+
+
+def pad_lti_gain(K: np.ndarray, n: int, m: int, d_hi: int) -> np.ndarray:
+    """K on the lifted state of d_hi stored commands (zeros for the commands it does not use); a K on
+    more stored commands than d_hi keeps them all (the lifting must then be that long)."""
+    width = n + d_hi * m
+    if K.shape[1] >= width:
+        return K
+    return np.hstack([K, np.zeros((K.shape[0], width - K.shape[1]))])
