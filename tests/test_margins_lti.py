@@ -137,3 +137,41 @@ def test_cli_margin_on_a_linear_plant_and_the_commands_it_lacks(tmp_path) -> Non
     bad.write_text((ROOT / "configs" / "zbp-h1.yaml").read_text().replace("B: [[0], [0.1]]", "B: [[0]]"))
     r = run("margin", str(bad))
     assert r.returncode == 2 and "plant.B" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_a_certificate_holds_on_sampled_exact_loops_of_a_harder_plant() -> None:
+    """Certificate vs the exact loops: a 3-state, 2-input, open-loop unstable plant with complex
+    eigenvalues, a gain on the lifted state, delays in [1.2, 2.6] periods and one loss in a row.  The
+    certified P must make V shrink (by decay^2) on 5000 exactly lifted closed loops at random
+    admissible instants (and at the extremes)."""
+    from robustsynth.model.lifting import delay_indices, instant_ranges
+    from robustsynth.model.lti import exact_closed_loop, over_approximation, pad_lti_gain
+    from robustsynth.synthesis.lti import DECAY, analyze_lti
+
+    Ah = np.array([[0.1, 1.0, 0.0], [-1.0, 0.1, 0.0], [0.0, 0.0, -0.5]])
+    Bh = np.array([[0.0, 0.2], [1.0, 0.0], [0.0, 1.0]])
+    Ts, t_lo, t_hi, m = 0.1, 0.12, 0.26, 1
+    d = delay_indices(t_lo, t_hi + m * Ts, Ts)[1]
+    Kx = np.array([[-0.6, -1.2, 0.0], [0.0, 0.0, -0.3]])
+    Kl = np.hstack([Kx, 0.05 * np.ones((2, 2)), np.zeros((2, 2 * (d - 1)))])  # a gain on u_{k-1} too
+    K = pad_lti_gain(Kl, 3, 2, d)
+    res = analyze_lti(over_approximation(Ah, Bh, K, Ts, t_lo, t_hi + m * Ts, d, 3))
+    assert res.certified, res.status
+    rng = np.random.default_rng(5)
+    r = instant_ranges(t_lo, t_hi + m * Ts, Ts, d)
+    s = r[:, 0] + (r[:, 1] - r[:, 0]) * rng.random((5000, d))
+    s = np.concatenate([s, r[:, 0][None], r[:, 1][None]])
+    s = np.maximum.accumulate(s[:, ::-1], axis=1)[:, ::-1]  # in order
+    M = exact_closed_loop(Ah, Bh, K, Ts, s)
+    lhs = np.einsum("vba,bc,vcd->vad", M, res.P, M) - DECAY**2 * res.P
+    assert np.max(np.linalg.eigvalsh(lhs)) < 0.0
+
+
+def test_no_certificate_at_the_exhibited_bound(h1) -> None:
+    """Independently of the bisection (which stops at the exhibited value): the LMIs fail just above
+    the exhibited delay bound, where a destabilizing sequence exists."""
+    from robustsynth.margins_lti import _certify
+
+    cfg, mg = h1
+    ex = mg["delay_max"]["exhibited"]
+    assert not _certify(lti_plant(cfg), 1.0, 0.0, ex + EDGE, 0, 8).certified

@@ -105,7 +105,7 @@ def _load(config: Path | None, lti_ok: bool = False):
 
         cmd = click.get_current_context().info_name
         raise InputError(f"plant.kind: lti: `robustsynth {cmd}` is not available for a linear plant yet "
-                         "(available: margin, config check)")
+                         "(available: margin)")
     return cfg
 
 

@@ -509,6 +509,14 @@ class LtiConfig(_Node):
     network: NetworkConfig
     margin: LtiMarginConfig = Field(default_factory=LtiMarginConfig)
 
+    @model_validator(mode="after")
+    def _far(self) -> "LtiConfig":
+        far, net = self.margin.delay_far, self.network
+        if far is not None and not net.delay.min < far <= MAX_D_HI * net.sampling_time:
+            raise ValueError(f"{_FIELD}margin.delay_far: must lie in (network.delay.min, {MAX_D_HI} * "
+                             f"network.sampling_time] = ({net.delay.min:g}, {MAX_D_HI * net.sampling_time:g}] (got {far:g})")
+        return self
+
     @field_validator("name")
     @classmethod
     def _name_not_reserved(cls, v: str) -> str:

@@ -31,7 +31,8 @@ SEARCH_PERIOD = 3  # longest periodic sequence searched
 EXHIBIT_TOL = 1e-9
 SCAN = 20  # steps of the outward scan before the bisection
 PIECE_STAGES = (2, 4)  # coarse-to-fine pieces of the certificate bisection (then margin.pieces)
-MAX_VERTICES = 1024  # a certificate's vertex budget: fewer pieces per instant beyond it
+MAX_VERTICES = 1024  # a certificate's vertex budget: fewer pieces per instant beyond it, not attempted beyond 2^d
+MAX_COEFFICIENTS = 2e7  # floats of the LMIs' coefficient tensor (vertices x P entries x block^2): ~160 MB
 MAX_LOSSES = 3  # the loss margin is searched up to this many losses in a row
 
 
@@ -79,11 +80,14 @@ def _sequences(grid: np.ndarray, p: int, m_lost: int) -> np.ndarray:
 
 def find_lti_instability(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int = 0) -> dict | None:
     """The worst destabilizing periodic sequence with delays in [tau_min, tau_max] and at most m_lost
-    losses in a row, or None."""
+    losses in a row, or None.  Periods up to SEARCH_PERIOD, and up to m_lost + 1 (a burst of m_lost
+    and one received packet) on a coarser grid."""
     best = None
     families = [np.linspace(tau_min, tau_max, CONSTANT_DELAYS)[:, None]]
     grid = np.unique(np.linspace(tau_min, tau_max, SEARCH_DELAYS))
     families += [_sequences(grid, p, m_lost) for p in range(1, SEARCH_PERIOD + 1)]
+    coarse = np.unique(np.linspace(tau_min, tau_max, 3))
+    families += [_sequences(coarse, p, m_lost) for p in range(SEARCH_PERIOD + 1, m_lost + 2)]
     for dseq in families:
         check_interrupt()
         if dseq.size == 0:
@@ -99,16 +103,36 @@ def find_lti_instability(plant: dict, Ts: float, tau_min: float, tau_max: float,
 
 
 def _certify(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int, pieces: int) -> Any:
+    """The certificate at delays [tau_min, tau_max] with m_lost losses in a row; pieces are reduced
+    while the vertices (instants with a range of positive width only) exceed MAX_VERTICES, and a
+    problem beyond the budget even with one piece is not attempted (certified False, status 'budget')."""
+    from .model.lifting import instant_ranges
     from .model.lti import over_approximation, pad_lti_gain
     from .synthesis.lti import analyze_lti
 
     n, m = plant["B"].shape
     d = max(_lifting(tau_max, m_lost, Ts), (plant["K"].shape[1] - n) // m)
-    while pieces > 1 and (2 * pieces) ** d > MAX_VERTICES:  # long delays: fewer pieces per instant
+    live = int(np.sum(np.diff(instant_ranges(tau_min, tau_max + m_lost * Ts, Ts, d), axis=1) > 0))
+    while pieces > 1 and (2 * pieces) ** live > MAX_VERTICES:  # long delay ranges: fewer pieces per instant
         pieces -= 1
+    k = n + d * m + d * n  # the vertex blocks' size
+    n_p = (n + d * m) * (n + d * m + 1) // 2
+    vertices = (2 * pieces) ** live
+    if vertices > MAX_VERTICES or vertices * n_p * k * k > MAX_COEFFICIENTS:
+        return _NotAttempted(vertices)
     K = pad_lti_gain(plant["K"], n, m, d)
     pw = over_approximation(plant["A"], plant["B"], K, Ts, tau_min, tau_max + m_lost * Ts, d, pieces)
     return analyze_lti(pw)
+
+
+class _NotAttempted:
+    """A certificate beyond the vertex or memory budget: not attempted, so not certified."""
+
+    certified = False
+    status = "budget"
+
+    def __init__(self, vertices: int) -> None:
+        self.vertices = vertices
 
 
 def _first_bad(bad: Callable[[float], Any], lo: float, far: float, tol: float) -> tuple[float | None, Any]:
@@ -187,7 +211,10 @@ def lti_margins(cfg, plant: dict, say: Callable[[str], None] = lambda s: None) -
     net = cfg.network
     Ts, t_lo, t_hi, m0 = net.sampling_time, net.delay.min, net.delay.max, net.dropouts.max_consecutive
     pieces, tol = cfg.margin.pieces, cfg.margin.tolerance
-    far = cfg.margin.delay_far if cfg.margin.delay_far is not None else t_lo + 4 * Ts
+    from .config import MAX_D_HI
+
+    far = cfg.margin.delay_far if cfg.margin.delay_far is not None else max(t_lo + 4 * Ts, t_hi + Ts)
+    far = min(far, MAX_D_HI * Ts)  # the lifting's longest delay
     out: dict[str, Any] = {}
     t0 = time.perf_counter()
     say("delay_max: instability search")
@@ -203,8 +230,10 @@ def lti_margins(cfg, plant: dict, say: Callable[[str], None] = lambda s: None) -
     m_ex, m_w, m_cert = None, None, None
     for m in range(0, MAX_LOSSES + 1):
         w = find_lti_instability(plant, Ts, t_lo, t_hi, m)
-        if w is not None:
-            m_ex, m_w = m, w
+        if w is not None:  # the witness's own longest run of losses (around its period) is what it exhibits
+            lost = [x is None for x in w["delays"]] * 2
+            run = max((len(r) for r in "".join("1" if x else "0" for x in lost).split("0")), default=0)
+            m_ex, m_w = min(run, len(w["delays"])), w
             break
     for m in range(0, (m_ex if m_ex is not None else MAX_LOSSES + 1)):  # coarse pieces first: the first proof counts
         if any(_certify(plant, Ts, t_lo, t_hi, m, N).certified for N in [*(N for N in PIECE_STAGES if N < pieces), pieces]):

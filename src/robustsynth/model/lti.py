@@ -17,9 +17,10 @@ Hetel et al. 2006 / Cloosterman et al. 2009 in its simplest form): split the ran
 ``theta_j = Ts - s~_j`` into pieces [theta_i, theta_i + delta]; on a piece
 
     G(theta_i + t) = G(theta_i) + t e^{A theta_i} B + R_i(t),
-    ||R_i(t)||_2 <= ||e^{A theta_i}||_2 ||B||_2 (e^{a t} - 1 - a t) / a,   a = ||A||_2,
+    ||R_i(t)||_2 <= ||e^{A theta_i}||_2 min(t^2/2 e^{mu t} ||A B||_2, t (e^{mu t} + 1) ||B||_2),
 
-from ``G(theta_i + t) - G(theta_i) = e^{A theta_i} G(t)`` and the series of ``G(t) - t B``.  The
+mu the positive part of A's logarithmic norm (``||e^{A s}|| <= e^{mu s}``), from
+``G(theta_i + t) - G(theta_i) = e^{A theta_i} G(t)`` and ``G(t) - t B = int_0^t int_0^s e^{A r} dr ds A B``.  The
 affine part takes its values at the piece's two ends (the vertices); the remainder is a
 norm-bounded uncertainty of radius rho_i (inflated by REMAINDER_INFLATION for the floating-point
 evaluation of the norms).  :func:`coverage_check` tests the containment on random instants.
@@ -97,10 +98,13 @@ def over_approximation(A: np.ndarray, B: np.ndarray, K: np.ndarray, Ts: float, t
     """The pieces of every instant's range (``pieces`` equal pieces per instant whose range is not a
     point) and the closed loop's decomposition; ``tau_max`` includes the losses (tau_max + m Ts)."""
     A, B, K = (np.asarray(x, dtype=float) for x in (A, B, K))
+    if not tau_min <= tau_max:
+        raise ValueError(f"over_approximation: tau_min {tau_min:g} > tau_max {tau_max:g}")
     n, m = B.shape
     n_s = n + d_hi * m
-    a = float(np.linalg.norm(A, 2))
     b = float(np.linalg.norm(B, 2))
+    ab = float(np.linalg.norm(A @ B, 2))
+    mu = max(float(np.max(np.linalg.eigvalsh((A + A.T) / 2.0))), 0.0)  # the logarithmic norm's positive part
     ranges = instant_ranges(tau_min, tau_max, Ts, d_hi)
     thetas, widths, bases, slopes, rhos = [], [], [], [], []
     for lo, hi in ranges:  # theta = Ts - s~ in [Ts - hi, Ts - lo]
@@ -109,12 +113,18 @@ def over_approximation(A: np.ndarray, B: np.ndarray, K: np.ndarray, Ts: float, t
         th = t_lo + (t_hi - t_lo) * np.arange(N) / N
         w = np.full(N, (t_hi - t_lo) / N)
         norms = np.linalg.norm(_phi(A, th), 2, axis=(-2, -1))
-        tail = np.where(a > 0, (np.expm1(a * w) - a * w) / max(a, 1e-300), 0.0)
+        # ||G(t) - t B|| = ||int_0^t int_0^s e^{A r} dr ds A B|| <= t^2/2 e^{mu t} ||A B||, and also
+        # <= int_0^t (||e^{A s}|| + 1) ds ||B|| <= t (e^{mu t} + 1) ||B||: the smaller (stiff plants)
+        grow = np.exp(mu * w)
+        tail = np.minimum(0.5 * w * w * grow * ab, w * (grow + 1.0) * b)
+        rho = norms * tail * (1.0 + REMAINDER_INFLATION)
+        if not np.all(np.isfinite(rho)):
+            raise ValueError("over_approximation: the remainder bound overflows (a stiff plant over a long range)")
         thetas.append(th)
         widths.append(w)
         bases.append(gamma(A, B, th))
         slopes.append(_phi(A, th) @ B)
-        rhos.append(norms * b * tail * (1.0 + REMAINDER_INFLATION))
+        rhos.append(rho)
     # the closed loop with every G_j = 0: e^{A Ts}, G(Ts) on the oldest command, the shift register
     M0 = exact_closed_loop(A, B, K, Ts, np.full(d_hi, Ts))  # s~ = Ts: G(0) = 0 for every instant
     E = np.zeros((n_s, n))
@@ -186,11 +196,18 @@ def lti_plant(cfg, base_dir: str | None = None) -> dict:
             if key not in data:
                 have = ", ".join(sorted(k for k in data if not k.startswith("__")))
                 raise InputError(f"plant.file: {path}: no array {key!r} (has {have})")
-        A, B = (np.atleast_2d(np.asarray(data[k], dtype=float)) for k in ("A", "B"))
-        if A.ndim != 2 or A.shape[0] != A.shape[1] or B.ndim != 2 or B.shape[0] != A.shape[0]:
+        raw = {k: np.asarray(data[k]) for k in ("A", "B")}
+        for k, v in raw.items():
+            if v.ndim != 2 or not (np.issubdtype(v.dtype, np.floating) or np.issubdtype(v.dtype, np.integer)):
+                raise InputError(f"plant.file: {path}: {k} must be a 2-D array of real numbers (got {v.ndim}-D {v.dtype})")
+        A, B = (raw[k].astype(float) for k in ("A", "B"))
+        if A.shape[0] != A.shape[1] or B.shape[0] != A.shape[0]:
             raise InputError(f"plant.file: {path}: A must be n x n and B n x m (got {A.shape} and {B.shape})")
         if not (np.all(np.isfinite(A)) and np.all(np.isfinite(B))):
             raise InputError(f"plant.file: {path}: A and B must be finite")
+        for key, names in (("states", pl.states), ("units", pl.units)):
+            if names is not None and len(names) != A.shape[0]:
+                raise InputError(f"plant.{key}: {len(names)} names for the {A.shape[0]} states of {path}")
     else:
         A, B = np.asarray(pl.A, dtype=float), np.asarray(pl.B, dtype=float)
     n, m = B.shape
