@@ -121,7 +121,12 @@ def _certify(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int
     if vertices > MAX_VERTICES or vertices * n_p * k * k > MAX_COEFFICIENTS:
         return _NotAttempted(vertices)
     K = pad_lti_gain(plant["K"], n, m, d)
-    pw = over_approximation(plant["A"], plant["B"], K, Ts, tau_min, tau_max + m_lost * Ts, d, pieces)
+    try:
+        pw = over_approximation(plant["A"], plant["B"], K, Ts, tau_min, tau_max + m_lost * Ts, d, pieces)
+    except ValueError as exc:
+        from .errors import InputError
+
+        raise InputError(f"plant: {exc} (delays up to {tau_max + m_lost * Ts:g} s)") from None
     return analyze_lti(pw)
 
 
