@@ -309,16 +309,25 @@ def test_check_log_icr_accepts_the_truth_and_blames_the_right_parameter(icr_logs
     assert bad["slip.left"]["fraction_outside"] <= 0.005
 
 
-def test_cli_excite_kinematic_identify_icr_and_check_log(tmp_path) -> None:
+def _run(*a):
+    return subprocess.run([sys.executable, "-m", "robustsynth", *a], capture_output=True, text=True)
+
+
+def _excited(tmp_path, cfg, episodes: int):
+    """The config written to tmp_path, and `validate --excite --engine kinematic`'s logs of it."""
     from robustsynth.config import config_to_dict
 
-    cfg = _icr_cfg()
-    conf = tmp_path / "icr.yaml"
+    conf = tmp_path / f"{cfg.name}.yaml"
     conf.write_text(yaml.safe_dump(config_to_dict(cfg)))
-    run = lambda *a: subprocess.run([sys.executable, "-m", "robustsynth", *a], capture_output=True, text=True)  # noqa: E731
-    r = run("validate", str(conf), "--excite", "--engine", "kinematic", "--episodes", "3", "-o", str(tmp_path / "exc"))
+    r = _run("validate", str(conf), "--excite", "--engine", "kinematic", "--episodes", str(episodes), "-o",
+             str(tmp_path / "exc"))
     assert r.returncode == 0, r.stderr
-    paths = sorted(str(p) for p in (tmp_path / "exc" / "logs").glob("*.csv"))
+    return conf, sorted(str(p) for p in (tmp_path / "exc" / "logs").glob("*.csv")), r
+
+
+def test_cli_excite_kinematic_identify_icr_and_check_log(tmp_path) -> None:
+    conf, paths, r = _excited(tmp_path, _icr_cfg(), 3)
+    run = _run
     assert len(paths) == 3 and "--model icr" in r.stdout
     r = run("identify", *paths, "--config", str(conf), "--model", "icr", "-o", str(tmp_path / "frag.yaml"))
     assert r.returncode == 0, r.stderr
@@ -374,18 +383,10 @@ def test_identify_icr_refuses_logs_without_turns_and_skips_a_track_at_rest(icr_l
 def test_identify_icr_on_constant_slip_draws_its_figure(tmp_path) -> None:
     """One slip for the whole log (a robot on one surface): every yaw estimate is the same number, and
     the report's histograms still draw (one bin), with the true point inside the box."""
-    from robustsynth.config import config_to_dict
-
     point = {f"slip.{k}.{e}": v for k, v in (("right", 0.98), ("left", 0.97), ("yaw", 0.6), ("icr_offset", 0.03))
              for e in ("min", "max")}
-    cfg = _icr_cfg(**point)
-    conf = tmp_path / "one.yaml"
-    conf.write_text(yaml.safe_dump(config_to_dict(cfg)))
-    run = lambda *a: subprocess.run([sys.executable, "-m", "robustsynth", *a], capture_output=True, text=True)  # noqa: E731
-    r = run("validate", str(conf), "--excite", "--engine", "kinematic", "--episodes", "1", "-o", str(tmp_path / "exc"))
-    assert r.returncode == 0, r.stderr
-    paths = sorted(str(p) for p in (tmp_path / "exc" / "logs").glob("*.csv"))
-    r = run("identify", *paths, "--config", str(conf), "--model", "icr", "-o", str(tmp_path / "frag.yaml"))
+    conf, paths, _ = _excited(tmp_path, _icr_cfg(**point), 1)
+    r = _run("identify", *paths, "--config", str(conf), "--model", "icr", "-o", str(tmp_path / "frag.yaml"))
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "frag.png").exists()
     frag = yaml.safe_load((tmp_path / "frag.yaml").read_text())["slip"]

@@ -379,12 +379,24 @@ class PhysicsConfig(_Node):
     timestep: Annotated[float, Field(gt=0, le=0.01)] = Field(default=0.002, description="physics time step [s]")
 
 
-class Config(_Node):
-    """A whole scenario: one robot, its network, its slip, and how to design and verify."""
+class _Named(_Node):
+    """A scenario's name: its default output directory results/<name>/."""
 
     name: Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9][A-Za-z0-9._-]*$")] = Field(
         description="scenario name; default output directory results/<name>/"
     )
+
+    @field_validator("name")
+    @classmethod
+    def _name_not_reserved(cls, v: str) -> str:
+        if v in RESERVED_NAMES:
+            raise ValueError(f"{v!r} is reserved (results/{v}/ holds the committed {RESERVED_NAMES[v]}); choose another name")
+        return v
+
+
+class Config(_Named):
+    """A whole scenario: one robot, its network, its slip, and how to design and verify."""
+
     robot: RobotConfig
     reference: ReferenceConfig
     network: NetworkConfig
@@ -422,12 +434,6 @@ class Config(_Node):
                              "polytopic or lossy-polytopic)")
         return self
 
-    @field_validator("name")
-    @classmethod
-    def _name_not_reserved(cls, v: str) -> str:
-        if v in RESERVED_NAMES:
-            raise ValueError(f"{v!r} is reserved (results/{v}/ holds the committed {RESERVED_NAMES[v]}); choose another name")
-        return v
 
 
 # --------------------------------------------------------------------------- any linear plant
@@ -499,11 +505,9 @@ class LtiMarginConfig(_Node):
                                                                     "[s] (default 4 sampling periods)")
 
 
-class LtiConfig(_Node):
+class LtiConfig(_Named):
     """A linear plant closed over the network with a given gain (``robustsynth margin``)."""
 
-    name: Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9][A-Za-z0-9._-]*$")] = Field(
-        description="scenario name; default output directory results/<name>/")
     plant: LtiPlantConfig
     controller: ControllerConfig
     network: NetworkConfig
@@ -517,12 +521,6 @@ class LtiConfig(_Node):
                              f"network.sampling_time] = ({net.delay.min:g}, {MAX_D_HI * net.sampling_time:g}] (got {far:g})")
         return self
 
-    @field_validator("name")
-    @classmethod
-    def _name_not_reserved(cls, v: str) -> str:
-        if v in RESERVED_NAMES:
-            raise ValueError(f"{v!r} is reserved (results/{v}/ holds the committed {RESERVED_NAMES[v]}); choose another name")
-        return v
 
 
 # --------------------------------------------------------------------------- loading
