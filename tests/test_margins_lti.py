@@ -175,3 +175,17 @@ def test_no_certificate_at_the_exhibited_bound(h1) -> None:
     cfg, mg = h1
     ex = mg["delay_max"]["exhibited"]
     assert not _certify(lti_plant(cfg), 1.0, 0.0, ex + EDGE, 0, 8).certified
+
+
+def test_schema_of_a_linear_plant_and_the_controllability_warning(tmp_path) -> None:
+    run = lambda *a: subprocess.run([sys.executable, "-m", "robustsynth", *a], capture_output=True, text=True)  # noqa: E731
+    r = run("schema", "--plant", "lti")
+    assert r.returncode == 0 and set(json.loads(r.stdout)["properties"]) >= {"name", "plant", "controller", "network"}
+    unctrl = tmp_path / "u.yaml"
+    unctrl.write_text((ROOT / "configs" / "zbp-h1.yaml").read_text()
+                      .replace("A: [[0, 1], [0, -0.1]]", "A: [[-1, 0], [0, -2]]").replace("B: [[0], [0.1]]", "B: [[1], [0]]")
+                      .replace("gain: [[-3.75, -11.5]]", "gain: [[-0.5, 0.0]]").replace("name: zbp-h1", "name: unctrl")
+                      .replace("  pieces: 8", "  pieces: 2\n  delay_far: 1.2"))  # a short search: the warning is the point
+    r = run("margin", str(unctrl), "-o", str(tmp_path / "m"))
+    assert r.returncode == 0, r.stderr
+    assert "not controllable" in r.stderr

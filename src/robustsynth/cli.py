@@ -176,14 +176,16 @@ def _verbosity(fn):
 
 @main.command()
 @_verbosity
+@click.option("--plant", type=click.Choice(["tracked-robot", "lti"]), default="tracked-robot", show_default=True,
+              help="Whose config: the tracked robot's, or a linear plant's (plant: kind: lti).")
 @_guard
-def schema() -> None:
+def schema(plant: str) -> None:
     """Print the JSON Schema of the configuration file."""
     import json
 
     from .config import config_schema
 
-    click.echo(json.dumps(config_schema(), indent=2))
+    click.echo(json.dumps(config_schema(plant), indent=2))
 
 
 @main.command("default-config")
@@ -472,6 +474,8 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
 
             raise InputError("--gains: a linear plant's gain is the config's controller.gain")
         data = lti_margin_stage(cfg, _outdir(cfg, outdir), config, on_step=_stage_lines(obj))
+        if not data["plant"]["controllable"]:
+            click.echo("warning: plant: (A, B) is not controllable; the margins are those of the given gain", err=True)
         if as_json:
             import json
 

@@ -793,9 +793,9 @@ def load_config(path: str | Path | Mapping[str, Any] | None = None) -> Config:
     return parse_config(raw, str(p))
 
 
-def config_schema() -> dict[str, Any]:
-    """JSON Schema of the configuration."""
-    return Config.model_json_schema()
+def config_schema(plant: str = "tracked-robot") -> dict[str, Any]:
+    """JSON Schema of the configuration (``plant='lti'``: of a linear plant's, ``plant: kind: lti``)."""
+    return (LtiConfig if plant == "lti" else Config).model_json_schema()
 
 
 def config_to_dict(cfg: Config) -> dict[str, Any]:
