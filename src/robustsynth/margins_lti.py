@@ -186,11 +186,33 @@ def _exhibited_delay(plant: dict, Ts: float, t_lo: float, far: float, m_lost: in
     return _first_bad(lambda x: find_lti_instability(plant, Ts, t_lo, x, m_lost), t_lo, top, tol)
 
 
+def _gallop(good: Callable[[float], bool], lo: float, hi: float, step: float, tol: float) -> float:
+    """From ``lo`` (known good) towards ``hi`` (known bad): steps that double while ``good`` holds,
+    then a bisection of the last bracket to ``tol``; the largest value found good (lo if none)."""
+    bad = hi
+    while lo + step < bad and step > 0:
+        x = lo + step
+        if good(x):
+            lo, step = x, 2.0 * step
+        else:
+            bad = x
+            break
+    while bad - lo > tol:
+        mid = 0.5 * (lo + bad)
+        if good(mid):
+            lo = mid
+        else:
+            bad = mid
+    return lo
+
+
 def _certified_delay(plant: dict, Ts: float, t_lo: float, top: float, m_lost: int, pieces: int, tol: float
                      ) -> tuple[float | None, int]:
-    """The largest certified delay bound in [t_lo, top]: bisections with finer and finer pieces
-    (PIECE_STAGES, then ``pieces``), each from the last proven value up; every value returned is
-    proven by its own certificate.  Returns (value, solves)."""
+    """The largest certified delay bound in [t_lo, top) (``top``: the exhibited bound, where no
+    certificate can hold): a bisection with the coarsest pieces, then with finer and finer pieces
+    (PIECE_STAGES, then ``pieces``) galloping up from the last proven value, first by twice what
+    the previous refinement gained.  Every value returned is proven by its own certificate.
+    Returns (value, solves)."""
     solves = 0
 
     def ok(x: float, N: int) -> bool:
@@ -199,14 +221,14 @@ def _certified_delay(plant: dict, Ts: float, t_lo: float, top: float, m_lost: in
         return bool(_certify(plant, Ts, t_lo, x, m_lost, N).certified)
 
     stages = [N for N in PIECE_STAGES if N < pieces] + [pieces]
-    lo: float | None = None
-    for N in stages:
-        start = t_lo if lo is None else lo
-        got = _last_good(lambda x, N=N: ok(x, N), start, top, tol)
-        if got is not None:
-            lo = got if lo is None else max(lo, got)
-        if lo is not None and top - lo <= tol:
-            break
+    lo = _last_good(lambda x: ok(x, stages[0]), t_lo, top, tol)
+    if lo is None:
+        return None, solves
+    gained = max(top - lo, tol) / 4.0
+    for N in stages[1:]:
+        before = lo
+        lo = _gallop(lambda x, N=N: ok(x, N), lo, top, max(2.0 * gained, tol), tol)
+        gained = max(lo - before, tol)
     return lo, solves
 
 
