@@ -863,14 +863,7 @@ def lti_vertex_blocks(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float,
     blocks, mags = [], []
     for c, combo in enumerate(combos):
         for end in ends:
-            M = pw.M0.copy()
-            Mabs = np.abs(pw.M0)
-            for j in range(d):
-                i = combo[j]
-                G = pw.base[j][i] + end[j] * pw.width[j][i] * pw.slope[j][i]
-                Gabs = np.abs(pw.base[j][i]) + end[j] * pw.width[j][i] * np.abs(pw.slope[j][i])
-                M = M + pw.E @ G @ pw.F[j]
-                Mabs = Mabs + np.abs(pw.E) @ Gabs @ np.abs(pw.F[j])
+            M, Mabs = pw.vertex(combo, end), pw.vertex(combo, end, absolute=True)
             top = M.T @ P @ M - decay**2 * P
             top_abs = Mabs.T @ np.abs(P) @ Mabs + decay**2 * np.abs(P)
             for j in range(d):

@@ -91,6 +91,13 @@ class IcrLines:
     def x_at(self, s: np.ndarray) -> np.ndarray:
         return self.ax + self.bx * s
 
+    @property
+    def sig_s(self) -> np.ndarray:
+        """The uncertainty of s = 1/yaw a period pins: its traction's uncertainty over the line's slope,
+        of the better-determined track (inf for a flat line)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.minimum(self.sig_r / np.abs(self.br), self.sig_l / np.abs(self.bl))
+
 
 def track_at_rest(rho: np.ndarray, dur: np.ndarray) -> np.ndarray:
     """Periods (P,) in which a track's mean motor speed is (nearly) zero: its traction factor is not
@@ -287,8 +294,7 @@ def icr_estimates(lines: IcrLines, box: np.ndarray, R: float, D: float, z: float
     p0 = np.stack([lines.ar + lines.br * s, lines.al + lines.bl * s, np.nan_to_num(lines.x_at(s))], axis=1)
     p = _refine(lines.q0, lines.q1, lines.rho, lines.dur, p0, s, R, D)
     turning = lines.turning
-    with np.errstate(divide="ignore", invalid="ignore"):
-        sig_s = np.minimum(lines.sig_r / np.abs(lines.br), lines.sig_l / np.abs(lines.bl))  # s moves the line's mu
+    sig_s = lines.sig_s
     est = np.stack([p[:, 0], p[:, 1], np.where(turning, 1.0 / s, np.nan), np.where(turning, p[:, 2], np.nan)], axis=1)
     sig = np.stack([lines.sig_r, lines.sig_l, np.where(turning, sig_s / s**2, np.inf), lines.sig_x], axis=1)
     return est, sig
@@ -321,8 +327,7 @@ def check_icr(lines: IcrLines, ranges: tuple[tuple[float, float], ...], z: float
     turning = lines.turning
     s_k = np.clip(0.5 * (cfg_box[2, 0] + cfg_box[2, 1]), np.where(explained, lo, -np.inf), np.where(explained, hi, np.inf))
     s_a, s_b = np.where(explained, lo, s_k), np.where(explained, hi, s_k)  # the s the period allows, for x_icr
-    with np.errstate(divide="ignore", invalid="ignore"):
-        sig_s = np.minimum(lines.sig_r / np.abs(lines.br), lines.sig_l / np.abs(lines.bl))
+    sig_s = lines.sig_s
     if not np.all(explained):
         gauge = gauge_box(lines, z_gauge)
         g_lo, g_hi = feasible_s(lines, gauge, z_gauge)

@@ -22,6 +22,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .errors import check_interrupt
+from .margins import _bisect
 
 __all__ = ["lti_margins", "find_lti_instability", "spectral_radius", "SEARCH_DELAYS", "SEARCH_PERIOD"]
 
@@ -167,13 +168,7 @@ def _last_good(good: Callable[[float], bool], lo: float, hi: float, tol: float) 
         return None
     if good(hi):
         return hi
-    while hi - lo > tol:
-        mid = 0.5 * (lo + hi)
-        if good(mid):
-            lo = mid
-        else:
-            hi = mid
-    return lo
+    return _bisect(good, lo, hi, tol)
 
 
 def _exhibited_delay(plant: dict, Ts: float, t_lo: float, far: float, m_lost: int, tol: float) -> tuple[float | None, Any]:
@@ -197,13 +192,7 @@ def _gallop(good: Callable[[float], bool], lo: float, hi: float, step: float, to
         else:
             bad = x
             break
-    while bad - lo > tol:
-        mid = 0.5 * (lo + bad)
-        if good(mid):
-            lo = mid
-        else:
-            bad = mid
-    return lo
+    return _bisect(good, lo, bad, tol)
 
 
 def _certified_delay(plant: dict, Ts: float, t_lo: float, top: float, m_lost: int, pieces: int, tol: float

@@ -92,6 +92,18 @@ class Piecewise:
     def d_hi(self) -> int:
         return len(self.theta)
 
+    def vertex(self, combo, end, absolute: bool = False) -> np.ndarray:
+        """The closed loop at a vertex: piece ``combo[j]`` of each instant j at its end ``end[j]`` (0 or 1),
+        ``M0 + sum_j E (base + end width slope) F_j``; ``absolute``: the same formula on absolute values
+        (the magnitude a verified check bounds the rounding by)."""
+        f = np.abs if absolute else (lambda x: x)
+        M = f(self.M0).copy()
+        for j in range(self.d_hi):
+            i = combo[j]
+            G = f(self.base[j][i]) + end[j] * self.width[j][i] * f(self.slope[j][i])
+            M = M + f(self.E) @ G @ f(self.F[j])
+        return M
+
 
 def over_approximation(A: np.ndarray, B: np.ndarray, K: np.ndarray, Ts: float, tau_min: float, tau_max: float,
                        d_hi: int, pieces: int) -> Piecewise:

@@ -52,11 +52,7 @@ def _vertex_matrices(pw, combos: np.ndarray, ends: np.ndarray) -> tuple[np.ndarr
     Ms, owner = [], []
     for c, combo in enumerate(combos):
         for end in ends:
-            M = pw.M0.copy()
-            for j in range(pw.d_hi):
-                i = combo[j]
-                M = M + pw.E @ (pw.base[j][i] + end[j] * pw.width[j][i] * pw.slope[j][i]) @ pw.F[j]
-            Ms.append(M)
+            Ms.append(pw.vertex(combo, end))
             owner.append(c)
     return np.array(Ms), np.array(owner)
 
