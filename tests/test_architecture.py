@@ -28,7 +28,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("robustsynth.report", "robustsynth.interop"),
     ("robustsynth.comparison", "robustsynth.margins", "robustsynth.sweeps", "robustsynth.identification",
      "robustsynth.identification_icr", "robustsynth.margins_lti"),
-    ("robustsynth.pipeline", "robustsynth.regression"),
+    ("robustsynth.pipeline", "robustsynth.pipeline_lti", "robustsynth.regression"),
     ("robustsynth.cli", "robustsynth.__main__"),
 ]
 

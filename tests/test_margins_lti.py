@@ -131,8 +131,8 @@ def test_cli_margin_on_a_linear_plant_and_the_commands_it_lacks(tmp_path) -> Non
     data = json.loads(r.stdout)
     assert data["margins"]["delay_max"]["exhibited"] == pytest.approx(0.685, abs=5e-3)
     assert (tmp_path / "margin.json").exists() and "certified / exhibited" in (tmp_path / "margin.md").read_text()
-    r = run("synthesize", str(ROOT / "configs" / "zbp-h1.yaml"), "-o", str(tmp_path / "s"))
-    assert r.returncode == 2 and "not available for a linear plant" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    r = run("margin", str(ROOT / "configs" / "zbp-h1.yaml"), "-o", str(tmp_path), "--lyapunov", "common")
+    assert r.returncode == 2 and "--lyapunov" in r.stderr and len(r.stderr.strip().splitlines()) == 1
     bad = tmp_path / "bad.yaml"
     bad.write_text((ROOT / "configs" / "zbp-h1.yaml").read_text().replace("B: [[0], [0.1]]", "B: [[0]]"))
     r = run("margin", str(bad))

@@ -11,6 +11,7 @@ passed this check; they are rounded outwards.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
@@ -849,17 +850,20 @@ def turn_bounds(model: Any, K: np.ndarray, cert: Mapping[str, Any], figures: Map
 # ------------------------------------------------------------------ any linear plant (plant: kind: lti)
 
 
-def lti_vertex_blocks(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float,
-                      combos: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+def lti_vertex_blocks(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, combos: np.ndarray, ends: np.ndarray,
+                      dist: float | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """The robust-stability blocks of an lti certificate (docs/theory.md §14), one per vertex, as
     floats, with their magnitudes (the same formula on absolute values) and the number of terms per
     entry: ``-[[M' P M - decay^2 P + sum_j eps_j rho_j^2 F_j' F_j, M' P E~], [E~' P M, E~' P E~ -
     diag(eps_j I)]]`` for every piece combination (``combos`` (n_c, d): a piece per instant) and
-    end combination (``ends`` (n_e, d) in {0, 1}).  ``eps`` (n_c, d)."""
+    end combination (``ends`` (n_e, d) in {0, 1}).  ``eps`` (n_c, d).  With ``dist`` = c, a
+    disturbance d (|d| <= 1) enters the plant's rows too: E~ gains a block E and the diagonal c I
+    (docs/theory.md §15: V+ <= decay^2 V + c |d|^2 for every admissible step)."""
     P = np.asarray(P, dtype=float)
     d = pw.d_hi
     n_s, n = pw.E.shape
-    Et = np.hstack([pw.E] * d)  # (n_s, d n)
+    Et = np.hstack([pw.E] * (d + (dist is not None)))  # (n_s, d n) (+ n)
+    lam = np.append(eps, [[dist]] * len(eps), axis=1) if dist is not None else eps
     blocks, mags = [], []
     for c, combo in enumerate(combos):
         for end in ends:
@@ -872,15 +876,15 @@ def lti_vertex_blocks(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float,
                 top_abs = top_abs + abs(eps[c, j]) * r2 * (np.abs(pw.F[j]).T @ np.abs(pw.F[j]))
             off = M.T @ P @ Et
             off_abs = Mabs.T @ np.abs(P) @ np.abs(Et)
-            low = Et.T @ P @ Et - np.kron(np.diag(eps[c]), np.eye(n))
-            low_abs = np.abs(Et).T @ np.abs(P) @ np.abs(Et) + np.kron(np.diag(np.abs(eps[c])), np.eye(n))
+            low = Et.T @ P @ Et - np.kron(np.diag(lam[c]), np.eye(n))
+            low_abs = np.abs(Et).T @ np.abs(P) @ np.abs(Et) + np.kron(np.diag(np.abs(lam[c])), np.eye(n))
             X = np.block([[top, off], [off.T, low]])
             Xa = np.block([[top_abs, off_abs], [off_abs.T, low_abs]])
             blocks.append(-(X + X.T) / 2.0)
             mags.append(Xa)
     # the longest sum of products behind an entry, generously: M itself is a sum of d + 1 products,
     # M' P M sums n_s^2 of those, the eps terms add d, the symmetrization one
-    terms = n_s * n_s * (2 * d + 3) + 2 * d + 4
+    terms = n_s * n_s * (2 * d + 3) + 2 * d + 4 + (2 if dist is not None else 0)  # the disturbance's c: one term
     return np.array(blocks), np.array(mags), terms
 
 
@@ -888,7 +892,7 @@ LTI_PROOF_MARGIN = 1e-8  # every vertex block is proven <= -this (I): room for t
 
 
 def check_lti_certificate(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, combos: np.ndarray,
-                          ends: np.ndarray) -> dict[str, Any]:
+                          ends: np.ndarray, dist: float | None = None) -> dict[str, Any]:
     """The lti certificate re-checked in numpy: P proven positive definite and every vertex block
     proven <= -LTI_PROOF_MARGIN I in verified arithmetic (Rump's test, with the blocks' assembly error
     as a radius); the multipliers >= 0.  The data (the pieces from expm, the remainder bounds) are
@@ -897,13 +901,30 @@ def check_lti_certificate(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float,
     P = np.asarray(P, dtype=float)
     P = (P + P.T) / 2.0
     eps = np.asarray(eps, dtype=float)
+    if dist is not None and not (math.isfinite(dist) and dist > 0):
+        return {"ok": False, "failing": -1, "vertices": 0, "min_eig": float("nan")}
     if not np.all(np.isfinite(P)) or not np.all(np.isfinite(eps)) or np.any(eps < 0):
         return {"ok": False, "failing": -1, "vertices": 0, "min_eig": float("nan")}
     if not proves_at_least(P, 0.0, assembly_radius(np.abs(P), 1)):
         return {"ok": False, "failing": -1, "vertices": 0, "min_eig": float(np.min(np.linalg.eigvalsh(P)))}
-    blocks, mags, terms = lti_vertex_blocks(pw, P, eps, decay, combos, ends)
+    blocks, mags, terms = lti_vertex_blocks(pw, P, eps, decay, combos, ends, dist)
     radius = assembly_radius_batch(mags, terms)
     ok = proves_at_least_batch(blocks, LTI_PROOF_MARGIN, radius)
     failing = np.flatnonzero(~ok)
     return {"ok": bool(ok.all()), "failing": int(failing[0]) if failing.size else None, "vertices": int(len(blocks)),
             "min_eig": float(np.min(np.linalg.eigvalsh(blocks)))}
+
+
+def lti_within(P: np.ndarray, rows: np.ndarray, bounds: np.ndarray) -> np.ndarray:
+    """Per row r_i: proven ``|r_i xi| <= bounds[i]`` on {xi' P xi <= 1}, i.e. ``P - r_i' r_i / b_i^2 >= 0``
+    in verified arithmetic (the bound's square and quotient rounded with the assembly)."""
+    P = (np.asarray(P, dtype=float) + np.asarray(P, dtype=float).T) / 2.0
+    out = []
+    for r, b in zip(np.atleast_2d(rows), np.asarray(bounds, dtype=float)):
+        if not (math.isfinite(b) and b > 0):
+            out.append(False)
+            continue
+        R = np.outer(r, r) / (b * b)
+        L = P - R
+        out.append(proves_at_least(L, 0.0, assembly_radius(np.abs(P) + np.abs(R), 3)))
+    return np.array(out, dtype=bool)

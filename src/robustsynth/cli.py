@@ -105,7 +105,7 @@ def _load(config: Path | None, lti_ok: bool = False):
 
         cmd = click.get_current_context().info_name
         raise InputError(f"plant.kind: lti: `robustsynth {cmd}` is not available for a linear plant yet "
-                         "(available: margin)")
+                         "(available: build-model, synthesize, verify, run, margin)")
     return cfg
 
 
@@ -212,10 +212,24 @@ def build_model_cmd(obj: _Ctx, config: Path | None, outdir: Path | None) -> None
     synthesis.model slip-aware (default): exact in slip and delay, its vertices cover every
     admissible slip and delay; paper: the seed paper's eq. 25 with the uncertainty of eqs. 31-33.
     """
+    from .config import is_lti
     from .pipeline import model_stage
 
-    cfg = _load(config)
+    cfg = _load(config, lti_ok=True)
     out = _outdir(cfg, outdir)
+    if is_lti(cfg):
+        from .pipeline_lti import lti_model_stage
+
+        data = lti_model_stage(cfg, out, config)
+        cov = data["coverage"]
+        obj.say(f"model '{cfg.name}' (linear plant): n={data['n']} m={data['m']} d_hi={data['lifting']} "
+                f"n_s={data['lifted_states']} pieces={data['pieces']} "
+                f"coverage={'ok' if cov['remainder_ratio'] <= 1 else 'FAILED'} "
+                f"(worst remainder / bound {cov['remainder_ratio']:.3f} on {int(cov['samples'])} instants, residual "
+                f"{cov['reconstruction']:.1e})")
+        _warn_uncontrollable(data["controllable"])
+        obj.say(f"wrote {', '.join(data['files'])}")
+        return
     st = model_stage(cfg, out)
     _say_cleared(obj, out, st.cleared)
     m = st.model
@@ -255,11 +269,20 @@ def _synth_opts(fn):
 def synthesize(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str | None, solver: str | None,
                multiplier: str | None, diagnose: bool | None) -> None:
     """Solve the LMIs for a certified robust gain; write gains.json, gains.mat, synthesis.md."""
+    from .config import is_lti
     from .model import build_model
     from .pipeline import synthesis_stage
 
-    cfg = _load(config)
+    cfg = _load(config, lti_ok=True)
     out = _outdir(cfg, outdir)
+    if is_lti(cfg):
+        _lti_only(multiplier=multiplier, diagnose=diagnose)
+        from .pipeline_lti import lti_synthesis_stage
+
+        res = lti_synthesis_stage(cfg, out, config, _stage_lines(obj), objective, solver)
+        obj.say(_lti_certified_line(res["gains"]))
+        obj.say(f"wrote {', '.join(res['files'])}")
+        return
     obj.detail(f"building the model of '{cfg.name}'")
     st = synthesis_stage(build_model(cfg), out, on_step=_stage_lines(obj), diagnose=diagnose, objective=objective,
                          solver=solver, multiplier=multiplier)
@@ -302,6 +325,41 @@ def _certified_line(gains: dict[str, Any]) -> str:
     if gains.get("certificate", {}).get("kinematics") == "nonlinear":
         parts.append(f"for the nonlinear robot (|e_theta(t)| <= {gains['certificate']['heading_bound']:g} rad)")
     return " ".join(parts[:1]) + " " + ", ".join(parts[1:])
+
+
+def _lti_only(**robot_options: Any) -> None:
+    """Refuse the robot's synthesis options on a linear plant (one line, exit 2)."""
+    given = [k for k, v in robot_options.items() if v is not None]
+    if given:
+        from .errors import InputError
+
+        raise InputError(f"--{given[0]}: a robot synthesis option, not available for a linear plant")
+
+
+def _warn_uncontrollable(controllable: bool) -> None:
+    if not controllable:
+        click.echo("warning: plant: (A, B) is not controllable; a stabilizing gain may not exist", err=True)
+
+
+def _lti_certified_line(gd: dict[str, Any]) -> str:
+    c = gd["certified"]
+    parts = [f"decay {c['decay']:.4f} per period"]
+    for o in c.get("outputs") or ():
+        parts.append(f"|{o['name']}| <= {o['bound']:.4g} {o['unit']}")
+    if c.get("rest_radius") is not None:
+        parts.append(f"from rest within |x| <= {c['rest_radius']:.4g}")
+    if c.get("inputs"):
+        parts.append("inputs within " + ", ".join(f"|{u['name']}| <= {u['limit']:g}" for u in c["inputs"]))
+    return f"certified ({gd['objective']}, d = {gd['lifting']['d']}): " + ", ".join(parts)
+
+
+def _lti_report(obj: _Ctx, data: dict[str, Any]) -> None:
+    for c in data["checks"]:
+        if not c["ok"]:
+            click.echo(f"FAILED: {c['name']} (value {c['value']:.6g}, limit {c['limit']:g}): {c['detail']}", err=True)
+    worst = ", ".join(f"{c['name'].split(' (')[0]} {c['value']:.4g}" for c in data["checks"])
+    obj.say(f"verification {'passed' if data['passed'] else 'FAILED'}: {len(data['checks'])} checks, "
+            f"{data['starts']} starts on the set's boundary x {len(data['families'])} delay families; {worst}")
 
 
 class _LazyBar:
@@ -389,12 +447,24 @@ def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
 
     Exit 1 when any check fails.
     """
+    from .config import is_lti
     from .errors import EXIT_VERIFICATION_FAILED
     from .model import build_model
     from .pipeline import verification_stage
 
-    cfg = _load(config)
+    cfg = _load(config, lti_ok=True)
     out = _gains_outdir(cfg, outdir, gains)
+    if is_lti(cfg):
+        if logdir is not None:
+            from .errors import InputError
+
+            raise InputError("--log: robot logs are for the tracked robot, not a linear plant")
+        from .pipeline_lti import lti_verification_stage
+
+        data = lti_verification_stage(cfg, out, gains, config, runs, seed)
+        _lti_report(obj, data)
+        obj.say(f"wrote {', '.join(data['files'])}")
+        return EXIT_OK if data["passed"] else EXIT_VERIFICATION_FAILED
     cb, bar = _progress(obj)
     try:
         st = verification_stage(build_model(cfg), out, gains, runs, seed, fmt, not no_plots, cb)
@@ -423,11 +493,21 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
             multiplier: str | None, diagnose: bool | None, runs: int | None, seed: int | None, fmt: str,
             no_plots: bool) -> int:
     """build-model, synthesize and verify in one go; write report.md and summary.json."""
+    from .config import is_lti
     from .errors import EXIT_VERIFICATION_FAILED
     from .pipeline import run
 
-    cfg = _load(config)
+    cfg = _load(config, lti_ok=True)
     out = _outdir(cfg, outdir)
+    if is_lti(cfg):
+        _lti_only(multiplier=multiplier, diagnose=diagnose)
+        from .pipeline_lti import lti_run
+
+        res = lti_run(cfg, out, config, _stage_lines(obj), objective, solver, runs, seed)
+        obj.say(_lti_certified_line(res["synthesis"]["gains"]))
+        _lti_report(obj, res["verification"])
+        obj.say(f"report: {out / 'report.md'}")
+        return EXIT_OK if res["verification"]["passed"] else EXIT_VERIFICATION_FAILED
     cb, bar = _progress(obj)
     try:
         stage = _stage_lines(obj)
@@ -465,17 +545,19 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
     closed loop), with the destabilizing sequence.  Writes OUTDIR/margin.json.
     """
     from .config import is_lti
-    from .pipeline import lti_margin_stage, margin_stage
+    from .pipeline import margin_stage
 
     cfg = _load(config, lti_ok=True)
     if is_lti(cfg):
-        if gains is not None:
+        if lyapunov is not None:
             from .errors import InputError
 
-            raise InputError("--gains: a linear plant's gain is the config's controller.gain")
-        data = lti_margin_stage(cfg, _outdir(cfg, outdir), config, on_step=_stage_lines(obj))
-        if not data["plant"]["controllable"]:
-            click.echo("warning: plant: (A, B) is not controllable; the margins are those of the given gain", err=True)
+            raise InputError("--lyapunov: a linear plant's certificate is one common quadratic function")
+        from .pipeline_lti import lti_margin_stage
+
+        data = lti_margin_stage(cfg, _gains_outdir(cfg, outdir, gains), config, on_step=_stage_lines(obj),
+                                gains_path=gains)
+        _warn_uncontrollable(data["plant"]["controllable"])
         if as_json:
             import json
 

@@ -456,8 +456,44 @@ def _matrix(v: Any, what: str) -> list[list[float]]:
     return rows
 
 
+class LtiDisturbance(_Node):
+    """``x' = A x + B u + E w`` with ``||w(t)||_2 <= bound`` at every instant (any shape in time)."""
+
+    E: Any = Field(description="n x q disturbance input matrix, a list of rows")
+    bound: Annotated[float, Field(gt=0, le=1e9)] = Field(description="bound on ||w(t)||_2 at every t")
+
+    @field_validator("E")
+    @classmethod
+    def _E(cls, v: Any) -> list[list[float]]:
+        return _matrix(v, "E")
+
+
+class LtiOutputs(_Node):
+    """The outputs ``y = C x`` whose bounds the certificate states (default: every state)."""
+
+    C: Any = Field(description="p x n output matrix, a list of rows (one row per bounded output)")
+    names: list[str] | None = Field(default=None, description="the outputs' names (default y1, y2, ...)")
+    units: list[str] | None = Field(default=None, description="the outputs' units (default '-')")
+    scale: list[Annotated[float, Field(gt=0, le=1e9)]] | None = Field(
+        default=None, description="the synthesis minimizes the largest bound / scale (default 1 each)")
+
+    @field_validator("C")
+    @classmethod
+    def _C(cls, v: Any) -> list[list[float]]:
+        return _matrix(v, "C")
+
+    @model_validator(mode="after")
+    def _lengths(self) -> "LtiOutputs":
+        p = len(self.C)
+        for key in ("names", "units", "scale"):
+            v = getattr(self, key)
+            if v is not None and len(v) != p:
+                raise ValueError(f"{_FIELD}{key}: {len(v)} entries for the {p} rows of C")
+        return self
+
+
 class LtiPlantConfig(_Node):
-    """``x' = A x + B u`` (continuous time): from A and B here, or from a .mat / .npz file holding them."""
+    """``x' = A x + B u (+ E w)`` (continuous time): from A and B here, or from a .mat / .npz file holding them."""
 
     kind: Literal["lti"] = Field(description="lti: any linear plant (tracked-robot: the default, without this section)")
     A: Any = Field(default=None, description="n x n state matrix (continuous time), a list of rows")
@@ -465,6 +501,12 @@ class LtiPlantConfig(_Node):
     file: str | None = Field(default=None, description="a .mat or .npz file with arrays A and B (instead of A, B here)")
     states: list[str] | None = Field(default=None, description="the states' names (default x1, x2, ...)")
     units: list[str] | None = Field(default=None, description="the states' units (default '-')")
+    disturbance: LtiDisturbance | None = Field(default=None, description="a bounded disturbance input (the "
+                                               "ultimate bound of synthesize)")
+    input_limits: list[Annotated[float, Field(gt=0, le=1e9)]] | None = Field(
+        default=None, description="|u_i| <= input_limits[i] on the certified set (one per input)")
+    outputs: LtiOutputs | None = Field(default=None, description="the outputs the certificate bounds (default: "
+                                       "every state)")
 
     @model_validator(mode="after")
     def _shapes(self) -> "LtiPlantConfig":
@@ -485,6 +527,12 @@ class LtiPlantConfig(_Node):
         for key, names in (("states", self.states), ("units", self.units)):
             if names is not None and len(names) != n:
                 raise ValueError(f"{_FIELD}{key}: {len(names)} names for {n} states")
+        if self.disturbance is not None and len(self.disturbance.E) != n:
+            raise ValueError(f"{_FIELD}disturbance.E: must have n = {n} rows like A (got {len(self.disturbance.E)})")
+        if self.outputs is not None and len(self.outputs.C[0]) != n:
+            raise ValueError(f"{_FIELD}outputs.C: must have n = {n} columns like A (got {len(self.outputs.C[0])})")
+        if self.input_limits is not None and len(self.input_limits) != len(B[0]):
+            raise ValueError(f"{_FIELD}input_limits: {len(self.input_limits)} limits for the {len(B[0])} inputs of B")
         return self
 
 
@@ -505,13 +553,46 @@ class LtiMarginConfig(_Node):
                                                                     "[s] (default 4 sampling periods)")
 
 
+class LtiSynthesisConfig(_Node):
+    """``robustsynth synthesize`` on a linear plant: a gain u_k = K xi_k on the lifted state (docs/theory.md §15)."""
+
+    objective: Literal["auto", "stability", "ultimate-bound"] = Field(
+        default="auto", description="stability: robust decay (with input_limits: the largest ball of states at rest "
+        "from which the inputs stay within them); ultimate-bound: the smallest invariant set under the disturbance "
+        "(needs plant.disturbance); auto: ultimate-bound with a disturbance, else stability")
+    decay: Annotated[float, Field(gt=0, le=1)] = Field(
+        default=0.98, description="sqrt(V) shrinks at least by this factor per period (disturbance-free)")
+    pieces: Annotated[int, Field(ge=1, le=64)] = Field(default=2, description="pieces per switching instant's range "
+                                                       "in the guaranteed over-approximation")
+    alpha_points: Annotated[int, Field(ge=2, le=60)] = Field(default=6, description="grid points of the line "
+                                                             "search over V's contraction alpha (ultimate-bound)")
+    solver: Literal["clarabel", "scs"] = Field(default="clarabel", description="first solver tried")
+
+
 class LtiConfig(_Named):
-    """A linear plant closed over the network with a given gain (``robustsynth margin``)."""
+    """A linear plant closed over the network: a given gain's margins (``robustsynth margin``), or a gain
+    of its own (``robustsynth synthesize``)."""
 
     plant: LtiPlantConfig
-    controller: ControllerConfig
+    controller: ControllerConfig | None = Field(default=None, description="the gain whose margins `margin` "
+                                                "computes (or pass --gains)")
     network: NetworkConfig
     margin: LtiMarginConfig = Field(default_factory=LtiMarginConfig)
+    synthesis: LtiSynthesisConfig = Field(default_factory=LtiSynthesisConfig)
+
+    @property
+    def objective(self) -> str:
+        """The synthesis objective that ``auto`` stands for."""
+        obj = self.synthesis.objective
+        if obj == "auto":
+            return "ultimate-bound" if self.plant.disturbance is not None else "stability"
+        return obj
+
+    @model_validator(mode="after")
+    def _needs(self) -> "LtiConfig":
+        if self.synthesis.objective == "ultimate-bound" and self.plant.disturbance is None:
+            raise ValueError(f"{_FIELD}synthesis.objective: ultimate-bound needs plant.disturbance (E and its bound)")
+        return self
 
     @model_validator(mode="after")
     def _far(self) -> "LtiConfig":

@@ -23,6 +23,7 @@ import numpy as np
 
 from .errors import check_interrupt
 from .margins import _bisect
+from .model.lti import lti_depth
 
 __all__ = ["lti_margins", "find_lti_instability", "spectral_radius", "SEARCH_DELAYS", "SEARCH_PERIOD"]
 
@@ -37,32 +38,12 @@ MAX_COEFFICIENTS = 2e7  # floats of the LMIs' coefficient tensor (vertices x P e
 MAX_LOSSES = 3  # the loss margin is searched up to this many losses in a row
 
 
-def _lifting(tau_max: float, m_lost: int, Ts: float) -> int:
-    from .model.lifting import delay_indices
-
-    return delay_indices(0.0, tau_max + m_lost * Ts, Ts)[1]
-
-
 def spectral_radius(plant: dict, Ts: float, dseq: np.ndarray, m_lost: int = 0) -> np.ndarray:
     """rho(product over one period)^(1/p) of the exactly lifted closed loop for periodic packet
-    delays ``dseq`` (n, p) (inf: lost), per row."""
-    from .model.lifting import s_tilde_sequence
-    from .model.lti import exact_closed_loop, pad_lti_gain
+    delays ``dseq`` (n, p) (inf: lost), per row (:func:`robustsynth.model.lti.periodic_spectral_radius`)."""
+    from .model.lti import periodic_spectral_radius
 
-    A, B, K = plant["A"], plant["B"], plant["K"]
-    n, m = B.shape
-    dseq = np.atleast_2d(np.asarray(dseq, dtype=float))
-    p = dseq.shape[1]
-    finite = dseq[np.isfinite(dseq)]
-    d = max(_lifting(float(finite.max()) if finite.size else 0.0, m_lost, Ts), (K.shape[1] - n) // m)
-    Kp = pad_lti_gain(K, n, m, d)
-    cols = np.arange(-d, p + m_lost + 1) % p  # the packets before, and after a burst its successor
-    s = s_tilde_sequence(dseq[:, cols], Ts, d)[:, :p]
-    M = exact_closed_loop(A, B, Kp, Ts, s)  # (n_seq, p, n_s, n_s)
-    prod = M[:, 0]
-    for k in range(1, p):
-        prod = M[:, k] @ prod
-    return np.max(np.abs(np.linalg.eigvals(prod)), axis=-1) ** (1.0 / p)
+    return periodic_spectral_radius(plant["A"], plant["B"], plant["K"], Ts, dseq, m_lost)
 
 
 def _sequences(grid: np.ndarray, p: int, m_lost: int) -> np.ndarray:
@@ -112,7 +93,7 @@ def _certify(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int
     from .synthesis.lti import analyze_lti
 
     n, m = plant["B"].shape
-    d = max(_lifting(tau_max, m_lost, Ts), (plant["K"].shape[1] - n) // m)
+    d = max(lti_depth(tau_max, m_lost, Ts), (plant["K"].shape[1] - n) // m)
     live = int(np.sum(np.diff(instant_ranges(tau_min, tau_max + m_lost * Ts, Ts, d), axis=1) > 0))
     while pieces > 1 and (2 * pieces) ** live > MAX_VERTICES:  # long delay ranges: fewer pieces per instant
         pieces -= 1

@@ -435,41 +435,6 @@ class MarginStage:
     files: tuple[Path, ...]
 
 
-def lti_margin_stage(config: Any, outdir: str | Path, config_path: str | Path | None = None,
-                     on_step: Callable[[str], None] | None = None) -> dict[str, Any]:
-    """``robustsynth margin`` on a linear plant (``plant: kind: lti``): the delay and loss margins of
-    the config's gain (:mod:`.margins_lti`); writes margin.json and margin.md."""
-    from .artifacts.files import commit_files, json_bytes, make_dir
-    from .margins_lti import lti_margins
-    from .model.lti import lti_plant
-
-    plant = lti_plant(config, str(Path(config_path).parent) if config_path is not None else None)
-    data = {"plant": {"kind": "lti", "n": int(plant["A"].shape[0]), "m": int(plant["B"].shape[1]),
-                      "states": plant["states"], "units": plant["units"], "controllable": plant["controllable"]},
-            "gain": plant["K"].tolist(), "config": config.name,
-            "network": {"sampling_time": config.network.sampling_time, "delay": [config.network.delay.min,
-                        config.network.delay.max], "max_consecutive": config.network.dropouts.max_consecutive},
-            "margins": lti_margins(config, plant, on_step or (lambda s: None))}
-    md = ["# Margins of a linear plant's gain\n\n",
-          f"Config {config.name}: n = {data['plant']['n']}, m = {data['plant']['m']}, Ts = {config.network.sampling_time:g} s, "
-          f"gain {plant['K'].tolist()}.\n\n",
-          "| margin | configured | certified | exhibited | certified / exhibited | witness |\n|---|---|---|---|---|---|\n"]
-    for name, mg in data["margins"].items():
-        ratio = (f"{mg['certified'] / mg['exhibited']:.3f}" if mg["certified"] is not None and mg["exhibited"]
-                 else "-")
-        w = mg["witness"]
-        wtxt = (f"period {w['period']}: delays {w['delays']}, spectral radius {w['spectral_radius']:.6f}" if w else "-")
-        md.append(f"| {name} ({mg['unit']}) | {mg['configured']} | {mg['certified']} | {mg['exhibited']} | {ratio} | "
-                  f"{wtxt} |\n")
-    md.append("\nCertified: a common quadratic Lyapunov function of the guaranteed over-approximation (docs/theory.md "
-              "§14), proven in numpy. Exhibited: a destabilizing periodic delay/loss sequence of the exactly lifted "
-              "closed loop.\n")
-    out = make_dir(outdir)
-    commit_files(out, {"margin.json": json_bytes(data), "margin.md": "".join(md).encode("utf-8")}, primary="margin.json")
-    data["files"] = [str(out / "margin.json"), str(out / "margin.md")]
-    return data
-
-
 def margin_stage(config: Config, outdir: str | Path, gains_path: str | Path | None = None,
                  lyapunov: str | None = None, on_step: Callable[[str], None] | None = None) -> MarginStage:
     """Delay and slip margins of a gains file (default ``outdir/gains.json``); write margin.json."""

@@ -34,7 +34,7 @@ def run_config(config_path: Path, outdir: Path) -> dict[str, Any]:
     cfg = load_config(config_path)
     if is_lti(cfg):  # a linear plant: its gain's margins (certified and exhibited) are the summary
         from .artifacts.files import atomic_write, json_bytes
-        from .pipeline import lti_margin_stage
+        from .pipeline_lti import lti_margin_stage
 
         data = lti_margin_stage(cfg, outdir, config_path)
         summary = {"name": cfg.name, "status": "lti-margins",

@@ -100,7 +100,7 @@ def test_lti_plant_from_arrays_and_files(tmp_path) -> None:
         _zbp_cfg(plant={"kind": "lti", "A": [[0, 1]], "B": [[0], [1]]})
     with pytest.raises(ConfigError, match=r"plant.*A\[1\]\[0\]: must be a finite number"):
         _zbp_cfg(plant={"kind": "lti", "A": [[0, 1], [None, 0]], "B": [[0], [1]]})
-    with pytest.raises(InputError, match="controller.gain: must be m x n"):
+    with pytest.raises(InputError, match="controller.gain: must be a finite m x n"):
         lti_plant(_zbp_cfg(controller={"gain": [[1.0]]}))
     with pytest.raises(ConfigError, match="plant.kind"):
         load_config({**_zbp_cfg().model_dump(mode="json"), "plant": {"kind": "boat"}})

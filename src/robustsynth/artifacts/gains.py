@@ -332,3 +332,37 @@ def controller_description(gains: dict[str, Any], config: Any | None = None) -> 
         "max_motor_speed": rob.max_motor_speed,
         "certified": gains.get("certified"),
     }
+
+
+# ------------------------------------------------------------------ any linear plant (plant: kind: lti)
+
+
+def lti_gains_dict(config: Any, plant: dict[str, Any], design: Any) -> dict[str, Any]:
+    """The gains.json mapping of a linear plant's synthesized gain (``kind: lti``): u_k = K xi_k on the
+    lifted state xi = [x; u_{k-1}; ...; u_{k-d}], the certified set {xi' P xi <= 1} and its figures."""
+    from ..config import config_to_dict
+
+    n, m = plant["B"].shape
+    net = config.network
+    return {
+        "kind": "lti",
+        "K": design.K,
+        "law": "u_k = K xi_k, xi_k = [x_k; u_{k-1}; ...; u_{k-d}]",
+        "lifting": {"n": n, "m": m, "d": design.d_hi, "states": plant["states"], "units": plant["units"]},
+        "objective": design.objective,
+        "certified": design.figures,
+        "certificate": {"P": design.P, "alpha": design.alpha, "multipliers": design.eps, "vertices": design.vertices,
+                        "pieces": config.synthesis.pieces, "check": design.check},
+        "network": {"sampling_time": net.sampling_time, "delay": [net.delay.min, net.delay.max],
+                    "max_consecutive": net.dropouts.max_consecutive},
+        "solver": {"solves": design.solves, "time_s": design.solve_time_s},
+        "config": config_to_dict(config),
+    }
+
+
+def lti_gains_mat_vars(gd: dict[str, Any]) -> dict[str, Any]:
+    """The .mat variables of an lti gains mapping: K, P, Ts and the delay range."""
+    net = gd["network"]
+    return {"K": np.asarray(gd["K"], dtype=float), "P": np.asarray(gd["certificate"]["P"], dtype=float),
+            "Ts": float(net["sampling_time"]), "delay": np.asarray(net["delay"], dtype=float),
+            "max_consecutive": int(net["max_consecutive"]), "d": int(gd["lifting"]["d"])}

@@ -29,13 +29,14 @@ evaluation of the norms).  :func:`coverage_check` tests the containment on rando
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from .lifting import instant_ranges, lift
 
 __all__ = ["gamma", "exact_closed_loop", "Piecewise", "over_approximation", "coverage_check", "lti_plant", "pad_lti_gain",
-           "REMAINDER_INFLATION"]
+           "check_lti_gain", "disturbance_bound", "lti_depth", "periodic_spectral_radius", "lti_plant_from", "REMAINDER_INFLATION"]
 
 REMAINDER_INFLATION = 1e-9  # relative: the remainder bound's own rounding (norms by SVD, expm)
 
@@ -179,6 +180,27 @@ def coverage_check(A: np.ndarray, B: np.ndarray, K: np.ndarray, Ts: float, tau_m
             "reconstruction": float(np.max(np.abs(recon - exact)))}
 
 
+def periodic_spectral_radius(A: np.ndarray, B: np.ndarray, K: np.ndarray, Ts: float, dseq: np.ndarray,
+                             m_lost: int = 0) -> np.ndarray:
+    """rho(product over one period)^(1/p) of the exactly lifted closed loop for periodic packet
+    delays ``dseq`` (n, p) (inf: lost), per row."""
+    from .lifting import s_tilde_sequence
+
+    n, m = B.shape
+    dseq = np.atleast_2d(np.asarray(dseq, dtype=float))
+    p = dseq.shape[1]
+    finite = dseq[np.isfinite(dseq)]
+    d = max(lti_depth(float(finite.max()) if finite.size else 0.0, m_lost, Ts), (K.shape[1] - n) // m)
+    Kp = pad_lti_gain(K, n, m, d)
+    cols = np.arange(-d, p + m_lost + 1) % p  # the packets before, and after a burst its successor
+    s = s_tilde_sequence(dseq[:, cols], Ts, d)[:, :p]
+    M = exact_closed_loop(A, B, Kp, Ts, s)  # (n_seq, p, n_s, n_s)
+    prod = M[:, 0]
+    for k in range(1, p):
+        prod = M[:, k] @ prod
+    return np.max(np.abs(np.linalg.eigvals(prod)), axis=-1) ** (1.0 / p)
+
+
 def lti_plant(cfg, base_dir: str | None = None) -> dict:
     """The plant of an lti config as arrays: {"A", "B", "K" (m x n_k), "states", "units",
     "controllable"}.  A ``plant.file`` (.mat or .npz with arrays A and B) is read relative to
@@ -223,13 +245,76 @@ def lti_plant(cfg, base_dir: str | None = None) -> dict:
     else:
         A, B = np.asarray(pl.A, dtype=float), np.asarray(pl.B, dtype=float)
     n, m = B.shape
-    K = np.asarray(cfg.controller.gain, dtype=float)
-    if K.shape[0] != m or K.shape[1] < n or (K.shape[1] - n) % m:
-        raise InputError(f"controller.gain: must be m x n = {m} x {n} (u_k = K x_k) or m x (n + d m) on the lifted "
-                         f"state (got {K.shape[0]} x {K.shape[1]})")
+    src = f"{pl.file}" if pl.file is not None else "A"
+    dist, outs = pl.disturbance, pl.outputs
+    if dist is not None and len(dist.E) != n:
+        raise InputError(f"plant.disturbance.E: must have n = {n} rows like {src} (got {len(dist.E)})")
+    if outs is not None and len(outs.C[0]) != n:
+        raise InputError(f"plant.outputs.C: must have n = {n} columns like {src} (got {len(outs.C[0])})")
+    if pl.input_limits is not None and len(pl.input_limits) != m:
+        raise InputError(f"plant.input_limits: {len(pl.input_limits)} limits for the {m} inputs of {src}")
+    K = None
+    if cfg.controller is not None:
+        K = np.asarray(cfg.controller.gain, dtype=float)
+        check_lti_gain(K, n, m, "controller.gain")
+    C = names = ounits = scale = None
+    if outs is not None:
+        C, names, ounits, scale = outs.C, outs.names, outs.units, outs.scale
+    return lti_plant_from(A, B, K=K, E=None if dist is None else dist.E, w_max=None if dist is None else dist.bound,
+                          C=C, u_max=pl.input_limits, states=pl.states, units=pl.units, outputs=names,
+                          output_units=ounits, scale=scale)
+
+
+def lti_depth(tau_max: float, m_lost: int, Ts: float) -> int:
+    """d_hi: the commands the lifted state keeps for delays up to tau_max and m_lost losses in a row."""
+    from .lifting import delay_indices
+
+    return delay_indices(0.0, tau_max + m_lost * Ts, Ts)[1]
+
+
+def check_lti_gain(K: np.ndarray, n: int, m: int, where: str) -> None:
+    """InputError unless K is m x n (u_k = K x_k) or m x (n + d m) on the lifted state."""
+    from ..errors import InputError
+
+    if K.ndim != 2 or K.shape[0] != m or K.shape[1] < n or (K.shape[1] - n) % m or not np.all(np.isfinite(K)):
+        shape = " x ".join(str(x) for x in K.shape)
+        raise InputError(f"{where}: must be a finite m x n = {m} x {n} matrix (u_k = K x_k) or m x (n + d m) on the "
+                         f"lifted state (got {shape})")
+
+
+def disturbance_bound(A: np.ndarray, E: np.ndarray, w_max: float, Ts: float, steps: int = 256) -> float:
+    """A guaranteed bound on ``||int_0^Ts e^{A r} E w(t_k + Ts - r) dr||_2`` for ``||w(t)|| <= w_max``:
+    ``w_max int_0^Ts ||e^{A r} E|| dr`` with ``||e^{A r} E|| <= ||e^{A r_i} E|| e^{mu (r - r_i)}`` on
+    each of ``steps`` equal pieces [r_i, r_i + h] (mu the logarithmic norm's positive part)."""
+    h = Ts / steps
+    mu = max(float(np.max(np.linalg.eigvalsh((A + A.T) / 2.0))), 0.0)
+    r = h * np.arange(steps)
+    norms = np.linalg.norm(_phi(A, r) @ E, 2, axis=(-2, -1))
+    piece = h if mu * h < 1e-12 else float(np.expm1(mu * h) / mu)
+    return float(w_max * np.sum(norms) * piece * (1.0 + 1e-9))
+
+
+def lti_plant_from(A: Any, B: Any, *, K: Any = None, E: Any = None, w_max: float | None = None, C: Any = None,
+                   u_max: Any = None, states: list[str] | None = None, units: list[str] | None = None,
+                   outputs: list[str] | None = None, output_units: list[str] | None = None, scale: Any = None) -> dict:
+    """The plant as arrays: {"A", "B", "K" (or None), "states", "units", "controllable", "E", "w_max",
+    "C", "outputs", "output_units", "scale", "u_max"}; C defaults to every state (with the states' names)."""
+    A, B = np.asarray(A, dtype=float), np.asarray(B, dtype=float)
+    n, m = B.shape
+    states = list(states or [f"x{i + 1}" for i in range(n)])
+    units = list(units or ["-"] * n)
+    if C is None:
+        C, outputs, output_units = np.eye(n), states, units
+    C = np.atleast_2d(np.asarray(C, dtype=float))
+    p = C.shape[0]
     ctrb = np.hstack([np.linalg.matrix_power(A, i) @ B for i in range(n)])
-    return {"A": A, "B": B, "K": K, "states": list(pl.states or [f"x{i + 1}" for i in range(n)]),
-            "units": list(pl.units or ["-"] * n), "controllable": int(np.linalg.matrix_rank(ctrb)) == n}
+    return {"A": A, "B": B, "K": None if K is None else np.atleast_2d(np.asarray(K, dtype=float)),
+            "states": states, "units": units, "controllable": int(np.linalg.matrix_rank(ctrb)) == n,
+            "E": None if E is None else np.asarray(E, dtype=float), "w_max": None if w_max is None else float(w_max),
+            "C": C, "outputs": list(outputs or [f"y{i + 1}" for i in range(p)]),
+            "output_units": list(output_units or ["-"] * p),
+            "scale": np.ones(p) if scale is None else np.asarray(scale, dtype=float),
+            "u_max": None if u_max is None else np.asarray(u_max, dtype=float)}
 
 
 def pad_lti_gain(K: np.ndarray, n: int, m: int, d_hi: int) -> np.ndarray:

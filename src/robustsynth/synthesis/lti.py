@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["LtiAnalysis", "analyze_lti", "vertex_combinations", "DECAY", "STRICT"]
+__all__ = ["LtiAnalysis", "analyze_lti", "vertex_combinations", "LtiDesign", "synthesize_lti", "DECAY", "STRICT"]
 
 DECAY = 1.0 - 1e-6  # V shrinks by at least this factor per period: asymptotic stability with a margin
 STRICT = 1e-7  # the LMIs' strictness (P >= I fixes the scale)
@@ -120,3 +120,343 @@ def analyze_lti(pw, decay: float = DECAY, solver: str = "clarabel") -> LtiAnalys
                            held["check"])
     status = "infeasible" if out.kind == "infeasible" else ("rejected" if "check" in held else "failed")
     return LtiAnalysis(False, status, None, None, vertices, dt, held.get("check", {}))
+
+
+# ------------------------------------------------------------------ synthesis (docs/theory.md §15)
+
+
+@dataclass(frozen=True)
+class LtiDesign:
+    """A synthesized gain u_k = K xi_k and what its certificate proves (``figures``); certified only when
+    :func:`robustsynth.certificate.check_lti_certificate` and :func:`~robustsynth.certificate.lti_within`
+    proved it in numpy."""
+
+    certified: bool
+    status: str  # certified | infeasible | rejected | failed
+    objective: str
+    K: np.ndarray | None
+    P: np.ndarray | None  # the certified set is {xi' P xi <= 1}
+    eps: np.ndarray | None
+    alpha: float | None  # V+ <= alpha V (+ (1 - alpha) with the disturbance)
+    figures: dict
+    check: dict
+    d_hi: int
+    vertices: int
+    solves: int
+    solve_time_s: float
+    message: str = ""
+
+
+class _Vertices:
+    """The open loop at every vertex of the over-approximation: ``M = A_v + B_v K`` and the remainder
+    rows ``F_j = Fa_j (+ K for j = 0)`` (docs/theory.md §15)."""
+
+    def __init__(self, plant: dict, Ts: float, tau_min: float, tau_hi: float, d: int, pieces: int) -> None:
+        from ..model.lti import over_approximation
+
+        A, B = plant["A"], plant["B"]
+        n, m = B.shape
+        self.n, self.m, self.d = n, m, d
+        self.n_s = n + d * m
+        pw0 = over_approximation(A, B, np.zeros((m, self.n_s)), Ts, tau_min, tau_hi, d, pieces)
+        self.pw0 = pw0
+        self.combos, self.ends = vertex_combinations(pw0)
+        B0 = np.zeros((self.n_s, m))
+        B0[n : n + m] = np.eye(m)  # u_k enters the shift register; the plant's rows through G_0 only
+        Av, Bv, owner, rho = [], [], [], []
+        for c, combo in enumerate(self.combos):
+            for end in self.ends:
+                Av.append(pw0.vertex(combo, end))
+                i = combo[0]
+                G0 = pw0.base[0][i] + end[0] * pw0.width[0][i] * pw0.slope[0][i]
+                Bv.append(B0 + pw0.E @ G0)
+                owner.append(c)
+                rho.append([float(pw0.rho[j][combo[j]]) for j in range(d)])
+        self.Av, self.Bv = np.array(Av), np.array(Bv)
+        self.owner, self.rho = np.array(owner), np.array(rho)
+        self.Fa = pw0.F  # with K = 0: the past commands' differences
+
+
+def _dual_blocks(V: _Vertices, Q: np.ndarray, Y: np.ndarray, eps_v: np.ndarray, alpha: float,
+                 c_dist: float | None) -> np.ndarray:
+    """The synthesis LMI's blocks, batched over the vertices (affine in Q, Y, eps):
+
+        [[-alpha Q,  0,   (M Q)',            (rho_j F_j Q)'  ],
+         [0,        -c I,  E',                0              ],   (with the disturbance: c = c_dist)
+         [M Q,       E,   -Q + sum_j eps_j E E',  0          ],
+         [rho_j F_j Q, 0,  0,                -diag(eps_j I_m)]]  <= 0,
+
+    M Q = A_v Q + B_v Y, F_0 Q = Fa_0 Q + Y, F_j Q = Fa_j Q."""
+    dist = c_dist is not None
+    nv = len(V.Av)
+    n, m, d, n_s = V.n, V.m, V.d, V.n_s
+    E = V.pw0.E
+    MQ = V.Av @ Q + V.Bv @ Y  # (nv, n_s, n_s)
+    FQ = np.concatenate([(V.Fa[j] @ Q + (Y if j == 0 else 0.0))[None].repeat(nv, 0) * V.rho[:, j, None, None]
+                         for j in range(d)], axis=1)  # (nv, d m, n_s)
+    q = n if dist else 0
+    k = n_s + q + n_s + d * m
+    X = np.zeros((nv, k, k))
+    a, b, c = n_s, n_s + q, 2 * n_s + q
+    X[:, :a, :a] = -alpha * Q
+    X[:, b:c, :a] = MQ
+    X[:, :a, b:c] = MQ.transpose(0, 2, 1)
+    X[:, c:, :a] = FQ
+    X[:, :a, c:] = FQ.transpose(0, 2, 1)
+    X[:, b:c, b:c] = -Q + np.sum(eps_v, axis=1)[:, None, None] * (E @ E.T)
+    X[:, c:, c:] = _eps_diag(eps_v, m)
+    if dist:
+        X[:, a:b, a:b] = -c_dist * np.eye(n)
+        X[:, a:b, b:c] = E.T
+        X[:, b:c, a:b] = E
+    return X
+
+
+def _eps_diag(eps_v: np.ndarray, m: int) -> np.ndarray:
+    """-diag(eps_j I_m) per vertex, (nv, d m, d m)."""
+    nv, d = eps_v.shape
+    out = np.zeros((nv, d * m, d * m))
+    for j in range(d):
+        out[:, j * m : (j + 1) * m, j * m : (j + 1) * m] = -eps_v[:, j, None, None] * np.eye(m)
+    return out
+
+
+def _coefficients(V: _Vertices, dist: bool):
+    """The blocks of :func:`_dual_blocks` as ``X_v = C0_v + c Cc + sum_i q_i (CQ_vi + alpha SQ_i) +
+    sum_l y_l CY_vl + sum_j eps_j CE_vj`` (q: Q's upper triangle, y: Y's entries), in numpy."""
+    n_s, m, d = V.n_s, V.m, V.d
+    zQ, zY = np.zeros((n_s, n_s)), np.zeros((m, n_s))
+    ze = np.zeros((len(V.Av), d))
+    dist = 0.0 if dist else None
+    C0 = _dual_blocks(V, zQ, zY, ze, 0.0, dist)
+    Cc = _dual_blocks(V, zQ, zY, ze, 0.0, 1.0)[0] - C0[0] if dist is not None else np.zeros(C0.shape[1:])
+    iu = np.triu_indices(n_s)
+    basis = np.zeros((iu[0].size, n_s, n_s))
+    basis[np.arange(iu[0].size), iu[0], iu[1]] = 1.0
+    basis[np.arange(iu[0].size), iu[1], iu[0]] = 1.0
+    CQ = np.stack([_dual_blocks(V, S, zY, ze, 0.0, dist) - C0 for S in basis], axis=1)
+    k = C0.shape[-1]
+    SQ = np.zeros((len(basis), k, k))
+    SQ[:, :n_s, :n_s] = -basis  # the -alpha Q corner
+    CY = []
+    for a in range(m):
+        for b in range(n_s):
+            U = zY.copy()
+            U[a, b] = 1.0
+            CY.append(_dual_blocks(V, zQ, U, ze, 0.0, dist) - C0)
+    CE = []
+    for j in range(d):
+        e = ze.copy()
+        e[:, j] = 1.0
+        CE.append(_dual_blocks(V, zQ, zY, e, 0.0, dist) - C0)
+    return C0, Cc, basis, CQ, SQ, np.stack(CY, axis=1), np.stack(CE, axis=1)
+
+
+def _prove(plant: dict, V: _Vertices, Ts: float, tau_min: float, tau_hi: float, pieces: int, Q: np.ndarray,
+           Y: np.ndarray, eps: np.ndarray, alpha: float, c_dist: float | None
+           ) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray]:
+    """The gain K = Y Q^-1 and its certificate P = Q^-1, eta = 1/eps, re-checked in the primal form on
+    the over-approximation built for K itself (:func:`robustsynth.certificate.check_lti_certificate`)."""
+    from ..certificate import check_lti_certificate
+    from ..model.lti import over_approximation
+
+    Q = (Q + Q.T) / 2.0
+    K = np.linalg.solve(Q, Y.T).T
+    P = np.linalg.inv(Q)
+    P = (P + P.T) / 2.0
+    with np.errstate(divide="ignore"):
+        eta = np.where(eps > 0, 1.0 / np.maximum(eps, 0.0), np.inf)
+    if not (np.all(np.isfinite(K)) and np.all(np.isfinite(eta))):
+        return {"ok": False, "failing": -1, "vertices": 0, "min_eig": float("nan")}, K, P, eta
+    pw = over_approximation(plant["A"], plant["B"], K, Ts, tau_min, tau_hi, V.d, pieces)
+    # V+ <= alpha V + c |d|^2 is homogeneous in (P, eta, c): checked for s P >= I (the analysis's scale,
+    # where the proof margin is meant), which proves it for P
+    s = 1.0 / float(np.min(np.linalg.eigvalsh(P)))
+    if not (np.isfinite(s) and s > 0):
+        return {"ok": False, "failing": -1, "vertices": 0, "min_eig": float("nan")}, K, P, eta
+    check = check_lti_certificate(pw, s * P, s * eta, float(np.sqrt(alpha)), V.combos, V.ends,
+                                  None if c_dist is None else s * c_dist)
+    return check, K, P, eta
+
+
+def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int, objective: str,
+                   decay: float = 0.98, pieces: int = 2, alpha_points: int = 6, solver: str = "clarabel",
+                   say=lambda s: None) -> LtiDesign:
+    """A gain u_k = K xi_k on the lifted state with a common quadratic certificate for every delay in
+    [tau_min, tau_max] and up to m_lost losses in a row (docs/theory.md §15):
+
+    - ``stability``: V+ <= decay^2 V; with input limits, the largest ball of states at rest (past
+      commands zero) inside {V <= 1} where |u_i| <= u_max,i;
+    - ``ultimate-bound``: V+ <= alpha V + (1 - alpha) for every disturbance with ||w(t)|| <= w_max: the
+      set {V <= 1} is invariant and attracts every trajectory; minimizes the largest output bound /
+      scale over it (alpha searched), with |u_i| <= u_max,i on it.
+
+    The lifted system is linear: the LMIs are posed for xi beta / delta, delta the disturbance's bound
+    per period and beta = 1 - sqrt(alpha) (which keeps Q of order one), and every figure is scaled back."""
+    import cvxpy as cp
+
+    from ..certificate import lti_within
+    from ..errors import InputError
+    from ..model.lti import disturbance_bound, lti_depth
+    from ..verified import assembly_radius, proves_at_least, round_up
+    from .solve import solve
+
+    A, B = plant["A"], plant["B"]
+    n, m = B.shape
+    d = lti_depth(tau_max, m_lost, Ts)
+    tau_hi = tau_max + m_lost * Ts
+    dist = objective == "ultimate-bound"
+    if dist and plant.get("E") is None:
+        raise InputError("synthesis.objective: ultimate-bound needs plant.disturbance (E and its bound)")
+    t0 = time.perf_counter()
+    try:
+        V = _Vertices(plant, Ts, tau_min, tau_hi, d, pieces)
+    except ValueError as exc:
+        raise InputError(f"plant: {exc} (delays up to {tau_hi:g} s)") from None
+    n_s = V.n_s
+    delta = disturbance_bound(A, plant["E"], plant["w_max"], Ts) if dist else 1.0
+    u_max = plant.get("u_max")
+    C = np.hstack([plant["C"], np.zeros((plant["C"].shape[0], n_s - n))])
+    scale = np.asarray(plant["scale"], dtype=float)
+    C0, Cc, basis, CQ, SQ, CY, CE = _coefficients(V, dist)
+    nv, k = C0.shape[0], C0.shape[-1]
+    n_q = basis.shape[0]
+    q = cp.Variable(n_q)
+    y = cp.Variable(m * n_s)
+    eps = cp.Variable((len(V.combos), V.d), nonneg=True)
+    t = cp.Variable()
+    al = cp.Parameter(nonneg=True)
+    cd = cp.Parameter(nonneg=True)  # c of the disturbance block: (1 - alpha) / beta^2
+    u2 = cp.Parameter(m, nonneg=True)  # the input limits squared, in the LMIs' units
+    Q = cp.reshape(basis.reshape(n_q, -1).T @ q, (n_s, n_s), order="C")
+    Y = cp.reshape(y, (m, n_s), order="C")
+    cons = []
+    SQf = SQ.reshape(n_q, k * k).T
+    for v in range(nv):
+        lin = (C0[v].reshape(-1) + cd * Cc.reshape(-1) + CQ[v].reshape(n_q, -1).T @ q + al * (SQf @ q)
+               + CY[v].reshape(m * n_s, -1).T @ y + CE[v].reshape(V.d, -1).T @ eps[V.owner[v]])
+        X = cp.reshape(lin, (k, k), order="C")
+        cons.append((X + X.T) / 2 << -STRICT * np.eye(k))
+    if u_max is not None:
+        for i in range(m):
+            cons.append(cp.bmat([[cp.reshape(u2[i], (1, 1), order="C"), Y[i : i + 1, :]], [Y[i : i + 1, :].T, Q]]) >> 0)
+    if dist:
+        cons += [C[i] @ Q @ C[i] <= t * scale[i] ** 2 for i in range(C.shape[0])]
+        prob = cp.Problem(cp.Minimize(t), cons)
+        grid = 1.0 - np.geomspace(0.9, 0.002, alpha_points)
+    else:
+        W = np.zeros((n_s, n_s))
+        W[:n, :n] = np.eye(n)
+        cons += [Q << np.eye(n_s), Q >> t * W, t >= 0]
+        prob = cp.Problem(cp.Maximize(t), cons)
+        grid = np.array([decay**2])
+    held: dict = {}
+
+    def beta(a: float) -> float:
+        return 1.0 - float(np.sqrt(a)) if dist else 1.0
+
+    def attempt(a: float) -> float | None:
+        """Solve at alpha = a: the bound in the plant's units (min over scale), or the rest ball; None
+        unless proven."""
+        b = beta(a)
+        al.value = float(a)
+        cd.value = (1.0 - a) / b**2 if dist else 0.0
+        u2.value = (np.asarray(u_max, dtype=float) * b / delta) ** 2 if u_max is not None else np.ones(m)
+
+        def accept() -> bool:
+            if q.value is None or y.value is None or eps.value is None:
+                return False
+            Qv = np.einsum("i,iab->ab", np.asarray(q.value, dtype=float), basis)
+            chk, K, P, eta = _prove(plant, V, Ts, tau_min, tau_hi, pieces, Qv, np.asarray(y.value).reshape(m, n_s),
+                                    np.maximum(np.asarray(eps.value), 0.0), a, cd.value if dist else None)
+            held["last"] = (chk, K, P, eta, Qv)
+            return bool(chk["ok"])
+
+        held.pop("last", None)
+        held["solves"] = held.get("solves", 0) + 1
+        out = solve(prob, solver, accept, fallback=len(grid) == 1)  # a line search moves on instead
+        if out.kind != "ok":
+            say(f"alpha {a:.4f}: {out.kind}")
+            return None
+        val = float(np.sqrt(max(float(t.value), 0.0))) * (delta / b if dist else 1.0)
+        say(f"alpha {a:.4f}: {'largest bound / scale' if dist else 'ball at rest'} {val:.6g} (proven)")
+        held.setdefault("ok", {})[a] = (val,) + held["last"]
+        return val
+
+    for a in grid:
+        attempt(a)
+    best = _best(held, dist)
+    if dist and best is not None:  # refine between the best grid point's neighbours (golden section on log(1 - alpha))
+        for _ in _golden(_bracket(grid, best), attempt, 4):
+            pass
+        best = _best(held, dist)
+    solves = held.get("solves", 0)
+    dt = time.perf_counter() - t0
+    if best is None:
+        last = held.get("last")
+        status = "rejected" if last is not None and not last[0]["ok"] else "infeasible"
+        return LtiDesign(False, status, objective, None, None, None, None, {}, last[0] if last else {}, d, nv,
+                         solves, dt, "no alpha of the line search gave a proven certificate" if dist else
+                         f"no certificate with decay {decay:g} per period")
+    a = best
+    val, chk, K, P, eta, Qv = held["ok"][a]
+    unit = delta / beta(a)  # xi = unit * (the LMIs' xi)
+    figures: dict = {"alpha": a, "decay": round_up(float(np.sqrt(a)), 2)}
+
+    def refuse(why: str) -> LtiDesign:
+        return LtiDesign(False, "rejected", objective, K, None, None, a, {}, chk, d, nv, solves, dt, why)
+
+    if dist:
+        figures["disturbance_step_bound"] = delta
+        z = np.sqrt(np.maximum(np.einsum("ia,ab,ib->i", C, Qv, C), 0.0)) * (1.0 + 1e-7)
+        if not lti_within(P, C, z).all():
+            return refuse("the output bounds were not proven on the set")
+        figures["outputs"] = [{"name": nm, "unit": un, "bound": round_up(float(zi * unit), 2)}
+                              for nm, un, zi in zip(plant["outputs"], plant["output_units"], z)]
+    elif u_max is not None:
+        Pxx = P[:n, :n]
+        r = 1.0 / np.sqrt(float(np.max(np.linalg.eigvalsh(Pxx)))) * (1.0 - 1e-7)
+        R = np.eye(n) / (r * r)
+        if not proves_at_least(R - Pxx, 0.0, assembly_radius(np.abs(R) + np.abs(Pxx), 2)):
+            return refuse("the ball at rest was not proven inside the set")
+        figures["rest_radius"] = r
+    if u_max is not None:
+        if not lti_within(P, K, np.asarray(u_max, dtype=float) / unit).all():
+            return refuse("the input limits were not proven on the set")
+        figures["inputs"] = [{"name": f"u{i + 1}", "limit": float(u_max[i])} for i in range(m)]
+    return LtiDesign(True, "certified", objective, K, P / (unit * unit), eta, a, figures, chk, d, nv, solves, dt)
+
+
+def _best(held: dict, dist: bool) -> float | None:
+    ok = held.get("ok", {})
+    if not ok:
+        return None
+    return (min if dist else max)(ok, key=lambda a: ok[a][0])
+
+
+def _bracket(grid: np.ndarray, a: float) -> tuple[float, float]:
+    i = int(np.argmin(np.abs(grid - a)))
+    return float(grid[max(i - 1, 0)]), float(grid[min(i + 1, len(grid) - 1)])
+
+
+def _golden(lo_hi: tuple[float, float], f, steps: int):
+    """Golden-section search of f over log(1 - alpha) in the bracket (f None: infeasible, taken as +inf)."""
+    lo, hi = (np.log(1.0 - x) for x in lo_hi)
+    g = (np.sqrt(5.0) - 1.0) / 2.0
+    x1, x2 = hi + (1 - g) * (lo - hi), hi + g * (lo - hi)
+    f1, f2 = f(1.0 - np.exp(x1)), f(1.0 - np.exp(x2))
+    yield x1
+    yield x2
+    for _ in range(steps - 2):
+        v1 = np.inf if f1 is None else f1
+        v2 = np.inf if f2 is None else f2
+        if v1 <= v2:
+            lo, x2, f2 = x2, x1, f1
+            x1 = hi + (1 - g) * (lo - hi)
+            f1 = f(1.0 - np.exp(x1))
+            yield x1
+        else:
+            hi, x1, f1 = x1, x2, f2
+            x2 = hi + g * (lo - hi)
+            f2 = f(1.0 - np.exp(x2))
+            yield x2

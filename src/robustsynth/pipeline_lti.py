@@ -1,0 +1,185 @@
+"""The stages of a linear plant (``plant: kind: lti``, docs/theory.md §14-15): build-model,
+synthesize, verify, run and margin, each writing its files atomically (the gain's files last)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from .artifacts.files import commit_files, json_bytes, make_dir, mat_bytes
+
+__all__ = ["lti_plant_of", "lti_model_stage", "lti_synthesis_stage", "lti_verification_stage", "lti_run",
+           "lti_margin_stage", "lti_gain"]
+
+SYNTHESIS_FILES = ("gains.json", "gains.mat", "synthesis.md")
+VERIFICATION_FILES = ("verification.json", "verification.md")
+RUN_FILES = ("report.md", "summary.json")
+
+
+def lti_plant_of(config: Any, config_path: str | Path | None = None) -> dict[str, Any]:
+    from .model.lti import lti_plant
+
+    return lti_plant(config, str(Path(config_path).parent) if config_path is not None else None)
+
+
+def _net(config: Any) -> tuple[float, float, float, int]:
+    net = config.network
+    return net.sampling_time, net.delay.min, net.delay.max, net.dropouts.max_consecutive
+
+
+def lti_gain(config: Any, plant: dict[str, Any], gains_path: str | Path | None) -> tuple[np.ndarray, dict | None]:
+    """The gain to analyze: a gains file's K (with the file's mapping), else the config's controller.gain."""
+    from .artifacts.gains import load_gains
+    from .errors import InputError
+    from .model.lti import check_lti_gain
+
+    n, m = plant["B"].shape
+    if gains_path is not None:
+        gd = load_gains(gains_path)
+        K = np.asarray(gd["K"], dtype=float)
+        check_lti_gain(K, n, m, f"{gains_path}: K")
+        return K, gd
+    if plant["K"] is None:
+        raise InputError("controller.gain: required for a linear plant's margin (or pass --gains)")
+    return plant["K"], None
+
+
+def lti_model_stage(config: Any, outdir: str | Path, config_path: str | Path | None = None) -> dict[str, Any]:
+    """The lifted model and its guaranteed over-approximation (open loop, K = 0), with the coverage test
+    on 10 000 random instants; writes model.json."""
+    from .model.lti import coverage_check, lti_depth, over_approximation
+
+    plant = lti_plant_of(config, config_path)
+    Ts, lo, hi, ml = _net(config)
+    d = lti_depth(hi, ml, Ts)
+    n, m = plant["B"].shape
+    K0 = np.zeros((m, n + d * m))
+    pieces = config.synthesis.pieces
+    pw = over_approximation(plant["A"], plant["B"], K0, Ts, lo, hi + ml * Ts, d, pieces)
+    cov = coverage_check(plant["A"], plant["B"], K0, Ts, lo, hi + ml * Ts, d, pw)
+    data = {"kind": "lti", "config": config.name, "n": n, "m": m, "lifting": d, "lifted_states": n + d * m,
+            "controllable": plant["controllable"], "pieces": pieces,
+            "instants": [{"theta": th.tolist(), "width": w.tolist(), "remainder_bound": r.tolist()}
+                         for th, w, r in zip(pw.theta, pw.width, pw.rho)],
+            "coverage": cov, "A": plant["A"], "B": plant["B"]}
+    out = make_dir(outdir)
+    commit_files(out, {"model.json": json_bytes(data)}, primary="model.json")
+    data["files"] = [str(out / "model.json")]
+    return data
+
+
+def lti_synthesis_stage(config: Any, outdir: str | Path, config_path: str | Path | None = None,
+                        on_step: Callable[[str], None] | None = None, objective: str | None = None,
+                        solver: str | None = None) -> dict[str, Any]:
+    """Synthesize and prove a gain (:func:`robustsynth.synthesis.lti.synthesize_lti`); write gains.json
+    (last), gains.mat and synthesis.md.  No certified gain: the old gain files are removed and
+    InfeasibleError (exit 3) or SolverFailure (exit 4) is raised."""
+    from .artifacts.files import remove_files
+    from .artifacts.gains import lti_gains_dict, lti_gains_mat_vars
+    from .errors import InfeasibleError, InputError, SolverFailure
+    from .report.lti import lti_synthesis_markdown
+    from .synthesis.lti import synthesize_lti
+
+    plant = lti_plant_of(config, config_path)
+    Ts, lo, hi, ml = _net(config)
+    obj = objective or config.objective
+    if obj == "hinf":
+        raise InputError("--objective: hinf is not available for a linear plant yet (stability, ultimate-bound)")
+    if obj == "ultimate-bound" and plant["E"] is None:
+        raise InputError("synthesis.objective: ultimate-bound needs plant.disturbance (E and its bound)")
+    syn = config.synthesis
+    design = synthesize_lti(plant, Ts, lo, hi, ml, obj, decay=syn.decay, pieces=syn.pieces,
+                            alpha_points=syn.alpha_points, solver=solver or syn.solver,
+                            say=on_step or (lambda s: None))
+    out = make_dir(outdir)
+    if not design.certified:
+        remove_files(out, SYNTHESIS_FILES + VERIFICATION_FILES + RUN_FILES)
+        why = design.message or design.status
+        if design.status == "infeasible":
+            raise InfeasibleError(f"no certified gain for {config.name}: {why}")
+        raise SolverFailure(f"no certified gain for {config.name} ({design.status}): {why}")
+    gd = lti_gains_dict(config, plant, design)
+    files = {"gains.mat": mat_bytes(lti_gains_mat_vars(gd)), "synthesis.md": lti_synthesis_markdown(gd).encode("utf-8"),
+             "gains.json": json_bytes(gd)}
+    written = commit_files(out, files, primary="gains.json", invalidate=VERIFICATION_FILES + RUN_FILES)
+    return {"gains": gd, "design": design, "files": [str(p) for p in written]}
+
+
+def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Path | None = None,
+                           config_path: str | Path | None = None, runs: int | None = None,
+                           seed: int | None = None) -> dict[str, Any]:
+    """The certified gain's claims on the exactly lifted loop (:func:`robustsynth.verification.lti.verify_lti`);
+    writes verification.json and verification.md."""
+    from .artifacts.gains import load_gains
+    from .errors import InputError
+    from .model.lti import check_lti_gain
+    from .report.lti import lti_verification_markdown
+    from .verification.lti import verify_lti
+
+    out = make_dir(outdir)
+    gp = Path(gains_path) if gains_path is not None else out / "gains.json"
+    gd = load_gains(gp)
+    if gd.get("kind") != "lti" or not isinstance(gd.get("certificate"), dict) or "P" not in gd["certificate"]:
+        raise InputError(f"{gp}: not a linear plant's gains file (kind: lti, with certificate.P): run "
+                         "`robustsynth synthesize` on this config first")
+    plant = lti_plant_of(config, config_path)
+    n, m = plant["B"].shape
+    K = np.asarray(gd["K"], dtype=float)
+    check_lti_gain(K, n, m, f"{gp}: K")
+    try:
+        P = np.asarray(gd["certificate"]["P"], dtype=float)
+        figures = dict(gd["certified"])
+        float(figures["alpha"])
+    except (TypeError, ValueError, KeyError) as exc:
+        raise InputError(f"{gp}: certificate: malformed ({exc})") from None
+    Ts, lo, hi, ml = _net(config)
+    data = verify_lti(plant, K, P, Ts, lo, hi, ml, figures, runs=runs or 64, seed=0 if seed is None else seed)
+    data["gains"] = str(gp)
+    written = commit_files(out, {"verification.md": lti_verification_markdown(data).encode("utf-8"),
+                                 "verification.json": json_bytes(data)}, primary="verification.json",
+                           invalidate=RUN_FILES)
+    data["files"] = [str(p) for p in written]
+    return data
+
+
+def lti_run(config: Any, outdir: str | Path, config_path: str | Path | None = None,
+            on_step: Callable[[str], None] | None = None, objective: str | None = None, solver: str | None = None,
+            runs: int | None = None, seed: int | None = None) -> dict[str, Any]:
+    """synthesize, then verify; report.md and summary.json."""
+    from .report.lti import lti_synthesis_markdown, lti_verification_markdown
+
+    syn = lti_synthesis_stage(config, outdir, config_path, on_step, objective, solver)
+    ver = lti_verification_stage(config, outdir, None, config_path, runs, seed)
+    out = Path(outdir)
+    report = lti_synthesis_markdown(syn["gains"]) + "\n" + lti_verification_markdown(ver)
+    summary = {"config": config.name, "kind": "lti", "certified": syn["gains"]["certified"],
+               "verification": {"passed": ver["passed"], "checks": ver["checks"]}}
+    written = commit_files(out, {"report.md": report.encode("utf-8"), "summary.json": json_bytes(summary)},
+                           primary="summary.json")
+    return {"synthesis": syn, "verification": ver, "files": syn["files"] + ver["files"] + [str(p) for p in written]}
+
+
+def lti_margin_stage(config: Any, outdir: str | Path, config_path: str | Path | None = None,
+                     on_step: Callable[[str], None] | None = None, gains_path: str | Path | None = None
+                     ) -> dict[str, Any]:
+    """``robustsynth margin`` on a linear plant: the delay and loss margins of the config's gain, or of a
+    gains file's (:mod:`.margins_lti`); writes margin.json and margin.md."""
+    from .margins_lti import lti_margins
+    from .report.lti import lti_margin_markdown
+
+    plant = lti_plant_of(config, config_path)
+    K, _ = lti_gain(config, plant, gains_path)
+    plant = dict(plant, K=K)
+    data = {"plant": {"kind": "lti", "n": int(plant["A"].shape[0]), "m": int(plant["B"].shape[1]),
+                      "states": plant["states"], "units": plant["units"], "controllable": plant["controllable"]},
+            "gain": K.tolist(), "gains": None if gains_path is None else str(gains_path), "config": config.name,
+            "network": {"sampling_time": config.network.sampling_time, "delay": [config.network.delay.min,
+                        config.network.delay.max], "max_consecutive": config.network.dropouts.max_consecutive},
+            "margins": lti_margins(config, plant, on_step or (lambda s: None))}
+    out = make_dir(outdir)
+    commit_files(out, {"margin.json": json_bytes(data), "margin.md": lti_margin_markdown(data).encode("utf-8")},
+                 primary="margin.json")
+    data["files"] = [str(out / "margin.json"), str(out / "margin.md")]
+    return data
