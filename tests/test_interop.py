@@ -68,3 +68,22 @@ def test_bad_instants_and_slip_are_refused(case) -> None:
         to_statespace(model, g, instants=[2 * model.Ts] * model.d_hi)
     with pytest.raises(InputError, match="slip: need"):
         to_statespace(model, g, slip=[0.5, -1.0])
+
+
+def test_lti_config_from_a_statespace() -> None:
+    """A continuous-time StateSpace becomes a plant: kind: lti config with its names and its C as the
+    bounded outputs; a discrete-time system and a wrong-sized limit are refused naming the key."""
+    from robustsynth.errors import ConfigError, InputError
+    from robustsynth.interop import lti_config
+    from robustsynth.model.lti import lti_plant
+
+    sys_ = control.ss([[0, 1], [0, -0.1]], [[0], [0.1]], [[1, 0]], 0, states=["position", "velocity"], outputs=["pos"])
+    cfg = lti_config(sys_, sampling_time=0.5, delay=(0.0, 0.5), disturbance={"E": [[0], [0.1]], "bound": 0.5},
+                     input_limits=[20])
+    pl = lti_plant(cfg)
+    assert cfg.objective == "ultimate-bound" and pl["states"] == ["position", "velocity"] and pl["outputs"] == ["pos"]
+    assert np.array_equal(pl["A"], np.asarray(sys_.A)) and np.array_equal(pl["C"], [[1.0, 0.0]])
+    with pytest.raises(InputError, match="continuous time"):
+        lti_config(control.ss([[0.5]], [[1]], [[1]], 0, dt=0.1), sampling_time=0.5, delay=(0, 0.5))
+    with pytest.raises(ConfigError, match="plant.input_limits: 2 limits for the 1 inputs"):
+        lti_config(sys_, sampling_time=0.5, delay=(0.0, 0.5), input_limits=[20, 3])

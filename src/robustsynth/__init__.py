@@ -22,6 +22,11 @@ sweep                  robustsynth.sweeps            synthesize (and verify) ove
 load_sweep             robustsynth.sweeps            sweep YAML file -> SweepSpec
 Controller             robustsynth.runtime           the deployed control law (one robot, no numpy)
 to_statespace          robustsynth.interop           closed loop as a python-control StateSpace
+lti_config             robustsynth.interop           python-control StateSpace -> plant: kind: lti config
+lti_plant              robustsynth.model.lti         lti config -> the plant's arrays (A, B, E, C, limits)
+synthesize_lti         robustsynth.synthesis.lti     any linear plant -> certified gain u_k = K xi_k
+verify_lti             robustsynth.verification.lti  its claims on the exactly lifted loop
+lti_margins            robustsynth.margins_lti       delay / loss margins of a linear plant's gain
 =====================  ============================  ==========================================
 """
 
@@ -52,6 +57,11 @@ _EXPORTS = {
     "SweepResult": "robustsynth.sweeps",
     "Controller": "robustsynth.runtime",
     "to_statespace": "robustsynth.interop",
+    "lti_config": "robustsynth.interop",
+    "lti_plant": "robustsynth.model.lti",
+    "synthesize_lti": "robustsynth.synthesis.lti",
+    "verify_lti": "robustsynth.verification.lti",
+    "lti_margins": "robustsynth.margins_lti",
 }
 
 __all__ = [*_EXPORTS, "__version__"]

@@ -755,6 +755,14 @@ def parse_config(text: str | bytes, source: str = "<config>") -> Config:
         raise ConfigError(f"{source}: YAML nesting is too deep") from None
 
 
+def config_from_dict(data: dict[str, Any]) -> "Config | LtiConfig":
+    """Validate a mapping (as a YAML file would give) into a config; ConfigError names the key."""
+    try:
+        return _validate(data)
+    except ValidationError as exc:
+        raise ConfigError(_format_validation_error(exc)) from None
+
+
 def default_config_text() -> str:
     """The embedded default configuration (package data)."""
     return resources.files("robustsynth").joinpath("data/default.yaml").read_text(encoding="utf-8")

@@ -21,7 +21,7 @@ import numpy as np
 
 from .errors import InputError
 
-__all__ = ["to_statespace", "closed_loop_matrices"]
+__all__ = ["to_statespace", "closed_loop_matrices", "lti_config"]
 
 
 def _gain(model: Any, gains: Any) -> np.ndarray:
@@ -67,3 +67,35 @@ def to_statespace(model: Any, gains: Any, instants: Any = None, slip: Any = None
                       states=list(model.state_names),
                       inputs=["w_dV", "w_omega", "slip"],
                       outputs=[*model.state_names[: model.n_e], "dV", "omega"])
+
+
+def lti_config(sys: Any, *, sampling_time: float, delay: Any, max_consecutive: int = 0, name: str = "lti",
+               **sections: Any) -> Any:
+    """A ``plant: kind: lti`` config (:class:`robustsynth.config.LtiConfig`) from a continuous-time
+    python-control ``StateSpace``: its A and B, its state names, and its C (with the output names) as
+    the outputs the certificate bounds.  ``sections``: the config's other keys, e.g.
+    ``disturbance={"E": ..., "bound": ...}``, ``input_limits=[...]``, ``controller={"gain": ...}``,
+    ``synthesis={...}``, ``margin={...}`` (plant keys go into ``plant``).  Problems raise ConfigError
+    naming the key, as for a YAML file."""
+    from .config import config_from_dict
+
+    for attr in ("A", "B", "C", "dt"):
+        if not hasattr(sys, attr):
+            raise InputError(f"sys: not a python-control StateSpace (no {attr})")
+    if sys.dt not in (0, None):
+        raise InputError(f"sys: must be continuous time (dt = 0), got dt = {sys.dt}: robustsynth samples the plant itself")
+    A, B, C = (np.asarray(getattr(sys, k), dtype=float) for k in ("A", "B", "C"))
+    plant: dict[str, Any] = {"kind": "lti", "A": A.tolist(), "B": B.tolist()}
+    states = list(getattr(sys, "state_labels", None) or [])
+    if len(states) == A.shape[0]:
+        plant["states"] = states
+    plant_keys = {"disturbance", "input_limits", "outputs", "units"}
+    for key in plant_keys & set(sections):
+        plant[key] = sections.pop(key)
+    if "outputs" not in plant and C.size:
+        labels = list(getattr(sys, "output_labels", None) or [])
+        plant["outputs"] = {"C": C.tolist(), **({"names": labels} if len(labels) == C.shape[0] else {})}
+    data = {"name": name, "plant": plant,
+            "network": {"sampling_time": sampling_time, "delay": {"min": float(delay[0]), "max": float(delay[1])},
+                        "dropouts": {"max_consecutive": max_consecutive}}, **sections}
+    return config_from_dict(data)

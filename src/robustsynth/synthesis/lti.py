@@ -25,6 +25,7 @@ __all__ = ["LtiAnalysis", "analyze_lti", "vertex_combinations", "LtiDesign", "sy
 
 DECAY = 1.0 - 1e-6  # V shrinks by at least this factor per period: asymptotic stability with a margin
 STRICT = 1e-7  # the LMIs' strictness (P >= I fixes the scale)
+INPUT_BACKOFF = 1e-6  # synthesis: the input limits are posed this much (relative) tighter than proven
 
 
 @dataclass(frozen=True)
@@ -361,7 +362,9 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
         b = beta(a)
         al.value = float(a)
         cd.value = (1.0 - a) / b**2 if dist else 0.0
-        u2.value = (np.asarray(u_max, dtype=float) * b / delta) ** 2 if u_max is not None else np.ones(m)
+        # the limits with a relative back-off, so that the numpy proof on P = Q^-1 has room for rounding
+        u2.value = ((1.0 - INPUT_BACKOFF) * np.asarray(u_max, dtype=float) * b / delta) ** 2 if u_max is not None \
+            else np.ones(m)
 
         def accept() -> bool:
             if q.value is None or y.value is None or eps.value is None:
@@ -424,7 +427,9 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
         if not lti_within(P, K, np.asarray(u_max, dtype=float) / unit).all():
             return refuse("the input limits were not proven on the set")
         figures["inputs"] = [{"name": f"u{i + 1}", "limit": float(u_max[i])} for i in range(m)]
-    return LtiDesign(True, "certified", objective, K, P / (unit * unit), eta, a, figures, chk, d, nv, solves, dt)
+    # (P, eps) in the plant's units: V = xi' P xi, the multipliers scale like P
+    return LtiDesign(True, "certified", objective, K, P / (unit * unit), eta / (unit * unit), a, figures, chk, d, nv,
+                     solves, dt)
 
 
 def _best(held: dict, dist: bool) -> float | None:

@@ -1,0 +1,158 @@
+"""Synthesis for any linear plant (docs/theory.md §15): every claim of a certified design checked by
+an independent computation — the exact lifted loop at random admissible instants, an ODE solver
+with a continuous disturbance, and the claims' algebra — and the primal checker refusing tampering."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from robustsynth.certificate import check_lti_certificate, lti_within
+from robustsynth.model.lifting import instant_ranges
+from robustsynth.model.lti import disturbance_bound, exact_closed_loop, lti_plant_from, over_approximation
+from robustsynth.synthesis.lti import synthesize_lti, vertex_combinations
+
+ZBP_A = np.array([[0.0, 1.0], [0.0, -0.1]])
+ZBP_B = np.array([[0.0], [0.1]])
+ZBP_E = np.array([[0.0], [0.1]])
+# 3 states, 2 inputs, open-loop unstable with complex eigenvalues
+UNST_A = np.array([[0.1, 1.0, 0.0], [-1.0, 0.1, 0.5], [0.0, 0.0, -0.3]])
+UNST_B = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])
+UNST_E = np.array([[1.0], [0.0], [0.5]])
+
+EXACT_TOL = 1e-9  # V along exact loops, relative: rounding only
+ODE_TOL = 1e-7  # the lifted map against solve_ivp at rtol 1e-11 over one period
+
+
+def _instants(rng, Ts, lo, hi, d, count):
+    r = instant_ranges(lo, hi, Ts, d)
+    s = r[:, 0] + (r[:, 1] - r[:, 0]) * rng.random((count, d))
+    return np.maximum.accumulate(s[:, ::-1], axis=1)[:, ::-1]  # in order: s~_0 >= s~_1 >= ...
+
+
+@pytest.fixture(scope="module")
+def zbp_bound():
+    pl = lti_plant_from(ZBP_A, ZBP_B, E=ZBP_E, w_max=0.5, u_max=[20.0])
+    return pl, synthesize_lti(pl, 0.5, 0.0, 0.5, 0, "ultimate-bound")
+
+
+@pytest.fixture(scope="module")
+def unstable_lossy():
+    pl = lti_plant_from(UNST_A, UNST_B, E=UNST_E, w_max=0.2)
+    return pl, synthesize_lti(pl, 0.2, 0.05, 0.15, 1, "ultimate-bound")
+
+
+def test_stability_design_shrinks_V_on_exact_loops() -> None:
+    """V(M xi) <= alpha V(xi) for 5000 exact closed loops at random admissible instants (delays beyond
+    one period), each at the direction that makes V(M xi) / V(xi) largest (a generalized eigenproblem)."""
+    from scipy.linalg import eigh
+
+    pl = lti_plant_from(UNST_A, UNST_B)
+    Ts, lo, hi = 0.2, 0.0, 0.35
+    r = synthesize_lti(pl, Ts, lo, hi, 0, "stability", decay=0.97)
+    assert r.certified and r.d_hi == 2 and r.K.shape == (2, 3 + 2 * 2)
+    s = _instants(np.random.default_rng(3), Ts, lo, hi, r.d_hi, 5000)
+    M = exact_closed_loop(UNST_A, UNST_B, r.K, Ts, s)
+    worst = max(float(eigh(Mi.T @ r.P @ Mi, r.P, eigvals_only=True)[-1]) for Mi in M)
+    assert worst <= r.alpha * (1 + EXACT_TOL)
+    assert r.alpha == pytest.approx(0.97**2)
+
+
+@pytest.mark.parametrize("case", ["zbp_bound", "unstable_lossy"])
+def test_the_set_is_invariant_under_the_worst_disturbance(case, request) -> None:
+    """From 3000 states on the set's boundary, one exact period at random admissible instants (losses
+    included) with the lifted disturbance at its bound delta in the direction that increases V most
+    to first order (the gradient of V along the plant's rows): V stays <= 1."""
+    pl, r = request.getfixturevalue(case)
+    assert r.certified
+    Ts, lo, hi, ml = (0.5, 0.0, 0.5, 0) if case == "zbp_bound" else (0.2, 0.05, 0.15, 1)
+    rng = np.random.default_rng(5)
+    delta = r.figures["disturbance_step_bound"]
+    n = pl["A"].shape[0]
+    n_s = r.P.shape[0]
+    s = _instants(rng, Ts, lo, hi + ml * Ts, r.d_hi, 3000)
+    M = exact_closed_loop(pl["A"], pl["B"], r.K, Ts, s)
+    L = np.linalg.cholesky(r.P)
+    z = rng.standard_normal((3000, n_s))
+    xi = np.linalg.solve(L.T, (z / np.linalg.norm(z, axis=1, keepdims=True)).T).T  # V = 1
+    nxt = np.einsum("rij,rj->ri", M, xi)
+    g = (nxt @ r.P)[:, :n]
+    nxt[:, :n] += delta * g / np.linalg.norm(g, axis=1, keepdims=True)
+    V = np.einsum("ri,ij,rj->r", nxt, r.P, nxt)
+    assert np.max(V) <= 1.0 + EXACT_TOL
+    assert np.max(V) > 0.5  # the boundary was probed, not the set's centre
+
+
+def test_the_per_period_disturbance_bound_holds_on_an_ode() -> None:
+    """||int e^{A r} E w dr|| <= delta for bang-bang and smooth w with ||w(t)|| <= w_max (solve_ivp)."""
+    from scipy.integrate import solve_ivp
+
+    Ts, w_max = 0.2, 0.2
+    delta = disturbance_bound(UNST_A, UNST_E, w_max, Ts)
+    worst = 0.0
+    for k in range(12):
+        w = (lambda t, k=k: w_max * np.sign(np.sin(7.0 * (k + 1) * t + k))) if k % 2 else \
+            (lambda t, k=k: w_max * np.cos(3.0 * k * t))
+        sol = solve_ivp(lambda t, x: UNST_A @ x + UNST_E[:, 0] * w(t), (0.0, Ts), np.zeros(3), rtol=1e-11, atol=1e-13,
+                        max_step=Ts / 200)
+        worst = max(worst, float(np.linalg.norm(sol.y[:, -1])))
+    assert worst <= delta
+    assert worst >= 0.5 * delta  # and it is not loose by orders of magnitude on these signals
+
+
+def test_output_and_input_claims_follow_from_P(zbp_bound) -> None:
+    """|c xi| <= bound on {xi' P xi <= 1} is sqrt(c P^-1 c') <= bound; the same for |K_i xi| <= u_max."""
+    pl, r = zbp_bound
+    Q = np.linalg.inv(r.P)
+    n_s = r.P.shape[0]
+    C = np.hstack([pl["C"], np.zeros((2, n_s - 2))])
+    for c, o in zip(C, r.figures["outputs"]):
+        assert np.sqrt(c @ Q @ c) <= o["bound"]
+        assert np.sqrt(c @ Q @ c) >= 0.999 * o["bound"]  # the figure is the set's own extent, not padded
+    assert np.sqrt(r.K[0] @ Q @ r.K[0]) <= 20.0
+
+
+def test_linearity_scales_the_bounds_with_the_disturbance() -> None:
+    """Ten times the disturbance bound gives ten times the output bounds (no input limits: the LMIs are
+    the same problem in the normalized units)."""
+    a = synthesize_lti(lti_plant_from(ZBP_A, ZBP_B, E=ZBP_E, w_max=0.05), 0.5, 0.0, 0.5, 0, "ultimate-bound")
+    b = synthesize_lti(lti_plant_from(ZBP_A, ZBP_B, E=ZBP_E, w_max=0.5), 0.5, 0.0, 0.5, 0, "ultimate-bound")
+    for oa, ob in zip(a.figures["outputs"], b.figures["outputs"]):
+        assert ob["bound"] == pytest.approx(10 * oa["bound"], rel=1e-9)
+    assert np.allclose(a.K, b.K)
+
+
+def test_tighter_input_limits_cost_bound(zbp_bound) -> None:
+    """An input limit that binds enlarges the certified bound and is met on the set."""
+    pl, loose = zbp_bound
+    Q = np.linalg.inv(loose.P)
+    peak = float(np.sqrt(loose.K[0] @ Q @ loose.K[0]))
+    tight = synthesize_lti(lti_plant_from(ZBP_A, ZBP_B, E=ZBP_E, w_max=0.5, u_max=[0.5 * peak]), 0.5, 0.0, 0.5, 0,
+                           "ultimate-bound")
+    assert tight.certified
+    Qt = np.linalg.inv(tight.P)
+    assert np.sqrt(tight.K[0] @ Qt @ tight.K[0]) <= 0.5 * peak * (1 + 1e-9)
+    assert max(o["bound"] for o in tight.figures["outputs"]) > max(o["bound"] for o in loose.figures["outputs"])
+
+
+def test_the_primal_check_refuses_a_tampered_gain(zbp_bound) -> None:
+    """The certificate proves the gain it was found with, not a neighbour: K scaled by 1.5 fails with
+    the same P and multipliers; the original passes."""
+    pl, r = zbp_bound
+    pw = over_approximation(pl["A"], pl["B"], r.K, 0.5, 0.0, 0.5, r.d_hi, 2)
+    combos, ends = vertex_combinations(pw)
+    s = 1.0 / float(np.min(np.linalg.eigvalsh(r.P)))
+    c = (1.0 - r.alpha) * r.figures["disturbance_step_bound"] ** -2 * s
+    assert check_lti_certificate(pw, s * r.P, s * r.eps, np.sqrt(r.alpha), combos, ends, c)["ok"]
+    bad = over_approximation(pl["A"], pl["B"], 1.5 * r.K, 0.5, 0.0, 0.5, r.d_hi, 2)
+    assert not check_lti_certificate(bad, s * r.P, s * r.eps, np.sqrt(r.alpha), combos, ends, c)["ok"]
+    assert not check_lti_certificate(pw, s * r.P, s * r.eps, np.sqrt(r.alpha) * 0.9, combos, ends, c)["ok"]
+    assert not lti_within(r.P, np.array([[1.0, 0, 0]]), np.array([0.5 * r.figures["outputs"][0]["bound"]])).any()
+
+
+def test_no_gain_for_an_unstabilizable_plant() -> None:
+    """An unstable mode the input cannot reach: infeasible, no gain."""
+    A = np.array([[0.5, 0.0], [0.0, -1.0]])
+    B = np.array([[0.0], [1.0]])
+    r = synthesize_lti(lti_plant_from(A, B), 0.1, 0.0, 0.05, 0, "stability")
+    assert not r.certified and r.status == "infeasible" and r.K is None

@@ -1,0 +1,123 @@
+"""verify on a linear plant (docs/theory.md §15): it passes a certified design and catches false
+claims — an over-stated bound, a delay range beyond the certified one — and the CLI chain
+(build-model, synthesize, verify, run, margin --gains) with its exit codes and files."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from robustsynth.model.lti import lti_plant_from
+from robustsynth.synthesis.lti import synthesize_lti
+from robustsynth.verification.lti import verify_lti
+
+ROOT = Path(__file__).resolve().parents[2]
+ZBP_A = np.array([[0.0, 1.0], [0.0, -0.1]])
+ZBP_B = np.array([[0.0], [0.1]])
+ZBP_E = np.array([[0.0], [0.1]])
+
+CONFIG = """\
+name: zbp-disturbed
+plant:
+  kind: lti
+  A: [[0, 1], [0, -0.1]]
+  B: [[0], [0.1]]
+  states: [position, velocity]
+  units: [m, m/s]
+  disturbance: {E: [[0], [0.1]], bound: 0.5}
+  input_limits: [20]
+network:
+  sampling_time: 0.5
+  delay: {min: 0.0, max: 0.5}
+"""
+
+
+@pytest.fixture(scope="module")
+def design():
+    pl = lti_plant_from(ZBP_A, ZBP_B, E=ZBP_E, w_max=0.5, u_max=[20.0])
+    return pl, synthesize_lti(pl, 0.5, 0.0, 0.5, 0, "ultimate-bound")
+
+
+def test_verify_passes_a_certified_design_with_room(design) -> None:
+    pl, r = design
+    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, r.figures, runs=24, periods=60)
+    assert v["passed"], v["checks"]
+    by = {c["name"].split(" (")[0]: c["value"] for c in v["checks"]}
+    assert by["the set is invariant"] < 1.0 and by["frozen-delay spectral radius"] < 1.0
+    assert by["outputs within their certified bounds"] > 0.5  # the probes reach the bounds' scale
+
+
+def test_verify_catches_an_overstated_bound(design) -> None:
+    pl, r = design
+    figs = dict(r.figures, outputs=[dict(o, bound=0.5 * o["bound"]) for o in r.figures["outputs"]])
+    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, figs, runs=24, periods=30)
+    assert not v["passed"]
+    assert [c["ok"] for c in v["checks"] if c["name"].startswith("outputs")] == [False]
+
+
+def test_verify_catches_delays_beyond_the_certificate() -> None:
+    """A design certified for delays up to 0.1 s, checked against delays up to 0.5 s (the same lifting):
+    frozen delays destabilize it and the set is left."""
+    pl = lti_plant_from(ZBP_A, ZBP_B, E=ZBP_E, w_max=0.5, u_max=[20.0])
+    r = synthesize_lti(pl, 0.5, 0.0, 0.1, 0, "ultimate-bound")
+    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, r.figures, runs=24, periods=60)
+    bad = {c["name"].split(" (")[0] for c in v["checks"] if not c["ok"]}
+    assert not v["passed"] and {"the set is invariant", "frozen-delay spectral radius"} <= bad
+
+
+def test_verify_catches_a_plant_the_certificate_was_not_made_for(design) -> None:
+    """The gain on a plant with negative friction (still stabilized): the set is no longer invariant."""
+    _, r = design
+    other = lti_plant_from(np.array([[0.0, 1.0], [0.0, 0.3]]), ZBP_B, E=ZBP_E, w_max=0.5, u_max=[20.0])
+    v = verify_lti(other, r.K, r.P, 0.5, 0.0, 0.5, 0, r.figures, runs=24, periods=60)
+    bad = {c["name"].split(" (")[0] for c in v["checks"] if not c["ok"]}
+    assert bad == {"the set is invariant"}
+
+
+def _run(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "robustsynth", *args], capture_output=True, text=True)
+
+
+def test_cli_chain_on_a_linear_plant(tmp_path) -> None:
+    cfg = tmp_path / "zbpd.yaml"
+    cfg.write_text(CONFIG)
+    out = tmp_path / "out"
+    r = _run("build-model", str(cfg), "-o", str(out))
+    assert r.returncode == 0, r.stderr
+    assert json.loads((out / "model.json").read_text())["coverage"]["remainder_ratio"] <= 1.0
+    r = _run("run", str(cfg), "-o", str(out), "--runs", "8")
+    assert r.returncode == 0, r.stderr
+    assert "certified (ultimate-bound" in r.stdout and "verification passed" in r.stdout
+    gd = json.loads((out / "gains.json").read_text())
+    assert gd["kind"] == "lti" and len(gd["K"][0]) == 3 and gd["certified"]["outputs"][0]["name"] == "position"
+    for f in ("gains.mat", "synthesis.md", "verification.json", "verification.md", "report.md", "summary.json"):
+        assert (out / f).exists(), f
+    from scipy.io import loadmat
+
+    assert np.allclose(loadmat(out / "gains.mat")["K"], gd["K"])
+    r = _run("margin", str(cfg), "--gains", str(out / "gains.json"), "--json")
+    assert r.returncode == 0, r.stderr
+    m = json.loads(r.stdout)["margins"]["delay_max"]
+    assert m["certified"] >= 0.5 and (m["exhibited"] is None or m["certified"] <= m["exhibited"])
+    # a robot's gains file is refused with one line
+    r = _run("verify", str(cfg), "--gains", str(ROOT / "results" / "baselines" / "default" / "gains.json"), "-o",
+             str(tmp_path / "v"))
+    assert r.returncode == 2 and "not a linear plant's gains file" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    # ultimate-bound without a disturbance: one line, exit 2, before anything is written
+    bare = tmp_path / "bare.yaml"
+    bare.write_text(CONFIG.replace("  disturbance: {E: [[0], [0.1]], bound: 0.5}\n", "") + "synthesis: {objective: ultimate-bound}\n")
+    r = _run("synthesize", str(bare), "-o", str(tmp_path / "b"))
+    assert r.returncode == 2 and "synthesis.objective" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    # no gain exists: exit 3, and the old gain files are gone
+    unst = tmp_path / "unst.yaml"
+    unst.write_text(CONFIG.replace("A: [[0, 1], [0, -0.1]]", "A: [[0.5, 0], [0, -0.1]]"))
+    (tmp_path / "u").mkdir()
+    (tmp_path / "u" / "gains.json").write_text("{}")
+    r = _run("synthesize", str(unst), "-o", str(tmp_path / "u"))
+    assert r.returncode == 3, r.stderr
+    assert not (tmp_path / "u" / "gains.json").exists()
