@@ -93,7 +93,7 @@ def test_the_per_period_disturbance_bound_holds_on_an_ode() -> None:
     for k in range(12):
         w = (lambda t, k=k: w_max * np.sign(np.sin(7.0 * (k + 1) * t + k))) if k % 2 else \
             (lambda t, k=k: w_max * np.cos(3.0 * k * t))
-        sol = solve_ivp(lambda t, x: UNST_A @ x + UNST_E[:, 0] * w(t), (0.0, Ts), np.zeros(3), rtol=1e-11, atol=1e-13,
+        sol = solve_ivp(lambda t, x, w=w: UNST_A @ x + UNST_E[:, 0] * w(t), (0.0, Ts), np.zeros(3), rtol=1e-11, atol=1e-13,
                         max_step=Ts / 200)
         worst = max(worst, float(np.linalg.norm(sol.y[:, -1])))
     assert worst <= delta

@@ -283,6 +283,11 @@ def export_controller(gains_path: str | Path, target: str, outdir: str | Path,
     if target not in TARGETS:
         raise InputError(f"--to: must be one of {', '.join(TARGETS)} (got {target!r})")
     gains = load_gains(gains_path)
+    if gains.get("kind") == "lti":  # a linear plant's generic law
+        from .export_lti import lti_export_files
+
+        d, files = lti_export_files(gains, target)
+        return d, commit_files(outdir, files, primary=next(iter(files)))
     d = controller_description(gains, load_config(config_path) if config_path is not None else None)
     files = export_files(d, target)
     return d, commit_files(outdir, files, primary=next(iter(files)))

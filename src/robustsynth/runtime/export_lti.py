@@ -1,0 +1,138 @@
+"""``robustsynth export`` of a linear plant's gain (``kind: lti`` gains files): the generic law
+
+    u_k = K xi_k,   xi_k = [x_k; u_{k-1}; ...; u_{k-d}]   (the commands this controller sent)
+
+as C99 (rs_lti.h / rs_lti.c, no heap, no libm) or a dependency-free Python module, with the sums
+in one fixed order (row by row, state first, then the stored commands oldest last), so both give
+the same floats; the tests compile the C code and compare both with numpy's K @ xi."""
+
+from __future__ import annotations
+
+from typing import Any
+
+__all__ = ["lti_export_files", "LTI_TARGETS"]
+
+LTI_TARGETS = ("c", "python", "json")
+
+
+def _f(v: float) -> str:
+    import math
+
+    v = float(v)
+    if not math.isfinite(v):
+        raise ValueError(f"non-finite constant {v!r}")
+    s = repr(v)
+    return s if any(ch in s for ch in ".eE") else s + ".0"
+
+
+def _description(gd: dict[str, Any]) -> dict[str, Any]:
+    lift = gd["lifting"]
+    return {"kind": "lti", "name": gd.get("config", {}).get("name", "lti"), "law": gd["law"], "K": gd["K"],
+            "n": int(lift["n"]), "m": int(lift["m"]), "d": int(lift["d"]), "states": lift.get("states"),
+            "sampling_time": gd["network"]["sampling_time"], "certified": gd.get("certified")}
+
+
+def _c_files(d: dict[str, Any]) -> dict[str, bytes]:
+    n, m, dd = d["n"], d["m"], d["d"]
+    K = d["K"]
+    width = n + dd * m
+    flat = ", ".join("{" + ", ".join(_f(v) for v in row) + "}" for row in K)
+    h = f"""/* rs_lti.h: the certified law u_k = K xi_k of '{d['name']}' (robustsynth, plant: kind: lti).
+   xi_k = [x_k; u_(k-1); ...; u_(k-{dd})]: the state, then the commands this controller sent, newest first.
+   Call rs_lti_step once per sampling instant (every RS_LTI_TS s) with the measured state; send u.
+   Bit-identical to the verified law when compiled without floating-point contraction (-ffp-contract=off).
+   Do not edit: regenerate with `robustsynth export GAINS --to c`. */
+#ifndef RS_LTI_H
+#define RS_LTI_H
+#define RS_LTI_N {n}
+#define RS_LTI_M {m}
+#define RS_LTI_D {dd}
+#define RS_LTI_TS {_f(d['sampling_time'])}
+typedef struct {{ double sent[RS_LTI_D * RS_LTI_M + 1]; }} rs_lti_state;
+void rs_lti_reset(rs_lti_state *s);
+void rs_lti_step(rs_lti_state *s, const double x[RS_LTI_N], double u[RS_LTI_M]);
+#endif
+"""
+    c = f"""/* rs_lti.c: see rs_lti.h. */
+#include "rs_lti.h"
+
+static const double K[RS_LTI_M][{width}] = {{{flat}}};
+
+void rs_lti_reset(rs_lti_state *s) {{
+    for (int i = 0; i < RS_LTI_D * RS_LTI_M + 1; ++i) s->sent[i] = 0.0;
+}}
+
+void rs_lti_step(rs_lti_state *s, const double x[RS_LTI_N], double u[RS_LTI_M]) {{
+    for (int i = 0; i < RS_LTI_M; ++i) {{
+        double acc = 0.0;
+        for (int j = 0; j < RS_LTI_N; ++j) acc += K[i][j] * x[j];
+        for (int j = 0; j < RS_LTI_D * RS_LTI_M; ++j) acc += K[i][RS_LTI_N + j] * s->sent[j];
+        u[i] = acc;
+    }}
+    for (int j = RS_LTI_D * RS_LTI_M - 1; j >= RS_LTI_M; --j) s->sent[j] = s->sent[j - RS_LTI_M];
+    for (int i = 0; i < RS_LTI_M && i < RS_LTI_D * RS_LTI_M; ++i) s->sent[i] = u[i];
+}}
+"""
+    return {"rs_lti.h": h.encode(), "rs_lti.c": c.encode()}
+
+
+def _python_module(d: dict[str, Any]) -> bytes:
+    n, m, dd = d["n"], d["m"], d["d"]
+    rows = ",\n    ".join("(" + ", ".join(_f(v) for v in row) + ",)" for row in d["K"])
+    return f'''"""rs_lti.py: the certified law u_k = K xi_k of '{d['name']}' (robustsynth, plant: kind: lti), no numpy.
+
+xi_k = [x_k; u_(k-1); ...; u_(k-{dd})]: the state, then the commands this controller sent, newest first.
+Call step(x) once per sampling instant (every TS s) and send the commands it returns.
+Do not edit: regenerate with `robustsynth export GAINS --to python`.
+"""
+
+N, M, D, TS = {n}, {m}, {dd}, {_f(d['sampling_time'])}
+K = (
+    {rows},
+)
+
+
+class Controller:
+    def __init__(self):
+        self.reset()
+
+    def reset(self):
+        self.sent = [0.0] * (D * M)
+
+    def step(self, x):
+        if len(x) != N:
+            raise ValueError(f"x: {{len(x)}} values, the plant has {{N}} states")
+        u = []
+        for i in range(M):
+            acc = 0.0
+            for j in range(N):
+                acc += K[i][j] * x[j]
+            for j in range(D * M):
+                acc += K[i][N + j] * self.sent[j]
+            u.append(acc)
+        self.sent = (u + self.sent)[: D * M]
+        return u
+'''.encode()
+
+
+def lti_export_files(gd: dict[str, Any], target: str) -> tuple[dict[str, Any], dict[str, bytes]]:
+    """(description, files) of a linear plant's gains mapping for ``target`` (c, python or json)."""
+    import json
+
+    from ..errors import InputError
+
+    if target not in LTI_TARGETS:
+        raise InputError(f"--to: {target} is for the robot; a linear plant's gain exports to {', '.join(LTI_TARGETS)}")
+    try:
+        d = _description(gd)
+        K = [[float(v) for v in row] for row in d["K"]]
+    except (KeyError, TypeError, ValueError) as exc:
+        raise InputError(f"gains: not a complete linear plant's gains file ({exc})") from None
+    if len(K) != d["m"] or any(len(r) != d["n"] + d["d"] * d["m"] for r in K):
+        raise InputError(f"K: must be {d['m']} x {d['n'] + d['d'] * d['m']} (m x (n + d m)) for this lifting")
+    d["K"] = K
+    if target == "c":
+        return d, _c_files(d)
+    if target == "python":
+        return d, {"rs_lti.py": _python_module(d)}
+    return d, {"rs_lti.json": (json.dumps(d, indent=2, allow_nan=False) + "\n").encode()}

@@ -1,0 +1,93 @@
+"""export of a linear plant's gain: the compiled C law and the generated Python module give numpy's
+K @ xi bit for bit on random state sequences (the same sums in the same order), with the stored
+commands shifted as the lifted model stores them."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+from robustsynth.errors import InputError
+from robustsynth.runtime.export import export_controller
+
+CC = shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
+STEPS = 200
+
+
+def _gains(tmp_path, n=3, m=2, d=2, seed=0):
+    rng = np.random.default_rng(seed)
+    K = 0.3 * rng.standard_normal((m, n + d * m))  # small: the stored commands' feedback stays bounded
+    gd = {"kind": "lti", "K": K.tolist(), "law": "u_k = K xi_k", "lifting": {"n": n, "m": m, "d": d, "states": None},
+          "network": {"sampling_time": 0.1}, "certified": {"alpha": 0.9}, "config": {"name": "t"}}
+    p = tmp_path / "gains.json"
+    p.write_text(json.dumps(gd))
+    return p, K
+
+
+def _reference(K, xs, n, m, d):
+    """u_k = K [x_k; u_{k-1}; ...; u_{k-d}] with the same summation order as the generated code."""
+    sent = [0.0] * (d * m)
+    out = []
+    for x in xs:
+        u = []
+        for i in range(m):
+            acc = 0.0
+            for j in range(n):
+                acc += K[i, j] * x[j]
+            for j in range(d * m):
+                acc += K[i, n + j] * sent[j]
+            u.append(acc)
+        sent = (u + sent)[: d * m]
+        out.append(u)
+    return np.array(out)
+
+
+def test_python_module_matches_the_lifted_law(tmp_path) -> None:
+    p, K = _gains(tmp_path)
+    _, files = export_controller(p, "python", tmp_path / "py")
+    spec = importlib.util.spec_from_file_location("rs_lti", files[0])
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    xs = np.random.default_rng(1).standard_normal((STEPS, 3))
+    ctl = mod.Controller()
+    got = np.array([ctl.step(list(x)) for x in xs])
+    assert np.array_equal(got, _reference(K, xs, 3, 2, 2))
+    # and it is the lifted state's product: xi_k = [x_k; u_{k-1}; u_{k-2}]
+    xi = np.concatenate([xs[5], got[4], got[3]])
+    assert np.allclose(K @ xi, got[5], rtol=0, atol=1e-12)
+
+
+@pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
+def test_c_law_matches_bit_for_bit(tmp_path) -> None:
+    p, K = _gains(tmp_path, n=2, m=1, d=3, seed=2)
+    out = tmp_path / "c"
+    export_controller(p, "c", out)
+    (out / "main.c").write_text("""#include <stdio.h>
+#include "rs_lti.h"
+int main(void) { rs_lti_state s; rs_lti_reset(&s); double x[RS_LTI_N], u[RS_LTI_M];
+  while (scanf("%lf %lf", &x[0], &x[1]) == 2) { rs_lti_step(&s, x, u); printf("%.17g\\n", u[0]); } return 0; }
+""")
+    subprocess.run([CC, "-std=c99", "-O2", "-ffp-contract=off", "-Wall", "-Werror", "-o", str(out / "h"), str(out / "main.c"), str(out / "rs_lti.c")],
+                   check=True)
+    xs = np.random.default_rng(3).standard_normal((STEPS, 2))
+    r = subprocess.run([str(out / "h")], input="\n".join(f"{float(a)!r} {float(b)!r}" for a, b in xs), capture_output=True, text=True,
+                       check=True)
+    got = np.array([float(v) for v in r.stdout.split()])
+    assert np.array_equal(got, _reference(K, xs, 2, 1, 3)[:, 0])
+
+
+def test_robot_only_targets_and_bad_shapes_are_refused(tmp_path) -> None:
+    p, _ = _gains(tmp_path)
+    with pytest.raises(InputError, match="--to: ros2 is for the robot"):
+        export_controller(p, "ros2", tmp_path / "r")
+    gd = json.loads(p.read_text())
+    gd["K"] = [[1.0, 2.0]]
+    p.write_text(json.dumps(gd))
+    with pytest.raises(InputError, match="K: must be 2 x 7"):
+        export_controller(p, "c", tmp_path / "c2")
+    assert not (tmp_path / "c2").exists() or not any((tmp_path / "c2").iterdir())
