@@ -25,6 +25,7 @@ __all__ = ["LtiAnalysis", "analyze_lti", "vertex_combinations", "LtiDesign", "sy
 
 DECAY = 1.0 - 1e-6  # V shrinks by at least this factor per period: asymptotic stability with a margin
 STRICT = 1e-7  # the LMIs' strictness (P >= I fixes the scale)
+ALPHA_FAR, GOLDEN_STEPS = 0.9, 4  # ultimate-bound: the line search's grid of 1 - alpha starts here; refinement solves
 INPUT_BACKOFF = 1e-6  # synthesis: the input limits are posed this much (relative) tighter than proven
 
 
@@ -180,36 +181,31 @@ class _Vertices:
 
 def _dual_blocks(V: _Vertices, Q: np.ndarray, Y: np.ndarray, eps_v: np.ndarray, alpha: float,
                  c_dist: float | None) -> np.ndarray:
-    """The synthesis LMI's blocks, batched over the vertices (affine in Q, Y, eps):
+    """The synthesis LMI's blocks, batched over the vertices (affine in Q, Y, eps and 1/c):
 
-        [[-alpha Q,  0,   (M Q)',            (rho_j F_j Q)'  ],
-         [0,        -c I,  E',                0              ],   (with the disturbance: c = c_dist)
-         [M Q,       E,   -Q + sum_j eps_j E E',  0          ],
-         [rho_j F_j Q, 0,  0,                -diag(eps_j I_m)]]  <= 0,
+        [[-alpha Q,    (M Q)',                            (rho_j F_j Q)'  ],
+         [M Q,         -Q + (sum_j eps_j + 1/c) E E',     0               ],
+         [rho_j F_j Q,  0,                                -diag(eps_j I_m)]]  <= 0,
 
-    M Q = A_v Q + B_v Y, F_0 Q = Fa_0 Q + Y, F_j Q = Fa_j Q."""
-    dist = c_dist is not None
+    M Q = A_v Q + B_v Y, F_0 Q = Fa_0 Q + Y, F_j Q = Fa_j Q; the 1/c term (the disturbance's, c =
+    ``c_dist``) is the Schur complement of its row [0, -c I, E', 0] (docs/theory.md §15)."""
     nv = len(V.Av)
-    n, m, d, n_s = V.n, V.m, V.d, V.n_s
+    m, d, n_s = V.m, V.d, V.n_s
     E = V.pw0.E
     MQ = V.Av @ Q + V.Bv @ Y  # (nv, n_s, n_s)
     FQ = np.concatenate([(V.Fa[j] @ Q + (Y if j == 0 else 0.0))[None].repeat(nv, 0) * V.rho[:, j, None, None]
                          for j in range(d)], axis=1)  # (nv, d m, n_s)
-    q = n if dist else 0
-    k = n_s + q + n_s + d * m
+    k = 2 * n_s + d * m
     X = np.zeros((nv, k, k))
-    a, b, c = n_s, n_s + q, 2 * n_s + q
+    a, c = n_s, 2 * n_s
     X[:, :a, :a] = -alpha * Q
-    X[:, b:c, :a] = MQ
-    X[:, :a, b:c] = MQ.transpose(0, 2, 1)
+    X[:, a:c, :a] = MQ
+    X[:, :a, a:c] = MQ.transpose(0, 2, 1)
     X[:, c:, :a] = FQ
     X[:, :a, c:] = FQ.transpose(0, 2, 1)
-    X[:, b:c, b:c] = -Q + np.sum(eps_v, axis=1)[:, None, None] * (E @ E.T)
+    inv_c = 0.0 if not c_dist else 1.0 / c_dist
+    X[:, a:c, a:c] = -Q + (np.sum(eps_v, axis=1) + inv_c)[:, None, None] * (E @ E.T)
     X[:, c:, c:] = _eps_diag(eps_v, m)
-    if dist:
-        X[:, a:b, a:b] = -c_dist * np.eye(n)
-        X[:, a:b, b:c] = E.T
-        X[:, b:c, a:b] = E
     return X
 
 
@@ -223,19 +219,18 @@ def _eps_diag(eps_v: np.ndarray, m: int) -> np.ndarray:
 
 
 def _coefficients(V: _Vertices, dist: bool):
-    """The blocks of :func:`_dual_blocks` as ``X_v = C0_v + c Cc + sum_i q_i (CQ_vi + alpha SQ_i) +
+    """The blocks of :func:`_dual_blocks` as ``X_v = C0_v + Cc / c + sum_i q_i (CQ_vi + alpha SQ_i) +
     sum_l y_l CY_vl + sum_j eps_j CE_vj`` (q: Q's upper triangle, y: Y's entries), in numpy."""
     n_s, m, d = V.n_s, V.m, V.d
     zQ, zY = np.zeros((n_s, n_s)), np.zeros((m, n_s))
     ze = np.zeros((len(V.Av), d))
-    dist = 0.0 if dist else None
-    C0 = _dual_blocks(V, zQ, zY, ze, 0.0, dist)
-    Cc = _dual_blocks(V, zQ, zY, ze, 0.0, 1.0)[0] - C0[0] if dist is not None else np.zeros(C0.shape[1:])
+    C0 = _dual_blocks(V, zQ, zY, ze, 0.0, None)
+    Cc = _dual_blocks(V, zQ, zY, ze, 0.0, 1.0)[0] - C0[0] if dist else np.zeros(C0.shape[1:])  # per unit of 1/c
     iu = np.triu_indices(n_s)
     basis = np.zeros((iu[0].size, n_s, n_s))
     basis[np.arange(iu[0].size), iu[0], iu[1]] = 1.0
     basis[np.arange(iu[0].size), iu[1], iu[0]] = 1.0
-    CQ = np.stack([_dual_blocks(V, S, zY, ze, 0.0, dist) - C0 for S in basis], axis=1)
+    CQ = np.stack([_dual_blocks(V, S, zY, ze, 0.0, None) - C0 for S in basis], axis=1)
     k = C0.shape[-1]
     SQ = np.zeros((len(basis), k, k))
     SQ[:, :n_s, :n_s] = -basis  # the -alpha Q corner
@@ -244,12 +239,12 @@ def _coefficients(V: _Vertices, dist: bool):
         for b in range(n_s):
             U = zY.copy()
             U[a, b] = 1.0
-            CY.append(_dual_blocks(V, zQ, U, ze, 0.0, dist) - C0)
+            CY.append(_dual_blocks(V, zQ, U, ze, 0.0, None) - C0)
     CE = []
     for j in range(d):
         e = ze.copy()
         e[:, j] = 1.0
-        CE.append(_dual_blocks(V, zQ, zY, e, 0.0, dist) - C0)
+        CE.append(_dual_blocks(V, zQ, zY, e, 0.0, None) - C0)
     return C0, Cc, basis, CQ, SQ, np.stack(CY, axis=1), np.stack(CE, axis=1)
 
 
@@ -327,14 +322,14 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
     eps = cp.Variable((len(V.combos), V.d), nonneg=True)
     t = cp.Variable()
     al = cp.Parameter(nonneg=True)
-    cd = cp.Parameter(nonneg=True)  # c of the disturbance block: (1 - alpha) / beta^2
+    icd = cp.Parameter(nonneg=True)  # 1/c of the disturbance: beta^2 / (1 - alpha)
     u2 = cp.Parameter(m, nonneg=True)  # the input limits squared, in the LMIs' units
     Q = cp.reshape(basis.reshape(n_q, -1).T @ q, (n_s, n_s), order="C")
     Y = cp.reshape(y, (m, n_s), order="C")
     cons = []
     SQf = SQ.reshape(n_q, k * k).T
     for v in range(nv):
-        lin = (C0[v].reshape(-1) + cd * Cc.reshape(-1) + CQ[v].reshape(n_q, -1).T @ q + al * (SQf @ q)
+        lin = (C0[v].reshape(-1) + icd * Cc.reshape(-1) + CQ[v].reshape(n_q, -1).T @ q + al * (SQf @ q)
                + CY[v].reshape(m * n_s, -1).T @ y + CE[v].reshape(V.d, -1).T @ eps[V.owner[v]])
         X = cp.reshape(lin, (k, k), order="C")
         cons.append((X + X.T) / 2 << -STRICT * np.eye(k))
@@ -344,7 +339,7 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
     if dist:
         cons += [C[i] @ Q @ C[i] <= t * scale[i] ** 2 for i in range(C.shape[0])]
         prob = cp.Problem(cp.Minimize(t), cons)
-        grid = 1.0 - np.geomspace(0.9, 0.002, alpha_points)
+        grid = 1.0 - np.geomspace(ALPHA_FAR, 0.002, alpha_points)
     else:
         W = np.zeros((n_s, n_s))
         W[:n, :n] = np.eye(n)
@@ -361,7 +356,8 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
         unless proven."""
         b = beta(a)
         al.value = float(a)
-        cd.value = (1.0 - a) / b**2 if dist else 0.0
+        c_dist = (1.0 - a) / b**2 if dist else None
+        icd.value = 1.0 / c_dist if dist else 0.0
         # the limits with a relative back-off, so that the numpy proof on P = Q^-1 has room for rounding
         u2.value = ((1.0 - INPUT_BACKOFF) * np.asarray(u_max, dtype=float) * b / delta) ** 2 if u_max is not None \
             else np.ones(m)
@@ -371,7 +367,7 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
                 return False
             Qv = np.einsum("i,iab->ab", np.asarray(q.value, dtype=float), basis)
             chk, K, P, eta = _prove(plant, V, Ts, tau_min, tau_hi, pieces, Qv, np.asarray(y.value).reshape(m, n_s),
-                                    np.maximum(np.asarray(eps.value), 0.0), a, cd.value if dist else None)
+                                    np.maximum(np.asarray(eps.value), 0.0), a, c_dist)
             held["last"] = (chk, K, P, eta, Qv)
             return bool(chk["ok"])
 
@@ -390,7 +386,7 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
         attempt(a)
     best = _best(held, dist)
     if dist and best is not None:  # refine between the best grid point's neighbours (golden section on log(1 - alpha))
-        for _ in _golden(_bracket(grid, best), attempt, 4):
+        for _ in _golden(_bracket(grid, best), attempt, GOLDEN_STEPS):
             pass
         best = _best(held, dist)
     solves = held.get("solves", 0)
