@@ -32,7 +32,25 @@ def run_config(config_path: Path, outdir: Path) -> dict[str, Any]:
     from .pipeline import run
 
     cfg = load_config(config_path)
-    if is_lti(cfg):  # a linear plant: its gain's margins (certified and exhibited) are the summary
+    if is_lti(cfg) and cfg.controller is None:  # a linear plant without a gain: synthesize and verify one
+        from .artifacts.files import atomic_write, json_bytes
+        from .pipeline_lti import lti_run
+
+        try:
+            res = lti_run(cfg, outdir, config_path)
+        except RobustSynthError as exc:
+            summary = {"name": cfg.name, "status": "lti-not-certified", "exit_code": exc.exit_code}
+        else:
+            c = res["synthesis"]["gains"]["certified"]
+            ver = res["verification"]
+            summary = {"name": cfg.name, "status": "lti-certified", "objective": res["synthesis"]["gains"]["objective"],
+                       "verification_passed": ver["passed"],
+                       "failed_checks": [ch["name"] for ch in ver["checks"] if not ch["ok"]],
+                       "certified": {"decay_rate": c["decay"],
+                                     "ultimate_bound": {o["name"]: o["bound"] for o in c.get("outputs") or ()}}}
+        atomic_write(outdir / "summary.json", json_bytes(summary))
+        return summary
+    if is_lti(cfg):  # a linear plant with a gain: its margins (certified and exhibited) are the summary
         from .artifacts.files import atomic_write, json_bytes
         from .pipeline_lti import lti_margin_stage
 
