@@ -851,14 +851,15 @@ def turn_bounds(model: Any, K: np.ndarray, cert: Mapping[str, Any], figures: Map
 
 
 def lti_vertex_blocks(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, combos: np.ndarray, ends: np.ndarray,
-                      dist: float | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+                      dist: float | None = None, out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """The robust-stability blocks of an lti certificate (docs/theory.md §14), one per vertex, as
     floats, with their magnitudes (the same formula on absolute values) and the number of terms per
     entry: ``-[[M' P M - decay^2 P + sum_j eps_j rho_j^2 F_j' F_j, M' P E~], [E~' P M, E~' P E~ -
     diag(eps_j I)]]`` for every piece combination (``combos`` (n_c, d): a piece per instant) and
     end combination (``ends`` (n_e, d) in {0, 1}).  ``eps`` (n_c, d).  With ``dist`` = c, a
     disturbance d (|d| <= 1) enters the plant's rows too: E~ gains a block E and the diagonal c I
-    (docs/theory.md §15: V+ <= decay^2 V + c |d|^2 for every admissible step)."""
+    (docs/theory.md §15: V+ <= decay^2 V + c |d|^2 for every admissible step).  With ``out`` = C the
+    top block gains C' C (hinf: V+ - V + |C xi|^2 <= c |d|^2)."""
     P = np.asarray(P, dtype=float)
     d = pw.d_hi
     n_s, n = pw.E.shape
@@ -870,6 +871,9 @@ def lti_vertex_blocks(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, com
             M, Mabs = pw.vertex(combo, end), pw.vertex(combo, end, absolute=True)
             top = M.T @ P @ M - decay**2 * P
             top_abs = Mabs.T @ np.abs(P) @ Mabs + decay**2 * np.abs(P)
+            if out is not None:
+                top = top + out.T @ out
+                top_abs = top_abs + np.abs(out).T @ np.abs(out)
             for j in range(d):
                 r2 = float(pw.rho[j][combo[j]]) ** 2
                 top = top + eps[c, j] * r2 * (pw.F[j].T @ pw.F[j])
@@ -884,7 +888,8 @@ def lti_vertex_blocks(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, com
             mags.append(Xa)
     # the longest sum of products behind an entry, generously: M itself is a sum of d + 1 products,
     # M' P M sums n_s^2 of those, the eps terms add d, the symmetrization one
-    terms = n_s * n_s * (2 * d + 3) + 2 * d + 4 + (2 if dist is not None else 0)  # the disturbance's c: one term
+    terms = (n_s * n_s * (2 * d + 3) + 2 * d + 4 + (2 if dist is not None else 0)  # the disturbance's c: one term
+             + (0 if out is None else out.shape[0] + 1))  # C' C: a sum of p products
     return np.array(blocks), np.array(mags), terms
 
 
@@ -892,7 +897,7 @@ LTI_PROOF_MARGIN = 1e-8  # every vertex block is proven <= -this (I): room for t
 
 
 def check_lti_certificate(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, combos: np.ndarray,
-                          ends: np.ndarray, dist: float | None = None) -> dict[str, Any]:
+                          ends: np.ndarray, dist: float | None = None, out: np.ndarray | None = None) -> dict[str, Any]:
     """The lti certificate re-checked in numpy: P proven positive definite and every vertex block
     proven <= -LTI_PROOF_MARGIN I in verified arithmetic (Rump's test, with the blocks' assembly error
     as a radius); the multipliers >= 0.  The data (the pieces from expm, the remainder bounds) are
@@ -907,7 +912,7 @@ def check_lti_certificate(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float,
         return {"ok": False, "failing": -1, "vertices": 0, "min_eig": float("nan")}
     if not proves_at_least(P, 0.0, assembly_radius(np.abs(P), 1)):
         return {"ok": False, "failing": -1, "vertices": 0, "min_eig": float(np.min(np.linalg.eigvalsh(P)))}
-    blocks, mags, terms = lti_vertex_blocks(pw, P, eps, decay, combos, ends, dist)
+    blocks, mags, terms = lti_vertex_blocks(pw, P, eps, decay, combos, ends, dist, out)
     radius = assembly_radius_batch(mags, terms)
     ok = proves_at_least_batch(blocks, LTI_PROOF_MARGIN, radius)
     failing = np.flatnonzero(~ok)

@@ -343,9 +343,14 @@ def _warn_uncontrollable(controllable: bool) -> None:
 
 def _lti_certified_line(gd: dict[str, Any]) -> str:
     c = gd["certified"]
-    parts = [f"decay {c['decay']:.4f} per period"]
+    if c.get("hinf_gain") is not None:
+        parts = [f"l2 gain {c['hinf_gain']:.4g} from the disturbance (per-period peak) to "
+                 + ", ".join(o["name"] for o in c["outputs"])]
+    else:
+        parts = [f"decay {c['decay']:.4f} per period"]
     for o in c.get("outputs") or ():
-        parts.append(f"|{o['name']}| <= {o['bound']:.4g} {o['unit']}")
+        if o.get("bound") is not None:
+            parts.append(f"|{o['name']}| <= {o['bound']:.4g} {o['unit']}")
     if c.get("rest_radius") is not None:
         parts.append(f"from rest within |x| <= {c['rest_radius']:.4g}")
     if c.get("inputs"):
@@ -358,8 +363,9 @@ def _lti_report(obj: _Ctx, data: dict[str, Any]) -> None:
         if not c["ok"]:
             click.echo(f"FAILED: {c['name']} (value {c['value']:.6g}, limit {c['limit']:g}): {c['detail']}", err=True)
     worst = ", ".join(f"{c['name'].split(' (')[0]} {c['value']:.4g}" for c in data["checks"])
-    obj.say(f"verification {'passed' if data['passed'] else 'FAILED'}: {len(data['checks'])} checks, "
-            f"{data['starts']} starts on the set's boundary x {len(data['families'])} delay families; {worst}")
+    where = (f"{data['starts']} starts on the set's boundary x {len(data['families'])} delay families" if data["starts"]
+             else "delay sequences from rest")
+    obj.say(f"verification {'passed' if data['passed'] else 'FAILED'}: {len(data['checks'])} checks, {where}; {worst}")
 
 
 class _LazyBar:

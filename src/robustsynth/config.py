@@ -556,10 +556,11 @@ class LtiMarginConfig(_Node):
 class LtiSynthesisConfig(_Node):
     """``robustsynth synthesize`` on a linear plant: a gain u_k = K xi_k on the lifted state (docs/theory.md §15)."""
 
-    objective: Literal["auto", "stability", "ultimate-bound"] = Field(
+    objective: Literal["auto", "stability", "ultimate-bound", "hinf"] = Field(
         default="auto", description="stability: robust decay (with input_limits: the largest ball of states at rest "
         "from which the inputs stay within them); ultimate-bound: the smallest invariant set under the disturbance "
-        "(needs plant.disturbance); auto: ultimate-bound with a disturbance, else stability")
+        "(needs plant.disturbance); hinf: the smallest l2 gain from the disturbance to the outputs (needs "
+        "plant.disturbance; input limits are not enforced); auto: ultimate-bound with a disturbance, else stability")
     decay: Annotated[float, Field(gt=0, le=1)] = Field(
         default=0.98, description="sqrt(V) shrinks at least by this factor per period (disturbance-free)")
     pieces: Annotated[int, Field(ge=1, le=64)] = Field(default=2, description="pieces per switching instant's range "
@@ -590,8 +591,9 @@ class LtiConfig(_Named):
 
     @model_validator(mode="after")
     def _needs(self) -> "LtiConfig":
-        if self.synthesis.objective == "ultimate-bound" and self.plant.disturbance is None:
-            raise ValueError(f"{_FIELD}synthesis.objective: ultimate-bound needs plant.disturbance (E and its bound)")
+        if self.synthesis.objective in ("ultimate-bound", "hinf") and self.plant.disturbance is None:
+            raise ValueError(f"{_FIELD}synthesis.objective: {self.synthesis.objective} needs plant.disturbance (E and "
+                             "its bound)")
         return self
 
     @model_validator(mode="after")

@@ -85,10 +85,8 @@ def lti_synthesis_stage(config: Any, outdir: str | Path, config_path: str | Path
     plant = lti_plant_of(config, config_path)
     Ts, lo, hi, ml = _net(config)
     obj = objective or config.objective
-    if obj == "hinf":
-        raise InputError("--objective: hinf is not available for a linear plant yet (stability, ultimate-bound)")
-    if obj == "ultimate-bound" and plant["E"] is None:
-        raise InputError("synthesis.objective: ultimate-bound needs plant.disturbance (E and its bound)")
+    if obj in ("ultimate-bound", "hinf") and plant["E"] is None:
+        raise InputError(f"synthesis.objective: {obj} needs plant.disturbance (E and its bound)")
     syn = config.synthesis
     design = synthesize_lti(plant, Ts, lo, hi, ml, obj, decay=syn.decay, pieces=syn.pieces,
                             alpha_points=syn.alpha_points, solver=solver or syn.solver,

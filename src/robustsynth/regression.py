@@ -46,8 +46,9 @@ def run_config(config_path: Path, outdir: Path) -> dict[str, Any]:
             summary = {"name": cfg.name, "status": "lti-certified", "objective": res["synthesis"]["gains"]["objective"],
                        "verification_passed": ver["passed"],
                        "failed_checks": [ch["name"] for ch in ver["checks"] if not ch["ok"]],
-                       "certified": {"decay_rate": c["decay"],
-                                     "ultimate_bound": {o["name"]: o["bound"] for o in c.get("outputs") or ()}}}
+                       "certified": {"decay_rate": c["decay"], "hinf_gain": c.get("hinf_gain"),
+                                     "ultimate_bound": {o["name"]: o["bound"] for o in c.get("outputs") or ()
+                                                        if o.get("bound") is not None}}}
         atomic_write(outdir / "summary.json", json_bytes(summary))
         return summary
     if is_lti(cfg):  # a linear plant with a gain: its margins (certified and exhibited) are the summary

@@ -156,3 +156,31 @@ def test_no_gain_for_an_unstabilizable_plant() -> None:
     B = np.array([[0.0], [1.0]])
     r = synthesize_lti(lti_plant_from(A, B), 0.1, 0.0, 0.05, 0, "stability")
     assert not r.certified and r.status == "infeasible" and r.K is None
+
+
+def test_hinf_dissipation_on_exact_loops_and_a_tampered_gamma() -> None:
+    """V(M xi + E_x d) - V(xi) + |C xi|^2 <= gamma^2 |d|^2 / g^2 on 3000 exact loops with random states
+    and disturbance steps (losses included); the primal check refuses gamma / 2."""
+    pl = lti_plant_from(UNST_A, UNST_B, E=UNST_E, w_max=0.2, C=[[1.0, 0.0, 0.0]])
+    Ts, lo, hi, ml = 0.2, 0.05, 0.15, 1
+    r = synthesize_lti(pl, Ts, lo, hi, ml, "hinf")
+    assert r.certified
+    gam, g = r.figures["hinf_gain"], r.figures["per_period_gain"]
+    rng = np.random.default_rng(7)
+    s = _instants(rng, Ts, lo, hi + ml * Ts, r.d_hi, 3000)
+    M = exact_closed_loop(pl["A"], pl["B"], r.K, Ts, s)
+    n_s = r.P.shape[0]
+    xi = rng.standard_normal((3000, n_s))
+    dd = rng.standard_normal((3000, 3))
+    nxt = np.einsum("rij,rj->ri", M, xi)
+    nxt[:, :3] += dd
+    V = lambda v: np.einsum("ri,ij,rj->r", v, r.P, v)  # noqa: E731
+    lhs = V(nxt) - V(xi) + xi[:, 0] ** 2
+    rhs = gam**2 * np.sum(dd**2, axis=1) / g**2
+    assert np.all(lhs <= rhs + EXACT_TOL * (np.abs(lhs) + rhs))
+    pw = over_approximation(pl["A"], pl["B"], r.K, Ts, lo, hi + ml * Ts, r.d_hi, 2)
+    combos, ends = vertex_combinations(pw)
+    C = np.zeros((1, n_s))
+    C[0, 0] = 1.0
+    assert check_lti_certificate(pw, r.P, r.eps, 1.0, combos, ends, gam**2 / g**2, C)["ok"]
+    assert not check_lti_certificate(pw, r.P, r.eps, 1.0, combos, ends, (gam / 2) ** 2 / g**2, C)["ok"]

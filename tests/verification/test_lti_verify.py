@@ -121,3 +121,12 @@ def test_cli_chain_on_a_linear_plant(tmp_path) -> None:
     r = _run("synthesize", str(unst), "-o", str(tmp_path / "u"))
     assert r.returncode == 3, r.stderr
     assert not (tmp_path / "u" / "gains.json").exists()
+
+
+def test_verify_hinf_passes_and_catches_an_understated_gain() -> None:
+    pl = lti_plant_from(ZBP_A, ZBP_B, E=ZBP_E, w_max=0.5, C=[[1.0, 0.0]])
+    r = synthesize_lti(pl, 0.5, 0.0, 0.5, 0, "hinf")
+    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, r.figures)
+    assert v["passed"] and 0.3 < v["checks"][-1]["value"] < 1.0
+    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, dict(r.figures, hinf_gain=0.25 * r.figures["hinf_gain"]))
+    assert not v["passed"] and not v["checks"][-1]["ok"]

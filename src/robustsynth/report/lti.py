@@ -22,7 +22,12 @@ def lti_synthesis_markdown(gd: dict[str, Any]) -> str:
           f"**Law.** {gd['law']} with d = {lift['d']}:\n\n    K = {_mat(gd['K'])}\n\n",
           f"**Objective:** {gd['objective']}. **Certified** (docs/theory.md §15), for every admissible delay and loss "
           "sequence:\n\n"]
-    if c.get("disturbance_step_bound") is not None:
+    if c.get("hinf_gain") is not None:
+        md.append(f"- from rest, sum_k |y_k|^2 <= gamma^2 sum_k sup_(period k) ||w(t)||^2 with gamma = "
+                  f"{c['hinf_gain']:.6g} (the l2 gain from the disturbance to the outputs "
+                  f"{', '.join(o['name'] for o in c['outputs'])}; a disturbance of peak ||w|| over a period moves the "
+                  f"state by at most {c['per_period_gain']:.6g} ||w||); input limits are not enforced;\n")
+    elif c.get("disturbance_step_bound") is not None:
         md.append(f"- the set {{xi' P xi <= 1}} is invariant and attracts every trajectory: V+ <= alpha V + (1 - alpha) "
                   f"with alpha = {c['alpha']:.6g} (sqrt: {c['decay']:.6g} per period), for every disturbance with "
                   f"||w(t)|| <= the configured bound (per period: ||d_k|| <= {c['disturbance_step_bound']:.6g});\n")
@@ -48,14 +53,18 @@ def lti_synthesis_markdown(gd: dict[str, Any]) -> str:
 
 def lti_verification_markdown(data: dict[str, Any]) -> str:
     md = [f"# Verification: {'passed' if data['passed'] else 'FAILED'}\n\n",
-          f"{data['starts']} starts on the boundary of the certified set, {data['periods']} periods of the exactly "
-          f"lifted loop (lifting d = {data['lifting']}) per family (docs/theory.md §15).\n\n",
+          (f"{data['starts']} starts on the boundary of the certified set, {data['periods']} periods of the exactly "
+           f"lifted loop (lifting d = {data['lifting']}) per family (docs/theory.md §15).\n\n" if data["starts"] else
+           f"The l2 gain from rest over {data['periods']} periods of the exactly lifted loop (lifting d = "
+           f"{data['lifting']}) for each delay sequence (docs/theory.md §15).\n\n"),
           "| check | value | limit | ok | detail |\n|---|---|---|---|---|\n"]
     md += [f"| {c['name']} | {c['value']:.6g} | {c['limit']:g} | {'yes' if c['ok'] else 'NO'} | {c['detail']} |\n"
            for c in data["checks"]]
-    md.append("\n| family | " + " | ".join(next(iter(data["families"].values())).keys()) + " |\n")
-    md.append("|---|" + "---|" * len(next(iter(data["families"].values()))) + "\n")
-    md += [f"| {name} | " + " | ".join(f"{v:.6g}" for v in f.values()) + " |\n" for name, f in data["families"].items()]
+    if data["families"]:
+        first = next(iter(data["families"].values()))
+        md.append("\n| family | " + " | ".join(first.keys()) + " |\n")
+        md.append("|---|" + "---|" * len(first) + "\n")
+        md += [f"| {name} | " + " | ".join(f"{v:.6g}" for v in f.values()) + " |\n" for name, f in data["families"].items()]
     return "".join(md)
 
 

@@ -180,7 +180,7 @@ class _Vertices:
 
 
 def _dual_blocks(V: _Vertices, Q: np.ndarray, Y: np.ndarray, eps_v: np.ndarray, alpha: float,
-                 c_dist: float | None) -> np.ndarray:
+                 c_dist: float | None, C_out: np.ndarray | None = None) -> np.ndarray:
     """The synthesis LMI's blocks, batched over the vertices (affine in Q, Y, eps and 1/c):
 
         [[-alpha Q,    (M Q)',                            (rho_j F_j Q)'  ],
@@ -188,24 +188,31 @@ def _dual_blocks(V: _Vertices, Q: np.ndarray, Y: np.ndarray, eps_v: np.ndarray, 
          [rho_j F_j Q,  0,                                -diag(eps_j I_m)]]  <= 0,
 
     M Q = A_v Q + B_v Y, F_0 Q = Fa_0 Q + Y, F_j Q = Fa_j Q; the 1/c term (the disturbance's, c =
-    ``c_dist``) is the Schur complement of its row [0, -c I, E', 0] (docs/theory.md §15)."""
+    ``c_dist``) is the Schur complement of its row [0, -c I, E', 0] (docs/theory.md §15).  With
+    ``C_out`` (hinf) a last block row [C Q, 0, 0, -I] carries the output's |z|^2."""
     nv = len(V.Av)
     m, d, n_s = V.m, V.d, V.n_s
     E = V.pw0.E
     MQ = V.Av @ Q + V.Bv @ Y  # (nv, n_s, n_s)
     FQ = np.concatenate([(V.Fa[j] @ Q + (Y if j == 0 else 0.0))[None].repeat(nv, 0) * V.rho[:, j, None, None]
                          for j in range(d)], axis=1)  # (nv, d m, n_s)
-    k = 2 * n_s + d * m
+    p = 0 if C_out is None else C_out.shape[0]
+    k = 2 * n_s + d * m + p
     X = np.zeros((nv, k, k))
     a, c = n_s, 2 * n_s
     X[:, :a, :a] = -alpha * Q
     X[:, a:c, :a] = MQ
     X[:, :a, a:c] = MQ.transpose(0, 2, 1)
-    X[:, c:, :a] = FQ
-    X[:, :a, c:] = FQ.transpose(0, 2, 1)
+    X[:, c : c + d * m, :a] = FQ
+    X[:, :a, c : c + d * m] = FQ.transpose(0, 2, 1)
     inv_c = 0.0 if not c_dist else 1.0 / c_dist
     X[:, a:c, a:c] = -Q + (np.sum(eps_v, axis=1) + inv_c)[:, None, None] * (E @ E.T)
-    X[:, c:, c:] = _eps_diag(eps_v, m)
+    e = c + d * m
+    X[:, c:e, c:e] = _eps_diag(eps_v, m)
+    if p:
+        X[:, e:, :a] = C_out @ Q
+        X[:, :a, e:] = (C_out @ Q).T
+        X[:, e:, e:] = -np.eye(p)
     return X
 
 
@@ -218,19 +225,19 @@ def _eps_diag(eps_v: np.ndarray, m: int) -> np.ndarray:
     return out
 
 
-def _coefficients(V: _Vertices, dist: bool):
+def _coefficients(V: _Vertices, dist: bool, C_out: np.ndarray | None = None):
     """The blocks of :func:`_dual_blocks` as ``X_v = C0_v + Cc / c + sum_i q_i (CQ_vi + alpha SQ_i) +
     sum_l y_l CY_vl + sum_j eps_j CE_vj`` (q: Q's upper triangle, y: Y's entries), in numpy."""
     n_s, m, d = V.n_s, V.m, V.d
     zQ, zY = np.zeros((n_s, n_s)), np.zeros((m, n_s))
     ze = np.zeros((len(V.Av), d))
-    C0 = _dual_blocks(V, zQ, zY, ze, 0.0, None)
-    Cc = _dual_blocks(V, zQ, zY, ze, 0.0, 1.0)[0] - C0[0] if dist else np.zeros(C0.shape[1:])  # per unit of 1/c
+    C0 = _dual_blocks(V, zQ, zY, ze, 0.0, None, C_out)
+    Cc = _dual_blocks(V, zQ, zY, ze, 0.0, 1.0, C_out)[0] - C0[0] if dist else np.zeros(C0.shape[1:])  # per unit of 1/c
     iu = np.triu_indices(n_s)
     basis = np.zeros((iu[0].size, n_s, n_s))
     basis[np.arange(iu[0].size), iu[0], iu[1]] = 1.0
     basis[np.arange(iu[0].size), iu[1], iu[0]] = 1.0
-    CQ = np.stack([_dual_blocks(V, S, zY, ze, 0.0, None) - C0 for S in basis], axis=1)
+    CQ = np.stack([_dual_blocks(V, S, zY, ze, 0.0, None, C_out) - C0 for S in basis], axis=1)
     k = C0.shape[-1]
     SQ = np.zeros((len(basis), k, k))
     SQ[:, :n_s, :n_s] = -basis  # the -alpha Q corner
@@ -239,17 +246,17 @@ def _coefficients(V: _Vertices, dist: bool):
         for b in range(n_s):
             U = zY.copy()
             U[a, b] = 1.0
-            CY.append(_dual_blocks(V, zQ, U, ze, 0.0, None) - C0)
+            CY.append(_dual_blocks(V, zQ, U, ze, 0.0, None, C_out) - C0)
     CE = []
     for j in range(d):
         e = ze.copy()
         e[:, j] = 1.0
-        CE.append(_dual_blocks(V, zQ, zY, e, 0.0, None) - C0)
+        CE.append(_dual_blocks(V, zQ, zY, e, 0.0, None, C_out) - C0)
     return C0, Cc, basis, CQ, SQ, np.stack(CY, axis=1), np.stack(CE, axis=1)
 
 
 def _prove(plant: dict, V: _Vertices, Ts: float, tau_min: float, tau_hi: float, pieces: int, Q: np.ndarray,
-           Y: np.ndarray, eps: np.ndarray, alpha: float, c_dist: float | None
+           Y: np.ndarray, eps: np.ndarray, alpha: float, c_dist: float | None, C_out: np.ndarray | None = None
            ) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray]:
     """The gain K = Y Q^-1 and its certificate P = Q^-1, eta = 1/eps, re-checked in the primal form on
     the over-approximation built for K itself (:func:`robustsynth.certificate.check_lti_certificate`)."""
@@ -271,7 +278,7 @@ def _prove(plant: dict, V: _Vertices, Ts: float, tau_min: float, tau_hi: float, 
     if not (np.isfinite(s) and s > 0):
         return {"ok": False, "failing": -1, "vertices": 0, "min_eig": float("nan")}, K, P, eta
     check = check_lti_certificate(pw, s * P, s * eta, float(np.sqrt(alpha)), V.combos, V.ends,
-                                  None if c_dist is None else s * c_dist)
+                                  None if c_dist is None else s * c_dist, None if C_out is None else np.sqrt(s) * C_out)
     return check, K, P, eta
 
 
@@ -302,8 +309,10 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
     d = lti_depth(tau_max, m_lost, Ts)
     tau_hi = tau_max + m_lost * Ts
     dist = objective == "ultimate-bound"
-    if dist and plant.get("E") is None:
-        raise InputError("synthesis.objective: ultimate-bound needs plant.disturbance (E and its bound)")
+    if objective in ("ultimate-bound", "hinf") and plant.get("E") is None:
+        raise InputError(f"synthesis.objective: {objective} needs plant.disturbance (E and its bound)")
+    if objective == "hinf":
+        return _synthesize_hinf(plant, Ts, tau_min, tau_max, m_lost, pieces, solver, say)
     t0 = time.perf_counter()
     try:
         V = _Vertices(plant, Ts, tau_min, tau_hi, d, pieces)
@@ -426,6 +435,73 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
     # (P, eps) in the plant's units: V = xi' P xi, the multipliers scale like P
     return LtiDesign(True, "certified", objective, K, P / (unit * unit), eta / (unit * unit), a, figures, chk, d, nv,
                      solves, dt)
+
+
+def _synthesize_hinf(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int, pieces: int, solver: str,
+                     say) -> LtiDesign:
+    """``hinf``: the smallest gamma with ``V+ - V + |C x|^2 <= gamma^2 |d|^2 / g^2`` for every admissible
+    step, g = int_0^Ts ||e^{A r} E|| dr (so |d_k| <= g sup_{period k} ||w||): summed from x = 0,
+    ``sum_k |C x_k|^2 <= gamma^2 sum_k sup_{period k} ||w(t)||^2`` for any disturbance and delay sequence
+    (docs/theory.md §15).  One solve: maximize mu = g^2 / gamma^2, linear in the LMIs."""
+    import cvxpy as cp
+
+    from ..model.lti import disturbance_bound, lti_depth
+    from ..verified import round_up
+    from .solve import solve
+
+    A, B = plant["A"], plant["B"]
+    n, m = B.shape
+    d = lti_depth(tau_max, m_lost, Ts)
+    tau_hi = tau_max + m_lost * Ts
+    t0 = time.perf_counter()
+    from ..errors import InputError
+
+    try:
+        V = _Vertices(plant, Ts, tau_min, tau_hi, d, pieces)
+    except ValueError as exc:
+        raise InputError(f"plant: {exc} (delays up to {tau_hi:g} s)") from None
+    n_s = V.n_s
+    g = disturbance_bound(A, plant["E"], 1.0, Ts)
+    C = np.hstack([plant["C"], np.zeros((plant["C"].shape[0], n_s - n))])
+    C0, Cc, basis, CQ, SQ, CY, CE = _coefficients(V, True, C)
+    nv, k = C0.shape[0], C0.shape[-1]
+    n_q = basis.shape[0]
+    q = cp.Variable(n_q)
+    y = cp.Variable(m * n_s)
+    eps = cp.Variable((len(V.combos), V.d), nonneg=True)
+    mu = cp.Variable(nonneg=True)  # g^2 / gamma^2
+    SQf = SQ.reshape(n_q, k * k).T
+    cons = []
+    for v in range(nv):
+        lin = (C0[v].reshape(-1) + mu * Cc.reshape(-1) + CQ[v].reshape(n_q, -1).T @ q + SQf @ q
+               + CY[v].reshape(m * n_s, -1).T @ y + CE[v].reshape(V.d, -1).T @ eps[V.owner[v]])
+        X = cp.reshape(lin, (k, k), order="C")
+        cons.append((X + X.T) / 2 << -STRICT * np.eye(k))
+    prob = cp.Problem(cp.Maximize(mu), cons)
+    held: dict = {}
+
+    def accept() -> bool:
+        if q.value is None or y.value is None or eps.value is None or mu.value is None or float(mu.value) <= 0:
+            return False
+        gamma = g / float(np.sqrt(float(mu.value))) * (1.0 + 1e-6)  # rounded up: room for the proof
+        Qv = np.einsum("i,iab->ab", np.asarray(q.value, dtype=float), basis)
+        chk, K, P, eta = _prove(plant, V, Ts, tau_min, tau_hi, pieces, Qv, np.asarray(y.value).reshape(m, n_s),
+                                np.maximum(np.asarray(eps.value), 0.0), 1.0, gamma**2 / g**2, C)
+        held["last"] = (chk, K, P, eta, gamma)
+        return bool(chk["ok"])
+
+    out = solve(prob, solver, accept)
+    dt = time.perf_counter() - t0
+    if out.kind != "ok":
+        last = held.get("last")
+        status = "infeasible" if out.kind == "infeasible" else ("rejected" if last is not None else "failed")
+        return LtiDesign(False, status, "hinf", None, None, None, None, {}, last[0] if last else {}, d, nv,
+                         len(out.attempts), dt, f"no proven l2 gain ({out.record.status})")
+    chk, K, P, eta, gamma = held["last"]
+    say(f"hinf: l2 gain {gamma:.6g} (proven)")
+    figures = {"alpha": 1.0, "decay": 1.0, "hinf_gain": round_up(gamma, 2), "per_period_gain": g,
+               "outputs": [{"name": nm, "unit": un} for nm, un in zip(plant["outputs"], plant["output_units"])]}
+    return LtiDesign(True, "certified", "hinf", K, P, eta, 1.0, figures, chk, d, nv, len(out.attempts), dt)
 
 
 def _best(held: dict, dist: bool) -> float | None:
