@@ -72,11 +72,11 @@ def test_c_law_matches_bit_for_bit(tmp_path) -> None:
 int main(void) { rs_lti_state s; rs_lti_reset(&s); double x[RS_LTI_N], u[RS_LTI_M];
   while (scanf("%lf %lf", &x[0], &x[1]) == 2) { rs_lti_step(&s, x, u); printf("%.17g\\n", u[0]); } return 0; }
 """)
-    subprocess.run([CC, "-std=c99", "-O2", "-ffp-contract=off", "-Wall", "-Werror", "-o", str(out / "h"), str(out / "main.c"), str(out / "rs_lti.c")],
-                   check=True)
+    flags = ["-std=c99", "-O2", "-ffp-contract=off", "-Wall", "-Werror"]
+    subprocess.run([CC, *flags, "-o", str(out / "h"), str(out / "main.c"), str(out / "rs_lti.c")], check=True)
     xs = np.random.default_rng(3).standard_normal((STEPS, 2))
-    r = subprocess.run([str(out / "h")], input="\n".join(f"{float(a)!r} {float(b)!r}" for a, b in xs), capture_output=True, text=True,
-                       check=True)
+    text = "\n".join(f"{float(a)!r} {float(b)!r}" for a, b in xs)
+    r = subprocess.run([str(out / "h")], input=text, capture_output=True, text=True, check=True)
     got = np.array([float(v) for v in r.stdout.split()])
     assert np.array_equal(got, _reference(K, xs, 2, 1, 3)[:, 0])
 

@@ -110,7 +110,8 @@ def test_cli_chain_on_a_linear_plant(tmp_path) -> None:
     assert r.returncode == 2 and "not a linear plant's gains file" in r.stderr and len(r.stderr.strip().splitlines()) == 1
     # ultimate-bound without a disturbance: one line, exit 2, before anything is written
     bare = tmp_path / "bare.yaml"
-    bare.write_text(CONFIG.replace("  disturbance: {E: [[0], [0.1]], bound: 0.5}\n", "") + "synthesis: {objective: ultimate-bound}\n")
+    no_dist = CONFIG.replace("  disturbance: {E: [[0], [0.1]], bound: 0.5}\n", "")
+    bare.write_text(no_dist + "synthesis: {objective: ultimate-bound}\n")
     r = _run("synthesize", str(bare), "-o", str(tmp_path / "b"))
     assert r.returncode == 2 and "synthesis.objective" in r.stderr and len(r.stderr.strip().splitlines()) == 1
     # no gain exists: exit 3, and the old gain files are gone
