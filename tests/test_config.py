@@ -261,3 +261,18 @@ def test_load_config_takes_a_mapping_with_the_same_rules() -> None:
     d["network"]["delay"]["maxx"] = 0.1
     with pytest.raises(ConfigError, match="network.delay.maxx: unknown key"):
         load_config(d)
+
+
+def test_exponent_numbers_without_a_dot_are_numbers_and_lti_zero_inputs_refused() -> None:
+    """YAML 1.1 reads 1e6 as a string; a config means the number.  A zero disturbance matrix and a
+    zero output row are refused naming the key."""
+    from robustsynth.config import ConfigError, parse_config
+
+    base = ("name: t\nplant:\n  kind: lti\n  A: [[0, 1], [0, -0.1]]\n  B: [[0], [1e-1]]\n"
+            "network: {sampling_time: 5e-1, delay: {min: 0, max: 2.5E-1}}\n")
+    cfg = parse_config(base)
+    assert cfg.network.sampling_time == 0.5 and cfg.plant.B == [[0.0], [0.1]]
+    with pytest.raises(ConfigError, match="plant.disturbance.E: .*is zero"):
+        parse_config(base.replace("network:", "  disturbance: {E: [[0], [0]], bound: 1e6}\nnetwork:"))
+    with pytest.raises(ConfigError, match=r"plant.outputs.C: .*C\[1\]: is zero"):
+        parse_config(base.replace("network:", "  outputs: {C: [[1, 0], [0, 0]]}\nnetwork:"))

@@ -85,5 +85,7 @@ def test_lti_config_from_a_statespace() -> None:
     assert np.array_equal(pl["A"], np.asarray(sys_.A)) and np.array_equal(pl["C"], [[1.0, 0.0]])
     with pytest.raises(InputError, match="continuous time"):
         lti_config(control.ss([[0.5]], [[1]], [[1]], 0, dt=0.1), sampling_time=0.5, delay=(0, 0.5))
+    with pytest.raises(InputError, match="feedthrough D"):
+        lti_config(control.ss([[0, 1], [0, -0.1]], [[0], [0.1]], [[1, 0]], [[5]]), sampling_time=0.5, delay=(0, 0.5))
     with pytest.raises(ConfigError, match="plant.input_limits: 2 limits for the 1 inputs"):
         lti_config(sys_, sampling_time=0.5, delay=(0.0, 0.5), input_limits=[20, 3])

@@ -346,6 +346,8 @@ def _lti_certified_line(gd: dict[str, Any]) -> str:
     if c.get("hinf_gain") is not None:
         parts = [f"l2 gain {c['hinf_gain']:.4g} from the disturbance (per-period peak) to "
                  + ", ".join(o["name"] for o in c["outputs"])]
+    elif c.get("disturbance_step_bound") is not None:
+        parts = [f"V+ <= {c['alpha']:.4f} V + {1 - c['alpha']:.4f} (invariant, attracting set)"]
     else:
         parts = [f"decay {c['decay']:.4f} per period"]
     for o in c.get("outputs") or ():

@@ -8,6 +8,7 @@ with the file itself, with the file name.
 from __future__ import annotations
 
 import math
+import re
 from importlib import resources
 import json
 from pathlib import Path
@@ -460,12 +461,16 @@ class LtiDisturbance(_Node):
     """``x' = A x + B u + E w`` with ``||w(t)||_2 <= bound`` at every instant (any shape in time)."""
 
     E: Any = Field(description="n x q disturbance input matrix, a list of rows")
-    bound: Annotated[float, Field(gt=0, le=1e9)] = Field(description="bound on ||w(t)||_2 at every t")
+    bound: Annotated[float, Field(ge=1e-9, le=1e9)] = Field(description="bound on ||w(t)||_2 at every t (in w's "
+                                                             "units; rescale E for smaller ones)")
 
     @field_validator("E")
     @classmethod
     def _E(cls, v: Any) -> list[list[float]]:
-        return _matrix(v, "E")
+        E = _matrix(v, "E")
+        if not any(x != 0.0 for row in E for x in row):
+            raise ValueError("E: is zero (no disturbance enters: leave out plant.disturbance)")
+        return E
 
 
 class LtiOutputs(_Node):
@@ -480,7 +485,11 @@ class LtiOutputs(_Node):
     @field_validator("C")
     @classmethod
     def _C(cls, v: Any) -> list[list[float]]:
-        return _matrix(v, "C")
+        C = _matrix(v, "C")
+        for i, row in enumerate(C):
+            if not any(x != 0.0 for x in row):
+                raise ValueError(f"C[{i}]: is zero (an output that is always 0 needs no bound)")
+        return C
 
     @model_validator(mode="after")
     def _lengths(self) -> "LtiOutputs":
@@ -633,6 +642,13 @@ class _StrictLoader(yaml.SafeLoader):
             except TypeError:
                 pass
         return super().construct_mapping(node, deep=deep)
+
+# YAML 1.1 reads 1e6 or 2E-3 (no dot) as strings; a config means numbers (YAML 1.2's rule).  The
+# resolver lists are copied first: adding to SafeLoader's own would change every yaml user's.
+_StrictLoader.yaml_implicit_resolvers = {k: list(v) for k, v in yaml.SafeLoader.yaml_implicit_resolvers.items()}
+_StrictLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float", re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
+    list("-+.0123456789"))
 
 
 def _loc(loc: tuple[Any, ...]) -> str:
@@ -815,10 +831,10 @@ def _node_class(annotation: Any) -> type[BaseModel] | None:
     return None
 
 
-def check_config_key(path: str) -> None:
+def check_config_key(path: str, root: "type[BaseModel] | None" = None) -> None:
     """ConfigError naming ``path`` unless it is a dotted path to a leaf of the configuration
-    (``network.delay.max``), with the keys that exist there."""
-    node: type[BaseModel] = Config
+    (``network.delay.max``; of ``root``, default the robot's Config), with the keys that exist there."""
+    node: type[BaseModel] = root or Config
     parts = path.split(".")
     for i, part in enumerate(parts):
         fields = node.model_fields
@@ -838,12 +854,12 @@ def check_config_key(path: str) -> None:
             node = sub
 
 
-def config_with(config: Config, overrides: dict[str, Any]) -> Config:
+def config_with(config: "Config | LtiConfig", overrides: dict[str, Any]) -> "Config | LtiConfig":
     """``config`` with dotted-path ``overrides`` applied and validated like a file (ConfigError with
     the key path on a bad value or an unknown key)."""
     data = config.model_dump(mode="python")
     for path, value in overrides.items():
-        check_config_key(path)
+        check_config_key(path, type(config))
         node = data
         keys = path.split(".")
         for k in keys[:-1]:
@@ -852,7 +868,7 @@ def config_with(config: Config, overrides: dict[str, Any]) -> Config:
             node = node[k]
         node[keys[-1]] = value
     try:
-        return Config.model_validate(data)
+        return type(config).model_validate(data)
     except ValidationError as exc:
         raise ConfigError(_format_validation_error(exc)) from None
 

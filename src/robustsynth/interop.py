@@ -85,6 +85,10 @@ def lti_config(sys: Any, *, sampling_time: float, delay: Any, max_consecutive: i
     if sys.dt not in (0, None):
         raise InputError(f"sys: must be continuous time (dt = 0), got dt = {sys.dt}: robustsynth samples the plant itself")
     A, B, C = (np.asarray(getattr(sys, k), dtype=float) for k in ("A", "B", "C"))
+    D = np.asarray(getattr(sys, "D", np.zeros((C.shape[0], B.shape[1]))), dtype=float)
+    if D.size and np.any(D != 0) and "outputs" not in sections:
+        raise InputError("sys: has a feedthrough D != 0; the certificate bounds y = C x only (pass outputs=... to "
+                         "choose the bounded outputs yourself)")
     plant: dict[str, Any] = {"kind": "lti", "A": A.tolist(), "B": B.tolist()}
     states = list(getattr(sys, "state_labels", None) or [])
     if len(states) == A.shape[0]:

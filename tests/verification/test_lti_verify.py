@@ -52,12 +52,20 @@ def test_verify_passes_a_certified_design_with_room(design) -> None:
     assert by["outputs within their certified bounds"] > 0.5  # the probes reach the bounds' scale
 
 
-def test_verify_catches_an_overstated_bound(design) -> None:
+def test_verify_catches_an_understated_bound_and_refuses_nan(design) -> None:
+    """A bound 10 % below the set's extent fails (the maximizers of each output are among the starts);
+    a certificate with a NaN is refused, not passed."""
+    from robustsynth.errors import InputError
+
     pl, r = design
-    figs = dict(r.figures, outputs=[dict(o, bound=0.5 * o["bound"]) for o in r.figures["outputs"]])
+    figs = dict(r.figures, outputs=[dict(o, bound=0.9 * o["bound"]) for o in r.figures["outputs"]])
     v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, figs, runs=24, periods=30)
     assert not v["passed"]
     assert [c["ok"] for c in v["checks"] if c["name"].startswith("outputs")] == [False]
+    P = r.P.copy()
+    P[0, 0] = np.nan
+    with pytest.raises(InputError, match="must be finite"):
+        verify_lti(pl, r.K, P, 0.5, 0.0, 0.5, 0, r.figures, runs=4, periods=5)
 
 
 def test_verify_catches_delays_beyond_the_certificate() -> None:

@@ -335,6 +335,7 @@ _SWEEP_FIGURES = {  # figure key -> (row column, label, scale)
     "rho": ("rho_bound_rad_s", "certified |rho| [rad/s]", 1.0),
     "decay_rate": ("decay_rate", "certified decay rate", 1.0),
     "hinf_gain": ("hinf_gain", "certified l2 gain", 1.0),
+    "output_bound": ("output_bound", "certified largest output bound / scale", 1.0),
 }
 _STATUS_MARK = {"infeasible": ("x", "tab:red"), "solver-failure": ("s", "tab:orange"), "invalid": ("^", "tab:gray")}
 

@@ -26,7 +26,7 @@ from .spec import SweepSpec
 __all__ = ["SweepResult", "sweep", "run_point", "point_key"]
 
 # the figures of a row (SI units, named in the column); verification columns follow when --verify
-FIGURE_FIELDS = ("e_x_m", "e_y_m", "e_theta_rad", "rho_bound_rad_s", "decay_rate", "hinf_gain")
+FIGURE_FIELDS = ("e_x_m", "e_y_m", "e_theta_rad", "rho_bound_rad_s", "decay_rate", "hinf_gain", "output_bound")
 VERIFY_FIELDS = ("verified", "max_e_x_m", "max_e_y_m", "max_e_theta_rad", "max_rho_rad_s")
 STATUSES = ("certified", "infeasible", "solver-failure", "invalid")
 
@@ -55,6 +55,10 @@ def run_point(payload: dict[str, Any]) -> dict[str, Any]:
     t0 = time.perf_counter()
     out: dict[str, Any] = {"key": payload["key"], "status": "", "figures": None, "verification": None,
                            "gains": None, "gains_id": "", "message": ""}
+    from ..config import is_lti
+
+    if is_lti(payload["config"]):
+        return _run_lti_point(payload, out, t0)
     try:
         cfg = Config.model_validate(payload["config"])
         model = build_model(cfg)
@@ -79,6 +83,50 @@ def run_point(payload: dict[str, Any]) -> dict[str, Any]:
         out.update(status="infeasible", message=str(exc))
     except SolverFailure as exc:
         out.update(status="solver-failure", message=str(exc))
+    except (ConfigError, InputError) as exc:
+        out.update(status="invalid", message=str(exc))
+    out["time_s"] = time.perf_counter() - t0
+    return to_jsonable(out)
+
+
+def _run_lti_point(payload: dict[str, Any], out: dict[str, Any], t0: float) -> dict[str, Any]:
+    """run_point for a linear plant (plant: kind: lti): synthesize_lti (and verify_lti)."""
+    from ..artifacts.files import to_jsonable
+    from ..artifacts.gains import gains_id, lti_gains_dict
+    from ..config import config_from_dict
+    from ..model.lti import lti_plant
+    from ..synthesis.lti import synthesize_lti
+
+    try:
+        cfg = config_from_dict(payload["config"])
+        plant = lti_plant(cfg)
+        net = cfg.network
+        obj = cfg.objective
+        if obj in ("ultimate-bound", "hinf") and plant["E"] is None:
+            raise InputError(f"synthesis.objective: {obj} needs plant.disturbance (E and its bound)")
+        syn = cfg.synthesis
+        design = synthesize_lti(plant, net.sampling_time, net.delay.min, net.delay.max, net.dropouts.max_consecutive,
+                                obj, decay=syn.decay, pieces=syn.pieces, alpha_points=syn.alpha_points, solver=syn.solver)
+        if not design.certified:
+            out.update(status="infeasible" if design.status == "infeasible" else "solver-failure",
+                       message=design.message or design.status)
+        else:
+            f = design.figures
+            bounds = [o["bound"] / s for o, s in zip(f.get("outputs") or (), plant["scale"]) if o.get("bound") is not None]
+            gd = lti_gains_dict(cfg, plant, design)
+            out.update(status="certified", gains=to_jsonable(gd), gains_id=gains_id(to_jsonable(gd)),
+                       figures={"decay_rate": f["decay"], "hinf_gain": f.get("hinf_gain"),
+                                "output_bound": max(bounds) if bounds else None})
+            runs = payload.get("verify_runs")
+            if runs:
+                from ..verification.lti import verify_lti
+
+                v = verify_lti(plant, design.K, design.P, net.sampling_time, net.delay.min, net.delay.max,
+                               net.dropouts.max_consecutive, f, runs=runs)
+                out["verification"] = {"passed": bool(v["passed"]), "max": {},
+                                       "failed_checks": [c["name"] for c in v["checks"] if not c["ok"]]}
+    except Interrupted:
+        raise
     except (ConfigError, InputError) as exc:
         out.update(status="invalid", message=str(exc))
     out["time_s"] = time.perf_counter() - t0
@@ -111,7 +159,7 @@ def _row(index: int, point: dict[str, Any], res: dict[str, Any] | None, invalid_
     ub = f.get("ultimate_bound") or {}
     row.update({"e_x_m": ub.get("e_x"), "e_y_m": ub.get("e_y"), "e_theta_rad": ub.get("e_theta"),
                 "rho_bound_rad_s": f.get("motor_speed_bound"), "decay_rate": f.get("decay_rate"),
-                "hinf_gain": f.get("hinf_gain")})
+                "hinf_gain": f.get("hinf_gain"), "output_bound": f.get("output_bound")})
     if verify_runs:
         v = res.get("verification") or {}
         mx = v.get("max") or {}

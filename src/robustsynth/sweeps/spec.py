@@ -24,13 +24,13 @@ from typing import Any
 import numpy as np
 import yaml
 
-from ..config import MAX_CONFIG_BYTES, Config, check_config_key, load_config
+from ..config import MAX_CONFIG_BYTES, Config, check_config_key, is_lti, load_config
 from ..errors import ConfigError
 
 __all__ = ["SweepSpec", "parse_sweep", "load_sweep", "FIGURE_KEYS", "MAX_POINTS"]
 
 MAX_POINTS = 100_000
-FIGURE_KEYS = ("e_x", "e_y", "e_theta", "rho", "decay_rate", "hinf_gain")
+FIGURE_KEYS = ("e_x", "e_y", "e_theta", "rho", "decay_rate", "hinf_gain", "output_bound")
 _TOP_KEYS = ("base", "axes", "mode", "figure")
 
 
@@ -134,7 +134,7 @@ def parse_sweep(text: str | bytes, source: str = "<sweep>", directory: Path | No
         if not isinstance(key, str):
             raise ConfigError(f"{where}axes: keys must be dotted config keys (got {key!r})")
         try:
-            check_config_key(key)
+            check_config_key(key, type(base))
         except ConfigError as exc:
             raise ConfigError(f"{where}axes.{exc}") from None
         axes.append((key, _axis_values(key, raw, where)))
@@ -143,6 +143,16 @@ def parse_sweep(text: str | bytes, source: str = "<sweep>", directory: Path | No
         if len(set(lengths.values())) > 1:
             raise ConfigError(f"{where}axes: mode zip needs axes of equal length (got "
                               + ", ".join(f"{k}: {n}" for k, n in lengths.items()) + ")")
+    if is_lti(base):
+        if figure in ("e_x", "e_y", "e_theta", "rho"):
+            figure = "output_bound" if "figure" not in data else figure
+        if figure in ("e_x", "e_y", "e_theta", "rho"):
+            raise ConfigError(f"{where}figure: {figure} is the robot's; a linear plant's are decay_rate, hinf_gain, "
+                              "output_bound")
+        if base.plant.file is not None and not Path(base.plant.file).is_absolute():  # workers do not know this file's folder
+            folder = Path(base_path).parent if directory is None else directory / Path(base_path).parent
+            base = base.model_copy(update={"plant": base.plant.model_copy(
+                update={"file": str((folder / base.plant.file).resolve())})})
     spec = SweepSpec(base, base_path, tuple(axes), mode, figure, source)
     n = int(np.prod(spec.shape))
     if n > MAX_POINTS:

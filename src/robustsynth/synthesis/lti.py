@@ -433,6 +433,9 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
             return refuse("the input limits were not proven on the set")
         figures["inputs"] = [{"name": f"u{i + 1}", "limit": float(u_max[i])} for i in range(m)]
     # (P, eps) in the plant's units: V = xi' P xi, the multipliers scale like P
+    if not (np.all(np.isfinite(P / (unit * unit))) and np.all(np.isfinite(eta / (unit * unit))) and unit > 0):
+        return refuse(f"the set's matrix is not finite in the plant's units (disturbance step bound {delta:.3g}): "
+                      "rescale the units")
     return LtiDesign(True, "certified", objective, K, P / (unit * unit), eta / (unit * unit), a, figures, chk, d, nv,
                      solves, dt)
 

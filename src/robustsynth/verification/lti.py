@@ -76,12 +76,16 @@ def verify_lti(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, tau_min: fl
     d = max(lti_depth(tau_max, m_lost, Ts), (K.shape[1] - n) // m)
     K = pad_lti_gain(np.asarray(K, dtype=float), n, m, d)
     n_s = n + d * m
+    from ..errors import InputError
+
     P = np.asarray(P, dtype=float)
     if P.shape != (n_s, n_s):
-        from ..errors import InputError
-
         raise InputError(f"P: the certified set's matrix is {P.shape[0]} x {P.shape[1]}, the lifted state has {n_s}")
+    if not (np.all(np.isfinite(P)) and np.all(np.isfinite(K))):
+        raise InputError("P, K: must be finite (a certificate with non-finite entries proves nothing)")
     P = (P + P.T) / 2.0
+    if np.min(np.linalg.eigvalsh(P)) <= 0:
+        raise InputError("P: must be positive definite (the certified set {xi' P xi <= 1} is an ellipsoid)")
     rng = np.random.default_rng(seed)
     checks: list[dict[str, Any]] = []
 
@@ -111,27 +115,28 @@ def verify_lti(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, tau_min: fl
     fam_report: dict[str, dict[str, float]] = {}
 
     def record(name: str, Vs: np.ndarray, xs: np.ndarray, V0: np.ndarray) -> None:
-        """The figures after the first step (the starts are on the boundary by construction)."""
+        """V after the first step (the starts are on the boundary by construction); the outputs and
+        inputs from the start on (the starts include each one's maximizer on the set).  NaN counts
+        as a violation."""
         k = np.arange(1, Vs.shape[1])
-        Vs, xs = Vs[:, 1:], xs[:, 1:]
         if dist:
-            vmax = float(np.max(Vs))
-            worst["V"] = max(worst["V"], vmax)
+            vmax = float(np.max(Vs[:, 1:]))
+            worst["V"] = max(worst["V"], vmax) if np.isfinite(vmax) else np.inf
         else:
-            ratio = float(np.max(Vs / (alpha ** k[None, :] * V0[:, None])))
-            worst["decay"] = max(worst["decay"], ratio)
+            ratio = float(np.max(Vs[:, 1:] / (alpha ** k[None, :] * V0[:, None])))
+            worst["decay"] = max(worst["decay"], ratio) if np.isfinite(ratio) else np.inf
             vmax = ratio
         rep = {"max_V_ratio": vmax}
         inside = Vs <= 1.0 + TOL
         if out_bounds is not None:
             y = np.abs(np.einsum("ij,rkj->rki", C, xs)) / out_bounds
             o = float(np.max(np.where(inside[..., None], y, 0.0)))
-            worst["outputs"] = max(worst["outputs"], o)
+            worst["outputs"] = max(worst["outputs"], o) if np.isfinite(o) else np.inf
             rep["max_output_ratio"] = o
         if u_max is not None:
             u = np.abs(np.einsum("ij,rkj->rki", K, xs)) / u_max
             o = float(np.max(np.where(inside[..., None], u, 0.0)))
-            worst["inputs"] = max(worst["inputs"], o)
+            worst["inputs"] = max(worst["inputs"], o) if np.isfinite(o) else np.inf
             rep["max_input_ratio"] = o
         fam_report[name] = rep
 
@@ -228,7 +233,7 @@ def _l2_gain_check(plant: dict, K: np.ndarray, Ts: float, tau_min: float, tau_ma
                 resp[:k] = M[r, k] @ resp[:k]
                 resp[k] = D
                 T[k * p : (k + 1) * p, : (k + 1) * q] = (C @ resp[: k + 1]).transpose(1, 0, 2).reshape(p, -1)
-            g = float(np.linalg.norm(T, 2))
+            g = float(np.linalg.norm(T, 2)) if np.all(np.isfinite(T)) else np.inf
             if g > worst:
                 worst, where = g, name
     return {"name": "l2 gain of the exact loop (max over delay sequences / certified)", "value": worst / gamma,
