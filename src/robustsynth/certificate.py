@@ -933,3 +933,55 @@ def lti_within(P: np.ndarray, rows: np.ndarray, bounds: np.ndarray) -> np.ndarra
         L = P - R
         out.append(proves_at_least(L, 0.0, assembly_radius(np.abs(P) + np.abs(R), 3)))
     return np.array(out, dtype=bool)
+
+
+def recheck_lti(plant: dict, gains: Mapping[str, Any], Ts: float, tau_min: float, tau_max: float,
+                m_lost: int) -> dict[str, Any]:
+    """A linear plant's gains file re-proven from its own numbers (K, P, multipliers, alpha, figures)
+    against this plant and network: the vertex blocks of the over-approximation built for K (with
+    the disturbance or the l2 gain's terms) and every output bound and input limit on the set.
+    Returns {"ok", "reason"}."""
+    from .model.lti import disturbance_bound, lti_depth, over_approximation, vertex_combinations
+
+    try:
+        K = np.asarray(gains["K"], dtype=float)
+        cert, figs = gains["certificate"], gains["certified"]
+        P = np.asarray(cert["P"], dtype=float)
+        eps = np.asarray(cert["multipliers"], dtype=float)
+        alpha = float(cert["alpha"])
+        pieces = int(cert["pieces"])
+    except (KeyError, TypeError, ValueError) as exc:
+        return {"ok": False, "reason": f"malformed certificate ({exc})"}
+    A, B = plant["A"], plant["B"]
+    n, m = B.shape
+    d = (K.shape[1] - n) // m
+    if d < lti_depth(tau_max, m_lost, Ts) or P.shape != (K.shape[1],) * 2:
+        return {"ok": False, "reason": f"the gain keeps {d} commands; delays up to {tau_max + m_lost * Ts:g} s need "
+                                       f"{lti_depth(tau_max, m_lost, Ts)}"}
+    if not (np.all(np.isfinite(P)) and np.all(np.isfinite(K)) and np.all(np.isfinite(eps))):
+        return {"ok": False, "reason": "non-finite entries"}
+    lam = float(np.min(np.linalg.eigvalsh((P + P.T) / 2.0)))
+    if not lam > 0:
+        return {"ok": False, "reason": "P is not positive definite"}
+    s = 1.0 / lam
+    C = np.hstack([plant["C"], np.zeros((plant["C"].shape[0], K.shape[1] - n))])
+    dist = out = None
+    if figs.get("hinf_gain") is not None:
+        g = disturbance_bound(A, plant["E"], 1.0, Ts)
+        dist, out = s * float(figs["hinf_gain"]) ** 2 / g**2, np.sqrt(s) * C
+    elif figs.get("disturbance_step_bound") is not None:
+        delta = disturbance_bound(A, plant["E"], plant["w_max"], Ts)
+        dist = s * (1.0 - alpha) / delta**2
+    pw = over_approximation(A, B, K, Ts, tau_min, tau_max + m_lost * Ts, d, pieces)
+    combos, ends = vertex_combinations(pw)
+    if eps.shape != combos.shape:
+        return {"ok": False, "reason": f"multipliers {eps.shape}, the vertices need {combos.shape}"}
+    chk = check_lti_certificate(pw, s * P, s * eps, float(np.sqrt(alpha)), combos, ends, dist, out)
+    if not chk["ok"]:
+        return {"ok": False, "reason": f"vertex block {chk['failing']} not proven (min eigenvalue {chk['min_eig']:.3g})"}
+    outs = [o for o in figs.get("outputs") or () if o.get("bound") is not None]
+    if outs and not lti_within(P, C, np.array([o["bound"] for o in outs])).all():
+        return {"ok": False, "reason": "an output bound is not proven on the set"}
+    if figs.get("inputs") and not lti_within(P, K, np.array([u["limit"] for u in figs["inputs"]])).all():
+        return {"ok": False, "reason": "an input limit is not proven on the set"}
+    return {"ok": True, "reason": ""}

@@ -133,7 +133,13 @@ def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Pa
     except (TypeError, ValueError, KeyError) as exc:
         raise InputError(f"{gp}: certificate: malformed ({exc})") from None
     Ts, lo, hi, ml = _net(config)
+    from .certificate import recheck_lti
+
     data = verify_lti(plant, K, P, Ts, lo, hi, ml, figures, runs=runs or 64, seed=0 if seed is None else seed)
+    proof = recheck_lti(plant, gd, Ts, lo, hi, ml)
+    data["checks"].insert(0, {"name": "the certificate re-proven in numpy for this config", "value": float(proof["ok"]),
+                              "limit": 1.0, "ok": proof["ok"], "detail": proof["reason"] or "verified arithmetic"})
+    data["passed"] = data["passed"] and proof["ok"]
     data["gains"] = str(gp)
     written = commit_files(out, {"verification.md": lti_verification_markdown(data).encode("utf-8"),
                                  "verification.json": json_bytes(data)}, primary="verification.json",

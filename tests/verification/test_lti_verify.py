@@ -139,3 +139,17 @@ def test_verify_hinf_passes_and_catches_an_understated_gain() -> None:
     assert v["passed"] and 0.3 < v["checks"][-1]["value"] < 1.0
     v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, dict(r.figures, hinf_gain=0.25 * r.figures["hinf_gain"]))
     assert not v["passed"] and not v["checks"][-1]["ok"]
+
+
+def test_the_gains_file_is_re_proven(design) -> None:
+    """recheck_lti proves a design from its own numbers, and refuses a changed gain or a lowered bound."""
+    from robustsynth.certificate import recheck_lti
+
+    pl, r = design
+    gd = {"K": r.K.tolist(), "certified": r.figures,
+          "certificate": {"P": r.P.tolist(), "multipliers": r.eps.tolist(), "alpha": r.alpha, "pieces": 2}}
+    assert recheck_lti(pl, gd, 0.5, 0.0, 0.5, 0)["ok"]
+    assert not recheck_lti(pl, dict(gd, K=(1.2 * r.K).tolist()), 0.5, 0.0, 0.5, 0)["ok"]
+    low = dict(r.figures, outputs=[dict(o, bound=0.99 * o["bound"]) for o in r.figures["outputs"]])
+    assert "output bound" in recheck_lti(pl, dict(gd, certified=low), 0.5, 0.0, 0.5, 0)["reason"]
+    assert not recheck_lti(pl, gd, 0.5, 0.0, 0.5, 1)["ok"]  # a loss it was not certified for

@@ -28,6 +28,7 @@ evaluation of the norms).  :func:`coverage_check` tests the containment on rando
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 from typing import Any
 
@@ -36,7 +37,7 @@ import numpy as np
 from .lifting import instant_ranges, lift
 
 __all__ = ["gamma", "exact_closed_loop", "Piecewise", "over_approximation", "coverage_check", "lti_plant", "pad_lti_gain",
-           "check_lti_gain", "disturbance_bound", "lti_depth", "periodic_spectral_radius", "lti_plant_from", "REMAINDER_INFLATION"]
+           "check_lti_gain", "disturbance_bound", "lti_depth", "periodic_spectral_radius", "vertex_combinations", "lti_plant_from", "REMAINDER_INFLATION"]
 
 REMAINDER_INFLATION = 1e-9  # relative: the remainder bound's own rounding (norms by SVD, expm)
 
@@ -104,6 +105,15 @@ class Piecewise:
             G = f(self.base[j][i]) + end[j] * self.width[j][i] * f(self.slope[j][i])
             M = M + f(self.E) @ G @ f(self.F[j])
         return M
+
+
+def vertex_combinations(pw) -> tuple[np.ndarray, np.ndarray]:
+    """(piece combinations (n_c, d), end combinations (n_e, d)): every piece of every instant, and both
+    ends of a piece (one where the instant's range is a point)."""
+    combos = np.array(list(itertools.product(*[range(t.size) for t in pw.theta])), dtype=int).reshape(-1, pw.d_hi)
+    ends_per = [[0] if float(np.max(w)) == 0.0 else [0, 1] for w in pw.width]
+    ends = np.array(list(itertools.product(*ends_per)), dtype=float).reshape(-1, pw.d_hi)
+    return combos, ends
 
 
 def over_approximation(A: np.ndarray, B: np.ndarray, K: np.ndarray, Ts: float, tau_min: float, tau_max: float,

@@ -15,11 +15,12 @@ verified arithmetic.
 
 from __future__ import annotations
 
-import itertools
 import time
 from dataclasses import dataclass
 
 import numpy as np
+
+from ..model.lti import vertex_combinations
 
 __all__ = ["LtiAnalysis", "analyze_lti", "vertex_combinations", "LtiDesign", "synthesize_lti", "DECAY", "STRICT"]
 
@@ -38,15 +39,6 @@ class LtiAnalysis:
     vertices: int
     solve_time_s: float
     check: dict
-
-
-def vertex_combinations(pw) -> tuple[np.ndarray, np.ndarray]:
-    """(piece combinations (n_c, d), end combinations (n_e, d)): every piece of every instant, and both
-    ends of a piece (one where the instant's range is a point)."""
-    combos = np.array(list(itertools.product(*[range(t.size) for t in pw.theta])), dtype=int).reshape(-1, pw.d_hi)
-    ends_per = [[0] if float(np.max(w)) == 0.0 else [0, 1] for w in pw.width]
-    ends = np.array(list(itertools.product(*ends_per)), dtype=float).reshape(-1, pw.d_hi)
-    return combos, ends
 
 
 def _vertex_matrices(pw, combos: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
