@@ -469,7 +469,7 @@ def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
             raise InputError("--log: robot logs are for the tracked robot, not a linear plant")
         from .pipeline_lti import lti_verification_stage
 
-        data = lti_verification_stage(cfg, out, gains, config, runs, seed)
+        data = lti_verification_stage(cfg, out, gains, config, runs, seed, plots=not no_plots)
         _lti_report(obj, data)
         obj.say(f"wrote {', '.join(data['files'])}")
         return EXIT_OK if data["passed"] else EXIT_VERIFICATION_FAILED
@@ -511,7 +511,7 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
         _lti_only(multiplier=multiplier, diagnose=diagnose)
         from .pipeline_lti import lti_run
 
-        res = lti_run(cfg, out, config, _stage_lines(obj), objective, solver, runs, seed)
+        res = lti_run(cfg, out, config, _stage_lines(obj), objective, solver, runs, seed, plots=not no_plots)
         obj.say(_lti_certified_line(res["synthesis"]["gains"]))
         _lti_report(obj, res["verification"])
         obj.say(f"report: {out / 'report.md'}")

@@ -107,9 +107,9 @@ def lti_synthesis_stage(config: Any, outdir: str | Path, config_path: str | Path
 
 def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Path | None = None,
                            config_path: str | Path | None = None, runs: int | None = None,
-                           seed: int | None = None) -> dict[str, Any]:
+                           seed: int | None = None, plots: bool = True) -> dict[str, Any]:
     """The certified gain's claims on the exactly lifted loop (:func:`robustsynth.verification.lti.verify_lti`);
-    writes verification.json and verification.md."""
+    writes verification.json, verification.md and (``plots``) verification.png."""
     from .artifacts.gains import load_gains
     from .errors import InputError
     from .model.lti import check_lti_gain
@@ -143,19 +143,23 @@ def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Pa
     data["gains"] = str(gp)
     written = commit_files(out, {"verification.md": lti_verification_markdown(data).encode("utf-8"),
                                  "verification.json": json_bytes(data)}, primary="verification.json",
-                           invalidate=RUN_FILES)
+                           invalidate=RUN_FILES + ("verification.png",))
+    if plots:
+        from .report.plots import lti_verification_figure
+
+        written.append(lti_verification_figure(data, out / "verification.png"))
     data["files"] = [str(p) for p in written]
     return data
 
 
 def lti_run(config: Any, outdir: str | Path, config_path: str | Path | None = None,
             on_step: Callable[[str], None] | None = None, objective: str | None = None, solver: str | None = None,
-            runs: int | None = None, seed: int | None = None) -> dict[str, Any]:
+            runs: int | None = None, seed: int | None = None, plots: bool = True) -> dict[str, Any]:
     """synthesize, then verify; report.md and summary.json."""
     from .report.lti import lti_synthesis_markdown, lti_verification_markdown
 
     syn = lti_synthesis_stage(config, outdir, config_path, on_step, objective, solver)
-    ver = lti_verification_stage(config, outdir, None, config_path, runs, seed)
+    ver = lti_verification_stage(config, outdir, None, config_path, runs, seed, plots)
     out = Path(outdir)
     report = lti_synthesis_markdown(syn["gains"]) + "\n" + lti_verification_markdown(ver)
     summary = {"config": config.name, "kind": "lti", "certified": syn["gains"]["certified"],

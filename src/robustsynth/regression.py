@@ -37,7 +37,7 @@ def run_config(config_path: Path, outdir: Path) -> dict[str, Any]:
         from .pipeline_lti import lti_run
 
         try:
-            res = lti_run(cfg, outdir, config_path)
+            res = lti_run(cfg, outdir, config_path, plots=False)
         except RobustSynthError as exc:
             summary = {"name": cfg.name, "status": "lti-not-certified", "exit_code": exc.exit_code}
         else:

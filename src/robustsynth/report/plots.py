@@ -573,3 +573,36 @@ def validation_figure(res: dict[str, Any], waypoints: Any, path: Path) -> Path:
     fig.suptitle(f"validate: {v['episodes']} episodes, {v['engine']} — "
                  + ("passed" if v.get("passed") else "FAILED"), fontsize=11)
     return _save_png(plt, fig, path)
+
+
+def lti_verification_figure(data: dict[str, Any], path: Path) -> Path:
+    """A linear plant's verification: the frozen-delay spectral radius, and V along the worst run of
+    each delay family against the certificate (the set's level 1, or alpha^k without a disturbance)."""
+    plt = _plt()
+    tr = data["traces"]
+    has_v = bool(tr.get("V"))
+    fig, axes = plt.subplots(1, 2 if has_v else 1, figsize=(11 if has_v else 6, 4))
+    axes = np.atleast_1d(axes)
+    ax = axes[0]
+    ax.plot(tr["frozen"]["delay"], tr["frozen"]["spectral_radius"], color="tab:blue")
+    ax.axhline(1.0, color="tab:red", lw=1, ls="--", label="instability")
+    ax.set_xlabel("constant delay [s]")
+    ax.set_ylabel("spectral radius of the exact loop")
+    ax.set_title("Frozen delays")
+    ax.legend(loc="best", fontsize=8)
+    if has_v:
+        ax = axes[1]
+        for name, v in tr["V"].items():
+            ax.plot(np.arange(len(v)), v, lw=1, label=name)
+        k = np.arange(max(len(v) for v in tr["V"].values()))
+        if tr.get("set"):
+            ax.axhline(1.0, color="k", lw=1.5, label="certified set V = 1")
+            ax.set_ylabel("V = xi' P xi (worst run per family)")
+        else:
+            ax.plot(k, tr["alpha"] ** k, color="k", lw=1.5, label="certified alpha^k")
+            ax.set_yscale("log")
+            ax.set_ylabel("V_k / V_0 (worst run per family)")
+        ax.set_xlabel("period k")
+        ax.set_title("From the set's boundary")
+        ax.legend(loc="best", fontsize=7)
+    return _save_png(plt, fig, path)
