@@ -16,18 +16,11 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from .export_lti import _f  # a C double literal that reads back exactly
+
 __all__ = ["TARGETS", "export_controller", "export_files", "c_files", "python_module", "ros2_parameters", "json_description"]
 
 TARGETS = ("c", "python", "ros2", "json")
-
-
-def _f(v: float) -> str:
-    """A C double literal that reads back as exactly ``v``."""
-    v = float(v)
-    if not math.isfinite(v):
-        raise ValueError(f"non-finite constant {v!r}")
-    s = repr(v)
-    return s if any(ch in s for ch in ".eE") else s + ".0"
 
 
 def _c_array(values) -> str:

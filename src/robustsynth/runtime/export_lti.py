@@ -16,6 +16,7 @@ LTI_TARGETS = ("c", "python", "json")
 
 
 def _f(v: float) -> str:
+    """A C double literal that reads back as exactly ``v`` (17 significant digits by repr)."""
     import math
 
     v = float(v)

@@ -208,6 +208,20 @@ def _dual_blocks(V: _Vertices, Q: np.ndarray, Y: np.ndarray, eps_v: np.ndarray, 
     return X
 
 
+def _vertices_of(plant: dict, Ts: float, tau_min: float, tau_hi: float, d: int, pieces: int
+                 ) -> tuple[_Vertices, np.ndarray]:
+    """The vertices (an over-approximation that overflows is bad input, exit 2) and the outputs' rows
+    on the lifted state."""
+    from ..errors import InputError
+
+    try:
+        V = _Vertices(plant, Ts, tau_min, tau_hi, d, pieces)
+    except ValueError as exc:
+        raise InputError(f"plant: {exc} (delays up to {tau_hi:g} s)") from None
+    C = plant["C"]
+    return V, np.hstack([C, np.zeros((C.shape[0], V.n_s - C.shape[1]))])
+
+
 def _eps_diag(eps_v: np.ndarray, m: int) -> np.ndarray:
     """-diag(eps_j I_m) per vertex, (nv, d m, d m)."""
     nv, d = eps_v.shape
@@ -306,14 +320,10 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
     if objective == "hinf":
         return _synthesize_hinf(plant, Ts, tau_min, tau_max, m_lost, pieces, solver, say)
     t0 = time.perf_counter()
-    try:
-        V = _Vertices(plant, Ts, tau_min, tau_hi, d, pieces)
-    except ValueError as exc:
-        raise InputError(f"plant: {exc} (delays up to {tau_hi:g} s)") from None
+    V, C = _vertices_of(plant, Ts, tau_min, tau_hi, d, pieces)
     n_s = V.n_s
     delta = disturbance_bound(A, plant["E"], plant["w_max"], Ts) if dist else 1.0
     u_max = plant.get("u_max")
-    C = np.hstack([plant["C"], np.zeros((plant["C"].shape[0], n_s - n))])
     scale = np.asarray(plant["scale"], dtype=float)
     C0, Cc, basis, CQ, SQ, CY, CE = _coefficients(V, dist)
     nv, k = C0.shape[0], C0.shape[-1]
@@ -449,15 +459,9 @@ def _synthesize_hinf(plant: dict, Ts: float, tau_min: float, tau_max: float, m_l
     d = lti_depth(tau_max, m_lost, Ts)
     tau_hi = tau_max + m_lost * Ts
     t0 = time.perf_counter()
-    from ..errors import InputError
-
-    try:
-        V = _Vertices(plant, Ts, tau_min, tau_hi, d, pieces)
-    except ValueError as exc:
-        raise InputError(f"plant: {exc} (delays up to {tau_hi:g} s)") from None
+    V, C = _vertices_of(plant, Ts, tau_min, tau_hi, d, pieces)
     n_s = V.n_s
     g = disturbance_bound(A, plant["E"], 1.0, Ts)
-    C = np.hstack([plant["C"], np.zeros((plant["C"].shape[0], n_s - n))])
     C0, Cc, basis, CQ, SQ, CY, CE = _coefficients(V, True, C)
     nv, k = C0.shape[0], C0.shape[-1]
     n_q = basis.shape[0]
