@@ -263,7 +263,7 @@ def test_load_config_takes_a_mapping_with_the_same_rules() -> None:
         load_config(d)
 
 
-def test_exponent_numbers_without_a_dot_are_numbers_and_lti_zero_inputs_refused() -> None:
+def test_yaml_exponents_and_what_a_linear_plant_config_refuses() -> None:
     """YAML 1.1 reads 1e6 as a string; a config means the number.  A zero disturbance matrix and a
     zero output row are refused naming the key."""
     from robustsynth.config import ConfigError, parse_config
@@ -276,3 +276,7 @@ def test_exponent_numbers_without_a_dot_are_numbers_and_lti_zero_inputs_refused(
         parse_config(base.replace("network:", "  disturbance: {E: [[0], [0]], bound: 1e6}\nnetwork:"))
     with pytest.raises(ConfigError, match=r"plant.outputs.C: .*C\[1\]: is zero"):
         parse_config(base.replace("network:", "  outputs: {C: [[1, 0], [0, 0]]}\nnetwork:"))
+    with pytest.raises(ConfigError, match=r"synthesis.integral_action: the tracked robot's; not available for a linear"):
+        parse_config(base + "synthesis: {integral_action: true}\n")
+    with pytest.raises(ConfigError, match="reference: a section of the tracked robot's config"):
+        parse_config(base + "reference: {speed: 0.5}\n")

@@ -562,6 +562,11 @@ class LtiMarginConfig(_Node):
                                                                     "[s] (default 4 sampling periods)")
 
 
+ROBOT_ONLY_SECTIONS = ("robot", "reference", "slip", "verification", "physics")
+ROBOT_ONLY_SYNTHESIS = ("model", "lyapunov", "integral_action", "delay_description", "kinematics", "heading_bound",
+                        "symmetry", "multiplier", "weights", "motor_limits", "bisection_tol", "margin")
+
+
 class LtiSynthesisConfig(_Node):
     """``robustsynth synthesize`` on a linear plant: a gain u_k = K xi_k on the lifted state (docs/theory.md §15)."""
 
@@ -589,6 +594,24 @@ class LtiConfig(_Named):
     network: NetworkConfig
     margin: LtiMarginConfig = Field(default_factory=LtiMarginConfig)
     synthesis: LtiSynthesisConfig = Field(default_factory=LtiSynthesisConfig)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _robot_only(cls, data: Any) -> Any:
+        """The tracked robot's sections and features, asked for on a linear plant: said so by name."""
+        if not isinstance(data, Mapping):
+            return data
+        for key in ROBOT_ONLY_SECTIONS:
+            if key in data:
+                raise ValueError(f"{_FIELD}{key}: a section of the tracked robot's config; not part of a linear "
+                                 "plant's (plant: kind: lti)")
+        syn = data.get("synthesis")
+        if isinstance(syn, Mapping):
+            for key in ROBOT_ONLY_SYNTHESIS:
+                if key in syn:
+                    raise ValueError(f"{_FIELD}synthesis.{key}: the tracked robot's; not available for a linear plant "
+                                     "(plant: kind: lti)")
+        return data
 
     @property
     def objective(self) -> str:
