@@ -555,7 +555,7 @@ class ControllerConfig(_Node):
 
 
 class LtiMarginConfig(_Node):
-    pieces: Annotated[int, Field(ge=1, le=64)] = Field(default=8, description="pieces per switching instant's range "
+    pieces: Annotated[int, Field(ge=1, le=64)] = Field(default=6, description="pieces per switching instant's range "
                                                        "in the guaranteed over-approximation")
     tolerance: Annotated[float, Field(gt=0, le=1)] = Field(default=1e-3, description="bisection tolerance of a margin [s]")
     delay_far: Annotated[float, Field(gt=0, le=100)] | None = Field(default=None, description="largest delay searched "

@@ -56,14 +56,18 @@ def gamma(A: np.ndarray, B: np.ndarray, theta: np.ndarray | float) -> np.ndarray
 
     theta = np.asarray(theta, dtype=float)
     n = A.shape[0]
-    E = expm(_augmented(A, B) * theta[..., None, None])
-    return E[..., :n, n:]
+    flat = theta.reshape(-1)
+    u, inv = np.unique(flat, return_inverse=True)  # searches repeat grid values: one exponential per value
+    E = expm(_augmented(A, B) * u[:, None, None])
+    return E[inv, :n, n:].reshape(theta.shape + (n, B.shape[1]))
 
 
 def _phi(A: np.ndarray, theta: np.ndarray | float) -> np.ndarray:
     from scipy.linalg import expm
 
-    return expm(A * np.asarray(theta, dtype=float)[..., None, None])
+    theta = np.asarray(theta, dtype=float)
+    u, inv = np.unique(theta.reshape(-1), return_inverse=True)
+    return expm(A * u[:, None, None])[inv].reshape(theta.shape + A.shape)
 
 
 def exact_closed_loop(A: np.ndarray, B: np.ndarray, K: np.ndarray, Ts: float, s_tilde: np.ndarray) -> np.ndarray:
@@ -108,9 +112,17 @@ class Piecewise:
 
 
 def vertex_combinations(pw) -> tuple[np.ndarray, np.ndarray]:
-    """(piece combinations (n_c, d), end combinations (n_e, d)): every piece of every instant, and both
-    ends of a piece (one where the instant's range is a point)."""
+    """(piece combinations (n_c, d), end combinations (n_e, d)): a piece of every instant, and both
+    ends of a piece (one where the instant's range is a point).  Delivery is in order, so
+    ``s~_0 >= s~_1 >= ...``, i.e. ``theta_0 <= theta_1 <= ...``: a combination whose piece of instant j
+    starts after the end of its piece of instant j + 1 holds no admissible instants and is left out."""
     combos = np.array(list(itertools.product(*[range(t.size) for t in pw.theta])), dtype=int).reshape(-1, pw.d_hi)
+    keep = np.ones(len(combos), dtype=bool)
+    for j in range(pw.d_hi - 1):
+        start = pw.theta[j][combos[:, j]]
+        end = pw.theta[j + 1][combos[:, j + 1]] + pw.width[j + 1][combos[:, j + 1]]
+        keep &= start <= end + 1e-12 * (1.0 + abs(end))  # a hair generous: keeping one too many is safe
+    combos = combos[keep]
     ends_per = [[0] if float(np.max(w)) == 0.0 else [0, 1] for w in pw.width]
     ends = np.array(list(itertools.product(*ends_per)), dtype=float).reshape(-1, pw.d_hi)
     return combos, ends

@@ -55,9 +55,7 @@ def analyze_lti(pw, decay: float = DECAY, solver: str = "clarabel") -> LtiAnalys
     """Search P, eps for the LMIs of the module docstring; the verdict is the numpy check's.
 
     Every vertex's block is linear in the unknowns y = (P's upper triangle, eps): its coefficient
-    matrices are computed in numpy, so cvxpy sees one affine map per vertex (fast to compile)."""
-    import cvxpy as cp
-
+    matrices are computed in numpy, and enter as parameters of a problem compiled once per structure."""
     from ..certificate import check_lti_certificate
     from .solve import solve
 
@@ -85,15 +83,10 @@ def analyze_lti(pw, decay: float = DECAY, solver: str = "clarabel") -> LtiAnalys
         rho2 = np.array([float(pw.rho[j][combos[c, j]]) ** 2 for c in owner])
         CE[:, j, :n_s, :n_s] = rho2[:, None, None] * (pw.F[j].T @ pw.F[j])
         CE[:, j, n_s + j * n : n_s + (j + 1) * n, n_s + j * n : n_s + (j + 1) * n] -= np.eye(n)
-    p = cp.Variable(n_p)
-    eps = cp.Variable((len(combos), d), nonneg=True)
-    P = cp.reshape(basis.reshape(n_p, -1).T @ p, (n_s, n_s), order="C")
-    cons = [P >> np.eye(n_s)]
-    for v in range(len(Ms)):
-        lin = CP[v].reshape(n_p, k * k).T @ p + CE[v].reshape(d, k * k).T @ eps[owner[v]]
-        X = cp.reshape(lin, (k, k), order="C")
-        cons.append((X + X.T) / 2 << -STRICT * np.eye(k))
-    prob = cp.Problem(cp.Minimize(0), cons)
+    prob, p, eps, CPp, CEp = _analysis_problem(len(Ms), n_p, k, d, len(combos), n_s, tuple(owner.tolist()), basis)
+    for v in range(len(Ms)):  # the vertices' coefficients: parameters of a problem compiled once per structure
+        CPp[v].value = CP[v].reshape(n_p, k * k).T
+        CEp[v].value = CE[v].reshape(d, k * k).T
     held: dict = {}
 
     def P_value() -> np.ndarray:
@@ -106,7 +99,9 @@ def analyze_lti(pw, decay: float = DECAY, solver: str = "clarabel") -> LtiAnalys
         return bool(held["check"]["ok"])
 
     t0 = time.perf_counter()
-    out = solve(prob, solver, accept)
+    # no first-order fallback: SCS at 1e-8 took 31 s on a 150-vertex problem and rescued nothing
+    # (measured: margin on configs/zbp.yaml with 6 pieces); a failed solve is "not certified here"
+    out = solve(prob, solver, accept, fallback=False)
     dt = time.perf_counter() - t0
     vertices = len(Ms)
     if out.kind == "ok":
@@ -114,6 +109,35 @@ def analyze_lti(pw, decay: float = DECAY, solver: str = "clarabel") -> LtiAnalys
                            held["check"])
     status = "infeasible" if out.kind == "infeasible" else ("rejected" if "check" in held else "failed")
     return LtiAnalysis(False, status, None, None, vertices, dt, held.get("check", {}))
+
+
+_PROBLEMS: dict = {}  # the analysis LMIs per structure, compiled once by cvxpy (its parameters: the coefficients)
+_PROBLEMS_KEPT = 4
+
+
+def _analysis_problem(n_v: int, n_p: int, k: int, d: int, n_c: int, n_s: int, owner: tuple, basis: np.ndarray):
+    """(problem, p, eps, coefficient parameters per vertex) of a structure: the margins' bisections solve
+    the same structure many times with new coefficients, and cvxpy then reuses its compilation (DPP),
+    which took two thirds of a solve's time (measured: profile of `robustsynth margin configs/zbp.yaml`)."""
+    import cvxpy as cp
+
+    key = (n_v, n_p, k, d, n_c, n_s, owner)
+    if key in _PROBLEMS:
+        return _PROBLEMS[key]
+    p = cp.Variable(n_p)
+    eps = cp.Variable((n_c, d), nonneg=True)
+    CPp = [cp.Parameter((k * k, n_p)) for _ in range(n_v)]
+    CEp = [cp.Parameter((k * k, d)) for _ in range(n_v)]
+    P = cp.reshape(basis.reshape(n_p, -1).T @ p, (n_s, n_s), order="C")
+    cons = [P >> np.eye(n_s)]
+    for v in range(n_v):
+        X = cp.reshape(CPp[v] @ p + CEp[v] @ eps[owner[v]], (k, k), order="C")
+        cons.append((X + X.T) / 2 << -STRICT * np.eye(k))
+    entry = (cp.Problem(cp.Minimize(0), cons), p, eps, CPp, CEp)
+    while len(_PROBLEMS) >= _PROBLEMS_KEPT:
+        _PROBLEMS.pop(next(iter(_PROBLEMS)))
+    _PROBLEMS[key] = entry
+    return entry
 
 
 # ------------------------------------------------------------------ synthesis (docs/theory.md §15)
@@ -384,7 +408,7 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
 
         held.pop("last", None)
         held["solves"] = held.get("solves", 0) + 1
-        out = solve(prob, solver, accept, fallback=len(grid) == 1)  # a line search moves on instead
+        out = solve(prob, solver, accept, fallback=False)  # SCS is slow here and rescues nothing (analyze_lti)
         if out.kind != "ok":
             say(f"alpha {a:.4f}: {out.kind}")
             return None
@@ -489,7 +513,7 @@ def _synthesize_hinf(plant: dict, Ts: float, tau_min: float, tau_max: float, m_l
         held["last"] = (chk, K, P, eta, gamma)
         return bool(chk["ok"])
 
-    out = solve(prob, solver, accept)
+    out = solve(prob, solver, accept, fallback=False)  # as analyze_lti
     dt = time.perf_counter() - t0
     if out.kind != "ok":
         last = held.get("last")
