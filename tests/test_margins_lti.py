@@ -189,3 +189,24 @@ def test_schema_of_a_linear_plant_and_the_controllability_warning(tmp_path) -> N
     r = run("margin", str(unctrl), "-o", str(tmp_path / "m"))
     assert r.returncode == 0, r.stderr
     assert "not controllable" in r.stderr
+
+
+def test_the_compiled_analysis_problem_holds_no_stale_answer() -> None:
+    """The analysis LMIs are compiled once per structure and re-solved with new coefficients: a
+    certifiable, an uncertifiable and again the certifiable delay range of one structure give
+    True, False, True, each proven on its own."""
+    from robustsynth.model.lti import over_approximation
+    from robustsynth.synthesis.lti import analyze_lti
+
+    A = np.array([[0.0, 1.0], [0.0, -0.1]])
+    B = np.array([[0.0], [0.1]])
+    K = -np.array([[3.75, 11.5]])
+    K = np.hstack([K, np.zeros((1, 2))])
+    from robustsynth.synthesis import lti as syn
+
+    ok = over_approximation(A, B, K, 0.5, 0.0, 0.84, 2, 4)
+    bad = over_approximation(A, B, K, 0.5, 0.0, 0.95, 2, 4)  # beyond the exhibited 0.923 s
+    before = len(syn._PROBLEMS)
+    got = [analyze_lti(pw).certified for pw in (ok, bad, ok)]
+    assert got == [True, False, True]
+    assert len(syn._PROBLEMS) <= before + 1  # one structure (13 piece combinations each): one compiled problem

@@ -15,6 +15,7 @@ verified arithmetic.
 
 from __future__ import annotations
 
+import threading
 import time
 from dataclasses import dataclass
 
@@ -83,36 +84,38 @@ def analyze_lti(pw, decay: float = DECAY, solver: str = "clarabel") -> LtiAnalys
         rho2 = np.array([float(pw.rho[j][combos[c, j]]) ** 2 for c in owner])
         CE[:, j, :n_s, :n_s] = rho2[:, None, None] * (pw.F[j].T @ pw.F[j])
         CE[:, j, n_s + j * n : n_s + (j + 1) * n, n_s + j * n : n_s + (j + 1) * n] -= np.eye(n)
-    prob, p, eps, CPp, CEp = _analysis_problem(len(Ms), n_p, k, d, len(combos), n_s, tuple(owner.tolist()), basis)
-    for v in range(len(Ms)):  # the vertices' coefficients: parameters of a problem compiled once per structure
-        CPp[v].value = CP[v].reshape(n_p, k * k).T
-        CEp[v].value = CE[v].reshape(d, k * k).T
-    held: dict = {}
+    with _PROBLEMS_LOCK:  # the cached problem's parameters and values belong to one solve at a time
+        prob, p, eps, CPp, CEp = _analysis_problem(len(Ms), n_p, k, d, len(combos), n_s, tuple(owner.tolist()), basis)
+        for v in range(len(Ms)):  # the vertices' coefficients: parameters of a problem compiled once per structure
+            CPp[v].value = CP[v].reshape(n_p, k * k).T
+            CEp[v].value = CE[v].reshape(d, k * k).T
+        held: dict = {}
 
-    def P_value() -> np.ndarray:
-        return np.einsum("i,iab->ab", np.asarray(p.value, dtype=float), basis)
+        def P_value() -> np.ndarray:
+            return np.einsum("i,iab->ab", np.asarray(p.value, dtype=float), basis)
 
-    def accept() -> bool:
-        if p.value is None or eps.value is None:
-            return False
-        held["check"] = check_lti_certificate(pw, P_value(), np.maximum(eps.value, 0.0), decay, combos, ends)
-        return bool(held["check"]["ok"])
+        def accept() -> bool:
+            if p.value is None or eps.value is None:
+                return False
+            held["check"] = check_lti_certificate(pw, P_value(), np.maximum(eps.value, 0.0), decay, combos, ends)
+            return bool(held["check"]["ok"])
 
-    t0 = time.perf_counter()
-    # no first-order fallback: SCS at 1e-8 took 31 s on a 150-vertex problem and rescued nothing
-    # (measured: margin on configs/zbp.yaml with 6 pieces); a failed solve is "not certified here"
-    out = solve(prob, solver, accept, fallback=False)
-    dt = time.perf_counter() - t0
-    vertices = len(Ms)
-    if out.kind == "ok":
-        return LtiAnalysis(True, "certified", P_value(), np.maximum(np.array(eps.value), 0.0), vertices, dt,
-                           held["check"])
-    status = "infeasible" if out.kind == "infeasible" else ("rejected" if "check" in held else "failed")
-    return LtiAnalysis(False, status, None, None, vertices, dt, held.get("check", {}))
+        t0 = time.perf_counter()
+        # no first-order fallback: SCS at 1e-8 took 31 s on a 150-vertex problem and rescued nothing
+        # (measured: margin on configs/zbp.yaml with 6 pieces); a failed solve is "not certified here"
+        out = solve(prob, solver, accept, fallback=False)
+        dt = time.perf_counter() - t0
+        vertices = len(Ms)
+        if out.kind == "ok":
+            return LtiAnalysis(True, "certified", P_value(), np.maximum(np.array(eps.value), 0.0), vertices, dt,
+                               held["check"])
+        status = "infeasible" if out.kind == "infeasible" else ("rejected" if "check" in held else "failed")
+        return LtiAnalysis(False, status, None, None, vertices, dt, held.get("check", {}))
 
 
 _PROBLEMS: dict = {}  # the analysis LMIs per structure, compiled once by cvxpy (its parameters: the coefficients)
 _PROBLEMS_KEPT = 4
+_PROBLEMS_LOCK = threading.RLock()
 
 
 def _analysis_problem(n_v: int, n_p: int, k: int, d: int, n_c: int, n_s: int, owner: tuple, basis: np.ndarray):
