@@ -920,6 +920,20 @@ def check_lti_certificate(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float,
             "min_eig": float(np.min(np.linalg.eigvalsh(blocks)))}
 
 
+def check_lti_scaled(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, combos: np.ndarray, ends: np.ndarray,
+                     dist: float | None = None, out: np.ndarray | None = None) -> dict[str, Any]:
+    """:func:`check_lti_certificate` of a certificate of any scale: ``V+ <= decay^2 V + c |d|^2 (- |C xi|^2)``
+    is homogeneous in (P, eps, c, C'C), so it is checked for s P with s = 1 / lambda_min(P) (P >= I, the
+    scale the proof margin is meant for), which proves it for P."""
+    P = np.asarray(P, dtype=float)
+    lam = float(np.min(np.linalg.eigvalsh((P + P.T) / 2.0))) if np.all(np.isfinite(P)) else float("nan")
+    if not lam > 0:
+        return {"ok": False, "failing": -1, "vertices": 0, "min_eig": lam}
+    s = 1.0 / lam
+    return check_lti_certificate(pw, s * P, s * np.asarray(eps, dtype=float), decay, combos, ends,
+                                 None if dist is None else s * dist, None if out is None else np.sqrt(s) * out)
+
+
 def lti_within(P: np.ndarray, rows: np.ndarray, bounds: np.ndarray) -> np.ndarray:
     """Per row r_i: proven ``|r_i xi| <= bounds[i]`` on {xi' P xi <= 1}, i.e. ``P - r_i' r_i / b_i^2 >= 0``
     in verified arithmetic (the bound's square and quotient rounded with the assembly)."""
@@ -960,23 +974,19 @@ def recheck_lti(plant: dict, gains: Mapping[str, Any], Ts: float, tau_min: float
                                        f"{lti_depth(tau_max, m_lost, Ts)}"}
     if not (np.all(np.isfinite(P)) and np.all(np.isfinite(K)) and np.all(np.isfinite(eps))):
         return {"ok": False, "reason": "non-finite entries"}
-    lam = float(np.min(np.linalg.eigvalsh((P + P.T) / 2.0)))
-    if not lam > 0:
+    if not float(np.min(np.linalg.eigvalsh((P + P.T) / 2.0))) > 0:
         return {"ok": False, "reason": "P is not positive definite"}
-    s = 1.0 / lam
     C = np.hstack([plant["C"], np.zeros((plant["C"].shape[0], K.shape[1] - n))])
     dist = out = None
     if figs.get("hinf_gain") is not None:
-        g = disturbance_bound(A, plant["E"], 1.0, Ts)
-        dist, out = s * float(figs["hinf_gain"]) ** 2 / g**2, np.sqrt(s) * C
+        dist, out = float(figs["hinf_gain"]) ** 2 / disturbance_bound(A, plant["E"], 1.0, Ts) ** 2, C
     elif figs.get("disturbance_step_bound") is not None:
-        delta = disturbance_bound(A, plant["E"], plant["w_max"], Ts)
-        dist = s * (1.0 - alpha) / delta**2
+        dist = (1.0 - alpha) / disturbance_bound(A, plant["E"], plant["w_max"], Ts) ** 2
     pw = over_approximation(A, B, K, Ts, tau_min, tau_max + m_lost * Ts, d, pieces)
     combos, ends = vertex_combinations(pw)
     if eps.shape != combos.shape:
         return {"ok": False, "reason": f"multipliers {eps.shape}, the vertices need {combos.shape}"}
-    chk = check_lti_certificate(pw, s * P, s * eps, float(np.sqrt(alpha)), combos, ends, dist, out)
+    chk = check_lti_scaled(pw, P, eps, float(np.sqrt(alpha)), combos, ends, dist, out)
     if not chk["ok"]:
         return {"ok": False, "reason": f"vertex block {chk['failing']} not proven (min eigenvalue {chk['min_eig']:.3g})"}
     outs = [o for o in figs.get("outputs") or () if o.get("bound") is not None]

@@ -29,8 +29,8 @@ def _net(config: Any) -> tuple[float, float, float, int]:
     return net.sampling_time, net.delay.min, net.delay.max, net.dropouts.max_consecutive
 
 
-def lti_gain(config: Any, plant: dict[str, Any], gains_path: str | Path | None) -> tuple[np.ndarray, dict | None]:
-    """The gain to analyze: a gains file's K (with the file's mapping), else the config's controller.gain."""
+def lti_gain(config: Any, plant: dict[str, Any], gains_path: str | Path | None) -> np.ndarray:
+    """The gain to analyze: a gains file's K, else the config's controller.gain."""
     from .artifacts.gains import load_gains
     from .errors import InputError
     from .model.lti import check_lti_gain
@@ -40,10 +40,10 @@ def lti_gain(config: Any, plant: dict[str, Any], gains_path: str | Path | None) 
         gd = load_gains(gains_path)
         K = np.asarray(gd["K"], dtype=float)
         check_lti_gain(K, n, m, f"{gains_path}: K")
-        return K, gd
+        return K
     if plant["K"] is None:
         raise InputError("controller.gain: required for a linear plant's margin (or pass --gains)")
-    return plant["K"], None
+    return plant["K"]
 
 
 def lti_model_stage(config: Any, outdir: str | Path, config_path: str | Path | None = None) -> dict[str, Any]:
@@ -78,19 +78,12 @@ def lti_synthesis_stage(config: Any, outdir: str | Path, config_path: str | Path
     InfeasibleError (exit 3) or SolverFailure (exit 4) is raised."""
     from .artifacts.files import remove_files
     from .artifacts.gains import lti_gains_dict, lti_gains_mat_vars
-    from .errors import InfeasibleError, InputError, SolverFailure
+    from .errors import InfeasibleError, SolverFailure
     from .report.lti import lti_synthesis_markdown
-    from .synthesis.lti import synthesize_lti
+    from .synthesis.lti import synthesize_lti_config
 
     plant = lti_plant_of(config, config_path)
-    Ts, lo, hi, ml = _net(config)
-    obj = objective or config.objective
-    if obj in ("ultimate-bound", "hinf") and plant["E"] is None:
-        raise InputError(f"synthesis.objective: {obj} needs plant.disturbance (E and its bound)")
-    syn = config.synthesis
-    design = synthesize_lti(plant, Ts, lo, hi, ml, obj, decay=syn.decay, pieces=syn.pieces,
-                            alpha_points=syn.alpha_points, solver=solver or syn.solver,
-                            say=on_step or (lambda s: None))
+    design = synthesize_lti_config(config, plant, objective, solver, on_step or (lambda s: None))
     out = make_dir(outdir)
     if not design.certified:
         remove_files(out, SYNTHESIS_FILES + VERIFICATION_FILES + RUN_FILES)
@@ -111,6 +104,7 @@ def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Pa
     """The certified gain's claims on the exactly lifted loop (:func:`robustsynth.verification.lti.verify_lti`);
     writes verification.json, verification.md and (``plots``) verification.png."""
     from .artifacts.gains import load_gains
+    from .certificate import recheck_lti
     from .errors import InputError
     from .model.lti import check_lti_gain
     from .report.lti import lti_verification_markdown
@@ -133,8 +127,6 @@ def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Pa
     except (TypeError, ValueError, KeyError) as exc:
         raise InputError(f"{gp}: certificate: malformed ({exc})") from None
     Ts, lo, hi, ml = _net(config)
-    from .certificate import recheck_lti
-
     data = verify_lti(plant, K, P, Ts, lo, hi, ml, figures, runs=runs or 64, seed=0 if seed is None else seed)
     proof = recheck_lti(plant, gd, Ts, lo, hi, ml)
     data["checks"].insert(0, {"name": "the certificate re-proven in numpy for this config", "value": float(proof["ok"]),
@@ -178,7 +170,7 @@ def lti_margin_stage(config: Any, outdir: str | Path, config_path: str | Path | 
     from .report.lti import lti_margin_markdown
 
     plant = lti_plant_of(config, config_path)
-    K, _ = lti_gain(config, plant, gains_path)
+    K = lti_gain(config, plant, gains_path)
     plant = dict(plant, K=K)
     data = {"plant": {"kind": "lti", "n": int(plant["A"].shape[0]), "m": int(plant["B"].shape[1]),
                       "states": plant["states"], "units": plant["units"], "controllable": plant["controllable"]},

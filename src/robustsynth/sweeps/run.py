@@ -95,18 +95,13 @@ def _run_lti_point(payload: dict[str, Any], out: dict[str, Any], t0: float) -> d
     from ..artifacts.gains import gains_id, lti_gains_dict
     from ..config import config_from_dict
     from ..model.lti import lti_plant
-    from ..synthesis.lti import synthesize_lti
+    from ..synthesis.lti import synthesize_lti_config
 
     try:
         cfg = config_from_dict(payload["config"])
         plant = lti_plant(cfg)
         net = cfg.network
-        obj = cfg.objective
-        if obj in ("ultimate-bound", "hinf") and plant["E"] is None:
-            raise InputError(f"synthesis.objective: {obj} needs plant.disturbance (E and its bound)")
-        syn = cfg.synthesis
-        design = synthesize_lti(plant, net.sampling_time, net.delay.min, net.delay.max, net.dropouts.max_consecutive,
-                                obj, decay=syn.decay, pieces=syn.pieces, alpha_points=syn.alpha_points, solver=syn.solver)
+        design = synthesize_lti_config(cfg, plant)
         if not design.certified:
             out.update(status="infeasible" if design.status == "infeasible" else "solver-failure",
                        message=design.message or design.status)

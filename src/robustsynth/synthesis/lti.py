@@ -23,7 +23,8 @@ import numpy as np
 
 from ..model.lti import vertex_combinations
 
-__all__ = ["LtiAnalysis", "analyze_lti", "vertex_combinations", "LtiDesign", "synthesize_lti", "DECAY", "STRICT"]
+__all__ = ["LtiAnalysis", "analyze_lti", "vertex_combinations", "LtiDesign", "synthesize_lti", "synthesize_lti_config",
+           "DECAY", "STRICT"]
 
 DECAY = 1.0 - 1e-6  # V shrinks by at least this factor per period: asymptotic stability with a margin
 STRICT = 1e-7  # the LMIs' strictness (P >= I fixes the scale)
@@ -40,6 +41,15 @@ class LtiAnalysis:
     vertices: int
     solve_time_s: float
     check: dict
+
+
+def _sym_basis(n: int) -> np.ndarray:
+    """The symmetric n x n matrices S_i with ones at (a, b) and (b, a), one per upper-triangle entry."""
+    iu = np.triu_indices(n)
+    basis = np.zeros((iu[0].size, n, n))
+    basis[np.arange(iu[0].size), iu[0], iu[1]] = 1.0
+    basis[np.arange(iu[0].size), iu[1], iu[0]] = 1.0
+    return basis
 
 
 def _vertex_matrices(pw, combos: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -66,11 +76,8 @@ def analyze_lti(pw, decay: float = DECAY, solver: str = "clarabel") -> LtiAnalys
     k = n_s + d * n
     Et = np.hstack([pw.E] * d)
     Ms, owner = _vertex_matrices(pw, combos, ends)
-    iu = np.triu_indices(n_s)
-    n_p = iu[0].size
-    basis = np.zeros((n_p, n_s, n_s))  # P = sum_i p_i S_i
-    basis[np.arange(n_p), iu[0], iu[1]] = 1.0
-    basis[np.arange(n_p), iu[1], iu[0]] = 1.0
+    basis = _sym_basis(n_s)  # P = sum_i p_i S_i
+    n_p = len(basis)
     # the P-part of every vertex block, per basis matrix: [[M' S M - decay^2 S, M' S E~], [E~' S M, E~' S E~]]
     MtS = np.einsum("vab,ibc->viac", Ms.transpose(0, 2, 1), basis)  # (n_v, n_p, n_s, n_s)
     top = MtS @ Ms[:, None] - decay**2 * basis[None]
@@ -266,10 +273,7 @@ def _coefficients(V: _Vertices, dist: bool, C_out: np.ndarray | None = None):
     ze = np.zeros((len(V.Av), d))
     C0 = _dual_blocks(V, zQ, zY, ze, 0.0, None, C_out)
     Cc = _dual_blocks(V, zQ, zY, ze, 0.0, 1.0, C_out)[0] - C0[0] if dist else np.zeros(C0.shape[1:])  # per unit of 1/c
-    iu = np.triu_indices(n_s)
-    basis = np.zeros((iu[0].size, n_s, n_s))
-    basis[np.arange(iu[0].size), iu[0], iu[1]] = 1.0
-    basis[np.arange(iu[0].size), iu[1], iu[0]] = 1.0
+    basis = _sym_basis(n_s)
     CQ = np.stack([_dual_blocks(V, S, zY, ze, 0.0, None, C_out) - C0 for S in basis], axis=1)
     k = C0.shape[-1]
     SQ = np.zeros((len(basis), k, k))
@@ -288,12 +292,36 @@ def _coefficients(V: _Vertices, dist: bool, C_out: np.ndarray | None = None):
     return C0, Cc, basis, CQ, SQ, np.stack(CY, axis=1), np.stack(CE, axis=1)
 
 
+def _vertex_lmis(V: _Vertices, dist: bool, c_coef, alpha_coef, C_out: np.ndarray | None = None):
+    """The cvxpy unknowns (q, y, eps), Q and Y, the symmetric basis and one LMI per vertex of
+    :func:`_dual_blocks`; ``c_coef`` multiplies the disturbance's 1/c term and ``alpha_coef`` the -Q
+    corner (parameters, a variable, or constants)."""
+    import cvxpy as cp
+
+    C0, Cc, basis, CQ, SQ, CY, CE = _coefficients(V, dist, C_out)
+    nv, k = C0.shape[0], C0.shape[-1]
+    n_q, n_s, m = len(basis), V.n_s, V.m
+    q = cp.Variable(n_q)
+    y = cp.Variable(m * n_s)
+    eps = cp.Variable((len(V.combos), V.d), nonneg=True)
+    SQf = SQ.reshape(n_q, k * k).T
+    cons = []
+    for v in range(nv):
+        lin = (C0[v].reshape(-1) + c_coef * Cc.reshape(-1) + CQ[v].reshape(n_q, -1).T @ q + alpha_coef * (SQf @ q)
+               + CY[v].reshape(m * n_s, -1).T @ y + CE[v].reshape(V.d, -1).T @ eps[V.owner[v]])
+        X = cp.reshape(lin, (k, k), order="C")
+        cons.append((X + X.T) / 2 << -STRICT * np.eye(k))
+    Q = cp.reshape(basis.reshape(n_q, -1).T @ q, (n_s, n_s), order="C")
+    Y = cp.reshape(y, (m, n_s), order="C")
+    return q, y, eps, Q, Y, basis, cons
+
+
 def _prove(plant: dict, V: _Vertices, Ts: float, tau_min: float, tau_hi: float, pieces: int, Q: np.ndarray,
            Y: np.ndarray, eps: np.ndarray, alpha: float, c_dist: float | None, C_out: np.ndarray | None = None
            ) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray]:
     """The gain K = Y Q^-1 and its certificate P = Q^-1, eta = 1/eps, re-checked in the primal form on
     the over-approximation built for K itself (:func:`robustsynth.certificate.check_lti_certificate`)."""
-    from ..certificate import check_lti_certificate
+    from ..certificate import check_lti_scaled
     from ..model.lti import over_approximation
 
     Q = (Q + Q.T) / 2.0
@@ -305,14 +333,7 @@ def _prove(plant: dict, V: _Vertices, Ts: float, tau_min: float, tau_hi: float, 
     if not (np.all(np.isfinite(K)) and np.all(np.isfinite(eta))):
         return {"ok": False, "failing": -1, "vertices": 0, "min_eig": float("nan")}, K, P, eta
     pw = over_approximation(plant["A"], plant["B"], K, Ts, tau_min, tau_hi, V.d, pieces)
-    # V+ <= alpha V + c |d|^2 is homogeneous in (P, eta, c): checked for s P >= I (the analysis's scale,
-    # where the proof margin is meant), which proves it for P
-    s = 1.0 / float(np.min(np.linalg.eigvalsh(P)))
-    if not (np.isfinite(s) and s > 0):
-        return {"ok": False, "failing": -1, "vertices": 0, "min_eig": float("nan")}, K, P, eta
-    check = check_lti_certificate(pw, s * P, s * eta, float(np.sqrt(alpha)), V.combos, V.ends,
-                                  None if c_dist is None else s * c_dist, None if C_out is None else np.sqrt(s) * C_out)
-    return check, K, P, eta
+    return check_lti_scaled(pw, P, eta, float(np.sqrt(alpha)), V.combos, V.ends, c_dist, C_out), K, P, eta
 
 
 def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int, objective: str,
@@ -344,33 +365,19 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
     dist = objective == "ultimate-bound"
     if objective in ("ultimate-bound", "hinf") and plant.get("E") is None:
         raise InputError(f"synthesis.objective: {objective} needs plant.disturbance (E and its bound)")
-    if objective == "hinf":
-        return _synthesize_hinf(plant, Ts, tau_min, tau_max, m_lost, pieces, solver, say)
     t0 = time.perf_counter()
     V, C = _vertices_of(plant, Ts, tau_min, tau_hi, d, pieces)
-    n_s = V.n_s
+    nv, n_s = len(V.Av), V.n_s
+    if objective == "hinf":
+        return _synthesize_hinf(plant, V, C, Ts, tau_min, tau_hi, pieces, solver, say, t0)
     delta = disturbance_bound(A, plant["E"], plant["w_max"], Ts) if dist else 1.0
     u_max = plant.get("u_max")
     scale = np.asarray(plant["scale"], dtype=float)
-    C0, Cc, basis, CQ, SQ, CY, CE = _coefficients(V, dist)
-    nv, k = C0.shape[0], C0.shape[-1]
-    n_q = basis.shape[0]
-    q = cp.Variable(n_q)
-    y = cp.Variable(m * n_s)
-    eps = cp.Variable((len(V.combos), V.d), nonneg=True)
     t = cp.Variable()
     al = cp.Parameter(nonneg=True)
     icd = cp.Parameter(nonneg=True)  # 1/c of the disturbance: beta^2 / (1 - alpha)
     u2 = cp.Parameter(m, nonneg=True)  # the input limits squared, in the LMIs' units
-    Q = cp.reshape(basis.reshape(n_q, -1).T @ q, (n_s, n_s), order="C")
-    Y = cp.reshape(y, (m, n_s), order="C")
-    cons = []
-    SQf = SQ.reshape(n_q, k * k).T
-    for v in range(nv):
-        lin = (C0[v].reshape(-1) + icd * Cc.reshape(-1) + CQ[v].reshape(n_q, -1).T @ q + al * (SQf @ q)
-               + CY[v].reshape(m * n_s, -1).T @ y + CE[v].reshape(V.d, -1).T @ eps[V.owner[v]])
-        X = cp.reshape(lin, (k, k), order="C")
-        cons.append((X + X.T) / 2 << -STRICT * np.eye(k))
+    q, y, eps, Q, Y, basis, cons = _vertex_lmis(V, dist, icd, al)
     if u_max is not None:
         for i in range(m):
             cons.append(cp.bmat([[cp.reshape(u2[i], (1, 1), order="C"), Y[i : i + 1, :]], [Y[i : i + 1, :].T, Q]]) >> 0)
@@ -424,8 +431,7 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
         attempt(a)
     best = _best(held, dist)
     if dist and best is not None:  # refine between the best grid point's neighbours (golden section on log(1 - alpha))
-        for _ in _golden(_bracket(grid, best), attempt, GOLDEN_STEPS):
-            pass
+        _golden(_bracket(grid, best), attempt, GOLDEN_STEPS)
         best = _best(held, dist)
     solves = held.get("solves", 0)
     dt = time.perf_counter() - t0
@@ -469,40 +475,32 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
                      solves, dt)
 
 
-def _synthesize_hinf(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int, pieces: int, solver: str,
-                     say) -> LtiDesign:
+def synthesize_lti_config(cfg, plant: dict, objective: str | None = None, solver: str | None = None,
+                          say=lambda s: None) -> LtiDesign:
+    """:func:`synthesize_lti` with an lti config's network and synthesis settings (the objective and the
+    solver may be overridden)."""
+    net, syn = cfg.network, cfg.synthesis
+    return synthesize_lti(plant, net.sampling_time, net.delay.min, net.delay.max, net.dropouts.max_consecutive,
+                          objective or cfg.objective, decay=syn.decay, pieces=syn.pieces,
+                          alpha_points=syn.alpha_points, solver=solver or syn.solver, say=say)
+
+
+def _synthesize_hinf(plant: dict, V: _Vertices, C: np.ndarray, Ts: float, tau_min: float, tau_hi: float, pieces: int,
+                     solver: str, say, t0: float) -> LtiDesign:
     """``hinf``: the smallest gamma with ``V+ - V + |C x|^2 <= gamma^2 |d|^2 / g^2`` for every admissible
     step, g = int_0^Ts ||e^{A r} E|| dr (so |d_k| <= g sup_{period k} ||w||): summed from x = 0,
     ``sum_k |C x_k|^2 <= gamma^2 sum_k sup_{period k} ||w(t)||^2`` for any disturbance and delay sequence
     (docs/theory.md §15).  One solve: maximize mu = g^2 / gamma^2, linear in the LMIs."""
     import cvxpy as cp
 
-    from ..model.lti import disturbance_bound, lti_depth
+    from ..model.lti import disturbance_bound
     from ..verified import round_up
     from .solve import solve
 
-    A, B = plant["A"], plant["B"]
-    n, m = B.shape
-    d = lti_depth(tau_max, m_lost, Ts)
-    tau_hi = tau_max + m_lost * Ts
-    t0 = time.perf_counter()
-    V, C = _vertices_of(plant, Ts, tau_min, tau_hi, d, pieces)
-    n_s = V.n_s
-    g = disturbance_bound(A, plant["E"], 1.0, Ts)
-    C0, Cc, basis, CQ, SQ, CY, CE = _coefficients(V, True, C)
-    nv, k = C0.shape[0], C0.shape[-1]
-    n_q = basis.shape[0]
-    q = cp.Variable(n_q)
-    y = cp.Variable(m * n_s)
-    eps = cp.Variable((len(V.combos), V.d), nonneg=True)
+    m, n_s, d, nv = V.m, V.n_s, V.d, len(V.Av)
+    g = disturbance_bound(plant["A"], plant["E"], 1.0, Ts)
     mu = cp.Variable(nonneg=True)  # g^2 / gamma^2
-    SQf = SQ.reshape(n_q, k * k).T
-    cons = []
-    for v in range(nv):
-        lin = (C0[v].reshape(-1) + mu * Cc.reshape(-1) + CQ[v].reshape(n_q, -1).T @ q + SQf @ q
-               + CY[v].reshape(m * n_s, -1).T @ y + CE[v].reshape(V.d, -1).T @ eps[V.owner[v]])
-        X = cp.reshape(lin, (k, k), order="C")
-        cons.append((X + X.T) / 2 << -STRICT * np.eye(k))
+    q, y, eps, _, _, basis, cons = _vertex_lmis(V, True, mu, 1.0, C)
     prob = cp.Problem(cp.Maximize(mu), cons)
     held: dict = {}
 
@@ -542,24 +540,19 @@ def _bracket(grid: np.ndarray, a: float) -> tuple[float, float]:
     return float(grid[max(i - 1, 0)]), float(grid[min(i + 1, len(grid) - 1)])
 
 
-def _golden(lo_hi: tuple[float, float], f, steps: int):
-    """Golden-section search of f over log(1 - alpha) in the bracket (f None: infeasible, taken as +inf)."""
+def _golden(lo_hi: tuple[float, float], f, steps: int) -> None:
+    """``steps`` evaluations of a golden-section search of f over log(1 - alpha) in the bracket (f keeps
+    what it finds; None: infeasible, taken as +inf)."""
     lo, hi = (np.log(1.0 - x) for x in lo_hi)
     g = (np.sqrt(5.0) - 1.0) / 2.0
     x1, x2 = hi + (1 - g) * (lo - hi), hi + g * (lo - hi)
     f1, f2 = f(1.0 - np.exp(x1)), f(1.0 - np.exp(x2))
-    yield x1
-    yield x2
     for _ in range(steps - 2):
-        v1 = np.inf if f1 is None else f1
-        v2 = np.inf if f2 is None else f2
-        if v1 <= v2:
+        if (np.inf if f1 is None else f1) <= (np.inf if f2 is None else f2):
             lo, x2, f2 = x2, x1, f1
             x1 = hi + (1 - g) * (lo - hi)
             f1 = f(1.0 - np.exp(x1))
-            yield x1
         else:
             hi, x1, f1 = x1, x2, f2
             x2 = hi + g * (lo - hi)
             f2 = f(1.0 - np.exp(x2))
-            yield x2

@@ -68,6 +68,7 @@ def _families(tau_min: float, tau_max: float, m_lost: int, runs: int, length: in
 def verify_lti(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, tau_min: float, tau_max: float, m_lost: int,
                figures: dict, runs: int = 64, periods: int = 150, seed: int = 0) -> dict[str, Any]:
     """The checks of the module docstring; returns {"passed", "checks": [...], "families": {...}}."""
+    from ..errors import InputError
     from ..model.lifting import s_tilde_sequence
     from ..model.lti import exact_closed_loop, gamma, lti_depth, pad_lti_gain, periodic_spectral_radius
 
@@ -76,8 +77,6 @@ def verify_lti(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, tau_min: fl
     d = max(lti_depth(tau_max, m_lost, Ts), (K.shape[1] - n) // m)
     K = pad_lti_gain(np.asarray(K, dtype=float), n, m, d)
     n_s = n + d * m
-    from ..errors import InputError
-
     P = np.asarray(P, dtype=float)
     if P.shape != (n_s, n_s):
         raise InputError(f"P: the certified set's matrix is {P.shape[0]} x {P.shape[1]}, the lifted state has {n_s}")
@@ -88,6 +87,9 @@ def verify_lti(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, tau_min: fl
         raise InputError("P: must be positive definite (the certified set {xi' P xi <= 1} is an ellipsoid)")
     rng = np.random.default_rng(seed)
     checks: list[dict[str, Any]] = []
+
+    def V(xi: np.ndarray) -> np.ndarray:
+        return np.einsum("ri,ij,rj->r", xi, P, xi)
 
     # frozen delays
     taus = np.linspace(tau_min, tau_max, CONSTANT_DELAYS)[:, None]
@@ -161,11 +163,11 @@ def verify_lti(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, tau_min: fl
         s = s_tilde_sequence(seq, Ts, d)[:, :periods]
         M = exact_closed_loop(A, B, K, Ts, s)  # (R, periods, n_s, n_s)
         xi = x0.copy()
-        xs, Vs = [xi], [np.einsum("ri,ij,rj->r", xi, P, xi)]
+        xs, Vs = [xi], [V(xi)]
         for k in range(periods):
             xi = step_dist(np.einsum("rij,rj->ri", M[:, k], xi), worst_dir=(name != "random"))
             xs.append(xi)
-            Vs.append(np.einsum("ri,ij,rj->r", xi, P, xi))
+            Vs.append(V(xi))
         record(name, np.array(Vs).T, np.array(xs).transpose(1, 0, 2), Vs[0])
 
     # greedy adversary: each packet's delay chosen from a grid to maximize the next V (losses are left to
@@ -173,14 +175,14 @@ def verify_lti(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, tau_min: fl
     grid = np.unique(np.linspace(tau_min, tau_max, GREEDY_GRID))
     past = np.full((R, d), tau_max)  # the packets sent before t_0
     xi = x0.copy()
-    xs, Vs = [xi], [np.einsum("ri,ij,rj->r", xi, P, xi)]
+    xs, Vs = [xi], [V(xi)]
     for _ in range(min(periods, 60)):
         best_V = np.full(R, -np.inf)
         best_xi, best_tau = xi.copy(), np.zeros(R)
         for tau in grid:
             s_k = s_tilde_sequence(np.concatenate([past, np.full((R, 1), tau)], axis=1), Ts, d)[:, 0]
             nxt = step_dist(np.einsum("rij,rj->ri", exact_closed_loop(A, B, K, Ts, s_k), xi), worst_dir=True)
-            Vn = np.einsum("ri,ij,rj->r", nxt, P, nxt)
+            Vn = V(nxt)
             better = Vn > best_V
             best_V = np.where(better, Vn, best_V)
             best_xi = np.where(better[:, None], nxt, best_xi)
