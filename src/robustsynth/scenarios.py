@@ -47,6 +47,9 @@ class Scenario:
     profiles: tuple[str, ...]  # slip profile of each run
     du0: np.ndarray | None = None  # (N, d_hi, 2): stored commands du_{-1}, ..., du_{-d_hi} (None: zero)
     z0: np.ndarray | None = None  # (N, 2): integrator states at t_0 (None: zero)
+    # (N, steps): within period k >= 1 the slip is mu[k-1] until t_k + mu_switch[k] and mu[k] after it
+    # (a change at any time within the period); None: slip changes at the sampling instants only
+    mu_switch: np.ndarray | None = None
 
     @property
     def runs(self) -> int:
@@ -55,6 +58,13 @@ class Scenario:
     @property
     def steps(self) -> int:
         return self.mu.shape[1]
+
+    def slip_in_period(self, k: int) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
+        """The slip of every run at the start of period k (N, n_p) and its change within the period,
+        ``(t, mu_after)`` with t (N,) the time after t_k, or None (constant over the period)."""
+        if self.mu_switch is None or k == 0:
+            return self.mu[:, k], None
+        return self.mu[:, k - 1], (self.mu_switch[:, k], self.mu[:, k])
 
 
 def _rate_limit(target: np.ndarray, start: np.ndarray, max_step: float | None) -> np.ndarray:
@@ -127,13 +137,16 @@ def slip_profiles(rng: np.random.Generator, kinds: list[str], steps: int, lo: np
 
 
 def draw_scenario(model, runs: int, seed: int, steps: int, path: PathGeometry, delays: str = "random",
-                  slip: str | None = None, losses: bool | str = True) -> Scenario:
+                  slip: str | None = None, losses: bool | str = True, within_period: bool = False) -> Scenario:
     """Seeded random scenario. ``delays``: 'random' (uniform iid), 'alternating' (min/max),
     'constant-min', 'constant-max'.  ``slip``: a profile for every run, or None to cycle through
     SLIP_PROFILES; 'none' for mu = 1.  With ``network.dropouts.max_consecutive`` > 0 commands are lost
     on the configured Gilbert-Elliott channel (``verification.dropouts``; delay ``inf``), bursts cut
     at the cap (``losses='uncapped'``: not cut; False: no losses).  Runs start at the pose of the config's initial offset with no
-    stored commands; :func:`steady_state_start` moves them to the steady state of their first slip."""
+    stored commands; :func:`steady_state_start` moves them to the steady state of their first slip.
+    ``within_period``: where the slip class lets slip jump (no ``slip.max_rate``, tracks model), each
+    period's change happens at a uniform random time within the period instead of at its sampling
+    instant (``Scenario.mu_switch``, from a stream of its own: the other draws are unchanged)."""
     cfg = model.config
     vc = cfg.verification
     rng = np.random.default_rng(seed)
@@ -167,7 +180,11 @@ def draw_scenario(model, runs: int, seed: int, steps: int, path: PathGeometry, d
     off = vc.initial_offset
     e_off = np.array([off.x, off.y, off.theta])
     q0 = np.tile(pose_from_error(path, e_off), (runs, 1))
-    return Scenario(taus, mu, noise, q0, tuple(kinds))
+    mu_switch = None
+    if within_period and slip != "none" and model.slip_step is None and not model.icr:
+        mu_switch = np.random.default_rng([seed, 2]).uniform(0.0, model.Ts, size=(runs, steps))
+        mu_switch[:, 0] = 0.0
+    return Scenario(taus, mu, noise, q0, tuple(kinds), mu_switch=mu_switch)
 
 
 def steady_state_start(model, K: np.ndarray, path: PathGeometry, scen: Scenario) -> Scenario:

@@ -3,6 +3,8 @@ convergence with a constant delay and no slip."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -70,6 +72,44 @@ def test_vectorized_equals_per_run_reference(setups, name, steady) -> None:
         assert np.max(np.abs(q - vec.q[n])) <= REF_TOL
         assert np.max(np.abs(e - vec.e[n])) <= REF_TOL
         assert np.max(np.abs(du - vec.du[n])) <= REF_TOL
+
+
+@pytest.mark.parametrize("name", ["paper", "multi-period", "lossy"])
+def test_slip_changing_within_periods_equals_the_per_run_reference(setups, name) -> None:
+    """Slip that changes at a random time within each period (Scenario.mu_switch): the vectorized
+    simulator (the switch as one more piece of the exact arcs) against the per-run reference (the
+    switch as one more actuation event), and the change must matter: the same runs with the changes
+    at the sampling instants end elsewhere."""
+    m, K = setups[name]
+    path = make_path(m.config.verification.path, m.V)
+    steps = int(path.duration / m.Ts)
+    scen = steady_state_start(m, K, path, draw_scenario(m, 6, seed=3, steps=steps, path=path, slip="corners",
+                                                         within_period=True))
+    assert scen.mu_switch is not None
+    assert np.any(np.any(scen.mu[:, 1:] != scen.mu[:, :-1], axis=-1) & (scen.mu_switch[:, 1:] > 0.0))
+    vec = simulate(m, K, path, scen)
+    for n in range(scen.runs):
+        q, e, du = simulate_run(m, K, path, scen, n)
+        assert np.max(np.abs(q - vec.q[n])) <= REF_TOL
+        assert np.max(np.abs(e - vec.e[n])) <= REF_TOL
+        assert np.max(np.abs(du - vec.du[n])) <= REF_TOL
+    at_instants = simulate(m, K, path, replace(scen, mu_switch=None))
+    assert np.max(np.abs(at_instants.q - vec.q)) > 1e3 * REF_TOL
+
+
+def test_within_period_changes_are_drawn_apart_and_only_where_slip_may_jump(setups) -> None:
+    m, _ = setups["paper"]
+    path = make_path(m.config.verification.path, m.V)
+    a = draw_scenario(m, 5, seed=9, steps=50, path=path)
+    b = draw_scenario(m, 5, seed=9, steps=50, path=path, within_period=True)
+    # the other draws are unchanged (a stream of its own), the times lie in the period, none at t_0
+    assert a.mu_switch is None
+    assert all(np.array_equal(getattr(a, f), getattr(b, f)) for f in ("taus", "mu", "noise", "q0"))
+    assert b.mu_switch.shape == (5, 50) and np.all(b.mu_switch[:, 0] == 0.0)
+    assert np.all((b.mu_switch >= 0.0) & (b.mu_switch < m.Ts))
+    # a slip rate bound: slip never jumps, so there is no change within a period to draw
+    rated = build_model(make_config(**{"slip.max_rate": 0.5}))
+    assert draw_scenario(rated, 5, seed=9, steps=50, path=path, within_period=True).mu_switch is None
 
 
 def test_constant_delay_no_slip_converges_to_zero(setups) -> None:

@@ -45,6 +45,9 @@ def test_verification_json_is_consistent(run_dir) -> None:
         assert set(c) == {"name", "passed", "value", "threshold", "detail"}
     mc = v["monte_carlo"]
     assert mc["runs"] == 40 and set(mc["maxima"]) >= {"e_x", "e_y", "e_theta", "motor_speed"}
+    # the certificate covers slip changing at any time within a period: the runs' slip does so
+    assert mc["boundary_probe"]["mid_period"]["covered"] is True
+    assert mc["slip_changes"].startswith("at uniform random times within the periods")
 
 
 @pytest.mark.parametrize("factor", [-1.0, 0.0, 20.0])

@@ -69,6 +69,7 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
         f"{cfg.network.sampling_time:g} s along the path {list(map(list, cfg.verification.path))}; delays {mc['delays']};"
         f" slip profiles {mc['slip_profiles']}"
         + (f", slip rate at most {mc['slip_max_rate']:g} /s" if mc.get("slip_max_rate") else ", slip may jump every period")
+        + (f", changes {mc['slip_changes']}" if mc.get("slip_changes") else "")
         + f". Runs start at the {mc['start']}. Maxima are taken over the steps in the {mc['excluded']}.\n\n"
     ]
     rows = []

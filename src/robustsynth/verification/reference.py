@@ -70,18 +70,22 @@ def simulate_run(model, K: np.ndarray, path: PathGeometry, scen: Scenario, n: in
         dus.append(du)
         past = [du] + past[:-1]
         u_hat.append(uD + du)
-        M = JHJinv(scen.mu[n, k, 0], scen.mu[n, k, 1], D)
-        if scen.mu.shape[-1] > 2:  # the icr model: yaw factor and lateral velocity (theory §12)
-            M = np.diag([1.0, scen.mu[n, k, 2]]) @ M
-            lat = -scen.mu[n, k, 3] * M[1]
         t1 = t0 + Ts
-        events = [t0] + sorted(a for a in arrive if t0 < a < t1) + [t1]
+        # the slip: mu[k] over the period, or mu[k-1] until the within-period change and mu[k] after it
+        t_sw = t0 if scen.mu_switch is None or k == 0 else t0 + scen.mu_switch[n, k]
+        before = scen.mu[n, k] if t_sw == t0 else scen.mu[n, k - 1]
+        events = [t0] + sorted(a for a in list(arrive) + [t_sw] if t0 < a < t1) + [t1]
         for a, b in zip(events[:-1], events[1:]):
+            mu = before if b <= t_sw else scen.mu[n, k]
+            M = JHJinv(mu[0], mu[1], D)
+            if mu.shape[-1] > 2:  # the icr model: yaw factor and lateral velocity (theory §12)
+                M = np.diag([1.0, mu[2]]) @ M
+                lat = -mu[3] * M[1]
             active = [i for i in range(len(u_hat)) if arrive[i] <= a]
             u = u_hat[active[-1]] if active else uD
             us = saturate(u, np.asarray(model.J), np.asarray(model.J_inv), rho_sat)
             ue = M @ us
-            vy = float(lat @ us) if scen.mu.shape[-1] > 2 else None
+            vy = float(lat @ us) if mu.shape[-1] > 2 else None
             if integrator == "arc":
                 q = arc_step(q, ue[0], ue[1], b - a, vy)
             else:

@@ -94,7 +94,8 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
         du = np.stack([dv, dw], axis=1)
         U = robot.send(U, uD + du)
         XI[:, k], DU[:, k] = _xi(law), du
-        q = robot.period(q, U, S[:, k], scen.mu[:, k])
+        mu_k, change = scen.slip_in_period(k)
+        q = robot.period(q, U, S[:, k], mu_k, switch=change)
         Q[:, k + 1] = q
         if progress is not None and (k % 50 == 0 or k == steps - 1):
             progress(k + 1, steps)
