@@ -211,24 +211,38 @@ def replay_worst(m, K, lyap, mu0, h):
     path, start = adversary_start(m, K, mu0[h["start"]][None], T + 1)
     mu = np.concatenate([h["mu"], h["mu_next"][None]])[None]  # the next period's slip: the one V was taken at
     taus = np.append(h["tau"], h["tau"][-1])[None]
-    sim = simulate(m, K, path, replace(start, taus=taus, mu=mu, noise=np.zeros((1, T + 1, 3))))
+    # when within each period the slip took its new value (0: at the instant; the last period's is not used)
+    sw = np.append(h["t_switch"], 0.0)[None] if np.any(h["t_switch"] > 0.0) else None
+    sim = simulate(m, K, path, replace(start, taus=taus, mu=mu, noise=np.zeros((1, T + 1, 3)), mu_switch=sw))
     xi = sim.true_xi()[0, T]
     prev = m.delay_weights(m.s_tilde(taus))[0, T - 1] if lyap.path else None  # period T-1's delay weights
     return {"V": float(lyap.V(xi, h["mu_next"], prev)), "e_x": abs(sim.e[0, T, 0]), "e_y": abs(sim.e[0, T, 1]),
             "e_theta": abs(sim.e[0, T, 2]), "motor_speed": float(np.max(np.abs(sim.rho[0, T])))}
 
 
-@pytest.mark.parametrize("name", ["jumps", "rate-limited"])
-def test_adversary_histories_replay_and_are_admissible(certified, name) -> None:
+@pytest.mark.parametrize("name,within", [("jumps", False), ("jumps", True), ("jumps", "only"), ("rate-limited", False)])
+def test_adversary_histories_replay_and_are_admissible(certified, name, within, monkeypatch) -> None:
     """Every objective's worst history is admissible (slip in the box, within the rate bound from the
-    start's slip on; delays in [tau_min, tau_max]) and, replayed by the simulator, reaches the value
-    the search reported, which is also its reported maximum."""
+    start's slip on; delays in [tau_min, tau_max]; a change within a period only where slip may jump,
+    never in the first) and, replayed by the simulator, reaches the value the search reported, which
+    is also its reported maximum.  ``only``: the adversary may change slip only within a period (at 1/3
+    or 2/3 of it), so that the replay of such changes is exercised whatever the worst histories are."""
+    from robustsynth.verification import simulate as sim_mod
+
+    if within == "only":
+        monkeypatch.setattr(sim_mod, "WITHIN_PERIOD_TIMES", (1.0 / 3.0, 2.0 / 3.0))
+    WITHIN_PERIOD_TIMES = sim_mod.WITHIN_PERIOD_TIMES
     m, K, lyap = certified[name]
     mu0 = slip_vertices(m)
-    adv = adversarial_nonlinear(m, K, lyap.V, mu0, 80, width=6, objectives=ADVERSARY_OBJECTIVES)
+    adv = adversarial_nonlinear(m, K, lyap.V, mu0, 80, width=6, objectives=ADVERSARY_OBJECTIVES, within_period=within)
     assert adv["V"].shape == (80, mu0.shape[0] + 6 * len(ADVERSARY_OBJECTIVES))
     dl, step = m.config.network.delay, m.slip_step
+    changes_within = 0
     for o, h in adv["worst"].items():
+        assert h["t_switch"][0] == 0.0 and np.all(np.isin(h["t_switch"][1:], m.Ts * np.asarray(WITHIN_PERIOD_TIMES)))
+        changed = np.any(np.diff(np.concatenate([mu0[h["start"]][None], h["mu"]]), axis=0) != 0.0, axis=1)
+        changes_within += int(np.sum(changed & (h["t_switch"] > 0.0)))
+        assert within or not np.any(h["t_switch"] > 0.0)
         mu = np.concatenate([mu0[h["start"]][None], h["mu"], h["mu_next"][None]])
         assert np.all((mu >= 0.6) & (mu <= 1.0))
         if step is not None:
@@ -242,6 +256,8 @@ def test_adversary_histories_replay_and_are_admissible(certified, name) -> None:
         assert h["value"] == ref or (o == "motor_speed" and h["value"] <= ref)  # |rho| also counts the start
     if step is not None:  # slow slip: the beam must still find histories that move the robot sideways
         assert adv["max"]["e_y"] > 0.005
+    if within == "only":  # every change after the first period was within it, and was replayed above
+        assert changes_within > 0
 
 
 def test_scenarios_are_reproducible(setups) -> None:

@@ -378,13 +378,15 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
             objectives = tuple(o for o in ADVERSARY_OBJECTIVES  # |rho| only against a certified motor bound
                                if o != "motor_speed" or "motor_speed_bound" in cert.figures)
             adv = adversarial_nonlinear(model, K, lyap.V, slip_vertices(model), vc.adversarial_steps,
-                                        width=vc.adversarial_runs, objectives=objectives, with_delay=lyap.path)
+                                        width=vc.adversarial_runs, objectives=objectives, with_delay=lyap.path,
+                                        within_period=within)
             adv_v = adv["V"] / level
             mc["adversarial"] = {
                 "runs": vc.adversarial_runs, "steps": vc.adversarial_steps,
                 "search": "beam search from the steady states of the slip corners, on a straight line: every period "
-                          "each kept history goes on with every slip the adversary may pick and 9 delays of the newest "
-                          "packet; kept are each start's greedy history (largest V) and, for each of "
+                          "each kept history goes on with every slip the adversary may pick"
+                          + (" (taking over at 0, 1/3 or 2/3 of the period)" if scen.mu_switch is not None else "")
+                          + " and 9 delays of the newest packet; kept are each start's greedy history (largest V) and, for each of "
                           + ", ".join({"V": "V", "e_x": "|e_x|", "e_y": "|e_y|", "e_theta": "|e_theta|",
                                        "motor_speed": "|rho|"}[o] for o in objectives)
                           + f", the {vc.adversarial_runs} next states that make it largest",
@@ -412,7 +414,7 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
             if xb.shape[0]:
                 steps_b = min(vc.adversarial_steps, BOUNDARY_ADVERSARY_STEPS)
                 adv_b = adversarial_nonlinear(model, K, lyap.V, mb, steps_b, width=vc.adversarial_runs, objectives=("V",),
-                                              with_delay=lyap.path, starts=xb)
+                                              with_delay=lyap.path, starts=xb, within_period=within)
                 mc["boundary_probe"]["adversary"] = {"starts": int(xb.shape[0]), "steps": steps_b,
                                                      "max_V_over_level": adv_b["max_V"] / level}
         # waypoint turns: the certificate's bounds through each frame change, beside the verdict (the

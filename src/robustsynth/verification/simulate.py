@@ -107,6 +107,7 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
 
 
 ADVERSARY_OBJECTIVES = ("V", "e_x", "e_y", "e_theta", "motor_speed")
+WITHIN_PERIOD_TIMES = (0.0, 1.0 / 3.0, 2.0 / 3.0)  # the adversary's times of a slip change, in periods
 
 
 def _top_distinct(score: np.ndarray, width: int) -> np.ndarray:
@@ -124,7 +125,8 @@ def _top_distinct(score: np.ndarray, width: int) -> np.ndarray:
 
 def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray], mu0: np.ndarray, steps: int,
                           width: int = 1, objectives: tuple[str, ...] = ("V",), n_tau: int = 9,
-                          with_delay: bool = False, starts: np.ndarray | None = None) -> dict:
+                          with_delay: bool = False, starts: np.ndarray | None = None,
+                          within_period: bool = False) -> dict:
     """Beam search for the slip and delay history that takes the nonlinear robot furthest out, along
     a straight line from the steady states of the slips ``mu0`` (N, 2).
 
@@ -150,7 +152,12 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
     was evaluated with), to replay with :func:`simulate` from :func:`adversary_start`.
 
     ``starts`` (N, n_s): lifted states to start from instead of the steady states (the boundary of
-    the certified set, :func:`~robustsynth.verification.probe.boundary_states`), with slips ``mu0``."""
+    the certified set, :func:`~robustsynth.verification.probe.boundary_states`), with slips ``mu0``.
+
+    ``within_period`` (slip that may jump at any time, docs/theory.md §11): from the second period on
+    the adversary also picks *when* within the period the slip takes its new value, at
+    :data:`WITHIN_PERIOD_TIMES` of the period (0: at the sampling instant); each worst history then
+    has ``t_switch`` (T,), to replay as ``Scenario.mu_switch``."""
     unknown = set(objectives) - set(ADVERSARY_OBJECTIVES)
     if unknown or not objectives or width < 1:
         raise ValueError(f"objectives must be a non-empty subset of {ADVERSARY_OBJECTIVES} and width >= 1")
@@ -171,7 +178,8 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
     best = {o: (-np.inf, -1, -1, None) for o in objectives}  # objective -> (score, step, kept index, V's slip)
     maxima = {"e_x": 0.0, "e_y": 0.0, "e_theta": 0.0, "motor_speed": 0.0}
     max_V = -np.inf
-    parents, MU, TAU, VK = [], [], [], []
+    parents, MU, TAU, VK, SW = [], [], [], [], []
+    jumps = within_period and model.slip_step is None and not model.icr
     for k in range(steps):
         check_interrupt()
         tk = k * Ts
@@ -185,23 +193,31 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
         seq = np.concatenate([np.repeat(hist[:, None, :], n_tau, axis=1),
                               np.broadcast_to(taus[None, :, None], (P, n_tau, 1))], axis=2)
         S = model.s_tilde(seq)[:, :, 0, :]  # (P, n_tau, d_hi)
-        shape = (P, n_c, n_tau)
-        q_next = robot.period(np.broadcast_to(q[:, None, None, :], shape + (3,)),
-                              np.broadcast_to(U[:, None, None], shape + U.shape[1:]),
-                              np.broadcast_to(S[:, None], shape + (d_hi,)),
-                              np.broadcast_to(cand_mu[:, :, None, :], shape + cand_mu.shape[-1:]))
+        sw = Ts * np.asarray(WITHIN_PERIOD_TIMES if jumps and k > 0 else (0.0,))  # when the new slip takes over
+        n_w = sw.size
+        shape = (P, n_c, n_w, n_tau)
+        after = np.broadcast_to(cand_mu[:, :, None, None, :], shape + cand_mu.shape[-1:])
+        args = (np.broadcast_to(q[:, None, None, None, :], shape + (3,)),
+                np.broadcast_to(U[:, None, None, None], shape + U.shape[1:]),
+                np.broadcast_to(S[:, None, None], shape + (d_hi,)))
+        if n_w == 1 and sw[0] == 0.0:
+            q_next = robot.period(*args, after)
+        else:
+            q_next = robot.period(*args, np.broadcast_to(mu_prev[:, None, None, None, :], after.shape),
+                                  switch=(np.broadcast_to(sw[None, None, :, None], shape), after))
         e_next = frame_error(path, 0, q_next, tk + Ts)
         rest = np.stack(law.past + law.z, axis=1)  # the controller's memory after step k
-        xi_next = np.concatenate([e_next, np.broadcast_to(rest[:, None, None, :], shape + rest.shape[1:])], axis=-1)
+        xi_next = np.concatenate([e_next, np.broadcast_to(rest[:, None, None, None, :], shape + rest.shape[1:])],
+                                 axis=-1)
         # the sample (xi_{k+1}, mu_{k+1}): xi_{k+1} does not depend on the next period's slip, which the
         # adversary picks among its candidates to make V largest
         nxt_mu = slip_candidates(model, cand_mu)  # (P, n_c, n_c', 2)
         n_n = nxt_mu.shape[2]
-        xi_b = np.broadcast_to(xi_next[:, :, :, None, :], shape + (n_n, xi_next.shape[-1]))
-        mu_b = np.broadcast_to(nxt_mu[:, :, None], shape + (n_n, nxt_mu.shape[-1]))
+        xi_b = np.broadcast_to(xi_next[..., None, :], shape + (n_n, xi_next.shape[-1]))
+        mu_b = np.broadcast_to(nxt_mu[:, :, None, None], shape + (n_n, nxt_mu.shape[-1]))
         if with_delay:
             dwt = model.delay_weights(S)  # (P, n_tau, n_d): this period's, the next sample's "previous"
-            v_all = V_fn(xi_b, mu_b, prev=np.broadcast_to(dwt[:, None, :, None], shape + (n_n, dwt.shape[-1])))
+            v_all = V_fn(xi_b, mu_b, prev=np.broadcast_to(dwt[:, None, None, :, None], shape + (n_n, dwt.shape[-1])))
         else:
             v_all = V_fn(xi_b, mu_b)
         v_arg = np.argmax(v_all, axis=-1)
@@ -210,21 +226,21 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
         scores = {"V": v, "e_x": np.abs(e_next[..., 0]), "e_y": np.abs(e_next[..., 1]),
                   "e_theta": np.abs(e_next[..., 2]), "motor_speed": rho}
         if model.dropouts:  # a loss only while the burst is below the cap
-            bad = np.isinf(taus)[None, None, :] & ~loss_allowed(model, hist)[:, None, None]
+            bad = np.isinf(taus)[None, None, None, :] & ~loss_allowed(model, hist)[:, None, None, None]
             scores = {o: np.where(bad, -np.inf, x) for o, x in scores.items()}
         flat = {o: x.reshape(-1) for o, x in scores.items()}
         for o in maxima:
             maxima[o] = max(maxima[o], float(np.max(flat[o])))
         max_V = max(max_V, float(np.max(flat["V"])))
-        per = n_c * n_tau  # the first N histories are greedy, one per start: each goes on with its largest V
+        per = n_c * n_w * n_tau  # the first N histories are greedy, one per start: each goes on with its largest V
         greedy = np.arange(N) * per + np.argmax(flat["V"].reshape(P, per)[:N], axis=1)
         keep = np.concatenate([greedy] + [_top_distinct(flat[o], width) for o in objectives])
-        pi, ci, ti = np.unravel_index(keep, shape)
+        pi, ci, wi, ti = np.unravel_index(keep, shape)
         for j, o in enumerate(objectives):
             i = N + j * width
             if flat[o][keep[i]] > best[o][0]:
-                best[o] = (float(flat[o][keep[i]]), k, i, nxt_mu[pi[i], ci[i], v_arg[pi[i], ci[i], ti[i]]])
-        q = q_next[pi, ci, ti]
+                best[o] = (float(flat[o][keep[i]]), k, i, nxt_mu[pi[i], ci[i], v_arg[pi[i], ci[i], wi[i], ti[i]]])
+        q = q_next[pi, ci, wi, ti]
         U = U[pi]
         law.past = [x[pi] for x in law.past]
         law.z = [x[pi] for x in law.z]
@@ -232,16 +248,17 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
         hist = np.concatenate([hist[pi, 1:], taus[ti][:, None]], axis=1)
         parents.append(pi)
         MU.append(mu_prev)
+        SW.append(sw[wi])
         TAU.append(taus[ti])
         VK.append(flat["V"][keep])
     worst = {}
     for o, (value, k, i, mu_v) in best.items():
-        mu_h, tau_h = np.empty((k + 1, model.n_p)), np.empty(k + 1)
+        mu_h, tau_h, sw_h = np.empty((k + 1, model.n_p)), np.empty(k + 1), np.empty(k + 1)
         for j in range(k, -1, -1):  # walk the history back to its start
-            mu_h[j], tau_h[j] = MU[j][i], TAU[j][i]
+            mu_h[j], tau_h[j], sw_h[j] = MU[j][i], TAU[j][i], SW[j][i]
             i = parents[j][i]
         worst[o] = {"mu": mu_h, "tau": np.concatenate([scen.taus[i], tau_h]), "start": int(i), "value": value,
-                    "mu_next": mu_v}
+                    "mu_next": mu_v, "t_switch": sw_h}
     return {"max": maxima, "max_V": max_V, "V": np.array(VK), "tau": np.array(TAU), "worst": worst}
 
 
