@@ -41,7 +41,7 @@ class Scenario:
     """Everything random about N runs, drawn up front (so any implementation can replay it)."""
 
     taus: np.ndarray  # (N, steps + d_hi): delay of the packet sent at t_{i - d_hi}
-    mu: np.ndarray  # (N, steps, 2): (mu_r, mu_l) on [t_k, t_k+1)
+    mu: np.ndarray  # (N, steps, 2): (mu_r, mu_l) on [t_k, t_k+1) (from t_k + mu_switch[k] on, with mu_switch)
     noise: np.ndarray  # (N, steps, 3): measurement noise on (x, y, theta)
     q0: np.ndarray  # (N, 3): initial pose
     profiles: tuple[str, ...]  # slip profile of each run
@@ -144,9 +144,10 @@ def draw_scenario(model, runs: int, seed: int, steps: int, path: PathGeometry, d
     on the configured Gilbert-Elliott channel (``verification.dropouts``; delay ``inf``), bursts cut
     at the cap (``losses='uncapped'``: not cut; False: no losses).  Runs start at the pose of the config's initial offset with no
     stored commands; :func:`steady_state_start` moves them to the steady state of their first slip.
-    ``within_period``: where the slip class lets slip jump (no ``slip.max_rate``, tracks model), each
-    period's change happens at a uniform random time within the period instead of at its sampling
-    instant (``Scenario.mu_switch``, from a stream of its own: the other draws are unchanged)."""
+    ``within_period`` (tracks model): each period's change of slip happens at a uniform random time
+    within the period instead of at its sampling instant (``Scenario.mu_switch``, from a stream of its
+    own: the other draws are unchanged); with ``slip.max_rate`` at one random time per run, the same
+    in every period, so that the changes stay a period apart and each within the rate bound."""
     cfg = model.config
     vc = cfg.verification
     rng = np.random.default_rng(seed)
@@ -181,8 +182,9 @@ def draw_scenario(model, runs: int, seed: int, steps: int, path: PathGeometry, d
     e_off = np.array([off.x, off.y, off.theta])
     q0 = np.tile(pose_from_error(path, e_off), (runs, 1))
     mu_switch = None
-    if within_period and slip != "none" and model.slip_step is None and not model.icr:
-        mu_switch = np.random.default_rng([seed, 2]).uniform(0.0, model.Ts, size=(runs, steps))
+    if within_period and slip != "none" and not model.icr:
+        draw = np.random.default_rng([seed, 2]).uniform(0.0, model.Ts, size=(runs, steps))
+        mu_switch = draw if model.slip_step is None else np.repeat(draw[:, :1], steps, axis=1)
         mu_switch[:, 0] = 0.0
     return Scenario(taus, mu, noise, q0, tuple(kinds), mu_switch=mu_switch)
 

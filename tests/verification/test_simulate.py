@@ -107,9 +107,14 @@ def test_within_period_changes_are_drawn_apart_and_only_where_slip_may_jump(setu
     assert all(np.array_equal(getattr(a, f), getattr(b, f)) for f in ("taus", "mu", "noise", "q0"))
     assert b.mu_switch.shape == (5, 50) and np.all(b.mu_switch[:, 0] == 0.0)
     assert np.all((b.mu_switch >= 0.0) & (b.mu_switch < m.Ts))
-    # a slip rate bound: slip never jumps, so there is no change within a period to draw
+    # a slip rate bound: one time per run, the same in every period (the changes stay a period apart)
     rated = build_model(make_config(**{"slip.max_rate": 0.5}))
-    assert draw_scenario(rated, 5, seed=9, steps=50, path=path, within_period=True).mu_switch is None
+    sw = draw_scenario(rated, 5, seed=9, steps=50, path=path, within_period=True).mu_switch
+    assert np.all(sw[:, 1:] == sw[:, 1:2]) and np.all((sw[:, 1] > 0.0) & (sw[:, 1] < m.Ts)) and np.all(sw[:, 0] == 0.0)
+    # the icr model's slip is not affine in its parameters (theory §12): no changes within a period
+    icr = build_model(make_config(**{"slip.model": "icr", "slip.yaw": {"min": 0.54, "max": 0.67},
+                                     "slip.icr_offset": {"min": 0.0, "max": 0.09}}))
+    assert draw_scenario(icr, 5, seed=9, steps=50, path=path, within_period=True).mu_switch is None
 
 
 def test_constant_delay_no_slip_converges_to_zero(setups) -> None:

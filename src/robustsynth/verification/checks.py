@@ -36,7 +36,7 @@ from .probe import boundary_probe, boundary_states
 
 BOUNDARY_ADVERSARY_STEPS = 50  # the adversary from the boundary: what matters happens in the first periods
 from .lifted import closed_loop_run, frozen_instant_grid, frozen_spectral_radius, greedy_worst_case
-from .simulate import ADVERSARY_OBJECTIVES, SimResult, adversarial_nonlinear, simulate
+from .simulate import ADVERSARY_OBJECTIVES, SimResult, adversarial_nonlinear, merge_adversaries, simulate
 
 __all__ = ["VerificationResult", "verify", "SPECTRAL_TOL", "LEVEL_TOL", "DIVERGENCE_LIMIT"]
 
@@ -291,7 +291,8 @@ def _beyond_cap(model, K, gains: dict, cert: CertificateCheck, ub, runs: int, se
     vc = model.config.verification
     path = make_path(vc.path, model.V)
     steps = max(1, int(math.floor(path.duration / model.Ts + 1e-9)))
-    scen = draw_scenario(model, runs, seed + 5, steps, path, losses="uncapped")
+    within = cert.figures.get("slip_within_period") == "covered"  # as the main Monte Carlo (_nonlinear)
+    scen = draw_scenario(model, runs, seed + 5, steps, path, losses="uncapped", within_period=within)
     burst = longest_burst(np.isinf(scen.taus))
     extra = max(0, int(burst.max(initial=0)) - model.dropouts)
     longer = build_model(model.config, min_lifting=model.d_hi + extra)
@@ -350,8 +351,10 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
         + ("" if starts_inside else " + the configured initial offset"),
         "slip_profiles": {p: int(sum(1 for x in scen.profiles if x == p)) for p in sorted(set(scen.profiles))},
         "slip_max_rate": model.config.slip.max_rate,
-        "slip_changes": ("at uniform random times within the periods (the certificate covers slip changing at any time)"
-                         if scen.mu_switch is not None else "at the sampling instants"),
+        "slip_changes": ("at the sampling instants" if scen.mu_switch is None else
+                         "at uniform random times within the periods (the certificate covers slip changing at any time)"
+                         + ("; with slip.max_rate at one time per run, the same in every period" if model.slip_step
+                            is not None else "")),
         "delays": "uniform iid in [tau_min, tau_max]; plus 4 runs alternating min/max with corner-switching slip"
         + ("; commands lost on a Gilbert-Elliott channel, bursts capped at network.dropouts.max_consecutive"
            if model.dropouts else ""),
@@ -377,20 +380,28 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
         if vc.adversarial_runs:
             objectives = tuple(o for o in ADVERSARY_OBJECTIVES  # |rho| only against a certified motor bound
                                if o != "motor_speed" or "motor_speed_bound" in cert.figures)
-            adv = adversarial_nonlinear(model, K, lyap.V, slip_vertices(model), vc.adversarial_steps,
-                                        width=vc.adversarial_runs, objectives=objectives, with_delay=lyap.path,
-                                        within_period=within)
+            def search(**kw):
+                return adversarial_nonlinear(model, K, lyap.V, slip_vertices(model), vc.adversarial_steps,
+                                             width=vc.adversarial_runs, objectives=objectives, with_delay=lyap.path, **kw)
+
+            adv = search()
+            if within:  # also the times of the slip changes within the periods: the two searches together
+                adv = merge_adversaries(adv, search(within_period=True))
+            times = [t for t in adv["switch_times"] if t > 0.0]
             adv_v = adv["V"] / level
             mc["adversarial"] = {
                 "runs": vc.adversarial_runs, "steps": vc.adversarial_steps,
                 "search": "beam search from the steady states of the slip corners, on a straight line: every period "
                           "each kept history goes on with every slip the adversary may pick"
-                          + (" (taking over at 0, 1/3 or 2/3 of the period)" if scen.mu_switch is not None else "")
+                          + (" (also a second search in which the new slip takes over at "
+                             + ", ".join(f"{t:.3g}" for t in times) + " of the period, from the second period on)"
+                             if times else "")
                           + " and 9 delays of the newest packet; kept are each start's greedy history (largest V) and, for each of "
                           + ", ".join({"V": "V", "e_x": "|e_x|", "e_y": "|e_y|", "e_theta": "|e_theta|",
                                        "motor_speed": "|rho|"}[o] for o in objectives)
                           + f", the {vc.adversarial_runs} next states that make it largest",
                 "max": dict(adv["max"]),
+                "slip_change_times": [0.0] + times,  # within a period, in periods
                 "max_V_over_level": adv["max_V"] / level,
                 "fraction_of_steps_outside": float(np.mean(adv_v > 1.0)),
             }
@@ -414,7 +425,11 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
             if xb.shape[0]:
                 steps_b = min(vc.adversarial_steps, BOUNDARY_ADVERSARY_STEPS)
                 adv_b = adversarial_nonlinear(model, K, lyap.V, mb, steps_b, width=vc.adversarial_runs, objectives=("V",),
-                                              with_delay=lyap.path, starts=xb, within_period=within)
+                                              with_delay=lyap.path, starts=xb)
+                if within:
+                    adv_b = merge_adversaries(adv_b, adversarial_nonlinear(
+                        model, K, lyap.V, mb, steps_b, width=vc.adversarial_runs, objectives=("V",), with_delay=lyap.path,
+                        starts=xb, within_period=True))
                 mc["boundary_probe"]["adversary"] = {"starts": int(xb.shape[0]), "steps": steps_b,
                                                      "max_V_over_level": adv_b["max_V"] / level}
         # waypoint turns: the certificate's bounds through each frame change, beside the verdict (the

@@ -259,7 +259,19 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
             i = parents[j][i]
         worst[o] = {"mu": mu_h, "tau": np.concatenate([scen.taus[i], tau_h]), "start": int(i), "value": value,
                     "mu_next": mu_v, "t_switch": sw_h}
-    return {"max": maxima, "max_V": max_V, "V": np.array(VK), "tau": np.array(TAU), "worst": worst}
+    return {"max": maxima, "max_V": max_V, "V": np.array(VK), "tau": np.array(TAU), "worst": worst,
+            "switch_times": tuple(WITHIN_PERIOD_TIMES) if jumps and steps > 1 else (0.0,)}
+
+
+def merge_adversaries(a: dict, b: dict) -> dict:
+    """The union of two searches' results (:func:`adversarial_nonlinear`): the larger maxima, every kept
+    candidate's V, and each objective's larger worst history.  A beam search with more choices per
+    period does not always find more (it keeps different histories), so a search that may also pick
+    the time of a slip change is taken together with the one that may not."""
+    return {"max": {k: max(a["max"][k], b["max"][k]) for k in a["max"]}, "max_V": max(a["max_V"], b["max_V"]),
+            "V": np.hstack([a["V"], b["V"]]), "tau": np.hstack([a["tau"], b["tau"]]),
+            "worst": {o: max(a["worst"][o], b["worst"][o], key=lambda h: h["value"]) for o in a["worst"]},
+            "switch_times": tuple(sorted(set(a["switch_times"]) | set(b["switch_times"])))}
 
 
 def adversary_start(model, K: np.ndarray, mu0: np.ndarray, steps: int,
