@@ -476,8 +476,16 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                 break
     if best.cert is None and retry:
         failed = [g for g, v in zip(grid, vals) if not math.isfinite(v) and runner.failed_at.get(float(np.exp(g)))]
+        tried: list[float] = []
         for g in failed:
-            vals[list(grid).index(g)] = evaluate(float(g), fallback=True)
+            tried.append(evaluate(float(g), fallback=True))
+            vals[list(grid).index(g)] = tried[-1]
+            # the scan's own stopping rules on the retried points: past the minimum (two rises in a row),
+            # or two failures in a row after a success (Ts = 1e-3: 10 fallback solves of 5 s each past it)
+            if len(tried) >= 3 and math.isfinite(tried[-3]) and tried[-1] > tried[-2] > tried[-3]:
+                break
+            if len(tried) >= 3 and any(map(math.isfinite, tried[:-2])) and not any(map(math.isfinite, tried[-2:])):
+                break
     if best.cert is None:
         return best, runner
     _parabolic(evaluate, [(float(g), v) for g, v in zip(grid, vals)])
