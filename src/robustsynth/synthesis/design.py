@@ -400,7 +400,8 @@ def _walk(evaluate: Callable[[float], float], x0: float, step: float, lo: float,
 
 def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     say: Callable[[str], None] = lambda _m: None,
-                    alpha_hint: float | None = None, retry: bool = True, probe_only: bool = False) -> tuple[_Best, _Runner]:
+                    alpha_hint: float | None = None, retry: bool = True, probe_only: bool = False,
+                    give_up: int | None = None) -> tuple[_Best, _Runner]:
     """The alpha line search of the invariance LMIs.  Without a hint: a log grid of alpha_points
     scanned upwards, then parabolic steps around its best point.  With ``alpha_hint`` (the best alpha
     of a cheaper certificate class): walk from the hint in quarter grid steps while the bound falls,
@@ -461,8 +462,15 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
             return best, runner
         say("  the hint is not feasible for this class: full scan")
     vals: list[float] = []
+    failures = 0  # solver failures in a row, with nothing certified yet
     for g in grid:
         vals.append(evaluate(float(g)))
+        failures = failures + 1 if best.cert is None and runner.failed_at.get(float(np.exp(g)), False) else 0
+        if give_up is not None and failures >= give_up:
+            # a problem on which every solve fails is usually one that has no solution near it (the kinematic
+            # channels at a large heading bound: delay-multi-period spent 16 solves of 19 s each, 5 min)
+            say(f"  {failures} solver failures in a row and nothing certified: the scan stops here")
+            break
         # Scan upwards; stop once past the minimum (two rises in a row) or at the end of the
         # feasible interval (an infeasible point after a success): the points beyond cost solver
         # time and cannot improve the bound.  A solver *failure* is not the end of the interval (a
@@ -669,6 +677,7 @@ def _run_linearized(model: Any, s: SynthesisConfig, search: list, motor: bool,
 
 
 HEADING_GRID = (0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.7)  # heading_bound: auto tries these [rad]
+NONLINEAR_GIVE_UP = 3  # a heading bound's alpha scan stops after this many solver failures in a row, none certified
 
 
 def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
@@ -700,7 +709,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                 if pb.cert is None or pb.value >= best.value:
                     tried.append((tb, "not better at the best alpha"))
                     break
-            b, r = _run_invariance(m, s, search, motor, say, alpha_hint=hint, retry=not auto)
+            b, r = _run_invariance(m, s, search, motor, say, alpha_hint=hint, retry=not auto, give_up=NONLINEAR_GIVE_UP)
         except InfeasibleError as exc:  # the heading bound is below the slip's own turn
             say(f"  {exc}")
             tried.append((tb, "below the slip's own turn within a period"))
