@@ -174,9 +174,11 @@ def fig_network(res, model) -> Any:
     ax.grid(alpha=0.3)
     ax = axes[1]
     colors = {"constant": "tab:blue", "random-walk": "tab:orange", "steps": "tab:green", "corners": "tab:purple"}
+    sw = res.scenario.mu_switch  # slip that changes within the periods: each new value from t_k + mu_switch[k]
     for n in range(min(3, scen_mu.shape[0])):
-        ax.plot(tk, scen_mu[n, :, 0], lw=1, color=list(colors.values())[n % 3], label=f"mu_r run {n}")
-        ax.plot(tk, scen_mu[n, :, 1], lw=1, ls="--", color=list(colors.values())[n % 3], label=f"mu_l run {n}")
+        tc = tk if sw is None else tk + sw[n]
+        ax.step(tc, scen_mu[n, :, 0], where="post", lw=1, color=list(colors.values())[n % 3], label=f"mu_r run {n}")
+        ax.step(tc, scen_mu[n, :, 1], where="post", lw=1, ls="--", color=list(colors.values())[n % 3], label=f"mu_l run {n}")
     ax.axhline(min(cfg.slip.right.min, cfg.slip.left.min), color="k", ls=":", lw=1)
     ax.axhline(max(cfg.slip.right.max, cfg.slip.left.max), color="k", ls=":", lw=1)
     ax.set_ylabel("slip mu [-]")
