@@ -15,7 +15,6 @@ REF_RUNS = 3  # solve_ivp runs timed (it is slow); its per-step cost is what is 
 
 
 def main() -> dict[str, float]:
-    import numpy as np
 
     from robustsynth import build_model, load_config
     from robustsynth.synthesis import synthesize

@@ -14,7 +14,6 @@ from hypothesis import strategies as st
 
 from robustsynth.cli import main
 
-from .conftest import default_dict
 
 FUZZ_EXAMPLES = 250  # issue 5 asks for >= 200 malformed configs
 

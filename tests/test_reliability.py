@@ -4,7 +4,6 @@ configs certify or fail cleanly, committed gains re-check."""
 from __future__ import annotations
 
 import json
-import os
 import random
 import signal
 import subprocess

@@ -50,7 +50,7 @@ def _integrate_reference(model, taus, dus, d, e0):
 def _lifted_run(model, taus, dus, d, e0):
     s = model.s_tilde(taus)  # (K, d_hi)
     A_ex, B_ex = model.exact(s)
-    d_hi, n_e, n_u = model.d_hi, model.n_e, model.n_u
+    d_hi, n_e = model.d_hi, model.n_e
     xi = np.concatenate([e0] + [dus[d_hi - j] for j in range(1, d_hi + 1)])
     out = [xi[:n_e].copy()]
     for k in range(s.shape[0]):
