@@ -47,8 +47,8 @@ class Scenario:
     profiles: tuple[str, ...]  # slip profile of each run
     du0: np.ndarray | None = None  # (N, d_hi, 2): stored commands du_{-1}, ..., du_{-d_hi} (None: zero)
     z0: np.ndarray | None = None  # (N, 2): integrator states at t_0 (None: zero)
-    # (N, steps): within period k >= 1 the slip is mu[k-1] until t_k + mu_switch[k] and mu[k] after it
-    # (a change at any time within the period); None: slip changes at the sampling instants only
+    # (N, steps, 2): within period k >= 1 track i's slip is mu[k-1, i] until t_k + mu_switch[k, i] and
+    # mu[k, i] after it (each track changes at its own time); None: slip changes at the instants only
     mu_switch: np.ndarray | None = None
 
     @property
@@ -59,12 +59,16 @@ class Scenario:
     def steps(self) -> int:
         return self.mu.shape[1]
 
-    def slip_in_period(self, k: int) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
-        """The slip of every run at the start of period k (N, n_p) and its change within the period,
-        ``(t, mu_after)`` with t (N,) the time after t_k, or None (constant over the period)."""
+    def slip_in_period(self, k: int) -> tuple[np.ndarray, list | None]:
+        """The slip of every run at the start of period k (N, n_p) and its changes within the period,
+        ``[(t1, mu_1), (t2, mu_2)]`` in time order (t (N,) after t_k: the earlier and the later of the
+        two tracks' times, mu_1 with only the earlier track changed), or None (constant over it)."""
         if self.mu_switch is None or k == 0:
             return self.mu[:, k], None
-        return self.mu[:, k - 1], (self.mu_switch[:, k], self.mu[:, k])
+        old, new, t = self.mu[:, k - 1], self.mu[:, k], self.mu_switch[:, k]
+        t1, t2 = np.min(t, axis=1), np.max(t, axis=1)
+        mid = np.where(t <= t1[:, None], new, old)
+        return old, [(t1, mid), (t2, new)]
 
 
 def _rate_limit(target: np.ndarray, start: np.ndarray, max_step: float | None) -> np.ndarray:
@@ -144,10 +148,12 @@ def draw_scenario(model, runs: int, seed: int, steps: int, path: PathGeometry, d
     on the configured Gilbert-Elliott channel (``verification.dropouts``; delay ``inf``), bursts cut
     at the cap (``losses='uncapped'``: not cut; False: no losses).  Runs start at the pose of the config's initial offset with no
     stored commands; :func:`steady_state_start` moves them to the steady state of their first slip.
-    ``within_period`` (tracks model): each period's change of slip happens at a uniform random time
-    within the period instead of at its sampling instant (``Scenario.mu_switch``, from a stream of its
-    own: the other draws are unchanged); with ``slip.max_rate`` at one random time per run, the same
-    in every period, so that the changes stay a period apart and each within the rate bound."""
+    ``within_period`` (tracks model): each period's change of each track's slip happens at a uniform
+    random time within the period (in every other run both tracks at one time, in the others each at
+    its own) instead of at the sampling instant
+    (``Scenario.mu_switch``, from a stream of its own: the other draws are unchanged); with
+    ``slip.max_rate`` at one random time per run and track, the same in every period, so that the
+    changes stay a period apart and each within the rate bound."""
     cfg = model.config
     vc = cfg.verification
     rng = np.random.default_rng(seed)
@@ -183,7 +189,8 @@ def draw_scenario(model, runs: int, seed: int, steps: int, path: PathGeometry, d
     q0 = np.tile(pose_from_error(path, e_off), (runs, 1))
     mu_switch = None
     if within_period and slip != "none" and not model.icr:
-        draw = np.random.default_rng([seed, 2]).uniform(0.0, model.Ts, size=(runs, steps))
+        draw = np.random.default_rng([seed, 2]).uniform(0.0, model.Ts, size=(runs, steps, 2))
+        draw[::2, :, 1] = draw[::2, :, 0]  # every other run: both tracks at one time (a corner jump)
         mu_switch = draw if model.slip_step is None else np.repeat(draw[:, :1], steps, axis=1)
         mu_switch[:, 0] = 0.0
     return Scenario(taus, mu, noise, q0, tuple(kinds), mu_switch=mu_switch)

@@ -78,8 +78,9 @@ def test_vectorized_equals_per_run_reference(setups, name, steady, within) -> No
         assert np.max(np.abs(q - vec.q[n])) <= REF_TOL
         assert np.max(np.abs(e - vec.e[n])) <= REF_TOL
         assert np.max(np.abs(du - vec.du[n])) <= REF_TOL
-    if within:
-        assert np.any(np.any(scen.mu[:, 1:] != scen.mu[:, :-1], axis=-1) & (scen.mu_switch[:, 1:] > 0.0))
+    if within:  # both tracks change, at different times within one period, somewhere
+        both = np.all(scen.mu[:, 1:] != scen.mu[:, :-1], axis=-1) & np.all(scen.mu_switch[:, 1:] > 0.0, axis=-1)
+        assert np.any(both)
         at_instants = simulate(m, K, path, replace(scen, mu_switch=None))
         assert np.max(np.abs(at_instants.q - vec.q)) > 1e3 * REF_TOL
 
@@ -92,7 +93,10 @@ def test_within_period_changes_are_drawn_apart_and_only_where_slip_may_jump(setu
     # the other draws are unchanged (a stream of its own), the times lie in the period, none at t_0
     assert a.mu_switch is None
     assert all(np.array_equal(getattr(a, f), getattr(b, f)) for f in ("taus", "mu", "noise", "q0"))
-    assert b.mu_switch.shape == (5, 50) and np.all(b.mu_switch[:, 0] == 0.0)
+    assert b.mu_switch.shape == (5, 50, 2) and np.all(b.mu_switch[:, 0] == 0.0)
+    # every other run both tracks at one time (a corner jump), the others each track at its own
+    assert np.all(b.mu_switch[::2, :, 0] == b.mu_switch[::2, :, 1])
+    assert np.all(b.mu_switch[1::2, 1:, 0] != b.mu_switch[1::2, 1:, 1])
     assert np.all((b.mu_switch >= 0.0) & (b.mu_switch < m.Ts))
     # a slip rate bound: one time per run, the same in every period (the changes stay a period apart)
     rated = build_model(make_config(**{"slip.max_rate": 0.5}))
@@ -204,7 +208,7 @@ def replay_worst(m, K, lyap, mu0, h):
     mu = np.concatenate([h["mu"], h["mu_next"][None]])[None]  # the next period's slip: the one V was taken at
     taus = np.append(h["tau"], h["tau"][-1])[None]
     # when within each period the slip took its new value (0: at the instant; the last period's is not used)
-    sw = np.append(h["t_switch"], 0.0)[None] if np.any(h["t_switch"] > 0.0) else None
+    sw = np.repeat(np.append(h["t_switch"], 0.0)[None, :, None], 2, axis=2) if np.any(h["t_switch"] > 0.0) else None
     sim = simulate(m, K, path, replace(start, taus=taus, mu=mu, noise=np.zeros((1, T + 1, 3)), mu_switch=sw))
     xi = sim.true_xi()[0, T]
     prev = m.delay_weights(m.s_tilde(taus))[0, T - 1] if lyap.path else None  # period T-1's delay weights

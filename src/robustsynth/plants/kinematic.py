@@ -61,17 +61,21 @@ def saturate(u_hat: np.ndarray, J: np.ndarray, J_inv: np.ndarray, rho_max: float
 
 
 def period(q: np.ndarray, U: np.ndarray, S: np.ndarray, M: np.ndarray, Ts: float, J: np.ndarray,
-           J_inv: np.ndarray, rho_sat: float | None, switch: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+           J_inv: np.ndarray, rho_sat: float | None, switch: tuple | list | None = None) -> np.ndarray:
     """Move the robot through one sampling period: ``U[..., j]`` = u_hat_{k-j} acts on
     [s~_j, s~_{j-1}) (s~_{d_hi} = 0, s~_{-1} = Ts), the robot receives M u_hat (exact arcs): M
     (..., 2, 2) gives (v, omega); a twist matrix (..., 3, 2) gives (v, v_y, omega) (the icr model).
-    ``switch = (t, M_after)``: from time t within the period on the robot receives M_after u_hat."""
+    ``switch = (t, M_after)``: from time t within the period on the robot receives M_after u_hat; a
+    list of such pairs, in time order (t non-decreasing), changes it at each."""
     d_hi = S.shape[-1]
+    changes = [] if switch is None else [switch] if isinstance(switch, tuple) else list(switch)
     start = np.zeros(q.shape[:-1])
     for j in range(d_hi, -1, -1):
         end = S[..., j - 1] if j > 0 else np.full(q.shape[:-1], Ts)
         u = saturate(U[..., j, :], J, J_inv, rho_sat)
-        pieces = [(M, end)] if switch is None else [(M, np.clip(switch[0], start, end)), (switch[1], end)]
+        # the slip's pieces within this command's interval: M until the first change, ..., the last after
+        mats = [M] + [Mc for _, Mc in changes]
+        pieces = [(mats[i], np.clip(changes[i][0], start, end)) for i in range(len(changes))] + [(mats[-1], end)]
         for Mp, stop in pieces:
             u_eff = np.einsum("...ij,...j->...i", Mp, u)
             if u_eff.shape[-1] == 3:
@@ -127,11 +131,13 @@ class KinematicRobot:
                switch: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
         """The poses at t_{k+1} from ``q`` at t_k: the commands ``U`` act on the intervals of the
         switching instants ``S`` (..., d_hi), under slip ``mu`` (..., 2) = (mu_r, mu_l); with
-        ``switch = (t, mu_after)`` the slip jumps to mu_after at time t (...) within the period."""
+        ``switch = (t, mu_after)`` the slip jumps to mu_after at time t (...) within the period (a list of
+        such pairs, in time order: at each)."""
         M = self._map(mu)
-        if switch is not None:
-            t, after = switch
-            switch = (np.asarray(t, dtype=float), self._map(after))
+        if isinstance(switch, tuple):
+            switch = (np.asarray(switch[0], dtype=float), self._map(switch[1]))
+        elif switch is not None:
+            switch = [(np.asarray(t, dtype=float), self._map(after)) for t, after in switch]
         return period(q, U, S, M, self.Ts, self.J, self.J_inv, self.rho_max, switch)
 
     def _map(self, mu: np.ndarray) -> np.ndarray:

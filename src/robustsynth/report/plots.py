@@ -176,9 +176,9 @@ def fig_network(res, model) -> Any:
     colors = {"constant": "tab:blue", "random-walk": "tab:orange", "steps": "tab:green", "corners": "tab:purple"}
     sw = res.scenario.mu_switch  # slip that changes within the periods: each new value from t_k + mu_switch[k]
     for n in range(min(3, scen_mu.shape[0])):
-        tc = tk if sw is None else tk + sw[n]
-        ax.step(tc, scen_mu[n, :, 0], where="post", lw=1, color=list(colors.values())[n % 3], label=f"mu_r run {n}")
-        ax.step(tc, scen_mu[n, :, 1], where="post", lw=1, ls="--", color=list(colors.values())[n % 3], label=f"mu_l run {n}")
+        tr, tl = (tk, tk) if sw is None else (tk + sw[n, :, 0], tk + sw[n, :, 1])
+        ax.step(tr, scen_mu[n, :, 0], where="post", lw=1, color=list(colors.values())[n % 3], label=f"mu_r run {n}")
+        ax.step(tl, scen_mu[n, :, 1], where="post", lw=1, ls="--", color=list(colors.values())[n % 3], label=f"mu_l run {n}")
     ax.axhline(min(cfg.slip.right.min, cfg.slip.left.min), color="k", ls=":", lw=1)
     ax.axhline(max(cfg.slip.right.max, cfg.slip.left.max), color="k", ls=":", lw=1)
     ax.set_ylabel("slip mu [-]")

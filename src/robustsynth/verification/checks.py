@@ -352,9 +352,10 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
         "slip_profiles": {p: int(sum(1 for x in scen.profiles if x == p)) for p in sorted(set(scen.profiles))},
         "slip_max_rate": model.config.slip.max_rate,
         "slip_changes": ("at the sampling instants" if scen.mu_switch is None else
-                         "at uniform random times within the periods (the certificate covers slip changing at any time)"
-                         + ("; with slip.max_rate at one time per run, the same in every period" if model.slip_step
-                            is not None else "")),
+                         "at uniform random times within the periods, both tracks at one time or each at its own "
+                         "(every other run; the certificate covers "
+                         "slip changing at any time)" + ("; with slip.max_rate at one time per run and track, the same "
+                                                         "in every period" if model.slip_step is not None else "")),
         "delays": "uniform iid in [tau_min, tau_max]; plus 4 runs alternating min/max with corner-switching slip"
         + ("; commands lost on a Gilbert-Elliott channel, bursts capped at network.dropouts.max_consecutive"
            if model.dropouts else ""),

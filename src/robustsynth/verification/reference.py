@@ -71,12 +71,15 @@ def simulate_run(model, K: np.ndarray, path: PathGeometry, scen: Scenario, n: in
         past = [du] + past[:-1]
         u_hat.append(uD + du)
         t1 = t0 + Ts
-        # the slip: mu[k] over the period, or mu[k-1] until the within-period change and mu[k] after it
-        t_sw = t0 if scen.mu_switch is None or k == 0 else t0 + scen.mu_switch[n, k]
-        before = scen.mu[n, k] if t_sw == t0 else scen.mu[n, k - 1]
-        events = [t0] + sorted(a for a in list(arrive) + [t_sw] if t0 < a < t1) + [t1]
+        # the slip: mu[k] over the period, or each track mu[k-1] until its change within the period and
+        # mu[k] after it
+        changing = scen.mu_switch is not None and k > 0
+        t_sw = t0 + scen.mu_switch[n, k] if changing else np.full(2, t0)
+        before = scen.mu[n, k - 1] if changing else scen.mu[n, k]
+        events = [t0] + sorted(a for a in list(arrive) + list(t_sw) if t0 < a < t1) + [t1]
         for a, b in zip(events[:-1], events[1:]):
-            mu = before if b <= t_sw else scen.mu[n, k]
+            mu = scen.mu[n, k].copy()
+            mu[:2] = np.where(b <= t_sw, before[:2], scen.mu[n, k, :2])
             M = JHJinv(mu[0], mu[1], D)
             if mu.shape[-1] > 2:  # the icr model: yaw factor and lateral velocity (theory §12)
                 M = np.diag([1.0, mu[2]]) @ M

@@ -157,7 +157,7 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
     ``within_period`` (slip that may jump at any time, docs/theory.md §11): from the second period on
     the adversary also picks *when* within the period the slip takes its new value, at
     :data:`WITHIN_PERIOD_TIMES` of the period (0: at the sampling instant); each worst history then
-    has ``t_switch`` (T,), to replay as ``Scenario.mu_switch``."""
+    has ``t_switch`` (T,), both tracks' time, to replay as ``Scenario.mu_switch``."""
     unknown = set(objectives) - set(ADVERSARY_OBJECTIVES)
     if unknown or not objectives or width < 1:
         raise ValueError(f"objectives must be a non-empty subset of {ADVERSARY_OBJECTIVES} and width >= 1")
