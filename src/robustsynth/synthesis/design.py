@@ -488,11 +488,13 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         for g in failed:
             tried.append(evaluate(float(g), fallback=True))
             vals[list(grid).index(g)] = tried[-1]
-            # the scan's own stopping rules on the retried points: past the minimum (two rises in a row),
-            # or two failures in a row after a success (Ts = 1e-3: 10 fallback solves of 5 s each past it)
+            # the scan's stopping rules on the retried points: past the minimum (two rises in a row), or
+            # three failures in a row after a success (one more than the scan allows: a retry that fails,
+            # fails, then certifies further up was seen in a constructed case) -- Ts = 1e-3 had spent 10
+            # fallback solves of 5 s each past its minimum
             if len(tried) >= 3 and math.isfinite(tried[-3]) and tried[-1] > tried[-2] > tried[-3]:
                 break
-            if len(tried) >= 3 and any(map(math.isfinite, tried[:-2])) and not any(map(math.isfinite, tried[-2:])):
+            if len(tried) >= 4 and any(map(math.isfinite, tried[:-3])) and not any(map(math.isfinite, tried[-3:])):
                 break
     if best.cert is None:
         return best, runner
@@ -677,7 +679,10 @@ def _run_linearized(model: Any, s: SynthesisConfig, search: list, motor: bool,
 
 
 HEADING_GRID = (0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.7)  # heading_bound: auto tries these [rad]
-NONLINEAR_GIVE_UP = 3  # a heading bound's alpha scan stops after this many solver failures in a row, none certified
+# a heading bound's alpha scan stops after this many solver failures in a row with nothing certified (the
+# grid's lowest alphas are the hardest: a band of 3 failures there below a feasible minimum was seen in a
+# constructed case; 5 is a third of the default grid)
+NONLINEAR_GIVE_UP = 5
 
 
 def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
