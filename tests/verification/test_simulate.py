@@ -208,7 +208,7 @@ def replay_worst(m, K, lyap, mu0, h):
     mu = np.concatenate([h["mu"], h["mu_next"][None]])[None]  # the next period's slip: the one V was taken at
     taus = np.append(h["tau"], h["tau"][-1])[None]
     # when within each period the slip took its new value (0: at the instant; the last period's is not used)
-    sw = np.repeat(np.append(h["t_switch"], 0.0)[None, :, None], 2, axis=2) if np.any(h["t_switch"] > 0.0) else None
+    sw = np.concatenate([h["t_switch"], np.zeros((1, 2))])[None] if np.any(h["t_switch"] > 0.0) else None
     sim = simulate(m, K, path, replace(start, taus=taus, mu=mu, noise=np.zeros((1, T + 1, 3)), mu_switch=sw))
     xi = sim.true_xi()[0, T]
     prev = m.delay_weights(m.s_tilde(taus))[0, T - 1] if lyap.path else None  # period T-1's delay weights
@@ -221,8 +221,9 @@ def test_adversary_histories_replay_and_are_admissible(certified, name, within, 
     """Every objective's worst history is admissible (slip in the box, within the rate bound from the
     start's slip on; delays in [tau_min, tau_max]; a change within a period only where slip may jump,
     never in the first) and, replayed by the simulator, reaches the value the search reported, which
-    is also its reported maximum.  ``only``: the adversary may change slip only within a period (at 1/3
-    or 2/3 of it), so that the replay of such changes is exercised whatever the worst histories are."""
+    is also its reported maximum.  ``only``: the adversary may change slip only within a period (each
+    track at 1/3 or 2/3 of it), so that the replay of such changes is exercised whatever the worst
+    histories are."""
     from robustsynth.verification import simulate as sim_mod
 
     if within == "only":
@@ -235,8 +236,9 @@ def test_adversary_histories_replay_and_are_admissible(certified, name, within, 
     dl, step = m.config.network.delay, m.slip_step
     changes_within = 0
     for o, h in adv["worst"].items():
-        assert h["t_switch"][0] == 0.0 and np.all(np.isin(h["t_switch"][1:], m.Ts * np.asarray(WITHIN_PERIOD_TIMES)))
-        changed = np.any(np.diff(np.concatenate([mu0[h["start"]][None], h["mu"]]), axis=0) != 0.0, axis=1)
+        assert h["t_switch"].shape == (h["mu"].shape[0], 2)  # each track's time
+        assert np.all(h["t_switch"][0] == 0.0) and np.all(np.isin(h["t_switch"][1:], m.Ts * np.asarray(WITHIN_PERIOD_TIMES)))
+        changed = np.diff(np.concatenate([mu0[h["start"]][None], h["mu"]]), axis=0) != 0.0  # per track
         changes_within += int(np.sum(changed & (h["t_switch"] > 0.0)))
         assert within or not np.any(h["t_switch"] > 0.0)
         mu = np.concatenate([mu0[h["start"]][None], h["mu"], h["mu_next"][None]])

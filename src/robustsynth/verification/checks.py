@@ -394,7 +394,7 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
                 "runs": vc.adversarial_runs, "steps": vc.adversarial_steps,
                 "search": "beam search from the steady states of the slip corners, on a straight line: every period "
                           "each kept history goes on with every slip the adversary may pick"
-                          + (" (also a second search in which the new slip takes over at "
+                          + (" (also a second search in which each track's new slip takes over at "
                              + ", ".join(f"{t:.3g}" for t in times) + " of the period, from the second period on)"
                              if times else "")
                           + " and 9 delays of the newest packet; kept are each start's greedy history (largest V) and, for each of "

@@ -107,7 +107,7 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
 
 
 ADVERSARY_OBJECTIVES = ("V", "e_x", "e_y", "e_theta", "motor_speed")
-WITHIN_PERIOD_TIMES = (0.0, 1.0 / 3.0, 2.0 / 3.0)  # the adversary's times of a slip change, in periods
+WITHIN_PERIOD_TIMES = (0.0, 0.5)  # the adversary's times of a slip change, in periods, each track on its own
 
 
 def _top_distinct(score: np.ndarray, width: int) -> np.ndarray:
@@ -155,9 +155,9 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
     the certified set, :func:`~robustsynth.verification.probe.boundary_states`), with slips ``mu0``.
 
     ``within_period`` (slip that may jump at any time, docs/theory.md §11): from the second period on
-    the adversary also picks *when* within the period the slip takes its new value, at
-    :data:`WITHIN_PERIOD_TIMES` of the period (0: at the sampling instant); each worst history then
-    has ``t_switch`` (T,), both tracks' time, to replay as ``Scenario.mu_switch``."""
+    the adversary also picks *when* within the period each track's slip takes its new value, at
+    :data:`WITHIN_PERIOD_TIMES` of the period (0: at the sampling instant), every pair of times for the
+    two tracks; each worst history then has ``t_switch`` (T, 2), to replay as ``Scenario.mu_switch``."""
     unknown = set(objectives) - set(ADVERSARY_OBJECTIVES)
     if unknown or not objectives or width < 1:
         raise ValueError(f"objectives must be a non-empty subset of {ADVERSARY_OBJECTIVES} and width >= 1")
@@ -193,18 +193,23 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
         seq = np.concatenate([np.repeat(hist[:, None, :], n_tau, axis=1),
                               np.broadcast_to(taus[None, :, None], (P, n_tau, 1))], axis=2)
         S = model.s_tilde(seq)[:, :, 0, :]  # (P, n_tau, d_hi)
-        sw = Ts * np.asarray(WITHIN_PERIOD_TIMES if jumps and k > 0 else (0.0,))  # when the new slip takes over
-        n_w = sw.size
+        # when each track's new slip takes over (n_w, 2): every pair of the times, each track on its own
+        times = WITHIN_PERIOD_TIMES if jumps and k > 0 else (0.0,)
+        sw = Ts * np.array([(a, b) for a in times for b in times])
+        n_w = sw.shape[0]
         shape = (P, n_c, n_w, n_tau)
         after = np.broadcast_to(cand_mu[:, :, None, None, :], shape + cand_mu.shape[-1:])
         args = (np.broadcast_to(q[:, None, None, None, :], shape + (3,)),
                 np.broadcast_to(U[:, None, None, None], shape + U.shape[1:]),
                 np.broadcast_to(S[:, None, None], shape + (d_hi,)))
-        if n_w == 1 and sw[0] == 0.0:
+        if n_w == 1 and not np.any(sw):
             q_next = robot.period(*args, after)
-        else:
-            q_next = robot.period(*args, np.broadcast_to(mu_prev[:, None, None, None, :], after.shape),
-                                  switch=(np.broadcast_to(sw[None, None, :, None], shape), after))
+        else:  # the earlier track's change first (the slip in between: that track new, the other old)
+            before = np.broadcast_to(mu_prev[:, None, None, None, :], after.shape)
+            t_b = np.broadcast_to(sw[None, None, :, None, :], shape + (2,))
+            t1, t2 = np.min(t_b, axis=-1), np.max(t_b, axis=-1)
+            mid = np.where(t_b <= t1[..., None], after, before)
+            q_next = robot.period(*args, before, switch=[(t1, mid), (t2, after)])
         e_next = frame_error(path, 0, q_next, tk + Ts)
         rest = np.stack(law.past + law.z, axis=1)  # the controller's memory after step k
         xi_next = np.concatenate([e_next, np.broadcast_to(rest[:, None, None, None, :], shape + rest.shape[1:])],
@@ -253,7 +258,7 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
         VK.append(flat["V"][keep])
     worst = {}
     for o, (value, k, i, mu_v) in best.items():
-        mu_h, tau_h, sw_h = np.empty((k + 1, model.n_p)), np.empty(k + 1), np.empty(k + 1)
+        mu_h, tau_h, sw_h = np.empty((k + 1, model.n_p)), np.empty(k + 1), np.empty((k + 1, 2))
         for j in range(k, -1, -1):  # walk the history back to its start
             mu_h[j], tau_h[j], sw_h[j] = MU[j][i], TAU[j][i], SW[j][i]
             i = parents[j][i]
