@@ -955,7 +955,7 @@ def recheck_lti(plant: dict, gains: Mapping[str, Any], Ts: float, tau_min: float
     against this plant and network: the vertex blocks of the over-approximation built for K (with
     the disturbance or the l2 gain's terms) and every output bound and input limit on the set.
     Returns {"ok", "reason"}."""
-    from .model.lti import disturbance_bound, lti_depth, over_approximation, vertex_combinations
+    from .model.lti import disturbance_bound, lifted_rows, lti_depth, over_approximation, vertex_combinations
 
     try:
         K = np.asarray(gains["K"], dtype=float)
@@ -976,7 +976,7 @@ def recheck_lti(plant: dict, gains: Mapping[str, Any], Ts: float, tau_min: float
         return {"ok": False, "reason": "non-finite entries"}
     if not float(np.min(np.linalg.eigvalsh((P + P.T) / 2.0))) > 0:
         return {"ok": False, "reason": "P is not positive definite"}
-    C = np.hstack([plant["C"], np.zeros((plant["C"].shape[0], K.shape[1] - n))])
+    C = lifted_rows(plant["C"], K.shape[1])
     dist = out = None
     if figs.get("hinf_gain") is not None:
         dist, out = float(figs["hinf_gain"]) ** 2 / disturbance_bound(A, plant["E"], 1.0, Ts) ** 2, C

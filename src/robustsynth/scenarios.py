@@ -31,6 +31,7 @@ __all__ = [
     "slip_vertices",
     "slip_candidates",
     "rate_limited_slip",
+    "track_changes",
 ]
 
 SLIP_PROFILES = ("constant", "random-walk", "steps", "corners")
@@ -65,10 +66,15 @@ class Scenario:
         two tracks' times, mu_1 with only the earlier track changed), or None (constant over it)."""
         if self.mu_switch is None or k == 0:
             return self.mu[:, k], None
-        old, new, t = self.mu[:, k - 1], self.mu[:, k], self.mu_switch[:, k]
-        t1, t2 = np.min(t, axis=1), np.max(t, axis=1)
-        mid = np.where(t <= t1[:, None], new, old)
-        return old, [(t1, mid), (t2, new)]
+        return self.mu[:, k - 1], track_changes(self.mu[:, k - 1], self.mu[:, k], self.mu_switch[:, k])
+
+
+def track_changes(before: np.ndarray, after: np.ndarray, t: np.ndarray) -> list:
+    """Each track's slip going from ``before`` to ``after`` (..., 2) at its own time ``t`` (..., 2) within
+    a period, as the robot's list of changes in time order: ``[(t1, mu_1), (t2, after)]``, the earlier
+    track changed at t1 and both at t2 (``KinematicRobot.period``'s ``switch``)."""
+    t1, t2 = np.min(t, axis=-1), np.max(t, axis=-1)
+    return [(t1, np.where(t <= t1[..., None], after, before)), (t2, after)]
 
 
 def _rate_limit(target: np.ndarray, start: np.ndarray, max_step: float | None) -> np.ndarray:

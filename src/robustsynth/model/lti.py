@@ -37,7 +37,7 @@ import numpy as np
 from .lifting import instant_ranges, lift
 
 __all__ = ["gamma", "exact_closed_loop", "Piecewise", "over_approximation", "coverage_check", "lti_plant", "pad_lti_gain",
-           "check_lti_gain", "disturbance_bound", "lti_depth", "periodic_spectral_radius", "vertex_combinations", "lti_plant_from", "REMAINDER_INFLATION"]
+           "check_lti_gain", "disturbance_bound", "lti_depth", "lifted_rows", "periodic_spectral_radius", "vertex_combinations", "lti_plant_from", "REMAINDER_INFLATION"]
 
 REMAINDER_INFLATION = 1e-9  # relative: the remainder bound's own rounding (norms by SVD, expm)
 
@@ -285,6 +285,13 @@ def lti_plant(cfg, base_dir: str | None = None) -> dict:
     return lti_plant_from(A, B, K=K, E=None if dist is None else dist.E, w_max=None if dist is None else dist.bound,
                           C=C, u_max=pl.input_limits, states=pl.states, units=pl.units, outputs=names,
                           output_units=ounits, scale=scale)
+
+
+def lifted_rows(C: np.ndarray, n_s: int) -> np.ndarray:
+    """Rows on the plant's state (p, n) as rows on the lifted state [x; u_{k-1}; ...] (p, n_s): zeros
+    for the stored commands."""
+    C = np.asarray(C, dtype=float)
+    return np.hstack([C, np.zeros((C.shape[0], n_s - C.shape[1]))])
 
 
 def lti_depth(tau_max: float, m_lost: int, Ts: float) -> int:

@@ -8,6 +8,7 @@ the same floats; the tests compile the C code and compare both with numpy's K @ 
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 __all__ = ["lti_export_files", "LTI_TARGETS"]
@@ -17,8 +18,6 @@ LTI_TARGETS = ("c", "python", "json")
 
 def _f(v: float) -> str:
     """A C double literal that reads back as exactly ``v`` (17 significant digits by repr)."""
-    import math
-
     v = float(v)
     if not math.isfinite(v):
         raise ValueError(f"non-finite constant {v!r}")

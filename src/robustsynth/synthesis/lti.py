@@ -252,8 +252,9 @@ def _vertices_of(plant: dict, Ts: float, tau_min: float, tau_hi: float, d: int, 
         V = _Vertices(plant, Ts, tau_min, tau_hi, d, pieces)
     except ValueError as exc:
         raise InputError(f"plant: {exc} (delays up to {tau_hi:g} s)") from None
-    C = plant["C"]
-    return V, np.hstack([C, np.zeros((C.shape[0], V.n_s - C.shape[1]))])
+    from ..model.lti import lifted_rows
+
+    return V, lifted_rows(plant["C"], V.n_s)
 
 
 def _eps_diag(eps_v: np.ndarray, m: int) -> np.ndarray:

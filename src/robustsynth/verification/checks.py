@@ -326,6 +326,14 @@ def _beyond_cap(model, K, gains: dict, cert: CertificateCheck, ub, runs: int, se
     return out
 
 
+def _adversary(within: bool, *args, **kwargs) -> dict:
+    """:func:`adversarial_nonlinear`; where the certificate covers slip changing within a period
+    (``within``), merged with the same search that also picks the times of the changes (a beam search
+    with more choices keeps different histories and does not always find more)."""
+    adv = adversarial_nonlinear(*args, **kwargs)
+    return merge_adversaries(adv, adversarial_nonlinear(*args, within_period=True, **kwargs)) if within else adv
+
+
 def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: int, progress):
     vc = model.config.verification
     path = make_path(vc.path, model.V)
@@ -381,13 +389,8 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
         if vc.adversarial_runs:
             objectives = tuple(o for o in ADVERSARY_OBJECTIVES  # |rho| only against a certified motor bound
                                if o != "motor_speed" or "motor_speed_bound" in cert.figures)
-            def search(**kw):
-                return adversarial_nonlinear(model, K, lyap.V, slip_vertices(model), vc.adversarial_steps,
-                                             width=vc.adversarial_runs, objectives=objectives, with_delay=lyap.path, **kw)
-
-            adv = search()
-            if within:  # also the times of the slip changes within the periods: the two searches together
-                adv = merge_adversaries(adv, search(within_period=True))
+            adv = _adversary(within, model, K, lyap.V, slip_vertices(model), vc.adversarial_steps,
+                             width=vc.adversarial_runs, objectives=objectives, with_delay=lyap.path)
             times = [t for t in adv["switch_times"] if t > 0.0]
             adv_v = adv["V"] / level
             mc["adversarial"] = {
@@ -425,12 +428,8 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
             xb, mb = boundary_states(model, K, lyap, level, seed=seed)
             if xb.shape[0]:
                 steps_b = min(vc.adversarial_steps, BOUNDARY_ADVERSARY_STEPS)
-                adv_b = adversarial_nonlinear(model, K, lyap.V, mb, steps_b, width=vc.adversarial_runs, objectives=("V",),
-                                              with_delay=lyap.path, starts=xb)
-                if within:
-                    adv_b = merge_adversaries(adv_b, adversarial_nonlinear(
-                        model, K, lyap.V, mb, steps_b, width=vc.adversarial_runs, objectives=("V",), with_delay=lyap.path,
-                        starts=xb, within_period=True))
+                adv_b = _adversary(within, model, K, lyap.V, mb, steps_b, width=vc.adversarial_runs, objectives=("V",),
+                                   with_delay=lyap.path, starts=xb)
                 mc["boundary_probe"]["adversary"] = {"starts": int(xb.shape[0]), "steps": steps_b,
                                                      "max_V_over_level": adv_b["max_V"] / level}
         # waypoint turns: the certificate's bounds through each frame change, beside the verdict (the

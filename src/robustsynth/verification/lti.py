@@ -70,7 +70,7 @@ def verify_lti(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, tau_min: fl
     """The checks of the module docstring; returns {"passed", "checks": [...], "families": {...}}."""
     from ..errors import InputError
     from ..model.lifting import s_tilde_sequence
-    from ..model.lti import exact_closed_loop, gamma, lti_depth, pad_lti_gain, periodic_spectral_radius
+    from ..model.lti import exact_closed_loop, gamma, lifted_rows, lti_depth, pad_lti_gain, periodic_spectral_radius
 
     A, B = plant["A"], plant["B"]
     n, m = B.shape
@@ -106,7 +106,7 @@ def verify_lti(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, tau_min: fl
     dist = figures.get("disturbance_step_bound") is not None
     Gw = gamma(A, plant["E"], Ts) if dist else None  # the disturbance held over a period
     w_max = float(plant["w_max"]) if dist else 0.0
-    C = np.hstack([plant["C"], np.zeros((plant["C"].shape[0], n_s - n))])
+    C = lifted_rows(plant["C"], n_s)
     out_bounds = np.array([o["bound"] for o in figures.get("outputs", [])]) if dist else None
     u_max = plant.get("u_max")
     alpha = float(figures["alpha"])
@@ -219,12 +219,12 @@ def _l2_gain_check(plant: dict, K: np.ndarray, Ts: float, tau_min: float, tau_ma
     of the map (w_0..w_{N-1}) -> (z_1..z_N), which must be <= gamma (the certificate covers any w(t)
     with sup over period k of ||w|| in place of |w_k|)."""
     from ..model.lifting import s_tilde_sequence
-    from ..model.lti import exact_closed_loop, gamma as gamma_fn
+    from ..model.lti import exact_closed_loop, gamma as gamma_fn, lifted_rows
 
     A, B = plant["A"], plant["B"]
     n = A.shape[0]
     n_s = K.shape[1]
-    C = np.hstack([plant["C"], np.zeros((plant["C"].shape[0], n_s - n))])
+    C = lifted_rows(plant["C"], n_s)
     p = C.shape[0]
     D = np.zeros((n_s, plant["E"].shape[1]))
     D[:n] = gamma_fn(A, plant["E"], Ts)

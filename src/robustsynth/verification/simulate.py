@@ -19,7 +19,7 @@ from ..errors import check_interrupt
 from ..plants.kinematic import KinematicRobot
 from ..plants.path import PathGeometry, frame_error, make_path, pose_from_error
 from ..law import Law
-from ..scenarios import Scenario, delay_candidates, loss_allowed, slip_candidates, split_state
+from ..scenarios import Scenario, delay_candidates, loss_allowed, slip_candidates, split_state, track_changes
 
 __all__ = [
     "SimResult",
@@ -206,10 +206,8 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
             q_next = robot.period(*args, after)
         else:  # the earlier track's change first (the slip in between: that track new, the other old)
             before = np.broadcast_to(mu_prev[:, None, None, None, :], after.shape)
-            t_b = np.broadcast_to(sw[None, None, :, None, :], shape + (2,))
-            t1, t2 = np.min(t_b, axis=-1), np.max(t_b, axis=-1)
-            mid = np.where(t_b <= t1[..., None], after, before)
-            q_next = robot.period(*args, before, switch=[(t1, mid), (t2, after)])
+            q_next = robot.period(*args, before,
+                                  switch=track_changes(before, after, np.broadcast_to(sw[None, None, :, None, :], shape + (2,))))
         e_next = frame_error(path, 0, q_next, tk + Ts)
         rest = np.stack(law.past + law.z, axis=1)  # the controller's memory after step k
         xi_next = np.concatenate([e_next, np.broadcast_to(rest[:, None, None, None, :], shape + rest.shape[1:])],
