@@ -2,7 +2,9 @@
 
 - a 6-state, 2-input plant (three masses on springs, forces on the outer two) sampled at 0.1 s with
   delays up to two periods (d_hi = 2): synthesis time for `stability` and `ultimate-bound` (target
-  <= 10 s), its certified figures, and the verification's worst ratios;
+  <= 10 s), its certified figures, and the verification's worst ratios; `ultimate-bound` twice, side
+  by side: its line search one solve at a time (threads 1) and as many at once as the machine gives
+  (threads auto), which must give the same gain;
 - the benchmark of Zhang, Branicky and Phillips (configs/zbp*.yaml): a gain of its own (stability,
   decay 0.98 per period) and its delay margin beside the published gain's.
 
@@ -35,23 +37,28 @@ def main() -> dict[str, float]:
     from robustsynth.config import load_config
     from robustsynth.margins_lti import lti_margins
     from robustsynth.model.lti import lti_plant
-    from robustsynth.synthesis.lti import synthesize_lti
+    from robustsynth.synthesis.lti import auto_threads, synthesize_lti
     from robustsynth.verification.lti import verify_lti
 
     out: dict[str, float] = {}
     pl = three_masses()
-    print("| 6-state plant, d_hi = 2 | time | solves | vertices | certified | verify: worst / certified |")
-    print("|---|---|---|---|---|---|")
-    for obj in ("stability", "ultimate-bound"):
+    print("| 6-state plant, d_hi = 2 | threads | time | solves | vertices | certified | verify: worst / certified |")
+    print("|---|---|---|---|---|---|---|")
+    gains = {}
+    for obj, threads in (("stability", None), ("ultimate-bound", 1), ("ultimate-bound", None)):
         t0 = time.perf_counter()
-        r = synthesize_lti(pl, 0.1, 0.0, 0.2, 0, obj, decay=0.99)
+        r = synthesize_lti(pl, 0.1, 0.0, 0.2, 0, obj, decay=0.99, threads=threads)
         dt = time.perf_counter() - t0
         v = verify_lti(pl, r.K, r.P, 0.1, 0.0, 0.2, 0, r.figures, runs=32, periods=100)
         figs = (", ".join(f"|{o['name']}| <= {o['bound']:.4g}" for o in r.figures["outputs"]) if obj == "ultimate-bound"
                 else f"decay {r.figures['decay']:.4f}, ball at rest {r.figures['rest_radius']:.4g}")
         worst = ", ".join(f"{c['name'].split(' (')[0]} {c['value']:.3f}" for c in v["checks"])
-        print(f"| {obj} | {dt:.1f} s | {r.solves} | {r.vertices} | {figs} | {worst} |")
-        out[f"six_state_{obj}_s"] = dt
+        label = f"auto ({auto_threads()})" if threads is None else str(threads)
+        print(f"| {obj} | {label} | {dt:.1f} s | {r.solves} | {r.vertices} | {figs} | {worst} |")
+        out[f"six_state_{obj}_threads_{'auto' if threads is None else threads}_s"] = dt
+        gains.setdefault(obj, []).append(r.K)
+    same = all(np.array_equal(k, gains["ultimate-bound"][0]) for k in gains["ultimate-bound"])
+    print(f"\nultimate-bound: the same gain with threads 1 and auto: {same}")
 
     root = Path(__file__).resolve().parents[1]
     print("\n| benchmark | gain | time | delay margin certified / exhibited | loss margin certified / exhibited |")

@@ -581,6 +581,9 @@ class LtiSynthesisConfig(_Node):
                                                        "in the guaranteed over-approximation")
     alpha_points: Annotated[int, Field(ge=2, le=60)] = Field(default=6, description="grid points of the line "
                                                              "search over V's contraction alpha (ultimate-bound)")
+    threads: Annotated[int, Field(ge=1, le=64)] | Literal["auto"] = Field(
+        default="auto", description="solves of the alpha line search run at once, one thread each (auto: the CPUs "
+        "this process may use, at most 4); the search visits the same alphas either way, so the gain is the same")
     solver: Literal["clarabel", "scs"] = Field(default="clarabel", description="first solver tried")
 
 

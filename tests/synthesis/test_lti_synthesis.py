@@ -10,7 +10,7 @@ import pytest
 from robustsynth.certificate import check_lti_certificate, lti_within
 from robustsynth.model.lifting import instant_ranges
 from robustsynth.model.lti import disturbance_bound, exact_closed_loop, lti_plant_from, over_approximation
-from robustsynth.synthesis.lti import synthesize_lti, vertex_combinations
+from robustsynth.synthesis.lti import _midpoints, synthesize_lti, vertex_combinations
 
 ZBP_A = np.array([[0.0, 1.0], [0.0, -0.1]])
 ZBP_B = np.array([[0.0], [0.1]])
@@ -184,3 +184,26 @@ def test_hinf_dissipation_on_exact_loops_and_a_tampered_gamma() -> None:
     C[0, 0] = 1.0
     assert check_lti_certificate(pw, r.P, r.eps, 1.0, combos, ends, gam**2 / g**2, C)["ok"]
     assert not check_lti_certificate(pw, r.P, r.eps, 1.0, combos, ends, (gam / 2) ** 2 / g**2, C)["ok"]
+
+
+def test_the_gain_does_not_depend_on_how_many_solves_run_at_once(zbp_bound) -> None:
+    """The line search visits the same alphas whether one or several solves run at once (threads), and
+    each solve is the same arithmetic: the same gain, set and figures, exactly."""
+    pl, ref = zbp_bound
+    one = synthesize_lti(pl, 0.5, 0.0, 0.5, 0, "ultimate-bound", threads=1)
+    three = synthesize_lti(pl, 0.5, 0.0, 0.5, 0, "ultimate-bound", threads=3)
+    for r in (one, three):
+        assert r.certified and r.solves == one.solves
+        np.testing.assert_array_equal(r.K, one.K)
+        np.testing.assert_array_equal(r.P, one.P)
+        assert r.alpha == one.alpha and r.figures == one.figures
+    np.testing.assert_array_equal(ref.K, one.K)  # the fixture ran with the machine's default
+
+
+def test_refinement_halves_towards_both_neighbours() -> None:
+    tried = [0.1, 0.9, 0.99, 0.999]
+    x = lambda a: np.log(1.0 - a)  # noqa: E731
+    got = sorted(x(a) for a in _midpoints(tried, 0.99))
+    assert got == pytest.approx(sorted([(x(0.9) + x(0.99)) / 2, (x(0.99) + x(0.999)) / 2]))
+    assert _midpoints(tried, 0.999) == [pytest.approx(1 - np.exp((x(0.99) + x(0.999)) / 2))]  # an end: one side
+    assert len(_midpoints([0.5], 0.5)) == 0

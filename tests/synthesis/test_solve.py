@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 
 import cvxpy as cp
+import numpy as np
 import pytest
 import yaml
 from click.testing import CliRunner
@@ -145,3 +146,65 @@ def test_a_real_clarabel_panic_config_still_certifies_quietly(monkeypatch, capfd
     assert "panicked" not in capfd.readouterr().err
     if not any("solver panicked" in e for e in errors):
         pytest.skip("this Clarabel build does not panic on the config any more (the path is covered above)")
+
+
+SAME_SOLVE = 1e-12  # one problem solved alone or beside another: the same arithmetic, rounding at most
+
+
+def _sdp(shift: float):
+    """A small SDP whose optimum moves with ``shift``: (problem, its matrix variable)."""
+    X = cp.Variable((3, 3), symmetric=True)
+    M = np.array([[2.0, 0.5, 0.0], [0.5, 1.0 + shift, 0.3], [0.0, 0.3, 3.0]])
+    return cp.Problem(cp.Minimize(cp.trace(M @ X)), [X >> np.eye(3), X[0, 1] >= shift]), X
+
+
+def test_solve_all_gives_what_solving_one_after_another_gives() -> None:
+    together = [_sdp(s) for s in (0.1, 0.7)]
+    alone = [_sdp(s) for s in (0.1, 0.7)]
+    outs = solve_mod.solve_all([p for p, _ in together], "clarabel", [lambda: True, lambda: True])
+    assert [o.kind for o in outs] == ["ok", "ok"]
+    for (_, X), (q, Z) in zip(together, alone):
+        assert solve_mod.solve(q, "clarabel", lambda: True, fallback=False).kind == "ok"
+        np.testing.assert_allclose(X.value, Z.value, rtol=SAME_SOLVE, atol=SAME_SOLVE)
+    infeasible = cp.Variable()
+    refused = solve_mod.solve_all([cp.Problem(cp.Minimize(infeasible), [infeasible >= 1, infeasible <= 0]), _sdp(0.2)[0]],
+                                  "clarabel", [lambda: True, lambda: False])
+    assert [o.kind for o in refused] == ["infeasible", "failed"]  # accept refusing a point: failed, no fallback
+    assert "numpy certificate check" in refused[1].record.error
+
+
+_HOLD_SCRIPT = """
+import os, signal, time
+import numpy as np, cvxpy as cp
+from robustsynth.synthesis import solve as solve_mod
+events = []
+def sdp(shift):
+    X = cp.Variable((3, 3), symmetric=True)
+    M = np.array([[2.0, 0.5, 0.0], [0.5, 1.0 + shift, 0.3], [0.0, 0.3, 3.0]])
+    return cp.Problem(cp.Minimize(cp.trace(M @ X)), [X >> np.eye(3), X[0, 1] >= shift])
+probs = [sdp(0.1), sdp(0.5)]
+def call(problem, name):  # no masking of its own: only what solve_all set up holds the signal
+    if problem is probs[0]:
+        os.kill(os.getpid(), signal.SIGINT)
+    time.sleep(0.3)
+    problem.solve(**solve_mod.solver_options(name))
+    events.append("solved")
+solve_mod._call_solver = call
+signal.signal(signal.SIGINT, lambda *_: events.append("signal"))
+outs = solve_mod.solve_all(probs, "clarabel", [lambda: True, lambda: True])
+time.sleep(0.05)
+print(",".join([o.kind for o in outs] + events))
+"""
+
+
+def test_solve_all_holds_sigint_until_every_solve_returned() -> None:
+    """A SIGINT that arrives while the solves run is delivered once all of them have returned: the
+    worker threads inherit the calling thread's mask (without it the calling thread's wait would take
+    the signal at once).  In a process of its own, as the CLI runs: a test runner's own threads would
+    take the signal."""
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-c", _HOLD_SCRIPT], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "ok,ok,solved,solved,signal"

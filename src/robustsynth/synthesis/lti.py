@@ -24,11 +24,13 @@ import numpy as np
 from ..model.lti import vertex_combinations
 
 __all__ = ["LtiAnalysis", "analyze_lti", "vertex_combinations", "LtiDesign", "synthesize_lti", "synthesize_lti_config",
-           "DECAY", "STRICT"]
+           "auto_threads", "DECAY", "STRICT"]
 
 DECAY = 1.0 - 1e-6  # V shrinks by at least this factor per period: asymptotic stability with a margin
 STRICT = 1e-7  # the LMIs' strictness (P >= I fixes the scale)
-ALPHA_FAR, GOLDEN_STEPS = 0.9, 4  # ultimate-bound: the line search's grid of 1 - alpha starts here; refinement solves
+ALPHA_FAR = 0.9  # ultimate-bound: the line search's grid of 1 - alpha starts here
+REFINE_ROUNDS = 2  # then rounds of two solves around the best alpha (halving the bracket in log(1 - alpha))
+MAX_THREADS = 4  # auto_threads' cap
 INPUT_BACKOFF = 1e-6  # synthesis: the input limits are posed this much (relative) tighter than proven
 
 
@@ -339,7 +341,7 @@ def _prove(plant: dict, V: _Vertices, Ts: float, tau_min: float, tau_hi: float, 
 
 def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int, objective: str,
                    decay: float = 0.98, pieces: int = 2, alpha_points: int = 6, solver: str = "clarabel",
-                   say=lambda s: None) -> LtiDesign:
+                   say=lambda s: None, threads: int | None = None) -> LtiDesign:
     """A gain u_k = K xi_k on the lifted state with a common quadratic certificate for every delay in
     [tau_min, tau_max] and up to m_lost losses in a row (docs/theory.md §15):
 
@@ -350,14 +352,15 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
       scale over it (alpha searched), with |u_i| <= u_max,i on it.
 
     The lifted system is linear: the LMIs are posed for xi beta / delta, delta the disturbance's bound
-    per period and beta = 1 - sqrt(alpha) (which keeps Q of order one), and every figure is scaled back."""
-    import cvxpy as cp
+    per period and beta = 1 - sqrt(alpha) (which keeps Q of order one), and every figure is scaled back.
 
+    The line search solves ``threads`` alphas at once (None: :func:`auto_threads`); it visits the same
+    alphas whatever that number, so the gain does not depend on the machine."""
     from ..certificate import lti_within
     from ..errors import InputError
     from ..model.lti import disturbance_bound, lti_depth
     from ..verified import assembly_radius, proves_at_least, round_up
-    from .solve import solve
+    from .solve import solve_all
 
     A, B = plant["A"], plant["B"]
     n, m = B.shape
@@ -368,72 +371,54 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
         raise InputError(f"synthesis.objective: {objective} needs plant.disturbance (E and its bound)")
     t0 = time.perf_counter()
     V, C = _vertices_of(plant, Ts, tau_min, tau_hi, d, pieces)
-    nv, n_s = len(V.Av), V.n_s
+    nv = len(V.Av)
     if objective == "hinf":
         return _synthesize_hinf(plant, V, C, Ts, tau_min, tau_hi, pieces, solver, say, t0)
     delta = disturbance_bound(A, plant["E"], plant["w_max"], Ts) if dist else 1.0
     u_max = plant.get("u_max")
     scale = np.asarray(plant["scale"], dtype=float)
-    t = cp.Variable()
-    al = cp.Parameter(nonneg=True)
-    icd = cp.Parameter(nonneg=True)  # 1/c of the disturbance: beta^2 / (1 - alpha)
-    u2 = cp.Parameter(m, nonneg=True)  # the input limits squared, in the LMIs' units
-    q, y, eps, Q, Y, basis, cons = _vertex_lmis(V, dist, icd, al)
-    if u_max is not None:
-        for i in range(m):
-            cons.append(cp.bmat([[cp.reshape(u2[i], (1, 1), order="C"), Y[i : i + 1, :]], [Y[i : i + 1, :].T, Q]]) >> 0)
-    if dist:
-        cons += [C[i] @ Q @ C[i] <= t * scale[i] ** 2 for i in range(C.shape[0])]
-        prob = cp.Problem(cp.Minimize(t), cons)
-        grid = 1.0 - np.geomspace(ALPHA_FAR, 0.002, alpha_points)
-    else:
-        W = np.zeros((n_s, n_s))
-        W[:n, :n] = np.eye(n)
-        cons += [Q << np.eye(n_s), Q >> t * W, t >= 0]
-        prob = cp.Problem(cp.Maximize(t), cons)
-        grid = np.array([decay**2])
-    held: dict = {}
+    grid = 1.0 - np.geomspace(ALPHA_FAR, 0.002, alpha_points) if dist else np.array([decay**2])
+    n_threads = max(1, int(threads)) if threads is not None else auto_threads()
+    points: list[_LinePoint] = []  # one problem per solve that runs at once (cvxpy's parameters are per problem)
+    held: dict = {"tried": []}
 
     def beta(a: float) -> float:
         return 1.0 - float(np.sqrt(a)) if dist else 1.0
 
-    def attempt(a: float) -> float | None:
-        """Solve at alpha = a: the bound in the plant's units (min over scale), or the rest ball; None
-        unless proven."""
-        b = beta(a)
-        al.value = float(a)
-        c_dist = (1.0 - a) / b**2 if dist else None
-        icd.value = 1.0 / c_dist if dist else 0.0
-        # the limits with a relative back-off, so that the numpy proof on P = Q^-1 has room for rounding
-        u2.value = ((1.0 - INPUT_BACKOFF) * np.asarray(u_max, dtype=float) * b / delta) ** 2 if u_max is not None \
-            else np.ones(m)
+    def attempts(alphas: list[float]) -> None:
+        """Solve at each alpha, ``n_threads`` at once; held["ok"][a] = (the bound in the plant's units,
+        min over scale, or the rest ball; then the proof's check, K, P, eta, Q) for every proven one."""
+        for i0 in range(0, len(alphas), n_threads):
+            chunk = alphas[i0 : i0 + n_threads]
+            while len(points) < len(chunk):
+                points.append(_LinePoint(V, C, dist, scale, n, u_max is not None))
+            accepts = []
+            for pt, a in zip(points, chunk):
+                b = beta(a)
+                c_dist = (1.0 - a) / b**2 if dist else None
+                # the limits with a relative back-off, so that the numpy proof on P = Q^-1 has room for rounding
+                u2 = (((1.0 - INPUT_BACKOFF) * np.asarray(u_max, dtype=float) * b / delta) ** 2 if u_max is not None
+                      else None)
+                pt.set(a, 1.0 / c_dist if dist else 0.0, u2)
+                accepts.append(pt.acceptor(lambda Qv, Yv, ev, a=a, c=c_dist: _prove(
+                    plant, V, Ts, tau_min, tau_hi, pieces, Qv, Yv, ev, a, c)))
+            for pt, a, out in zip(points, chunk, solve_all([pt.prob for pt in points[: len(chunk)]], solver, accepts)):
+                held["solves"] = held.get("solves", 0) + 1
+                held["tried"].append(float(a))
+                held["last"] = pt.proof or None  # the last solve's proof, if its point reached one
+                if out.kind != "ok":
+                    say(f"alpha {a:.4f}: {out.kind}")
+                    continue
+                val = float(np.sqrt(max(float(pt.t.value), 0.0))) * (delta / beta(a) if dist else 1.0)
+                say(f"alpha {a:.4f}: {'largest bound / scale' if dist else 'ball at rest'} {val:.6g} (proven)")
+                held.setdefault("ok", {})[a] = (val,) + pt.proof
 
-        def accept() -> bool:
-            if q.value is None or y.value is None or eps.value is None:
-                return False
-            Qv = np.einsum("i,iab->ab", np.asarray(q.value, dtype=float), basis)
-            chk, K, P, eta = _prove(plant, V, Ts, tau_min, tau_hi, pieces, Qv, np.asarray(y.value).reshape(m, n_s),
-                                    np.maximum(np.asarray(eps.value), 0.0), a, c_dist)
-            held["last"] = (chk, K, P, eta, Qv)
-            return bool(chk["ok"])
-
-        held.pop("last", None)
-        held["solves"] = held.get("solves", 0) + 1
-        out = solve(prob, solver, accept, fallback=False)  # SCS is slow here and rescues nothing (analyze_lti)
-        if out.kind != "ok":
-            say(f"alpha {a:.4f}: {out.kind}")
-            return None
-        val = float(np.sqrt(max(float(t.value), 0.0))) * (delta / b if dist else 1.0)
-        say(f"alpha {a:.4f}: {'largest bound / scale' if dist else 'ball at rest'} {val:.6g} (proven)")
-        held.setdefault("ok", {})[a] = (val,) + held["last"]
-        return val
-
-    for a in grid:
-        attempt(a)
+    attempts([float(a) for a in grid])
     best = _best(held, dist)
-    if dist and best is not None:  # refine between the best grid point's neighbours (golden section on log(1 - alpha))
-        _golden(_bracket(grid, best), attempt, GOLDEN_STEPS)
-        best = _best(held, dist)
+    if dist and best is not None:  # refine around the best alpha: two solves a round, on either side of it
+        for _ in range(REFINE_ROUNDS):
+            attempts(_midpoints(held["tried"], best))
+            best = _best(held, dist)
     solves = held.get("solves", 0)
     dt = time.perf_counter() - t0
     if best is None:
@@ -483,7 +468,8 @@ def synthesize_lti_config(cfg, plant: dict, objective: str | None = None, solver
     net, syn = cfg.network, cfg.synthesis
     return synthesize_lti(plant, net.sampling_time, net.delay.min, net.delay.max, net.dropouts.max_consecutive,
                           objective or cfg.objective, decay=syn.decay, pieces=syn.pieces,
-                          alpha_points=syn.alpha_points, solver=solver or syn.solver, say=say)
+                          alpha_points=syn.alpha_points, solver=solver or syn.solver, say=say,
+                          threads=None if syn.threads == "auto" else syn.threads)
 
 
 def _synthesize_hinf(plant: dict, V: _Vertices, C: np.ndarray, Ts: float, tau_min: float, tau_hi: float, pieces: int,
@@ -529,31 +515,85 @@ def _synthesize_hinf(plant: dict, V: _Vertices, C: np.ndarray, Ts: float, tau_mi
     return LtiDesign(True, "certified", "hinf", K, P, eta, 1.0, figures, chk, d, nv, len(out.attempts), dt)
 
 
+def auto_threads() -> int:
+    """The solves the line search runs at once by default: the CPUs this process may use, at most
+    ``MAX_THREADS``."""
+    import os
+
+    try:
+        n = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        n = os.cpu_count() or 1
+    return max(1, min(MAX_THREADS, n))
+
+
+class _LinePoint:
+    """One copy of the line search's problem (the invariance LMIs at a parametric alpha, with the
+    output bounds or the rest ball and the input limits): solves that run at once each need their own."""
+
+    def __init__(self, V: _Vertices, C: np.ndarray, dist: bool, scale: np.ndarray, n: int, limits: bool) -> None:
+        import cvxpy as cp
+
+        m, n_s = V.m, V.n_s
+        self.m, self.n_s = m, n_s
+        self.t = cp.Variable()
+        self.al = cp.Parameter(nonneg=True)
+        self.icd = cp.Parameter(nonneg=True)  # 1/c of the disturbance: beta^2 / (1 - alpha)
+        self.u2 = cp.Parameter(m, nonneg=True)  # the input limits squared, in the LMIs' units
+        self.q, self.y, self.eps, Q, Y, self.basis, cons = _vertex_lmis(V, dist, self.icd, self.al)
+        if limits:
+            for i in range(m):
+                cons.append(cp.bmat([[cp.reshape(self.u2[i], (1, 1), order="C"), Y[i : i + 1, :]],
+                                     [Y[i : i + 1, :].T, Q]]) >> 0)
+        if dist:
+            cons += [C[i] @ Q @ C[i] <= self.t * scale[i] ** 2 for i in range(C.shape[0])]
+            self.prob = cp.Problem(cp.Minimize(self.t), cons)
+        else:
+            W = np.zeros((n_s, n_s))
+            W[:n, :n] = np.eye(n)
+            cons += [Q << np.eye(n_s), Q >> self.t * W, self.t >= 0]
+            self.prob = cp.Problem(cp.Maximize(self.t), cons)
+        self.proof: tuple = ()
+
+    def set(self, alpha: float, inv_c: float, u2: np.ndarray | None) -> None:
+        self.al.value = float(alpha)
+        self.icd.value = float(inv_c)
+        self.u2.value = u2 if u2 is not None else np.ones(self.m)
+        self.proof = ()
+
+    def acceptor(self, prove):
+        """The ``accept`` of :func:`robustsynth.synthesis.solve.solve`: ``prove(Q, Y, eps)`` -> (check,
+        K, P, eta) on the solver's values; the proof is kept (``self.proof``)."""
+
+        def accept() -> bool:
+            if self.q.value is None or self.y.value is None or self.eps.value is None:
+                return False
+            Qv = np.einsum("i,iab->ab", np.asarray(self.q.value, dtype=float), self.basis)
+            chk, K, P, eta = prove(Qv, np.asarray(self.y.value).reshape(self.m, self.n_s),
+                                   np.maximum(np.asarray(self.eps.value), 0.0))
+            self.proof = (chk, K, P, eta, Qv)
+            return bool(chk["ok"])
+
+        return accept
+
+
+def _midpoints(tried: list[float], best: float) -> list[float]:
+    """The points halfway (in log(1 - alpha)) between ``best`` and its nearest tried neighbour on
+    either side (one side only at the grid's ends)."""
+    x = sorted(set(np.log(1.0 - np.asarray(tried))))
+    xb = float(np.log(1.0 - best))
+    lower = [v for v in x if v < xb]
+    upper = [v for v in x if v > xb]
+    out = []
+    if lower:
+        out.append(1.0 - float(np.exp((lower[-1] + xb) / 2.0)))
+    if upper:
+        out.append(1.0 - float(np.exp((upper[0] + xb) / 2.0)))
+    return out
+
+
 def _best(held: dict, dist: bool) -> float | None:
     ok = held.get("ok", {})
     if not ok:
         return None
     return (min if dist else max)(ok, key=lambda a: ok[a][0])
-
-
-def _bracket(grid: np.ndarray, a: float) -> tuple[float, float]:
-    i = int(np.argmin(np.abs(grid - a)))
-    return float(grid[max(i - 1, 0)]), float(grid[min(i + 1, len(grid) - 1)])
-
-
-def _golden(lo_hi: tuple[float, float], f, steps: int) -> None:
-    """``steps`` evaluations of a golden-section search of f over log(1 - alpha) in the bracket (f keeps
-    what it finds; None: infeasible, taken as +inf)."""
-    lo, hi = (np.log(1.0 - x) for x in lo_hi)
-    g = (np.sqrt(5.0) - 1.0) / 2.0
-    x1, x2 = hi + (1 - g) * (lo - hi), hi + g * (lo - hi)
-    f1, f2 = f(1.0 - np.exp(x1)), f(1.0 - np.exp(x2))
-    for _ in range(steps - 2):
-        if (np.inf if f1 is None else f1) <= (np.inf if f2 is None else f2):
-            lo, x2, f2 = x2, x1, f1
-            x1 = hi + (1 - g) * (lo - hi)
-            f1 = f(1.0 - np.exp(x1))
-        else:
-            hi, x1, f1 = x1, x2, f2
-            x2 = hi + g * (lo - hi)
-            f2 = f(1.0 - np.exp(x2))

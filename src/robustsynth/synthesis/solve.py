@@ -11,7 +11,7 @@ import cvxpy as cp
 
 from ..errors import check_interrupt
 
-__all__ = ["SolveRecord", "Outcome", "solve", "SOLVER_OPTIONS", "solver_options", "solver_version"]
+__all__ = ["SolveRecord", "Outcome", "solve", "solve_all", "SOLVER_OPTIONS", "solver_options", "solver_version"]
 
 SOLVER_OPTIONS: dict[str, dict[str, Any]] = {
     "clarabel": {
@@ -144,25 +144,33 @@ class _NativeStderr:
 
 
 def _attempt(problem: cp.Problem, name: str) -> SolveRecord:
-    t0 = time.perf_counter()
     with _NativeStderr() as err:
-        try:
-            _call_solver(problem, name)
-        except (cp.error.SolverError, ValueError, ArithmeticError) as exc:
-            return SolveRecord(name, "solver_error", None, time.perf_counter() - t0, str(exc).splitlines()[0][:200])
-        except BaseException as exc:  # noqa: BLE001
-            # a panic in a solver's native code (Clarabel's Rust: pyo3_runtime.PanicException derives
-            # from BaseException, e.g. "Eigval error" in a PSD cone step) is a failed attempt, not a crash
-            if type(exc).__name__ != "PanicException":
-                raise
+        rec, panicked = _run(problem, name)
+        if panicked:
             err.release(keep=False)
-            msg = (str(exc).splitlines() or ["panic"])[0][:200]
-            return SolveRecord(name, "solver_error", None, time.perf_counter() - t0, f"solver panicked: {msg}")
+    return rec
+
+
+def _run(problem: cp.Problem, name: str) -> tuple[SolveRecord, bool]:
+    """One solver attempt and whether the solver's native code panicked (its report then belongs to
+    no one: the caller drops what was captured on fd 2)."""
+    t0 = time.perf_counter()
+    try:
+        _call_solver(problem, name)
+    except (cp.error.SolverError, ValueError, ArithmeticError) as exc:
+        return SolveRecord(name, "solver_error", None, time.perf_counter() - t0, str(exc).splitlines()[0][:200]), False
+    except BaseException as exc:  # noqa: BLE001
+        # a panic in a solver's native code (Clarabel's Rust: pyo3_runtime.PanicException derives
+        # from BaseException, e.g. "Eigval error" in a PSD cone step) is a failed attempt, not a crash
+        if type(exc).__name__ != "PanicException":
+            raise
+        msg = (str(exc).splitlines() or ["panic"])[0][:200]
+        return SolveRecord(name, "solver_error", None, time.perf_counter() - t0, f"solver panicked: {msg}"), True
     stats = problem.solver_stats
     iters = getattr(stats, "num_iters", None)
     own = getattr(stats, "solve_time", None)
     return SolveRecord(name, str(problem.status), int(iters) if iters is not None else None, time.perf_counter() - t0,
-                       solver_time_s=float(own) if own is not None else None)
+                       solver_time_s=float(own) if own is not None else None), False
 
 
 class Rejected(Exception):
@@ -184,16 +192,55 @@ def solve(problem: cp.Problem, primary: str, accept: Callable[[], bool], fallbac
         rec = _attempt(problem, name)
         check_interrupt()  # an interrupt is never a failed or infeasible point
         attempts.append(rec)
-        if rec.status == cp.INFEASIBLE:
-            return Outcome("infeasible", rec, attempts)
-        if rec.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
-            try:
-                ok = accept()
-            except Rejected as exc:
-                rec.error = str(exc)
-                exc.attempts = attempts
-                raise
-            if ok:
-                return Outcome("ok", rec, attempts)
-            rec.error = rec.error or "returned point failed the numpy certificate check"
+        done = _decide(rec, accept, attempts)
+        if done is not None:
+            return done
     return Outcome("failed", attempts[-1], attempts)
+
+
+def _decide(rec: SolveRecord, accept: Callable[[], bool], attempts: list[SolveRecord]) -> Outcome | None:
+    """The outcome of one attempt, or None when it neither proved nor refuted anything (the caller
+    may retry with another solver)."""
+    if rec.status == cp.INFEASIBLE:
+        return Outcome("infeasible", rec, attempts)
+    if rec.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
+        try:
+            ok = accept()
+        except Rejected as exc:
+            rec.error = str(exc)
+            exc.attempts = attempts
+            raise
+        if ok:
+            return Outcome("ok", rec, attempts)
+        rec.error = rec.error or "returned point failed the numpy certificate check"
+    return None
+
+
+def solve_all(problems: list[cp.Problem], primary: str, accepts: list[Callable[[], bool]]) -> list[Outcome]:
+    """:func:`solve` (without the fallback solver) of independent problems at once, one thread each:
+    the solvers' native code runs outside the GIL, so two problems on two cores take the time of
+    one.  Each problem must be its own cvxpy object (a problem's parameters are not shared between
+    threads).  ``accept`` runs afterwards in the calling thread, in the problems' order, so the outcomes
+    do not depend on how many ran at once.  SIGINT and SIGTERM are held pending until every solve has
+    returned, as for one solve (the threads inherit the calling thread's signal mask), and a solver's
+    output on fd 2 is captured once around all of them."""
+    if len(problems) == 1:
+        return [solve(problems[0], primary, accepts[0], fallback=False)]
+    from concurrent.futures import ThreadPoolExecutor
+
+    check_interrupt()
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD_SIGNALS)
+    try:
+        with _NativeStderr() as err:
+            with ThreadPoolExecutor(max_workers=len(problems), thread_name_prefix="robustsynth-solve") as pool:
+                runs = list(pool.map(lambda p: _run(p, primary), problems))
+            if any(panicked for _, panicked in runs):
+                err.release(keep=False)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    check_interrupt()
+    out = []
+    for (rec, _), accept in zip(runs, accepts):
+        done = _decide(rec, accept, [rec])
+        out.append(done if done is not None else Outcome("failed", rec, [rec]))
+    return out
