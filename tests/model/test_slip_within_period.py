@@ -116,6 +116,16 @@ def test_switched_map_agrees_with_the_matrix_exponential(models) -> None:
         assert np.max(np.abs(A[:n_e] - Ae)) <= EXPM_TOL
         assert np.max(np.abs(B[:n_e] - Be)) <= EXPM_TOL
         assert np.max(np.abs(c[:n_e] - ce)) <= EXPM_TOL
+    # each track at its own time (t_switch (2,), as the Monte Carlo and the boundary probe draw them)
+    for _ in range(20):
+        S = np.array([rng.uniform(0.01, 0.08)])
+        mu, after, t = rng.uniform(0.6, 1.0, 2), rng.uniform(0.6, 1.0, 2), rng.uniform(0.0, m.Ts, 2)
+        A, B, c = m.switched_exact(S, mu, t, after)
+        Ae, Be, ce = _map_by_expm(m, S, [(t[0], 0, after[0]), (t[1], 1, after[1])], mu)
+        n_e = m.n_e
+        assert max(np.max(np.abs(A[:n_e] - Ae)), np.max(np.abs(B[:n_e] - Be)), np.max(np.abs(c[:n_e] - ce))) <= EXPM_TOL
+        one = m.switched_exact(S, mu, t[0], after)[2]  # both at the first time: another map
+        assert np.max(np.abs(one[:n_e] - c[:n_e])) > 100 * EXPM_TOL or abs(t[0] - t[1]) < 1e-3
     # no jump: the constant-slip map the certificate has always used
     A0, B0 = m.robot_exact(S, mu)
     A1, B1, c1 = m.switched_exact(S, mu, m.Ts, after)

@@ -257,12 +257,15 @@ def interval_coordinates(h: np.ndarray, q: np.ndarray, Ts: float) -> tuple[np.nd
 def interval_slip_averages(S: np.ndarray, Ts: float, t_switch: np.ndarray, mu_before: np.ndarray,
                            mu_after: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The slip averages of every command interval when the slip jumps from ``mu_before`` to ``mu_after``
-    (..., 2) at ``t_switch`` (...) within the period: (uniform, (Ts - t)-weighted), each (..., d_hi + 1, 2).
+    (..., 2) within the period: (uniform, (Ts - t)-weighted), each (..., d_hi + 1, 2).  ``t_switch`` is
+    one time for both tracks (...), or each track's own time (..., 2: as many axes as ``mu_before``).
     An interval of zero length gets mu_before (it carries no weight)."""
     S = np.asarray(S, dtype=float)
-    ts = np.asarray(t_switch, dtype=float)[..., None]
+    mb0 = np.asarray(mu_before, dtype=float)
+    ts = np.asarray(t_switch, dtype=float)
+    ts = ts[..., None, :] if ts.ndim == mb0.ndim and ts.shape[-1:] == (2,) else ts[..., None, None]  # (..., 1, 1 or 2)
     ends = np.concatenate([np.full(S.shape[:-1] + (1,), Ts), S, np.zeros(S.shape[:-1] + (1,))], axis=-1)
-    b, a = ends[..., :-1], ends[..., 1:]  # interval i: [a_i, b_i)
+    b, a = ends[..., :-1, None], ends[..., 1:, None]  # interval i: [a_i, b_i)
     F = lambda t: Ts * t - t * t / 2.0  # noqa: E731  (antiderivative of Ts - t)
     cut = np.clip(ts, a, b)
     L, W = b - a, F(b) - F(a)
@@ -270,8 +273,8 @@ def interval_slip_averages(S: np.ndarray, Ts: float, t_switch: np.ndarray, mu_be
     with np.errstate(invalid="ignore", divide="ignore"):
         f_l = np.where(L > 0, l_before / np.where(L > 0, L, 1.0), 1.0)
         f_w = np.where(W > 0, w_before / np.where(W > 0, W, 1.0), 1.0)
-    mb, ma = np.asarray(mu_before, dtype=float)[..., None, :], np.asarray(mu_after, dtype=float)[..., None, :]
-    return f_l[..., None] * mb + (1.0 - f_l[..., None]) * ma, f_w[..., None] * mb + (1.0 - f_w[..., None]) * ma
+    mb, ma = mb0[..., None, :], np.asarray(mu_after, dtype=float)[..., None, :]
+    return f_l * mb + (1.0 - f_l) * ma, f_w * mb + (1.0 - f_w) * ma
 
 
 def varying_slip_maps(Phi: np.ndarray, A_c: np.ndarray, B_c: np.ndarray, Ts: float, V: float, L: np.ndarray,

@@ -17,7 +17,8 @@ certificate forbids that.  On the nonlinear robot a linearized certificate does 
 terms the linearization drops (docs/theory.md §2) are not in it (a nonlinear certificate covers them).
 
 When slip may change at any time (no ``slip.max_rate``; the tracks model), half as many random runs again get a slip
-jump to a random corner at a random time within the period (``Model.switched_exact`` on the linear side).  A
+jump to a random corner within the period: each track at its own random time in every other such run, both
+tracks at one random time in the others (``Model.switched_exact`` on the linear side).  A
 certificate that covers slip changing within a period (docs/theory.md §11) is judged on every run;
 one that assumes slip constant within a period is judged on the others, and the jumps are reported
 beside (``mid_period``).
@@ -32,7 +33,7 @@ import numpy as np
 from ..law import Law
 from ..plants.kinematic import KinematicRobot
 from ..plants.path import frame_error, make_path, pose_from_error
-from ..scenarios import random_delays, slip_candidates, slip_vertices
+from ..scenarios import random_delays, slip_candidates, slip_vertices, track_changes
 
 __all__ = ["boundary_probe", "probe_directions", "boundary_states", "MAX_BOUNDARY_STARTS"]
 
@@ -127,11 +128,15 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
     du = np.stack([dv, dom], axis=1)
     jumped = np.zeros(N, dtype=bool)
     jumped[samples : samples + n_jump] = True
-    t_sw = np.where(jumped, rng.uniform(0.0, model.Ts, N), model.Ts)
     mu_after = np.where(jumped[:, None], corners[rng.integers(0, corners.shape[0], size=N)], mu)
+    if n_jump:  # each track at its own time in every other jump run, both at one time in the others (as the Monte Carlo)
+        t_sw = np.where(jumped[:, None], rng.uniform(0.0, model.Ts, (N, 2)), model.Ts)
+        t_sw[samples : samples + n_jump : 2, 1] = t_sw[samples : samples + n_jump : 2, 0]
+    else:  # no jumps (slip.max_rate, the icr model, one slip corner): one time for all parameters, at the period's end
+        t_sw = np.full(N, model.Ts)
     robot = KinematicRobot.of(model)
     U = robot.send(robot.memory(du_past, N), uD + du)
-    q1 = robot.period(q0, U, S, mu, switch=(t_sw, mu_after))
+    q1 = robot.period(q0, U, S, mu, switch=track_changes(mu, mu_after, t_sw) if n_jump else None)
     e1 = frame_error(path, 0, q1, model.Ts)
     xi_nl = np.concatenate([e1, np.stack(law.past + law.z, axis=1)], axis=1)
 
@@ -170,7 +175,7 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
         "fraction_outside_linear": float(np.mean(r_lin > 1.0)),
         "max_period_gap": {"e_x": float(gap[0]), "e_y": float(gap[1]), "e_theta": float(gap[2])},
         "mid_period": mid,
-        "worst": {"xi": xi[worst], "mu": mu[worst], "mu_after": mu_next[worst], "t_switch": float(t_sw[worst]),
+        "worst": {"xi": xi[worst], "mu": mu[worst], "mu_after": mu_next[worst], "t_switch": t_sw[worst],
                   "tau": taus[worst], "xi_next": xi_nl[worst],
                   "V_over_level": float(r_nl_all[worst]), "V_over_level_linear": float(r_lin_all[worst])},
     }
