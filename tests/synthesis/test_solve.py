@@ -4,6 +4,7 @@ failing gives exit 4 with one line; an infeasible problem exits 3 and leaves no 
 from __future__ import annotations
 
 import json
+import time
 
 import cvxpy as cp
 import numpy as np
@@ -208,3 +209,30 @@ def test_solve_all_holds_sigint_until_every_solve_returned() -> None:
     r = subprocess.run([sys.executable, "-c", _HOLD_SCRIPT], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip() == "ok,ok,solved,solved,signal"
+
+
+def test_overlapping_solves_leave_the_warning_filters_as_they_were() -> None:
+    """catch_warnings saves and restores the process-wide filter list: entered by threads whose solves
+    overlap it leaks the ignore filter (or drops it mid-solve).  Here the four solves are made to
+    overlap and to end one after another; the filters must be as before."""
+    import threading
+    import warnings
+
+    together = threading.Barrier(4)
+
+    def overlapping(problem, i):
+        real = problem.solve
+
+        def solve(**opts):
+            together.wait(timeout=30)
+            time.sleep(0.05 * i)  # the first to start ends first
+            return real(**opts)
+
+        problem.solve = solve
+        return problem
+
+    before = list(warnings.filters)
+    outs = solve_mod.solve_all([overlapping(_sdp(s)[0], i) for i, s in enumerate((0.1, 0.3, 0.5, 0.7))], "clarabel",
+                               [lambda: True] * 4)
+    assert [o.kind for o in outs] == ["ok"] * 4
+    assert list(warnings.filters) == before

@@ -93,10 +93,14 @@ def gains_dict(model: Any, result: Any) -> dict[str, Any]:
 
 def gains_id(gd: dict[str, Any]) -> str:
     """sha256 of what defines a gain (config, K, certificate): identical for identical gains,
-    unlike a hash of the file, which also holds the solver's timing."""
+    unlike a hash of the file, which also holds the solver's timing.  ``synthesis.threads`` is left
+    out: the lti line search visits the same points whatever it is, so it never changes the gain."""
     from .files import json_bytes, sha256
 
-    return sha256(json_bytes({"config": gd.get("config"), "K": gd.get("K"), "certificate": gd.get("certificate")}))
+    cfg = gd.get("config")
+    if isinstance(cfg, dict) and isinstance(cfg.get("synthesis"), dict) and "threads" in cfg["synthesis"]:
+        cfg = dict(cfg, synthesis={k: v for k, v in cfg["synthesis"].items() if k != "threads"})
+    return sha256(json_bytes({"config": cfg, "K": gd.get("K"), "certificate": gd.get("certificate")}))
 
 
 def _mat_value(v: Any) -> Any:

@@ -101,7 +101,7 @@ def _run_lti_point(payload: dict[str, Any], out: dict[str, Any], t0: float) -> d
         cfg = config_from_dict(payload["config"])
         plant = lti_plant(cfg)
         net = cfg.network
-        design = synthesize_lti_config(cfg, plant)
+        design = synthesize_lti_config(cfg, plant, threads=payload.get("solve_threads"))
         if not design.certified:
             out.update(status="infeasible" if design.status == "infeasible" else "solver-failure",
                        message=design.message or design.status)
@@ -303,10 +303,14 @@ def sweep(spec: SweepSpec, outdir: str | Path, *, verify_runs: int | None = None
         by_key.setdefault(p["key"], []).append(i)
     todo = [payloads[idx[0]] for idx in by_key.values()]
     n_workers = workers if workers is not None else (os.cpu_count() or 1)
+    serial = not scheduler and (n_workers <= 1 or len(todo) <= 1)
+    if not serial:  # a point per worker already fills the cores: each lti line search solves one alpha at a time
+        for p in todo:
+            p["solve_threads"] = 1
     if scheduler:
         engine = {"kind": "dask", "scheduler": scheduler}
         stream = _dask(todo, scheduler) if todo else iter(())
-    elif n_workers <= 1 or len(todo) <= 1:
+    elif serial:
         engine = {"kind": "serial", "workers": 1}
         stream = _serial(todo)
     else:

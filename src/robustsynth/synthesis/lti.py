@@ -462,14 +462,14 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
 
 
 def synthesize_lti_config(cfg, plant: dict, objective: str | None = None, solver: str | None = None,
-                          say=lambda s: None) -> LtiDesign:
-    """:func:`synthesize_lti` with an lti config's network and synthesis settings (the objective and the
-    solver may be overridden)."""
+                          say=lambda s: None, threads: int | None = None) -> LtiDesign:
+    """:func:`synthesize_lti` with an lti config's network and synthesis settings (the objective, the
+    solver and the threads may be overridden: a sweep that runs a point per core passes 1)."""
     net, syn = cfg.network, cfg.synthesis
     return synthesize_lti(plant, net.sampling_time, net.delay.min, net.delay.max, net.dropouts.max_consecutive,
                           objective or cfg.objective, decay=syn.decay, pieces=syn.pieces,
                           alpha_points=syn.alpha_points, solver=solver or syn.solver, say=say,
-                          threads=None if syn.threads == "auto" else syn.threads)
+                          threads=threads if threads is not None else None if syn.threads == "auto" else syn.threads)
 
 
 def _synthesize_hinf(plant: dict, V: _Vertices, C: np.ndarray, Ts: float, tau_min: float, tau_hi: float, pieces: int,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import signal
+import threading
 import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -26,6 +27,10 @@ SOLVER_OPTIONS: dict[str, dict[str, Any]] = {
         # of a path-dependent solve waiting (measured: bench_synthesis_profile), and make test and sweeps
         # already run one solve per core
         "max_threads": 1,  # (dropped below for a Clarabel without the setting)
+        # every solve from scratch: a problem solved again with new parameter values must give what a
+        # fresh copy gives (solve_all's results may not depend on which copy solved which point); today's
+        # Clarabel interface never updates data in place, so this changes nothing yet
+        "warm_start": False,
     },
     # SCS is first-order: 1e-8 is tight for it; the iteration cap bounds a fallback to ~1 s here
     "scs": {"solver": cp.SCS, "eps_abs": 1e-8, "eps_rel": 1e-8, "max_iters": 20_000},
@@ -82,23 +87,38 @@ class Outcome:
 _HELD_SIGNALS = {signal.SIGINT, signal.SIGTERM}
 
 
+_POOLED = threading.local()  # .active: this thread is one of solve_all's workers
+
+
 def _call_solver(problem: cp.Problem, name: str) -> None:
     """One solver call (a seam for fault-injection tests).
 
     Clarabel catches SIGINT inside its native code and carries on (Ctrl-C was swallowed and the
     run completed).  SIGINT and SIGTERM are therefore held pending while the solver runs: the
     signal is delivered, and the run stops, as soon as the solve returns."""
-    import warnings
-
     opts = solver_options(name)
     old = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD_SIGNALS)
     try:
-        with warnings.catch_warnings():
-            # an inaccurate solution is reported through the status and handled by the caller
-            warnings.simplefilter("ignore", UserWarning)
-            problem.solve(**opts)
+        if getattr(_POOLED, "active", False):
+            problem.solve(**opts)  # solve_all's caller holds the warning filter (catch_warnings is process-wide)
+        else:
+            with _quiet():
+                problem.solve(**opts)
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def _quiet():
+    """cvxpy's UserWarning about an inaccurate solution is held back: the status reports it and the
+    caller handles it.  ``warnings.catch_warnings`` saves and restores the process-wide filter list,
+    so it must not be entered by threads that overlap (solve_all enters it once around its pool)."""
+    import contextlib
+    import warnings
+
+    stack = contextlib.ExitStack()
+    stack.enter_context(warnings.catch_warnings())
+    warnings.simplefilter("ignore", UserWarning)
+    return stack
 
 
 class _NativeStderr:
@@ -222,18 +242,26 @@ def solve_all(problems: list[cp.Problem], primary: str, accepts: list[Callable[[
     one.  Each problem must be its own cvxpy object (a problem's parameters are not shared between
     threads).  ``accept`` runs afterwards in the calling thread, in the problems' order, so the outcomes
     do not depend on how many ran at once.  SIGINT and SIGTERM are held pending until every solve has
-    returned, as for one solve (the threads inherit the calling thread's signal mask), and a solver's
-    output on fd 2 is captured once around all of them."""
+    returned, as for one solve (the threads inherit the calling thread's signal mask); a solver's
+    output on fd 2 is captured, and cvxpy's inaccuracy warning filtered, once around all of them (both
+    are process-wide)."""
     if len(problems) == 1:
         return [solve(problems[0], primary, accepts[0], fallback=False)]
     from concurrent.futures import ThreadPoolExecutor
 
+    def work(problem: cp.Problem) -> tuple[SolveRecord, bool]:
+        _POOLED.active = True
+        try:
+            return _run(problem, primary)
+        finally:
+            _POOLED.active = False
+
     check_interrupt()
     old = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD_SIGNALS)
     try:
-        with _NativeStderr() as err:
+        with _NativeStderr() as err, _quiet():
             with ThreadPoolExecutor(max_workers=len(problems), thread_name_prefix="robustsynth-solve") as pool:
-                runs = list(pool.map(lambda p: _run(p, primary), problems))
+                runs = list(pool.map(work, problems))
             if any(panicked for _, panicked in runs):
                 err.release(keep=False)
     finally:
