@@ -280,3 +280,18 @@ def test_yaml_exponents_and_what_a_linear_plant_config_refuses() -> None:
         parse_config(base + "synthesis: {integral_action: true}\n")
     with pytest.raises(ConfigError, match="reference: a section of the tracked robot's config"):
         parse_config(base + "reference: {speed: 0.5}\n")
+
+
+@pytest.mark.parametrize("value, expected", [
+    (5, "synthesis.heading_bound: should be 'auto' or less than or equal to 1 (got 5)"),
+    ("big", "synthesis.heading_bound: should be 'auto' or a valid number (got str)"),
+])
+def test_a_union_key_is_one_problem_in_the_config_words(value, expected) -> None:
+    """A key that takes 'auto' or a number is named once, as the config writes it, with what it takes;
+    not once per branch of the type with pydantic's names for them (literal['auto'], constrained-float)."""
+    d = default_dict()
+    d["synthesis"] = {"kinematics": "nonlinear", "heading_bound": value}
+    with pytest.raises(ConfigError) as exc:
+        parse_config(_dump(d))
+    msg = str(exc.value)
+    assert msg.startswith(expected) and "literal[" not in msg and "constrained-" not in msg

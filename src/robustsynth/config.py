@@ -697,9 +697,15 @@ def _fields_at(loc: tuple[Any, ...]) -> list[str]:
     return list(node.model_fields) if node is not None else []
 
 
+def _union_branch(part: Any) -> bool:
+    """Whether a part of a pydantic error location names a branch of a union type (``literal['auto']``,
+    ``constrained-int``, ``float``, ...) rather than a config key: config keys are plain identifiers."""
+    return isinstance(part, str) and ("[" in part or "-" in part or part in {"int", "float", "str", "bool", "none"})
+
+
 def _one_problem(e: dict[str, Any]) -> tuple[str, str]:
     """(key path, message) of one pydantic error."""
-    loc = tuple(e["loc"])
+    loc = tuple(p for p in e["loc"] if not _union_branch(p))
     path = _loc(loc)
     msg = str(e["msg"])
     if msg.startswith("Value error, "):
@@ -729,7 +735,7 @@ def _format_validation_error(err: ValidationError) -> str:
 
     errors = err.errors(include_url=False)
     explained: set[tuple[Any, ...]] = set()
-    problems: list[str] = []
+    problems: list[tuple[str, str, bool]] = []
     for e in errors:
         loc = tuple(e["loc"])
         path, msg = _one_problem(e)
@@ -739,8 +745,21 @@ def _format_validation_error(err: ValidationError) -> str:
                 target = loc[:-1] + (close[0],)
                 msg += f" (did you mean {_loc(target)}?)"
                 explained.add(target)
-        problems.append(f"{path}: {msg}")
-    out = [p for p, e in zip(problems, errors) if not (e["type"] == "missing" and tuple(e["loc"]) in explained)]
+        problems.append((path, msg, any(_union_branch(p) for p in loc)))
+    out: list[str] = []
+    merged: dict[str, int] = {}  # a union's branches: one line, "should be A or B"
+    for (path, msg, branch), e in zip(problems, errors):
+        if e["type"] == "missing" and tuple(e["loc"]) in explained:
+            continue
+        if branch:
+            alt = msg[len("Input should be "):] if msg.startswith("Input should be ") else msg
+            if path in merged:
+                out[merged[path]] += f" or {alt}"
+                continue
+            merged[path] = len(out)
+            out.append(f"{path}: should be {alt}")
+            continue
+        out.append(f"{path}: {msg}")
     return "; ".join(out)
 
 
