@@ -295,3 +295,17 @@ def test_a_union_key_is_one_problem_in_the_config_words(value, expected) -> None
         parse_config(_dump(d))
     msg = str(exc.value)
     assert msg.startswith(expected) and "literal[" not in msg and "constrained-" not in msg
+
+
+def test_a_misspelt_key_that_looks_like_a_type_name_keeps_its_name() -> None:
+    """Only a union-typed key's branches are merged: a key the user typed (a hyphen for an underscore
+    is the likeliest slip here, values like slip-aware are hyphenated) is named as typed."""
+    d = default_dict()
+    d["synthesis"] = {"heading-bound": "auto", "alpha-points": 3}
+    d["slip"]["float"] = 1
+    with pytest.raises(ConfigError) as exc:
+        parse_config(_dump(d))
+    msg = str(exc.value)
+    assert "synthesis.heading-bound: unknown key (did you mean synthesis.heading_bound?)" in msg
+    assert "synthesis.alpha-points: unknown key (did you mean synthesis.alpha_points?)" in msg
+    assert "slip.float: unknown key" in msg and "should be" not in msg

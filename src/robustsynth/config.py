@@ -697,15 +697,30 @@ def _fields_at(loc: tuple[Any, ...]) -> list[str]:
     return list(node.model_fields) if node is not None else []
 
 
-def _union_branch(part: Any) -> bool:
-    """Whether a part of a pydantic error location names a branch of a union type (``literal['auto']``,
-    ``constrained-int``, ``float``, ...) rather than a config key: config keys are plain identifiers."""
-    return isinstance(part, str) and ("[" in part or "-" in part or part in {"int", "float", "str", "bool", "none"})
+def _union_parts(root: "type[BaseModel] | None", loc: tuple[Any, ...]) -> set[int]:
+    """The positions in a pydantic error location that name a branch of a union-typed key
+    (``literal['auto']``, ``constrained-int``), found by walking the location through the fields of
+    ``root``: a key the user typed is never taken for one, whatever its spelling."""
+    import types
+    import typing
+
+    node, out = root, set()
+    for i, part in enumerate(loc):
+        if node is None or not isinstance(part, str) or part not in node.model_fields:
+            break
+        ann = node.model_fields[part].annotation
+        union = typing.get_origin(ann) in (typing.Union, types.UnionType)
+        if union and sum(a is not type(None) for a in typing.get_args(ann)) >= 2:
+            if i + 1 < len(loc) and isinstance(loc[i + 1], str):
+                out.add(i + 1)
+            break
+        node = _node_class(ann)
+    return out
 
 
 def _one_problem(e: dict[str, Any]) -> tuple[str, str]:
     """(key path, message) of one pydantic error."""
-    loc = tuple(p for p in e["loc"] if not _union_branch(p))
+    loc = tuple(e["loc"])
     path = _loc(loc)
     msg = str(e["msg"])
     if msg.startswith("Value error, "):
@@ -736,16 +751,19 @@ def _format_validation_error(err: ValidationError) -> str:
     errors = err.errors(include_url=False)
     explained: set[tuple[Any, ...]] = set()
     problems: list[tuple[str, str, bool]] = []
+    root = globals().get(err.title)
+    root = root if isinstance(root, type) and issubclass(root, BaseModel) else None
     for e in errors:
         loc = tuple(e["loc"])
-        path, msg = _one_problem(e)
+        tags = _union_parts(root, loc)
+        path, msg = _one_problem(dict(e, loc=tuple(p for i, p in enumerate(loc) if i not in tags)))
         if e["type"] == "extra_forbidden" and loc and isinstance(loc[-1], str):
             close = difflib.get_close_matches(loc[-1], _fields_at(loc[:-1]), n=1, cutoff=0.6)
             if close:
                 target = loc[:-1] + (close[0],)
                 msg += f" (did you mean {_loc(target)}?)"
                 explained.add(target)
-        problems.append((path, msg, any(_union_branch(p) for p in loc)))
+        problems.append((path, msg, bool(tags)))
     out: list[str] = []
     merged: dict[str, int] = {}  # a union's branches: one line, "should be A or B"
     for (path, msg, branch), e in zip(problems, errors):

@@ -120,7 +120,7 @@ def test_switched_map_agrees_with_the_matrix_exponential(models) -> None:
     for _ in range(20):
         S = np.array([rng.uniform(0.01, 0.08)])
         mu, after, t = rng.uniform(0.6, 1.0, 2), rng.uniform(0.6, 1.0, 2), rng.uniform(0.0, m.Ts, 2)
-        A, B, c = m.switched_exact(S, mu, t, after)
+        A, B, c = m.switched_exact(S, mu, t, after, per_track=True)
         Ae, Be, ce = _map_by_expm(m, S, [(t[0], 0, after[0]), (t[1], 1, after[1])], mu)
         n_e = m.n_e
         assert max(np.max(np.abs(A[:n_e] - Ae)), np.max(np.abs(B[:n_e] - Be)), np.max(np.abs(c[:n_e] - ce))) <= EXPM_TOL

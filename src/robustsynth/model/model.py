@@ -286,15 +286,16 @@ class Model:
         return self._base_exact(s_tilde, mu, True)
 
     def switched_exact(self, s_tilde: np.ndarray, mu: np.ndarray, t_switch: np.ndarray,
-                       mu_after: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                       mu_after: np.ndarray, per_track: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The slip-aware exact map ``xi+ = A xi + B du + c`` when the slip jumps from ``mu`` to
         ``mu_after`` at ``t_switch`` in [0, Ts] within the period (docs/theory.md §11): each command
-        interval sees the slip's uniform and (Ts - t)-weighted averages over it.  With no jump
+        interval sees the slip's uniform and (Ts - t)-weighted averages over it.  ``t_switch`` (...)
+        holds for both tracks; with ``per_track`` it is each track's own time (..., 2).  With no jump
         (t_switch = Ts, or mu_after = mu) it is :meth:`robot_exact` and :meth:`constant`."""
         s = np.asarray(s_tilde, dtype=float)
         h = self.Ts - s
         L, W = interval_coordinates(h, h * h / 2.0, self.Ts)
-        bar, til = interval_slip_averages(s, self.Ts, t_switch, mu, mu_after)
+        bar, til = interval_slip_averages(s, self.Ts, t_switch, mu, mu_after, per_track)
         D = self.config.robot.track_distance
         A, B, c = varying_slip_maps(np.asarray(self.Phi), np.asarray(self.A_c), np.asarray(self.B_c), self.Ts, self.V, L,
                                     W, slip_matrix(bar, D), slip_matrix(til, D))

@@ -255,15 +255,17 @@ def interval_coordinates(h: np.ndarray, q: np.ndarray, Ts: float) -> tuple[np.nd
 
 
 def interval_slip_averages(S: np.ndarray, Ts: float, t_switch: np.ndarray, mu_before: np.ndarray,
-                           mu_after: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                           mu_after: np.ndarray, per_track: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """The slip averages of every command interval when the slip jumps from ``mu_before`` to ``mu_after``
     (..., 2) within the period: (uniform, (Ts - t)-weighted), each (..., d_hi + 1, 2).  ``t_switch`` is
-    one time for both tracks (...), or each track's own time (..., 2: as many axes as ``mu_before``).
+    one time for every slip parameter (...), or with ``per_track`` each track's own time (..., 2).
     An interval of zero length gets mu_before (it carries no weight)."""
     S = np.asarray(S, dtype=float)
     mb0 = np.asarray(mu_before, dtype=float)
     ts = np.asarray(t_switch, dtype=float)
-    ts = ts[..., None, :] if ts.ndim == mb0.ndim and ts.shape[-1:] == (2,) else ts[..., None, None]  # (..., 1, 1 or 2)
+    if per_track and ts.shape[-1:] != mb0.shape[-1:]:
+        raise ValueError(f"per-track switch times {ts.shape} do not match the slip {mb0.shape}")
+    ts = ts[..., None, :] if per_track else ts[..., None, None]  # (..., 1, 2 or 1)
     ends = np.concatenate([np.full(S.shape[:-1] + (1,), Ts), S, np.zeros(S.shape[:-1] + (1,))], axis=-1)
     b, a = ends[..., :-1, None], ends[..., 1:, None]  # interval i: [a_i, b_i)
     F = lambda t: Ts * t - t * t / 2.0  # noqa: E731  (antiderivative of Ts - t)

@@ -141,7 +141,7 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
     xi_nl = np.concatenate([e1, np.stack(law.past + law.z, axis=1)], axis=1)
 
     # the exact lifted map of the certificate, same states, slips and delays
-    A, B, c = model.switched_exact(S, mu, t_sw, mu_after)
+    A, B, c = model.switched_exact(S, mu, t_sw, mu_after, per_track=bool(n_jump))
     xi_lin = np.einsum("nij,nj->ni", A, xi) + np.einsum("nij,nj->ni", B, du) + c
 
     keep = admissible
@@ -175,6 +175,7 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
         "fraction_outside_linear": float(np.mean(r_lin > 1.0)),
         "max_period_gap": {"e_x": float(gap[0]), "e_y": float(gap[1]), "e_theta": float(gap[2])},
         "mid_period": mid,
+        # t_switch: each track's time (2,) when the probe drew jumps, else one time (the period's end: none)
         "worst": {"xi": xi[worst], "mu": mu[worst], "mu_after": mu_next[worst], "t_switch": t_sw[worst],
                   "tau": taus[worst], "xi_next": xi_nl[worst],
                   "V_over_level": float(r_nl_all[worst]), "V_over_level_linear": float(r_lin_all[worst])},
