@@ -49,7 +49,7 @@ def main() -> dict[str, float]:
         t0 = time.perf_counter()
         r = synthesize_lti(pl, 0.1, 0.0, 0.2, 0, obj, decay=0.99, threads=threads)
         dt = time.perf_counter() - t0
-        v = verify_lti(pl, r.K, r.P, 0.1, 0.0, 0.2, 0, r.figures, runs=32, periods=100)
+        v = verify_lti(pl, r.K, r.P, 0.1, 0.0, 0.2, 0, r.figures, runs=32, periods=100, multipliers=r.eps)
         figs = (", ".join(f"|{o['name']}| <= {o['bound']:.4g}" for o in r.figures["outputs"]) if obj == "ultimate-bound"
                 else f"decay {r.figures['decay']:.4f}, ball at rest {r.figures['rest_radius']:.4g}")
         worst = ", ".join(f"{c['name'].split(' (')[0]} {c['value']:.3f}" for c in v["checks"])

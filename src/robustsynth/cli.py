@@ -115,6 +115,24 @@ def _outdir(cfg: Any, outdir: Path | None) -> Path:
     return outdir if outdir is not None else default_outdir(cfg)
 
 
+def _needs_its_config(config: Path | None, gains: Path | None, command: str) -> None:
+    """Without CONFIG the tracked robot's default config is used: a linear plant's gains file with it is
+    a mistake whose error would speak of the robot's shapes; say what is missing instead."""
+    if config is not None or gains is None or gains.suffix != ".json":
+        return
+    import json
+
+    try:
+        kind = json.loads(gains.read_text()).get("kind")
+    except (OSError, ValueError, AttributeError):
+        return  # the loader reports what is wrong with the file
+    if kind == "lti":
+        from .errors import InputError
+
+        raise InputError(f"--gains: {gains} is a linear plant's gain (kind: lti): pass its config too "
+                         f"(robustsynth {command} CONFIG --gains {gains})")
+
+
 def _gains_outdir(cfg: Any, outdir: Path | None, gains: Path | None) -> Path:
     """-o if given, else beside --gains (the files belong to that gain), else results/<name>/."""
     if outdir is not None:
@@ -460,6 +478,7 @@ def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
     from .model import build_model
     from .pipeline import verification_stage
 
+    _needs_its_config(config, gains, "verify")
     cfg = _load(config, lti_ok=True)
     out = _gains_outdir(cfg, outdir, gains)
     if is_lti(cfg):
@@ -555,6 +574,7 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
     from .config import is_lti
     from .pipeline import margin_stage
 
+    _needs_its_config(config, gains, "margin")
     cfg = _load(config, lti_ok=True)
     if is_lti(cfg):
         if lyapunov is not None:

@@ -519,8 +519,12 @@ class LtiPlantConfig(_Node):
 
     @model_validator(mode="after")
     def _shapes(self) -> "LtiPlantConfig":
-        if (self.file is None) == (self.A is None or self.B is None):
-            raise ValueError(f"{_FIELD}A: give A and B, or file (not both)")
+        if self.file is not None and (self.A is not None or self.B is not None):
+            raise ValueError(f"{_FIELD}{'A' if self.A is not None else 'B'}: give A and B, or file (not both)")
+        if self.file is None and (self.A is None or self.B is None):
+            missing = " and ".join(k for k, v in (("A", self.A), ("B", self.B)) if v is None)
+            raise ValueError(f"{_FIELD}{missing.split(' ')[0]}: required key is missing (give A and B, or file: "
+                             f"missing {missing})")
         if self.file is not None:
             return self
         try:
@@ -779,6 +783,16 @@ def _format_validation_error(err: ValidationError) -> str:
             continue
         out.append(f"{path}: {msg}")
     return "; ".join(out)
+
+
+def refuse_lti(obj: Any, where: str) -> None:
+    """InputError when ``obj`` (a config, or a model made from one) is a linear plant's: the robot's
+    calls have no meaning for it, and would fail on a missing section."""
+    from .errors import InputError
+
+    if isinstance(obj, LtiConfig) or isinstance(getattr(obj, "config", None), LtiConfig):
+        raise InputError(f"{where}: the config is a linear plant's (plant: kind: lti): use robustsynth.lti_plant, "
+                         "synthesize_lti, verify_lti and lti_margins (or the CLI, which picks them)")
 
 
 def is_lti(data: Any) -> bool:

@@ -419,6 +419,9 @@ def margin(config: Config, K: np.ndarray, *, lyapunov: str | None = None,
     have no vertices), or
     'auto' (common, then slip-dependent where common fails: tighter, and several times slower);
     default ``config.synthesis.lyapunov``."""
+    from .config import refuse_lti
+
+    refuse_lti(config, "margin")
     say = on_step or (lambda _msg: None)
     lyapunov = lyapunov or config.synthesis.lyapunov
     if lyapunov not in ("common", "slip-dependent", "delay-dependent", "path-dependent", "auto"):

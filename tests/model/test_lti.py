@@ -106,3 +106,42 @@ def test_lti_plant_from_arrays_and_files(tmp_path) -> None:
         load_config({**_zbp_cfg().model_dump(mode="json"), "plant": {"kind": "boat"}})
     unctrl = lti_plant(_zbp_cfg(plant={"kind": "lti", "A": [[-1, 0], [0, -2]], "B": [[1], [0]]}))
     assert not unctrl["controllable"]
+
+
+def test_bad_plant_files_and_missing_matrices_are_one_line_each(tmp_path) -> None:
+    """A corrupt file is bad input naming plant.file (an empty .npz raised EOFError, which the CLI took
+    for an interrupt; a garbage .mat a traceback); a missing matrix is named as missing."""
+    from robustsynth.errors import ConfigError, InputError
+
+    (tmp_path / "empty.npz").write_bytes(b"")
+    (tmp_path / "garbage.mat").write_text("garbage")
+    (tmp_path / "cut.npz").write_bytes(b"PK\x03\x04 truncated")
+    for f in ("empty.npz", "garbage.mat", "cut.npz"):
+        with pytest.raises(InputError, match=rf"plant.file: .*{f}: cannot read"):
+            lti_plant(_zbp_cfg(plant={"kind": "lti", "file": f}), str(tmp_path))
+    with pytest.raises(ConfigError, match=r"plant\.B: required key is missing"):
+        _zbp_cfg(plant={"kind": "lti", "A": ZBP_A.tolist()})
+    with pytest.raises(ConfigError, match=r"plant\.A: give A and B, or file \(not both\)"):
+        _zbp_cfg(plant={"kind": "lti", "A": ZBP_A.tolist(), "file": "p.npz"})
+
+
+def test_a_plant_whose_input_integrates_directly_is_covered() -> None:
+    """A B = 0 makes every G affine (remainder bound 0 in exact arithmetic); the computed parts still
+    differ by rounding, which the remainder's floor covers (coverage read infinite before)."""
+    A, B = np.zeros((1, 1)), np.ones((1, 1))
+    K = pad_lti_gain(np.array([[-2.0]]), 1, 1, 1)
+    pw = over_approximation(A, B, K, 0.1, 0.0, 0.05, 1, 2)
+    cov = coverage_check(A, B, K, 0.1, 0.0, 0.05, 1, pw, samples=2000)
+    assert cov["remainder_ratio"] <= 1.0 and cov["reconstruction"] < 1e-12
+
+
+def test_the_robots_calls_refuse_a_linear_plants_config() -> None:
+    from robustsynth.errors import InputError
+    from robustsynth.margins import margin
+    from robustsynth.model import build_model
+    from robustsynth.synthesis import synthesize
+
+    cfg = _zbp_cfg()
+    for call in (lambda: build_model(cfg), lambda: synthesize(cfg), lambda: margin(cfg, ZBP_K)):
+        with pytest.raises(InputError, match="linear plant's .*synthesize_lti"):
+            call()

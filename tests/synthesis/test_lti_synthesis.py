@@ -207,3 +207,18 @@ def test_refinement_halves_towards_both_neighbours() -> None:
     assert got == pytest.approx(sorted([(x(0.9) + x(0.99)) / 2, (x(0.99) + x(0.999)) / 2]))
     assert _midpoints(tried, 0.999) == [pytest.approx(1 - np.exp((x(0.99) + x(0.999)) / 2))]  # an end: one side
     assert len(_midpoints([0.5], 0.5)) == 0
+
+
+def test_the_objective_is_checked_and_auto_follows_the_disturbance() -> None:
+    from robustsynth.errors import InputError
+
+    with_w = lti_plant_from(ZBP_A, ZBP_B, E=ZBP_E, w_max=0.5)
+    with pytest.raises(InputError, match="synthesis.objective: 'Stability' is not one of"):
+        synthesize_lti(with_w, 0.5, 0.0, 0.5, 0, "Stability")
+    assert synthesize_lti(with_w, 0.5, 0.0, 0.5, 0, "auto", threads=1).objective == "ultimate-bound"
+    assert synthesize_lti(lti_plant_from(ZBP_A, ZBP_B), 0.5, 0.0, 0.5, 0, "auto").objective == "stability"
+
+
+def test_an_uncontrollable_plants_refusal_says_so() -> None:
+    r = synthesize_lti(lti_plant_from(np.diag([0.0, 0.1]), np.array([[0.1], [0.0]])), 0.1, 0.0, 0.05, 0, "stability")
+    assert not r.certified and "not controllable" in r.message

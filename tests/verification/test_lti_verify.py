@@ -45,7 +45,7 @@ def design():
 
 def test_verify_passes_a_certified_design_with_room(design) -> None:
     pl, r = design
-    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, r.figures, runs=24, periods=60)
+    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, r.figures, runs=24, periods=60, multipliers=r.eps)
     assert v["passed"], v["checks"]
     by = {c["name"].split(" (")[0]: c["value"] for c in v["checks"]}
     assert by["the set is invariant"] < 1.0 and by["frozen-delay spectral radius"] < 1.0
@@ -59,13 +59,13 @@ def test_verify_catches_an_understated_bound_and_refuses_nan(design) -> None:
 
     pl, r = design
     figs = dict(r.figures, outputs=[dict(o, bound=0.9 * o["bound"]) for o in r.figures["outputs"]])
-    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, figs, runs=24, periods=30)
+    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, figs, runs=24, periods=30, multipliers=r.eps)
     assert not v["passed"]
     assert [c["ok"] for c in v["checks"] if c["name"].startswith("outputs")] == [False]
     P = r.P.copy()
     P[0, 0] = np.nan
     with pytest.raises(InputError, match="must be finite"):
-        verify_lti(pl, r.K, P, 0.5, 0.0, 0.5, 0, r.figures, runs=4, periods=5)
+        verify_lti(pl, r.K, P, 0.5, 0.0, 0.5, 0, r.figures, runs=4, periods=5, multipliers=r.eps)
 
 
 def test_verify_catches_delays_beyond_the_certificate() -> None:
@@ -73,7 +73,7 @@ def test_verify_catches_delays_beyond_the_certificate() -> None:
     frozen delays destabilize it and the set is left."""
     pl = lti_plant_from(ZBP_A, ZBP_B, E=ZBP_E, w_max=0.5, u_max=[20.0])
     r = synthesize_lti(pl, 0.5, 0.0, 0.1, 0, "ultimate-bound")
-    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, r.figures, runs=24, periods=60)
+    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, r.figures, runs=24, periods=60, multipliers=r.eps)
     bad = {c["name"].split(" (")[0] for c in v["checks"] if not c["ok"]}
     assert not v["passed"] and {"the set is invariant", "frozen-delay spectral radius"} <= bad
 
@@ -82,9 +82,21 @@ def test_verify_catches_a_plant_the_certificate_was_not_made_for(design) -> None
     """The gain on a plant with negative friction (still stabilized): the set is no longer invariant."""
     _, r = design
     other = lti_plant_from(np.array([[0.0, 1.0], [0.0, 0.3]]), ZBP_B, E=ZBP_E, w_max=0.5, u_max=[20.0])
-    v = verify_lti(other, r.K, r.P, 0.5, 0.0, 0.5, 0, r.figures, runs=24, periods=60)
+    v = verify_lti(other, r.K, r.P, 0.5, 0.0, 0.5, 0, r.figures, runs=24, periods=60, multipliers=r.eps)
     bad = {c["name"].split(" (")[0] for c in v["checks"] if not c["ok"]}
-    assert bad == {"the set is invariant"}
+    assert bad == {"the certificate re-proven in numpy for this config", "the set is invariant"}
+
+
+def test_verify_without_the_multipliers_proves_nothing_and_fails(design) -> None:
+    """The library call re-proves the certificate first, as `robustsynth verify` does; without the
+    multipliers it cannot, and simulations that pass do not make the verdict pass."""
+    pl, r = design
+    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, r.figures, runs=8, periods=20)
+    first = v["checks"][0]
+    assert not v["passed"] and not first["ok"] and "multipliers" in first["detail"]
+    assert all(c["ok"] for c in v["checks"][1:])  # the simulations alone would have passed
+    slower = verify_lti(pl, r.K, r.P, 0.8, 0.0, 0.5, 0, r.figures, runs=8, periods=20, multipliers=r.eps)
+    assert not slower["checks"][0]["ok"]  # a network the certificate does not cover (Ts 0.8 s): not re-proven
 
 
 def _run(*args: str) -> subprocess.CompletedProcess:
@@ -135,9 +147,9 @@ def test_cli_chain_on_a_linear_plant(tmp_path) -> None:
 def test_verify_hinf_passes_and_catches_an_understated_gain() -> None:
     pl = lti_plant_from(ZBP_A, ZBP_B, E=ZBP_E, w_max=0.5, C=[[1.0, 0.0]])
     r = synthesize_lti(pl, 0.5, 0.0, 0.5, 0, "hinf")
-    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, r.figures)
+    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, r.figures, multipliers=r.eps)
     assert v["passed"] and 0.3 < v["checks"][-1]["value"] < 1.0
-    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, dict(r.figures, hinf_gain=0.25 * r.figures["hinf_gain"]))
+    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, dict(r.figures, hinf_gain=0.25 * r.figures["hinf_gain"]), multipliers=r.eps)
     assert not v["passed"] and not v["checks"][-1]["ok"]
 
 
@@ -153,3 +165,20 @@ def test_the_gains_file_is_re_proven(design) -> None:
     low = dict(r.figures, outputs=[dict(o, bound=0.99 * o["bound"]) for o in r.figures["outputs"]])
     assert "output bound" in recheck_lti(pl, dict(gd, certified=low), 0.5, 0.0, 0.5, 0)["reason"]
     assert not recheck_lti(pl, gd, 0.5, 0.0, 0.5, 1)["ok"]  # a loss it was not certified for
+
+
+def test_a_linear_plants_gains_without_its_config_is_named_as_such(tmp_path) -> None:
+    """Without CONFIG the robot's default config is used; with a linear plant's gains file that used to
+    fail on the robot's shapes ("K: has shape (1, 3), the config's model needs (2, 5)")."""
+    from click.testing import CliRunner
+
+    from robustsynth.cli import main
+
+    g = tmp_path / "gains.json"
+    g.write_text(json.dumps({"kind": "lti", "K": [[0.0, 0.0, 0.0]]}))
+    for cmd in ("verify", "margin"):
+        r = CliRunner().invoke(main, [cmd, "--gains", str(g), "-o", str(tmp_path / cmd)])
+        assert r.exit_code == 2, r.output
+        assert r.output.strip() == f"error: --gains: {g} is a linear plant's gain (kind: lti): pass its config too " \
+                                   f"(robustsynth {cmd} CONFIG --gains {g})"
+        assert not (tmp_path / cmd).exists()

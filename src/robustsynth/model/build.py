@@ -44,6 +44,9 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
     ``min_lifting``: keep at least this many past inputs in the lifted state even when the delay
     bound needs fewer (the extra switching instants are fixed at 0): to analyse a gain designed for
     a longer lifting on a shorter delay range."""
+    from ..config import refuse_lti
+
+    refuse_lti(config, "build_model")
     R = config.robot.gear_radius
     D = config.robot.track_distance
     V = config.reference.speed

@@ -40,6 +40,7 @@ __all__ = ["gamma", "exact_closed_loop", "Piecewise", "over_approximation", "cov
            "check_lti_gain", "disturbance_bound", "lti_depth", "lifted_rows", "periodic_spectral_radius", "vertex_combinations", "lti_plant_from", "REMAINDER_INFLATION"]
 
 REMAINDER_INFLATION = 1e-9  # relative: the remainder bound's own rounding (norms by SVD, expm)
+ROUNDING_FLOOR = 64 * float(np.finfo(float).eps)  # the remainder bound never below this relative rounding
 
 
 def _augmented(A: np.ndarray, B: np.ndarray) -> np.ndarray:
@@ -153,6 +154,10 @@ def over_approximation(A: np.ndarray, B: np.ndarray, K: np.ndarray, Ts: float, t
         grow = np.exp(mu * w)
         tail = np.minimum(0.5 * w * w * grow * ab, w * (grow + 1.0) * b)
         rho = norms * tail * (1.0 + REMAINDER_INFLATION)
+        # a floor for rounding: with A B = 0 (an integrator chain fed directly) G is affine and the bound
+        # above is 0, while the computed G and its affine part still differ by rounding (coverage then
+        # read infinite); the floor is the size of that rounding, orders below any margin
+        rho = np.maximum(rho, ROUNDING_FLOOR * norms * (th + w) * max(b, 1e-300))
         if not np.all(np.isfinite(rho)):
             raise ValueError("over_approximation: the remainder bound overflows (a stiff plant over a long range)")
         thetas.append(th)
@@ -246,8 +251,9 @@ def lti_plant(cfg, base_dir: str | None = None) -> dict:
                 raise InputError(f"plant.file: {path}: must be a .mat or .npz file")
         except InputError:
             raise
-        except (OSError, ValueError) as exc:
-            raise InputError(f"plant.file: {path}: cannot read ({exc})") from None
+        except Exception as exc:  # noqa: BLE001 - a corrupt file raises whatever its reader meets (EOFError on an
+            # empty .npz, which click would report as an abort; BadZipFile; scipy's MatReadError)
+            raise InputError(f"plant.file: {path}: cannot read ({type(exc).__name__}: {exc})") from None
         for key in ("A", "B"):
             if key not in data:
                 have = ", ".join(sorted(k for k in data if not k.startswith("__")))

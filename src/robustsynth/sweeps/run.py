@@ -117,7 +117,8 @@ def _run_lti_point(payload: dict[str, Any], out: dict[str, Any], t0: float) -> d
                 from ..verification.lti import verify_lti
 
                 v = verify_lti(plant, design.K, design.P, net.sampling_time, net.delay.min, net.delay.max,
-                               net.dropouts.max_consecutive, f, runs=runs)
+                               net.dropouts.max_consecutive, f, runs=runs, multipliers=design.eps,
+                               pieces=cfg.synthesis.pieces)
                 out["verification"] = {"passed": bool(v["passed"]), "max": {},
                                        "failed_checks": [c["name"] for c in v["checks"] if not c["ok"]]}
     except Interrupted:

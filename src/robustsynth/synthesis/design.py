@@ -554,6 +554,11 @@ def _timings(total: float, solve: float) -> dict[str, float]:
 
 def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[[str], None] | None,
                 overrides: dict[str, Any]) -> SynthesisResult:
+    from ..config import refuse_lti
+
+    refuse_lti(model, "synthesize")
+    if not hasattr(model, "vertices"):
+        raise InputError(f"synthesize: takes a model (robustsynth.build_model(config)), got {type(model).__name__}")
     say = on_step if on_step is not None else (lambda _m: None)
     s = settings if settings is not None else model.config.synthesis
     if overrides:

@@ -364,6 +364,10 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
 
     A, B = plant["A"], plant["B"]
     n, m = B.shape
+    if objective == "auto":  # as the config's auto: ultimate-bound with a disturbance, else stability
+        objective = "ultimate-bound" if plant.get("E") is not None else "stability"
+    if objective not in ("stability", "ultimate-bound", "hinf"):
+        raise InputError(f"synthesis.objective: {objective!r} is not one of auto, stability, ultimate-bound, hinf")
     d = lti_depth(tau_max, m_lost, Ts)
     tau_hi = tau_max + m_lost * Ts
     dist = objective == "ultimate-bound"
@@ -424,9 +428,18 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
     if best is None:
         last = held.get("last")
         status = "rejected" if last is not None and not last[0]["ok"] else "infeasible"
+        why = "no alpha of the line search gave a proven certificate" if dist else f"no certificate with decay {decay:g} per period"
+        hints = []
+        if not plant.get("controllable", True):
+            hints.append("the plant is not controllable (rank [B, AB, ...] < n): its uncontrollable modes must be stable "
+                         "by themselves")
+        if u_max is not None:
+            hints.append("the input limits may be what binds: try larger plant.input_limits" +
+                         (" or a smaller disturbance bound" if dist else " or a smaller decay"))
+        elif not dist:
+            hints.append("try a smaller decay (synthesis.decay) or a shorter delay range")
         return LtiDesign(False, status, objective, None, None, None, None, {}, last[0] if last else {}, d, nv,
-                         solves, dt, "no alpha of the line search gave a proven certificate" if dist else
-                         f"no certificate with decay {decay:g} per period")
+                         solves, dt, why + ("; " + "; ".join(hints) if hints else ""))
     a = best
     val, chk, K, P, eta, Qv = held["ok"][a]
     unit = delta / beta(a)  # xi = unit * (the LMIs' xi)

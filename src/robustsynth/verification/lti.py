@@ -65,9 +65,31 @@ def _families(tau_min: float, tau_max: float, m_lost: int, runs: int, length: in
     return fam
 
 
+def _reproof(plant: dict, K: np.ndarray, P: np.ndarray, multipliers: Any, pieces: int, figures: dict, Ts: float,
+             tau_min: float, tau_max: float, m_lost: int) -> dict[str, Any]:
+    """The check "the certificate re-proven in numpy for this config" (failed without multipliers)."""
+    from ..certificate import recheck_lti
+
+    name = "the certificate re-proven in numpy for this config"
+    if multipliers is None:
+        return {"name": name, "value": 0.0, "limit": 1.0, "ok": False,
+                "detail": "not re-proven: the certificate's multipliers were not given (multipliers=design.eps)"}
+    gains = {"K": K, "certificate": {"P": P, "multipliers": multipliers, "alpha": figures.get("alpha"), "pieces": pieces},
+             "certified": figures}
+    proof = recheck_lti(plant, gains, Ts, tau_min, tau_max, m_lost)
+    return {"name": name, "value": float(proof["ok"]), "limit": 1.0, "ok": bool(proof["ok"]),
+            "detail": proof["reason"] or "verified arithmetic"}
+
+
 def verify_lti(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, tau_min: float, tau_max: float, m_lost: int,
-               figures: dict, runs: int = 64, periods: int = 150, seed: int = 0) -> dict[str, Any]:
-    """The checks of the module docstring; returns {"passed", "checks": [...], "families": {...}}."""
+               figures: dict, runs: int = 64, periods: int = 150, seed: int = 0, *,
+               multipliers: np.ndarray | None = None, pieces: int = 2) -> dict[str, Any]:
+    """The checks of the module docstring; returns {"passed", "checks": [...], "families": {...}}.
+
+    The first check re-proves the certificate (P, ``multipliers``, ``figures["alpha"]`` and ``pieces``:
+    an :class:`~robustsynth.synthesis.lti.LtiDesign`'s ``eps`` and the synthesis' pieces, or a gains
+    file's ``certificate``) in numpy for *this* plant and network (:func:`robustsynth.certificate.recheck_lti`).
+    Without the multipliers it cannot, and the verdict is failed: simulations alone prove nothing."""
     from ..errors import InputError
     from ..model.lifting import s_tilde_sequence
     from ..model.lti import exact_closed_loop, gamma, lifted_rows, lti_depth, pad_lti_gain, periodic_spectral_radius
@@ -86,7 +108,7 @@ def verify_lti(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, tau_min: fl
     if np.min(np.linalg.eigvalsh(P)) <= 0:
         raise InputError("P: must be positive definite (the certified set {xi' P xi <= 1} is an ellipsoid)")
     rng = np.random.default_rng(seed)
-    checks: list[dict[str, Any]] = []
+    checks: list[dict[str, Any]] = [_reproof(plant, K, P, multipliers, pieces, figures, Ts, tau_min, tau_max, m_lost)]
 
     def V(xi: np.ndarray) -> np.ndarray:
         return np.einsum("ri,ij,rj->r", xi, P, xi)
