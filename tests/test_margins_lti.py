@@ -216,3 +216,28 @@ def test_the_compiled_analysis_problem_holds_no_stale_answer() -> None:
     got = [analyze_lti(pw).certified for pw in (ok, bad, ok)]
     assert got == [True, False, True]
     assert len(syn._PROBLEMS) <= before + 1  # one structure (13 piece combinations each): one compiled problem
+
+
+def test_margin_of_the_gain_synthesize_wrote_and_a_margin_at_the_search_end(tmp_path) -> None:
+    """Without controller.gain, margin analyses OUTDIR/gains.json (as its --help says); a certified
+    value at the end of the search is printed as a lower bound ("at least"), with the note in
+    margin.json, and lost packets read "lost"."""
+    from click.testing import CliRunner
+
+    from robustsynth.cli import main
+
+    cfg = tmp_path / "own.yaml"
+    cfg.write_text("name: own\nplant: {kind: lti, A: [[0, 1], [0, -0.1]], B: [[0], [0.1]]}\n"
+                   "network: {sampling_time: 0.5, delay: {min: 0.0, max: 0.5}}\nmargin: {delay_far: 0.9}\n")
+    out = tmp_path / "o"
+    r = CliRunner().invoke(main, ["synthesize", str(cfg), "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(main, ["margin", str(cfg), "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    data = json.loads((out / "margin.json").read_text())
+    assert data["gains"] == str(out / "gains.json")
+    assert data["gain"] == json.loads((out / "gains.json").read_text())["K"]
+    dm = data["margins"]["delay_max"]
+    assert dm["exhibited"] is None and dm["certified"] >= 0.9 - 1e-3 and "at least" in dm["note"]
+    assert "delay_max: configured 0.5, certified at least 0.9" in r.output
+    assert "None" not in r.output

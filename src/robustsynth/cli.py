@@ -148,7 +148,10 @@ def _gains_outdir(cfg: Any, outdir: Path | None, gains: Path | None) -> Path:
 def main(ctx: click.Context, quiet: bool, verbose: bool) -> None:
     """Certified robust state feedback for a skid-slip tracked robot over a delaying network.
 
-    CONFIG is a YAML scenario file; without it the embedded default is used.
+    CONFIG is a YAML scenario file; without it the embedded default is used.  A config with
+    `plant: {kind: lti, A: ..., B: ...}` is any linear plant instead of the robot: build-model,
+    synthesize, verify, run, margin, sweep and export (c, python) work on it too (README, "Any
+    linear plant").
     Exit codes: 0 ok, 1 verification failed, 2 bad input or usage, 3 infeasible, 4 solver failure,
     130 interrupted (Ctrl-C), 143 terminated (SIGTERM).
     """
@@ -555,7 +558,8 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
 @_verbosity
 @CONFIG_ARG
 @click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="Gains file [default: OUTDIR/gains.json].")
+              help="Gains file [default: OUTDIR/gains.json; for a linear plant the config's controller.gain "
+                   "comes first].")
 @GAINS_OUTDIR_OPT
 @click.option("--lyapunov", type=click.Choice(["common", "slip-dependent", "delay-dependent", "path-dependent", "auto"]), default=None,
               help="Certificates tried at each point [default: synthesis.lyapunov]; auto: common, then "
@@ -591,11 +595,17 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
 
             click.echo(json.dumps(data, indent=2))
             return
+        def num(v: Any) -> str:
+            return "none" if v is None else f"{v:.4g}" if isinstance(v, float) else str(v)
+
         for name, mg in data["margins"].items():
             w = mg["witness"]
-            obj.say(f"{name}: configured {mg['configured']}, certified {mg['certified']}, exhibited {mg['exhibited']}"
-                    + (f" (witness: period {w['period']}, delays {w['delays']}, spectral radius "
-                       f"{w['spectral_radius']:.6f})" if w else "") + f" [{mg['unit']}]")
+            at_least = "at least " if mg.get("note", "").find("at least") >= 0 else ""
+            delays = ", ".join("lost" if x is None else f"{x:.4g}" for x in w["delays"]) if w else ""
+            obj.say(f"{name}: configured {num(mg['configured'])}, certified {at_least}{num(mg['certified'])}, exhibited "
+                    f"{num(mg['exhibited'])}" + (f" (witness: period {w['period']}, delays [{delays}], spectral radius "
+                                                 f"{w['spectral_radius']:.6f})" if w else "")
+                    + f" [{mg['unit']}]" + (f"; {mg['note']}" if mg.get("note") else ""))
         obj.say(f"wrote {', '.join(data['files'])}")
         return
     out = _gains_outdir(cfg, outdir, gains)

@@ -220,8 +220,12 @@ def lti_margins(cfg, plant: dict, say: Callable[[str], None] = lambda s: None) -
     say("delay_max: certificate bisection")
     cert, solves = _certified_delay(plant, Ts, t_lo, ex if ex is not None else far, m0, pieces, tol)
     out["delay_max"] = {"configured": t_hi, "certified": cert, "exhibited": ex, "witness": witness, "unit": "s",
-                        "search_s": round(t1 - t0, 3), "certificate_s": round(time.perf_counter() - t1, 3),
-                        "solves": solves}
+                        "searched_up_to": far, "search_s": round(t1 - t0, 3),
+                        "certificate_s": round(time.perf_counter() - t1, 3), "solves": solves}
+    if ex is None:  # nothing destabilizes within the search: the certified end may be the search's, a lower bound
+        out["delay_max"]["note"] = (f"no instability found up to {far:g} s" + (
+            "; certified up to the search's end: the margin is at least this (margin.delay_far searches further)"
+            if cert is not None and cert >= far - tol else ""))
     t0 = time.perf_counter()
     say("dropouts: instability and certificate search")
     m_ex, m_w, m_cert = None, None, None

@@ -14,7 +14,7 @@ __all__ = ["lti_plant_of", "lti_model_stage", "lti_synthesis_stage", "lti_verifi
            "lti_margin_stage", "lti_gain"]
 
 SYNTHESIS_FILES = ("gains.json", "gains.mat", "synthesis.md")
-VERIFICATION_FILES = ("verification.json", "verification.md")
+VERIFICATION_FILES = ("verification.json", "verification.md", "verification.png")  # a new gain makes them stale
 RUN_FILES = ("report.md", "summary.json")
 
 
@@ -29,20 +29,25 @@ def _net(config: Any) -> tuple[float, float, float, int]:
     return net.sampling_time, net.delay.min, net.delay.max, net.dropouts.max_consecutive
 
 
-def lti_gain(config: Any, plant: dict[str, Any], gains_path: str | Path | None) -> np.ndarray:
-    """The gain to analyze: a gains file's K, else the config's controller.gain."""
+def lti_gain(config: Any, plant: dict[str, Any], gains_path: str | Path | None,
+             default: Path | None = None) -> np.ndarray:
+    """The gain to analyze: a gains file's K, else the config's controller.gain, else ``default`` (the
+    output directory's gains.json) when it exists."""
     from .artifacts.gains import load_gains
     from .errors import InputError
     from .model.lti import check_lti_gain
 
     n, m = plant["B"].shape
+    if gains_path is None and plant["K"] is None and default is not None and default.is_file():
+        gains_path = default
     if gains_path is not None:
         gd = load_gains(gains_path)
         K = np.asarray(gd["K"], dtype=float)
         check_lti_gain(K, n, m, f"{gains_path}: K")
         return K
     if plant["K"] is None:
-        raise InputError("controller.gain: required for a linear plant's margin (or pass --gains)")
+        raise InputError("controller.gain: required for a linear plant's margin (or pass --gains, or synthesize "
+                         "into the output directory first)")
     return plant["K"]
 
 
@@ -165,17 +170,19 @@ def lti_run(config: Any, outdir: str | Path, config_path: str | Path | None = No
 def lti_margin_stage(config: Any, outdir: str | Path, config_path: str | Path | None = None,
                      on_step: Callable[[str], None] | None = None, gains_path: str | Path | None = None
                      ) -> dict[str, Any]:
-    """``robustsynth margin`` on a linear plant: the delay and loss margins of the config's gain, or of a
-    gains file's (:mod:`.margins_lti`); writes margin.json and margin.md."""
+    """``robustsynth margin`` on a linear plant: the delay and loss margins of a gains file's gain, else the
+    config's controller.gain, else OUTDIR/gains.json's (:mod:`.margins_lti`); writes margin.json and margin.md."""
     from .margins_lti import lti_margins
     from .report.lti import lti_margin_markdown
 
     plant = lti_plant_of(config, config_path)
-    K = lti_gain(config, plant, gains_path)
+    default = Path(outdir) / "gains.json"
+    source = gains_path if gains_path is not None else (default if plant["K"] is None and default.is_file() else None)
+    K = lti_gain(config, plant, gains_path, default)
     plant = dict(plant, K=K)
     data = {"plant": {"kind": "lti", "n": int(plant["A"].shape[0]), "m": int(plant["B"].shape[1]),
                       "states": plant["states"], "units": plant["units"], "controllable": plant["controllable"]},
-            "gain": K.tolist(), "gains": None if gains_path is None else str(gains_path), "config": config.name,
+            "gain": K.tolist(), "gains": None if source is None else str(source), "config": config.name,
             "network": {"sampling_time": config.network.sampling_time, "delay": [config.network.delay.min,
                         config.network.delay.max], "max_consecutive": config.network.dropouts.max_consecutive},
             "margins": lti_margins(config, plant, on_step or (lambda s: None))}

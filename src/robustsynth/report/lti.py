@@ -68,6 +68,10 @@ def lti_verification_markdown(data: dict[str, Any]) -> str:
     return "".join(md)
 
 
+def _num(v: Any) -> str:
+    return "none" if v is None else f"{v:.4g}" if isinstance(v, float) else str(v)
+
+
 def lti_margin_markdown(data: dict[str, Any]) -> str:
     md = ["# Margins of a linear plant's gain\n\n",
           f"Config {data['config']}: n = {data['plant']['n']}, m = {data['plant']['m']}, "
@@ -77,9 +81,14 @@ def lti_margin_markdown(data: dict[str, Any]) -> str:
         ratio = (f"{mg['certified'] / mg['exhibited']:.3f}" if mg["certified"] is not None and mg["exhibited"]
                  else "-")
         w = mg["witness"]
-        wtxt = (f"period {w['period']}: delays {w['delays']}, spectral radius {w['spectral_radius']:.6f}" if w else "-")
-        md.append(f"| {name} ({mg['unit']}) | {mg['configured']} | {mg['certified']} | {mg['exhibited']} | {ratio} | "
-                  f"{wtxt} |\n")
+        delays = ", ".join("lost" if x is None else f"{x:.4g}" for x in w["delays"]) if w else ""
+        wtxt = (f"period {w['period']}: delays [{delays}], spectral radius {w['spectral_radius']:.6f}" if w else "-")
+        at_least = "≥ " if "at least" in mg.get("note", "") else ""
+        md.append(f"| {name} ({mg['unit']}) | {_num(mg['configured'])} | {at_least}{_num(mg['certified'])} | "
+                  f"{_num(mg['exhibited'])} | {ratio} | {wtxt} |\n")
+    notes = [f"- {name}: {mg['note']}\n" for name, mg in data["margins"].items() if mg.get("note")]
+    if notes:
+        md.append("\n" + "".join(notes))
     md.append("\nCertified: a common quadratic Lyapunov function of the guaranteed over-approximation (docs/theory.md "
               "§14), proven in numpy. Exhibited: a destabilizing periodic delay/loss sequence of the exactly lifted "
               "closed loop.\n")
