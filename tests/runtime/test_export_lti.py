@@ -91,3 +91,36 @@ def test_robot_only_targets_and_bad_shapes_are_refused(tmp_path) -> None:
     with pytest.raises(InputError, match="K: must be 2 x 7"):
         export_controller(p, "c", tmp_path / "c2")
     assert not (tmp_path / "c2").exists() or not any((tmp_path / "c2").iterdir())
+
+
+def test_the_written_mat_reads_as_its_gains_file_and_a_mismatched_config_is_refused(tmp_path) -> None:
+    """synthesize writes gains.mat beside gains.json: export and verify read it as the same gains (it
+    carries the file it was written with), a .mat whose K was changed is refused (a changed gain has no
+    certificate), and export --config must describe the same plant and network."""
+    from scipy.io import loadmat, savemat
+
+    from robustsynth.artifacts.gains import load_gains
+    from robustsynth.pipeline_lti import lti_synthesis_stage
+
+    from pathlib import Path
+
+    from robustsynth.config import load_config
+
+    configs = Path(__file__).resolve().parents[2] / "configs"
+    cfg_path = configs / "dc-motor.yaml"
+
+    out = tmp_path / "g"
+    lti_synthesis_stage(load_config(cfg_path), out, cfg_path)
+    assert load_gains(out / "gains.mat") == load_gains(out / "gains.json")
+    d, _ = export_controller(out / "gains.mat", "python", tmp_path / "e")
+    assert d["K"] == json.loads((out / "gains.json").read_text())["K"]
+    m = loadmat(out / "gains.mat")
+    m["K"] = m["K"] * 1.01
+    savemat(tmp_path / "changed.mat", {k: v for k, v in m.items() if not k.startswith("__")})
+    with pytest.raises(InputError, match="K differs from the gain it was certified as"):
+        load_gains(tmp_path / "changed.mat")
+    with pytest.raises(InputError, match="zbp.yaml has n = 2 states and m = 1 inputs"):
+        export_controller(out / "gains.json", "c", tmp_path / "c", configs / "zbp.yaml")
+    with pytest.raises(InputError, match="is the tracked robot's"):
+        export_controller(out / "gains.json", "c", tmp_path / "c", configs / "default.yaml")
+    assert not (tmp_path / "c").exists()

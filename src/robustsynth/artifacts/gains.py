@@ -188,6 +188,16 @@ def _load_mat(p: Path) -> dict[str, Any]:
         raise InputError(f"{p}: not a readable MATLAB .mat file ({exc})") from None
     if "K" not in m:
         raise InputError(f"{p}: K: required variable is missing")
+    if "lti_gains_json" in m:  # a linear plant's: the gains file it was written with
+        try:
+            lti = json.loads(_mat_scalar(m["lti_gains_json"]))
+            same = np.array_equal(np.asarray(lti["K"], dtype=float), np.asarray(m["K"], dtype=float))
+        except (TypeError, ValueError, KeyError):
+            raise InputError(f"{p}: lti_gains_json: not a gains file in JSON") from None
+        if not same:
+            raise InputError(f"{p}: K differs from the gain it was certified as (lti_gains_json): a changed gain "
+                             "has no certificate")
+        return lti
     data: dict[str, Any] = {"K": m["K"]}  # validated by load_gains like a JSON K
     if "config_json" in m:  # ours: the config the gain was designed and verified with
         try:
@@ -366,7 +376,11 @@ def lti_gains_dict(config: Any, plant: dict[str, Any], design: Any) -> dict[str,
 
 def lti_gains_mat_vars(gd: dict[str, Any]) -> dict[str, Any]:
     """The .mat variables of an lti gains mapping: K, P, Ts and the delay range."""
+    from .files import json_bytes
+
     net = gd["network"]
     return {"K": np.asarray(gd["K"], dtype=float), "P": np.asarray(gd["certificate"]["P"], dtype=float),
             "Ts": float(net["sampling_time"]), "delay": np.asarray(net["delay"], dtype=float),
-            "max_consecutive": int(net["max_consecutive"]), "d": int(gd["lifting"]["d"])}
+            "max_consecutive": int(net["max_consecutive"]), "d": int(gd["lifting"]["d"]),
+            # the whole gains file: `verify` and `export` read the .mat as they read gains.json
+            "lti_gains_json": json_bytes(gd).decode("utf-8")}

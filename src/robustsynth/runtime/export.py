@@ -263,6 +263,27 @@ def export_files(d: dict[str, Any], target: str) -> dict[str, bytes]:
     raise ValueError(f"unknown export target {target!r} (one of {', '.join(TARGETS)})")
 
 
+def _same_lti_plant(gains: dict[str, Any], cfg: Any, config_path: str | Path) -> None:
+    """--config with a linear plant's gains: the config must be a linear plant's with the gains' sizes,
+    sampling time and lifting (the exported law has no config of its own to disagree with)."""
+    from ..config import is_lti
+    from ..errors import InputError
+    from ..model.lti import lti_depth
+
+    if not is_lti(cfg):
+        raise InputError(f"--config: {config_path} is the tracked robot's; the gains are a linear plant's")
+    lift, net = gains["lifting"], cfg.network
+    d = lti_depth(net.delay.max, net.dropouts.max_consecutive, net.sampling_time)
+    if cfg.plant.A is not None and cfg.plant.B is not None:
+        n, m = len(cfg.plant.A), len(cfg.plant.B[0])
+        if (n, m) != (int(lift["n"]), int(lift["m"])):
+            raise InputError(f"--config: {config_path} has n = {n} states and m = {m} inputs; the gains were made for "
+                             f"n = {lift['n']}, m = {lift['m']}")
+    if float(net.sampling_time) != float(gains["network"]["sampling_time"]) or d != int(lift["d"]):
+        raise InputError(f"--config: {config_path} samples at {net.sampling_time:g} s and lifts {d} commands; the gains "
+                         f"were made for {gains['network']['sampling_time']:g} s and {lift['d']}")
+
+
 def export_controller(gains_path: str | Path, target: str, outdir: str | Path,
                       config_path: str | Path | None = None) -> tuple[dict[str, Any], list[Path]]:
     """Write the ``target`` files of the controller in ``gains_path`` to ``outdir`` (atomically,
@@ -278,6 +299,9 @@ def export_controller(gains_path: str | Path, target: str, outdir: str | Path,
     gains = load_gains(gains_path)
     if gains.get("kind") == "lti":  # a linear plant's generic law
         from .export_lti import lti_export_files
+
+        if config_path is not None:
+            _same_lti_plant(gains, load_config(config_path), config_path)
 
         d, files = lti_export_files(gains, target)
         return d, commit_files(outdir, files, primary=next(iter(files)))
