@@ -491,7 +491,7 @@ def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
             raise InputError("--log: robot logs are for the tracked robot, not a linear plant")
         from .pipeline_lti import lti_verification_stage
 
-        data = lti_verification_stage(cfg, out, gains, config, runs, seed, plots=not no_plots)
+        data = lti_verification_stage(cfg, out, gains, config, runs, seed, plots=not no_plots, fmt=fmt)
         _lti_report(obj, data)
         obj.say(f"wrote {', '.join(data['files'])}")
         return EXIT_OK if data["passed"] else EXIT_VERIFICATION_FAILED

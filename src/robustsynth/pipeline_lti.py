@@ -105,9 +105,9 @@ def lti_synthesis_stage(config: Any, outdir: str | Path, config_path: str | Path
 
 def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Path | None = None,
                            config_path: str | Path | None = None, runs: int | None = None,
-                           seed: int | None = None, plots: bool = True) -> dict[str, Any]:
+                           seed: int | None = None, plots: bool = True, fmt: str = "png") -> dict[str, Any]:
     """The certified gain's claims on the exactly lifted loop (:func:`robustsynth.verification.lti.verify_lti`);
-    writes verification.json, verification.md and (``plots``) verification.png."""
+    writes verification.json, verification.md and (``plots``) verification.<fmt>."""
     from .artifacts.gains import load_gains
     from .errors import InputError
     from .model.lti import check_lti_gain
@@ -145,7 +145,7 @@ def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Pa
     if plots:
         from .report.plots import lti_verification_figure
 
-        written.append(lti_verification_figure(data, out / "verification.png"))
+        written.append(lti_verification_figure(data, out / f"verification.{fmt}"))
     data["files"] = [str(p) for p in written]
     return data
 
