@@ -118,17 +118,16 @@ def _outdir(cfg: Any, outdir: Path | None) -> Path:
 def _needs_its_config(config: Path | None, gains: Path | None, command: str) -> None:
     """Without CONFIG the tracked robot's default config is used: a linear plant's gains file with it is
     a mistake whose error would speak of the robot's shapes; say what is missing instead."""
-    if config is not None or gains is None or gains.suffix != ".json":
+    if config is not None or gains is None:
         return
-    import json
+    from .artifacts.gains import load_gains
+    from .errors import InputError
 
     try:
-        kind = json.loads(gains.read_text()).get("kind")
-    except (OSError, ValueError, AttributeError):
-        return  # the loader reports what is wrong with the file
+        kind = load_gains(gains).get("kind")
+    except (InputError, OSError, ValueError, AttributeError):
+        return  # the command's own loading reports what is wrong with the file
     if kind == "lti":
-        from .errors import InputError
-
         raise InputError(f"--gains: {gains} is a linear plant's gain (kind: lti): pass its config too "
                          f"(robustsynth {command} CONFIG --gains {gains})")
 

@@ -114,7 +114,7 @@ def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Pa
     from .report.lti import lti_verification_markdown
     from .verification.lti import verify_lti
 
-    out = make_dir(outdir)
+    out = Path(outdir)  # created once the inputs are checked: a refusal leaves no directory behind
     gp = Path(gains_path) if gains_path is not None else out / "gains.json"
     gd = load_gains(gp)
     if gd.get("kind") != "lti" or not isinstance(gd.get("certificate"), dict) or "P" not in gd["certificate"]:
@@ -131,6 +131,13 @@ def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Pa
     except (TypeError, ValueError, KeyError) as exc:
         raise InputError(f"{gp}: certificate: malformed ({exc})") from None
     Ts, lo, hi, ml = _net(config)
+    if (figures.get("disturbance_step_bound") is not None or figures.get("hinf_gain") is not None) and plant.get("E") is None:
+        raise InputError("plant.disturbance: the gain's certificate is for a disturbance input (ultimate-bound or hinf); "
+                         "this config has none")
+    outs = [o.get("name") for o in figures.get("outputs") or ()]
+    if outs and outs != list(plant["outputs"]):
+        raise InputError(f"plant.outputs: {list(plant['outputs'])} differ from the outputs the gain was certified for "
+                         f"({outs})")
     cert = gd["certificate"]
     try:
         eps, pieces = np.asarray(cert["multipliers"], dtype=float), int(cert["pieces"])
@@ -139,6 +146,7 @@ def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Pa
     data = verify_lti(plant, K, P, Ts, lo, hi, ml, figures, runs=runs or 64, seed=0 if seed is None else seed,
                       multipliers=eps, pieces=pieces)
     data["gains"] = str(gp)
+    out = make_dir(out)
     written = commit_files(out, {"verification.md": lti_verification_markdown(data).encode("utf-8"),
                                  "verification.json": json_bytes(data)}, primary="verification.json",
                            invalidate=RUN_FILES + ("verification.png",))

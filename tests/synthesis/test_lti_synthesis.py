@@ -222,3 +222,11 @@ def test_the_objective_is_checked_and_auto_follows_the_disturbance() -> None:
 def test_an_uncontrollable_plants_refusal_says_so() -> None:
     r = synthesize_lti(lti_plant_from(np.diag([0.0, 0.1]), np.array([[0.1], [0.0]])), 0.1, 0.0, 0.05, 0, "stability")
     assert not r.certified and "not controllable" in r.message
+
+
+def test_a_too_fast_decay_is_told_to_come_closer_to_one() -> None:
+    """decay is the factor sqrt(V) shrinks by per period: a smaller one asks more (the hint said the
+    opposite), and a stability design's input limits never make it infeasible (not blamed)."""
+    r = synthesize_lti(lti_plant_from(np.array([[0.5]]), np.array([[1.0]]), u_max=[0.5]), 0.1, 0.0, 0.1, 0,
+                       "stability", decay=0.05)
+    assert not r.certified and "closer to 1" in r.message and "input limits" not in r.message

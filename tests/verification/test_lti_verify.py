@@ -182,3 +182,34 @@ def test_a_linear_plants_gains_without_its_config_is_named_as_such(tmp_path) -> 
         assert r.output.strip() == f"error: --gains: {g} is a linear plant's gain (kind: lti): pass its config too " \
                                    f"(robustsynth {cmd} CONFIG --gains {g})"
         assert not (tmp_path / cmd).exists()
+
+
+def test_verify_refuses_a_config_that_is_not_the_gains_plant(tmp_path) -> None:
+    """A config without the disturbance the certificate is for (a traceback before), or with other
+    outputs than those certified (they were checked against the wrong bounds): one line, exit 2, no
+    directory; a gains.mat without CONFIG is named as a linear plant's gain."""
+    from pathlib import Path
+
+    import yaml
+    from click.testing import CliRunner
+
+    from robustsynth.cli import main
+    from robustsynth.config import load_config
+    from robustsynth.pipeline_lti import lti_synthesis_stage
+
+    src = Path(__file__).resolve().parents[2] / "configs" / "dc-motor.yaml"
+    g = tmp_path / "g"
+    lti_synthesis_stage(load_config(src), g, src)
+    d = yaml.safe_load(src.read_text())
+    nodist = dict(d, plant={k: v for k, v in d["plant"].items() if k != "disturbance"})
+    one = dict(d, plant=dict(d["plant"], outputs={k: v[:1] for k, v in d["plant"]["outputs"].items()}))
+    cases = [(nodist, "error: plant.disturbance: the gain's certificate is for a disturbance input"),
+             (one, "error: plant.outputs: ['angle'] differ from the outputs the gain was certified for")]
+    for i, (cfg, msg) in enumerate(cases):
+        p = tmp_path / f"c{i}.yaml"
+        p.write_text(yaml.safe_dump(cfg))
+        r = CliRunner().invoke(main, ["verify", str(p), "--gains", str(g / "gains.json"), "-o", str(tmp_path / f"o{i}")])
+        assert r.exit_code == 2 and r.output.startswith(msg) and len(r.output.strip().splitlines()) == 1, r.output
+        assert not (tmp_path / f"o{i}").exists()
+    r = CliRunner().invoke(main, ["verify", "--gains", str(g / "gains.mat"), "-o", str(tmp_path / "m")])
+    assert r.exit_code == 2 and "is a linear plant's gain (kind: lti): pass its config too" in r.output

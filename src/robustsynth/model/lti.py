@@ -234,7 +234,7 @@ def lti_plant(cfg, base_dir: str | None = None) -> dict:
     ``base_dir``; its problems raise InputError naming the file and the key."""
     from pathlib import Path
 
-    from ..errors import InputError
+    from ..errors import InputError, Interrupted
 
     pl = cfg.plant
     if pl.file is not None:
@@ -249,7 +249,7 @@ def lti_plant(cfg, base_dir: str | None = None) -> dict:
                 data = loadmat(path)
             else:
                 raise InputError(f"plant.file: {path}: must be a .mat or .npz file")
-        except InputError:
+        except (InputError, Interrupted):
             raise
         except Exception as exc:  # noqa: BLE001 - a corrupt file raises whatever its reader meets (EOFError on an
             # empty .npz, which click would report as an abort; BadZipFile; scipy's MatReadError)

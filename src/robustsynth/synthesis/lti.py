@@ -431,13 +431,13 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
         why = "no alpha of the line search gave a proven certificate" if dist else f"no certificate with decay {decay:g} per period"
         hints = []
         if not plant.get("controllable", True):
-            hints.append("the plant is not controllable (rank [B, AB, ...] < n): its uncontrollable modes must be stable "
-                         "by themselves")
-        if u_max is not None:
-            hints.append("the input limits may be what binds: try larger plant.input_limits" +
-                         (" or a smaller disturbance bound" if dist else " or a smaller decay"))
-        elif not dist:
-            hints.append("try a smaller decay (synthesis.decay) or a shorter delay range")
+            hints.append("the plant is not controllable (rank [B, AB, ...] < n): its uncontrollable modes must decay "
+                         "by themselves" + ("" if dist else f", at least by {decay:g} per period"))
+        if dist and u_max is not None:  # (stability is homogeneous: its limits shrink the rest ball, never bind)
+            hints.append("the input limits may be what binds: try larger plant.input_limits or a smaller disturbance bound")
+        if not dist:
+            hints.append("try a decay closer to 1 (synthesis.decay asks sqrt(V) to shrink by it per period) or a "
+                         "shorter delay range")
         return LtiDesign(False, status, objective, None, None, None, None, {}, last[0] if last else {}, d, nv,
                          solves, dt, why + ("; " + "; ".join(hints) if hints else ""))
     a = best
