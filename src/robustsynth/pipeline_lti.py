@@ -14,7 +14,8 @@ __all__ = ["lti_plant_of", "lti_model_stage", "lti_synthesis_stage", "lti_verifi
            "lti_margin_stage", "lti_gain"]
 
 SYNTHESIS_FILES = ("gains.json", "gains.mat", "synthesis.md")
-VERIFICATION_FILES = ("verification.json", "verification.md", "verification.png")  # a new gain makes them stale
+FIGURES = ("verification.png", "verification.pdf", "verification.svg")  # verify --format
+VERIFICATION_FILES = ("verification.json", "verification.md") + FIGURES  # a new gain makes them stale
 RUN_FILES = ("report.md", "summary.json")
 
 
@@ -149,7 +150,7 @@ def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Pa
     out = make_dir(out)
     written = commit_files(out, {"verification.md": lti_verification_markdown(data).encode("utf-8"),
                                  "verification.json": json_bytes(data)}, primary="verification.json",
-                           invalidate=RUN_FILES + ("verification.png",))
+                           invalidate=RUN_FILES + FIGURES)
     if plots:
         from .report.plots import lti_verification_figure
 

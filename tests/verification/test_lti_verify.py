@@ -213,3 +213,21 @@ def test_verify_refuses_a_config_that_is_not_the_gains_plant(tmp_path) -> None:
         assert not (tmp_path / f"o{i}").exists()
     r = CliRunner().invoke(main, ["verify", "--gains", str(g / "gains.mat"), "-o", str(tmp_path / "m")])
     assert r.exit_code == 2 and "is a linear plant's gain (kind: lti): pass its config too" in r.output
+
+
+def test_verify_writes_its_figure_format_and_leaves_no_stale_one(tmp_path) -> None:
+    from pathlib import Path
+
+    from click.testing import CliRunner
+
+    from robustsynth.cli import main
+    from robustsynth.config import load_config
+    from robustsynth.pipeline_lti import lti_synthesis_stage
+
+    src = Path(__file__).resolve().parents[2] / "configs" / "dc-motor.yaml"
+    out = tmp_path / "g"
+    lti_synthesis_stage(load_config(src), out, src)
+    r = CliRunner().invoke(main, ["verify", str(src), "-o", str(out), "--format", "pdf"])
+    assert r.exit_code == 0 and (out / "verification.pdf").is_file() and not (out / "verification.png").exists()
+    r = CliRunner().invoke(main, ["verify", str(src), "-o", str(out), "--no-plots"])
+    assert r.exit_code == 0 and not list(out.glob("verification.p*"))
