@@ -240,4 +240,7 @@ def test_margin_of_the_gain_synthesize_wrote_and_a_margin_at_the_search_end(tmp_
     dm = data["margins"]["delay_max"]
     assert dm["exhibited"] is None and dm["certified"] >= 0.9 - 1e-3 and "at least" in dm["note"]
     assert "delay_max: configured 0.5, certified at least 0.9" in r.output
+    lo = data["margins"]["dropouts"]
+    assert lo["exhibited"] is None and lo["certified"] == lo["searched_up_to"] == 3 and "at least" in lo["note"]
+    assert "dropouts: configured 0, certified at least 3, exhibited none" in r.output
     assert "None" not in r.output

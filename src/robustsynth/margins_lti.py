@@ -211,6 +211,7 @@ def lti_margins(cfg, plant: dict, say: Callable[[str], None] = lambda s: None) -
     from .config import MAX_D_HI
 
     far = cfg.margin.delay_far if cfg.margin.delay_far is not None else max(t_lo + 4 * Ts, t_hi + Ts)
+    capped = far > MAX_D_HI * Ts
     far = min(far, MAX_D_HI * Ts)  # the lifting's longest delay
     out: dict[str, Any] = {}
     t0 = time.perf_counter()
@@ -220,11 +221,12 @@ def lti_margins(cfg, plant: dict, say: Callable[[str], None] = lambda s: None) -
     say("delay_max: certificate bisection")
     cert, solves = _certified_delay(plant, Ts, t_lo, ex if ex is not None else far, m0, pieces, tol)
     out["delay_max"] = {"configured": t_hi, "certified": cert, "exhibited": ex, "witness": witness, "unit": "s",
-                        "searched_up_to": far, "search_s": round(t1 - t0, 3),
+                        "searched_up_to": round(far, 12), "search_s": round(t1 - t0, 3),
                         "certificate_s": round(time.perf_counter() - t1, 3), "solves": solves}
     if ex is None:  # nothing destabilizes within the search: the certified end may be the search's, a lower bound
-        out["delay_max"]["note"] = (f"no instability found up to {far:g} s" + (
-            "; certified up to the search's end: the margin is at least this (margin.delay_far searches further)"
+        further = (f"the lifting's longest delay, {MAX_D_HI} periods" if capped else "margin.delay_far searches further")
+        out["delay_max"]["note"] = (f"no instability found up to {far:.6g} s" + (
+            f"; certified up to the search's end: the margin is at least this ({further})"
             if cert is not None and cert >= far - tol else ""))
     t0 = time.perf_counter()
     say("dropouts: instability and certificate search")
@@ -244,4 +246,7 @@ def lti_margins(cfg, plant: dict, say: Callable[[str], None] = lambda s: None) -
     out["dropouts"] = {"configured": m0, "certified": m_cert, "exhibited": m_ex, "witness": m_w,
                        "searched_up_to": MAX_LOSSES, "unit": "commands in a row",
                        "time_s": round(time.perf_counter() - t0, 3)}
+    if m_ex is None:
+        out["dropouts"]["note"] = (f"no instability found up to {MAX_LOSSES} lost in a row" + (
+            "; certified up to the search's end: the margin is at least this" if m_cert == MAX_LOSSES else ""))
     return out
