@@ -109,7 +109,7 @@ def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Pa
                            seed: int | None = None, plots: bool = True, fmt: str = "png") -> dict[str, Any]:
     """The certified gain's claims on the exactly lifted loop (:func:`robustsynth.verification.lti.verify_lti`);
     writes verification.json, verification.md and (``plots``) verification.<fmt>."""
-    from .artifacts.gains import load_gains
+    from .artifacts.gains import gains_id, load_gains
     from .errors import InputError
     from .model.lti import check_lti_gain
     from .report.lti import lti_verification_markdown
@@ -147,6 +147,7 @@ def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Pa
     data = verify_lti(plant, K, P, Ts, lo, hi, ml, figures, runs=runs or 64, seed=0 if seed is None else seed,
                       multipliers=eps, pieces=pieces)
     data["gains"] = str(gp)
+    data["gains_id"] = gains_id(gd)
     out = make_dir(out)
     written = commit_files(out, {"verification.md": lti_verification_markdown(data).encode("utf-8"),
                                  "verification.json": json_bytes(data)}, primary="verification.json",
@@ -181,6 +182,7 @@ def lti_margin_stage(config: Any, outdir: str | Path, config_path: str | Path | 
                      ) -> dict[str, Any]:
     """``robustsynth margin`` on a linear plant: the delay and loss margins of a gains file's gain, else the
     config's controller.gain, else OUTDIR/gains.json's (:mod:`.margins_lti`); writes margin.json and margin.md."""
+    from .artifacts.gains import gains_id, load_gains
     from .margins_lti import lti_margins
     from .report.lti import lti_margin_markdown
 
@@ -191,7 +193,8 @@ def lti_margin_stage(config: Any, outdir: str | Path, config_path: str | Path | 
     plant = dict(plant, K=K)
     data = {"plant": {"kind": "lti", "n": int(plant["A"].shape[0]), "m": int(plant["B"].shape[1]),
                       "states": plant["states"], "units": plant["units"], "controllable": plant["controllable"]},
-            "gain": K.tolist(), "gains": None if source is None else str(source), "config": config.name,
+            "gain": K.tolist(), "gains": None if source is None else str(source),
+            "gains_id": None if source is None else gains_id(load_gains(source)), "config": config.name,
             "network": {"sampling_time": config.network.sampling_time, "delay": [config.network.delay.min,
                         config.network.delay.max], "max_consecutive": config.network.dropouts.max_consecutive},
             "margins": lti_margins(config, plant, on_step or (lambda s: None))}

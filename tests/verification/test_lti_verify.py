@@ -229,5 +229,7 @@ def test_verify_writes_its_figure_format_and_leaves_no_stale_one(tmp_path) -> No
     lti_synthesis_stage(load_config(src), out, src)
     r = CliRunner().invoke(main, ["verify", str(src), "-o", str(out), "--format", "pdf"])
     assert r.exit_code == 0 and (out / "verification.pdf").is_file() and not (out / "verification.png").exists()
+    gid = json.loads((out / "gains.json").read_text())["gains_id"]  # the verification names the gain it checked
+    assert len(gid) == 64 and json.loads((out / "verification.json").read_text())["gains_id"] == gid
     r = CliRunner().invoke(main, ["verify", str(src), "-o", str(out), "--no-plots"])
     assert r.exit_code == 0 and not list(out.glob("verification.p*"))

@@ -358,7 +358,7 @@ def lti_gains_dict(config: Any, plant: dict[str, Any], design: Any) -> dict[str,
 
     n, m = plant["B"].shape
     net = config.network
-    return {
+    out = {
         "kind": "lti",
         "K": design.K,
         "law": "u_k = K xi_k, xi_k = [x_k; u_{k-1}; ...; u_{k-d}]",
@@ -372,6 +372,11 @@ def lti_gains_dict(config: Any, plant: dict[str, Any], design: Any) -> dict[str,
         "solver": {"solves": design.solves, "time_s": design.solve_time_s},
         "config": config_to_dict(config),
     }
+    from .files import to_jsonable
+
+    out = to_jsonable(out)
+    out["gains_id"] = gains_id(out)  # the files made from this gain carry it (verification.json, margin.json)
+    return out
 
 
 def lti_gains_mat_vars(gd: dict[str, Any]) -> dict[str, Any]:
