@@ -118,36 +118,44 @@ def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Pa
     out = Path(outdir)  # created once the inputs are checked: a refusal leaves no directory behind
     gp = Path(gains_path) if gains_path is not None else out / "gains.json"
     gd = load_gains(gp)
-    if gd.get("kind") != "lti" or not isinstance(gd.get("certificate"), dict) or "P" not in gd["certificate"]:
-        raise InputError(f"{gp}: not a linear plant's gains file (kind: lti, with certificate.P): run "
-                         "`robustsynth synthesize` on this config first")
+    cert = gd.get("certificate")
+    if gd.get("kind") != "lti" and (gd.get("kind") is not None or cert is not None):
+        raise InputError(f"{gp}: not a linear plant's gains file (kind: lti, with certificate.P; its certificate is "
+                         "another kind's): run `robustsynth synthesize` on this config, or give a gains file with K only")
     plant = lti_plant_of(config, config_path)
     n, m = plant["B"].shape
     K = np.asarray(gd["K"], dtype=float)
     check_lti_gain(K, n, m, f"{gp}: K")
-    try:
-        P = np.asarray(gd["certificate"]["P"], dtype=float)
-        figures = dict(gd["certified"])
-        float(figures["alpha"])
-    except (TypeError, ValueError, KeyError) as exc:
-        raise InputError(f"{gp}: certificate: malformed ({exc})") from None
     Ts, lo, hi, ml = _net(config)
-    if (figures.get("disturbance_step_bound") is not None or figures.get("hinf_gain") is not None) and plant.get("E") is None:
-        raise InputError("plant.disturbance: the gain's certificate is for a disturbance input (ultimate-bound or hinf); "
-                         "this config has none")
-    outs = [o.get("name") for o in figures.get("outputs") or ()]
-    if outs and outs != list(plant["outputs"]):
-        raise InputError(f"plant.outputs: {list(plant['outputs'])} differ from the outputs the gain was certified for "
-                         f"({outs})")
-    cert = gd["certificate"]
-    try:
-        eps, pieces = np.asarray(cert["multipliers"], dtype=float), int(cert["pieces"])
-    except (TypeError, ValueError, KeyError) as exc:
-        raise InputError(f"{gp}: certificate: malformed ({exc})") from None
+    searched = None
+    if cert is None:  # a gain of one's own (K only): its certificate is searched
+        K, P, eps, pieces, figures = _searched_certificate(config, plant, K, gp)
+        searched = {"kind": "common quadratic Lyapunov function, every delay and loss pattern", "pieces": pieces,
+                    "decay": figures["decay"]}
+    else:
+        try:
+            P = np.asarray(cert["P"], dtype=float)
+            figures = dict(gd["certified"])
+            float(figures["alpha"])
+        except (TypeError, ValueError, KeyError) as exc:
+            raise InputError(f"{gp}: certificate: malformed ({exc})") from None
+        if (figures.get("disturbance_step_bound") is not None or figures.get("hinf_gain") is not None) \
+                and plant.get("E") is None:
+            raise InputError("plant.disturbance: the gain's certificate is for a disturbance input (ultimate-bound or "
+                             "hinf); this config has none")
+        outs = [o.get("name") for o in figures.get("outputs") or ()]
+        if outs and outs != list(plant["outputs"]):
+            raise InputError(f"plant.outputs: {list(plant['outputs'])} differ from the outputs the gain was certified "
+                             f"for ({outs})")
+        try:
+            eps, pieces = np.asarray(cert["multipliers"], dtype=float), int(cert["pieces"])
+        except (TypeError, ValueError, KeyError) as exc:
+            raise InputError(f"{gp}: certificate: malformed ({exc})") from None
     data = verify_lti(plant, K, P, Ts, lo, hi, ml, figures, runs=runs or 64, seed=0 if seed is None else seed,
                       multipliers=eps, pieces=pieces)
     data["gains"] = str(gp)
     data["gains_id"] = gains_id(gd)
+    data["certificate_searched"] = searched
     out = make_dir(out)
     written = commit_files(out, {"verification.md": lti_verification_markdown(data).encode("utf-8"),
                                  "verification.json": json_bytes(data)}, primary="verification.json",
@@ -158,6 +166,32 @@ def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Pa
         written.append(lti_verification_figure(data, out / f"verification.{fmt}"))
     data["files"] = [str(p) for p in written]
     return data
+
+
+def _searched_certificate(config: Any, plant: dict[str, Any], K: np.ndarray, gp: Path):
+    """A certificate for a gain that came without one (a hand-tuned K): the analysis LMIs of
+    ``robustsynth margin`` (a common quadratic function, V shrinking by DECAY per period for every delay
+    and loss pattern, margin.pieces), proven in numpy.  Returns (K padded to the lifting, P, the
+    multipliers, pieces, figures); InfeasibleError (exit 3) when there is none."""
+    from .errors import InfeasibleError, InputError
+    from .model.lti import lti_depth, over_approximation, pad_lti_gain
+    from .synthesis.lti import DECAY, analyze_lti
+
+    Ts, lo, hi, ml = _net(config)
+    n, m = plant["B"].shape
+    d = max(lti_depth(hi, ml, Ts), (K.shape[1] - n) // m)
+    K = pad_lti_gain(K, n, m, d)
+    pieces = int(config.margin.pieces)
+    try:
+        pw = over_approximation(plant["A"], plant["B"], K, Ts, lo, hi + ml * Ts, d, pieces)
+    except ValueError as exc:
+        raise InputError(f"plant: {exc} (delays up to {hi + ml * Ts:g} s)") from None
+    an = analyze_lti(pw)
+    if not an.certified:
+        raise InfeasibleError(f"{gp}: no certificate found for this gain on this network (a common quadratic "
+                              f"Lyapunov function over {pw.d_hi} switching instants, {pieces} pieces: {an.status}); "
+                              "`robustsynth margin` shows how far the gain is from one")
+    return K, an.P, an.eps, pieces, {"alpha": DECAY**2, "decay": DECAY}
 
 
 def lti_run(config: Any, outdir: str | Path, config_path: str | Path | None = None,

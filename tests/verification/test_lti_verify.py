@@ -233,3 +233,29 @@ def test_verify_writes_its_figure_format_and_leaves_no_stale_one(tmp_path) -> No
     assert len(gid) == 64 and json.loads((out / "verification.json").read_text())["gains_id"] == gid
     r = CliRunner().invoke(main, ["verify", str(src), "-o", str(out), "--no-plots"])
     assert r.exit_code == 0 and not list(out.glob("verification.p*"))
+
+
+def test_a_gain_of_ones_own_gets_a_certificate_searched(tmp_path) -> None:
+    """K only (the benchmark's published gain): verify searches a certificate (the margin's analysis LMIs),
+    proves it and checks it; beyond the delay where the gain is exhibited unstable (0.923 s) there is none:
+    exit 3, no directory."""
+    from pathlib import Path
+
+    from click.testing import CliRunner
+
+    from robustsynth.cli import main
+
+    src = Path(__file__).resolve().parents[2] / "configs" / "zbp.yaml"
+    g = tmp_path / "k.json"
+    g.write_text(json.dumps({"K": [[-3.75, -11.5]]}))
+    r = CliRunner().invoke(main, ["verify", str(src), "--gains", str(g), "-o", str(tmp_path / "ok"), "--no-plots"])
+    assert r.exit_code == 0, r.output
+    v = json.loads((tmp_path / "ok" / "verification.json").read_text())
+    assert v["passed"] and v["certificate_searched"]["pieces"] == 6 and v["checks"][0]["ok"]
+    assert "came without a certificate" in (tmp_path / "ok" / "verification.md").read_text()
+    far = tmp_path / "far.yaml"
+    far.write_text(src.read_text().replace("max: 0.5}", "max: 0.95}"))
+    assert "max: 0.95}" in far.read_text()
+    r = CliRunner().invoke(main, ["verify", str(far), "--gains", str(g), "-o", str(tmp_path / "no"), "--no-plots"])
+    assert r.exit_code == 3 and "no certificate found for this gain" in r.output
+    assert not (tmp_path / "no").exists()

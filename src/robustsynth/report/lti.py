@@ -57,6 +57,9 @@ def lti_verification_markdown(data: dict[str, Any]) -> str:
            f"lifted loop (lifting d = {data['lifting']}) per family (docs/theory.md §15).\n\n" if data["starts"] else
            f"The l2 gain from rest over {data['periods']} periods of the exactly lifted loop (lifting d = "
            f"{data['lifting']}) for each delay sequence (docs/theory.md §15).\n\n"),
+          (f"The gain came without a certificate: one was searched ({data['certificate_searched']['kind']}, "
+           f"decay {data['certificate_searched']['decay']:.7g} per period, {data['certificate_searched']['pieces']} "
+           "pieces) and proven in numpy; the checks below are against it.\n\n" if data.get("certificate_searched") else ""),
           "| check | value | limit | ok | detail |\n|---|---|---|---|---|\n"]
     md += [f"| {c['name']} | {c['value']:.6g} | {c['limit']:g} | {'yes' if c['ok'] else 'NO'} | {c['detail']} |\n"
            for c in data["checks"]]
