@@ -594,13 +594,15 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
 
             click.echo(json.dumps(data, indent=2))
             return
+        from .report.markdown import fmt
+
         def num(v: Any) -> str:
-            return "none" if v is None else f"{v:.4g}" if isinstance(v, float) else str(v)
+            return "none" if v is None else fmt(v)
 
         for name, mg in data["margins"].items():
             w = mg["witness"]
-            at_least = "at least " if mg.get("note", "").find("at least") >= 0 else ""
-            delays = ", ".join("lost" if x is None else f"{x:.4g}" for x in w["delays"]) if w else ""
+            at_least = "at least " if mg.get("at_least") else ""
+            delays = ", ".join("lost" if x is None else fmt(x) for x in w["delays"]) if w else ""
             obj.say(f"{name}: configured {num(mg['configured'])}, certified {at_least}{num(mg['certified'])}, exhibited "
                     f"{num(mg['exhibited'])}" + (f" (witness: period {w['period']}, delays [{delays}], spectral radius "
                                                  f"{w['spectral_radius']:.6f})" if w else "")

@@ -85,9 +85,17 @@ def find_lti_instability(plant: dict, Ts: float, tau_min: float, tau_max: float,
 
 
 def _certify(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int, pieces: int) -> Any:
-    """The certificate at delays [tau_min, tau_max] with m_lost losses in a row; pieces are reduced
-    while the vertices (instants with a range of positive width only) exceed MAX_VERTICES, and a
-    problem beyond the budget even with one piece is not attempted (certified False, status 'budget')."""
+    """The certificate at delays [tau_min, tau_max] with m_lost losses in a row (:func:`lti_certificate`'s
+    analysis)."""
+    return lti_certificate(plant, Ts, tau_min, tau_max, m_lost, pieces)[0]
+
+
+def lti_certificate(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int, pieces: int
+                    ) -> tuple[Any, np.ndarray, int]:
+    """(the analysis of ``plant["K"]``'s certificate at delays [tau_min, tau_max] with m_lost losses in a
+    row, K padded to the lifting, the pieces used).  Pieces are reduced while the vertices (instants with a
+    range of positive width only) exceed MAX_VERTICES, and a problem beyond the budget even with one piece
+    is not attempted (certified False, status 'budget')."""
     from .model.lifting import instant_ranges
     from .model.lti import over_approximation, pad_lti_gain
     from .synthesis.lti import analyze_lti
@@ -100,16 +108,16 @@ def _certify(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int
     k = n + d * m + d * n  # the vertex blocks' size
     n_p = (n + d * m) * (n + d * m + 1) // 2
     vertices = (2 * pieces) ** live
-    if vertices > MAX_VERTICES or vertices * n_p * k * k > MAX_COEFFICIENTS:
-        return _NotAttempted(vertices)
     K = pad_lti_gain(plant["K"], n, m, d)
+    if vertices > MAX_VERTICES or vertices * n_p * k * k > MAX_COEFFICIENTS:
+        return _NotAttempted(vertices), K, pieces
     try:
         pw = over_approximation(plant["A"], plant["B"], K, Ts, tau_min, tau_max + m_lost * Ts, d, pieces)
     except ValueError as exc:
         from .errors import InputError
 
         raise InputError(f"plant: {exc} (delays up to {tau_max + m_lost * Ts:g} s)") from None
-    return analyze_lti(pw)
+    return analyze_lti(pw), K, pieces
 
 
 class _NotAttempted:
@@ -223,11 +231,13 @@ def lti_margins(cfg, plant: dict, say: Callable[[str], None] = lambda s: None) -
     out["delay_max"] = {"configured": t_hi, "certified": cert, "exhibited": ex, "witness": witness, "unit": "s",
                         "searched_up_to": round(far, 12), "search_s": round(t1 - t0, 3),
                         "certificate_s": round(time.perf_counter() - t1, 3), "solves": solves}
-    if ex is None:  # nothing destabilizes within the search: the certified end may be the search's, a lower bound
+    # nothing destabilizes within the search: a certified end at the search's end is a lower bound
+    out["delay_max"]["at_least"] = ex is None and cert is not None and cert >= far - tol
+    if ex is None:
         further = (f"the lifting's longest delay, {MAX_D_HI} periods" if capped else "margin.delay_far searches further")
         out["delay_max"]["note"] = (f"no instability found up to {far:.6g} s" + (
             f"; certified up to the search's end: the margin is at least this ({further})"
-            if cert is not None and cert >= far - tol else ""))
+            if out["delay_max"]["at_least"] else ""))
     t0 = time.perf_counter()
     say("dropouts: instability and certificate search")
     m_ex, m_w, m_cert = None, None, None
@@ -246,7 +256,8 @@ def lti_margins(cfg, plant: dict, say: Callable[[str], None] = lambda s: None) -
     out["dropouts"] = {"configured": m0, "certified": m_cert, "exhibited": m_ex, "witness": m_w,
                        "searched_up_to": MAX_LOSSES, "unit": "commands in a row",
                        "time_s": round(time.perf_counter() - t0, 3)}
+    out["dropouts"]["at_least"] = m_ex is None and m_cert == MAX_LOSSES
     if m_ex is None:
         out["dropouts"]["note"] = (f"no instability found up to {MAX_LOSSES} lost in a row" + (
-            "; certified up to the search's end: the margin is at least this" if m_cert == MAX_LOSSES else ""))
+            "; certified up to the search's end: the margin is at least this" if out["dropouts"]["at_least"] else ""))
     return out

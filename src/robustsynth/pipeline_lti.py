@@ -31,9 +31,10 @@ def _net(config: Any) -> tuple[float, float, float, int]:
 
 
 def lti_gain(config: Any, plant: dict[str, Any], gains_path: str | Path | None,
-             default: Path | None = None) -> np.ndarray:
-    """The gain to analyze: a gains file's K, else the config's controller.gain, else ``default`` (the
-    output directory's gains.json) when it exists."""
+             default: Path | None = None) -> tuple[np.ndarray, Path | None, dict[str, Any] | None]:
+    """The gain to analyze and where it came from (the gains file and its mapping, or None twice): a gains
+    file's K, else the config's controller.gain, else ``default`` (the output directory's gains.json)
+    when it exists."""
     from .artifacts.gains import load_gains
     from .errors import InputError
     from .model.lti import check_lti_gain
@@ -45,12 +46,11 @@ def lti_gain(config: Any, plant: dict[str, Any], gains_path: str | Path | None,
         gd = load_gains(gains_path)
         K = np.asarray(gd["K"], dtype=float)
         check_lti_gain(K, n, m, f"{gains_path}: K")
-        return K
+        return K, Path(gains_path), gd
     if plant["K"] is None:
         raise InputError("controller.gain: required for a linear plant's margin (or pass --gains, or synthesize "
                          "into the output directory first)")
-    return plant["K"]
-
+    return plant["K"], None, None
 
 def lti_model_stage(config: Any, outdir: str | Path, config_path: str | Path | None = None) -> dict[str, Any]:
     """The lifted model and its guaranteed over-approximation (open loop, K = 0), with the coverage test
@@ -170,29 +170,21 @@ def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Pa
 
 def _searched_certificate(config: Any, plant: dict[str, Any], K: np.ndarray, gp: Path):
     """A certificate for a gain that came without one (a hand-tuned K): the analysis LMIs of
-    ``robustsynth margin`` (a common quadratic function, V shrinking by DECAY per period for every delay
-    and loss pattern, margin.pieces), proven in numpy.  Returns (K padded to the lifting, P, the
-    multipliers, pieces, figures); InfeasibleError (exit 3) when there is none."""
-    from .errors import InfeasibleError, InputError
-    from .model.lti import lti_depth, over_approximation, pad_lti_gain
-    from .synthesis.lti import DECAY, analyze_lti
+    ``robustsynth margin`` (:func:`robustsynth.margins_lti.lti_certificate`: a common quadratic function,
+    V shrinking by DECAY per period for every delay and loss pattern, margin.pieces), proven in numpy.
+    Returns (K padded to the lifting, P, the multipliers, pieces, figures); InfeasibleError (exit 3) when
+    there is none."""
+    from .errors import InfeasibleError
+    from .margins_lti import lti_certificate
+    from .synthesis.lti import DECAY
 
     Ts, lo, hi, ml = _net(config)
-    n, m = plant["B"].shape
-    d = max(lti_depth(hi, ml, Ts), (K.shape[1] - n) // m)
-    K = pad_lti_gain(K, n, m, d)
-    pieces = int(config.margin.pieces)
-    try:
-        pw = over_approximation(plant["A"], plant["B"], K, Ts, lo, hi + ml * Ts, d, pieces)
-    except ValueError as exc:
-        raise InputError(f"plant: {exc} (delays up to {hi + ml * Ts:g} s)") from None
-    an = analyze_lti(pw)
+    an, K, pieces = lti_certificate(dict(plant, K=K), Ts, lo, hi, ml, int(config.margin.pieces))
     if not an.certified:
         raise InfeasibleError(f"{gp}: no certificate found for this gain on this network (a common quadratic "
-                              f"Lyapunov function over {pw.d_hi} switching instants, {pieces} pieces: {an.status}); "
+                              f"Lyapunov function, {pieces} pieces per switching instant: {an.status}); "
                               "`robustsynth margin` shows how far the gain is from one")
     return K, an.P, an.eps, pieces, {"alpha": DECAY**2, "decay": DECAY}
-
 
 def lti_run(config: Any, outdir: str | Path, config_path: str | Path | None = None,
             on_step: Callable[[str], None] | None = None, objective: str | None = None, solver: str | None = None,
@@ -216,19 +208,17 @@ def lti_margin_stage(config: Any, outdir: str | Path, config_path: str | Path | 
                      ) -> dict[str, Any]:
     """``robustsynth margin`` on a linear plant: the delay and loss margins of a gains file's gain, else the
     config's controller.gain, else OUTDIR/gains.json's (:mod:`.margins_lti`); writes margin.json and margin.md."""
-    from .artifacts.gains import gains_id, load_gains
+    from .artifacts.gains import gains_id
     from .margins_lti import lti_margins
     from .report.lti import lti_margin_markdown
 
     plant = lti_plant_of(config, config_path)
-    default = Path(outdir) / "gains.json"
-    source = gains_path if gains_path is not None else (default if plant["K"] is None and default.is_file() else None)
-    K = lti_gain(config, plant, gains_path, default)
+    K, source, gd = lti_gain(config, plant, gains_path, Path(outdir) / "gains.json")
     plant = dict(plant, K=K)
     data = {"plant": {"kind": "lti", "n": int(plant["A"].shape[0]), "m": int(plant["B"].shape[1]),
                       "states": plant["states"], "units": plant["units"], "controllable": plant["controllable"]},
             "gain": K.tolist(), "gains": None if source is None else str(source),
-            "gains_id": None if source is None else gains_id(load_gains(source)), "config": config.name,
+            "gains_id": None if gd is None else gains_id(gd), "config": config.name,
             "network": {"sampling_time": config.network.sampling_time, "delay": [config.network.delay.min,
                         config.network.delay.max], "max_consecutive": config.network.dropouts.max_consecutive},
             "margins": lti_margins(config, plant, on_step or (lambda s: None))}

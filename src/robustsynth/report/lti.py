@@ -6,6 +6,8 @@ from typing import Any
 
 import numpy as np
 
+from .markdown import fmt
+
 __all__ = ["lti_synthesis_markdown", "lti_verification_markdown", "lti_margin_markdown"]
 
 
@@ -71,10 +73,6 @@ def lti_verification_markdown(data: dict[str, Any]) -> str:
     return "".join(md)
 
 
-def _num(v: Any) -> str:
-    return "none" if v is None else f"{v:.4g}" if isinstance(v, float) else str(v)
-
-
 def lti_margin_markdown(data: dict[str, Any]) -> str:
     md = ["# Margins of a linear plant's gain\n\n",
           f"Config {data['config']}: n = {data['plant']['n']}, m = {data['plant']['m']}, "
@@ -84,11 +82,11 @@ def lti_margin_markdown(data: dict[str, Any]) -> str:
         ratio = (f"{mg['certified'] / mg['exhibited']:.3f}" if mg["certified"] is not None and mg["exhibited"]
                  else "-")
         w = mg["witness"]
-        delays = ", ".join("lost" if x is None else f"{x:.4g}" for x in w["delays"]) if w else ""
+        delays = ", ".join("lost" if x is None else fmt(x) for x in w["delays"]) if w else ""
         wtxt = (f"period {w['period']}: delays [{delays}], spectral radius {w['spectral_radius']:.6f}" if w else "-")
-        at_least = "≥ " if "at least" in mg.get("note", "") else ""
-        md.append(f"| {name} ({mg['unit']}) | {_num(mg['configured'])} | {at_least}{_num(mg['certified'])} | "
-                  f"{_num(mg['exhibited'])} | {ratio} | {wtxt} |\n")
+        at_least = "≥ " if mg.get("at_least") else ""
+        md.append(f"| {name} ({mg['unit']}) | {fmt(mg['configured'])} | {at_least}{fmt(mg['certified'])} | "
+                  f"{fmt(mg['exhibited'])} | {ratio} | {wtxt} |\n")
     notes = [f"- {name}: {mg['note']}\n" for name, mg in data["margins"].items() if mg.get("note")]
     if notes:
         md.append("\n" + "".join(notes))

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
 import signal
 import threading
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any, Callable, Iterator
 
 import cvxpy as cp
 
@@ -108,17 +109,16 @@ def _call_solver(problem: cp.Problem, name: str) -> None:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
-def _quiet():
+@contextlib.contextmanager
+def _quiet() -> Iterator[None]:
     """cvxpy's UserWarning about an inaccurate solution is held back: the status reports it and the
     caller handles it.  ``warnings.catch_warnings`` saves and restores the process-wide filter list,
     so it must not be entered by threads that overlap (solve_all enters it once around its pool)."""
-    import contextlib
     import warnings
 
-    stack = contextlib.ExitStack()
-    stack.enter_context(warnings.catch_warnings())
-    warnings.simplefilter("ignore", UserWarning)
-    return stack
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        yield
 
 
 class _NativeStderr:
