@@ -85,8 +85,8 @@ def _minus(a, b, mag: bool):
     return a + b if mag else a - b
 
 
-# The LMIs below take one vertex, or a stack of vertices without uncertainty channels (their matrices
-# (n, ., .)); they return the matrix, or the stack of matrices, to prove >= threshold I.
+# The LMIs below take one vertex and its multiplier, or a stack of vertices and of their multipliers
+# (their matrices (n, ., .)); they return the matrix, or the stack of matrices, to prove >= threshold I.
 
 
 def lmi_stability(v, X, left, right, Y, M, r2, mag: bool = False):
@@ -99,7 +99,7 @@ def lmi_stability(v, X, left, right, Y, M, r2, mag: bool = False):
         return _sym(_block([[r2 * left, _T(AX)], [AX, right]]))
     CX = v.C_q @ X + v.D_q @ Y
     Z = np.zeros((n_s, n_q))
-    return _sym(np.block([[r2 * left, AX.T, CX.T], [AX, _minus(right, v.B_p @ M @ v.B_p.T, mag), Z], [CX, Z.T, M]]))
+    return _sym(_block([[r2 * left, _T(AX), _T(CX)], [AX, _minus(right, v.B_p @ M @ _T(v.B_p), mag), Z], [CX, Z.T, M]]))
 
 
 def lmi_invariance(v, X, left, right, Y, M, beta, alpha, mag: bool = False):
@@ -113,13 +113,13 @@ def lmi_invariance(v, X, left, right, Y, M, beta, alpha, mag: bool = False):
     rows = [
         [(1.0 - alpha) * left, Zsw, _T(AX)],
         [Zsw.T, np.diag(beta), _T(v.E)],
-        [AX, v.E, _minus(right, v.B_p @ M @ v.B_p.T, mag) if n_q else right],
+        [AX, v.E, _minus(right, v.B_p @ M @ _T(v.B_p), mag) if n_q else right],
     ]
     if n_q:
         CX = v.C_q @ X + v.D_q @ Y
         F = v.F  # q = C_q xi + D_q du + F_q w
-        rows[0].append(CX.T)
-        rows[1].append(F.T)
+        rows[0].append(_T(CX))
+        rows[1].append(_T(F))
         rows[2].append(np.zeros((n_s, n_q)))
         rows.append([CX, F, np.zeros((n_q, n_s)), M])
     return _sym(_block(rows))
@@ -305,8 +305,12 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
                      "(synthesis.kinematics)")
     if kin == "nonlinear":  # the kinematic channels of the certificate's own heading bound
         hb = float(cert["heading_bound"])
-        if hb != model.heading_bound:
-            model = model.with_heading_bound(hb)
+        within = bool(cert.get("within_period_channels", False))  # for slip changing within a period (§9)
+        if within and not model.covering:
+            return _fail("the certificate's kinematic channels are for slip changing within a period, which this "
+                         f"config's model does not cover ({model.varying_reason})")
+        if hb != model.heading_bound or within != bool(model.covering_vertices):
+            model = model.with_heading_bound(hb, within_period=within)
     parts = _lyapunov_parts(model, cert, n_s)
     if isinstance(parts, str):
         return _fail(parts)
@@ -353,6 +357,15 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
     # slip changing within a period (docs/theory.md §11): a common certificate must also hold at the
     # vertices that cover every slip history; the others state that they assume it constant
     varying, varying_reason = model.slip_variation(lyap, objective)
+    group_multipliers = np.zeros((0, 0))
+    if varying and varying[0].n_q:  # with channels (§9): each takes the multiplier of its group's first vertex
+        first: dict[int, int] = {}
+        for i, v in enumerate(model.vertices):
+            if v.group >= 0:
+                first.setdefault(v.group, i)
+        if any(v.group not in first for v in varying):
+            return _fail("the within-period vertices' channels have no multiplier (no vertex of their group)", checks)
+        group_multipliers = np.stack([Ms[first[v.group]] for v in varying])
     terms = lambda k: 2 * k + X.shape[0] * (K.shape[0] + 1) + len(mats)  # noqa: E731  (products per entry)
 
     def vertex_family(name: str, build) -> list[dict[str, Any]]:
@@ -378,11 +391,11 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
                        verified=not unproven, allowance=allowance, unproven=unproven)]
         if varying:  # one stack: the common certificate's single condition at every vertex (§11)
             left, right, _, aleft, aright = conds[0][0]
-            none = np.zeros((0, 0))
             stack, abs_stack = _stacks(varying)
-            L = build(stack, none, left, right, Y, False)
+            Mv = group_multipliers
+            L = build(stack, Mv, left, right, Y, False)
             vals = np.linalg.eigvalsh(L)[:, 0]
-            radius = assembly_radius_batch(build(abs_stack, none, aleft, aright, aY, True), terms(L.shape[-1]))
+            radius = assembly_radius_batch(build(abs_stack, np.abs(Mv), aleft, aright, aY, True), terms(L.shape[-1]))
             proven = proves_at_least_batch(L, threshold, radius)
             allow = radius + rump_shift_batch(np.maximum(np.abs(np.diagonal(L, axis1=-2, axis2=-1)), 1e-300))
             worst = int(np.argmin(vals))
@@ -522,7 +535,7 @@ def heading_within_period(model: Any, K: np.ndarray, mats: list[np.ndarray], lev
     n = K.shape[0] + 2 * model.n_s + 4
     g = gamma(n)
     out = 0.0
-    for ch in model.channels:
+    for ch in model.heading_channels:
         R = ch.C_h + ch.D_h @ K
         aR = np.abs(ch.C_h) + np.abs(ch.D_h) @ np.abs(K)
         q = np.array([_form_upper(R, aR, S, g) for S in mats])  # (n_mats, n_rows)
@@ -596,7 +609,8 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
     jumps wherever the slip does, and the chord distance is bounded by ``Ts/4 (sup a - inf a)`` over
     the period instead (for f' in [m, M]: |f(t) - chord(t)| <= t (Ts - t) / Ts (M - m)): the largest
     difference of a between any two slip corners and any two commands in flight, on the set.  e_y'' =
-    V omega(t) is bounded pointwise, whatever the slip does."""
+    V omega(t) is bounded pointwise, whatever the slip does.  On the exact arcs (a nonlinear
+    certificate) v jumps with the slip in e_y' = v sin e_theta too: both use the ranges of f'."""
     from .model.slip import lateral_row, slip_matrix
 
     n_s, n_e, n_u, d_hi = model.n_s, model.n_e, model.n_u, model.d_hi
@@ -632,6 +646,13 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
                     rows = np.array([Ma[0] @ ca - Mb[0] @ cb for cb in cmds])
                     osc = max(osc, abs(const) + sup_on_set(rows, mats, level, inner))
         ex = Ts / 4 * osc
+        if model.heading_bound is not None:
+            # the exact arcs: e_y' = v sin e_theta lies in [-vbar s, vbar s]; e_x' = v - V - v (1 - cos e_theta),
+            # whose first part ranges over osc and second over +-vbar (1 - cos) (v jumps with the slip, so
+            # only the ranges of f' bound the chord distance)
+            h = min(float(heading), np.pi / 2)
+            ey = Ts / 4 * 2.0 * vbar * float(np.sin(h))
+            ex = Ts / 4 * (osc + 2.0 * vbar * 2.0 * float(np.sin(h / 2.0)) ** 2)
     if model.icr:  # e_y' also holds the lateral velocity v_y = row(p) u: its jumps at the switching instants
         D = model.config.robot.track_distance
         dvy = max(sup_on_set(np.array([lateral_row(mu, D) @ (cmds[j] - cmds[j + 1]) for j in range(d_hi)]), mats,
@@ -642,12 +663,12 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
 
 
 class _Stack:
-    """Vertices without uncertainty channels as one stack: each matrix (n, ., .) (their absolute values
-    with ``absolute``, for the magnitude of a formula)."""
+    """Vertices as one stack: each matrix (n, ., .) (their absolute values with ``absolute``, for the
+    magnitude of a formula); their channels must have one shape."""
 
     def __init__(self, verts: Any, absolute: bool = False) -> None:
         f = np.abs if absolute else np.asarray
-        for name in ("A", "B", "E", "B_p", "C_q", "D_q"):
+        for name in ("A", "B", "E", "B_p", "C_q", "D_q", "F"):
             setattr(self, name, f(np.stack([np.asarray(getattr(v, name)) for v in verts])))
 
 

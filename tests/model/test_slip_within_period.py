@@ -205,5 +205,11 @@ def test_which_models_cover_slip_changing_within_a_period() -> None:
     assert nb.delay_description == "norm-bounded" and nb.slip_variation()[0] == ()
     assert "norm-bounded" in nb.slip_variation()[1]
     nl = _model("nonlinear-proof")
-    assert nl.slip_variation()[0] == () and "kinematic channels" in nl.slip_variation()[1]
+    # the kinematic channels for slip changing within a period (theory §9): the within-period vertices
+    # carry their delay vertex's channels and share its multiplier
+    verts, why = nl.slip_variation()
+    assert why == "" and len(verts) == len(nl.varying) and verts == nl.covering_vertices
+    assert all(v.n_q == nl.vertices[0].n_q and v.group == t for v, t in zip(verts, nl.varying_delay))
+    const = nl.with_heading_bound(nl.heading_bound, within_period=False)
+    assert const.slip_variation()[0] == () and "kinematic channels" in const.slip_variation()[1]
     assert nl.linearized().slip_variation()[0]  # its linearization is covered

@@ -73,6 +73,8 @@ def gains_dict(model: Any, result: Any) -> dict[str, Any]:
     if cert.get("kinematics", "linearized") != "linearized":  # the certificate covers the exact arcs (theory §9)
         certificate["kinematics"] = cert["kinematics"]
         certificate["heading_bound"] = cert["heading_bound"]
+        if cert.get("within_period_channels"):
+            certificate["within_period_channels"] = True
     out = {
         "schema_version": SCHEMA_VERSION,
         "robustsynth_version": __version__,
@@ -147,6 +149,7 @@ def gains_mat_vars(gd: dict[str, Any]) -> dict[str, Any]:
         "margin": c["margin"],
         "kinematics": c.get("kinematics", "linearized"),
         "heading_bound": _mat_value(c.get("heading_bound")),
+        "within_period_channels": bool(c.get("within_period_channels", False)),
         **_controller_mat_vars(gd),
     }
 
@@ -225,6 +228,8 @@ def _load_mat(p: Path) -> dict[str, Any]:
         if kin != "linearized":
             cert["kinematics"] = kin
             cert["heading_bound"] = _mat_scalar(m.get("heading_bound", np.nan))
+            if bool(_mat_scalar(m.get("within_period_channels", 0.0))):
+                cert["within_period_channels"] = True
         if lyap == "common":
             cert["Q"] = np.asarray(m["Q"], dtype=float)
             cert["P"] = np.asarray(m["P"], dtype=float) if "P" in m else np.linalg.inv(cert["Q"])

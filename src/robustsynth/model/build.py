@@ -13,7 +13,7 @@ from .linearize import Gamma, Gamma_D, Phi, continuous_matrices
 from .slip import lateral_row, slip_corners, slip_matrix, slip_parameter_ranges
 from .uncertainty import embed, slip_box
 from .model import DEFAULT_HEADING_BOUND, MAX_POLYTOPIC_INSTANTS, WIDTH_TOL, Model, frozen_array, frozen_vertex
-from .nonlinear import vertex_channels
+from .nonlinear import covering_channels, vertex_channels
 from .vertices import (Vertex, add_lateral, apply_slip, augment_integral, delay_vertex_gammas, icr_constant,
                        interval_coordinates, loss_vertex_gammas, varying_slip_vertices)
 
@@ -85,6 +85,8 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
     vertices: list[Vertex] = []
     channels: list = []
     varying: list[Vertex] | None = None
+    varying_delay: list[int] = []
+    covering: list = []
     varying_reason = ""
     if kind == "paper":
         varying_reason = "the paper's model describes slip as an additive box, not per command interval"
@@ -115,11 +117,15 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
             varying_reason = ("the icr slip model is not affine in its parameters (the yaw factor multiplies the "
                               "tracks' factors), so the slip averages of §11 do not describe it")
         elif delay_description != "norm-bounded":
-            varying = varying_slip_vertices(Ph, A_c, B_c, Ts, V, D, mu_r, mu_l, h, q, labels, integral,
-                                            MAX_VARYING_VERTICES)
-            if varying is None:
+            built = varying_slip_vertices(Ph, A_c, B_c, Ts, V, D, mu_r, mu_l, h, q, labels, integral,
+                                          MAX_VARYING_VERTICES)
+            if built is None:
                 varying_reason = (f"the delay range spans more than two command intervals in a period (covering "
                                   f"it would also take up to 16^intervals vertices, at most {MAX_VARYING_VERTICES})")
+            else:  # the kinematic channels for slip changing within the period, per delay vertex
+                varying, varying_delay = built
+                covering = [covering_channels(mu_r, mu_l, np.stack([h[t], q[t]], axis=1), V, Ts, D, n_s, n_e, n_u, d_hi)
+                            for t in range(len(labels))]
         for m, mu in enumerate(corners):
             M = slip_matrix(mu, D)
             c = (mu - 1.0) @ B_d.T if not icr else icr_constant(A_c, B_c, Ts, V, mu, D, n_s)
@@ -175,6 +181,8 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
         base_vertices=frozen_vertices,
         varying=tuple(frozen_vertex(v) for v in varying or ()),
         varying_reason=varying_reason,
+        covering=tuple(covering),
+        varying_delay=tuple(varying_delay),
     )
     if kind != "paper" and syn.kinematics == "nonlinear":
         hb = syn.heading_bound

@@ -160,6 +160,12 @@ class Model:
     # (read them through :meth:`slip_variation`)
     varying: tuple = field(default=(), repr=False)
     varying_reason: str = ""
+    # the kinematic channels that also hold for slip changing within a period, one per delay vertex
+    # (model/nonlinear.covering_channels; () where ``varying`` is not built), the delay vertex of each
+    # of ``varying``, and, on a model whose vertices carry these channels, ``varying`` augmented with them
+    covering: tuple = field(default=(), repr=False)
+    varying_delay: tuple = field(default=(), repr=False)
+    covering_vertices: tuple = field(default=(), repr=False)
 
     @property
     def kinematics(self) -> str:
@@ -170,10 +176,18 @@ class Model:
         """The model without the kinematic channels (itself when it has none)."""
         if self.heading_bound is None:
             return self
-        return replace(self, vertices=self.base_vertices, heading_bound=None)
+        return replace(self, vertices=self.base_vertices, heading_bound=None, covering_vertices=())
 
-    def with_heading_bound(self, theta_bar: float) -> "Model":
-        """The same model whose vertices carry the kinematic channels for |e_theta(t)| <= theta_bar."""
+    @property
+    def heading_channels(self) -> tuple:
+        """The channels whose heading rows bound |e_theta(t)| within a period: the covering ones when
+        the vertices carry them (every slip corner per command interval), else one per vertex."""
+        return self.covering if self.covering_vertices else self.channels
+
+    def with_heading_bound(self, theta_bar: float, within_period: bool = True) -> "Model":
+        """The same model whose vertices carry the kinematic channels for |e_theta(t)| <= theta_bar:
+        for slip changing within a period where the model covers it (``within_period``, and
+        ``covering`` built: docs/theory.md §9), else for slip constant within each period."""
         from ..errors import InputError
         from .nonlinear import augment, channel_scales
 
@@ -183,9 +197,20 @@ class Model:
         theta_bar = float(theta_bar)
         if not 0.0 < theta_bar <= 1.0:
             raise InputError(f"synthesis.heading_bound: {theta_bar:g} rad is outside (0, 1]")
-        scales = channel_scales(list(self.channels), theta_bar, self.V)
-        verts = tuple(augment(v, ch, theta_bar, self.V, scales) for v, ch in zip(self.base_vertices, self.channels))
-        return replace(self, vertices=tuple(frozen_vertex(v) for v in verts), heading_bound=theta_bar)
+        base = replace(self.linearized(), heading_bound=theta_bar)
+        if not (within_period and self.covering):
+            scales = channel_scales(list(self.channels), theta_bar, self.V)
+            verts = tuple(augment(v, ch, theta_bar, self.V, scales) for v, ch in zip(self.base_vertices, self.channels))
+            return replace(base, vertices=tuple(frozen_vertex(v) for v in verts))
+        # one multiplier per delay vertex (vertices are corner-major: vertex i has delay vertex i % n_d)
+        n_d = len(self.covering)
+        scales = channel_scales(list(self.covering), theta_bar, self.V)
+        verts = tuple(augment(v, self.covering[i % n_d], theta_bar, self.V, scales, group=i % n_d)
+                      for i, v in enumerate(self.base_vertices))
+        cover = tuple(augment(v, self.covering[t], theta_bar, self.V, scales, group=t)
+                      for v, t in zip(self.varying, self.varying_delay))
+        return replace(base, vertices=tuple(frozen_vertex(v) for v in verts),
+                       covering_vertices=tuple(frozen_vertex(v) for v in cover))
 
     def slip_variation(self, lyapunov: str = "common", objective: str = "ultimate-bound") -> tuple[tuple[Vertex, ...], str]:
         """The vertices that cover slip changing at any time within a period for a certificate of kind
@@ -194,22 +219,23 @@ class Model:
         if objective == "hinf":
             return (), ("the H-infinity gain is stated for the slip input B_d w, which does not describe slip "
                         "changing within a period")
-        if self.heading_bound is not None:
+        if self.heading_bound is not None and not self.covering_vertices:
             return (), ("the kinematic channels (synthesis.kinematics: nonlinear) are built for slip constant "
-                        "within a period")
+                        "within a period" + (f": {self.varying_reason}" if self.varying_reason else ""))
         if lyapunov != "common":
             return (), (f"a {lyapunov} certificate indexes its Lyapunov matrices by the slip at the sampling "
                         "instants")
         if not self.varying:
             return (), self.varying_reason
-        return self.varying, ""
+        return (self.covering_vertices or self.varying), ""
 
     def with_cuts(self, indices: list[int]) -> "Model":
         """The model whose LMI vertices also include the within-period vertices ``varying[indices]``
         (constraint generation, docs/theory.md §11; common certificates only): appended after the
         model's own vertices, so a certificate's per-vertex data for those come first.  Build its LMIs
         without the mirror symmetry (the appended vertices have no mirror partner in the list)."""
-        extra = tuple(replace(self.varying[i], corner=0) for i in indices)
+        family = self.covering_vertices or self.varying
+        extra = tuple(replace(family[i], corner=0) for i in indices)
         return replace(self, vertices=tuple(self.vertices) + extra)
 
     @property
@@ -512,7 +538,7 @@ class Model:
         if self.heading_bound is not None:  # (every kinematic factor at 0)
             from .nonlinear import linearization_delta
 
-            dlt = np.broadcast_to(linearization_delta(self.channels[0]), batch + (self.vertices[0].n_q,))
+            dlt = np.broadcast_to(linearization_delta(self.heading_channels[0]), batch + (self.vertices[0].n_q,))
         else:
             dlt = np.zeros(batch + (0,))
         if self.delay_description == "lossy-polytopic":

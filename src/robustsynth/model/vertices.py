@@ -33,7 +33,10 @@ class Vertex:
     ``corner`` indexes the slip corner (the Lyapunov matrix of a slip-dependent certificate);
     ``label`` names the vertex in reports.  ``diagonal``: Delta is diagonal with independent
     scalars (the kinematic channels of :mod:`.nonlinear`, a diagonal multiplier); otherwise it has
-    the delay embedding's blocks (d1 I2, d2) per instant.  ``F_q`` None: no disturbance in q."""
+    the delay embedding's blocks (d1 I2, d2) per instant.  ``F_q`` None: no disturbance in q.
+    ``group`` >= 0: every vertex of the group has the same channels and one multiplier (the kinematic
+    channels for slip changing within a period: one group per delay vertex, whose slip vertices
+    differ only in (A, B, E), so the LMI with that multiplier holds on their hull)."""
 
     A: np.ndarray
     B: np.ndarray
@@ -45,6 +48,7 @@ class Vertex:
     label: str
     F_q: np.ndarray | None = None
     diagonal: bool = False
+    group: int = -1  # vertices of one group (>= 0) share their S-procedure multiplier
 
     @property
     def n_q(self) -> int:
@@ -316,8 +320,8 @@ def varying_slip_vertices(Phi: np.ndarray, A_c: np.ndarray, B_c: np.ndarray, Ts:
     at any time (docs/theory.md §11): per delay vertex (coordinates ``h``, ``q`` (n_v, d_hi)), every
     combination of :data:`SLIP_AVERAGE_PARALLELOGRAM` points per track and command interval (an interval
     of zero length at the vertex gets one point).  Returns a list of Vertex (no uncertainty channels,
-    ``corner`` -1: they belong to no slip corner), or None when there would be more than ``limit`` or a
-    delay vertex has more than two command intervals of nonzero length."""
+    ``corner`` -1: they belong to no slip corner) and the delay vertex of each, or None when there would
+    be more than ``limit`` or a delay vertex has more than two command intervals of nonzero length."""
     from .slip import slip_matrix
 
     L_all, W_all = interval_coordinates(h, q, Ts)
@@ -341,7 +345,7 @@ def varying_slip_vertices(Phi: np.ndarray, A_c: np.ndarray, B_c: np.ndarray, Ts:
     if sum(counts) > limit:
         return None
     n_e, n_u = B_c.shape
-    out = []
+    out, delay = [], []
     for t, (L, W) in enumerate(zip(L_all, W_all)):
         live = (np.abs(L) > tol * Ts) | (np.abs(W) > tol * Ts * Ts)
         choices = [interval_pts if lv else [interval_pts[-1]] for lv in live]
@@ -356,4 +360,5 @@ def varying_slip_vertices(Phi: np.ndarray, A_c: np.ndarray, B_c: np.ndarray, Ts:
         for k in range(len(combos)):
             out.append(Vertex(A[k], B[k], E[k][:, None], np.zeros((n_s, 0)), np.zeros((0, n_s)), np.zeros((0, n_u)),
                               -1, f"{labels[t]}; slip averages #{k}"))
-    return out
+            delay.append(t)
+    return out, delay

@@ -254,6 +254,8 @@ def _cert_common(model: Any, vals: dict, kind: str, margin: float, objective: st
     out["kinematics"] = model.kinematics
     if model.heading_bound is not None:
         out["heading_bound"] = float(model.heading_bound)
+        if model.covering_vertices:  # the channels hold for slip changing within a period (§9)
+            out["within_period_channels"] = True
     return out
 
 

@@ -281,7 +281,7 @@ def heading_constraints(model: Any, lv: _Lyap) -> list[Any]:
     theta_bar = float(model.heading_bound)
     cons = []
     seen: set[bytes] = set()
-    for ch in model.channels:
+    for ch in model.heading_channels:
         for c, d, g in zip(ch.C_h, ch.D_h, ch.g_h):
             key = np.concatenate([c, d, [g]]).tobytes()
             if key in seen:
@@ -307,12 +307,17 @@ def _vertex_parts(v: Any, lv: _Lyap):
 
 
 def _multipliers(model: Any, kind: str, margin: float, mirror: Any = None) -> tuple[list[Any], list[Any]]:
-    """Per vertex the S-procedure multiplier M_i (and M_i >= margin I).  With a mirror, a mirrored
+    """Per vertex the S-procedure multiplier M_i (and M_i >= margin I); the vertices of one
+    ``Vertex.group`` share theirs (the channels for slip changing within a period).  With a mirror, a mirrored
     vertex's multiplier is ``S M S`` of its partner's (S its channels' signs, ``Model.mirror``) and a
     self-mirrored vertex's is S-invariant: the mirror image of a certificate is one (§6h)."""
     Ms: list[Any] = []
     cons = []
+    shared: dict[int, Any] = {}  # group -> its multiplier (Vertex.group: one per delay vertex, §9)
     for i, v in enumerate(model.vertices):
+        if v.group >= 0 and v.group in shared:
+            Ms.append(shared[v.group])
+            continue
         partner = i if mirror is None else mirror.vertex[i]
         if partner < i:
             s = np.asarray(mirror.q_signs[partner], dtype=float)
@@ -327,6 +332,8 @@ def _multipliers(model: Any, kind: str, margin: float, mirror: Any = None) -> tu
                 if np.any(s < 0):
                     M = cp.multiply((np.outer(s, s) > 0).astype(float), M)
         Ms.append(M)
+        if v.group >= 0:
+            shared[v.group] = M
         if v.n_q:
             cons.append(M >> margin * np.eye(v.n_q))
     return Ms, cons
