@@ -213,3 +213,9 @@ def test_which_models_cover_slip_changing_within_a_period() -> None:
     const = nl.with_heading_bound(nl.heading_bound, within_period=False)
     assert const.slip_variation()[0] == () and "kinematic channels" in const.slip_variation()[1]
     assert nl.linearized().slip_variation()[0]  # its linearization is covered
+    # a slip-dependent Lyapunov matrix is not proven at the within-period vertices: its nonlinear
+    # model keeps the constant-slip channels (the deviation channels would cost and cover nothing)
+    cfg = load_config(CONFIGS / "nonlinear-proof.yaml")
+    sd = build_model(cfg.model_copy(update={"synthesis": cfg.synthesis.model_copy(update={"lyapunov": "slip-dependent"})}))
+    assert sd.heading_bound is not None and sd.covering_vertices == ()
+    assert sd.vertices[0].n_q == const.vertices[0].n_q < nl.vertices[0].n_q

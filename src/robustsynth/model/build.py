@@ -186,7 +186,8 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
     )
     if kind != "paper" and syn.kinematics == "nonlinear":
         hb = syn.heading_bound
-        model = model.with_heading_bound(DEFAULT_HEADING_BOUND if hb == "auto" else float(hb))
+        model = model.with_heading_bound(DEFAULT_HEADING_BOUND if hb == "auto" else float(hb),
+                                         within_period=syn.lyapunov == "common")
     return model
 
 

@@ -89,8 +89,10 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
             f"- model `slip-aware` with **nonlinear kinematics**: exact in slip and delay, and the terms the linearization"
             f" drops (docs/theory.md §2) are covered over the exact arcs of each period as bounded channels, valid while"
             f" |e_theta(t)| <= {hb:g} rad — which the certificate proves on its own set (docs/theory.md §9). Assumed:"
-            f" the kinematic model itself (tracks as the paper's slip factors), slip constant within a period, straight"
-            f" segments (the turns at waypoints are not covered), in-order delivery. LMIs at {len(model.vertices)}"
+            f" the kinematic model itself (tracks as the paper's slip factors), "
+            + ("slip free to change within a period (covered, above)" if result.certified.get("slip_within_period") == "covered"
+               else "slip constant within a period")
+            + f", straight segments (the turns at waypoints are not covered), in-order delivery. LMIs at {len(model.vertices)}"
             f" vertices ({model.corners.shape[0]} slip corners, delays {model.delay_description},"
             f" {model.vertices[0].n_q} kinematic channels each), Lyapunov matrix `{cfg.synthesis.lyapunov}`"
             + (", integral action on e_x, e_y" if model.integral else "") + ".\n\n"

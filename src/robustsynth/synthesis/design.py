@@ -247,7 +247,8 @@ def _cert_common(model: Any, vals: dict, kind: str, margin: float, objective: st
         out.update(lyapunov=vals["lyapunov"], G=vals["G"], S=vals["S"], P=[np.linalg.inv(S) for S in vals["S"]],
                    slip_step=model.slip_step if model.rate_bounded else None)
     # one multiplier per vertex of ``model``: an LMI that also held within-period vertices (Model.with_cuts,
-    # appended last) keeps none for those (they have no uncertainty channels)
+    # appended last) keeps none for those (without channels they have none; with the kinematic channels
+    # they share their delay vertex's, which is stored with its own vertices: Vertex.group)
     out["multipliers"] = {"kind": kind, "M": list(vals["M"])[: len(model.vertices)], "blocks": [i.j for i in model.instants]
                           if model.n_q and any(v.n_q for v in model.vertices) else []}
     out["margin"] = margin
@@ -710,7 +711,9 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
         bounds = (float(s.heading_bound),)
     best, runner, tried = _Best(), None, []
     for tb in bounds:
-        m = model.with_heading_bound(tb)
+        # the channels for slip changing within a period only where the certificate is proven at the
+        # within-period vertices: a common Lyapunov matrix (Model.slip_variation)
+        m = model.with_heading_bound(tb, within_period=s.lyapunov == "common")
         say(f"{s.objective}, nonlinear kinematics with |e_theta(t)| <= {tb:g} rad: alpha "
             + (f"walk from {hint:.4g}" if hint is not None else f"scan over {s.alpha_points} points")
             + f" ({len(m.vertices)} vertices, {m.vertices[0].n_q} kinematic channels each)")
