@@ -25,22 +25,35 @@ def _nonlinear(**over):
     return build_model(make_config(**over))
 
 
-def _one_period(model, rng, N, spread):
-    """Random lifted states (errors, stored commands), new commands, slips and delays; the robot's
-    e at t_{k+1} and the largest |e_theta(t)| within the period (at the arcs' ends: it is linear in t)."""
+def _random_state(model, rng, N, spread):
+    """Random lifted states (errors up to 0.1 m and ``spread`` rad, stored commands) and new commands."""
     n_e, n_u, d_hi = model.n_e, model.n_u, model.d_hi
     xi = np.zeros((N, model.n_s))
     xi[:, :n_e] = rng.uniform(-1, 1, (N, n_e)) * np.array([0.1, 0.1, spread])
     xi[:, n_e : n_e + d_hi * n_u] = rng.uniform(-1, 1, (N, d_hi * n_u)) * np.tile([0.4, 1.0], d_hi)
     du = rng.uniform(-1, 1, (N, n_u)) * np.array([0.4, 1.0])
-    (rl, rh), (ll, lh) = model.slip_ranges
-    mu = np.stack([rng.uniform(rl, rh, N), rng.uniform(ll, lh, N)], axis=1)
-    S = model.s_tilde(random_delays(model, rng, N, 1))[:, 0]
-    uD = np.array([model.V, 0.0])
+    return xi, du
+
+
+def _start(model, xi, du):
+    """A straight path, the poses of the errors in ``xi``, the robot and its commands in flight."""
+    n_e, n_u, d_hi, N = model.n_e, model.n_u, model.d_hi, xi.shape[0]
     path = make_path(((0.0, 0.0), (100.0, 0.0)), model.V)
     q0 = pose_from_error(path, xi[:, :n_e])
     robot = KinematicRobot.of(model)
-    U = robot.send(robot.memory(xi[:, n_e : n_e + d_hi * n_u].reshape(N, d_hi, n_u), N), uD + du)
+    U = robot.send(robot.memory(xi[:, n_e : n_e + d_hi * n_u].reshape(N, d_hi, n_u), N), np.array([model.V, 0.0]) + du)
+    return path, q0, robot, U
+
+
+def _one_period(model, rng, N, spread):
+    """Random lifted states (errors, stored commands), new commands, slips and delays; the robot's
+    e at t_{k+1} and the largest |e_theta(t)| within the period (at the arcs' ends: it is linear in t)."""
+    d_hi = model.d_hi
+    xi, du = _random_state(model, rng, N, spread)
+    (rl, rh), (ll, lh) = model.slip_ranges
+    mu = np.stack([rng.uniform(rl, rh, N), rng.uniform(ll, lh, N)], axis=1)
+    S = model.s_tilde(random_delays(model, rng, N, 1))[:, 0]
+    path, q0, robot, U = _start(model, xi, du)
     q1 = robot.period(q0, U, S, mu)
     # e_theta is linear within each command's interval: its extremes are at the intervals' ends
     M = slip_matrix(mu, model.config.robot.track_distance)
@@ -132,22 +145,14 @@ def _heading_at(model, e0, U, S, mu, t_sw, mu_after, t):
 def _within_period_samples(model, rng, N, spread):
     """Random lifted states, commands, delays and per-track slip jumps within the period; the robot's e
     at t_{k+1} through its exact arcs, the largest |e_theta(t)| and the switched linear map's e."""
-    n_e, n_u, d_hi = model.n_e, model.n_u, model.d_hi
-    xi = np.zeros((N, model.n_s))
-    xi[:, :n_e] = rng.uniform(-1, 1, (N, n_e)) * np.array([0.1, 0.1, spread])
-    xi[:, n_e : n_e + d_hi * n_u] = rng.uniform(-1, 1, (N, d_hi * n_u)) * np.tile([0.4, 1.0], d_hi)
-    du = rng.uniform(-1, 1, (N, n_u)) * np.array([0.4, 1.0])
+    xi, du = _random_state(model, rng, N, spread)
     (rl, rh), (ll, lh) = model.slip_ranges
     lo, hi = np.array([rl, ll]), np.array([rh, lh])
     mu = lo + (hi - lo) * rng.integers(0, 2, (N, 2))  # jumps between the box's extremes: the hardest
     mu_after = lo + hi - mu
     t_sw = rng.uniform(0.0, model.Ts, (N, 2))
     S = model.s_tilde(random_delays(model, rng, N, 1))[:, 0]
-    uD = np.array([model.V, 0.0])
-    path = make_path(((0.0, 0.0), (100.0, 0.0)), model.V)
-    q0 = pose_from_error(path, xi[:, :n_e])
-    robot = KinematicRobot.of(model)
-    U = robot.send(robot.memory(xi[:, n_e : n_e + d_hi * n_u].reshape(N, d_hi, n_u), N), uD + du)
+    path, q0, robot, U = _start(model, xi, du)
     first = np.argmin(t_sw, axis=1)  # the earlier track's jump, then the other's
     mid = mu.copy()
     mid[np.arange(N), first] = mu_after[np.arange(N), first]
