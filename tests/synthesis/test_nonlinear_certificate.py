@@ -75,6 +75,8 @@ def test_the_default_robot_has_none_and_says_why(tmp_path) -> None:
     r = CliRunner().invoke(main, ["synthesize", str(cfg), "-o", str(tmp_path / "out")])
     assert r.exit_code == 3, r.output
     assert "e_theta(t)" in r.output and "forward-speed" in r.output
+    # the way to a cheaper certificate that assumes slip constant within each period (theory §9)
+    assert "synthesis.lyapunov slip-dependent" in r.output
     assert "Traceback" not in r.output
     assert not (tmp_path / "out" / "gains.json").exists()
 

@@ -766,6 +766,10 @@ def _nonlinear_infeasible(model: Any, common: _Best, tried: list) -> str:
                 f"deviations up to {speed:.3g} m/s (V^D = {model.V:g} m/s): on it a sin e_theta alone reaches "
                 f"{speed * np.sin(min(f.get('heading_within_period', 0.3), 1.0)):.3g} m/s. Narrow slip, lower "
                 "reference.speed, or use synthesis.kinematics: linearized (whose proof is for the linearization)")
+    if model.covering and model.config.synthesis.lyapunov == "common":
+        msg += (". These channels cover slip changing at any time within a period; with synthesis.lyapunov "
+                "slip-dependent (or delay-, path-dependent) they assume it constant within each period, which costs "
+                "less and is stated with the certificate (docs/theory.md §9)")
     return msg
 
 
