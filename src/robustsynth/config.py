@@ -211,7 +211,8 @@ class SynthesisConfig(_Node):
         default="linearized",
         description="linearized: the certificate is for the linearization at the slip-compensated point "
         "(docs/theory.md §2); nonlinear: it also covers the kinematic terms the linearization drops, over the "
-        "exact arcs of each period, for headings within synthesis.heading_bound (docs/theory.md §9)",
+        "exact arcs of each period, for headings within synthesis.heading_bound, and with a common Lyapunov matrix "
+        "on delay vertices slip that changes at any time within a period (docs/theory.md §9)",
     )
     heading_bound: Literal["auto"] | Annotated[float, Field(gt=0, le=1.0)] = Field(
         default="auto",
