@@ -65,6 +65,22 @@ def test_a_smaller_heading_bound_or_the_linearized_model_is_refused(committed) -
     assert not chk.passed and "kinematics" in chk.reason
 
 
+def test_a_within_period_certificate_needs_a_model_that_covers_it(committed) -> None:
+    """The committed certificate's channels are for slip changing within a period: re-checked on a
+    model without the within-period vertices it fails and says why; re-checked with the constant-slip
+    channels (as if the flag were dropped) its multipliers no longer fit the channels."""
+    from dataclasses import replace
+
+    m, K, cert = committed
+    assert cert.get("within_period_channels") and m.covering_vertices
+    bare = replace(m.linearized(), covering=(), varying=(), varying_reason="none here", covering_vertices=(),
+                   heading_bound=None)
+    chk = check_certificate(bare.with_heading_bound(float(cert["heading_bound"])), K, cert)
+    assert not chk.passed and "within a period" in chk.reason
+    dropped = {k: v for k, v in cert.items() if k != "within_period_channels"}
+    assert not check_certificate(m, K, dropped).passed
+
+
 def test_the_default_robot_has_none_and_says_why(tmp_path) -> None:
     """Slip in [0.6, 1] per track: no heading bound gives an invariant set (measured); exit 3 with
     the heading and forward-speed ranges of the linearized set, and no gains file."""
