@@ -610,7 +610,8 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
     the period instead (for f' in [m, M]: |f(t) - chord(t)| <= t (Ts - t) / Ts (M - m)): the largest
     difference of a between any two slip corners and any two commands in flight, on the set.  e_y'' =
     V omega(t) is bounded pointwise, whatever the slip does.  On the exact arcs (a nonlinear
-    certificate) v jumps with the slip in e_y' = v sin e_theta too: both use the ranges of f'."""
+    certificate) e_y' = V sin e_theta + a sin e_theta: the first part has a bounded f'', the second
+    (a jumps with the slip) is bounded by its range; e_x' likewise."""
     from .model.slip import lateral_row, slip_matrix
 
     n_s, n_e, n_u, d_hi = model.n_s, model.n_e, model.n_u, model.d_hi
@@ -621,10 +622,12 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
         E[:, n_e + (j - 1) * n_u : n_e + j * n_u] = np.eye(n_u)
         cmds.append(E)
     uD = np.array([V, 0.0])
-    vbar = wbar = dvbar = 0.0
+    vbar = wbar = dvbar = abar = 0.0
     for mu in np.asarray(model.corners):
         M = slip_matrix(mu, model.config.robot.track_distance)
-        vbar = max(vbar, abs(float(M[0] @ uD)) + sup_on_set(np.array([M[0] @ c for c in cmds]), mats, level, inner))
+        forward = sup_on_set(np.array([M[0] @ c for c in cmds]), mats, level, inner)
+        vbar = max(vbar, abs(float(M[0] @ uD)) + forward)
+        abar = max(abar, abs(float(M[0] @ uD) - V) + forward)  # |a| = |v - V^D|
         wbar = max(wbar, abs(float(M[1] @ uD)) + sup_on_set(np.array([M[1] @ c for c in cmds]), mats, level, inner))
         dvbar = max(dvbar, sup_on_set(np.array([M[0] @ (cmds[j] - cmds[j + 1]) for j in range(d_hi)]), mats, level,
                                       inner))
@@ -647,12 +650,15 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
                     osc = max(osc, abs(const) + sup_on_set(rows, mats, level, inner))
         ex = Ts / 4 * osc
         if model.heading_bound is not None:
-            # the exact arcs: e_y' = v sin e_theta lies in [-vbar s, vbar s]; e_x' = v - V - v (1 - cos e_theta),
-            # whose first part ranges over osc and second over +-vbar (1 - cos) (v jumps with the slip, so
-            # only the ranges of f' bound the chord distance)
+            # the exact arcs, split so that only the parts in which a = v - V (which jumps with the slip)
+            # appears are bounded by their ranges: e_y' = V sin e_theta + a sin e_theta, the first with
+            # |f''| = |V cos e_theta omega| <= V wbar, the second in +-abar s; e_x' = a - V (1 - cos e_theta)
+            # - a (1 - cos e_theta): a ranges over osc, the second has |f''| <= V s wbar, the third is in
+            # +-abar (1 - cos)
             h = min(float(heading), np.pi / 2)
-            ey = Ts / 4 * 2.0 * vbar * float(np.sin(h))
-            ex = Ts / 4 * (osc + 2.0 * vbar * 2.0 * float(np.sin(h / 2.0)) ** 2)
+            s, one_minus_cos = float(np.sin(h)), 2.0 * float(np.sin(h / 2.0)) ** 2
+            ey = Ts * Ts / 8 * V * wbar + Ts / 4 * 2.0 * abar * s
+            ex = Ts / 4 * osc + Ts * Ts / 8 * V * s * wbar + Ts / 4 * 2.0 * abar * one_minus_cos
     if model.icr:  # e_y' also holds the lateral velocity v_y = row(p) u: its jumps at the switching instants
         D = model.config.robot.track_distance
         dvy = max(sup_on_set(np.array([lateral_row(mu, D) @ (cmds[j] - cmds[j + 1]) for j in range(d_hi)]), mats,
