@@ -197,20 +197,17 @@ class Model:
         theta_bar = float(theta_bar)
         if not 0.0 < theta_bar <= 1.0:
             raise InputError(f"synthesis.heading_bound: {theta_bar:g} rad is outside (0, 1]")
-        base = replace(self.linearized(), heading_bound=theta_bar)
-        if not (within_period and self.covering):
-            scales = channel_scales(list(self.channels), theta_bar, self.V)
-            verts = tuple(augment(v, ch, theta_bar, self.V, scales) for v, ch in zip(self.base_vertices, self.channels))
-            return replace(base, vertices=tuple(frozen_vertex(v) for v in verts))
-        # one multiplier per delay vertex (vertices are corner-major: vertex i has delay vertex i % n_d)
+        covering = within_period and bool(self.covering)
+        # covering: one multiplier per delay vertex (vertices are corner-major: vertex i has delay vertex i % n_d)
         n_d = len(self.covering)
-        scales = channel_scales(list(self.covering), theta_bar, self.V)
-        verts = tuple(augment(v, self.covering[i % n_d], theta_bar, self.V, scales, group=i % n_d)
-                      for i, v in enumerate(self.base_vertices))
-        cover = tuple(augment(v, self.covering[t], theta_bar, self.V, scales, group=t)
-                      for v, t in zip(self.varying, self.varying_delay))
-        return replace(base, vertices=tuple(frozen_vertex(v) for v in verts),
-                       covering_vertices=tuple(frozen_vertex(v) for v in cover))
+        groups = [i % n_d if covering else -1 for i in range(len(self.base_vertices))]
+        chans = [self.covering[i % n_d] for i in range(len(groups))] if covering else list(self.channels)
+        scales = channel_scales(chans, theta_bar, self.V)
+        verts = tuple(frozen_vertex(augment(v, ch, theta_bar, self.V, scales, group=g))
+                      for v, ch, g in zip(self.base_vertices, chans, groups))
+        cover = tuple(frozen_vertex(augment(v, self.covering[t], theta_bar, self.V, scales, group=t))
+                      for v, t in zip(self.varying, self.varying_delay)) if covering else ()
+        return replace(self.linearized(), vertices=verts, heading_bound=theta_bar, covering_vertices=cover)
 
     def slip_variation(self, lyapunov: str = "common", objective: str = "ultimate-bound") -> tuple[tuple[Vertex, ...], str]:
         """The vertices that cover slip changing at any time within a period for a certificate of kind

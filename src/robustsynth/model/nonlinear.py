@@ -38,7 +38,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .vertices import Vertex
+from .vertices import Vertex, interval_coordinates
 
 __all__ = ["KinematicChannels", "vertex_channels", "covering_channels", "factor_ranges", "channel_scales", "augment",
            "linearization_delta"]
@@ -78,58 +78,44 @@ class KinematicChannels:
         return self.C.shape[0] + self.n_dev
 
 
+def _command_row(j: int, coef: np.ndarray, n_s: int, n_e: int, n_u: int) -> tuple[np.ndarray, np.ndarray]:
+    """``coef`` on command j's slot: the new command's (D, j = 0) or the stored one's (C, its state slot)."""
+    c, d = np.zeros(n_s), np.zeros(n_u)
+    if j == 0:
+        d[:] = coef
+    else:
+        c[n_e + (j - 1) * n_u : n_e + j * n_u] = coef
+    return c, d
+
+
+def _break_points(lens: np.ndarray, yaw: list[np.ndarray], uD: np.ndarray, n_s: int, n_e: int, n_u: int,
+                  d_hi: int) -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """e_theta at the period's break points, ``(c, d, g)`` with e_theta = c xi + d du + g: at t_k, then
+    after the oldest command's interval, ..., after the newest's; command j turns at ``yaw[j] (u^D + du)``."""
+    c, d, g = np.eye(n_s)[2], np.zeros(n_u), 0.0
+    out = [(c, d, g)]
+    for j in range(d_hi, -1, -1):
+        dc, dd = _command_row(j, lens[j] * yaw[j], n_s, n_e, n_u)
+        c, d, g = c + dc, d + dd, g + lens[j] * float(yaw[j] @ uD)
+        out.append((c, d, g))
+    return out
+
+
 def vertex_channels(mu: np.ndarray, coords: np.ndarray, V: float, Ts: float, M: np.ndarray, n_s: int,
                     n_e: int, n_u: int, d_hi: int) -> KinematicChannels:
     """Channels of the vertex with slip matrix ``M = M(mu)`` and delay coordinates ``coords[j] = (h_j,
     h_j^2/2)`` of instants j = 0..d_hi-1 (a delay vertex's; for a triangle's third vertex the second
     coordinate is not h^2/2, which is the point: everything below is affine in them)."""
     coords = np.asarray(coords, dtype=float).reshape(d_hi, 2)
-    h = np.concatenate([[0.0], coords[:, 0], [Ts]])  # h_{-1} .. h_{d_hi}
-    hq = np.concatenate([[0.0], coords[:, 1], [Ts * Ts / 2.0]])
+    lens, Ws = interval_coordinates(coords[:, 0], coords[:, 1], Ts)
     uD = np.array([V, 0.0])
     n_cmd = d_hi + 1
-    C = np.zeros((1 + 2 * n_cmd, n_s))
-    Dm = np.zeros((1 + 2 * n_cmd, n_u))
-    F = np.zeros((1 + 2 * n_cmd, 1))
-    C[0, 2] = Ts
-
-    def put(row: int, j: int, coef: np.ndarray, const: float) -> None:
-        if j == 0:
-            Dm[row] = coef
-        else:
-            C[row, n_e + (j - 1) * n_u : n_e + j * n_u] = coef
-        F[row, 0] = const
-
-    lens = []
-    for j in range(n_cmd):
-        W = hq[j + 1] - hq[j]
-        ln = h[j + 1] - h[j]
-        lens.append(ln)
-        put(1 + j, j, W * M[1], W * float(M[1] @ uD))
-        put(1 + n_cmd + j, j, ln * M[0], ln * (float(M[0] @ uD) - V))
-    # heading at the break points: t_k, then after the oldest command's interval, ..., after the newest's
-    C_h = [np.eye(n_s)[2]]
-    D_h = [np.zeros(n_u)]
-    g_h = [0.0]
-    c, d, g = C_h[0].copy(), D_h[0].copy(), 0.0
-    for j in range(d_hi, -1, -1):
-        if j == 0:
-            d = d + lens[j] * M[1]
-        else:
-            c = c.copy()
-            c[n_e + (j - 1) * n_u : n_e + j * n_u] += lens[j] * M[1]
-        g += lens[j] * float(M[1] @ uD)
-        C_h.append(c.copy())
-        D_h.append(d.copy())
-        g_h.append(g)
-    return KinematicChannels(C, Dm, F, 1 + n_cmd, np.array(C_h), np.array(D_h), np.array(g_h))
-
-
-def _corner_combinations(lens: np.ndarray, corners: np.ndarray, tol: float) -> list[tuple[int, ...]]:
-    """Per command interval (j = 0..d_hi) a slip corner index: every combination over the intervals of
-    nonzero length, corner 0 for the others (they carry no time)."""
-    live = [abs(float(ln)) > tol for ln in lens]
-    return list(itertools.product(*[range(len(corners)) if lv else (0,) for lv in live]))
+    rows = [(np.eye(n_s)[2] * Ts, np.zeros(n_u), 0.0)]  # Ts e_theta0
+    rows += [(*_command_row(j, Ws[j] * M[1], n_s, n_e, n_u), Ws[j] * float(M[1] @ uD)) for j in range(n_cmd)]
+    rows += [(*_command_row(j, lens[j] * M[0], n_s, n_e, n_u), lens[j] * (float(M[0] @ uD) - V)) for j in range(n_cmd)]
+    C, Dm, F = (np.array([r[k] for r in rows]) for k in range(3))
+    C_h, D_h, g_h = (np.array(x) for x in zip(*_break_points(lens, [M[1]] * n_cmd, uD, n_s, n_e, n_u, d_hi)))
+    return KinematicChannels(C, Dm, F[:, None], 1 + n_cmd, C_h, D_h, g_h)
 
 
 def covering_channels(mu_r: tuple[float, float], mu_l: tuple[float, float], coords: np.ndarray, V: float, Ts: float,
@@ -152,27 +138,17 @@ def covering_channels(mu_r: tuple[float, float], mu_l: tuple[float, float], coor
     centre = vertex_channels(mu_c, coords, V, Ts, slip_matrix(mu_c, D), n_s, n_e, n_u, d_hi)
     M0 = slip_matrix(np.zeros(2), D)
     N = [slip_matrix(np.eye(2)[i], D) - M0 for i in range(2)]
-    h = np.concatenate([[0.0], coords[:, 0], [Ts]])
-    hq = np.concatenate([[0.0], coords[:, 1], [Ts * Ts / 2.0]])
-    lens, Ws = np.diff(h), np.diff(hq)
+    lens, Ws = interval_coordinates(coords[:, 0], coords[:, 1], Ts)
     uD = np.array([V, 0.0])
-    n_cmd = d_hi + 1
-    rows_C, rows_D, rows_F, ln, wt, hw = [], [], [], [], [], []
+    rows, ln, wt, hw = [], [], [], []
     for i, Ni in enumerate(N):
         kappa = Ni[1, 0] / Ni[0, 0]
         if not np.allclose(Ni[1], kappa * Ni[0], rtol=0.0, atol=1e-12 * np.abs(Ni).max()):
             raise ValueError("a track's slip matrix is not of rank one")
         if half[i] <= 0.0:
             continue  # a track without slip range has no deviation
-        for j in range(n_cmd):
-            c, d = np.zeros(n_s), np.zeros(n_u)
-            if j == 0:
-                d[:] = Ni[0]
-            else:
-                c[n_e + (j - 1) * n_u : n_e + j * n_u] = Ni[0]
-            rows_C.append(c)
-            rows_D.append(d)
-            rows_F.append([float(Ni[0] @ uD)])
+        for j in range(d_hi + 1):
+            rows.append((*_command_row(j, Ni[0], n_s, n_e, n_u), float(Ni[0] @ uD)))
             ln.append(lens[j])
             wt.append(abs(kappa) * Ws[j])
             hw.append(half[i])
@@ -181,24 +157,19 @@ def covering_channels(mu_r: tuple[float, float], mu_l: tuple[float, float], coor
     Ms = slip_matrix(corners, D)
     seen: dict[bytes, tuple] = {}
     for combo in _corner_combinations(lens, corners, tol * Ts):
-        c, d, g = np.eye(n_s)[2], np.zeros(n_u), 0.0
-        seen.setdefault(np.concatenate([c, d, [g]]).tobytes(), (c, d, g))
-        for j in range(d_hi, -1, -1):
-            w1 = Ms[combo[j]][1]
-            if j == 0:
-                d = d + lens[j] * w1
-            else:
-                c = c.copy()
-                c[n_e + (j - 1) * n_u : n_e + j * n_u] += lens[j] * w1
-            g = g + lens[j] * float(w1 @ uD)
-            seen.setdefault(np.concatenate([c, d, [g]]).tobytes(), (c.copy(), d.copy(), g))
+        for c, d, g in _break_points(lens, [Ms[k][1] for k in combo], uD, n_s, n_e, n_u, d_hi):
+            seen.setdefault(np.concatenate([c, d, [g]]).tobytes(), (c, d, g))
     C_h, D_h, g_h = (np.array(x) for x in zip(*seen.values()))
-    empty = len(rows_C) == 0
-    return replace(centre, C_h=C_h, D_h=D_h, g_h=g_h,
-                   C_dev=np.zeros((0, n_s)) if empty else np.array(rows_C),
-                   D_dev=np.zeros((0, n_u)) if empty else np.array(rows_D),
-                   F_dev=np.zeros((0, 1)) if empty else np.array(rows_F),
+    dev = [np.array([r[k] for r in rows]).reshape(len(rows), size) for k, size in enumerate((n_s, n_u, 1))]
+    return replace(centre, C_h=C_h, D_h=D_h, g_h=g_h, C_dev=dev[0], D_dev=dev[1], F_dev=dev[2],
                    len_dev=np.array(ln), W_dev=np.array(wt), half_dev=np.array(hw))
+
+
+def _corner_combinations(lens: np.ndarray, corners: np.ndarray, tol: float) -> list[tuple[int, ...]]:
+    """Per command interval (j = 0..d_hi) a slip corner index: every combination over the intervals of
+    nonzero length, corner 0 for the others (they carry no time)."""
+    live = [abs(float(ln)) > tol for ln in lens]
+    return list(itertools.product(*[range(len(corners)) if lv else (0,) for lv in live]))
 
 
 def factor_ranges(theta_bar: float) -> dict[str, tuple[float, float]]:

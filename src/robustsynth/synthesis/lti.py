@@ -479,10 +479,12 @@ def synthesize_lti_config(cfg, plant: dict, objective: str | None = None, solver
     """:func:`synthesize_lti` with an lti config's network and synthesis settings (the objective, the
     solver and the threads may be overridden: a sweep that runs a point per core passes 1)."""
     net, syn = cfg.network, cfg.synthesis
+    if threads is None and syn.threads != "auto":
+        threads = syn.threads
     return synthesize_lti(plant, net.sampling_time, net.delay.min, net.delay.max, net.dropouts.max_consecutive,
                           objective or cfg.objective, decay=syn.decay, pieces=syn.pieces,
                           alpha_points=syn.alpha_points, solver=solver or syn.solver, say=say,
-                          threads=threads if threads is not None else None if syn.threads == "auto" else syn.threads)
+                          threads=threads)
 
 
 def _synthesize_hinf(plant: dict, V: _Vertices, C: np.ndarray, Ts: float, tau_min: float, tau_hi: float, pieces: int,
