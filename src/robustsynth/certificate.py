@@ -311,6 +311,18 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
                          f"config's model does not cover ({model.varying_reason})")
         if hb != model.heading_bound or within != bool(model.covering_vertices):
             model = model.with_heading_bound(hb, within_period=within)
+    turns, have = cert.get("turns"), getattr(model, "turns", None)
+    if turns is not None:  # the vertices of the certificate's own turning reference (model/arcs.py)
+        want = (float(turns["max_yaw_rate"]), float(turns["max_step"]))
+        if have is None or (have.max_yaw_rate, have.max_step) != want:
+            from .errors import InputError
+
+            try:
+                model = model.with_turns(*want)
+            except InputError as exc:
+                return _fail(f"the certificate is for a turning reference, which this model cannot carry: {exc}")
+    elif have is not None:
+        return _fail("the certificate is for straight segments, the model for a turning reference")
     parts = _lyapunov_parts(model, cert, n_s)
     if isinstance(parts, str):
         return _fail(parts)
@@ -443,7 +455,6 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
             name: round_up(np.sqrt(level * set_max(diags[:, k], inner)), 2)
             for k, name in enumerate(("e_x", "e_y", "e_theta"))
         }
-        R = cfg.robot.gear_radius
         J_inv = np.asarray(model.J_inv)
         # c S c' with c = J^-1 K, bounded above with its rounding: + gamma |c| |S| |c|'
         g = gamma(2 * n_s + 2 * n_u + 4)
@@ -451,10 +462,13 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
         devs = np.array([np.einsum("ij,jk,ik->i", J_inv, K @ Sm @ K.T, J_inv)
                          + g * (1 + g) * np.einsum("ij,jk,ik->i", aJK, np.abs(Sm), aJK) for Sm in mats])
         dev = max(set_max(devs[:, i], inner) for i in range(devs.shape[1]))
-        figures["motor_speed_bound"] = round_up(cfg.reference.speed / R + np.sqrt(max(round_up(level * dev), 0.0)), 3)
-        if model.channels:  # |e_theta(t)| between samples on the set (docs/theory.md §9)
+        figures["motor_speed_bound"] = round_up(model.feedforward_motor_speed + np.sqrt(max(round_up(level * dev), 0.0)), 3)
+        # |e_theta(t)| and the errors between samples on the set (docs/theory.md §9): for straight segments;
+        # not derived for a turning reference (model/arcs.py: its feedforward and frame turn within the period)
+        turning = getattr(model, "turns", None) is not None
+        if model.channels and not turning:
             figures["heading_within_period"] = heading_within_period(model, K, mats, level, inner)
-        figures["ultimate_bound_between_samples"] = between_samples(
+        figures["ultimate_bound_between_samples"] = None if turning else between_samples(
             model, K, mats, level, figures["ultimate_bound"], figures.get("heading_within_period"), inner,
             within_period=bool(varying))
         if model.heading_bound is not None:

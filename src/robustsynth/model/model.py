@@ -19,6 +19,7 @@ it (:func:`gain_lifting`, :func:`pad_gain`, :func:`lifted_slice`).  :mod:`.build
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
@@ -166,6 +167,8 @@ class Model:
     covering: tuple = field(default=(), repr=False)
     varying_delay: tuple = field(default=(), repr=False)
     covering_vertices: tuple = field(default=(), repr=False)
+    # the reference yaw rates the vertices cover (model/arcs.py; None: straight segments only)
+    turns: Any = None
 
     @property
     def kinematics(self) -> str:
@@ -208,6 +211,41 @@ class Model:
         cover = tuple(frozen_vertex(augment(v, self.covering[t], theta_bar, self.V, scales, group=t))
                       for v, t in zip(self.varying, self.varying_delay)) if covering else ()
         return replace(self.linearized(), vertices=verts, heading_bound=theta_bar, covering_vertices=cover)
+
+    def with_turns(self, max_yaw_rate: float, max_step: float | None = None) -> "Model":
+        """The same model whose vertices cover a reference turning along arcs: yaw rate |w_k| <=
+        ``max_yaw_rate`` [rad/s], constant on each sampling period, changing by at most ``max_step``
+        (default ``max_yaw_rate``) between periods, with the turning feedforward in the commands
+        (docs/theory.md §10, model/arcs.py).  Linearized kinematics and the tracks slip model; slip
+        constant within each period."""
+        from ..errors import InputError
+        from .arcs import Turns, turning_vertices
+
+        if self.heading_bound is not None:
+            raise InputError("turning references: built for synthesis.kinematics: linearized only")
+        if self.icr or self.kind != "slip-aware":
+            raise InputError("turning references: built for the slip-aware model with the tracks slip model only")
+        if not self.channels:
+            raise InputError("turning references need delay vertices (synthesis.delay_description polytopic or "
+                             "lossy-polytopic)")
+        wbar = float(max_yaw_rate)
+        step = wbar if max_step is None else float(max_step)
+        if not (np.isfinite(wbar) and wbar > 0.0 and np.isfinite(step) and step > 0.0):
+            raise InputError(f"turning references: max_yaw_rate and max_step must be positive (got {wbar:g}, {step:g})")
+        turns = Turns(wbar, step)
+        verts = tuple(frozen_vertex(v) for v in turning_vertices(self, turns))
+        return replace(self, vertices=verts, turns=turns, varying=(), covering=(), covering_vertices=(),
+                       varying_delay=(), varying_reason="the turning reference's vertices are built for slip "
+                       "constant within a period")
+
+    @property
+    def feedforward_motor_speed(self) -> float:
+        """The largest motor speed the feedforward alone asks [rad/s]: V^D/R, plus the turning
+        reference's max_yaw_rate D/(2R)."""
+        cfg = self.config
+        R = cfg.robot.gear_radius
+        turn = 0.0 if self.turns is None else self.turns.max_yaw_rate * cfg.robot.track_distance / (2.0 * R)
+        return cfg.reference.speed / R + turn
 
     def slip_variation(self, lyapunov: str = "common", objective: str = "ultimate-bound") -> tuple[tuple[Vertex, ...], str]:
         """The vertices that cover slip changing at any time within a period for a certificate of kind

@@ -257,6 +257,8 @@ def _cert_common(model: Any, vals: dict, kind: str, margin: float, objective: st
         out["heading_bound"] = float(model.heading_bound)
         if model.covering_vertices:  # the channels hold for slip changing within a period (§9)
             out["within_period_channels"] = True
+    if getattr(model, "turns", None) is not None:  # the reference yaw rates the vertices cover (model/arcs.py)
+        out["turns"] = {"max_yaw_rate": model.turns.max_yaw_rate, "max_step": model.turns.max_step}
     return out
 
 
@@ -605,11 +607,13 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
             )
         rho_max = cfg.robot.max_motor_speed
         motor = bool(s.motor_limits and rho_max is not None)
-        if motor and rho_max <= cfg.reference.speed / cfg.robot.gear_radius:
+        if motor and rho_max <= model.feedforward_motor_speed:
+            turning = getattr(model, "turns", None) is not None
             raise InfeasibleError(
-                f"ultimate-bound: robot.max_motor_speed = {rho_max:g} rad/s is below V^D/R = "
-                f"{cfg.reference.speed / cfg.robot.gear_radius:.4g} rad/s needed to follow the path: "
-                "raise robot.max_motor_speed or lower reference.speed"
+                f"ultimate-bound: robot.max_motor_speed = {rho_max:g} rad/s is below "
+                f"{'V^D/R + max_yaw_rate D/(2R)' if turning else 'V^D/R'} = {model.feedforward_motor_speed:.4g} rad/s "
+                "needed to follow the path: raise robot.max_motor_speed or lower reference.speed"
+                + (" or the turns' yaw rate" if turning else "")
             )
         if model.heading_bound is not None:
             best, runner = _run_nonlinear(model, s, search, motor, say)

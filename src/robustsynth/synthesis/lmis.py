@@ -254,12 +254,13 @@ class _Lyap:
 
 
 def motor_constraints(model: Any, Q: Any, Y: Any, rows: Any = None) -> list[Any]:
-    """[[u^2, c_i' Y], [Y' c_i, Q]] >= 0 with u = rho_max - V^D / R  (docs/theory.md §6c), for each row c_i
+    """[[u^2, c_i' Y], [Y' c_i, Q]] >= 0 with u = rho_max - V^D / R (docs/theory.md §6c; minus the
+    turning feedforward's share, §10), for each row c_i
     of J^-1 (or those in ``rows``); ``Q`` may be any expression standing for the Lyapunov matrix
     (G + G' - S_m)."""
     cfg = model.config
     rho_max = cfg.robot.max_motor_speed
-    ubar = rho_max - cfg.reference.speed / cfg.robot.gear_radius
+    ubar = rho_max - model.feedforward_motor_speed  # V^D / R (and a turning reference's feedforward)
     # solve against a bound a hair tighter than the limit so that the numpy check has headroom
     ubar_solve = ubar * (1.0 - 1e-6)
     cons = []

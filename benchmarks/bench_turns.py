@@ -1,0 +1,91 @@
+"""Issue 22, item 4: what certifying a reference that turns along arcs costs (Model.with_turns,
+docs/theory.md §10 "Turning along arcs").
+
+Per slip box (nonlinear-proof's [0.8, 1] and the default's [0.6, 1], default robot and network,
+linearized kinematics) and per largest reference yaw rate w_bar (arcs of radius V^D / w_bar): the
+certified |e_x|, |e_y|, |e_theta| and motor bound (with the feedforward's share), the synthesis time,
+and the boundary probe on arcs (the nonlinear robot, one period from 20 000 states on the set's
+boundary, slip at a corner, random delays, w_k in {-w_bar, 0, w_bar} after a step of at most w_bar:
+max V+/level).  w_bar = 0 is the straight-segment certificate; its probe is run on arcs of the
+next row's w_bar (it does not cover them).  "none" is exit 3.
+
+    .venv/bin/python benchmarks/run_all.py bench_turns
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+BOXES = ((0.8, (0.0, 0.1, 0.2, 0.35)), (0.6, (0.0, 0.05, 0.1)))
+
+
+def _probe(model, K, P, level, wbar, N=20000, seed=1):
+    from robustsynth.model.arcs import FEEDFORWARD
+    from robustsynth.plants.kinematic import KinematicRobot
+    from robustsynth.scenarios import random_delays
+
+    rng = np.random.default_rng(seed)
+    n_e, n_u, d_hi, V, Ts = model.n_e, model.n_u, model.d_hi, model.V, model.Ts
+    x = rng.normal(size=(N, model.n_s))
+    x /= np.sqrt(np.einsum("ni,ij,nj->n", x, P, x) / level)[:, None]
+    (rl, rh), (ll, lh) = model.slip_ranges
+    mu = np.stack([rng.choice([rl, rh], N), rng.choice([ll, lh], N)], axis=1)
+    S = model.s_tilde(random_delays(model, rng, N, 1))[:, 0]
+    wk = wbar * rng.choice([-1.0, 0.0, 1.0], N)
+    w_prev = np.clip(wk - wbar * rng.choice([-1.0, 0.0, 1.0], N), -wbar, wbar)
+    du = x @ K.T
+    U = np.empty((N, d_hi + 1, n_u))
+    U[:, 0] = np.array([V, 0.0]) + du + wk[:, None] * FEEDFORWARD
+    U[:, 1:] = (np.array([V, 0.0]) + x[:, n_e : n_e + d_hi * n_u].reshape(N, d_hi, n_u)
+                + w_prev[:, None, None] * FEEDFORWARD)
+    q1 = KinematicRobot.of(model).period(x[:, :n_e], U, S, mu)
+    phi = wk * Ts
+    chord = V * Ts * np.sinc(phi / (2.0 * np.pi))
+    dx, dy = q1[:, 0] - chord * np.cos(phi / 2.0), q1[:, 1] - chord * np.sin(phi / 2.0)
+    c, s = np.cos(phi), np.sin(phi)
+    e = np.stack([c * dx + s * dy, -s * dx + c * dy, q1[:, 2] - phi], axis=1)
+    xi = np.concatenate([e, du, x[:, n_e : n_e + (d_hi - 1) * n_u]], axis=1)
+    return float(np.max(np.einsum("ni,ij,nj->n", xi, P, xi) / level))
+
+
+def main() -> dict:
+    from robustsynth import build_model, load_config
+    from robustsynth.errors import InfeasibleError, SolverFailure
+    from robustsynth.synthesis import synthesize
+
+    out = {}
+    print("| slip box | w_bar [rad/s] (arc radius) | \\|e_x\\| | \\|e_y\\| | \\|e_theta\\| | motor bound [rad/s] | "
+          "synthesis | boundary probe on arcs: max V+/level |")
+    print("|---|---|---|---|---|---|---|---|")
+    for lo, wbars in BOXES:
+        cfg = load_config(None)
+        cfg = cfg.model_copy(update={
+            "slip": cfg.slip.model_copy(update={"right": cfg.slip.right.model_copy(update={"min": lo}),
+                                                "left": cfg.slip.left.model_copy(update={"min": lo})}),
+            "synthesis": cfg.synthesis.model_copy(update={"delay_description": "polytopic"})})
+        base = build_model(cfg)
+        for i, wbar in enumerate(wbars):
+            model = base.with_turns(wbar) if wbar > 0 else base
+            t0 = time.perf_counter()
+            try:
+                r = synthesize(model)
+            except (InfeasibleError, SolverFailure) as exc:
+                print(f"| [{lo:g}, 1] | {wbar:g} | none ({type(exc).__name__}) | | | | {time.perf_counter() - t0:.1f} s | |")
+                continue
+            dt = time.perf_counter() - t0
+            f = r.check.figures
+            ub = f["ultimate_bound"]
+            probe_w = wbar if wbar > 0 else (wbars[i + 1] if i + 1 < len(wbars) else 0.0)
+            probe = _probe(model, r.K, np.asarray(r.certificate["P"]), f["ellipsoid_level"], probe_w)
+            radius = "straight" if wbar == 0 else f"{model.V / wbar:.3g} m"
+            print(f"| [{lo:g}, 1] | {wbar:g} ({radius}) | {100 * ub['e_x']:.2f} cm | {100 * ub['e_y']:.2f} cm | "
+                  f"{ub['e_theta']:.3f} rad | {f['motor_speed_bound']:.2f} | {dt:.1f} s | "
+                  f"{probe:.3f} (w_bar {probe_w:g}) |", flush=True)
+            out[f"{lo}/{wbar}"] = {"e_y": ub["e_y"], "probe": probe, "time_s": dt}
+    return out
+
+
+if __name__ == "__main__":
+    main()

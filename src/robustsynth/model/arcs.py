@@ -1,0 +1,172 @@
+"""A reference that turns along arcs: the vertices for a reference yaw rate ``|w_k| <= w_bar``
+(docs/theory.md §10, "Turning along arcs").
+
+The reference moves at V^D with a yaw rate ``w_k`` that is constant on each sampling period and
+changes by at most ``step`` from one period to the next; the law measures the error in the
+reference's frame at t_k and sends the turning feedforward ``(V^D, w_k) + du_k``.  Over one period,
+in the frame F_k of the reference at t_k, the robot moves as on a straight segment (its own
+kinematics do not know about the reference).  Linearized about the nominal arc (heading ``w s``
+in F_k, s the time since t_k), with ``eta(s)`` the heading's deviation from it and ``a`` the
+forward-speed deviation, the error before the change of frame is exactly
+
+    e~_x+ = [straight map]_x - V int sin(w s) eta ds + int a (cos(w s) - 1) ds
+    e~_y+ = [straight map]_y - V w Ts^2/2 + V int (cos(w s) - 1) eta ds + int a sin(w s) ds
+    e~_theta+ = [straight map]_theta - w Ts,
+
+where the straight map is the vertex's own (A, B, E) with every command's feedforward
+``(0, w_{k-j})`` added (it reaches the robot as a command does, through the slip).  At t_{k+1} the
+law measures in F_{k+1}, turned by ``phi = w_k Ts``: ``e+ = R(phi) e~+`` on (e_x, e_y).
+
+Everything the arc adds is bounded in the form the kinematic channels use (model/nonlinear.py):
+
+- the feedforward and the reference's turn: disturbance columns ``w_k / w_bar`` and, per older
+  command j, ``(w_k - w_{k-j}) / b_j`` with ``b_j = min(j step, 2 w_bar)``, each in [-1, 1];
+- ``int f(s) eta(s) ds`` and ``int f(s) a(s) ds`` with ``f`` one of ``cos(w s) - 1`` (in
+  [cos phi_bar - 1, 0]) or ``sin(w s)`` (in [-sin phi_bar, sin phi_bar]), ``phi_bar = w_bar Ts``:
+  ``eta(s) = e_theta0 + sum_j (omega_j - w_k) l_j(s)`` with weights ``1, l_j >= 0`` and ``a``
+  piecewise constant, so each term is a channel of the kinematic module (``Ts e_theta0``,
+  ``W_j (omega_j - w_k)``, ``len_j a_j``) times the factor's average, which lies in its range;
+- the rotation: ``R(phi) = I + (cos phi - 1) I + sin phi [[0, 1], [-1, 0]]``, so two channels per
+  row with ``q`` the rows of the map before the rotation, ``cos phi - 1`` in [cos phi_bar - 1, 0]
+  and ``sin phi`` in [-sin phi_bar, sin phi_bar].  A channel's own contribution ``b delta`` into
+  one row turns into ``(cos phi b delta, -sin phi b delta)``: it keeps its column (|cos| <= 1) and
+  gains a twin of weight ``sin phi_bar b`` into the other row.
+
+All factors are independent scalars in [-1, 1] (a diagonal Delta), which contains the correlated
+truth (the same ``w_k`` in several places): sound, conservative.  The channels' centres move into
+(A, B, E); B_p is common to every vertex, so per-vertex multipliers stay valid on the hull.  What
+remains assumed is what a linearized certificate assumes on a straight line (the kinematic terms
+of second order in the errors, docs/theory.md §2) and slip constant within a period.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .nonlinear import KinematicChannels
+from .vertices import Vertex
+
+__all__ = ["Turns", "turning_vertices", "FEEDFORWARD"]
+
+FEEDFORWARD = np.array([0.0, 1.0])  # the command (dV, omega) of one rad/s of reference yaw rate
+
+
+@dataclass(frozen=True)
+class Turns:
+    """The reference yaw rates a certificate covers: ``|w_k| <= max_yaw_rate`` [rad/s], constant on
+    each sampling period, ``|w_k - w_{k-1}| <= max_step`` [rad/s]."""
+
+    max_yaw_rate: float
+    max_step: float
+
+    def step_bounds(self, n_cmd: int) -> np.ndarray:
+        """b_j = max |w_k - w_{k-j}| for j = 1..n_cmd-1."""
+        return np.array([min(j * self.max_step, 2.0 * self.max_yaw_rate) for j in range(1, n_cmd)])
+
+
+def _slot_coef(C: np.ndarray, D: np.ndarray, j: int, n_e: int, n_u: int) -> np.ndarray:
+    """The coefficients (rows of C, D) on command j (0: the new command, else stored slot j - 1)."""
+    return D if j == 0 else C[:, n_e + (j - 1) * n_u : n_e + j * n_u]
+
+
+def _parts(v: Vertex, ch: KinematicChannels, M11: float, turns: Turns, Ts: float, V: float, n_e: int, n_u: int,
+           d_hi: int):
+    """The unscaled augmented data of one vertex whose slip matrix has ``M(mu)[1, 1] = M11`` (> 0):
+    (A, B, E, C_q, D_q, F_q, B_p)."""
+    n_s = v.A.shape[0]
+    n_cmd = d_hi + 1
+    wbar = float(turns.max_yaw_rate)
+    b = turns.step_bounds(n_cmd)
+    phi = wbar * Ts
+    cos_lo = -2.0 * np.sin(phi / 2.0) ** 2  # cos phi_bar - 1 without cancellation
+    c_mid, c_half, s_half = cos_lo / 2.0, -cos_lo / 2.0, float(np.sin(phi))
+    g = FEEDFORWARD
+    A, B = np.array(v.A, dtype=float), np.array(v.B, dtype=float)
+    # the feedforward of command j reaches the error rows as a command does (not the stored commands)
+    ff = [np.concatenate([_slot_coef(A, B, j, n_e, n_u)[:n_e] @ g, np.zeros(n_s - n_e)]) for j in range(n_cmd)]
+    ref = np.zeros(n_s)
+    ref[1], ref[2] = V * Ts**2 / 2.0, Ts
+    cols = [wbar * (sum(ff) - ref)] + [-b[j - 1] * ff[j] for j in range(1, n_cmd)]
+    E = np.column_stack([np.asarray(v.E, dtype=float)] + cols)
+    # the kinematic channels' rows, with the feedforward in their disturbance columns: turn rows
+    # W_j (omega_j - w_k) (W_j from the row's own coefficient on command j: W_j M(mu)[1], M[1, 1] > 0),
+    # speed rows len_j a_j
+    Cc, Dc = np.array(ch.C, dtype=float), np.array(ch.D, dtype=float)
+    Fc = np.zeros((Cc.shape[0], E.shape[1]))
+    Fc[:, : ch.F.shape[1]] = ch.F
+    for j in range(n_cmd):
+        coef = _slot_coef(Cc, Dc, j, n_e, n_u)  # (rows, n_u)
+        resp = coef @ g
+        Fc[:, ch.F.shape[1]] += wbar * resp
+        if j:
+            Fc[:, ch.F.shape[1] + j] += -b[j - 1] * resp
+    turn, speed = slice(0, ch.n_turn), slice(ch.n_turn, Cc.shape[0])
+    for j in range(n_cmd):  # - W_j w_k, with W_j = (W_j M[1, 1]) / M[1, 1]
+        row = 1 + j
+        Fc[row, ch.F.shape[1]] -= wbar * _slot_coef(Cc, Dc, j, n_e, n_u)[row, 1] / M11
+    # centres of the arc factors into the map before the rotation: (cos - 1) on the turn rows of e_y
+    # (times V) and on the speed rows of e_x
+    A_in, B_in, E_in = A.copy(), B.copy(), E.copy()
+    for row, rows, k in ((1, turn, V), (0, speed, 1.0)):
+        A_in[row] += k * c_mid * Cc[rows].sum(axis=0)
+        B_in[row] += k * c_mid * Dc[rows].sum(axis=0)
+        E_in[row] += k * c_mid * Fc[rows].sum(axis=0)
+    # arc channels (before the rotation): (q rows, into row, weight)
+    arc = [(turn, 1, V * c_half), (turn, 0, V * s_half), (speed, 1, s_half), (speed, 0, c_half)]
+    Cq, Dq, Fq, Bp_cols = [], [], [], []
+    for rows, into, weight in arc:
+        for r in range(Cc.shape[0])[rows]:
+            for target, wgt in ((into, weight), (1 - into, weight * s_half)):  # the column and its turned twin
+                Cq.append(Cc[r])
+                Dq.append(Dc[r])
+                Fq.append(Fc[r])
+                col = np.zeros(n_s)
+                col[target] = wgt
+                Bp_cols.append(col)
+    # the rotation: q = the map's (e_x, e_y) rows before it (centres included)
+    for src in (0, 1):
+        for target, wgt in ((src, c_half), (1 - src, s_half)):
+            Cq.append(A_in[src])
+            Dq.append(B_in[src])
+            Fq.append(E_in[src])
+            col = np.zeros(n_s)
+            col[target] = wgt
+            Bp_cols.append(col)
+    A_out, B_out, E_out = A_in.copy(), B_in.copy(), E_in.copy()
+    for X in (A_out, B_out, E_out):
+        X[:2] *= 1.0 + c_mid
+    return A_out, B_out, E_out, np.array(Cq), np.array(Dq), np.array(Fq), np.column_stack(Bp_cols)
+
+
+
+def turning_vertices(model, turns: Turns) -> tuple[Vertex, ...]:
+    """The linearized model's vertices (``model.base_vertices``, with their kinematic channels
+    ``model.channels``) augmented for ``turns``; one scale per channel, common to every vertex (B_p
+    enters the LMIs quadratically and must be the same at every vertex)."""
+    from .slip import slip_matrix
+
+    if not model.channels or len(model.channels) != len(model.base_vertices):
+        raise ValueError("turning references need the delay vertices and their kinematic channels")
+    D = float(model.config.robot.track_distance)
+    parts = []
+    for v, ch in zip(model.base_vertices, model.channels):
+        if v.n_q:
+            raise ValueError("turning references need vertices without uncertainty channels")
+        if ch.F.shape[1] != np.asarray(v.E).shape[1]:
+            raise ValueError("the channels' constant column does not match the vertex's")
+        M11 = float(slip_matrix(np.asarray(model.corners[v.corner], dtype=float)[:2], D)[1, 1])
+        parts.append(_parts(v, ch, M11, turns, model.Ts, model.V, model.n_e, model.n_u, model.d_hi))
+    Bp = parts[0][6]
+    if any(not np.array_equal(p[6], Bp) for p in parts):
+        raise ValueError("B_p differs between vertices")
+    rows = np.max([np.max(np.abs(np.hstack(p[3:6])), axis=1) for p in parts], axis=0)
+    cols = np.max(np.abs(Bp), axis=0)
+    ok = (rows > 0) & (cols > 0)
+    scale = np.where(ok, np.sqrt(np.where(ok, rows, 1.0) / np.where(ok, cols, 1.0)), 1.0)
+    out = []
+    for v, (A, B, E, Cq, Dq, Fq, Bp_v) in zip(model.base_vertices, parts):
+        out.append(Vertex(A, B, E, Bp_v * scale, Cq / scale[:, None], Dq / scale[:, None], v.corner, v.label,
+                          Fq / scale[:, None], True))
+    return tuple(out)

@@ -1,0 +1,147 @@
+"""The turning reference's vertices (model/arcs.py) against the robot itself: one period of exact
+arcs, the robot following a reference that turns at w_k with the turning feedforward in its commands,
+measured in the reference's frame at t_{k+1}, lies within what the augmented vertex allows, to first
+order in the deviations from the nominal arc (the certificate is a linearized one); and the parts of
+the augmentation are each needed (negative controls)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from robustsynth.model import build_model
+from robustsynth.model.arcs import FEEDFORWARD, Turns, _parts
+from robustsynth.model.nonlinear import vertex_channels
+from robustsynth.model.slip import slip_matrix
+from robustsynth.model.vertices import Vertex
+from robustsynth.plants.kinematic import KinematicRobot
+from robustsynth.scenarios import random_delays
+
+from ..conftest import make_config
+
+EPS = 1e-3  # the deviations from the nominal arc (errors, corrections, slip - 1, yaw-rate steps), scaled
+# the terms a linearization drops are of second order in them: about V Ts (eta^2 + |a eta|) ~ 2e-8 here
+# (measured: the robot stays 7e-8 inside the allowance), while the arc's channels allow first-order
+# amounts (up to 9e-6; without them the robot leaves by 1e-6)
+SECOND_ORDER = 5e-8
+TOL_EXACT = 1e-12  # e_theta is exactly linear: round-off only
+
+
+def _model(**over):
+    over = {"verification.motor_saturation": False, "synthesis.delay_description": "polytopic", **over}
+    return build_model(make_config(**over))
+
+
+def _sample(model, turns, rng, N):
+    """Random lifted states, new commands, slips, delays and reference yaw rates (w_k, ..., w_{k-d_hi})
+    with the deviations scaled by EPS and w_k at full size."""
+    n_e, n_u, d_hi = model.n_e, model.n_u, model.d_hi
+    xi = np.zeros((N, model.n_s))
+    xi[:, :n_e] = EPS * rng.uniform(-1, 1, (N, n_e)) * np.array([0.1, 0.1, 0.5])
+    xi[:, n_e : n_e + d_hi * n_u] = EPS * rng.uniform(-1, 1, (N, d_hi * n_u)) * np.tile([0.4, 1.0], d_hi)
+    du = EPS * rng.uniform(-1, 1, (N, n_u)) * np.array([0.4, 1.0])
+    (rl, rh), (ll, lh) = model.slip_ranges
+    mu = 1.0 + EPS * np.stack([rng.uniform(rl, rh, N) - 1.0, rng.uniform(ll, lh, N) - 1.0], axis=1)
+    S = model.s_tilde(random_delays(model, rng, N, 1))[:, 0]
+    wk = turns.max_yaw_rate * rng.choice([-1.0, -0.5, 0.0, 0.5, 1.0], N)
+    wk = np.where(rng.random(N) < 0.5, wk, turns.max_yaw_rate * rng.uniform(-1, 1, N))
+    b = turns.step_bounds(d_hi + 1)
+    steps = EPS * rng.uniform(-1, 1, (N, d_hi)) * b  # w_k - w_{k-j}, j = 1..d_hi
+    w = np.concatenate([wk[:, None], wk[:, None] - steps], axis=1)
+    return xi, du, mu, S, w
+
+
+def _robot(model, xi, du, mu, S, w):
+    """e at t_{k+1} in the reference's frame at t_{k+1}: the robot starts at the errors of xi in the frame
+    F_k of the reference at t_k (origin, heading 0), command j is (V^D, w_{k-j}) + du_{k-j}, the reference
+    moves along its arc at V^D and w_k."""
+    n_e, n_u, d_hi, V, Ts = model.n_e, model.n_u, model.d_hi, model.V, model.Ts
+    N = xi.shape[0]
+    U = np.empty((N, d_hi + 1, n_u))
+    U[:, 0] = np.array([V, 0.0]) + du
+    U[:, 1:] = np.array([V, 0.0]) + xi[:, n_e : n_e + d_hi * n_u].reshape(N, d_hi, n_u)
+    U += w[:, :, None] * FEEDFORWARD
+    q1 = KinematicRobot.of(model).period(xi[:, :n_e], U, S, mu)
+    phi = w[:, 0] * Ts
+    half = phi / 2.0
+    sinc_half = np.where(np.abs(half) > 1e-300, np.sin(half) / np.where(half == 0, 1.0, half), 1.0)
+    chord = V * Ts * sinc_half  # the reference's chord, at angle phi / 2
+    dx, dy = q1[:, 0] - chord * np.cos(half), q1[:, 1] - chord * np.sin(half)
+    c, s = np.cos(phi), np.sin(phi)
+    return np.stack([c * dx + s * dy, -s * dx + c * dy, q1[:, 2] - phi], axis=1)
+
+
+def _allowed(model, turns, xi, du, mu, S, w, drop=()):
+    """Per sample the centre and the allowance (|B_p| |q|) the augmented vertex at the sample's own
+    delays and slip gives (the vertex algebra is affine in them, so the vertices' hull gives these).
+    ``drop``: channel groups to leave out (negative controls): 'arc', 'rotation'."""
+    n_e, n_u, d_hi, V, Ts = model.n_e, model.n_u, model.d_hi, model.V, model.Ts
+    D = model.config.robot.track_distance
+    A, B = model.robot_exact(S, mu)
+    c = model.constant(mu)
+    h = Ts - S
+    b = turns.step_bounds(d_hi + 1)
+    centre, allow = np.empty((xi.shape[0], n_e)), np.empty((xi.shape[0], n_e))
+    n_arc = None
+    for i in range(xi.shape[0]):
+        M = slip_matrix(mu[i], D)
+        ch = vertex_channels(mu[i], np.stack([h[i], h[i] ** 2 / 2.0], axis=1), V, Ts, M, model.n_s, n_e, n_u, d_hi)
+        v = Vertex(A[i], B[i], c[i][:, None], np.zeros((model.n_s, 0)), np.zeros((0, model.n_s)), np.zeros((0, n_u)), 0, "")
+        Ai, Bi, Ei, Cq, Dq, Fq, Bp = _parts(v, ch, float(M[1, 1]), turns, Ts, V, n_e, n_u, d_hi)
+        n_arc = Cq.shape[0] - 4  # the rotation's 4 channels come last
+        wv = np.concatenate([[1.0, w[i, 0] / turns.max_yaw_rate], (w[i, 0] - w[i, 1:]) / b])
+        q = Cq @ xi[i] + Dq @ du[i] + Fq @ wv
+        keep = np.ones(len(q), dtype=bool)
+        if "arc" in drop:
+            keep[:n_arc] = False
+        if "rotation" in drop:
+            keep[n_arc:] = False
+        centre[i] = (Ai @ xi[i] + Bi @ du[i] + Ei @ wv)[:n_e]
+        allow[i] = (np.abs(Bp[:, keep]) @ np.abs(q[keep]))[:n_e]
+    return centre, allow
+
+
+@pytest.mark.parametrize("over", [{}, {"network.delay.min": 0.12, "network.delay.max": 0.22},
+                                  {"slip.left.min": 0.9}])
+def test_the_robot_on_an_arc_lies_within_the_turning_vertices(over):
+    model = _model(**over)
+    turns = Turns(0.5, 0.5)
+    rng = np.random.default_rng(7)
+    args = _sample(model, turns, rng, 400)
+    e = _robot(model, *args)
+    centre, allow = _allowed(model, turns, *args)
+    excess = np.abs(e - centre) - allow
+    assert np.max(np.abs(e[:, 2] - centre[:, 2])) <= TOL_EXACT  # e_theta: exact, no allowance
+    assert np.all(allow[:, 2] == 0.0)
+    assert np.max(excess[:, :2]) <= SECOND_ORDER
+    # not vacuous: the robot uses a good part of the allowance somewhere
+    used = np.abs(e - centre)[:, :2] / np.maximum(allow[:, :2], 1e-300)
+    assert np.max(used) > 0.3
+
+
+@pytest.mark.parametrize("drop", ["arc", "rotation"])
+def test_each_part_of_the_augmentation_is_needed(drop):
+    """Without the arc's linearization channels, or without the change of frame's, the robot leaves
+    the allowance by far more than the second-order terms."""
+    model = _model()
+    turns = Turns(0.5, 0.5)
+    rng = np.random.default_rng(8)
+    args = _sample(model, turns, rng, 400)
+    e = _robot(model, *args)
+    centre, allow = _allowed(model, turns, *args, drop=(drop,))
+    assert np.max(np.abs(e - centre)[:, :2] - allow[:, :2]) > 10 * SECOND_ORDER
+
+
+def test_a_reference_that_does_not_turn_gives_the_straight_map():
+    """w = 0 and no steps: the centre is the straight lifted map, up to the factors' centres (of order
+    phi_bar^2), and every channel's q is what the straight map's rows give."""
+    model = _model()
+    turns = Turns(1e-9, 1e-9)
+    rng = np.random.default_rng(9)
+    xi, du, mu, S, _ = _sample(model, turns, rng, 50)
+    w = np.zeros((50, model.d_hi + 1))
+    A, B = model.robot_exact(S, mu)
+    straight = (np.einsum("nij,nj->ni", A, xi) + np.einsum("nij,nj->ni", B, du) + model.constant(mu))[:, :3]
+    centre, allow = _allowed(model, turns, xi, du, mu, S, w)
+    assert np.max(np.abs(centre - straight)) <= 1e-15
+    assert np.max(allow) <= 1e-12
