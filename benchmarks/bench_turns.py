@@ -5,8 +5,8 @@ Per slip box (nonlinear-proof's [0.8, 1] and the default's [0.6, 1], default rob
 linearized kinematics) and per largest reference yaw rate w_bar (arcs of radius V^D / w_bar): the
 certified |e_x|, |e_y|, |e_theta| and motor bound (with the feedforward's share), the synthesis time,
 and the boundary probe on arcs (the nonlinear robot, one period from 20 000 states on the set's
-boundary, slip at a corner, random delays, w_k in {-w_bar, 0, w_bar} after a step of at most w_bar:
-max V+/level).  w_bar = 0 is the straight-segment certificate; its probe is run on arcs of the
+boundary, slip at a corner, random delays, the yaw rates as ``verification.probe.arc_period`` draws
+them: max V+/level).  w_bar = 0 is the straight-segment certificate; its probe is run on arcs of the
 next row's w_bar (it does not cover them).  "none" is exit 3.
 
     .venv/bin/python benchmarks/run_all.py bench_turns
@@ -22,30 +22,19 @@ BOXES = ((0.8, (0.0, 0.1, 0.2, 0.35)), (0.6, (0.0, 0.05, 0.1)))
 
 
 def _probe(model, K, P, level, wbar, N=20000, seed=1):
-    from robustsynth.model.arcs import FEEDFORWARD
-    from robustsynth.plants.kinematic import KinematicRobot
     from robustsynth.scenarios import random_delays
+    from robustsynth.verification.probe import arc_period
 
     rng = np.random.default_rng(seed)
-    n_e, n_u, d_hi, V, Ts = model.n_e, model.n_u, model.d_hi, model.V, model.Ts
+    n_e, n_u, d_hi = model.n_e, model.n_u, model.d_hi
     x = rng.normal(size=(N, model.n_s))
     x /= np.sqrt(np.einsum("ni,ij,nj->n", x, P, x) / level)[:, None]
     (rl, rh), (ll, lh) = model.slip_ranges
     mu = np.stack([rng.choice([rl, rh], N), rng.choice([ll, lh], N)], axis=1)
     S = model.s_tilde(random_delays(model, rng, N, 1))[:, 0]
-    wk = wbar * rng.choice([-1.0, 0.0, 1.0], N)
-    w_prev = np.clip(wk - wbar * rng.choice([-1.0, 0.0, 1.0], N), -wbar, wbar)
     du = x @ K.T
-    U = np.empty((N, d_hi + 1, n_u))
-    U[:, 0] = np.array([V, 0.0]) + du + wk[:, None] * FEEDFORWARD
-    U[:, 1:] = (np.array([V, 0.0]) + x[:, n_e : n_e + d_hi * n_u].reshape(N, d_hi, n_u)
-                + w_prev[:, None, None] * FEEDFORWARD)
-    q1 = KinematicRobot.of(model).period(x[:, :n_e], U, S, mu)
-    phi = wk * Ts
-    chord = V * Ts * np.sinc(phi / (2.0 * np.pi))
-    dx, dy = q1[:, 0] - chord * np.cos(phi / 2.0), q1[:, 1] - chord * np.sin(phi / 2.0)
-    c, s = np.cos(phi), np.sin(phi)
-    e = np.stack([c * dx + s * dy, -s * dx + c * dy, q1[:, 2] - phi], axis=1)
+    turning = model if wbar == getattr(model.turns, "max_yaw_rate", None) else model.with_turns(wbar)
+    e = arc_period(turning, x[:, :n_e], du, x[:, n_e : n_e + d_hi * n_u].reshape(N, d_hi, n_u), S, mu, rng)
     xi = np.concatenate([e, du, x[:, n_e : n_e + (d_hi - 1) * n_u]], axis=1)
     return float(np.max(np.einsum("ni,ij,nj->n", xi, P, xi) / level))
 

@@ -314,6 +314,10 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
     turns, have = cert.get("turns"), getattr(model, "turns", None)
     if turns is not None:  # the vertices of the certificate's own turning reference (model/arcs.py)
         want = (float(turns["max_yaw_rate"]), float(turns["max_step"]))
+        if have is not None and not (want[0] >= have.max_yaw_rate and want[1] >= have.max_step):
+            return _fail(f"the certificate covers reference yaw rates up to {want[0]:.4g} rad/s (steps {want[1]:.4g}), "
+                         f"the model asks for {have.max_yaw_rate:.4g} (steps {have.max_step:.4g}): "
+                         "reference.turn_radius is smaller than the one the gain was certified for")
         if have is None or (have.max_yaw_rate, have.max_step) != want:
             from .errors import InputError
 
@@ -823,6 +827,8 @@ def turn_bounds(model: Any, K: np.ndarray, cert: Mapping[str, Any], figures: Map
     wp = np.asarray(model.config.verification.path, dtype=float)
     if not ub or wp.shape[0] < 3 or "alpha" not in cert:
         return []
+    if getattr(model, "turns", None) is not None:
+        return _arc_turns(model, figures)
     lyap = lyapunov_of(model, cert)
     level = float(figures["ellipsoid_level"])
     alpha = float(cert["alpha"])
@@ -885,6 +891,35 @@ def turn_bounds(model: Any, K: np.ndarray, cert: Mapping[str, Any], figures: Map
         # what this turn leaves at the next switch: at least floor(segment / Ts) - 1 periods of decay
         k_next = max(int(np.floor(next_switch / Ts)) - 1, 0)
         c_start = round_up(1.0 + (1.0 - alpha) ** k_next * max(r - 1.0, 0.0), 4)
+    return out
+
+
+def _arc_turns(model: Any, figures: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """Each corner of a path rounded by arcs (reference.turn_radius): no frame jump, the reference
+    turns at |w_k| <= V^D / r, which the certificate's vertices cover (model/arcs.py), so the certified
+    set and its bounds hold through the turn: peak = the set's bounds, no re-entry."""
+    cfg = model.config
+    r = float(cfg.reference.turn_radius)
+    wp = np.asarray(cfg.verification.path, dtype=float)
+    seg = np.diff(wp, axis=0)
+    headings = np.arctan2(seg[:, 1], seg[:, 0])
+    lengths = np.hypot(seg[:, 0], seg[:, 1])
+    ub = figures["ultimate_bound"]
+    wbar = float(model.turns.max_yaw_rate)
+    out = []
+    travelled = 0.0
+    for i in range(1, headings.size):
+        d = float(np.angle(np.exp(1j * (headings[i] - headings[i - 1]))))
+        tangent = r * np.tan(abs(d) / 2.0)
+        travelled += lengths[i - 1] - tangent
+        t_arc = travelled / model.V
+        travelled += r * abs(d) - tangent
+        out.append({"waypoint": i, "t_switch_s": t_arc, "turn_rad": d, "V_over_level_at_switch": 1.0,
+                    "peak": {k: float(ub[k]) for k in ("e_x", "e_y", "e_theta")},
+                    "motor_speed_peak": figures.get("motor_speed_bound"), "periods_to_reenter": 0,
+                    "time_to_reenter_s": 0.0, "certified": True, "reason": "",
+                    "note": (f"along an arc of radius {r:g} m (reference yaw rate up to {wbar:.3g} rad/s, which the "
+                             f"certificate covers): no frame jump, the certified set holds through the turn")})
     return out
 
 

@@ -72,6 +72,12 @@ class RobotConfig(_Node):
 
 class ReferenceConfig(_Node):
     speed: Annotated[float, Field(gt=0, le=100)] = Field(description="V^D: desired forward speed along each segment [m/s]")
+    turn_radius: Annotated[float, Field(gt=0, le=1e6)] | None = Field(
+        default=None,
+        description="round every corner of the path by an arc of this radius [m] and certify the turns: the "
+        "certificate covers reference yaw rates up to speed / turn_radius (docs/theory.md §10); null: the "
+        "reference jumps at the waypoints and the turns are not certified",
+    )
 
 
 class DelayRange(_Node):
@@ -418,6 +424,31 @@ class Config(_Named):
                 f"{_FIELD}network.sampling_time: {Ts:g} s at reference.speed {self.reference.speed:g} m/s moves the "
                 f"robot {step:.3g} m per sampling period (more than {MAX_MOTION_PER_PERIOD:g} m: implausible for "
                 f"feedback on a tracking error){hint}")
+        return self
+
+    @model_validator(mode="after")
+    def _turns_need(self) -> "Config":
+        """reference.turn_radius: a certificate the turning vertices exist for (model/arcs.py), and a path
+        whose corners the arcs round (law.PathTable)."""
+        r = self.reference.turn_radius
+        if r is None:
+            return self
+        syn = self.synthesis
+        for bad, why in ((syn.model == "paper", "synthesis.model: slip-aware"),
+                         (syn.kinematics == "nonlinear", "synthesis.kinematics: linearized (the nonlinear channels are "
+                          "built for straight segments)"),
+                         (self.slip.model == "icr", "slip.model: tracks"),
+                         (syn.delay_description == "norm-bounded", "delay vertices (synthesis.delay_description: auto, "
+                          "polytopic or lossy-polytopic)"),
+                         (syn.objective == "hinf", "synthesis.objective ultimate-bound or stability")):
+            if bad:
+                raise ValueError(f"{_FIELD}reference.turn_radius: the turning certificate needs {why}")
+        from .law import PathTable
+
+        try:
+            PathTable([list(p) for p in self.verification.path], self.reference.speed, r, self.network.sampling_time)
+        except ValueError as exc:
+            raise ValueError(f"{_FIELD}verification.path: with reference.turn_radius {r:g} m, {exc}") from None
         return self
 
     @model_validator(mode="after")

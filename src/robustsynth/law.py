@@ -24,14 +24,22 @@ At each sampling instant t_k = k Ts the controller
    integral action) and the correction ``du_k = K xi_k``;
 4. updates the integrators ``z_{k+1} = z_k + Ts (e_x, e_y)`` and the command memory;
 5. sends ``u_hat_k = (V^D + dV_k, omega_k)``.
+
+With a turn radius r (``reference.turn_radius``) the reference does not jump at the waypoints: each
+corner is rounded by an arc of radius r tangent to both segments, and the reference is the unicycle
+that moves at V^D with the yaw rate ``w_k`` constant on each sampling period, the path's heading
+change over the period divided by Ts (so |w_k| <= V^D / r).  Its poses at the sampling instants are
+a table (:class:`PathTable`); step 2 measures in the frame of the reference at t (advanced from
+t_k along its arc), and step 5 sends ``(V^D + dV_k, w_k + omega_k)``: the turning feedforward.
 """
 
 import math
 from bisect import bisect_right
 
-__all__ = ["PathTable", "Law", "Controller", "segment_at", "frame_error", "wrap_angle", "SEGMENT_EPS"]
+__all__ = ["PathTable", "Law", "Controller", "segment_at", "frame_error", "wrap_angle", "SEGMENT_EPS", "sample_at"]
 
 SEGMENT_EPS = 1e-12  # [s] an instant within this of a waypoint time belongs to the new segment
+SAMPLE_EPS = 1e-9  # [periods] an instant within this of a sampling instant belongs to its period
 _PI = math.pi
 _TWO_PI = 2.0 * math.pi
 
@@ -45,7 +53,7 @@ class PathTable:
     """A polyline followed at constant speed: per segment its origin, heading (and its cosine and
     sine), length and the time the desired point leaves the origin."""
 
-    def __init__(self, waypoints, speed):
+    def __init__(self, waypoints, speed, turn_radius=None, sampling_time=None):
         pts = [(float(p[0]), float(p[1])) for p in waypoints]
         if len(pts) < 2:
             raise ValueError("a path needs at least two waypoints")
@@ -66,6 +74,94 @@ class PathTable:
             self.t_start.append(travelled / self.speed)
             travelled += self.length[-1]
         self.duration = travelled / self.speed
+        self.turn_radius = None
+        self.turning = False
+        if turn_radius is not None:
+            self._round_corners(float(turn_radius), float(sampling_time))
+
+    def _round_corners(self, r, Ts):
+        """The reference of a turn radius r (module docstring): per sampling instant k its pose
+        (ref_x, ref_y, ref_heading, with cosine and sine) and the yaw rate ref_w[k] on [t_k, t_k+1).
+        Raises ValueError (naming the waypoint) when a corner's arc does not fit its segments, a corner
+        turns back (|turn| >= 3 rad), or two arcs turning opposite ways lie within one period (the
+        yaw rate would step by more than V^D / r)."""
+        if not (r > 0.0 and Ts > 0.0):
+            raise ValueError("the turn radius and the sampling time must be positive")
+        n = len(self.heading)
+        turns = [0.0] + [wrap_angle(self.heading[i] - self.heading[i - 1]) for i in range(1, n)]
+        tangent = [0.0] * (n + 1)  # at waypoint i: the arc's tangent length
+        for i in range(1, n):
+            if abs(turns[i]) >= 3.0:
+                raise ValueError("waypoint %d turns by %.3g rad: an arc cannot round a corner that turns back" % (i, turns[i]))
+            tangent[i] = r * math.tan(abs(turns[i]) / 2.0)
+        for i in range(n):
+            need = tangent[i] + tangent[i + 1]
+            if need > self.length[i] * (1.0 + 1e-12):
+                raise ValueError("segment %d-%d is %.4g m long, and the arcs of radius %g m at its ends need %.4g m of it: "
+                                 "lower reference.turn_radius or move the waypoints apart" % (i, i + 1, self.length[i], r, need))
+        # heading along the rounded path: breakpoints (arc length, unwrapped heading), linear between
+        pts, s, h = [(0.0, self.heading[0])], 0.0, self.heading[0]
+        corner_at = []  # (arc length where the arc starts, waypoint)
+        for i in range(n):
+            s += self.length[i] - tangent[i] - tangent[i + 1]
+            pts.append((s, h))
+            if i + 1 < n and turns[i + 1] != 0.0:
+                corner_at.append((s, i + 1))
+                s += r * abs(turns[i + 1])
+                h += turns[i + 1]
+                pts.append((s, h))
+        total = s
+        V = self.speed
+        steps = int(math.ceil(total / (V * Ts) - 1e-9))
+
+        def heading_at(sv):
+            if sv >= total:
+                return pts[-1][1]
+            j = max(bisect_right([p[0] for p in pts], sv) - 1, 0)
+            (s0, h0), (s1, h1) = pts[j], pts[min(j + 1, len(pts) - 1)]
+            return h0 if s1 <= s0 else h0 + (h1 - h0) * (sv - s0) / (s1 - s0)
+
+        wbar = V / r  # |w_k| <= wbar, also after rounding
+        ws = [min(max((heading_at(V * Ts * (k + 1)) - heading_at(V * Ts * k)) / Ts, -wbar), wbar) for k in range(steps)]
+        for k in range(1, steps):
+            if abs(ws[k] - ws[k - 1]) > wbar * (1.0 + 1e-9):
+                near = min(corner_at, key=lambda c: abs(c[0] - V * Ts * k))[1] if corner_at else 0
+                raise ValueError("near waypoint %d: two arcs turning opposite ways lie within one period (%g m): the "
+                                 "yaw rate steps by %.3g rad/s, more than V^D / r = %.3g: move the waypoints apart "
+                                 "or lower reference.turn_radius" % (near, V * Ts, abs(ws[k] - ws[k - 1]), wbar))
+        x, y, th = self.waypoints[0][0], self.waypoints[0][1], self.heading[0]
+        self.ref_x, self.ref_y, self.ref_heading, self.ref_w = [x], [y], [th], []
+        for w in ws:
+            phi = w * Ts
+            chord = V * Ts * _sinc(phi / 2.0)
+            x = x + chord * math.cos(th + phi / 2.0)
+            y = y + chord * math.sin(th + phi / 2.0)
+            th = th + phi
+            self.ref_x.append(x)
+            self.ref_y.append(y)
+            self.ref_heading.append(th)
+            self.ref_w.append(w)
+        self.ref_w.append(0.0)  # after the path's end the reference goes on straight
+        self.ref_cos = [math.cos(a) for a in self.ref_heading]
+        self.ref_sin = [math.sin(a) for a in self.ref_heading]
+        self.turn_radius, self.turning, self.sampling_time = r, True, Ts
+        self.max_yaw_rate = wbar
+        self.duration = total / V
+        # one frame for the whole path: no waypoint switches
+        self.x0, self.y0, self.heading = self.x0[:1], self.y0[:1], self.heading[:1]
+        self.cos, self.sin, self.length, self.t_start = self.cos[:1], self.sin[:1], [total], [0.0]
+
+
+def _sinc(a):
+    """sin(a) / a, 1 at 0."""
+    return math.sin(a) / a if a != 0.0 else 1.0
+
+
+def sample_at(path, t):
+    """Index k of the sampling period [t_k, t_k+1) that holds t, within the turning reference's table
+    (the last entry goes on straight)."""
+    k = int(math.floor(t / path.sampling_time + SAMPLE_EPS))
+    return min(max(k, 0), len(path.ref_w) - 1)
 
 
 def segment_at(t_start, t):
@@ -75,7 +171,23 @@ def segment_at(t_start, t):
 
 
 def frame_error(path, seg, t, x, y, theta):
-    """(e_x, e_y, e_theta) of the pose (x, y, theta) at time t in the frame of segment ``seg``."""
+    """(e_x, e_y, e_theta) of the pose (x, y, theta) at time t in the frame of segment ``seg`` (with a
+    turn radius: of the reference at t, ``seg`` unused)."""
+    if path.turning:
+        k = sample_at(path, t)
+        tau = t - k * path.sampling_time
+        if tau == 0.0:
+            xr, yr, th, c, s = path.ref_x[k], path.ref_y[k], path.ref_heading[k], path.ref_cos[k], path.ref_sin[k]
+        else:  # advanced along the period's arc
+            phi = path.ref_w[k] * tau
+            chord = path.speed * tau * _sinc(phi / 2.0)
+            xr = path.ref_x[k] + chord * math.cos(path.ref_heading[k] + phi / 2.0)
+            yr = path.ref_y[k] + chord * math.sin(path.ref_heading[k] + phi / 2.0)
+            th = path.ref_heading[k] + phi
+            c, s = math.cos(th), math.sin(th)
+        dx = x - xr
+        dy = y - yr
+        return c * dx + s * dy, -s * dx + c * dy, wrap_angle(theta - th)
     c, s = path.cos[seg], path.sin[seg]
     dx = x - path.x0[seg]
     dy = y - path.y0[seg]
@@ -127,9 +239,13 @@ class Law:
         self.xi = xi
         return dv, dw
 
+    def feedforward(self, t):
+        """The reference's yaw rate w_k on the period of t (0 on a polyline without a turn radius)."""
+        return self.path.ref_w[sample_at(self.path, t)] if self.path.turning else 0.0
+
 
 class Controller:
-    """``u_hat_k = [V^D, 0] + K xi_k`` for one robot, exactly as verified, from a controller
+    """``u_hat_k = [V^D, w_k] + K xi_k`` for one robot (w_k = 0 without a turn radius), exactly as verified, from a controller
     description (the mapping ``robustsynth export --to json`` writes).
 
     Call :meth:`step` once per sampling instant t_k = k Ts with the time since the start of the
@@ -141,7 +257,7 @@ class Controller:
     def __init__(self, description):
         d = description
         self.description = d
-        self.path = PathTable(d["path"], d["reference_speed"])
+        self.path = PathTable(d["path"], d["reference_speed"], d.get("turn_radius"), d["sampling_time"])
         self.law = Law(d["K"], d["sampling_time"], d["integral_action"], self.path)
         if self.law.d_hi != d["d_hi"]:
             raise ValueError("d_hi is %d but K has columns for %d past inputs" % (d["d_hi"], self.law.d_hi))
@@ -164,7 +280,7 @@ class Controller:
     def step(self, t, x, y, theta):
         """The command (V_hat, omega_hat) for the pose measured at t_k (once per sampling instant)."""
         dv, dw = self.law.correction(t, x, y, theta)
-        return self.V + dv, dw
+        return self.V + dv, self.law.feedforward(t) + dw
 
     def motor_speeds(self, V_hat, omega_hat):
         """(rho_r, rho_l) = J^-1 (V_hat, omega_hat) [rad/s], not clipped."""

@@ -31,7 +31,7 @@ def _episodes(ctl: Controller, seed: int):
     """STEPS (t, x, y, theta) in episodes along the whole path (reset between them): measured poses
     a few cm / degrees around the desired pose, with now and then a large error."""
     rng = np.random.default_rng(seed)
-    path = make_path(ctl.description["path"], ctl.V)
+    path = make_path(ctl.description["path"], ctl.V, ctl.description.get("turn_radius"), ctl.Ts)
     n = int(path.duration / ctl.Ts) + 30
     rows: list[tuple[float, ...] | None] = []
     while len([r for r in rows if r is not None]) < STEPS:
@@ -55,6 +55,10 @@ def _reference(ctl: Controller, rows) -> np.ndarray:
 
 
 def _crosses_waypoints(ctl: Controller, rows) -> bool:
+    """The steps pass a waypoint: a segment switch, or on a path rounded by arcs, both arcs' yaw rates."""
+    if ctl.path.turning:
+        w = {ctl.law.feedforward(r[0]) for r in rows if r}
+        return max(w) > 0.0 > min(w) and 0.0 in w
     return len({ctl.path.t_start.index(max(s for s in ctl.path.t_start if s <= r[0] + 1e-12)) for r in rows if r}) > 1
 
 

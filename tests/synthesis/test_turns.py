@@ -81,6 +81,14 @@ def test_the_turning_certificate_is_rechecked_with_the_turns_it_names(designs) -
     # the same matrices do not prove faster turns, nor straight segments without naming them
     faster = dict(r.certificate, turns={"max_yaw_rate": 2 * W_BAR, "max_step": 2 * W_BAR})
     assert not check_certificate(base, r.K, faster).passed
+    # a model asking for faster turns (a smaller turn radius) than certified is refused, also when the
+    # certificate names slower ones; one asking for slower turns is covered by the certificate's own
+    for asks in (2 * W_BAR, 1.01 * W_BAR):
+        refused = check_certificate(base.with_turns(asks), r.K, r.certificate)
+        assert not refused.passed and "smaller than the one the gain was certified for" in refused.reason
+    slower = dict(r.certificate, turns={"max_yaw_rate": 1e-9, "max_step": 1e-9})
+    assert not check_certificate(turning, r.K, slower).passed
+    assert check_certificate(base.with_turns(W_BAR / 2), r.K, r.certificate).passed
     straight = {k: v for k, v in r.certificate.items() if k != "turns"}
     assert not check_certificate(turning, r.K, straight).passed
     # what it does not derive for arcs it does not claim
@@ -142,3 +150,16 @@ def test_the_robot_on_arcs_stays_in_the_turning_set_and_leaves_the_straight_one(
     assert _boundary(base, r0.K, P0, level0, W_BAR) > 1.1
     # the price of the turns: a larger set than for straight segments only
     assert r.check.figures["ultimate_bound"]["e_y"] > r0.check.figures["ultimate_bound"]["e_y"]
+
+
+def test_what_a_turning_model_does_not_carry_is_refused(designs) -> None:
+    """The nonlinear channels and the H-infinity gain are built for straight segments (the review of
+    533bd04: a heading bound kept `turns` and dropped the turning vertices; hinf named turns it does not
+    bound)."""
+    from robustsynth.errors import InputError
+
+    _, turning, _, _ = designs
+    with pytest.raises(InputError, match="not built for a turning reference"):
+        turning.with_heading_bound(0.3)
+    with pytest.raises(InputError, match="hinf bounds the slip input only"):
+        synthesize(turning, objective="hinf")

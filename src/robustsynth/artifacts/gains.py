@@ -75,6 +75,8 @@ def gains_dict(model: Any, result: Any) -> dict[str, Any]:
         certificate["heading_bound"] = cert["heading_bound"]
         if cert.get("within_period_channels"):
             certificate["within_period_channels"] = True
+    if cert.get("turns") is not None:  # the reference yaw rates the certificate covers (model/arcs.py)
+        certificate["turns"] = dict(cert["turns"])
     out = {
         "schema_version": SCHEMA_VERSION,
         "robustsynth_version": __version__,
@@ -150,6 +152,8 @@ def gains_mat_vars(gd: dict[str, Any]) -> dict[str, Any]:
         "kinematics": c.get("kinematics", "linearized"),
         "heading_bound": _mat_value(c.get("heading_bound")),
         "within_period_channels": bool(c.get("within_period_channels", False)),
+        "turn_max_yaw_rate": _mat_value((c.get("turns") or {}).get("max_yaw_rate")),
+        "turn_max_step": _mat_value((c.get("turns") or {}).get("max_step")),
         **_controller_mat_vars(gd),
     }
 
@@ -230,6 +234,9 @@ def _load_mat(p: Path) -> dict[str, Any]:
             cert["heading_bound"] = _mat_scalar(m.get("heading_bound", np.nan))
             if bool(_mat_scalar(m.get("within_period_channels", 0.0))):
                 cert["within_period_channels"] = True
+        turn = _mat_scalar(m.get("turn_max_yaw_rate", np.nan))
+        if turn is not None:
+            cert["turns"] = {"max_yaw_rate": turn, "max_step": _mat_scalar(m.get("turn_max_step", np.nan))}
         if lyap == "common":
             cert["Q"] = np.asarray(m["Q"], dtype=float)
             cert["P"] = np.asarray(m["P"], dtype=float) if "P" in m else np.linalg.inv(cert["Q"])
@@ -323,6 +330,11 @@ def controller_description(gains: dict[str, Any], config: Any | None = None) -> 
                           ("synthesis.integral_action", base.synthesis.integral_action, cfg.synthesis.integral_action)):
             if a != b:
                 raise InputError(f"{key}: {b!r} in the config, but the gain was designed with {a!r}")
+        # a turning certificate covers arcs of its radius and wider (slower turns), not tighter ones
+        r_gain, r_cfg = base.reference.turn_radius, cfg.reference.turn_radius
+        if r_cfg is not None and (r_gain is None or r_cfg < r_gain):
+            raise InputError(f"reference.turn_radius: {r_cfg!r} in the config, but the gain was certified for "
+                             + ("straight segments only (null)" if r_gain is None else f"arcs of {r_gain!r} m and wider"))
     integral = cfg.synthesis.integral_action
     K = [[float(v) for v in row] for row in gains["K"]]
     try:
@@ -336,7 +348,9 @@ def controller_description(gains: dict[str, Any], config: Any | None = None) -> 
         "format": DESCRIPTION_FORMAT,
         "name": cfg.name,
         "gains_id": gains.get("gains_id"),
-        "law": "u_hat_k = [V^D, 0] + K xi_k, xi_k = [e_x, e_y, e_theta, du_{k-1}, ..., du_{k-d_hi}(, int_e_x, int_e_y)]",
+        "law": "u_hat_k = [V^D, w_k] + K xi_k, xi_k = [e_x, e_y, e_theta, du_{k-1}, ..., du_{k-d_hi}(, int_e_x, int_e_y)]"
+               + (" (w_k: the turning reference's yaw rate, turn_radius)" if cfg.reference.turn_radius is not None else
+                  " (w_k = 0: a polyline)"),
         "K": K,
         "state_names": list(names) if isinstance(names, list) and len(names) == len(K[0]) else list(state_names(d_hi, integral)),
         "input_names": ["dV", "omega"],
@@ -345,6 +359,7 @@ def controller_description(gains: dict[str, Any], config: Any | None = None) -> 
         "integral_action": integral,
         "reference_speed": cfg.reference.speed,
         "path": [[float(x), float(y)] for x, y in cfg.verification.path],
+        "turn_radius": cfg.reference.turn_radius,
         "segment_eps": SEGMENT_EPS,
         "gear_radius": rob.gear_radius,
         "track_distance": rob.track_distance,

@@ -48,7 +48,7 @@ import numpy as np
 from .nonlinear import KinematicChannels
 from .vertices import Vertex
 
-__all__ = ["Turns", "turning_vertices", "FEEDFORWARD"]
+__all__ = ["Turns", "turning_vertices", "straight_delta", "FEEDFORWARD"]
 
 FEEDFORWARD = np.array([0.0, 1.0])  # the command (dV, omega) of one rad/s of reference yaw rate
 
@@ -113,31 +113,23 @@ def _parts(v: Vertex, ch: KinematicChannels, M11: float, turns: Turns, Ts: float
         A_in[row] += k * c_mid * Cc[rows].sum(axis=0)
         B_in[row] += k * c_mid * Dc[rows].sum(axis=0)
         E_in[row] += k * c_mid * Fc[rows].sum(axis=0)
-    # arc channels (before the rotation): (q rows, into row, weight)
-    arc = [(turn, 1, V * c_half), (turn, 0, V * s_half), (speed, 1, s_half), (speed, 0, c_half)]
-    Cq, Dq, Fq, Bp_cols = [], [], [], []
-    for rows, into, weight in arc:
+    # channels: q = (C, D, F) rows, p into one row of e with a weight
+    chans: list[tuple[np.ndarray, np.ndarray, np.ndarray, int, float]] = []
+    # the arc's (before the rotation): per (q rows, into row, weight) the column and its turned twin
+    for rows, into, weight in ((turn, 1, V * c_half), (turn, 0, V * s_half), (speed, 1, s_half), (speed, 0, c_half)):
         for r in range(Cc.shape[0])[rows]:
-            for target, wgt in ((into, weight), (1 - into, weight * s_half)):  # the column and its turned twin
-                Cq.append(Cc[r])
-                Dq.append(Dc[r])
-                Fq.append(Fc[r])
-                col = np.zeros(n_s)
-                col[target] = wgt
-                Bp_cols.append(col)
+            chans += [(Cc[r], Dc[r], Fc[r], into, weight), (Cc[r], Dc[r], Fc[r], 1 - into, weight * s_half)]
     # the rotation: q = the map's (e_x, e_y) rows before it (centres included)
     for src in (0, 1):
-        for target, wgt in ((src, c_half), (1 - src, s_half)):
-            Cq.append(A_in[src])
-            Dq.append(B_in[src])
-            Fq.append(E_in[src])
-            col = np.zeros(n_s)
-            col[target] = wgt
-            Bp_cols.append(col)
+        chans += [(A_in[src], B_in[src], E_in[src], src, c_half), (A_in[src], B_in[src], E_in[src], 1 - src, s_half)]
+    Bp = np.zeros((n_s, len(chans)))
+    for k, (_, _, _, target, wgt) in enumerate(chans):
+        Bp[target, k] = wgt
+    Cq, Dq, Fq = (np.array([ch[i] for ch in chans]) for i in range(3))
     A_out, B_out, E_out = A_in.copy(), B_in.copy(), E_in.copy()
     for X in (A_out, B_out, E_out):
         X[:2] *= 1.0 + c_mid
-    return A_out, B_out, E_out, np.array(Cq), np.array(Dq), np.array(Fq), np.column_stack(Bp_cols)
+    return A_out, B_out, E_out, Cq, Dq, Fq, Bp
 
 
 
@@ -170,3 +162,15 @@ def turning_vertices(model, turns: Turns) -> tuple[Vertex, ...]:
         out.append(Vertex(A, B, E, Bp_v * scale, Cq / scale[:, None], Dq / scale[:, None], v.corner, v.label,
                           Fq / scale[:, None], True))
     return tuple(out)
+
+
+def straight_delta(ch: KinematicChannels) -> np.ndarray:
+    """diag(Delta) at which a turning vertex is the straight one again (w = 0, every factor 0): +1 on
+    the ``cos - 1`` channels (their centres are minus their half-widths), 0 on the ``sin`` ones and on
+    the twins; in :func:`_parts`' order."""
+    n_t, n_v = ch.n_turn, ch.C.shape[0] - ch.n_turn
+    out = []
+    for n, own in ((n_t, 1.0), (n_t, 0.0), (n_v, 0.0), (n_v, 1.0)):  # (rows, factor at w = 0): arc channels
+        out += [own, 0.0] * n  # each with its twin
+    out += [1.0, 0.0, 1.0, 0.0]  # the rotation: cos - 1 and sin per row
+    return np.array(out)

@@ -95,7 +95,8 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
         tau_hi = config.network.delay.max  # of a received command (lost ones: the effective tmax)
         nonlinear = syn.kinematics == "nonlinear"
         # the kinematic channels and the icr slip model's lateral term need delay vertices
-        delay_description = _resolve_delay_description(syn.delay_description, len(instants), nonlinear or icr)
+        turning = config.reference.turn_radius is not None  # the turning vertices need the delay vertices too
+        delay_description = _resolve_delay_description(syn.delay_description, len(instants), nonlinear or icr or turning)
         if syn.delay_description == "lossy-polytopic" or (syn.delay_description == "auto" and dropouts and tau_hi <= Ts):
             if tau_hi > Ts * (1 + 1e-12):
                 raise ConfigError(f"synthesis.delay_description: lossy-polytopic needs network.delay.max <= "
@@ -188,6 +189,8 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
         hb = syn.heading_bound
         model = model.with_heading_bound(DEFAULT_HEADING_BOUND if hb == "auto" else float(hb),
                                          within_period=syn.lyapunov == "common")
+    if kind != "paper" and config.reference.turn_radius is not None:  # corners rounded by arcs (model/arcs.py)
+        model = model.with_turns(config.reference.speed / config.reference.turn_radius)
     return model
 
 

@@ -194,6 +194,9 @@ class Model:
         from ..errors import InputError
         from .nonlinear import augment, channel_scales
 
+        if self.turns is not None:
+            raise InputError("synthesis.kinematics: nonlinear is not built for a turning reference (reference.turn_radius) "
+                             "yet: its channels are for straight segments")
         if not self.channels:
             raise InputError("synthesis.kinematics: nonlinear needs delay vertices (delay_description polytopic "
                              "or lossy-polytopic) and the slip-aware model")
@@ -380,7 +383,10 @@ class Model:
         mu = np.asarray(mu, dtype=float)
         if self.kind == "paper":
             return self.slip.coordinates(mu - 1.0)
-        return np.ones(mu.shape[:-1] + (1,))
+        w = np.ones(mu.shape[:-1] + (1,))
+        if self.turns is not None:  # a turning model's straight segment: w_k = 0, no steps (model/arcs.py)
+            w = np.concatenate([w, np.zeros(mu.shape[:-1] + (self.n_w - 1,))], axis=-1)
+        return w
 
     def delta(self, s_tilde: np.ndarray) -> np.ndarray:
         """diag(Delta) that reproduces the exact delay matrices in the norm-bounded embedding (eqs. 31-33)."""
@@ -557,7 +563,7 @@ class Model:
     def hull_coordinates(self, s_tilde: np.ndarray, mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Convex weights (..., n_vertices) and diag(Delta) (..., n_q) such that
         ``sum_i lambda_i (A_i + B_p Delta C_q_i, B_i + B_p Delta D_q_i, E_i w(mu))`` is the exact
-        ``(A~(s~, mu), B~(s~, mu), c(mu))`` of this kind."""
+        ``(A~(s~, mu), B~(s~, mu), c(mu))`` of this kind (for a turning model: on a straight segment)."""
         s_tilde = np.asarray(s_tilde, dtype=float)
         mu = np.asarray(mu, dtype=float)
         batch = np.broadcast_shapes(s_tilde.shape[:-1], mu.shape[:-1])
@@ -574,6 +580,10 @@ class Model:
             from .nonlinear import linearization_delta
 
             dlt = np.broadcast_to(linearization_delta(self.heading_channels[0]), batch + (self.vertices[0].n_q,))
+        elif self.turns is not None:  # the turning vertices on a straight segment (w = 0: every factor at 0)
+            from .arcs import straight_delta
+
+            dlt = np.broadcast_to(straight_delta(self.channels[0]), batch + (self.vertices[0].n_q,))
         else:
             dlt = np.zeros(batch + (0,))
         if self.delay_description == "lossy-polytopic":

@@ -139,12 +139,18 @@ def check_physical_feasibility(config) -> None:
     if rho_max is None:
         return
     V, R = config.reference.speed, config.robot.gear_radius
+    r = getattr(config.reference, "turn_radius", None)
+    # on an arc of radius r the outer track runs at V^D (1 + D / (2 r))
+    outer = V * (1.0 + config.robot.track_distance / (2.0 * r)) if r is not None else V
     for track, rng in (("right", config.slip.right), ("left", config.slip.left)):
-        need = V / (R * rng.min)
+        need = outer / (R * rng.min)
         if need > rho_max:
+            what = (f"to hold reference.speed = {V:g} m/s (V^D / (R mu))" if r is None else
+                    f"as the outer track of an arc of reference.turn_radius = {r:g} m at reference.speed = {V:g} m/s "
+                    "(V^D (1 + D / 2r) / (R mu))")
             raise InfeasibleError(
                 f"physically infeasible: on the {track} track with slip mu = {rng.min:g} the motor must turn at "
-                f"{need:.3g} rad/s to hold reference.speed = {V:g} m/s (V^D / (R mu)), above robot.max_motor_speed = "
-                f"{rho_max:g} rad/s: raise robot.max_motor_speed to at least {need:.3g}, lower reference.speed, or narrow "
-                f"slip.{track}.min"
+                f"{need:.3g} rad/s {what}, above robot.max_motor_speed = {rho_max:g} rad/s: raise robot.max_motor_speed "
+                f"to at least {need:.3g}, lower reference.speed{', raise reference.turn_radius' if r is not None else ''}, "
+                f"or narrow slip.{track}.min"
             )

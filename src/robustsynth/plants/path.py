@@ -11,10 +11,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..law import PathTable, segment_at
+from ..law import PathTable, sample_at, segment_at
 from ..law import frame_error as law_frame_error
 
-__all__ = ["PathGeometry", "make_path", "frame_error", "pose_from_error"]
+__all__ = ["PathGeometry", "make_path", "path_of", "frame_error", "pose_from_error"]
 
 
 @dataclass(frozen=True)
@@ -33,17 +33,43 @@ class PathGeometry:
     def segment(self, t: float) -> int:
         return segment_at(self.table.t_start, t)
 
+    @property
+    def turning(self) -> bool:
+        """The corners are rounded by arcs (a turn radius): the reference of the law's table."""
+        return bool(self.table.turning)
+
+    def feedforward(self, t: float) -> float:
+        """The reference's yaw rate w_k on the period of t (0 without a turn radius)."""
+        return self.table.ref_w[sample_at(self.table, t)] if self.table.turning else 0.0
+
     def desired_pose(self, t: float) -> np.ndarray:
+        if self.table.turning:  # the reference at t, advanced along its period's arc
+            k = sample_at(self.table, t)
+            tau = t - k * self.table.sampling_time
+            phi = self.table.ref_w[k] * tau
+            chord = self.speed * tau * (np.sinc(phi / (2.0 * np.pi)))
+            h = self.table.ref_heading[k]
+            return np.array([self.table.ref_x[k] + chord * math.cos(h + phi / 2.0),
+                             self.table.ref_y[k] + chord * math.sin(h + phi / 2.0), h + phi])
         i = self.segment(t)
         s = self.speed * (t - self.t_start[i])
         c, sn = self.table.cos[i], self.table.sin[i]
         return np.array([self.waypoints[i, 0] + s * c, self.waypoints[i, 1] + s * sn, self.headings[i]])
 
 
-def make_path(waypoints, speed: float) -> PathGeometry:
-    tab = PathTable(np.asarray(waypoints, dtype=float).tolist(), speed)
+def make_path(waypoints, speed: float, turn_radius: float | None = None, sampling_time: float | None = None) -> PathGeometry:
+    """The path of ``waypoints`` at ``speed``; with ``turn_radius`` its corners rounded by arcs and the
+    reference sampled every ``sampling_time`` (:class:`~robustsynth.law.PathTable`)."""
+    tab = PathTable(np.asarray(waypoints, dtype=float).tolist(), speed, turn_radius, sampling_time)
     return PathGeometry(np.array(tab.waypoints), np.array(tab.heading), np.array(tab.length), np.array(tab.t_start),
                         tab.duration, tab.speed, tab)
+
+
+def path_of(config) -> PathGeometry:
+    """The verification path of a config: ``verification.path`` at ``reference.speed``, with its corners
+    rounded by ``reference.turn_radius`` when set."""
+    return make_path(config.verification.path, config.reference.speed, config.reference.turn_radius,
+                     config.network.sampling_time)
 
 
 def frame_error(path: PathGeometry, seg: int, q: np.ndarray, t: float) -> np.ndarray:

@@ -115,10 +115,10 @@ def _covered(res) -> np.ndarray:
 
 
 def model_path_switches(res, model) -> list[float]:
-    from ..plants.path import make_path
+    from ..plants.path import path_of
 
-    p = make_path(model.config.verification.path, model.V)
-    return list(p.t_start[1:])
+    p = path_of(model.config)
+    return list(p.t_start[1:])  # a turning reference has no switches
 
 
 def fig_commands(res, model) -> Any:

@@ -111,10 +111,17 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
             return min(near, key=lambda w: abs(w["t_switch_s"] - t["t_switch_s"])) if near else {}
 
         n_ok = sum(1 for t in turns if t["certified"])
-        out.append(f"\n**Waypoint turns** (not part of the verdict; docs/theory.md §10): {n_ok} of {len(turns)} turns"
-                   " certified. From the certified set, the frame change bounds V/level at the switch; the decay then"
-                   f" bounds the errors through the turn and the time until V <= {TURN_REENTRY:g} level. Beside them,"
-                   " what the Monte Carlo runs measured:\n\n")
+        if cfg.reference.turn_radius is not None:
+            out.append(f"\n**Waypoint turns** (docs/theory.md §10, \"Turning along arcs\"): {n_ok} of {len(turns)} turns"
+                       f" certified. Every corner is rounded by an arc of radius {cfg.reference.turn_radius:g} m: the"
+                       " reference does not jump, and the certificate covers its yaw rate, so the certified set and its"
+                       " bounds hold through the turns (the Monte Carlo maxima above include them; 'at [s]': where the"
+                       " arc starts):\n\n")
+        else:
+            out.append(f"\n**Waypoint turns** (not part of the verdict; docs/theory.md §10): {n_ok} of {len(turns)} turns"
+                       " certified. From the certified set, the frame change bounds V/level at the switch; the decay then"
+                       f" bounds the errors through the turn and the time until V <= {TURN_REENTRY:g} level. Beside them,"
+                       " what the Monte Carlo runs measured:\n\n")
         rows = []
         for t in turns:
             m = _measured(t)
@@ -142,6 +149,9 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
             f" {1000 * bp['max_period_gap']['e_x']:.1f} mm in e_x and {1000 * bp['max_period_gap']['e_y']:.1f} mm in e_y"
             " per period. "
             + _mid_period_text(bp.get("mid_period") or {})
+            + (f"On arcs (the reference turning at up to {bp['arcs']['max_yaw_rate']:.3g} rad/s, the feedforward in the"
+               f" commands; {bp['arcs']['runs']} of these states with slip constant in the period) the nonlinear robot"
+               f" reaches max V(xi+)/level = {bp['arcs']['max_V_over_level_nonlinear']:.4f}. " if bp.get("arcs") else "")
             + (f"The adversary's beam search from {bp['adversary']['starts']} of these states (each figure's maximizer"
                f" at every slip corner) over {bp['adversary']['steps']} periods reaches max V/level ="
                f" {bp['adversary']['max_V_over_level']:.4f}. " if bp.get("adversary") else "")
@@ -180,11 +190,16 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
     m_all = mc["maxima"]["motor_speed_all"]["max"]
     if cfg.robot.max_motor_speed is not None:
         note = "exceeds" if m_all > cfg.robot.max_motor_speed else "stays within"
-        out.append(
-            f"\nOver whole runs, waypoint transients included, the commanded motor speed reaches {m_all:.3f} rad/s, which"
-            f" {note} rho_max = {cfg.robot.max_motor_speed:g} rad/s: the certificate covers the invariant set, and the"
-            " waypoint turns start each segment outside it.\n"
-        )
+        if cfg.reference.turn_radius is not None:
+            out.append(
+                f"\nOver whole runs, arcs included, the commanded motor speed (the turning feedforward with it) reaches "
+                f"{m_all:.3f} rad/s, which {note} rho_max = {cfg.robot.max_motor_speed:g} rad/s.\n")
+        else:
+            out.append(
+                f"\nOver whole runs, waypoint transients included, the commanded motor speed reaches {m_all:.3f} rad/s, which"
+                f" {note} rho_max = {cfg.robot.max_motor_speed:g} rad/s: the certificate covers the invariant set, and the"
+                " waypoint turns start each segment outside it.\n"
+            )
     ratios = [r for r in mc["ratio_to_certified"].values() if r is not None]
     if ratios and max(ratios) > 1:
         out.append(

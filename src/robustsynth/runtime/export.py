@@ -39,7 +39,7 @@ def c_files(d: dict[str, Any]) -> dict[str, bytes]:
     """rs_controller.h / rs_controller.c (C99, only <math.h>, no heap) and rs_harness.c, a test
     and timing harness: ``rs_harness < steps.txt`` reads lines ``t x y theta`` (or ``reset``) and
     prints ``V omega`` with 17 digits; ``rs_harness --bench N`` times N steps."""
-    from ..law import Controller
+    from ..law import SAMPLE_EPS, Controller
 
     ctl = Controller(d)  # validates the description
     path = ctl.path
@@ -79,6 +79,63 @@ void rs_motor_speeds(double V, double omega, double *rho_r, double *rho_l);
 #endif /* RS_CONTROLLER_H */
 """
     K_rows = ",\n    ".join(_c_array(row) for row in d["K"])
+    if path.turning:  # the reference's table and its arcs (law.frame_error, law.sample_at), the same operations
+        n_ref = len(path.ref_w)
+        turning_tables = f"""
+#define RS_N_REF {n_ref} /* the turning reference's sampling instants */
+static const double REF_X[RS_N_REF] = {_c_array(path.ref_x)};
+static const double REF_Y[RS_N_REF] = {_c_array(path.ref_y)};
+static const double REF_HEADING[RS_N_REF] = {_c_array(path.ref_heading)};
+static const double REF_COS[RS_N_REF] = {_c_array(path.ref_cos)};
+static const double REF_SIN[RS_N_REF] = {_c_array(path.ref_sin)};
+static const double REF_W[RS_N_REF] = {_c_array(path.ref_w)};
+static const double SAMPLE_EPS = {_f(SAMPLE_EPS)};
+/* sin(a) / a, 1 at 0 */
+static double sinc_(double a) {{ return a != 0.0 ? sin(a) / a : 1.0; }}"""
+        frame = """    int i, j;
+    long k;
+    double dx, dy, acc[2], tau, xr, yr, th, cr, sr;
+    /* the sampling period that holds t, within the turning reference's table (the last entry goes on) */
+    k = (long)floor(t / RS_TS + SAMPLE_EPS);
+    if (k < 0) k = 0;
+    if (k > RS_N_REF - 1) k = RS_N_REF - 1;
+    tau = t - (double)k * RS_TS;
+    if (tau == 0.0) {
+        xr = REF_X[k]; yr = REF_Y[k]; th = REF_HEADING[k]; cr = REF_COS[k]; sr = REF_SIN[k];
+    } else { /* advanced along the period's arc */
+        double phi = REF_W[k] * tau;
+        double chord = RS_REFERENCE_SPEED * tau * sinc_(phi / 2.0);
+        xr = REF_X[k] + chord * cos(REF_HEADING[k] + phi / 2.0);
+        yr = REF_Y[k] + chord * sin(REF_HEADING[k] + phi / 2.0);
+        th = REF_HEADING[k] + phi;
+        cr = cos(th);
+        sr = sin(th);
+    }
+    dx = x - xr;
+    dy = y - yr;
+    c->xi[0] = cr * dx + sr * dy;
+    c->xi[1] = -sr * dx + cr * dy;
+    c->xi[2] = wrap_angle(theta - th);"""
+        omega_out = "REF_W[k] + acc[1]"
+        path_tables = turning_tables.lstrip("\n")
+    else:
+        path_tables = f"""static const double SEG_X0[RS_N_SEG] = {_c_array(path.x0)};
+static const double SEG_Y0[RS_N_SEG] = {_c_array(path.y0)};
+static const double SEG_HEADING[RS_N_SEG] = {_c_array(path.heading)};
+static const double SEG_COS[RS_N_SEG] = {_c_array(path.cos)};
+static const double SEG_SIN[RS_N_SEG] = {_c_array(path.sin)};
+static const double SEG_T_START[RS_N_SEG] = {_c_array(path.t_start)};
+static const double SEGMENT_EPS = {_f(d['segment_eps'])};"""
+        frame = """    int seg = 0, i, j;
+    double dx, dy, acc[2];
+    /* the segment whose desired point is active at t (the last one goes on past its end) */
+    while (seg + 1 < RS_N_SEG && SEG_T_START[seg + 1] <= t + SEGMENT_EPS) ++seg;
+    dx = x - SEG_X0[seg];
+    dy = y - SEG_Y0[seg];
+    c->xi[0] = SEG_COS[seg] * dx + SEG_SIN[seg] * dy - RS_REFERENCE_SPEED * (t - SEG_T_START[seg]);
+    c->xi[1] = -SEG_SIN[seg] * dx + SEG_COS[seg] * dy;
+    c->xi[2] = wrap_angle(theta - SEG_HEADING[seg]);"""
+        omega_out = "acc[1]"
     c = f"""/* rs_controller.c: see rs_controller.h.
    {_header_comment(d, 'c')} */
 #include <math.h>
@@ -87,13 +144,7 @@ void rs_motor_speeds(double V, double omega, double *rho_r, double *rho_l);
 static const double K[2][RS_N_S] = {{
     {K_rows}
 }};
-static const double SEG_X0[RS_N_SEG] = {_c_array(path.x0)};
-static const double SEG_Y0[RS_N_SEG] = {_c_array(path.y0)};
-static const double SEG_HEADING[RS_N_SEG] = {_c_array(path.heading)};
-static const double SEG_COS[RS_N_SEG] = {_c_array(path.cos)};
-static const double SEG_SIN[RS_N_SEG] = {_c_array(path.sin)};
-static const double SEG_T_START[RS_N_SEG] = {_c_array(path.t_start)};
-static const double SEGMENT_EPS = {_f(d['segment_eps'])};
+{path_tables}
 static const double PI_ = {_f(math.pi)};
 static const double TWO_PI_ = {_f(2.0 * math.pi)};
 static const double INV_R = {_f(1.0 / R)};
@@ -122,15 +173,7 @@ void rs_init(rs_controller_t *c)
 
 void rs_step(rs_controller_t *c, double t, double x, double y, double theta, double *V, double *omega)
 {{
-    int seg = 0, i, j;
-    double dx, dy, acc[2];
-    /* the segment whose desired point is active at t (the last one goes on past its end) */
-    while (seg + 1 < RS_N_SEG && SEG_T_START[seg + 1] <= t + SEGMENT_EPS) ++seg;
-    dx = x - SEG_X0[seg];
-    dy = y - SEG_Y0[seg];
-    c->xi[0] = SEG_COS[seg] * dx + SEG_SIN[seg] * dy - RS_REFERENCE_SPEED * (t - SEG_T_START[seg]);
-    c->xi[1] = -SEG_SIN[seg] * dx + SEG_COS[seg] * dy;
-    c->xi[2] = wrap_angle(theta - SEG_HEADING[seg]);
+{frame}
     for (j = 0; j < 2 * RS_D_HI; ++j) c->xi[3 + j] = c->past[j];
 #if RS_N_Z > 0
     c->xi[3 + 2 * RS_D_HI] = c->z[0];
@@ -148,7 +191,7 @@ void rs_step(rs_controller_t *c, double t, double x, double y, double theta, dou
     c->past[0] = acc[0];
     c->past[1] = acc[1];
     *V = RS_REFERENCE_SPEED + acc[0];
-    *omega = acc[1];
+    *omega = {omega_out};
 }}
 
 void rs_motor_speeds(double V, double omega, double *rho_r, double *rho_l)
@@ -234,6 +277,8 @@ def ros2_parameters(d: dict[str, Any]) -> bytes:
         "path_x": [float(p[0]) for p in d["path"]],
         "path_y": [float(p[1]) for p in d["path"]],
         "segment_eps": float(d["segment_eps"]),
+        "has_turn_radius": d.get("turn_radius") is not None,
+        "turn_radius": float(d["turn_radius"]) if d.get("turn_radius") is not None else 0.0,
         "gear_radius": float(d["gear_radius"]),
         "track_distance": float(d["track_distance"]),
         "has_motor_limit": rho is not None,

@@ -589,6 +589,9 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
         raise InputError(f"synthesis.lyapunov: {s.lyapunov} needs 2 to {MAX_DELAY_VERTICES} delay vertices per slip "
                          f"corner; this model has {model.delay_vertex_count} ({model.delay_description} delays, "
                          f"d_hi = {model.d_hi}): use slip-dependent")
+    if s.objective == "hinf" and getattr(model, "turns", None) is not None:
+        raise InputError("synthesis.objective: hinf bounds the slip input only; a turning reference "
+                         "(reference.turn_radius) needs ultimate-bound or stability")
     check_physical_feasibility(cfg)  # physics first: no LMI can beat a motor that is too slow
     if s.objective == "stability":
         say(f"{s.objective}: bisection on the decay rate ({model.kind} model, {len(model.vertices)} vertices)")

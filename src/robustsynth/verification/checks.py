@@ -28,7 +28,7 @@ import numpy as np
 from ..artifacts.gains import as_gains
 from ..errors import InfeasibleError, InputError
 from ..model.slip import check_physical_feasibility
-from ..plants.path import make_path
+from ..plants.path import path_of
 from ..scenarios import (alternating_delays, draw_scenario, random_delays, rate_limited_slip, slip_vertices,
                          steady_state_start)
 from ..certificate import CertificateCheck, check_certificate, lyapunov_of, turn_bounds
@@ -289,7 +289,7 @@ def _beyond_cap(model, K, gains: dict, cert: CertificateCheck, ub, runs: int, se
     from dataclasses import replace
 
     vc = model.config.verification
-    path = make_path(vc.path, model.V)
+    path = path_of(model.config)
     steps = max(1, int(math.floor(path.duration / model.Ts + 1e-9)))
     within = cert.figures.get("slip_within_period") == "covered"  # as the main Monte Carlo (_nonlinear)
     scen = draw_scenario(model, runs, seed + 5, steps, path, losses="uncapped", within_period=within)
@@ -336,7 +336,7 @@ def _adversary(within: bool, *args, **kwargs) -> dict:
 
 def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: int, progress):
     vc = model.config.verification
-    path = make_path(vc.path, model.V)
+    path = path_of(model.config)
     steps = max(1, int(math.floor(path.duration / model.Ts + 1e-9)))
     # a certificate that covers slip changing at any time within a period (docs/theory.md §11) is
     # judged on runs whose slip changes at random times within the periods, not only at the instants
@@ -422,7 +422,7 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
         probe = boundary_probe(model, K, lyap, level, samples=PROBE_SAMPLES, seed=seed,
                                within_period=cert.figures.get("slip_within_period") == "covered")
         nonlinear_proof = gains["certificate"].get("kinematics", "linearized") == "nonlinear"
-        mc["boundary_probe"] = {k: v for k, v in probe.items() if k != "worst"}
+        mc["boundary_probe"] = {k: v for k, v in probe.items() if k != "worst" and v is not None}
         mc["boundary_probe"]["in_verdict"] = nonlinear_proof
         if vc.adversarial_runs:  # the beam search again, now from the boundary (multi-period histories)
             xb, mb = boundary_states(model, K, lyap, level, seed=seed)

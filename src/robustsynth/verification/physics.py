@@ -19,7 +19,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ..law import Law
-from ..plants.path import frame_error, make_path, pose_from_error
+from ..plants.path import frame_error, path_of, pose_from_error
 
 __all__ = ["validate_physics", "excite", "excitation_slip", "excitation_steps", "PERTURBATION"]
 
@@ -67,7 +67,7 @@ def _run_episodes(model: Any, gains: dict[str, Any], first: int, count: int, see
     cfg = model.config
     K = np.asarray(gains["K"], dtype=float)
     V, Ts, d_hi = model.V, model.Ts, model.d_hi
-    path = make_path(cfg.verification.path, V)
+    path = path_of(cfg)
     steps = _steps(model)
     N = count
     offsets = np.zeros((N, 3))
@@ -100,7 +100,8 @@ def _run_episodes(model: Any, gains: dict[str, Any], first: int, count: int, see
         seg = path.segment(t)
         E[:, k] = frame_error(path, seg, q, t)
         dv, dw = law.correction(t, q[:, 0], q[:, 1], q[:, 2])
-        u = uD + np.stack([np.asarray(dv, dtype=float) * np.ones(N), np.asarray(dw, dtype=float) * np.ones(N)], axis=1)
+        u = uD + np.stack([np.asarray(dv, dtype=float) * np.ones(N),
+                           law.feedforward(t) + np.asarray(dw, dtype=float) * np.ones(N)], axis=1)
         RHO[:, k] = u @ J_inv.T
         U = np.concatenate([u[:, None], U[:, :-1]], axis=1)
         peak = robot.period(U, S[:, k])
@@ -112,7 +113,7 @@ def _run_episodes(model: Any, gains: dict[str, Any], first: int, count: int, see
 
 def _steps(model: Any) -> int:
     """Sampling instants along the config's path (its duration at V^D, rounded up)."""
-    return int(math.ceil(make_path(model.config.verification.path, model.V).duration / model.Ts))
+    return int(math.ceil(path_of(model.config).duration / model.Ts))
 
 
 def _chunk(args: tuple) -> dict[str, np.ndarray]:
@@ -129,8 +130,8 @@ def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed:
     from ..artifacts.logs import RobotLog
 
     cfg = model.config
-    V, Ts, d_hi = model.V, model.Ts, model.d_hi
-    path = make_path(cfg.verification.path, V)
+    Ts, d_hi = model.Ts, model.d_hi
+    path = path_of(cfg)
     steps = _steps(model)
     N = episodes
     workers = max(1, min(int(workers), N))

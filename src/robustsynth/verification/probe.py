@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from ..law import Law
+from ..law import Law, wrap_angle
 from ..plants.kinematic import KinematicRobot
 from ..plants.path import frame_error, make_path, pose_from_error
 from ..scenarios import random_delays, slip_candidates, slip_vertices, track_changes
@@ -140,11 +140,19 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
     e1 = frame_error(path, 0, q1, model.Ts)
     xi_nl = np.concatenate([e1, np.stack(law.past + law.z, axis=1)], axis=1)
 
+    # a turning certificate (reference.turn_radius): the same states, slips and delays on arcs (the
+    # reference turning at w_k after steps it allows, the feedforward in the commands in flight)
+    xi_arc = None
+    if getattr(model, "turns", None) is not None:
+        e_arc = arc_period(model, xi[:, :n_e], du, du_past, S, mu, rng)
+        xi_arc = np.concatenate([e_arc, np.stack(law.past + law.z, axis=1)], axis=1)
+
     # the exact lifted map of the certificate, same states, slips and delays
     A, B, c = model.switched_exact(S, mu, t_sw, mu_after, per_track=bool(n_jump))
     xi_lin = np.einsum("nij,nj->ni", A, xi) + np.einsum("nij,nj->ni", B, du) + c
 
     keep = admissible
+    xi_arc = xi_arc[keep] if xi_arc is not None else None
     xi, mu, mu_next, t_sw, taus = xi[keep], mu[keep], mu_after[keep], t_sw[keep], taus[keep]
     xi_nl, xi_lin, jumped = xi_nl[keep], xi_lin[keep], jumped[keep]
     dw = dw[keep] if dw is not None else None
@@ -165,7 +173,13 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
     if mid["runs"]:
         mid.update(max_V_over_level_nonlinear=float(np.max(r_nl_all[jumped])),
                    max_V_over_level_linear=float(np.max(r_lin_all[jumped])))
+    arcs = None
+    if xi_arc is not None:  # slip constant within the period there: the runs without a jump
+        r_arc = (v_next(xi_arc) / level)[~jumped]
+        arcs = {"runs": int(r_arc.size), "max_yaw_rate": float(model.turns.max_yaw_rate),
+                "max_V_over_level_nonlinear": float(np.max(r_arc)), "fraction_outside_nonlinear": float(np.mean(r_arc > 1.0))}
     return {
+        "arcs": arcs,
         "samples": int(np.count_nonzero(judged)),
         "directions": {"random": int(samples + n_jump), "figure_maximizing": int(N - samples - n_jump),
                        "dropped_inadmissible_memory": int(N - np.count_nonzero(keep))},
@@ -180,3 +194,26 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
                   "tau": taus[worst], "xi_next": xi_nl[worst],
                   "V_over_level": float(r_nl_all[worst]), "V_over_level_linear": float(r_lin_all[worst])},
     }
+
+
+def arc_period(model: Any, e0: np.ndarray, du: np.ndarray, du_past: np.ndarray, S: np.ndarray, mu: np.ndarray,
+                rng: np.random.Generator) -> np.ndarray:
+    """e at t_{k+1} of one period on an arc (docs/theory.md §10): the robot starts at the errors ``e0`` in
+    the frame of the reference at t_k, command j is (V^D, w_{k-j}) + du_{k-j}, the reference turns at
+    w_k; w_k is -w_bar, 0 or w_bar (a third uniform in between) and each older w_{k-j} within the steps
+    the certificate allows.  Measured in the reference's frame at t_{k+1}."""
+    from ..model.arcs import FEEDFORWARD
+
+    N, d_hi, V, Ts = e0.shape[0], model.d_hi, model.V, model.Ts
+    wbar = model.turns.max_yaw_rate
+    wk = np.where(rng.random(N) < 1.0 / 3.0, rng.uniform(-wbar, wbar, N), wbar * rng.choice([-1.0, 0.0, 1.0], N))
+    steps = model.turns.step_bounds(d_hi + 1) * rng.choice([-1.0, 0.0, 1.0], (N, d_hi))
+    w = np.concatenate([wk[:, None], np.clip(wk[:, None] - steps, -wbar, wbar)], axis=1)
+    uD = np.array([V, 0.0])
+    U = np.concatenate([(uD + du)[:, None], uD + du_past], axis=1) + w[:, :, None] * FEEDFORWARD
+    q1 = KinematicRobot.of(model).period(e0, U, S, mu)
+    phi = wk * Ts
+    chord = V * Ts * np.sinc(phi / (2.0 * np.pi))  # the reference's chord, at angle phi / 2
+    dx, dy = q1[:, 0] - chord * np.cos(phi / 2.0), q1[:, 1] - chord * np.sin(phi / 2.0)
+    c, sn = np.cos(phi), np.sin(phi)
+    return np.stack([c * dx + sn * dy, -sn * dx + c * dy, wrap_angle(q1[:, 2] - phi)], axis=1)

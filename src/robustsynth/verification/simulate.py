@@ -20,6 +20,7 @@ from ..plants.kinematic import KinematicRobot
 from ..plants.path import PathGeometry, frame_error, make_path, pose_from_error
 from ..law import Law
 from ..scenarios import Scenario, delay_candidates, loss_allowed, slip_candidates, split_state, track_changes
+from ..model.arcs import FEEDFORWARD as TURN_FEEDFORWARD
 
 __all__ = [
     "SimResult",
@@ -84,6 +85,7 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
     E = np.empty((N, steps + 1, 3))
     XI = np.empty((N, steps, model.n_s))
     DU = np.empty((N, steps, 2))
+    FF = np.zeros(steps)
     Q[:, 0] = q
     law = control_law(model, K, path, scen)  # the deployed controller, one memory per run
     for k in range(steps):
@@ -92,7 +94,8 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
         meas = q + scen.noise[:, k]
         dv, dw = law.correction(t[k], meas[:, 0], meas[:, 1], meas[:, 2])  # also z_{k+1} = z_k + Ts (e_x, e_y)_k
         du = np.stack([dv, dw], axis=1)
-        U = robot.send(U, uD + du)
+        FF[k] = law.feedforward(t[k])  # a turning reference's yaw rate w_k (0 on a polyline)
+        U = robot.send(U, uD + du + FF[k] * TURN_FEEDFORWARD)
         XI[:, k], DU[:, k] = _xi(law), du
         mu_k, change = scen.slip_in_period(k)
         q = robot.period(q, U, S[:, k], mu_k, switch=change)
@@ -100,7 +103,7 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
         if progress is not None and (k % 50 == 0 or k == steps - 1):
             progress(k + 1, steps)
     E[:, steps] = frame_error(path, seg[steps], q, t[steps])
-    rho = (uD + DU) @ J_inv.T
+    rho = (uD + DU + FF[:, None] * TURN_FEEDFORWARD) @ J_inv.T
     since_switch = t - path.t_start[seg]
     settled = (t >= transient) & (since_switch >= transient)
     return SimResult(t, Q, E, XI, DU, rho, seg, settled)
