@@ -318,7 +318,11 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
             return _fail(f"the certificate covers reference yaw rates up to {want[0]:.4g} rad/s (steps {want[1]:.4g}), "
                          f"the model asks for {have.max_yaw_rate:.4g} (steps {have.max_step:.4g}): "
                          "reference.turn_radius is smaller than the one the gain was certified for")
-        if have is None or (have.max_yaw_rate, have.max_step) != want:
+        if have is None:
+            return _fail(f"the certificate is for a reference turning along arcs (yaw rates up to {want[0]:.4g} rad/s), "
+                         "the config's path jumps at its waypoints (reference.turn_radius is null): set "
+                         "reference.turn_radius to the gain's radius or wider")
+        if (have.max_yaw_rate, have.max_step) != want:
             from .errors import InputError
 
             try:

@@ -776,7 +776,9 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
         + (f" (certified {c[k] * (100 if k != 'e_theta' else 1):.3g}, ratio {v / c[k]:.2f})" if c.get(k) else "")
         for k, v in sm.items()))
     tm = vd["turn_max"]
-    obj.say(f"turns (not certified): |e_y| {100 * tm['e_y']:.3g} cm, |e_theta| {tm['e_theta']:.3g} rad; "
+    arcs = vd.get("straight_rule", "").startswith("between the arcs")
+    what = ("arcs (certified; reported apart from the straight segments)" if arcs else "turns (not certified)")
+    obj.say(f"{what}: |e_y| {100 * tm['e_y']:.3g} cm, |e_theta| {tm['e_theta']:.3g} rad; "
             f"torque-saturated up to {vd['torque_saturated_s']:.1f} s per episode")
     sl = vd["slip"]
     if sl.get("estimated"):
@@ -787,7 +789,7 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
     whole = vd.get("slip_whole_episodes", {}).get("estimated")
     if whole:
         obj.say(f"  with the turns: right [{whole['right'][0]:.3f}, {whole['right'][1]:.3f}], left [{whole['left'][0]:.3f}, "
-                f"{whole['left'][1]:.3f}] (the turns are not certified)")
+                f"{whole['left'][1]:.3f}]" + (" (with the arcs)" if arcs else " (the turns are not certified)"))
     obj.say(f"validation {'passed' if vd['passed'] else 'FAILED'}: {episodes} episodes; wrote {out / 'validation.json'}")
     return EXIT_OK if vd["passed"] else EXIT_VERIFICATION_FAILED
 

@@ -222,3 +222,20 @@ def test_a_gain_for_another_config_names_it_and_the_physics(tmp_path) -> None:
     assert "made for config 'default'" in r.output and "slip.right.min 0.6 -> 0.3" in r.output
     assert "required >= 5e-08" in r.output
     assert "physically infeasible" in r.output and "18.5 rad/s" in r.output
+
+
+def test_a_turning_gain_on_a_path_that_jumps_is_refused_cleanly(tmp_path) -> None:
+    """The review of 98b3471: the turns baseline verified with `reference.turn_radius: null` crashed in the
+    lifted checks.  Now the re-check fails with the reason (exit 1), and export refuses the config (exit 2)."""
+    root = Path(__file__).resolve().parents[2]
+    gains = root / "results" / "baselines" / "turns" / "gains.json"
+    cfg = tmp_path / "jumps.yaml"
+    cfg.write_text((root / "configs" / "turns.yaml").read_text().replace("turn_radius: 2.0 ", "turn_radius: null "))
+    r = CliRunner().invoke(main, ["verify", str(cfg), "--gains", str(gains), "-o", str(tmp_path / "v"), "--runs", "4",
+                                  "--no-plots"])
+    assert r.exit_code == 1, r.output
+    assert r.exception is None or isinstance(r.exception, SystemExit), r.exception  # no crash
+    assert "the config's path jumps at its waypoints (reference.turn_radius is null)" in r.output
+    r = CliRunner().invoke(main, ["export", str(gains), "--to", "json", "-o", str(tmp_path / "e"), "--config", str(cfg)])
+    assert r.exit_code == 2 and "certified for arcs of 2.0 m and wider" in r.output
+    assert not (tmp_path / "e").exists()

@@ -168,6 +168,7 @@ def _controller_mat_vars(gd: dict[str, Any]) -> dict[str, Any]:
         "integral_action": bool(d["integral_action"]),
         "reference_speed": float(d["reference_speed"]),
         "path": np.asarray(d["path"], dtype=float),
+        "turn_radius": float(d["turn_radius"]) if d.get("turn_radius") is not None else np.nan,  # NaN: a polyline
         "segment_eps": float(d["segment_eps"]),
         "gear_radius": float(d["gear_radius"]),
         "track_distance": float(d["track_distance"]),
@@ -332,9 +333,10 @@ def controller_description(gains: dict[str, Any], config: Any | None = None) -> 
                 raise InputError(f"{key}: {b!r} in the config, but the gain was designed with {a!r}")
         # a turning certificate covers arcs of its radius and wider (slower turns), not tighter ones
         r_gain, r_cfg = base.reference.turn_radius, cfg.reference.turn_radius
-        if r_cfg is not None and (r_gain is None or r_cfg < r_gain):
+        if (r_cfg is None) != (r_gain is None) or (r_cfg is not None and r_cfg < r_gain):
             raise InputError(f"reference.turn_radius: {r_cfg!r} in the config, but the gain was certified for "
-                             + ("straight segments only (null)" if r_gain is None else f"arcs of {r_gain!r} m and wider"))
+                             + ("straight segments only (null)" if r_gain is None else f"arcs of {r_gain!r} m and wider "
+                                "(a path that jumps at its waypoints is not what it was verified on)"))
     integral = cfg.synthesis.integral_action
     K = [[float(v) for v in row] for row in gains["K"]]
     try:

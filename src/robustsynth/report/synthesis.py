@@ -55,7 +55,10 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
     out.append(f"Written with `gains.json` whose `gains_id` is `{gd['gains_id']}`.\n\n")
     out.append(
         f"Control law `{LAW}` on the lifted state ({', '.join(model.state_names)}); applied command "
-        f"`u_hat = [V^D, 0] + du`. Multiplier: `{result.multiplier}`"
+        + ("`u_hat = [V^D, w_k] + du` (w_k: the turning reference's yaw rate, up to "
+           f"{model.turns.max_yaw_rate:.3g} rad/s, which the certificate covers)" if getattr(model, "turns", None) is not None
+           else "`u_hat = [V^D, 0] + du`")
+        + f". Multiplier: `{result.multiplier}`"
         f" ({'one block per Delta block' if result.multiplier == 'structured' else 'mu I, the paper’s |Delta| <= 1'}).\n\n"
     )
     out.append("## Assumptions\n\n")

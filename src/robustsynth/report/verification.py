@@ -115,26 +115,31 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
             out.append(f"\n**Waypoint turns** (docs/theory.md §10, \"Turning along arcs\"): {n_ok} of {len(turns)} turns"
                        f" certified. Every corner is rounded by an arc of radius {cfg.reference.turn_radius:g} m: the"
                        " reference does not jump, and the certificate covers its yaw rate, so the certified set and its"
-                       " bounds hold through the turns (the Monte Carlo maxima above include them; 'at [s]': where the"
-                       " arc starts):\n\n")
+                       " bounds hold through the turns (the Monte Carlo maxima above include them):\n\n")
         else:
             out.append(f"\n**Waypoint turns** (not part of the verdict; docs/theory.md §10): {n_ok} of {len(turns)} turns"
                        " certified. From the certified set, the frame change bounds V/level at the switch; the decay then"
                        f" bounds the errors through the turn and the time until V <= {TURN_REENTRY:g} level. Beside them,"
                        " what the Monte Carlo runs measured:\n\n")
-        rows = []
-        for t in turns:
-            m = _measured(t)
-            rows.append([str(t["waypoint"]), fmt(t["turn_rad"], 3), fmt(t["V_over_level_at_switch"], 3),
-                         fmt(m.get("max_V_over_level_at_switch"), 3), fmt(100 * t["peak"]["e_y"], 3),
-                         fmt(t["peak"]["e_theta"], 3), fmt(t["motor_speed_peak"], 3), fmt(t["time_to_reenter_s"]),
-                         fmt(m.get("max_time_to_reenter_s")),
-                         "certified" + (f" ({t['note']})" if t["note"] else "") if t["certified"]
-                         else "not certified: " + t["reason"]])
-        out.append(table(["waypoint", "turn [rad]", "certified V/level at the switch", "measured max",
-                          "certified peak |e_y| [cm]", "certified peak |e_theta| [rad]",
-                          "certified peak |rho| [rad/s]", f"certified time to V <= {TURN_REENTRY:g} level [s]",
-                          "measured time to V <= level [s]", "status"], rows))
+        if cfg.reference.turn_radius is not None:  # arcs: no switch, no re-entry
+            out.append(table(["waypoint", "turn [rad]", "arc starts at [s]", "certified peak |e_y| [cm]",
+                              "certified peak |e_theta| [rad]", "certified peak |rho| [rad/s]", "status"],
+                             [[str(t["waypoint"]), fmt(t["turn_rad"], 3), fmt(t["t_switch_s"]), fmt(100 * t["peak"]["e_y"], 3),
+                               fmt(t["peak"]["e_theta"], 3), fmt(t["motor_speed_peak"], 3), "certified"] for t in turns]))
+        else:
+            rows = []
+            for t in turns:
+                m = _measured(t)
+                rows.append([str(t["waypoint"]), fmt(t["turn_rad"], 3), fmt(t["V_over_level_at_switch"], 3),
+                             fmt(m.get("max_V_over_level_at_switch"), 3), fmt(100 * t["peak"]["e_y"], 3),
+                             fmt(t["peak"]["e_theta"], 3), fmt(t["motor_speed_peak"], 3), fmt(t["time_to_reenter_s"]),
+                             fmt(m.get("max_time_to_reenter_s")),
+                             "certified" + (f" ({t['note']})" if t["note"] else "") if t["certified"]
+                             else "not certified: " + t["reason"]])
+            out.append(table(["waypoint", "turn [rad]", "certified V/level at the switch", "measured max",
+                              "certified peak |e_y| [cm]", "certified peak |e_theta| [rad]",
+                              "certified peak |rho| [rad/s]", f"certified time to V <= {TURN_REENTRY:g} level [s]",
+                              "measured time to V <= level [s]", "status"], rows))
     bp = mc.get("boundary_probe")
     if bp:
         nonlinear = bp.get("in_verdict", False)
@@ -212,7 +217,7 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
 def transients_markdown(mc: dict[str, Any]) -> str:
     """The waypoint turns: what the verdict excludes, said in report.md rather than hidden."""
     tr = mc.get("transients")
-    if not tr:
+    if not tr or not tr.get("excluded_steps_fraction"):  # nothing excluded (e.g. a path rounded by arcs)
         return ""
     mx = tr["max"]
     out = [f"\n**Turns and other excluded steps** ({100 * tr['excluded_steps_fraction']:.1f} % of the steps, "
