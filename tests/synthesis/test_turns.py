@@ -74,13 +74,15 @@ def test_the_turning_certificate_is_rechecked_with_the_turns_it_names(designs) -
     base, turning, _, r = designs
     assert r.check.passed, r.check.reason
     assert r.certificate["turns"] == {"max_yaw_rate": W_BAR, "max_step": W_BAR}
-    # the straight-segment model rebuilds the certificate's own turning vertices
-    chk = check_certificate(base, r.K, r.certificate)
+    chk = check_certificate(turning, r.K, r.certificate)
     assert chk.passed, chk.reason
     assert chk.figures["ultimate_bound"] == r.check.figures["ultimate_bound"]
+    # a model whose path jumps at its waypoints (no turns) is not what the gain is certified for
+    refused = check_certificate(base, r.K, r.certificate)
+    assert not refused.passed and "reference.turn_radius is null" in refused.reason
     # the same matrices do not prove faster turns, nor straight segments without naming them
     faster = dict(r.certificate, turns={"max_yaw_rate": 2 * W_BAR, "max_step": 2 * W_BAR})
-    assert not check_certificate(base, r.K, faster).passed
+    assert not check_certificate(turning, r.K, faster).passed
     # a model asking for faster turns (a smaller turn radius) than certified is refused, also when the
     # certificate names slower ones; one asking for slower turns is covered by the certificate's own
     for asks in (2 * W_BAR, 1.01 * W_BAR):
