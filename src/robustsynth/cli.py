@@ -458,7 +458,8 @@ def _report_checks(obj: _Ctx, result: Any) -> None:
                 "maxima include them)")
     elif turns:
         obj.say(f"waypoint turns (not in the verdict): {len(turns) - len(bad)} of {len(turns)} certified"
-                + (f"; waypoint {bad[0]['waypoint']}: {bad[0]['reason']}" if bad else ""))
+                + (f"; waypoint {bad[0]['waypoint']}: {bad[0]['reason']} (reference.turn_radius rounds the corners "
+                   "into arcs the certificate can cover: docs/theory.md §10)" if bad else ""))
 
 
 @main.command("verify")
