@@ -48,13 +48,21 @@ def fig_path(res, model) -> Any:
     for n in range(sim.q.shape[0]):
         ax.plot(sim.q[n, :, 0], sim.q[n, :, 1], color="tab:blue", alpha=0.06, lw=0.8)
     ax.plot([], [], color="tab:blue", alpha=0.4, label=f"Monte Carlo runs ({sim.q.shape[0]})")
-    ax.plot(W[:, 0], W[:, 1], "k--", lw=1.2, label="desired polyline")
+    r = model.config.reference.turn_radius
+    if r is None:
+        ax.plot(W[:, 0], W[:, 1], "k--", lw=1.2, label="desired polyline")
+    else:  # the reference the law follows: the corners rounded by arcs (law.PathTable)
+        from ..plants.path import path_of
+
+        tab = path_of(model.config).table
+        ax.plot(W[:, 0], W[:, 1], ":", color="0.6", lw=1.0, label="waypoints' polyline")
+        ax.plot(tab.ref_x, tab.ref_y, "k--", lw=1.2, label=f"reference (corners rounded, r = {r:g} m)")
     ax.plot(W[:, 0], W[:, 1], "ko", ms=4)
     ax.plot(sim.q[0, :, 0], sim.q[0, :, 1], color="tab:red", lw=1.5, label="sample run (run 0)")
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    ax.set_title("Path in the plane: desired polyline and the robot over the network")
+    ax.set_title("Path in the plane: desired " + ("polyline" if r is None else "path") + " and the robot over the network")
     ax.legend(loc="best", fontsize=8)
     ax.grid(alpha=0.3)
     # at the path's scale the tracking error is invisible: the cross-track error itself, in cm
@@ -101,7 +109,8 @@ def fig_errors(res, model) -> Any:
         ax.grid(alpha=0.3)
     handles, labels = axes[0].get_legend_handles_labels()
     axes[-1].set_xlabel("time t [s]")
-    axes[0].set_title("Tracking error in the segment frame L (dotted: waypoint switches)")
+    axes[0].set_title("Tracking error in the segment frame L (dotted: waypoint switches)" if model.config.reference.turn_radius
+                      is None else "Tracking error in the reference's frame (corners rounded by arcs: no switches)")
     fig.tight_layout(rect=(0, 0.05, 1, 1))
     fig.legend(handles, labels, loc="lower center", ncol=4, fontsize=7, frameon=False)  # below the plots, off the data
     return fig
