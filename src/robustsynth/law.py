@@ -36,7 +36,8 @@ t_k along its arc), and step 5 sends ``(V^D + dV_k, w_k + omega_k)``: the turnin
 import math
 from bisect import bisect_right
 
-__all__ = ["PathTable", "Law", "Controller", "segment_at", "frame_error", "wrap_angle", "SEGMENT_EPS", "sample_at"]
+__all__ = ["PathTable", "Law", "Controller", "segment_at", "frame_error", "wrap_angle", "SEGMENT_EPS", "sample_at", "advance",
+           "reference_at", "yaw_rate"]
 
 SEGMENT_EPS = 1e-12  # [s] an instant within this of a waypoint time belongs to the new segment
 SAMPLE_EPS = 1e-9  # [periods] an instant within this of a sampling instant belongs to its period
@@ -132,11 +133,7 @@ class PathTable:
         x, y, th = self.waypoints[0][0], self.waypoints[0][1], self.heading[0]
         self.ref_x, self.ref_y, self.ref_heading, self.ref_w = [x], [y], [th], []
         for w in ws:
-            phi = w * Ts
-            chord = V * Ts * _sinc(phi / 2.0)
-            x = x + chord * math.cos(th + phi / 2.0)
-            y = y + chord * math.sin(th + phi / 2.0)
-            th = th + phi
+            x, y, th = advance(x, y, th, w, Ts, V)
             self.ref_x.append(x)
             self.ref_y.append(y)
             self.ref_heading.append(th)
@@ -157,6 +154,29 @@ def _sinc(a):
     return math.sin(a) / a if a != 0.0 else 1.0
 
 
+def advance(x, y, heading, w, tau, speed):
+    """The unicycle at ``speed`` and yaw rate ``w`` from (x, y, heading) after ``tau``: it moves along
+    the chord of its arc, at half the turn."""
+    phi = w * tau
+    chord = speed * tau * _sinc(phi / 2.0)
+    return x + chord * math.cos(heading + phi / 2.0), y + chord * math.sin(heading + phi / 2.0), heading + phi
+
+
+def reference_at(path, t):
+    """(x, y, heading) of a turning path's reference at t: the table's pose k, advanced along period
+    k's arc."""
+    k = sample_at(path, t)
+    tau = t - k * path.sampling_time
+    if tau == 0.0:
+        return path.ref_x[k], path.ref_y[k], path.ref_heading[k]
+    return advance(path.ref_x[k], path.ref_y[k], path.ref_heading[k], path.ref_w[k], tau, path.speed)
+
+
+def yaw_rate(path, t):
+    """The reference's yaw rate w_k on the period of t (0 on a polyline without a turn radius)."""
+    return path.ref_w[sample_at(path, t)] if path.turning else 0.0
+
+
 def sample_at(path, t):
     """Index k of the sampling period [t_k, t_k+1) that holds t, within the turning reference's table
     (the last entry goes on straight)."""
@@ -174,17 +194,8 @@ def frame_error(path, seg, t, x, y, theta):
     """(e_x, e_y, e_theta) of the pose (x, y, theta) at time t in the frame of segment ``seg`` (with a
     turn radius: of the reference at t, ``seg`` unused)."""
     if path.turning:
-        k = sample_at(path, t)
-        tau = t - k * path.sampling_time
-        if tau == 0.0:
-            xr, yr, th, c, s = path.ref_x[k], path.ref_y[k], path.ref_heading[k], path.ref_cos[k], path.ref_sin[k]
-        else:  # advanced along the period's arc
-            phi = path.ref_w[k] * tau
-            chord = path.speed * tau * _sinc(phi / 2.0)
-            xr = path.ref_x[k] + chord * math.cos(path.ref_heading[k] + phi / 2.0)
-            yr = path.ref_y[k] + chord * math.sin(path.ref_heading[k] + phi / 2.0)
-            th = path.ref_heading[k] + phi
-            c, s = math.cos(th), math.sin(th)
+        xr, yr, th = reference_at(path, t)
+        c, s = math.cos(th), math.sin(th)  # at a sampling instant: the table's ref_cos, ref_sin (the C export's)
         dx = x - xr
         dy = y - yr
         return c * dx + s * dy, -s * dx + c * dy, wrap_angle(theta - th)
@@ -241,7 +252,7 @@ class Law:
 
     def feedforward(self, t):
         """The reference's yaw rate w_k on the period of t (0 on a polyline without a turn radius)."""
-        return self.path.ref_w[sample_at(self.path, t)] if self.path.turning else 0.0
+        return yaw_rate(self.path, t)
 
 
 class Controller:

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..law import PathTable, sample_at, segment_at
+from ..law import PathTable, reference_at, segment_at, yaw_rate
 from ..law import frame_error as law_frame_error
 
 __all__ = ["PathGeometry", "make_path", "path_of", "frame_error", "pose_from_error"]
@@ -40,17 +40,11 @@ class PathGeometry:
 
     def feedforward(self, t: float) -> float:
         """The reference's yaw rate w_k on the period of t (0 without a turn radius)."""
-        return self.table.ref_w[sample_at(self.table, t)] if self.table.turning else 0.0
+        return yaw_rate(self.table, t)
 
     def desired_pose(self, t: float) -> np.ndarray:
         if self.table.turning:  # the reference at t, advanced along its period's arc
-            k = sample_at(self.table, t)
-            tau = t - k * self.table.sampling_time
-            phi = self.table.ref_w[k] * tau
-            chord = self.speed * tau * (np.sinc(phi / (2.0 * np.pi)))
-            h = self.table.ref_heading[k]
-            return np.array([self.table.ref_x[k] + chord * math.cos(h + phi / 2.0),
-                             self.table.ref_y[k] + chord * math.sin(h + phi / 2.0), h + phi])
+            return np.array(reference_at(self.table, t))
         i = self.segment(t)
         s = self.speed * (t - self.t_start[i])
         c, sn = self.table.cos[i], self.table.sin[i]
