@@ -1,13 +1,15 @@
 """Issue 22, item 4: what certifying a reference that turns along arcs costs (Model.with_turns,
 docs/theory.md §10 "Turning along arcs").
 
-Per slip box (nonlinear-proof's [0.8, 1] and the default's [0.6, 1], default robot and network,
-linearized kinematics) and per largest reference yaw rate w_bar (arcs of radius V^D / w_bar): the
-certified |e_x|, |e_y|, |e_theta| and motor bound (with the feedforward's share), the synthesis time,
+Per slip box (nonlinear-proof's [0.8, 1] and the default's [0.6, 1], default robot and network),
+kinematics (linearized; nonlinear: the certificate covers the nonlinear robot on its set, heading
+bound searched) and per largest reference yaw rate w_bar (arcs of radius V^D / w_bar): the
+certified |e_x|, |e_y|, |e_theta| and motor bound (with the feedforward's share), the bound on |e_y(t)|
+between samples (on arcs: the exact arcs in the turning frame, docs/theory.md §10), the synthesis time,
 and the boundary probe on arcs (the nonlinear robot, one period from 20 000 states on the set's
 boundary, slip at a corner, random delays, the yaw rates as ``verification.probe.arc_period`` draws
 them: max V+/level).  w_bar = 0 is the straight-segment certificate; its probe is run on arcs of the
-next row's w_bar (it does not cover them).  "none" is exit 3.
+next row's w_bar (it does not cover them).  "none" is exit 3 (Infeasible) or 4 (SolverFailure).
 
     .venv/bin/python benchmarks/run_all.py bench_turns
 """
@@ -18,7 +20,8 @@ import time
 
 import numpy as np
 
-BOXES = ((0.8, (0.0, 0.1, 0.2, 0.35)), (0.6, (0.0, 0.05, 0.1)))
+BOXES = ((0.8, "linearized", (0.0, 0.1, 0.2, 0.35)), (0.6, "linearized", (0.0, 0.05, 0.1)),
+         (0.8, "nonlinear", (0.0, 0.1, 0.5 / 3.0, 0.25)))
 
 
 def _probe(model, K, P, level, wbar, N=20000, seed=1):
@@ -45,15 +48,15 @@ def main() -> dict:
     from robustsynth.synthesis import synthesize
 
     out = {}
-    print("| slip box | w_bar [rad/s] (arc radius) | \\|e_x\\| | \\|e_y\\| | \\|e_theta\\| | motor bound [rad/s] | "
-          "synthesis | boundary probe on arcs: max V+/level |")
-    print("|---|---|---|---|---|---|---|---|")
-    for lo, wbars in BOXES:
+    print("| slip box | kinematics | w_bar [rad/s] (arc radius) | \\|e_x\\| | \\|e_y\\| | \\|e_theta\\| | motor bound "
+          "[rad/s] | \\|e_y(t)\\| for all t | synthesis | boundary probe on arcs: max V+/level |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for lo, kin, wbars in BOXES:
         cfg = load_config(None)
         cfg = cfg.model_copy(update={
             "slip": cfg.slip.model_copy(update={"right": cfg.slip.right.model_copy(update={"min": lo}),
                                                 "left": cfg.slip.left.model_copy(update={"min": lo})}),
-            "synthesis": cfg.synthesis.model_copy(update={"delay_description": "polytopic"})})
+            "synthesis": cfg.synthesis.model_copy(update={"delay_description": "polytopic", "kinematics": kin})})
         base = build_model(cfg)
         for i, wbar in enumerate(wbars):
             model = base.with_turns(wbar) if wbar > 0 else base
@@ -61,7 +64,8 @@ def main() -> dict:
             try:
                 r = synthesize(model)
             except (InfeasibleError, SolverFailure) as exc:
-                print(f"| [{lo:g}, 1] | {wbar:g} | none ({type(exc).__name__}) | | | | {time.perf_counter() - t0:.1f} s | |")
+                print(f"| [{lo:g}, 1] | {kin} | {wbar:.3g} | none ({type(exc).__name__}) | | | | | {time.perf_counter() - t0:.1f} s | |",
+                      flush=True)
                 continue
             dt = time.perf_counter() - t0
             f = r.check.figures
@@ -69,10 +73,11 @@ def main() -> dict:
             probe_w = wbar if wbar > 0 else (wbars[i + 1] if i + 1 < len(wbars) else 0.0)
             probe = _probe(model, r.K, np.asarray(r.certificate["P"]), f["ellipsoid_level"], probe_w)
             radius = "straight" if wbar == 0 else f"{model.V / wbar:.3g} m"
-            print(f"| [{lo:g}, 1] | {wbar:g} ({radius}) | {100 * ub['e_x']:.2f} cm | {100 * ub['e_y']:.2f} cm | "
-                  f"{ub['e_theta']:.3f} rad | {f['motor_speed_bound']:.2f} | {dt:.1f} s | "
+            print(f"| [{lo:g}, 1] | {kin} | {wbar:.3g} ({radius}) | {100 * ub['e_x']:.2f} cm | {100 * ub['e_y']:.2f} cm | "
+                  f"{ub['e_theta']:.3f} rad | {f['motor_speed_bound']:.2f} | "
+                  f"{100 * f['ultimate_bound_between_samples']['e_y']:.2f} cm | {dt:.1f} s | "
                   f"{probe:.3f} (w_bar {probe_w:g}) |", flush=True)
-            out[f"{lo}/{wbar}"] = {"e_y": ub["e_y"], "probe": probe, "time_s": dt}
+            out[f"{lo}/{kin}/{wbar:.4g}"] = {"e_y": ub["e_y"], "probe": probe, "time_s": dt}
     return out
 
 

@@ -471,12 +471,11 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
                          + g * (1 + g) * np.einsum("ij,jk,ik->i", aJK, np.abs(Sm), aJK) for Sm in mats])
         dev = max(set_max(devs[:, i], inner) for i in range(devs.shape[1]))
         figures["motor_speed_bound"] = round_up(model.feedforward_motor_speed + np.sqrt(max(round_up(level * dev), 0.0)), 3)
-        # |e_theta(t)| and the errors between samples on the set (docs/theory.md §9): for straight segments;
-        # not derived for a turning reference (model/arcs.py: its feedforward and frame turn within the period)
-        turning = getattr(model, "turns", None) is not None
-        if model.channels and not turning:
+        # |e_theta(t)| on the set and the errors between samples (docs/theory.md §9; on arcs against the
+        # turning reference, §10)
+        if model.channels:
             figures["heading_within_period"] = heading_within_period(model, K, mats, level, inner)
-        figures["ultimate_bound_between_samples"] = None if turning else between_samples(
+        figures["ultimate_bound_between_samples"] = between_samples(
             model, K, mats, level, figures["ultimate_bound"], figures.get("heading_within_period"), inner,
             within_period=bool(varying))
         if model.heading_bound is not None:
@@ -553,7 +552,9 @@ def heading_within_period(model: Any, K: np.ndarray, mats: list[np.ndarray], lev
     """An upper bound on |e_theta(t)| for t in every period, over the set {V <= level}: e_theta is
     piecewise linear in t, so its extremes are at the break points, ``r xi + g`` (r = C_h + D_h K) at
     each vertex; the supremum over the set is ``|g| + sqrt(level r S r')`` (its rounding bound added),
-    convex in (r, g), so the vertices' largest covers every delay and slip."""
+    convex in (r, g), so the vertices' largest covers every delay and slip.  On a turning model the rows
+    also carry the reference's yaw-rate coordinates (``F_h``, each in [-1, 1]: model/arcs.turning_heading),
+    which add ``sum |F_h|``, convex in them too."""
     n = K.shape[0] + 2 * model.n_s + 4
     g = gamma(n)
     out = 0.0
@@ -561,8 +562,10 @@ def heading_within_period(model: Any, K: np.ndarray, mats: list[np.ndarray], lev
         R = ch.C_h + ch.D_h @ K
         aR = np.abs(ch.C_h) + np.abs(ch.D_h) @ np.abs(K)
         q = np.array([_form_upper(R, aR, S, g) for S in mats])  # (n_mats, n_rows)
+        F_h = getattr(ch, "F_h", None)
+        box = np.abs(F_h).sum(axis=1) if F_h is not None else np.zeros(q.shape[1])
         for i in range(q.shape[1]):
-            val = abs(float(ch.g_h[i])) * (1 + g) + np.sqrt(max(level * set_max(q[:, i], inner), 0.0))
+            val = (abs(float(ch.g_h[i])) + float(box[i])) * (1 + g) + np.sqrt(max(level * set_max(q[:, i], inner), 0.0))
             out = max(out, float(val))
     return round_up(out, 8)  # the product with level, the square root and the sum
 
@@ -644,6 +647,8 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
         E[:, n_e + (j - 1) * n_u : n_e + j * n_u] = np.eye(n_u)
         cmds.append(E)
     uD = np.array([V, 0.0])
+    if getattr(model, "turns", None) is not None:
+        return _between_samples_on_arcs(model, cmds, mats, level, sampled, heading, inner)
     vbar = wbar = dvbar = abar = 0.0
     for mu in np.asarray(model.corners):
         M = slip_matrix(mu, model.config.robot.track_distance)
@@ -688,6 +693,44 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
         ey += Ts / 4 * d_hi * dvy
     return {"e_x": round_up(sampled["e_x"] + ex, 12), "e_y": round_up(sampled["e_y"] + ey, 12),
             "e_theta": heading}
+
+
+def _between_samples_on_arcs(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], level: float,
+                              sampled: dict[str, float], heading: float, inner: int) -> dict[str, float | None]:
+    """:func:`between_samples` for a reference turning along arcs (docs/theory.md §10), on the exact arcs
+    (for either kinematics: the linearization's own flow is not the robot's).  In the frame F_k of the
+    reference at t_k, with p the robot's position and p_r the reference's (heading psi = w_k s), the error
+    at time s is ``R(-psi) (p - p_r)`` and ``e_theta = eta``.  Each component f of ``p - p_r`` is within
+    ``max(|f(0)|, |f(Ts)|)`` of its chord plus ``Ts^2/8 sup|f''| + Ts/4 sum|jumps of f'|``: ``f(0)`` is
+    e(t_k), ``f(Ts)`` is ``R(-phi) e(t_{k+1})`` (both in the set: ``|p_y - p_ry| <= B_y + sin phi_bar B_x`` at
+    the ends); ``(p_y - p_ry)'' = v omega cos theta - V w cos psi``, ``(p_x - p_rx)'' = -v omega sin theta + V w
+    sin psi`` (theta = psi + eta, |theta| <= phi_bar + |eta|), jumps ``|dv|`` (times sin theta for y) at
+    the d_hi switching instants.  v, omega (the turning feedforward (0, w_{k-j}) included) and the jumps
+    dv (steps of w included) are bounded on the set at every slip corner.  Then ``|e_y| <= P_y + sin phi_bar
+    P_x`` and ``|e_x| <= P_x + sin phi_bar P_y``, P the bounds on |p - p_r| over the period."""
+    from .model.slip import slip_matrix
+
+    turns = model.turns
+    Ts, V, d_hi = model.Ts, model.V, model.d_hi
+    uD = np.array([V, 0.0])
+    w_r = float(turns.max_yaw_rate)
+    phi = w_r * Ts
+    sp = float(np.sin(phi))
+    D = model.config.robot.track_distance
+    vbar = wbar = dvbar = 0.0
+    for mu in np.asarray(model.corners):
+        M = slip_matrix(mu, D)
+        vbar = max(vbar, abs(float(M[0] @ uD)) + abs(float(M[0, 1])) * w_r
+                   + sup_on_set(np.array([M[0] @ c for c in cmds]), mats, level, inner))
+        wbar = max(wbar, abs(float(M[1] @ uD)) + abs(float(M[1, 1])) * w_r
+                   + sup_on_set(np.array([M[1] @ c for c in cmds]), mats, level, inner))
+        dvbar = max(dvbar, abs(float(M[0, 1])) * float(turns.max_step)
+                    + sup_on_set(np.array([M[0] @ (cmds[j] - cmds[j + 1]) for j in range(d_hi)]), mats, level, inner))
+    s = float(np.sin(min(phi + float(heading), np.pi / 2)))
+    Bx, By = float(sampled["e_x"]), float(sampled["e_y"])
+    Py = By + sp * Bx + Ts * Ts / 8 * (vbar * wbar + V * w_r) + Ts / 4 * d_hi * dvbar * s
+    Px = Bx + sp * By + Ts * Ts / 8 * (vbar * wbar * s + V * w_r * sp) + Ts / 4 * d_hi * dvbar
+    return {"e_x": round_up(Px + sp * Py, 16), "e_y": round_up(Py + sp * Px, 16), "e_theta": heading}
 
 
 class _Stack:

@@ -435,8 +435,6 @@ class Config(_Named):
             return self
         syn = self.synthesis
         for bad, why in ((syn.model == "paper", "synthesis.model: slip-aware"),
-                         (syn.kinematics == "nonlinear", "synthesis.kinematics: linearized (the nonlinear channels are "
-                          "built for straight segments)"),
                          (self.slip.model == "icr", "slip.model: tracks"),
                          (syn.delay_description == "norm-bounded", "delay vertices (synthesis.delay_description: auto, "
                           "polytopic or lossy-polytopic)"),

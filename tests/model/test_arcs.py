@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from robustsynth.model import build_model
-from robustsynth.model.arcs import FEEDFORWARD, Turns, _parts
+from robustsynth.model.arcs import FEEDFORWARD, Turns, _parts, heading_yaw_columns
 from robustsynth.model.nonlinear import vertex_channels
 from robustsynth.model.slip import slip_matrix
 from robustsynth.model.vertices import Vertex
@@ -71,10 +71,11 @@ def _robot(model, xi, du, mu, S, w):
     return np.stack([c * dx + s * dy, -s * dx + c * dy, q1[:, 2] - phi], axis=1)
 
 
-def _allowed(model, turns, xi, du, mu, S, w, drop=()):
+def _allowed(model, turns, xi, du, mu, S, w, drop=(), theta_bar=0.0):
     """Per sample the centre and the allowance (|B_p| |q|) the augmented vertex at the sample's own
     delays and slip gives (the vertex algebra is affine in them, so the vertices' hull gives these).
-    ``drop``: channel groups to leave out (negative controls): 'arc', 'rotation'."""
+    ``drop``: channel groups to leave out (negative controls): 'arc', 'rotation'.  ``theta_bar`` > 0:
+    the vertex for the nonlinear robot with |eta(t)| <= theta_bar."""
     n_e, n_u, d_hi, V, Ts = model.n_e, model.n_u, model.d_hi, model.V, model.Ts
     D = model.config.robot.track_distance
     A, B = model.robot_exact(S, mu)
@@ -87,7 +88,7 @@ def _allowed(model, turns, xi, du, mu, S, w, drop=()):
         M = slip_matrix(mu[i], D)
         ch = vertex_channels(mu[i], np.stack([h[i], h[i] ** 2 / 2.0], axis=1), V, Ts, M, model.n_s, n_e, n_u, d_hi)
         v = Vertex(A[i], B[i], c[i][:, None], np.zeros((model.n_s, 0)), np.zeros((0, model.n_s)), np.zeros((0, n_u)), 0, "")
-        Ai, Bi, Ei, Cq, Dq, Fq, Bp = _parts(v, ch, float(M[1, 1]), turns, Ts, V, n_e, n_u, d_hi)
+        Ai, Bi, Ei, Cq, Dq, Fq, Bp = _parts(v, ch, float(M[1, 1]), turns, Ts, V, n_e, n_u, d_hi, theta_bar)
         n_arc = Cq.shape[0] - 4  # the rotation's 4 channels come last
         wv = np.concatenate([[1.0, w[i, 0] / turns.max_yaw_rate], (w[i, 0] - w[i, 1:]) / b])
         q = Cq @ xi[i] + Dq @ du[i] + Fq @ wv
@@ -145,3 +146,105 @@ def test_a_reference_that_does_not_turn_gives_the_straight_map():
     centre, allow = _allowed(model, turns, xi, du, mu, S, w)
     assert np.max(np.abs(centre - straight)) <= 1e-15
     assert np.max(allow) <= 1e-12
+
+
+# ---------------------------------------------------------------- the nonlinear robot (theta_bar > 0)
+
+THETA_BAR = 0.4  # [rad]: the heading deviation the nonlinear vertices are built for
+EXACT = 1e-12  # [m]: round-off of one period of exact arcs (no second-order slack: the channels hold every term)
+
+
+def _sample_full(model, turns, rng, N):
+    """Full-size deviations (positions to 5 cm, headings to 0.3 rad, corrections to 0.3 m/s and 1.5
+    rad/s, slip over the whole box, yaw-rate steps as large as allowed), as the certified sets hold."""
+    n_e, n_u, d_hi = model.n_e, model.n_u, model.d_hi
+    xi = np.zeros((N, model.n_s))
+    xi[:, :n_e] = rng.uniform(-1, 1, (N, n_e)) * np.array([0.05, 0.05, 0.3])
+    xi[:, n_e : n_e + d_hi * n_u] = rng.uniform(-1, 1, (N, d_hi * n_u)) * np.tile([0.3, 1.5], d_hi)
+    du = rng.uniform(-1, 1, (N, n_u)) * np.array([0.3, 1.5])
+    (rl, rh), (ll, lh) = model.slip_ranges
+    mu = np.stack([rng.uniform(rl, rh, N), rng.uniform(ll, lh, N)], axis=1)
+    mu[: N // 4] = np.array([[rl, ll], [rl, lh], [rh, ll], [rh, lh]])[rng.integers(0, 4, N // 4)]
+    S = model.s_tilde(random_delays(model, rng, N, 1))[:, 0]
+    wk = turns.max_yaw_rate * rng.choice([-1.0, 1.0], N)
+    wk = np.where(rng.random(N) < 0.5, wk, turns.max_yaw_rate * rng.uniform(-1, 1, N))
+    b = turns.step_bounds(d_hi + 1)
+    w = np.concatenate([wk[:, None], np.clip(wk[:, None] - b * rng.choice([-1.0, 1.0], (N, d_hi)),
+                                             -turns.max_yaw_rate, turns.max_yaw_rate)], axis=1)
+    return xi, du, mu, S, w
+
+
+def _eta_break_points(model, xi, du, mu, S, w):
+    """eta = e_theta(t) - w_k t at t_k and after each command's interval (oldest first), from the robot's
+    own turn rates (exact: e_theta is piecewise linear)."""
+    n_e, n_u, d_hi, V, Ts = model.n_e, model.n_u, model.d_hi, model.V, model.Ts
+    D = model.config.robot.track_distance
+    N = xi.shape[0]
+    U = np.empty((N, d_hi + 1, n_u))
+    U[:, 0] = np.array([V, 0.0]) + du
+    U[:, 1:] = np.array([V, 0.0]) + xi[:, n_e : n_e + d_hi * n_u].reshape(N, d_hi, n_u)
+    U += w[:, :, None] * FEEDFORWARD
+    omega = np.einsum("nj,nij->ni", slip_matrix(mu, D)[:, 1, :], U)  # (N, d_hi + 1)
+    eta, start, out = xi[:, 2].copy(), np.zeros(N), [xi[:, 2].copy()]
+    for j in range(d_hi, -1, -1):
+        end = S[:, j - 1] if j > 0 else np.full(N, Ts)
+        eta = eta + (omega[:, j] - w[:, 0]) * (end - start)
+        start = end
+        out.append(eta.copy())
+    return np.stack(out, axis=1)
+
+
+@pytest.mark.parametrize("over", [{}, {"network.delay.min": 0.12, "network.delay.max": 0.22},
+                                  {"slip.left.min": 0.9}])
+def test_the_nonlinear_robot_on_an_arc_lies_within_the_vertices_for_its_heading(over):
+    """Full-size errors and corrections, exact arcs: wherever |eta(t)| <= theta_bar over the period, the
+    robot lies within the nonlinear turning vertex's allowance at the sample's own delays and slip, to
+    round-off (no second-order slack), and the heading rows with their yaw-rate columns give eta at
+    every break point."""
+    model = _model(**over)
+    turns = Turns(0.5, 0.5)
+    rng = np.random.default_rng(11)
+    args = _sample_full(model, turns, rng, 600)
+    eta = _eta_break_points(model, *args)
+    keep = np.max(np.abs(eta), axis=1) <= THETA_BAR
+    assert np.mean(keep) > 0.5  # most samples qualify: the test is about them
+    args = tuple(a[keep] for a in args)
+    e = _robot(model, *args)
+    centre, allow = _allowed(model, turns, *args, theta_bar=THETA_BAR)
+    assert np.max(np.abs(e[:, 2] - centre[:, 2])) <= EXACT
+    assert np.max(np.abs(e - centre)[:, :2] - allow[:, :2]) <= EXACT
+    used = np.abs(e - centre)[:, :2] / np.maximum(allow[:, :2], 1e-300)
+    assert np.max(used) > 0.3  # not vacuous
+    # the linearized turning vertex (theta_bar 0) does not hold the robot at these sizes
+    c_lin, allow_lin = _allowed(model, turns, *args)
+    assert np.max(np.abs(e - c_lin)[:, :2] - allow_lin[:, :2]) > 1e-4
+    # the heading rows (vertex_channels' C_h, D_h, g_h and the turning F_h) at the sample's delays and slip
+    xi, du, mu, S, w = args
+    n_e, n_u, d_hi, V, Ts = model.n_e, model.n_u, model.d_hi, model.V, model.Ts
+    D = model.config.robot.track_distance
+    b = turns.step_bounds(d_hi + 1)
+    eta = _eta_break_points(model, *args)
+    for i in range(0, xi.shape[0], 7):
+        M = slip_matrix(mu[i], D)
+        h = Ts - S[i]
+        ch = vertex_channels(mu[i], np.stack([h, h**2 / 2.0], axis=1), V, Ts, M, model.n_s, n_e, n_u, d_hi)
+        F_h = heading_yaw_columns(ch, float(M[1, 1]), turns, n_e, n_u, d_hi)
+        z = np.concatenate([[w[i, 0] / turns.max_yaw_rate], (w[i, 0] - w[i, 1:]) / b])
+        rows = ch.C_h @ xi[i] + ch.D_h @ du[i] + ch.g_h + F_h @ z
+        assert np.max(np.abs(rows - eta[i])) <= 1e-13
+
+
+def test_the_nonlinear_turning_model_at_its_straight_point():
+    """hull_coordinates of a nonlinear turning model: on a straight segment the vertices' hull at the
+    returned weights and Delta is the exact linearized lifted map (coverage as for every model)."""
+    from robustsynth.model import coverage_check
+
+    model = _model(**{"synthesis.kinematics": "nonlinear", "synthesis.heading_bound": 0.3}).with_turns(0.3)
+    assert model.kinematics == "nonlinear" and model.turns is not None
+    rep = coverage_check(model, n_sequences=50, steps=5)
+    assert rep["passed"], rep
+    lin = model.linearized()
+    assert lin.turns == model.turns and lin.heading_bound is None
+    assert lin.vertices[0].n_q == model.vertices[0].n_q  # the same channels, narrower factor ranges
+    width = [float(np.sum(np.abs(m.vertices[0].B_p) @ np.abs(m.vertices[0].C_q))) for m in (lin, model)]
+    assert width[0] < width[1]  # |B_p| |C_q|: independent of the channels' scaling

@@ -93,8 +93,10 @@ def test_the_turning_certificate_is_rechecked_with_the_turns_it_names(designs) -
     assert check_certificate(base.with_turns(W_BAR / 2), r.K, r.certificate).passed
     straight = {k: v for k, v in r.certificate.items() if k != "turns"}
     assert not check_certificate(turning, r.K, straight).passed
-    # what it does not derive for arcs it does not claim
-    assert chk.figures["ultimate_bound_between_samples"] is None
+    # between samples: bounds that cover the sampled ones (on the exact arcs); slip: what it assumes
+    cont = chk.figures["ultimate_bound_between_samples"]
+    assert all(cont[k] > chk.figures["ultimate_bound"][k] for k in ("e_x", "e_y"))
+    assert cont["e_theta"] == chk.figures["heading_within_period"] >= chk.figures["ultimate_bound"]["e_theta"] * (1 - 1e-9)
     assert chk.figures["slip_within_period"].startswith("assumed constant")
 
 
@@ -154,14 +156,100 @@ def test_the_robot_on_arcs_stays_in_the_turning_set_and_leaves_the_straight_one(
     assert r.check.figures["ultimate_bound"]["e_y"] > r0.check.figures["ultimate_bound"]["e_y"]
 
 
-def test_what_a_turning_model_does_not_carry_is_refused(designs) -> None:
-    """The nonlinear channels and the H-infinity gain are built for straight segments (the review of
-    533bd04: a heading bound kept `turns` and dropped the turning vertices; hinf named turns it does not
-    bound)."""
+def test_a_heading_bound_on_a_turning_model_keeps_its_turns(designs) -> None:
+    """A heading bound on a turning model gives the turning vertices for the nonlinear robot (the review
+    of 533bd04: it once kept ``turns`` and dropped the turning vertices); linearized() gives the
+    linearized turning vertices back.  The H-infinity gain is built for straight segments: refused."""
     from robustsynth.errors import InputError
 
     _, turning, _, _ = designs
-    with pytest.raises(InputError, match="not built for a turning reference"):
-        turning.with_heading_bound(0.3)
+    nl = turning.with_heading_bound(0.3)
+    assert nl.turns == turning.turns and nl.kinematics == "nonlinear" and nl.heading_bound == 0.3
+    assert len(nl.vertices) == len(turning.vertices)
+    for a, b in zip(nl.linearized().vertices, turning.vertices):
+        assert np.array_equal(a.A, b.A) and np.array_equal(a.B_p, b.B_p) and np.array_equal(a.C_q, b.C_q)
+    assert any(not np.array_equal(a.A, b.A) for a, b in zip(nl.vertices, turning.vertices))
     with pytest.raises(InputError, match="hinf bounds the slip input only"):
         synthesize(turning, objective="hinf")
+
+
+def test_the_committed_turning_gain_is_a_proof_for_the_nonlinear_robot() -> None:
+    """configs/turns.yaml's committed gain (nonlinear kinematics, 3 m arcs): re-checked on the config's
+    model with its heading bound and turns, |e_theta(t)| on arcs within that bound, refused for the
+    linearized kinematics; from the boundary of its set, one period of the exact robot on arcs stays in
+    it (no second-order slack: the certificate holds every kinematic term)."""
+    import json
+    from pathlib import Path
+
+    from robustsynth.certificate import lyapunov_of
+    from robustsynth.config import load_config
+
+    root = Path(__file__).resolve().parents[2]
+    cfg = load_config(root / "configs" / "turns.yaml")
+    model = build_model(cfg)
+    g = json.loads((root / "results" / "baselines" / "turns" / "gains.json").read_text())
+    K, cert = np.asarray(g["K"], dtype=float), g["certificate"]
+    assert cert["kinematics"] == "nonlinear" and model.kinematics == "nonlinear"
+    wbar = cfg.reference.speed / cfg.reference.turn_radius
+    assert cert["turns"]["max_yaw_rate"] == pytest.approx(wbar, rel=1e-15)
+    chk = check_certificate(model, K, cert)
+    assert chk.passed, chk.reason
+    f = chk.figures
+    assert f["heading_within_period"] <= f["heading_bound"] == cert["heading_bound"]
+    lin = build_model(cfg.model_copy(update={"synthesis": cfg.synthesis.model_copy(update={"kinematics": "linearized"})}))
+    refused = check_certificate(lin, K, cert)
+    assert not refused.passed and "nonlinear kinematics" in refused.reason
+    P = lyapunov_of(model, cert).P[0]
+    level = f["ellipsoid_level"]
+    assert _boundary(model, K, P, level, wbar, seed=2) <= 1.0
+
+
+def test_between_samples_on_arcs_the_robot_stays_within_the_continuous_bounds() -> None:
+    """Certificate vs simulation between the sampling instants, on arcs: the committed turning gain,
+    from states on its set's boundary (random directions and each figure's maximizers, slip corners,
+    admissible delays), the reference turning at -w_bar, 0 or w_bar after a step the certificate allows;
+    at 41 instants of the period (the exact arcs cut at t) the errors in the frame of the reference at
+    t stay within ultimate_bound_between_samples (|e_theta(t)|: heading_within_period)."""
+    from robustsynth.certificate import lyapunov_of
+    from robustsynth.model.slip import slip_matrix
+    from robustsynth.plants.kinematic import period
+    from robustsynth.scenarios import slip_vertices
+    from robustsynth.verification.probe import probe_directions
+
+    from ..conftest import committed_gain
+
+    m, K, cert = committed_gain("turns")
+    chk = check_certificate(m, K, cert)
+    assert chk.passed, chk.reason
+    f = chk.figures
+    level, cont = float(f["ellipsoid_level"]), f["ultimate_bound_between_samples"]
+    lyap = lyapunov_of(m, cert)
+    rng = np.random.default_rng(5)
+    dirs = probe_directions(m, K, lyap, 3000, rng)
+    N = dirs.shape[0]
+    corners = slip_vertices(m)
+    mu = corners[rng.integers(0, corners.shape[0], size=N)]
+    xi = dirs * np.sqrt(level / lyap.V(dirs, mu))[:, None]
+    n_e, n_u, d_hi, V, Ts = m.n_e, m.n_u, m.d_hi, m.V, m.Ts
+    wbar = m.turns.max_yaw_rate
+    wk = wbar * rng.choice([-1.0, 0.0, 1.0], N)
+    steps = m.turns.step_bounds(d_hi + 1) * rng.choice([-1.0, 0.0, 1.0], (N, d_hi))
+    w = np.concatenate([wk[:, None], np.clip(wk[:, None] - steps, -wbar, wbar)], axis=1)
+    U = np.empty((N, d_hi + 1, n_u))
+    U[:, 0] = np.array([V, 0.0]) + xi @ K.T
+    U[:, 1:] = np.array([V, 0.0]) + xi[:, n_e : n_e + d_hi * n_u].reshape(N, d_hi, n_u)
+    U += w[:, :, None] * FEEDFORWARD
+    S = m.s_tilde(random_delays(m, rng, N, 1))[:, 0]
+    robot = KinematicRobot.of(m)
+    M = slip_matrix(mu, m.config.robot.track_distance)
+    worst = np.zeros(3)
+    for t in np.linspace(0.0, Ts, 41)[1:]:
+        qt = period(xi[:, :n_e], U, np.minimum(S, t), M, t, robot.J, robot.J_inv, robot.rho_max)
+        psi = wk * t
+        chord = V * t * np.sinc(psi / (2.0 * np.pi))  # the reference's chord from t_k, at angle psi / 2
+        dx, dy = qt[:, 0] - chord * np.cos(psi / 2.0), qt[:, 1] - chord * np.sin(psi / 2.0)
+        c, s = np.cos(psi), np.sin(psi)
+        e = np.stack([c * dx + s * dy, -s * dx + c * dy, wrap_angle(qt[:, 2] - psi)], axis=1)
+        worst = np.maximum(worst, np.max(np.abs(e), axis=0))
+    assert worst[0] <= cont["e_x"] and worst[1] <= cont["e_y"] and worst[2] <= cont["e_theta"], (worst, cont)
+    assert worst[1] > 0.5 * cont["e_y"]  # the states do reach out: the comparison is not vacuous

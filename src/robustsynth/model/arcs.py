@@ -34,9 +34,22 @@ Everything the arc adds is bounded in the form the kinematic channels use (model
 
 All factors are independent scalars in [-1, 1] (a diagonal Delta), which contains the correlated
 truth (the same ``w_k`` in several places): sound, conservative.  The channels' centres move into
-(A, B, E); B_p is common to every vertex, so per-vertex multipliers stay valid on the hull.  What
-remains assumed is what a linearized certificate assumes on a straight line (the kinematic terms
-of second order in the errors, docs/theory.md §2) and slip constant within a period.
+(A, B, E); B_p is common to every vertex, so per-vertex multipliers stay valid on the hull.
+
+**The nonlinear robot** (``theta_bar``: |eta(t)| <= theta_bar on the period, proven by the certificate
+on its own set from the heading rows).  With ``psi = w s``, exactly (no linearization anywhere):
+
+    e~_x+ = [straight map]_x + int eta F_tx ds + int a F_sx ds,   F_tx = -V (cos psi c(eta) + sin psi sinc eta)
+    e~_y+ = [straight map]_y - V w Ts^2/2 + int eta F_ty ds + int a F_sy ds,
+            F_ty = V (cos psi sinc eta - sin psi c(eta) - 1),  F_sx = cos(psi + eta) - 1,  F_sy = sin(psi + eta)
+
+(c(eta) = (1 - cos eta) / eta), the same four channel families with wider factor ranges
+(:func:`arc_ranges`): F_tx in +-V (c(theta_bar) + sin phi_bar), F_ty in V [cos phi_bar sinc theta_bar - 1 -
+sin phi_bar c(theta_bar), sin phi_bar c(theta_bar)], F_sx in [cos(phi_bar + theta_bar) - 1, 0], F_sy in
++-sin(phi_bar + theta_bar).  theta_bar = 0 gives the linearized ranges above, phi_bar = 0 the straight
+kinematic channels of docs/theory.md §9.  The rotation is exact either way.  What remains assumed:
+slip constant within a period (and, with theta_bar = 0, the kinematic terms of second order in the
+errors, docs/theory.md §2).
 """
 
 from __future__ import annotations
@@ -48,7 +61,7 @@ import numpy as np
 from .nonlinear import KinematicChannels
 from .vertices import Vertex
 
-__all__ = ["Turns", "turning_vertices", "straight_delta", "FEEDFORWARD"]
+__all__ = ["Turns", "turning_vertices", "turning_heading", "heading_yaw_columns", "straight_delta", "arc_ranges", "FEEDFORWARD"]
 
 FEEDFORWARD = np.array([0.0, 1.0])  # the command (dV, omega) of one rad/s of reference yaw rate
 
@@ -71,17 +84,44 @@ def _slot_coef(C: np.ndarray, D: np.ndarray, j: int, n_e: int, n_u: int) -> np.n
     return D if j == 0 else C[:, n_e + (j - 1) * n_u : n_e + j * n_u]
 
 
+ARC_FAMILIES = ("turn_y", "turn_x", "speed_y", "speed_x")  # (channel rows, error row), in _parts' order
+
+
+def arc_ranges(phi_bar: float, theta_bar: float = 0.0) -> dict[str, tuple[float, float]]:
+    """Centre and half-width of each family's factor for |w s| <= phi_bar and |eta| <= theta_bar (the
+    module's docstring; 0: the linearization): turn_y and turn_x per unit of V^D, and the rotation's
+    ``rot_cos`` (cos phi - 1) and ``rot_sin`` (sin phi)."""
+    p, t = float(phi_bar), float(theta_bar)
+    if not (0.0 <= p <= np.pi / 2.0 and 0.0 <= t <= 1.0):
+        raise ValueError(f"arc factor ranges: w_bar Ts = {p:g} rad must be in [0, pi/2] and theta_bar = {t:g} in [0, 1]")
+    one_minus_cos_p = 2.0 * np.sin(p / 2.0) ** 2  # 1 - cos phi_bar without cancellation
+    sin_p = float(np.sin(p))
+    sinc_t = float(np.sin(t) / t) if t > 0.0 else 1.0
+    c_t = 2.0 * float(np.sin(t / 2.0)) ** 2 / t if t > 0.0 else 0.0  # (1 - cos t) / t
+    gap = one_minus_cos_p + float(np.cos(p)) * (1.0 - sinc_t)  # 1 - cos phi_bar sinc theta_bar
+    s = min(p + t, np.pi / 2.0)
+    one_minus_cos_s = 2.0 * float(np.sin(min(p + t, np.pi) / 2.0)) ** 2
+    return {
+        "turn_y": (-gap / 2.0, gap / 2.0 + sin_p * c_t),
+        "turn_x": (0.0, sin_p + c_t),
+        "speed_y": (0.0, float(np.sin(s))),
+        "speed_x": (-one_minus_cos_s / 2.0, one_minus_cos_s / 2.0),
+        "rot_cos": (-one_minus_cos_p / 2.0, one_minus_cos_p / 2.0),
+        "rot_sin": (0.0, sin_p),
+    }
+
+
 def _parts(v: Vertex, ch: KinematicChannels, M11: float, turns: Turns, Ts: float, V: float, n_e: int, n_u: int,
-           d_hi: int):
+           d_hi: int, theta_bar: float = 0.0):
     """The unscaled augmented data of one vertex whose slip matrix has ``M(mu)[1, 1] = M11`` (> 0):
-    (A, B, E, C_q, D_q, F_q, B_p)."""
+    (A, B, E, C_q, D_q, F_q, B_p); ``theta_bar`` > 0: for the nonlinear robot with |eta(t)| <= theta_bar."""
     n_s = v.A.shape[0]
     n_cmd = d_hi + 1
     wbar = float(turns.max_yaw_rate)
     b = turns.step_bounds(n_cmd)
-    phi = wbar * Ts
-    cos_lo = -2.0 * np.sin(phi / 2.0) ** 2  # cos phi_bar - 1 without cancellation
-    c_mid, c_half, s_half = cos_lo / 2.0, -cos_lo / 2.0, float(np.sin(phi))
+    rng = arc_ranges(wbar * Ts, theta_bar)
+    c_mid, c_half = rng["rot_cos"]
+    s_half = rng["rot_sin"][1]
     g = FEEDFORWARD
     A, B = np.array(v.A, dtype=float), np.array(v.B, dtype=float)
     # the feedforward of command j reaches the error rows as a command does (not the stored commands)
@@ -106,17 +146,21 @@ def _parts(v: Vertex, ch: KinematicChannels, M11: float, turns: Turns, Ts: float
     for j in range(n_cmd):  # - W_j w_k, with W_j = (W_j M[1, 1]) / M[1, 1]
         row = 1 + j
         Fc[row, ch.F.shape[1]] -= wbar * _slot_coef(Cc, Dc, j, n_e, n_u)[row, 1] / M11
-    # centres of the arc factors into the map before the rotation: (cos - 1) on the turn rows of e_y
-    # (times V) and on the speed rows of e_x
+    # the families (ARC_FAMILIES): channel rows, the error row they enter, the factor's scale (V^D on the turn rows)
+    fams = ((turn, 1, V, rng["turn_y"]), (turn, 0, V, rng["turn_x"]), (speed, 1, 1.0, rng["speed_y"]),
+            (speed, 0, 1.0, rng["speed_x"]))
+    # the factors' centres into the map before the rotation
     A_in, B_in, E_in = A.copy(), B.copy(), E.copy()
-    for row, rows, k in ((1, turn, V), (0, speed, 1.0)):
-        A_in[row] += k * c_mid * Cc[rows].sum(axis=0)
-        B_in[row] += k * c_mid * Dc[rows].sum(axis=0)
-        E_in[row] += k * c_mid * Fc[rows].sum(axis=0)
+    for rows, row, k, (centre, _) in fams:
+        if centre:
+            A_in[row] += k * centre * Cc[rows].sum(axis=0)
+            B_in[row] += k * centre * Dc[rows].sum(axis=0)
+            E_in[row] += k * centre * Fc[rows].sum(axis=0)
     # channels: q = (C, D, F) rows, p into one row of e with a weight
     chans: list[tuple[np.ndarray, np.ndarray, np.ndarray, int, float]] = []
     # the arc's (before the rotation): per (q rows, into row, weight) the column and its turned twin
-    for rows, into, weight in ((turn, 1, V * c_half), (turn, 0, V * s_half), (speed, 1, s_half), (speed, 0, c_half)):
+    for rows, into, k, (_, half) in fams:
+        weight = k * half
         for r in range(Cc.shape[0])[rows]:
             chans += [(Cc[r], Dc[r], Fc[r], into, weight), (Cc[r], Dc[r], Fc[r], 1 - into, weight * s_half)]
     # the rotation: q = the map's (e_x, e_y) rows before it (centres included)
@@ -133,10 +177,11 @@ def _parts(v: Vertex, ch: KinematicChannels, M11: float, turns: Turns, Ts: float
 
 
 
-def turning_vertices(model, turns: Turns) -> tuple[Vertex, ...]:
+def turning_vertices(model, turns: Turns, theta_bar: float | None = None) -> tuple[Vertex, ...]:
     """The linearized model's vertices (``model.base_vertices``, with their kinematic channels
-    ``model.channels``) augmented for ``turns``; one scale per channel, common to every vertex (B_p
-    enters the LMIs quadratically and must be the same at every vertex)."""
+    ``model.channels``) augmented for ``turns``, for the nonlinear robot with |eta(t)| <= ``theta_bar``
+    (None: the linearization); one scale per channel, common to every vertex (B_p enters the LMIs
+    quadratically and must be the same at every vertex)."""
     from .slip import slip_matrix
 
     if not model.channels or len(model.channels) != len(model.base_vertices):
@@ -149,7 +194,8 @@ def turning_vertices(model, turns: Turns) -> tuple[Vertex, ...]:
         if ch.F.shape[1] != np.asarray(v.E).shape[1]:
             raise ValueError("the channels' constant column does not match the vertex's")
         M11 = float(slip_matrix(np.asarray(model.corners[v.corner], dtype=float)[:2], D)[1, 1])
-        parts.append(_parts(v, ch, M11, turns, model.Ts, model.V, model.n_e, model.n_u, model.d_hi))
+        parts.append(_parts(v, ch, M11, turns, model.Ts, model.V, model.n_e, model.n_u, model.d_hi,
+                            float(theta_bar or 0.0)))
     Bp = parts[0][6]
     if any(not np.array_equal(p[6], Bp) for p in parts):
         raise ValueError("B_p differs between vertices")
@@ -164,13 +210,48 @@ def turning_vertices(model, turns: Turns) -> tuple[Vertex, ...]:
     return tuple(out)
 
 
-def straight_delta(ch: KinematicChannels) -> np.ndarray:
-    """diag(Delta) at which a turning vertex is the straight one again (w = 0, every factor 0): +1 on
-    the ``cos - 1`` channels (their centres are minus their half-widths), 0 on the ``sin`` ones and on
-    the twins; in :func:`_parts`' order."""
-    n_t, n_v = ch.n_turn, ch.C.shape[0] - ch.n_turn
+def heading_yaw_columns(ch: KinematicChannels, M11: float, turns: Turns, n_e: int, n_u: int, d_hi: int) -> np.ndarray:
+    """The heading rows' coefficients on the reference's yaw-rate coordinates (columns w_k / w_bar and
+    (w_k - w_{k-j}) / b_j): eta = e_theta - w_k s at a break point is the straight row plus
+    ``sum_j l_j M11 w_{k-j} - t w_k``, l_j the time command j has acted by then (the row's coefficient on
+    the command's turn rate is ``l_j M11``) and t the time elapsed."""
+    wbar = float(turns.max_yaw_rate)
+    b = turns.step_bounds(d_hi + 1)
+    resp = np.stack([_slot_coef(ch.C_h, ch.D_h, j, n_e, n_u) @ FEEDFORWARD for j in range(d_hi + 1)], axis=1)
+    elapsed = resp.sum(axis=1) / M11  # (rows,)
+    F_h = np.zeros((resp.shape[0], d_hi + 1))
+    F_h[:, 0] = wbar * (resp.sum(axis=1) - elapsed)  # w_{k-j} = w_k - (w_k - w_{k-j})
+    F_h[:, 1:] = -b * resp[:, 1:]
+    return F_h
+
+
+def turning_heading(model, turns: Turns) -> tuple[KinematicChannels, ...]:
+    """``model.channels`` with their heading rows' yaw-rate coefficients (``F_h``: :func:`heading_yaw_columns`)."""
+    from dataclasses import replace
+
+    from .slip import slip_matrix
+
+    D = float(model.config.robot.track_distance)
     out = []
-    for n, own in ((n_t, 1.0), (n_t, 0.0), (n_v, 0.0), (n_v, 1.0)):  # (rows, factor at w = 0): arc channels
-        out += [own, 0.0] * n  # each with its twin
-    out += [1.0, 0.0, 1.0, 0.0]  # the rotation: cos - 1 and sin per row
+    for v, ch in zip(model.base_vertices, model.channels):
+        M11 = float(slip_matrix(np.asarray(model.corners[v.corner], dtype=float)[:2], D)[1, 1])
+        out.append(replace(ch, F_h=heading_yaw_columns(ch, M11, turns, model.n_e, model.n_u, model.d_hi)))
+    return tuple(out)
+
+
+def straight_delta(ch: KinematicChannels, phi_bar: float, theta_bar: float = 0.0) -> np.ndarray:
+    """diag(Delta) at which a turning vertex (for ``phi_bar = w_bar Ts`` and ``theta_bar``) is the
+    linearized straight one again (w = 0, every factor 0): minus each factor's centre over its
+    half-width on the arc channels (0 on their twins) and on the rotation's; in :func:`_parts`' order."""
+    rng = arc_ranges(phi_bar, theta_bar)
+    n_t, n_v = ch.n_turn, ch.C.shape[0] - ch.n_turn
+
+    def at_zero(name: str) -> float:
+        centre, half = rng[name]
+        return -centre / half if half > 0.0 else 0.0
+
+    out = []
+    for n, name in zip((n_t, n_t, n_v, n_v), ARC_FAMILIES):
+        out += [at_zero(name), 0.0] * n  # each with its twin
+    out += [at_zero("rot_cos"), 0.0] * 2  # the rotation: cos - 1 and sin per row
     return np.array(out)

@@ -179,7 +179,12 @@ class Model:
         """The model without the kinematic channels (itself when it has none)."""
         if self.heading_bound is None:
             return self
-        return replace(self, vertices=self.base_vertices, heading_bound=None, covering_vertices=())
+        out = replace(self, vertices=self.base_vertices, heading_bound=None, covering_vertices=())
+        if self.turns is not None:  # the linearized turning vertices (model/arcs.py)
+            from .arcs import turning_vertices
+
+            out = replace(out, vertices=tuple(frozen_vertex(v) for v in turning_vertices(out, self.turns)))
+        return out
 
     @property
     def heading_channels(self) -> tuple:
@@ -194,15 +199,17 @@ class Model:
         from ..errors import InputError
         from .nonlinear import augment, channel_scales
 
-        if self.turns is not None:
-            raise InputError("synthesis.kinematics: nonlinear is not built for a turning reference (reference.turn_radius) "
-                             "yet: its channels are for straight segments")
         if not self.channels:
             raise InputError("synthesis.kinematics: nonlinear needs delay vertices (delay_description polytopic "
                              "or lossy-polytopic) and the slip-aware model")
         theta_bar = float(theta_bar)
         if not 0.0 < theta_bar <= 1.0:
             raise InputError(f"synthesis.heading_bound: {theta_bar:g} rad is outside (0, 1]")
+        if self.turns is not None:  # the turning vertices for the nonlinear robot (model/arcs.py; slip constant
+            from .arcs import turning_vertices  # within a period: a turning model has no within-period vertices)
+
+            verts = tuple(frozen_vertex(v) for v in turning_vertices(self, self.turns, theta_bar))
+            return replace(self, vertices=verts, heading_bound=theta_bar, covering_vertices=())
         covering = within_period and bool(self.covering)
         # covering: one multiplier per delay vertex (vertices are corner-major: vertex i has delay vertex i % n_d)
         n_d = len(self.covering)
@@ -219,13 +226,11 @@ class Model:
         """The same model whose vertices cover a reference turning along arcs: yaw rate |w_k| <=
         ``max_yaw_rate`` [rad/s], constant on each sampling period, changing by at most ``max_step``
         (default ``max_yaw_rate``) between periods, with the turning feedforward in the commands
-        (docs/theory.md §10, model/arcs.py).  Linearized kinematics and the tracks slip model; slip
-        constant within each period."""
+        (docs/theory.md §10, model/arcs.py), for the linearization or, on a model with a heading bound, the
+        nonlinear robot.  The tracks slip model; slip constant within each period."""
         from ..errors import InputError
-        from .arcs import Turns, turning_vertices
+        from .arcs import Turns, turning_heading, turning_vertices
 
-        if self.heading_bound is not None:
-            raise InputError("turning references: built for synthesis.kinematics: linearized only")
         if self.icr or self.kind != "slip-aware":
             raise InputError("turning references: built for the slip-aware model with the tracks slip model only")
         if not self.channels:
@@ -236,8 +241,9 @@ class Model:
         if not (np.isfinite(wbar) and wbar > 0.0 and np.isfinite(step) and step > 0.0):
             raise InputError(f"turning references: max_yaw_rate and max_step must be positive (got {wbar:g}, {step:g})")
         turns = Turns(wbar, step)
-        verts = tuple(frozen_vertex(v) for v in turning_vertices(self, turns))
-        return replace(self, vertices=verts, turns=turns, varying=(), covering=(), covering_vertices=(),
+        verts = tuple(frozen_vertex(v) for v in turning_vertices(self, turns, self.heading_bound))
+        return replace(self, vertices=verts, turns=turns, channels=turning_heading(self, turns), varying=(), covering=(),
+                       covering_vertices=(),
                        varying_delay=(), varying_reason="the turning reference's vertices are built for slip "
                        "constant within a period")
 
@@ -257,6 +263,8 @@ class Model:
         if objective == "hinf":
             return (), ("the H-infinity gain is stated for the slip input B_d w, which does not describe slip "
                         "changing within a period")
+        if self.turns is not None:  # its vertices (linearized or nonlinear) are for slip constant within a period
+            return (), self.varying_reason
         if self.heading_bound is not None and not self.covering_vertices:
             return (), ("the kinematic channels (synthesis.kinematics: nonlinear) are built for slip constant "
                         "within a period" + (f": {self.varying_reason}" if self.varying_reason else ""))
@@ -576,14 +584,15 @@ class Model:
         if self.delay_description == "norm-bounded":
             return lam, dlt
         # delay vertices have no delay Delta; with the kinematic channels, the one of the linearization
-        if self.heading_bound is not None:  # (every kinematic factor at 0)
+        if self.turns is not None:  # the turning vertices on a straight segment (w = 0: every factor at 0)
+            from .arcs import straight_delta
+
+            dlt = np.broadcast_to(straight_delta(self.channels[0], self.turns.max_yaw_rate * self.Ts,
+                                                 self.heading_bound or 0.0), batch + (self.vertices[0].n_q,))
+        elif self.heading_bound is not None:  # (every kinematic factor at 0)
             from .nonlinear import linearization_delta
 
             dlt = np.broadcast_to(linearization_delta(self.heading_channels[0]), batch + (self.vertices[0].n_q,))
-        elif self.turns is not None:  # the turning vertices on a straight segment (w = 0: every factor at 0)
-            from .arcs import straight_delta
-
-            dlt = np.broadcast_to(straight_delta(self.channels[0]), batch + (self.vertices[0].n_q,))
         else:
             dlt = np.zeros(batch + (0,))
         if self.delay_description == "lossy-polytopic":

@@ -67,6 +67,9 @@ class KinematicChannels:
     len_dev: np.ndarray | None = None
     W_dev: np.ndarray | None = None
     half_dev: np.ndarray | None = None
+    # a turning reference (model/arcs.py): the heading rows' coefficients on the reference's yaw-rate
+    # coordinates (w_k / w_bar, (w_k - w_{k-j}) / b_j, each in [-1, 1]); None on straight segments
+    F_h: np.ndarray | None = None
 
     @property
     def n_dev(self) -> int:

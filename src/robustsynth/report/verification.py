@@ -160,8 +160,8 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
             + (f"The adversary's beam search from {bp['adversary']['starts']} of these states (each figure's maximizer"
                f" at every slip corner) over {bp['adversary']['steps']} periods reaches max V/level ="
                f" {bp['adversary']['max_V_over_level']:.4f}. " if bp.get("adversary") else "")
-            + ("The certificate covers these terms (nonlinear kinematics, docs/theory.md §9): a value above 1 would"
-               " contradict it.\n" if nonlinear else
+            + ("The certificate covers these terms (nonlinear kinematics, docs/theory.md §9"
+               + (", on arcs §10" if bp.get("arcs") else "") + "): a value above 1 would contradict it.\n" if nonlinear else
                "The certificate proves the bounds for the robot's linearization; the kinematic terms it drops"
                " (docs/theory.md §2, §7) are not part of this proof (synthesis.kinematics: nonlinear covers them).\n")
         )

@@ -440,6 +440,13 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
             checks.append(_check("nonlinear: one period from the boundary of the certified set stays in it", bp <= 1.0 + LEVEL_TOL,
                                  bp, 1.0, f"max V(xi+)/level over {probe['samples']} boundary states (exact arcs, slip corners, "
                                  "admissible delays): the nonlinear certificate's claim"))
+            arcs = probe.get("arcs")
+            if arcs is not None:  # a turning certificate for the nonlinear robot claims the arcs too (theory §10)
+                checks.append(_check("nonlinear: one period on an arc from the boundary of the certified set stays in it",
+                                     arcs["max_V_over_level_nonlinear"] <= 1.0 + LEVEL_TOL, arcs["max_V_over_level_nonlinear"],
+                                     1.0, f"max V(xi+)/level over {arcs['runs']} boundary states, the reference turning at "
+                                     f"up to {arcs['max_yaw_rate']:.3g} rad/s with the steps the certificate allows (exact "
+                                     "arcs, slip corners, admissible delays)"))
             if "adversary" in mc["boundary_probe"]:
                 ab = mc["boundary_probe"]["adversary"]
                 checks.append(_check("nonlinear: the adversary from the boundary of the certified set keeps it there",
