@@ -297,6 +297,18 @@ def test_a_union_key_is_one_problem_in_the_config_words(value, expected) -> None
     assert msg.startswith(expected) and "literal[" not in msg and "constrained-" not in msg
 
 
+def test_a_heading_bound_without_nonlinear_kinematics_is_refused() -> None:
+    """synthesis.heading_bound is the nonlinear certificate's; with linearized kinematics it would be
+    ignored, so it is refused with the key and the way out ('auto', the default, is no request)."""
+    d = default_dict()
+    d["synthesis"] = {"heading_bound": 0.3}
+    with pytest.raises(ConfigError) as exc:
+        parse_config(_dump(d))
+    assert str(exc.value).startswith("synthesis.heading_bound: 0.3 rad is for synthesis.kinematics: nonlinear")
+    d["synthesis"] = {"heading_bound": "auto"}
+    assert parse_config(_dump(d)).synthesis.kinematics == "linearized"
+
+
 def test_a_misspelt_key_that_looks_like_a_type_name_keeps_its_name() -> None:
     """Only a union-typed key's branches are merged: a key the user typed (a hyphen for an underscore
     is the likeliest slip here, values like slip-aware are hyphenated) is named as typed."""

@@ -267,6 +267,9 @@ class SynthesisConfig(_Node):
             if self.delay_description == "norm-bounded":
                 raise ValueError(f"{_FIELD}kinematics: nonlinear needs delay vertices (delay_description "
                                  "polytopic, lossy-polytopic or auto), not norm-bounded")
+        elif self.heading_bound != "auto":  # it would be ignored: say so rather than certify something else
+            raise ValueError(f"{_FIELD}heading_bound: {self.heading_bound:g} rad is for synthesis.kinematics: nonlinear "
+                             "(a linearized certificate assumes no heading bound); set kinematics: nonlinear or remove it")
         return self
 
 

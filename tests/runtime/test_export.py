@@ -85,6 +85,25 @@ def test_c_export_compiles_strictly_and_reproduces_the_commands(gains: Path, tmp
     assert np.max(np.abs(got - want)) <= EXPORT_TOL
 
 
+@pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
+def test_c_export_of_a_turning_path_has_no_undefined_behaviour_for_a_bad_time(tmp_path: Path) -> None:
+    """A NaN or infinite t: the table index is clamped before its conversion to an integer (which would
+    be undefined behaviour), and the command is NaN.  Compiled with the float-cast sanitizer, which
+    traps on the conversion (the export before this fix stopped with 'nan is outside the range')."""
+    gains = ROOT / "results" / "baselines" / "turns" / "gains.json"
+    export_controller(gains, "c", tmp_path)
+    exe = tmp_path / "rs_harness"
+    built = subprocess.run([CC, "-std=c99", "-O2", "-fsanitize=float-cast-overflow", "-fno-sanitize-recover=all", "-o",
+                            str(exe), str(tmp_path / "rs_harness.c"), str(tmp_path / "rs_controller.c"), "-lm"],
+                           capture_output=True, text=True)
+    if built.returncode != 0:
+        pytest.skip(f"the compiler has no float-cast sanitizer: {built.stderr.strip()[:200]}")
+    for t in ("nan", "inf", "-inf"):
+        r = subprocess.run([str(exe)], input=f"{t} 0 0 0\n", capture_output=True, text=True)
+        assert r.returncode == 0 and "runtime error" not in r.stderr, (t, r.stderr)
+        assert all(np.isnan(float(v)) for v in r.stdout.split()), (t, r.stdout)
+
+
 @pytest.mark.parametrize("gains", GAINS, ids=lambda p: p.parent.name)
 def test_python_export_is_dependency_free_and_reproduces_the_commands(gains: Path, tmp_path: Path) -> None:
     export_controller(gains, "python", tmp_path)

@@ -210,7 +210,7 @@ def replay_worst(m, K, lyap, mu0, h):
     from dataclasses import replace
 
     T = h["mu"].shape[0]
-    path, start = adversary_start(m, K, mu0[h["start"]][None], T + 1)
+    path, start = adversary_start(m, K, mu0[h["start"]][None], T + 1, course=h["course"])
     mu = np.concatenate([h["mu"], h["mu_next"][None]])[None]  # the next period's slip: the one V was taken at
     taus = np.append(h["tau"], h["tau"][-1])[None]
     # when within each period the slip took its new value (0: at the instant; the last period's is not used)
@@ -262,6 +262,34 @@ def test_adversary_histories_replay_and_are_admissible(certified, name, within, 
         assert adv["max"]["e_y"] > 0.005
     if within == "only":  # every change after the first period was within it, and was replayed above
         assert changes_within > 0
+
+
+def test_the_adversary_along_arcs_turns_and_its_histories_replay() -> None:
+    """A turning certificate (configs/turns.yaml's committed gain): the adversary's course turns at the
+    largest yaw rate it covers, both ways, with steps of w_bar, from the first periods on; every
+    objective's worst history along it replays with the simulator (the turning feedforward in the
+    commands) to the value the search reported; the arcs push harder than the straight line on |e_y|."""
+    from robustsynth.certificate import lyapunov_of
+    from robustsynth.verification.simulate import adversary_course
+
+    from ..conftest import committed_gain
+
+    m, K, cert = committed_gain("turns")
+    lyap = lyapunov_of(m, cert)
+    wbar = m.turns.max_yaw_rate
+    w = np.asarray(adversary_course(m, 60, "arcs").table.ref_w)[:60]
+    assert np.max(w) == pytest.approx(wbar, rel=1e-12) and np.min(w) == pytest.approx(-wbar, rel=1e-12)
+    assert np.max(np.abs(np.diff(w))) <= wbar * (1 + 1e-12) and np.count_nonzero(w[:5])
+    with pytest.raises(ValueError, match="'arcs' for a turning model"):
+        adversary_course(build_model(make_config()), 60, "arcs")
+    mu0 = slip_vertices(m)
+    adv = adversarial_nonlinear(m, K, lyap.V, mu0, 60, width=4, objectives=ADVERSARY_OBJECTIVES, course="arcs")
+    for o, h in adv["worst"].items():
+        assert h["course"] == "arcs"
+        got = replay_worst(m, K, lyap, mu0, h)
+        assert abs(got[o] - h["value"]) <= REPLAY_TOL * max(1.0, h["value"]), (o, got[o], h["value"])
+    straight = adversarial_nonlinear(m, K, lyap.V, mu0, 60, width=4, objectives=ADVERSARY_OBJECTIVES)
+    assert adv["max"]["e_y"] > straight["max"]["e_y"]
 
 
 def test_scenarios_are_reproducible(setups) -> None:

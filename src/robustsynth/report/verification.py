@@ -158,7 +158,9 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
                f" commands; {bp['arcs']['runs']} of these states with slip constant in the period) the nonlinear robot"
                f" reaches max V(xi+)/level = {bp['arcs']['max_V_over_level_nonlinear']:.4f}. " if bp.get("arcs") else "")
             + (f"The adversary's beam search from {bp['adversary']['starts']} of these states (each figure's maximizer"
-               f" at every slip corner) over {bp['adversary']['steps']} periods reaches max V/level ="
+               f" at every slip corner) over {bp['adversary']['steps']} periods"
+               + (" (on a straight line and along arcs)" if "arcs" in bp["adversary"].get("courses", ()) else "")
+               + " reaches max V/level ="
                f" {bp['adversary']['max_V_over_level']:.4f}. " if bp.get("adversary") else "")
             + ("The certificate covers these terms (nonlinear kinematics, docs/theory.md §9"
                + (", on arcs §10" if bp.get("arcs") else "") + "): a value above 1 would contradict it.\n" if nonlinear else

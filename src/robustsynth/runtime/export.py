@@ -94,11 +94,13 @@ static const double SAMPLE_EPS = {_f(SAMPLE_EPS)};
 static double sinc_(double a) {{ return a != 0.0 ? sin(a) / a : 1.0; }}"""
         frame = """    int i, j;
     long k;
-    double dx, dy, acc[2], tau, xr, yr, th, cr, sr;
-    /* the sampling period that holds t, within the turning reference's table (the last entry goes on) */
-    k = (long)floor(t / RS_TS + SAMPLE_EPS);
-    if (k < 0) k = 0;
-    if (k > RS_N_REF - 1) k = RS_N_REF - 1;
+    double dx, dy, acc[2], tau, xr, yr, th, cr, sr, kf;
+    /* the sampling period that holds t, within the turning reference's table (the last entry goes on);
+       clamped before the conversion, which a NaN or infinite t would make undefined (the command is then NaN) */
+    kf = floor(t / RS_TS + SAMPLE_EPS);
+    if (!(kf > 0.0)) kf = 0.0;
+    if (kf > (double)(RS_N_REF - 1)) kf = (double)(RS_N_REF - 1);
+    k = (long)kf;
     tau = t - (double)k * RS_TS;
     if (tau == 0.0) {
         xr = REF_X[k]; yr = REF_Y[k]; th = REF_HEADING[k]; cr = REF_COS[k]; sr = REF_SIN[k];

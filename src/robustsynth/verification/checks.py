@@ -326,12 +326,17 @@ def _beyond_cap(model, K, gains: dict, cert: CertificateCheck, ub, runs: int, se
     return out
 
 
-def _adversary(within: bool, *args, **kwargs) -> dict:
+def _adversary(within: bool, model, *args, **kwargs) -> dict:
     """:func:`adversarial_nonlinear`; where the certificate covers slip changing within a period
     (``within``), merged with the same search that also picks the times of the changes (a beam search
-    with more choices keeps different histories and does not always find more)."""
-    adv = adversarial_nonlinear(*args, **kwargs)
-    return merge_adversaries(adv, adversarial_nonlinear(*args, within_period=True, **kwargs)) if within else adv
+    with more choices keeps different histories and does not always find more); for a turning model,
+    merged with the same searches along the arcs of :func:`~robustsynth.verification.simulate.adversary_course`."""
+    out = None
+    for course in ("straight", "arcs") if getattr(model, "turns", None) is not None else ("straight",):
+        for w in (False, True) if within else (False,):
+            adv = adversarial_nonlinear(model, *args, within_period=w, course=course, **kwargs)
+            out = adv if out is None else merge_adversaries(out, adv)
+    return out
 
 
 def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: int, progress):
@@ -384,8 +389,9 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
         mask_ext, sw_ext = _certified_mask(ext, v_ext, starts_inside)
         rule = "certified set (V/level <= 1): from the start, and after each waypoint from the robot's re-entry on"
         not_back = sum(r["runs_not_reentered"] for r in switches + sw_ext)
-        checks.append(_check("nonlinear: re-enters the certified set after every waypoint", not_back == 0, not_back, 0,
-                             "runs that did not re-enter before the next waypoint (the set is attracting)"))
+        if switches or sw_ext:  # a path rounded by arcs has no waypoint switch (nothing to re-enter from)
+            checks.append(_check("nonlinear: re-enters the certified set after every waypoint", not_back == 0, not_back, 0,
+                                 "runs that did not re-enter before the next waypoint (the set is attracting)"))
         if vc.adversarial_runs:
             objectives = tuple(o for o in ADVERSARY_OBJECTIVES  # |rho| only against a certified motor bound
                                if o != "motor_speed" or "motor_speed_bound" in cert.figures)
@@ -395,7 +401,10 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
             adv_v = adv["V"] / level
             mc["adversarial"] = {
                 "runs": vc.adversarial_runs, "steps": vc.adversarial_steps,
-                "search": "beam search from the steady states of the slip corners, on a straight line: every period "
+                "search": "beam search from the steady states of the slip corners, on a straight line"
+                          + (f" and along arcs at the largest yaw rate the certificate covers ({model.turns.max_yaw_rate:.3g} "
+                             "rad/s, left and right in turn)" if getattr(model, "turns", None) is not None else "")
+                          + ": every period "
                           "each kept history goes on with every slip the adversary may pick"
                           + (" (also a second search in which each track's new slip takes over at "
                              + ", ".join(f"{t:.3g}" for t in times) + " of the period, from the second period on)"
@@ -431,7 +440,8 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
                 adv_b = _adversary(within, model, K, lyap.V, mb, steps_b, width=vc.adversarial_runs, objectives=("V",),
                                    with_delay=lyap.path, starts=xb)
                 mc["boundary_probe"]["adversary"] = {"starts": int(xb.shape[0]), "steps": steps_b,
-                                                     "max_V_over_level": adv_b["max_V"] / level}
+                                                     "max_V_over_level": adv_b["max_V"] / level,
+                                                     "courses": ["straight"] + (["arcs"] if model.turns is not None else [])}
         # waypoint turns: the certificate's bounds through each frame change, beside the verdict (the
         # measured switch values are in V_over_level.waypoints); docs/theory.md §10
         mc["turns"] = turn_bounds(model, K, gains["certificate"], cert.figures)
@@ -452,7 +462,8 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
                 checks.append(_check("nonlinear: the adversary from the boundary of the certified set keeps it there",
                                      ab["max_V_over_level"] <= 1.0 + LEVEL_TOL, ab["max_V_over_level"], 1.0,
                                      f"beam search over {ab['steps']} periods from {ab['starts']} boundary states (each "
-                                     "figure's maximizer at every slip corner)"))
+                                     "figure's maximizer at every slip corner)" + (", on a straight line and along arcs"
+                                                                                  if "arcs" in ab["courses"] else "")))
         worst_v = max(mc["V_over_level"]["max_in_certified_steps"], mc["adversarial"]["max_V_over_level"] if adv else 0.0)
         checks.append(_check("nonlinear: the robot's lifted state stays in the certified set", worst_v <= 1.0 + LEVEL_TOL,
                              worst_v, 1.0, f"max V/level on the certified steps of the Monte Carlo, extreme and adversarial "

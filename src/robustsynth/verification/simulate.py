@@ -28,6 +28,7 @@ __all__ = [
     "control_law",
     "adversarial_nonlinear",
     "adversary_start",
+    "adversary_course",
     "ADVERSARY_OBJECTIVES",
     "run_logs",
 ]
@@ -111,6 +112,11 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
 
 ADVERSARY_OBJECTIVES = ("V", "e_x", "e_y", "e_theta", "motor_speed")
 WITHIN_PERIOD_TIMES = (0.0, 0.5)  # the adversary's times of a slip change, in periods, each track on its own
+# the adversary's course along arcs (a turning model): straight for a period (its starts are on a straight
+# line: the steady states, the boundary states), then arcs of this many periods at the largest yaw rate the
+# model covers, alternating left and right, this many periods straight between them
+COURSE_START_PERIODS, COURSE_ARC_PERIODS, COURSE_GAP_PERIODS = 1, 10, 3
+COURSES = ("straight", "arcs")
 
 
 def _top_distinct(score: np.ndarray, width: int) -> np.ndarray:
@@ -129,9 +135,10 @@ def _top_distinct(score: np.ndarray, width: int) -> np.ndarray:
 def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray], mu0: np.ndarray, steps: int,
                           width: int = 1, objectives: tuple[str, ...] = ("V",), n_tau: int = 9,
                           with_delay: bool = False, starts: np.ndarray | None = None,
-                          within_period: bool = False) -> dict:
+                          within_period: bool = False, course: str = "straight") -> dict:
     """Beam search for the slip and delay history that takes the nonlinear robot furthest out, along
-    a straight line from the steady states of the slips ``mu0`` (N, 2).
+    a straight line (``course`` "straight") or, for a turning model, along :func:`adversary_course`'s
+    arcs ("arcs": the turning feedforward in the commands) from the steady states of the slips ``mu0`` (N, 2).
 
     Every period each kept history is continued with every slip the adversary may pick
     (:func:`~robustsynth.scenarios.slip_candidates`: the corners, or with ``slip.max_rate``
@@ -152,7 +159,7 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
     ``V`` and ``tau`` (steps, P) of the kept candidates, and ``worst``: for each objective the
     history of its best candidate, ``{"mu": (T, 2), "tau": (d_hi + T,), "start": index into mu0,
     "value": float, "mu_next": (2,)}`` (the first d_hi delays are the start's; ``mu_next``: the slip V
-    was evaluated with), to replay with :func:`simulate` from :func:`adversary_start`.
+    was evaluated with, ``course``), to replay with :func:`simulate` from :func:`adversary_start`.
 
     ``starts`` (N, n_s): lifted states to start from instead of the steady states (the boundary of
     the certified set, :func:`~robustsynth.verification.probe.boundary_states`), with slips ``mu0``.
@@ -170,7 +177,7 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
     J_inv = robot.J_inv
     taus = delay_candidates(model, n_tau)  # with a lossy link also inf: the newest packet is lost
     n_tau = taus.size
-    path, scen = adversary_start(model, K, mu0, steps, starts)
+    path, scen = adversary_start(model, K, mu0, steps, starts, course)
     N = scen.runs
     U = robot.memory(scen.du0, N)
     q = scen.q0.copy()
@@ -187,7 +194,7 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
         check_interrupt()
         tk = k * Ts
         dv, dw = law.correction(tk, q[:, 0], q[:, 1], q[:, 2])
-        U = robot.send(U, uD + np.stack([dv, dw], axis=1))
+        U = robot.send(U, uD + np.stack([dv, dw], axis=1) + law.feedforward(tk) * TURN_FEEDFORWARD)
         if k == 0:  # the starts' own commands
             maxima["motor_speed"] = float(np.max(np.abs(U[:, 0] @ J_inv.T)))
         P = q.shape[0]
@@ -228,7 +235,7 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
             v_all = V_fn(xi_b, mu_b)
         v_arg = np.argmax(v_all, axis=-1)
         v = np.take_along_axis(v_all, v_arg[..., None], axis=-1)[..., 0]
-        rho = np.max(np.abs((uD + xi_next @ K.T) @ J_inv.T), axis=-1)
+        rho = np.max(np.abs((uD + law.feedforward(tk + Ts) * TURN_FEEDFORWARD + xi_next @ K.T) @ J_inv.T), axis=-1)
         scores = {"V": v, "e_x": np.abs(e_next[..., 0]), "e_y": np.abs(e_next[..., 1]),
                   "e_theta": np.abs(e_next[..., 2]), "motor_speed": rho}
         if model.dropouts:  # a loss only while the burst is below the cap
@@ -264,7 +271,7 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
             mu_h[j], tau_h[j], sw_h[j] = MU[j][i], TAU[j][i], SW[j][i]
             i = parents[j][i]
         worst[o] = {"mu": mu_h, "tau": np.concatenate([scen.taus[i], tau_h]), "start": int(i), "value": value,
-                    "mu_next": mu_v, "t_switch": sw_h}
+                    "mu_next": mu_v, "t_switch": sw_h, "course": course}
     return {"max": maxima, "max_V": max_V, "V": np.array(VK), "tau": np.array(TAU), "worst": worst,
             "switch_times": tuple(WITHIN_PERIOD_TIMES) if jumps and steps > 1 else (0.0,)}
 
@@ -280,16 +287,42 @@ def merge_adversaries(a: dict, b: dict) -> dict:
             "switch_times": tuple(sorted(set(a["switch_times"]) | set(b["switch_times"])))}
 
 
+def adversary_course(model, steps: int, course: str = "straight") -> PathGeometry:
+    """The adversary's path, at least ``steps`` + 10 periods long: a straight line, or ("arcs", a turning
+    model only) COURSE_START_PERIODS straight, then corners rounded by arcs of radius V^D / w_bar that take
+    COURSE_ARC_PERIODS each at the largest yaw rate the model covers, turning left and right in turn
+    (steps of w_bar), COURSE_GAP_PERIODS straight between them."""
+    V, Ts = model.V, model.Ts
+    length = V * Ts * (steps + 10)
+    if course == "straight":
+        return make_path(((0.0, 0.0), (length, 0.0)), V)
+    turns = getattr(model, "turns", None)
+    if course != "arcs" or turns is None:
+        raise ValueError(f"course must be one of {COURSES} ('arcs' for a turning model), got {course!r}")
+    r = V / float(turns.max_yaw_rate)
+    turn = min(float(turns.max_yaw_rate) * COURSE_ARC_PERIODS * Ts, 1.0)  # [rad] per corner
+    tangent = r * np.tan(turn / 2.0)
+    legs = [V * Ts * COURSE_START_PERIODS + tangent]
+    while sum(legs) < length + 2 * tangent:
+        legs.append(2 * tangent + V * Ts * COURSE_GAP_PERIODS)
+    legs.append(tangent + V * Ts * COURSE_GAP_PERIODS)
+    heading, wp = 0.0, [np.zeros(2)]
+    for i, leg in enumerate(legs):
+        wp.append(wp[-1] + leg * np.array([np.cos(heading), np.sin(heading)]))
+        heading = turn if i % 2 == 0 else 0.0
+    return make_path(np.array(wp), V, r, Ts)
+
+
 def adversary_start(model, K: np.ndarray, mu0: np.ndarray, steps: int,
-                    starts: np.ndarray | None = None) -> tuple[PathGeometry, Scenario]:
-    """The straight line and the starts of :func:`adversarial_nonlinear`: the steady states of the
-    slips ``mu0`` (N, 2) (or the lifted states ``starts``), the last d_hi packets delayed by the
-    middle of [tau_min, tau_max].  The scenario holds no slip or delays beyond the start (``mu`` is
+                    starts: np.ndarray | None = None, course: str = "straight") -> tuple[PathGeometry, Scenario]:
+    """The path (:func:`adversary_course`) and the starts of :func:`adversarial_nonlinear`: the steady
+    states of the slips ``mu0`` (N, 2) (or the lifted states ``starts``), the last d_hi packets delayed by
+    the middle of [tau_min, tau_max].  The scenario holds no slip or delays beyond the start (``mu`` is
     ``mu0``, one period)."""
     mu0 = np.asarray(mu0, dtype=float)
-    N, d_hi, V = mu0.shape[0], model.d_hi, model.V
+    N, d_hi = mu0.shape[0], model.d_hi
     dl = model.config.network.delay
-    path = make_path(((0.0, 0.0), (V * model.Ts * (steps + 10), 0.0)), V)
+    path = adversary_course(model, steps, course)
     xi0 = model.equilibrium(np.asarray(K, dtype=float), mu0) if starts is None else np.asarray(starts, dtype=float)
     e0, du0, z0 = split_state(model, xi0)
     scen = Scenario(np.full((N, d_hi), (dl.min + dl.max) / 2.0), mu0[:, None, :], np.zeros((N, 1, 3)),
