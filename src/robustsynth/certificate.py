@@ -562,10 +562,9 @@ def heading_within_period(model: Any, K: np.ndarray, mats: list[np.ndarray], lev
         R = ch.C_h + ch.D_h @ K
         aR = np.abs(ch.C_h) + np.abs(ch.D_h) @ np.abs(K)
         q = np.array([_form_upper(R, aR, S, g) for S in mats])  # (n_mats, n_rows)
-        F_h = getattr(ch, "F_h", None)
-        box = np.abs(F_h).sum(axis=1) if F_h is not None else np.zeros(q.shape[1])
+        off = ch.heading_offsets  # |g|, plus a turning reference's sum |F_h|
         for i in range(q.shape[1]):
-            val = (abs(float(ch.g_h[i])) + float(box[i])) * (1 + g) + np.sqrt(max(level * set_max(q[:, i], inner), 0.0))
+            val = float(off[i]) * (1 + g) + np.sqrt(max(level * set_max(q[:, i], inner), 0.0))
             out = max(out, float(val))
     return round_up(out, 8)  # the product with level, the square root and the sum
 

@@ -171,6 +171,8 @@ def test_a_heading_bound_on_a_turning_model_keeps_its_turns(designs) -> None:
     assert any(not np.array_equal(a.A, b.A) for a, b in zip(nl.vertices, turning.vertices))
     with pytest.raises(InputError, match="hinf bounds the slip input only"):
         synthesize(turning, objective="hinf")
+    with pytest.raises(InputError, match="more than pi/2"):  # the arc factors' ranges need w_bar Ts <= pi/2
+        turning.with_turns(20.0)
 
 
 def test_the_committed_turning_gain_is_a_proof_for_the_nonlinear_robot() -> None:
@@ -253,3 +255,25 @@ def test_between_samples_on_arcs_the_robot_stays_within_the_continuous_bounds() 
         worst = np.maximum(worst, np.max(np.abs(e), axis=0))
     assert worst[0] <= cont["e_x"] and worst[1] <= cont["e_y"] and worst[2] <= cont["e_theta"], (worst, cont)
     assert worst[1] > 0.5 * cont["e_y"]  # the states do reach out: the comparison is not vacuous
+
+
+def test_the_synthesis_heading_rows_carry_the_turning_yaw_rates(designs) -> None:
+    """The synthesis's heading constraint leaves room theta_bar - |g| - sum|F_h| per row, as the re-check
+    does (the review of e758184: it used |g| only, so a binding row after t_k gave sets the re-check
+    refused): a heading bound above every |g| but below a row's |g| + sum|F_h| is refused up front."""
+    from types import SimpleNamespace
+
+    from robustsynth.errors import InfeasibleError
+    from robustsynth.synthesis.lmis import heading_constraints
+
+    _, turning, _, _ = designs
+    probe = turning.with_heading_bound(1.0)
+    g = max(float(np.max(np.abs(ch.g_h))) for ch in probe.heading_channels)
+    off = max(float(np.max(ch.heading_offsets)) for ch in probe.heading_channels)
+    assert off > g + 1e-3  # the yaw-rate columns matter
+    model = turning.with_heading_bound((g + off) / 2.0)
+    n_s, n_u = model.n_s, model.n_u
+    lv = SimpleNamespace(X=np.zeros((n_s, n_s)), Y=np.zeros((n_u, n_s)), mats=[None], left=lambda j: np.eye(n_s))
+    with pytest.raises(InfeasibleError, match="the turning reference's yaw rates included"):
+        heading_constraints(model, lv)
+    assert heading_constraints(turning.with_heading_bound(min(1.0, off + 0.01)), lv)  # room everywhere: constraints

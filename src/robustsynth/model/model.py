@@ -240,6 +240,9 @@ class Model:
         step = wbar if max_step is None else float(max_step)
         if not (np.isfinite(wbar) and wbar > 0.0 and np.isfinite(step) and step > 0.0):
             raise InputError(f"turning references: max_yaw_rate and max_step must be positive (got {wbar:g}, {step:g})")
+        if wbar * self.Ts > np.pi / 2:  # the arc factors' ranges (arcs.arc_ranges) need it
+            raise InputError(f"turning references: max_yaw_rate {wbar:g} rad/s turns by {wbar * self.Ts:.3g} rad per "
+                             "sampling period, more than pi/2 (reference.turn_radius too small)")
         turns = Turns(wbar, step)
         verts = tuple(frozen_vertex(v) for v in turning_vertices(self, turns, self.heading_bound))
         return replace(self, vertices=verts, turns=turns, channels=turning_heading(self, turns), varying=(), covering=(),

@@ -72,6 +72,13 @@ class KinematicChannels:
     F_h: np.ndarray | None = None
 
     @property
+    def heading_offsets(self) -> np.ndarray:
+        """Per heading row, the largest |e_theta| its constant part can give: ``|g_h|``, plus ``sum |F_h|`` over
+        a turning reference's yaw-rate box (its coordinates each in [-1, 1])."""
+        out = np.abs(np.asarray(self.g_h, dtype=float))
+        return out if self.F_h is None else out + np.abs(self.F_h).sum(axis=1)
+
+    @property
     def n_dev(self) -> int:
         return 0 if self.C_dev is None else self.C_dev.shape[0]
 

@@ -276,23 +276,27 @@ def motor_constraints(model: Any, Q: Any, Y: Any, rows: Any = None) -> list[Any]
 def heading_constraints(model: Any, lv: _Lyap) -> list[Any]:
     """|e_theta(t)| <= theta_bar within every period on the set {V <= 1} (docs/theory.md §9): for each
     vertex's heading rows r xi + d du + g (``KinematicChannels``) and each Lyapunov matrix,
-    ``[[(theta_bar - |g|)^2, r X + d Y], [., left]] >= 0``; the kinematic channels assume it."""
+    ``[[(theta_bar - |g| - sum|F_h|)^2, r X + d Y], [., left]] >= 0``; the kinematic channels assume it.
+    ``F_h``: a turning model's yaw-rate columns of the rows (model/arcs.heading_yaw_columns, docs/theory.md
+    §10), whose box coordinates add ``sum|F_h|`` as :func:`~robustsynth.certificate.heading_within_period` does."""
     from ..errors import InfeasibleError
 
     theta_bar = float(model.heading_bound)
     cons = []
     seen: set[bytes] = set()
     for ch in model.heading_channels:
-        for c, d, g in zip(ch.C_h, ch.D_h, ch.g_h):
-            key = np.concatenate([c, d, [g]]).tobytes()
+        turning = getattr(ch, "F_h", None) is not None
+        for c, d, off in zip(ch.C_h, ch.D_h, ch.heading_offsets):
+            key = np.concatenate([c, d, [off]]).tobytes()
             if key in seen:
                 continue
             seen.add(key)
-            room = theta_bar - abs(float(g))
+            room = theta_bar - float(off)
             if room <= 0:
                 raise InfeasibleError(
                     f"synthesis.heading_bound: {theta_bar:g} rad is smaller than the turn the slip alone causes within "
-                    f"one period ({abs(float(g)):.3g} rad): no set can keep |e_theta(t)| below it")
+                    f"one period ({float(off):.3g} rad" + (", the turning reference's yaw rates included" if turning else "")
+                    + "): no set can keep |e_theta(t)| below it")
             row = c @ lv.X + d @ lv.Y
             for j in range(len(lv.mats)):
                 blk = cp.bmat([[np.array([[room**2 * (1.0 - 1e-6)]]), cp.reshape(row, (1, model.n_s), order="C")],

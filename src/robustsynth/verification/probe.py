@@ -200,15 +200,17 @@ def arc_period(model: Any, e0: np.ndarray, du: np.ndarray, du_past: np.ndarray, 
                 rng: np.random.Generator) -> np.ndarray:
     """e at t_{k+1} of one period on an arc (docs/theory.md §10): the robot starts at the errors ``e0`` in
     the frame of the reference at t_k, command j is (V^D, w_{k-j}) + du_{k-j}, the reference turns at
-    w_k; w_k is -w_bar, 0 or w_bar (a third uniform in between) and each older w_{k-j} within the steps
-    the certificate allows.  Measured in the reference's frame at t_{k+1}."""
+    w_k; w_k is -w_bar, 0 or w_bar (a third uniform in between) and each older w_{k-j} a step of
+    -max_step, 0 or max_step from the next newer one (within +-w_bar): an admissible history.  Measured in the reference's frame at t_{k+1}."""
     from ..model.arcs import FEEDFORWARD
 
     N, d_hi, V, Ts = e0.shape[0], model.d_hi, model.V, model.Ts
     wbar = model.turns.max_yaw_rate
     wk = np.where(rng.random(N) < 1.0 / 3.0, rng.uniform(-wbar, wbar, N), wbar * rng.choice([-1.0, 0.0, 1.0], N))
-    steps = model.turns.step_bounds(d_hi + 1) * rng.choice([-1.0, 0.0, 1.0], (N, d_hi))
-    w = np.concatenate([wk[:, None], np.clip(wk[:, None] - steps, -wbar, wbar)], axis=1)
+    w = [wk]  # each older w_{k-j} within max_step of the next newer one (an admissible history)
+    for _ in range(d_hi):
+        w.append(np.clip(w[-1] - model.turns.max_step * rng.choice([-1.0, 0.0, 1.0], N), -wbar, wbar))
+    w = np.stack(w, axis=1)
     uD = np.array([V, 0.0])
     U = np.concatenate([(uD + du)[:, None], uD + du_past], axis=1) + w[:, :, None] * FEEDFORWARD
     q1 = KinematicRobot.of(model).period(e0, U, S, mu)
