@@ -45,3 +45,16 @@ def committed_gain(name: str) -> tuple[Any, np.ndarray, dict[str, Any]]:
 
     g = load_gains(ROOT / "results" / "baselines" / name / "gains.json")
     return build_model(load_config(ROOT / "configs" / f"{name}.yaml")), np.asarray(g["K"], dtype=float), g["certificate"]
+
+
+def boundary_points(model, K: np.ndarray, lyap, level: float, n: int, rng: np.random.Generator):
+    """States on the boundary V = level of a certificate's set (``n`` random directions and each bounded
+    figure's maximizers, :func:`~robustsynth.verification.probe.probe_directions`), each with a random slip
+    corner: (xi (N, n_s), mu (N, 2))."""
+    from robustsynth.scenarios import slip_vertices
+    from robustsynth.verification.probe import probe_directions
+
+    dirs = probe_directions(model, K, lyap, n, rng)
+    corners = slip_vertices(model)
+    mu = corners[rng.integers(0, corners.shape[0], size=dirs.shape[0])]
+    return dirs * np.sqrt(level / lyap.V(dirs, mu))[:, None], mu

@@ -19,7 +19,7 @@ from robustsynth.errors import ConfigError
 from robustsynth.model import build_model
 from robustsynth.verification.probe import boundary_probe
 
-from ..conftest import committed_gain, make_config
+from ..conftest import boundary_points, committed_gain, make_config
 
 ROOT = Path(__file__).resolve().parents[2]
 LEVEL_TOL = 1e-9  # V/level: round-off only
@@ -126,8 +126,7 @@ def test_between_samples_the_robot_stays_within_the_continuous_bounds(committed)
     from robustsynth.law import Law
     from robustsynth.plants.kinematic import KinematicRobot, period
     from robustsynth.plants.path import frame_error, make_path, pose_from_error
-    from robustsynth.scenarios import random_delays, slip_vertices
-    from robustsynth.verification.probe import probe_directions
+    from robustsynth.scenarios import random_delays
 
     m, K, cert = committed
     assert cert.get("within_period_channels")
@@ -139,11 +138,8 @@ def test_between_samples_the_robot_stays_within_the_continuous_bounds(committed)
         assert cont[k] >= chk.figures["ultimate_bound"][k]
     lyap = lyapunov_of(m, cert)
     rng = np.random.default_rng(7)
-    dirs = probe_directions(m, K, lyap, 3000, rng)
-    N = dirs.shape[0]
-    corners = slip_vertices(m)
-    mu = corners[rng.integers(0, corners.shape[0], size=N)]
-    xi = dirs * np.sqrt(level / lyap.V(dirs, mu))[:, None]
+    xi, mu = boundary_points(m, K, lyap, level, 3000, rng)
+    N = xi.shape[0]
     past = xi[:, 3:5].reshape(N, 1, 2)
     S = m.s_tilde(random_delays(m, rng, N, 1))[:, 0]
     path = make_path(((0.0, 0.0), (50.0, 0.0)), m.V)

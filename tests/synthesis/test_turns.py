@@ -215,10 +215,8 @@ def test_between_samples_on_arcs_the_robot_stays_within_the_continuous_bounds() 
     from robustsynth.certificate import lyapunov_of
     from robustsynth.model.slip import slip_matrix
     from robustsynth.plants.kinematic import period
-    from robustsynth.scenarios import slip_vertices
-    from robustsynth.verification.probe import probe_directions
 
-    from ..conftest import committed_gain
+    from ..conftest import boundary_points, committed_gain
 
     m, K, cert = committed_gain("turns")
     chk = check_certificate(m, K, cert)
@@ -227,11 +225,8 @@ def test_between_samples_on_arcs_the_robot_stays_within_the_continuous_bounds() 
     level, cont = float(f["ellipsoid_level"]), f["ultimate_bound_between_samples"]
     lyap = lyapunov_of(m, cert)
     rng = np.random.default_rng(5)
-    dirs = probe_directions(m, K, lyap, 3000, rng)
-    N = dirs.shape[0]
-    corners = slip_vertices(m)
-    mu = corners[rng.integers(0, corners.shape[0], size=N)]
-    xi = dirs * np.sqrt(level / lyap.V(dirs, mu))[:, None]
+    xi, mu = boundary_points(m, K, lyap, level, 3000, rng)
+    N = xi.shape[0]
     n_e, n_u, d_hi, V, Ts = m.n_e, m.n_u, m.d_hi, m.V, m.Ts
     wbar = m.turns.max_yaw_rate
     wk = wbar * rng.choice([-1.0, 0.0, 1.0], N)
