@@ -448,7 +448,8 @@ class Config(_Named):
         if per_period > math.pi / 2:  # the arc factors' ranges (model/arcs.arc_ranges) need w_bar Ts <= pi/2
             raise ValueError(f"{_FIELD}reference.turn_radius: {r:g} m turns the reference by {per_period:.3g} rad per "
                              f"sampling period at reference.speed {self.reference.speed:g} m/s, more than pi/2: the turning "
-                             f"certificate needs a radius of at least {self.reference.speed * self.network.sampling_time / (math.pi / 2):.3g} m")
+                             f"certificate needs a radius of at least "
+                             f"{math.ceil(self.reference.speed * self.network.sampling_time / (math.pi / 2) * 1e4) / 1e4:g} m")
         from .law import PathTable
 
         try:

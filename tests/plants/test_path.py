@@ -115,8 +115,9 @@ def test_the_turn_radius_needs_a_certificate_that_can_carry_it(tmp_path) -> None
     assert make_config(**{"reference.turn_radius": 2.0, "synthesis.kinematics": "nonlinear"}).reference.turn_radius == 2.0
     # the review of e758184: a radius that turns the reference by more than pi/2 per period crashed in the model
     with pytest.raises(ConfigError, match="reference.turn_radius: 0.03 m turns the reference by 1.67 rad per sampling "
-                       "period .* at least 0.0318 m"):
+                       "period .* at least 0.0319 m"):
         make_config(**{"reference.turn_radius": 0.03})
+    assert make_config(**{"reference.turn_radius": 0.0319}).reference.turn_radius == 0.0319  # the radius it names
     cfg = tmp_path / "bad.yaml"
     cfg.write_text("name: bad\nrobot: {gear_radius: 0.09, track_distance: 0.45}\nreference: {speed: 0.5, turn_radius: 30}\n"
                    "network: {sampling_time: 0.1, delay: {min: 0.01, max: 0.08}}\nslip: {right: {min: 0.8, max: 1}, "

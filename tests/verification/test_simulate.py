@@ -265,31 +265,41 @@ def test_adversary_histories_replay_and_are_admissible(certified, name, within, 
 
 
 def test_the_adversary_along_arcs_turns_and_its_histories_replay() -> None:
-    """A turning certificate (configs/turns.yaml's committed gain): the adversary's course turns at the
-    largest yaw rate it covers, both ways, with steps of w_bar, from the first periods on; every
-    objective's worst history along it replays with the simulator (the turning feedforward in the
-    commands) to the value the search reported; the arcs push harder than the straight line on |e_y|."""
-    from robustsynth.certificate import lyapunov_of
-    from robustsynth.verification.simulate import adversary_course
+    """A turning certificate (configs/turns.yaml's committed gain): each of the adversary's courses of arcs
+    turns at the largest yaw rate it covers, both ways, from the first period on, with steps of at most
+    w_bar; every objective's worst history along the harshest one replays with the simulator (the turning
+    feedforward in the commands) to the value the search reported; the arcs push harder than the straight
+    line, from the steady states (|e_y|) and from the boundary of the set (V) alike (the review of b7bf029:
+    a course that started straight gave the boundary search exactly the straight line's V)."""
+    from robustsynth.certificate import check_certificate, lyapunov_of
+    from robustsynth.verification.probe import boundary_states
+    from robustsynth.verification.simulate import ARC_COURSES, adversary_course, adversary_courses
 
     from ..conftest import committed_gain
 
     m, K, cert = committed_gain("turns")
     lyap = lyapunov_of(m, cert)
+    level = float(check_certificate(m, K, cert).figures["ellipsoid_level"])
     wbar = m.turns.max_yaw_rate
-    w = np.asarray(adversary_course(m, 60, "arcs").table.ref_w)[:60]
-    assert np.max(w) == pytest.approx(wbar, rel=1e-12) and np.min(w) == pytest.approx(-wbar, rel=1e-12)
-    assert np.max(np.abs(np.diff(w))) <= wbar * (1 + 1e-12) and np.count_nonzero(w[:5])
-    with pytest.raises(ValueError, match="'arcs' for a turning model"):
-        adversary_course(build_model(make_config()), 60, "arcs")
+    assert adversary_courses(m) == ("straight",) + ARC_COURSES
+    for course in ARC_COURSES:
+        w = np.asarray(adversary_course(m, 60, course).table.ref_w)[:60]
+        assert np.max(w) == pytest.approx(wbar, rel=1e-12) and np.min(w) == pytest.approx(-wbar, rel=1e-12)
+        assert abs(w[0]) == pytest.approx(wbar, rel=1e-12)  # turning from the start
+        assert np.max(np.abs(np.diff(w))) <= wbar * (1 + 1e-12)
+    with pytest.raises(ValueError, match="for a turning model"):
+        adversary_course(build_model(make_config()), 60, "arcs-1-1")
     mu0 = slip_vertices(m)
-    adv = adversarial_nonlinear(m, K, lyap.V, mu0, 60, width=4, objectives=ADVERSARY_OBJECTIVES, course="arcs")
+    adv = adversarial_nonlinear(m, K, lyap.V, mu0, 60, width=4, objectives=ADVERSARY_OBJECTIVES, course="arcs-1-1")
     for o, h in adv["worst"].items():
-        assert h["course"] == "arcs"
+        assert h["course"] == "arcs-1-1"
         got = replay_worst(m, K, lyap, mu0, h)
         assert abs(got[o] - h["value"]) <= REPLAY_TOL * max(1.0, h["value"]), (o, got[o], h["value"])
     straight = adversarial_nonlinear(m, K, lyap.V, mu0, 60, width=4, objectives=ADVERSARY_OBJECTIVES)
     assert adv["max"]["e_y"] > straight["max"]["e_y"]
+    xb, mb = boundary_states(m, K, lyap, level, seed=0)
+    on = [adversarial_nonlinear(m, K, lyap.V, mb, 10, width=4, starts=xb, course=c)["max_V"] for c in ("straight", "arcs-1-1")]
+    assert on[1] > on[0]
 
 
 def test_scenarios_are_reproducible(setups) -> None:

@@ -159,7 +159,7 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
                f" reaches max V(xi+)/level = {bp['arcs']['max_V_over_level_nonlinear']:.4f}. " if bp.get("arcs") else "")
             + (f"The adversary's beam search from {bp['adversary']['starts']} of these states (each figure's maximizer"
                f" at every slip corner) over {bp['adversary']['steps']} periods"
-               + (" (on a straight line and along arcs)" if "arcs" in bp["adversary"].get("courses", ()) else "")
+               + (" (on a straight line and along arcs)" if len(bp["adversary"].get("courses", ())) > 1 else "")
                + " reaches max V/level ="
                f" {bp['adversary']['max_V_over_level']:.4f}. " if bp.get("adversary") else "")
             + ("The certificate covers these terms (nonlinear kinematics, docs/theory.md §9"

@@ -36,7 +36,8 @@ from .probe import boundary_probe, boundary_states
 
 BOUNDARY_ADVERSARY_STEPS = 50  # the adversary from the boundary: what matters happens in the first periods
 from .lifted import closed_loop_run, frozen_instant_grid, frozen_spectral_radius, greedy_worst_case
-from .simulate import ADVERSARY_OBJECTIVES, SimResult, adversarial_nonlinear, merge_adversaries, simulate
+from .simulate import (ADVERSARY_OBJECTIVES, ARC_COURSES, SimResult, adversarial_nonlinear, adversary_courses,
+                       merge_adversaries, simulate)
 
 __all__ = ["VerificationResult", "verify", "SPECTRAL_TOL", "LEVEL_TOL", "DIVERGENCE_LIMIT"]
 
@@ -332,7 +333,7 @@ def _adversary(within: bool, model, *args, **kwargs) -> dict:
     with more choices keeps different histories and does not always find more); for a turning model,
     merged with the same searches along the arcs of :func:`~robustsynth.verification.simulate.adversary_course`."""
     out = None
-    for course in ("straight", "arcs") if getattr(model, "turns", None) is not None else ("straight",):
+    for course in adversary_courses(model):
         for w in (False, True) if within else (False,):
             adv = adversarial_nonlinear(model, *args, within_period=w, course=course, **kwargs)
             out = adv if out is None else merge_adversaries(out, adv)
@@ -389,9 +390,12 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
         mask_ext, sw_ext = _certified_mask(ext, v_ext, starts_inside)
         rule = "certified set (V/level <= 1): from the start, and after each waypoint from the robot's re-entry on"
         not_back = sum(r["runs_not_reentered"] for r in switches + sw_ext)
-        if switches or sw_ext:  # a path rounded by arcs has no waypoint switch (nothing to re-enter from)
-            checks.append(_check("nonlinear: re-enters the certified set after every waypoint", not_back == 0, not_back, 0,
-                                 "runs that did not re-enter before the next waypoint (the set is attracting)"))
+        if switches or sw_ext:  # a path rounded by arcs has no waypoint switch: then only runs that start outside
+            at_waypoints = any(r["segment"] > 0 for r in switches + sw_ext)
+            checks.append(_check("nonlinear: re-enters the certified set after every waypoint" if at_waypoints else
+                                 "nonlinear: re-enters the certified set from a start outside it", not_back == 0, not_back, 0,
+                                 "runs that did not re-enter before the next waypoint (the set is attracting)" if at_waypoints
+                                 else "runs that did not re-enter before the end of the path (the set is attracting)"))
         if vc.adversarial_runs:
             objectives = tuple(o for o in ADVERSARY_OBJECTIVES  # |rho| only against a certified motor bound
                                if o != "motor_speed" or "motor_speed_bound" in cert.figures)
@@ -403,7 +407,9 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
                 "runs": vc.adversarial_runs, "steps": vc.adversarial_steps,
                 "search": "beam search from the steady states of the slip corners, on a straight line"
                           + (f" and along arcs at the largest yaw rate the certificate covers ({model.turns.max_yaw_rate:.3g} "
-                             "rad/s, left and right in turn)" if getattr(model, "turns", None) is not None else "")
+                             "rad/s, left and right in turn from the start; arcs of A periods with G straight between them, A/G "
+                             + ", ".join("/".join(c.split("-")[1:]) for c in ARC_COURSES) + ")"
+                             if getattr(model, "turns", None) is not None else "")
                           + ": every period "
                           "each kept history goes on with every slip the adversary may pick"
                           + (" (also a second search in which each track's new slip takes over at "
@@ -441,7 +447,7 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
                                    with_delay=lyap.path, starts=xb)
                 mc["boundary_probe"]["adversary"] = {"starts": int(xb.shape[0]), "steps": steps_b,
                                                      "max_V_over_level": adv_b["max_V"] / level,
-                                                     "courses": ["straight"] + (["arcs"] if model.turns is not None else [])}
+                                                     "courses": list(adversary_courses(model))}
         # waypoint turns: the certificate's bounds through each frame change, beside the verdict (the
         # measured switch values are in V_over_level.waypoints); docs/theory.md §10
         mc["turns"] = turn_bounds(model, K, gains["certificate"], cert.figures)
@@ -463,7 +469,7 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
                                      ab["max_V_over_level"] <= 1.0 + LEVEL_TOL, ab["max_V_over_level"], 1.0,
                                      f"beam search over {ab['steps']} periods from {ab['starts']} boundary states (each "
                                      "figure's maximizer at every slip corner)" + (", on a straight line and along arcs"
-                                                                                  if "arcs" in ab["courses"] else "")))
+                                                                                  if len(ab["courses"]) > 1 else "")))
         worst_v = max(mc["V_over_level"]["max_in_certified_steps"], mc["adversarial"]["max_V_over_level"] if adv else 0.0)
         checks.append(_check("nonlinear: the robot's lifted state stays in the certified set", worst_v <= 1.0 + LEVEL_TOL,
                              worst_v, 1.0, f"max V/level on the certified steps of the Monte Carlo, extreme and adversarial "

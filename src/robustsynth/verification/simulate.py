@@ -29,6 +29,7 @@ __all__ = [
     "adversarial_nonlinear",
     "adversary_start",
     "adversary_course",
+    "adversary_courses",
     "ADVERSARY_OBJECTIVES",
     "run_logs",
 ]
@@ -112,11 +113,10 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
 
 ADVERSARY_OBJECTIVES = ("V", "e_x", "e_y", "e_theta", "motor_speed")
 WITHIN_PERIOD_TIMES = (0.0, 0.5)  # the adversary's times of a slip change, in periods, each track on its own
-# the adversary's course along arcs (a turning model): straight for a period (its starts are on a straight
-# line: the steady states, the boundary states), then arcs of this many periods at the largest yaw rate the
-# model covers, alternating left and right, this many periods straight between them
-COURSE_START_PERIODS, COURSE_ARC_PERIODS, COURSE_GAP_PERIODS = 1, 10, 3
-COURSES = ("straight", "arcs")
+# the adversary's courses along arcs (a turning model), "arcs-A-G": from t = 0 on, arcs of A periods at the largest
+# yaw rate the model covers, alternating left and right, G periods straight between them (a review found short
+# arcs and gaps push harder than long ones: 1.13 against 0.98 cm of |e_y| on configs/turns.yaml)
+ARC_COURSES = ("arcs-10-3", "arcs-2-1", "arcs-1-1")
 
 
 def _top_distinct(score: np.ndarray, width: int) -> np.ndarray:
@@ -137,8 +137,8 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
                           with_delay: bool = False, starts: np.ndarray | None = None,
                           within_period: bool = False, course: str = "straight") -> dict:
     """Beam search for the slip and delay history that takes the nonlinear robot furthest out, along
-    a straight line (``course`` "straight") or, for a turning model, along :func:`adversary_course`'s
-    arcs ("arcs": the turning feedforward in the commands) from the steady states of the slips ``mu0`` (N, 2).
+    a straight line (``course`` "straight") or, for a turning model, along one of :func:`adversary_course`'s
+    courses of arcs (the turning feedforward in the commands) from the steady states of the slips ``mu0`` (N, 2).
 
     Every period each kept history is continued with every slip the adversary may pick
     (:func:`~robustsynth.scenarios.slip_candidates`: the corners, or with ``slip.max_rate``
@@ -287,25 +287,35 @@ def merge_adversaries(a: dict, b: dict) -> dict:
             "switch_times": tuple(sorted(set(a["switch_times"]) | set(b["switch_times"])))}
 
 
+def adversary_courses(model) -> tuple[str, ...]:
+    """The courses :func:`adversarial_nonlinear` is run on for ``model``: a straight line, and for a turning
+    model (``model.turns``) the ARC_COURSES."""
+    return ("straight",) + (ARC_COURSES if getattr(model, "turns", None) is not None else ())
+
+
 def adversary_course(model, steps: int, course: str = "straight") -> PathGeometry:
-    """The adversary's path, at least ``steps`` + 10 periods long: a straight line, or ("arcs", a turning
-    model only) COURSE_START_PERIODS straight, then corners rounded by arcs of radius V^D / w_bar that take
-    COURSE_ARC_PERIODS each at the largest yaw rate the model covers, turning left and right in turn
-    (steps of w_bar), COURSE_GAP_PERIODS straight between them."""
+    """The adversary's path, at least ``steps`` + 10 periods long: a straight line, or ("arcs-A-G", a
+    turning model only) from t = 0 on corners rounded by arcs of radius V^D / w_bar that take A periods each
+    at the largest yaw rate the model covers (at least one period's turn), turning left and right in turn
+    (steps of w_bar), G periods straight between them.  The starts' stored commands carry no feedforward
+    (w = 0 before t = 0): the first step is one of w_bar, which the certificate allows."""
     V, Ts = model.V, model.Ts
     length = V * Ts * (steps + 10)
     if course == "straight":
         return make_path(((0.0, 0.0), (length, 0.0)), V)
     turns = getattr(model, "turns", None)
-    if course != "arcs" or turns is None:
-        raise ValueError(f"course must be one of {COURSES} ('arcs' for a turning model), got {course!r}")
-    r = V / float(turns.max_yaw_rate)
-    turn = min(float(turns.max_yaw_rate) * COURSE_ARC_PERIODS * Ts, 1.0)  # [rad] per corner
+    parts = course.split("-")
+    if turns is None or course not in ARC_COURSES or len(parts) != 3:
+        raise ValueError(f"course must be 'straight' or, for a turning model, one of {ARC_COURSES}; got {course!r}")
+    arc, gap = int(parts[1]), int(parts[2])
+    wbar = float(turns.max_yaw_rate)
+    r = V / wbar
+    turn = min(wbar * arc * Ts, max(1.0, wbar * Ts))  # [rad] per corner
     tangent = r * np.tan(turn / 2.0)
-    legs = [V * Ts * COURSE_START_PERIODS + tangent]
+    legs = [tangent]
     while sum(legs) < length + 2 * tangent:
-        legs.append(2 * tangent + V * Ts * COURSE_GAP_PERIODS)
-    legs.append(tangent + V * Ts * COURSE_GAP_PERIODS)
+        legs.append(2 * tangent + V * Ts * gap)
+    legs.append(tangent + V * Ts * gap)
     heading, wp = 0.0, [np.zeros(2)]
     for i, leg in enumerate(legs):
         wp.append(wp[-1] + leg * np.array([np.cos(heading), np.sin(heading)]))
