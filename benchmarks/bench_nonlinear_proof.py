@@ -6,7 +6,7 @@ line): the committed gain's certified |e_y| and |e_theta(t)| between samples, an
 max V+/level).  Then both certificates are synthesized side by side in this run, with the config's
 own settings and ``synthesis.kinematics`` linearized / nonlinear (heading bound searched): their
 |e_y|, the ratio, the nonlinear one's heading bound and its boundary probe on the nonlinear robot
-(its claim: <= 1), and both synthesis times.  "none" is exit 3: no heading bound gave a certificate.
+(its claim: <= 1; for a turning config also on arcs), and both synthesis times.  "none" is exit 3: no heading bound gave a certificate.
 The probes judge the runs with slip changing within the period too when the certificate covers it.
 Then the default robot and network with slip boxes [lo, 1] per track: linearized and nonlinear |e_y|.
 
@@ -88,10 +88,15 @@ def main(names: list[str] | None = None) -> dict[str, dict[str, float]]:
                  f"{rp['max_V_over_level_nonlinear']:.4f}"
         else:
             nl = f"none, {en} ({tn:.1f} s) | | | "
+        def arcs(r):  # a turning certificate's probe on arcs beside its straight one
+            return f" (arcs {r['arcs']['max_V_over_level_nonlinear']:.4f})" if r.get("arcs") else ""
+
+        if rn is not None:
+            nl += arcs(rp)
         hw = chk.figures.get("heading_within_period")
         hw = "—" if hw is None else f"{hw:.3f} rad"  # norm-bounded delays: no break points to bound
         cont = chk.figures["ultimate_bound_between_samples"]["e_y"]
-        print(f"| {cfg_path.stem} | {100 * row['committed_e_y']:.2f} / {100 * cont:.2f} cm, {hw} | {row['committed_probe']:.4f} | "
+        print(f"| {cfg_path.stem} | {100 * row['committed_e_y']:.2f} / {100 * cont:.2f} cm, {hw} | {row['committed_probe']:.4f}{arcs(r0)} | "
               f"{100 * ey_l:.2f} cm ({tl:.1f} s) | {nl} |", flush=True)
         out[cfg_path.stem] = row
     if not names:
