@@ -103,8 +103,10 @@ def fig_errors(res, model) -> Any:
             ax.axhline(-b, color="tab:green", ls="--", lw=1)
         for ts in model_path_switches(res, model):
             ax.axvline(ts, color="grey", lw=0.8, ls=":")
-        ax.fill_between(sim.t, 0, 1, where=~_covered(res), transform=ax.get_xaxis_transform(), color="grey", alpha=0.1,
-                        label="excluded (some run outside the set after a waypoint)")
+        excluded = ~_covered(res)
+        if excluded.any():  # a legend entry only for something drawn (a path rounded by arcs excludes nothing)
+            ax.fill_between(sim.t, 0, 1, where=excluded, transform=ax.get_xaxis_transform(), color="grey", alpha=0.1,
+                            label="excluded (some run outside the set after a waypoint)")
         ax.set_ylabel(f"{name} [{unit}]")
         ax.grid(alpha=0.3)
     handles, labels = axes[0].get_legend_handles_labels()
@@ -210,8 +212,10 @@ def fig_lyapunov(res, model) -> Any:
         ax2.semilogy(t, vr.max(axis=0), color="tab:red", lw=1.2, label="max over Monte Carlo runs")
         ax2.semilogy(t, np.median(vr, axis=0), color="tab:blue", lw=1, label="median")
         ax2.axhline(1.0, color="k", lw=1.5, label="ellipsoid level (V = level)")
-        ax2.fill_between(t, 0, 1, where=~_covered(res)[:-1], transform=ax2.get_xaxis_transform(), color="grey",
-                         alpha=0.1, label="excluded (after a waypoint, until back in the set)")
+        excluded = ~_covered(res)[:-1]
+        if excluded.any():
+            ax2.fill_between(t, 0, 1, where=excluded, transform=ax2.get_xaxis_transform(), color="grey",
+                             alpha=0.1, label="excluded (after a waypoint, until back in the set)")
         ax2.set_xlabel("time t [s]")
         ax2.set_ylabel("V(xi) / level [-]")
         ax2.set_title("Nonlinear robot: V of its true lifted state relative to the certified ellipsoid")
