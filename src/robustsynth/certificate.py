@@ -648,15 +648,7 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
     uD = np.array([V, 0.0])
     if getattr(model, "turns", None) is not None:
         return _between_samples_on_arcs(model, cmds, mats, level, sampled, heading, inner)
-    vbar = wbar = dvbar = abar = 0.0
-    for mu in np.asarray(model.corners):
-        M = slip_matrix(mu, model.config.robot.track_distance)
-        forward = sup_on_set(np.array([M[0] @ c for c in cmds]), mats, level, inner)
-        vbar = max(vbar, abs(float(M[0] @ uD)) + forward)
-        abar = max(abar, abs(float(M[0] @ uD) - V) + forward)  # |a| = |v - V^D|
-        wbar = max(wbar, abs(float(M[1] @ uD)) + sup_on_set(np.array([M[1] @ c for c in cmds]), mats, level, inner))
-        dvbar = max(dvbar, sup_on_set(np.array([M[0] @ (cmds[j] - cmds[j + 1]) for j in range(d_hi)]), mats, level,
-                                      inner))
+    vbar, wbar, dvbar, abar = _speeds_on_set(model, cmds, mats, level, inner)
     if model.heading_bound is not None:
         s = float(np.sin(min(float(heading), np.pi / 2)))
         ey = Ts * Ts / 8 * vbar * wbar + Ts / 4 * d_hi * dvbar * s
@@ -694,6 +686,30 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
             "e_theta": heading}
 
 
+def _speeds_on_set(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], level: float, inner: int,
+                   yaw_rate: float = 0.0, yaw_step: float = 0.0) -> tuple[float, float, float, float]:
+    """Bounds on the set, over every slip corner and command in flight (``cmds``: the rows that give
+    each command from xi), on the forward speed |v|, the turn rate |omega|, the jump |dv| between
+    consecutive commands and the forward-speed deviation |a| = |v - V^D|; with a turning reference's
+    feedforward (0, w), |w| <= ``yaw_rate`` and steps <= ``yaw_step``, in every command."""
+    from .model.slip import slip_matrix
+
+    uD = np.array([model.V, 0.0])
+    vbar = wbar = dvbar = abar = 0.0
+    for mu in np.asarray(model.corners):
+        M = slip_matrix(mu, model.config.robot.track_distance)
+        forward = sup_on_set(np.array([M[0] @ c for c in cmds]), mats, level, inner)
+        ff_v = abs(float(M[0, 1])) * yaw_rate  # the feedforward's share of v (asymmetric slip)
+        vbar = max(vbar, abs(float(M[0] @ uD)) + ff_v + forward)
+        abar = max(abar, abs(float(M[0] @ uD) - model.V) + ff_v + forward)
+        wbar = max(wbar, abs(float(M[1] @ uD)) + abs(float(M[1, 1])) * yaw_rate
+                   + sup_on_set(np.array([M[1] @ c for c in cmds]), mats, level, inner))
+        dvbar = max(dvbar, abs(float(M[0, 1])) * yaw_step
+                    + sup_on_set(np.array([M[0] @ (cmds[j] - cmds[j + 1]) for j in range(model.d_hi)]), mats, level,
+                                 inner))
+    return vbar, wbar, dvbar, abar
+
+
 def _between_samples_on_arcs(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], level: float,
                               sampled: dict[str, float], heading: float, inner: int) -> dict[str, float | None]:
     """:func:`between_samples` for a reference turning along arcs (docs/theory.md §10), on the exact arcs
@@ -707,24 +723,12 @@ def _between_samples_on_arcs(model: Any, cmds: list[np.ndarray], mats: list[np.n
     the d_hi switching instants.  v, omega (the turning feedforward (0, w_{k-j}) included) and the jumps
     dv (steps of w included) are bounded on the set at every slip corner.  Then ``|e_y| <= P_y + sin phi_bar
     P_x`` and ``|e_x| <= P_x + sin phi_bar P_y``, P the bounds on |p - p_r| over the period."""
-    from .model.slip import slip_matrix
-
     turns = model.turns
     Ts, V, d_hi = model.Ts, model.V, model.d_hi
-    uD = np.array([V, 0.0])
     w_r = float(turns.max_yaw_rate)
     phi = w_r * Ts
     sp = float(np.sin(phi))
-    D = model.config.robot.track_distance
-    vbar = wbar = dvbar = 0.0
-    for mu in np.asarray(model.corners):
-        M = slip_matrix(mu, D)
-        vbar = max(vbar, abs(float(M[0] @ uD)) + abs(float(M[0, 1])) * w_r
-                   + sup_on_set(np.array([M[0] @ c for c in cmds]), mats, level, inner))
-        wbar = max(wbar, abs(float(M[1] @ uD)) + abs(float(M[1, 1])) * w_r
-                   + sup_on_set(np.array([M[1] @ c for c in cmds]), mats, level, inner))
-        dvbar = max(dvbar, abs(float(M[0, 1])) * float(turns.max_step)
-                    + sup_on_set(np.array([M[0] @ (cmds[j] - cmds[j + 1]) for j in range(d_hi)]), mats, level, inner))
+    vbar, wbar, dvbar, _ = _speeds_on_set(model, cmds, mats, level, inner, w_r, float(turns.max_step))
     s = float(np.sin(min(phi + float(heading), np.pi / 2)))
     Bx, By = float(sampled["e_x"]), float(sampled["e_y"])
     Py = By + sp * Bx + Ts * Ts / 8 * (vbar * wbar + V * w_r) + Ts / 4 * d_hi * dvbar * s
@@ -944,22 +948,15 @@ def _arc_turns(model: Any, figures: Mapping[str, Any]) -> list[dict[str, Any]]:
     """Each corner of a path rounded by arcs (reference.turn_radius): no frame jump, the reference
     turns at |w_k| <= V^D / r, which the certificate's vertices cover (model/arcs.py), so the certified
     set and its bounds hold through the turn: peak = the set's bounds, no re-entry."""
+    from .law import PathTable
+
     cfg = model.config
     r = float(cfg.reference.turn_radius)
-    wp = np.asarray(cfg.verification.path, dtype=float)
-    seg = np.diff(wp, axis=0)
-    headings = np.arctan2(seg[:, 1], seg[:, 0])
-    lengths = np.hypot(seg[:, 0], seg[:, 1])
+    table = PathTable(cfg.verification.path, cfg.reference.speed, r, cfg.network.sampling_time)
     ub = figures["ultimate_bound"]
     wbar = float(model.turns.max_yaw_rate)
     out = []
-    travelled = 0.0
-    for i in range(1, headings.size):
-        d = float(np.angle(np.exp(1j * (headings[i] - headings[i - 1]))))
-        tangent = r * np.tan(abs(d) / 2.0)
-        travelled += lengths[i - 1] - tangent
-        t_arc = travelled / model.V
-        travelled += r * abs(d) - tangent
+    for i, (d, t_arc) in enumerate(table.arcs, start=1):
         out.append({"waypoint": i, "t_switch_s": t_arc, "turn_rad": d, "V_over_level_at_switch": 1.0,
                     "peak": {k: float(ub[k]) for k in ("e_x", "e_y", "e_theta")},
                     "motor_speed_peak": figures.get("motor_speed_bound"), "periods_to_reenter": 0,

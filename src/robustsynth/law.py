@@ -103,9 +103,12 @@ class PathTable:
         # heading along the rounded path: breakpoints (arc length, unwrapped heading), linear between
         pts, s, h = [(0.0, self.heading[0])], 0.0, self.heading[0]
         corner_at = []  # (arc length where the arc starts, waypoint)
+        self.arcs = []  # per waypoint 1..n-1: (its turn [rad], the time its arc starts [s])
         for i in range(n):
             s += self.length[i] - tangent[i] - tangent[i + 1]
             pts.append((s, h))
+            if i + 1 < n:
+                self.arcs.append((turns[i + 1], s / self.speed))
             if i + 1 < n and turns[i + 1] != 0.0:
                 corner_at.append((s, i + 1))
                 s += r * abs(turns[i + 1])

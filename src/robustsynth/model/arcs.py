@@ -182,19 +182,15 @@ def turning_vertices(model, turns: Turns, theta_bar: float | None = None) -> tup
     ``model.channels``) augmented for ``turns``, for the nonlinear robot with |eta(t)| <= ``theta_bar``
     (None: the linearization); one scale per channel, common to every vertex (B_p enters the LMIs
     quadratically and must be the same at every vertex)."""
-    from .slip import slip_matrix
-
     if not model.channels or len(model.channels) != len(model.base_vertices):
         raise ValueError("turning references need the delay vertices and their kinematic channels")
-    D = float(model.config.robot.track_distance)
     parts = []
     for v, ch in zip(model.base_vertices, model.channels):
         if v.n_q:
             raise ValueError("turning references need vertices without uncertainty channels")
         if ch.F.shape[1] != np.asarray(v.E).shape[1]:
             raise ValueError("the channels' constant column does not match the vertex's")
-        M11 = float(slip_matrix(np.asarray(model.corners[v.corner], dtype=float)[:2], D)[1, 1])
-        parts.append(_parts(v, ch, M11, turns, model.Ts, model.V, model.n_e, model.n_u, model.d_hi,
+        parts.append(_parts(v, ch, _turn_gain(model, v), turns, model.Ts, model.V, model.n_e, model.n_u, model.d_hi,
                             float(theta_bar or 0.0)))
     Bp = parts[0][6]
     if any(not np.array_equal(p[6], Bp) for p in parts):
@@ -229,14 +225,16 @@ def turning_heading(model, turns: Turns) -> tuple[KinematicChannels, ...]:
     """``model.channels`` with their heading rows' yaw-rate coefficients (``F_h``: :func:`heading_yaw_columns`)."""
     from dataclasses import replace
 
+    return tuple(replace(ch, F_h=heading_yaw_columns(ch, _turn_gain(model, v), turns, model.n_e, model.n_u, model.d_hi))
+                 for v, ch in zip(model.base_vertices, model.channels))
+
+
+def _turn_gain(model, v: Vertex) -> float:
+    """M(mu)[1, 1] at vertex ``v``'s slip corner: the turn rate the robot gets per unit of commanded turn rate."""
     from .slip import slip_matrix
 
-    D = float(model.config.robot.track_distance)
-    out = []
-    for v, ch in zip(model.base_vertices, model.channels):
-        M11 = float(slip_matrix(np.asarray(model.corners[v.corner], dtype=float)[:2], D)[1, 1])
-        out.append(replace(ch, F_h=heading_yaw_columns(ch, M11, turns, model.n_e, model.n_u, model.d_hi)))
-    return tuple(out)
+    return float(slip_matrix(np.asarray(model.corners[v.corner], dtype=float)[:2],
+                             float(model.config.robot.track_distance))[1, 1])
 
 
 def straight_delta(ch: KinematicChannels, phi_bar: float, theta_bar: float = 0.0) -> np.ndarray:
