@@ -8,8 +8,11 @@ certified |e_x|, |e_y|, |e_theta| and motor bound (with the feedforward's share)
 between samples (on arcs: the exact arcs in the turning frame, docs/theory.md §10), the synthesis time,
 and the boundary probe on arcs (the nonlinear robot, one period from 20 000 states on the set's
 boundary, slip at a corner, random delays, the yaw rates as ``verification.probe.arc_period`` draws
-them: max V+/level).  w_bar = 0 is the straight-segment certificate; its probe is run on arcs of the
-next row's w_bar (it does not cover them).  "none" is exit 3 (Infeasible) or 4 (SolverFailure).
+them: max V+/level), and the same states with each track's slip jumping to the other end of its range at
+its own random time within the period (which a common certificate covers, docs/theory.md §10; the
+straight-segment one covers it on straight segments only).  w_bar = 0 is the straight-segment certificate;
+its probe is run on arcs of the next row's w_bar (it does not cover them).  "none" is exit 3 (Infeasible)
+or 4 (SolverFailure).
 
     .venv/bin/python benchmarks/run_all.py bench_turns
 """
@@ -24,8 +27,8 @@ BOXES = ((0.8, "linearized", (0.0, 0.1, 0.2, 0.35)), (0.6, "linearized", (0.0, 0
          (0.8, "nonlinear", (0.0, 0.1, 0.5 / 3.0, 0.25)))
 
 
-def _probe(model, K, P, level, wbar, N=20000, seed=1):
-    from robustsynth.scenarios import random_delays
+def _probe(model, K, P, level, wbar, N=20000, seed=1, within=False):
+    from robustsynth.scenarios import random_delays, track_changes
     from robustsynth.verification.probe import arc_period
 
     rng = np.random.default_rng(seed)
@@ -37,7 +40,12 @@ def _probe(model, K, P, level, wbar, N=20000, seed=1):
     S = model.s_tilde(random_delays(model, rng, N, 1))[:, 0]
     du = x @ K.T
     turning = model if wbar == getattr(model.turns, "max_yaw_rate", None) else model.with_turns(wbar)
-    e = arc_period(turning, x[:, :n_e], du, x[:, n_e : n_e + d_hi * n_u].reshape(N, d_hi, n_u), S, mu, rng)
+    switch = None
+    if within:  # each track to the other end of its range at its own time within the period
+        lo, hi = np.array([rl, ll]), np.array([rh, lh])
+        switch = track_changes(mu, lo + hi - mu, rng.uniform(0.0, model.Ts, (N, 2)))
+    e = arc_period(turning, x[:, :n_e], du, x[:, n_e : n_e + d_hi * n_u].reshape(N, d_hi, n_u), S, mu, rng,
+                   switch=switch)
     xi = np.concatenate([e, du, x[:, n_e : n_e + (d_hi - 1) * n_u]], axis=1)
     return float(np.max(np.einsum("ni,ij,nj->n", xi, P, xi) / level))
 
@@ -49,8 +57,9 @@ def main() -> dict:
 
     out = {}
     print("| slip box | kinematics | w_bar [rad/s] (arc radius) | \\|e_x\\| | \\|e_y\\| | \\|e_theta\\| | motor bound "
-          "[rad/s] | \\|e_y(t)\\| for all t | synthesis | boundary probe on arcs: max V+/level |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+          "[rad/s] | \\|e_y(t)\\| for all t | synthesis | boundary probe on arcs: max V+/level | the same, slip "
+          "jumping within the period | slip within a period |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for lo, kin, wbars in BOXES:
         cfg = load_config(None)
         cfg = cfg.model_copy(update={
@@ -64,7 +73,7 @@ def main() -> dict:
             try:
                 r = synthesize(model)
             except (InfeasibleError, SolverFailure) as exc:
-                print(f"| [{lo:g}, 1] | {kin} | {wbar:.3g} | none ({type(exc).__name__}) | | | | | {time.perf_counter() - t0:.1f} s | |",
+                print(f"| [{lo:g}, 1] | {kin} | {wbar:.3g} | none ({type(exc).__name__}) | | | | | {time.perf_counter() - t0:.1f} s | | | |",
                       flush=True)
                 continue
             dt = time.perf_counter() - t0
@@ -72,12 +81,13 @@ def main() -> dict:
             ub = f["ultimate_bound"]
             probe_w = wbar if wbar > 0 else (wbars[i + 1] if i + 1 < len(wbars) else 0.0)
             probe = _probe(model, r.K, np.asarray(r.certificate["P"]), f["ellipsoid_level"], probe_w)
+            jumps = _probe(model, r.K, np.asarray(r.certificate["P"]), f["ellipsoid_level"], probe_w, within=True)
             radius = "straight" if wbar == 0 else f"{model.V / wbar:.3g} m"
             print(f"| [{lo:g}, 1] | {kin} | {wbar:.3g} ({radius}) | {100 * ub['e_x']:.2f} cm | {100 * ub['e_y']:.2f} cm | "
                   f"{ub['e_theta']:.3f} rad | {f['motor_speed_bound']:.2f} | "
                   f"{100 * f['ultimate_bound_between_samples']['e_y']:.2f} cm | {dt:.1f} s | "
-                  f"{probe:.3f} (w_bar {probe_w:g}) |", flush=True)
-            out[f"{lo}/{kin}/{wbar:.4g}"] = {"e_y": ub["e_y"], "probe": probe, "time_s": dt}
+                  f"{probe:.3f} (w_bar {probe_w:g}) | {jumps:.3f} | {f.get('slip_within_period', '')} |", flush=True)
+            out[f"{lo}/{kin}/{wbar:.4g}"] = {"e_y": ub["e_y"], "probe": probe, "probe_jumps": jumps, "time_s": dt}
     return out
 
 

@@ -322,11 +322,17 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
             return _fail(f"the certificate is for a reference turning along arcs (yaw rates up to {want[0]:.4g} rad/s), "
                          "the config's path jumps at its waypoints (reference.turn_radius is null): set "
                          "reference.turn_radius to the gain's radius or wider")
-        if (have.max_yaw_rate, have.max_step) != want:
+        # the turning vertices of the certificate's own yaw rates, for slip changing within a period where its
+        # channels are (within_period_channels; a certificate made before they existed assumes it constant)
+        within = bool(cert.get("within_period_channels", False))
+        if within and not model.covering:
+            return _fail("the certificate's channels are for slip changing within a period, which this config's "
+                         f"model does not cover ({model.varying_reason})")
+        if (have.max_yaw_rate, have.max_step) != want or within != bool(model.covering_vertices):
             from .errors import InputError
 
             try:
-                model = model.with_turns(*want)
+                model = model.with_turns(*want, within_period=within)
             except InputError as exc:
                 return _fail(f"the certificate is for a turning reference, which this model cannot carry: {exc}")
     elif have is not None:
@@ -342,7 +348,11 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
         return _fail(f"multipliers.M has {len(raw)} entries, expected one per vertex ({n_v})")
     Ms = []
     for i, (x, v) in enumerate(zip(raw, model.vertices)):
-        M = _arr(x, f"multipliers.M[{i}]").reshape(v.n_q, v.n_q)
+        M = _arr(x, f"multipliers.M[{i}]")
+        if M.size != v.n_q * v.n_q:
+            return _fail(f"multipliers.M[{i}] has {M.size} entries, expected {v.n_q} x {v.n_q} (the vertex's uncertainty "
+                         "channels; a certificate for other channels, e.g. with or without within_period_channels?)")
+        M = M.reshape(v.n_q, v.n_q)
         err = _symmetric(M, f"multipliers.M[{i}]") or multiplier_structure_error(
             M, v.n_q // 3, mult.get("kind", "structured"), v.diagonal)
         if err:
@@ -636,7 +646,7 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
     V omega(t) is bounded pointwise, whatever the slip does.  On the exact arcs (a nonlinear
     certificate) e_y' = V sin e_theta + a sin e_theta: the first part has a bounded f'', the second
     (a jumps with the slip) is bounded by its range; e_x' likewise."""
-    from .model.slip import lateral_row, slip_matrix
+    from .model.slip import lateral_row
 
     n_s, n_e, n_u, d_hi = model.n_s, model.n_e, model.n_u, model.d_hi
     Ts, V = model.Ts, model.V
@@ -645,9 +655,8 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
         E = np.zeros((n_u, n_s))
         E[:, n_e + (j - 1) * n_u : n_e + j * n_u] = np.eye(n_u)
         cmds.append(E)
-    uD = np.array([V, 0.0])
     if getattr(model, "turns", None) is not None:
-        return _between_samples_on_arcs(model, cmds, mats, level, sampled, heading, inner)
+        return _between_samples_on_arcs(model, cmds, mats, level, sampled, heading, inner, within_period)
     vbar, wbar, dvbar, abar = _speeds_on_set(model, cmds, mats, level, inner)
     if model.heading_bound is not None:
         s = float(np.sin(min(float(heading), np.pi / 2)))
@@ -657,15 +666,7 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
         ey = Ts * Ts / 8 * V * wbar
         ex = Ts / 4 * d_hi * dvbar
     if within_period:
-        D = model.config.robot.track_distance
-        Ms = [slip_matrix(mu, D) for mu in np.asarray(model.corners)]
-        osc = 0.0
-        for Ma in Ms:
-            for Mb in Ms:
-                const = float((Ma[0] - Mb[0]) @ uD)
-                for ca in cmds:
-                    rows = np.array([Ma[0] @ ca - Mb[0] @ cb for cb in cmds])
-                    osc = max(osc, abs(const) + sup_on_set(rows, mats, level, inner))
+        osc = _forward_oscillation(model, cmds, mats, level, inner)
         ex = Ts / 4 * osc
         if model.heading_bound is not None:
             # the exact arcs, split so that only the parts in which a = v - V (which jumps with the slip)
@@ -684,6 +685,25 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
         ey += Ts / 4 * d_hi * dvy
     return {"e_x": round_up(sampled["e_x"] + ex, 12), "e_y": round_up(sampled["e_y"] + ey, 12),
             "e_theta": heading}
+
+
+def _forward_oscillation(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], level: float, inner: int,
+                         yaw_rate: float = 0.0) -> float:
+    """The largest difference of the forward speed a = v - V^D between any two instants of a period on the
+    set, slip changing at any time: between any two slip corners and any two commands in flight (``cmds``),
+    with a turning reference's feedforward (0, w), |w| <= ``yaw_rate``, in each."""
+    from .model.slip import slip_matrix
+
+    uD = np.array([model.V, 0.0])
+    Ms = [slip_matrix(mu, model.config.robot.track_distance) for mu in np.asarray(model.corners)]
+    osc = 0.0
+    for Ma in Ms:
+        for Mb in Ms:
+            const = abs(float((Ma[0] - Mb[0]) @ uD)) + (abs(float(Ma[0, 1])) + abs(float(Mb[0, 1]))) * yaw_rate
+            for ca in cmds:
+                rows = np.array([Ma[0] @ ca - Mb[0] @ cb for cb in cmds])
+                osc = max(osc, const + sup_on_set(rows, mats, level, inner))
+    return osc
 
 
 def _speeds_on_set(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], level: float, inner: int,
@@ -711,7 +731,8 @@ def _speeds_on_set(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], l
 
 
 def _between_samples_on_arcs(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], level: float,
-                              sampled: dict[str, float], heading: float, inner: int) -> dict[str, float | None]:
+                              sampled: dict[str, float], heading: float, inner: int,
+                              within_period: bool = False) -> dict[str, float | None]:
     """:func:`between_samples` for a reference turning along arcs (docs/theory.md §10), on the exact arcs
     (for either kinematics: the linearization's own flow is not the robot's).  In the frame F_k of the
     reference at t_k, with p the robot's position and p_r the reference's (heading psi = w_k s), the error
@@ -722,17 +743,31 @@ def _between_samples_on_arcs(model: Any, cmds: list[np.ndarray], mats: list[np.n
     sin psi`` (theta = psi + eta, |theta| <= phi_bar + |eta|), jumps ``|dv|`` (times sin theta for y) at
     the d_hi switching instants.  v, omega (the turning feedforward (0, w_{k-j}) included) and the jumps
     dv (steps of w included) are bounded on the set at every slip corner.  Then ``|e_y| <= P_y + sin phi_bar
-    P_x`` and ``|e_x| <= P_x + sin phi_bar P_y``, P the bounds on |p - p_r| over the period."""
+    P_x`` and ``|e_x| <= P_x + sin phi_bar P_y``, P the bounds on |p - p_r| over the period.
+
+    ``within_period``: slip may also change within the period, so v jumps wherever it does.  As on straight
+    segments (:func:`between_samples`) only the parts in which a = v - V^D appears are bounded by their
+    ranges: ``(p_y - p_ry)' = V (sin theta - sin psi) + a sin theta``, the first with ``|f''| <= V (omega_bar +
+    w_bar)``, the second in ``+-abar sin theta_hat``; ``(p_x - p_rx)' = a + V (cos theta - cos psi) + a (cos theta
+    - 1)``: a ranges over its oscillation, the second has ``|f''| <= V (omega_bar sin theta_hat + w_bar sin
+    phi_bar)``, the third is in ``+-abar (1 - cos theta_hat)`` (theta_hat = phi_bar + |eta|)."""
     turns = model.turns
     Ts, V, d_hi = model.Ts, model.V, model.d_hi
     w_r = float(turns.max_yaw_rate)
     phi = w_r * Ts
     sp = float(np.sin(phi))
-    vbar, wbar, dvbar, _ = _speeds_on_set(model, cmds, mats, level, inner, w_r, float(turns.max_step))
-    s = float(np.sin(min(phi + float(heading), np.pi / 2)))
+    vbar, wbar, dvbar, abar = _speeds_on_set(model, cmds, mats, level, inner, w_r, float(turns.max_step))
+    top = min(phi + float(heading), np.pi / 2)
+    s, one_minus_cos = float(np.sin(top)), 2.0 * float(np.sin(top / 2.0)) ** 2
     Bx, By = float(sampled["e_x"]), float(sampled["e_y"])
-    Py = By + sp * Bx + Ts * Ts / 8 * (vbar * wbar + V * w_r) + Ts / 4 * d_hi * dvbar * s
-    Px = Bx + sp * By + Ts * Ts / 8 * (vbar * wbar * s + V * w_r * sp) + Ts / 4 * d_hi * dvbar
+    if within_period:
+        osc = _forward_oscillation(model, cmds, mats, level, inner, w_r)
+        Py = By + sp * Bx + Ts * Ts / 8 * V * (wbar + w_r) + Ts / 4 * 2.0 * abar * s
+        Px = (Bx + sp * By + Ts / 4 * osc + Ts * Ts / 8 * V * (wbar * s + w_r * sp)
+              + Ts / 4 * 2.0 * abar * one_minus_cos)
+    else:
+        Py = By + sp * Bx + Ts * Ts / 8 * (vbar * wbar + V * w_r) + Ts / 4 * d_hi * dvbar * s
+        Px = Bx + sp * By + Ts * Ts / 8 * (vbar * wbar * s + V * w_r * sp) + Ts / 4 * d_hi * dvbar
     return {"e_x": round_up(Px + sp * Py, 16), "e_y": round_up(Py + sp * Px, 16), "e_theta": heading}
 
 

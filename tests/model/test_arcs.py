@@ -15,7 +15,7 @@ from robustsynth.model.nonlinear import vertex_channels
 from robustsynth.model.slip import slip_matrix
 from robustsynth.model.vertices import Vertex
 from robustsynth.plants.kinematic import KinematicRobot
-from robustsynth.scenarios import random_delays
+from robustsynth.scenarios import random_delays, track_changes
 
 from ..conftest import make_config
 
@@ -228,7 +228,7 @@ def test_the_nonlinear_robot_on_an_arc_lies_within_the_vertices_for_its_heading(
         M = slip_matrix(mu[i], D)
         h = Ts - S[i]
         ch = vertex_channels(mu[i], np.stack([h, h**2 / 2.0], axis=1), V, Ts, M, model.n_s, n_e, n_u, d_hi)
-        F_h = heading_yaw_columns(ch, float(M[1, 1]), turns, n_e, n_u, d_hi)
+        F_h = heading_yaw_columns(ch, turns, n_e, n_u, d_hi)
         z = np.concatenate([[w[i, 0] / turns.max_yaw_rate], (w[i, 0] - w[i, 1:]) / b])
         rows = ch.C_h @ xi[i] + ch.D_h @ du[i] + ch.g_h + F_h @ z
         assert np.max(np.abs(rows - eta[i])) <= 1e-13
@@ -248,3 +248,115 @@ def test_the_nonlinear_turning_model_at_its_straight_point():
     assert lin.vertices[0].n_q == model.vertices[0].n_q  # the same channels, narrower factor ranges
     width = [float(np.sum(np.abs(m.vertices[0].B_p) @ np.abs(m.vertices[0].C_q))) for m in (lin, model)]
     assert width[0] < width[1]  # |B_p| |C_q|: independent of the channels' scaling
+
+
+# ---------------------------------------------------------------- slip changing within the period, on arcs
+
+
+def _within_period(model, turns, rng, N, full):
+    """Samples as :func:`_sample_full` (``full``) or :func:`_sample`, with each track's slip jumping between
+    the two ends of its range (scaled about 1 by EPS when not ``full``) at its own random time within
+    the period; the robot's e at t_{k+1} in the reference's frame then, eta at every break point and jump
+    (its extremes: eta is piecewise linear), and the switched straight map (A, B, c) of the history."""
+    from .test_nonlinear import _heading_at
+
+    xi, du, _, S, w = (_sample_full if full else _sample)(model, turns, rng, N)
+    (rl, rh), (ll, lh) = model.slip_ranges
+    lo, hi = np.array([rl, ll]), np.array([rh, lh])
+    if not full:
+        lo, hi = 1.0 + EPS * (lo - 1.0), 1.0 + EPS * (hi - 1.0)
+    pick = rng.integers(0, 2, (N, 2))
+    mu, after = lo + (hi - lo) * pick, lo + (hi - lo) * (1 - pick)
+    t_sw = rng.uniform(0.0, model.Ts, (N, 2))
+    switch = track_changes(mu, after, t_sw)
+    n_e, n_u, d_hi, V, Ts = model.n_e, model.n_u, model.d_hi, model.V, model.Ts
+    U = np.empty((N, d_hi + 1, n_u))
+    U[:, 0] = np.array([V, 0.0]) + du
+    U[:, 1:] = np.array([V, 0.0]) + xi[:, n_e : n_e + d_hi * n_u].reshape(N, d_hi, n_u)
+    U += w[:, :, None] * FEEDFORWARD
+    q1 = KinematicRobot.of(model).period(xi[:, :n_e], U, S, mu, switch=switch)
+    phi = w[:, 0] * Ts
+    half = phi / 2.0
+    chord = V * Ts * np.where(half != 0.0, np.sin(half) / np.where(half == 0.0, 1.0, half), 1.0)
+    dx, dy = q1[:, 0] - chord * np.cos(half), q1[:, 1] - chord * np.sin(half)
+    e = np.stack([np.cos(phi) * dx + np.sin(phi) * dy, -np.sin(phi) * dx + np.cos(phi) * dy, q1[:, 2] - phi], axis=1)
+    times = np.concatenate([np.zeros((N, 1)), S, t_sw, np.full((N, 1), Ts)], axis=1)
+    eta = np.stack([_heading_at(model, xi[:, 2], U, S, mu, t_sw, after, times[:, k]) - w[:, 0] * times[:, k]
+                    for k in range(times.shape[1])], axis=1)
+    A, B, c = model.switched_exact(S, mu, t_sw, after, per_track=True)
+    return (xi, du, S, w), e, eta, (A, B, c), (lo, hi)
+
+
+def _covering_allowed(model, turns, xi, du, S, w, maps, box, theta_bar, narrow=False):
+    """Per sample the centre and allowance of the covering turning vertex at the sample's own delays and
+    slip history (its straight map: the switched one, a point of the within-period vertices' hull; its
+    channels: the delay vertex's covering ones, affine in the delay coordinates); and the heading rows'
+    largest |eta| there.  ``narrow``: the deviation channels at zero width (the negative control)."""
+    from dataclasses import replace
+
+    from robustsynth.model.nonlinear import covering_channels
+
+    n_e, n_u, d_hi, V, Ts = model.n_e, model.n_u, model.d_hi, model.V, model.Ts
+    D = model.config.robot.track_distance
+    lo, hi = box
+    M11 = float(slip_matrix((lo + hi) / 2.0, D)[1, 1])
+    A, B, c = maps
+    h = Ts - S
+    b = turns.step_bounds(d_hi + 1)
+    centre, allow, rows = np.empty((xi.shape[0], n_e)), np.empty((xi.shape[0], n_e)), np.empty(xi.shape[0])
+    for i in range(xi.shape[0]):
+        ch = covering_channels((lo[0], hi[0]), (lo[1], hi[1]), np.stack([h[i], h[i] ** 2 / 2.0], axis=1), V, Ts, D,
+                               model.n_s, n_e, n_u, d_hi)
+        if narrow:
+            ch = replace(ch, half_dev=np.zeros_like(ch.half_dev))
+        v = Vertex(A[i], B[i], c[i][:, None], np.zeros((model.n_s, 0)), np.zeros((0, model.n_s)), np.zeros((0, n_u)), 0, "")
+        Ai, Bi, Ei, Cq, Dq, Fq, Bp = _parts(v, ch, M11, turns, Ts, V, n_e, n_u, d_hi, theta_bar)
+        z = np.concatenate([[w[i, 0] / turns.max_yaw_rate], (w[i, 0] - w[i, 1:]) / b])
+        wv = np.concatenate([[1.0], z])
+        q = Cq @ xi[i] + Dq @ du[i] + Fq @ wv
+        centre[i] = (Ai @ xi[i] + Bi @ du[i] + Ei @ wv)[:n_e]
+        allow[i] = (np.abs(Bp) @ np.abs(q))[:n_e]
+        F_h = heading_yaw_columns(ch, turns, n_e, n_u, d_hi)
+        rows[i] = np.max(np.abs(ch.C_h @ xi[i] + ch.D_h @ du[i] + ch.g_h + F_h @ z))
+    return centre, allow, rows
+
+
+@pytest.mark.parametrize("over", [{}, {"network.delay.min": 0.12, "network.delay.max": 0.22}])
+@pytest.mark.parametrize("theta_bar", [0.0, THETA_BAR])
+def test_slip_changing_within_the_period_on_an_arc_stays_within_the_covering_vertices(over, theta_bar):
+    """Each track's slip jumps between the ends of its range at its own time within the period, on an arc
+    with the feedforward in flight.  The robot lies within the covering turning vertex's allowance: to
+    round-off for the nonlinear vertex (full-size deviations, wherever |eta(t)| <= theta_bar), to second
+    order for the linearized one (deviations scaled by EPS).  e_theta is exact, and the heading rows with
+    their yaw-rate columns bound |eta| at every break point and jump."""
+    model = _model(**over)
+    turns = Turns(0.5, 0.5)
+    rng = np.random.default_rng(13)
+    full = theta_bar > 0.0
+    args, e, eta, maps, box = _within_period(model, turns, rng, 500, full)
+    if full:
+        keep = np.max(np.abs(eta), axis=1) <= theta_bar
+        assert np.mean(keep) > 0.5
+        args, e, eta = tuple(a[keep] for a in args), e[keep], eta[keep]
+        maps = tuple(m[keep] for m in maps)
+    centre, allow, rows = _covering_allowed(model, turns, *args, maps, box, theta_bar)
+    slack = EXACT if full else SECOND_ORDER
+    assert np.max(np.abs(e[:, 2] - centre[:, 2])) <= TOL_EXACT
+    assert np.max(np.abs(e - centre)[:, :2] - allow[:, :2]) <= slack
+    used = np.abs(e - centre)[:, :2] / np.maximum(allow[:, :2], 1e-300)
+    assert np.max(used) > 0.3  # not vacuous
+    assert np.all(np.max(np.abs(eta), axis=1) <= rows + TOL_EXACT)
+
+
+def test_without_the_deviation_channels_slip_changing_on_an_arc_is_not_covered():
+    """The negative control: the covering channels with the tracks' deviations at zero width (the centre
+    slip's channels only) are exceeded by the same histories."""
+    model = _model()
+    turns = Turns(0.5, 0.5)
+    rng = np.random.default_rng(13)
+    args, e, eta, maps, box = _within_period(model, turns, rng, 500, True)
+    keep = np.max(np.abs(eta), axis=1) <= THETA_BAR
+    args, e = tuple(a[keep] for a in args), e[keep]
+    maps = tuple(m[keep] for m in maps)
+    centre, allow, _ = _covering_allowed(model, turns, *args, maps, box, THETA_BAR, narrow=True)
+    assert np.max(np.abs(e - centre)[:, :2] - allow[:, :2]) > 1e-4

@@ -12,7 +12,7 @@ from robustsynth.law import wrap_angle
 from robustsynth.model import build_model
 from robustsynth.model.arcs import FEEDFORWARD
 from robustsynth.plants.kinematic import KinematicRobot
-from robustsynth.scenarios import random_delays
+from robustsynth.scenarios import random_delays, track_changes
 from robustsynth.synthesis import synthesize
 
 from ..conftest import make_config
@@ -97,7 +97,13 @@ def test_the_turning_certificate_is_rechecked_with_the_turns_it_names(designs) -
     cont = chk.figures["ultimate_bound_between_samples"]
     assert all(cont[k] > chk.figures["ultimate_bound"][k] for k in ("e_x", "e_y"))
     assert cont["e_theta"] == chk.figures["heading_within_period"] >= chk.figures["ultimate_bound"]["e_theta"] * (1 - 1e-9)
-    assert chk.figures["slip_within_period"].startswith("assumed constant")
+    # slip changing within a period: covered by the channels the certificate names (docs/theory.md §10)
+    assert r.certificate["within_period_channels"] is True and turning.covering_vertices
+    assert chk.figures["slip_within_period"] == "covered"
+    constant = {k: v for k, v in r.certificate.items() if k != "within_period_channels"}
+    refused = check_certificate(turning, r.K, constant)  # its multipliers are for the covering channels
+    n, m = turning.vertices[0].n_q, turning.with_turns(W_BAR, within_period=False).vertices[0].n_q
+    assert n > m and not refused.passed and f"multipliers.M[0] has {n * n} entries, expected {m} x {m}" in refused.reason
 
 
 def test_the_motor_bound_holds_the_turning_feedforward(designs) -> None:
@@ -109,10 +115,17 @@ def test_the_motor_bound_holds_the_turning_feedforward(designs) -> None:
     assert ff < motor <= cfg.robot.max_motor_speed
 
 
-def _boundary(model, K, P, level, wbar, N=20000, seed=1):
+def _jumps(rng, mu, lo, hi, Ts):
+    """Each track's slip jumping to the other end of its range at its own random time within the period,
+    as ``period``'s ``switch`` list (``scenarios.track_changes``)."""
+    return track_changes(mu, lo + hi - mu, rng.uniform(0.0, Ts, (mu.shape[0], 2)))
+
+
+def _boundary(model, K, P, level, wbar, N=20000, seed=1, within=False):
     """One period of the exact robot from N states on the set's boundary (random directions of the
     lifted state, past commands included), slip at a corner, random delays, the reference turning at
-    w_k in {-wbar, 0, wbar} after w_{k-1} within wbar of it: max V+/level."""
+    w_k in {-wbar, 0, wbar} after w_{k-1} within wbar of it: max V+/level.  ``within``: each track's
+    slip also jumps to the other end of its range at its own time within the period."""
     rng = np.random.default_rng(seed)
     n_e, n_u, d_hi, V, Ts = model.n_e, model.n_u, model.d_hi, model.V, model.Ts
     x = rng.normal(size=(N, model.n_s))
@@ -127,7 +140,8 @@ def _boundary(model, K, P, level, wbar, N=20000, seed=1):
     U[:, 0] = np.array([V, 0.0]) + du + wk[:, None] * FEEDFORWARD
     U[:, 1:] = (np.array([V, 0.0]) + x[:, n_e : n_e + d_hi * n_u].reshape(N, d_hi, n_u)
                 + w_prev[:, None, None] * FEEDFORWARD)
-    q1 = KinematicRobot.of(model).period(x[:, :n_e], U, S, mu)
+    switch = _jumps(rng, mu, np.array([rl, ll]), np.array([rh, lh]), Ts) if within else None
+    q1 = KinematicRobot.of(model).period(x[:, :n_e], U, S, mu, switch=switch)
     phi = wk * Ts
     chord = V * Ts * np.sinc(phi / (2.0 * np.pi))
     dx, dy = q1[:, 0] - chord * np.cos(phi / 2.0), q1[:, 1] - chord * np.sin(phi / 2.0)
@@ -150,6 +164,7 @@ def test_the_robot_on_arcs_stays_in_the_turning_set_and_leaves_the_straight_one(
     assert np.max(worst) <= 1.0
     assert ey <= r.check.figures["ultimate_bound"]["e_y"]
     assert _boundary(turning, r.K, P, level, W_BAR) <= 1.0
+    assert _boundary(turning, r.K, P, level, W_BAR, within=True) <= 1.0  # the certificate covers slip jumps
     P0, level0 = np.asarray(r0.certificate["P"]), r0.check.figures["ellipsoid_level"]
     assert _boundary(base, r0.K, P0, level0, W_BAR) > 1.1
     # the price of the turns: a larger set than for straight segments only
@@ -176,10 +191,11 @@ def test_a_heading_bound_on_a_turning_model_keeps_its_turns(designs) -> None:
 
 
 def test_the_committed_turning_gain_is_a_proof_for_the_nonlinear_robot() -> None:
-    """configs/turns.yaml's committed gain (nonlinear kinematics, 3 m arcs): re-checked on the config's
+    """configs/turns.yaml's committed gain (nonlinear kinematics, 5 m arcs): re-checked on the config's
     model with its heading bound and turns, |e_theta(t)| on arcs within that bound, refused for the
     linearized kinematics; from the boundary of its set, one period of the exact robot on arcs stays in
-    it (no second-order slack: the certificate holds every kinematic term)."""
+    it (no second-order slack: the certificate holds every kinematic term), also with each track's slip
+    jumping within the period."""
     import json
     from pathlib import Path
 
@@ -204,14 +220,17 @@ def test_the_committed_turning_gain_is_a_proof_for_the_nonlinear_robot() -> None
     P = lyapunov_of(model, cert).P[0]
     level = f["ellipsoid_level"]
     assert _boundary(model, K, P, level, wbar, seed=2) <= 1.0
+    assert cert["within_period_channels"] and _boundary(model, K, P, level, wbar, seed=2, within=True) <= 1.0
 
 
 def test_between_samples_on_arcs_the_robot_stays_within_the_continuous_bounds() -> None:
     """Certificate vs simulation between the sampling instants, on arcs: the committed turning gain,
     from states on its set's boundary (random directions and each figure's maximizers, slip corners,
-    admissible delays), the reference turning at -w_bar, 0 or w_bar after a step the certificate allows;
-    at 41 instants of the period (the exact arcs cut at t) the errors in the frame of the reference at
-    t stay within ultimate_bound_between_samples (|e_theta(t)|: heading_within_period)."""
+    admissible delays), the reference turning at -w_bar, 0 or w_bar after a step the certificate allows,
+    and in every other run each track's slip jumping to the other end of its range at its own time (the
+    certificate covers slip changing within a period); at 41 instants of the period (the exact arcs cut
+    at t) the errors in the frame of the reference at t stay within ultimate_bound_between_samples
+    (|e_theta(t)|: heading_within_period)."""
     from robustsynth.certificate import lyapunov_of
     from robustsynth.model.slip import slip_matrix
     from robustsynth.plants.kinematic import period
@@ -238,10 +257,16 @@ def test_between_samples_on_arcs_the_robot_stays_within_the_continuous_bounds() 
     U += w[:, :, None] * FEEDFORWARD
     S = m.s_tilde(random_delays(m, rng, N, 1))[:, 0]
     robot = KinematicRobot.of(m)
-    M = slip_matrix(mu, m.config.robot.track_distance)
+    D = m.config.robot.track_distance
+    M = slip_matrix(mu, D)
+    assert cert["within_period_channels"] and chk.figures["slip_within_period"] == "covered"
+    (rl, rh), (ll, lh) = m.slip_ranges
+    jumps = _jumps(rng, mu, np.array([rl, ll]), np.array([rh, lh]), Ts)
+    jumps = [(np.where(np.arange(N) % 2 == 0, t_j, Ts), slip_matrix(np.where((np.arange(N) % 2 == 0)[:, None], mu_j, mu), D))
+             for t_j, mu_j in jumps]  # every other run
     worst = np.zeros(3)
     for t in np.linspace(0.0, Ts, 41)[1:]:
-        qt = period(xi[:, :n_e], U, np.minimum(S, t), M, t, robot.J, robot.J_inv, robot.rho_max)
+        qt = period(xi[:, :n_e], U, np.minimum(S, t), M, t, robot.J, robot.J_inv, robot.rho_max, switch=jumps)
         psi = wk * t
         chord = V * t * np.sinc(psi / (2.0 * np.pi))  # the reference's chord from t_k, at angle psi / 2
         dx, dy = qt[:, 0] - chord * np.cos(psi / 2.0), qt[:, 1] - chord * np.sin(psi / 2.0)

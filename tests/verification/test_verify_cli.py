@@ -230,12 +230,12 @@ def test_a_turning_gain_on_a_path_that_jumps_is_refused_cleanly(tmp_path) -> Non
     root = Path(__file__).resolve().parents[2]
     gains = root / "results" / "baselines" / "turns" / "gains.json"
     cfg = tmp_path / "jumps.yaml"
-    cfg.write_text((root / "configs" / "turns.yaml").read_text().replace("turn_radius: 3.0 ", "turn_radius: null "))
+    cfg.write_text((root / "configs" / "turns.yaml").read_text().replace("turn_radius: 5.0 ", "turn_radius: null "))
     r = CliRunner().invoke(main, ["verify", str(cfg), "--gains", str(gains), "-o", str(tmp_path / "v"), "--runs", "4",
                                   "--no-plots"])
     assert r.exit_code == 1, r.output
     assert r.exception is None or isinstance(r.exception, SystemExit), r.exception  # no crash
     assert "the config's path jumps at its waypoints (reference.turn_radius is null)" in r.output
     r = CliRunner().invoke(main, ["export", str(gains), "--to", "json", "-o", str(tmp_path / "e"), "--config", str(cfg)])
-    assert r.exit_code == 2 and "certified for arcs of 3.0 m and wider" in r.output
+    assert r.exit_code == 2 and "certified for arcs of 5.0 m and wider" in r.output
     assert not (tmp_path / "e").exists()

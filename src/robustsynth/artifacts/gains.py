@@ -73,8 +73,8 @@ def gains_dict(model: Any, result: Any) -> dict[str, Any]:
     if cert.get("kinematics", "linearized") != "linearized":  # the certificate covers the exact arcs (theory §9)
         certificate["kinematics"] = cert["kinematics"]
         certificate["heading_bound"] = cert["heading_bound"]
-        if cert.get("within_period_channels"):
-            certificate["within_period_channels"] = True
+    if cert.get("within_period_channels"):  # channels for slip changing within a period (theory §9, §10)
+        certificate["within_period_channels"] = True
     if cert.get("turns") is not None:  # the reference yaw rates the certificate covers (model/arcs.py)
         certificate["turns"] = dict(cert["turns"])
     out = {
@@ -233,8 +233,8 @@ def _load_mat(p: Path) -> dict[str, Any]:
         if kin != "linearized":
             cert["kinematics"] = kin
             cert["heading_bound"] = _mat_scalar(m.get("heading_bound", np.nan))
-            if bool(_mat_scalar(m.get("within_period_channels", 0.0))):
-                cert["within_period_channels"] = True
+        if bool(_mat_scalar(m.get("within_period_channels", 0.0))):
+            cert["within_period_channels"] = True
         turn = _mat_scalar(m.get("turn_max_yaw_rate", np.nan))
         if turn is not None:
             cert["turns"] = {"max_yaw_rate": turn, "max_step": _mat_scalar(m.get("turn_max_step", np.nan))}

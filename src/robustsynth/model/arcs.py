@@ -84,9 +84,6 @@ def _slot_coef(C: np.ndarray, D: np.ndarray, j: int, n_e: int, n_u: int) -> np.n
     return D if j == 0 else C[:, n_e + (j - 1) * n_u : n_e + j * n_u]
 
 
-ARC_FAMILIES = ("turn_y", "turn_x", "speed_y", "speed_x")  # (channel rows, error row), in _parts' order
-
-
 def arc_ranges(phi_bar: float, theta_bar: float = 0.0) -> dict[str, tuple[float, float]]:
     """Centre and half-width of each family's factor for |w s| <= phi_bar and |eta| <= theta_bar (the
     module's docstring; 0: the linearization): turn_y and turn_x per unit of V^D, and the rotation's
@@ -111,10 +108,28 @@ def arc_ranges(phi_bar: float, theta_bar: float = 0.0) -> dict[str, tuple[float,
     }
 
 
+def _arc_weights(r: int, n_turn: int, V: float, rng: dict[str, tuple[float, float]], s_half: float) -> dict[int, float]:
+    """The weight of channel row ``r``'s arc factors into e_x (0) and e_y (1): its family's half-width into
+    its own row plus the turned twin (``s_half`` times) of the other family's; turn rows (``r < n_turn``)
+    per unit of V^D."""
+    k, (y, x) = (V, ("turn_y", "turn_x")) if r < n_turn else (1.0, ("speed_y", "speed_x"))
+    hy, hx = rng[y][1], rng[x][1]
+    return {1: k * (hy + s_half * hx), 0: k * (hx + s_half * hy)}
+
+
+def _max_abs(rng: dict[str, tuple[float, float]], name: str) -> float:
+    """The largest |factor| of a family: |centre| + half-width."""
+    centre, half = rng[name]
+    return abs(centre) + half
+
+
 def _parts(v: Vertex, ch: KinematicChannels, M11: float, turns: Turns, Ts: float, V: float, n_e: int, n_u: int,
            d_hi: int, theta_bar: float = 0.0):
-    """The unscaled augmented data of one vertex whose slip matrix has ``M(mu)[1, 1] = M11`` (> 0):
-    (A, B, E, C_q, D_q, F_q, B_p); ``theta_bar`` > 0: for the nonlinear robot with |eta(t)| <= theta_bar."""
+    """The unscaled augmented data of one vertex: (A, B, E, C_q, D_q, F_q, B_p).  ``ch``: the channels, built
+    at a slip whose ``M(mu)[1, 1] = M11`` (> 0): the vertex's own slip corner, or the box's centre for the
+    channels that cover slip changing within a period (``ch.n_dev`` > 0: their deviation channels, one
+    per track and command, come after the rotation's, each into e_y and e_x with its turned twin);
+    ``theta_bar`` > 0: for the nonlinear robot with |eta(t)| <= theta_bar."""
     n_s = v.A.shape[0]
     n_cmd = d_hi + 1
     wbar = float(turns.max_yaw_rate)
@@ -130,23 +145,27 @@ def _parts(v: Vertex, ch: KinematicChannels, M11: float, turns: Turns, Ts: float
     ref[1], ref[2] = V * Ts**2 / 2.0, Ts
     cols = [wbar * (sum(ff) - ref)] + [-b[j - 1] * ff[j] for j in range(1, n_cmd)]
     E = np.column_stack([np.asarray(v.E, dtype=float)] + cols)
-    # the kinematic channels' rows, with the feedforward in their disturbance columns: turn rows
-    # W_j (omega_j - w_k) (W_j from the row's own coefficient on command j: W_j M(mu)[1], M[1, 1] > 0),
-    # speed rows len_j a_j
-    Cc, Dc = np.array(ch.C, dtype=float), np.array(ch.D, dtype=float)
+    # the kinematic channels' rows (and the deviation ones'), with the feedforward in their disturbance
+    # columns: turn rows W_j (omega_j - w_k) (W_j from the row's own coefficient on command j: W_j M(mu)[1],
+    # M[1, 1] > 0), speed rows len_j a_j, deviation rows f_ij (track i's forward speed per unit of slip)
+    n_dev = ch.n_dev
+    Cc = np.vstack([ch.C] + ([ch.C_dev] if n_dev else [])).astype(float)
+    Dc = np.vstack([ch.D] + ([ch.D_dev] if n_dev else [])).astype(float)
+    n_f = ch.F.shape[1]
     Fc = np.zeros((Cc.shape[0], E.shape[1]))
-    Fc[:, : ch.F.shape[1]] = ch.F
+    Fc[:, :n_f] = np.vstack([ch.F] + ([ch.F_dev] if n_dev else []))
     for j in range(n_cmd):
         coef = _slot_coef(Cc, Dc, j, n_e, n_u)  # (rows, n_u)
         resp = coef @ g
-        Fc[:, ch.F.shape[1]] += wbar * resp
+        Fc[:, n_f] += wbar * resp
         if j:
-            Fc[:, ch.F.shape[1] + j] += -b[j - 1] * resp
-    turn, speed = slice(0, ch.n_turn), slice(ch.n_turn, Cc.shape[0])
+            Fc[:, n_f + j] += -b[j - 1] * resp
+    n_main = ch.C.shape[0]
+    turn, speed = slice(0, ch.n_turn), slice(ch.n_turn, n_main)
     for j in range(n_cmd):  # - W_j w_k, with W_j = (W_j M[1, 1]) / M[1, 1]
         row = 1 + j
-        Fc[row, ch.F.shape[1]] -= wbar * _slot_coef(Cc, Dc, j, n_e, n_u)[row, 1] / M11
-    # the families (ARC_FAMILIES): channel rows, the error row they enter, the factor's scale (V^D on the turn rows)
+        Fc[row, n_f] -= wbar * _slot_coef(Cc, Dc, j, n_e, n_u)[row, 1] / M11
+    # the families: channel rows, the error row they enter, the factor's scale (V^D on the turn rows), its range
     fams = ((turn, 1, V, rng["turn_y"]), (turn, 0, V, rng["turn_x"]), (speed, 1, 1.0, rng["speed_y"]),
             (speed, 0, 1.0, rng["speed_x"]))
     # the factors' centres into the map before the rotation
@@ -158,14 +177,28 @@ def _parts(v: Vertex, ch: KinematicChannels, M11: float, turns: Turns, Ts: float
             E_in[row] += k * centre * Fc[rows].sum(axis=0)
     # channels: q = (C, D, F) rows, p into one row of e with a weight
     chans: list[tuple[np.ndarray, np.ndarray, np.ndarray, int, float]] = []
-    # the arc's (before the rotation): per (q rows, into row, weight) the column and its turned twin
-    for rows, into, k, (_, half) in fams:
-        weight = k * half
-        for r in range(Cc.shape[0])[rows]:
-            chans += [(Cc[r], Dc[r], Fc[r], into, weight), (Cc[r], Dc[r], Fc[r], 1 - into, weight * s_half)]
+    # the arc's (before the rotation): each family's factor into its row, and its turned twin into the other
+    # (weight sin phi_bar); the contributions of one channel row into one error row, all with independent
+    # factors in [-1, 1], are one channel whose weight is their sum (the same set of values, half the channels)
+    for r in range(n_main):
+        into_w = _arc_weights(r, ch.n_turn, V, rng, s_half)
+        chans += [(Cc[r], Dc[r], Fc[r], 1, into_w[1]), (Cc[r], Dc[r], Fc[r], 0, into_w[0])]
     # the rotation: q = the map's (e_x, e_y) rows before it (centres included)
     for src in (0, 1):
         chans += [(A_in[src], B_in[src], E_in[src], src, c_half), (A_in[src], B_in[src], E_in[src], 1 - src, s_half)]
+    # slip changing within the period (docs/theory.md §10, "Slip that changes within a period"): track i's
+    # deviation dmu_i(t) from the centre slip, |dmu_i| <= half_i, under command j moves the robot by f_ij dmu_i
+    # and turns it by kappa_i f_ij dmu_i; its share of int a F_s is at most half_i max|F_s| len_j |f_ij|, of
+    # int eta F_t at most half_i max|F_t| |kappa_i| W_j |f_ij|: the weights on q (with the turned twin of the
+    # other row's, as above), half_i on p
+    for r in range(n_dev):
+        row = n_main + r
+        w = {into: float(ch.len_dev[r]) * _max_abs(rng, sp) + float(ch.W_dev[r]) * V * _max_abs(rng, tn)
+             for into, sp, tn in ((1, "speed_y", "turn_y"), (0, "speed_x", "turn_x"))}
+        half = float(ch.half_dev[r])
+        for into in (1, 0):
+            wq = w[into] + s_half * w[1 - into]
+            chans.append((wq * Cc[row], wq * Dc[row], wq * Fc[row], into, half))
     Bp = np.zeros((n_s, len(chans)))
     for k, (_, _, _, target, wgt) in enumerate(chans):
         Bp[target, k] = wgt
@@ -176,57 +209,77 @@ def _parts(v: Vertex, ch: KinematicChannels, M11: float, turns: Turns, Ts: float
     return A_out, B_out, E_out, Cq, Dq, Fq, Bp
 
 
-
-def turning_vertices(model, turns: Turns, theta_bar: float | None = None) -> tuple[Vertex, ...]:
+def turning_vertices(model, turns: Turns, theta_bar: float | None = None,
+                     within_period: bool = False) -> tuple[tuple[Vertex, ...], tuple[Vertex, ...]]:
     """The linearized model's vertices (``model.base_vertices``, with their kinematic channels
     ``model.channels``) augmented for ``turns``, for the nonlinear robot with |eta(t)| <= ``theta_bar``
     (None: the linearization); one scale per channel, common to every vertex (B_p enters the LMIs
-    quadratically and must be the same at every vertex)."""
+    quadratically and must be the same at every vertex).  And ``()``, or with ``within_period`` (the model
+    must have ``covering``): every vertex with its delay vertex's channels for slip changing within a
+    period (``model.covering``, built at the box's centre, one multiplier per delay vertex: ``group``), and
+    the within-period vertices (``model.varying``) augmented alike (docs/theory.md §10)."""
     if not model.channels or len(model.channels) != len(model.base_vertices):
         raise ValueError("turning references need the delay vertices and their kinematic channels")
+    if within_period and not model.covering:
+        raise ValueError("slip changing within a period on arcs needs the model's covering channels")
+    tb = float(theta_bar or 0.0)
+    n_d = len(model.covering)
+    if within_period:
+        from .slip import slip_matrix
+
+        lo, hi = (np.array([r[k] for r in model.slip_ranges[:2]], dtype=float) for k in (0, 1))
+        M11 = float(slip_matrix((lo + hi) / 2.0, float(model.config.robot.track_distance))[1, 1])
+        jobs = [(v, model.covering[i % n_d], M11, i % n_d) for i, v in enumerate(model.base_vertices)]
+        jobs += [(v, model.covering[t], M11, t) for v, t in zip(model.varying, model.varying_delay)]
+    else:
+        jobs = [(v, ch, _turn_gain(model, v), -1) for v, ch in zip(model.base_vertices, model.channels)]
     parts = []
-    for v, ch in zip(model.base_vertices, model.channels):
+    for v, ch, M11, _ in jobs:
         if v.n_q:
             raise ValueError("turning references need vertices without uncertainty channels")
         if ch.F.shape[1] != np.asarray(v.E).shape[1]:
             raise ValueError("the channels' constant column does not match the vertex's")
-        parts.append(_parts(v, ch, _turn_gain(model, v), turns, model.Ts, model.V, model.n_e, model.n_u, model.d_hi,
-                            float(theta_bar or 0.0)))
+        parts.append(_parts(v, ch, M11, turns, model.Ts, model.V, model.n_e, model.n_u, model.d_hi, tb))
     Bp = parts[0][6]
     if any(not np.array_equal(p[6], Bp) for p in parts):
         raise ValueError("B_p differs between vertices")
-    rows = np.max([np.max(np.abs(np.hstack(p[3:6])), axis=1) for p in parts], axis=0)
+    n_base = len(model.base_vertices)
+    rows = np.max([np.max(np.abs(np.hstack(p[3:6])), axis=1) for p in parts[:n_base]], axis=0)
     cols = np.max(np.abs(Bp), axis=0)
     ok = (rows > 0) & (cols > 0)
     scale = np.where(ok, np.sqrt(np.where(ok, rows, 1.0) / np.where(ok, cols, 1.0)), 1.0)
     out = []
-    for v, (A, B, E, Cq, Dq, Fq, Bp_v) in zip(model.base_vertices, parts):
+    for (v, _, _, group), (A, B, E, Cq, Dq, Fq, Bp_v) in zip(jobs, parts):
         out.append(Vertex(A, B, E, Bp_v * scale, Cq / scale[:, None], Dq / scale[:, None], v.corner, v.label,
-                          Fq / scale[:, None], True))
-    return tuple(out)
+                          Fq / scale[:, None], True, group))
+    return tuple(out[:n_base]), tuple(out[n_base:])
 
 
-def heading_yaw_columns(ch: KinematicChannels, M11: float, turns: Turns, n_e: int, n_u: int, d_hi: int) -> np.ndarray:
+def heading_yaw_columns(ch: KinematicChannels, turns: Turns, n_e: int, n_u: int, d_hi: int) -> np.ndarray:
     """The heading rows' coefficients on the reference's yaw-rate coordinates (columns w_k / w_bar and
     (w_k - w_{k-j}) / b_j): eta = e_theta - w_k s at a break point is the straight row plus
-    ``sum_j l_j M11 w_{k-j} - t w_k``, l_j the time command j has acted by then (the row's coefficient on
-    the command's turn rate is ``l_j M11``) and t the time elapsed."""
+    ``sum_j l_j M11_j w_{k-j} - t w_k``, l_j the time command j has acted by then (the row's coefficient on
+    the command's turn rate is ``l_j M11_j``, M11_j = M(mu)[1, 1] at the slip of its interval) and t the
+    time elapsed (``ch.elapsed_h``)."""
     wbar = float(turns.max_yaw_rate)
     b = turns.step_bounds(d_hi + 1)
     resp = np.stack([_slot_coef(ch.C_h, ch.D_h, j, n_e, n_u) @ FEEDFORWARD for j in range(d_hi + 1)], axis=1)
-    elapsed = resp.sum(axis=1) / M11  # (rows,)
+    elapsed = np.asarray(ch.elapsed_h, dtype=float)  # (rows,)
     F_h = np.zeros((resp.shape[0], d_hi + 1))
     F_h[:, 0] = wbar * (resp.sum(axis=1) - elapsed)  # w_{k-j} = w_k - (w_k - w_{k-j})
     F_h[:, 1:] = -b * resp[:, 1:]
     return F_h
 
 
-def turning_heading(model, turns: Turns) -> tuple[KinematicChannels, ...]:
-    """``model.channels`` with their heading rows' yaw-rate coefficients (``F_h``: :func:`heading_yaw_columns`)."""
+def turning_heading(model, turns: Turns) -> tuple[tuple[KinematicChannels, ...], tuple[KinematicChannels, ...]]:
+    """``model.channels`` and ``model.covering`` with their heading rows' yaw-rate coefficients (``F_h``:
+    :func:`heading_yaw_columns`)."""
     from dataclasses import replace
 
-    return tuple(replace(ch, F_h=heading_yaw_columns(ch, _turn_gain(model, v), turns, model.n_e, model.n_u, model.d_hi))
-                 for v, ch in zip(model.base_vertices, model.channels))
+    def add(chs):
+        return tuple(replace(ch, F_h=heading_yaw_columns(ch, turns, model.n_e, model.n_u, model.d_hi)) for ch in chs)
+
+    return add(model.channels), add(model.covering)
 
 
 def _turn_gain(model, v: Vertex) -> float:
@@ -239,17 +292,21 @@ def _turn_gain(model, v: Vertex) -> float:
 
 def straight_delta(ch: KinematicChannels, phi_bar: float, theta_bar: float = 0.0) -> np.ndarray:
     """diag(Delta) at which a turning vertex (for ``phi_bar = w_bar Ts`` and ``theta_bar``) is the
-    linearized straight one again (w = 0, every factor 0): minus each factor's centre over its
-    half-width on the arc channels (0 on their twins) and on the rotation's; in :func:`_parts`' order."""
+    linearized straight one again (w = 0, every factor 0): on each arc channel minus its family's centre
+    over the channel's weight (the twin's share included), on the rotation's minus cos's centre over its
+    half-width (0 for sin), 0 on the deviation channels; in :func:`_parts`' order."""
     rng = arc_ranges(phi_bar, theta_bar)
-    n_t, n_v = ch.n_turn, ch.C.shape[0] - ch.n_turn
+    s_half = rng["rot_sin"][1]
 
-    def at_zero(name: str) -> float:
-        centre, half = rng[name]
-        return -centre / half if half > 0.0 else 0.0
+    def at_zero(centre: float, weight: float) -> float:
+        return -centre / weight if weight > 0.0 else 0.0
 
     out = []
-    for n, name in zip((n_t, n_t, n_v, n_v), ARC_FAMILIES):
-        out += [at_zero(name), 0.0] * n  # each with its twin
-    out += [at_zero("rot_cos"), 0.0] * 2  # the rotation: cos - 1 and sin per row
+    for r in range(ch.C.shape[0]):
+        w = _arc_weights(r, ch.n_turn, 1.0, rng, s_half)  # per unit of the row's scale, as the centres
+        y, x = ("turn_y", "turn_x") if r < ch.n_turn else ("speed_y", "speed_x")
+        out += [at_zero(rng[y][0], w[1]), at_zero(rng[x][0], w[0])]
+    c_mid, c_half = rng["rot_cos"]
+    out += [at_zero(c_mid, c_half), 0.0] * 2  # the rotation: cos - 1 and sin per row
+    out += [0.0] * (2 * ch.n_dev)  # slip's deviations within the period: none on a straight segment at constant slip
     return np.array(out)

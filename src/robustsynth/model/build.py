@@ -190,7 +190,8 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
         model = model.with_heading_bound(DEFAULT_HEADING_BOUND if hb == "auto" else float(hb),
                                          within_period=syn.lyapunov == "common")
     if kind != "paper" and config.reference.turn_radius is not None:  # corners rounded by arcs (model/arcs.py)
-        model = model.with_turns(config.reference.speed / config.reference.turn_radius)
+        model = model.with_turns(config.reference.speed / config.reference.turn_radius,
+                                 within_period=syn.lyapunov == "common")
     return model
 
 

@@ -180,10 +180,12 @@ class Model:
         if self.heading_bound is None:
             return self
         out = replace(self, vertices=self.base_vertices, heading_bound=None, covering_vertices=())
-        if self.turns is not None:  # the linearized turning vertices (model/arcs.py)
+        if self.turns is not None:  # the linearized turning vertices (model/arcs.py), covering what these cover
             from .arcs import turning_vertices
 
-            out = replace(out, vertices=tuple(frozen_vertex(v) for v in turning_vertices(out, self.turns)))
+            verts, cover = turning_vertices(out, self.turns, within_period=bool(self.covering_vertices))
+            out = replace(out, vertices=tuple(frozen_vertex(v) for v in verts),
+                          covering_vertices=tuple(frozen_vertex(v) for v in cover))
         return out
 
     @property
@@ -205,11 +207,12 @@ class Model:
         theta_bar = float(theta_bar)
         if not 0.0 < theta_bar <= 1.0:
             raise InputError(f"synthesis.heading_bound: {theta_bar:g} rad is outside (0, 1]")
-        if self.turns is not None:  # the turning vertices for the nonlinear robot (model/arcs.py; slip constant
-            from .arcs import turning_vertices  # within a period: a turning model has no within-period vertices)
+        if self.turns is not None:  # the turning vertices for the nonlinear robot (model/arcs.py)
+            from .arcs import turning_vertices
 
-            verts = tuple(frozen_vertex(v) for v in turning_vertices(self, self.turns, theta_bar))
-            return replace(self, vertices=verts, heading_bound=theta_bar, covering_vertices=())
+            verts, cover = turning_vertices(self, self.turns, theta_bar, within_period and bool(self.covering))
+            return replace(self, vertices=tuple(frozen_vertex(v) for v in verts), heading_bound=theta_bar,
+                           covering_vertices=tuple(frozen_vertex(v) for v in cover))
         covering = within_period and bool(self.covering)
         # covering: one multiplier per delay vertex (vertices are corner-major: vertex i has delay vertex i % n_d)
         n_d = len(self.covering)
@@ -222,12 +225,16 @@ class Model:
                       for v, t in zip(self.varying, self.varying_delay)) if covering else ()
         return replace(self.linearized(), vertices=verts, heading_bound=theta_bar, covering_vertices=cover)
 
-    def with_turns(self, max_yaw_rate: float, max_step: float | None = None) -> "Model":
+    def with_turns(self, max_yaw_rate: float, max_step: float | None = None,
+                   within_period: bool | None = None) -> "Model":
         """The same model whose vertices cover a reference turning along arcs: yaw rate |w_k| <=
         ``max_yaw_rate`` [rad/s], constant on each sampling period, changing by at most ``max_step``
         (default ``max_yaw_rate``) between periods, with the turning feedforward in the commands
         (docs/theory.md §10, model/arcs.py), for the linearization or, on a model with a heading bound, the
-        nonlinear robot.  The tracks slip model; slip constant within each period."""
+        nonlinear robot.  The tracks slip model.  ``within_period``: slip may also change within a period
+        (the covering channels, one multiplier per delay vertex, and the within-period vertices; where the
+        model builds them: ``covering``); None: as the model's own vertices do (a nonlinear model), else
+        for a common Lyapunov matrix (``synthesis.lyapunov``)."""
         from ..errors import InputError
         from .arcs import Turns, turning_heading, turning_vertices
 
@@ -244,11 +251,13 @@ class Model:
             raise InputError(f"turning references: max_yaw_rate {wbar:g} rad/s turns by {wbar * self.Ts:.3g} rad per "
                              "sampling period, more than pi/2 (reference.turn_radius too small)")
         turns = Turns(wbar, step)
-        verts = tuple(frozen_vertex(v) for v in turning_vertices(self, turns, self.heading_bound))
-        return replace(self, vertices=verts, turns=turns, channels=turning_heading(self, turns), varying=(), covering=(),
-                       covering_vertices=(),
-                       varying_delay=(), varying_reason="the turning reference's vertices are built for slip "
-                       "constant within a period")
+        if within_period is None:
+            within_period = (bool(self.covering_vertices) if self.heading_bound is not None
+                             else self.config.synthesis.lyapunov == "common")
+        verts, cover = turning_vertices(self, turns, self.heading_bound, within_period and bool(self.covering))
+        channels, covering = turning_heading(self, turns)
+        return replace(self, vertices=tuple(frozen_vertex(v) for v in verts), turns=turns, channels=channels,
+                       covering=covering, covering_vertices=tuple(frozen_vertex(v) for v in cover))
 
     @property
     def feedforward_motor_speed(self) -> float:
@@ -266,8 +275,9 @@ class Model:
         if objective == "hinf":
             return (), ("the H-infinity gain is stated for the slip input B_d w, which does not describe slip "
                         "changing within a period")
-        if self.turns is not None:  # its vertices (linearized or nonlinear) are for slip constant within a period
-            return (), self.varying_reason
+        if self.turns is not None and not self.covering_vertices and lyapunov == "common":
+            return (), (self.varying_reason or "the turning reference's vertices were built for slip constant "
+                        "within a period")
         if self.heading_bound is not None and not self.covering_vertices:
             return (), ("the kinematic channels (synthesis.kinematics: nonlinear) are built for slip constant "
                         "within a period" + (f": {self.varying_reason}" if self.varying_reason else ""))
@@ -590,7 +600,7 @@ class Model:
         if self.turns is not None:  # the turning vertices on a straight segment (w = 0: every factor at 0)
             from .arcs import straight_delta
 
-            dlt = np.broadcast_to(straight_delta(self.channels[0], self.turns.max_yaw_rate * self.Ts,
+            dlt = np.broadcast_to(straight_delta(self.heading_channels[0], self.turns.max_yaw_rate * self.Ts,
                                                  self.heading_bound or 0.0), batch + (self.vertices[0].n_q,))
         elif self.heading_bound is not None:  # (every kinematic factor at 0)
             from .nonlinear import linearization_delta

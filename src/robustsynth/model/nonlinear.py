@@ -70,6 +70,8 @@ class KinematicChannels:
     # a turning reference (model/arcs.py): the heading rows' coefficients on the reference's yaw-rate
     # coordinates (w_k / w_bar, (w_k - w_{k-j}) / b_j, each in [-1, 1]); None on straight segments
     F_h: np.ndarray | None = None
+    # per heading row, the time since t_k of its break point [s]
+    elapsed_h: np.ndarray | None = None
 
     @property
     def heading_offsets(self) -> np.ndarray:
@@ -99,15 +101,16 @@ def _command_row(j: int, coef: np.ndarray, n_s: int, n_e: int, n_u: int) -> tupl
 
 
 def _break_points(lens: np.ndarray, yaw: list[np.ndarray], uD: np.ndarray, n_s: int, n_e: int, n_u: int,
-                  d_hi: int) -> list[tuple[np.ndarray, np.ndarray, float]]:
-    """e_theta at the period's break points, ``(c, d, g)`` with e_theta = c xi + d du + g: at t_k, then
-    after the oldest command's interval, ..., after the newest's; command j turns at ``yaw[j] (u^D + du)``."""
-    c, d, g = np.eye(n_s)[2], np.zeros(n_u), 0.0
-    out = [(c, d, g)]
+                  d_hi: int) -> list[tuple[np.ndarray, np.ndarray, float, float]]:
+    """e_theta at the period's break points, ``(c, d, g, t)`` with e_theta = c xi + d du + g at time t
+    since t_k: at t_k, then after the oldest command's interval, ..., after the newest's; command j turns
+    at ``yaw[j] (u^D + du)``."""
+    c, d, g, t = np.eye(n_s)[2], np.zeros(n_u), 0.0, 0.0
+    out = [(c, d, g, t)]
     for j in range(d_hi, -1, -1):
         dc, dd = _command_row(j, lens[j] * yaw[j], n_s, n_e, n_u)
-        c, d, g = c + dc, d + dd, g + lens[j] * float(yaw[j] @ uD)
-        out.append((c, d, g))
+        c, d, g, t = c + dc, d + dd, g + lens[j] * float(yaw[j] @ uD), t + float(lens[j])
+        out.append((c, d, g, t))
     return out
 
 
@@ -124,8 +127,8 @@ def vertex_channels(mu: np.ndarray, coords: np.ndarray, V: float, Ts: float, M: 
     rows += [(*_command_row(j, Ws[j] * M[1], n_s, n_e, n_u), Ws[j] * float(M[1] @ uD)) for j in range(n_cmd)]
     rows += [(*_command_row(j, lens[j] * M[0], n_s, n_e, n_u), lens[j] * (float(M[0] @ uD) - V)) for j in range(n_cmd)]
     C, Dm, F = (np.array([r[k] for r in rows]) for k in range(3))
-    C_h, D_h, g_h = (np.array(x) for x in zip(*_break_points(lens, [M[1]] * n_cmd, uD, n_s, n_e, n_u, d_hi)))
-    return KinematicChannels(C, Dm, F[:, None], 1 + n_cmd, C_h, D_h, g_h)
+    C_h, D_h, g_h, t_h = (np.array(x) for x in zip(*_break_points(lens, [M[1]] * n_cmd, uD, n_s, n_e, n_u, d_hi)))
+    return KinematicChannels(C, Dm, F[:, None], 1 + n_cmd, C_h, D_h, g_h, elapsed_h=t_h)
 
 
 def covering_channels(mu_r: tuple[float, float], mu_l: tuple[float, float], coords: np.ndarray, V: float, Ts: float,
@@ -167,11 +170,11 @@ def covering_channels(mu_r: tuple[float, float], mu_l: tuple[float, float], coor
     Ms = slip_matrix(corners, D)
     seen: dict[bytes, tuple] = {}
     for combo in _corner_combinations(lens, corners, tol * Ts):
-        for c, d, g in _break_points(lens, [Ms[k][1] for k in combo], uD, n_s, n_e, n_u, d_hi):
-            seen.setdefault(np.concatenate([c, d, [g]]).tobytes(), (c, d, g))
-    C_h, D_h, g_h = (np.array(x) for x in zip(*seen.values()))
+        for c, d, g, t in _break_points(lens, [Ms[k][1] for k in combo], uD, n_s, n_e, n_u, d_hi):
+            seen.setdefault(np.concatenate([c, d, [g, t]]).tobytes(), (c, d, g, t))
+    C_h, D_h, g_h, t_h = (np.array(x) for x in zip(*seen.values()))
     dev = [np.array([r[k] for r in rows]).reshape(len(rows), size) for k, size in enumerate((n_s, n_u, 1))]
-    return replace(centre, C_h=C_h, D_h=D_h, g_h=g_h, C_dev=dev[0], D_dev=dev[1], F_dev=dev[2],
+    return replace(centre, C_h=C_h, D_h=D_h, g_h=g_h, elapsed_h=t_h, C_dev=dev[0], D_dev=dev[1], F_dev=dev[2],
                    len_dev=np.array(ln), W_dev=np.array(wt), half_dev=np.array(hw))
 
 

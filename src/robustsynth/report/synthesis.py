@@ -95,7 +95,7 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
             f" the kinematic model itself (tracks as the paper's slip factors), "
             + ("slip free to change within a period (covered, above)" if result.certified.get("slip_within_period") == "covered"
                else "slip constant within a period")
-            + f", straight segments (the turns at waypoints are not covered), in-order delivery. LMIs at {len(model.vertices)}"
+            + f", {_path_text(model)}, in-order delivery. LMIs at {len(model.vertices)}"
             f" vertices ({model.corners.shape[0]} slip corners, delays {model.delay_description},"
             f" {model.vertices[0].n_q} kinematic channels each), Lyapunov matrix `{cfg.synthesis.lyapunov}`"
             + (", integral action on e_x, e_y" if model.integral else "") + ".\n\n"
@@ -104,7 +104,8 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
         out.append(
             f"- model `slip-aware`: exact in slip and delay, linearized at the slip-compensated operating point; the"
             f" neglected terms (model.md) are of second order in (e_theta, speed deviation) — the forward-speed factor"
-            f" sigma is taken as 1 (synthesis.kinematics: nonlinear covers them). LMIs at {len(model.vertices)} vertices ({model.corners.shape[0]} slip corners,"
+            f" sigma is taken as 1 (synthesis.kinematics: nonlinear covers them); {_path_text(model)}."
+            f" LMIs at {len(model.vertices)} vertices ({model.corners.shape[0]} slip corners,"
             f" delays {model.delay_description}), Lyapunov matrix `{cfg.synthesis.lyapunov}`"
             + (", integral action on e_x, e_y" if model.integral else "") + ".\n\n"
         )
@@ -190,6 +191,15 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
     out.append(comparison_markdown(comparison))
     out.append(diagnosis_markdown(model, result, diagnosis))
     return "".join(out)
+
+
+def _path_text(model: Any) -> str:
+    """What the certificate assumes of the path: straight segments, or the arcs of a turning reference."""
+    turns = getattr(model, "turns", None)
+    if turns is None:
+        return "straight segments (the turns at waypoints are not covered)"
+    return (f"a reference along arcs with yaw rate |w| <= {turns.max_yaw_rate:.4g} rad/s, steps <= {turns.max_step:.4g} "
+            "rad/s between periods (reference.turn_radius: the rounded corners are covered, docs/theory.md §10)")
 
 
 def _within_text(within: str | None, n: int) -> str:

@@ -154,9 +154,7 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
             f" {1000 * bp['max_period_gap']['e_x']:.1f} mm in e_x and {1000 * bp['max_period_gap']['e_y']:.1f} mm in e_y"
             " per period. "
             + _mid_period_text(bp.get("mid_period") or {})
-            + (f"On arcs (the reference turning at up to {bp['arcs']['max_yaw_rate']:.3g} rad/s, the feedforward in the"
-               f" commands; {bp['arcs']['runs']} of these states with slip constant in the period) the nonlinear robot"
-               f" reaches max V(xi+)/level = {bp['arcs']['max_V_over_level_nonlinear']:.4f}. " if bp.get("arcs") else "")
+            + (_arcs_text(bp["arcs"]) if bp.get("arcs") else "")
             + (f"The adversary's beam search from {bp['adversary']['starts']} of these states (each figure's maximizer"
                f" at every slip corner) over {bp['adversary']['steps']} periods"
                + (" (on a straight line and along arcs)" if len(bp["adversary"].get("courses", ())) > 1 else "")
@@ -317,3 +315,16 @@ def _mid_period_text(mid: dict) -> str:
                " judged): ")
             + f"max V(xi+)/level = {mid['max_V_over_level_linear']:.4f} on the exact map,"
             f" {mid['max_V_over_level_nonlinear']:.4f} on the nonlinear robot. ")
+
+
+def _arcs_text(arcs: dict) -> str:
+    """The probe's runs on arcs (docs/theory.md §10): the judged ones, and those with a slip jump."""
+    jumps = arcs.get("mid_period_runs", 0)
+    judged = (f"{arcs['runs']} of these states, {jumps} of them with the slip jumping within the period" if jumps else
+              f"{arcs['runs']} of these states with slip constant in the period")
+    out = (f"On arcs (the reference turning at up to {arcs['max_yaw_rate']:.3g} rad/s, the feedforward in the commands;"
+           f" {judged}) the nonlinear robot reaches max V(xi+)/level = {arcs['max_V_over_level_nonlinear']:.4f}. ")
+    if not jumps and "mid_period_max_V_over_level_nonlinear" in arcs:
+        out += (f"With the slip jumping within the period (not covered, reported) it reaches "
+                f"{arcs['mid_period_max_V_over_level_nonlinear']:.4f}. ")
+    return out

@@ -255,8 +255,8 @@ def _cert_common(model: Any, vals: dict, kind: str, margin: float, objective: st
     out["kinematics"] = model.kinematics
     if model.heading_bound is not None:
         out["heading_bound"] = float(model.heading_bound)
-        if model.covering_vertices:  # the channels hold for slip changing within a period (§9)
-            out["within_period_channels"] = True
+    if model.covering_vertices:  # the channels hold for slip changing within a period (§9, §10)
+        out["within_period_channels"] = True
     if getattr(model, "turns", None) is not None:  # the reference yaw rates the vertices cover (model/arcs.py)
         out["turns"] = {"max_yaw_rate": model.turns.max_yaw_rate, "max_step": model.turns.max_step}
     return out
@@ -772,7 +772,8 @@ def _nonlinear_infeasible(model: Any, common: _Best, tried: list) -> str:
                 f"{f.get('heading_within_period', f['ultimate_bound']['e_theta']):.3g} rad within a period and forward-speed "
                 f"deviations up to {speed:.3g} m/s (V^D = {model.V:g} m/s): on it a sin e_theta alone reaches "
                 f"{speed * np.sin(min(f.get('heading_within_period', 0.3), 1.0)):.3g} m/s. Narrow slip, lower "
-                "reference.speed, or use synthesis.kinematics: linearized (whose proof is for the linearization)")
+                "reference.speed, " + ("widen reference.turn_radius, " if getattr(model, "turns", None) is not None else "")
+                + "or use synthesis.kinematics: linearized (whose proof is for the linearization)")
     if model.covering and model.config.synthesis.lyapunov == "common":
         msg += (". These channels cover slip changing at any time within a period; with synthesis.lyapunov "
                 "slip-dependent (or delay-, path-dependent) they assume it constant within each period, which costs "

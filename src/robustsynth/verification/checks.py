@@ -462,7 +462,9 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
                                      arcs["max_V_over_level_nonlinear"] <= 1.0 + LEVEL_TOL, arcs["max_V_over_level_nonlinear"],
                                      1.0, f"max V(xi+)/level over {arcs['runs']} boundary states, the reference turning at "
                                      f"up to {arcs['max_yaw_rate']:.3g} rad/s with the steps the certificate allows (exact "
-                                     "arcs, slip corners, admissible delays)"))
+                                     "arcs, slip corners, admissible delays"
+                                     + (f"; {arcs['mid_period_runs']} with the slip jumping within the period"
+                                        if arcs.get("mid_period_runs") else "") + ")"))
             if "adversary" in mc["boundary_probe"]:
                 ab = mc["boundary_probe"]["adversary"]
                 checks.append(_check("nonlinear: the adversary from the boundary of the certified set keeps it there",

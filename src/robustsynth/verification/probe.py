@@ -136,15 +136,16 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
         t_sw = np.full(N, model.Ts)
     robot = KinematicRobot.of(model)
     U = robot.send(robot.memory(du_past, N), uD + du)
-    q1 = robot.period(q0, U, S, mu, switch=track_changes(mu, mu_after, t_sw) if n_jump else None)
+    changes = track_changes(mu, mu_after, t_sw) if n_jump else None
+    q1 = robot.period(q0, U, S, mu, switch=changes)
     e1 = frame_error(path, 0, q1, model.Ts)
     xi_nl = np.concatenate([e1, np.stack(law.past + law.z, axis=1)], axis=1)
 
-    # a turning certificate (reference.turn_radius): the same states, slips and delays on arcs (the
-    # reference turning at w_k after steps it allows, the feedforward in the commands in flight)
+    # a turning certificate (reference.turn_radius): the same states, slips (and jumps) and delays on arcs
+    # (the reference turning at w_k after steps it allows, the feedforward in the commands in flight)
     xi_arc = None
     if getattr(model, "turns", None) is not None:
-        e_arc = arc_period(model, xi[:, :n_e], du, du_past, S, mu, rng)
+        e_arc = arc_period(model, xi[:, :n_e], du, du_past, S, mu, rng, switch=changes)
         xi_arc = np.concatenate([e_arc, np.stack(law.past + law.z, axis=1)], axis=1)
 
     # the exact lifted map of the certificate, same states, slips and delays
@@ -174,10 +175,14 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
         mid.update(max_V_over_level_nonlinear=float(np.max(r_nl_all[jumped])),
                    max_V_over_level_linear=float(np.max(r_lin_all[jumped])))
     arcs = None
-    if xi_arc is not None:  # slip constant within the period there: the runs without a jump
-        r_arc = (v_next(xi_arc) / level)[~jumped]
-        arcs = {"runs": int(r_arc.size), "max_yaw_rate": float(model.turns.max_yaw_rate),
+    if xi_arc is not None:  # judged as on the straight line: the runs with a jump only where the certificate covers them
+        r_arc_all = v_next(xi_arc) / level
+        r_arc = r_arc_all[judged]
+        arcs = {"runs": int(r_arc.size), "mid_period_runs": int(np.count_nonzero(jumped & judged)),
+                "max_yaw_rate": float(model.turns.max_yaw_rate),
                 "max_V_over_level_nonlinear": float(np.max(r_arc)), "fraction_outside_nonlinear": float(np.mean(r_arc > 1.0))}
+        if np.any(jumped):  # the runs with a jump, judged or not
+            arcs["mid_period_max_V_over_level_nonlinear"] = float(np.max(r_arc_all[jumped]))
     return {
         "arcs": arcs,
         "samples": int(np.count_nonzero(judged)),
@@ -197,11 +202,12 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
 
 
 def arc_period(model: Any, e0: np.ndarray, du: np.ndarray, du_past: np.ndarray, S: np.ndarray, mu: np.ndarray,
-                rng: np.random.Generator) -> np.ndarray:
+               rng: np.random.Generator, switch: list | None = None) -> np.ndarray:
     """e at t_{k+1} of one period on an arc (docs/theory.md §10): the robot starts at the errors ``e0`` in
     the frame of the reference at t_k, command j is (V^D, w_{k-j}) + du_{k-j}, the reference turns at
     w_k; w_k is -w_bar, 0 or w_bar (a third uniform in between) and each older w_{k-j} a step of
-    -max_step, 0 or max_step from the next newer one (within +-w_bar): an admissible history.  Measured in the reference's frame at t_{k+1}."""
+    -max_step, 0 or max_step from the next newer one (within +-w_bar): an admissible history.  ``switch``: the
+    slip's changes within the period (``KinematicRobot.period``).  Measured in the reference's frame at t_{k+1}."""
     from ..model.arcs import FEEDFORWARD
 
     N, d_hi, V, Ts = e0.shape[0], model.d_hi, model.V, model.Ts
@@ -213,7 +219,7 @@ def arc_period(model: Any, e0: np.ndarray, du: np.ndarray, du_past: np.ndarray, 
     w = np.stack(w, axis=1)
     uD = np.array([V, 0.0])
     U = np.concatenate([(uD + du)[:, None], uD + du_past], axis=1) + w[:, :, None] * FEEDFORWARD
-    q1 = KinematicRobot.of(model).period(e0, U, S, mu)
+    q1 = KinematicRobot.of(model).period(e0, U, S, mu, switch=switch)
     phi = wk * Ts
     chord = V * Ts * np.sinc(phi / (2.0 * np.pi))  # the reference's chord, at angle phi / 2
     dx, dy = q1[:, 0] - chord * np.cos(phi / 2.0), q1[:, 1] - chord * np.sin(phi / 2.0)
