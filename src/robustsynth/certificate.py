@@ -328,13 +328,18 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
         if within and not model.covering:
             return _fail("the certificate's channels are for slip changing within a period, which this config's "
                          f"model does not cover ({model.varying_reason})")
-        if (have.max_yaw_rate, have.max_step) != want or within != bool(model.covering_vertices):
-            from .errors import InputError
+        from .errors import InputError
 
-            try:
+        try:
+            if (have.max_yaw_rate, have.max_step) != want or within != bool(model.covering_vertices):
                 model = model.with_turns(*want, within_period=within)
-            except InputError as exc:
-                return _fail(f"the certificate is for a turning reference, which this model cannot carry: {exc}")
+            if not within and _multiplier_size(cert) not in (None, model.vertices[0].n_q ** 2):
+                # made before the arc channels were merged (docs/theory.md §10): their own layout, if it fits
+                legacy = model.with_turns(*want, within_period=False, merged=False)
+                if _multiplier_size(cert) == legacy.vertices[0].n_q ** 2:
+                    model = legacy
+        except InputError as exc:
+            return _fail(f"the certificate is for a turning reference, which this model cannot carry: {exc}")
     elif have is not None:
         return _fail("the certificate is for straight segments, the model for a turning reference")
     parts = _lyapunov_parts(model, cert, n_s)
@@ -351,7 +356,7 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
         M = _arr(x, f"multipliers.M[{i}]")
         if M.size != v.n_q * v.n_q:
             return _fail(f"multipliers.M[{i}] has {M.size} entries, expected {v.n_q} x {v.n_q} (the vertex's uncertainty "
-                         "channels; a certificate for other channels, e.g. with or without within_period_channels?)")
+                         "channels): the certificate was made for other channels")
         M = M.reshape(v.n_q, v.n_q)
         err = _symmetric(M, f"multipliers.M[{i}]") or multiplier_structure_error(
             M, v.n_q // 3, mult.get("kind", "structured"), v.diagonal)
@@ -687,6 +692,14 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
             "e_theta": heading}
 
 
+def _multiplier_size(cert: Mapping[str, Any]) -> int | None:
+    """The number of entries of the certificate's first multiplier, or None when it has none readable."""
+    try:
+        return int(np.asarray(cert["multipliers"]["M"][0], dtype=float).size)
+    except (KeyError, IndexError, TypeError, ValueError):
+        return None
+
+
 def _forward_oscillation(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], level: float, inner: int,
                          yaw_rate: float = 0.0) -> float:
     """The largest difference of the forward speed a = v - V^D between any two instants of a period on the
@@ -757,8 +770,8 @@ def _between_samples_on_arcs(model: Any, cmds: list[np.ndarray], mats: list[np.n
     phi = w_r * Ts
     sp = float(np.sin(phi))
     vbar, wbar, dvbar, abar = _speeds_on_set(model, cmds, mats, level, inner, w_r, float(turns.max_step))
-    top = min(phi + float(heading), np.pi / 2)
-    s, one_minus_cos = float(np.sin(top)), 2.0 * float(np.sin(top / 2.0)) ** 2
+    top = phi + float(heading)  # |theta| <= phi_bar + |eta|: sin grows up to pi/2, 1 - cos up to pi
+    s, one_minus_cos = float(np.sin(min(top, np.pi / 2))), 2.0 * float(np.sin(min(top, np.pi) / 2.0)) ** 2
     Bx, By = float(sampled["e_x"]), float(sampled["e_y"])
     if within_period:
         osc = _forward_oscillation(model, cmds, mats, level, inner, w_r)

@@ -321,7 +321,8 @@ def _covering_allowed(model, turns, xi, du, S, w, maps, box, theta_bar, narrow=F
     return centre, allow, rows
 
 
-@pytest.mark.parametrize("over", [{}, {"network.delay.min": 0.12, "network.delay.max": 0.22}])
+@pytest.mark.parametrize("over", [{}, {"network.dropouts.max_consecutive": 1,
+                                       "synthesis.delay_description": "lossy-polytopic"}])
 @pytest.mark.parametrize("theta_bar", [0.0, THETA_BAR])
 def test_slip_changing_within_the_period_on_an_arc_stays_within_the_covering_vertices(over, theta_bar):
     """Each track's slip jumps between the ends of its range at its own time within the period, on an arc
@@ -330,6 +331,7 @@ def test_slip_changing_within_the_period_on_an_arc_stays_within_the_covering_ver
     order for the linearized one (deviations scaled by EPS).  e_theta is exact, and the heading rows with
     their yaw-rate columns bound |eta| at every break point and jump."""
     model = _model(**over)
+    assert model.covering  # the model builds these channels (a lossy link: d_hi = 2)
     turns = Turns(0.5, 0.5)
     rng = np.random.default_rng(13)
     full = theta_bar > 0.0

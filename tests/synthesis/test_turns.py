@@ -297,3 +297,28 @@ def test_the_synthesis_heading_rows_carry_the_turning_yaw_rates(designs) -> None
     with pytest.raises(InfeasibleError, match="the turning reference's yaw rates included"):
         heading_constraints(model, lv)
     assert heading_constraints(turning.with_heading_bound(min(1.0, off + 0.01)), lv)  # room everywhere: constraints
+
+
+def test_a_turning_certificate_made_before_the_channels_were_merged_is_rechecked() -> None:
+    """configs/turns.yaml's gain as committed at stop 40 (tests/data: 3 m arcs, nonlinear kinematics, slip
+    constant within a period, each arc family and its turned twin a channel of its own): re-checked on
+    the layout it was made for (the review of 62d0794: it was refused), and it says that it assumes slip
+    constant within a period."""
+    from pathlib import Path
+
+    from robustsynth.artifacts.gains import load_gains
+
+    g = load_gains(Path(__file__).resolve().parents[1] / "data" / "turns-3m-stop40-gains.json")
+    K, cert = np.asarray(g["K"], dtype=float), g["certificate"]
+    assert "within_period_channels" not in cert
+    model = build_model(make_config(**{"slip.right.min": 0.8, "slip.left.min": 0.8, "reference.turn_radius": 3.0,
+                                       "synthesis.kinematics": "nonlinear"}))
+    assert model.covering_vertices and model.turns.merged  # what a new certificate of this config gets
+    chk = check_certificate(model, K, cert)
+    assert chk.passed, chk.reason
+    assert chk.figures["slip_within_period"].startswith("assumed constant")
+    assert chk.figures["ultimate_bound"]["e_y"] == pytest.approx(g["certified"]["ultimate_bound"]["e_y"], rel=1e-12)
+    # its multipliers fit the unmerged layout only (14 merged channels against 24, d_hi = 1)
+    w = model.turns.max_yaw_rate
+    merged, legacy = (model.with_turns(w, within_period=False, merged=m).vertices[0].n_q for m in (True, False))
+    assert np.asarray(cert["multipliers"]["M"][0]).size == legacy**2 and merged < legacy

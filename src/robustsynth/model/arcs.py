@@ -47,9 +47,14 @@ on its own set from the heading rows).  With ``psi = w s``, exactly (no lineariz
 (:func:`arc_ranges`): F_tx in +-V (c(theta_bar) + sin phi_bar), F_ty in V [cos phi_bar sinc theta_bar - 1 -
 sin phi_bar c(theta_bar), sin phi_bar c(theta_bar)], F_sx in [cos(phi_bar + theta_bar) - 1, 0], F_sy in
 +-sin(phi_bar + theta_bar).  theta_bar = 0 gives the linearized ranges above, phi_bar = 0 the straight
-kinematic channels of docs/theory.md §9.  The rotation is exact either way.  What remains assumed:
-slip constant within a period (and, with theta_bar = 0, the kinematic terms of second order in the
-errors, docs/theory.md §2).
+kinematic channels of docs/theory.md §9.  The rotation is exact either way.
+
+**Slip that changes within a period** (``within_period``): the channels are the delay vertex's covering
+ones (model/nonlinear.covering_channels, at the slip box's centre), plus one deviation channel per track
+and command (its forward speed per unit of slip, the feedforward included) whose weight is the largest
+|factor| of each family; the vertices of a delay vertex and its within-period vertices share one
+multiplier.  What remains assumed: with theta_bar = 0, the kinematic terms of second order in the errors
+(docs/theory.md §2); without ``within_period``, slip constant within a period.
 """
 
 from __future__ import annotations
@@ -73,6 +78,10 @@ class Turns:
 
     max_yaw_rate: float
     max_step: float
+    # one arc channel per (channel row, error row): a family's factor and the other family's turned twin
+    # merged (the same set of values, half the channels); False: the layout of certificates made before
+    # (docs/theory.md §10), kept to re-check them
+    merged: bool = True
 
     def step_bounds(self, n_cmd: int) -> np.ndarray:
         """b_j = max |w_k - w_{k-j}| for j = 1..n_cmd-1."""
@@ -180,9 +189,14 @@ def _parts(v: Vertex, ch: KinematicChannels, M11: float, turns: Turns, Ts: float
     # the arc's (before the rotation): each family's factor into its row, and its turned twin into the other
     # (weight sin phi_bar); the contributions of one channel row into one error row, all with independent
     # factors in [-1, 1], are one channel whose weight is their sum (the same set of values, half the channels)
-    for r in range(n_main):
-        into_w = _arc_weights(r, ch.n_turn, V, rng, s_half)
-        chans += [(Cc[r], Dc[r], Fc[r], 1, into_w[1]), (Cc[r], Dc[r], Fc[r], 0, into_w[0])]
+    if turns.merged:
+        for r in range(n_main):
+            into_w = _arc_weights(r, ch.n_turn, V, rng, s_half)
+            chans += [(Cc[r], Dc[r], Fc[r], 1, into_w[1]), (Cc[r], Dc[r], Fc[r], 0, into_w[0])]
+    else:  # per family, each channel and its twin apart
+        for rows, into, k, (_, half) in fams:
+            for r in range(n_main)[rows]:
+                chans += [(Cc[r], Dc[r], Fc[r], into, k * half), (Cc[r], Dc[r], Fc[r], 1 - into, k * half * s_half)]
     # the rotation: q = the map's (e_x, e_y) rows before it (centres included)
     for src in (0, 1):
         chans += [(A_in[src], B_in[src], E_in[src], src, c_half), (A_in[src], B_in[src], E_in[src], 1 - src, s_half)]
@@ -290,11 +304,12 @@ def _turn_gain(model, v: Vertex) -> float:
                              float(model.config.robot.track_distance))[1, 1])
 
 
-def straight_delta(ch: KinematicChannels, phi_bar: float, theta_bar: float = 0.0) -> np.ndarray:
+def straight_delta(ch: KinematicChannels, phi_bar: float, theta_bar: float = 0.0, merged: bool = True) -> np.ndarray:
     """diag(Delta) at which a turning vertex (for ``phi_bar = w_bar Ts`` and ``theta_bar``) is the
     linearized straight one again (w = 0, every factor 0): on each arc channel minus its family's centre
-    over the channel's weight (the twin's share included), on the rotation's minus cos's centre over its
-    half-width (0 for sin), 0 on the deviation channels; in :func:`_parts`' order."""
+    over the channel's weight (the twin's share included; ``merged``: :attr:`Turns.merged`), on the
+    rotation's minus cos's centre over its half-width (0 for sin), 0 on the deviation channels; in
+    :func:`_parts`' order."""
     rng = arc_ranges(phi_bar, theta_bar)
     s_half = rng["rot_sin"][1]
 
@@ -302,10 +317,15 @@ def straight_delta(ch: KinematicChannels, phi_bar: float, theta_bar: float = 0.0
         return -centre / weight if weight > 0.0 else 0.0
 
     out = []
-    for r in range(ch.C.shape[0]):
-        w = _arc_weights(r, ch.n_turn, 1.0, rng, s_half)  # per unit of the row's scale, as the centres
-        y, x = ("turn_y", "turn_x") if r < ch.n_turn else ("speed_y", "speed_x")
-        out += [at_zero(rng[y][0], w[1]), at_zero(rng[x][0], w[0])]
+    if merged:
+        for r in range(ch.C.shape[0]):
+            w = _arc_weights(r, ch.n_turn, 1.0, rng, s_half)  # per unit of the row's scale, as the centres
+            y, x = ("turn_y", "turn_x") if r < ch.n_turn else ("speed_y", "speed_x")
+            out += [at_zero(rng[y][0], w[1]), at_zero(rng[x][0], w[0])]
+    else:
+        n_t, n_v = ch.n_turn, ch.C.shape[0] - ch.n_turn
+        for n, name in zip((n_t, n_t, n_v, n_v), ("turn_y", "turn_x", "speed_y", "speed_x")):
+            out += [at_zero(*rng[name]), 0.0] * n  # each with its twin
     c_mid, c_half = rng["rot_cos"]
     out += [at_zero(c_mid, c_half), 0.0] * 2  # the rotation: cos - 1 and sin per row
     out += [0.0] * (2 * ch.n_dev)  # slip's deviations within the period: none on a straight segment at constant slip

@@ -226,7 +226,7 @@ class Model:
         return replace(self.linearized(), vertices=verts, heading_bound=theta_bar, covering_vertices=cover)
 
     def with_turns(self, max_yaw_rate: float, max_step: float | None = None,
-                   within_period: bool | None = None) -> "Model":
+                   within_period: bool | None = None, merged: bool = True) -> "Model":
         """The same model whose vertices cover a reference turning along arcs: yaw rate |w_k| <=
         ``max_yaw_rate`` [rad/s], constant on each sampling period, changing by at most ``max_step``
         (default ``max_yaw_rate``) between periods, with the turning feedforward in the commands
@@ -234,7 +234,8 @@ class Model:
         nonlinear robot.  The tracks slip model.  ``within_period``: slip may also change within a period
         (the covering channels, one multiplier per delay vertex, and the within-period vertices; where the
         model builds them: ``covering``); None: as the model's own vertices do (a nonlinear model), else
-        for a common Lyapunov matrix (``synthesis.lyapunov``)."""
+        for a common Lyapunov matrix (``synthesis.lyapunov``).  ``merged``: :attr:`~.arcs.Turns.merged` (False
+        re-checks certificates made before the arc channels were merged)."""
         from ..errors import InputError
         from .arcs import Turns, turning_heading, turning_vertices
 
@@ -250,7 +251,7 @@ class Model:
         if wbar * self.Ts > np.pi / 2:  # the arc factors' ranges (arcs.arc_ranges) need it
             raise InputError(f"turning references: max_yaw_rate {wbar:g} rad/s turns by {wbar * self.Ts:.3g} rad per "
                              "sampling period, more than pi/2 (reference.turn_radius too small)")
-        turns = Turns(wbar, step)
+        turns = Turns(wbar, step, merged)
         if within_period is None:
             within_period = (bool(self.covering_vertices) if self.heading_bound is not None
                              else self.config.synthesis.lyapunov == "common")
@@ -601,7 +602,8 @@ class Model:
             from .arcs import straight_delta
 
             dlt = np.broadcast_to(straight_delta(self.heading_channels[0], self.turns.max_yaw_rate * self.Ts,
-                                                 self.heading_bound or 0.0), batch + (self.vertices[0].n_q,))
+                                                 self.heading_bound or 0.0, self.turns.merged),
+                                  batch + (self.vertices[0].n_q,))
         elif self.heading_bound is not None:  # (every kinematic factor at 0)
             from .nonlinear import linearization_delta
 
