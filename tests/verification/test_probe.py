@@ -101,3 +101,51 @@ def test_slip_jumps_per_track_agree_between_robot_and_lifted_map(heavy) -> None:
     assert r["mid_period"]["runs"] > 500 and r["mid_period"]["covered"]
     assert r["max_V_over_level_linear"] <= 1.0 + LEVEL_TOL
     assert r["max_period_gap"]["e_theta"] <= THETA_TOL
+
+
+def test_between_samples_the_probe_stays_within_the_bounds_for_all_t() -> None:
+    """The probe's errors between the samples (BETWEEN_INSTANTS instants of each period, on the straight
+    line and on arcs, with slip jumps) on the committed turning gain, a nonlinear certificate covering slip
+    changing within a period: within ``ultimate_bound_between_samples`` and above the sampled bounds
+    somewhere (the comparison is not vacuous).  The periods cut at t = Ts are the probe's own one-period
+    runs: ``errors_between_samples`` with one instant gives |e(t_k+1)| of ``arc_period`` (cross-check of
+    ``KinematicRobot.partial`` against ``period``)."""
+    from robustsynth.model.slip import slip_matrix
+    from robustsynth.plants.kinematic import KinematicRobot
+    from robustsynth.scenarios import random_delays
+    from robustsynth.verification.probe import arc_commands, arc_period, arc_yaw_rates, errors_between_samples
+
+    m, K, cert = committed_gain("turns")
+    chk = check_certificate(m, K, cert)
+    assert chk.passed, chk.reason
+    lyap, level = lyapunov_of(m, cert), float(chk.figures["ellipsoid_level"])
+    r = boundary_probe(m, K, lyap, level, samples=3000, seed=4, within_period=True)
+    bound, sampled = chk.figures["ultimate_bound_between_samples"], chk.figures["ultimate_bound"]
+    for course in ("straight", "arcs"):
+        got = r["between_samples"][course]
+        assert all(got[k] <= bound[k] for k in ("e_x", "e_y", "e_theta")), (course, got, bound)
+    assert max(r["between_samples"][c]["e_theta"] for c in ("straight", "arcs")) > sampled["e_theta"] * 0.9
+    # one instant (t = Ts) is the one-period map
+    rng = np.random.default_rng(0)
+    N, n_e, n_u, d_hi = 200, m.n_e, m.n_u, m.d_hi
+    xi = rng.normal(size=(N, m.n_s)) * 0.02
+    du, du_past = xi @ K.T, xi[:, n_e : n_e + d_hi * n_u].reshape(N, d_hi, n_u)
+    S = m.s_tilde(random_delays(m, rng, N, 1))[:, 0]
+    mu = np.tile([0.8, 0.9], (N, 1))
+    w = arc_yaw_rates(m, N, rng)
+    end = arc_period(m, xi[:, :n_e], du, du_past, S, mu, rng, w=w)
+    U = arc_commands(m, du, du_past, w)
+    one = errors_between_samples(m, xi[:, :n_e], U, S, mu, w=w[:, 0], instants=1)
+    assert np.max(np.abs(one - np.abs(end))) <= REPLAY_TOL
+    # inside the period: the heading is e_theta0 + sum_j omega_j (the time command j has acted by t)
+    t = 0.37 * m.Ts
+    omega = np.einsum("nk,njk->nj", slip_matrix(mu, m.config.robot.track_distance)[:, 1, :], U)
+    starts = np.concatenate([np.zeros((N, 1)), S[:, ::-1]], axis=1)  # command j = d_hi..0 starts at s~_j
+    ends = np.concatenate([S[:, ::-1], np.full((N, 1), m.Ts)], axis=1)
+    acted = np.clip(np.minimum(ends, t) - starts, 0.0, None)[:, ::-1]  # (N, d_hi + 1), command j at column j
+    heading = xi[:, 2] + np.sum(omega * acted, axis=1)
+    robot = KinematicRobot.of(m)
+    q = robot.partial(xi[:, :n_e], U, S, mu, t)
+    free = np.all(np.abs(U @ robot.J_inv.T) <= robot.rho_max, axis=(1, 2))  # the motors do not saturate
+    assert free.mean() > 0.5
+    assert np.max(np.abs(q[free, 2] - heading[free])) <= REPLAY_TOL

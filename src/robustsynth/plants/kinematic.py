@@ -140,6 +140,15 @@ class KinematicRobot:
             switch = [(np.asarray(t, dtype=float), self._map(after)) for t, after in switch]
         return period(q, U, S, M, self.Ts, self.J, self.J_inv, self.rho_max, switch)
 
+    def partial(self, q: np.ndarray, U: np.ndarray, S: np.ndarray, mu: np.ndarray, t: float,
+                switch: list | None = None) -> np.ndarray:
+        """The poses at t_k + t (0 < t <= Ts) from ``q`` at t_k: :meth:`period` cut at t (the commands and
+        slip changes after t have not acted yet)."""
+        M = self._map(mu)
+        if switch is not None:
+            switch = [(np.asarray(tc, dtype=float), self._map(after)) for tc, after in switch]
+        return period(q, U, np.minimum(S, t), M, float(t), self.J, self.J_inv, self.rho_max, switch)
+
     def _map(self, mu: np.ndarray) -> np.ndarray:
         """J H J^-1 (..., 2, 2) for the tracks model's (mu_r, mu_l); the twist matrix (..., 3, 2) for the
         icr model's (mu_r, mu_l, yaw, x_icr)."""

@@ -155,6 +155,7 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
             " per period. "
             + _mid_period_text(bp.get("mid_period") or {})
             + (_arcs_text(bp["arcs"]) if bp.get("arcs") else "")
+            + _between_text(bp.get("between_samples") or {}, nonlinear)
             + (f"The adversary's beam search from {bp['adversary']['starts']} of these states (each figure's maximizer"
                f" at every slip corner) over {bp['adversary']['steps']} periods"
                + (" (on a straight line and along arcs)" if len(bp["adversary"].get("courses", ())) > 1 else "")
@@ -315,6 +316,23 @@ def _mid_period_text(mid: dict) -> str:
                " judged): ")
             + f"max V(xi+)/level = {mid['max_V_over_level_linear']:.4f} on the exact map,"
             f" {mid['max_V_over_level_nonlinear']:.4f} on the nonlinear robot. ")
+
+
+def _between_text(between: dict, judged: bool) -> str:
+    """The probe's errors between the samples beside the certificate's bounds for all t (docs/theory.md §9)."""
+    bound = between.get("bound")
+    if not bound or "straight" not in between:
+        return ""
+
+    def figs(d: dict) -> str:  # e_theta's bound is None where the certificate states none (no delay vertices)
+        th = d.get("e_theta")
+        return f"{100 * d['e_x']:.2f} / {100 * d['e_y']:.2f} cm and " + ("(none)" if th is None else f"{th:.3f} rad")
+
+    return (f"Between the samples ({between['instants']} instants of each of these periods, e_x / e_y / e_theta in the"
+            f" frame of the reference at t) the errors reach {figs(between['straight'])} on the straight line"
+            + (f" and {figs(between['arcs'])} on arcs" if "arcs" in between else "")
+            + f", against the bounds for all t of {figs(bound)}"
+            + (" (judged). " if judged else " (reported: a linearized certificate's sets hold for its linearization). "))
 
 
 def _arcs_text(arcs: dict) -> str:

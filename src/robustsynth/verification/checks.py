@@ -266,6 +266,20 @@ def steady_offsets(model, K: np.ndarray) -> dict[str, Any]:
     }
 
 
+def _between_samples_ratio(probe: dict, figures: dict) -> tuple[float, str] | None:
+    """The boundary probe's largest error between samples over the certificate's bound for all t
+    (``ultimate_bound_between_samples``), and which error and course it was; None without those."""
+    bound = figures.get("ultimate_bound_between_samples") or {}
+    between = probe.get("between_samples") or {}
+    worst = None
+    for course in ("straight", "arcs"):
+        for name, value in (between.get(course) or {}).items():
+            b = bound.get(name)
+            if b is not None and b > 0.0 and (worst is None or value / b > worst[0]):
+                worst = (value / b, f"{name} on {'arcs' if course == 'arcs' else 'the straight line'}")
+    return worst
+
+
 def _loss_stats(model, scen, adv) -> dict[str, Any]:
     from ..model.network import longest_burst
 
@@ -439,6 +453,9 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
         nonlinear_proof = gains["certificate"].get("kinematics", "linearized") == "nonlinear"
         mc["boundary_probe"] = {k: v for k, v in probe.items() if k != "worst" and v is not None}
         mc["boundary_probe"]["in_verdict"] = nonlinear_proof
+        if cert.figures.get("ultimate_bound_between_samples"):  # beside what the probe measured between the samples
+            mc["boundary_probe"]["between_samples"] = dict(probe["between_samples"],
+                                                           bound=dict(cert.figures["ultimate_bound_between_samples"]))
         if vc.adversarial_runs:  # the beam search again, now from the boundary (multi-period histories)
             xb, mb = boundary_states(model, K, lyap, level, seed=seed)
             if xb.shape[0]:
@@ -465,6 +482,14 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
                                      "arcs, slip corners, admissible delays"
                                      + (f"; {arcs['mid_period_runs']} with the slip jumping within the period"
                                         if arcs.get("mid_period_runs") else "") + ")"))
+            bs = _between_samples_ratio(probe, cert.figures)
+            if bs is not None:  # the bounds for all t are a claim about the robot too (theory §9, §10)
+                checks.append(_check("nonlinear: between samples, the errors from the boundary of the certified set stay "
+                                     "within the bounds for all t", bs[0] <= 1.0 + LEVEL_TOL, bs[0], 1.0,
+                                     f"largest |error(t)| / its bound over {probe['between_samples']['states']} boundary "
+                                     f"states at {probe['between_samples']['instants']} instants of the period (exact arcs"
+                                     + (", on a straight line and on arcs" if "arcs" in probe["between_samples"] else "")
+                                     + f"): {bs[1]}"))
             if "adversary" in mc["boundary_probe"]:
                 ab = mc["boundary_probe"]["adversary"]
                 checks.append(_check("nonlinear: the adversary from the boundary of the certified set keeps it there",

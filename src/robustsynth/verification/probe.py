@@ -35,9 +35,11 @@ from ..plants.kinematic import KinematicRobot
 from ..plants.path import frame_error, make_path, pose_from_error
 from ..scenarios import random_delays, slip_candidates, slip_vertices, track_changes
 
-__all__ = ["boundary_probe", "probe_directions", "boundary_states", "MAX_BOUNDARY_STARTS"]
+__all__ = ["boundary_probe", "probe_directions", "boundary_states", "errors_between_samples", "arc_yaw_rates",
+           "MAX_BOUNDARY_STARTS", "BETWEEN_INSTANTS"]
 
 MAX_BOUNDARY_STARTS = 64  # the adversary's boundary starts: the figure-maximizing states, at most this many
+BETWEEN_INSTANTS = 20  # instants per period at which the probe measures the errors between samples
 
 
 def probe_directions(model: Any, K: np.ndarray, lyap: Any, random: int, rng: np.random.Generator) -> np.ndarray:
@@ -141,12 +143,19 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
     e1 = frame_error(path, 0, q1, model.Ts)
     xi_nl = np.concatenate([e1, np.stack(law.past + law.z, axis=1)], axis=1)
 
+    # between the samples (docs/theory.md §9): the same periods cut at BETWEEN_INSTANTS instants, the errors
+    # in the frame of the reference at t (on the straight line it moves at V^D along x from the pose at t_k)
+    between = errors_between_samples(model, xi[:, :n_e], U, S, mu, changes)
+
     # a turning certificate (reference.turn_radius): the same states, slips (and jumps) and delays on arcs
     # (the reference turning at w_k after steps it allows, the feedforward in the commands in flight)
-    xi_arc = None
+    xi_arc = between_arc = None
     if getattr(model, "turns", None) is not None:
-        e_arc = arc_period(model, xi[:, :n_e], du, du_past, S, mu, rng, switch=changes)
+        w = arc_yaw_rates(model, N, rng)
+        e_arc = arc_period(model, xi[:, :n_e], du, du_past, S, mu, rng, switch=changes, w=w)
         xi_arc = np.concatenate([e_arc, np.stack(law.past + law.z, axis=1)], axis=1)
+        between_arc = errors_between_samples(model, xi[:, :n_e], arc_commands(model, du, du_past, w), S, mu, changes,
+                                             w[:, 0])
 
     # the exact lifted map of the certificate, same states, slips and delays
     A, B, c = model.switched_exact(S, mu, t_sw, mu_after, per_track=bool(n_jump))
@@ -154,6 +163,8 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
 
     keep = admissible
     xi_arc = xi_arc[keep] if xi_arc is not None else None
+    between = between[keep]
+    between_arc = between_arc[keep] if between_arc is not None else None
     xi, mu, mu_next, t_sw, taus = xi[keep], mu[keep], mu_after[keep], t_sw[keep], taus[keep]
     xi_nl, xi_lin, jumped = xi_nl[keep], xi_lin[keep], jumped[keep]
     dw = dw[keep] if dw is not None else None
@@ -183,8 +194,14 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
                 "max_V_over_level_nonlinear": float(np.max(r_arc)), "fraction_outside_nonlinear": float(np.mean(r_arc > 1.0))}
         if np.any(jumped):  # the runs with a jump, judged or not
             arcs["mid_period_max_V_over_level_nonlinear"] = float(np.max(r_arc_all[jumped]))
+    names = ("e_x", "e_y", "e_theta")
+    cont = {"instants": BETWEEN_INSTANTS, "states": int(np.count_nonzero(judged)),
+            "straight": dict(zip(names, (float(x) for x in np.max(between[judged], axis=0))))}
+    if between_arc is not None:
+        cont["arcs"] = dict(zip(names, (float(x) for x in np.max(between_arc[judged], axis=0))))
     return {
         "arcs": arcs,
+        "between_samples": cont,
         "samples": int(np.count_nonzero(judged)),
         "directions": {"random": int(samples + n_jump), "figure_maximizing": int(N - samples - n_jump),
                        "dropped_inadmissible_memory": int(N - np.count_nonzero(keep))},
@@ -201,27 +218,57 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
     }
 
 
-def arc_period(model: Any, e0: np.ndarray, du: np.ndarray, du_past: np.ndarray, S: np.ndarray, mu: np.ndarray,
-               rng: np.random.Generator, switch: list | None = None) -> np.ndarray:
-    """e at t_{k+1} of one period on an arc (docs/theory.md §10): the robot starts at the errors ``e0`` in
-    the frame of the reference at t_k, command j is (V^D, w_{k-j}) + du_{k-j}, the reference turns at
-    w_k; w_k is -w_bar, 0 or w_bar (a third uniform in between) and each older w_{k-j} a step of
-    -max_step, 0 or max_step from the next newer one (within +-w_bar): an admissible history.  ``switch``: the
-    slip's changes within the period (``KinematicRobot.period``).  Measured in the reference's frame at t_{k+1}."""
-    from ..model.arcs import FEEDFORWARD
-
-    N, d_hi, V, Ts = e0.shape[0], model.d_hi, model.V, model.Ts
+def arc_yaw_rates(model: Any, N: int, rng: np.random.Generator) -> np.ndarray:
+    """Reference yaw rates (N, d_hi + 1), (w_k, w_{k-1}, ..., w_{k-d_hi}), an admissible history: w_k is
+    -w_bar, 0 or w_bar (a third uniform in between) and each older one a step of -max_step, 0 or max_step
+    from the next newer one (within +-w_bar)."""
     wbar = model.turns.max_yaw_rate
     wk = np.where(rng.random(N) < 1.0 / 3.0, rng.uniform(-wbar, wbar, N), wbar * rng.choice([-1.0, 0.0, 1.0], N))
-    w = [wk]  # each older w_{k-j} within max_step of the next newer one (an admissible history)
-    for _ in range(d_hi):
+    w = [wk]
+    for _ in range(model.d_hi):
         w.append(np.clip(w[-1] - model.turns.max_step * rng.choice([-1.0, 0.0, 1.0], N), -wbar, wbar))
-    w = np.stack(w, axis=1)
-    uD = np.array([V, 0.0])
-    U = np.concatenate([(uD + du)[:, None], uD + du_past], axis=1) + w[:, :, None] * FEEDFORWARD
-    q1 = KinematicRobot.of(model).period(e0, U, S, mu, switch=switch)
-    phi = wk * Ts
-    chord = V * Ts * np.sinc(phi / (2.0 * np.pi))  # the reference's chord, at angle phi / 2
-    dx, dy = q1[:, 0] - chord * np.cos(phi / 2.0), q1[:, 1] - chord * np.sin(phi / 2.0)
-    c, sn = np.cos(phi), np.sin(phi)
-    return np.stack([c * dx + sn * dy, -sn * dx + c * dy, wrap_angle(q1[:, 2] - phi)], axis=1)
+    return np.stack(w, axis=1)
+
+
+def arc_commands(model: Any, du: np.ndarray, du_past: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """The commands in flight (N, d_hi + 1, 2) on an arc: command j is (V^D, w_{k-j}) + du_{k-j}."""
+    from ..model.arcs import FEEDFORWARD
+
+    uD = np.array([model.V, 0.0])
+    return np.concatenate([(uD + du)[:, None], uD + du_past], axis=1) + w[:, :, None] * FEEDFORWARD
+
+
+def _in_reference_frame(q: np.ndarray, w: np.ndarray, t: float, V: float) -> np.ndarray:
+    """The error (N, 3) of poses ``q`` at t_k + t in the frame of the reference at that time: from the frame at
+    t_k (origin, heading 0) it moves at V along an arc turning at ``w`` (N,), a straight line for w = 0."""
+    psi = w * t
+    chord = V * t * np.sinc(psi / (2.0 * np.pi))  # the reference's chord from t_k, at angle psi / 2
+    dx, dy = q[..., 0] - chord * np.cos(psi / 2.0), q[..., 1] - chord * np.sin(psi / 2.0)
+    c, sn = np.cos(psi), np.sin(psi)
+    return np.stack([c * dx + sn * dy, -sn * dx + c * dy, wrap_angle(q[..., 2] - psi)], axis=-1)
+
+
+def errors_between_samples(model: Any, e0: np.ndarray, U: np.ndarray, S: np.ndarray, mu: np.ndarray,
+                           switch: list | None = None, w: np.ndarray | None = None,
+                           instants: int = BETWEEN_INSTANTS) -> np.ndarray:
+    """Per run, the largest |e_x(t)|, |e_y(t)|, |e_theta(t)| (N, 3) over ``instants`` instants of the period
+    (the exact arcs cut at t, ``KinematicRobot.partial``), from the errors ``e0`` at t_k with the commands
+    ``U`` in flight, in the frame of the reference at t: a straight line, or turning at ``w`` (N,)."""
+    robot = KinematicRobot.of(model)
+    wk = np.zeros(e0.shape[0]) if w is None else np.asarray(w, dtype=float)
+    out = np.zeros((e0.shape[0], 3))
+    for t in np.linspace(0.0, model.Ts, instants + 1)[1:]:
+        out = np.maximum(out, np.abs(_in_reference_frame(robot.partial(e0, U, S, mu, t, switch), wk, t, model.V)))
+    return out
+
+
+def arc_period(model: Any, e0: np.ndarray, du: np.ndarray, du_past: np.ndarray, S: np.ndarray, mu: np.ndarray,
+               rng: np.random.Generator, switch: list | None = None, w: np.ndarray | None = None) -> np.ndarray:
+    """e at t_{k+1} of one period on an arc (docs/theory.md §10): the robot starts at the errors ``e0`` in
+    the frame of the reference at t_k, command j is (V^D, w_{k-j}) + du_{k-j}, the reference turns at
+    w_k; the yaw rates ``w`` (N, d_hi + 1), or drawn by :func:`arc_yaw_rates`.  ``switch``: the slip's
+    changes within the period (``KinematicRobot.period``).  Measured in the reference's frame at t_{k+1}."""
+    if w is None:
+        w = arc_yaw_rates(model, e0.shape[0], rng)
+    q1 = KinematicRobot.of(model).period(e0, arc_commands(model, du, du_past, w), S, mu, switch=switch)
+    return _in_reference_frame(q1, w[:, 0], model.Ts, model.V)
