@@ -145,6 +145,8 @@ class KinematicRobot:
         """The poses at t_k + t (0 < t <= Ts) from ``q`` at t_k: :meth:`period` cut at t (the commands and
         slip changes after t have not acted yet)."""
         M = self._map(mu)
+        if isinstance(switch, tuple):
+            switch = [switch]
         if switch is not None:
             switch = [(np.asarray(tc, dtype=float), self._map(after)) for tc, after in switch]
         return period(q, U, np.minimum(S, t), M, float(t), self.J, self.J_inv, self.rho_max, switch)

@@ -332,7 +332,16 @@ def _between_text(between: dict, judged: bool) -> str:
             f" frame of the reference at t) the errors reach {figs(between['straight'])} on the straight line"
             + (f" and {figs(between['arcs'])} on arcs" if "arcs" in between else "")
             + f", against the bounds for all t of {figs(bound)}"
+            + _rise_text(between.get("straight_rise") or {}, bound, between.get("sampled") or {})
             + (" (judged). " if judged else " (reported: a linearized certificate's sets hold for its linearization). "))
+
+
+def _rise_text(rise: dict, bound: dict, sampled: dict) -> str:
+    """How far the errors rise above the ends of their period, beside the chord term of the bound for all t."""
+    parts = [f"{name} {100 * rise[name]:.2f} of {100 * (bound[name] - sampled[name]):.2f} cm"
+             for name in ("e_x", "e_y") if name in rise and sampled.get(name) is not None]
+    return ("; above the larger end of their period they rise by at most " + ", ".join(parts)
+            + " (the chord term those bounds add)") if parts else ""
 
 
 def _arcs_text(arcs: dict) -> str:

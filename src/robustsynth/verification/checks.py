@@ -268,15 +268,29 @@ def steady_offsets(model, K: np.ndarray) -> dict[str, Any]:
 
 def _between_samples_ratio(probe: dict, figures: dict) -> tuple[float, str] | None:
     """The boundary probe's largest error between samples over the certificate's bound for all t
-    (``ultimate_bound_between_samples``), and which error and course it was; None without those."""
+    (``ultimate_bound_between_samples``), and on the straight line the largest rise above the larger end of
+    the period over what that bound adds to the sampled one (the chord term, docs/theory.md §9: the bound
+    for all t at an instant is near the sampled bound, so the first ratio alone would not see that term);
+    the larger, and what it was.  None without those figures."""
     bound = figures.get("ultimate_bound_between_samples") or {}
+    sampled = figures.get("ultimate_bound") or {}
     between = probe.get("between_samples") or {}
     worst = None
+
+    def consider(ratio: float, what: str) -> None:
+        nonlocal worst
+        if worst is None or ratio > worst[0]:
+            worst = (ratio, what)
+
     for course in ("straight", "arcs"):
         for name, value in (between.get(course) or {}).items():
             b = bound.get(name)
-            if b is not None and b > 0.0 and (worst is None or value / b > worst[0]):
-                worst = (value / b, f"{name} on {'arcs' if course == 'arcs' else 'the straight line'}")
+            if b is not None and b > 0.0:
+                consider(value / b, f"{name} on {'arcs' if course == 'arcs' else 'the straight line'}")
+    for name, value in (between.get("straight_rise") or {}).items():
+        if bound.get(name) is not None and sampled.get(name) is not None and bound[name] > sampled[name]:
+            consider(value / (bound[name] - sampled[name]), f"{name}'s rise above the period's ends on the straight line, "
+                     "over the chord term")
     return worst
 
 
@@ -455,7 +469,8 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
         mc["boundary_probe"]["in_verdict"] = nonlinear_proof
         if cert.figures.get("ultimate_bound_between_samples"):  # beside what the probe measured between the samples
             mc["boundary_probe"]["between_samples"] = dict(probe["between_samples"],
-                                                           bound=dict(cert.figures["ultimate_bound_between_samples"]))
+                                                           bound=dict(cert.figures["ultimate_bound_between_samples"]),
+                                                           sampled=dict(cert.figures["ultimate_bound"]))
         if vc.adversarial_runs:  # the beam search again, now from the boundary (multi-period histories)
             xb, mb = boundary_states(model, K, lyap, level, seed=seed)
             if xb.shape[0]:

@@ -145,7 +145,7 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
 
     # between the samples (docs/theory.md §9): the same periods cut at BETWEEN_INSTANTS instants, the errors
     # in the frame of the reference at t (on the straight line it moves at V^D along x from the pose at t_k)
-    between = errors_between_samples(model, xi[:, :n_e], U, S, mu, changes)
+    between, rise = errors_between_samples(model, xi[:, :n_e], U, S, mu, changes)
 
     # a turning certificate (reference.turn_radius): the same states, slips (and jumps) and delays on arcs
     # (the reference turning at w_k after steps it allows, the feedforward in the commands in flight)
@@ -155,7 +155,7 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
         e_arc = arc_period(model, xi[:, :n_e], du, du_past, S, mu, rng, switch=changes, w=w)
         xi_arc = np.concatenate([e_arc, np.stack(law.past + law.z, axis=1)], axis=1)
         between_arc = errors_between_samples(model, xi[:, :n_e], arc_commands(model, du, du_past, w), S, mu, changes,
-                                             w[:, 0])
+                                             w[:, 0])[0]
 
     # the exact lifted map of the certificate, same states, slips and delays
     A, B, c = model.switched_exact(S, mu, t_sw, mu_after, per_track=bool(n_jump))
@@ -163,7 +163,7 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
 
     keep = admissible
     xi_arc = xi_arc[keep] if xi_arc is not None else None
-    between = between[keep]
+    between, rise = between[keep], rise[keep]
     between_arc = between_arc[keep] if between_arc is not None else None
     xi, mu, mu_next, t_sw, taus = xi[keep], mu[keep], mu_after[keep], t_sw[keep], taus[keep]
     xi_nl, xi_lin, jumped = xi_nl[keep], xi_lin[keep], jumped[keep]
@@ -196,7 +196,9 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
             arcs["mid_period_max_V_over_level_nonlinear"] = float(np.max(r_arc_all[jumped]))
     names = ("e_x", "e_y", "e_theta")
     cont = {"instants": BETWEEN_INSTANTS, "states": int(np.count_nonzero(judged)),
-            "straight": dict(zip(names, (float(x) for x in np.max(between[judged], axis=0))))}
+            "straight": dict(zip(names, (float(x) for x in np.max(between[judged], axis=0)))),
+            # on the straight line: the largest rise above the larger end, e_x and e_y (the chord term)
+            "straight_rise": dict(zip(names[:2], (float(x) for x in np.max(rise[judged, :2], axis=0))))}
     if between_arc is not None:
         cont["arcs"] = dict(zip(names, (float(x) for x in np.max(between_arc[judged], axis=0))))
     return {
@@ -250,16 +252,19 @@ def _in_reference_frame(q: np.ndarray, w: np.ndarray, t: float, V: float) -> np.
 
 def errors_between_samples(model: Any, e0: np.ndarray, U: np.ndarray, S: np.ndarray, mu: np.ndarray,
                            switch: list | None = None, w: np.ndarray | None = None,
-                           instants: int = BETWEEN_INSTANTS) -> np.ndarray:
+                           instants: int = BETWEEN_INSTANTS) -> tuple[np.ndarray, np.ndarray]:
     """Per run, the largest |e_x(t)|, |e_y(t)|, |e_theta(t)| (N, 3) over ``instants`` instants of the period
     (the exact arcs cut at t, ``KinematicRobot.partial``), from the errors ``e0`` at t_k with the commands
-    ``U`` in flight, in the frame of the reference at t: a straight line, or turning at ``w`` (N,)."""
+    ``U`` in flight, in the frame of the reference at t: a straight line, or turning at ``w`` (N,).  And
+    how far each rises above the larger of its two ends, |e(t_k)| and |e(t_k+1)| (N, 3): on a straight line
+    that is the distance from the chord the bound for all t allows for (docs/theory.md §9)."""
     robot = KinematicRobot.of(model)
     wk = np.zeros(e0.shape[0]) if w is None else np.asarray(w, dtype=float)
     out = np.zeros((e0.shape[0], 3))
     for t in np.linspace(0.0, model.Ts, instants + 1)[1:]:
-        out = np.maximum(out, np.abs(_in_reference_frame(robot.partial(e0, U, S, mu, t, switch), wk, t, model.V)))
-    return out
+        e = np.abs(_in_reference_frame(robot.partial(e0, U, S, mu, t, switch), wk, t, model.V))
+        out = np.maximum(out, e)
+    return out, out - np.maximum(np.abs(e0), e)
 
 
 def arc_period(model: Any, e0: np.ndarray, du: np.ndarray, du_past: np.ndarray, S: np.ndarray, mu: np.ndarray,
