@@ -349,6 +349,10 @@ def _arcs_text(arcs: dict) -> str:
     jumps = arcs.get("mid_period_runs", 0)
     judged = (f"{arcs['runs']} of these states, {jumps} of them with the slip jumping within the period" if jumps else
               f"{arcs['runs']} of these states with slip constant in the period")
+    dropped = arcs.get("dropped_inadmissible_memory", 0)
+    if dropped:
+        judged += (f"; {dropped} more dropped: their stored commands with the feedforward exceed the motor limit, a"
+                   " memory never reached")
     out = (f"On arcs (the reference turning at up to {arcs['max_yaw_rate']:.3g} rad/s, the feedforward in the commands;"
            f" {judged}) the nonlinear robot reaches max V(xi+)/level = {arcs['max_V_over_level_nonlinear']:.4f}. ")
     if not jumps and "mid_period_max_V_over_level_nonlinear" in arcs:

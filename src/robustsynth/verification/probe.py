@@ -150,12 +150,15 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
     # a turning certificate (reference.turn_radius): the same states, slips (and jumps) and delays on arcs
     # (the reference turning at w_k after steps it allows, the feedforward in the commands in flight)
     xi_arc = between_arc = None
+    arc_memory = np.ones(N, dtype=bool)  # on arcs the stored commands also carry their feedforward
     if getattr(model, "turns", None) is not None:
         w = arc_yaw_rates(model, N, rng)
         e_arc = arc_period(model, xi[:, :n_e], du, du_past, S, mu, rng, switch=changes, w=w)
         xi_arc = np.concatenate([e_arc, np.stack(law.past + law.z, axis=1)], axis=1)
-        between_arc = errors_between_samples(model, xi[:, :n_e], arc_commands(model, du, du_past, w), S, mu, changes,
-                                             w[:, 0])[0]
+        U_arc = arc_commands(model, du, du_past, w)
+        between_arc = errors_between_samples(model, xi[:, :n_e], U_arc, S, mu, changes, w[:, 0])[0]
+        if rho_max is not None:  # within the motor limit, as the straight line's (a memory beyond it is never reached)
+            arc_memory = np.all(np.abs(U_arc[:, 1:] @ np.asarray(model.J_inv).T) <= rho_max * (1.0 + 1e-9), axis=(1, 2))
 
     # the exact lifted map of the certificate, same states, slips and delays
     A, B, c = model.switched_exact(S, mu, t_sw, mu_after, per_track=bool(n_jump))
@@ -165,6 +168,7 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
     xi_arc = xi_arc[keep] if xi_arc is not None else None
     between, rise = between[keep], rise[keep]
     between_arc = between_arc[keep] if between_arc is not None else None
+    arc_memory = arc_memory[keep]
     xi, mu, mu_next, t_sw, taus = xi[keep], mu[keep], mu_after[keep], t_sw[keep], taus[keep]
     xi_nl, xi_lin, jumped = xi_nl[keep], xi_lin[keep], jumped[keep]
     dw = dw[keep] if dw is not None else None
@@ -188,19 +192,21 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
     arcs = None
     if xi_arc is not None:  # judged as on the straight line: the runs with a jump only where the certificate covers them
         r_arc_all = v_next(xi_arc) / level
-        r_arc = r_arc_all[judged]
-        arcs = {"runs": int(r_arc.size), "mid_period_runs": int(np.count_nonzero(jumped & judged)),
+        on_arc = judged & arc_memory
+        r_arc = r_arc_all[on_arc]
+        arcs = {"runs": int(r_arc.size), "mid_period_runs": int(np.count_nonzero(jumped & on_arc)),
+                "dropped_inadmissible_memory": int(np.count_nonzero(judged & ~arc_memory)),
                 "max_yaw_rate": float(model.turns.max_yaw_rate),
                 "max_V_over_level_nonlinear": float(np.max(r_arc)), "fraction_outside_nonlinear": float(np.mean(r_arc > 1.0))}
-        if np.any(jumped):  # the runs with a jump, judged or not
-            arcs["mid_period_max_V_over_level_nonlinear"] = float(np.max(r_arc_all[jumped]))
+        if np.any(jumped & arc_memory):  # the runs with a jump, judged or not
+            arcs["mid_period_max_V_over_level_nonlinear"] = float(np.max(r_arc_all[jumped & arc_memory]))
     names = ("e_x", "e_y", "e_theta")
     cont = {"instants": BETWEEN_INSTANTS, "states": int(np.count_nonzero(judged)),
             "straight": dict(zip(names, (float(x) for x in np.max(between[judged], axis=0)))),
             # on the straight line: the largest rise above the larger end, e_x and e_y (the chord term)
             "straight_rise": dict(zip(names[:2], (float(x) for x in np.max(rise[judged, :2], axis=0))))}
     if between_arc is not None:
-        cont["arcs"] = dict(zip(names, (float(x) for x in np.max(between_arc[judged], axis=0))))
+        cont["arcs"] = dict(zip(names, (float(x) for x in np.max(between_arc[judged & arc_memory], axis=0))))
     return {
         "arcs": arcs,
         "between_samples": cont,
