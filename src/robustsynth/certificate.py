@@ -333,10 +333,11 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
         try:
             if (have.max_yaw_rate, have.max_step) != want or within != bool(model.covering_vertices):
                 model = model.with_turns(*want, within_period=within)
-            if not within and _multiplier_size(cert) not in (None, model.vertices[0].n_q ** 2):
+            size = _multiplier_size(cert)
+            if not within and size not in (None, model.vertices[0].n_q ** 2):
                 # made before the arc channels were merged (docs/theory.md §10): their own layout, if it fits
                 legacy = model.with_turns(*want, within_period=False, merged=False)
-                if _multiplier_size(cert) == legacy.vertices[0].n_q ** 2:
+                if size == legacy.vertices[0].n_q ** 2:
                     model = legacy
         except InputError as exc:
             return _fail(f"the certificate is for a turning reference, which this model cannot carry: {exc}")

@@ -117,13 +117,24 @@ def arc_ranges(phi_bar: float, theta_bar: float = 0.0) -> dict[str, tuple[float,
     }
 
 
+def _row_families(r: int, n_turn: int) -> tuple[str, str]:
+    """The arc factor families of channel row ``r`` into e_y and e_x: the turn rows' (``r < n_turn``, per
+    unit of V^D) or the speed rows'."""
+    return ("turn_y", "turn_x") if r < n_turn else ("speed_y", "speed_x")
+
+
+def _with_twins(wy: float, wx: float, s_half: float) -> dict[int, float]:
+    """One channel's weight into e_y (1) and e_x (0): its own factor's into that row plus the turned twin
+    (``s_half`` times) of the other row's (independent factors in [-1, 1]: the sum is the same set)."""
+    return {1: wy + s_half * wx, 0: wx + s_half * wy}
+
+
 def _arc_weights(r: int, n_turn: int, V: float, rng: dict[str, tuple[float, float]], s_half: float) -> dict[int, float]:
-    """The weight of channel row ``r``'s arc factors into e_x (0) and e_y (1): its family's half-width into
-    its own row plus the turned twin (``s_half`` times) of the other family's; turn rows (``r < n_turn``)
-    per unit of V^D."""
-    k, (y, x) = (V, ("turn_y", "turn_x")) if r < n_turn else (1.0, ("speed_y", "speed_x"))
-    hy, hx = rng[y][1], rng[x][1]
-    return {1: k * (hy + s_half * hx), 0: k * (hx + s_half * hy)}
+    """The weight of channel row ``r``'s arc factors into e_x (0) and e_y (1): its families' half-widths
+    with their turned twins (:func:`_with_twins`); turn rows per unit of V^D."""
+    y, x = _row_families(r, n_turn)
+    k = V if r < n_turn else 1.0
+    return {row: k * w for row, w in _with_twins(rng[y][1], rng[x][1], s_half).items()}
 
 
 def _max_abs(rng: dict[str, tuple[float, float]], name: str) -> float:
@@ -137,7 +148,7 @@ def _parts(v: Vertex, ch: KinematicChannels, M11: float, turns: Turns, Ts: float
     """The unscaled augmented data of one vertex: (A, B, E, C_q, D_q, F_q, B_p).  ``ch``: the channels, built
     at a slip whose ``M(mu)[1, 1] = M11`` (> 0): the vertex's own slip corner, or the box's centre for the
     channels that cover slip changing within a period (``ch.n_dev`` > 0: their deviation channels, one
-    per track and command, come after the rotation's, each into e_y and e_x with its turned twin);
+    per track and command, come after the rotation's, each into e_y and e_x with the other's turned twin);
     ``theta_bar`` > 0: for the nonlinear robot with |eta(t)| <= theta_bar."""
     n_s = v.A.shape[0]
     n_cmd = d_hi + 1
@@ -207,11 +218,12 @@ def _parts(v: Vertex, ch: KinematicChannels, M11: float, turns: Turns, Ts: float
     # other row's, as above), half_i on p
     for r in range(n_dev):
         row = n_main + r
-        w = {into: float(ch.len_dev[r]) * _max_abs(rng, sp) + float(ch.W_dev[r]) * V * _max_abs(rng, tn)
-             for into, sp, tn in ((1, "speed_y", "turn_y"), (0, "speed_x", "turn_x"))}
+        wy, wx = (float(ch.len_dev[r]) * _max_abs(rng, sp) + float(ch.W_dev[r]) * V * _max_abs(rng, tn)
+                  for sp, tn in (("speed_y", "turn_y"), ("speed_x", "turn_x")))
         half = float(ch.half_dev[r])
+        weights = _with_twins(wy, wx, s_half)
         for into in (1, 0):
-            wq = w[into] + s_half * w[1 - into]
+            wq = weights[into]
             chans.append((wq * Cc[row], wq * Dc[row], wq * Fc[row], into, half))
     Bp = np.zeros((n_s, len(chans)))
     for k, (_, _, _, target, wgt) in enumerate(chans):
@@ -239,14 +251,13 @@ def turning_vertices(model, turns: Turns, theta_bar: float | None = None,
     tb = float(theta_bar or 0.0)
     n_d = len(model.covering)
     if within_period:
-        from .slip import slip_matrix
-
         lo, hi = (np.array([r[k] for r in model.slip_ranges[:2]], dtype=float) for k in (0, 1))
-        M11 = float(slip_matrix((lo + hi) / 2.0, float(model.config.robot.track_distance))[1, 1])
+        M11 = _turn_gain(model, (lo + hi) / 2.0)  # the covering channels are built at the box's centre
         jobs = [(v, model.covering[i % n_d], M11, i % n_d) for i, v in enumerate(model.base_vertices)]
         jobs += [(v, model.covering[t], M11, t) for v, t in zip(model.varying, model.varying_delay)]
     else:
-        jobs = [(v, ch, _turn_gain(model, v), -1) for v, ch in zip(model.base_vertices, model.channels)]
+        jobs = [(v, ch, _turn_gain(model, model.corners[v.corner]), -1)
+                for v, ch in zip(model.base_vertices, model.channels)]
     parts = []
     for v, ch, M11, _ in jobs:
         if v.n_q:
@@ -296,12 +307,12 @@ def turning_heading(model, turns: Turns) -> tuple[tuple[KinematicChannels, ...],
     return add(model.channels), add(model.covering)
 
 
-def _turn_gain(model, v: Vertex) -> float:
-    """M(mu)[1, 1] at vertex ``v``'s slip corner: the turn rate the robot gets per unit of commanded turn rate."""
+def _turn_gain(model, mu: np.ndarray) -> float:
+    """M(mu)[1, 1] at the slip ``mu`` = (mu_r, mu_l, ...): the turn rate the robot gets per unit of commanded
+    turn rate."""
     from .slip import slip_matrix
 
-    return float(slip_matrix(np.asarray(model.corners[v.corner], dtype=float)[:2],
-                             float(model.config.robot.track_distance))[1, 1])
+    return float(slip_matrix(np.asarray(mu, dtype=float)[:2], float(model.config.robot.track_distance))[1, 1])
 
 
 def straight_delta(ch: KinematicChannels, phi_bar: float, theta_bar: float = 0.0, merged: bool = True) -> np.ndarray:
@@ -320,7 +331,7 @@ def straight_delta(ch: KinematicChannels, phi_bar: float, theta_bar: float = 0.0
     if merged:
         for r in range(ch.C.shape[0]):
             w = _arc_weights(r, ch.n_turn, 1.0, rng, s_half)  # per unit of the row's scale, as the centres
-            y, x = ("turn_y", "turn_x") if r < ch.n_turn else ("speed_y", "speed_x")
+            y, x = _row_families(r, ch.n_turn)
             out += [at_zero(rng[y][0], w[1]), at_zero(rng[x][0], w[0])]
     else:
         n_t, n_v = ch.n_turn, ch.C.shape[0] - ch.n_turn

@@ -128,28 +128,27 @@ class KinematicRobot:
         return out
 
     def period(self, q: np.ndarray, U: np.ndarray, S: np.ndarray, mu: np.ndarray,
-               switch: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+               switch: tuple | list | None = None) -> np.ndarray:
         """The poses at t_{k+1} from ``q`` at t_k: the commands ``U`` act on the intervals of the
         switching instants ``S`` (..., d_hi), under slip ``mu`` (..., 2) = (mu_r, mu_l); with
         ``switch = (t, mu_after)`` the slip jumps to mu_after at time t (...) within the period (a list of
         such pairs, in time order: at each)."""
-        M = self._map(mu)
-        if isinstance(switch, tuple):
-            switch = (np.asarray(switch[0], dtype=float), self._map(switch[1]))
-        elif switch is not None:
-            switch = [(np.asarray(t, dtype=float), self._map(after)) for t, after in switch]
-        return period(q, U, S, M, self.Ts, self.J, self.J_inv, self.rho_max, switch)
+        return period(q, U, S, self._map(mu), self.Ts, self.J, self.J_inv, self.rho_max, self._changes(switch))
 
     def partial(self, q: np.ndarray, U: np.ndarray, S: np.ndarray, mu: np.ndarray, t: float,
-                switch: list | None = None) -> np.ndarray:
+                switch: tuple | list | None = None) -> np.ndarray:
         """The poses at t_k + t (0 < t <= Ts) from ``q`` at t_k: :meth:`period` cut at t (the commands and
         slip changes after t have not acted yet)."""
-        M = self._map(mu)
-        if isinstance(switch, tuple):
-            switch = [switch]
-        if switch is not None:
-            switch = [(np.asarray(tc, dtype=float), self._map(after)) for tc, after in switch]
-        return period(q, U, np.minimum(S, t), M, float(t), self.J, self.J_inv, self.rho_max, switch)
+        return period(q, U, np.minimum(S, t), self._map(mu), float(t), self.J, self.J_inv, self.rho_max,
+                      self._changes(switch))
+
+    def _changes(self, switch: tuple | list | None) -> list | None:
+        """The slip changes ``(t, mu_after)`` (one pair or a list in time order) as :func:`period` takes them,
+        with the slip's maps."""
+        if switch is None:
+            return None
+        pairs = [switch] if isinstance(switch, tuple) else switch
+        return [(np.asarray(t, dtype=float), self._map(after)) for t, after in pairs]
 
     def _map(self, mu: np.ndarray) -> np.ndarray:
         """J H J^-1 (..., 2, 2) for the tracks model's (mu_r, mu_l); the twist matrix (..., 3, 2) for the

@@ -69,12 +69,8 @@ def boundary_states(model: Any, K: np.ndarray, lyap: Any, level: float, seed: in
     mu = np.tile(corners, (dirs.shape[0], 1))
     xi = xi * np.sqrt(level / lyap.V(xi, mu))[:, None]
     n_e, n_u, d_hi = model.n_e, model.n_u, model.d_hi
-    rho_max = model.config.robot.max_motor_speed
-    if rho_max is not None:
-        past = xi[:, n_e : n_e + d_hi * n_u].reshape(-1, d_hi, n_u)
-        rho = np.abs((np.array([model.V, 0.0]) + past) @ np.asarray(model.J_inv).T)
-        ok = np.all(rho <= rho_max * (1.0 + 1e-9), axis=(1, 2))
-        xi, mu = xi[ok], mu[ok]
+    ok = _within_motor_limit(model, np.array([model.V, 0.0]) + xi[:, n_e : n_e + d_hi * n_u].reshape(-1, d_hi, n_u))
+    xi, mu = xi[ok], mu[ok]
     if xi.shape[0] > MAX_BOUNDARY_STARTS:
         pick = np.sort(rng.choice(xi.shape[0], MAX_BOUNDARY_STARTS, replace=False))
         xi, mu = xi[pick], mu[pick]
@@ -112,13 +108,8 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
     du_past = xi[:, n_e : n_e + d_hi * n_u].reshape(N, d_hi, n_u)
     # admissible past: the stored commands were sent from states of the set, within the motor limit
     # the certificate enforces there (a state with others in its memory is never reached)
-    rho_max = model.config.robot.max_motor_speed
     uD = np.array([model.V, 0.0])
-    if rho_max is not None:
-        rho = np.abs((uD + du_past) @ np.asarray(model.J_inv).T)
-        admissible = np.all(rho <= rho_max * (1.0 + 1e-9), axis=(1, 2))
-    else:
-        admissible = np.ones(N, dtype=bool)
+    admissible = _within_motor_limit(model, uD + du_past)
 
     # the nonlinear robot on a straight line along x, at the pose of the error e
     path = make_path(((0.0, 0.0), (model.V * model.Ts * 20.0, 0.0)), model.V)
@@ -150,15 +141,14 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
     # a turning certificate (reference.turn_radius): the same states, slips (and jumps) and delays on arcs
     # (the reference turning at w_k after steps it allows, the feedforward in the commands in flight)
     xi_arc = between_arc = None
-    arc_memory = np.ones(N, dtype=bool)  # on arcs the stored commands also carry their feedforward
+    arc_memory = admissible  # on arcs the stored commands also carry their feedforward
     if getattr(model, "turns", None) is not None:
         w = arc_yaw_rates(model, N, rng)
         e_arc = arc_period(model, xi[:, :n_e], du, du_past, S, mu, rng, switch=changes, w=w)
         xi_arc = np.concatenate([e_arc, np.stack(law.past + law.z, axis=1)], axis=1)
         U_arc = arc_commands(model, du, du_past, w)
         between_arc = errors_between_samples(model, xi[:, :n_e], U_arc, S, mu, changes, w[:, 0])[0]
-        if rho_max is not None:  # within the motor limit, as the straight line's (a memory beyond it is never reached)
-            arc_memory = np.all(np.abs(U_arc[:, 1:] @ np.asarray(model.J_inv).T) <= rho_max * (1.0 + 1e-9), axis=(1, 2))
+        arc_memory = _within_motor_limit(model, U_arc[:, 1:])
 
     # the exact lifted map of the certificate, same states, slips and delays
     A, B, c = model.switched_exact(S, mu, t_sw, mu_after, per_track=bool(n_jump))
@@ -224,6 +214,16 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
                   "tau": taus[worst], "xi_next": xi_nl[worst],
                   "V_over_level": float(r_nl_all[worst]), "V_over_level_linear": float(r_lin_all[worst])},
     }
+
+
+def _within_motor_limit(model: Any, commands: np.ndarray) -> np.ndarray:
+    """Per run, whether every command (N, ..., 2) is within the motor limit (all True without one): a
+    memory beyond it is never reached from the set, whose commands the certificate keeps within it."""
+    rho_max = model.config.robot.max_motor_speed
+    if rho_max is None:
+        return np.ones(commands.shape[0], dtype=bool)
+    rho = np.abs(commands @ np.asarray(model.J_inv).T)
+    return np.all(rho <= rho_max * (1.0 + 1e-9), axis=tuple(range(1, rho.ndim)))
 
 
 def arc_yaw_rates(model: Any, N: int, rng: np.random.Generator) -> np.ndarray:
