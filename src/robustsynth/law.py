@@ -133,10 +133,17 @@ class PathTable:
                 raise ValueError("near waypoint %d: two arcs turning opposite ways lie within one period (%g m): the "
                                  "yaw rate steps by %.3g rad/s, more than V^D / r = %.3g: move the waypoints apart "
                                  "or lower reference.turn_radius" % (near, V * Ts, abs(ws[k] - ws[k - 1]), wbar))
+        self._set_reference(ws, Ts, wbar, total)
+        self.turn_radius = r
+
+    def _set_reference(self, ws, Ts, wbar, length):
+        """The turning reference from the first waypoint on: the unicycle at V^D with the yaw rate
+        ws[k] on period k (straight after the last), its pose table, and one frame for the whole path
+        (no waypoint switches)."""
         x, y, th = self.waypoints[0][0], self.waypoints[0][1], self.heading[0]
         self.ref_x, self.ref_y, self.ref_heading, self.ref_w = [x], [y], [th], []
         for w in ws:
-            x, y, th = advance(x, y, th, w, Ts, V)
+            x, y, th = advance(x, y, th, w, Ts, self.speed)
             self.ref_x.append(x)
             self.ref_y.append(y)
             self.ref_heading.append(th)
@@ -144,12 +151,26 @@ class PathTable:
         self.ref_w.append(0.0)  # after the path's end the reference goes on straight
         self.ref_cos = [math.cos(a) for a in self.ref_heading]
         self.ref_sin = [math.sin(a) for a in self.ref_heading]
-        self.turn_radius, self.turning, self.sampling_time = r, True, Ts
-        self.max_yaw_rate = wbar
-        self.duration = total / V
-        # one frame for the whole path: no waypoint switches
+        self.turning, self.sampling_time, self.max_yaw_rate = True, Ts, wbar
+        self.duration = length / self.speed
         self.x0, self.y0, self.heading = self.x0[:1], self.y0[:1], self.heading[:1]
-        self.cos, self.sin, self.length, self.t_start = self.cos[:1], self.sin[:1], [total], [0.0]
+        self.cos, self.sin, self.length, self.t_start = self.cos[:1], self.sin[:1], [length], [0.0]
+
+    @classmethod
+    def from_yaw_rates(cls, start, heading, speed, sampling_time, yaw_rates):
+        """The turning reference that leaves ``start`` (x, y) along ``heading`` at ``speed`` with the yaw
+        rate ``yaw_rates[k]`` on period k (then straight on): a reference given by its yaw rates rather
+        than by waypoints and a turn radius."""
+        ws = [float(w) for w in yaw_rates]
+        x, y = float(start[0]), float(start[1])
+        total = float(speed) * float(sampling_time) * max(len(ws), 1)
+        tab = cls([(x, y), (x + total * math.cos(heading), y + total * math.sin(heading))], speed)
+        if not sampling_time > 0.0:
+            raise ValueError("the sampling time must be positive")
+        tab.heading[0], tab.cos[0], tab.sin[0] = float(heading), math.cos(heading), math.sin(heading)
+        tab._set_reference(ws, float(sampling_time), max([abs(w) for w in ws] + [0.0]), total)
+        tab.arcs = []
+        return tab
 
 
 def _sinc(a):

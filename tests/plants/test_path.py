@@ -66,6 +66,28 @@ def test_the_reference_follows_the_rounded_path_within_the_certified_yaw_rates()
     assert np.all(steps <= V * TS * (1 + ROUND)) and np.all(steps >= V * TS * math.cos(V / R * TS / 2) - ROUND)
 
 
+def test_a_reference_given_by_its_yaw_rates_is_the_rounded_paths_own() -> None:
+    """PathTable.from_yaw_rates (the adversary's references, each history its own yaw rates) from the rounded
+    path's first pose and its per-period yaw rates is that path's reference, pose for pose, and the law measures
+    the same error against both at any time; after its last yaw rate it goes on straight."""
+    from robustsynth.plants.path import path_from_yaw_rates
+
+    p = PathTable(PATH, V, R, TS)
+    q = PathTable.from_yaw_rates(PATH[0], p.heading[0], V, TS, p.ref_w[:-1])
+    for a in ("ref_x", "ref_y", "ref_heading", "ref_w", "ref_cos", "ref_sin", "t_start", "heading"):
+        assert getattr(q, a) == getattr(p, a), a
+    assert q.turning and q.max_yaw_rate == pytest.approx(V / R, rel=1e-9)
+    rng = np.random.default_rng(1)
+    for t in rng.uniform(0.0, p.duration + 1.0, 30):
+        pose = (rng.uniform(0, 16), rng.uniform(-1, 3), rng.uniform(-1, 1))
+        assert frame_error(q, 0, t, *pose) == frame_error(p, 0, t, *pose)
+    g = path_from_yaw_rates([0.2, 0.2, -0.1], V, TS)  # from the origin along x
+    end = np.array(g.desired_pose(3 * TS + 1.0))
+    x3, y3, h3 = g.table.ref_x[3], g.table.ref_y[3], g.table.ref_heading[3]
+    assert h3 == pytest.approx(0.3 * TS, abs=ROUND) and g.feedforward(3 * TS + 1.0) == 0.0
+    assert np.allclose(end, [x3 + V * math.cos(h3), y3 + V * math.sin(h3), h3], atol=ROUND)
+
+
 def test_the_frame_moves_continuously_along_each_periods_arc() -> None:
     """The reference advanced along period k's arc to its end is the table's pose k+1: the error of a
     fixed pose is continuous across the sampling instants."""

@@ -210,7 +210,7 @@ def replay_worst(m, K, lyap, mu0, h):
     from dataclasses import replace
 
     T = h["mu"].shape[0]
-    path, start = adversary_start(m, K, mu0[h["start"]][None], T + 1, course=h["course"])
+    path, start = adversary_start(m, K, mu0[h["start"]][None], T + 1, course=h["course"], yaw=h["yaw"])
     mu = np.concatenate([h["mu"], h["mu_next"][None]])[None]  # the next period's slip: the one V was taken at
     taus = np.append(h["tau"], h["tau"][-1])[None]
     # when within each period the slip took its new value (0: at the instant; the last period's is not used)
@@ -273,7 +273,7 @@ def test_the_adversary_along_arcs_turns_and_its_histories_replay() -> None:
     a course that started straight gave the boundary search exactly the straight line's V)."""
     from robustsynth.certificate import check_certificate, lyapunov_of
     from robustsynth.verification.probe import boundary_states
-    from robustsynth.verification.simulate import ARC_COURSES, adversary_course, adversary_courses
+    from robustsynth.verification.simulate import ARC_COURSES, FREE_YAW, adversary_course, adversary_courses
 
     from ..conftest import committed_gain
 
@@ -281,7 +281,7 @@ def test_the_adversary_along_arcs_turns_and_its_histories_replay() -> None:
     lyap = lyapunov_of(m, cert)
     level = float(check_certificate(m, K, cert).figures["ellipsoid_level"])
     wbar = m.turns.max_yaw_rate
-    assert adversary_courses(m) == ("straight",) + ARC_COURSES
+    assert adversary_courses(m) == ("straight",) + ARC_COURSES + (FREE_YAW,)
     for course in ARC_COURSES:
         w = np.asarray(adversary_course(m, 60, course).table.ref_w)[:60]
         assert np.max(w) == pytest.approx(wbar, rel=1e-12) and np.min(w) == pytest.approx(-wbar, rel=1e-12)
@@ -300,6 +300,36 @@ def test_the_adversary_along_arcs_turns_and_its_histories_replay() -> None:
     xb, mb = boundary_states(m, K, lyap, level, seed=0)
     on = [adversarial_nonlinear(m, K, lyap.V, mb, 10, width=4, starts=xb, course=c)["max_V"] for c in ("straight", "arcs-1-1")]
     assert on[1] > on[0]
+
+
+def test_the_adversary_that_picks_the_yaw_rates_keeps_them_admissible_and_its_histories_replay() -> None:
+    """On the FREE_YAW course each history has its own reference: the adversary picks w_k each period among
+    w_{k-1} and its steps of max_step either way (w_{-1} = 0: the starts' commands carry no feedforward), within
+    +-max_yaw_rate.  Every objective's worst history is admissible, turns both ways, and replays with the
+    simulator on the reference built from its yaw rates (law.PathTable.from_yaw_rates, the deployed law) to the
+    value the search reported, within slip jumps inside a period too.  The search runs in the frame of each
+    history's reference, the replay in the world's: two independent paths to the same numbers."""
+    from robustsynth.certificate import lyapunov_of
+    from robustsynth.verification.simulate import FREE_YAW
+
+    from ..conftest import committed_gain
+
+    m, K, cert = committed_gain("turns")
+    lyap = lyapunov_of(m, cert)
+    wbar, step = m.turns.max_yaw_rate, m.turns.max_step
+    mu0 = slip_vertices(m)
+    adv = adversarial_nonlinear(m, K, lyap.V, mu0, 40, width=4, objectives=ADVERSARY_OBJECTIVES, course=FREE_YAW,
+                                within_period=True)
+    turned = []
+    for o, h in adv["worst"].items():
+        assert h["course"] == FREE_YAW and h["yaw"].shape == (h["mu"].shape[0] + 1,)  # and the next period's
+        w = np.concatenate([[0.0], h["yaw"]])
+        assert np.all(np.abs(w) <= wbar * (1 + 1e-12)) and np.all(np.abs(np.diff(w)) <= step * (1 + 1e-12))
+        turned.append(h["yaw"])
+        got = replay_worst(m, K, lyap, mu0, h)
+        assert abs(got[o] - h["value"]) <= REPLAY_TOL * max(1.0, h["value"]), (o, got[o], h["value"])
+    turned = np.concatenate(turned)
+    assert np.max(turned) > 0.0 > np.min(turned)
 
 
 def test_scenarios_are_reproducible(setups) -> None:

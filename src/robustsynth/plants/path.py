@@ -14,7 +14,7 @@ import numpy as np
 from ..law import PathTable, reference_at, segment_at, yaw_rate
 from ..law import frame_error as law_frame_error
 
-__all__ = ["PathGeometry", "make_path", "path_of", "frame_error", "pose_from_error"]
+__all__ = ["PathGeometry", "make_path", "path_from_yaw_rates", "path_of", "frame_error", "pose_from_error"]
 
 
 @dataclass(frozen=True)
@@ -54,7 +54,16 @@ class PathGeometry:
 def make_path(waypoints, speed: float, turn_radius: float | None = None, sampling_time: float | None = None) -> PathGeometry:
     """The path of ``waypoints`` at ``speed``; with ``turn_radius`` its corners rounded by arcs and the
     reference sampled every ``sampling_time`` (:class:`~robustsynth.law.PathTable`)."""
-    tab = PathTable(np.asarray(waypoints, dtype=float).tolist(), speed, turn_radius, sampling_time)
+    return _geometry(PathTable(np.asarray(waypoints, dtype=float).tolist(), speed, turn_radius, sampling_time))
+
+
+def path_from_yaw_rates(yaw_rates, speed: float, sampling_time: float) -> PathGeometry:
+    """The turning reference that leaves the origin along the x axis at ``speed`` with the yaw rate
+    ``yaw_rates[k]`` on period k, then goes on straight (:meth:`~robustsynth.law.PathTable.from_yaw_rates`)."""
+    return _geometry(PathTable.from_yaw_rates((0.0, 0.0), 0.0, speed, sampling_time, np.asarray(yaw_rates, dtype=float).tolist()))
+
+
+def _geometry(tab: PathTable) -> PathGeometry:
     return PathGeometry(np.array(tab.waypoints), np.array(tab.heading), np.array(tab.length), np.array(tab.t_start),
                         tab.duration, tab.speed, tab)
 

@@ -158,7 +158,7 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
             + _between_text(bp.get("between_samples") or {}, nonlinear)
             + (f"The adversary's beam search from {bp['adversary']['starts']} of these states (each figure's maximizer"
                f" at every slip corner) over {bp['adversary']['steps']} periods"
-               + (" (on a straight line and along arcs)" if len(bp["adversary"].get("courses", ())) > 1 else "")
+               + (" (on a straight line and along arcs, fixed ones and ones whose yaw rates it picks)" if len(bp["adversary"].get("courses", ())) > 1 else "")
                + " reaches max V/level ="
                f" {bp['adversary']['max_V_over_level']:.4f}. " if bp.get("adversary") else "")
             + ("The certificate covers these terms (nonlinear kinematics, docs/theory.md §9"

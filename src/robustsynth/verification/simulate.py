@@ -17,8 +17,8 @@ import numpy as np
 
 from ..errors import check_interrupt
 from ..plants.kinematic import KinematicRobot
-from ..plants.path import PathGeometry, frame_error, make_path, pose_from_error
-from ..law import Law
+from ..plants.path import PathGeometry, frame_error, make_path, path_from_yaw_rates, pose_from_error
+from ..law import Law, wrap_angle
 from ..scenarios import Scenario, delay_candidates, loss_allowed, slip_candidates, split_state, track_changes
 from ..model.arcs import FEEDFORWARD as TURN_FEEDFORWARD
 
@@ -31,6 +31,8 @@ __all__ = [
     "adversary_course",
     "adversary_courses",
     "ADVERSARY_OBJECTIVES",
+    "FREE_YAW",
+    "next_frame",
     "run_logs",
 ]
 
@@ -117,6 +119,9 @@ WITHIN_PERIOD_TIMES = (0.0, 0.5)  # the adversary's times of a slip change, in p
 # yaw rate the model covers, alternating left and right, G periods straight between them (a review found short
 # arcs and gaps push harder than long ones: 1.13 against 0.98 cm of |e_y| on configs/turns.yaml)
 ARC_COURSES = ("arcs-10-3", "arcs-2-1", "arcs-1-1")
+# the adversary's course along which it also picks the reference's yaw rate each period (a turning model): w_{k-1} and
+# its steps of max_step either way, within +-max_yaw_rate
+FREE_YAW = "free-yaw"
 
 
 def _top_distinct(score: np.ndarray, width: int) -> np.ndarray:
@@ -180,24 +185,37 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
     path, scen = adversary_start(model, K, mu0, steps, starts, course)
     N = scen.runs
     U = robot.memory(scen.du0, N)
-    q = scen.q0.copy()
+    # each history's pose in the frame of its reference at t_k, i.e. its error: the histories of the free course
+    # each have their own reference, and the law measures the error of a pose at the origin of that frame
+    q = frame_error(path, 0, scen.q0, 0.0)
+    law = control_law(model, K, _LOCAL_FRAME, scen)
+    free = course == FREE_YAW
+    if free:
+        turns = model.turns
+        yaw_steps = turns.max_step * np.array([-1.0, 0.0, 1.0])
+        w_prev = np.zeros(N)  # the starts' commands carry no feedforward
     uD = np.array([V, 0.0])
     hist = scen.taus.copy()  # delays of the last d_hi packets
     mu_prev = np.array(mu0, dtype=float)
-    law = control_law(model, K, path, scen)
-    best = {o: (-np.inf, -1, -1, None) for o in objectives}  # objective -> (score, step, kept index, V's slip)
+    best = {o: (-np.inf, -1, -1, None, 0.0) for o in objectives}  # objective -> (score, step, kept index, V's slip, w_{k+1})
     maxima = {"e_x": 0.0, "e_y": 0.0, "e_theta": 0.0, "motor_speed": 0.0}
     max_V = -np.inf
-    parents, MU, TAU, VK, SW = [], [], [], [], []
+    parents, MU, TAU, VK, SW, YAW = [], [], [], [], [], []
     jumps = within_period and model.slip_step is None and not model.icr
     for k in range(steps):
         check_interrupt()
         tk = k * Ts
-        dv, dw = law.correction(tk, q[:, 0], q[:, 1], q[:, 2])
-        U = robot.send(U, uD + np.stack([dv, dw], axis=1) + law.feedforward(tk) * TURN_FEEDFORWARD)
-        if k == 0:  # the starts' own commands
-            maxima["motor_speed"] = float(np.max(np.abs(U[:, 0] @ J_inv.T)))
         P = q.shape[0]
+        if free:  # the reference's yaw rate on this period: the adversary's pick
+            W = np.clip(w_prev[:, None] + yaw_steps, -turns.max_yaw_rate, turns.max_yaw_rate)  # (P, n_y)
+        else:
+            W = np.full((P, 1), path.feedforward(tk))
+        n_y = W.shape[1]
+        dv, dw = law.correction(0.0, q[:, 0], q[:, 1], q[:, 2])
+        U = robot.send(np.broadcast_to(U[:, None], (P, n_y) + U.shape[1:]),
+                       (uD + np.stack([dv, dw], axis=1))[:, None] + W[..., None] * TURN_FEEDFORWARD)  # (P, n_y, d_hi + 1, 2)
+        if k == 0:  # the starts' own commands
+            maxima["motor_speed"] = float(np.max(np.abs(U[:, :, 0] @ J_inv.T)))
         cand_mu = slip_candidates(model, mu_prev)  # (P, n_c, 2)
         n_c = cand_mu.shape[1]
         seq = np.concatenate([np.repeat(hist[:, None, :], n_tau, axis=1),
@@ -207,73 +225,100 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
         times = WITHIN_PERIOD_TIMES if jumps and k > 0 else (0.0,)
         sw = Ts * np.array([(a, b) for a in times for b in times])
         n_w = sw.shape[0]
-        shape = (P, n_c, n_w, n_tau)
-        after = np.broadcast_to(cand_mu[:, :, None, None, :], shape + cand_mu.shape[-1:])
-        args = (np.broadcast_to(q[:, None, None, None, :], shape + (3,)),
-                np.broadcast_to(U[:, None, None, None], shape + U.shape[1:]),
-                np.broadcast_to(S[:, None, None], shape + (d_hi,)))
+        shape = (P, n_c, n_w, n_tau, n_y)
+        after = np.broadcast_to(cand_mu[:, :, None, None, None, :], shape + cand_mu.shape[-1:])
+        args = (np.broadcast_to(q[:, None, None, None, None, :], shape + (3,)),
+                np.broadcast_to(U[:, None, None, None], shape + U.shape[2:]),
+                np.broadcast_to(S[:, None, None, :, None], shape + (d_hi,)))
         if n_w == 1 and not np.any(sw):
             q_next = robot.period(*args, after)
         else:  # the earlier track's change first (the slip in between: that track new, the other old)
-            before = np.broadcast_to(mu_prev[:, None, None, None, :], after.shape)
+            before = np.broadcast_to(mu_prev[:, None, None, None, None, :], after.shape)
             q_next = robot.period(*args, before,
-                                  switch=track_changes(before, after, np.broadcast_to(sw[None, None, :, None, :], shape + (2,))))
-        e_next = frame_error(path, 0, q_next, tk + Ts)
+                                  switch=track_changes(before, after, np.broadcast_to(sw[None, None, :, None, None, :], shape + (2,))))
+        e_next = next_frame(q_next, W[:, None, None, None, :], Ts, V)
         rest = np.stack(law.past + law.z, axis=1)  # the controller's memory after step k
-        xi_next = np.concatenate([e_next, np.broadcast_to(rest[:, None, None, None, :], shape + rest.shape[1:])],
+        xi_next = np.concatenate([e_next, np.broadcast_to(rest[:, None, None, None, None, :], shape + rest.shape[1:])],
                                  axis=-1)
         # the sample (xi_{k+1}, mu_{k+1}): xi_{k+1} does not depend on the next period's slip, which the
         # adversary picks among its candidates to make V largest
         nxt_mu = slip_candidates(model, cand_mu)  # (P, n_c, n_c', 2)
         n_n = nxt_mu.shape[2]
         xi_b = np.broadcast_to(xi_next[..., None, :], shape + (n_n, xi_next.shape[-1]))
-        mu_b = np.broadcast_to(nxt_mu[:, :, None, None], shape + (n_n, nxt_mu.shape[-1]))
+        mu_b = np.broadcast_to(nxt_mu[:, :, None, None, None], shape + (n_n, nxt_mu.shape[-1]))
         if with_delay:
             dwt = model.delay_weights(S)  # (P, n_tau, n_d): this period's, the next sample's "previous"
-            v_all = V_fn(xi_b, mu_b, prev=np.broadcast_to(dwt[:, None, None, :, None], shape + (n_n, dwt.shape[-1])))
+            v_all = V_fn(xi_b, mu_b, prev=np.broadcast_to(dwt[:, None, None, :, None, None], shape + (n_n, dwt.shape[-1])))
         else:
             v_all = V_fn(xi_b, mu_b)
         v_arg = np.argmax(v_all, axis=-1)
         v = np.take_along_axis(v_all, v_arg[..., None], axis=-1)[..., 0]
-        rho = np.max(np.abs((uD + law.feedforward(tk + Ts) * TURN_FEEDFORWARD + xi_next @ K.T) @ J_inv.T), axis=-1)
+        # the commands at t_{k+1}, with the next period's feedforward (on the free course the adversary's largest)
+        W1 = (np.clip(W[..., None] + yaw_steps, -turns.max_yaw_rate, turns.max_yaw_rate) if free
+              else np.full((P, 1, 1), path.feedforward(tk + Ts)))  # (P, n_y, n_y')
+        u1 = (uD + np.broadcast_to(W1[:, None, None, None, :, :, None], shape + W1.shape[-1:] + (1,)) * TURN_FEEDFORWARD
+              + (xi_next @ K.T)[..., None, :])
+        rho_all = np.max(np.abs(u1 @ J_inv.T), axis=-1)  # shape + (n_y',)
+        w1_arg = np.argmax(rho_all, axis=-1)
+        rho = np.take_along_axis(rho_all, w1_arg[..., None], axis=-1)[..., 0]
         scores = {"V": v, "e_x": np.abs(e_next[..., 0]), "e_y": np.abs(e_next[..., 1]),
                   "e_theta": np.abs(e_next[..., 2]), "motor_speed": rho}
         if model.dropouts:  # a loss only while the burst is below the cap
-            bad = np.isinf(taus)[None, None, None, :] & ~loss_allowed(model, hist)[:, None, None, None]
+            bad = np.isinf(taus)[None, None, None, :, None] & ~loss_allowed(model, hist)[:, None, None, None, None]
             scores = {o: np.where(bad, -np.inf, x) for o, x in scores.items()}
         flat = {o: x.reshape(-1) for o, x in scores.items()}
         for o in maxima:
             maxima[o] = max(maxima[o], float(np.max(flat[o])))
         max_V = max(max_V, float(np.max(flat["V"])))
-        per = n_c * n_w * n_tau  # the first N histories are greedy, one per start: each goes on with its largest V
+        per = n_c * n_w * n_tau * n_y  # the first N histories are greedy, one per start: each goes on with its largest V
         greedy = np.arange(N) * per + np.argmax(flat["V"].reshape(P, per)[:N], axis=1)
         keep = np.concatenate([greedy] + [_top_distinct(flat[o], width) for o in objectives])
-        pi, ci, wi, ti = np.unravel_index(keep, shape)
+        pi, ci, wi, ti, yi = np.unravel_index(keep, shape)
         for j, o in enumerate(objectives):
             i = N + j * width
             if flat[o][keep[i]] > best[o][0]:
-                best[o] = (float(flat[o][keep[i]]), k, i, nxt_mu[pi[i], ci[i], v_arg[pi[i], ci[i], wi[i], ti[i]]])
-        q = q_next[pi, ci, wi, ti]
-        U = U[pi]
+                at = (pi[i], ci[i], wi[i], ti[i], yi[i])
+                w1 = W1[pi[i], yi[i], w1_arg[at]] if o == "motor_speed" else W1[pi[i], yi[i], 0]
+                best[o] = (float(flat[o][keep[i]]), k, i, nxt_mu[pi[i], ci[i], v_arg[at]], float(w1))
+        q = e_next[pi, ci, wi, ti, yi]
+        U = U[pi, yi]
         law.past = [x[pi] for x in law.past]
         law.z = [x[pi] for x in law.z]
         mu_prev = cand_mu[pi, ci]
+        if free:
+            w_prev = W[pi, yi]
         hist = np.concatenate([hist[pi, 1:], taus[ti][:, None]], axis=1)
         parents.append(pi)
         MU.append(mu_prev)
         SW.append(sw[wi])
         TAU.append(taus[ti])
+        YAW.append(W[pi, yi])
         VK.append(flat["V"][keep])
     worst = {}
-    for o, (value, k, i, mu_v) in best.items():
-        mu_h, tau_h, sw_h = np.empty((k + 1, model.n_p)), np.empty(k + 1), np.empty((k + 1, 2))
+    for o, (value, k, i, mu_v, w1) in best.items():
+        mu_h, tau_h, sw_h, yaw_h = np.empty((k + 1, model.n_p)), np.empty(k + 1), np.empty((k + 1, 2)), np.empty(k + 1)
         for j in range(k, -1, -1):  # walk the history back to its start
-            mu_h[j], tau_h[j], sw_h[j] = MU[j][i], TAU[j][i], SW[j][i]
+            mu_h[j], tau_h[j], sw_h[j], yaw_h[j] = MU[j][i], TAU[j][i], SW[j][i], YAW[j][i]
             i = parents[j][i]
         worst[o] = {"mu": mu_h, "tau": np.concatenate([scen.taus[i], tau_h]), "start": int(i), "value": value,
-                    "mu_next": mu_v, "t_switch": sw_h, "course": course}
+                    "mu_next": mu_v, "t_switch": sw_h, "course": course, "yaw": np.append(yaw_h, w1)}
     return {"max": maxima, "max_V": max_V, "V": np.array(VK), "tau": np.array(TAU), "worst": worst,
             "switch_times": tuple(WITHIN_PERIOD_TIMES) if jumps and steps > 1 else (0.0,)}
+
+
+_LOCAL_FRAME = make_path(((0.0, 0.0), (1.0, 0.0)), 1.0)  # the law measures a pose given in its reference's frame at t_k
+
+
+def next_frame(q: np.ndarray, w: np.ndarray, Ts: float, V: float) -> np.ndarray:
+    """The pose ``q`` (..., 3) given in the frame of the reference at t_k, in the frame of the reference at
+    t_{k+1}: the reference moved one period at V^D and yaw rate ``w`` (...), along its arc's chord at half
+    the turn (:func:`~robustsynth.law.advance`).  At t_{k+1} this is the error the law measures."""
+    phi = np.asarray(w, dtype=float) * Ts
+    chord = V * Ts * np.sinc(phi / (2.0 * np.pi))  # np.sinc(x) = sin(pi x) / (pi x)
+    dx = q[..., 0] - chord * np.cos(phi / 2.0)
+    dy = q[..., 1] - chord * np.sin(phi / 2.0)
+    c, s = np.cos(phi), np.sin(phi)
+    return np.stack(np.broadcast_arrays(c * dx + s * dy, -s * dx + c * dy, wrap_angle(q[..., 2] - phi)), axis=-1)
 
 
 def merge_adversaries(a: dict, b: dict) -> dict:
@@ -289,24 +334,29 @@ def merge_adversaries(a: dict, b: dict) -> dict:
 
 def adversary_courses(model) -> tuple[str, ...]:
     """The courses :func:`adversarial_nonlinear` is run on for ``model``: a straight line, and for a turning
-    model (``model.turns``) the ARC_COURSES."""
-    return ("straight",) + (ARC_COURSES if getattr(model, "turns", None) is not None else ())
+    model (``model.turns``) the ARC_COURSES and the FREE_YAW course."""
+    return ("straight",) + ((*ARC_COURSES, FREE_YAW) if getattr(model, "turns", None) is not None else ())
 
 
-def adversary_course(model, steps: int, course: str = "straight") -> PathGeometry:
+def adversary_course(model, steps: int, course: str = "straight", yaw: np.ndarray | None = None) -> PathGeometry:
     """The adversary's path, at least ``steps`` + 10 periods long: a straight line, or ("arcs-A-G", a
     turning model only) from t = 0 on corners rounded by arcs of radius V^D / w_bar that take A periods each
     at the largest yaw rate the model covers (at least one period's turn), turning left and right in turn
     (steps of w_bar), G periods straight between them.  The starts' stored commands carry no feedforward
-    (w = 0 before t = 0): the first step is one of w_bar, which the certificate allows."""
+    (w = 0 before t = 0): the first step is one of w_bar, which the certificate allows.  FREE_YAW (a turning
+    model only): the reference of the yaw rates ``yaw`` (one per period from t = 0, then straight on), a history
+    of the adversary that picks them; without ``yaw`` a straight line."""
     V, Ts = model.V, model.Ts
     length = V * Ts * (steps + 10)
     if course == "straight":
         return make_path(((0.0, 0.0), (length, 0.0)), V)
     turns = getattr(model, "turns", None)
+    if course == FREE_YAW and turns is not None:
+        return path_from_yaw_rates(() if yaw is None else yaw, V, Ts)
     parts = course.split("-")
     if turns is None or course not in ARC_COURSES or len(parts) != 3:
-        raise ValueError(f"course must be 'straight' or, for a turning model, one of {ARC_COURSES}; got {course!r}")
+        raise ValueError(f"course must be 'straight' or, for a turning model, one of {ARC_COURSES + (FREE_YAW,)}; "
+                         f"got {course!r}")
     arc, gap = int(parts[1]), int(parts[2])
     wbar = float(turns.max_yaw_rate)
     r = V / wbar
@@ -323,8 +373,8 @@ def adversary_course(model, steps: int, course: str = "straight") -> PathGeometr
     return make_path(np.array(wp), V, r, Ts)
 
 
-def adversary_start(model, K: np.ndarray, mu0: np.ndarray, steps: int,
-                    starts: np.ndarray | None = None, course: str = "straight") -> tuple[PathGeometry, Scenario]:
+def adversary_start(model, K: np.ndarray, mu0: np.ndarray, steps: int, starts: np.ndarray | None = None,
+                    course: str = "straight", yaw: np.ndarray | None = None) -> tuple[PathGeometry, Scenario]:
     """The path (:func:`adversary_course`) and the starts of :func:`adversarial_nonlinear`: the steady
     states of the slips ``mu0`` (N, 2) (or the lifted states ``starts``), the last d_hi packets delayed by
     the middle of [tau_min, tau_max].  The scenario holds no slip or delays beyond the start (``mu`` is
@@ -332,7 +382,7 @@ def adversary_start(model, K: np.ndarray, mu0: np.ndarray, steps: int,
     mu0 = np.asarray(mu0, dtype=float)
     N, d_hi = mu0.shape[0], model.d_hi
     dl = model.config.network.delay
-    path = adversary_course(model, steps, course)
+    path = adversary_course(model, steps, course, yaw)
     xi0 = model.equilibrium(np.asarray(K, dtype=float), mu0) if starts is None else np.asarray(starts, dtype=float)
     e0, du0, z0 = split_state(model, xi0)
     scen = Scenario(np.full((N, d_hi), (dl.min + dl.max) / 2.0), mu0[:, None, :], np.zeros((N, 1, 3)),
