@@ -161,12 +161,12 @@ class PathTable:
         """The turning reference that leaves ``start`` (x, y) along ``heading`` at ``speed`` with the yaw
         rate ``yaw_rates[k]`` on period k (then straight on): a reference given by its yaw rates rather
         than by waypoints and a turn radius."""
+        if sampling_time is None or not sampling_time > 0.0:
+            raise ValueError("the sampling time must be positive")
         ws = [float(w) for w in yaw_rates]
         x, y = float(start[0]), float(start[1])
         total = float(speed) * float(sampling_time) * max(len(ws), 1)
         tab = cls([(x, y), (x + total * math.cos(heading), y + total * math.sin(heading))], speed)
-        if not sampling_time > 0.0:
-            raise ValueError("the sampling time must be positive")
         tab.heading[0], tab.cos[0], tab.sin[0] = float(heading), math.cos(heading), math.sin(heading)
         tab._set_reference(ws, float(sampling_time), max([abs(w) for w in ws] + [0.0]), total)
         tab.arcs = []

@@ -72,11 +72,14 @@ def test_a_reference_given_by_its_yaw_rates_is_the_rounded_paths_own() -> None:
     the same error against both at any time; after its last yaw rate it goes on straight."""
     from robustsynth.plants.path import path_from_yaw_rates
 
-    p = PathTable(PATH, V, R, TS)
-    q = PathTable.from_yaw_rates(PATH[0], p.heading[0], V, TS, p.ref_w[:-1])
-    for a in ("ref_x", "ref_y", "ref_heading", "ref_w", "ref_cos", "ref_sin", "t_start", "heading"):
+    c, s = math.cos(0.7), math.sin(0.7)  # the default path turned by 0.7 rad and moved away from the origin
+    moved = [(3.0 + c * x - s * y, -2.0 + s * x + c * y) for x, y in PATH]
+    p = PathTable(moved, V, R, TS)
+    q = PathTable.from_yaw_rates(moved[0], p.heading[0], V, TS, p.ref_w[:-1])
+    for a in ("ref_x", "ref_y", "ref_heading", "ref_w", "ref_cos", "ref_sin", "t_start", "heading", "cos", "sin"):
         assert getattr(q, a) == getattr(p, a), a
     assert q.turning and q.max_yaw_rate == pytest.approx(V / R, rel=1e-9)
+    assert q.duration == pytest.approx(TS * (len(p.ref_w) - 1), rel=1e-12)  # its yaw rates' periods
     rng = np.random.default_rng(1)
     for t in rng.uniform(0.0, p.duration + 1.0, 30):
         pose = (rng.uniform(0, 16), rng.uniform(-1, 3), rng.uniform(-1, 1))

@@ -305,10 +305,14 @@ def test_the_adversary_along_arcs_turns_and_its_histories_replay() -> None:
 def test_the_adversary_that_picks_the_yaw_rates_keeps_them_admissible_and_its_histories_replay() -> None:
     """On the FREE_YAW course each history has its own reference: the adversary picks w_k each period among
     w_{k-1} and its steps of max_step either way (w_{-1} = 0: the starts' commands carry no feedforward), within
-    +-max_yaw_rate.  Every objective's worst history is admissible, turns both ways, and replays with the
-    simulator on the reference built from its yaw rates (law.PathTable.from_yaw_rates, the deployed law) to the
-    value the search reported, within slip jumps inside a period too.  The search runs in the frame of each
-    history's reference, the replay in the world's: two independent paths to the same numbers."""
+    +-max_yaw_rate.  Here max_step is half of max_yaw_rate (the certificate covers smaller steps), so that the
+    three picks are distinct almost everywhere.  Every objective's worst history is admissible, turns both ways,
+    and replays with the simulator on the reference built from its yaw rates (law.PathTable.from_yaw_rates, the
+    deployed law) to the value the search reported; the search runs in the frame of each history's reference,
+    the replay in the world's: two independent paths to the same numbers.  For |rho| the next period's yaw rate
+    is the adversary's pick too: no other admissible pick replays to more."""
+    from dataclasses import replace
+
     from robustsynth.certificate import lyapunov_of
     from robustsynth.verification.simulate import FREE_YAW
 
@@ -316,18 +320,28 @@ def test_the_adversary_that_picks_the_yaw_rates_keeps_them_admissible_and_its_hi
 
     m, K, cert = committed_gain("turns")
     lyap = lyapunov_of(m, cert)
-    wbar, step = m.turns.max_yaw_rate, m.turns.max_step
+    wbar = m.turns.max_yaw_rate
+    step = wbar / 2.0
+    m = replace(m, turns=replace(m.turns, max_step=step))
     mu0 = slip_vertices(m)
-    adv = adversarial_nonlinear(m, K, lyap.V, mu0, 40, width=4, objectives=ADVERSARY_OBJECTIVES, course=FREE_YAW,
-                                within_period=True)
+    adv = adversarial_nonlinear(m, K, lyap.V, mu0, 40, width=4, objectives=ADVERSARY_OBJECTIVES, course=FREE_YAW)
     turned = []
     for o, h in adv["worst"].items():
         assert h["course"] == FREE_YAW and h["yaw"].shape == (h["mu"].shape[0] + 1,)  # and the next period's
         w = np.concatenate([[0.0], h["yaw"]])
         assert np.all(np.abs(w) <= wbar * (1 + 1e-12)) and np.all(np.abs(np.diff(w)) <= step * (1 + 1e-12))
+        assert np.all(np.isin(np.round(w / step, 9), np.arange(-2, 3)))  # multiples of the step: the picks
         turned.append(h["yaw"])
         got = replay_worst(m, K, lyap, mu0, h)
         assert abs(got[o] - h["value"]) <= REPLAY_TOL * max(1.0, h["value"]), (o, got[o], h["value"])
+    # one period from the steady states (w_0 within a step of 0, so w_1 is not clipped to w_0): the |rho| found is
+    # the largest over the next period's admissible picks
+    short = adversarial_nonlinear(m, K, lyap.V, mu0, 1, width=4, objectives=("motor_speed",), course=FREE_YAW)
+    h = short["worst"]["motor_speed"]
+    picks = [float(np.clip(h["yaw"][-2] + d, -wbar, wbar)) for d in (-step, 0.0, step)]
+    replays = [replay_worst(m, K, lyap, mu0, dict(h, yaw=np.append(h["yaw"][:-1], w)))["motor_speed"] for w in picks]
+    assert len(set(picks)) == 3 and max(replays) - min(replays) > 0.01  # the picks matter
+    assert abs(max(replays) - h["value"]) <= REPLAY_TOL * h["value"]
     turned = np.concatenate(turned)
     assert np.max(turned) > 0.0 > np.min(turned)
 

@@ -446,7 +446,8 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
                           + ": every period "
                           "each kept history goes on with every slip the adversary may pick"
                           + (" (also a second search in which each track's new slip takes over at "
-                             + ", ".join(f"{t:.3g}" for t in times) + " of the period, from the second period on)"
+                             + ", ".join(f"{t:.3g}" for t in times) + " of the period, from the second period on"
+                             + (", on the fixed courses" if getattr(model, "turns", None) is not None else "") + ")"
                              if times else "")
                           + " and 9 delays of the newest packet; kept are each start's greedy history (largest V) and, for each of "
                           + ", ".join({"V": "V", "e_x": "|e_x|", "e_y": "|e_y|", "e_theta": "|e_theta|",

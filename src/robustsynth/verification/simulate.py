@@ -143,7 +143,14 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
                           within_period: bool = False, course: str = "straight") -> dict:
     """Beam search for the slip and delay history that takes the nonlinear robot furthest out, along
     a straight line (``course`` "straight") or, for a turning model, along one of :func:`adversary_course`'s
-    courses of arcs (the turning feedforward in the commands) from the steady states of the slips ``mu0`` (N, 2).
+    courses of arcs (the turning feedforward in the commands) or (FREE_YAW) along references whose yaw rate the
+    search picks each period too (w_{k-1} and its steps of ``max_step`` either way, within +-``max_yaw_rate``;
+    w_{-1} = 0), from the steady states of the slips ``mu0`` (N, 2).
+
+    The search runs in the frame of each history's reference at t_k, where the pose is the error: the law
+    (:class:`~robustsynth.law.Law`, the deployed one) measures a pose at the origin of that frame, and
+    :func:`next_frame` moves the pose into the next reference's frame.  Its commands are the deployed law's
+    up to the round-off of that change of frame (a replay in the world frame agrees to 1e-9 or better).
 
     Every period each kept history is continued with every slip the adversary may pick
     (:func:`~robustsynth.scenarios.slip_candidates`: the corners, or with ``slip.max_rate``
@@ -163,8 +170,10 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
     Returns ``max`` (the largest |e_x|, |e_y|, |e_theta|, |rho| over every candidate), ``max_V``,
     ``V`` and ``tau`` (steps, P) of the kept candidates, and ``worst``: for each objective the
     history of its best candidate, ``{"mu": (T, 2), "tau": (d_hi + T,), "start": index into mu0,
-    "value": float, "mu_next": (2,)}`` (the first d_hi delays are the start's; ``mu_next``: the slip V
-    was evaluated with, ``course``), to replay with :func:`simulate` from :func:`adversary_start`.
+    "value": float, "mu_next": (2,), "course": str, "yaw": (T + 1,)}`` (the first d_hi delays are the start's;
+    ``mu_next``: the slip V was evaluated with; ``yaw``: the reference's yaw rate on each period and on the next
+    one, for |rho| the one that makes it largest), to replay with :func:`simulate` from
+    :func:`adversary_start` (``yaw`` builds the reference of the FREE_YAW course).
 
     ``starts`` (N, n_s): lifted states to start from instead of the steady states (the boundary of
     the certified set, :func:`~robustsynth.verification.probe.boundary_states`), with slips ``mu0``.
@@ -345,7 +354,7 @@ def adversary_course(model, steps: int, course: str = "straight", yaw: np.ndarra
     (steps of w_bar), G periods straight between them.  The starts' stored commands carry no feedforward
     (w = 0 before t = 0): the first step is one of w_bar, which the certificate allows.  FREE_YAW (a turning
     model only): the reference of the yaw rates ``yaw`` (one per period from t = 0, then straight on), a history
-    of the adversary that picks them; without ``yaw`` a straight line."""
+    of the adversary that picks them; without ``yaw`` a straight line (``steps`` unused: it goes on straight)."""
     V, Ts = model.V, model.Ts
     length = V * Ts * (steps + 10)
     if course == "straight":
