@@ -116,6 +116,21 @@ def test_the_motor_bound_holds_the_turning_feedforward(designs) -> None:
     assert ff < motor <= cfg.robot.max_motor_speed
 
 
+def test_exit_3_of_a_turning_model_names_the_turn_radius_as_a_remedy() -> None:
+    """Gentler arcs lower the feedforward and the arc channels: each exit-3 message of the synthesis offers a
+    wider reference.turn_radius for a turning model (the 1 m arcs of configs/turns.yaml on [0.8, 1], linearized,
+    end with the motor message after 8 minutes), and only for one.  (Motors too weak for the arcs' feedforward
+    alone never reach the synthesis: the config's physical check refuses them first, naming the radius.)"""
+    from robustsynth.errors import InfeasibleError
+    from robustsynth.synthesis.design import _wider_turns
+
+    assert _wider_turns(build_model(make_config(**{"reference.turn_radius": 1.0}))) == \
+        ", widen reference.turn_radius (now 1 m)"
+    assert _wider_turns(build_model(make_config())) == ""
+    with pytest.raises(InfeasibleError, match="physically infeasible.*raise reference.turn_radius"):
+        synthesize(build_model(make_config(**{"reference.turn_radius": 1.0, "robot.max_motor_speed": 6.0})))
+
+
 def _jumps(rng, mu, lo, hi, Ts):
     """Each track's slip jumping to the other end of its range at its own random time within the period,
     as ``period``'s ``switch`` list (``scenarios.track_changes``)."""

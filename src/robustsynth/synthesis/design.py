@@ -272,6 +272,13 @@ def _delay_text(model: Any) -> str:
     return f"delays up to {model.config.network.delay.max:g} s" + (f" and {m} lost commands in a row" if m else "")
 
 
+def _wider_turns(model: Any, sep: str = ", ") -> str:
+    """The remedy a turning model adds to an exit-3 message: gentler arcs (a smaller yaw rate and feedforward)."""
+    if getattr(model, "turns", None) is None:
+        return ""
+    return f"{sep}widen reference.turn_radius (now {model.config.reference.turn_radius:g} m)"
+
+
 def _attempts(out: Any) -> str:
     return ", ".join(f"{a.name} {a.status} {a.solve_time_s:.2f} s" for a in out.attempts)
 
@@ -306,7 +313,7 @@ def _run_stability(model: Any, s: SynthesisConfig, search: list, say: Callable[[
             raise SolverFailure(f"stability: the solvers failed ({runner.records[-1].status})")
         raise InfeasibleError(
             f"stability: no gain robustly stabilizes the robot for {_delay_text(model)}: "
-            "narrow network.delay or lower reference.speed"
+            f"narrow network.delay{_wider_turns(model)} or lower reference.speed"
         )
     lo = 0.0
     while hi - lo > s.bisection_tol:
@@ -615,7 +622,7 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
             raise InfeasibleError(
                 f"ultimate-bound: robot.max_motor_speed = {rho_max:g} rad/s is below "
                 f"{'V^D/R + max_yaw_rate D/(2R)' if turning else 'V^D/R'} = {model.feedforward_motor_speed:.4g} rad/s "
-                "needed to follow the path: raise robot.max_motor_speed or lower reference.speed"
+                f"needed to follow the path: raise robot.max_motor_speed{_wider_turns(model)} or lower reference.speed"
                 + (" or the turns' yaw rate" if turning else "")
             )
         if model.heading_bound is not None:
@@ -680,15 +687,17 @@ def _run_linearized(model: Any, s: SynthesisConfig, search: list, motor: bool,
             probe, _ = _run_invariance(model, s.model_copy(update={"alpha_points": 5}), [], False)
             if probe.cert is not None:
                 raise InfeasibleError(
-                    f"ultimate-bound: no gain keeps |rho| <= {rho_max:g} rad/s for {_delay_text(model)}: "
-                    "raise robot.max_motor_speed or lower reference.speed"
+                    f"ultimate-bound: no gain keeps |rho| <= {rho_max:g} rad/s for {_delay_text(model)}"
+                    + (f" (the feedforward alone takes {model.feedforward_motor_speed:.3g} rad/s of it, the turning "
+                       "reference's included)" if getattr(model, "turns", None) is not None else "")
+                    + f": raise robot.max_motor_speed{_wider_turns(model)} or lower reference.speed"
                 )
         raise InfeasibleError(
             f"ultimate-bound: no gain makes an ellipsoid invariant for {_delay_text(model)} and slip in "
             f"[{cfg.slip.right.min:g}, {cfg.slip.right.max:g}] x [{cfg.slip.left.min:g}, {cfg.slip.left.max:g}]"
             + (f" (yaw [{cfg.slip.yaw.min:g}, {cfg.slip.yaw.max:g}], x_icr [{cfg.slip.icr_offset.min:g}, "
                f"{cfg.slip.icr_offset.max:g}] m)" if cfg.slip.model == "icr" else "") + ": "
-            "narrow network.delay or slip, or lower reference.speed"
+            f"narrow network.delay or slip{_wider_turns(model)}, or lower reference.speed"
         )
     return best, runner
 
@@ -772,7 +781,7 @@ def _nonlinear_infeasible(model: Any, common: _Best, tried: list) -> str:
                 f"{f.get('heading_within_period', f['ultimate_bound']['e_theta']):.3g} rad within a period and forward-speed "
                 f"deviations up to {speed:.3g} m/s (V^D = {model.V:g} m/s): on it a sin e_theta alone reaches "
                 f"{speed * np.sin(min(f.get('heading_within_period', 0.3), 1.0)):.3g} m/s. Narrow slip, lower "
-                "reference.speed, " + ("widen reference.turn_radius, " if getattr(model, "turns", None) is not None else "")
+                "reference.speed, " + _wider_turns(model, sep="") + (", " if getattr(model, "turns", None) is not None else "")
                 + "or use synthesis.kinematics: linearized (whose proof is for the linearization)")
     if model.covering and model.config.synthesis.lyapunov == "common":
         msg += (". These channels cover slip changing at any time within a period; with synthesis.lyapunov "
