@@ -120,6 +120,41 @@ def test_the_robot_on_an_arc_lies_within_the_turning_vertices(over):
     assert np.max(used) > 0.3
 
 
+LIN_TOL = 1e-13  # the linearized map evaluated by quadrature against the vertex algebra: round-off only
+
+
+@pytest.mark.parametrize("over", [{}, {"network.delay.min": 0.12, "network.delay.max": 0.22}])
+def test_the_linearized_map_on_an_arc_is_the_vertices_own_and_the_robots_first_order(over):
+    """model.arcs.linearized_arc_period, the kinematics linearized about the arc and integrated by quadrature,
+    an implementation independent of the vertex algebra: (1) with w = 0 it is the straight lifted map; (2) at
+    full size it lies within the linearized turning vertex's allowance to round-off (no second-order slack: the
+    channels bound this map exactly, and use a good part of the allowance); (3) the nonlinear robot differs from
+    it by second-order terms only: halving every deviation from the nominal arc quarters the difference."""
+    from robustsynth.model.arcs import linearized_arc_period
+
+    model = _model(**over)
+    turns = Turns(0.5, 0.5)
+    rng = np.random.default_rng(11)
+    xi, du, mu, S, w = _sample_full(model, turns, rng, 300)
+    A, B = model.robot_exact(S, mu)
+    straight = (np.einsum("nij,nj->ni", A, xi) + np.einsum("nij,nj->ni", B, du) + model.constant(mu))[:, :model.n_e]
+    assert np.max(np.abs(linearized_arc_period(model, xi, du, S, mu, np.zeros_like(w)) - straight)) <= LIN_TOL
+    lin = linearized_arc_period(model, xi, du, S, mu, w)
+    centre, allow = _allowed(model, turns, xi, du, mu, S, w)
+    assert np.max(np.abs(lin[:, 2] - centre[:, 2])) <= LIN_TOL and np.all(allow[:, 2] == 0.0)
+    assert np.max(np.abs(lin - centre)[:, :2] - allow[:, :2]) <= LIN_TOL
+    assert np.max(np.abs(lin - centre)[:, :2] / np.maximum(allow[:, :2], 1e-300)) > 0.3  # not vacuous
+    # the turning model's disturbance coordinates (the lifted-model checks' beta terms) in the vertices' layout
+    wv = np.concatenate([np.ones((len(w), 1)), w[:, :1] / 0.5, (w[:, :1] - w[:, 1:]) / turns.step_bounds(model.d_hi + 1)], axis=1)
+    assert np.array_equal(model.with_turns(0.5).disturbance_coordinates(mu, w), wv)
+    gaps = []
+    for eps in (0.2, 0.1, 0.05):  # the deviations from the nominal arc (mu = 1, no errors, no corrections) scaled
+        x_e, u_e, mu_e = eps * xi, eps * du, 1.0 + eps * (mu - 1.0)
+        w_e = w[:, :1] + eps * (w - w[:, :1])  # the yaw-rate steps scaled too, w_k at full size
+        gaps.append(np.max(np.abs(_robot(model, x_e, u_e, mu_e, S, w_e) - linearized_arc_period(model, x_e, u_e, S, mu_e, w_e))))
+    assert gaps[0] > 100 * LIN_TOL and gaps[1] <= 0.3 * gaps[0] and gaps[2] <= 0.3 * gaps[1]
+
+
 @pytest.mark.parametrize("drop", ["arc", "rotation"])
 def test_each_part_of_the_augmentation_is_needed(drop):
     """Without the arc's linearization channels, or without the change of frame's, the robot leaves

@@ -66,7 +66,8 @@ import numpy as np
 from .nonlinear import KinematicChannels
 from .vertices import Vertex
 
-__all__ = ["Turns", "turning_vertices", "turning_heading", "heading_yaw_columns", "straight_delta", "arc_ranges", "FEEDFORWARD"]
+__all__ = ["Turns", "turning_vertices", "turning_heading", "heading_yaw_columns", "straight_delta", "arc_ranges", "FEEDFORWARD",
+           "linearized_arc_period"]
 
 FEEDFORWARD = np.array([0.0, 1.0])  # the command (dV, omega) of one rad/s of reference yaw rate
 
@@ -341,3 +342,57 @@ def straight_delta(ch: KinematicChannels, phi_bar: float, theta_bar: float = 0.0
     out += [at_zero(c_mid, c_half), 0.0] * 2  # the rotation: cos - 1 and sin per row
     out += [0.0] * (2 * ch.n_dev)  # slip's deviations within the period: none on a straight segment at constant slip
     return np.array(out)
+
+
+GAUSS_NODES = 8  # Gauss-Legendre nodes per command interval: cos/sin(w s) times an affine function, exact to round-off
+
+
+def linearized_arc_period(model, xi: np.ndarray, du: np.ndarray, S: np.ndarray, mu: np.ndarray,
+                          w: np.ndarray) -> np.ndarray:
+    """The error at t_{k+1}, in the frame of the reference at t_{k+1}, of the kinematics linearized about the
+    reference's arc (docs/theory.md §10, "One period, exactly"), evaluated directly rather than bounded: the
+    model a linearized turning certificate is for.  ``xi`` (..., n_s) the lifted state at t_k, ``du`` (..., 2) the
+    new correction, ``S`` (..., d_hi) the switching instants, ``mu`` (..., 2) the slip (the tracks model), ``w``
+    (..., d_hi + 1) the reference's yaw rates w_k, w_{k-1}, ..., w_{k-d_hi} (command j carries the feedforward
+    (0, w_{k-j})).  Returns (..., 3).
+
+    In the frame F_k of the reference at t_k (origin, heading 0, moving at V^D and yaw rate w_k) the robot's
+    heading is ``w_k s + eta(s)`` and its speed ``V^D + a``; to first order in (eta, a)
+
+        d/ds (x - x_ref) = a cos(w_k s) - V^D sin(w_k s) eta,   d/ds (y - y_ref) = a sin(w_k s) + V^D cos(w_k s) eta,
+
+    with ``eta`` piecewise linear (slope omega_j - w_k on command j's interval) and ``a``, ``omega_j`` exact in the
+    slip, (a_j, omega_j) = M(mu)(u^D + du_{k-j} + (0, w_{k-j})) - (V^D, 0).  The integrals are taken by
+    Gauss-Legendre quadrature on each command's interval; the change of frame to F_{k+1} (turned by w_k Ts) is
+    exact.  With w = 0 this is the straight lifted map (:meth:`~.model.Model.robot_exact` and the constant)."""
+    from .slip import slip_matrix
+
+    n_e, n_u, d_hi, V, Ts = model.n_e, model.n_u, model.d_hi, model.V, model.Ts
+    mu = np.asarray(mu, dtype=float)
+    if mu.shape[-1] != 2:
+        raise ValueError("linearized_arc_period: the tracks slip model only (mu_r, mu_l)")
+    xi, du, S, w = (np.asarray(a, dtype=float) for a in (xi, du, S, w))
+    lead = xi.shape[:-1]
+    past = xi[..., n_e : n_e + d_hi * n_u].reshape(lead + (d_hi, n_u))
+    u = np.array([V, 0.0]) + np.concatenate([du[..., None, :], past], axis=-2) + w[..., :, None] * FEEDFORWARD
+    vel = np.einsum("...ij,...kj->...ki", slip_matrix(mu, model.config.robot.track_distance), u)
+    a, om = vel[..., 0] - V, vel[..., 1]  # (..., d_hi + 1)
+    wk = w[..., 0]
+    x_gl, w_gl = np.polynomial.legendre.leggauss(GAUSS_NODES)
+    ex, ey, eta = xi[..., 0], xi[..., 1], xi[..., 2]
+    start = np.zeros(lead)
+    for j in range(d_hi, -1, -1):  # command j acts on [s~_j, s~_{j-1}), s~_{d_hi} = 0, s~_{-1} = Ts
+        end = S[..., j - 1] if j > 0 else np.full(lead, Ts)
+        h = end - start
+        s = start[..., None] + h[..., None] * (x_gl + 1.0) / 2.0
+        slope = (om[..., j] - wk)[..., None]
+        et = eta[..., None] + slope * (s - start[..., None])
+        c, sn = np.cos(wk[..., None] * s), np.sin(wk[..., None] * s)
+        weight = h[..., None] / 2.0 * w_gl
+        ex = ex + np.sum(weight * (a[..., j, None] * c - V * sn * et), axis=-1)
+        ey = ey + np.sum(weight * (a[..., j, None] * sn + V * c * et), axis=-1)
+        eta = eta + slope[..., 0] * h
+        start = end
+    phi = wk * Ts
+    cp, sp = np.cos(phi), np.sin(phi)
+    return np.stack([cp * ex + sp * ey, -sp * ex + cp * ey, eta], axis=-1)

@@ -399,15 +399,23 @@ class Model:
                                 self.config.robot.track_distance, self.n_s)
         return (mu - 1.0) @ np.asarray(self.B_d).T
 
-    def disturbance_coordinates(self, mu: np.ndarray) -> np.ndarray:
+    def disturbance_coordinates(self, mu: np.ndarray, yaw: np.ndarray | None = None) -> np.ndarray:
         """w (..., n_w) with ``sum_i lambda_i E_i w = c(mu)`` for the hull weights lambda: the slip box
-        coordinates for the paper's kind, w = 1 (the constant column) for the slip-aware kind."""
+        coordinates for the paper's kind, w = 1 (the constant column) for the slip-aware kind.  A turning model
+        adds its reference's coordinates (model/arcs.py): ``w_k / max_yaw_rate`` and ``(w_k - w_{k-j}) / b_j``
+        for ``yaw`` (..., d_hi + 1) = (w_k, w_{k-1}, ..., w_{k-d_hi}); without ``yaw`` a straight segment (zeros)."""
         mu = np.asarray(mu, dtype=float)
         if self.kind == "paper":
             return self.slip.coordinates(mu - 1.0)
         w = np.ones(mu.shape[:-1] + (1,))
-        if self.turns is not None:  # a turning model's straight segment: w_k = 0, no steps (model/arcs.py)
-            w = np.concatenate([w, np.zeros(mu.shape[:-1] + (self.n_w - 1,))], axis=-1)
+        if self.turns is not None:
+            if yaw is None:
+                turn = np.zeros(mu.shape[:-1] + (self.n_w - 1,))
+            else:
+                yaw = np.asarray(yaw, dtype=float)
+                turn = np.concatenate([yaw[..., :1] / self.turns.max_yaw_rate,
+                                       (yaw[..., :1] - yaw[..., 1:]) / self.turns.step_bounds(yaw.shape[-1])], axis=-1)
+            w = np.concatenate([w, np.broadcast_to(turn, mu.shape[:-1] + turn.shape[-1:])], axis=-1)
         return w
 
     def delta(self, s_tilde: np.ndarray) -> np.ndarray:

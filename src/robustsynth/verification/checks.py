@@ -5,7 +5,8 @@ Pass/fail rules (also in the README):
 - certificate: the LMIs rebuilt in numpy from the file keep half their margin;
 - frozen delays: spectral radius < 1 on the grid, and <= the certified decay rate + 1e-6;
 - lifted model of the gain's kind, time-varying delays and slip (random, alternating, greedy worst
-  case): V decreases as certified and states that start in the certified set never leave it
+  case; for a turning certificate also random delays along arcs, on the kinematics linearized about
+  them): V decreases as certified and states that start in the certified set never leave it
   (relative 1e-9);
 - the nonlinear robot (Monte Carlo from steady states, extreme switching, a beam-search
   adversary): every run finite; it re-enters the certified set after every waypoint; on the steps
@@ -35,7 +36,8 @@ from ..certificate import CertificateCheck, check_certificate, lyapunov_of, turn
 from .probe import boundary_probe, boundary_states
 
 BOUNDARY_ADVERSARY_STEPS = 50  # the adversary from the boundary: what matters happens in the first periods
-from .lifted import closed_loop_run, frozen_instant_grid, frozen_spectral_radius, greedy_worst_case
+from .lifted import (arc_closed_loop_run, closed_loop_run, frozen_instant_grid, frozen_spectral_radius,
+                     greedy_worst_case, random_yaw_rates)
 from .simulate import (ADVERSARY_OBJECTIVES, ARC_COURSES, FREE_YAW, SimResult, adversarial_nonlinear, adversary_courses,
                        merge_adversaries, simulate)
 
@@ -137,28 +139,28 @@ def _lifted(model, K, cert: CertificateCheck, gains: dict) -> tuple[list[dict], 
         worst_ratio, worst_dec = 0.0, -np.inf
         w = model.disturbance_coordinates(mu[:, :steps])  # c(mu) = sum lambda_i E_i w
         for name, taus in patterns.items():
-            prev = _previous_delays(model, lyap, taus=taus)
-            for start_name, xi0 in (("boundary", xi_in), ("outside", xi_out)):
-                xi = closed_loop_run(model, K, taus, mu[:, :steps], xi0)
-                V = lyap.V(xi, mu, prev)
-                rhs = (1 - alpha) * V[:, :-1] + (w**2) @ beta
-                worst_dec = max(worst_dec, float(np.max((V[:, 1:] - rhs) / np.maximum(V[:, :-1], level))))
-                if start_name == "boundary":
-                    # when the LMIs hold for every next slip, from step 1 on the state lies in the set
-                    # of every slip, and the largest value over the corners is checked
-                    Vc = lyap.V_max(xi[:, 1:]) if lyap.any_next_slip else V[:, 1:]
-                    worst_ratio = max(worst_ratio, float(np.max(Vc)) / level)
-                traces[f"{name}/{start_name}"] = V
+            run = lambda xi0, taus=taus: closed_loop_run(model, K, taus, mu[:, :steps], xi0)  # noqa: E731
+            dec, ratio = _decrease_runs(run, lyap, mu, _previous_delays(model, lyap, taus=taus), w, alpha, beta, level,
+                                        (("boundary", xi_in), ("outside", xi_out)), name, traces)
+            worst_dec, worst_ratio = max(worst_dec, dec), max(worst_ratio, ratio)
         n_g = min(N, 50)
         xg, tg, mug = greedy_worst_case(model, K, lyap.V, xi_in[:n_g], min(steps, 100), mu0=mu[:n_g, 0], with_delay=lyap.path)
         Vg = lyap.V_max(xg) if lyap.any_next_slip else np.concatenate(
             [lyap.V(xg[:, :1], mu[:n_g, :1]), lyap.V(xg[:, 1:], mug, _previous_delays(model, lyap, taus=tg, part=slice(1, None)))], axis=1)
         traces["greedy/boundary"] = Vg
         worst_ratio = max(worst_ratio, float(np.max(Vg[:, 1:]) / level))
+        arcs = _lifted_arcs(model, K, lyap, rng, mu, xi_in, xi_out, level, alpha, beta, traces)
+        if arcs is not None:
+            summary["arcs"] = arcs
+            worst_dec = max(worst_dec, arcs["max_decrease_excess"])
+            worst_ratio = max(worst_ratio, arcs["max_V_over_level"])
+        on_arcs = "; and random delays along arcs (yaw rates within the certificate's turns, the kinematics linearized " \
+                  "about the arc)" if arcs is not None else ""
         checks.append(_check("lifted model: V(xi+) <= (1-alpha) V(xi) + sum beta_i w_i^2", worst_dec <= LEVEL_TOL,
-                             worst_dec, LEVEL_TOL, "largest excess relative to max(V, level); random and alternating delays, slip corners"))
+                             worst_dec, LEVEL_TOL, "largest excess relative to max(V, level); random and alternating delays, "
+                             "slip corners" + on_arcs))
         checks.append(_check("lifted model: states stay in the certified set", worst_ratio <= 1 + LEVEL_TOL,
-                             worst_ratio, 1.0, "max V/level from the boundary; random, alternating, greedy worst case"))
+                             worst_ratio, 1.0, "max V/level from the boundary; random, alternating, greedy worst case" + on_arcs))
         summary.update({"ellipsoid_level": level, "max_V_over_level": worst_ratio, "max_decrease_excess": worst_dec})
     else:
         r2 = float(cert.figures["decay_rate"]) ** 2 if cert.figures.get("decay_rate") else 1.0
@@ -175,6 +177,43 @@ def _lifted(model, K, cert: CertificateCheck, gains: dict) -> tuple[list[dict], 
                              worst, thr, "largest V ratio per step; random and alternating delays, slip corners"))
         summary.update({"max_V_ratio": worst})
     return checks, summary, traces
+
+
+def _lifted_arcs(model, K, lyap, rng, mu, xi_in, xi_out, level, alpha, beta, traces) -> dict | None:
+    """The ultimate-bound checks of :func:`_lifted` along arcs, for a turning certificate on the tracks slip model:
+    random delays, the slip corners ``mu`` and random yaw rates the certificate covers (:func:`random_yaw_rates`),
+    the kinematics linearized about the arc (:func:`arc_closed_loop_run`), from the boundary and from outside.
+    None for a straight model."""
+    if getattr(model, "turns", None) is None or model.n_p != 2:
+        return None
+    N, steps = xi_in.shape[0], mu.shape[1] - 1
+    taus = random_delays(model, rng, N, steps)
+    yaw = random_yaw_rates(model, rng, N, steps)
+    d_hi = model.d_hi
+    w = model.disturbance_coordinates(mu[:, :steps], np.stack([yaw[:, d_hi - j : d_hi - j + steps] for j in range(d_hi + 1)], axis=-1))
+    run = lambda xi0: arc_closed_loop_run(model, K, taus, mu[:, :steps], yaw, xi0)  # noqa: E731
+    dec, ratio = _decrease_runs(run, lyap, mu, _previous_delays(model, lyap, taus=taus), w, alpha, beta, level,
+                                (("boundary", xi_in), ("outside", xi_out)), "arcs", traces)
+    return {"max_V_over_level": ratio, "max_decrease_excess": dec,
+            "max_yaw_rate": float(np.max(np.abs(yaw))), "runs": N, "steps": steps}
+
+
+def _decrease_runs(run, lyap, mu, prev, w, alpha, beta, level, starts, name, traces) -> tuple[float, float]:
+    """V along the runs ``run(xi0)`` from each of ``starts`` ((name, xi0) pairs), stored in ``traces`` as
+    "name/start": the largest excess over ``(1 - alpha) V + sum beta_i w_i^2`` relative to max(V, level), and the
+    largest V/level from the start named "boundary" (when the LMIs hold for every next slip, from step 1 on the
+    state lies in the set of every slip, and the largest value over the corners is taken)."""
+    dec, ratio = -np.inf, 0.0
+    for start_name, xi0 in starts:
+        xi = run(xi0)
+        V = lyap.V(xi, mu, prev)
+        rhs = (1 - alpha) * V[:, :-1] + (w**2) @ beta
+        dec = max(dec, float(np.max((V[:, 1:] - rhs) / np.maximum(V[:, :-1], level))))
+        if start_name == "boundary":
+            Vc = lyap.V_max(xi[:, 1:]) if lyap.any_next_slip else V[:, 1:]
+            ratio = max(ratio, float(np.max(Vc)) / level)
+        traces[f"{name}/{start_name}"] = V
+    return dec, ratio
 
 
 def _previous_delays(model, lyap, taus: np.ndarray, part: slice = slice(None)) -> np.ndarray | None:

@@ -11,6 +11,8 @@ from ..scenarios import delay_candidates, loss_allowed, slip_candidates
 
 __all__ = [
     "closed_loop_run",
+    "arc_closed_loop_run",
+    "random_yaw_rates",
     "greedy_worst_case",
     "frozen_spectral_radius",
     "frozen_instant_grid",
@@ -34,6 +36,49 @@ def closed_loop_run(model, K: np.ndarray, taus: np.ndarray, mu: np.ndarray, xi0:
         check_interrupt()
         xi[:, k + 1] = np.einsum("nij,nj->ni", Acl[:, k], xi[:, k]) + c[:, k]
     return xi
+
+
+def arc_closed_loop_run(model, K: np.ndarray, taus: np.ndarray, mu: np.ndarray, w: np.ndarray,
+                        xi0: np.ndarray) -> np.ndarray:
+    """As :func:`closed_loop_run` along arcs, for a turning model: the kinematics linearized about the reference's
+    arc (:func:`~robustsynth.model.arcs.linearized_arc_period`), ``w`` (N, steps + d_hi) the reference's yaw
+    rates w_{-d_hi}, ..., w_{steps-1} (the commands in memory at the start carry the first d_hi).  Returns
+    (N, steps + 1, n_s)."""
+    from ..model.arcs import linearized_arc_period
+
+    S = model.s_tilde(taus)  # (N, steps, d_hi)
+    N, steps = S.shape[:2]
+    n_e, n_u, d_hi, n_z = model.n_e, model.n_u, model.d_hi, model.n_z
+    K = np.asarray(K, dtype=float)
+    xi = np.empty((N, steps + 1, model.n_s))
+    xi[:, 0] = xi0
+    for k in range(steps):
+        check_interrupt()
+        x = xi[:, k]
+        du = x @ K.T
+        yaw = w[:, k : k + d_hi + 1][:, ::-1]  # w_k, w_{k-1}, ..., w_{k-d_hi}
+        xi[:, k + 1, :n_e] = linearized_arc_period(model, x, du, S[:, k], mu[:, k], yaw)
+        xi[:, k + 1, n_e : n_e + n_u] = du
+        xi[:, k + 1, n_e + n_u : n_e + d_hi * n_u] = x[:, n_e : n_e + (d_hi - 1) * n_u]
+        if n_z:
+            xi[:, k + 1, n_e + d_hi * n_u :] = x[:, n_e + d_hi * n_u :] + model.Ts * x[:, :2]
+    return xi
+
+
+def random_yaw_rates(model, rng: np.random.Generator, N: int, steps: int) -> np.ndarray:
+    """Reference yaw rates a turning certificate covers, (N, steps + d_hi), from 0: in even runs each period
+    w_{k-1} or a step of max_step either way (a third each), in odd runs a step of max_step towards the extreme
+    ahead, turning back there (from one extreme to the other as fast as the steps allow); always within
+    +-max_yaw_rate."""
+    t = model.turns
+    w = np.zeros((N, steps + model.d_hi))
+    ahead = np.ones(N)
+    odd = np.arange(N) % 2 == 1
+    for k in range(1, w.shape[1]):
+        ahead = np.where(w[:, k - 1] >= t.max_yaw_rate, -1.0, np.where(w[:, k - 1] <= -t.max_yaw_rate, 1.0, ahead))
+        move = np.where(odd, ahead, rng.integers(-1, 2, size=N))
+        w[:, k] = np.clip(w[:, k - 1] + move * t.max_step, -t.max_yaw_rate, t.max_yaw_rate)
+    return w
 
 
 def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 9, slip: bool = True,
