@@ -12,7 +12,7 @@ them: max V+/level), and the same states with each track's slip jumping to the o
 its own random time within the period (which a common certificate covers, docs/theory.md §10; the
 straight-segment one covers it on straight segments only).  w_bar = 0 is the straight-segment certificate;
 its probe is run on arcs of the next row's w_bar (it does not cover them).  "none" is exit 3 (Infeasible)
-or 4 (SolverFailure).
+or 4 (SolverFailure).  Then :func:`lossy`: a nonlinear turning certificate on a lossy link (d_hi = 2), verified.
 
     .venv/bin/python benchmarks/run_all.py bench_turns
 """
@@ -88,7 +88,40 @@ def main() -> dict:
                   f"{100 * f['ultimate_bound_between_samples']['e_y']:.2f} cm | {dt:.1f} s | "
                   f"{probe:.3f} (w_bar {probe_w:g}) | {jumps:.3f} | {f.get('slip_within_period', '')} |", flush=True)
             out[f"{lo}/{kin}/{wbar:.4g}"] = {"e_y": ub["e_y"], "probe": probe, "probe_jumps": jumps, "time_s": dt}
+    out["lossy"] = lossy()
     return out
+
+
+LOSSY = {"slip.right.min": 0.9, "slip.left.min": 0.9, "reference.turn_radius": 5.0,
+         "network.dropouts.max_consecutive": 1}
+
+
+def lossy() -> dict:
+    """A nonlinear turning certificate on a lossy link (d_hi = 2): configs/nonlinear-proof.yaml with LOSSY (slip
+    [0.9, 1], 5 m arcs, one lost command in a row at most), synthesized and verified (its 200 runs): the
+    certified bounds, the synthesis time and verify's boundary probes, adversary and between-samples ratio."""
+    from pathlib import Path
+
+    from robustsynth import build_model, load_config
+    from robustsynth.config import config_with
+    from robustsynth.synthesis import synthesize
+    from robustsynth.verification import verify
+
+    cfg = config_with(load_config(Path(__file__).resolve().parents[1] / "configs" / "nonlinear-proof.yaml"), LOSSY)
+    model = build_model(cfg)
+    t0 = time.perf_counter()
+    r = synthesize(model)
+    dt = time.perf_counter() - t0
+    res = verify(model, r)
+    f = r.check.figures
+    ub = f["ultimate_bound"]
+    ratio = {c["name"].split(": ", 1)[1][:40]: c["value"] for c in res.checks if c["name"].startswith("nonlinear: ")
+             and isinstance(c["value"], float) and c["threshold"] == 1.0}
+    print(f"\nlossy link, nonlinear, 5 m arcs, slip [0.9, 1] (d_hi = {model.d_hi}): |e_x| {100 * ub['e_x']:.2f} cm, "
+          f"|e_y| {100 * ub['e_y']:.2f} cm, |e_theta| {ub['e_theta']:.3f} rad, motor {f['motor_speed_bound']:.2f} rad/s, "
+          f"heading bound {r.certificate['heading_bound']:g} rad, synthesis {dt:.0f} s, verify "
+          f"{'passed' if res.passed else 'FAILED'}; " + ", ".join(f"{k}: {v:.3f}" for k, v in ratio.items()), flush=True)
+    return {"e_y": ub["e_y"], "time_s": dt, "passed": res.passed, **ratio}
 
 
 if __name__ == "__main__":

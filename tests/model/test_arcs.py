@@ -14,8 +14,9 @@ from robustsynth.model.arcs import FEEDFORWARD, Turns, _parts, heading_yaw_colum
 from robustsynth.model.nonlinear import vertex_channels
 from robustsynth.model.slip import slip_matrix
 from robustsynth.model.vertices import Vertex
-from robustsynth.plants.kinematic import KinematicRobot
+from robustsynth.plants.kinematic import KinematicRobot, period
 from robustsynth.scenarios import random_delays, track_changes
+from robustsynth.verification.simulate import next_frame
 
 from ..conftest import make_config
 
@@ -121,38 +122,55 @@ def test_the_robot_on_an_arc_lies_within_the_turning_vertices(over):
 
 
 LIN_TOL = 1e-13  # the linearized map evaluated by quadrature against the vertex algebra: round-off only
+FD_STEP = 1e-4  # [-] the scale of the deviations in the central difference of the robot
+FD_TOL = 1e-8  # central difference: O(FD_STEP^2) times the third derivative, plus round-off / FD_STEP
+
+
+def _robot_scaled(model, e0, vel, S, wk, lam):
+    """The exact-arc robot of :func:`_robot` at t_{k+1}, in the reference's frame, with every deviation from the
+    nominal arc scaled by ``lam``: the initial errors, each command's a_j and omega_j - w_k (``vel`` (N, d_hi + 1, 2)
+    the velocities the slip makes of the commands, given directly)."""
+    V, Ts = model.V, model.Ts
+    U = np.stack([V + lam * (vel[..., 0] - V), wk[:, None] + lam * (vel[..., 1] - wk[:, None])], axis=-1)
+    I = np.broadcast_to(np.eye(2), (e0.shape[0], 2, 2))
+    q1 = period(lam * e0, U, S, I, Ts, np.eye(2), np.eye(2), None)
+    return next_frame(q1, wk, Ts, V)
 
 
 @pytest.mark.parametrize("over", [{}, {"network.delay.min": 0.12, "network.delay.max": 0.22}])
-def test_the_linearized_map_on_an_arc_is_the_vertices_own_and_the_robots_first_order(over):
+def test_the_linearized_map_on_an_arc_is_the_robots_derivative_and_within_the_vertices(over):
     """model.arcs.linearized_arc_period, the kinematics linearized about the arc and integrated by quadrature,
-    an implementation independent of the vertex algebra: (1) with w = 0 it is the straight lifted map; (2) at
-    full size it lies within the linearized turning vertex's allowance to round-off (no second-order slack: the
-    channels bound this map exactly, and use a good part of the allowance); (3) the nonlinear robot differs from
-    it by second-order terms only: halving every deviation from the nominal arc quarters the difference."""
+    an implementation independent of the vertex algebra: (1) at full size it is the derivative of the exact-arc
+    robot along the deviations from the nominal arc (initial errors, a_j, omega_j - w_k, with the slip exact as
+    the map takes it), by central difference (the review of d688d86); (2) with w = 0 it is the straight lifted
+    map; (3) it lies within the linearized turning vertex's allowance (an inclusion, tolerance round-off: the
+    channels bound this map with no second-order slack, and use a good part of the allowance)."""
     from robustsynth.model.arcs import linearized_arc_period
 
     model = _model(**over)
     turns = Turns(0.5, 0.5)
+    n_e, n_u, d_hi = model.n_e, model.n_u, model.d_hi
     rng = np.random.default_rng(11)
     xi, du, mu, S, w = _sample_full(model, turns, rng, 300)
-    A, B = model.robot_exact(S, mu)
-    straight = (np.einsum("nij,nj->ni", A, xi) + np.einsum("nij,nj->ni", B, du) + model.constant(mu))[:, :model.n_e]
-    assert np.max(np.abs(linearized_arc_period(model, xi, du, S, mu, np.zeros_like(w)) - straight)) <= LIN_TOL
     lin = linearized_arc_period(model, xi, du, S, mu, w)
+    u = np.array([model.V, 0.0]) + np.concatenate([du[:, None, :], xi[:, n_e : n_e + d_hi * n_u].reshape(-1, d_hi, n_u)],
+                                                  axis=1) + w[:, :, None] * FEEDFORWARD
+    vel = np.einsum("nij,nkj->nki", slip_matrix(mu, model.config.robot.track_distance), u)
+    fd = (_robot_scaled(model, xi[:, :n_e], vel, S, w[:, 0], FD_STEP)
+          - _robot_scaled(model, xi[:, :n_e], vel, S, w[:, 0], -FD_STEP)) / (2 * FD_STEP)
+    assert np.max(np.abs(fd - lin)) <= FD_TOL
+    with pytest.raises(ValueError, match="yaw rates"):
+        linearized_arc_period(model, xi, du, S, mu, w[:, :1])
+    A, B = model.robot_exact(S, mu)
+    straight = (np.einsum("nij,nj->ni", A, xi) + np.einsum("nij,nj->ni", B, du) + model.constant(mu))[:, :n_e]
+    assert np.max(np.abs(linearized_arc_period(model, xi, du, S, mu, np.zeros_like(w)) - straight)) <= LIN_TOL
     centre, allow = _allowed(model, turns, xi, du, mu, S, w)
     assert np.max(np.abs(lin[:, 2] - centre[:, 2])) <= LIN_TOL and np.all(allow[:, 2] == 0.0)
     assert np.max(np.abs(lin - centre)[:, :2] - allow[:, :2]) <= LIN_TOL
     assert np.max(np.abs(lin - centre)[:, :2] / np.maximum(allow[:, :2], 1e-300)) > 0.3  # not vacuous
     # the turning model's disturbance coordinates (the lifted-model checks' beta terms) in the vertices' layout
-    wv = np.concatenate([np.ones((len(w), 1)), w[:, :1] / 0.5, (w[:, :1] - w[:, 1:]) / turns.step_bounds(model.d_hi + 1)], axis=1)
+    wv = np.concatenate([np.ones((len(w), 1)), w[:, :1] / 0.5, (w[:, :1] - w[:, 1:]) / turns.step_bounds(d_hi + 1)], axis=1)
     assert np.array_equal(model.with_turns(0.5).disturbance_coordinates(mu, w), wv)
-    gaps = []
-    for eps in (0.2, 0.1, 0.05):  # the deviations from the nominal arc (mu = 1, no errors, no corrections) scaled
-        x_e, u_e, mu_e = eps * xi, eps * du, 1.0 + eps * (mu - 1.0)
-        w_e = w[:, :1] + eps * (w - w[:, :1])  # the yaw-rate steps scaled too, w_k at full size
-        gaps.append(np.max(np.abs(_robot(model, x_e, u_e, mu_e, S, w_e) - linearized_arc_period(model, x_e, u_e, S, mu_e, w_e))))
-    assert gaps[0] > 100 * LIN_TOL and gaps[1] <= 0.3 * gaps[0] and gaps[2] <= 0.3 * gaps[1]
 
 
 @pytest.mark.parametrize("drop", ["arc", "rotation"])

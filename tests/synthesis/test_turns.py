@@ -117,16 +117,21 @@ def test_the_motor_bound_holds_the_turning_feedforward(designs) -> None:
 
 
 def test_exit_3_of_a_turning_model_names_the_turn_radius_as_a_remedy() -> None:
-    """Gentler arcs lower the feedforward and the arc channels: each exit-3 message of the synthesis offers a
-    wider reference.turn_radius for a turning model (the 1 m arcs of configs/turns.yaml on [0.8, 1], linearized,
-    end with the motor message after 8 minutes), and only for one.  (Motors too weak for the arcs' feedforward
-    alone never reach the synthesis: the config's physical check refuses them first, naming the radius.)"""
+    """Gentler arcs lower the feedforward and the arc channels: the synthesis's exit-3 messages offer a wider
+    reference.turn_radius for a turning model, with the model's own radius V^D / max_yaw_rate (a model turned by
+    Model.with_turns has none in its config: the review of 2840f4e found the message crashing there), and only
+    for one.  Reached here through the motor check before any solve; from a config, motors too weak for the
+    arcs' feedforward are refused earlier still, by the physical check, which names the radius too."""
     from robustsynth.errors import InfeasibleError
     from robustsynth.synthesis.design import _wider_turns
 
-    assert _wider_turns(build_model(make_config(**{"reference.turn_radius": 1.0}))) == \
-        ", widen reference.turn_radius (now 1 m)"
-    assert _wider_turns(build_model(make_config())) == ""
+    straight = build_model(make_config(**{"synthesis.delay_description": "polytopic", "robot.max_motor_speed": 7.0,
+                                          "slip.right.min": 0.9, "slip.left.min": 0.9}))
+    assert straight.feedforward_motor_speed < 7.0 and _wider_turns(straight) == ""
+    turning = straight.with_turns(1.0)  # 0.5 m arcs: the feedforward alone asks 8.06 rad/s
+    with pytest.raises(InfeasibleError, match=r"raise robot.max_motor_speed, widen reference.turn_radius \(now 0.5 m\) "
+                                              r"or lower reference.speed$"):
+        synthesize(turning)
     with pytest.raises(InfeasibleError, match="physically infeasible.*raise reference.turn_radius"):
         synthesize(build_model(make_config(**{"reference.turn_radius": 1.0, "robot.max_motor_speed": 6.0})))
 

@@ -11,7 +11,7 @@ import pytest
 
 from robustsynth.certificate import check_certificate, lyapunov_of
 from robustsynth.scenarios import random_delays, slip_vertices
-from robustsynth.verification.lifted import arc_closed_loop_run, closed_loop_run, random_yaw_rates
+from robustsynth.verification.lifted import arc_closed_loop_run, closed_loop_run, random_yaw_rates, yaw_windows
 
 from ..conftest import committed_gain
 
@@ -42,12 +42,43 @@ def test_along_a_reference_that_does_not_turn_the_arc_runs_are_the_straight_ones
     assert np.max(np.abs(a - b)) <= ROUND
 
 
+def test_each_period_gets_the_yaw_rates_its_commands_carry() -> None:
+    """On a lifting of three commands (delays over two periods) the arc runs hand period k the yaw rates
+    (w_k, w_{k-1}, w_{k-2}): three periods of arc_closed_loop_run against linearized_arc_period called with them
+    spelled out, and yaw_windows (which the verify's decrease terms use too) against the same."""
+    from robustsynth.model import build_model
+    from robustsynth.model.arcs import linearized_arc_period
+
+    from ..conftest import make_config
+
+    m = build_model(make_config(**{"network.delay.min": 0.12, "network.delay.max": 0.22,
+                                   "synthesis.delay_description": "polytopic"})).with_turns(0.5)
+    assert m.d_hi == 3
+    rng = np.random.default_rng(3)
+    N, steps = 5, 3
+    K = 0.1 * rng.normal(size=(2, m.n_s))
+    taus = random_delays(m, rng, N, steps)
+    mu = np.full((N, steps, 2), 0.9)
+    w = rng.uniform(-0.5, 0.5, (N, steps + m.d_hi))  # w_{-3}, ..., w_{2}
+    xi0 = 0.01 * rng.normal(size=(N, m.n_s))
+    got = arc_closed_loop_run(m, K, taus, mu, w, xi0)
+    S = m.s_tilde(taus)
+    x = xi0
+    for k in range(steps):
+        spelled = np.stack([w[:, k + 3], w[:, k + 2], w[:, k + 1], w[:, k]], axis=1)  # w_k, w_{k-1}, w_{k-2}, w_{k-3}
+        assert np.array_equal(yaw_windows(w, m.d_hi)[:, k], spelled)
+        du = x @ K.T
+        e = linearized_arc_period(m, x, du, S[:, k], mu[:, k], spelled)
+        x = np.concatenate([e, du, x[:, m.n_e : m.n_e + 2 * (m.d_hi - 1)]], axis=1)
+        assert np.max(np.abs(got[:, k + 1] - x)) <= ROUND
+
+
 def test_the_random_yaw_rates_are_the_ones_the_certificate_covers(turning) -> None:
     m = turning[0]
     t = m.turns
     w = random_yaw_rates(m, np.random.default_rng(1), 6, 60)
     assert np.all(np.abs(w) <= t.max_yaw_rate * (1 + 1e-12)) and np.all(np.abs(np.diff(w, axis=1)) <= t.max_step * (1 + 1e-12))
-    assert np.all(w[:, 0] == 0.0)
+    assert np.all(w[:, : m.d_hi] == 0.0)  # the commands in memory at the start carry no feedforward
     odd = w[1::2]  # from one extreme to the other
     assert np.all(np.max(odd, axis=1) == t.max_yaw_rate) and np.all(np.min(odd, axis=1) == -t.max_yaw_rate)
 

@@ -372,6 +372,8 @@ def linearized_arc_period(model, xi: np.ndarray, du: np.ndarray, S: np.ndarray, 
     if mu.shape[-1] != 2:
         raise ValueError("linearized_arc_period: the tracks slip model only (mu_r, mu_l)")
     xi, du, S, w = (np.asarray(a, dtype=float) for a in (xi, du, S, w))
+    if w.shape[-1] != d_hi + 1:
+        raise ValueError(f"linearized_arc_period: w holds w_k, ..., w_(k-d_hi): {d_hi + 1} yaw rates, got {w.shape[-1]}")
     lead = xi.shape[:-1]
     past = xi[..., n_e : n_e + d_hi * n_u].reshape(lead + (d_hi, n_u))
     u = np.array([V, 0.0]) + np.concatenate([du[..., None, :], past], axis=-2) + w[..., :, None] * FEEDFORWARD

@@ -273,10 +273,12 @@ def _delay_text(model: Any) -> str:
 
 
 def _wider_turns(model: Any, sep: str = ", ") -> str:
-    """The remedy a turning model adds to an exit-3 message: gentler arcs (a smaller yaw rate and feedforward)."""
+    """The remedy a turning model adds to an exit-3 message: gentler arcs (a smaller yaw rate and feedforward).
+    The radius is the model's own, V^D / max_yaw_rate (a model turned by ``Model.with_turns`` may have none in its
+    config)."""
     if getattr(model, "turns", None) is None:
         return ""
-    return f"{sep}widen reference.turn_radius (now {model.config.reference.turn_radius:g} m)"
+    return f"{sep}widen reference.turn_radius (now {model.V / model.turns.max_yaw_rate:.3g} m)"
 
 
 def _attempts(out: Any) -> str:
@@ -623,7 +625,6 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
                 f"ultimate-bound: robot.max_motor_speed = {rho_max:g} rad/s is below "
                 f"{'V^D/R + max_yaw_rate D/(2R)' if turning else 'V^D/R'} = {model.feedforward_motor_speed:.4g} rad/s "
                 f"needed to follow the path: raise robot.max_motor_speed{_wider_turns(model)} or lower reference.speed"
-                + (" or the turns' yaw rate" if turning else "")
             )
         if model.heading_bound is not None:
             best, runner = _run_nonlinear(model, s, search, motor, say)

@@ -21,7 +21,7 @@ Pass/fail rules (also in the README):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Callable
 
 import numpy as np
@@ -37,7 +37,7 @@ from .probe import boundary_probe, boundary_states
 
 BOUNDARY_ADVERSARY_STEPS = 50  # the adversary from the boundary: what matters happens in the first periods
 from .lifted import (arc_closed_loop_run, closed_loop_run, frozen_instant_grid, frozen_spectral_radius,
-                     greedy_worst_case, random_yaw_rates)
+                     greedy_worst_case, random_yaw_rates, yaw_windows)
 from .simulate import (ADVERSARY_OBJECTIVES, ARC_COURSES, FREE_YAW, SimResult, adversarial_nonlinear, adversary_courses,
                        merge_adversaries, simulate)
 
@@ -149,7 +149,7 @@ def _lifted(model, K, cert: CertificateCheck, gains: dict) -> tuple[list[dict], 
             [lyap.V(xg[:, :1], mu[:n_g, :1]), lyap.V(xg[:, 1:], mug, _previous_delays(model, lyap, taus=tg, part=slice(1, None)))], axis=1)
         traces["greedy/boundary"] = Vg
         worst_ratio = max(worst_ratio, float(np.max(Vg[:, 1:]) / level))
-        arcs = _lifted_arcs(model, K, lyap, rng, mu, xi_in, xi_out, level, alpha, beta, traces)
+        arcs = _lifted_arcs(model, K, lyap, rng, mu, xi_in, xi_out, level, alpha, beta, traces, c.get("turns"))
         if arcs is not None:
             summary["arcs"] = arcs
             worst_dec = max(worst_dec, arcs["max_decrease_excess"])
@@ -179,18 +179,21 @@ def _lifted(model, K, cert: CertificateCheck, gains: dict) -> tuple[list[dict], 
     return checks, summary, traces
 
 
-def _lifted_arcs(model, K, lyap, rng, mu, xi_in, xi_out, level, alpha, beta, traces) -> dict | None:
+def _lifted_arcs(model, K, lyap, rng, mu, xi_in, xi_out, level, alpha, beta, traces, cert_turns) -> dict | None:
     """The ultimate-bound checks of :func:`_lifted` along arcs, for a turning certificate on the tracks slip model:
-    random delays, the slip corners ``mu`` and random yaw rates the certificate covers (:func:`random_yaw_rates`),
-    the kinematics linearized about the arc (:func:`arc_closed_loop_run`), from the boundary and from outside.
-    None for a straight model."""
-    if getattr(model, "turns", None) is None or model.n_p != 2:
+    random delays, the slip sequences ``mu`` and random yaw rates of the config's turns (:func:`random_yaw_rates`;
+    the certificate covers them, or its re-check failed), the kinematics linearized about the arc
+    (:func:`arc_closed_loop_run`), from the boundary and from outside.  The decrease's yaw terms are in the
+    coordinates of the certificate's turns ``cert_turns`` (its beta is for those).  None for a straight model."""
+    if getattr(model, "turns", None) is None or model.n_p != 2 or not cert_turns:
         return None
     N, steps = xi_in.shape[0], mu.shape[1] - 1
     taus = random_delays(model, rng, N, steps)
     yaw = random_yaw_rates(model, rng, N, steps)
     d_hi = model.d_hi
-    w = model.disturbance_coordinates(mu[:, :steps], np.stack([yaw[:, d_hi - j : d_hi - j + steps] for j in range(d_hi + 1)], axis=-1))
+    certified = replace(model, turns=replace(model.turns, max_yaw_rate=float(cert_turns["max_yaw_rate"]),
+                                             max_step=float(cert_turns["max_step"])))
+    w = certified.disturbance_coordinates(mu[:, :steps], yaw_windows(yaw, d_hi))
     run = lambda xi0: arc_closed_loop_run(model, K, taus, mu[:, :steps], yaw, xi0)  # noqa: E731
     dec, ratio = _decrease_runs(run, lyap, mu, _previous_delays(model, lyap, taus=taus), w, alpha, beta, level,
                                 (("boundary", xi_in), ("outside", xi_out)), "arcs", traces)
@@ -354,7 +357,6 @@ def _beyond_cap(model, K, gains: dict, cert: CertificateCheck, ub, runs: int, se
     (the same control law, see :func:`robustsynth.model.pad_gain`)."""
     from ..model import build_model, lifted_slice, pad_gain
     from ..model.network import longest_burst
-    from dataclasses import replace
 
     vc = model.config.verification
     path = path_of(model.config)

@@ -13,6 +13,7 @@ __all__ = [
     "closed_loop_run",
     "arc_closed_loop_run",
     "random_yaw_rates",
+    "yaw_windows",
     "greedy_worst_case",
     "frozen_spectral_radius",
     "frozen_instant_grid",
@@ -50,14 +51,14 @@ def arc_closed_loop_run(model, K: np.ndarray, taus: np.ndarray, mu: np.ndarray, 
     N, steps = S.shape[:2]
     n_e, n_u, d_hi, n_z = model.n_e, model.n_u, model.d_hi, model.n_z
     K = np.asarray(K, dtype=float)
+    yaw = yaw_windows(w, d_hi)
     xi = np.empty((N, steps + 1, model.n_s))
     xi[:, 0] = xi0
     for k in range(steps):
         check_interrupt()
         x = xi[:, k]
         du = x @ K.T
-        yaw = w[:, k : k + d_hi + 1][:, ::-1]  # w_k, w_{k-1}, ..., w_{k-d_hi}
-        xi[:, k + 1, :n_e] = linearized_arc_period(model, x, du, S[:, k], mu[:, k], yaw)
+        xi[:, k + 1, :n_e] = linearized_arc_period(model, x, du, S[:, k], mu[:, k], yaw[:, k])
         xi[:, k + 1, n_e : n_e + n_u] = du
         xi[:, k + 1, n_e + n_u : n_e + d_hi * n_u] = x[:, n_e : n_e + (d_hi - 1) * n_u]
         if n_z:
@@ -65,16 +66,25 @@ def arc_closed_loop_run(model, K: np.ndarray, taus: np.ndarray, mu: np.ndarray, 
     return xi
 
 
+def yaw_windows(w: np.ndarray, d_hi: int) -> np.ndarray:
+    """(N, steps, d_hi + 1): for each period k the yaw rates (w_k, w_{k-1}, ..., w_{k-d_hi}) its commands carry, from
+    ``w`` (N, steps + d_hi) = (w_{-d_hi}, ..., w_{steps-1})."""
+    w = np.asarray(w, dtype=float)
+    steps = w.shape[1] - d_hi
+    return np.stack([w[:, d_hi - j : d_hi - j + steps] for j in range(d_hi + 1)], axis=-1)
+
+
 def random_yaw_rates(model, rng: np.random.Generator, N: int, steps: int) -> np.ndarray:
-    """Reference yaw rates a turning certificate covers, (N, steps + d_hi), from 0: in even runs each period
-    w_{k-1} or a step of max_step either way (a third each), in odd runs a step of max_step towards the extreme
-    ahead, turning back there (from one extreme to the other as fast as the steps allow); always within
-    +-max_yaw_rate."""
+    """Reference yaw rates a turning certificate covers, (N, steps + d_hi): 0 for the commands in memory at the
+    start (w_{-d_hi}, ..., w_{-1}), then in even runs each period w_{k-1} or a step of max_step either way (a
+    third each), in odd runs a step of max_step towards the extreme ahead, turning back there (from one extreme
+    to the other as fast as the steps allow); always within +-max_yaw_rate."""
     t = model.turns
-    w = np.zeros((N, steps + model.d_hi))
+    d_hi = model.d_hi
+    w = np.zeros((N, steps + d_hi))
     ahead = np.ones(N)
     odd = np.arange(N) % 2 == 1
-    for k in range(1, w.shape[1]):
+    for k in range(d_hi, w.shape[1]):
         ahead = np.where(w[:, k - 1] >= t.max_yaw_rate, -1.0, np.where(w[:, k - 1] <= -t.max_yaw_rate, 1.0, ahead))
         move = np.where(odd, ahead, rng.integers(-1, 2, size=N))
         w[:, k] = np.clip(w[:, k - 1] + move * t.max_step, -t.max_yaw_rate, t.max_yaw_rate)
