@@ -53,6 +53,10 @@ def test_linear_map_stays_in_the_set_and_e_theta_is_exact(heavy) -> None:
     assert r["fraction_outside_linear"] == 0.0
     assert r["max_period_gap"]["e_theta"] <= THETA_TOL
     assert r["max_period_gap"]["e_y"] > 1e-3  # the dropped terms are not small on this set
+    # not judged here (within_period False), the slip-jump runs' errors between samples are reported apart
+    mid = r["between_samples"]["mid_period"]
+    assert mid["runs"] == r["mid_period"]["runs"] > 0 and r["between_samples"]["states"] == r["samples"]
+    assert all(np.isfinite(mid[k]) and mid[k] > 0.0 for k in ("e_x", "e_y", "e_theta"))
 
 
 def test_the_probe_finds_states_the_nonlinear_robot_takes_out_of_the_set(heavy) -> None:

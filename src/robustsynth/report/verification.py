@@ -333,7 +333,10 @@ def _between_text(between: dict, judged: bool) -> str:
             + (f" and {figs(between['arcs'])} on arcs" if "arcs" in between else "")
             + f", against the bounds for all t of {figs(bound)}"
             + _rise_text(between.get("straight_rise") or {}, bound, between.get("sampled") or {})
-            + (" (judged). " if judged else " (reported: a linearized certificate's sets hold for its linearization). "))
+            + (" (judged). " if judged else " (reported: a linearized certificate's sets hold for its linearization). ")
+            + (f"The {between['mid_period']['runs']} states whose slip jumps within the period, which this certificate "
+               f"does not cover (it assumes slip constant within each), reach {figs(between['mid_period'])} on the straight"
+               " line (not judged). " if "mid_period" in between else ""))
 
 
 def _rise_text(rise: dict, bound: dict, sampled: dict) -> str:

@@ -197,6 +197,9 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
             "straight_rise": dict(zip(names[:2], (float(x) for x in np.max(rise[judged, :2], axis=0))))}
     if between_arc is not None:
         cont["arcs"] = dict(zip(names, (float(x) for x in np.max(between_arc[judged & arc_memory], axis=0))))
+    if np.any(jumped & ~judged):  # slip jumping within the period, which this certificate does not cover: reported
+        cont["mid_period"] = {"runs": int(np.count_nonzero(jumped & ~judged)),
+                              **dict(zip(names, (float(x) for x in np.max(between[jumped & ~judged], axis=0))))}
     return {
         "arcs": arcs,
         "between_samples": cont,
