@@ -97,3 +97,24 @@ def test_the_turning_certificate_holds_along_arcs_and_not_along_sharper_ones(tur
         xi = arc_closed_loop_run(ms, K, taus, mu[:, :steps], random_yaw_rates(ms, rng, xi0.shape[0], steps), xi0)
         out[scale] = float(np.max(lyap.V_max(xi[:, 1:]))) / level
     assert out[1.0] <= 1.0 < out[10.0]
+
+
+def test_the_greedy_search_along_arcs_replays_and_picks_admissible_yaw_rates(turning) -> None:
+    """greedy_worst_case(yaw=True): the history it picks (delays, slips, yaw rates) replays through
+    arc_closed_loop_run to the same states (its candidates are the arc map evaluated on a tensor of choices),
+    the yaw rates are w_{k-1} or a step of max_step either way within +-max_yaw_rate from 0, and it pushes V
+    higher than the random arc runs from the same boundary starts."""
+    from robustsynth.verification.lifted import greedy_worst_case
+
+    m, K, lyap, level = turning
+    t = m.turns
+    rng = np.random.default_rng(4)
+    taus, mu, xi0 = _runs(m, lyap, level, rng, N=20, steps=40)
+    xg, tg, mug, wg = greedy_worst_case(m, K, lyap.V, xi0, 40, mu0=mu[:, 0], yaw=True)
+    assert np.all(wg[:, : m.d_hi] == 0.0) and np.all(np.abs(wg) <= t.max_yaw_rate * (1 + 1e-12))
+    assert np.all(np.abs(np.diff(wg, axis=1)) <= t.max_step * (1 + 1e-12))
+    assert np.max(np.abs(wg)) == t.max_yaw_rate  # it turns
+    replay = arc_closed_loop_run(m, K, tg, mug, wg, xi0)
+    assert np.max(np.abs(replay - xg)) <= ROUND
+    rand = arc_closed_loop_run(m, K, taus, mu[:, :40], random_yaw_rates(m, rng, 20, 40), xi0)
+    assert np.max(lyap.V_max(xg[:, 1:])) > np.max(lyap.V_max(rand[:, 1:]))

@@ -44,6 +44,7 @@ from .simulate import (ADVERSARY_OBJECTIVES, ARC_COURSES, FREE_YAW, SimResult, a
 __all__ = ["VerificationResult", "verify", "SPECTRAL_TOL", "LEVEL_TOL", "DIVERGENCE_LIMIT"]
 
 SPECTRAL_TOL = 1e-6  # frozen spectral radius may exceed the certified rate by round-off only
+GREEDY_RUNS, GREEDY_STEPS = 50, 100  # the lifted model's greedy search: boundary starts and periods
 LEVEL_TOL = 1e-9  # relative round-off allowed on V in the lifted-model checks
 DIVERGENCE_LIMIT = 1.0  # m: |e_y| beyond this after the transients is divergence (no-bound objectives)
 PROBE_SAMPLES = 50_000  # boundary states probed on the nonlinear robot for one period (plus the figure maximizers)
@@ -143,10 +144,10 @@ def _lifted(model, K, cert: CertificateCheck, gains: dict) -> tuple[list[dict], 
             dec, ratio = _decrease_runs(run, lyap, mu, _previous_delays(model, lyap, taus=taus), w, alpha, beta, level,
                                         (("boundary", xi_in), ("outside", xi_out)), name, traces)
             worst_dec, worst_ratio = max(worst_dec, dec), max(worst_ratio, ratio)
-        n_g = min(N, 50)
-        xg, tg, mug = greedy_worst_case(model, K, lyap.V, xi_in[:n_g], min(steps, 100), mu0=mu[:n_g, 0], with_delay=lyap.path)
-        Vg = lyap.V_max(xg) if lyap.any_next_slip else np.concatenate(
-            [lyap.V(xg[:, :1], mu[:n_g, :1]), lyap.V(xg[:, 1:], mug, _previous_delays(model, lyap, taus=tg, part=slice(1, None)))], axis=1)
+        n_g = min(N, GREEDY_RUNS)
+        xg, tg, mug = greedy_worst_case(model, K, lyap.V, xi_in[:n_g], min(steps, GREEDY_STEPS), mu0=mu[:n_g, 0],
+                                        with_delay=lyap.path)
+        Vg = _greedy_V(model, lyap, xg, tg, mug, mu[:n_g, 0])
         traces["greedy/boundary"] = Vg
         worst_ratio = max(worst_ratio, float(np.max(Vg[:, 1:]) / level))
         arcs = _lifted_arcs(model, K, lyap, rng, mu, xi_in, xi_out, level, alpha, beta, traces, c.get("turns"))
@@ -197,8 +198,25 @@ def _lifted_arcs(model, K, lyap, rng, mu, xi_in, xi_out, level, alpha, beta, tra
     run = lambda xi0: arc_closed_loop_run(model, K, taus, mu[:, :steps], yaw, xi0)  # noqa: E731
     dec, ratio = _decrease_runs(run, lyap, mu, _previous_delays(model, lyap, taus=taus), w, alpha, beta, level,
                                 (("boundary", xi_in), ("outside", xi_out)), "arcs", traces)
-    return {"max_V_over_level": ratio, "max_decrease_excess": dec,
-            "max_yaw_rate": float(np.max(np.abs(yaw))), "runs": N, "steps": steps}
+    # the greedy search along arcs: each period the delay, slip and yaw rate that make V largest
+    n_g = min(N, GREEDY_RUNS)
+    xg, tg, mug, wg = greedy_worst_case(model, K, lyap.V, xi_in[:n_g], min(steps, GREEDY_STEPS), mu0=mu[:n_g, 0],
+                                        with_delay=lyap.path, yaw=True)
+    Vg = _greedy_V(model, lyap, xg, tg, mug, mu[:n_g, 0])
+    traces["arcs-greedy/boundary"] = Vg
+    greedy = float(np.max(Vg[:, 1:])) / level
+    return {"max_V_over_level": max(ratio, greedy), "max_V_over_level_greedy": greedy, "max_decrease_excess": dec,
+            "max_yaw_rate": float(max(np.max(np.abs(yaw)), np.max(np.abs(wg)))), "runs": N, "steps": steps}
+
+
+def _greedy_V(model, lyap, xg: np.ndarray, tg: np.ndarray, mug: np.ndarray, mu0: np.ndarray) -> np.ndarray:
+    """V along the greedy search's runs (:func:`greedy_worst_case`): the largest over the next slips where the
+    LMIs hold for every next slip, else at the slips it picked (the start's first) with the delay weights of the
+    previous period for a path-dependent V."""
+    if lyap.any_next_slip:
+        return lyap.V_max(xg)
+    return np.concatenate([lyap.V(xg[:, :1], mu0[:, None]),
+                           lyap.V(xg[:, 1:], mug, _previous_delays(model, lyap, taus=tg, part=slice(1, None)))], axis=1)
 
 
 def _decrease_runs(run, lyap, mu, prev, w, alpha, beta, level, starts, name, traces) -> tuple[float, float]:

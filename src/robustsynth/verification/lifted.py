@@ -92,16 +92,22 @@ def random_yaw_rates(model, rng: np.random.Generator, N: int, steps: int) -> np.
 
 
 def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 9, slip: bool = True,
-                      mu0: np.ndarray | None = None, with_delay: bool = False):
+                      mu0: np.ndarray | None = None, with_delay: bool = False, yaw: bool = False):
     """Greedy search for large V: each step, over a grid of the new packet's delay and the slips the
     adversary may pick (:func:`slip_candidates`), take the choice that maximizes
     ``V_fn(xi_{k+1}, mu)`` (``V_fn(xi_{k+1}, mu, prev=...)`` with the period's delay weights when
-    ``with_delay``: a path-dependent Lyapunov function).  Returns (xi, taus, mu)."""
+    ``with_delay``: a path-dependent Lyapunov function).  Returns (xi, taus, mu).
+
+    ``yaw`` (a turning model, the tracks slip model): along arcs, on the kinematics linearized about them
+    (:func:`~robustsynth.model.arcs.linearized_arc_period`), the search also picks the reference's yaw rate each
+    period, w_{k-1} or a step of max_step either way within +-max_yaw_rate (0 before the start); returns (xi,
+    taus, mu, w) with w (N, steps + d_hi) as :func:`arc_closed_loop_run` takes it."""
     dl = model.config.network.delay
     tau_grid = delay_candidates(model, n_tau)
     n_tau = tau_grid.size
     N = xi0.shape[0]
-    d_hi = model.d_hi
+    d_hi, n_e, n_u = model.d_hi, model.n_e, model.n_u
+    K = np.asarray(K, dtype=float)
     hist = np.full((N, d_hi), (dl.min + dl.max) / 2.0)  # delays of the last d_hi packets (inf: lost)
     xi = np.empty((N, steps + 1, model.n_s))
     xi[:, 0] = xi0
@@ -110,31 +116,57 @@ def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 
     n_p = model.n_p
     mu_out = np.empty((N, steps, n_p))
     mu_prev = np.tile(model.nominal_slip, (N, 1)) if mu0 is None else np.array(mu0, dtype=float)
+    w_out = np.zeros((N, steps + d_hi))  # the reference's yaw rates, w_{-d_hi}, ..., w_{steps-1}
+    if yaw:
+        from ..model.arcs import linearized_arc_period
+
+        turns = model.turns
+        picks = turns.max_step * np.array([-1.0, 0.0, 1.0])
     for k in range(steps):
         check_interrupt()
+        x = xi[:, k]
         mu_cands = slip_candidates(model, mu_prev) if slip else np.tile(model.nominal_slip, (N, 1, 1))
         n_m = mu_cands.shape[1]
         # candidate delay of packet k (the newest): s~ depends on it and on the history
         cand = np.concatenate([np.repeat(hist[:, None, :], n_tau, axis=1), np.broadcast_to(tau_grid[None, :, None], (N, n_tau, 1))], axis=2)
         s = model.s_tilde(cand)[:, :, 0, :]  # (N, n_tau, d_hi)
-        A, B = model.exact(s[:, :, None, :], mu_cands[:, None, :, :])  # (N, n_tau, n_m, ...)
-        nxt = np.einsum("ntmij,nj->ntmi", A + B @ K, xi[:, k]) + model.constant(mu_cands)[:, None]
-        mus = np.broadcast_to(mu_cands[:, None], nxt.shape[:-1] + (n_p,))
+        if yaw:
+            W = np.clip(w_out[:, k + d_hi - 1, None] + picks, -turns.max_yaw_rate, turns.max_yaw_rate)  # (N, n_y)
+            n_y = W.shape[1]
+            shape = (N, n_tau, n_m, n_y)
+            memory = w_out[:, k : k + d_hi][:, ::-1]  # w_{k-1}, ..., w_{k-d_hi}
+            yaws = np.concatenate([np.broadcast_to(W[:, None, None, :, None], shape + (1,)),
+                                   np.broadcast_to(memory[:, None, None, None, :], shape + (d_hi,))], axis=-1)
+            du = x @ K.T
+            e = linearized_arc_period(model, np.broadcast_to(x[:, None, None, None], shape + x.shape[1:]),
+                                      np.broadcast_to(du[:, None, None, None], shape + (n_u,)),
+                                      np.broadcast_to(s[:, :, None, None], shape + (d_hi,)),
+                                      np.broadcast_to(mu_cands[:, None, :, None], shape + (n_p,)), yaws)
+            rest = np.concatenate([du, x[:, n_e : n_e + (d_hi - 1) * n_u], x[:, n_e + d_hi * n_u :] + model.Ts * x[:, :2]
+                                   if model.n_z else x[:, :0]], axis=1)
+            nxt = np.concatenate([e, np.broadcast_to(rest[:, None, None, None], shape + rest.shape[1:])], axis=-1)
+        else:
+            A, B = model.exact(s[:, :, None, :], mu_cands[:, None, :, :])  # (N, n_tau, n_m, ...)
+            nxt = (np.einsum("ntmij,nj->ntmi", A + B @ K, x) + model.constant(mu_cands)[:, None])[:, :, :, None]
+            n_y = 1
+        mus = np.broadcast_to(mu_cands[:, None, :, None], nxt.shape[:-1] + (n_p,))
         if with_delay:
             dw = model.delay_weights(s)  # (N, n_tau, n_d): this period's delay, the next state's "previous"
-            V = V_fn(nxt, mus, prev=np.broadcast_to(dw[:, :, None], nxt.shape[:-1] + dw.shape[-1:]))
+            V = V_fn(nxt, mus, prev=np.broadcast_to(dw[:, :, None, None], nxt.shape[:-1] + dw.shape[-1:]))
         else:
-            V = V_fn(nxt, mus)  # (N, n_tau, n_m)
+            V = V_fn(nxt, mus)  # (N, n_tau, n_m, n_y)
         if model.dropouts:  # losing the newest packet only while the burst is below the cap
-            V = np.where(np.isinf(tau_grid)[None, :, None] & ~loss_allowed(model, hist)[:, None, None], -np.inf, V)
+            V = np.where(np.isinf(tau_grid)[None, :, None, None] & ~loss_allowed(model, hist)[:, None, None, None], -np.inf, V)
         flat = V.reshape(N, -1).argmax(axis=1)
-        ti, di = np.unravel_index(flat, (n_tau, n_m))
-        xi[:, k + 1] = nxt[np.arange(N), ti, di]
+        ti, di, yi = np.unravel_index(flat, (n_tau, n_m, n_y))
+        xi[:, k + 1] = nxt[np.arange(N), ti, di, yi]
         mu_out[:, k] = mu_cands[np.arange(N), di]
         mu_prev = mu_out[:, k]
         taus_out[:, k + d_hi] = tau_grid[ti]
         hist = np.concatenate([hist[:, 1:], tau_grid[ti][:, None]], axis=1)
-    return xi, taus_out, mu_out
+        if yaw:
+            w_out[:, k + d_hi] = W[np.arange(N), yi]
+    return (xi, taus_out, mu_out, w_out) if yaw else (xi, taus_out, mu_out)
 
 
 def frozen_instant_grid(model, n: int) -> np.ndarray:
