@@ -40,6 +40,20 @@ def test_along_a_reference_that_does_not_turn_the_arc_runs_are_the_straight_ones
     a = closed_loop_run(m, K, taus, mu[:, :steps], xi0)
     b = arc_closed_loop_run(m, K, taus, mu[:, :steps], np.zeros((xi0.shape[0], steps + m.d_hi)), xi0)
     assert np.max(np.abs(a - b)) <= ROUND
+    # with integral action and a longer lifting (the integrators, the stored commands' shift), any gain
+    from robustsynth.model import build_model
+
+    from ..conftest import make_config
+
+    mi = build_model(make_config(**{"synthesis.integral_action": True, "synthesis.delay_description": "polytopic",
+                                    "network.delay.min": 0.12, "network.delay.max": 0.22})).with_turns(0.5)
+    rng = np.random.default_rng(6)
+    Ki, x0 = 0.2 * rng.normal(size=(2, mi.n_s)), 0.02 * rng.normal(size=(4, mi.n_s))
+    ti = random_delays(mi, rng, 4, 10)
+    mui = np.full((4, 10, 2), 0.8)
+    a = closed_loop_run(mi, Ki, ti, mui, x0)
+    b = arc_closed_loop_run(mi, Ki, ti, mui, np.zeros((4, 10 + mi.d_hi)), x0)
+    assert mi.n_z == 2 and np.max(np.abs(a - b)) <= ROUND * max(1.0, np.max(np.abs(a)))
 
 
 def test_each_period_gets_the_yaw_rates_its_commands_carry() -> None:
@@ -118,3 +132,24 @@ def test_the_greedy_search_along_arcs_replays_and_picks_admissible_yaw_rates(tur
     assert np.max(np.abs(replay - xg)) <= ROUND
     rand = arc_closed_loop_run(m, K, taus, mu[:, :40], random_yaw_rates(m, rng, 20, 40), xi0)
     assert np.max(lyap.V_max(xg[:, 1:])) > np.max(lyap.V_max(rand[:, 1:]))
+
+
+@pytest.mark.parametrize("over", [{"network.delay.min": 0.12, "network.delay.max": 0.22},
+                                  {"synthesis.integral_action": True}])
+def test_the_greedy_search_along_arcs_replays_on_longer_liftings_and_with_integrators(over) -> None:
+    """The same replay on a lifting of four commands (d_hi = 3: the yaw window's order and the stored commands'
+    shift matter) and with integral action (the integrators' update), with an arbitrary gain (the review of
+    37608b7: on turns, d_hi = 1 and no integrators, a reversed window or a wrong shift passed)."""
+    from robustsynth.model import build_model
+    from robustsynth.verification.lifted import greedy_worst_case
+
+    from ..conftest import make_config
+
+    m = build_model(make_config(**{"synthesis.delay_description": "polytopic", **over})).with_turns(0.5)
+    rng = np.random.default_rng(5)
+    K = 0.2 * rng.normal(size=(2, m.n_s))
+    xi0 = 0.02 * rng.normal(size=(6, m.n_s))
+    V = lambda x, mu, prev=None: np.sum(x * x, axis=-1)  # noqa: E731  any V: the replay is what is checked
+    xg, tg, mug, wg = greedy_worst_case(m, K, V, xi0, 12, yaw=True)
+    assert np.max(np.abs(wg)) > 0.0
+    assert np.max(np.abs(arc_closed_loop_run(m, K, tg, mug, wg, xi0) - xg)) <= ROUND * max(1.0, np.max(np.abs(xg)))
