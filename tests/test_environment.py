@@ -200,11 +200,21 @@ def test_closed_pipe_is_quiet(args) -> None:
     assert "Traceback" not in p.stderr and "BrokenPipe" not in p.stderr
 
 
+def _quick_config(tmp_path) -> str:
+    """The default config without the adversary's searches (most of a run's time), for tests of what a run
+    writes and prints rather than of what it finds."""
+    d = default_dict()
+    d["verification"]["adversarial_runs"] = 0
+    cfg = tmp_path / "quick.yaml"
+    cfg.write_text(yaml.safe_dump(d))
+    return str(cfg)
+
+
 @pytest.mark.parametrize("mask,fmode,dmode", [(0o022, 0o644, 0o755), (0o027, 0o640, 0o750)])
 def test_files_and_directories_honour_the_umask(tmp_path, mask, fmode, dmode) -> None:
     out = tmp_path / "o" / "deep"
-    r = subprocess.run(CLI + ["run", "-o", str(out), "--runs", "5"], capture_output=True, text=True, env=_env(),
-                       preexec_fn=lambda: os.umask(mask))
+    r = subprocess.run(CLI + ["run", _quick_config(tmp_path), "-o", str(out), "--runs", "5"], capture_output=True,
+                       text=True, env=_env(), preexec_fn=lambda: os.umask(mask))
     assert r.returncode == 0, r.stderr
     files = [p for p in out.rglob("*") if p.is_file()]
     assert len(files) >= 10
@@ -217,10 +227,7 @@ def test_files_and_directories_honour_the_umask(tmp_path, mask, fmode, dmode) ->
 def test_quiet_and_verbose_after_the_subcommand(tmp_path) -> None:
     r = subprocess.run(CLI + ["build-model", "-o", str(tmp_path / "a"), "-q"], capture_output=True, text=True, env=_env())
     assert r.returncode == 0 and r.stdout == "", r.stderr
-    d = default_dict()
-    d["verification"]["adversarial_runs"] = 0  # what is printed, not the adversary's searches (most of a run's time)
-    cfg = tmp_path / "quick.yaml"
-    cfg.write_text(yaml.safe_dump(d))
+    cfg = _quick_config(tmp_path)
     r = subprocess.run(CLI + ["run", str(cfg), "-q", "--no-plots", "--runs", "5", "-o", str(tmp_path / "b")],
                        capture_output=True, text=True, env=_env())
     assert r.returncode == 0 and r.stdout == "", r.stderr
