@@ -153,3 +153,47 @@ def test_the_greedy_search_along_arcs_replays_on_longer_liftings_and_with_integr
     xg, tg, mug, wg = greedy_worst_case(m, K, V, xi0, 12, yaw=True)
     assert np.max(np.abs(wg)) > 0.0
     assert np.max(np.abs(arc_closed_loop_run(m, K, tg, mug, wg, xi0) - xg)) <= ROUND * max(1.0, np.max(np.abs(xg)))
+
+
+def test_the_homogeneous_arc_map_is_the_difference_of_two_runs_and_scales() -> None:
+    """linearized_arc_period(homogeneous=True) is the map less its value at 0 (the same delays, slip and yaw
+    rates), computed without that subtraction: it is linear down to states of 1e-30 (subtracting would leave
+    round-off of the nominal commands' size there: a first version gave V ratios of 60 on decayed runs)."""
+    from robustsynth.model import build_model
+    from robustsynth.model.arcs import linearized_arc_period
+
+    from ..conftest import make_config
+
+    m = build_model(make_config(**{"synthesis.delay_description": "polytopic", "network.delay.min": 0.12,
+                                   "network.delay.max": 0.22})).with_turns(0.5)
+    rng = np.random.default_rng(7)
+    N = 50
+    x = 0.05 * rng.normal(size=(N, m.n_s))
+    du = 0.1 * rng.normal(size=(N, 2))
+    S = m.s_tilde(random_delays(m, rng, N, 1))[:, 0]
+    mu = rng.uniform(0.6, 1.0, (N, 2))
+    w = rng.uniform(-0.5, 0.5, (N, m.d_hi + 1))
+    hom = linearized_arc_period(m, x, du, S, mu, w, homogeneous=True)
+    diff = linearized_arc_period(m, x, du, S, mu, w) - linearized_arc_period(m, 0 * x, 0 * du, S, mu, w)
+    assert np.max(np.abs(hom - diff)) <= ROUND
+    tiny = linearized_arc_period(m, 1e-30 * x, 1e-30 * du, S, mu, w, homogeneous=True)
+    assert np.max(np.abs(tiny * 1e30 - hom)) <= ROUND * np.max(np.abs(hom))
+
+
+def test_a_stability_certificate_for_turns_holds_along_arcs() -> None:
+    """A stability certificate of a turning model (bisection coarse, for time): the homogeneous part of the
+    arc map, which depends on the yaw rates, decreases V by its r^2 as the straight one does (verify's check)."""
+    from robustsynth.model import build_model
+    from robustsynth.synthesis import synthesize
+    from robustsynth.verification.checks import _lifted
+
+    from ..conftest import make_config
+
+    m = build_model(make_config(**{"synthesis.objective": "stability", "synthesis.delay_description": "polytopic",
+                                   "slip.right.min": 0.9, "slip.left.min": 0.9,
+                                   "synthesis.bisection_tol": 0.09})).with_turns(0.25)
+    r = synthesize(m)
+    checks, summary, traces = _lifted(m, r.K, r.check, {"K": r.K.tolist(), "certificate": r.certificate})
+    r2 = r.check.figures["decay_rate"] ** 2
+    assert "arcs/homogeneous" in traces and summary["arcs_max_V_ratio"] <= r2 * (1 + 1e-9)
+    assert checks[0]["passed"] and "along arcs" in checks[0]["detail"]

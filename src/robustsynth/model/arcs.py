@@ -348,7 +348,7 @@ GAUSS_NODES = 8  # Gauss-Legendre nodes per command interval: cos/sin(w s) times
 
 
 def linearized_arc_period(model, xi: np.ndarray, du: np.ndarray, S: np.ndarray, mu: np.ndarray,
-                          w: np.ndarray) -> np.ndarray:
+                          w: np.ndarray, homogeneous: bool = False) -> np.ndarray:
     """The error at t_{k+1}, in the frame of the reference at t_{k+1}, of the kinematics linearized about the
     reference's arc (docs/theory.md §10, "One period, exactly"), evaluated directly rather than bounded: the
     model a linearized turning certificate is for.  ``xi`` (..., n_s) the lifted state at t_k, ``du`` (..., 2) the
@@ -364,7 +364,10 @@ def linearized_arc_period(model, xi: np.ndarray, du: np.ndarray, S: np.ndarray, 
     with ``eta`` piecewise linear (slope omega_j - w_k on command j's interval) and ``a``, ``omega_j`` exact in the
     slip, (a_j, omega_j) = M(mu)(u^D + du_{k-j} + (0, w_{k-j})) - (V^D, 0).  The integrals are taken by
     Gauss-Legendre quadrature on each command's interval; the change of frame to F_{k+1} (turned by w_k Ts) is
-    exact.  With w = 0 this is the straight lifted map (:meth:`~.model.Model.robot_exact` and the constant)."""
+    exact.  With w = 0 this is the straight lifted map (:meth:`~.model.Model.robot_exact` and the constant).
+    ``homogeneous``: the map's linear part only, the same operator (it depends on w_k, the slip and the delays)
+    without the nominal commands, the feedforward and the reference's turn: the map less its value at xi = 0,
+    du = 0, without the cancellation that subtracting them would cost near 0."""
     from .slip import slip_matrix
 
     n_e, n_u, d_hi, V, Ts = model.n_e, model.n_u, model.d_hi, model.V, model.Ts
@@ -376,10 +379,13 @@ def linearized_arc_period(model, xi: np.ndarray, du: np.ndarray, S: np.ndarray, 
         raise ValueError(f"linearized_arc_period: w holds w_k, ..., w_(k-d_hi): {d_hi + 1} yaw rates, got {w.shape[-1]}")
     lead = xi.shape[:-1]
     past = xi[..., n_e : n_e + d_hi * n_u].reshape(lead + (d_hi, n_u))
-    u = np.array([V, 0.0]) + np.concatenate([du[..., None, :], past], axis=-2) + w[..., :, None] * FEEDFORWARD
+    u = np.concatenate([du[..., None, :], past], axis=-2)
+    if not homogeneous:
+        u = np.array([V, 0.0]) + u + w[..., :, None] * FEEDFORWARD
     vel = np.einsum("...ij,...kj->...ki", slip_matrix(mu, model.config.robot.track_distance), u)
-    a, om = vel[..., 0] - V, vel[..., 1]  # (..., d_hi + 1)
     wk = w[..., 0]
+    # each command's a_j and omega_j - w_k, (..., d_hi + 1); their linear parts only when homogeneous
+    a, turn = (vel[..., 0], vel[..., 1]) if homogeneous else (vel[..., 0] - V, vel[..., 1] - wk[..., None])
     x_gl, w_gl = np.polynomial.legendre.leggauss(GAUSS_NODES)
     ex, ey, eta = xi[..., 0], xi[..., 1], xi[..., 2]
     start = np.zeros(lead)
@@ -387,7 +393,7 @@ def linearized_arc_period(model, xi: np.ndarray, du: np.ndarray, S: np.ndarray, 
         end = S[..., j - 1] if j > 0 else np.full(lead, Ts)
         h = end - start
         s = start[..., None] + h[..., None] * (x_gl + 1.0) / 2.0
-        slope = (om[..., j] - wk)[..., None]
+        slope = turn[..., j, None]
         et = eta[..., None] + slope * (s - start[..., None])
         c, sn = np.cos(wk[..., None] * s), np.sin(wk[..., None] * s)
         weight = h[..., None] / 2.0 * w_gl

@@ -40,11 +40,12 @@ def closed_loop_run(model, K: np.ndarray, taus: np.ndarray, mu: np.ndarray, xi0:
 
 
 def arc_closed_loop_run(model, K: np.ndarray, taus: np.ndarray, mu: np.ndarray, w: np.ndarray,
-                        xi0: np.ndarray) -> np.ndarray:
+                        xi0: np.ndarray, affine: bool = True) -> np.ndarray:
     """As :func:`closed_loop_run` along arcs, for a turning model: the kinematics linearized about the reference's
     arc (:func:`~robustsynth.model.arcs.linearized_arc_period`), ``w`` (N, steps + d_hi) the reference's yaw
     rates w_{-d_hi}, ..., w_{steps-1} (the commands in memory at the start carry the first d_hi).  Returns
-    (N, steps + 1, n_s)."""
+    (N, steps + 1, n_s).  ``affine=False``: the homogeneous part only (the map less its value at xi = 0 for the
+    same delays, slip and yaw rates: the difference of two runs under one history)."""
     from ..model.arcs import linearized_arc_period
 
     S = model.s_tilde(taus)  # (N, steps, d_hi)
@@ -58,7 +59,7 @@ def arc_closed_loop_run(model, K: np.ndarray, taus: np.ndarray, mu: np.ndarray, 
         check_interrupt()
         x = xi[:, k]
         du = x @ K.T
-        xi[:, k + 1, :n_e] = linearized_arc_period(model, x, du, S[:, k], mu[:, k], yaw[:, k])
+        xi[:, k + 1, :n_e] = linearized_arc_period(model, x, du, S[:, k], mu[:, k], yaw[:, k], homogeneous=not affine)
         xi[:, k + 1, n_e : n_e + n_u] = du
         xi[:, k + 1, n_e + n_u : n_e + d_hi * n_u] = x[:, n_e : n_e + (d_hi - 1) * n_u]
         if n_z:
