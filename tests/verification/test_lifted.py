@@ -195,5 +195,5 @@ def test_a_stability_certificate_for_turns_holds_along_arcs() -> None:
     r = synthesize(m)
     checks, summary, traces = _lifted(m, r.K, r.check, {"K": r.K.tolist(), "certificate": r.certificate})
     r2 = r.check.figures["decay_rate"] ** 2
-    assert "arcs/homogeneous" in traces and summary["arcs_max_V_ratio"] <= r2 * (1 + 1e-9)
+    assert "arcs/homogeneous" in traces and summary["arcs"]["max_V_ratio"] <= r2 * (1 + 1e-9)
     assert checks[0]["passed"] and "along arcs" in checks[0]["detail"]
