@@ -16,7 +16,7 @@ from robustsynth.model.slip import slip_matrix
 from robustsynth.model.vertices import Vertex
 from robustsynth.plants.kinematic import KinematicRobot, period
 from robustsynth.scenarios import random_delays, track_changes
-from robustsynth.verification.simulate import next_frame
+from robustsynth.plants.path import arc_frame_error
 
 from ..conftest import make_config
 
@@ -132,9 +132,9 @@ def _robot_scaled(model, e0, vel, S, wk, lam):
     the velocities the slip makes of the commands, given directly)."""
     V, Ts = model.V, model.Ts
     U = np.stack([V + lam * (vel[..., 0] - V), wk[:, None] + lam * (vel[..., 1] - wk[:, None])], axis=-1)
-    I = np.broadcast_to(np.eye(2), (e0.shape[0], 2, 2))
-    q1 = period(lam * e0, U, S, I, Ts, np.eye(2), np.eye(2), None)
-    return next_frame(q1, wk, Ts, V)
+    no_slip = np.broadcast_to(np.eye(2), (e0.shape[0], 2, 2))
+    q1 = period(lam * e0, U, S, no_slip, Ts, np.eye(2), np.eye(2), None)
+    return arc_frame_error(q1, wk, Ts, V)
 
 
 @pytest.mark.parametrize("over", [{}, {"network.delay.min": 0.12, "network.delay.max": 0.22}])

@@ -84,6 +84,12 @@ class Turns:
     # (docs/theory.md §10), kept to re-check them
     merged: bool = True
 
+    def next_yaw_rates(self, w: np.ndarray) -> np.ndarray:
+        """The yaw rates the reference may take on the period after one at ``w`` (...): w and a step of max_step
+        either way, within +-max_yaw_rate, (..., 3) (clipped ones repeat)."""
+        return np.clip(np.asarray(w, dtype=float)[..., None] + self.max_step * np.array([-1.0, 0.0, 1.0]),
+                       -self.max_yaw_rate, self.max_yaw_rate)
+
     def step_bounds(self, n_cmd: int) -> np.ndarray:
         """b_j = max |w_k - w_{k-j}| for j = 1..n_cmd-1."""
         return np.array([min(j * self.max_step, 2.0 * self.max_yaw_rate) for j in range(1, n_cmd)])

@@ -11,10 +11,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..law import PathTable, reference_at, segment_at, yaw_rate
+from ..law import PathTable, reference_at, segment_at, wrap_angle, yaw_rate
 from ..law import frame_error as law_frame_error
 
-__all__ = ["PathGeometry", "make_path", "path_from_yaw_rates", "path_of", "frame_error", "pose_from_error"]
+__all__ = ["PathGeometry", "make_path", "path_from_yaw_rates", "path_of", "frame_error", "pose_from_error",
+           "arc_frame_error"]
 
 
 @dataclass(frozen=True)
@@ -92,3 +93,15 @@ def pose_from_error(path: PathGeometry, e: np.ndarray) -> np.ndarray:
     q[..., 1] = path.waypoints[0, 1] + s * e[..., 0] + c * e[..., 1]
     q[..., 2] = th0 + e[..., 2]
     return q
+
+
+def arc_frame_error(q: np.ndarray, w: np.ndarray, t: float, V: float) -> np.ndarray:
+    """The error (..., 3) of poses ``q`` given in the frame of the reference at t_k (origin, heading 0), at t_k + t
+    in the frame of the reference then: it moved at ``V`` along an arc turning at ``w`` (...; 0: a straight
+    line), along the arc's chord at half the turn (:func:`~robustsynth.law.advance`).  At t = Ts this is the
+    error the law measures at t_{k+1}."""
+    psi = np.asarray(w, dtype=float) * t
+    chord = V * t * np.sinc(psi / (2.0 * np.pi))  # np.sinc(x) = sin(pi x) / (pi x)
+    dx, dy = q[..., 0] - chord * np.cos(psi / 2.0), q[..., 1] - chord * np.sin(psi / 2.0)
+    c, sn = np.cos(psi), np.sin(psi)
+    return np.stack([c * dx + sn * dy, -sn * dx + c * dy, wrap_angle(q[..., 2] - psi)], axis=-1)

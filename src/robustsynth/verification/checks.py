@@ -173,7 +173,7 @@ def _lifted(model, K, cert: CertificateCheck, gains: dict) -> tuple[list[dict], 
             V = lyap.V(xi, mu_h, _previous_delays(model, lyap, taus=taus))
             traces[f"{name}/homogeneous"] = V
             worst = max(worst, float(np.max(V[:, 1:] / V[:, :-1])))
-        arcs = getattr(model, "turns", None) is not None and model.n_p == 2
+        arcs = getattr(model, "turns", None) is not None  # (turning models are tracks-slip ones: Model.with_turns)
         if arcs:  # a turning certificate: the homogeneous part along arcs too (it depends on the yaw rates)
             taus = random_delays(model, rng, N, steps)
             xi = arc_closed_loop_run(model, K, taus, mu_h[:, :steps], random_yaw_rates(model, rng, N, steps), z, affine=False)
@@ -191,12 +191,12 @@ def _lifted(model, K, cert: CertificateCheck, gains: dict) -> tuple[list[dict], 
 
 
 def _lifted_arcs(model, K, lyap, rng, mu, xi_in, xi_out, level, alpha, beta, traces, cert_turns) -> dict | None:
-    """The ultimate-bound checks of :func:`_lifted` along arcs, for a turning certificate on the tracks slip model:
+    """The ultimate-bound checks of :func:`_lifted` along arcs, for a turning certificate:
     random delays, the slip sequences ``mu`` and random yaw rates of the config's turns (:func:`random_yaw_rates`;
     the certificate covers them, or its re-check failed), the kinematics linearized about the arc
     (:func:`arc_closed_loop_run`), from the boundary and from outside.  The decrease's yaw terms are in the
     coordinates of the certificate's turns ``cert_turns`` (its beta is for those).  None for a straight model."""
-    if getattr(model, "turns", None) is None or model.n_p != 2 or not cert_turns:
+    if getattr(model, "turns", None) is None or not cert_turns:
         return None
     N, steps = xi_in.shape[0], mu.shape[1] - 1
     taus = random_delays(model, rng, N, steps)

@@ -50,7 +50,7 @@ def arc_closed_loop_run(model, K: np.ndarray, taus: np.ndarray, mu: np.ndarray, 
 
     S = model.s_tilde(taus)  # (N, steps, d_hi)
     N, steps = S.shape[:2]
-    n_e, n_u, d_hi, n_z = model.n_e, model.n_u, model.d_hi, model.n_z
+    n_e, d_hi = model.n_e, model.d_hi
     K = np.asarray(K, dtype=float)
     yaw = yaw_windows(w, d_hi)
     xi = np.empty((N, steps + 1, model.n_s))
@@ -60,11 +60,18 @@ def arc_closed_loop_run(model, K: np.ndarray, taus: np.ndarray, mu: np.ndarray, 
         x = xi[:, k]
         du = x @ K.T
         xi[:, k + 1, :n_e] = linearized_arc_period(model, x, du, S[:, k], mu[:, k], yaw[:, k], homogeneous=not affine)
-        xi[:, k + 1, n_e : n_e + n_u] = du
-        xi[:, k + 1, n_e + n_u : n_e + d_hi * n_u] = x[:, n_e : n_e + (d_hi - 1) * n_u]
-        if n_z:
-            xi[:, k + 1, n_e + d_hi * n_u :] = x[:, n_e + d_hi * n_u :] + model.Ts * x[:, :2]
+        xi[:, k + 1, n_e:] = _memory_after(model, x, du)
     return xi
+
+
+def _memory_after(model, x: np.ndarray, du: np.ndarray) -> np.ndarray:
+    """The lifted state at t_{k+1} after its errors, from ``x`` at t_k and the correction ``du`` sent then: du,
+    the stored corrections shifted by one, and the integrators advanced, z + Ts (e_x, e_y)."""
+    n_e, n_u, d_hi = model.n_e, model.n_u, model.d_hi
+    parts = [du, x[..., n_e : n_e + (d_hi - 1) * n_u]]
+    if model.n_z:
+        parts.append(x[..., n_e + d_hi * n_u :] + model.Ts * x[..., :2])
+    return np.concatenate(parts, axis=-1)
 
 
 def yaw_windows(w: np.ndarray, d_hi: int) -> np.ndarray:
@@ -85,10 +92,11 @@ def random_yaw_rates(model, rng: np.random.Generator, N: int, steps: int) -> np.
     w = np.zeros((N, steps + d_hi))
     ahead = np.ones(N)
     odd = np.arange(N) % 2 == 1
+    rows = np.arange(N)
     for k in range(d_hi, w.shape[1]):
         ahead = np.where(w[:, k - 1] >= t.max_yaw_rate, -1.0, np.where(w[:, k - 1] <= -t.max_yaw_rate, 1.0, ahead))
-        move = np.where(odd, ahead, rng.integers(-1, 2, size=N))
-        w[:, k] = np.clip(w[:, k - 1] + move * t.max_step, -t.max_yaw_rate, t.max_yaw_rate)
+        move = np.where(odd, ahead, rng.integers(-1, 2, size=N))  # -1, 0, 1
+        w[:, k] = t.next_yaw_rates(w[:, k - 1])[rows, move.astype(int) + 1]
     return w
 
 
@@ -107,7 +115,7 @@ def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 
     tau_grid = delay_candidates(model, n_tau)
     n_tau = tau_grid.size
     N = xi0.shape[0]
-    d_hi, n_e, n_u = model.d_hi, model.n_e, model.n_u
+    d_hi, n_u = model.d_hi, model.n_u
     K = np.asarray(K, dtype=float)
     hist = np.full((N, d_hi), (dl.min + dl.max) / 2.0)  # delays of the last d_hi packets (inf: lost)
     xi = np.empty((N, steps + 1, model.n_s))
@@ -120,9 +128,6 @@ def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 
     w_out = np.zeros((N, steps + d_hi))  # the reference's yaw rates, w_{-d_hi}, ..., w_{steps-1}
     if yaw:
         from ..model.arcs import linearized_arc_period
-
-        turns = model.turns
-        picks = turns.max_step * np.array([-1.0, 0.0, 1.0])
     for k in range(steps):
         check_interrupt()
         x = xi[:, k]
@@ -132,7 +137,7 @@ def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 
         cand = np.concatenate([np.repeat(hist[:, None, :], n_tau, axis=1), np.broadcast_to(tau_grid[None, :, None], (N, n_tau, 1))], axis=2)
         s = model.s_tilde(cand)[:, :, 0, :]  # (N, n_tau, d_hi)
         if yaw:
-            W = np.clip(w_out[:, k + d_hi - 1, None] + picks, -turns.max_yaw_rate, turns.max_yaw_rate)  # (N, n_y)
+            W = model.turns.next_yaw_rates(w_out[:, k + d_hi - 1])  # (N, n_y)
             n_y = W.shape[1]
             shape = (N, n_tau, n_m, n_y)
             memory = w_out[:, k : k + d_hi][:, ::-1]  # w_{k-1}, ..., w_{k-d_hi}
@@ -143,8 +148,7 @@ def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 
                                       np.broadcast_to(du[:, None, None, None], shape + (n_u,)),
                                       np.broadcast_to(s[:, :, None, None], shape + (d_hi,)),
                                       np.broadcast_to(mu_cands[:, None, :, None], shape + (n_p,)), yaws)
-            rest = np.concatenate([du, x[:, n_e : n_e + (d_hi - 1) * n_u], x[:, n_e + d_hi * n_u :] + model.Ts * x[:, :2]
-                                   if model.n_z else x[:, :0]], axis=1)
+            rest = _memory_after(model, x, du)
             nxt = np.concatenate([e, np.broadcast_to(rest[:, None, None, None], shape + rest.shape[1:])], axis=-1)
         else:
             A, B = model.exact(s[:, :, None, :], mu_cands[:, None, :, :])  # (N, n_tau, n_m, ...)

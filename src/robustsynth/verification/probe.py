@@ -30,9 +30,9 @@ from typing import Any
 
 import numpy as np
 
-from ..law import Law, wrap_angle
+from ..law import Law
 from ..plants.kinematic import KinematicRobot
-from ..plants.path import frame_error, make_path, pose_from_error
+from ..plants.path import arc_frame_error, frame_error, make_path, pose_from_error
 from ..scenarios import random_delays, slip_candidates, slip_vertices, track_changes
 
 __all__ = ["boundary_probe", "probe_directions", "boundary_states", "errors_between_samples", "arc_yaw_rates",
@@ -249,16 +249,6 @@ def arc_commands(model: Any, du: np.ndarray, du_past: np.ndarray, w: np.ndarray)
     return np.concatenate([(uD + du)[:, None], uD + du_past], axis=1) + w[:, :, None] * FEEDFORWARD
 
 
-def _in_reference_frame(q: np.ndarray, w: np.ndarray, t: float, V: float) -> np.ndarray:
-    """The error (N, 3) of poses ``q`` at t_k + t in the frame of the reference at that time: from the frame at
-    t_k (origin, heading 0) it moves at V along an arc turning at ``w`` (N,), a straight line for w = 0."""
-    psi = w * t
-    chord = V * t * np.sinc(psi / (2.0 * np.pi))  # the reference's chord from t_k, at angle psi / 2
-    dx, dy = q[..., 0] - chord * np.cos(psi / 2.0), q[..., 1] - chord * np.sin(psi / 2.0)
-    c, sn = np.cos(psi), np.sin(psi)
-    return np.stack([c * dx + sn * dy, -sn * dx + c * dy, wrap_angle(q[..., 2] - psi)], axis=-1)
-
-
 def errors_between_samples(model: Any, e0: np.ndarray, U: np.ndarray, S: np.ndarray, mu: np.ndarray,
                            switch: list | None = None, w: np.ndarray | None = None,
                            instants: int = BETWEEN_INSTANTS) -> tuple[np.ndarray, np.ndarray]:
@@ -271,7 +261,7 @@ def errors_between_samples(model: Any, e0: np.ndarray, U: np.ndarray, S: np.ndar
     wk = np.zeros(e0.shape[0]) if w is None else np.asarray(w, dtype=float)
     out = np.zeros((e0.shape[0], 3))
     for t in np.linspace(0.0, model.Ts, instants + 1)[1:]:
-        e = np.abs(_in_reference_frame(robot.partial(e0, U, S, mu, t, switch), wk, t, model.V))
+        e = np.abs(arc_frame_error(robot.partial(e0, U, S, mu, t, switch), wk, t, model.V))
         out = np.maximum(out, e)
     return out, out - np.maximum(np.abs(e0), e)
 
@@ -285,4 +275,4 @@ def arc_period(model: Any, e0: np.ndarray, du: np.ndarray, du_past: np.ndarray, 
     if w is None:
         w = arc_yaw_rates(model, e0.shape[0], rng)
     q1 = KinematicRobot.of(model).period(e0, arc_commands(model, du, du_past, w), S, mu, switch=switch)
-    return _in_reference_frame(q1, w[:, 0], model.Ts, model.V)
+    return arc_frame_error(q1, w[:, 0], model.Ts, model.V)

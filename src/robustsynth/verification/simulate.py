@@ -17,8 +17,8 @@ import numpy as np
 
 from ..errors import check_interrupt
 from ..plants.kinematic import KinematicRobot
-from ..plants.path import PathGeometry, frame_error, make_path, path_from_yaw_rates, pose_from_error
-from ..law import Law, wrap_angle
+from ..plants.path import PathGeometry, arc_frame_error, frame_error, make_path, path_from_yaw_rates, pose_from_error
+from ..law import Law
 from ..scenarios import Scenario, delay_candidates, loss_allowed, slip_candidates, split_state, track_changes
 from ..model.arcs import FEEDFORWARD as TURN_FEEDFORWARD
 
@@ -32,7 +32,6 @@ __all__ = [
     "adversary_courses",
     "ADVERSARY_OBJECTIVES",
     "FREE_YAW",
-    "next_frame",
     "run_logs",
 ]
 
@@ -149,7 +148,7 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
 
     The search runs in the frame of each history's reference at t_k, where the pose is the error: the law
     (:class:`~robustsynth.law.Law`, the deployed one) measures a pose at the origin of that frame, and
-    :func:`next_frame` moves the pose into the next reference's frame.  Its commands are the deployed law's
+    :func:`~robustsynth.plants.path.arc_frame_error` moves the pose into the next reference's frame.  Its commands are the deployed law's
     up to the round-off of that change of frame (a replay in the world frame agrees to 1e-9 or better).
 
     Every period each kept history is continued with every slip the adversary may pick
@@ -200,8 +199,6 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
     law = control_law(model, K, _LOCAL_FRAME, scen)
     free = course == FREE_YAW
     if free:
-        turns = model.turns
-        yaw_steps = turns.max_step * np.array([-1.0, 0.0, 1.0])
         w_prev = np.zeros(N)  # the starts' commands carry no feedforward
     uD = np.array([V, 0.0])
     hist = scen.taus.copy()  # delays of the last d_hi packets
@@ -216,7 +213,7 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
         tk = k * Ts
         P = q.shape[0]
         if free:  # the reference's yaw rate on this period: the adversary's pick
-            W = np.clip(w_prev[:, None] + yaw_steps, -turns.max_yaw_rate, turns.max_yaw_rate)  # (P, n_y)
+            W = model.turns.next_yaw_rates(w_prev)  # (P, n_y)
         else:
             W = np.full((P, 1), path.feedforward(tk))
         n_y = W.shape[1]
@@ -245,7 +242,7 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
             before = np.broadcast_to(mu_prev[:, None, None, None, None, :], after.shape)
             q_next = robot.period(*args, before,
                                   switch=track_changes(before, after, np.broadcast_to(sw[None, None, :, None, None, :], shape + (2,))))
-        e_next = next_frame(q_next, W[:, None, None, None, :], Ts, V)
+        e_next = arc_frame_error(q_next, W[:, None, None, None, :], Ts, V)
         rest = np.stack(law.past + law.z, axis=1)  # the controller's memory after step k
         xi_next = np.concatenate([e_next, np.broadcast_to(rest[:, None, None, None, None, :], shape + rest.shape[1:])],
                                  axis=-1)
@@ -263,8 +260,7 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
         v_arg = np.argmax(v_all, axis=-1)
         v = np.take_along_axis(v_all, v_arg[..., None], axis=-1)[..., 0]
         # the commands at t_{k+1}, with the next period's feedforward (on the free course the adversary's largest)
-        W1 = (np.clip(W[..., None] + yaw_steps, -turns.max_yaw_rate, turns.max_yaw_rate) if free
-              else np.full((P, 1, 1), path.feedforward(tk + Ts)))  # (P, n_y, n_y')
+        W1 = model.turns.next_yaw_rates(W) if free else np.full((P, 1, 1), path.feedforward(tk + Ts))  # (P, n_y, n_y')
         u1 = (uD + np.broadcast_to(W1[:, None, None, None, :, :, None], shape + W1.shape[-1:] + (1,)) * TURN_FEEDFORWARD
               + (xi_next @ K.T)[..., None, :])
         rho_all = np.max(np.abs(u1 @ J_inv.T), axis=-1)  # shape + (n_y',)
@@ -316,18 +312,6 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
 
 
 _LOCAL_FRAME = make_path(((0.0, 0.0), (1.0, 0.0)), 1.0)  # the law measures a pose given in its reference's frame at t_k
-
-
-def next_frame(q: np.ndarray, w: np.ndarray, Ts: float, V: float) -> np.ndarray:
-    """The pose ``q`` (..., 3) given in the frame of the reference at t_k, in the frame of the reference at
-    t_{k+1}: the reference moved one period at V^D and yaw rate ``w`` (...), along its arc's chord at half
-    the turn (:func:`~robustsynth.law.advance`).  At t_{k+1} this is the error the law measures."""
-    phi = np.asarray(w, dtype=float) * Ts
-    chord = V * Ts * np.sinc(phi / (2.0 * np.pi))  # np.sinc(x) = sin(pi x) / (pi x)
-    dx = q[..., 0] - chord * np.cos(phi / 2.0)
-    dy = q[..., 1] - chord * np.sin(phi / 2.0)
-    c, s = np.cos(phi), np.sin(phi)
-    return np.stack(np.broadcast_arrays(c * dx + s * dy, -s * dx + c * dy, wrap_angle(q[..., 2] - phi)), axis=-1)
 
 
 def merge_adversaries(a: dict, b: dict) -> dict:
