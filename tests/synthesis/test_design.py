@@ -3,6 +3,8 @@ spectra and with simulations of the lifted model, monotonicity in the uncertaint
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -28,6 +30,10 @@ LEVEL_TOL = 1e-9  # V(xi) may exceed the invariant level by round-off only (rela
 # between two designs allow this relative slack.
 SEARCH_REL = 2e-3
 FAST = {"alpha_points": 7}
+# a limit this far (relative) above the least motor bound of the LMIs certifies: the bound is found at the
+# scan's alphas and without the within-period vertices that constraint generation may add
+LEAST_MOTOR_ABOVE = 0.02
+LEAST_MOTOR_REL = 1e-4  # the solver's accuracy on the least bound (its reduced tolerances when 'optimal_inaccurate')
 
 
 @pytest.fixture(scope="module")
@@ -225,10 +231,27 @@ def test_hinf_certificate(default_model) -> None:
 
 
 def test_infeasible_motor_limit_raises() -> None:
-    # physically feasible (mu = 0.6 needs 9.26 rad/s) but no gain keeps the whole invariant set below it
+    # physically feasible (mu = 0.6 needs 9.26 rad/s) but no gain keeps the whole invariant set below it;
+    # the message gives the least bound the LMIs allow, and a limit a little above it is certified
     m = build_model(make_config(**{"robot.max_motor_speed": 9.3}))
-    with pytest.raises(InfeasibleError, match="robot.max_motor_speed"):
+    with pytest.raises(InfeasibleError, match="robot.max_motor_speed") as exc:
         synthesize(m, **FAST)
+    need = float(re.search(r"need at least ([0-9.]+) rad/s", str(exc.value)).group(1))
+    assert 9.3 < need < 12.0
+    above = build_model(make_config(**{"robot.max_motor_speed": need * (1.0 + LEAST_MOTOR_ABOVE)}))
+    res = synthesize(above, **FAST)
+    assert check_certificate(above, res.K, res.certificate).passed
+
+
+def test_least_motor_bound_below_every_certificate(default_model, ub_result) -> None:
+    # the least motor bound is a relaxation of the limited problem: at a certified point's alpha it is
+    # at most the limit that certificate meets (12 rad/s), and it is what the certificate's own gain needs
+    from robustsynth.synthesis.design import _least_motor_speeds
+
+    a = float(ub_result.certificate["alpha"])
+    least, _proven = _least_motor_speeds(default_model, default_model.config.synthesis, [a], lambda _m: None)[a]
+    assert least is not None
+    assert default_model.feedforward_motor_speed < least <= 12.0 * (1.0 + LEAST_MOTOR_REL)
 
 
 @pytest.mark.parametrize("kind", ["slip-aware", "paper"])

@@ -415,12 +415,15 @@ def _walk(evaluate: Callable[[float], float], x0: float, step: float, lo: float,
 def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     say: Callable[[str], None] = lambda _m: None,
                     alpha_hint: float | None = None, retry: bool = True, probe_only: bool = False,
-                    give_up: int | None = None) -> tuple[_Best, _Runner]:
+                    give_up: int | None = None,
+                    prune: Callable[[list[float]], set[float]] | None = None) -> tuple[_Best, _Runner]:
     """The alpha line search of the invariance LMIs.  Without a hint: a log grid of alpha_points
     scanned upwards, then parabolic steps around its best point.  With ``alpha_hint`` (the best alpha
     of a cheaper certificate class): walk from the hint in quarter grid steps while the bound falls,
     then parabolic steps in that bracket, stopped once they no longer move the bound (the full scan
-    when the hint is not feasible for this class)."""
+    when the hint is not feasible for this class).  ``prune``: given the scan's alphas that were not
+    certified, before the failed ones are retried with the fallback solver, returns those proven
+    infeasible otherwise (they are not retried)."""
     lp = _build(build_invariance, model, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,
                 symmetry=s.symmetry == "auto")
     full = lambda mdl: build_invariance(mdl, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,  # noqa: E731
@@ -498,6 +501,9 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                 break
     if best.cert is None and retry:
         failed = [g for g, v in zip(grid, vals) if not math.isfinite(v) and runner.failed_at.get(float(np.exp(g)))]
+        if prune is not None and failed:  # told every alpha of the scan that was not certified
+            proven = prune([float(np.exp(g)) for g, v in zip(grid, vals) if not math.isfinite(v)])
+            failed = [g for g in failed if float(np.exp(g)) not in proven]
         tried: list[float] = []
         for g in failed:
             tried.append(evaluate(float(g), fallback=True))
@@ -664,6 +670,39 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
     )
 
 
+LEAST_MOTOR_TOL = 1e-4  # relative: a least motor bound this far above the limit proves the limited LMIs infeasible
+
+
+def _least_motor_speeds(model: Any, s: SynthesisConfig, alphas: list[float],
+                        say: Callable[[str], None]) -> dict[float, tuple[float | None, bool]]:
+    """The least |rho| bound the invariance LMIs allow at each alpha: every LMI of the limited problem,
+    with the motor LMIs' bound u^2 (docs/theory.md §6c) a variable that is minimized; |rho| = the
+    feedforward's speed + u.  These are the limited problem's constraints (without the mirror reduction
+    and the within-period vertices added by constraint generation, so a relaxation), so where the least
+    bound exceeds robot.max_motor_speed the limited problem is infeasible at that alpha.  Per alpha:
+    (the bound, inf where the LMIs are infeasible whatever the motors, None where nothing came back;
+    proven: the solver ended 'optimal' or 'infeasible', not 'optimal_inaccurate')."""
+    import cvxpy as cp
+
+    lp = _build(build_invariance, model, s.multiplier, s.margin, _weights(s), True, s.lyapunov, symmetry=False,
+                least_motor=True)
+    out: dict[float, tuple[float | None, bool]] = {}
+    for a in alphas:
+        lp.params["alpha"].value = a
+        lp.params["one_minus_alpha"].value = 1.0 - a
+        status = solve(lp.problem, s.solver, lambda: True, fallback=False).record.status
+        u2 = lp.extra["u2"].value
+        r: float | None = None
+        if status == cp.INFEASIBLE:  # no invariant set at this alpha, whatever the motors
+            r = math.inf
+        elif status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and u2 is not None:
+            r = float(model.feedforward_motor_speed + math.sqrt(max(float(u2), 0.0)))
+        out[a] = (r, status in (cp.OPTIMAL, cp.INFEASIBLE))
+        what = "unknown" if r is None else ("none (infeasible)" if math.isinf(r) else f"{r:.4g} rad/s")
+        say(f"  alpha = {a:.4g}: the least motor bound of these LMIs is {what} ({s.solver} {status})")
+    return out
+
+
 def _run_linearized(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     say: Callable[[str], None]) -> tuple[_Best, _Runner]:
     """The ultimate-bound search on the linearized kinematics (docs/theory.md §6b); raises when no
@@ -680,18 +719,33 @@ def _run_linearized(model: Any, s: SynthesisConfig, search: list, motor: bool,
            else f"scan of alpha over {s.alpha_points} points")
     say(f"{s.objective}: {how}, then parabolic steps ({model.kind} model, {len(model.vertices)} vertices, "
         f"motor limits {'on' if motor else 'off'})")
-    best, runner = _run_invariance(model, s, search, motor, say, alpha_hint=hint)
+    least: dict[float, float | None] = {}  # alpha -> the least motor bound, where proven (else None)
+
+    def prune(alphas: list[float]) -> set[float]:
+        # before the slow fallback retries: where even the least motor bound of these LMIs exceeds the
+        # limit, the limited problem is infeasible (a turning model's fallback solves took 8 minutes)
+        found = _least_motor_speeds(model, s, alphas, say)
+        least.update({a: r if proven else None for a, (r, proven) in found.items()})
+        return {a for a, r in least.items() if r is not None and r > rho_max * (1.0 + LEAST_MOTOR_TOL)}
+
+    best, runner = _run_invariance(model, s, search, motor, say, alpha_hint=hint, prune=prune if motor else None)
     if best.cert is None:
         if runner.failures and runner.failures == len(search):
             raise SolverFailure("ultimate-bound: every solve failed, also with the fallback solver")
         if motor:
             probe, _ = _run_invariance(model, s.model_copy(update={"alpha_points": 5}), [], False)
             if probe.cert is not None:
+                known = [r for r in least.values() if r is not None]
+                need = ""
+                if known and math.isfinite(min(known)):
+                    need = (f"; these LMIs need at least {min(known):.4g} rad/s"
+                            + (" at every alpha of the scan" if len(known) == len(least) else
+                               f" at the {len(known)} of the scan's {len(least)} alphas where that was solved"))
                 raise InfeasibleError(
                     f"ultimate-bound: no gain keeps |rho| <= {rho_max:g} rad/s for {_delay_text(model)}"
                     + (f" (the feedforward alone takes {model.feedforward_motor_speed:.3g} rad/s of it, the turning "
                        "reference's included)" if getattr(model, "turns", None) is not None else "")
-                    + f": raise robot.max_motor_speed{_wider_turns(model)} or lower reference.speed"
+                    + f"{need}: raise robot.max_motor_speed{_wider_turns(model)} or lower reference.speed"
                 )
         raise InfeasibleError(
             f"ultimate-bound: no gain makes an ellipsoid invariant for {_delay_text(model)} and slip in "

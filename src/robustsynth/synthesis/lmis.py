@@ -253,21 +253,23 @@ class _Lyap:
                 "mirrored": self.mirror is not None}
 
 
-def motor_constraints(model: Any, Q: Any, Y: Any, rows: Any = None) -> list[Any]:
+def motor_constraints(model: Any, Q: Any, Y: Any, rows: Any = None, u2: Any = None) -> list[Any]:
     """[[u^2, c_i' Y], [Y' c_i, Q]] >= 0 with u = rho_max - V^D / R (docs/theory.md §6c; minus the
     turning feedforward's share, §10), for each row c_i
     of J^-1 (or those in ``rows``); ``Q`` may be any expression standing for the Lyapunov matrix
-    (G + G' - S_m)."""
-    cfg = model.config
-    rho_max = cfg.robot.max_motor_speed
-    ubar = rho_max - model.feedforward_motor_speed  # V^D / R (and a turning reference's feedforward)
-    # solve against a bound a hair tighter than the limit so that the numpy check has headroom
-    ubar_solve = ubar * (1.0 - 1e-6)
+    (G + G' - S_m).  ``u2``: a variable standing for u^2 instead (the least motor bound, §6c)."""
+    if u2 is None:
+        rho_max = model.config.robot.max_motor_speed
+        ubar = rho_max - model.feedforward_motor_speed  # V^D / R (and a turning reference's feedforward)
+        # solve against a bound a hair tighter than the limit so that the numpy check has headroom
+        top = np.array([[(ubar * (1.0 - 1e-6)) ** 2]])
+    else:
+        top = cp.reshape(u2, (1, 1), order="C")
     cons = []
     J_inv = np.asarray(model.J_inv)
     for c in J_inv if rows is None else J_inv[list(rows)]:
         row = c @ Y  # (n_s,)
-        blk = cp.bmat([[np.array([[ubar_solve**2]]), cp.reshape(row, (1, model.n_s), order="C")],
+        blk = cp.bmat([[top, cp.reshape(row, (1, model.n_s), order="C")],
                        [cp.reshape(row, (model.n_s, 1), order="C"), Q]])
         cons.append(_sym(blk) >> 0)
     return cons
@@ -383,10 +385,12 @@ def build_stability(model: Any, kind: str, margin: float, lyapunov: str = "commo
 
 
 def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, motor: bool,
-                     lyapunov: str = "common", symmetry: bool = True) -> LMIProblem:
+                     lyapunov: str = "common", symmetry: bool = True, least_motor: bool = False) -> LMIProblem:
     """Invariant, attracting ellipsoid under every admissible delay and slip (docs/theory.md §6b);
     parameter alpha.  Minimizes sum_i weights_i * (bound on state i)^2 / level over e_x, e_y, e_theta.
-    ``symmetry``: use the model's mirror symmetry when it has one (the same optimum, fewer LMIs)."""
+    ``symmetry``: use the model's mirror symmetry when it has one (the same optimum, fewer LMIs).
+    ``least_motor``: minimize instead the squared bound u^2 of the motor LMIs (§6c) on the commanded
+    deviation, ``extra['u2']`` (``motor`` is then ignored)."""
     lv = _Lyap(model, lyapunov, mirror=model.mirror(lyapunov) if symmetry else None)
     n_s, n_w = model.n_s, model.n_w
     alpha = cp.Parameter(nonneg=True, name="alpha", value=0.1)
@@ -411,18 +415,25 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
             L = cp.bmat(rows)
             cons.append(_sym(L) >> margin * np.eye(L.shape[0]))
     cons += [cp.sum(beta) <= alpha] + lv.scale(margin)
-    if motor:
+    extra = {"beta": beta}
+    u2 = cp.Variable(nonneg=True, name="u2") if least_motor else None
+    if motor or least_motor:
         for j in lv.own:
-            cons += motor_constraints(model, lv.left(j), lv.Y, rows=lv.motor_rows(model, j))
+            cons += motor_constraints(model, lv.left(j), lv.Y, rows=lv.motor_rows(model, j), u2=u2)
     if model.heading_bound is not None:
         cons += heading_constraints(model, lv)
-    terms = []
-    for i in range(3):
-        t, c = lv.diag_bound(i)
-        terms.append(float(weights[i]) * t)
-        cons += c
-    prob = cp.Problem(cp.Minimize(sum(terms)), cons)
-    return LMIProblem(prob, M=Ms, params={"alpha": alpha, "one_minus_alpha": one_minus}, extra={"beta": beta},
+    if least_motor:
+        objective = u2
+        extra["u2"] = u2
+    else:
+        terms = []
+        for i in range(3):
+            t, c = lv.diag_bound(i)
+            terms.append(float(weights[i]) * t)
+            cons += c
+        objective = sum(terms)
+    prob = cp.Problem(cp.Minimize(objective), cons)
+    return LMIProblem(prob, M=Ms, params={"alpha": alpha, "one_minus_alpha": one_minus}, extra=extra,
                       **lv.problem_kwargs())
 
 
