@@ -772,6 +772,8 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
         if bar is not None:
             bar.render_finish()
     sm, c = vd["straight_max"], vd["certified"]
+    if not vd["certificate"]["passed"]:
+        obj.say(f"no certified bounds: {vd['certificate']['detail']}")
     obj.say("straight segments: " + ", ".join(
         f"|{k}| {v * (100 if k != 'e_theta' else 1):.3g} {'cm' if k != 'e_theta' else 'rad'}"
         + (f" (certified {c[k] * (100 if k != 'e_theta' else 1):.3g}, ratio {v / c[k]:.2f})" if c.get(k) else "")
@@ -786,7 +788,8 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
         b = sl["estimated"]
         obj.say(f"slip the engine showed on the straight segments (identify): right [{b['right'][0]:.3f}, {b['right'][1]:.3f}], left "
                 f"[{b['left'][0]:.3f}, {b['left'][1]:.3f}] — " + ("inside" if sl["inside_box"] else "OUTSIDE")
-                + " the config's box: the certificate " + ("covers it" if sl["inside_box"] else "does not apply to this robot"))
+                + " the config's box" + ("" if not vd["certificate"]["passed"] else
+                                         ": the certificate " + ("covers it" if sl["inside_box"] else "does not apply to this robot")))
     whole = vd.get("slip_whole_episodes", {}).get("estimated")
     if whole:
         obj.say(f"  with the turns: right [{whole['right'][0]:.3f}, {whole['right'][1]:.3f}], left [{whole['left'][0]:.3f}, "

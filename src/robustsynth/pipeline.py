@@ -218,6 +218,11 @@ def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, e
         _require_physics()
     outdir = make_dir(outdir)
     gains = load_gains(gains_path)
+    rechecked = _recheck(model, gains)
+    # the bounds the episodes are judged against: the certificate's own, re-checked for this config (a
+    # gains file's "certified" figures are what it says, not what holds: an edited K or another config's
+    # gain would pass against them)
+    gains = dict(gains, certified={"ultimate_bound": rechecked.figures.get("ultimate_bound")} if rechecked.passed else {})
     res = validate_physics(model, gains, episodes=episodes, seed=seed, progress=progress if workers == 1 else None,
                            workers=workers, engine=engine)
     _write_logs(res["logs"], outdir / "logs")
@@ -227,7 +232,9 @@ def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, e
     vd["slip"] = _observed_slip(model, _pieces(res["logs"], res["straight"]))
     vd["slip"]["where"] = "straight segments (the steps the certificate covers)"
     vd["slip_whole_episodes"] = _observed_slip(model, res["logs"])
-    vd["passed"] = bool(vd["passed"] and vd["slip"].get("inside_box", True))
+    vd["certificate"] = {"passed": rechecked.passed,
+                         "detail": "re-checked in numpy for this config" if rechecked.passed else rechecked.reason}
+    vd["passed"] = bool(vd["passed"] and vd["slip"].get("inside_box", True) and rechecked.passed)
     if plots:
         from .report.plots import validation_figure
 
@@ -236,6 +243,25 @@ def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, e
         vd["figure"] = "validation.png"
     commit_files(outdir, {"validation.json": json_bytes(vd)}, primary="validation.json")
     return vd
+
+
+def _recheck(model: Model, gains: dict[str, Any]) -> Any:
+    """The gains file's certificate re-checked for ``model`` (a CertificateCheck; failed, with its
+    reason, when the file has none or K does not fit the model)."""
+    import numpy as np
+
+    from .certificate import CertificateCheck, check_certificate
+
+    K = np.asarray(gains["K"], dtype=float)
+    if K.shape != (model.n_u, model.n_s):
+        return CertificateCheck(False, (), {}, f"K has shape {K.shape}, this config's model needs {(model.n_u, model.n_s)}")
+    cert = gains.get("certificate")
+    if not isinstance(cert, dict):
+        return CertificateCheck(False, (), {}, "the gains file has no certificate (a bare K): nothing certified to "
+                                "validate against; robustsynth verify searches one for a fixed K")
+    chk = check_certificate(model, K, cert)
+    return chk if chk.passed else CertificateCheck(False, chk.checks, chk.figures,
+                                                   chk.reason or "the certificate does not hold for this config")
 
 
 def excitation_stage(model: Model, outdir: str | Path, episodes: int = 4, seed: int = 0,

@@ -125,6 +125,23 @@ def test_bad_plant_files_and_missing_matrices_are_one_line_each(tmp_path) -> Non
         _zbp_cfg(plant={"kind": "lti", "A": ZBP_A.tolist(), "file": "p.npz"})
 
 
+def test_a_plant_too_fast_for_its_sampling_or_empty_is_one_line() -> None:
+    """A mode that grows past double precision over the lifted horizon, and a plant without states, are bad
+    input (a review found 'SVD did not converge' and 'need at least one array' tracebacks); a fast *stable*
+    mode of the same size is accepted, and so is the controllability test of a large A (scaled first)."""
+    from robustsynth.errors import InputError
+
+    for big in (1e6, 1e300):
+        with pytest.raises(InputError, match=r"plant: e\^\(A t\) of A overflows over the lifted horizon"):
+            lti_plant(_zbp_cfg(plant={"kind": "lti", "A": [[0.0, 1.0], [0.0, big]], "B": ZBP_B.tolist()}))
+    stiff = lti_plant(_zbp_cfg(plant={"kind": "lti", "A": [[0.0, 1.0], [0.0, -1e6]], "B": ZBP_B.tolist()}))
+    assert stiff["controllable"]
+    with pytest.raises(InputError, match="at least one state"):
+        from robustsynth.model.lti import lti_plant_from
+
+        lti_plant_from(np.zeros((0, 0)), np.zeros((0, 1)))
+
+
 def test_a_plant_whose_input_integrates_directly_is_covered() -> None:
     """A B = 0 makes every G affine (remainder bound 0 in exact arithmetic); the computed parts still
     differ by rounding, which the remainder's floor covers (coverage read infinite before)."""

@@ -123,4 +123,11 @@ def test_the_written_mat_reads_as_its_gains_file_and_a_mismatched_config_is_refu
         export_controller(out / "gains.json", "c", tmp_path / "c", configs / "zbp.yaml")
     with pytest.raises(InputError, match="is the tracked robot's"):
         export_controller(out / "gains.json", "c", tmp_path / "c", configs / "default.yaml")
+    # and the other way round: the robot's gains (or a bare K) with a linear plant's config (a traceback before)
+    robot = configs.parent / "results" / "baselines" / "default" / "gains.json"
+    bare = tmp_path / "bare.json"
+    bare.write_text(json.dumps({"K": json.loads(robot.read_text())["K"]}))
+    for g in (robot, bare):
+        with pytest.raises(InputError, match="dc-motor.yaml is a linear plant's"):
+            export_controller(g, "c", tmp_path / "c", cfg_path)
     assert not (tmp_path / "c").exists()

@@ -121,6 +121,27 @@ def test_the_kinematic_engine_recovers_its_own_slip(tmp_path) -> None:
     assert vd["torque_saturated_s"] == 0.0
 
 
+@pytest.mark.parametrize("case", ["edited K", "another config's gain"])
+def test_a_gain_whose_certificate_does_not_hold_here_fails(tmp_path, case) -> None:
+    """The episodes are judged against the certificate re-checked for this config, not against the figures a
+    gains file states: an edited K, or the default's gain on heavy-slip's wider slip box, has no certified
+    bounds here, and validation fails (a review found both passing)."""
+    gains = json.loads((ROOT / "results" / "baselines" / "default" / "gains.json").read_text())
+    cfg = ROOT / "configs" / "default.yaml"
+    if case == "edited K":
+        gains["K"][0][0] += 5.0
+    else:
+        cfg = ROOT / "configs" / "heavy-slip.yaml"
+    g = tmp_path / "gains.json"
+    g.write_text(json.dumps(gains))
+    r = CliRunner().invoke(main, ["validate", str(cfg), "--engine", "kinematic", "--gains", str(g), "--episodes", "1",
+                                  "--no-plots", "-o", str(tmp_path / "out")])
+    assert r.exit_code == 1, r.output
+    assert "no certified bounds" in r.output and "covers it" not in r.output
+    vd = json.loads((tmp_path / "out" / "validation.json").read_text())
+    assert not vd["passed"] and not vd["certificate"]["passed"] and vd["certified"]["e_y"] is None
+
+
 def test_on_a_path_rounded_by_arcs_the_straight_segments_leave_the_arcs_out(tmp_path) -> None:
     """With reference.turn_radius the path has no waypoint switch: the straight segments (judged, and
     where the slip is estimated) are where no command in flight carries a turning feedforward."""

@@ -288,9 +288,34 @@ def lti_plant(cfg, base_dir: str | None = None) -> dict:
     C = names = ounits = scale = None
     if outs is not None:
         C, names, ounits, scale = outs.C, outs.names, outs.units, outs.scale
+    _representable(A, cfg.network, src)
     return lti_plant_from(A, B, K=K, E=None if dist is None else dist.E, w_max=None if dist is None else dist.bound,
                           C=C, u_max=pl.input_limits, states=pl.states, units=pl.units, outputs=names,
                           output_units=ounits, scale=scale)
+
+
+GROWTH_LIMIT = 1e100  # the largest ||e^{A t}|| over the lifted horizon this double-precision pipeline accepts
+
+
+def _representable(A: np.ndarray, net: Any, src: str) -> None:
+    """InputError unless e^{A t} stays finite and below GROWTH_LIMIT over the lifted horizon (the longest
+    delay and losses plus a period): beyond it the sampled matrices and their bounds overflow (a review
+    found 'SVD did not converge' tracebacks for A of 1e6 and more)."""
+    from scipy.linalg import expm
+
+    from ..errors import InputError
+
+    horizon = float(net.delay.max) + (int(net.dropouts.max_consecutive) + 1) * float(net.sampling_time)
+    with np.errstate(all="ignore"):
+        try:
+            phi = expm(A * horizon)
+            ok = bool(np.all(np.isfinite(phi))) and float(np.max(np.abs(phi))) < GROWTH_LIMIT
+        except (np.linalg.LinAlgError, ValueError, OverflowError):
+            ok = False
+    if not ok:
+        raise InputError(f"plant: e^(A t) of {src} overflows over the lifted horizon t = {horizon:g} s (the delay, the "
+                         f"losses and a period; its entries exceed {GROWTH_LIMIT:g}): the plant grows too fast for double "
+                         "precision at this sampling; sample faster, or rescale the states' units")
 
 
 def lifted_rows(C: np.ndarray, n_s: int) -> np.ndarray:
@@ -335,6 +360,11 @@ def lti_plant_from(A: Any, B: Any, *, K: Any = None, E: Any = None, w_max: float
     """The plant as arrays: {"A", "B", "K" (or None), "states", "units", "controllable", "E", "w_max",
     "C", "outputs", "output_units", "scale", "u_max"}; C defaults to every state (with the states' names)."""
     A, B = np.asarray(A, dtype=float), np.asarray(B, dtype=float)
+    if A.size == 0 or B.size == 0:
+        from ..errors import InputError
+
+        raise InputError(f"plant: A is {A.shape[0]} x {A.shape[-1]} and B {B.shape[0]} x {B.shape[-1]}: the plant needs at "
+                         "least one state and one input")
     n, m = B.shape
     states = list(states or [f"x{i + 1}" for i in range(n)])
     units = list(units or ["-"] * n)
@@ -342,7 +372,10 @@ def lti_plant_from(A: Any, B: Any, *, K: Any = None, E: Any = None, w_max: float
         C, outputs, output_units = np.eye(n), states, units
     C = np.atleast_2d(np.asarray(C, dtype=float))
     p = C.shape[0]
-    ctrb = np.hstack([np.linalg.matrix_power(A, i) @ B for i in range(n)])
+    # A scaled to unit norm: the same rank (each block of the controllability matrix only scales), and no
+    # overflow of its powers for a large A (a review found 'SVD did not converge' there)
+    An = A / max(float(np.max(np.abs(A))), 1e-300)
+    ctrb = np.hstack([np.linalg.matrix_power(An, i) @ B for i in range(n)])
     return {"A": A, "B": B, "K": None if K is None else np.atleast_2d(np.asarray(K, dtype=float)),
             "states": states, "units": units, "controllable": int(np.linalg.matrix_rank(ctrb)) == n,
             "E": None if E is None else np.asarray(E, dtype=float), "w_max": None if w_max is None else float(w_max),

@@ -365,6 +365,13 @@ def export_controller(gains_path: str | Path, target: str, outdir: str | Path,
 
         d, files = lti_export_files(gains, target)
         return d, commit_files(outdir, files, primary=next(iter(files)))
-    d = controller_description(gains, load_config(config_path) if config_path is not None else None)
+    cfg = load_config(config_path) if config_path is not None else None
+    if cfg is not None:
+        from ..config import is_lti
+
+        if is_lti(cfg):  # the robot's law needs the robot's sections (a review found a traceback here)
+            raise InputError(f"--config: {config_path} is a linear plant's; these gains are the tracked robot's "
+                             "(a linear plant's gains.json says kind: lti)")
+    d = controller_description(gains, cfg)
     files = export_files(d, target)
     return d, commit_files(outdir, files, primary=next(iter(files)))
