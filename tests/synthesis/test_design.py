@@ -243,6 +243,33 @@ def test_infeasible_motor_limit_raises() -> None:
     assert check_certificate(above, res.K, res.certificate).passed
 
 
+def test_the_least_motor_bound_prunes_only_the_alphas_it_proves_infeasible() -> None:
+    """Of the scan's failed alphas, exactly those whose least motor bound is proven above the limit skip the
+    fallback retry; the others are retried (the review found the direction, and whether the pruned set is
+    applied at all, untested)."""
+    lines: list[str] = []
+    limit = 9.3
+    m = build_model(make_config(**{"robot.max_motor_speed": limit}))
+    with pytest.raises(InfeasibleError) as exc:
+        synthesize(m, on_step=lines.append, **FAST)
+    first = next(i for i, ln in enumerate(lines) if "least motor bound" in ln)
+    last = max(i for i, ln in enumerate(lines) if "least motor bound" in ln)
+    alpha = lambda ln: re.search(r"alpha = (\S+):", ln).group(1)  # noqa: E731
+    failed = {alpha(ln) for ln in lines[:first] if re.search(r"alpha = \S+: failed", ln)}
+    retried = {alpha(ln) for ln in lines[last + 1:] if re.search(r"alpha = \S+: ", ln)}
+    pruned = set()
+    for ln in lines[first:last + 1]:
+        got = re.search(r"is ([0-9.]+) rad/s \(clarabel optimal\)|is none \(infeasible\)", ln)
+        if got and (got.group(1) is None or float(got.group(1)) > limit * (1.0 + 1e-4)):
+            pruned.add(alpha(ln))
+    assert failed and pruned & failed, lines
+    assert retried == failed - pruned
+    # the message's figure is the smallest proven bound
+    proven = [float(x) for x in re.findall(r"is ([0-9.]+) rad/s \(clarabel optimal\)", "\n".join(lines))]
+    need = float(re.search(r"need at least ([0-9.]+) rad/s", str(exc.value)).group(1))
+    assert need == pytest.approx(min(proven), rel=1e-3)
+
+
 def test_least_motor_bound_below_every_certificate(default_model, ub_result) -> None:
     # the least motor bound is a relaxation of the limited problem: at a certified point's alpha it is
     # at most the limit that certificate meets (12 rad/s), and it is what the certificate's own gain needs

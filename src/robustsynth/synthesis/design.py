@@ -503,6 +503,10 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         failed = [g for g, v in zip(grid, vals) if not math.isfinite(v) and runner.failed_at.get(float(np.exp(g)))]
         if prune is not None and failed:  # told every alpha of the scan that was not certified
             proven = prune([float(np.exp(g)) for g, v in zip(grid, vals) if not math.isfinite(v)])
+            for g in failed:  # proven infeasible otherwise: not a solver failure any more
+                if float(np.exp(g)) in proven:
+                    search.append({"alpha": float(np.exp(g)), "status": "infeasible", "objective": None,
+                                   "by": "least motor bound"})
             failed = [g for g in failed if float(np.exp(g)) not in proven]
         tried: list[float] = []
         for g in failed:
@@ -737,7 +741,7 @@ def _run_linearized(model: Any, s: SynthesisConfig, search: list, motor: bool,
             if probe.cert is not None:
                 known = [r for r in least.values() if r is not None]
                 need = ""
-                if known and math.isfinite(min(known)):
+                if known and rho_max < min(known) < math.inf:  # a figure at or below the limit would say nothing
                     need = (f"; these LMIs need at least {min(known):.4g} rad/s"
                             + (" at every alpha of the scan" if len(known) == len(least) else
                                f" at the {len(known)} of the scan's {len(least)} alphas where that was solved"))
