@@ -820,7 +820,8 @@ def export_cmd(obj: _Ctx, gains: Path, target: str, outdir: Path, config: Path |
 
     d, files = export_controller(gains, target, outdir, config)
     if not d.get("certified"):
-        obj.say(f"warning: {gains} carries no certified figures: this controller has no certificate "
+        obj.say(f"warning: {gains} carries no certified figures, or was changed after synthesis wrote it (its "
+                "gains_id does not match its K, certificate and config): this controller has no certificate "
                 "(run `robustsynth verify --gains` on it first)")
     obj.say(f"wrote {', '.join(str(p) for p in files)}")
 

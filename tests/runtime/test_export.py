@@ -157,3 +157,19 @@ def test_export_cli_writes_atomically_and_refuses_bad_input(tmp_path: Path) -> N
     plain.write_text(json.dumps({"K": g["K"], "config": g["config"]}))
     r = run(str(plain), "--to", "json", "-o", str(tmp_path / "plain"))
     assert r.returncode == 0 and "no certificate" in r.stdout
+
+
+def test_a_gain_changed_after_synthesis_is_exported_as_uncertified(tmp_path: Path) -> None:
+    """A gains file whose K was edited no longer matches its gains_id: its "certified" figures are not this
+    gain's, so the export says UNCERTIFIED and carries no figures (a review found an edited K exported as "the
+    certified controller"); the file as written stays certified."""
+    src = ROOT / "results" / "baselines" / "default" / "gains.json"
+    d, _ = export_controller(src, "c", tmp_path / "ok")
+    assert d["certified"] and "the certified networked-robot controller" in (tmp_path / "ok" / "rs_controller.h").read_text()
+    g = json.loads(src.read_text())
+    g["K"][0][0] += 5.0
+    (tmp_path / "edited.json").write_text(json.dumps(g))
+    for target, name in (("c", "rs_controller.h"), ("python", "rs_controller.py")):
+        d, _ = export_controller(tmp_path / "edited.json", target, tmp_path / target)
+        text = (tmp_path / target / name).read_text()
+        assert not d.get("certified") and "UNCERTIFIED" in text and "gains_id (none)" in text

@@ -123,6 +123,13 @@ def test_the_written_mat_reads_as_its_gains_file_and_a_mismatched_config_is_refu
         export_controller(out / "gains.json", "c", tmp_path / "c", configs / "zbp.yaml")
     with pytest.raises(InputError, match="is the tracked robot's"):
         export_controller(out / "gains.json", "c", tmp_path / "c", configs / "default.yaml")
+    # a gains.json whose K was edited is exported, but not as certified (its gains_id no longer matches)
+    gd = json.loads((out / "gains.json").read_text())
+    assert "the certified law" in (tmp_path / "e" / "rs_lti.py").read_text()
+    gd["K"][0][0] *= 1.01
+    (tmp_path / "edited.json").write_text(json.dumps(gd))
+    d, _ = export_controller(tmp_path / "edited.json", "python", tmp_path / "ed")
+    assert not d.get("certified") and "UNCERTIFIED" in (tmp_path / "ed" / "rs_lti.py").read_text()
     # and the other way round: the robot's gains (or a bare K) with a linear plant's config (a traceback before)
     robot = configs.parent / "results" / "baselines" / "default" / "gains.json"
     bare = tmp_path / "bare.json"

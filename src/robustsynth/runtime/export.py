@@ -16,7 +16,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from .export_lti import _f  # a C double literal that reads back exactly
+from .export_lti import _f, certified_word  # a C double literal that reads back exactly
 
 __all__ = ["TARGETS", "export_controller", "export_files", "c_files", "python_module", "ros2_parameters", "json_description"]
 
@@ -47,7 +47,7 @@ def c_files(d: dict[str, Any]) -> dict[str, bytes]:
     R, D = float(d["gear_radius"]), float(d["track_distance"])
     rho = d.get("max_motor_speed")
     names = ", ".join(d["state_names"])
-    h = f"""/* rs_controller.h: the certified networked-robot controller.
+    h = f"""/* rs_controller.h: the {certified_word(d)} networked-robot controller.
    {_header_comment(d, 'c')}
 
    Call rs_step once per sampling instant t_k = k * RS_TS with t the time since the start of the
@@ -245,7 +245,7 @@ def python_module(d: dict[str, Any]) -> bytes:
     """rs_controller.py: :mod:`.law` verbatim, then ``DESCRIPTION`` and ``Controller()`` bound to it
     (pure Python, no numpy)."""
     src = resources.files("robustsynth").joinpath("law.py").read_text(encoding="utf-8")
-    head = f'"""rs_controller: the certified networked-robot controller, {_header_comment(d, "python", "")}\n\n' \
+    head = f'"""rs_controller: the {certified_word(d)} networked-robot controller, {_header_comment(d, "python", "")}\n\n' \
            'Usage: ``c = Controller(); V, omega = c.step(t, x, y, theta)`` once per sampling instant."""\n\n'
     body = src.split('"""', 2)[2].lstrip("\n")  # the law without its module docstring
     tail = (
@@ -352,11 +352,16 @@ def export_controller(gains_path: str | Path, target: str, outdir: str | Path,
     from ..config import load_config
     from ..errors import InputError
     from ..artifacts.files import commit_files
-    from ..artifacts.gains import controller_description, load_gains
+    from ..artifacts.gains import controller_description, gains_id, load_gains
 
     if target not in TARGETS:
         raise InputError(f"--to: must be one of {', '.join(TARGETS)} (got {target!r})")
     gains = load_gains(gains_path)
+    stored = gains.get("gains_id")
+    if stored is not None and stored != gains_id(gains):
+        # K, the certificate or the config changed after synthesis wrote the file: what it says is certified
+        # is not this gain's (a review found an edited K exported as "the certified controller")
+        gains = {k: v for k, v in gains.items() if k not in ("certified", "gains_id")}
     if gains.get("kind") == "lti":  # a linear plant's generic law
         from .export_lti import lti_export_files
 

@@ -32,12 +32,18 @@ def _description(gd: dict[str, Any]) -> dict[str, Any]:
             "sampling_time": gd["network"]["sampling_time"], "certified": gd.get("certified")}
 
 
+def certified_word(d: dict[str, Any]) -> str:
+    """How a generated file names its controller: certified only when the gains file carries its certificate's
+    figures (a bare K, or a file changed after synthesis, does not)."""
+    return "certified" if d.get("certified") else "UNCERTIFIED (no certificate in the gains file)"
+
+
 def _c_files(d: dict[str, Any]) -> dict[str, bytes]:
     n, m, dd = d["n"], d["m"], d["d"]
     K = d["K"]
     width = n + dd * m
     flat = ", ".join("{" + ", ".join(_f(v) for v in row) + "}" for row in K)
-    h = f"""/* rs_lti.h: the certified law u_k = K xi_k of '{d['name']}' (robustsynth, plant: kind: lti).
+    h = f"""/* rs_lti.h: the {certified_word(d)} law u_k = K xi_k of '{d['name']}' (robustsynth, plant: kind: lti).
    xi_k = [x_k; u_(k-1); ...; u_(k-{dd})]: the state, then the commands this controller sent, newest first.
    Call rs_lti_step once per sampling instant (every RS_LTI_TS s) with the measured state; send u.
    Bit-identical to the verified law when compiled without floating-point contraction (-ffp-contract=off).
@@ -79,7 +85,7 @@ void rs_lti_step(rs_lti_state *s, const double x[RS_LTI_N], double u[RS_LTI_M]) 
 def _python_module(d: dict[str, Any]) -> bytes:
     n, m, dd = d["n"], d["m"], d["d"]
     rows = ",\n    ".join("(" + ", ".join(_f(v) for v in row) + ",)" for row in d["K"])
-    return f'''"""rs_lti.py: the certified law u_k = K xi_k of '{d['name']}' (robustsynth, plant: kind: lti), no numpy.
+    return f'''"""rs_lti.py: the {certified_word(d)} law u_k = K xi_k of '{d['name']}' (robustsynth, plant: kind: lti), no numpy.
 
 xi_k = [x_k; u_(k-1); ...; u_(k-{dd})]: the state, then the commands this controller sent, newest first.
 Call step(x) once per sampling instant (every TS s) and send the commands it returns.
