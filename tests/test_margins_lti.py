@@ -244,3 +244,26 @@ def test_margin_of_the_gain_synthesize_wrote_and_a_margin_at_the_search_end(tmp_
     assert lo["exhibited"] is None and lo["certified"] == lo["searched_up_to"] == 3 and "at least" in lo["note"]
     assert "dropouts: configured 0, certified at least 3, exhibited none" in r.output
     assert "None" not in r.output
+
+
+def test_a_gain_made_for_another_plant_or_the_robot_is_refused(tmp_path) -> None:
+    """K's shape alone cannot tell plants apart (1 x 4 is d = 2 on the benchmark's 2 states, d = 1 on 3 states):
+    a linear plant's gains file names its n and m, and margin / verify refuse another plant's (a review found
+    margin answering for dc-motor's gain on the benchmark); the robot's gains are refused by name."""
+    from robustsynth.errors import InputError
+    from robustsynth.pipeline_lti import lti_gain, lti_plant_of
+
+    root = Path(__file__).resolve().parents[1]
+    cfg = load_config(root / "configs" / "zbp.yaml")
+    plant = lti_plant_of(cfg, root / "configs" / "zbp.yaml")
+    other = tmp_path / "other.json"
+    other.write_text(json.dumps({"kind": "lti", "K": [[0.1, 0.2, 0.3, 0.4]], "lifting": {"n": 3, "m": 1, "d": 1}}))
+    with pytest.raises(InputError, match="made for a plant of n = 3 states and m = 1 inputs; this config's has n = 2"):
+        lti_gain(cfg, plant, other)
+    same = tmp_path / "same.json"
+    same.write_text(json.dumps({"kind": "lti", "K": [[0.1, 0.2, 0.3, 0.4]], "lifting": {"n": 2, "m": 1, "d": 2}}))
+    assert lti_gain(cfg, plant, same)[0].shape == (1, 4)
+    robot = json.loads((root / "results" / "baselines" / "default" / "gains.json").read_text())
+    (tmp_path / "robot.json").write_text(json.dumps(dict(robot, K=[[0.1, 0.2]])))
+    with pytest.raises(InputError, match="the tracked robot's gains"):
+        lti_gain(cfg, plant, tmp_path / "robot.json")

@@ -30,6 +30,20 @@ def _net(config: Any) -> tuple[float, float, float, int]:
     return net.sampling_time, net.delay.min, net.delay.max, net.dropouts.max_consecutive
 
 
+def same_plant(gd: dict[str, Any], n: int, m: int, where: str | Path) -> None:
+    """InputError unless a gains file is for a plant of n states and m inputs: a linear plant's file says so
+    in ``lifting`` (a K alone is only checked for its shape: 1 x 4 reads as d = 2 on a 2-state plant and as
+    d = 1 on a 3-state one, which a review found margin accepting); the robot's gains are refused."""
+    from .errors import InputError
+
+    if gd.get("kind") != "lti" and gd.get("certificate") is not None:
+        raise InputError(f"{where}: the tracked robot's gains, not a linear plant's (kind: lti)")
+    lift = gd.get("lifting")
+    if isinstance(lift, dict) and (int(lift.get("n", n)), int(lift.get("m", m))) != (n, m):
+        raise InputError(f"{where}: made for a plant of n = {lift.get('n')} states and m = {lift.get('m')} inputs; "
+                         f"this config's has n = {n}, m = {m}")
+
+
 def lti_gain(config: Any, plant: dict[str, Any], gains_path: str | Path | None,
              default: Path | None = None) -> tuple[np.ndarray, Path | None, dict[str, Any] | None]:
     """The gain to analyze and where it came from (the gains file and its mapping, or None twice): a gains
@@ -46,6 +60,7 @@ def lti_gain(config: Any, plant: dict[str, Any], gains_path: str | Path | None,
         gd = load_gains(gains_path)
         K = np.asarray(gd["K"], dtype=float)
         check_lti_gain(K, n, m, f"{gains_path}: K")
+        same_plant(gd, n, m, gains_path)
         return K, Path(gains_path), gd
     if plant["K"] is None:
         raise InputError("controller.gain: required for a linear plant's margin (or pass --gains, or synthesize "
@@ -126,6 +141,7 @@ def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Pa
     n, m = plant["B"].shape
     K = np.asarray(gd["K"], dtype=float)
     check_lti_gain(K, n, m, f"{gp}: K")
+    same_plant(gd, n, m, gp)
     Ts, lo, hi, ml = _net(config)
     searched = None
     if cert is None:  # a gain of one's own (K only): its certificate is searched
