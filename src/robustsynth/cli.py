@@ -487,6 +487,10 @@ def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
     _needs_its_config(config, gains, "verify")
     cfg = _load(config, lti_ok=True)
     out = _gains_outdir(cfg, outdir, gains)
+    if logdir is not None and not is_lti(cfg):  # before the work, not after it (a review found exit 2 at the end)
+        from .artifacts.files import check_writable_dir
+
+        check_writable_dir(logdir)
     if is_lti(cfg):
         if logdir is not None:
             from .errors import InputError

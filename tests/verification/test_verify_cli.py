@@ -239,3 +239,16 @@ def test_a_turning_gain_on_a_path_that_jumps_is_refused_cleanly(tmp_path) -> Non
     r = CliRunner().invoke(main, ["export", str(gains), "--to", "json", "-o", str(tmp_path / "e"), "--config", str(cfg)])
     assert r.exit_code == 2 and "certified for arcs of 5.0 m and wider" in r.output
     assert not (tmp_path / "e").exists()
+
+
+def test_an_unwritable_log_place_is_refused_before_the_work(tmp_path) -> None:
+    """--log that cannot be written ends with exit 2 before verification runs: no verification files, one line
+    (a review found the whole verification done and written, "passed" printed, and then exit 2)."""
+    (tmp_path / "afile").write_text("x")
+    out = tmp_path / "out"
+    gains = Path(__file__).resolve().parents[2] / "results" / "baselines" / "default" / "gains.json"
+    r = CliRunner().invoke(main, ["verify", "--gains", str(gains), "--runs", "1", "--no-plots", "--log",
+                                  str(tmp_path / "afile" / "logs"), "-o", str(out)])
+    assert r.exit_code == 2, r.output
+    assert "afile/logs: cannot write" in r.output and "passed" not in r.output
+    assert not (out / "verification.json").exists()

@@ -47,6 +47,19 @@ def make_dir(path: str | Path) -> Path:
     return path
 
 
+def check_writable_dir(path: str | Path) -> Path:
+    """Create the directory ``path`` now, before any work, and prove it writable with a temporary file
+    (removed); OutputError naming the place otherwise."""
+    path = make_dir(path)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".write-check.", dir=path)
+        os.close(fd)
+        os.unlink(tmp)
+    except OSError as exc:
+        raise output_error(path, exc) from None
+    return path
+
+
 def atomic_write(path: str | Path, data: bytes) -> None:
     """Write ``data`` to ``path`` atomically (temp file in the same directory, then rename).
 
