@@ -41,3 +41,6 @@ def test_lti_sweep_keys_are_the_lti_schema() -> None:
         parse_sweep(f"base: {ROOT / 'configs' / 'dc-motor.yaml'}\naxes:\n  robot.gear_radius: [0.1, 0.2]\n")
     with pytest.raises(ConfigError, match="figure: e_y is the robot's"):
         parse_sweep(f"base: {ROOT / 'configs' / 'dc-motor.yaml'}\nfigure: e_y\naxes:\n  network.delay.max: [0.01]\n")
+    # and the other way round (an empty heatmap and exit 0 before)
+    with pytest.raises(ConfigError, match="figure: output_bound is a linear plant's"):
+        parse_sweep(f"base: {ROOT / 'configs' / 'default.yaml'}\nfigure: output_bound\naxes:\n  network.delay.max: [0.05]\n")

@@ -153,6 +153,9 @@ def parse_sweep(text: str | bytes, source: str = "<sweep>", directory: Path | No
             folder = Path(base_path).parent if directory is None else directory / Path(base_path).parent
             base = base.model_copy(update={"plant": base.plant.model_copy(
                 update={"file": str((folder / base.plant.file).resolve())})})
+    elif figure == "output_bound":  # the robot has no outputs of its own (a review found an empty heatmap)
+        raise ConfigError(f"{where}figure: output_bound is a linear plant's; the robot's are e_x, e_y, e_theta, rho, "
+                          "decay_rate, hinf_gain")
     spec = SweepSpec(base, base_path, tuple(axes), mode, figure, source)
     n = int(np.prod(spec.shape))
     if n > MAX_POINTS:
