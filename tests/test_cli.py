@@ -124,6 +124,22 @@ def test_a_stage_clears_what_another_config_left(tmp_path) -> None:
     assert json.loads((tmp_path / "model.json").read_text())["config"]["name"] == "other"
 
 
+def test_a_linear_plants_stage_clears_what_another_config_left(tmp_path) -> None:
+    """The same for a linear plant (a review found dc-motor's gains and report left beside zbp's model), and its
+    own files stay through its stages (its model.json and summary.json name their config, not hold it)."""
+    from pathlib import Path
+
+    configs = Path(__file__).resolve().parents[1] / "configs"
+    r = CliRunner().invoke(main, ["run", str(configs / "dc-motor.yaml"), "-o", str(tmp_path), "--runs", "2", "--no-plots"])
+    assert r.exit_code == 0, r.output
+    for cmd in ("build-model", "synthesize"):
+        r = CliRunner().invoke(main, [cmd, str(configs / "zbp.yaml"), "-o", str(tmp_path)])
+        assert r.exit_code == 0, r.output
+        assert ("another config had left" in r.output) == (cmd == "build-model"), r.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["gains.json", "gains.mat", "model.json", "synthesis.md"]
+    assert json.loads((tmp_path / "gains.json").read_text())["config"]["name"] == "zbp"
+
+
 def test_demo_output_is_not_a_committed_baseline() -> None:
     """`make demo` writes results/default/, which git ignores; the baselines live in results/baselines/."""
     import re

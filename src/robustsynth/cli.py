@@ -241,6 +241,7 @@ def build_model_cmd(obj: _Ctx, config: Path | None, outdir: Path | None) -> None
         from .pipeline_lti import lti_model_stage
 
         data = lti_model_stage(cfg, out, config)
+        _say_cleared(obj, out, tuple(data["cleared"]))
         cov = data["coverage"]
         obj.say(f"model '{cfg.name}' (linear plant): n={data['n']} m={data['m']} d_hi={data['lifting']} "
                 f"n_s={data['lifted_states']} pieces={data['pieces']} "
@@ -300,6 +301,7 @@ def synthesize(obj: _Ctx, config: Path | None, outdir: Path | None, objective: s
         from .pipeline_lti import lti_synthesis_stage
 
         res = lti_synthesis_stage(cfg, out, config, _stage_lines(obj), objective, solver)
+        _say_cleared(obj, out, tuple(res["cleared"]))
         obj.say(_lti_certified_line(res["gains"]))
         obj.say(f"wrote {', '.join(res['files'])}")
         return
@@ -541,6 +543,7 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
         from .pipeline_lti import lti_run
 
         res = lti_run(cfg, out, config, _stage_lines(obj), objective, solver, runs, seed, plots=not no_plots)
+        _say_cleared(obj, out, tuple(res["synthesis"]["cleared"]))
         obj.say(_lti_certified_line(res["synthesis"]["gains"]))
         _lti_report(obj, res["verification"])
         obj.say(f"report: {out / 'report.md'}")

@@ -53,17 +53,22 @@ def clear_foreign(outdir: str | Path, config: Config) -> list[str]:
             data = json.loads((outdir / name).read_text(encoding="utf-8"))
         except (OSError, ValueError):
             continue
+        ref = data.get("config") if isinstance(data, dict) else None
         if not isinstance(data, dict):
             foreign = True
-        elif name == "summary.json":  # a summary names its config, it does not hold it
-            foreign = data.get("name") != config.name
+        elif name == "summary.json" and "name" in data:  # the robot's summary names its config
+            foreign = data["name"] != config.name
+        elif isinstance(ref, str):  # a linear plant's model.json and summary.json name theirs
+            foreign = ref != config.name
         else:
-            foreign = data.get("config") != mine
+            foreign = ref != mine
         if foreign:
             break
     if not foreign:
         return []
-    names = list(MODEL_FILES + SYNTHESIS_FILES + VERIFICATION_FILES + RUN_FILES + ("margin.json",))
+    # a linear plant's stages write margin.md and verification figures beside them
+    names = list(MODEL_FILES + SYNTHESIS_FILES + VERIFICATION_FILES + RUN_FILES
+                 + ("margin.json", "margin.md", "verification.png", "verification.pdf", "verification.svg"))
     if (outdir / "figures").is_dir():
         names += [f"figures/{p.name}" for p in sorted((outdir / "figures").iterdir()) if p.is_file()]
     removed = [n for n in names if (outdir / n).exists()]

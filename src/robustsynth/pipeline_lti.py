@@ -9,6 +9,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .artifacts.files import commit_files, json_bytes, make_dir, mat_bytes
+from .pipeline import clear_foreign
 
 __all__ = ["lti_plant_of", "lti_model_stage", "lti_synthesis_stage", "lti_verification_stage", "lti_run",
            "lti_margin_stage", "lti_gain"]
@@ -86,6 +87,7 @@ def lti_model_stage(config: Any, outdir: str | Path, config_path: str | Path | N
                          for th, w, r in zip(pw.theta, pw.width, pw.rho)],
             "coverage": cov, "A": plant["A"], "B": plant["B"]}
     out = make_dir(outdir)
+    data["cleared"] = clear_foreign(out, config)
     commit_files(out, {"model.json": json_bytes(data)}, primary="model.json")
     data["files"] = [str(out / "model.json")]
     return data
@@ -106,6 +108,7 @@ def lti_synthesis_stage(config: Any, outdir: str | Path, config_path: str | Path
     plant = lti_plant_of(config, config_path)
     design = synthesize_lti_config(config, plant, objective, solver, on_step or (lambda s: None))
     out = make_dir(outdir)
+    cleared = clear_foreign(out, config)
     if not design.certified:
         remove_files(out, SYNTHESIS_FILES + VERIFICATION_FILES + RUN_FILES)
         why = design.message or design.status
@@ -116,7 +119,7 @@ def lti_synthesis_stage(config: Any, outdir: str | Path, config_path: str | Path
     files = {"gains.mat": mat_bytes(lti_gains_mat_vars(gd)), "synthesis.md": lti_synthesis_markdown(gd).encode("utf-8"),
              "gains.json": json_bytes(gd)}
     written = commit_files(out, files, primary="gains.json", invalidate=VERIFICATION_FILES + RUN_FILES)
-    return {"gains": gd, "design": design, "files": [str(p) for p in written]}
+    return {"gains": gd, "design": design, "files": [str(p) for p in written], "cleared": cleared}
 
 
 def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Path | None = None,
