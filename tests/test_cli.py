@@ -173,3 +173,30 @@ def test_progress_bar_starts_with_the_first_report() -> None:
     bar(1, 100)
     assert bar.bar is not None and bar.last == 1
     bar.render_finish()
+
+
+def test_a_linear_plants_gains_and_malformed_kinds_get_one_plain_line(tmp_path) -> None:
+    """Messages a review found misleading: a linear plant's gains given to the robot's verify ("made for another
+    delay range?") and check-log (missing robot keys), 'plant: lti' as a string, and nan for --pose-noise."""
+    from pathlib import Path
+
+    (tmp_path / "lti.json").write_text(json.dumps({"kind": "lti", "K": [[0.1, 0.2]], "lifting": {"n": 2, "m": 1, "d": 0}}))
+    default = Path(__file__).resolve().parents[1] / "configs" / "default.yaml"
+    r = CliRunner().invoke(main, ["verify", str(default), "--gains", str(tmp_path / "lti.json"), "-o", str(tmp_path / "v")])
+    assert r.exit_code == 2 and "a linear plant's gains (kind: lti)" in r.output, r.output
+    r = CliRunner().invoke(main, ["check-log", str(default), "--gains", str(tmp_path / "lti.json")])
+    assert r.exit_code == 2 and "a linear plant's gains (kind: lti)" in r.output, r.output
+    (tmp_path / "p.yaml").write_text("name: x\nplant: lti\n")
+    r = CliRunner().invoke(main, ["build-model", str(tmp_path / "p.yaml"), "-o", str(tmp_path / "m")])
+    assert r.exit_code == 2 and "plant: must be a mapping (got 'lti')" in r.output, r.output
+    r = CliRunner().invoke(main, ["check-log", str(default), "--config", str(default), "--pose-noise", "nan", "nan"])
+    assert r.exit_code == 2 and "'nan' is not a finite number >= 0" in r.output, r.output
+
+
+@pytest.mark.parametrize("args", [["verify", "--runs", "0"], ["run", "--format", "gif"], ["nosuch"]])
+def test_a_usage_error_is_one_line_and_exit_2(args) -> None:
+    """The console script reports click's usage errors in one line (click's own format takes four)."""
+    r = subprocess.run([sys.executable, "-m", "robustsynth", *args], capture_output=True, text=True)
+    assert r.returncode == 2 and r.stdout == ""
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "robustsynth" in lines[0] and "Traceback" not in r.stderr, r.stderr

@@ -5,6 +5,7 @@ No mathematics here; heavy modules are imported inside the commands.
 
 from __future__ import annotations
 
+import math
 import os
 import signal
 import sys
@@ -64,6 +65,24 @@ def _exit_if_signalled() -> None:
     pending = pending_interrupt()
     if pending is not None:
         _exit_interrupted(pending)
+
+
+class _FiniteNonNeg(click.ParamType):
+    """A finite number >= 0 (click's FloatRange lets nan through: a review found --pose-noise nan nan taken)."""
+
+    name = "float"
+
+    def convert(self, value: Any, param: Any, ctx: Any) -> float:
+        try:
+            x = float(value)
+        except (TypeError, ValueError):
+            self.fail(f"{value!r} is not a number", param, ctx)
+        if not (math.isfinite(x) and x >= 0.0):
+            self.fail(f"{value!r} is not a finite number >= 0", param, ctx)
+        return x
+
+
+_FINITE_NONNEG = _FiniteNonNeg()
 
 
 def _guard(fn: Callable[..., int | None]) -> Callable[..., None]:
@@ -644,7 +663,7 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
                    "and the ICR offset, from turns).")
 @click.option("--coverage", type=click.FloatRange(0.5, 1.0), default=0.995, show_default=True,
               help="Fraction of the per-period slip estimates the box covers (before widening).")
-@click.option("--pose-noise", "pose_noise", type=click.FloatRange(min=0), nargs=2, default=None,
+@click.option("--pose-noise", "pose_noise", type=_FINITE_NONNEG, nargs=2, default=None,
               metavar="POSITION HEADING",
               help="--model icr: std of the logged poses [m] [rad] [default: the config's verification.noise].")
 @click.option("--max-motor-speed", type=click.FloatRange(min=0, min_open=True), default=None,
@@ -680,7 +699,7 @@ def identify_cmd(obj: _Ctx, logs: tuple[Path, ...], out: Path | None, config: Pa
               help="Fraction of samples allowed outside an assumption before it counts as violated.")
 @click.option("--max-motor-speed", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Skip slip estimates of periods with a command beyond this motor speed [rad/s].")
-@click.option("--pose-noise", "pose_noise", type=click.FloatRange(min=0), nargs=2, default=None,
+@click.option("--pose-noise", "pose_noise", type=_FINITE_NONNEG, nargs=2, default=None,
               metavar="POSITION HEADING",
               help="slip.model icr: std of the logged poses [m] [rad] [default: the config's verification.noise].")
 @click.pass_obj
@@ -700,7 +719,10 @@ def check_log_cmd(obj: _Ctx, logs: tuple[Path, ...], config: Path | None, gains:
     if gains is not None:
         from .artifacts.gains import load_gains, stored_config
 
-        cfg = stored_config(load_gains(gains))
+        gd = load_gains(gains)
+        if gd.get("kind") == "lti":
+            raise InputError(f"{gains}: a linear plant's gains (kind: lti); check-log reads the tracked robot's logs")
+        cfg = stored_config(gd)
         if cfg is None:
             raise InputError(f"{gains}: config: the gains file holds no config (use --config)")
     else:
@@ -898,8 +920,10 @@ def entry() -> None:
     except BrokenPipeError:
         _quiet_stdout()
         sys.exit(EXIT_BROKEN_PIPE)
-    except click.ClickException as exc:  # usage errors: click's message, exit 2
-        exc.show()
+    except click.ClickException as exc:  # usage errors: one line with click's message, exit 2
+        ctx = getattr(exc, "ctx", None)
+        where = f"{ctx.command_path}: " if ctx is not None else ""
+        click.echo(f"error: {where}{exc.format_message()}" + (" (--help for usage)" if ctx is not None else ""), err=True)
         sys.exit(exc.exit_code)
     except Exception:
         _exit_if_signalled()

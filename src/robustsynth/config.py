@@ -849,9 +849,12 @@ def _validate(data: dict[str, Any]) -> "Config | LtiConfig":
         return LtiConfig.model_validate(data)
     plant = data.get("plant")
     if plant is not None:  # the tracked robot needs no plant section; its kind may be named
-        if not (isinstance(plant, Mapping) and dict(plant) == {"kind": "tracked-robot"}):
-            kind = plant.get("kind") if isinstance(plant, Mapping) else plant
-            raise ConfigError(f"plant.kind: must be tracked-robot (the default: no plant section) or lti (got {kind!r})")
+        if not isinstance(plant, Mapping):  # 'plant: lti' reads as a kind, but is no section
+            raise ConfigError(f"plant: must be a mapping (got {plant!r}): plant: {{kind: lti, A: ..., B: ...}} for a linear "
+                              "plant, or no plant section for the tracked robot")
+        if dict(plant) != {"kind": "tracked-robot"}:
+            raise ConfigError(f"plant.kind: must be tracked-robot (the default: no plant section) or lti "
+                              f"(got {plant.get('kind')!r})")
         data = {k: v for k, v in data.items() if k != "plant"}
     return Config.model_validate(data)
 

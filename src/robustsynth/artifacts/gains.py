@@ -282,10 +282,12 @@ def as_gains(model, gains: Any) -> dict[str, Any]:
     """A gains.json mapping from what a user holds: the mapping itself, a path to a gains file
     (.json or .mat), the result of :func:`~robustsynth.synthesis.synthesize`, or a bare matrix K
     (no certificate)."""
-    if isinstance(gains, dict):
-        return gains
-    if isinstance(gains, (str, Path)):
-        return load_gains(gains)
+    if isinstance(gains, (dict, str, Path)):
+        gd = gains if isinstance(gains, dict) else load_gains(gains)
+        if gd.get("kind") == "lti":  # not a shape mismatch of the robot's K (a review found "another delay range?")
+            raise InputError(f"{'gains' if isinstance(gains, dict) else gains}: a linear plant's gains (kind: lti); "
+                             "this is the tracked robot's config")
+        return gd
     if hasattr(gains, "K") and hasattr(gains, "certificate"):  # a SynthesisResult
         return gains_dict(model, gains)
     try:
