@@ -116,7 +116,8 @@ def test_bad_plant_files_and_missing_matrices_are_one_line_each(tmp_path) -> Non
     (tmp_path / "empty.npz").write_bytes(b"")
     (tmp_path / "garbage.mat").write_text("garbage")
     (tmp_path / "cut.npz").write_bytes(b"PK\x03\x04 truncated")
-    for f in ("empty.npz", "garbage.mat", "cut.npz"):
+    (tmp_path / "text.npz").write_text("A = [[0, 1], [0, -0.1]]\n")  # not an archive: numpy spoke of pickled data
+    for f in ("empty.npz", "garbage.mat", "cut.npz", "text.npz"):
         with pytest.raises(InputError, match=rf"plant.file: .*{f}: cannot read"):
             lti_plant(_zbp_cfg(plant={"kind": "lti", "file": f}), str(tmp_path))
     with pytest.raises(ConfigError, match=r"plant\.B: required key is missing"):

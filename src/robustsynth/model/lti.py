@@ -241,6 +241,10 @@ def lti_plant(cfg, base_dir: str | None = None) -> dict:
         path = Path(pl.file) if base_dir is None or Path(pl.file).is_absolute() else Path(base_dir) / pl.file
         try:
             if path.suffix == ".npz":
+                import zipfile
+
+                if path.is_file() and not zipfile.is_zipfile(path):  # np.load would read it as a pickle and say so
+                    raise InputError(f"plant.file: {path}: cannot read (not an .npz archive: numpy.savez writes one)")
                 with np.load(path, allow_pickle=False) as z:
                     data = {k: np.array(z[k]) for k in z.files}
             elif path.suffix == ".mat":
