@@ -200,3 +200,9 @@ def test_a_usage_error_is_one_line_and_exit_2(args) -> None:
     assert r.returncode == 2 and r.stdout == ""
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ") and "robustsynth" in lines[0] and "Traceback" not in r.stderr, r.stderr
+
+
+def test_robustsynth_alone_shows_its_help() -> None:
+    """No command: click's help, not an 'error:' line around it (review of the one-line usage errors)."""
+    r = subprocess.run([sys.executable, "-m", "robustsynth"], capture_output=True, text=True)
+    assert "Usage:" in r.stdout + r.stderr and "error:" not in r.stdout + r.stderr and "Commands:" in r.stdout + r.stderr

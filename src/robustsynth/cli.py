@@ -849,9 +849,8 @@ def export_cmd(obj: _Ctx, gains: Path, target: str, outdir: Path, config: Path |
 
     d, files = export_controller(gains, target, outdir, config)
     if not d.get("certified"):
-        obj.say(f"warning: {gains} carries no certified figures, or was changed after synthesis wrote it (its "
-                "gains_id does not match its K, certificate and config): this controller has no certificate "
-                "(run `robustsynth verify --gains` on it first)")
+        obj.say(f"warning: {gains}: no certificate that holds for this gain (none in the file, or its K, certificate "
+                "or config changed after synthesis): exported as UNCERTIFIED (run `robustsynth verify --gains` on it)")
     obj.say(f"wrote {', '.join(str(p) for p in files)}")
 
 
@@ -921,6 +920,9 @@ def entry() -> None:
         _quiet_stdout()
         sys.exit(EXIT_BROKEN_PIPE)
     except click.ClickException as exc:  # usage errors: one line with click's message, exit 2
+        if type(exc).__name__ == "NoArgsIsHelpError":  # bare `robustsynth`: the help itself, as click shows it
+            exc.show()
+            sys.exit(exc.exit_code)
         ctx = getattr(exc, "ctx", None)
         where = f"{ctx.command_path}: " if ctx is not None else ""
         click.echo(f"error: {where}{exc.format_message()}" + (" (--help for usage)" if ctx is not None else ""), err=True)

@@ -677,11 +677,11 @@ class LtiConfig(_Named):
     @model_validator(mode="after")
     def _far(self) -> "LtiConfig":
         far, net = self.margin.delay_far, self.network
-        # beyond the configured delay: the margin is how much more delay the gain takes (a search that ends
-        # below it reported "certified at least" a delay smaller than the one configured)
-        if far is not None and not net.delay.max < far <= MAX_D_HI * net.sampling_time:
-            raise ValueError(f"{_FIELD}margin.delay_far: must lie in (network.delay.max, {MAX_D_HI} * "
-                             f"network.sampling_time] = ({net.delay.max:g}, {MAX_D_HI * net.sampling_time:g}] (got {far:g})")
+        # (that it reaches beyond network.delay.max is checked where the margin runs: a sweep over delay.max
+        # with one delay_far would otherwise refuse points that never compute a margin)
+        if far is not None and not net.delay.min < far <= MAX_D_HI * net.sampling_time:
+            raise ValueError(f"{_FIELD}margin.delay_far: must lie in (network.delay.min, {MAX_D_HI} * "
+                             f"network.sampling_time] = ({net.delay.min:g}, {MAX_D_HI * net.sampling_time:g}] (got {far:g})")
         return self
 
 

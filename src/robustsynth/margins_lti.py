@@ -218,6 +218,14 @@ def lti_margins(cfg, plant: dict, say: Callable[[str], None] = lambda s: None) -
     pieces, tol = cfg.margin.pieces, cfg.margin.tolerance
     from .config import MAX_D_HI
 
+    if cfg.margin.delay_far is not None and cfg.margin.delay_far <= t_hi:
+        from .errors import InputError
+
+        # the margin is how much more delay the gain takes: a search ending at or below the configured delay
+        # reported "certified at least 0.1 s" against 0.5 s configured (review)
+        raise InputError(f"margin.delay_far: {cfg.margin.delay_far:g} s does not reach beyond network.delay.max = "
+                         f"{t_hi:g} s, where the margin search starts to matter; raise it or leave it out (default "
+                         f"{max(t_lo + 4 * Ts, t_hi + Ts):g} s)")
     far = cfg.margin.delay_far if cfg.margin.delay_far is not None else max(t_lo + 4 * Ts, t_hi + Ts)
     capped = far > MAX_D_HI * Ts
     far = min(far, MAX_D_HI * Ts)  # the lifting's longest delay

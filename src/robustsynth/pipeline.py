@@ -217,12 +217,19 @@ def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, e
     writes the episodes as robot logs under ``outdir/logs/`` and ``validation.json`` (last)."""
     from .artifacts.files import commit_files, json_bytes, make_dir
     from .artifacts.gains import gains_id, load_gains
+    from .errors import InputError
     from .verification.physics import validate_physics
 
     if engine == "physics":
         _require_physics()
-    outdir = make_dir(outdir)
     gains = load_gains(gains_path)
+    if gains.get("kind") == "lti":
+        raise InputError(f"{gains_path}: a linear plant's gains (kind: lti); validate runs the tracked robot")
+    K = gains["K"]
+    if (len(K), len(K[0]) if K else 0) != (model.n_u, model.n_s):  # no law to run (a traceback before)
+        raise InputError(f"{gains_path}: K has {len(K)} x {len(K[0]) if K else 0} entries; this config's controller "
+                         f"needs {model.n_u} x {model.n_s} (d_hi = {model.d_hi})")
+    outdir = make_dir(outdir)  # after the inputs are checked: a refusal leaves no directory behind
     rechecked = _recheck(model, gains)
     # the bounds the episodes are judged against: the certificate's own, re-checked for this config (a
     # gains file's "certified" figures are what it says, not what holds: an edited K or another config's

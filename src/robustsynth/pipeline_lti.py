@@ -60,8 +60,8 @@ def lti_gain(config: Any, plant: dict[str, Any], gains_path: str | Path | None,
     if gains_path is not None:
         gd = load_gains(gains_path)
         K = np.asarray(gd["K"], dtype=float)
-        check_lti_gain(K, n, m, f"{gains_path}: K")
         same_plant(gd, n, m, gains_path)
+        check_lti_gain(K, n, m, f"{gains_path}: K")
         return K, Path(gains_path), gd
     if plant["K"] is None:
         raise InputError("controller.gain: required for a linear plant's margin (or pass --gains, or synthesize "
@@ -143,8 +143,8 @@ def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Pa
     plant = lti_plant_of(config, config_path)
     n, m = plant["B"].shape
     K = np.asarray(gd["K"], dtype=float)
-    check_lti_gain(K, n, m, f"{gp}: K")
     same_plant(gd, n, m, gp)
+    check_lti_gain(K, n, m, f"{gp}: K")
     Ts, lo, hi, ml = _net(config)
     searched = None
     if cert is None:  # a gain of one's own (K only): its certificate is searched

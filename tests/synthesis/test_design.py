@@ -258,9 +258,10 @@ def test_the_least_motor_bound_prunes_only_the_alphas_it_proves_infeasible() -> 
     failed = {alpha(ln) for ln in lines[:first] if re.search(r"alpha = \S+: failed", ln)}
     retried = {alpha(ln) for ln in lines[last + 1:] if re.search(r"alpha = \S+: ", ln)}
     pruned = set()
-    for ln in lines[first:last + 1]:
-        got = re.search(r"is ([0-9.]+) rad/s \(clarabel optimal\)|is none \(infeasible\)", ln)
-        if got and (got.group(1) is None or float(got.group(1)) > limit * (1.0 + 1e-4)):
+    for ln in lines[first:last + 1]:  # proven ('optimal', 'infeasible'), or 'optimal_inaccurate' far above the limit
+        got = re.search(r"is ([0-9.]+) rad/s \(clarabel (optimal|optimal_inaccurate)\)|is none \(infeasible\)", ln)
+        if got and (got.group(1) is None or float(got.group(1)) > limit * (1.0 + (1e-4 if got.group(2) == "optimal"
+                                                                                  else 1e-2))):
             pruned.add(alpha(ln))
     assert failed and pruned & failed, lines
     assert retried == failed - pruned

@@ -142,6 +142,19 @@ def test_a_gain_whose_certificate_does_not_hold_here_fails(tmp_path, case) -> No
     assert not vd["passed"] and not vd["certificate"]["passed"] and vd["certified"]["e_y"] is None
 
 
+def test_a_linear_plants_gain_or_a_k_of_another_size_is_bad_input(tmp_path) -> None:
+    """No law to run: exit 2 with one line, and no output directory (a traceback before, review)."""
+    bad = tmp_path / "lti.json"
+    bad.write_text(json.dumps({"kind": "lti", "K": [[0.1, 0.2]], "lifting": {"n": 2, "m": 1, "d": 0}}))
+    for cfg, g, what in ((ROOT / "configs" / "default.yaml", bad, "a linear plant's gains"),
+                         (ROOT / "configs" / "delay-multi-period.yaml", ROOT / "results" / "baselines" / "default" /
+                          "gains.json", "K has 2 x 5 entries; this config's controller needs 2 x 9")):
+        r = CliRunner().invoke(main, ["validate", str(cfg), "--engine", "kinematic", "--gains", str(g), "--episodes", "1",
+                                      "--no-plots", "-o", str(tmp_path / "out")])
+        assert r.exit_code == 2 and what in r.output, r.output
+        assert not (tmp_path / "out").exists()
+
+
 def test_on_a_path_rounded_by_arcs_the_straight_segments_leave_the_arcs_out(tmp_path) -> None:
     """With reference.turn_radius the path has no waypoint switch: the straight segments (judged, and
     where the slip is estimated) are where no command in flight carries a turning feedforward."""

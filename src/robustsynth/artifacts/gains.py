@@ -24,13 +24,23 @@ from .. import __version__
 from ..errors import InputError
 from .files import SCHEMA_VERSION
 
-__all__ = ["gains_dict", "gains_id", "gains_mat_vars", "load_gains", "as_gains", "stored_config", "controller_description",
+__all__ = ["gains_dict", "gains_id", "certified_figures", "gains_mat_vars", "load_gains", "as_gains", "stored_config", "controller_description",
            "LAW", "CERTIFIED_KEYS", "DESCRIPTION_FORMAT", "MAX_GAINS_BYTES", "SCHEMA_VERSION"]
 
 LAW = "du_k = K xi_k"
 CERTIFIED_KEYS = ("robust_stability", "decay_rate", "ultimate_bound", "motor_speed_bound", "hinf_gain")
 DESCRIPTION_FORMAT = "robustsynth-controller/1"
 MAX_GAINS_BYTES = 8 << 20
+
+
+def certified_figures(figs: dict[str, Any]) -> dict[str, Any]:
+    """A gains file's "certified" mapping from a certificate check's figures: CERTIFIED_KEYS, and |e_theta(t)|
+    between samples, the nonlinear proof's bound and whether slip may change within a period where given."""
+    certified = {k: figs.get(k) for k in CERTIFIED_KEYS}
+    for k in ("heading_within_period", "heading_bound", "ultimate_bound_between_samples", "slip_within_period"):
+        if figs.get(k) is not None:
+            certified[k] = figs[k]
+    return certified
 
 
 def gains_dict(model: Any, result: Any) -> dict[str, Any]:
@@ -40,11 +50,7 @@ def gains_dict(model: Any, result: Any) -> dict[str, Any]:
 
     figs = result.certified
     cert = result.certificate
-    certified = {k: figs.get(k) for k in CERTIFIED_KEYS}
-    # |e_theta(t)| between samples; the nonlinear proof's bound; whether slip may change within a period
-    for k in ("heading_within_period", "heading_bound", "ultimate_bound_between_samples", "slip_within_period"):
-        if figs.get(k) is not None:
-            certified[k] = figs[k]
+    certified = certified_figures(figs)
     certificate: dict[str, Any] = {
         "objective": cert["objective"],
         "model": cert["model"],

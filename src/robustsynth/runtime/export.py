@@ -344,6 +344,24 @@ def _same_lti_plant(gains: dict[str, Any], cfg: Any, config_path: str | Path) ->
                          f"were made for {gains['network']['sampling_time']:g} s and {lift['d']}")
 
 
+def _rechecked(gains: dict[str, Any]) -> dict[str, Any]:
+    """A robot gains mapping with a certificate but without its figures (a gains.mat keeps the certificate,
+    not the figures; a JSON changed after synthesis had them dropped): the certificate re-checked on the config
+    stored with it, and its figures when it holds (a review found every synthesized gains.mat exported as
+    uncertified)."""
+    import numpy as np
+
+    from ..artifacts.gains import certified_figures, stored_config
+    from ..certificate import check_certificate
+    from ..model import build_model
+
+    base = stored_config(gains)
+    if base is None:
+        return gains
+    chk = check_certificate(build_model(base), np.asarray(gains["K"], dtype=float), gains["certificate"])
+    return dict(gains, certified=certified_figures(chk.figures)) if chk.passed else gains
+
+
 def export_controller(gains_path: str | Path, target: str, outdir: str | Path,
                       config_path: str | Path | None = None) -> tuple[dict[str, Any], list[Path]]:
     """Write the ``target`` files of the controller in ``gains_path`` to ``outdir`` (atomically,
@@ -362,6 +380,8 @@ def export_controller(gains_path: str | Path, target: str, outdir: str | Path,
         # K, the certificate or the config changed after synthesis wrote the file: what it says is certified
         # is not this gain's (a review found an edited K exported as "the certified controller")
         gains = {k: v for k, v in gains.items() if k not in ("certified", "gains_id")}
+    if gains.get("kind") != "lti" and not gains.get("certified") and isinstance(gains.get("certificate"), dict):
+        gains = _rechecked(gains)
     if gains.get("kind") == "lti":  # a linear plant's generic law
         from .export_lti import lti_export_files
 

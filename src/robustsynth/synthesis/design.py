@@ -675,6 +675,8 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
 
 
 LEAST_MOTOR_TOL = 1e-4  # relative: a least motor bound this far above the limit proves the limited LMIs infeasible
+# the same for a bound the solver returned 'optimal_inaccurate' (its reduced tolerances: gap 5e-5, residuals 1e-4)
+LEAST_MOTOR_TOL_INACCURATE = 1e-2
 
 
 def _least_motor_speeds(model: Any, s: SynthesisConfig, alphas: list[float],
@@ -707,6 +709,23 @@ def _least_motor_speeds(model: Any, s: SynthesisConfig, alphas: list[float],
     return out
 
 
+def _motor_pruner(model: Any, s: SynthesisConfig, least: dict[float, float | None],
+                  say: Callable[[str], None] = lambda _m: None) -> Callable[[list[float]], set[float]]:
+    """``_run_invariance``'s prune hook for a motor-limited scan: before the slow fallback retries, the alphas
+    where even the least motor bound of these LMIs exceeds the limit (the limited problem is infeasible there;
+    a turning model's fallback solves took 8 minutes).  Fills ``least`` (alpha -> bound where proven, else None)."""
+    rho_max = model.config.robot.max_motor_speed
+
+    def prune(alphas: list[float]) -> set[float]:
+        found = _least_motor_speeds(model, s, alphas, say)
+        least.update({a: r if proven else None for a, (r, proven) in found.items()})
+        # an 'optimal_inaccurate' bound (the solver's reduced tolerances, ~1e-4) counts only far above the limit
+        return {a for a, (r, proven) in found.items()
+                if r is not None and r > rho_max * (1.0 + (LEAST_MOTOR_TOL if proven else LEAST_MOTOR_TOL_INACCURATE))}
+
+    return prune
+
+
 def _run_linearized(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     say: Callable[[str], None]) -> tuple[_Best, _Runner]:
     """The ultimate-bound search on the linearized kinematics (docs/theory.md §6b); raises when no
@@ -717,22 +736,16 @@ def _run_linearized(model: Any, s: SynthesisConfig, search: list, motor: bool,
     if s.lyapunov != "common":
         # the common certificate is cheap (one Lyapunov matrix) and its best alpha lies near the
         # richer classes' (measured: within a grid step on every class of the default robot)
-        common, _ = _run_invariance(model, s.model_copy(update={"lyapunov": "common"}), [], motor)
+        sc = s.model_copy(update={"lyapunov": "common"})
+        common, _ = _run_invariance(model, sc, [], motor, prune=_motor_pruner(model, sc, {}) if motor else None)
         hint = float(common.cert["alpha"]) if common.cert is not None else None
     how = (f"walk of alpha from the common certificate's {hint:.4g}" if hint is not None
            else f"scan of alpha over {s.alpha_points} points")
     say(f"{s.objective}: {how}, then parabolic steps ({model.kind} model, {len(model.vertices)} vertices, "
         f"motor limits {'on' if motor else 'off'})")
     least: dict[float, float | None] = {}  # alpha -> the least motor bound, where proven (else None)
-
-    def prune(alphas: list[float]) -> set[float]:
-        # before the slow fallback retries: where even the least motor bound of these LMIs exceeds the
-        # limit, the limited problem is infeasible (a turning model's fallback solves took 8 minutes)
-        found = _least_motor_speeds(model, s, alphas, say)
-        least.update({a: r if proven else None for a, (r, proven) in found.items()})
-        return {a for a, r in least.items() if r is not None and r > rho_max * (1.0 + LEAST_MOTOR_TOL)}
-
-    best, runner = _run_invariance(model, s, search, motor, say, alpha_hint=hint, prune=prune if motor else None)
+    best, runner = _run_invariance(model, s, search, motor, say, alpha_hint=hint,
+                                   prune=_motor_pruner(model, s, least, say) if motor else None)
     if best.cert is None:
         if runner.failures and runner.failures == len(search):
             raise SolverFailure("ultimate-bound: every solve failed, also with the fallback solver")
@@ -776,7 +789,8 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
     InfeasibleError naming the heading and forward-speed ranges of the linearized set when no bound
     gives a certificate."""
     lin = model.linearized()
-    common, _ = _run_invariance(lin, s.model_copy(update={"lyapunov": "common", "kinematics": "linearized"}), [], motor)
+    sc = s.model_copy(update={"lyapunov": "common", "kinematics": "linearized"})
+    common, _ = _run_invariance(lin, sc, [], motor, prune=_motor_pruner(lin, sc, {}) if motor else None)
     hint = float(common.cert["alpha"]) if common.cert is not None else None
     auto = s.heading_bound == "auto"
     if auto:  # upwards from about the linearized set's own heading: a smaller bound rarely helps
@@ -799,7 +813,8 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                 if pb.cert is None or pb.value >= best.value:
                     tried.append((tb, "not better at the best alpha"))
                     break
-            b, r = _run_invariance(m, s, search, motor, say, alpha_hint=hint, retry=not auto, give_up=NONLINEAR_GIVE_UP)
+            b, r = _run_invariance(m, s, search, motor, say, alpha_hint=hint, retry=not auto, give_up=NONLINEAR_GIVE_UP,
+                                   prune=_motor_pruner(m, s, {}, say) if motor else None)
         except InfeasibleError as exc:  # the heading bound is below the slip's own turn
             say(f"  {exc}")
             tried.append((tb, "below the slip's own turn within a period"))
