@@ -173,3 +173,20 @@ def test_a_gain_changed_after_synthesis_is_exported_as_uncertified(tmp_path: Pat
         d, _ = export_controller(tmp_path / "edited.json", target, tmp_path / target)
         text = (tmp_path / target / name).read_text()
         assert not d.get("certified") and "UNCERTIFIED" in text and "gains_id (none)" in text
+
+
+def test_a_rate_bounded_certificates_gains_mat_exports_as_certified(tmp_path: Path) -> None:
+    """A slip-rate-bounded certificate holds for its slip step only: the .mat keeps the step, so the export's
+    re-check of the .mat certifies it as the .json does (a review found it UNCERTIFIED from the .mat)."""
+    from robustsynth import build_model, load_config
+    from robustsynth.pipeline import synthesis_stage
+
+    cfg = load_config(ROOT / "configs" / "default.yaml")
+    cfg = cfg.model_copy(update={"slip": cfg.slip.model_copy(update={"max_rate": 0.5}),
+                                 "synthesis": cfg.synthesis.model_copy(update={"lyapunov": "slip-dependent",
+                                                                               "alpha_points": 5})})
+    synthesis_stage(build_model(cfg), tmp_path / "g", compare=False)
+    d_json, _ = export_controller(tmp_path / "g" / "gains.json", "python", tmp_path / "j")
+    d_mat, _ = export_controller(tmp_path / "g" / "gains.mat", "python", tmp_path / "m")
+    assert d_json["certified"] and d_mat["certified"]
+    assert d_mat["certified"]["ultimate_bound"] == pytest.approx(d_json["certified"]["ultimate_bound"], rel=1e-9)

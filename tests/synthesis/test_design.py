@@ -271,6 +271,16 @@ def test_the_least_motor_bound_prunes_only_the_alphas_it_proves_infeasible() -> 
     assert need == pytest.approx(min(proven), rel=1e-3)
 
 
+def test_only_clarabels_inaccurate_least_bounds_count() -> None:
+    """'optimal_inaccurate' is Clarabel's reduced tolerances (usable 1 % from the limit) but SCS's iteration-cap
+    guess (a review found SCS's 40 % below the optimum, which would have pruned alphas that certify)."""
+    from robustsynth.synthesis.design import _least_kind
+
+    assert _least_kind("optimal", "scs") == _least_kind("infeasible", "clarabel") == "proven"
+    assert _least_kind("optimal_inaccurate", "clarabel") == "inaccurate"
+    assert _least_kind("optimal_inaccurate", "scs") is None and _least_kind("solver_error", "clarabel") is None
+
+
 def test_least_motor_bound_below_every_certificate(default_model, ub_result) -> None:
     # the least motor bound is a relaxation of the limited problem: at a certified point's alpha it is
     # at most the limit that certificate meets (12 rad/s), and it is what the certificate's own gain needs

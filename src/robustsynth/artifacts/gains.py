@@ -158,6 +158,7 @@ def gains_mat_vars(gd: dict[str, Any]) -> dict[str, Any]:
         "kinematics": c.get("kinematics", "linearized"),
         "heading_bound": _mat_value(c.get("heading_bound")),
         "within_period_channels": bool(c.get("within_period_channels", False)),
+        "slip_step": _mat_value(c.get("slip_step")),  # a rate-bounded certificate's (NaN: any change)
         "turn_max_yaw_rate": _mat_value((c.get("turns") or {}).get("max_yaw_rate")),
         "turn_max_step": _mat_value((c.get("turns") or {}).get("max_step")),
         **_controller_mat_vars(gd),
@@ -251,6 +252,8 @@ def _load_mat(p: Path) -> dict[str, Any]:
             S = np.asarray(m["S"], dtype=float)
             cert["S"] = [S[i] for i in range(S.shape[0])]
             cert["G"] = np.asarray(m["G"], dtype=float)
+            # a rate-bounded certificate holds for its slip step only (a .mat without it re-checked as switching)
+            cert["slip_step"] = _mat_scalar(m.get("slip_step", np.nan))
         data["certificate"] = cert
     return data
 

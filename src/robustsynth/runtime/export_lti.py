@@ -35,7 +35,7 @@ def _description(gd: dict[str, Any]) -> dict[str, Any]:
 def certified_word(d: dict[str, Any]) -> str:
     """How a generated file names its controller: certified only when the gains file carries its certificate's
     figures (a bare K, or a file changed after synthesis, does not)."""
-    return "certified" if d.get("certified") else "UNCERTIFIED (no certificate in the gains file)"
+    return "certified" if d.get("certified") else "UNCERTIFIED (no certificate that holds for this gain)"
 
 
 def _c_files(d: dict[str, Any]) -> dict[str, bytes]:

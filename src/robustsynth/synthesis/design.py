@@ -507,6 +507,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                 if float(np.exp(g)) in proven:
                     search.append({"alpha": float(np.exp(g)), "status": "infeasible", "objective": None,
                                    "by": "least motor bound"})
+                    runner.failed_at[float(np.exp(g))] = False
+                    runner.failures -= 1  # (the exit-3 texts tell "infeasible" from "solver failed" by these counts)
             failed = [g for g in failed if float(np.exp(g)) not in proven]
         tried: list[float] = []
         for g in failed:
@@ -679,6 +681,15 @@ LEAST_MOTOR_TOL = 1e-4  # relative: a least motor bound this far above the limit
 LEAST_MOTOR_TOL_INACCURATE = 1e-2
 
 
+def _least_kind(status: str, solver: str) -> str | None:
+    """What a least-motor solve's status is worth: 'proven' (optimal, or infeasible), 'inaccurate' (Clarabel's
+    reduced tolerances: usable far from the limit), or None.  An inaccurate SCS point is its iteration cap's best
+    guess with no tolerance behind it (a review found such bounds 40 % below Clarabel's optimal ones)."""
+    if status in ("optimal", "infeasible"):
+        return "proven"
+    return "inaccurate" if status == "optimal_inaccurate" and solver == "clarabel" else None
+
+
 def _least_motor_speeds(model: Any, s: SynthesisConfig, alphas: list[float],
                         say: Callable[[str], None]) -> dict[float, tuple[float | None, bool]]:
     """The least |rho| bound the invariance LMIs allow at each alpha: every LMI of the limited problem,
@@ -687,7 +698,7 @@ def _least_motor_speeds(model: Any, s: SynthesisConfig, alphas: list[float],
     and the within-period vertices added by constraint generation, so a relaxation), so where the least
     bound exceeds robot.max_motor_speed the limited problem is infeasible at that alpha.  Per alpha:
     (the bound, inf where the LMIs are infeasible whatever the motors, None where nothing came back;
-    proven: the solver ended 'optimal' or 'infeasible', not 'optimal_inaccurate')."""
+    proven: the solver ended 'optimal' or 'infeasible'; an unproven bound is Clarabel's 'optimal_inaccurate')."""
     import cvxpy as cp
 
     lp = _build(build_invariance, model, s.multiplier, s.margin, _weights(s), True, s.lyapunov, symmetry=False,
@@ -703,7 +714,8 @@ def _least_motor_speeds(model: Any, s: SynthesisConfig, alphas: list[float],
             r = math.inf
         elif status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and u2 is not None:
             r = float(model.feedforward_motor_speed + math.sqrt(max(float(u2), 0.0)))
-        out[a] = (r, status in (cp.OPTIMAL, cp.INFEASIBLE))
+        kind = _least_kind(status, s.solver)
+        out[a] = (r if kind else None, kind == "proven")
         what = "unknown" if r is None else ("none (infeasible)" if math.isinf(r) else f"{r:.4g} rad/s")
         say(f"  alpha = {a:.4g}: the least motor bound of these LMIs is {what} ({s.solver} {status})")
     return out
