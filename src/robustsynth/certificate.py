@@ -26,6 +26,7 @@ __all__ = [
     "varying_failures",
     "CertificateCheck",
     "check_certificate",
+    "recheck_gains",
     "lmi_stability",
     "lmi_invariance",
     "lmi_hinf",
@@ -224,6 +225,22 @@ def _proof(L: np.ndarray, mag: np.ndarray | None, terms: int, threshold: float) 
         L, mag, terms = _sym(L), np.abs(L), 1  # prove its symmetric part (the part a quadratic form sees)
     radius = 0.0 if mag is None else assembly_radius(mag, terms)
     return proves_at_least(L, threshold, radius), radius + rump_shift(np.maximum(np.abs(np.diag(L)), 1e-300))
+
+
+def recheck_gains(model: Any, gains: Mapping[str, Any]) -> CertificateCheck:
+    """A gains mapping's certificate re-checked for ``model`` (failed, with its reason, when the mapping has
+    none or K does not fit the model): what ``validate`` judges against and what ``export`` calls certified,
+    rather than the figures a file states."""
+    K = np.asarray(gains["K"], dtype=float)
+    if K.shape != (model.n_u, model.n_s):
+        return CertificateCheck(False, (), {}, f"K has shape {K.shape}, this config's model needs {(model.n_u, model.n_s)}")
+    cert = gains.get("certificate")
+    if not isinstance(cert, Mapping):
+        return CertificateCheck(False, (), {}, "the gains file has no certificate (a bare K): nothing certified to "
+                                "validate against; robustsynth verify searches one for a fixed K")
+    chk = check_certificate(model, K, cert)
+    return chk if chk.passed else CertificateCheck(False, chk.checks, chk.figures,
+                                                   chk.reason or "the certificate does not hold for this config")
 
 
 def check_certificate(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateCheck:

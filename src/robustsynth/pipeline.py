@@ -217,6 +217,7 @@ def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, e
     writes the episodes as robot logs under ``outdir/logs/`` and ``validation.json`` (last)."""
     from .artifacts.files import commit_files, json_bytes, make_dir
     from .artifacts.gains import gains_id, load_gains
+    from .certificate import recheck_gains
     from .errors import InputError
     from .verification.physics import validate_physics
 
@@ -226,11 +227,12 @@ def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, e
     if gains.get("kind") == "lti":
         raise InputError(f"{gains_path}: a linear plant's gains (kind: lti); validate runs the tracked robot")
     K = gains["K"]
-    if (len(K), len(K[0]) if K else 0) != (model.n_u, model.n_s):  # no law to run (a traceback before)
-        raise InputError(f"{gains_path}: K has {len(K)} x {len(K[0]) if K else 0} entries; this config's controller "
+    size = (len(K), len(K[0]) if K else 0)
+    if size != (model.n_u, model.n_s):  # no law to run (a traceback before)
+        raise InputError(f"{gains_path}: K has {size[0]} x {size[1]} entries; this config's controller "
                          f"needs {model.n_u} x {model.n_s} (d_hi = {model.d_hi})")
     outdir = make_dir(outdir)  # after the inputs are checked: a refusal leaves no directory behind
-    rechecked = _recheck(model, gains)
+    rechecked = recheck_gains(model, gains)
     # the bounds the episodes are judged against: the certificate's own, re-checked for this config (a
     # gains file's "certified" figures are what it says, not what holds: an edited K or another config's
     # gain would pass against them)
@@ -255,25 +257,6 @@ def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, e
         vd["figure"] = "validation.png"
     commit_files(outdir, {"validation.json": json_bytes(vd)}, primary="validation.json")
     return vd
-
-
-def _recheck(model: Model, gains: dict[str, Any]) -> Any:
-    """The gains file's certificate re-checked for ``model`` (a CertificateCheck; failed, with its
-    reason, when the file has none or K does not fit the model)."""
-    import numpy as np
-
-    from .certificate import CertificateCheck, check_certificate
-
-    K = np.asarray(gains["K"], dtype=float)
-    if K.shape != (model.n_u, model.n_s):
-        return CertificateCheck(False, (), {}, f"K has shape {K.shape}, this config's model needs {(model.n_u, model.n_s)}")
-    cert = gains.get("certificate")
-    if not isinstance(cert, dict):
-        return CertificateCheck(False, (), {}, "the gains file has no certificate (a bare K): nothing certified to "
-                                "validate against; robustsynth verify searches one for a fixed K")
-    chk = check_certificate(model, K, cert)
-    return chk if chk.passed else CertificateCheck(False, chk.checks, chk.figures,
-                                                   chk.reason or "the certificate does not hold for this config")
 
 
 def excitation_stage(model: Model, outdir: str | Path, episodes: int = 4, seed: int = 0,

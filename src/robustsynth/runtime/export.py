@@ -349,16 +349,14 @@ def _rechecked(gains: dict[str, Any]) -> dict[str, Any]:
     not the figures; a JSON changed after synthesis had them dropped): the certificate re-checked on the config
     stored with it, and its figures when it holds (a review found every synthesized gains.mat exported as
     uncertified)."""
-    import numpy as np
-
     from ..artifacts.gains import certified_figures, stored_config
-    from ..certificate import check_certificate
+    from ..certificate import recheck_gains
     from ..model import build_model
 
     base = stored_config(gains)
     if base is None:
         return gains
-    chk = check_certificate(build_model(base), np.asarray(gains["K"], dtype=float), gains["certificate"])
+    chk = recheck_gains(build_model(base), gains)
     return dict(gains, certified=certified_figures(chk.figures)) if chk.passed else gains
 
 

@@ -503,11 +503,10 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         failed = [g for g, v in zip(grid, vals) if not math.isfinite(v) and runner.failed_at.get(float(np.exp(g)))]
         if prune is not None and failed:  # told every alpha of the scan that was not certified
             proven = prune([float(np.exp(g)) for g, v in zip(grid, vals) if not math.isfinite(v)])
-            for g in failed:  # proven infeasible otherwise: not a solver failure any more
-                if float(np.exp(g)) in proven:
-                    search.append({"alpha": float(np.exp(g)), "status": "infeasible", "objective": None,
-                                   "by": "least motor bound"})
-                    runner.failed_at[float(np.exp(g))] = False
+            for a in (float(np.exp(g)) for g in failed):  # proven infeasible otherwise: no solver failure any more
+                if a in proven:
+                    search.append({"alpha": a, "status": "infeasible", "objective": None, "by": "least motor bound"})
+                    runner.failed_at[a] = False
                     runner.failures -= 1  # (the exit-3 texts tell "infeasible" from "solver failed" by these counts)
             failed = [g for g in failed if float(np.exp(g)) not in proven]
         tried: list[float] = []
@@ -721,12 +720,13 @@ def _least_motor_speeds(model: Any, s: SynthesisConfig, alphas: list[float],
     return out
 
 
-def _motor_pruner(model: Any, s: SynthesisConfig, least: dict[float, float | None],
+def _motor_pruner(model: Any, s: SynthesisConfig, least: dict[float, float | None] | None = None,
                   say: Callable[[str], None] = lambda _m: None) -> Callable[[list[float]], set[float]]:
     """``_run_invariance``'s prune hook for a motor-limited scan: before the slow fallback retries, the alphas
     where even the least motor bound of these LMIs exceeds the limit (the limited problem is infeasible there;
     a turning model's fallback solves took 8 minutes).  Fills ``least`` (alpha -> bound where proven, else None)."""
     rho_max = model.config.robot.max_motor_speed
+    least = {} if least is None else least
 
     def prune(alphas: list[float]) -> set[float]:
         found = _least_motor_speeds(model, s, alphas, say)
@@ -749,7 +749,7 @@ def _run_linearized(model: Any, s: SynthesisConfig, search: list, motor: bool,
         # the common certificate is cheap (one Lyapunov matrix) and its best alpha lies near the
         # richer classes' (measured: within a grid step on every class of the default robot)
         sc = s.model_copy(update={"lyapunov": "common"})
-        common, _ = _run_invariance(model, sc, [], motor, prune=_motor_pruner(model, sc, {}) if motor else None)
+        common, _ = _run_invariance(model, sc, [], motor, prune=_motor_pruner(model, sc) if motor else None)
         hint = float(common.cert["alpha"]) if common.cert is not None else None
     how = (f"walk of alpha from the common certificate's {hint:.4g}" if hint is not None
            else f"scan of alpha over {s.alpha_points} points")
@@ -802,7 +802,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
     gives a certificate."""
     lin = model.linearized()
     sc = s.model_copy(update={"lyapunov": "common", "kinematics": "linearized"})
-    common, _ = _run_invariance(lin, sc, [], motor, prune=_motor_pruner(lin, sc, {}) if motor else None)
+    common, _ = _run_invariance(lin, sc, [], motor, prune=_motor_pruner(lin, sc) if motor else None)
     hint = float(common.cert["alpha"]) if common.cert is not None else None
     auto = s.heading_bound == "auto"
     if auto:  # upwards from about the linearized set's own heading: a smaller bound rarely helps
@@ -826,7 +826,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     tried.append((tb, "not better at the best alpha"))
                     break
             b, r = _run_invariance(m, s, search, motor, say, alpha_hint=hint, retry=not auto, give_up=NONLINEAR_GIVE_UP,
-                                   prune=_motor_pruner(m, s, {}, say) if motor else None)
+                                   prune=_motor_pruner(m, s, say=say) if motor else None)
         except InfeasibleError as exc:  # the heading bound is below the slip's own turn
             say(f"  {exc}")
             tried.append((tb, "below the slip's own turn within a period"))
