@@ -124,6 +124,25 @@ def test_a_stage_clears_what_another_config_left(tmp_path) -> None:
     assert json.loads((tmp_path / "model.json").read_text())["config"]["name"] == "other"
 
 
+def test_a_file_written_before_a_key_existed_is_not_foreign(tmp_path) -> None:
+    """The committed baselines were written before ``reference.turn_radius`` existed: their config is the
+    same config with that key at its default, so a stage writing beside them keeps them (it had removed
+    them).  A changed value still counts as another config."""
+    import shutil
+    from pathlib import Path
+
+    from robustsynth.config import parse_config
+    from robustsynth.pipeline import clear_foreign
+
+    root = Path(__file__).resolve().parents[1]
+    shutil.copy(root / "results" / "baselines" / "default" / "gains.json", tmp_path / "gains.json")
+    assert "turn_radius" not in json.loads((tmp_path / "gains.json").read_text())["config"]["reference"]
+    text = (root / "configs" / "default.yaml").read_text()
+    assert clear_foreign(tmp_path, parse_config(text)) == []
+    assert (tmp_path / "gains.json").exists()
+    assert clear_foreign(tmp_path, parse_config(text.replace("speed: 0.5", "speed: 0.4"))) == ["gains.json"]
+
+
 def test_a_linear_plants_stage_clears_what_another_config_left(tmp_path) -> None:
     """The same for a linear plant (a review found dc-motor's gains and report left beside zbp's model), and its
     own files stay through its stages (its model.json and summary.json name their config, not hold it)."""

@@ -508,10 +508,6 @@ def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
     _needs_its_config(config, gains, "verify")
     cfg = _load(config, lti_ok=True)
     out = _gains_outdir(cfg, outdir, gains)
-    if logdir is not None and not is_lti(cfg):  # before the work, not after it (a review found exit 2 at the end)
-        from .artifacts.files import check_writable_dir
-
-        check_writable_dir(logdir)
     if is_lti(cfg):
         if logdir is not None:
             from .errors import InputError
@@ -523,19 +519,27 @@ def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
         _lti_report(obj, data)
         obj.say(f"wrote {', '.join(data['files'])}")
         return EXIT_OK if data["passed"] else EXIT_VERIFICATION_FAILED
-    cb, bar = _progress(obj)
-    try:
-        st = verification_stage(build_model(cfg), out, gains, runs, seed, fmt, not no_plots, cb)
-    finally:
-        if bar is not None:
-            bar.render_finish()
-    _report_checks(obj, st.result)
-    obj.say(f"wrote {out / 'verification.json'}, {out / 'verification.md'}" + (f" and {len(st.figures)} figures" if st.figures else ""))
-    if logdir is not None:
-        from .pipeline import write_run_logs
+    from contextlib import nullcontext
 
-        logs = write_run_logs(st.model, st.result, logdir)
-        obj.say(f"wrote {len(logs)} run logs to {logdir}/")
+    from .artifacts.files import writable_dir
+
+    # the log place is proven writable before the work (a review found exit 2 at the end), and removed
+    # again if the work fails before any log is in it
+    with writable_dir(logdir) if logdir is not None else nullcontext():
+        cb, bar = _progress(obj)
+        try:
+            st = verification_stage(build_model(cfg), out, gains, runs, seed, fmt, not no_plots, cb)
+        finally:
+            if bar is not None:
+                bar.render_finish()
+        _report_checks(obj, st.result)
+        obj.say(f"wrote {out / 'verification.json'}, {out / 'verification.md'}"
+                + (f" and {len(st.figures)} figures" if st.figures else ""))
+        if logdir is not None:
+            from .pipeline import write_run_logs
+
+            logs = write_run_logs(st.model, st.result, logdir)
+            obj.say(f"wrote {len(logs)} run logs to {logdir}/")
     return EXIT_OK if st.result.passed else EXIT_VERIFICATION_FAILED
 
 

@@ -61,7 +61,7 @@ def clear_foreign(outdir: str | Path, config: Config) -> list[str]:
         elif isinstance(ref, str):  # a linear plant's model.json and summary.json name theirs
             foreign = ref != config.name
         else:
-            foreign = ref != mine
+            foreign = not _same_config(ref, mine)
         if foreign:
             break
     if not foreign:
@@ -74,6 +74,22 @@ def clear_foreign(outdir: str | Path, config: Config) -> list[str]:
     removed = [n for n in names if (outdir / n).exists()]
     remove_files(outdir, tuple(removed))
     return removed
+
+
+def _same_config(stored: Any, mine: dict[str, Any]) -> bool:
+    """Whether a stored config dict is this config.  The stored one is read through the config
+    model first: a file written before a key existed (``reference.turn_radius``) holds the same
+    config as one with the key at its default."""
+    from .config import ConfigError, config_from_dict, config_to_dict
+
+    if stored == mine:
+        return True
+    if not isinstance(stored, dict):
+        return False
+    try:
+        return config_to_dict(config_from_dict(stored)) == mine
+    except (ConfigError, TypeError, ValueError):
+        return False
 
 
 @dataclass(frozen=True)

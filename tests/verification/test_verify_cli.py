@@ -254,6 +254,23 @@ def test_an_unwritable_log_place_is_refused_before_the_work(tmp_path) -> None:
     assert not (out / "verification.json").exists()
 
 
+def test_a_failed_verify_leaves_no_empty_log_place(tmp_path) -> None:
+    """--log's directory is made before the work; when the work then fails (here: gains of another size) it
+    is removed again, with the parents it made, rather than left empty (a review)."""
+    gains = tmp_path / "bad.json"
+    gains.write_text(json.dumps({"K": [[1.0, 2.0]]}))
+    logs = tmp_path / "new" / "logs"
+    r = CliRunner().invoke(main, ["verify", "--gains", str(gains), "--runs", "1", "--no-plots", "--log", str(logs),
+                                  "-o", str(tmp_path / "out")])
+    assert r.exit_code == 2, r.output
+    assert not (tmp_path / "new").exists()
+    kept = tmp_path / "kept"
+    kept.mkdir()
+    r = CliRunner().invoke(main, ["verify", "--gains", str(gains), "--runs", "1", "--no-plots", "--log", str(kept),
+                                  "-o", str(tmp_path / "out")])
+    assert r.exit_code == 2 and kept.is_dir()  # a place that existed before stays
+
+
 def test_a_synthesized_gains_mat_exports_as_certified_and_an_edited_one_does_not(run_dir, tmp_path) -> None:
     """A gains.mat keeps the certificate, not its figures: export re-checks it on the stored config and carries the
     figures of gains.json (a review found every synthesized gains.mat exported as UNCERTIFIED); K edited in the

@@ -14,14 +14,15 @@ import io
 import json
 import os
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Iterator, Mapping
 
 import numpy as np
 
 from ..errors import OutputError
 
-__all__ = ["make_dir", "output_error", "atomic_write", "remove_files", "to_jsonable", "json_bytes", "mat_bytes", "commit_files", "sha256", "SCHEMA_VERSION"]
+__all__ = ["make_dir", "check_writable_dir", "writable_dir", "output_error", "atomic_write", "remove_files", "to_jsonable", "json_bytes", "mat_bytes", "commit_files", "sha256", "SCHEMA_VERSION"]
 
 SCHEMA_VERSION = 1
 
@@ -58,6 +59,24 @@ def check_writable_dir(path: str | Path) -> Path:
     except OSError as exc:
         raise output_error(path, exc) from None
     return path
+
+
+@contextmanager
+def writable_dir(path: str | Path) -> Iterator[Path]:
+    """:func:`check_writable_dir` for work that fills the directory later: when the work fails (an
+    exception, Ctrl-C), the directories this made are removed again if they are still empty, so a
+    failed command leaves no empty output place behind."""
+    path = Path(path)
+    made = [p for p in (path, *path.parents) if not p.exists()]  # deepest first
+    try:
+        yield check_writable_dir(path)
+    except BaseException:
+        for p in made:
+            try:
+                p.rmdir()  # only empty ones; a file the work wrote keeps its directory
+            except OSError:
+                break
+        raise
 
 
 def atomic_write(path: str | Path, data: bytes) -> None:
