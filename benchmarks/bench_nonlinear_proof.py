@@ -44,7 +44,7 @@ def main(names: list[str] | None = None) -> dict[str, dict[str, float]]:
     from robustsynth import build_model, load_config
     from robustsynth.artifacts.gains import load_gains
     from robustsynth.certificate import check_certificate, lyapunov_of
-    from robustsynth.verification.checks import PROBE_SAMPLES
+    from robustsynth.verification.checks import PROBE_REFINE, PROBE_SAMPLES
     from robustsynth.verification.probe import boundary_probe
 
     out: dict[str, dict[str, float]] = {}
@@ -67,7 +67,7 @@ def main(names: list[str] | None = None) -> dict[str, dict[str, float]]:
         chk = check_certificate(m, K, g["certificate"])
         r0 = boundary_probe(m, K, lyapunov_of(m, g["certificate"]), float(chk.figures["ellipsoid_level"]),
                             samples=PROBE_SAMPLES, seed=cfg.verification.seed,
-                            within_period=chk.figures.get("slip_within_period") == "covered")
+                            within_period=chk.figures.get("slip_within_period") == "covered", refine=PROBE_REFINE)
         lin_cfg = cfg.model_copy(update={"synthesis": cfg.synthesis.model_copy(update={"kinematics": "linearized"})})
         _, rl, tl, el = _synth(lin_cfg, "linearized")
         mn, rn, tn, en = _synth(cfg, "nonlinear")
@@ -78,7 +78,7 @@ def main(names: list[str] | None = None) -> dict[str, dict[str, float]]:
             mm = mn.with_heading_bound(rn.certificate["heading_bound"])
             rp = boundary_probe(mm, rn.K, lyapunov_of(mm, rn.certificate), float(rn.check.figures["ellipsoid_level"]),
                                 samples=PROBE_SAMPLES, seed=cfg.verification.seed,
-                                within_period=rn.check.figures.get("slip_within_period") == "covered")
+                                within_period=rn.check.figures.get("slip_within_period") == "covered", refine=PROBE_REFINE)
             ey_n = rn.certified["ultimate_bound"]["e_y"]
             row.update(nonlinear_e_y=ey_n, heading_bound=rn.certificate["heading_bound"],
                        nonlinear_probe=rp["max_V_over_level_nonlinear"])

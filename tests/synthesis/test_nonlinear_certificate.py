@@ -47,9 +47,9 @@ def test_the_nonlinear_robot_stays_in_the_set_from_its_boundary(committed) -> No
     figure's maximizers, slip corners, admissible delays) never leave the set."""
     m, K, cert = committed
     level = float(check_certificate(m, K, cert).figures["ellipsoid_level"])
-    r = boundary_probe(m, K, lyapunov_of(m, cert), level, samples=20_000, seed=4)
+    r = boundary_probe(m, K, lyapunov_of(m, cert), level, samples=20_000, seed=4, refine=128)
     assert r["samples"] > 15_000
-    assert r["max_V_over_level_nonlinear"] <= 1.0 + LEVEL_TOL
+    assert r["max_V_over_level_nonlinear"] <= 1.0 + LEVEL_TOL  # also after the local search from the 128 worst
     assert r["max_V_over_level_nonlinear"] > 0.5  # the probe does reach the boundary's neighbourhood
 
 

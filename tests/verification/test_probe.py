@@ -81,6 +81,33 @@ def test_the_worst_run_replays_through_the_simulator(heavy) -> None:
     assert np.max(np.abs(sim.e[0, 1] - w["xi_next"][: m.n_e])) <= REPLAY_TOL
 
 
+def test_the_local_search_finds_more_and_its_worst_state_replays(heavy) -> None:
+    """The probe's maximum moved with its seed (1.013 to 1.036 on the default's gain; review of issue 22):
+    the worst states are a sliver of the boundary.  The local search starts from the sample's worst runs and
+    raises the maximum; its worst state lies on the boundary with a memory within the motor limit, and one
+    period of the simulator from it gives the V it reports."""
+    m, K, lyap, level = heavy
+    plain = boundary_probe(m, K, lyap, level, samples=2000, seed=5)
+    r = boundary_probe(m, K, lyap, level, samples=2000, seed=5, refine=32)
+    ref = r["refinement"]
+    assert ref["max_V_over_level_before"] == plain["max_V_over_level_nonlinear"]  # the same sample first
+    assert ref["max_V_over_level_after"] > ref["max_V_over_level_before"]
+    assert r["max_V_over_level_nonlinear"] == ref["max_V_over_level_after"] == r["worst"]["V_over_level"]
+    assert ref["starts"] == 32 and 0 < ref["runs"] <= 32 * ref["rounds"] * ref["tries"]
+    w = r["worst"]
+    xi = w["xi"]
+    assert lyap.V(xi[None], w["mu"][None])[0] / level == pytest.approx(1.0, rel=1e-12)
+    past = xi[m.n_e : m.n_e + m.d_hi * m.n_u].reshape(m.d_hi, m.n_u)
+    assert np.all(np.abs((np.array([m.V, 0.0]) + past) @ np.asarray(m.J_inv).T) <= m.config.robot.max_motor_speed * (1 + 1e-9))
+    path = make_path(((0.0, 0.0), (m.V * m.Ts * 20.0, 0.0)), m.V)
+    z0 = xi[m.n_s - m.n_z :][None] if m.n_z else None
+    scen = Scenario(w["tau"][None], w["mu"][None, None], np.zeros((1, 1, 3)), pose_from_error(path, xi[: m.n_e])[None],
+                    ("probe",), past[None], z0)
+    sim = simulate(m, K, path, scen)
+    assert np.max(np.abs(sim.e[0, 1] - w["xi_next"][: m.n_e])) <= REPLAY_TOL
+    assert lyap.V(w["xi_next"][None], w["mu_after"][None])[0] / level == pytest.approx(w["V_over_level"], rel=1e-9)
+
+
 def test_boundary_starts_lie_on_the_boundary_with_admissible_memory(heavy) -> None:
     """The adversary's boundary starts: V = level at their slip, stored commands within the motor
     limit, at most MAX_BOUNDARY_STARTS."""

@@ -149,8 +149,11 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
             f" V = level, spread over the set and at the maximizers of each bounded figure, with stored commands"
             f" within the motor limit, a slip corner and admissible delays, run for one period. On the exact lifted"
             f" map the certificate is about, max V(xi+)/level = {bp['max_V_over_level_linear']:.4f}. On the nonlinear"
-            f" robot (exact arcs) it is {bp['max_V_over_level_nonlinear']:.4f}, and"
-            f" {100 * bp['fraction_outside_nonlinear']:.2f} % of these states leave the set. The two differ by up to"
+            f" robot (exact arcs) it is {bp['max_V_over_level_nonlinear']:.4f}"
+            + (f" ({bp['refinement']['max_V_over_level_before']:.4f} on these states; a local search from the"
+               f" {bp['refinement']['starts']} worst along the boundary, {bp['refinement']['runs']} more periods, reached"
+               f" {bp['refinement']['max_V_over_level_after']:.4f})" if bp.get("refinement") else "")
+            + f", and {100 * bp['fraction_outside_nonlinear']:.2f} % of these states leave the set. The two differ by up to"
             f" {1000 * bp['max_period_gap']['e_x']:.1f} mm in e_x and {1000 * bp['max_period_gap']['e_y']:.1f} mm in e_y"
             " per period. "
             + _mid_period_text(bp.get("mid_period") or {})

@@ -36,10 +36,12 @@ from ..plants.path import arc_frame_error, frame_error, make_path, pose_from_err
 from ..scenarios import random_delays, slip_candidates, slip_vertices, track_changes
 
 __all__ = ["boundary_probe", "probe_directions", "boundary_states", "errors_between_samples", "arc_yaw_rates",
-           "MAX_BOUNDARY_STARTS", "BETWEEN_INSTANTS"]
+           "MAX_BOUNDARY_STARTS", "BETWEEN_INSTANTS", "REFINE_ROUNDS", "REFINE_TRIES"]
 
 MAX_BOUNDARY_STARTS = 64  # the adversary's boundary starts: the figure-maximizing states, at most this many
 BETWEEN_INSTANTS = 20  # instants per period at which the probe measures the errors between samples
+REFINE_ROUNDS = 8  # the local search from the probe's worst runs (boundary_probe(refine=...)): rounds,
+REFINE_TRIES = 32  # and perturbed states per start and round
 
 
 def probe_directions(model: Any, K: np.ndarray, lyap: Any, random: int, rng: np.random.Generator) -> np.ndarray:
@@ -78,14 +80,18 @@ def boundary_states(model: Any, K: np.ndarray, lyap: Any, level: float, seed: in
 
 
 def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: int = 2000,
-                   seed: int = 0, within_period: bool = False) -> dict[str, Any]:
+                   seed: int = 0, within_period: bool = False, refine: int = 0) -> dict[str, Any]:
     """One period from ``samples`` random and every figure-maximizing boundary state.  Each gets a
     slip corner and random admissible delays, and the first few runs get constant minimum or
     maximum delays.  Returns the largest V(xi+)/level on the nonlinear robot and on the exact
     lifted map, the fraction of runs above 1, the largest per-period difference between the two
     in e_x, e_y and e_theta, and the worst run.  States whose stored commands exceed the motor
     limit are dropped: the controller never sent them from inside the set.  ``within_period``: the
-    certificate covers slip changing within a period (see the module's docstring)."""
+    certificate covers slip changing within a period (see the module's docstring).  ``refine``: from that
+    many of the worst runs, a local search along the boundary (:data:`REFINE_ROUNDS` rounds of
+    :data:`REFINE_TRIES` perturbed states and switch times each, the step halving) keeps what raises
+    V(xi+)/level; the maximum reported is then the larger of the two, the fraction outside that of the
+    sample."""
     rng = np.random.default_rng(seed)
     K = np.asarray(K, dtype=float)
     corners = slip_vertices(model)
@@ -104,21 +110,13 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
     taus[1 : min(N, 8) : 2] = dl.max
     S = model.s_tilde(taus)[:, 0]  # (N, d_hi)
     dw = model.delay_weights(S) if lyap.path else None
-    n_e, n_u, d_hi, n_z = model.n_e, model.n_u, model.d_hi, model.n_z
+    n_e, n_u, d_hi = model.n_e, model.n_u, model.d_hi
     du_past = xi[:, n_e : n_e + d_hi * n_u].reshape(N, d_hi, n_u)
     # admissible past: the stored commands were sent from states of the set, within the motor limit
     # the certificate enforces there (a state with others in its memory is never reached)
     uD = np.array([model.V, 0.0])
     admissible = _within_motor_limit(model, uD + du_past)
 
-    # the nonlinear robot on a straight line along x, at the pose of the error e
-    path = make_path(((0.0, 0.0), (model.V * model.Ts * 20.0, 0.0)), model.V)
-    q0 = pose_from_error(path, xi[:, :n_e])
-    law = Law(K.tolist(), model.Ts, bool(n_z), path.table)
-    law.reset(past=[du_past[:, j, i].copy() for j in range(d_hi) for i in range(n_u)],
-              z=[xi[:, model.n_s - n_z + i].copy() for i in range(n_z)])
-    dv, dom = law.correction(0.0, q0[:, 0], q0[:, 1], q0[:, 2])
-    du = np.stack([dv, dom], axis=1)
     jumped = np.zeros(N, dtype=bool)
     jumped[samples : samples + n_jump] = True
     mu_after = np.where(jumped[:, None], corners[rng.integers(0, corners.shape[0], size=N)], mu)
@@ -127,12 +125,8 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
         t_sw[samples : samples + n_jump : 2, 1] = t_sw[samples : samples + n_jump : 2, 0]
     else:  # no jumps (slip.max_rate, the icr model, one slip corner): one time for all parameters, at the period's end
         t_sw = np.full(N, model.Ts)
-    robot = KinematicRobot.of(model)
-    U = robot.send(robot.memory(du_past, N), uD + du)
-    changes = track_changes(mu, mu_after, t_sw) if n_jump else None
-    q1 = robot.period(q0, U, S, mu, switch=changes)
-    e1 = frame_error(path, 0, q1, model.Ts)
-    xi_nl = np.concatenate([e1, np.stack(law.past + law.z, axis=1)], axis=1)
+    # the nonlinear robot on a straight line along x, at the pose of the error e
+    xi_nl, du, U, changes = _robot_period(model, K, xi, S, mu, mu_after, t_sw, bool(n_jump))
 
     # between the samples (docs/theory.md §9): the same periods cut at BETWEEN_INSTANTS instants, the errors
     # in the frame of the reference at t (on the straight line it moves at V^D along x from the pose at t_k)
@@ -145,7 +139,7 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
     if getattr(model, "turns", None) is not None:
         w = arc_yaw_rates(model, N, rng)
         e_arc = arc_period(model, xi[:, :n_e], du, du_past, S, mu, rng, switch=changes, w=w)
-        xi_arc = np.concatenate([e_arc, np.stack(law.past + law.z, axis=1)], axis=1)
+        xi_arc = np.concatenate([e_arc, xi_nl[:, n_e:]], axis=1)  # the same memory and integrators as on the line
         U_arc = arc_commands(model, du, du_past, w)
         between_arc = errors_between_samples(model, xi[:, :n_e], U_arc, S, mu, changes, w[:, 0])[0]
         arc_memory = _within_motor_limit(model, U_arc[:, 1:])
@@ -164,16 +158,26 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
     dw = dw[keep] if dw is not None else None
     nxt = slip_candidates(model, mu_next)  # (n, n_c, 2): the next slips the world may pick (from the slip at t_k+1)
 
-    def v_next(x: np.ndarray) -> np.ndarray:
-        xb = np.broadcast_to(x[:, None, :], nxt.shape[:2] + x.shape[1:])
+    def v_next(x: np.ndarray, runs: np.ndarray | None = None) -> np.ndarray:
+        """V at t_k+1 of the states x of ``runs`` (default: every kept run), the largest over the next slips."""
+        nx = nxt if runs is None else nxt[runs]
+        xb = np.broadcast_to(x[:, None, :], nx.shape[:2] + x.shape[1:])
         if lyap.path:
-            return np.max(lyap.V(xb, nxt, prev=np.broadcast_to(dw[:, None, :], nxt.shape[:2] + dw.shape[1:])), axis=1)
-        return np.max(lyap.V(xb, nxt), axis=1)
+            d = dw if runs is None else dw[runs]
+            return np.max(lyap.V(xb, nx, prev=np.broadcast_to(d[:, None, :], nx.shape[:2] + d.shape[1:])), axis=1)
+        return np.max(lyap.V(xb, nx), axis=1)
 
     r_nl_all, r_lin_all = v_next(xi_nl) / level, v_next(xi_lin) / level
     judged = np.ones_like(jumped) if within_period else ~jumped  # the runs the certificate speaks about
     r_nl, r_lin = r_nl_all[judged], r_lin_all[judged]
     worst = int(np.flatnonzero(judged)[np.argmax(r_nl)])
+    refined = None
+    if refine:
+        def one_period(x: np.ndarray, runs: np.ndarray, t: np.ndarray) -> np.ndarray:
+            return _robot_period(model, K, x, S[keep][runs], mu[runs], mu_next[runs], t, bool(n_jump))[0]
+
+        refined = _refine_worst(model, lyap, level, xi, mu, t_sw, jumped, np.flatnonzero(judged), r_nl_all, refine,
+                                one_period, lambda x, runs: v_next(x, runs) / level, rng)
     gap = np.max(np.abs(xi_nl[judged, :n_e] - xi_lin[judged, :n_e]), axis=0)
     mid = {"runs": int(np.count_nonzero(jumped)), "covered": bool(within_period)}
     if mid["runs"]:
@@ -200,23 +204,101 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
     if np.any(jumped & ~judged):  # slip jumping within the period, which this certificate does not cover: reported
         cont["mid_period"] = {"runs": int(np.count_nonzero(jumped & ~judged)),
                               **dict(zip(names, (float(x) for x in np.max(between[jumped & ~judged], axis=0))))}
+    worst_run = {"xi": xi[worst], "mu": mu[worst], "mu_after": mu_next[worst], "t_switch": t_sw[worst],
+                 "tau": taus[worst], "xi_next": xi_nl[worst],
+                 "V_over_level": float(r_nl_all[worst]), "V_over_level_linear": float(r_lin_all[worst])}
+    max_nl = float(np.max(r_nl))
+    refinement = None
+    if refined is not None:
+        refinement = {"starts": refined["starts"], "rounds": REFINE_ROUNDS, "tries": REFINE_TRIES, "runs": refined["runs"],
+                      "max_V_over_level_before": max_nl, "max_V_over_level_after": refined["max"]}
+        if refined["max"] > max_nl:
+            j = refined["run"]
+            max_nl = refined["max"]
+            worst_run = {"xi": refined["xi"], "mu": mu[j], "mu_after": mu_next[j], "t_switch": refined["t_switch"],
+                         "tau": taus[j], "xi_next": refined["xi_next"], "V_over_level": refined["max"],
+                         "V_over_level_linear": None}  # the exact map was not run on the refined state
     return {
         "arcs": arcs,
         "between_samples": cont,
+        "refinement": refinement,
         "samples": int(np.count_nonzero(judged)),
         "directions": {"random": int(samples + n_jump), "figure_maximizing": int(N - samples - n_jump),
                        "dropped_inadmissible_memory": int(N - np.count_nonzero(keep))},
-        "max_V_over_level_nonlinear": float(np.max(r_nl)),
+        "max_V_over_level_nonlinear": max_nl,
         "max_V_over_level_linear": float(np.max(r_lin)),
         "fraction_outside_nonlinear": float(np.mean(r_nl > 1.0)),
         "fraction_outside_linear": float(np.mean(r_lin > 1.0)),
         "max_period_gap": {"e_x": float(gap[0]), "e_y": float(gap[1]), "e_theta": float(gap[2])},
         "mid_period": mid,
         # t_switch: each track's time (2,) when the probe drew jumps, else one time (the period's end: none)
-        "worst": {"xi": xi[worst], "mu": mu[worst], "mu_after": mu_next[worst], "t_switch": t_sw[worst],
-                  "tau": taus[worst], "xi_next": xi_nl[worst],
-                  "V_over_level": float(r_nl_all[worst]), "V_over_level_linear": float(r_lin_all[worst])},
+        "worst": worst_run,
     }
+
+
+def _refine_worst(model: Any, lyap: Any, level: float, xi: np.ndarray, mu: np.ndarray, t_sw: np.ndarray,
+                  jumped: np.ndarray, judged: np.ndarray, r: np.ndarray, starts: int, one_period: Any, v_over_level: Any,
+                  rng: np.random.Generator) -> dict[str, Any]:
+    """A local search from the ``starts`` worst of the ``judged`` runs (indices; ``r`` their V(xi+)/level):
+    each round perturbs every start's state by ``sigma sqrt(level) L u`` (S = L L' a Lyapunov matrix, u
+    Gaussian), puts it back on the boundary V = level of its slip, perturbs the switch times of a run with a
+    slip jump by ``sigma Ts`` (within the period), drops memories beyond the motor limit, runs one period
+    (``one_period``) and keeps the best per start; sigma starts at 0.2 and halves each round."""
+    n_e, n_u, d_hi = model.n_e, model.n_u, model.d_hi
+    top = judged[np.argsort(r[judged])[::-1][:starts]]
+    best_x, best_t, best_r = xi[top].copy(), t_sw[top].copy(), r[top].copy()
+    best_next = np.full_like(best_x, np.nan)
+    Ls = np.array([np.linalg.cholesky(S) for S in lyap.S])
+    runs = 0
+    for rnd in range(REFINE_ROUNDS):
+        sigma = 0.2 * 0.5**rnd
+        rep = np.repeat(np.arange(top.size), REFINE_TRIES)
+        step = np.einsum("nij,nj->ni", Ls[rng.integers(0, Ls.shape[0], rep.size)], rng.normal(size=(rep.size, xi.shape[1])))
+        x = best_x[rep] + sigma * np.sqrt(level) * step
+        x *= np.sqrt(level / lyap.V(x, mu[top[rep]]))[:, None]
+        t = best_t[rep].copy()
+        moves = jumped[top[rep]]
+        if t.ndim == 2 and np.any(moves):
+            t[moves] = np.clip(t[moves] + sigma * model.Ts * rng.normal(size=t[moves].shape), 0.0, model.Ts)
+        ok = _within_motor_limit(model, np.array([model.V, 0.0]) + x[:, n_e : n_e + d_hi * n_u].reshape(-1, d_hi, n_u))
+        if not np.any(ok):
+            continue
+        rep, x, t = rep[ok], x[ok], t[ok]
+        xn = one_period(x, top[rep], t)
+        v = v_over_level(xn, top[rep])
+        runs += int(rep.size)
+        for k in np.unique(rep):
+            mine = np.flatnonzero(rep == k)
+            b = mine[np.argmax(v[mine])]
+            if v[b] > best_r[k]:
+                best_x[k], best_t[k], best_r[k], best_next[k] = x[b], t[b], v[b], xn[b]
+    j = int(np.argmax(best_r))
+    return {"starts": int(top.size), "runs": runs, "max": float(best_r[j]), "run": int(top[j]), "xi": best_x[j],
+            "t_switch": best_t[j], "xi_next": best_next[j]}
+
+
+def _robot_period(model: Any, K: np.ndarray, xi: np.ndarray, S: np.ndarray, mu: np.ndarray, mu_after: np.ndarray,
+                  t_sw: np.ndarray, jumps: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, list | None]:
+    """One period of the nonlinear robot on a straight line along x from the lifted states ``xi`` (N, n_s):
+    the deployed law computes du_k from the pose, the commands in flight act at the instants ``S``, the
+    slip is ``mu`` (jumping to ``mu_after`` at ``t_sw`` when ``jumps``).  Returns the lifted state at
+    t_k+1, du_k, the commands in flight and the slip changes."""
+    n_e, n_u, d_hi, n_z = model.n_e, model.n_u, model.d_hi, model.n_z
+    N = xi.shape[0]
+    du_past = xi[:, n_e : n_e + d_hi * n_u].reshape(N, d_hi, n_u)
+    path = make_path(((0.0, 0.0), (model.V * model.Ts * 20.0, 0.0)), model.V)
+    q0 = pose_from_error(path, xi[:, :n_e])
+    law = Law(np.asarray(K, dtype=float).tolist(), model.Ts, bool(n_z), path.table)
+    law.reset(past=[du_past[:, j, i].copy() for j in range(d_hi) for i in range(n_u)],
+              z=[xi[:, model.n_s - n_z + i].copy() for i in range(n_z)])
+    dv, dom = law.correction(0.0, q0[:, 0], q0[:, 1], q0[:, 2])
+    du = np.stack([dv, dom], axis=1)
+    robot = KinematicRobot.of(model)
+    U = robot.send(robot.memory(du_past, N), np.array([model.V, 0.0]) + du)
+    changes = track_changes(mu, mu_after, t_sw) if jumps else None
+    q1 = robot.period(q0, U, S, mu, switch=changes)
+    e1 = frame_error(path, 0, q1, model.Ts)
+    return np.concatenate([e1, np.stack(law.past + law.z, axis=1)], axis=1), du, U, changes
 
 
 def _within_motor_limit(model: Any, commands: np.ndarray) -> np.ndarray:
