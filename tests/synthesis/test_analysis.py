@@ -68,3 +68,19 @@ def test_paper_model_uses_a_common_matrix_only() -> None:
     m = build_model(make_config(**{"synthesis.model": "paper"}))
     res = analyze_stability(m, synthesize(m).K, lyapunov="auto")
     assert res.certified and res.lyapunov == "common" and len(res.attempts) == 1
+
+
+def test_a_gain_whose_certificate_is_ill_conditioned_is_certified() -> None:
+    """A constant delay of 0.05 s: the synthesized gain's own Q has condition number ~5e4, beyond the first
+    box I <= X <= ANALYSIS_KAPPA I, where the analysis found nothing and `margin` said "certified none" at
+    the configured point (review).  The wider box finds a certificate, which the numpy re-check accepts."""
+    from robustsynth.synthesis.lmis import ANALYSIS_KAPPA
+
+    m = build_model(make_config(**{"network.delay.min": 0.05, "network.delay.max": 0.05}))
+    res = synthesize(m)
+    assert res.certified
+    Q = np.asarray(res.certificate["Q"])
+    assert np.linalg.cond(Q) > ANALYSIS_KAPPA  # why the first box cannot hold it
+    a = analyze_stability(m, res.K)
+    assert a.certified and check_certificate(m, res.K, a.certificate).passed
+    assert _max_frozen_rho(m, res.K) < 1.0

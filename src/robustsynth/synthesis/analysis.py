@@ -16,7 +16,7 @@ import numpy as np
 
 from ..certificate import CertificateCheck, check_certificate, varying_failures
 from .design import CUTS_PER_ROUND, MAX_CUT_ROUNDS, _cert_common, _Cuts
-from .lmis import build_stability
+from .lmis import ANALYSIS_KAPPA, ANALYSIS_KAPPA_WIDE, build_stability
 from .solve import solve
 
 __all__ = ["AnalysisResult", "analyze_stability", "STABILITY_R"]
@@ -40,12 +40,24 @@ class AnalysisResult:
 
 def _one(model: Any, K: np.ndarray, lyapunov: str, multiplier: str, margin: float, solver: str,
          r: float) -> tuple[str, dict | None, CertificateCheck | None]:
+    """One Lyapunov class: the box ``I <= X <= ANALYSIS_KAPPA I`` first, then, where it holds no
+    certificate, the wider ``ANALYSIS_KAPPA_WIDE`` (a review found a synthesized gain whose own Q has
+    condition number 5.2e4 reported uncertifiable).  Whatever is found passes the numpy re-check."""
+    status, cert, chk = _one_box(model, K, lyapunov, multiplier, margin, solver, r, ANALYSIS_KAPPA)
+    if status == "certified":
+        return status, cert, chk
+    wide = _one_box(model, K, lyapunov, multiplier, margin, solver, r, ANALYSIS_KAPPA_WIDE)
+    return wide if wide[0] == "certified" or status != "infeasible" else (status, cert, chk)
+
+
+def _one_box(model: Any, K: np.ndarray, lyapunov: str, multiplier: str, margin: float, solver: str,
+             r: float, kappa: float) -> tuple[str, dict | None, CertificateCheck | None]:
     model = model.linearized()  # robust stability of a fixed K: a statement about the linearization
     cuts: list[int] = []  # within-period vertices added to the LMIs (constraint generation, as in synthesis)
     for _ in range(MAX_CUT_ROUNDS + 1):
         lmi_model = model.with_cuts(cuts) if cuts else model
         lp = build_stability(lmi_model, multiplier, margin, lyapunov, K=K,
-                             symmetry=not cuts and model.config.synthesis.symmetry == "auto")
+                             symmetry=not cuts and model.config.synthesis.symmetry == "auto", kappa=kappa)
         lp.params["r2"].value = r * r
         held: dict[str, Any] = {}
 

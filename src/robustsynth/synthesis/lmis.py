@@ -68,7 +68,8 @@ class LMIProblem:
         return out
 
 
-ANALYSIS_KAPPA = 1e4  # analysis of a given gain: Lyapunov matrices with I <= X <= kappa I
+ANALYSIS_KAPPA = 1e4  # analysis of a given gain: Lyapunov matrices with I <= X <= kappa I, first;
+ANALYSIS_KAPPA_WIDE = 1e7  # then, where none is found, this wider box (a synthesized gain's Q may need 5e4)
 
 
 def multiplier(n_blocks: int, kind: str, tag: str = "") -> tuple[Any, list[cp.Variable]]:
@@ -347,11 +348,11 @@ def _multipliers(model: Any, kind: str, margin: float, mirror: Any = None) -> tu
 
 
 def build_stability(model: Any, kind: str, margin: float, lyapunov: str = "common",
-                    K: np.ndarray | None = None, symmetry: bool = True) -> LMIProblem:
+                    K: np.ndarray | None = None, symmetry: bool = True, kappa: float = ANALYSIS_KAPPA) -> LMIProblem:
     """Robust decay rate r (docs/theory.md §6a); scale fixed by Q >= I (S_m >= I); parameter r2 = r^2.
 
     With ``K`` given the gain is fixed (analysis): ``Y = K Q`` (``K G``) is then an expression and the
-    problem asks for a Lyapunov certificate of that gain only."""
+    problem asks for a Lyapunov certificate of that gain only, with ``I <= X <= kappa I``."""
     model = model.linearized()  # no constant column here: the stability LMI is about the linearization
     lv = _Lyap(model, lyapunov, K, model.mirror(lyapunov) if symmetry else None)
     n_s = model.n_s
@@ -377,7 +378,7 @@ def build_stability(model: Any, kind: str, margin: float, lyapunov: str = "commo
     cons += lv.scale(1.0)
     mats = lv.mats
     if t is not None:
-        cons += [X << ANALYSIS_KAPPA * np.eye(n_s) for X in mats]
+        cons += [X << kappa * np.eye(n_s) for X in mats]
         return LMIProblem(cp.Problem(cp.Maximize(t), cons), M=Ms, params={"r2": r2}, extra={"t": t},
                           **lv.problem_kwargs())
     prob = cp.Problem(cp.Minimize(sum(cp.trace(X) for X in mats) / (n_s * len(mats))), cons)
