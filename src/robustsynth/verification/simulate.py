@@ -386,17 +386,23 @@ def adversary_start(model, K: np.ndarray, mu0: np.ndarray, steps: int, starts: n
 def run_logs(model, sim: SimResult, scen: Scenario, name: str = "run") -> list:
     """The Monte Carlo runs as robot logs (:mod:`robustsynth.artifacts.logs`): per run and sampling
     instant the measured pose (with the scenario's sensor noise), the command sent then (as motor
-    speeds), its send time t_k and the instant it started acting, t_k + tau_k (empty when lost)."""
+    speeds), its send time t_k and the instant it started acting (empty when lost).  That instant is
+    the simulator's (``s_tilde_sequence``): a command that arrives before an older one waits for it, so
+    it acts from max(t_k + tau_k, the older commands' arrivals).  Writing the raw arrival t_k + tau_k
+    instead (as before a review) made the logs of delays wider than a period show commands the
+    simulated robot never overtook, and check-log and identify misread them."""
     from ..artifacts.logs import RobotLog
 
-    N, steps = scen.runs, scen.steps
+    N, steps, d_hi = scen.runs, scen.steps, model.d_hi
     t = sim.t[:steps]
     meas = sim.q[:, :steps] + scen.noise[:, :steps]
-    tau = scen.taus[:, model.d_hi : model.d_hi + steps]
+    # every packet from the d_hi sent before t_0 on: sent at (i - d_hi) Ts, arriving tau_i later (inf: lost)
+    sent = (np.arange(d_hi + steps) - d_hi) * model.Ts
+    arrival = sent + scen.taus[:, : d_hi + steps]
+    acts_from = np.maximum.accumulate(np.where(np.isfinite(arrival), arrival, -np.inf), axis=1)[:, d_hi:]
     logs = []
     for n in range(N):
-        applied = t + tau[n]
+        applied = np.where(np.isfinite(arrival[n, d_hi:]), acts_from[n], np.nan)
         logs.append(RobotLog(f"{name}_{n:03d}.csv", t.copy(), meas[n, :, 0], meas[n, :, 1], meas[n, :, 2],
-                             np.arange(steps, dtype=float), sim.rho[n, :, 0], sim.rho[n, :, 1], t.copy(),
-                             np.where(np.isfinite(applied), applied, np.nan)))
+                             np.arange(steps, dtype=float), sim.rho[n, :, 0], sim.rho[n, :, 1], t.copy(), applied))
     return logs
