@@ -176,3 +176,26 @@ def test_icr_margins_per_slip_parameter() -> None:
     half = (xi.shape[1] - 1) // 2
     rate = (n[-1] / n[half]) ** (1.0 / (xi.shape[1] - 1 - half))
     assert rate == pytest.approx(x.witness["spectral_radius"], rel=GROWTH_RTOL)
+
+
+def test_margin_without_config_takes_the_gains_own_config() -> None:
+    """`margin --gains FILE` without CONFIG had analysed any gain against the embedded default config (its
+    slip range, delays, model) without a word (review): now the config stored in the file, said in one
+    line; a gain made for the default config keeps it, silently."""
+    from pathlib import Path
+
+    from robustsynth.cli import _stored_config_instead
+    from robustsynth.config import load_config
+
+    said: list[str] = []
+
+    class _Say:
+        def say(self, line: str) -> None:
+            said.append(line)
+
+    root = Path(__file__).resolve().parents[1] / "results" / "baselines"
+    default = load_config(None)
+    cfg = _stored_config_instead(_Say(), default, root / "nonlinear-proof" / "gains.json")
+    assert cfg.name == "nonlinear-proof" and cfg.slip.right.min == 0.8
+    assert len(said) == 1 and "nonlinear-proof" in said[0]
+    assert _stored_config_instead(_Say(), default, root / "default" / "gains.json") is default and len(said) == 1

@@ -151,6 +151,23 @@ def _needs_its_config(config: Path | None, gains: Path | None, command: str) -> 
                          f"(robustsynth {command} CONFIG --gains {gains})")
 
 
+def _stored_config_instead(obj: Any, default: Any, gains: Path) -> Any:
+    """Without CONFIG: the config stored in the gains file when it is another than the default one (the
+    gain's margins against the default robot, network and slip had been reported silently), said in one line."""
+    from .artifacts.gains import load_gains, stored_config
+    from .config import config_to_dict
+    from .errors import InputError
+
+    try:
+        stored = stored_config(load_gains(gains))
+    except (InputError, OSError, ValueError, AttributeError):
+        return default  # the command's own loading reports what is wrong with the file
+    if stored is None or config_to_dict(stored) == config_to_dict(default):
+        return default
+    obj.say(f"config: the one stored in {gains} ({stored.name!r}); pass CONFIG to take the gain's margins on another")
+    return stored
+
+
 def _gains_outdir(cfg: Any, outdir: Path | None, gains: Path | None) -> Path:
     """-o if given, else beside --gains (the files belong to that gain), else results/<name>/."""
     if outdir is not None:
@@ -613,6 +630,8 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
 
     _needs_its_config(config, gains, "margin")
     cfg = _load(config, lti_ok=True)
+    if config is None and gains is not None:  # the gain's own config, not the default one (review)
+        cfg = _stored_config_instead(obj, cfg, gains)
     if is_lti(cfg):
         if lyapunov is not None:
             from .errors import InputError
