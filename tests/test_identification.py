@@ -124,7 +124,7 @@ def test_cli_identify_and_check_log(logs, tmp_path) -> None:
     r = run("identify", *paths, "--config", str(conf), "-o", str(tmp_path / "frag.yaml"), "--max-motor-speed", "20")
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "frag.yaml").exists() and (tmp_path / "frag.md").exists() and (tmp_path / "frag.png").exists()
-    r = run("check-log", *paths, "--config", str(conf), "--max-motor-speed", "20")
+    r = run("check-log", *paths, "--config", str(conf))  # the config's robot.max_motor_speed (20) by default
     assert r.returncode == 0, r.stdout + r.stderr
     narrow = config_to_dict(cfg)
     narrow["network"]["delay"]["max"] = 0.05

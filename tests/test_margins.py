@@ -199,3 +199,10 @@ def test_margin_without_config_takes_the_gains_own_config() -> None:
     assert cfg.name == "nonlinear-proof" and cfg.slip.right.min == 0.8
     assert len(said) == 1 and "nonlinear-proof" in said[0]
     assert _stored_config_instead(_Say(), default, root / "default" / "gains.json") is default and len(said) == 1
+
+
+def test_a_margin_line_puts_no_unit_after_none() -> None:
+    from robustsynth.margins import Margin
+
+    m = Margin("delay_max", "s", "max", 0.05, None, 0.0848, None, None)
+    assert m.line().startswith("delay_max: configured 0.05 s, certified none, exhibited 0.0848 s")

@@ -124,7 +124,7 @@ def _load(config: Path | None, lti_ok: bool = False):
 
         cmd = click.get_current_context().info_name
         raise InputError(f"plant.kind: lti: `robustsynth {cmd}` is not available for a linear plant yet "
-                         "(available: build-model, synthesize, verify, run, margin)")
+                         "(available: build-model, synthesize, verify, run, margin, sweep, export)")
     return cfg
 
 
@@ -674,6 +674,15 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
     obj.say(f"wrote {', '.join(str(p) for p in st.files)}")
 
 
+def _motor_limit(given: float | None, cfg: Any) -> float | None:
+    """--max-motor-speed, else the config's robot.max_motor_speed: the motors saturate there, and a period
+    with a command beyond it says nothing about slip (a review found the verifier's own logs flagged at
+    the waypoint turns, commands of 19.7 rad/s against 12); inf: no period skipped."""
+    if given is None:
+        return cfg.robot.max_motor_speed
+    return None if given == float("inf") else given
+
+
 @main.command("identify")
 @_verbosity
 @click.argument("logs", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
@@ -690,7 +699,8 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
               metavar="POSITION HEADING",
               help="--model icr: std of the logged poses [m] [rad] [default: the config's verification.noise].")
 @click.option("--max-motor-speed", type=click.FloatRange(min=0, min_open=True), default=None,
-              help="Skip periods with a command beyond this motor speed [rad/s] (saturated motors).")
+              help="Skip periods with a command beyond this motor speed [rad/s] (saturated motors) [default: the "
+                   "config's robot.max_motor_speed; inf: skip none].")
 @click.option("--no-plots", is_flag=True, help="Skip the figure.")
 @click.pass_obj
 @_guard
@@ -702,8 +712,9 @@ def identify_cmd(obj: _Ctx, logs: tuple[Path, ...], out: Path | None, config: Pa
     """
     from .pipeline import identification_stage
 
-    ident, text, written = identification_stage(list(logs), _load(config), out, coverage, model, max_motor_speed,
-                                                not no_plots, pose_noise)
+    cfg = _load(config)
+    ident, text, written = identification_stage(list(logs), cfg, out, coverage, model,
+                                                _motor_limit(max_motor_speed, cfg), not no_plots, pose_noise)
     if out is None:
         click.echo(text, nl=False)
     else:
@@ -721,7 +732,8 @@ def identify_cmd(obj: _Ctx, logs: tuple[Path, ...], out: Path | None, config: Pa
 @click.option("--tolerance", type=click.FloatRange(0.0, 1.0), default=0.005, show_default=True,
               help="Fraction of samples allowed outside an assumption before it counts as violated.")
 @click.option("--max-motor-speed", type=click.FloatRange(min=0, min_open=True), default=None,
-              help="Skip slip estimates of periods with a command beyond this motor speed [rad/s].")
+              help="Skip slip estimates of periods with a command beyond this motor speed [rad/s] [default: the "
+                   "config's robot.max_motor_speed; inf: skip none].")
 @click.option("--pose-noise", "pose_noise", type=_FINITE_NONNEG, nargs=2, default=None,
               metavar="POSITION HEADING",
               help="slip.model icr: std of the logged poses [m] [rad] [default: the config's verification.noise].")
@@ -750,7 +762,7 @@ def check_log_cmd(obj: _Ctx, logs: tuple[Path, ...], config: Path | None, gains:
             raise InputError(f"{gains}: config: the gains file holds no config (use --config)")
     else:
         cfg = _load(config)
-    rows = check_log([read_log(p) for p in logs], cfg, max_motor_speed, pose_noise)
+    rows = check_log([read_log(p) for p in logs], cfg, _motor_limit(max_motor_speed, cfg), pose_noise)
     bad = unchecked = 0
     for r in rows:
         rng = f"{r['assumption']} in [{r['range'][0]:g}, {r['range'][1]:g}] ({r['unit']})"

@@ -78,9 +78,10 @@ class Margin:
         def f(x: float | None) -> str:
             return "none" if x is None else f"{x:.4g}"
 
-        unit = f" {self.unit}" if self.unit else ""
-        text = (f"{self.name}: configured {f(self.configured)}{unit}, certified {f(self.certified)}{unit}, "
-                f"exhibited {f(self.exhibited)}{unit}")
+        def u(x: float | None) -> str:  # no unit after "none" (review: "certified none s")
+            return f"{f(x)} {self.unit}" if self.unit and x is not None else f(x)
+
+        text = f"{self.name}: configured {u(self.configured)}, certified {u(self.certified)}, exhibited {u(self.exhibited)}"
         if self.gap is not None:  # the share of the exhibited margin the certificate may miss
             text += f" (the certificate may miss {100 * self.gap:.1f} % of the exhibited margin)"
         if self.exhibited is None and self.searched is not None:

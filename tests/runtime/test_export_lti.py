@@ -60,6 +60,14 @@ def test_python_module_matches_the_lifted_law(tmp_path) -> None:
     # and it is the lifted state's product: xi_k = [x_k; u_{k-1}; u_{k-2}]
     xi = np.concatenate([xs[5], got[4], got[3]])
     assert np.allclose(K @ xi, got[5], rtol=0, atol=1e-12)
+    assert "xi_k = [x_k; u_(k-1); u_(k-2)]:" in files[0].read_text()  # as the module's docstring says (d = 2)
+
+
+def test_the_lifted_state_is_written_as_it_is() -> None:
+    """A review found "[x_k; u_(k-1); ...; u_(k-1)]" in the docstring of a d = 1 export."""
+    from robustsynth.runtime.export_lti import _lifted
+
+    assert [_lifted(d) for d in (1, 2, 4)] == ["[x_k; u_(k-1)]", "[x_k; u_(k-1); u_(k-2)]", "[x_k; u_(k-1); ...; u_(k-4)]"]
 
 
 @pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")

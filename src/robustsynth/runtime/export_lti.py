@@ -38,13 +38,21 @@ def certified_word(d: dict[str, Any]) -> str:
     return "certified" if d.get("certified") else "UNCERTIFIED (no certificate that holds for this gain)"
 
 
+def _lifted(d: int) -> str:
+    """The lifted state as the generated files write it: [x_k; u_(k-1)] for d = 1, [x_k; u_(k-1); ...; u_(k-d)]
+    beyond two (a review found "u_(k-1); ...; u_(k-1)" for d = 1)."""
+    if d <= 2:
+        return "[x_k; " + "; ".join(f"u_(k-{j})" for j in range(1, d + 1)) + "]"
+    return f"[x_k; u_(k-1); ...; u_(k-{d})]"
+
+
 def _c_files(d: dict[str, Any]) -> dict[str, bytes]:
     n, m, dd = d["n"], d["m"], d["d"]
     K = d["K"]
     width = n + dd * m
     flat = ", ".join("{" + ", ".join(_f(v) for v in row) + "}" for row in K)
     h = f"""/* rs_lti.h: the {certified_word(d)} law u_k = K xi_k of '{d['name']}' (robustsynth, plant: kind: lti).
-   xi_k = [x_k; u_(k-1); ...; u_(k-{dd})]: the state, then the commands this controller sent, newest first.
+   xi_k = {_lifted(dd)}: the state, then the commands this controller sent, newest first.
    Call rs_lti_step once per sampling instant (every RS_LTI_TS s) with the measured state; send u.
    Bit-identical to the verified law when compiled without floating-point contraction (-ffp-contract=off).
    Do not edit: regenerate with `robustsynth export GAINS --to c`. */
@@ -87,7 +95,7 @@ def _python_module(d: dict[str, Any]) -> bytes:
     rows = ",\n    ".join("(" + ", ".join(_f(v) for v in row) + ",)" for row in d["K"])
     return f'''"""rs_lti.py: the {certified_word(d)} law u_k = K xi_k of '{d['name']}' (robustsynth, plant: kind: lti), no numpy.
 
-xi_k = [x_k; u_(k-1); ...; u_(k-{dd})]: the state, then the commands this controller sent, newest first.
+xi_k = {_lifted(dd)}: the state, then the commands this controller sent, newest first.
 Call step(x) once per sampling instant (every TS s) and send the commands it returns.
 Do not edit: regenerate with `robustsynth export GAINS --to python`.
 """
