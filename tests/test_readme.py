@@ -34,7 +34,8 @@ def test_readme_has_the_documented_blocks() -> None:
 @pytest.mark.parametrize("code", PYTHON, ids=[f"python-{i}" for i in range(len(PYTHON))])
 def test_python_block_runs(code: str, tmp_path: Path, monkeypatch) -> None:
     monkeypatch.chdir(_scratch(tmp_path))
-    exec(compile(code, "README.md", "exec"), {"__name__": "__readme__"})  # noqa: S102 - our own README
+    # as a script would run it (`python file.py`): a block guarded by `if __name__ == "__main__"` runs too
+    exec(compile(code, "README.md", "exec"), {"__name__": "__main__"})  # noqa: S102 - our own README
 
 
 def test_quick_start_shell_block_runs(tmp_path: Path) -> None:

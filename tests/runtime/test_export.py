@@ -137,6 +137,9 @@ def test_ros2_and_json_carry_the_controller(tmp_path: Path) -> None:
     assert p["d_hi"] == ctl.d_hi == 3 and p["sampling_time"] == ctl.Ts and p["has_motor_limit"]
     assert [list(xy) for xy in zip(p["path_x"], p["path_y"])] == ctl.description["path"]
     assert all(v is not None for v in p.values())  # ROS 2 parameters have no null
+    # nor an empty list, which a params file cannot type (ros2/rclcpp#1955): no turn radius, no reference table
+    assert not p["has_turn_radius"] and not any(isinstance(v, list) and not v for v in p.values())
+    assert "ref_x" not in p
 
 
 def test_export_cli_writes_atomically_and_refuses_bad_input(tmp_path: Path) -> None:

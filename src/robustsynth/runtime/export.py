@@ -281,7 +281,7 @@ def ros2_parameters(d: dict[str, Any]) -> bytes:
         "segment_eps": float(d["segment_eps"]),
         "has_turn_radius": d.get("turn_radius") is not None,
         "turn_radius": float(d["turn_radius"]) if d.get("turn_radius") is not None else 0.0,
-        # the turning reference per sampling instant (law.PathTable; empty without a turn radius): pose and the
+        # the turning reference per sampling instant (law.PathTable; absent without a turn radius): pose and the
         # yaw rate w_k sent as feedforward on [t_k, t_k+1); the last entry goes on straight
         **_reference_table(d),
         "gear_radius": float(d["gear_radius"]),
@@ -299,8 +299,8 @@ def ros2_parameters(d: dict[str, Any]) -> bytes:
 def _reference_table(d: dict[str, Any]) -> dict[str, list[float]]:
     from ..law import PathTable
 
-    if d.get("turn_radius") is None:
-        return {"ref_x": [], "ref_y": [], "ref_heading": [], "ref_w": []}
+    if d.get("turn_radius") is None:  # left out: a ROS 2 params file cannot type an empty list (ros2/rclcpp#1955)
+        return {}
     p = PathTable(d["path"], d["reference_speed"], d["turn_radius"], d["sampling_time"])
     return {"ref_x": [float(v) for v in p.ref_x], "ref_y": [float(v) for v in p.ref_y],
             "ref_heading": [float(v) for v in p.ref_heading], "ref_w": [float(v) for v in p.ref_w]}
