@@ -151,7 +151,11 @@ def test_between_samples_the_probe_stays_within_the_bounds_for_all_t() -> None:
     chk = check_certificate(m, K, cert)
     assert chk.passed, chk.reason
     lyap, level = lyapunov_of(m, cert), float(chk.figures["ellipsoid_level"])
-    r = boundary_probe(m, K, lyap, level, samples=3000, seed=4, within_period=True)
+    r = boundary_probe(m, K, lyap, level, samples=3000, seed=4, within_period=True, refine=32)
+    # the turning certificate's claim on arcs holds after the local search too (its yaw rates kept per start)
+    ra = r["arcs"]["refinement"]
+    assert ra["starts"] == 32 and ra["runs"] > 0
+    assert r["arcs"]["max_V_over_level_nonlinear"] == max(ra["max_V_over_level_before"], ra["max_V_over_level_after"]) <= 1.0
     bound, sampled = chk.figures["ultimate_bound_between_samples"], chk.figures["ultimate_bound"]
     for course in ("straight", "arcs"):
         got = r["between_samples"][course]

@@ -360,7 +360,9 @@ def _arcs_text(arcs: dict) -> str:
         judged += (f"; {dropped} more dropped: their stored commands with the feedforward exceed the motor limit, a"
                    " memory never reached")
     out = (f"On arcs (the reference turning at up to {arcs['max_yaw_rate']:.3g} rad/s, the feedforward in the commands;"
-           f" {judged}) the nonlinear robot reaches max V(xi+)/level = {arcs['max_V_over_level_nonlinear']:.4f}. ")
+           f" {judged}) the nonlinear robot reaches max V(xi+)/level = {arcs['max_V_over_level_nonlinear']:.4f}"
+           + (f" ({arcs['refinement']['max_V_over_level_before']:.4f} on these states, then the local search from the"
+              f" {arcs['refinement']['starts']} worst, their yaw rates kept)" if arcs.get("refinement") else "") + ". ")
     if not jumps and "mid_period_max_V_over_level_nonlinear" in arcs:
         out += (f"With the slip jumping within the period (not covered, reported) it reaches "
                 f"{arcs['mid_period_max_V_over_level_nonlinear']:.4f}. ")

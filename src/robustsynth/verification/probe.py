@@ -177,7 +177,8 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
             return _robot_period(model, K, x, S[keep][runs], mu[runs], mu_next[runs], t, bool(n_jump))[0]
 
         refined = _refine_worst(model, lyap, level, xi, mu, t_sw, jumped, np.flatnonzero(judged), r_nl_all, refine,
-                                one_period, lambda x, runs: v_next(x, runs) / level, rng)
+                                one_period, lambda x, runs: v_next(x, runs) / level, rng,
+                                lambda x, runs: _within_motor_limit(model, uD + _memory(model, x)))
     gap = np.max(np.abs(xi_nl[judged, :n_e] - xi_lin[judged, :n_e]), axis=0)
     mid = {"runs": int(np.count_nonzero(jumped)), "covered": bool(within_period)}
     if mid["runs"]:
@@ -194,6 +195,27 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
                 "max_V_over_level_nonlinear": float(np.max(r_arc)), "fraction_outside_nonlinear": float(np.mean(r_arc > 1.0))}
         if np.any(jumped & arc_memory):  # the runs with a jump, judged or not
             arcs["mid_period_max_V_over_level_nonlinear"] = float(np.max(r_arc_all[jumped & arc_memory]))
+        if refine:  # the local search on the arcs, each start keeping its yaw rates
+            w_k = w[keep]
+
+            def arc_one_period(x: np.ndarray, runs: np.ndarray, t: np.ndarray) -> np.ndarray:
+                line, du_r, _, changes_r = _robot_period(model, K, x, S[keep][runs], mu[runs], mu_next[runs], t,
+                                                         bool(n_jump))
+                e = arc_period(model, x[:, :n_e], du_r, _memory(model, x), S[keep][runs], mu[runs], rng,
+                               switch=changes_r, w=w_k[runs])
+                return np.concatenate([e, line[:, n_e:]], axis=1)
+
+            def arc_admissible(x: np.ndarray, runs: np.ndarray) -> np.ndarray:
+                from ..model.arcs import FEEDFORWARD
+
+                return _within_motor_limit(model, uD + _memory(model, x) + w_k[runs, 1:, None] * FEEDFORWARD)
+
+            ra = _refine_worst(model, lyap, level, xi, mu, t_sw, jumped, np.flatnonzero(on_arc), r_arc_all, refine,
+                               arc_one_period, lambda x, runs: v_next(x, runs) / level, rng, arc_admissible)
+            arcs["refinement"] = {"starts": ra["starts"], "runs": ra["runs"],
+                                  "max_V_over_level_before": arcs["max_V_over_level_nonlinear"],
+                                  "max_V_over_level_after": ra["max"]}
+            arcs["max_V_over_level_nonlinear"] = max(arcs["max_V_over_level_nonlinear"], ra["max"])
     names = ("e_x", "e_y", "e_theta")
     cont = {"instants": BETWEEN_INSTANTS, "states": int(np.count_nonzero(judged)),
             "straight": dict(zip(names, (float(x) for x in np.max(between[judged], axis=0)))),
@@ -236,15 +258,20 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
     }
 
 
+def _memory(model: Any, xi: np.ndarray) -> np.ndarray:
+    """The stored commands of lifted states (N, d_hi, n_u), newest first."""
+    return xi[:, model.n_e : model.n_e + model.d_hi * model.n_u].reshape(-1, model.d_hi, model.n_u)
+
+
 def _refine_worst(model: Any, lyap: Any, level: float, xi: np.ndarray, mu: np.ndarray, t_sw: np.ndarray,
                   jumped: np.ndarray, judged: np.ndarray, r: np.ndarray, starts: int, one_period: Any, v_over_level: Any,
-                  rng: np.random.Generator) -> dict[str, Any]:
+                  rng: np.random.Generator, admissible: Any) -> dict[str, Any]:
     """A local search from the ``starts`` worst of the ``judged`` runs (indices; ``r`` their V(xi+)/level):
     each round perturbs every start's state by ``sigma sqrt(level) L u`` (S = L L' a Lyapunov matrix, u
     Gaussian), puts it back on the boundary V = level of its slip, perturbs the switch times of a run with a
     slip jump by ``sigma Ts`` (within the period), drops memories beyond the motor limit, runs one period
-    (``one_period``) and keeps the best per start; sigma starts at 0.2 and halves each round."""
-    n_e, n_u, d_hi = model.n_e, model.n_u, model.d_hi
+    (``one_period``) and keeps the best per start; sigma starts at 0.2 and halves each round.  ``admissible(x,
+    runs)``: which memories the controller can have sent from the set (within the motor limit)."""
     top = judged[np.argsort(r[judged])[::-1][:starts]]
     best_x, best_t, best_r = xi[top].copy(), t_sw[top].copy(), r[top].copy()
     best_next = np.full_like(best_x, np.nan)
@@ -260,7 +287,7 @@ def _refine_worst(model: Any, lyap: Any, level: float, xi: np.ndarray, mu: np.nd
         moves = jumped[top[rep]]
         if t.ndim == 2 and np.any(moves):
             t[moves] = np.clip(t[moves] + sigma * model.Ts * rng.normal(size=t[moves].shape), 0.0, model.Ts)
-        ok = _within_motor_limit(model, np.array([model.V, 0.0]) + x[:, n_e : n_e + d_hi * n_u].reshape(-1, d_hi, n_u))
+        ok = admissible(x, top[rep])
         if not np.any(ok):
             continue
         rep, x, t = rep[ok], x[ok], t[ok]
