@@ -201,6 +201,20 @@ def test_margin_without_config_takes_the_gains_own_config() -> None:
     assert _stored_config_instead(_Say(), default, root / "default" / "gains.json") is default and len(said) == 1
 
 
+def test_margin_without_config_refuses_an_invalid_stored_config(tmp_path) -> None:
+    """An unknown key in the stored config had fallen back to the default config without a word (review): now
+    one line naming it, exit 2, and no margin.json."""
+    from pathlib import Path
+
+    g = json.loads((Path(__file__).resolve().parents[1] / "results" / "baselines" / "nonlinear-proof" / "gains.json").read_text())
+    g["config"]["robot"]["wheel_inertia"] = 0.01
+    (tmp_path / "gains.json").write_text(json.dumps(g))
+    r = CliRunner().invoke(main, ["margin", "--gains", str(tmp_path / "gains.json"), "-o", str(tmp_path / "o")])
+    assert r.exit_code == 2, r.output
+    assert len(r.output.strip().splitlines()) == 1 and "wheel_inertia" in r.output
+    assert not (tmp_path / "o" / "margin.json").exists()
+
+
 def test_a_margin_line_puts_no_unit_after_none() -> None:
     from robustsynth.margins import Margin
 
