@@ -47,6 +47,13 @@ def test_verification_json_is_consistent(run_dir) -> None:
     assert mc["runs"] == 40 and set(mc["maxima"]) >= {"e_x", "e_y", "e_theta", "motor_speed"}
     # the certificate covers slip changing at any time within a period: the runs' slip does so
     assert mc["boundary_probe"]["mid_period"]["covered"] is True
+    # the probe's local search, and the adversary from its worst states: on this linearized certificate both find
+    # the robot leaving the set (1.07 on the default; the adversary from the figure maximizers alone stayed at 0.999)
+    bp = mc["boundary_probe"]
+    ref = bp["refinement"]
+    assert ref["starts"] == 128 and bp["max_V_over_level_nonlinear"] == max(ref["max_V_over_level_before"],
+                                                                             ref["max_V_over_level_after"]) > 1.0
+    assert bp["adversary"]["searched_starts"] == 8 and bp["adversary"]["max_V_over_level"] > 1.0
     assert mc["slip_changes"].startswith("at uniform random times within the periods")
     # and the adversary searched the times of the changes too (a second search, merged with the first)
     assert mc["adversarial"]["slip_change_times"] == [0.0, 0.5]

@@ -160,7 +160,9 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
             + (_arcs_text(bp["arcs"]) if bp.get("arcs") else "")
             + _between_text(bp.get("between_samples") or {}, nonlinear)
             + (f"The adversary's beam search from {bp['adversary']['starts']} of these states (each figure's maximizer"
-               f" at every slip corner) over {bp['adversary']['steps']} periods"
+               " at every slip corner" + (f", and the {bp['adversary']['searched_starts']} worst the local search found"
+                                          if bp["adversary"].get("searched_starts") else "")
+               + f") over {bp['adversary']['steps']} periods"
                + (" (on a straight line and along arcs, fixed ones and ones whose yaw rates it picks)" if len(bp["adversary"].get("courses", ())) > 1 else "")
                + " reaches max V/level ="
                f" {bp['adversary']['max_V_over_level']:.4f}. " if bp.get("adversary") else "")

@@ -49,6 +49,7 @@ LEVEL_TOL = 1e-9  # relative round-off allowed on V in the lifted-model checks
 DIVERGENCE_LIMIT = 1.0  # m: |e_y| beyond this after the transients is divergence (no-bound objectives)
 PROBE_SAMPLES = 50_000  # boundary states probed on the nonlinear robot for one period (plus the figure maximizers)
 PROBE_REFINE = 128  # of them, the worst runs a local search starts from (probe.boundary_probe(refine=...))
+ADVERSARY_FROM_SEARCH = 8  # the beam search from the boundary also starts from this many of the search's worst states
 
 
 @dataclass(frozen=True)
@@ -542,7 +543,7 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
         probe = boundary_probe(model, K, lyap, level, samples=PROBE_SAMPLES, seed=seed,
                                within_period=cert.figures.get("slip_within_period") == "covered", refine=PROBE_REFINE)
         nonlinear_proof = gains["certificate"].get("kinematics", "linearized") == "nonlinear"
-        mc["boundary_probe"] = {k: v for k, v in probe.items() if k != "worst" and v is not None}
+        mc["boundary_probe"] = {k: v for k, v in probe.items() if k not in ("worst", "searched_states") and v is not None}
         mc["boundary_probe"]["in_verdict"] = nonlinear_proof
         if cert.figures.get("ultimate_bound_between_samples"):  # beside what the probe measured between the samples
             mc["boundary_probe"]["between_samples"] = dict(probe["between_samples"],
@@ -550,11 +551,16 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
                                                            sampled=dict(cert.figures["ultimate_bound"]))
         if vc.adversarial_runs:  # the beam search again, now from the boundary (multi-period histories)
             xb, mb = boundary_states(model, K, lyap, level, seed=seed)
+            n_fig = int(xb.shape[0])
+            if probe.get("searched_states") is not None:  # and from the probe's worst states after its local search
+                xs, ms = probe["searched_states"]
+                xb, mb = np.vstack([xb, xs[:ADVERSARY_FROM_SEARCH]]), np.vstack([mb, ms[:ADVERSARY_FROM_SEARCH]])
             if xb.shape[0]:
                 steps_b = min(vc.adversarial_steps, BOUNDARY_ADVERSARY_STEPS)
                 adv_b = _adversary(within, model, K, lyap.V, mb, steps_b, width=vc.adversarial_runs, objectives=("V",),
                                    with_delay=lyap.path, starts=xb)
-                mc["boundary_probe"]["adversary"] = {"starts": int(xb.shape[0]), "steps": steps_b,
+                mc["boundary_probe"]["adversary"] = {"starts": int(xb.shape[0]), "searched_starts": int(xb.shape[0]) - n_fig,
+                                                     "steps": steps_b,
                                                      "max_V_over_level": adv_b["max_V"] / level,
                                                      "courses": list(adversary_courses(model))}
         # waypoint turns: the certificate's bounds through each frame change, beside the verdict (the
@@ -589,7 +595,9 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
                 checks.append(_check("nonlinear: the adversary from the boundary of the certified set keeps it there",
                                      ab["max_V_over_level"] <= 1.0 + LEVEL_TOL, ab["max_V_over_level"], 1.0,
                                      f"beam search over {ab['steps']} periods from {ab['starts']} boundary states (each "
-                                     "figure's maximizer at every slip corner)" + (", on a straight line and along arcs, fixed ones and ones whose "
+                                     "figure's maximizer at every slip corner"
+                                     + (f", and the probe's {ab['searched_starts']} worst after its local search"
+                                        if ab.get("searched_starts") else "") + ")" + (", on a straight line and along arcs, fixed ones and ones whose "
                                                                                   "yaw rates the adversary picks"
                                                                                   if len(ab["courses"]) > 1 else "")))
         worst_v = max(mc["V_over_level"]["max_in_certified_steps"], mc["adversarial"]["max_V_over_level"] if adv else 0.0)

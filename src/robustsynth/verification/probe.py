@@ -244,6 +244,8 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
         "arcs": arcs,
         "between_samples": cont,
         "refinement": refinement,
+        # the search's best states, worst first, and their slips: starts for the adversary (None without a search)
+        "searched_states": (refined["states"], refined["states_mu"]) if refined is not None else None,
         "samples": int(np.count_nonzero(judged)),
         "directions": {"random": int(samples + n_jump), "figure_maximizing": int(N - samples - n_jump),
                        "dropped_inadmissible_memory": int(N - np.count_nonzero(keep))},
@@ -300,7 +302,9 @@ def _refine_worst(model: Any, lyap: Any, level: float, xi: np.ndarray, mu: np.nd
             if v[b] > best_r[k]:
                 best_x[k], best_t[k], best_r[k], best_next[k] = x[b], t[b], v[b], xn[b]
     j = int(np.argmax(best_r))
+    order = np.argsort(best_r)[::-1]
     return {"starts": int(top.size), "runs": runs, "max": float(best_r[j]), "run": int(top[j]), "xi": best_x[j],
+            "states": best_x[order], "states_mu": mu[top[order]],
             "t_switch": best_t[j], "xi_next": best_next[j]}
 
 
