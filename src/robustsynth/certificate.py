@@ -440,7 +440,7 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
                 allowance = max(allowance, allow)
                 if not ok and not unproven:
                     unproven = v.label + lab
-        items = [_item(f"{name} at {count} vertex conditions", worst_val, threshold, worst_lab,
+        items = [_item(f"{name} at {count} vertex condition{'s' if count != 1 else ''}", worst_val, threshold, worst_lab,
                        verified=not unproven, allowance=allowance, unproven=unproven)]
         if varying:  # one stack: the common certificate's single condition at every vertex (§11)
             left, right, _, aleft, aright = conds[0][0]

@@ -837,8 +837,15 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
         if bar is not None:
             bar.render_finish()
     sm, c = vd["straight_max"], vd["certified"]
-    if not vd["certificate"]["passed"]:
-        obj.say(f"no certified bounds: {vd['certificate']['detail']}")
+    vc = vd["certificate"]
+    if not vc["passed"]:
+        obj.say(f"no certified bounds: {vc['detail']}")
+    elif not vc.get("error_bounds"):  # a stability or H-infinity certificate (review: "passed" with nothing judged)
+        obj.say("the certificate states no error bounds (its objective is not ultimate-bound): the errors below are "
+                "not judged, only the slip")
+    if vc.get("model") == "paper":
+        obj.say("the certificate is for the paper's model (synthesis.model: paper), whose slip is not this robot's: "
+                "its bounds are the paper model's claims (verify judges them on the robot)")
     obj.say("straight segments: " + ", ".join(
         f"|{k}| {v * (100 if k != 'e_theta' else 1):.3g} {'cm' if k != 'e_theta' else 'rad'}"
         + (f" (certified {c[k] * (100 if k != 'e_theta' else 1):.3g}, ratio {v / c[k]:.2f})" if c.get(k) else "")
@@ -853,7 +860,7 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
         b = sl["estimated"]
         obj.say(f"slip the engine showed on the straight segments (identify): right [{b['right'][0]:.3f}, {b['right'][1]:.3f}], left "
                 f"[{b['left'][0]:.3f}, {b['left'][1]:.3f}] — " + ("inside" if sl["inside_box"] else "OUTSIDE")
-                + " the config's box" + ("" if not vd["certificate"]["passed"] else
+                + " the config's box" + ("" if not vc["passed"] or vc.get("model") == "paper" else
                                          ": the certificate " + ("covers it" if sl["inside_box"] else "does not apply to this robot")))
     whole = vd.get("slip_whole_episodes", {}).get("estimated")
     if whole:

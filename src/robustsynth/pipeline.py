@@ -231,6 +231,8 @@ def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, e
                      engine: str = "physics") -> dict[str, Any]:
     """``robustsynth validate``: the deployed law on the physics robot (:mod:`.verification.physics`);
     writes the episodes as robot logs under ``outdir/logs/`` and ``validation.json`` (last)."""
+    import numpy as np
+
     from .artifacts.files import commit_files, json_bytes, make_dir
     from .artifacts.gains import gains_id, load_gains
     from .certificate import recheck_gains
@@ -242,8 +244,8 @@ def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, e
     gains = load_gains(gains_path)
     if gains.get("kind") == "lti":
         raise InputError(f"{gains_path}: a linear plant's gains (kind: lti); validate runs the tracked robot")
-    K = gains["K"]
-    size = (len(K), len(K[0]) if K else 0)
+    K = np.atleast_2d(np.asarray(gains["K"], dtype=float))  # a list (gains.json) or an array (gains.mat)
+    size = K.shape if K.size else (0, 0)
     if size != (model.n_u, model.n_s):  # no law to run (a traceback before)
         raise InputError(f"{gains_path}: K has {size[0]} x {size[1]} entries; this config's controller "
                          f"needs {model.n_u} x {model.n_s} (d_hi = {model.d_hi})")
@@ -263,7 +265,10 @@ def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, e
     vd["slip"]["where"] = "straight segments (the steps the certificate covers)"
     vd["slip_whole_episodes"] = _observed_slip(model, res["logs"])
     vd["certificate"] = {"passed": rechecked.passed,
-                         "detail": "re-checked in numpy for this config" if rechecked.passed else rechecked.reason}
+                         "detail": "re-checked in numpy for this config" if rechecked.passed else rechecked.reason,
+                         # what the bounds are a claim about (review: a paper-model gain was said to be covered)
+                         "model": (gains.get("certificate") or {}).get("model"),
+                         "error_bounds": bool(rechecked.passed and rechecked.figures.get("ultimate_bound"))}
     vd["passed"] = bool(vd["passed"] and vd["slip"].get("inside_box", True) and rechecked.passed)
     if plots:
         from .report.plots import validation_figure
@@ -271,6 +276,8 @@ def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, e
         res["validation"]["passed"] = vd["passed"]
         validation_figure(res, model.config.verification.path, outdir / "validation.png")
         vd["figure"] = "validation.png"
+    elif (outdir / "validation.png").exists():  # an earlier run's figure would read as this one's (review)
+        remove_files(outdir, ("validation.png",))
     commit_files(outdir, {"validation.json": json_bytes(vd)}, primary="validation.json")
     return vd
 
@@ -334,11 +341,20 @@ def write_run_logs(model: Model, result: Any, logdir: str | Path) -> list[Path]:
 
 
 def _write_logs(logs: list, logdir: str | Path) -> list[Path]:
-    """Robot logs as CSV files in ``logdir`` (created), each under its own name."""
+    """Robot logs as CSV files in ``logdir`` (created), each under its own name.  Logs an earlier run left
+    under the same naming (``episode_NNN.csv``, ``excite_NNN.csv``, ``run_NNN.csv``) that this one does not
+    write are removed first: identify read them with the new ones (review); other files stay."""
+    import re
+
     from .artifacts.files import make_dir
     from .artifacts.logs import write_log
 
     logdir = make_dir(logdir)
+    names = {log.path for log in logs}
+    prefixes = {m.group(1) for m in (re.fullmatch(r"(.+)_\d{3,}\.csv", n) for n in names) if m}
+    stale = [p.name for p in sorted(logdir.iterdir()) if p.is_file() and p.name not in names
+             and (m := re.fullmatch(r"(.+)_\d{3,}\.csv", p.name)) and m.group(1) in prefixes]
+    remove_files(logdir, tuple(stale))
     paths = []
     for log in logs:
         write_log(logdir / log.path, log)

@@ -173,3 +173,52 @@ def test_on_a_path_rounded_by_arcs_the_straight_segments_leave_the_arcs_out(tmp_
     assert res["validation"]["straight_rule"].startswith("between the arcs")
     assert not np.any(res["straight"][0] & (w != 0.0)) and np.any(res["straight"][0])
     assert res["validation"]["turn_max"]["e_y"] > 0.0
+
+
+def test_a_second_run_leaves_no_stale_logs_or_figure(tmp_path) -> None:
+    """validate into a directory an earlier validate filled: its logs beyond this run's episodes and its figure
+    (this run has --no-plots) are removed; identify had fitted the stale logs with the new ones (review)."""
+    g = str(ROOT / "results" / "baselines" / "default" / "gains.json")
+    cfg = str(ROOT / "configs" / "default.yaml")
+    r = CliRunner().invoke(main, ["validate", cfg, "--engine", "kinematic", "--gains", g, "--episodes", "3", "-o", str(tmp_path)])
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "validation.png").exists() and len(list((tmp_path / "logs").glob("episode_*.csv"))) == 3
+    (tmp_path / "logs" / "mine.csv").write_text("kept\n")  # not a name validate writes: it stays
+    r = CliRunner().invoke(main, ["validate", cfg, "--engine", "kinematic", "--gains", g, "--episodes", "1", "--no-plots",
+                                  "-o", str(tmp_path)])
+    assert r.exit_code == 0, r.output
+    assert sorted(p.name for p in (tmp_path / "logs").iterdir()) == ["episode_000.csv", "mine.csv"]
+    assert not (tmp_path / "validation.png").exists()
+
+
+def test_a_gains_mat_validates_and_bounds_that_are_not_the_robots_are_said(tmp_path) -> None:
+    """A gains.mat (K as an array) had crashed with a traceback and exit 1.  A stability certificate states no
+    error bounds, and a paper-model certificate's bounds are the paper model's, not the robot's: validate says so
+    (it had said "passed" with nothing judged, and "the certificate covers it" of a paper-model gain: review)."""
+    from scipy.io import savemat
+
+    from robustsynth.artifacts.gains import gains_mat_vars
+
+    gains = json.loads((ROOT / "results" / "baselines" / "default" / "gains.json").read_text())
+    savemat(tmp_path / "gains.mat", gains_mat_vars(gains))
+    cfg = str(ROOT / "configs" / "default.yaml")
+    r = CliRunner().invoke(main, ["validate", cfg, "--engine", "kinematic", "--gains", str(tmp_path / "gains.mat"),
+                                  "--episodes", "1", "--no-plots", "-o", str(tmp_path / "m")])
+    assert r.exit_code == 0, r.output
+    assert "certified" in r.output and "covers it" in r.output
+    from robustsynth.artifacts.files import to_jsonable
+    from robustsynth.config import load_config
+    from robustsynth.model import build_model
+    from robustsynth.synthesis.analysis import analyze_stability
+
+    stab = analyze_stability(build_model(load_config(cfg)), gains["K"], lyapunov="common")  # a stability certificate
+    assert stab.certified
+    for model, said in (("paper", "the paper's model"), ("stability", "states no error bounds")):
+        cert = dict(gains["certificate"], model=model) if model == "paper" else to_jsonable(stab.certificate)
+        g = dict(gains, certificate=cert)
+        (tmp_path / f"{model}.json").write_text(json.dumps(g))
+        r = CliRunner().invoke(main, ["validate", cfg, "--engine", "kinematic", "--gains", str(tmp_path / f"{model}.json"),
+                                      "--episodes", "1", "--no-plots", "-o", str(tmp_path / model)])
+        assert said in r.output, r.output
+        # the slip box is covered by a stability certificate (robust stability), not by the paper model's
+        assert ("covers it" in r.output) == (model == "stability"), r.output
