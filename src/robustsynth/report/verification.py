@@ -203,11 +203,11 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
         note = "exceeds" if m_all > cfg.robot.max_motor_speed else "stays within"
         if cfg.reference.turn_radius is not None:
             out.append(
-                f"\nOver whole runs, arcs included, the commanded motor speed (the turning feedforward with it) reaches "
+                f"\nOver whole Monte Carlo runs (the adversary's aside), arcs included, the commanded motor speed (the turning feedforward with it) reaches "
                 f"{m_all:.3f} rad/s, which {note} rho_max = {cfg.robot.max_motor_speed:g} rad/s.\n")
         else:
             out.append(
-                f"\nOver whole runs, waypoint transients included, the commanded motor speed reaches {m_all:.3f} rad/s, which"
+                f"\nOver whole Monte Carlo runs (the adversary's aside), waypoint transients included, the commanded motor speed reaches {m_all:.3f} rad/s, which"
                 f" {note} rho_max = {cfg.robot.max_motor_speed:g} rad/s: the certificate covers the invariant set, and the"
                 " waypoint turns start each segment outside it.\n"
             )

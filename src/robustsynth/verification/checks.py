@@ -640,7 +640,7 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
             mc["certified"]["motor_speed"] = msb
             mc["ratio_to_certified"]["motor_speed"] = ratio
             checks.append(_check(f"nonlinear: max commanded |rho| <= {slack:g} x certified", ratio <= slack,
-                                 worst, slack * msb, f"ratio {ratio:.3f} (rad/s); max over whole runs "
+                                 worst, slack * msb, f"ratio {ratio:.3f} (rad/s; the adversary's runs included); max over whole Monte Carlo runs "
                                  f"{float(np.max(mx['motor_speed_all'])):.3f} rad/s"))
     else:
         worst = worst_of["e_y"]
