@@ -212,6 +212,12 @@ def verification_stage(
         from .report.plots import write_figures
 
         figures = write_figures(res, model, outdir, fmt)
+    # figures/ is this stage's: an earlier verification's figures (another gain, format, or before --no-plots)
+    # would read as this one's (review)
+    if (outdir / "figures").is_dir():
+        kept = {p.name for p in figures.values()}
+        remove_files(outdir, tuple(f"figures/{p.name}" for p in sorted((outdir / "figures").iterdir())
+                                   if p.is_file() and p.suffix in (".png", ".pdf", ".svg") and p.name not in kept))
     rel = {k: str(v.relative_to(outdir)) for k, v in figures.items()}
     try:  # a path relative to OUTDIR keeps verification.json identical across output directories
         shown = str(gp.resolve().relative_to(outdir.resolve()))

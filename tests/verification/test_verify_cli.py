@@ -59,6 +59,20 @@ def test_verification_json_is_consistent(run_dir) -> None:
     assert mc["adversarial"]["slip_change_times"] == [0.0, 0.5]
 
 
+def test_verify_without_plots_leaves_no_earlier_figures(run_dir, tmp_path) -> None:
+    """figures/ belongs to the verification: with --no-plots, an earlier run's figures go (they read as this
+    verification's, a review found them kept); a file of another kind in figures/ stays."""
+    import shutil
+
+    shutil.copytree(run_dir, tmp_path / "r")
+    assert len(list((tmp_path / "r" / "figures").glob("*.png"))) == 7
+    (tmp_path / "r" / "figures" / "notes.txt").write_text("mine\n")
+    r = CliRunner().invoke(main, ["verify", "-o", str(tmp_path / "r"), "--runs", "1", "--no-plots"])
+    assert r.exit_code == 0, r.output
+    assert sorted(p.name for p in (tmp_path / "r" / "figures").iterdir()) == ["notes.txt"]
+    assert "figures/" not in (tmp_path / "r" / "verification.md").read_text()
+
+
 @pytest.mark.parametrize("factor", [-1.0, 0.0, 20.0])
 def test_destabilizing_gain_exits_1(run_dir, tmp_path, factor) -> None:
     g = json.loads((run_dir / "gains.json").read_text())
