@@ -28,3 +28,23 @@ def test_the_excluded_steps_are_named_only_where_there_are_some(name, excludes) 
     for fig in (fig_errors(res, m), fig_lyapunov(res, m)):
         labels = [lab for ax in fig.axes for lab in ax.get_legend_handles_labels()[1]]
         assert any(lab.startswith("excluded") for lab in labels) == excludes, labels
+
+
+def test_a_sweep_figure_marks_the_points_that_failed_verification() -> None:
+    """The 1-D sweep figure's title counted a certified point that failed verification, and the figure did not
+    show it (review): it is marked on its certified |e_y|."""
+    import matplotlib.pyplot as plt
+
+    from robustsynth.report.plots import fig_sweep_1d
+    from robustsynth.sweeps.run import SweepResult
+    from robustsynth.sweeps.spec import parse_sweep
+
+    spec = parse_sweep("axes:\n  reference.speed: [0.3, 0.5, 0.55]\n")
+    rows = tuple({"index": i, "reference.speed": v, "status": "certified", "e_x_m": 0.01 * (i + 1), "e_y_m": 0.02 * (i + 1),
+                  "verified": i != 2} for i, v in enumerate((0.3, 0.5, 0.55)))
+    fig = fig_sweep_1d(SweepResult(spec, rows, ("reference.speed", "status", "e_x_m", "e_y_m", "verified"), {}))
+    ax = fig.axes[0]
+    marks = [ln for ln in ax.get_lines() if ln.get_label() == "failed verification"]
+    assert len(marks) == 1 and list(marks[0].get_ydata()) == [6.0]  # the third point, 6 cm
+    assert "1 failed verification" in ax.get_title()
+    plt.close(fig)

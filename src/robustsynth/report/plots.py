@@ -413,13 +413,20 @@ def fig_sweep_1d(result) -> Any:
         sel = np.array([r["status"] == status for r in rows])
         if np.any(sel):
             ax.plot(x[sel], np.zeros(sel.sum()), marker, color=color, ms=8, ls="none", label=status, clip_on=False)
+    # certified points that failed verification, on their certified |e_y| (or the axis): marked, as the title
+    # counts them (a review found the title counting a point the figure did not show)
+    failed = np.array([r.get("status") == "certified" and r.get("verified") is False for r in rows])
+    if np.any(failed):
+        y = np.array([0.0 if r.get("e_y_m") is None else 100.0 * r["e_y_m"] for r in rows])
+        ax.plot(x[failed], y[failed], "X", color="tab:red", ms=10, ls="none", label="failed verification",
+                clip_on=False, zorder=5)
     if labels is not None:
         ax.set_xticks(x, labels)
     ax.set_xlabel(_key_label(key))
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    nv = sum(1 for r in rows if r.get("status") == "certified" and r.get("verified") is False)
+    nv = int(np.sum(failed))
     ax.set_title(f"{int(ok.sum())} of {len(rows)} points certified" + (f", {nv} failed verification" if nv else ""))
     fig.tight_layout()
     return fig
