@@ -160,9 +160,9 @@ def _stored_config_instead(obj: Any, default: Any, gains: Path) -> Any:
 
     try:
         gd = load_gains(gains)
-    except (InputError, OSError, ValueError, AttributeError):
+    except (InputError, OSError):
         return default  # the command's own loading reports what is wrong with the file
-    stored = stored_config(gd) if isinstance(gd, dict) else None  # an invalid one: InputError naming it (review)
+    stored = stored_config(gd)  # an invalid one: InputError naming it (review)
     if stored is None or config_to_dict(stored) == config_to_dict(default):
         return default
     obj.say(f"config: the one stored in {gains} ({stored.name!r}); pass CONFIG to take the gain's margins on another")

@@ -357,9 +357,10 @@ def _write_logs(logs: list, logdir: str | Path) -> list[Path]:
 
     logdir = make_dir(logdir)
     names = {log.path for log in logs}
-    prefixes = {m.group(1) for m in (re.fullmatch(r"(.+)_\d{3,}\.csv", n) for n in names) if m}
+    numbered = re.compile(r"(.+)_\d{3,}\.csv")
+    prefixes = {m.group(1) for m in map(numbered.fullmatch, names) if m}
     stale = [p.name for p in sorted(logdir.iterdir()) if p.is_file() and p.name not in names
-             and (m := re.fullmatch(r"(.+)_\d{3,}\.csv", p.name)) and m.group(1) in prefixes]
+             and (m := numbered.fullmatch(p.name)) and m.group(1) in prefixes]
     remove_files(logdir, tuple(stale))
     paths = []
     for log in logs:

@@ -33,7 +33,7 @@ import numpy as np
 from ..law import Law
 from ..plants.kinematic import KinematicRobot
 from ..plants.path import arc_frame_error, frame_error, make_path, pose_from_error
-from ..scenarios import random_delays, slip_candidates, slip_vertices, track_changes
+from ..scenarios import random_delays, slip_candidates, slip_vertices, split_state, track_changes
 
 __all__ = ["boundary_probe", "probe_directions", "boundary_states", "errors_between_samples", "arc_yaw_rates",
            "MAX_BOUNDARY_STARTS", "BETWEEN_INSTANTS", "REFINE_ROUNDS", "REFINE_TRIES"]
@@ -110,8 +110,8 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
     taus[1 : min(N, 8) : 2] = dl.max
     S = model.s_tilde(taus)[:, 0]  # (N, d_hi)
     dw = model.delay_weights(S) if lyap.path else None
-    n_e, n_u, d_hi = model.n_e, model.n_u, model.d_hi
-    du_past = xi[:, n_e : n_e + d_hi * n_u].reshape(N, d_hi, n_u)
+    n_e = model.n_e
+    du_past = split_state(model, xi)[1]
     # admissible past: the stored commands were sent from states of the set, within the motor limit
     # the certificate enforces there (a state with others in its memory is never reached)
     uD = np.array([model.V, 0.0])
@@ -178,7 +178,7 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
 
         refined = _refine_worst(model, lyap, level, xi, mu, t_sw, jumped, np.flatnonzero(judged), r_nl_all, refine,
                                 one_period, lambda x, runs: v_next(x, runs) / level, rng,
-                                lambda x, runs: _within_motor_limit(model, uD + _memory(model, x)))
+                                lambda x, runs: _within_motor_limit(model, uD + split_state(model, x)[1]))
     gap = np.max(np.abs(xi_nl[judged, :n_e] - xi_lin[judged, :n_e]), axis=0)
     mid = {"runs": int(np.count_nonzero(jumped)), "covered": bool(within_period)}
     if mid["runs"]:
@@ -199,16 +199,16 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
             w_k = w[keep]
 
             def arc_one_period(x: np.ndarray, runs: np.ndarray, t: np.ndarray) -> np.ndarray:
-                line, du_r, _, changes_r = _robot_period(model, K, x, S[keep][runs], mu[runs], mu_next[runs], t,
-                                                         bool(n_jump))
-                e = arc_period(model, x[:, :n_e], du_r, _memory(model, x), S[keep][runs], mu[runs], rng,
+                _, _, du_r, after = _law_step(model, K, x)
+                changes_r = track_changes(mu[runs], mu_next[runs], t) if n_jump else None
+                e = arc_period(model, x[:, :n_e], du_r, split_state(model, x)[1], S[keep][runs], mu[runs], rng,
                                switch=changes_r, w=w_k[runs])
-                return np.concatenate([e, line[:, n_e:]], axis=1)
+                return np.concatenate([e, after], axis=1)
 
             def arc_admissible(x: np.ndarray, runs: np.ndarray) -> np.ndarray:
                 from ..model.arcs import FEEDFORWARD
 
-                return _within_motor_limit(model, uD + _memory(model, x) + w_k[runs, 1:, None] * FEEDFORWARD)
+                return _within_motor_limit(model, uD + split_state(model, x)[1] + w_k[runs, 1:, None] * FEEDFORWARD)
 
             ra = _refine_worst(model, lyap, level, xi, mu, t_sw, jumped, np.flatnonzero(on_arc), r_arc_all, refine,
                                arc_one_period, lambda x, runs: v_next(x, runs) / level, rng, arc_admissible)
@@ -260,11 +260,6 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
     }
 
 
-def _memory(model: Any, xi: np.ndarray) -> np.ndarray:
-    """The stored commands of lifted states (N, d_hi, n_u), newest first."""
-    return xi[:, model.n_e : model.n_e + model.d_hi * model.n_u].reshape(-1, model.d_hi, model.n_u)
-
-
 def _refine_worst(model: Any, lyap: Any, level: float, xi: np.ndarray, mu: np.ndarray, t_sw: np.ndarray,
                   jumped: np.ndarray, judged: np.ndarray, r: np.ndarray, starts: int, one_period: Any, v_over_level: Any,
                   rng: np.random.Generator, admissible: Any) -> dict[str, Any]:
@@ -301,8 +296,8 @@ def _refine_worst(model: Any, lyap: Any, level: float, xi: np.ndarray, mu: np.nd
             b = mine[np.argmax(v[mine])]
             if v[b] > best_r[k]:
                 best_x[k], best_t[k], best_r[k], best_next[k] = x[b], t[b], v[b], xn[b]
-    j = int(np.argmax(best_r))
     order = np.argsort(best_r)[::-1]
+    j = int(order[0])
     return {"starts": int(top.size), "runs": runs, "max": float(best_r[j]), "run": int(top[j]), "xi": best_x[j],
             "states": best_x[order], "states_mu": mu[top[order]],
             "t_switch": best_t[j], "xi_next": best_next[j]}
@@ -314,22 +309,26 @@ def _robot_period(model: Any, K: np.ndarray, xi: np.ndarray, S: np.ndarray, mu: 
     the deployed law computes du_k from the pose, the commands in flight act at the instants ``S``, the
     slip is ``mu`` (jumping to ``mu_after`` at ``t_sw`` when ``jumps``).  Returns the lifted state at
     t_k+1, du_k, the commands in flight and the slip changes."""
-    n_e, n_u, d_hi, n_z = model.n_e, model.n_u, model.d_hi, model.n_z
-    N = xi.shape[0]
-    du_past = xi[:, n_e : n_e + d_hi * n_u].reshape(N, d_hi, n_u)
-    path = make_path(((0.0, 0.0), (model.V * model.Ts * 20.0, 0.0)), model.V)
-    q0 = pose_from_error(path, xi[:, :n_e])
-    law = Law(np.asarray(K, dtype=float).tolist(), model.Ts, bool(n_z), path.table)
-    law.reset(past=[du_past[:, j, i].copy() for j in range(d_hi) for i in range(n_u)],
-              z=[xi[:, model.n_s - n_z + i].copy() for i in range(n_z)])
-    dv, dom = law.correction(0.0, q0[:, 0], q0[:, 1], q0[:, 2])
-    du = np.stack([dv, dom], axis=1)
+    path, q0, du, after = _law_step(model, K, xi)
     robot = KinematicRobot.of(model)
-    U = robot.send(robot.memory(du_past, N), np.array([model.V, 0.0]) + du)
+    U = robot.send(robot.memory(split_state(model, xi)[1], xi.shape[0]), np.array([model.V, 0.0]) + du)
     changes = track_changes(mu, mu_after, t_sw) if jumps else None
     q1 = robot.period(q0, U, S, mu, switch=changes)
-    e1 = frame_error(path, 0, q1, model.Ts)
-    return np.concatenate([e1, np.stack(law.past + law.z, axis=1)], axis=1), du, U, changes
+    return np.concatenate([frame_error(path, 0, q1, model.Ts), after], axis=1), du, U, changes
+
+
+def _law_step(model: Any, K: np.ndarray, xi: np.ndarray) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray]:
+    """The deployed law at t_k from the lifted states ``xi`` on a straight line along x: (the path, the poses,
+    du_k (N, 2), the law's memory and integrators after the step (N, n_s - n_e))."""
+    n_u, d_hi, n_z = model.n_u, model.d_hi, model.n_z
+    e, du_past, z = split_state(model, xi)
+    path = make_path(((0.0, 0.0), (model.V * model.Ts * 20.0, 0.0)), model.V)
+    q0 = pose_from_error(path, e)
+    law = Law(np.asarray(K, dtype=float).tolist(), model.Ts, bool(n_z), path.table)
+    law.reset(past=[du_past[:, j, i].copy() for j in range(d_hi) for i in range(n_u)],
+              z=[z[:, i].copy() for i in range(n_z)])
+    dv, dom = law.correction(0.0, q0[:, 0], q0[:, 1], q0[:, 2])
+    return path, q0, np.stack([dv, dom], axis=1), np.stack(law.past + law.z, axis=1)
 
 
 def _within_motor_limit(model: Any, commands: np.ndarray) -> np.ndarray:
