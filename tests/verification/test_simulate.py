@@ -431,3 +431,27 @@ def test_vectorized_equals_per_run_reference_on_arcs(setups) -> None:
     _agrees_with_reference(m, K, path, scen, vec)
     polyline = make_path(m.config.verification.path, m.V)
     assert np.max(np.abs(simulate(m, K, polyline, scen).q - vec.q)) > 0.1
+
+
+def _top_distinct_by_full_sort(score: np.ndarray, width: int) -> np.ndarray:
+    """The beam's pick by sorting every score (what _top_distinct did before it sorted a prefix)."""
+    finite = np.flatnonzero(np.isfinite(score))
+    order = finite[np.argsort(-score[finite], kind="stable")]
+    s = score[order]
+    new = np.ones(s.size, dtype=bool)
+    new[1:] = np.abs(np.diff(s)) > 1e-12 * np.maximum(1.0, np.abs(s[1:]))
+    return np.resize(np.concatenate([order[new], order[~new]])[:width], width)
+
+
+@settings(max_examples=300, deadline=None)
+@given(n=st.integers(1, 3000), width=st.integers(1, 40), levels=st.integers(1, 400), seed=st.integers(0, 2**31 - 1),
+       infs=st.floats(0.0, 0.9))
+def test_top_distinct_sorts_a_prefix_and_picks_what_the_full_sort_picks(n, width, levels, seed, infs) -> None:
+    """Few distinct levels make ties (and runs short of distinct scores, where the full sort decides),
+    -inf marks masked candidates, and ties closer than the 1e-12 tolerance count as one score."""
+    from robustsynth.verification.simulate import _top_distinct
+
+    rng = np.random.default_rng(seed)
+    score = rng.integers(0, levels, size=n).astype(float) + rng.choice([0.0, 1e-14], size=n)
+    score[rng.random(n) < infs] = -np.inf
+    assert np.array_equal(_top_distinct(score, width), _top_distinct_by_full_sort(score, width))

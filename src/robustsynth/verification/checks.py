@@ -503,7 +503,7 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
             objectives = tuple(o for o in ADVERSARY_OBJECTIVES  # |rho| only against a certified motor bound
                                if o != "motor_speed" or "motor_speed_bound" in cert.figures)
             adv = _adversary(within, model, K, lyap.V, slip_vertices(model), vc.adversarial_steps,
-                             width=vc.adversarial_runs, objectives=objectives, with_delay=lyap.path)
+                             width=vc.adversarial_runs, objectives=objectives, with_delay=lyap.path, slip_free=len(lyap.S) == 1)
             times = [t for t in adv["switch_times"] if t > 0.0]
             adv_v = adv["V"] / level
             mc["adversarial"] = {
@@ -558,7 +558,7 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
             if xb.shape[0]:
                 steps_b = min(vc.adversarial_steps, BOUNDARY_ADVERSARY_STEPS)
                 adv_b = _adversary(within, model, K, lyap.V, mb, steps_b, width=vc.adversarial_runs, objectives=("V",),
-                                   with_delay=lyap.path, starts=xb)
+                                   with_delay=lyap.path, starts=xb, slip_free=len(lyap.S) == 1)
                 mc["boundary_probe"]["adversary"] = {"starts": int(xb.shape[0]), "searched_starts": int(xb.shape[0]) - n_fig,
                                                      "steps": steps_b,
                                                      "max_V_over_level": adv_b["max_V"] / level,

@@ -126,12 +126,36 @@ FREE_YAW = "free-yaw"
 def _top_distinct(score: np.ndarray, width: int) -> np.ndarray:
     """Indices of the ``width`` largest finite scores, distinct values first (equal scores are
     almost always the same state reached twice); short of distinct ones, the next best repeated.
-    Ties are broken by index, so the search is deterministic."""
+    Ties are broken by index, so the search is deterministic.
+
+    Only the best few are sorted: every score at or above the ``TOP_PREFIX * width``-th largest (ties
+    with it included) is a prefix of the full order, and whether a score counts as distinct depends
+    only on its predecessor in that order; when the prefix holds ``width`` distinct scores the pick
+    is the full sort's, else the whole array is sorted."""
     finite = np.flatnonzero(np.isfinite(score))
-    order = finite[np.argsort(-score[finite], kind="stable")]
+    vals = score[finite]
+    m = TOP_PREFIX * width
+    if vals.size > 2 * m:
+        cut = np.partition(vals, vals.size - m)[vals.size - m]  # the m-th largest
+        head = finite[vals >= cut]  # every score >= it, in index order (as the stable sort keeps ties)
+        picked = _distinct_first(head, score, width)
+        if picked is not None:
+            return picked
+    return _distinct_first(finite, score, width, full=True)
+
+
+TOP_PREFIX = 8  # _top_distinct sorts the largest TOP_PREFIX * width scores first
+
+
+def _distinct_first(idx: np.ndarray, score: np.ndarray, width: int, full: bool = False) -> np.ndarray | None:
+    """:func:`_top_distinct` on the candidates ``idx`` (ascending): None when they are a prefix of the
+    order (not ``full``) that holds fewer than ``width`` distinct scores."""
+    order = idx[np.argsort(-score[idx], kind="stable")]
     s = score[order]
     new = np.ones(s.size, dtype=bool)
     new[1:] = np.abs(np.diff(s)) > 1e-12 * np.maximum(1.0, np.abs(s[1:]))
+    if not full and np.count_nonzero(new) < width:
+        return None
     picked = np.concatenate([order[new], order[~new]])[:width]
     return np.resize(picked, width)  # fewer admissible candidates than width: cycle through them
 
@@ -139,7 +163,7 @@ def _top_distinct(score: np.ndarray, width: int) -> np.ndarray:
 def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray], mu0: np.ndarray, steps: int,
                           width: int = 1, objectives: tuple[str, ...] = ("V",), n_tau: int = 9,
                           with_delay: bool = False, starts: np.ndarray | None = None,
-                          within_period: bool = False, course: str = "straight") -> dict:
+                          within_period: bool = False, course: str = "straight", slip_free: bool = False) -> dict:
     """Beam search for the slip and delay history that takes the nonlinear robot furthest out, along
     a straight line (``course`` "straight") or, for a turning model, along one of :func:`adversary_course`'s
     courses of arcs (the turning feedforward in the commands) or (FREE_YAW) along references whose yaw rate the
@@ -180,7 +204,10 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
     ``within_period`` (slip that may jump at any time, docs/theory.md §11): from the second period on
     the adversary also picks *when* within the period each track's slip takes its new value, at
     :data:`WITHIN_PERIOD_TIMES` of the period (0: at the sampling instant), every pair of times for the
-    two tracks; each worst history then has ``t_switch`` (T, 2), to replay as ``Scenario.mu_switch``."""
+    two tracks; each worst history then has ``t_switch`` (T, 2), to replay as ``Scenario.mu_switch``.
+
+    ``slip_free``: ``V_fn`` does not depend on the slip (a common Lyapunov matrix), so it is evaluated once
+    per candidate instead of once per next slip (the same values; the slip it reports is the first)."""
     unknown = set(objectives) - set(ADVERSARY_OBJECTIVES)
     if unknown or not objectives or width < 1:
         raise ValueError(f"objectives must be a non-empty subset of {ADVERSARY_OBJECTIVES} and width >= 1")
@@ -250,15 +277,19 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
         # adversary picks among its candidates to make V largest
         nxt_mu = slip_candidates(model, cand_mu)  # (P, n_c, n_c', 2)
         n_n = nxt_mu.shape[2]
-        xi_b = np.broadcast_to(xi_next[..., None, :], shape + (n_n, xi_next.shape[-1]))
-        mu_b = np.broadcast_to(nxt_mu[:, :, None, None, None], shape + (n_n, nxt_mu.shape[-1]))
-        if with_delay:
-            dwt = model.delay_weights(S)  # (P, n_tau, n_d): this period's, the next sample's "previous"
-            v_all = V_fn(xi_b, mu_b, prev=np.broadcast_to(dwt[:, None, None, :, None, None], shape + (n_n, dwt.shape[-1])))
+        if slip_free and not with_delay:
+            v = V_fn(xi_next)
+            v_arg = np.zeros(shape, dtype=np.intp)
         else:
-            v_all = V_fn(xi_b, mu_b)
-        v_arg = np.argmax(v_all, axis=-1)
-        v = np.take_along_axis(v_all, v_arg[..., None], axis=-1)[..., 0]
+            xi_b = np.broadcast_to(xi_next[..., None, :], shape + (n_n, xi_next.shape[-1]))
+            mu_b = np.broadcast_to(nxt_mu[:, :, None, None, None], shape + (n_n, nxt_mu.shape[-1]))
+            if with_delay:
+                dwt = model.delay_weights(S)  # (P, n_tau, n_d): this period's, the next sample's "previous"
+                v_all = V_fn(xi_b, mu_b, prev=np.broadcast_to(dwt[:, None, None, :, None, None], shape + (n_n, dwt.shape[-1])))
+            else:
+                v_all = V_fn(xi_b, mu_b)
+            v_arg = np.argmax(v_all, axis=-1)
+            v = np.take_along_axis(v_all, v_arg[..., None], axis=-1)[..., 0]
         # the commands at t_{k+1}, with the next period's feedforward (on the free course the adversary's largest)
         W1 = model.turns.next_yaw_rates(W) if free else np.full((P, 1, 1), path.feedforward(tk + Ts))  # (P, n_y, n_y')
         u1 = (uD + np.broadcast_to(W1[:, None, None, None, :, :, None], shape + W1.shape[-1:] + (1,)) * TURN_FEEDFORWARD
