@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,9 +18,9 @@ from robustsynth.identification import check_log, fragment_yaml, identify
 from robustsynth.model import build_model
 from robustsynth.plants.path import make_path
 from robustsynth.scenarios import draw_scenario, steady_state_start
-from robustsynth.synthesis import synthesize
 from robustsynth.verification.simulate import run_logs, simulate
 
+ROOT = Path(__file__).resolve().parents[1]
 TRUTH = {"delay": (0.02, 0.07), "right": (0.7, 0.95), "left": (0.6, 0.9)}
 NOISE = (2e-5, 5e-5)  # pose noise of the logs [m], [rad]: a motion-capture system
 BOX_REL = 0.02  # the box within 2 % of the true width at that noise (issue 24's target)
@@ -40,7 +41,11 @@ def _cfg(**over):
 def logs():
     cfg = _cfg()
     m = build_model(cfg)
-    K = synthesize(m).K
+    # any gain that holds the loop does; lossy-link's is certified for a box that contains this one (delays
+    # [0.01, 0.08] s, slip [0.6, 1] per track, the same loss cap, 12 rad/s) and saves a synthesis
+    base = yaml.safe_load((ROOT / "results" / "baselines" / "lossy-link" / "gains.json").read_text())
+    assert base["config"]["network"]["dropouts"]["max_consecutive"] == 2 and base["config"]["network"]["delay"]["max"] >= 0.07
+    K = np.array(base["K"], dtype=float)
     path = make_path(cfg.verification.path, cfg.reference.speed)
     scen = steady_state_start(m, K, path, draw_scenario(m, 40, seed=3, steps=250, path=path))
     sim = simulate(m, K, path, scen)
