@@ -490,6 +490,11 @@ def _report_checks(obj: _Ctx, result: Any) -> None:
     ratios = ", ".join(f"{k} {v:.3f}" for k, v in mc["ratio_to_certified"].items())
     obj.say(f"verification {'passed' if result.passed else 'FAILED'}: {len(result.checks)} checks, "
             f"{mc['runs']} Monte Carlo runs" + (f"; worst/certified: {ratios}" if ratios else ""))
+    from .report.verification import robot_leaves
+
+    leaves = robot_leaves(mc)
+    if leaves:
+        obj.say(leaves)
     turns = mc.get("turns") or []
     bad = [t for t in turns if not t["certified"]]
     if turns and all(t.get("note", "").startswith("along an arc") for t in turns):  # reference.turn_radius

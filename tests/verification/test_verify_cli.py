@@ -70,7 +70,28 @@ def test_verify_without_plots_leaves_no_earlier_figures(run_dir, tmp_path) -> No
     r = CliRunner().invoke(main, ["verify", "-o", str(tmp_path / "r"), "--runs", "1", "--no-plots"])
     assert r.exit_code == 0, r.output
     assert sorted(p.name for p in (tmp_path / "r" / "figures").iterdir()) == ["notes.txt"]
-    assert "figures/" not in (tmp_path / "r" / "verification.md").read_text()
+    md = (tmp_path / "r" / "verification.md").read_text()
+    assert "figures/" not in md
+    # a linearized certificate that the robot leaves says so under its verdict, in the terminal and the report
+    bp = json.loads((tmp_path / "r" / "verification.json").read_text())["monte_carlo"]["boundary_probe"]
+    top = max(bp["max_V_over_level_nonlinear"], bp["adversary"]["max_V_over_level"])
+    said = f"the proof is for the robot's linearization: from the boundary of its set the nonlinear robot reaches V/level {top:.3f}"
+    assert top > 1.0 and said in r.output and md.splitlines()[2] == f"> Note: {said} (not in the verdict; " \
+        "a certificate made with synthesis.kinematics: nonlinear is proven for the robot, where one exists: docs/theory.md §9)."
+
+
+@pytest.mark.parametrize("bp, says", [
+    ({}, False),
+    ({"in_verdict": True, "max_V_over_level_nonlinear": 1.2}, False),  # a nonlinear certificate: its verdict judges it
+    ({"in_verdict": False, "max_V_over_level_nonlinear": 0.97, "adversary": {"max_V_over_level": 0.99}}, False),
+    ({"in_verdict": False, "max_V_over_level_nonlinear": 0.97, "adversary": {"max_V_over_level": 1.04}}, "1.040"),
+    ({"in_verdict": False, "max_V_over_level_nonlinear": 1.07, "arcs": {"max_V_over_level_nonlinear": 1.09}}, "1.090"),
+])
+def test_robot_leaves_is_said_only_of_a_linearized_certificate_the_robot_leaves(bp, says) -> None:
+    from robustsynth.report.verification import robot_leaves
+
+    got = robot_leaves({"boundary_probe": bp} if bp else {})
+    assert (got == "") if says is False else f"reaches V/level {says} " in got
 
 
 @pytest.mark.parametrize("factor", [-1.0, 0.0, 20.0])

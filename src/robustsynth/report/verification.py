@@ -42,9 +42,28 @@ def _val(v: Any) -> str:
     return str(v)
 
 
+def robot_leaves(mc: dict[str, Any]) -> str:
+    """One sentence when the certificate is for the linearization and the robot leaves its set from the
+    boundary (the probe beside the verdict, above 1; its largest value, also over the adversary from the
+    boundary), else ''."""
+    bp = mc.get("boundary_probe") or {}
+    if not bp or bp.get("in_verdict", False):
+        return ""
+    top = max([bp.get("max_V_over_level_nonlinear", 0.0), (bp.get("arcs") or {}).get("max_V_over_level_nonlinear", 0.0),
+               (bp.get("adversary") or {}).get("max_V_over_level", 0.0)])
+    if top <= 1.0:
+        return ""
+    return (f"the proof is for the robot's linearization: from the boundary of its set the nonlinear robot reaches "
+            f"V/level {top:.3f} (not in the verdict; a certificate made with synthesis.kinematics: nonlinear is "
+            "proven for the robot, where one exists: docs/theory.md §9)")
+
+
 def verification_markdown(model: Any, res: Any, vd: dict[str, Any], figures: dict[str, str] | None = None) -> str:
     cfg = model.config
     out = [f"# Verification for `{cfg.name}`: {'PASSED' if res.passed else 'FAILED'}\n\n"]
+    leaves = robot_leaves(res.monte_carlo)
+    if leaves:
+        out.append(f"> Note: {leaves}.\n\n")
     out.append(
         f"Gain file `{vd['gains_file']}` (gains_id `{vd['gains_id'][:16]}…`), checked independently of how it was made."
         " Pass/fail rules are in the README (section *Verification rules*).\n\n"
