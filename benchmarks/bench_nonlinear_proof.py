@@ -9,9 +9,16 @@ own settings and ``synthesis.kinematics`` linearized / nonlinear (heading bound 
 (its claim: <= 1; for a turning config also on arcs), and both synthesis times.  "none" is exit 3: no heading bound gave a certificate.
 The probes judge the runs with slip changing within the period too when the certificate covers it.
 Then the default robot and network with slip boxes [lo, 1] per track: linearized and nonlinear |e_y|.
+Then the configs a new user would try (issue 22's targets): ``configs/nonlinear-proof.yaml`` with short,
+full-period and multi-period delays, a lossy link, asymmetric slip, a slip rate bound, a slip-dependent
+Lyapunov matrix, integral action and a faster reference, each synthesized with nonlinear kinematics and
+verified as ``robustsynth verify --runs 1000`` does, plus a probe of 200 000 boundary states with the local
+search from its 1024 worst (another seed): verdict, max V/level of the Monte Carlo, samples outside, the
+adversaries, both probes, and observed / certified |e_y|.
 
     .venv/bin/python benchmarks/run_all.py bench_nonlinear_proof
     .venv/bin/python benchmarks/bench_nonlinear_proof.py default nonlinear-proof   # a subset
+    .venv/bin/python -c "import sys; sys.path.insert(0, 'benchmarks'); import bench_nonlinear_proof as b; b.new_user_variants()"
 """
 
 from __future__ import annotations
@@ -101,6 +108,75 @@ def main(names: list[str] | None = None) -> dict[str, dict[str, float]]:
         out[cfg_path.stem] = row
     if not names:
         out.update(slip_boxes())
+        out.update(new_user_variants())
+    return out
+
+
+# configs/nonlinear-proof.yaml with one change each (top-level sections replaced whole)
+VARIANTS = {
+    "delays [0, 20] ms": {"network": {"sampling_time": 0.1, "delay": {"min": 0.0, "max": 0.02}}},
+    "delays [0, 100] ms": {"network": {"sampling_time": 0.1, "delay": {"min": 0.0, "max": 0.1}}},
+    "delays [50, 180] ms": {"network": {"sampling_time": 0.1, "delay": {"min": 0.05, "max": 0.18}}},
+    "1 loss in a row, slip [0.9, 1]": {
+        "network": {"sampling_time": 0.1, "delay": {"min": 0.01, "max": 0.08}, "dropouts": {"max_consecutive": 1}},
+        "slip": {"right": {"min": 0.9, "max": 1.0}, "left": {"min": 0.9, "max": 1.0}}},
+    "slip right [0.85, 1], left [0.75, 0.95]": {"slip": {"right": {"min": 0.85, "max": 1.0}, "left": {"min": 0.75, "max": 0.95}}},
+    "slip.max_rate 0.5 /s": {"slip": {"right": {"min": 0.8, "max": 1.0}, "left": {"min": 0.8, "max": 1.0}, "max_rate": 0.5}},
+    "slip [0.7, 1], slip-dependent": {
+        "slip": {"right": {"min": 0.7, "max": 1.0}, "left": {"min": 0.7, "max": 1.0}},
+        "synthesis": {"objective": "ultimate-bound", "kinematics": "nonlinear", "lyapunov": "slip-dependent"}},
+    "integral action": {"synthesis": {"objective": "ultimate-bound", "kinematics": "nonlinear", "integral_action": True}},
+    "V^D 0.8 m/s, slip [0.9, 1]": {"reference": {"speed": 0.8},
+                                   "slip": {"right": {"min": 0.9, "max": 1.0}, "left": {"min": 0.9, "max": 1.0}}},
+}
+STRONG_PROBE = (200_000, 1024, 100)  # samples, searched starts, seed
+
+
+def new_user_variants(runs: int = 1000) -> dict[str, dict[str, float]]:
+    """Each of :data:`VARIANTS`: nonlinear synthesis, verify with ``runs`` Monte Carlo runs, and a
+    stronger boundary probe than verify's."""
+    import yaml
+
+    from robustsynth import build_model
+    from robustsynth.certificate import lyapunov_of
+    from robustsynth.config import parse_config
+    from robustsynth.verification.checks import verify
+    from robustsynth.verification.probe import boundary_probe
+
+    base = yaml.safe_load((ROOT / "configs" / "nonlinear-proof.yaml").read_text())
+    out: dict[str, dict[str, float]] = {}
+    print(f"\n| variant of nonlinear-proof | \\|e_y\\| (heading bound, slip within a period; synthesis time) | verify, {runs} runs | "
+          "Monte Carlo max V/level on the certified steps (samples outside) | adversary max V/level: from steady states / from the boundary | "
+          f"probe max V+/level: verify's / {STRONG_PROBE[0]} states + {STRONG_PROBE[1]} searched | observed / certified \\|e_y\\| |")
+    print("|---|---|---|---|---|---|---|")
+    for name, over in VARIANTS.items():
+        cfg = parse_config(yaml.safe_dump({**base, **over}))
+        _, r, t, err = _synth(cfg, "nonlinear")
+        if r is None:
+            print(f"| {name} | none, {err} ({t:.0f} s) | | | | | |", flush=True)
+            out[name] = {"nonlinear_s": t}
+            continue
+        m = build_model(cfg)
+        res = verify(m, r, runs=runs)
+        mc = res.monte_carlo
+        bp = mc["boundary_probe"]
+        mm = m.with_heading_bound(r.certificate["heading_bound"],
+                                  within_period=bool(r.certificate.get("within_period_channels", False)))
+        samples, refine, seed = STRONG_PROBE
+        sp = boundary_probe(mm, r.K, lyapunov_of(mm, r.certificate), float(r.check.figures["ellipsoid_level"]),
+                            samples=samples, seed=seed,
+                            within_period=r.check.figures.get("slip_within_period") == "covered", refine=refine)
+        ey = r.certified["ultimate_bound"]["e_y"]
+        seen = mc["ratio_to_certified"]["e_y"]
+        row = {"e_y": ey, "nonlinear_s": t, "passed": float(res.passed),
+               "mc_max_V": mc["V_over_level"]["max_in_certified_steps"], "samples_outside": mc["V_over_level"]["samples_outside"],
+               "adversary": mc["adversarial"]["max_V_over_level"], "adversary_boundary": bp["adversary"]["max_V_over_level"],
+               "probe": bp["max_V_over_level_nonlinear"], "strong_probe": sp["max_V_over_level_nonlinear"], "seen_e_y": seen}
+        print(f"| {name} | {100 * ey:.2f} cm ({r.certificate['heading_bound']:g} rad, "
+              f"{r.check.figures.get('slip_within_period', '')[:7]}; {t:.0f} s) | {'passed' if res.passed else 'FAILED'} | "
+              f"{row['mc_max_V']:.6f} ({row['samples_outside']}) | {row['adversary']:.4f} / {row['adversary_boundary']:.4f} | "
+              f"{row['probe']:.4f} / {row['strong_probe']:.4f} | {seen:.3f} |", flush=True)
+        out[name] = row
     return out
 
 
