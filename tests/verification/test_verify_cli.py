@@ -32,6 +32,8 @@ def test_run_writes_everything(run_dir) -> None:
     report = (run_dir / "report.md").read_text()
     for n in ("path", "errors", "ellipsoid"):
         assert f"figures/{n}.png" in report
+    # the default's linearized certificate, which the robot leaves from its boundary, says so under the verdict
+    assert report.split("\n\n")[2].startswith("> Note: the proof is for the robot's linearization: from the boundary")
 
 
 def test_verification_json_is_consistent(run_dir) -> None:

@@ -294,6 +294,9 @@ def report_markdown(model: Any, gains: dict[str, Any], vd: dict[str, Any], figur
         f" d_hi = {model.d_hi}, lifted state n_s = {model.n_s}. Details: [model](model.md),"
         f" [synthesis](synthesis.md), [verification](verification.md); gain in `gains.json` / `gains.mat`.\n\n"
     )
+    leaves = robot_leaves(mc)
+    if leaves:
+        out.append(f"> Note: {leaves}.\n\n")
     out.append("## What is proven, and what the robot did\n\n")
     def worst(k: str) -> float:  # what the verdict uses: Monte Carlo, extreme-switching and adversarial runs
         adv = (mc.get("adversarial") or {}).get("max", {}).get(k, 0.0)
