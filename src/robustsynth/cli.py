@@ -480,7 +480,7 @@ def _verify_opts(fn):
     return fn
 
 
-def _report_checks(obj: _Ctx, result: Any) -> None:
+def _report_checks(obj: _Ctx, result: Any, cfg: Any) -> None:
     for c in result.checks:
         if not c["passed"]:
             what = f" (value {c['value']:.4g}, threshold {c['threshold']:.4g})" if isinstance(c.get("value"), (int, float)) \
@@ -492,7 +492,7 @@ def _report_checks(obj: _Ctx, result: Any) -> None:
             f"{mc['runs']} Monte Carlo runs" + (f"; worst/certified: {ratios}" if ratios else ""))
     from .report.verification import robot_leaves
 
-    leaves = robot_leaves(mc)
+    leaves = robot_leaves(mc, cfg)
     if leaves:
         obj.say(leaves)
     turns = mc.get("turns") or []
@@ -555,7 +555,7 @@ def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
         finally:
             if bar is not None:
                 bar.render_finish()
-        _report_checks(obj, st.result)
+        _report_checks(obj, st.result, st.model.config)
         obj.say(f"wrote {out / 'verification.json'}, {out / 'verification.md'}"
                 + (f" and {len(st.figures)} figures" if st.figures else ""))
         if logdir is not None:
@@ -605,7 +605,7 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
     _say_cleared(obj, out, res.model.cleared)
     obj.say(_certified_line(res.synthesis.gains))
     _say_diagnosis(obj, res.synthesis.diagnosis)
-    _report_checks(obj, res.verification.result)
+    _report_checks(obj, res.verification.result, res.verification.model.config)
     obj.say(f"report: {out / 'report.md'}")
     return EXIT_OK if res.passed else EXIT_VERIFICATION_FAILED
 

@@ -42,26 +42,46 @@ def _val(v: Any) -> str:
     return str(v)
 
 
-def robot_leaves(mc: dict[str, Any]) -> str:
-    """One sentence when the certificate is for the linearization and the robot leaves its set from the
-    boundary (the probe beside the verdict, above 1; its largest value, also over the adversary from the
-    boundary), else ''."""
+def robot_leaves(mc: dict[str, Any], cfg: Any) -> str:
+    """One sentence when the robot leaves the certified set from its boundary and the verdict does not
+    judge that (the probe beside the verdict above 1: its largest value, also on arcs and over the adversary
+    from the boundary), else ''.  Whom it blames follows the exact lifted map on the same states: at most 1,
+    the linearization; above, the certificate's model itself (the paper's, which leaves slip out of the
+    commands).  It points to nonlinear kinematics only where the config can have them."""
     bp = mc.get("boundary_probe") or {}
     if not bp or bp.get("in_verdict", False):
         return ""
-    top = max([bp.get("max_V_over_level_nonlinear", 0.0), (bp.get("arcs") or {}).get("max_V_over_level_nonlinear", 0.0),
-               (bp.get("adversary") or {}).get("max_V_over_level", 0.0)])
-    if top <= 1.0:
+    arcs = bp.get("arcs") or {}
+    robot = max([bp.get("max_V_over_level_nonlinear", 0.0), arcs.get("max_V_over_level_nonlinear", 0.0),
+                 (bp.get("adversary") or {}).get("max_V_over_level", 0.0)])
+    if robot <= 1.0:
         return ""
+    exact = max(bp.get("max_V_over_level_linear", 0.0), arcs.get("max_V_over_level_linear", 0.0))
+    syn = cfg.synthesis
+    if exact > 1.0 + LINEAR_TOL:
+        return (f"the certificate's model is not the robot's: from the boundary of its set the exact lifted map reaches "
+                f"V/level {exact:.3f} and the nonlinear robot {robot:.3f} (not in the verdict"
+                + ("; the paper's model leaves slip out of the commands, synthesis.model: slip-aware keeps it"
+                   if syn.model == "paper" else "") + "; docs/theory.md §7)")
+    if syn.model != "slip-aware" or getattr(cfg.slip, "model", "tracks") == "icr":
+        hint = ("; synthesis.kinematics: nonlinear, which would prove the set for the robot, is not available for "
+                + ("slip.model: icr yet" if syn.model == "slip-aware" else f"synthesis.model: {syn.model}")
+                + ": docs/theory.md §9")
+    else:
+        hint = ("; a certificate made with synthesis.kinematics: nonlinear"
+                + (" (objective ultimate-bound)" if syn.objective != "ultimate-bound" else "")
+                + " is proven for the robot, where one exists: docs/theory.md §9")
     return (f"the proof is for the robot's linearization: from the boundary of its set the nonlinear robot reaches "
-            f"V/level {top:.3f} (not in the verdict; a certificate made with synthesis.kinematics: nonlinear is "
-            "proven for the robot, where one exists: docs/theory.md §9)")
+            f"V/level {robot:.3f} (not in the verdict{hint})")
+
+
+LINEAR_TOL = 1e-9  # the exact lifted map's V/level above 1 by more than round-off: the model itself is left
 
 
 def verification_markdown(model: Any, res: Any, vd: dict[str, Any], figures: dict[str, str] | None = None) -> str:
     cfg = model.config
     out = [f"# Verification for `{cfg.name}`: {'PASSED' if res.passed else 'FAILED'}\n\n"]
-    leaves = robot_leaves(res.monte_carlo)
+    leaves = robot_leaves(res.monte_carlo, cfg)
     if leaves:
         out.append(f"> Note: {leaves}.\n\n")
     out.append(
@@ -294,7 +314,7 @@ def report_markdown(model: Any, gains: dict[str, Any], vd: dict[str, Any], figur
         f" d_hi = {model.d_hi}, lifted state n_s = {model.n_s}. Details: [model](model.md),"
         f" [synthesis](synthesis.md), [verification](verification.md); gain in `gains.json` / `gains.mat`.\n\n"
     )
-    leaves = robot_leaves(mc)
+    leaves = robot_leaves(mc, cfg)
     if leaves:
         out.append(f"> Note: {leaves}.\n\n")
     out.append("## What is proven, and what the robot did\n\n")
