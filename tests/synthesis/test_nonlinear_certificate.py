@@ -82,15 +82,16 @@ def test_a_within_period_certificate_needs_a_model_that_covers_it(committed) -> 
 
 
 def test_the_default_robot_has_none_and_says_why(tmp_path) -> None:
-    """Slip in [0.6, 1] per track: no heading bound gives an invariant set (measured); exit 3 with
-    the heading and forward-speed ranges of the linearized set, and no gains file."""
+    """Slip in [0.6, 1] per track: no heading bound gives an invariant set (measured); every solve fails,
+    so exit 4 (not 3: no solve proved infeasibility; a review found auto's several bounds said 3 where one
+    bound said 4), with the heading and forward-speed ranges of the linearized set, and no gains file."""
     cfg = tmp_path / "c.yaml"
     text = (ROOT / "configs" / "default.yaml").read_text().replace("  objective: ultimate-bound",
                                                                       "  objective: ultimate-bound\n  kinematics: nonlinear")
     cfg.write_text(text)
     r = CliRunner().invoke(main, ["synthesize", str(cfg), "-o", str(tmp_path / "out")])
-    assert r.exit_code == 3, r.output
-    assert "e_theta(t)" in r.output and "forward-speed" in r.output
+    assert r.exit_code == 4, r.output
+    assert "every solve failed" in r.output and "e_theta(t)" in r.output and "forward-speed" in r.output
     # the way to a cheaper certificate that assumes slip constant within each period (theory §9)
     assert "synthesis.lyapunov slip-dependent" in r.output
     assert "Traceback" not in r.output

@@ -839,7 +839,9 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
         elif best.cert is not None:  # past the best bound: larger headings cost more
             break
     if best.cert is None:
-        if runner is not None and runner.failures and runner.failures == len(search):
+        # exit 4 where no solve of any heading bound concluded (every one failed), exit 3 where one did (a solver's
+        # infeasibility, or a bound below the slip's own turn): the same rule for one bound and for auto's several
+        if tried and all(why == "solver failed" for _, why in tried):
             raise SolverFailure("ultimate-bound (nonlinear kinematics): every solve failed (numerical trouble, usually "
                                 "near infeasibility). " + _nonlinear_infeasible(model, common, tried))
         raise InfeasibleError(_nonlinear_infeasible(model, common, tried))
