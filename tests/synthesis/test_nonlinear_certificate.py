@@ -180,3 +180,16 @@ def test_robust_stability_analysis_of_a_nonlinear_gain_is_about_the_linearizatio
     a = analyze_stability(m, K, lyapunov="common")
     assert a.certified, a.attempts
     assert a.certificate.get("kinematics") == "linearized"
+
+
+def test_a_heading_bound_below_the_slips_own_turn_names_itself_as_the_cause(tmp_path) -> None:
+    """A configured bound the slip alone exceeds within a period: exit 3 naming synthesis.heading_bound and
+    what to do with it (a review found only 'narrow slip, lower the speed' there; the cause came with -v)."""
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text((ROOT / "configs" / "nonlinear-proof.yaml").read_text().replace("heading_bound: auto", "heading_bound: 0.01"))
+    r = CliRunner().invoke(main, ["synthesize", str(cfg), "-o", str(tmp_path / "out")])
+    assert r.exit_code == 3, r.output
+    line = r.output.strip().splitlines()[-1]
+    assert line.startswith("error: synthesis.heading_bound: 0.01 rad is smaller than the turn the slip alone causes")
+    assert line.endswith("raise synthesis.heading_bound above it, or set it to auto") and "Traceback" not in r.output
+    assert not (tmp_path / "out" / "gains.json").exists()

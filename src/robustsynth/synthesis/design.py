@@ -830,6 +830,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
         except InfeasibleError as exc:  # the heading bound is below the slip's own turn
             say(f"  {exc}")
             tried.append((tb, "below the slip's own turn within a period"))
+            below = str(exc)
             continue
         tried.append((tb, "certified" if b.cert is not None else ("solver failed" if r.failures == r.solves else "infeasible")))
         if runner is None:
@@ -841,6 +842,8 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
     if best.cert is None:
         # exit 4 where no solve of any heading bound concluded (every one failed), exit 3 where one did (a solver's
         # infeasibility, or a bound below the slip's own turn): the same rule for one bound and for auto's several
+        if not auto and tried and tried[0][1].startswith("below"):  # the configured bound itself is the cause
+            raise InfeasibleError(f"{below}; raise synthesis.heading_bound above it, or set it to auto")
         if tried and all(why == "solver failed" for _, why in tried):
             raise SolverFailure("ultimate-bound (nonlinear kinematics): every solve failed (numerical trouble, usually "
                                 "near infeasibility). " + _nonlinear_infeasible(model, common, tried))
