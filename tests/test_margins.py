@@ -139,6 +139,7 @@ def test_margin_cli_json_matches_the_file(tmp_path, cfg, K) -> None:
     for key in ("delay_max", "slip_min", "dropouts"):
         assert {"configured", "certified", "exhibited", "witness"} <= set(printed[key])
     assert printed["delay_max"]["witness"]["delays"] and printed["delay_max"]["witness"]["slip"]
+    assert printed["meta"]["kinematics"] == "linearized"  # what "certified" is about, whatever the gain's certificate
 
 
 def test_margin_cli_rejects_a_gain_of_the_wrong_shape(tmp_path) -> None:

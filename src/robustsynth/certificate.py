@@ -321,7 +321,10 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
         return _fail(f"the certificate is for {kin} kinematics, the config asks for {model.kinematics} "
                      "(synthesis.kinematics)")
     if kin == "nonlinear":  # the kinematic channels of the certificate's own heading bound
-        hb = float(cert["heading_bound"])
+        hb = cert.get("heading_bound")
+        if isinstance(hb, bool) or not isinstance(hb, (int, float)) or not 0.0 < float(hb) <= 1.0:
+            return _fail(f"certificate.heading_bound: nonlinear kinematics need a number in (0, 1] rad (got {hb!r})")
+        hb = float(hb)
         within = bool(cert.get("within_period_channels", False))  # for slip changing within a period (§9)
         if within and not model.covering:
             return _fail("the certificate's kinematic channels are for slip changing within a period, which this "

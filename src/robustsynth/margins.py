@@ -440,7 +440,9 @@ def margin(config: Config, K: np.ndarray, *, lyapunov: str | None = None,
     extra = tuple(_icr_margin(config, K, lyapunov, say, n) for n in ("yaw_min", "icr_offset_max")) \
         if config.slip.model == "icr" else ()
     t4 = time.perf_counter()
-    meta = {"model": "slip-aware", "lyapunov": lyapunov, "exhibit_tol": EXHIBIT_TOL,
+    # certified: robust stability of the lifted model, i.e. of the robot's linearization, whatever kinematics the
+    # gain's own certificate has (synthesis.analysis); exhibited: the lifted model's instability
+    meta = {"model": "slip-aware", "kinematics": "linearized", "lyapunov": lyapunov, "exhibit_tol": EXHIBIT_TOL,
             "search": {"delays_per_period": SEARCH_DELAYS, "longest_period": SEARCH_PERIOD,
                        "slip": "corners, held constant" if config.slip.max_rate is not None else "corners, switching"},
             "time_s": {"delay_max": round(t1 - t0, 3), "slip_min": round(t2 - t1, 3), "dropouts": round(t3 - t2, 3),

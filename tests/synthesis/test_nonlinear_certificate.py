@@ -193,3 +193,17 @@ def test_a_heading_bound_below_the_slips_own_turn_names_itself_as_the_cause(tmp_
     assert line.startswith("error: synthesis.heading_bound: 0.01 rad is smaller than the turn the slip alone causes")
     assert line.endswith("raise synthesis.heading_bound above it, or set it to auto") and "Traceback" not in r.output
     assert not (tmp_path / "out" / "gains.json").exists()
+
+
+@pytest.mark.parametrize("bad", [0, -0.2, 1.5, float("nan"), "abc", None, True, "missing"])
+def test_a_broken_heading_bound_in_the_certificate_fails_naming_its_key(committed, bad) -> None:
+    """A gains file whose certificate.heading_bound was edited or lost: the re-check fails with one reason
+    naming certificate.heading_bound (a review found the config key named, or Python's float() and KeyError
+    texts)."""
+    m, K, cert = committed
+    broken = {k: v for k, v in cert.items() if k != "heading_bound"}
+    if bad != "missing":
+        broken["heading_bound"] = bad
+    chk = check_certificate(m, K, broken)
+    assert not chk.passed
+    assert chk.reason.startswith("certificate.heading_bound: nonlinear kinematics need a number in (0, 1] rad (got ")
