@@ -35,7 +35,13 @@ def _synth(cfg, kinematics: str):
     from robustsynth.errors import InfeasibleError, SolverFailure
     from robustsynth.synthesis import synthesize
 
+    from pydantic import ValidationError
+
     c = cfg.model_copy(update={"synthesis": cfg.synthesis.model_copy(update={"kinematics": kinematics})})
+    try:  # model_copy does not validate: a combination the config refuses (icr with nonlinear kinematics) is skipped
+        c = type(cfg).model_validate(c.model_dump())
+    except ValidationError as exc:
+        return None, None, 0.0, "refused by the config: " + exc.errors()[0]["msg"].split(", ", 1)[-1].replace("@field:", "")
     m = build_model(c)
     t0 = time.perf_counter()
     try:

@@ -140,6 +140,7 @@ def test_margin_cli_json_matches_the_file(tmp_path, cfg, K) -> None:
         assert {"configured", "certified", "exhibited", "witness"} <= set(printed[key])
     assert printed["delay_max"]["witness"]["delays"] and printed["delay_max"]["witness"]["slip"]
     assert printed["meta"]["kinematics"] == "linearized"  # what "certified" is about, whatever the gain's certificate
+    assert printed["meta"]["gains_kinematics"] is None  # a bare K: no certificate of its own
 
 
 def test_margin_cli_rejects_a_gain_of_the_wrong_shape(tmp_path) -> None:

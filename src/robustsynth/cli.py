@@ -677,7 +677,7 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
         return
     for m in st.report.margins:
         obj.say(m.line())
-    if cfg.synthesis.kinematics == "nonlinear":
+    if st.data["meta"].get("gains_kinematics") == "nonlinear":
         obj.say("note: the margins are robust stability of the linearization; the gain's certificate for the "
                 "nonlinear robot (synthesis.kinematics: nonlinear) holds for the configured delay and slip ranges only")
     obj.say(f"wrote {', '.join(str(p) for p in st.files)}")

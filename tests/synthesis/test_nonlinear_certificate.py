@@ -92,6 +92,8 @@ def test_the_default_robot_has_none_and_says_why(tmp_path) -> None:
     r = CliRunner().invoke(main, ["synthesize", str(cfg), "-o", str(tmp_path / "out")])
     assert r.exit_code == 4, r.output
     assert "every solve failed" in r.output and "e_theta(t)" in r.output and "forward-speed" in r.output
+    # auto tried no fallback solver, and says how to get one (review: a single bound's fallback may conclude)
+    assert "heading_bound: auto tries no fallback solver, a single synthesis.heading_bound retries" in r.output
     # the way to a cheaper certificate that assumes slip constant within each period (theory §9)
     assert "synthesis.lyapunov slip-dependent" in r.output
     assert "Traceback" not in r.output

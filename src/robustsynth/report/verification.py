@@ -51,25 +51,29 @@ def robot_leaves(mc: dict[str, Any], cfg: Any) -> str:
     bp = mc.get("boundary_probe") or {}
     if not bp or bp.get("in_verdict", False):
         return ""
-    arcs = bp.get("arcs") or {}
-    robot = max([bp.get("max_V_over_level_nonlinear", 0.0), arcs.get("max_V_over_level_nonlinear", 0.0),
+    robot = max([bp.get("max_V_over_level_nonlinear", 0.0), (bp.get("arcs") or {}).get("max_V_over_level_nonlinear", 0.0),
                  (bp.get("adversary") or {}).get("max_V_over_level", 0.0)])
     if robot <= 1.0:
         return ""
-    exact = max(bp.get("max_V_over_level_linear", 0.0), arcs.get("max_V_over_level_linear", 0.0))
+    exact = bp.get("max_V_over_level_linear", 0.0)  # on straight segments (the probe runs no exact map on arcs)
     syn = cfg.synthesis
     if exact > 1.0 + LINEAR_TOL:
         return (f"the certificate's model is not the robot's: from the boundary of its set the exact lifted map reaches "
                 f"V/level {exact:.3f} and the nonlinear robot {robot:.3f} (not in the verdict"
                 + ("; the paper's model leaves slip out of the commands, synthesis.model: slip-aware keeps it"
                    if syn.model == "paper" else "") + "; docs/theory.md §7)")
-    if syn.model != "slip-aware" or getattr(cfg.slip, "model", "tracks") == "icr":
+    if getattr(cfg.slip, "model", "tracks") == "icr":
         hint = ("; synthesis.kinematics: nonlinear, which would prove the set for the robot, is not available for "
-                + ("slip.model: icr yet" if syn.model == "slip-aware" else f"synthesis.model: {syn.model}")
-                + ": docs/theory.md §9")
+                "slip.model: icr yet: docs/theory.md §12")
+    elif syn.model != "slip-aware":
+        hint = (f"; synthesis.kinematics: nonlinear, which would prove the set for the robot, needs synthesis.model: "
+                f"slip-aware: docs/theory.md §9")
     else:
+        needs = [w for w, cond in (("objective ultimate-bound", syn.objective != "ultimate-bound"),
+                                   ("delay vertices (delay_description auto, polytopic or lossy-polytopic)",
+                                    syn.delay_description == "norm-bounded")) if cond]
         hint = ("; a certificate made with synthesis.kinematics: nonlinear"
-                + (" (objective ultimate-bound)" if syn.objective != "ultimate-bound" else "")
+                + (f" ({', '.join(needs)})" if needs else "")
                 + " is proven for the robot, where one exists: docs/theory.md §9")
     return (f"the proof is for the robot's linearization: from the boundary of its set the nonlinear robot reaches "
             f"V/level {robot:.3f} (not in the verdict{hint})")

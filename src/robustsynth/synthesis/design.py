@@ -797,9 +797,10 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                    say: Callable[[str], None]) -> tuple[_Best, _Runner]:
     """The ultimate-bound search with the kinematic channels (docs/theory.md §9): for the configured
     heading bound, or for each of HEADING_GRID (auto), the alpha search, walking from the
-    linearized common certificate's best alpha; the smallest weighted bound wins.  Raises
-    InfeasibleError naming the heading and forward-speed ranges of the linearized set when no bound
-    gives a certificate."""
+    linearized common certificate's best alpha; the smallest weighted bound wins.  When no bound gives a
+    certificate it raises SolverFailure where every solve of every bound failed (after the fallback solver
+    for a configured bound; auto tries none), else InfeasibleError, both naming the heading and
+    forward-speed ranges of the linearized set."""
     lin = model.linearized()
     sc = s.model_copy(update={"lyapunov": "common", "kinematics": "linearized"})
     common, _ = _run_invariance(lin, sc, [], motor, prune=_motor_pruner(lin, sc) if motor else None)
@@ -832,7 +833,9 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
             tried.append((tb, "below the slip's own turn within a period"))
             below = str(exc)
             continue
-        tried.append((tb, "certified" if b.cert is not None else ("solver failed" if r.failures == r.solves else "infeasible")))
+        # per alpha, its final outcome (after any fallback): failed everywhere is a solver failure, not a proof
+        solver_failed = b.cert is None and bool(r.failed_at) and all(r.failed_at.values())
+        tried.append((tb, "certified" if b.cert is not None else ("solver failed" if solver_failed else "infeasible")))
         if runner is None:
             runner = r
         if b.cert is not None and b.value < best.value:
@@ -846,13 +849,15 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
             raise InfeasibleError(f"{below}; raise synthesis.heading_bound above it, or set it to auto")
         if tried and all(why == "solver failed" for _, why in tried):
             raise SolverFailure("ultimate-bound (nonlinear kinematics): every solve failed (numerical trouble, usually "
-                                "near infeasibility). " + _nonlinear_infeasible(model, common, tried))
+                                "near infeasibility" + ("; heading_bound: auto tries no fallback solver, a single "
+                                                       "synthesis.heading_bound retries its failed points with it"
+                                                       if auto else "") + "). " + _nonlinear_infeasible(model, common, tried))
         raise InfeasibleError(_nonlinear_infeasible(model, common, tried))
     return best, runner
 
 
 def _nonlinear_infeasible(model: Any, common: _Best, tried: list) -> str:
-    """Exit 3's message: which heading bounds failed, and the heading and forward-speed ranges of the
+    """The message of exit 3 or 4: which heading bounds failed, and the heading and forward-speed ranges of the
     linearized certificate's set, which the kinematic terms grow with."""
     what = ", ".join(f"{tb:g} rad ({why})" for tb, why in tried)
     msg = f"synthesis.kinematics: nonlinear: found no invariant set for the nonlinear robot with |e_theta(t)| within {what}"
