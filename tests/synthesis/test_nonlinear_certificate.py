@@ -1,6 +1,6 @@
 """The certificate for the nonlinear robot (synthesis.kinematics: nonlinear, docs/theory.md §9):
 re-checked in numpy with the kinematic channels and its heading bound, judged against the robot
-itself from the boundary of its set, refused where it does not exist (exit 3)."""
+itself from the boundary of its set, refused where none is found (exit 4 where every solve failed, 3 where one concluded)."""
 
 from __future__ import annotations
 
