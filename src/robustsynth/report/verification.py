@@ -66,8 +66,8 @@ def robot_leaves(mc: dict[str, Any], cfg: Any) -> str:
         hint = ("; synthesis.kinematics: nonlinear, which would prove the set for the robot, is not available for "
                 "slip.model: icr yet: docs/theory.md §12")
     elif syn.model != "slip-aware":
-        hint = (f"; synthesis.kinematics: nonlinear, which would prove the set for the robot, needs synthesis.model: "
-                f"slip-aware: docs/theory.md §9")
+        hint = ("; synthesis.kinematics: nonlinear, which would prove the set for the robot, needs synthesis.model: "
+                "slip-aware: docs/theory.md §9")
     else:
         needs = [w for w, cond in (("objective ultimate-bound", syn.objective != "ultimate-bound"),
                                    ("delay vertices (delay_description auto, polytopic or lossy-polytopic)",
