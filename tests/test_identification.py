@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import yaml
 
+from robustsynth.artifacts.gains import load_gains
 from robustsynth.artifacts.logs import write_log
 from robustsynth.config import default_config
 from robustsynth.identification import check_log, fragment_yaml, identify
@@ -43,7 +44,7 @@ def logs():
     m = build_model(cfg)
     # any gain that holds the loop does; lossy-link's is certified for a box that contains this one (delays
     # [0.01, 0.08] s, slip [0.6, 1] per track, the same loss cap, 12 rad/s) and saves a synthesis
-    base = yaml.safe_load((ROOT / "results" / "baselines" / "lossy-link" / "gains.json").read_text())
+    base = load_gains(ROOT / "results" / "baselines" / "lossy-link" / "gains.json")
     assert base["config"]["network"]["dropouts"]["max_consecutive"] == 2 and base["config"]["network"]["delay"]["max"] >= 0.07
     K = np.array(base["K"], dtype=float)
     path = make_path(cfg.verification.path, cfg.reference.speed)

@@ -509,7 +509,7 @@ def margin_stage(config: Config, outdir: str | Path, gains_path: str | Path | No
 
     rep = margin(config, np.asarray(gains["K"], dtype=float), lyapunov=lyapunov, on_step=on_step)
     data = rep.to_dict()
-    cert = gains.get("certificate") or None  # the kinematics the gain's own certificate is for (None: no certificate)
+    cert = gains.get("certificate")  # the kinematics the gain's own certificate is for (None: no certificate)
     data["meta"].update(gains=str(gp), gains_id=gains_id(gains), config=config.name,
                         gains_kinematics=cert.get("kinematics", "linearized") if cert else None)
     written = commit_files(outdir, {"margin.json": json_bytes(data)}, primary="margin.json")

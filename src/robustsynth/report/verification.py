@@ -48,6 +48,8 @@ def robot_leaves(mc: dict[str, Any], cfg: Any) -> str:
     from the boundary), else ''.  Whom it blames follows the exact lifted map on the same states: at most 1,
     the linearization; above, the certificate's model itself (the paper's, which leaves slip out of the
     commands).  It points to nonlinear kinematics only where the config can have them."""
+    from ..verification.checks import LEVEL_TOL
+
     bp = mc.get("boundary_probe") or {}
     if not bp or bp.get("in_verdict", False):
         return ""
@@ -57,12 +59,12 @@ def robot_leaves(mc: dict[str, Any], cfg: Any) -> str:
         return ""
     exact = bp.get("max_V_over_level_linear", 0.0)  # on straight segments (the probe runs no exact map on arcs)
     syn = cfg.synthesis
-    if exact > 1.0 + LINEAR_TOL:
+    if exact > 1.0 + LEVEL_TOL:  # above round-off: the model itself is left
         return (f"the certificate's model is not the robot's: from the boundary of its set the exact lifted map reaches "
                 f"V/level {exact:.3f} and the nonlinear robot {robot:.3f} (not in the verdict"
                 + ("; the paper's model leaves slip out of the commands, synthesis.model: slip-aware keeps it"
                    if syn.model == "paper" else "") + "; docs/theory.md §7)")
-    if getattr(cfg.slip, "model", "tracks") == "icr":
+    if cfg.slip.model == "icr":
         hint = ("; synthesis.kinematics: nonlinear, which would prove the set for the robot, is not available for "
                 "slip.model: icr yet: docs/theory.md §12")
     elif syn.model != "slip-aware":
@@ -77,9 +79,6 @@ def robot_leaves(mc: dict[str, Any], cfg: Any) -> str:
                 + " is proven for the robot, where one exists: docs/theory.md §9")
     return (f"the proof is for the robot's linearization: from the boundary of its set the nonlinear robot reaches "
             f"V/level {robot:.3f} (not in the verdict{hint})")
-
-
-LINEAR_TOL = 1e-9  # the exact lifted map's V/level above 1 by more than round-off: the model itself is left
 
 
 def verification_markdown(model: Any, res: Any, vd: dict[str, Any], figures: dict[str, str] | None = None) -> str:

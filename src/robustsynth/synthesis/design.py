@@ -811,7 +811,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
         bounds = tuple(b for b in HEADING_GRID if b >= start) or HEADING_GRID[-1:]
     else:
         bounds = (float(s.heading_bound),)
-    best, runner, tried = _Best(), None, []
+    best, runner, tried, below = _Best(), None, [], None
     for tb in bounds:
         # the channels for slip changing within a period only where the certificate is proven at the
         # within-period vertices: a common Lyapunov matrix (Model.slip_variation)
@@ -845,7 +845,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
     if best.cert is None:
         # exit 4 where no solve of any heading bound concluded (every one failed), exit 3 where one did (a solver's
         # infeasibility, or a bound below the slip's own turn): the same rule for one bound and for auto's several
-        if not auto and tried and tried[0][1].startswith("below"):  # the configured bound itself is the cause
+        if not auto and below is not None:  # the configured bound itself is the cause
             raise InfeasibleError(f"{below}; raise synthesis.heading_bound above it, or set it to auto")
         if tried and all(why == "solver failed" for _, why in tried):
             raise SolverFailure("ultimate-bound (nonlinear kinematics): every solve failed (numerical trouble, usually "
