@@ -28,6 +28,18 @@ def test_the_excluded_steps_are_named_only_where_there_are_some(name, excludes) 
     for fig in (fig_errors(res, m), fig_lyapunov(res, m)):
         labels = [lab for ax in fig.axes for lab in ax.get_legend_handles_labels()[1]]
         assert any(lab.startswith("excluded") for lab in labels) == excludes, labels
+        _titles_fit(fig)
+
+
+def _titles_fit(fig) -> None:
+    """Every axes title lies within the figure's width (lyapunov.png's second title line was cut off)."""
+    renderer = fig.canvas.get_renderer()
+    fig.canvas.draw()
+    width = fig.bbox.width
+    for ax in fig.axes:
+        box = ax.title.get_window_extent(renderer)
+        if ax.get_title():
+            assert box.x0 >= 0 and box.x1 <= width, (ax.get_title(), box.x0, box.x1, width)
 
 
 def test_a_sweep_figure_marks_the_points_that_failed_verification() -> None:

@@ -155,6 +155,12 @@ def model_markdown(model: Model, coverage: dict[str, Any]) -> str:
         f" `[{fmt(model.slip.d_min[1])}, {fmt(model.slip.d_max[1])}]` (left), written `d = W w`, `|w_i| <= 1`,"
         f" columns: {', '.join(model.slip.labels) or 'none'}.\n"
     )
+    if c.slip.model == "icr":
+        out.append(
+            "\n`B_D` and `B_d` are the paper's additive slip columns, for mu_r and mu_l only. The yaw factor and the"
+            " ICR offset x_icr do not appear in them: they enter at the slip-aware vertices (the slip matrix `M(mu)`"
+            " and the constant column, lateral velocity included; docs/theory.md §12).\n"
+        )
     out.append("\n## Coverage check\n\n")
     out.append(
         f"{coverage['samples']} (slip, switching-instant) samples (random admissible delay sequences, alternating and"

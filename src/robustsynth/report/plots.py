@@ -247,8 +247,9 @@ def fig_lyapunov(res, model) -> Any:
     ax.set_xlabel("step k")
     ax.set_ylabel("V(xi_k) = xi' P xi [-]")
     ax.set_title("Lyapunov function on the lifted model under time-varying delays (dotted: median)\n"
-                 "runs named delays/start: random, alternating or greedy delays (arcs: random delays along arcs; arcs-greedy: the greedy search along arcs); starting on the set's boundary "
-                 "(V = level) or outside it (V = 25 level)", fontsize=9)
+                 "runs named delays/start: random, alternating or greedy delays (arcs: random delays along arcs;\n"
+                 "arcs-greedy: the greedy search along arcs); starting on the set's boundary (V = level) or outside it"
+                 " (V = 25 level)", fontsize=9)
     ax.legend(fontsize=7, framealpha=0.85)
     ax.grid(alpha=0.3, which="both")
     fig.tight_layout()
