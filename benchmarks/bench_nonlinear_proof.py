@@ -6,7 +6,7 @@ line): the committed gain's certified |e_y| and |e_theta(t)| between samples, an
 max V+/level).  Then both certificates are synthesized side by side in this run, with the config's
 own settings and ``synthesis.kinematics`` linearized / nonlinear (heading bound searched): their
 |e_y|, the ratio, the nonlinear one's heading bound and its boundary probe on the nonlinear robot
-(its claim: <= 1; for a turning config also on arcs), and both synthesis times.  "none" is exit 3 or 4 (InfeasibleError, SolverFailure: every solve failed): no heading bound gave a certificate.
+(its claim: <= 1; for a turning config also on arcs), and both synthesis times.  "none" is exit 3 or 4 (InfeasibleError, SolverFailure: every solve failed, also unscaled): no heading bound gave a certificate.
 The probes judge the runs with slip changing within the period too when the certificate covers it.
 Then the default robot and network with slip boxes [lo, 1] per track: linearized and nonlinear |e_y|.
 Then the configs a new user would try (issue 22's targets): ``configs/nonlinear-proof.yaml`` with short,

@@ -1,5 +1,6 @@
-"""Solver faults: an injected Clarabel failure makes the SCS fallback run and be recorded; both
-failing gives exit 4 with one line; an infeasible problem exits 3 and leaves no current gains."""
+"""Solver faults: an injected Clarabel failure makes its unscaled retry run, and a failure of both the SCS
+fallback, each recorded; all failing gives exit 4 with one line; an infeasible problem exits 3 and leaves no
+current gains."""
 
 from __future__ import annotations
 
@@ -31,8 +32,17 @@ def _failing(names):
     return fake
 
 
-def test_clarabel_failure_falls_back_to_scs(monkeypatch) -> None:
+def test_clarabel_failure_is_retried_unscaled(monkeypatch) -> None:
     monkeypatch.setattr(solve_mod, "_call_solver", _failing({"clarabel"}))
+    res = synthesize(build_model(make_config()), objective="hinf")
+    assert res.solver["name"] == "clarabel-unscaled" and res.solver["version"] != "not installed"
+    assert res.solver["fallback_used"] is True
+    assert res.check.passed
+    assert any("the accepted K is from clarabel-unscaled" in n for n in res.notes)
+
+
+def test_clarabel_failure_falls_back_to_scs(monkeypatch) -> None:
+    monkeypatch.setattr(solve_mod, "_call_solver", _failing({"clarabel", "clarabel-unscaled"}))
     res = synthesize(build_model(make_config()), objective="hinf")
     assert res.solver["name"] == "scs"
     assert res.solver["fallback_used"] is True
@@ -40,8 +50,38 @@ def test_clarabel_failure_falls_back_to_scs(monkeypatch) -> None:
     assert any("the accepted K is from scs" in n for n in res.notes)  # gains.json says which solver's K it is
 
 
+def test_a_scan_takes_no_retry_unless_asked(monkeypatch) -> None:
+    """solve(fallback=False) is one solver call (the alpha scans: a failed point costs no second solve);
+    retry=True adds the unscaled Clarabel, and with the fallback it precedes SCS."""
+    calls: list[str] = []
+    real = solve_mod._call_solver
+
+    def fake(problem, name):
+        calls.append(name)
+        if name == "clarabel":
+            raise cp.error.SolverError("injected")
+        return real(problem, name)
+
+    monkeypatch.setattr(solve_mod, "_call_solver", fake)
+    x = cp.Variable()
+    q = cp.Problem(cp.Minimize(x), [x >= 1])
+    assert solve_mod.solve(q, "clarabel", lambda: True, fallback=False).kind == "failed" and calls == ["clarabel"]
+    calls.clear()
+    out = solve_mod.solve(q, "clarabel", lambda: True, fallback=False, retry=True)
+    assert out.kind == "ok" and calls == ["clarabel", "clarabel-unscaled"] and out.fallback_used
+    calls.clear()
+    assert solve_mod.solve(q, "clarabel", lambda: False).kind == "failed"  # every point refused: the whole chain
+    assert calls == ["clarabel", "clarabel-unscaled", "scs"]
+    calls.clear()  # a point the scan solved before and that failed: not solved by the same solver again
+    out = solve_mod.solve(q, "clarabel", lambda: True, fallback=False, retry=True, skip_first=True)
+    assert out.kind == "ok" and calls == ["clarabel-unscaled"]
+    calls.clear()
+    out = solve_mod.solve(q, "clarabel", lambda: True, fallback=False, retry=False, skip_first=True)
+    assert out.kind == "failed" and calls == [] and out.record.status == "failed before"
+
+
 def test_both_solvers_failing_exits_4(monkeypatch, tmp_path) -> None:
-    monkeypatch.setattr(solve_mod, "_call_solver", _failing({"clarabel", "scs"}))
+    monkeypatch.setattr(solve_mod, "_call_solver", _failing({"clarabel", "clarabel-unscaled", "scs"}))
     r = CliRunner().invoke(main, ["synthesize", "--objective", "hinf", "-o", str(tmp_path)])
     assert r.exit_code == 4, r.output
     lines = r.output.strip().splitlines()
@@ -104,7 +144,7 @@ def test_a_solver_panic_is_a_failed_attempt_and_its_native_report_is_held_back(m
     real = solve_mod._call_solver
 
     def panicking(problem, name):
-        if name == "clarabel":
+        if name.startswith("clarabel"):  # scaled and unscaled
             os.write(2, b"thread '<unnamed>' panicked at psdtrianglecone.rs\nstack backtrace:\n")
             raise PanicException("Eigval error: Eigen(1)")
         return real(problem, name)

@@ -144,12 +144,18 @@ class _Runner:
             for name, par in self.lp.params.items():
                 target.params[name].value = par.value
 
-    def run(self, fallback: bool = True) -> tuple[Outcome, dict | None, np.ndarray | None, CertificateCheck | None]:
+    def run(self, fallback: bool = True, retry: bool | None = None, again: bool = False
+            ) -> tuple[Outcome, dict | None, np.ndarray | None, CertificateCheck | None]:
+        """One point: ``fallback`` as :func:`solve`'s, ``retry`` its cheap retry (by default with the fallback).
+        ``again``: the point was solved before with the primary solver alone, and failed; it is not solved so
+        again (Clarabel from scratch is deterministic: the same problem fails the same way)."""
+        retry = fallback if retry is None else retry
         spent: list[SolveRecord] = []
         rounds = 0
         while True:
             try:
-                out, res = self._run_mirrored(fallback)
+                out, res = self._run_mirrored(fallback, retry, again)
+                again = False  # a grown problem (constraint generation) is solved from its first solver
                 out = Outcome(out.kind, out.record, spent + out.attempts)
                 break
             except _Cuts as c:
@@ -175,18 +181,21 @@ class _Runner:
             self.failed_at[float(alpha.value)] = out.kind == "failed"
         return (out, *res)
 
-    def _run_mirrored(self, fallback: bool) -> tuple[Outcome, tuple]:
+    def _run_mirrored(self, fallback: bool, retry: bool, again: bool = False) -> tuple[Outcome, tuple]:
         self._set_params(self.active)
-        if not (self.active.mirrored and self._builder is not None) or not fallback:
-            return self._run_on(self.active, fallback)
-        out, res = self._run_on(self.active, False)
+        if not (self.active.mirrored and self._builder is not None) or not (fallback or retry):
+            return self._run_on(self.active, fallback, retry, again)
+        if again:  # the mirrored problem failed before: straight to the full one
+            out, res = Outcome("failed", SolveRecord(self.primary, "failed before", None, 0.0), []), (None, None, None)
+        else:
+            out, res = self._run_on(self.active, False, False)
         if out.kind == "failed":
             if self._full is None:
                 self._full = _build(self._builder, self.model)
             self._set_params(self._full)
             self.full_retries += 1
             first = out.attempts
-            out, res = self._run_on(self._full, fallback)
+            out, res = self._run_on(self._full, fallback, retry)
             out = Outcome(out.kind, out.record, first + out.attempts)
         return out, res
 
@@ -198,7 +207,7 @@ class _Runner:
         self.solves += len(attempts)
         self.records.extend(attempts)
 
-    def _run_on(self, lp: LMIProblem, fallback: bool) -> tuple[Outcome, tuple]:
+    def _run_on(self, lp: LMIProblem, fallback: bool, retry: bool, again: bool = False) -> tuple[Outcome, tuple]:
         holder: dict[str, Any] = {}
 
         split = _SPLIT.get()
@@ -227,7 +236,7 @@ class _Runner:
             return chk.passed
 
         try:
-            out = solve(lp.problem, self.primary, accept, fallback=fallback)
+            out = solve(lp.problem, self.primary, accept, fallback=fallback, retry=retry, skip_first=again)
         except _Cuts as exc:
             self._count(exc.attempts)
             raise
@@ -301,7 +310,7 @@ def _run_stability(model: Any, s: SynthesisConfig, search: list, say: Callable[[
         # bisection points use the primary solver only (a failure counts as 'not certified', which
         # is conservative); the first point, r ~ 1, is retried with the fallback when it fails
         lp.params["r2"].value = r * r
-        out, cert, K, chk = runner.run(fallback=fallback)
+        out, cert, K, chk = runner.run(fallback=fallback, again=fallback)  # (fallback: r ~ 1 again, after it failed)
         search.append({"r": r, "status": out.kind})
         say(f"  decay rate r = {r:.6f}: {'certified' if out.kind == 'ok' else out.kind} ({_attempts(out)})")
         if out.kind == "ok":
@@ -414,14 +423,16 @@ def _walk(evaluate: Callable[[float], float], x0: float, step: float, lo: float,
 
 def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     say: Callable[[str], None] = lambda _m: None,
-                    alpha_hint: float | None = None, retry: bool = True, probe_only: bool = False,
+                    alpha_hint: float | None = None, retry: bool | str = True, probe_only: bool = False,
                     give_up: int | None = None,
                     prune: Callable[[list[float]], set[float]] | None = None) -> tuple[_Best, _Runner]:
     """The alpha line search of the invariance LMIs.  Without a hint: a log grid of alpha_points
     scanned upwards, then parabolic steps around its best point.  With ``alpha_hint`` (the best alpha
     of a cheaper certificate class): walk from the hint in quarter grid steps while the bound falls,
     then parabolic steps in that bracket, stopped once they no longer move the bound (the full scan
-    when the hint is not feasible for this class).  ``prune``: given the scan's alphas that were not
+    when the hint is not feasible for this class).  ``retry``: when nothing was certified, the scan's failed
+    points again, with the fallback chain (True), only the same solver unscaled ('cheap'), or not (False).
+    ``prune``: given the scan's alphas that were not
     certified, before the failed ones are retried with the fallback solver, returns those proven
     infeasible otherwise (they are not retried)."""
     lp = _build(build_invariance, model, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,
@@ -441,16 +452,17 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     runner = _Runner(model, lp, s.solver, make_cert, full=full)
     cache: dict[float, float] = {}
 
-    def evaluate(log_a: float, fallback: bool = False) -> float:
+    def evaluate(log_a: float, fallback: bool = False, cheap: bool = False) -> float:
+        # fallback or cheap: a point the scan solved and that failed, again past its first solver
         # The scan uses the primary solver only: a point it cannot solve costs a slow fallback
         # and rarely matters once its neighbours are solved.  Only when no point at all was
         # certified are the failed ones retried with the fallback solver (below).
-        if log_a in cache and not fallback:
+        if log_a in cache and not (fallback or cheap):
             return cache[log_a]
         a = float(np.exp(log_a))
         lp.params["alpha"].value = a
         lp.params["one_minus_alpha"].value = 1.0 - a
-        out, cert, K, chk = runner.run(fallback=fallback)
+        out, cert, K, chk = runner.run(fallback=fallback, retry=fallback or cheap, again=fallback or cheap)
         val = math.inf
         if out.kind == "ok":
             ub = chk.figures["ultimate_bound"]
@@ -501,7 +513,9 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                 break
     if best.cert is None and retry:
         failed = [g for g, v in zip(grid, vals) if not math.isfinite(v) and runner.failed_at.get(float(np.exp(g)))]
-        if prune is not None and failed:  # told every alpha of the scan that was not certified
+        # the hint's point too, where it failed (the scan's give-up counted it)
+        failed = sorted(failed + [g for g in cache if g not in set(grid) and runner.failed_at.get(float(np.exp(g)))])
+        if prune is not None and failed and retry is True:  # told every alpha of the scan that was not certified
             proven = prune([float(np.exp(g)) for g, v in zip(grid, vals) if not math.isfinite(v)])
             for a in (float(np.exp(g)) for g in failed):  # proven infeasible otherwise: no solver failure any more
                 if a in proven:
@@ -511,8 +525,9 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
             failed = [g for g in failed if float(np.exp(g)) not in proven]
         tried: list[float] = []
         for g in failed:
-            tried.append(evaluate(float(g), fallback=True))
-            vals[list(grid).index(g)] = tried[-1]
+            tried.append(evaluate(float(g), fallback=retry is True, cheap=True))
+            if g in list(grid):
+                vals[list(grid).index(g)] = tried[-1]
             # the scan's stopping rules on the retried points: past the minimum (two rises in a row), or
             # three failures in a row after a success (one more than the scan allows: a retry that fails,
             # fails, then certifies further up was seen in a constructed case) -- Ts = 1e-3 had spent 10
@@ -812,6 +827,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
     else:
         bounds = (float(s.heading_bound),)
     best, runner, tried, below = _Best(), None, [], None
+    tried_at: dict[float, tuple[int, int]] = {}  # heading bound -> (alphas solved, of which the solver failed)
     for tb in bounds:
         # the channels for slip changing within a period only where the certificate is proven at the
         # within-period vertices: a common Lyapunov matrix (Model.slip_variation)
@@ -826,7 +842,8 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                 if pb.cert is None or pb.value >= best.value:
                     tried.append((tb, "not better at the best alpha"))
                     break
-            b, r = _run_invariance(m, s, search, motor, say, alpha_hint=hint, retry=not auto, give_up=NONLINEAR_GIVE_UP,
+            b, r = _run_invariance(m, s, search, motor, say, alpha_hint=hint, retry="cheap" if auto else True,
+                                   give_up=NONLINEAR_GIVE_UP,
                                    prune=_motor_pruner(m, s, say=say) if motor else None)
         except InfeasibleError as exc:  # the heading bound is below the slip's own turn
             say(f"  {exc}")
@@ -836,6 +853,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
         # per alpha, its final outcome (after any fallback): failed everywhere is a solver failure, not a proof
         solver_failed = b.cert is None and bool(r.failed_at) and all(r.failed_at.values())
         tried.append((tb, "certified" if b.cert is not None else ("solver failed" if solver_failed else "infeasible")))
+        tried_at[tb] = (len(r.failed_at), sum(r.failed_at.values()))
         if runner is None:
             runner = r
         if b.cert is not None and b.value < best.value:
@@ -849,17 +867,28 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
             raise InfeasibleError(f"{below}; raise synthesis.heading_bound above it, or set it to auto")
         if tried and all(why == "solver failed" for _, why in tried):
             raise SolverFailure("ultimate-bound (nonlinear kinematics): every solve failed (numerical trouble, usually "
-                                "near infeasibility" + ("; heading_bound: auto tries no fallback solver, a single "
-                                                       "synthesis.heading_bound retries its failed points with it"
-                                                       if auto else "") + "). " + _nonlinear_infeasible(model, common, tried))
-        raise InfeasibleError(_nonlinear_infeasible(model, common, tried))
+                                "near infeasibility" + ("; heading_bound: auto retries its failed points with Clarabel "
+                                                       "unscaled only, a single synthesis.heading_bound also with the "
+                                                       "fallback solver" if auto else "") + "). "
+                                + _nonlinear_infeasible(model, common, tried, tried_at))
+        raise InfeasibleError(_nonlinear_infeasible(model, common, tried, tried_at))
     return best, runner
 
 
-def _nonlinear_infeasible(model: Any, common: _Best, tried: list) -> str:
-    """The message of exit 3 or 4: which heading bounds failed, and the heading and forward-speed ranges of the
-    linearized certificate's set, which the kinematic terms grow with."""
-    what = ", ".join(f"{tb:g} rad ({why})" for tb, why in tried)
+def _nonlinear_infeasible(model: Any, common: _Best, tried: list, tried_at: dict[float, tuple[int, int]] | None = None) -> str:
+    """The message of exit 3 or 4: which heading bounds failed (at how many alphas: a scan gives up after
+    NONLINEAR_GIVE_UP points in a row without a certificate), and the heading and forward-speed ranges of
+    the linearized certificate's set, which the kinematic terms grow with."""
+    def why_at(tb: float, why: str) -> str:
+        n, failed = (tried_at or {}).get(tb, (0, 0))
+        if why == "infeasible" and n:
+            return f"infeasible at the {n} alphas tried" if not failed else \
+                f"infeasible at {n - failed} of the {n} alphas tried, the solver failed at the others"
+        if why == "solver failed" and n:
+            return f"the solver failed at the {n} alphas tried"
+        return why
+
+    what = ", ".join(f"{tb:g} rad ({why_at(tb, why)})" for tb, why in tried)
     msg = f"synthesis.kinematics: nonlinear: found no invariant set for the nonlinear robot with |e_theta(t)| within {what}"
     if common.cert is not None and common.check is not None:
         from ..certificate import lyapunov_of, sup_on_set

@@ -36,12 +36,19 @@ SOLVER_OPTIONS: dict[str, dict[str, Any]] = {
     # SCS is first-order: 1e-8 is tight for it; the iteration cap bounds a fallback to ~1 s here
     "scs": {"solver": cp.SCS, "eps_abs": 1e-8, "eps_rel": 1e-8, "max_iters": 20_000},
 }
+# Clarabel again, without its equilibration (the row and column scaling of the data): where the scaled
+# problem stalls near infeasibility and ends in a numerical error, the unscaled one often concludes, as
+# fast as a first solve (measured on the default robot's kinematic channels, docs/theory.md §9: every
+# solve 'solver_error' in ~0.3 s scaled, 'infeasible' in ~0.3 s unscaled, where SCS takes 2-7 s to say
+# the same; on certified points both give the same optimum)
+SOLVER_OPTIONS["clarabel-unscaled"] = {**SOLVER_OPTIONS["clarabel"], "equilibrate_enable": False}
+RETRY = {"clarabel": "clarabel-unscaled"}  # the cheap retry: after its solver, before the fallback solver
 FALLBACK = {"clarabel": "scs", "scs": "clarabel"}
 
 
 def solver_options(name: str) -> dict[str, Any]:
     opts = dict(SOLVER_OPTIONS[name])
-    if name == "clarabel":
+    if opts["solver"] == cp.CLARABEL:
         try:
             import clarabel
 
@@ -54,7 +61,7 @@ def solver_options(name: str) -> dict[str, Any]:
 
 def solver_version(name: str) -> str:
     try:
-        mod = __import__(name)
+        mod = __import__(name.split("-")[0])  # clarabel-unscaled is Clarabel
         return str(getattr(mod, "__version__", "unknown"))
     except ImportError:
         return "not installed"
@@ -200,14 +207,19 @@ class Rejected(Exception):
     attempts: list[SolveRecord] = []
 
 
-def solve(problem: cp.Problem, primary: str, accept: Callable[[], bool], fallback: bool = True) -> Outcome:
+def solve(problem: cp.Problem, primary: str, accept: Callable[[], bool], fallback: bool = True,
+          retry: bool | None = None, skip_first: bool = False) -> Outcome:
     """Solve with ``primary``; on a solver error, an inaccurate status or a point that ``accept``
-    rejects (the numpy certificate check), retry once with the other solver.
+    rejects (the numpy certificate check), retry with the same solver unscaled (``RETRY``; ``retry``,
+    by default whenever ``fallback``), then, with ``fallback``, with the other solver (and its retry).
 
     A clean 'infeasible' from the solver is final (no retry).  An 'optimal_inaccurate' point (of
-    either solver) is still offered to ``accept``: the numpy check, not the status, decides."""
+    either solver) is still offered to ``accept``: the numpy check, not the status, decides.
+    ``skip_first``: the caller solved this problem with ``primary`` before and it failed; start past it."""
+    retry = fallback if retry is None else retry
     attempts: list[SolveRecord] = []
-    for name in (primary, FALLBACK[primary]) if fallback else (primary,):
+    names = _chain(primary, retry) + (_chain(FALLBACK[primary], retry) if fallback else ())
+    for name in names[1:] if skip_first else names:
         check_interrupt()
         rec = _attempt(problem, name)
         check_interrupt()  # an interrupt is never a failed or infeasible point
@@ -215,7 +227,13 @@ def solve(problem: cp.Problem, primary: str, accept: Callable[[], bool], fallbac
         done = _decide(rec, accept, attempts)
         if done is not None:
             return done
+    if not attempts:  # nothing past the first solver to try
+        return Outcome("failed", SolveRecord(primary, "failed before", None, 0.0), attempts)
     return Outcome("failed", attempts[-1], attempts)
+
+
+def _chain(name: str, retry: bool = True) -> tuple[str, ...]:
+    return (name, RETRY[name]) if retry and name in RETRY else (name,)
 
 
 def _decide(rec: SolveRecord, accept: Callable[[], bool], attempts: list[SolveRecord]) -> Outcome | None:
