@@ -41,6 +41,53 @@ def test_clarabel_failure_is_retried_unscaled(monkeypatch) -> None:
     assert any("the accepted K is from clarabel-unscaled" in n for n in res.notes)
 
 
+def test_a_retry_that_skips_the_failed_solver_still_counts_as_a_fallback(monkeypatch) -> None:
+    """The first decay rate is solved, fails on Clarabel, and is retried past Clarabel (which would fail the
+    same way): the unscaled solve certifies it alone, and gains.json must still say a fallback was used
+    (review: a single attempt read as none)."""
+    monkeypatch.setattr(solve_mod, "_call_solver", _failing({"clarabel"}))
+    # slip-dependent: no within-period vertices, so no constraint-generation round adds attempts
+    res = synthesize(build_model(make_config(**{"synthesis.symmetry": "off", "synthesis.lyapunov": "slip-dependent"})),
+                     objective="stability")
+    assert res.solver["name"] == "clarabel-unscaled" and res.solver["fallback_used"] is True
+    assert any("fallback solver used" in n for n in res.notes), res.notes
+
+
+def test_a_retried_point_skips_the_primary_only_on_the_problem_it_failed_on(monkeypatch) -> None:
+    """_Runner.run(again=True) skips the primary solver where it failed on this very problem; a problem grown by
+    constraint generation since (never solved) starts from the primary again (review: it kept skipping)."""
+    from types import SimpleNamespace
+
+    import robustsynth.synthesis.design as design
+    from robustsynth.synthesis.solve import Outcome, SolveRecord
+
+    calls = []
+
+    def fake_solve(problem, primary, accept, fallback=True, retry=None, skip_first=False):
+        calls.append((problem, skip_first))
+        if len(calls) == 2:  # the retry on P0 finds within-period vertices failing: the problem grows
+            exc = design._Cuts([3])
+            exc.attempts = [SolveRecord("clarabel-unscaled", "optimal", 1, 0.0)]
+            raise exc
+        rec = SolveRecord(primary, "solver_error", None, 0.0)
+        return Outcome("failed", rec, [rec])
+
+    monkeypatch.setattr(design, "solve", fake_solve)
+    monkeypatch.setattr(design, "_build", lambda fn, *a, **k: fn(*a, **k))
+    alpha = SimpleNamespace(value=0.1)
+    lp0 = SimpleNamespace(mirrored=False, params={"alpha": alpha}, problem="P0")
+    grown = SimpleNamespace(mirrored=False, params={"alpha": SimpleNamespace(value=None)}, problem="P1")
+    runner = design._Runner(SimpleNamespace(with_cuts=lambda idx: None), lp0, "clarabel", lambda v: {},
+                            full=lambda m: grown)
+    runner.run(fallback=False)  # the scan: the primary fails on P0
+    runner.run(fallback=True, again=True)
+    assert calls == [("P0", False), ("P0", True), ("P1", False)]
+    alpha.value = 0.2  # another alpha: never solved, so not skipped
+    calls.clear()
+    runner.run(fallback=True, again=True)
+    assert calls == [("P1", False)]
+
+
 def test_clarabel_failure_falls_back_to_scs(monkeypatch) -> None:
     monkeypatch.setattr(solve_mod, "_call_solver", _failing({"clarabel", "clarabel-unscaled"}))
     res = synthesize(build_model(make_config()), objective="hinf")

@@ -15,7 +15,7 @@ from ..errors import InfeasibleError, InputError, SolverFailure
 from ..model.slip import check_physical_feasibility
 from ..certificate import CertificateCheck, check_certificate, varying_failures
 from .lmis import LMIProblem, build_hinf, build_invariance, build_stability
-from .solve import Outcome, Rejected, SolveRecord, solve, solver_version
+from .solve import RETRY, Outcome, Rejected, SolveRecord, solve, solver_version
 
 __all__ = ["SynthesisResult", "synthesize"]
 
@@ -113,7 +113,7 @@ class _Runner:
     ``full(model)`` builds the same problem for a model without the mirror symmetry.  Clarabel 0.11
     reports an error on a mirror-invariant problem where the full problem reports 'infeasible'
     (measured at the default robot's infeasible alphas).  A search point that fails counts as not
-    certified either way, so only a solve that asks for the fallback (``fallback=True``: the retries
+    certified either way, so only a solve that asks for the fallback or the cheap retry (the retries
     when nothing was certified, the first decay rate) first solves the point again on the full
     problem: then infeasibility is still told from a solver failure (exit 3, not 4), and the search
     itself does not pay for a full solve at every infeasible alpha (the lossy link: 6 s instead of 10 s).
@@ -137,6 +137,7 @@ class _Runner:
         self.failures = 0
         self.full_retries = 0
         self.failed_at: dict[float, bool] = {}  # alpha -> the solver failed (not: infeasible)
+        self._failed_first: dict[tuple, list[LMIProblem]] = {}  # parameters -> problems the primary solver failed on
         self.last_kind = ""
 
     def _set_params(self, target: LMIProblem) -> None:
@@ -144,22 +145,25 @@ class _Runner:
             for name, par in self.lp.params.items():
                 target.params[name].value = par.value
 
-    def run(self, fallback: bool = True, retry: bool | None = None, again: bool = False
-            ) -> tuple[Outcome, dict | None, np.ndarray | None, CertificateCheck | None]:
+    def run(self, fallback: bool = True, retry: bool | None = None, again: bool = False,
+            unscaled_only: bool = False) -> tuple[Outcome, dict | None, np.ndarray | None, CertificateCheck | None]:
         """One point: ``fallback`` as :func:`solve`'s, ``retry`` its cheap retry (by default with the fallback).
-        ``again``: the point was solved before with the primary solver alone, and failed; it is not solved so
-        again (Clarabel from scratch is deterministic: the same problem fails the same way)."""
-        retry = fallback if retry is None else retry
+        ``again``: a point solved before; where the primary solver failed on this very problem (the same
+        parameters and the same constraints), it is not run again (Clarabel from scratch is deterministic:
+        the same problem fails the same way).  ``unscaled_only``: skip the primary solver in any case (the
+        rest of a scan whose primary solves all failed and whose retries concluded)."""
+        retry = fallback if retry is None else retry or unscaled_only
         spent: list[SolveRecord] = []
         rounds = 0
         while True:
+            skip = unscaled_only or (again and any(p is self.active for p in self._failed_first.get(self._key(), ())))
             try:
-                out, res = self._run_mirrored(fallback, retry, again)
-                again = False  # a grown problem (constraint generation) is solved from its first solver
-                out = Outcome(out.kind, out.record, spent + out.attempts)
+                out, res = self._run_mirrored(fallback, retry, skip)
+                out = replace(out, attempts=spent + out.attempts)
                 break
             except _Cuts as c:
                 spent += c.attempts
+                unscaled_only = False  # the grown problem (constraint generation) from its first solver
                 new = [i for i in c.indices if i not in self.cuts][:CUTS_PER_ROUND]
                 if rounds >= MAX_CUT_ROUNDS or not new or self._builder is None:
                     # not a solver failure: the point fails the re-check within the period after the
@@ -181,12 +185,15 @@ class _Runner:
             self.failed_at[float(alpha.value)] = out.kind == "failed"
         return (out, *res)
 
-    def _run_mirrored(self, fallback: bool, retry: bool, again: bool = False) -> tuple[Outcome, tuple]:
+    def _key(self) -> tuple:
+        return tuple((name, float(p.value)) for name, p in sorted(self.lp.params.items()))
+
+    def _run_mirrored(self, fallback: bool, retry: bool, skip: bool = False) -> tuple[Outcome, tuple]:
         self._set_params(self.active)
         if not (self.active.mirrored and self._builder is not None) or not (fallback or retry):
-            return self._run_on(self.active, fallback, retry, again)
-        if again:  # the mirrored problem failed before: straight to the full one
-            out, res = Outcome("failed", SolveRecord(self.primary, "failed before", None, 0.0), []), (None, None, None)
+            return self._run_on(self.active, fallback, retry, skip)
+        if skip:  # the mirrored problem failed before: straight to the full one
+            out, res = Outcome("failed", SolveRecord(self.primary, "failed before", None, 0.0), [], 1), (None, None, None)
         else:
             out, res = self._run_on(self.active, False, False)
         if out.kind == "failed":
@@ -195,8 +202,9 @@ class _Runner:
             self._set_params(self._full)
             self.full_retries += 1
             first = out.attempts
+            skipped = out.skipped
             out, res = self._run_on(self._full, fallback, retry)
-            out = Outcome(out.kind, out.record, first + out.attempts)
+            out = replace(out, attempts=first + out.attempts, skipped=skipped + out.skipped)
         return out, res
 
     def _count(self, attempts: list[SolveRecord]) -> None:
@@ -207,7 +215,7 @@ class _Runner:
         self.solves += len(attempts)
         self.records.extend(attempts)
 
-    def _run_on(self, lp: LMIProblem, fallback: bool, retry: bool, again: bool = False) -> tuple[Outcome, tuple]:
+    def _run_on(self, lp: LMIProblem, fallback: bool, retry: bool, skip: bool = False) -> tuple[Outcome, tuple]:
         holder: dict[str, Any] = {}
 
         split = _SPLIT.get()
@@ -236,11 +244,13 @@ class _Runner:
             return chk.passed
 
         try:
-            out = solve(lp.problem, self.primary, accept, fallback=fallback, retry=retry, skip_first=again)
+            out = solve(lp.problem, self.primary, accept, fallback=fallback, retry=retry, skip_first=skip)
         except _Cuts as exc:
             self._count(exc.attempts)
             raise
         self._count(out.attempts)
+        if not skip and out.attempts and (out.kind == "failed" or len(out.attempts) > 1):  # the primary failed here
+            self._failed_first.setdefault(self._key(), []).append(lp)
         if out.fallback_used:
             self.fallbacks += 1
         if out.kind == "ok":
@@ -452,17 +462,18 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     runner = _Runner(model, lp, s.solver, make_cert, full=full)
     cache: dict[float, float] = {}
 
-    def evaluate(log_a: float, fallback: bool = False, cheap: bool = False) -> float:
-        # fallback or cheap: a point the scan solved and that failed, again past its first solver
+    def evaluate(log_a: float, fallback: bool = False, cheap: bool = False, unscaled_only: bool = False) -> float:
         # The scan uses the primary solver only: a point it cannot solve costs a slow fallback
         # and rarely matters once its neighbours are solved.  Only when no point at all was
-        # certified are the failed ones retried with the fallback solver (below).
-        if log_a in cache and not (fallback or cheap):
+        # certified are the failed ones retried (below): fallback, the whole chain; cheap, the
+        # primary solver unscaled only; either way not the primary again where it failed on this problem.
+        if log_a in cache and not (fallback or cheap or unscaled_only):
             return cache[log_a]
         a = float(np.exp(log_a))
         lp.params["alpha"].value = a
         lp.params["one_minus_alpha"].value = 1.0 - a
-        out, cert, K, chk = runner.run(fallback=fallback, retry=fallback or cheap, again=fallback or cheap)
+        out, cert, K, chk = runner.run(fallback=fallback, retry=fallback or cheap, again=fallback or cheap,
+                                       unscaled_only=unscaled_only)
         val = math.inf
         if out.kind == "ok":
             ub = chk.figures["ultimate_bound"]
@@ -492,10 +503,12 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         say("  the hint is not feasible for this class: full scan")
     vals: list[float] = []
     failures = 0  # solver failures in a row, with nothing certified yet
+    gave_up = False
     for g in grid:
         vals.append(evaluate(float(g)))
         failures = failures + 1 if best.cert is None and runner.failed_at.get(float(np.exp(g)), False) else 0
         if give_up is not None and failures >= give_up:
+            gave_up = True
             # a problem on which every solve fails is usually one that has no solution near it (the kinematic
             # channels at a large heading bound: delay-multi-period spent 16 solves of 19 s each, 5 min)
             say(f"  {failures} solver failures in a row and nothing certified: the scan stops here")
@@ -511,9 +524,11 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
             failed_last = runner.failed_at.get(float(np.exp(g)), False)
             if not failed_last or (len(vals) >= 2 and not math.isfinite(vals[-2])):
                 break
+    if retry == "cheap" and runner.primary not in RETRY:  # no cheap retry for this solver
+        retry = False
     if best.cert is None and retry:
         failed = [g for g, v in zip(grid, vals) if not math.isfinite(v) and runner.failed_at.get(float(np.exp(g)))]
-        # the hint's point too, where it failed (the scan's give-up counted it)
+        # the hint's point too, where it failed
         failed = sorted(failed + [g for g in cache if g not in set(grid) and runner.failed_at.get(float(np.exp(g)))])
         if prune is not None and failed and retry is True:  # told every alpha of the scan that was not certified
             proven = prune([float(np.exp(g)) for g, v in zip(grid, vals) if not math.isfinite(v)])
@@ -536,9 +551,22 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                 break
             if len(tried) >= 4 and any(map(math.isfinite, tried[:-3])) and not any(map(math.isfinite, tried[-3:])):
                 break
+        concluded = any(not runner.failed_at.get(float(np.exp(g)), True) for g in failed)
+        if best.cert is None and gave_up and concluded and runner.primary in RETRY:
+            # the give-up cut the scan where only the primary solver was failing: the retry concludes there, so
+            # the rest of the grid goes to it directly (an exit 3 then rests on every alpha of the scan)
+            say(f"  the retries concluded: the rest of the scan with {RETRY[runner.primary]}")
+            for g in grid[len(vals):]:
+                vals.append(evaluate(float(g), unscaled_only=True))
+                if len(vals) >= 3 and math.isfinite(vals[-3]) and vals[-1] > vals[-2] > vals[-3]:
+                    break  # past the minimum (the scan's rule)
+                if any(math.isfinite(v) for v in vals[:-1]) and not math.isfinite(vals[-1]):
+                    break  # the end of the feasible interval
     if best.cert is None:
         return best, runner
-    _parabolic(evaluate, [(float(g), v) for g, v in zip(grid, vals)])
+    # the retried points off the grid (the hint's) where they certified: the parabolic steps start from them too
+    extra = [(g, v) for g, v in cache.items() if g not in set(grid) and math.isfinite(v)]
+    _parabolic(evaluate, sorted([(float(g), v) for g, v in zip(grid, vals)] + extra))
     return best, runner
 
 
@@ -775,7 +803,7 @@ def _run_linearized(model: Any, s: SynthesisConfig, search: list, motor: bool,
                                    prune=_motor_pruner(model, s, least, say) if motor else None)
     if best.cert is None:
         if runner.failures and runner.failures == len(search):
-            raise SolverFailure("ultimate-bound: every solve failed, also with the fallback solver")
+            raise SolverFailure("ultimate-bound: every solve failed, also retried (unscaled) and with the fallback solver")
         if motor:
             probe, _ = _run_invariance(model, s.model_copy(update={"alpha_points": 5}), [], False)
             if probe.cert is not None:
@@ -813,9 +841,9 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
     """The ultimate-bound search with the kinematic channels (docs/theory.md §9): for the configured
     heading bound, or for each of HEADING_GRID (auto), the alpha search, walking from the
     linearized common certificate's best alpha; the smallest weighted bound wins.  When no bound gives a
-    certificate it raises SolverFailure where every solve of every bound failed (after the fallback solver
-    for a configured bound; auto tries none), else InfeasibleError, both naming the heading and
-    forward-speed ranges of the linearized set."""
+    certificate it raises SolverFailure where every solve of every bound failed (after the retries: Clarabel
+    unscaled, and for a configured bound the fallback solver too), else InfeasibleError, both naming the
+    heading bounds, the alphas tried and the heading and forward-speed ranges of the linearized set."""
     lin = model.linearized()
     sc = s.model_copy(update={"lyapunov": "common", "kinematics": "linearized"})
     common, _ = _run_invariance(lin, sc, [], motor, prune=_motor_pruner(lin, sc) if motor else None)
@@ -867,9 +895,12 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
             raise InfeasibleError(f"{below}; raise synthesis.heading_bound above it, or set it to auto")
         if tried and all(why == "solver failed" for _, why in tried):
             raise SolverFailure("ultimate-bound (nonlinear kinematics): every solve failed (numerical trouble, usually "
-                                "near infeasibility" + ("; heading_bound: auto retries its failed points with Clarabel "
-                                                       "unscaled only, a single synthesis.heading_bound also with the "
-                                                       "fallback solver" if auto else "") + "). "
+                                "near infeasibility" + ((("; heading_bound: auto retries its failed points with Clarabel "
+                                                         "unscaled only, a single synthesis.heading_bound also with the "
+                                                         "fallback solver") if s.solver in RETRY else
+                                                        "; heading_bound: auto retries nothing, a single "
+                                                        "synthesis.heading_bound retries with the fallback solver")
+                                                       if auto else "") + "). "
                                 + _nonlinear_infeasible(model, common, tried, tried_at))
         raise InfeasibleError(_nonlinear_infeasible(model, common, tried, tried_at))
     return best, runner

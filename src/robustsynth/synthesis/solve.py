@@ -86,10 +86,12 @@ class Outcome:
     kind: str
     record: SolveRecord
     attempts: list[SolveRecord] = field(default_factory=list)
+    skipped: int = 0  # solvers of the chain not run again: they had failed on this very problem before
 
     @property
     def fallback_used(self) -> bool:
-        return len(self.attempts) > 1
+        """More than one solver was needed (counting one that failed before and was skipped)."""
+        return len(self.attempts) + self.skipped > 1
 
 
 _HELD_SIGNALS = {signal.SIGINT, signal.SIGTERM}
@@ -219,17 +221,19 @@ def solve(problem: cp.Problem, primary: str, accept: Callable[[], bool], fallbac
     retry = fallback if retry is None else retry
     attempts: list[SolveRecord] = []
     names = _chain(primary, retry) + (_chain(FALLBACK[primary], retry) if fallback else ())
-    for name in names[1:] if skip_first else names:
+    skipped = 1 if skip_first else 0
+    for name in names[skipped:]:
         check_interrupt()
         rec = _attempt(problem, name)
         check_interrupt()  # an interrupt is never a failed or infeasible point
         attempts.append(rec)
         done = _decide(rec, accept, attempts)
         if done is not None:
+            done.skipped = skipped
             return done
     if not attempts:  # nothing past the first solver to try
-        return Outcome("failed", SolveRecord(primary, "failed before", None, 0.0), attempts)
-    return Outcome("failed", attempts[-1], attempts)
+        return Outcome("failed", SolveRecord(primary, "failed before", None, 0.0), attempts, skipped)
+    return Outcome("failed", attempts[-1], attempts, skipped)
 
 
 def _chain(name: str, retry: bool = True) -> tuple[str, ...]:
