@@ -152,13 +152,13 @@ class _Runner:
         parameters and the same constraints), it is not run again (Clarabel from scratch is deterministic:
         the same problem fails the same way).  ``unscaled_only``: skip the primary solver in any case (the
         rest of a scan whose primary solves all failed and whose retries concluded)."""
-        retry = fallback if retry is None else retry or unscaled_only
+        retry = (fallback if retry is None else retry) or unscaled_only
         spent: list[SolveRecord] = []
         rounds = 0
         while True:
             skip = unscaled_only or (again and any(p is self.active for p in self._failed_first.get(self._key(), ())))
             try:
-                out, res = self._run_mirrored(fallback, retry, skip)
+                out, res = self._run_mirrored(fallback, retry, skip, force=unscaled_only)
                 out = replace(out, attempts=spent + out.attempts)
                 break
             except _Cuts as c:
@@ -188,7 +188,9 @@ class _Runner:
     def _key(self) -> tuple:
         return tuple((name, float(p.value)) for name, p in sorted(self.lp.params.items()))
 
-    def _run_mirrored(self, fallback: bool, retry: bool, skip: bool = False) -> tuple[Outcome, tuple]:
+    def _run_mirrored(self, fallback: bool, retry: bool, skip: bool = False, force: bool = False
+                      ) -> tuple[Outcome, tuple]:
+        """``skip``: not the primary solver on the active problem; ``force``: not on the full one either."""
         self._set_params(self.active)
         if not (self.active.mirrored and self._builder is not None) or not (fallback or retry):
             return self._run_on(self.active, fallback, retry, skip)
@@ -203,7 +205,7 @@ class _Runner:
             self.full_retries += 1
             first = out.attempts
             skipped = out.skipped
-            out, res = self._run_on(self._full, fallback, retry)
+            out, res = self._run_on(self._full, fallback, retry, skip=force)
             out = replace(out, attempts=first + out.attempts, skipped=skipped + out.skipped)
         return out, res
 
@@ -461,19 +463,21 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
 
     runner = _Runner(model, lp, s.solver, make_cert, full=full)
     cache: dict[float, float] = {}
+    last: list[Outcome] = []  # the outcome of evaluate's latest solve
 
     def evaluate(log_a: float, fallback: bool = False, cheap: bool = False, unscaled_only: bool = False) -> float:
         # The scan uses the primary solver only: a point it cannot solve costs a slow fallback
         # and rarely matters once its neighbours are solved.  Only when no point at all was
         # certified are the failed ones retried (below): fallback, the whole chain; cheap, the
         # primary solver unscaled only; either way not the primary again where it failed on this problem.
-        if log_a in cache and not (fallback or cheap or unscaled_only):
+        if log_a in cache and not (fallback or cheap):
             return cache[log_a]
         a = float(np.exp(log_a))
         lp.params["alpha"].value = a
         lp.params["one_minus_alpha"].value = 1.0 - a
         out, cert, K, chk = runner.run(fallback=fallback, retry=fallback or cheap, again=fallback or cheap,
                                        unscaled_only=unscaled_only)
+        last[:] = [out]
         val = math.inf
         if out.kind == "ok":
             ub = chk.figures["ultimate_bound"]
@@ -539,8 +543,11 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     runner.failures -= 1  # (the exit-3 texts tell "infeasible" from "solver failed" by these counts)
             failed = [g for g in failed if float(np.exp(g)) not in proven]
         tried: list[float] = []
+        cheap_concluded = False  # the unscaled retry itself concluded somewhere (not the fallback after it)
         for g in failed:
             tried.append(evaluate(float(g), fallback=retry is True, cheap=True))
+            cheap_concluded = cheap_concluded or (last[0].kind != "failed"
+                                                  and last[0].record.name == RETRY.get(runner.primary))
             if g in list(grid):
                 vals[list(grid).index(g)] = tried[-1]
             # the scan's stopping rules on the retried points: past the minimum (two rises in a row), or
@@ -551,10 +558,10 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                 break
             if len(tried) >= 4 and any(map(math.isfinite, tried[:-3])) and not any(map(math.isfinite, tried[-3:])):
                 break
-        concluded = any(not runner.failed_at.get(float(np.exp(g)), True) for g in failed)
-        if best.cert is None and gave_up and concluded and runner.primary in RETRY:
-            # the give-up cut the scan where only the primary solver was failing: the retry concludes there, so
-            # the rest of the grid goes to it directly (an exit 3 then rests on every alpha of the scan)
+        if gave_up and cheap_concluded:
+            # the give-up cut the scan where only the primary solver was failing: the unscaled retry concludes
+            # there, so the rest of the grid goes to it directly (an exit 3 then rests on every alpha of the scan;
+            # a certificate found by the retries is refined from the whole grid)
             say(f"  the retries concluded: the rest of the scan with {RETRY[runner.primary]}")
             for g in grid[len(vals):]:
                 vals.append(evaluate(float(g), unscaled_only=True))
@@ -566,7 +573,9 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         return best, runner
     # the retried points off the grid (the hint's) where they certified: the parabolic steps start from them too
     extra = [(g, v) for g, v in cache.items() if g not in set(grid) and math.isfinite(v)]
-    _parabolic(evaluate, sorted([(float(g), v) for g, v in zip(grid, vals)] + extra))
+    # refined by the solver that certified: the unscaled one where the primary failed at every point it tried
+    unscaled = best.record is not None and best.record.name == RETRY.get(runner.primary)
+    _parabolic(lambda x: evaluate(x, unscaled_only=unscaled), sorted([(float(g), v) for g, v in zip(grid, vals)] + extra))
     return best, runner
 
 

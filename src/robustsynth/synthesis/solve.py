@@ -39,7 +39,7 @@ SOLVER_OPTIONS: dict[str, dict[str, Any]] = {
 # Clarabel again, without its equilibration (the row and column scaling of the data): where the scaled
 # problem stalls near infeasibility and ends in a numerical error, the unscaled one often concludes, as
 # fast as a first solve (measured on the default robot's kinematic channels, docs/theory.md §9: every
-# solve 'solver_error' in ~0.3 s scaled, 'infeasible' in ~0.3 s unscaled, where SCS takes 2-7 s to say
+# solve 'solver_error' in ~0.3 s scaled, 'infeasible' in ~0.3 s unscaled, where SCS takes 1-29 s to say
 # the same; on certified points both give the same optimum)
 SOLVER_OPTIONS["clarabel-unscaled"] = {**SOLVER_OPTIONS["clarabel"], "equilibrate_enable": False}
 RETRY = {"clarabel": "clarabel-unscaled"}  # the cheap retry: after its solver, before the fallback solver
