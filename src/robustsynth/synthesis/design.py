@@ -530,10 +530,12 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                 break
     if retry == "cheap" and runner.primary not in RETRY:  # no cheap retry for this solver
         retry = False
+    grid_points = list(grid)
+    on_grid = set(grid_points)
     if best.cert is None and retry:
         failed = [g for g, v in zip(grid, vals) if not math.isfinite(v) and runner.failed_at.get(float(np.exp(g)))]
         # the hint's point too, where it failed
-        failed = sorted(failed + [g for g in cache if g not in set(grid) and runner.failed_at.get(float(np.exp(g)))])
+        failed = sorted(failed + [g for g in cache if g not in on_grid and runner.failed_at.get(float(np.exp(g)))])
         if prune is not None and failed and retry is True:  # told every alpha of the scan that was not certified
             proven = prune([float(np.exp(g)) for g, v in zip(grid, vals) if not math.isfinite(v)])
             for a in (float(np.exp(g)) for g in failed):  # proven infeasible otherwise: no solver failure any more
@@ -548,8 +550,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
             tried.append(evaluate(float(g), fallback=retry is True, cheap=True))
             cheap_concluded = cheap_concluded or (last[0].kind != "failed"
                                                   and last[0].record.name == RETRY.get(runner.primary))
-            if g in list(grid):
-                vals[list(grid).index(g)] = tried[-1]
+            if g in on_grid:
+                vals[grid_points.index(g)] = tried[-1]
             # the scan's stopping rules on the retried points: past the minimum (two rises in a row), or
             # three failures in a row after a success (one more than the scan allows: a retry that fails,
             # fails, then certifies further up was seen in a constructed case) -- Ts = 1e-3 had spent 10
@@ -572,7 +574,7 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     if best.cert is None:
         return best, runner
     # the retried points off the grid (the hint's) where they certified: the parabolic steps start from them too
-    extra = [(g, v) for g, v in cache.items() if g not in set(grid) and math.isfinite(v)]
+    extra = [(g, v) for g, v in cache.items() if g not in on_grid and math.isfinite(v)]
     # refined by the solver that certified: the unscaled one where the primary failed at every point it tried
     unscaled = best.record is not None and best.record.name == RETRY.get(runner.primary)
     _parabolic(lambda x: evaluate(x, unscaled_only=unscaled), sorted([(float(g), v) for g, v in zip(grid, vals)] + extra))
@@ -903,24 +905,24 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
         if not auto and below is not None:  # the configured bound itself is the cause
             raise InfeasibleError(f"{below}; raise synthesis.heading_bound above it, or set it to auto")
         if tried and all(why == "solver failed" for _, why in tried):
+            retries = ""
+            if auto:
+                retries = ("; heading_bound: auto retries its failed points with Clarabel unscaled only, a single "
+                           "synthesis.heading_bound also with the fallback solver" if s.solver in RETRY else
+                           "; heading_bound: auto retries nothing, a single synthesis.heading_bound retries with the "
+                           "fallback solver")
             raise SolverFailure("ultimate-bound (nonlinear kinematics): every solve failed (numerical trouble, usually "
-                                "near infeasibility" + ((("; heading_bound: auto retries its failed points with Clarabel "
-                                                         "unscaled only, a single synthesis.heading_bound also with the "
-                                                         "fallback solver") if s.solver in RETRY else
-                                                        "; heading_bound: auto retries nothing, a single "
-                                                        "synthesis.heading_bound retries with the fallback solver")
-                                                       if auto else "") + "). "
-                                + _nonlinear_infeasible(model, common, tried, tried_at))
+                                f"near infeasibility{retries}). " + _nonlinear_infeasible(model, common, tried, tried_at))
         raise InfeasibleError(_nonlinear_infeasible(model, common, tried, tried_at))
     return best, runner
 
 
-def _nonlinear_infeasible(model: Any, common: _Best, tried: list, tried_at: dict[float, tuple[int, int]] | None = None) -> str:
+def _nonlinear_infeasible(model: Any, common: _Best, tried: list, tried_at: dict[float, tuple[int, int]]) -> str:
     """The message of exit 3 or 4: which heading bounds failed (at how many alphas: a scan gives up after
     NONLINEAR_GIVE_UP points in a row without a certificate), and the heading and forward-speed ranges of
     the linearized certificate's set, which the kinematic terms grow with."""
     def why_at(tb: float, why: str) -> str:
-        n, failed = (tried_at or {}).get(tb, (0, 0))
+        n, failed = tried_at.get(tb, (0, 0))
         if why == "infeasible" and n:
             return f"infeasible at the {n} alphas tried" if not failed else \
                 f"infeasible at {n - failed} of the {n} alphas tried, the solver failed at the others"
