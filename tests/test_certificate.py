@@ -166,3 +166,26 @@ def test_a_turn_beyond_the_nonlinear_heading_bound_is_not_certified():
     model, K, cert = committed_gain("nonlinear-proof")
     turns = turn_bounds(model, K, cert, check_certificate(model, K, cert).figures)
     assert turns and all("heading bound" in t["reason"] for t in turns)
+
+
+def test_a_matrix_read_within_the_symmetry_tolerance_is_proven_as_its_symmetric_part():
+    """A file's Q may be asymmetric up to SYMMETRY_TOL (relative); the re-check then proves the LMIs of
+    its symmetric part in every block, also A X + B Y (review, stop 47: those blocks used the raw Q, so
+    the matrix proven was the LMI of no symmetric X), and the Lyapunov function is that part's."""
+    from robustsynth.certificate import SYMMETRY_TOL, _lyapunov_parts
+
+    model, K, cert = committed_gain("default")
+    Q = np.asarray(cert["Q"], dtype=float)
+    skew = np.triu(np.ones_like(Q), 1)
+    skew = skew - skew.T  # antisymmetric, |entries| <= 1
+    skewed = dict(cert, Q=(Q + 0.4 * SYMMETRY_TOL * np.max(np.abs(Q)) * skew).tolist())
+    assert not np.array_equal(np.asarray(skewed["Q"]), np.asarray(skewed["Q"]).T)
+    X = _lyapunov_parts(model, skewed, model.n_s)[1]
+    assert np.array_equal(X, X.T)
+    S = lyapunov_of(model, skewed).S[0]
+    assert np.array_equal(S, S.T)
+    check = check_certificate(model, K, skewed)
+    assert check.passed, check.reason
+    # beyond the tolerance the file is refused, not repaired
+    refused = dict(cert, Q=(Q + 4 * SYMMETRY_TOL * np.max(np.abs(Q)) * skew).tolist())
+    assert "not symmetric" in check_certificate(model, K, refused).reason

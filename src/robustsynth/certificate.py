@@ -268,6 +268,7 @@ def _lyapunov_parts(model: Any, cert: Mapping[str, Any], n_s: int):
         err = _symmetric(Q, "Q")
         if err:
             return err
+        Q = _sym(Q)  # within SYMMETRY_TOL: proven as its symmetric part, in every block (A X + B Y too)
         conds = [[(Q, Q, "", np.abs(Q), np.abs(Q))] for _ in model.vertices]
         return kind, Q, conds, [Q]
     if kind not in ("slip-dependent", "delay-dependent", "path-dependent"):
@@ -287,6 +288,7 @@ def _lyapunov_parts(model: Any, cert: Mapping[str, Any], n_s: int):
         err = _symmetric(Sm, f"S[{m}]")
         if err:
             return err
+        S[m] = _sym(Sm)
     # the certificate holds for slip changes up to its slip_step per period (None: any change); it
     # covers the config when the config allows no more than that
     cert_step = cert.get("slip_step")
@@ -383,7 +385,7 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
             M, v.n_q // 3, mult.get("kind", "structured"), v.diagonal)
         if err:
             return _fail(err)
-        Ms.append(M)
+        Ms.append(_sym(M))
     margin = float(cert["margin"])
     if not margin > 0:
         return _fail("margin must be > 0")
@@ -910,11 +912,11 @@ def lyapunov_of(model: Any, cert: Mapping[str, Any]) -> Lyapunov:
     kind = cert.get("lyapunov", "common")
     n_d = 1
     if kind in ("slip-dependent", "delay-dependent", "path-dependent"):
-        S = tuple(np.asarray(x, dtype=float) for x in cert["S"])
+        S = tuple(_sym(np.asarray(x, dtype=float)) for x in cert["S"])
         step = None if cert.get("slip_step") is None else float(cert["slip_step"])
         n_d = model.delay_vertex_count if kind != "slip-dependent" else 1
     else:
-        S = (np.asarray(cert["Q"], dtype=float),)
+        S = (_sym(np.asarray(cert["Q"], dtype=float)),)
     return Lyapunov(model, S, tuple(np.linalg.inv(x) for x in S), step, n_d, kind == "path-dependent")
 
 
