@@ -11,8 +11,8 @@ import pytest
 
 from robustsynth.certificate import check_certificate, lyapunov_of
 from robustsynth.plants.path import make_path, pose_from_error
-from robustsynth.scenarios import Scenario
-from robustsynth.verification.probe import boundary_probe, probe_directions
+from robustsynth.scenarios import Scenario, random_delays
+from robustsynth.verification.probe import boundary_probe, jump_times, probe_directions
 from robustsynth.verification.simulate import simulate
 
 from ..conftest import committed_gain
@@ -132,6 +132,27 @@ def test_slip_jumps_per_track_agree_between_robot_and_lifted_map(heavy) -> None:
     assert r["mid_period"]["runs"] > 500 and r["mid_period"]["covered"]
     assert r["max_V_over_level_linear"] <= 1.0 + LEVEL_TOL
     assert r["max_period_gap"]["e_theta"] <= THETA_TOL
+
+
+@pytest.mark.parametrize("name", ["heavy-slip", "delay-multi-period"])
+def test_a_third_of_the_per_track_jumps_fall_on_a_commands_arrival(name) -> None:
+    """The probe's slip jumps (review, stop 47): the runs before and after the jump runs keep their slip
+    (time Ts), every other jump run moves both tracks at one time, and every third of the others moves
+    each track exactly at one of its period's switching instants (d_hi of them), so the command
+    intervals on either side run at independent corners; the rest at random times within the period."""
+    m = committed_gain(name)[0]
+    rng = np.random.default_rng(3)
+    samples, n_jump, N = 40, 120, 200
+    S = m.s_tilde(random_delays(m, rng, N, 1))[:, 0]
+    t = jump_times(m, S, samples, n_jump, rng, np.random.default_rng(4))
+    assert t.shape == (N, 2) and np.all(t[:samples] == m.Ts) and np.all(t[samples + n_jump :] == m.Ts)
+    jump = t[samples : samples + n_jump]
+    assert np.all(jump[::2, 0] == jump[::2, 1]) and np.all((jump >= 0) & (jump <= m.Ts))
+    on = np.all(np.any(t[..., None] == S[:, None, :], axis=-1), axis=1)
+    at = np.arange(samples + 1, samples + n_jump, 2)[::3]
+    assert np.all(on[at]) and not np.any(on[np.setdiff1d(np.arange(samples, samples + n_jump), at)])
+    if m.d_hi > 1:  # each track picks its own instant: some runs have the tracks at different ones
+        assert np.any(t[at, 0] != t[at, 1])
 
 
 def test_between_samples_the_probe_stays_within_the_bounds_for_all_t() -> None:

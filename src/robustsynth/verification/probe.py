@@ -17,8 +17,9 @@ certificate forbids that.  On the nonlinear robot a linearized certificate does 
 terms the linearization drops (docs/theory.md §2) are not in it (a nonlinear certificate covers them).
 
 When slip may change at any time (no ``slip.max_rate``; the tracks model), half as many random runs again get a slip
-jump to a random corner within the period: each track at its own random time in every other such run, both
-tracks at one random time in the others (``Model.switched_exact`` on the linear side).  A
+jump to a random corner within the period: each track at its own random time in every other such run (a
+third of them exactly at a command's arrival, :func:`jump_times`), both tracks at one random time in the
+others (``Model.switched_exact`` on the linear side).  A
 certificate that covers slip changing within a period (docs/theory.md §11) is judged on every run;
 one that assumes slip constant within a period is judged on the others, and the jumps are reported
 beside (``mid_period``).
@@ -35,7 +36,7 @@ from ..plants.kinematic import KinematicRobot
 from ..plants.path import arc_frame_error, frame_error, make_path, pose_from_error
 from ..scenarios import random_delays, slip_candidates, slip_vertices, split_state, track_changes
 
-__all__ = ["boundary_probe", "probe_directions", "boundary_states", "errors_between_samples", "arc_yaw_rates",
+__all__ = ["boundary_probe", "probe_directions", "boundary_states", "errors_between_samples", "arc_yaw_rates", "jump_times",
            "MAX_BOUNDARY_STARTS", "BETWEEN_INSTANTS", "REFINE_ROUNDS", "REFINE_TRIES"]
 
 MAX_BOUNDARY_STARTS = 64  # the adversary's boundary starts: the figure-maximizing states, at most this many
@@ -120,11 +121,7 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
     jumped = np.zeros(N, dtype=bool)
     jumped[samples : samples + n_jump] = True
     mu_after = np.where(jumped[:, None], corners[rng.integers(0, corners.shape[0], size=N)], mu)
-    if n_jump:  # each track at its own time in every other jump run, both at one time in the others (as the Monte Carlo)
-        t_sw = np.where(jumped[:, None], rng.uniform(0.0, model.Ts, (N, 2)), model.Ts)
-        t_sw[samples : samples + n_jump : 2, 1] = t_sw[samples : samples + n_jump : 2, 0]
-    else:  # no jumps (slip.max_rate, the icr model, one slip corner): one time for all parameters, at the period's end
-        t_sw = np.full(N, model.Ts)
+    t_sw = jump_times(model, S, samples, n_jump, rng, np.random.default_rng((seed, 1)))
     # the nonlinear robot on a straight line along x, at the pose of the error e
     xi_nl, du, U, changes = _robot_period(model, K, xi, S, mu, mu_after, t_sw, bool(n_jump))
 
@@ -258,6 +255,30 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
         # t_switch: each track's time (2,) when the probe drew jumps, else one time (the period's end: none)
         "worst": worst_run,
     }
+
+
+def jump_times(model: Any, S: np.ndarray, samples: int, n_jump: int, rng: np.random.Generator,
+               pick: np.random.Generator) -> np.ndarray:
+    """When each track's slip jumps within the period, for the probe's N = ``S.shape[0]`` runs (the first
+    ``samples`` without a jump, the next ``n_jump`` with one, the rest, the figure maximizers, without):
+    (N, 2) times, the period's end Ts for no jump.  Of the jump runs, every other one has both tracks
+    jump at one random time (as the Monte Carlo), the others each track at its own; and a third of those
+    each track exactly at one of the period's switching instants ``S`` (a command's arrival), so that the
+    command intervals on its two sides run at independent slip corners: the combinations the covering
+    certificate's heading rows and within-period vertices take (docs/theory.md §11), which random times
+    reach only approximately (review, stop 47).  Without jumps (``n_jump`` 0): one time per run, Ts.
+    The random times come from ``rng``, the instants from ``pick``."""
+    N = S.shape[0]
+    if not n_jump:  # slip.max_rate, the icr model, one slip corner
+        return np.full(N, model.Ts)
+    jumped = np.zeros(N, dtype=bool)
+    jumped[samples : samples + n_jump] = True
+    t_sw = np.where(jumped[:, None], rng.uniform(0.0, model.Ts, (N, 2)), model.Ts)
+    t_sw[samples : samples + n_jump : 2, 1] = t_sw[samples : samples + n_jump : 2, 0]
+    at = np.arange(samples + 1, samples + n_jump, 2)[::3]  # every third per-track run
+    if at.size and S.shape[1]:
+        t_sw[at] = S[at[:, None], pick.integers(0, S.shape[1], (at.size, 2))]
+    return t_sw
 
 
 def _refine_worst(model: Any, lyap: Any, level: float, xi: np.ndarray, mu: np.ndarray, t_sw: np.ndarray,
