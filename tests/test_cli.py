@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
@@ -225,3 +226,17 @@ def test_robustsynth_alone_shows_its_help() -> None:
     """No command: click's help, not an 'error:' line around it (review of the one-line usage errors)."""
     r = subprocess.run([sys.executable, "-m", "robustsynth"], capture_output=True, text=True)
     assert "Usage:" in r.stdout + r.stderr and "error:" not in r.stdout + r.stderr and "Commands:" in r.stdout + r.stderr
+
+
+def test_a_failed_command_leaves_no_empty_directory_it_made(tmp_path) -> None:
+    """Review, stop 47: `synthesize` that failed (exit 2 here, exit 3 alike) left its new, empty output
+    directory behind; one that already existed stays, and so does every file a stage kept."""
+    cfg = Path(__file__).resolve().parents[1] / "configs" / "nonlinear-proof.yaml"
+    new = tmp_path / "a" / "b"
+    r = CliRunner().invoke(main, ["synthesize", str(cfg), "--objective", "stability", "-o", str(new)])
+    assert r.exit_code == 2 and "synthesis.objective: stability (overridden: --objective)" in r.output
+    assert not (tmp_path / "a").exists()
+    old = tmp_path / "kept"
+    old.mkdir()
+    r = CliRunner().invoke(main, ["synthesize", str(cfg), "--objective", "stability", "-o", str(old)])
+    assert r.exit_code == 2 and old.is_dir()

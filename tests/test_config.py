@@ -321,3 +321,14 @@ def test_a_misspelt_key_that_looks_like_a_type_name_keeps_its_name() -> None:
     assert "synthesis.heading-bound: unknown key (did you mean synthesis.heading_bound?)" in msg
     assert "synthesis.alpha-points: unknown key (did you mean synthesis.alpha_points?)" in msg
     assert "slip.float: unknown key" in msg and "should be" not in msg
+
+
+def test_a_bare_yaml_off_is_the_setting_off() -> None:
+    """Review, stop 47: the README writes `synthesis.symmetry: off`, which YAML 1.1 reads as false, and
+    the config refused its own documented value ("Input should be 'auto' or 'off'")."""
+    d = default_dict()
+    text = _dump(d) + "\n"
+    assert parse_config(text.replace("synthesis:\n", "synthesis:\n  symmetry: off\n", 1)).synthesis.symmetry == "off"
+    assert parse_config(text.replace("synthesis:\n", "synthesis:\n  symmetry: 'off'\n", 1)).synthesis.symmetry == "off"
+    with pytest.raises(ConfigError, match=r"synthesis\.symmetry: write auto or off"):
+        parse_config(text.replace("synthesis:\n", "synthesis:\n  symmetry: on\n", 1))

@@ -90,6 +90,7 @@ def _guard(fn: Callable[..., int | None]) -> Callable[..., None]:
     interrupt (SIGINT, SIGTERM) the line 'interrupted' and 130 / 143; a closed pipe 141."""
 
     def wrapper(*args: Any, **kwargs: Any) -> None:
+        _NEW_DIRS.clear()  # this command's own (one process may run several: tests, scripts)
         try:
             code = fn(*args, **kwargs)
             sys.stdout.flush()
@@ -106,6 +107,7 @@ def _guard(fn: Callable[..., int | None]) -> Callable[..., None]:
             _exit_if_signalled()
             if not isinstance(exc, RobustSynthError):
                 raise
+            _remove_empty_new_dirs()
             click.echo(f"error: {exc}", err=True)
             sys.exit(exc.exit_code)
         sys.exit(EXIT_OK if code is None else code)
@@ -128,10 +130,27 @@ def _load(config: Path | None, lti_ok: bool = False):
     return cfg
 
 
+_NEW_DIRS: list[Path] = []  # output directories this command creates: removed again if it fails and leaves them empty
+
+
 def _outdir(cfg: Any, outdir: Path | None) -> Path:
     from .pipeline import default_outdir
 
-    return outdir if outdir is not None else default_outdir(cfg)
+    out = outdir if outdir is not None else default_outdir(cfg)
+    p = Path(out)
+    while not p.exists() and p != p.parent:  # deepest first, so that each is empty when its turn comes
+        _NEW_DIRS.append(p)
+        p = p.parent
+    return out
+
+
+def _remove_empty_new_dirs() -> None:
+    """A failed command leaves no empty directory it made (review, stop 47: `synthesize` exiting 3 left one)."""
+    for d in _NEW_DIRS:
+        try:
+            d.rmdir()  # only when empty: whatever a stage wrote and kept stays
+        except OSError:
+            pass
 
 
 def _needs_its_config(config: Path | None, gains: Path | None, command: str) -> None:

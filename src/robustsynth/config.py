@@ -234,6 +234,16 @@ class SynthesisConfig(_Node):
     multiplier: Literal["structured", "full"] = Field(
         default="structured", description="S-procedure multiplier for Delta: one per block or one scalar"
     )
+
+    @field_validator("symmetry", mode="before")
+    @classmethod
+    def _yaml_off(cls, v: Any) -> Any:
+        """YAML 1.1 reads a bare ``off`` as false (the README writes ``symmetry: off``): take it as 'off'."""
+        if v is False:
+            return "off"
+        if v is True:
+            raise ValueError("write auto or off (YAML reads a bare on / yes / true as a boolean)")
+        return v
     solver: Literal["clarabel", "scs"] = Field(default="clarabel", description="first solver tried")
     weights: ErrorWeights = Field(default_factory=ErrorWeights, description="weights on the error states")
     motor_limits: bool = Field(

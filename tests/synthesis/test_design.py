@@ -22,7 +22,7 @@ from robustsynth.verification.lifted import (
     greedy_worst_case,
 )
 
-from ..conftest import make_config
+from ..conftest import committed_gain, make_config
 
 SPECTRAL_TOL = 1e-6  # frozen-delay spectral radius may exceed the certified r by round-off only
 LEVEL_TOL = 1e-9  # V(xi) may exceed the invariant level by round-off only (relative)
@@ -353,7 +353,20 @@ def test_python_api_rejects_what_the_cli_rejects(default_model, kw, expected) ->
 
     with pytest.raises(InputError, match=expected) as e:
         synthesize(default_model, **kw)
-    assert e.value.exit_code == 2 and str(e.value).startswith("synthesize(): ")
+    key, value = next(iter(kw.items()))
+    assert e.value.exit_code == 2 and str(e.value).startswith(f"synthesis.{key}: {value} (overridden")
+
+
+def test_an_override_that_conflicts_with_the_config_names_the_option() -> None:
+    """Review, stop 47: `synthesize --objective stability` on a nonlinear config said "synthesize():
+    kinematics: nonlinear is ...", naming a Python function rather than the option and the setting."""
+    from robustsynth.errors import InputError
+
+    m = committed_gain("nonlinear-proof")[0]
+    with pytest.raises(InputError) as e:
+        synthesize(m, objective="stability")
+    assert str(e.value).startswith("synthesis.objective: stability (overridden: --objective): synthesis.kinematics: "
+                                   "nonlinear is available for objective ultimate-bound")
 
 
 def test_a_result_saves_itself_and_verify_takes_the_path(tmp_path) -> None:
@@ -368,3 +381,17 @@ def test_a_result_saves_itself_and_verify_takes_the_path(tmp_path) -> None:
     assert np.array_equal(np.asarray(load_gains(tmp_path / "gains.json")["K"]), res.K)  # JSON keeps every digit
     v = verify(model, str(tmp_path / "gains.json"), runs=2)
     assert v.checks[0]["passed"]
+
+
+@pytest.mark.parametrize("name,asked,used", [("delay-multi-period", "full", "full"),
+                                             ("delay-multi-period", "structured", "structured"),
+                                             ("default", "full", "none"), ("nonlinear-proof", "full", "diagonal")])
+def test_the_certificate_records_the_multiplier_its_lmis_took(name, asked, used) -> None:
+    """Review, stop 47: `--multiplier full` on a nonlinear config changed nothing (its channels take one
+    scalar each) while synthesis.md and gains.json said 'full'.  synthesis.multiplier shapes only the
+    norm-bounded delay description's blocks; delay vertices have no Delta at all."""
+    from robustsynth.report.synthesis import MULTIPLIER_TEXT
+    from robustsynth.synthesis.design import multiplier_used
+
+    m = committed_gain(name)[0]
+    assert multiplier_used(m, asked) == used and used in MULTIPLIER_TEXT

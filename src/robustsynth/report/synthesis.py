@@ -12,6 +12,12 @@ from .markdown import fmt, matrix_table, table
 
 __all__ = ["synthesis_markdown", "diagnosis_markdown"]
 
+MULTIPLIER_TEXT = {  # synthesis.design.multiplier_used
+    "structured": "one block per Delta block",
+    "full": "mu I, the paper’s |Delta| <= 1",
+    "diagonal": "one scalar per kinematic channel, docs/theory.md §9; synthesis.multiplier applies to norm-bounded delays only",
+    "none": "the delay vertices have no Delta; synthesis.multiplier applies to norm-bounded delays only",
+}
 OBJECTIVE_TEXT = {
     "ultimate-bound": (
         "smallest ellipsoid `xi' P xi <= level` that is invariant and attracting for every admissible delay "
@@ -58,8 +64,7 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
         + ("`u_hat = [V^D, w_k] + du` (w_k: the turning reference's yaw rate, up to "
            f"{model.turns.max_yaw_rate:.3g} rad/s, which the certificate covers)" if getattr(model, "turns", None) is not None
            else "`u_hat = [V^D, 0] + du`")
-        + f". Multiplier: `{result.multiplier}`"
-        f" ({'one block per Delta block' if result.multiplier == 'structured' else 'mu I, the paper’s |Delta| <= 1'}).\n\n"
+        + f". Multiplier: `{result.multiplier}` ({MULTIPLIER_TEXT[result.multiplier]}).\n\n"
     )
     out.append("## Assumptions\n\n")
     rate = cfg.slip.max_rate

@@ -164,8 +164,8 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
                        f" bounds the errors through the turn and the time until V <= {TURN_REENTRY:g} level. Beside them,"
                        " what the Monte Carlo runs measured:\n\n")
         if cfg.reference.turn_radius is not None:  # arcs: no switch, no re-entry
-            out.append(table(["waypoint", "turn [rad]", "arc starts at [s]", "certified peak |e_y| [cm]",
-                              "certified peak |e_theta| [rad]", "certified peak |rho| [rad/s]", "status"],
+            out.append(table(["waypoint", "turn [rad]", "arc starts at [s]", "certified |e_y| for all t [cm]",
+                              "certified |e_theta| for all t [rad]", "certified peak |rho| [rad/s]", "status"],
                              [[str(t["waypoint"]), fmt(t["turn_rad"], 3), fmt(t["t_switch_s"]), fmt(100 * t["peak"]["e_y"], 3),
                                fmt(t["peak"]["e_theta"], 3), fmt(t["motor_speed_peak"], 3), "certified"] for t in turns]))
         else:
@@ -179,7 +179,7 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
                              "certified" + (f" ({t['note']})" if t["note"] else "") if t["certified"]
                              else "not certified: " + t["reason"]])
             out.append(table(["waypoint", "turn [rad]", "certified V/level at the switch", "measured max",
-                              "certified peak |e_y| [cm]", "certified peak |e_theta| [rad]",
+                              "certified peak |e_y| at the samples [cm]", "certified peak |e_theta| at the samples [rad]",
                               "certified peak |rho| [rad/s]", f"certified time to V <= {TURN_REENTRY:g} level [s]",
                               "measured time to V <= level [s]", "status"], rows))
     bp = mc.get("boundary_probe")

@@ -260,6 +260,16 @@ class _Runner:
         return out, (None, None, None)
 
 
+def multiplier_used(model: Any, kind: str) -> str:
+    """The S-procedure multiplier the LMIs of ``model`` take: ``kind`` (synthesis.multiplier) where a vertex
+    has the norm-bounded delay description's Delta blocks; 'diagonal' where only the kinematic channels
+    have one (one scalar per channel, whatever ``kind`` says, §9); 'none' where no vertex has a Delta
+    (delay vertices: the setting has no effect)."""
+    if any(v.n_q and not v.diagonal for v in model.vertices):
+        return kind
+    return "diagonal" if any(v.n_q for v in model.vertices) else "none"
+
+
 def _cert_common(model: Any, vals: dict, kind: str, margin: float, objective: str) -> dict[str, Any]:
     out: dict[str, Any] = {"objective": objective, "model": model.kind, "vertices": len(model.vertices)}
     if "Q" in vals:
@@ -270,7 +280,7 @@ def _cert_common(model: Any, vals: dict, kind: str, margin: float, objective: st
     # one multiplier per vertex of ``model``: an LMI that also held within-period vertices (Model.with_cuts,
     # appended last) keeps none for those (without channels they have none; with the kinematic channels
     # they share their delay vertex's, which is stored with its own vertices: Vertex.group)
-    out["multipliers"] = {"kind": kind, "M": list(vals["M"])[: len(model.vertices)], "blocks": [i.j for i in model.instants]
+    out["multipliers"] = {"kind": multiplier_used(model, kind), "M": list(vals["M"])[: len(model.vertices)], "blocks": [i.j for i in model.instants]
                           if model.n_q and any(v.n_q for v in model.vertices) else []}
     out["margin"] = margin
     out["kinematics"] = model.kinematics
@@ -601,6 +611,9 @@ def _run_hinf(model: Any, s: SynthesisConfig, search: list, say: Callable[[str],
     return best, runner
 
 
+CLI_OVERRIDES = ("objective", "solver", "multiplier")  # the settings `robustsynth synthesize` overrides by option
+
+
 def synthesize(model: Any, settings: SynthesisConfig | None = None, *, on_step: Callable[[str], None] | None = None,
                **overrides: Any) -> SynthesisResult:
     """Design and certify ``du_k = K xi_k`` for ``model``.
@@ -646,12 +659,17 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
 
         from ..config import _format_validation_error
 
+        given = {k: v for k, v in overrides.items() if v is not None}
         data = s.model_dump()
-        data.update({k: v for k, v in overrides.items() if v is not None})
+        data.update(given)
         try:
             s = SynthesisConfig.model_validate(data)
         except ValidationError as exc:
-            raise InputError(f"synthesize(): {_format_validation_error(exc)}") from None
+            # name the override (the command line's option, or synthesize()'s keyword) and the setting it replaced
+            said = ", ".join(f"synthesis.{k}: {v} (overridden{': --' + k if k in CLI_OVERRIDES else ''})"
+                             for k, v in given.items())
+            why = _format_validation_error(exc)
+            raise InputError(f"{said}: {why if why.startswith('synthesis.') else 'synthesis.' + why}") from None
     t0 = time.perf_counter()
     search: list[dict[str, Any]] = []
     notes: list[str] = []
@@ -700,6 +718,9 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
     rec = best.record
     if best.check is not None:
         notes += validity_notes(model, best.check.figures, best.cert or {})
+    used = multiplier_used(model, s.multiplier)
+    if s.multiplier == "full" and used != "full":  # asked for explicitly (structured is the default): say it was moot
+        notes.append(f"synthesis.multiplier: full has no effect on this model ({'one scalar multiplier per kinematic channel' if used == 'diagonal' else 'its delay vertices have no norm-bounded Delta'}; it applies to delay_description: norm-bounded)")
     if runner.fallbacks and rec is not None:
         notes.append(f"fallback solver used in {runner.fallbacks} of {len(search)} solves; the accepted K is "
                      f"from {rec.name}")
@@ -719,7 +740,7 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
     return SynthesisResult(
         K=best.K,
         objective=s.objective,
-        multiplier=s.multiplier,
+        multiplier=multiplier_used(model, s.multiplier),
         certificate=cert,
         check=best.check,
         solver=solver,
@@ -912,15 +933,17 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                            "; heading_bound: auto retries nothing, a single synthesis.heading_bound retries with the "
                            "fallback solver")
             raise SolverFailure("ultimate-bound (nonlinear kinematics): every solve failed (numerical trouble, usually "
-                                f"near infeasibility{retries}). " + _nonlinear_infeasible(model, common, tried, tried_at))
-        raise InfeasibleError(_nonlinear_infeasible(model, common, tried, tried_at))
+                                f"near infeasibility{retries}). " + _nonlinear_infeasible(model, common, tried, tried_at, auto))
+        raise InfeasibleError(_nonlinear_infeasible(model, common, tried, tried_at, auto))
     return best, runner
 
 
-def _nonlinear_infeasible(model: Any, common: _Best, tried: list, tried_at: dict[float, tuple[int, int]]) -> str:
+def _nonlinear_infeasible(model: Any, common: _Best, tried: list, tried_at: dict[float, tuple[int, int]],
+                          auto: bool = True) -> str:
     """The message of exit 3 or 4: which heading bounds failed (at how many alphas: a scan gives up after
     NONLINEAR_GIVE_UP points in a row without a certificate), and the heading and forward-speed ranges of
-    the linearized certificate's set, which the kinematic terms grow with."""
+    the linearized certificate's set, which the kinematic terms grow with.  For a bound set by hand (not
+    ``auto``) also where it lies against that set's heading, and that auto searches."""
     def why_at(tb: float, why: str) -> str:
         n, failed = tried_at.get(tb, (0, 0))
         if why == "infeasible" and n:
@@ -950,6 +973,15 @@ def _nonlinear_infeasible(model: Any, common: _Best, tried: list, tried_at: dict
                 f"{speed * np.sin(min(f.get('heading_within_period', 0.3), 1.0)):.3g} m/s. Narrow slip, lower "
                 "reference.speed, " + _wider_turns(model, sep="") + (", " if getattr(model, "turns", None) is not None else "")
                 + "or use synthesis.kinematics: linearized (whose proof is for the linearization)")
+        heading = float(f.get("heading_within_period", f["ultimate_bound"]["e_theta"]))
+        if not auto and tried:  # review, stop 47: a hand-set bound got only the advice above
+            tb = float(tried[0][0])
+            where = (f"below the linearized set's own {heading:.3g} rad, and a set within it rarely exists: raise it"
+                     if tb < heading else
+                     f"above the linearized set's {heading:.3g} rad, and the channels widen with it (like sin): lower it")
+            grid = ", ".join(f"{x:g}" for x in HEADING_GRID)
+            msg += (f". synthesis.heading_bound {tb:g} rad is {where}, or set it to auto, which tries {grid} rad "
+                    "upwards from 0.9 times that heading")
     if model.covering and model.config.synthesis.lyapunov == "common":
         msg += (". These channels cover slip changing at any time within a period; with synthesis.lyapunov "
                 "slip-dependent (or delay-, path-dependent) they assume it constant within each period, which costs "
