@@ -15,7 +15,7 @@ from robustsynth.plants.kinematic import KinematicRobot
 from robustsynth.scenarios import random_delays, track_changes
 from robustsynth.synthesis import synthesize
 
-from ..conftest import make_config
+from ..conftest import committed_gain, make_config
 
 W_BAR = 0.25  # [rad/s]: arcs of radius V^D / W_BAR = 2 m
 RUNS, PERIODS = 300, 160
@@ -343,3 +343,15 @@ def test_a_turning_certificate_made_before_the_channels_were_merged_is_rechecked
     w = model.turns.max_yaw_rate
     merged, legacy = (model.with_turns(w, within_period=False, merged=m).vertices[0].n_q for m in (True, False))
     assert np.asarray(cert["multipliers"]["M"][0]).size == legacy**2 and merged < legacy
+
+
+def test_a_turning_model_without_even_a_linearized_set_names_the_turn_radius() -> None:
+    """Review, stop 47: `turn_radius: 1` on turns.yaml ended in exit 3 after every heading bound with no
+    remedy at all, since the remedies came with the linearized set's ranges, and it had none."""
+    from robustsynth.synthesis.design import _Best, _nonlinear_infeasible
+
+    model = committed_gain("turns")[0]
+    msg = _nonlinear_infeasible(model, _Best(), [(0.1, "infeasible"), (0.15, "infeasible")], {0.1: (15, 0), 0.15: (15, 0)})
+    assert "0.1 rad (infeasible at the 15 alphas tried)" in msg
+    radius = model.V / model.turns.max_yaw_rate
+    assert f"gave none either: narrow slip, lower reference.speed, widen reference.turn_radius (now {radius:.3g} m)" in msg

@@ -209,7 +209,10 @@ def test_run_forwards_synthesis_options(tmp_path) -> None:
                                   "--runs", "5", "--no-plots"])
     assert r.exit_code == 0, r.output
     g = json.loads((tmp_path / "gains.json").read_text())
-    assert g["objective"] == "stability" and g["certificate"]["multipliers"]["kind"] == "full"
+    # the default's delay vertices have no Delta: the certificate records that no multiplier was taken, and a
+    # note that the forwarded --multiplier full had no effect (stop 47: it recorded 'full')
+    assert g["objective"] == "stability" and g["certificate"]["multipliers"]["kind"] == "none"
+    assert any(n.startswith("synthesis.multiplier: full has no effect") for n in g["notes"])
     v = json.loads((tmp_path / "verification.json").read_text())
     assert v["passed"] is True
 

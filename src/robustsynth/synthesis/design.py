@@ -982,6 +982,9 @@ def _nonlinear_infeasible(model: Any, common: _Best, tried: list, tried_at: dict
             grid = ", ".join(f"{x:g}" for x in HEADING_GRID)
             msg += (f". synthesis.heading_bound {tb:g} rad is {where}, or set it to auto, which tries {grid} rad "
                     "upwards from 0.9 times that heading")
+    else:  # review, stop 47: a turning config too tight even for the linearized set ended without any remedy
+        msg += (". The linearized common certificate, where the search starts, gave none either: narrow slip, lower "
+                "reference.speed" + _wider_turns(model))
     if model.covering and model.config.synthesis.lyapunov == "common":
         msg += (". These channels cover slip changing at any time within a period; with synthesis.lyapunov "
                 "slip-dependent (or delay-, path-dependent) they assume it constant within each period, which costs "
