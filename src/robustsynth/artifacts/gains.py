@@ -43,6 +43,16 @@ def certified_figures(figs: dict[str, Any]) -> dict[str, Any]:
     return certified
 
 
+def _made_with(config: Any, result: Any) -> Any:
+    """The config a result was made with: ``config`` with the synthesis settings the result records (overrides such
+    as ``--objective`` or ``--solver`` applied), so that a gains file's config reproduces its gain (review, stop 47:
+    it kept the file's settings while the certificate said otherwise)."""
+    settings = getattr(result, "settings", None)
+    if settings is None or settings == config.synthesis:
+        return config
+    return config.model_copy(update={"synthesis": settings})
+
+
 def gains_dict(model: Any, result: Any) -> dict[str, Any]:
     """The gains.json mapping of a synthesis result: the gain, the certified figures, the
     certificate (everything the numpy re-check needs), the solver's record and the config."""
@@ -86,7 +96,7 @@ def gains_dict(model: Any, result: Any) -> dict[str, Any]:
     out = {
         "schema_version": SCHEMA_VERSION,
         "robustsynth_version": __version__,
-        "config": config_to_dict(model.config),
+        "config": config_to_dict(_made_with(model.config, result)),
         "K": result.K,
         "state_names": list(model.state_names),
         "input_names": list(model.input_names),

@@ -41,6 +41,7 @@ class SynthesisResult:
     search: tuple[dict[str, Any], ...]
     timings: dict[str, float] = field(default_factory=dict)
     notes: tuple[str, ...] = ()
+    settings: Any = None  # the SynthesisConfig it was made with (the config's, with any overrides applied)
 
     @property
     def certified(self) -> dict[str, Any]:
@@ -747,6 +748,7 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
         search=tuple(search),
         timings=_timings(time.perf_counter() - t0, solver["solve_time_s"]),
         notes=tuple(notes),
+        settings=s,
     )
 
 
