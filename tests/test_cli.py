@@ -240,3 +240,21 @@ def test_a_failed_command_leaves_no_empty_directory_it_made(tmp_path) -> None:
     old.mkdir()
     r = CliRunner().invoke(main, ["synthesize", str(cfg), "--objective", "stability", "-o", str(old)])
     assert r.exit_code == 2 and old.is_dir()
+
+
+def test_the_cleanup_keeps_what_existed_and_never_turns_an_error_into_a_traceback(tmp_path) -> None:
+    """Second review, stop 47: 'new/../kept' made an existing directory look new, and was removed; a path
+    the system cannot look at (too long) raised from the check itself: a traceback and exit 1 instead of
+    the stage's one line and exit 2; verify's -o was not covered."""
+    root = Path(__file__).resolve().parents[1]
+    kept = tmp_path / "kept"
+    kept.mkdir()
+    r = CliRunner().invoke(main, ["synthesize", str(root / "configs" / "infeasible.yaml"), "-o",
+                                  str(tmp_path / "ghost" / ".." / "kept")])
+    assert r.exit_code == 3 and kept.is_dir()
+    r = CliRunner().invoke(main, ["build-model", str(root / "configs" / "fast.yaml"), "-o", str(tmp_path / ("a" * 300))])
+    assert r.exit_code == 2 and r.output.startswith("error: ") and "Traceback" not in r.output
+    r = CliRunner().invoke(main, ["verify", str(root / "configs" / "default.yaml"), "--gains",
+                                  str(root / "results" / "baselines" / "delay-multi-period" / "gains.json"),
+                                  "-o", str(tmp_path / "v" / "x")])
+    assert r.exit_code == 2 and not (tmp_path / "v").exists()

@@ -136,11 +136,21 @@ _NEW_DIRS: list[Path] = []  # output directories this command creates: removed a
 def _outdir(cfg: Any, outdir: Path | None) -> Path:
     from .pipeline import default_outdir
 
-    out = outdir if outdir is not None else default_outdir(cfg)
-    p = Path(out)
-    while not p.exists() and p != p.parent:  # deepest first, so that each is empty when its turn comes
-        _NEW_DIRS.append(p)
-        p = p.parent
+    return _note_new(outdir if outdir is not None else default_outdir(cfg))
+
+
+def _note_new(out: Path) -> Path:
+    """Record the directories of ``out`` that do not exist yet (deepest first, so that each is empty when its
+    turn comes), for :func:`_remove_empty_new_dirs`.  The path is normalized first ('a/ghost/../kept' is
+    'a/kept'); one the system cannot even look at (too long, no permission) is left to the stage, whose
+    error names it."""
+    p = Path(os.path.abspath(out))
+    try:
+        while not p.exists() and p != p.parent:
+            _NEW_DIRS.append(p)
+            p = p.parent
+    except OSError:
+        pass
     return out
 
 
@@ -191,7 +201,7 @@ def _stored_config_instead(obj: Any, default: Any, gains: Path) -> Any:
 def _gains_outdir(cfg: Any, outdir: Path | None, gains: Path | None) -> Path:
     """-o if given, else beside --gains (the files belong to that gain), else results/<name>/."""
     if outdir is not None:
-        return outdir
+        return _note_new(outdir)
     return gains.parent if gains is not None else _outdir(cfg, None)
 
 

@@ -213,8 +213,9 @@ def test_run_forwards_synthesis_options(tmp_path) -> None:
     # note that the forwarded --multiplier full had no effect (stop 47: it recorded 'full')
     assert g["objective"] == "stability" and g["certificate"]["multipliers"]["kind"] == "none"
     assert any(n.startswith("synthesis.multiplier: full has no effect") for n in g["notes"])
-    # the config the file records is the one the gain was made with: the overrides applied (stop 47)
-    assert g["config"]["synthesis"]["objective"] == "stability" and g["config"]["synthesis"]["multiplier"] == "full"
+    # the file records the config and, beside it, the settings the gain was made with that differ (stop 47)
+    assert g["config"]["synthesis"]["objective"] == "ultimate-bound"
+    assert g["synthesis_overrides"] == {"synthesis.objective": "stability", "synthesis.multiplier": "full"}
     v = json.loads((tmp_path / "verification.json").read_text())
     assert v["passed"] is True
 

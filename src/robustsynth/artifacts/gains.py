@@ -43,14 +43,16 @@ def certified_figures(figs: dict[str, Any]) -> dict[str, Any]:
     return certified
 
 
-def _made_with(config: Any, result: Any) -> Any:
-    """The config a result was made with: ``config`` with the synthesis settings the result records (overrides such
-    as ``--objective`` or ``--solver`` applied), so that a gains file's config reproduces its gain (review, stop 47:
-    it kept the file's settings while the certificate said otherwise)."""
+def _overrides(config: Any, result: Any) -> dict[str, Any]:
+    """The synthesis settings a result was made with that differ from ``config``'s (the command line's
+    ``--objective``, ``--solver``, ``--multiplier``, or synthesize()'s keywords): with the config they reproduce
+    the gain (review, stop 47: a file recorded only the config, whose settings its certificate contradicted).
+    The config stays the file's, so that a stage writing beside it does not take it for another config's."""
     settings = getattr(result, "settings", None)
-    if settings is None or settings == config.synthesis:
-        return config
-    return config.model_copy(update={"synthesis": settings})
+    if settings is None:
+        return {}
+    made, given = settings.model_dump(mode="json"), config.synthesis.model_dump(mode="json")
+    return {k: v for k, v in made.items() if given.get(k) != v}
 
 
 def gains_dict(model: Any, result: Any) -> dict[str, Any]:
@@ -96,7 +98,7 @@ def gains_dict(model: Any, result: Any) -> dict[str, Any]:
     out = {
         "schema_version": SCHEMA_VERSION,
         "robustsynth_version": __version__,
-        "config": config_to_dict(_made_with(model.config, result)),
+        "config": config_to_dict(model.config),
         "K": result.K,
         "state_names": list(model.state_names),
         "input_names": list(model.input_names),
@@ -107,6 +109,9 @@ def gains_dict(model: Any, result: Any) -> dict[str, Any]:
         "solver": {k: result.solver[k] for k in ("name", "version", "status", "iterations", "solve_time_s", "fallback_used")},
         "notes": list(result.notes),
     }
+    over = _overrides(model.config, result)
+    if over:  # made with settings other than the config's: "synthesis.<key>" -> the value used
+        out["synthesis_overrides"] = {f"synthesis.{k}": v for k, v in over.items()}
     out["gains_id"] = gains_id(out)
     return out
 

@@ -15,7 +15,8 @@ __all__ = ["synthesis_markdown", "diagnosis_markdown"]
 MULTIPLIER_TEXT = {  # synthesis.design.multiplier_used
     "structured": "one block per Delta block",
     "full": "mu I, the paper’s |Delta| <= 1",
-    "diagonal": "one scalar per kinematic channel, docs/theory.md §9; synthesis.multiplier applies to norm-bounded delays only",
+    "diagonal": ("one scalar per channel of independent factors: the kinematic channels of docs/theory.md §9, the arc "
+                 "channels of §10; synthesis.multiplier applies to norm-bounded delays only"),
     "none": "the delay vertices have no Delta; synthesis.multiplier applies to norm-bounded delays only",
 }
 OBJECTIVE_TEXT = {

@@ -669,8 +669,9 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
             # name the override (the command line's option, or synthesize()'s keyword) and the setting it replaced
             said = ", ".join(f"synthesis.{k}: {v} (overridden{': --' + k if k in CLI_OVERRIDES else ''})"
                              for k, v in given.items())
-            why = _format_validation_error(exc)
-            raise InputError(f"{said}: {why if why.startswith('synthesis.') else 'synthesis.' + why}") from None
+            why = "; ".join(p if p.startswith("synthesis.") else "synthesis." + p
+                            for p in _format_validation_error(exc).split("; "))
+            raise InputError(f"{said}: {why}") from None
     t0 = time.perf_counter()
     search: list[dict[str, Any]] = []
     notes: list[str] = []
@@ -721,7 +722,7 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
         notes += validity_notes(model, best.check.figures, best.cert or {})
     used = multiplier_used(model, s.multiplier)
     if s.multiplier == "full" and used != "full":  # asked for explicitly (structured is the default): say it was moot
-        notes.append(f"synthesis.multiplier: full has no effect on this model ({'one scalar multiplier per kinematic channel' if used == 'diagonal' else 'its delay vertices have no norm-bounded Delta'}; it applies to delay_description: norm-bounded)")
+        notes.append(f"synthesis.multiplier: full has no effect on this model ({'one scalar multiplier per kinematic or arc channel' if used == 'diagonal' else 'its delay vertices have no norm-bounded Delta'}; it applies to delay_description: norm-bounded)")
     if runner.fallbacks and rec is not None:
         notes.append(f"fallback solver used in {runner.fallbacks} of {len(search)} solves; the accepted K is "
                      f"from {rec.name}")
@@ -978,9 +979,12 @@ def _nonlinear_infeasible(model: Any, common: _Best, tried: list, tried_at: dict
         heading = float(f.get("heading_within_period", f["ultimate_bound"]["e_theta"]))
         if not auto and tried:  # review, stop 47: a hand-set bound got only the advice above
             tb = float(tried[0][0])
+            # review, stop 47: above the linearized heading the direction is not known (the nonlinear set is
+            # usually larger than the linearized one, so a bound just above it may be too small)
             where = (f"below the linearized set's own {heading:.3g} rad, and a set within it rarely exists: raise it"
                      if tb < heading else
-                     f"above the linearized set's {heading:.3g} rad, and the channels widen with it (like sin): lower it")
+                     f"above the linearized set's {heading:.3g} rad; a larger bound widens every channel (like sin), a "
+                     "smaller one constrains the set more: try another")
             grid = ", ".join(f"{x:g}" for x in HEADING_GRID)
             msg += (f". synthesis.heading_bound {tb:g} rad is {where}, or set it to auto, which tries {grid} rad "
                     "upwards from 0.9 times that heading")

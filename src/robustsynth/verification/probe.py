@@ -263,7 +263,7 @@ def jump_times(model: Any, S: np.ndarray, samples: int, n_jump: int, rng: np.ran
     ``samples`` without a jump, the next ``n_jump`` with one, the rest, the figure maximizers, without):
     (N, 2) times, the period's end Ts for no jump.  Of the jump runs, every other one has both tracks
     jump at one random time (as the Monte Carlo), the others each track at its own; and a third of those
-    each track exactly at one of the period's switching instants ``S`` (a command's arrival), so that the
+    each track exactly at one of the period's switching instants ``S`` strictly inside it (a command's arrival), so that the
     command intervals on its two sides run at independent slip corners: the combinations the covering
     certificate's heading rows and within-period vertices take (docs/theory.md §11), which random times
     reach only approximately (review, stop 47).  Without jumps (``n_jump`` 0): one time per run, Ts.
@@ -277,7 +277,13 @@ def jump_times(model: Any, S: np.ndarray, samples: int, n_jump: int, rng: np.ran
     t_sw[samples : samples + n_jump : 2, 1] = t_sw[samples : samples + n_jump : 2, 0]
     at = np.arange(samples + 1, samples + n_jump, 2)[::3]  # every third per-track run
     if at.size and S.shape[1]:
-        t_sw[at] = S[at[:, None], pick.integers(0, S.shape[1], (at.size, 2))]
+        # only arrivals inside the period (review: with d_hi >= 2 or a lossy link most s~ sit at 0 or Ts, where a
+        # change is no change, or one for the whole period); a run with none keeps its random times
+        inside = (S[at] > 0.0) & (S[at] < model.Ts)  # (n, d_hi)
+        score = np.where(inside[:, None, :], pick.random((at.size, 2, S.shape[1])), -1.0)
+        j = np.argmax(score, axis=-1)  # (n, 2): a random arrival inside, per track
+        ok = np.any(inside, axis=-1)
+        t_sw[at[ok]] = np.take_along_axis(S[at[ok]], j[ok], axis=-1)
     return t_sw
 
 
