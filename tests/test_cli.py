@@ -258,3 +258,25 @@ def test_the_cleanup_keeps_what_existed_and_never_turns_an_error_into_a_tracebac
                                   str(root / "results" / "baselines" / "delay-multi-period" / "gains.json"),
                                   "-o", str(tmp_path / "v" / "x")])
     assert r.exit_code == 2 and not (tmp_path / "v").exists()
+
+
+def test_a_linear_plants_gains_record_the_overrides(tmp_path) -> None:
+    """Third review, stop 47: `synthesize --solver scs` on a linear plant left nothing in gains.json that
+    said scs was used (the robot's files record synthesis_overrides)."""
+    cfg = Path(__file__).resolve().parents[1] / "configs" / "zbp-h1.yaml"
+    r = CliRunner().invoke(main, ["synthesize", str(cfg), "--solver", "scs", "-o", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    g = json.loads((tmp_path / "o" / "gains.json").read_text())
+    assert g["synthesis_overrides"] == {"synthesis.solver": "scs"} and g["config"]["synthesis"]["solver"] == "clarabel"
+
+
+def test_the_cleanup_follows_symlinks_and_covers_a_gains_files_directory(tmp_path) -> None:
+    """Third review, stop 47: 'lnk/../made' with lnk a symlink left the made directory (a lexical '..' is not
+    the system's), and verify without -o writes beside --gains, whose new directory stayed on failure."""
+    root = Path(__file__).resolve().parents[1]
+    (tmp_path / "real" / "sub").mkdir(parents=True)
+    (tmp_path / "lnk").symlink_to(tmp_path / "real" / "sub")
+    r = CliRunner().invoke(main, ["synthesize", str(root / "configs" / "infeasible.yaml"), "-o", str(tmp_path / "lnk" / ".." / "made")])
+    assert r.exit_code == 3 and sorted(p.name for p in (tmp_path / "real").iterdir()) == ["sub"]
+    r = CliRunner().invoke(main, ["verify", str(root / "configs" / "fast.yaml"), "--gains", str(tmp_path / "g" / "x" / "gains.json")])
+    assert r.exit_code == 2 and not (tmp_path / "g").exists()

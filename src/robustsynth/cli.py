@@ -55,6 +55,7 @@ def _quiet_stdout() -> None:
 
 
 def _exit_interrupted(exc: Interrupted) -> None:
+    _remove_empty_new_dirs()
     click.echo(f"{exc}", err=True)
     sys.exit(exc.exit_code)
 
@@ -98,6 +99,7 @@ def _guard(fn: Callable[..., int | None]) -> Callable[..., None]:
         except Interrupted as exc:
             _exit_interrupted(exc)
         except KeyboardInterrupt:
+            _remove_empty_new_dirs()
             click.echo("interrupted", err=True)
             sys.exit(EXIT_INTERRUPTED)
         except BrokenPipeError:
@@ -141,10 +143,10 @@ def _outdir(cfg: Any, outdir: Path | None) -> Path:
 
 def _note_new(out: Path) -> Path:
     """Record the directories of ``out`` that do not exist yet (deepest first, so that each is empty when its
-    turn comes), for :func:`_remove_empty_new_dirs`.  The path is normalized first ('a/ghost/../kept' is
-    'a/kept'); one the system cannot even look at (too long, no permission) is left to the stage, whose
+    turn comes), for :func:`_remove_empty_new_dirs`.  The path is resolved first ('a/ghost/../kept' is
+    'a/kept', a symlink's '..' its target's parent); one the system cannot even look at (too long, no permission) is left to the stage, whose
     error names it."""
-    p = Path(os.path.abspath(out))
+    p = Path(os.path.realpath(out))  # symlinks followed, then '..' (as the system resolves it)
     try:
         while not p.exists() and p != p.parent:
             _NEW_DIRS.append(p)
@@ -202,7 +204,7 @@ def _gains_outdir(cfg: Any, outdir: Path | None, gains: Path | None) -> Path:
     """-o if given, else beside --gains (the files belong to that gain), else results/<name>/."""
     if outdir is not None:
         return _note_new(outdir)
-    return gains.parent if gains is not None else _outdir(cfg, None)
+    return _note_new(gains.parent) if gains is not None else _outdir(cfg, None)
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})

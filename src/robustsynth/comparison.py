@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
-__all__ = ["other_kind", "compare_models"]
+__all__ = ["other_kind", "other_config", "compare_models"]
 
 
 def other_kind(kind: str) -> str:
@@ -40,6 +40,17 @@ def _row(model: Any, gains: dict[str, Any] | None, vd: dict[str, Any] | None, st
     return row
 
 
+def other_config(cfg: Any, kind: str, gains: dict[str, Any]) -> Any:
+    """The config of the other model kind's design: the settings ``gains`` was made with (the config's, with its
+    ``synthesis_overrides``: --objective, --solver, ...; review, stop 47: the other design ignored them), the
+    model ``kind`` and a common Lyapunov matrix."""
+    from .config import SynthesisConfig
+
+    over = {k.split(".", 1)[1]: v for k, v in (gains.get("synthesis_overrides") or {}).items()}
+    return cfg.model_copy(update={"synthesis": SynthesisConfig.model_validate(
+        {**cfg.synthesis.model_dump(), **over, "model": kind, "lyapunov": "common"})})
+
+
 def compare_models(model: Any, gains: dict[str, Any], vd: dict[str, Any] | None = None, runs: int | None = None,
                    seed: int | None = None, other_gains: dict[str, Any] | None = None) -> dict[str, Any] | None:
     """Rows for ``model``'s kind (its ``gains`` and, if given, verification data ``vd``) and for the
@@ -57,9 +68,7 @@ def compare_models(model: Any, gains: dict[str, Any], vd: dict[str, Any] | None 
     cfg = model.config
     if cfg.slip.model == "icr":  # the paper's model has no yaw factor or lateral slip (the config refuses it)
         return None
-    other_cfg = cfg.model_copy(update={"synthesis": cfg.synthesis.model_copy(
-        update={"model": other_kind(model.kind), "lyapunov": "common"})})
-    other = build_model(other_cfg)
+    other = build_model(other_config(cfg, other_kind(model.kind), gains))
     rows = [_row(model, gains, vd, "certified")]
     try:
         og = other_gains if other_gains is not None else gains_dict(other, synthesize(other))

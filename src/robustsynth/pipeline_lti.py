@@ -115,7 +115,12 @@ def lti_synthesis_stage(config: Any, outdir: str | Path, config_path: str | Path
         if design.status == "infeasible":
             raise InfeasibleError(f"no certified gain for {config.name}: {why}")
         raise SolverFailure(f"no certified gain for {config.name} ({design.status}): {why}")
-    gd = lti_gains_dict(config, plant, design)
+    over = {}  # review, stop 47: nothing in the file said that --objective / --solver were used
+    if objective is not None and objective != config.objective:
+        over["synthesis.objective"] = objective
+    if solver is not None and solver != config.synthesis.solver:
+        over["synthesis.solver"] = solver
+    gd = lti_gains_dict(config, plant, design, over)
     files = {"gains.mat": mat_bytes(lti_gains_mat_vars(gd)), "synthesis.md": lti_synthesis_markdown(gd).encode("utf-8"),
              "gains.json": json_bytes(gd)}
     written = commit_files(out, files, primary="gains.json", invalidate=VERIFICATION_FILES + RUN_FILES)

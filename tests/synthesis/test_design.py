@@ -395,3 +395,18 @@ def test_the_certificate_records_the_multiplier_its_lmis_took(name, asked, used)
 
     m = committed_gain(name)[0]
     assert multiplier_used(m, asked) == used and used in MULTIPLIER_TEXT
+
+
+@pytest.mark.parametrize("key,value", [("kinematics", "nonlinear"), ("integral_action", True), ("model", "paper"),
+                                       ("delay_description", "norm-bounded")])
+def test_an_override_of_what_the_model_was_built_with_is_refused(key, value) -> None:
+    """Third review, stop 47: such overrides were ignored (the model is built from the config) while the gains
+    file recorded them as the settings it was made with."""
+    from robustsynth.errors import InputError
+
+    m = committed_gain("default")[0]
+    with pytest.raises(InputError, match=rf"synthesis\.{key}: {value} differs from the .* the model was built with"):
+        synthesize(m, settings=m.config.synthesis.model_copy(update={key: value}))
+    if key != "model":  # the keyword form too (model= is synthesize()'s own argument)
+        with pytest.raises(InputError, match=rf"synthesis\.{key}: {value} differs"):
+            synthesize(m, **{key: value})

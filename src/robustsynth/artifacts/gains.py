@@ -399,9 +399,11 @@ def controller_description(gains: dict[str, Any], config: Any | None = None) -> 
 # ------------------------------------------------------------------ any linear plant (plant: kind: lti)
 
 
-def lti_gains_dict(config: Any, plant: dict[str, Any], design: Any) -> dict[str, Any]:
+def lti_gains_dict(config: Any, plant: dict[str, Any], design: Any, overrides: dict[str, Any] | None = None) -> dict[str, Any]:
     """The gains.json mapping of a linear plant's synthesized gain (``kind: lti``): u_k = K xi_k on the
-    lifted state xi = [x; u_{k-1}; ...; u_{k-d}], the certified set {xi' P xi <= 1} and its figures."""
+    lifted state xi = [x; u_{k-1}; ...; u_{k-d}], the certified set {xi' P xi <= 1} and its figures.
+    ``overrides``: the settings it was made with that differ from the config's (key path -> value), recorded
+    as ``synthesis_overrides`` (as for the robot)."""
     from ..config import config_to_dict
 
     n, m = plant["B"].shape
@@ -420,6 +422,8 @@ def lti_gains_dict(config: Any, plant: dict[str, Any], design: Any) -> dict[str,
         "solver": {"solves": design.solves, "time_s": design.solve_time_s},
         "config": config_to_dict(config),
     }
+    if overrides:
+        out["synthesis_overrides"] = dict(overrides)
     from .files import to_jsonable
 
     out = to_jsonable(out)

@@ -613,6 +613,7 @@ def _run_hinf(model: Any, s: SynthesisConfig, search: list, say: Callable[[str],
 
 
 CLI_OVERRIDES = ("objective", "solver", "multiplier")  # the settings `robustsynth synthesize` overrides by option
+MODEL_SETTINGS = ("model", "delay_description", "kinematics", "integral_action")  # build_model reads them
 
 
 def synthesize(model: Any, settings: SynthesisConfig | None = None, *, on_step: Callable[[str], None] | None = None,
@@ -656,22 +657,27 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
     s = settings if settings is not None else model.config.synthesis
     if overrides:
         # validated as strictly as the config file and the CLI: an unknown key or value is an error
-        from pydantic import ValidationError
+        from pydantic import ValidationError, create_model
 
         from ..config import _format_validation_error
 
         given = {k: v for k, v in overrides.items() if v is not None}
         data = s.model_dump()
         data.update(given)
-        try:
-            s = SynthesisConfig.model_validate(data)
+        try:  # inside a section, so that every problem is named by its synthesis.<key> path
+            s = create_model("SynthesisSection", synthesis=(SynthesisConfig, ...)).model_validate({"synthesis": data}).synthesis
         except ValidationError as exc:
             # name the override (the command line's option, or synthesize()'s keyword) and the setting it replaced
             said = ", ".join(f"synthesis.{k}: {v} (overridden{': --' + k if k in CLI_OVERRIDES else ''})"
                              for k, v in given.items())
-            why = "; ".join(p if p.startswith("synthesis.") else "synthesis." + p
-                            for p in _format_validation_error(exc).split("; "))
-            raise InputError(f"{said}: {why}") from None
+            raise InputError(f"{said}: {_format_validation_error(exc)}") from None
+    built = model.config.synthesis  # the settings the model's structure comes from: an override cannot change it
+    fixed = [k for k in MODEL_SETTINGS if getattr(s, k) != getattr(built, k)]
+    if fixed:  # review, stop 47: they were ignored, and the gains file recorded them as made with
+        k = fixed[0]
+        raise InputError(f"synthesis.{k}: {getattr(s, k)} differs from the {getattr(built, k)} the model was built with; "
+                         "it shapes the model, not only the solve: set it in the config and build the model again "
+                         "(robustsynth.build_model(config))")
     t0 = time.perf_counter()
     search: list[dict[str, Any]] = []
     notes: list[str] = []

@@ -1,0 +1,21 @@
+"""The paper-vs-slip-aware comparison: the other kind's design is made with the settings of the gain it
+is compared with."""
+
+from __future__ import annotations
+
+from robustsynth.comparison import other_config
+
+from .conftest import committed_gain
+
+
+def test_the_other_kind_is_designed_with_the_gains_overrides() -> None:
+    """Review, stop 47: `synthesize CFG --objective ultimate-bound` on a config saying stability compared its
+    gain with a *stability* design of the paper's model (every bound '—'): the other design took the file's
+    settings, not the ones the gain was made with (gains.json's synthesis_overrides)."""
+    model = committed_gain("default")[0]
+    cfg = model.config.model_copy(update={"synthesis": model.config.synthesis.model_copy(update={"objective": "stability"})})
+    gains = {"synthesis_overrides": {"synthesis.objective": "ultimate-bound", "synthesis.solver": "scs"}}
+    other = other_config(cfg, "paper", gains).synthesis
+    assert (other.model, other.objective, other.solver, other.lyapunov) == ("paper", "ultimate-bound", "scs", "common")
+    plain = other_config(cfg, "paper", {}).synthesis
+    assert (plain.objective, plain.solver) == ("stability", cfg.synthesis.solver)
