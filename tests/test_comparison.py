@@ -19,3 +19,13 @@ def test_the_other_kind_is_designed_with_the_gains_overrides() -> None:
     assert (other.model, other.objective, other.solver, other.lyapunov) == ("paper", "ultimate-bound", "scs", "common")
     plain = other_config(cfg, "paper", {}).synthesis
     assert (plain.objective, plain.solver) == ("stability", cfg.synthesis.solver)
+
+
+def test_a_nonlinear_gains_paper_design_is_linearized() -> None:
+    """Fourth review, stop 47: for a nonlinear-kinematics config the paper model's copy kept kinematics:
+    nonlinear, which the validation refuses (only the slip-aware model has the channels): `run` and
+    `synthesize` of configs/nonlinear-proof.yaml and turns.yaml ended in a traceback."""
+    for name in ("nonlinear-proof", "turns"):
+        cfg = committed_gain(name)[0].config
+        other = other_config(cfg, "paper", {"synthesis_overrides": {"synthesis.heading_bound": 0.2}}).synthesis
+        assert (other.model, other.kinematics, other.heading_bound) == ("paper", "linearized", "auto")

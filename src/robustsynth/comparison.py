@@ -47,8 +47,10 @@ def other_config(cfg: Any, kind: str, gains: dict[str, Any]) -> Any:
     from .config import SynthesisConfig
 
     over = {k.split(".", 1)[1]: v for k, v in (gains.get("synthesis_overrides") or {}).items()}
-    return cfg.model_copy(update={"synthesis": SynthesisConfig.model_validate(
-        {**cfg.synthesis.model_dump(), **over, "model": kind, "lyapunov": "common"})})
+    data = {**cfg.synthesis.model_dump(), **over, "model": kind, "lyapunov": "common"}
+    if kind == "paper":  # the paper's model is linearized: no heading bound (fourth review: validating a nonlinear
+        data.update(kinematics="linearized", heading_bound="auto")  # config's copy raised, a traceback)
+    return cfg.model_copy(update={"synthesis": SynthesisConfig.model_validate(data)})
 
 
 def compare_models(model: Any, gains: dict[str, Any], vd: dict[str, Any] | None = None, runs: int | None = None,

@@ -283,6 +283,14 @@ class SynthesisConfig(_Node):
         return self
 
 
+
+class SynthesisSection(_Node):
+    """A ``synthesis`` section alone: validating settings inside it names every problem by its
+    ``synthesis.<key>`` path (``synthesize()``'s overrides)."""
+
+    synthesis: SynthesisConfig
+
+
 class InitialOffset(_Node):
     """Offset added to the steady state of each run's initial slip (zero: start inside the certified set)."""
 

@@ -346,7 +346,8 @@ def test_the_search_from_the_common_alpha_matches_the_full_scan(monkeypatch) -> 
 
 @pytest.mark.parametrize("kw,expected", [({"objective": "stabilty"}, "objective: Input should be"),
                                          ({"objectiv": "stability"}, "objectiv: unknown key"),
-                                         ({"alpha_points": 1}, "alpha_points: Input should be greater")])
+                                         ({"alpha_points": 1}, "alpha_points: Input should be greater"),
+                                         ({"heading_bound": 2.0}, "heading_bound: should be 'auto' or less than")])
 def test_python_api_rejects_what_the_cli_rejects(default_model, kw, expected) -> None:
     """Issue 27: a misspelt objective ran ultimate-bound and recorded the typo; a misspelt key was ignored."""
     from robustsynth.errors import InputError

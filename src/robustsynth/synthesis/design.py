@@ -657,22 +657,23 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
     s = settings if settings is not None else model.config.synthesis
     if overrides:
         # validated as strictly as the config file and the CLI: an unknown key or value is an error
-        from pydantic import ValidationError, create_model
+        from pydantic import ValidationError
 
-        from ..config import _format_validation_error
+        from ..config import SynthesisSection, _format_validation_error
 
         given = {k: v for k, v in overrides.items() if v is not None}
         data = s.model_dump()
         data.update(given)
         try:  # inside a section, so that every problem is named by its synthesis.<key> path
-            s = create_model("SynthesisSection", synthesis=(SynthesisConfig, ...)).model_validate({"synthesis": data}).synthesis
+            s = SynthesisSection.model_validate({"synthesis": data}).synthesis
         except ValidationError as exc:
             # name the override (the command line's option, or synthesize()'s keyword) and the setting it replaced
             said = ", ".join(f"synthesis.{k}: {v} (overridden{': --' + k if k in CLI_OVERRIDES else ''})"
                              for k, v in given.items())
             raise InputError(f"{said}: {_format_validation_error(exc)}") from None
     built = model.config.synthesis  # the settings the model's structure comes from: an override cannot change it
-    fixed = [k for k in MODEL_SETTINGS if getattr(s, k) != getattr(built, k)]
+    fixed = [k for k in MODEL_SETTINGS if getattr(s, k) != getattr(built, k)
+             and not (k == "delay_description" and s.delay_description == model.delay_description)]  # auto's own
     if fixed:  # review, stop 47: they were ignored, and the gains file recorded them as made with
         k = fixed[0]
         raise InputError(f"synthesis.{k}: {getattr(s, k)} differs from the {getattr(built, k)} the model was built with; "
