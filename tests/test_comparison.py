@@ -29,3 +29,17 @@ def test_a_nonlinear_gains_paper_design_is_linearized() -> None:
         cfg = committed_gain(name)[0].config
         other = other_config(cfg, "paper", {"synthesis_overrides": {"synthesis.heading_bound": 0.2}}).synthesis
         assert (other.model, other.kinematics, other.heading_bound) == ("paper", "linearized", "auto")
+
+
+def test_a_nonlinear_certificate_is_compared_with_the_papers_design() -> None:
+    """The path that raised (fourth review, stop 47), end to end from the committed gain: the paper model's
+    design of nonlinear-proof's config is made and certified, beside the nonlinear certificate's row."""
+    from robustsynth.artifacts.gains import load_gains
+    from robustsynth.comparison import compare_models
+
+    from .conftest import ROOT
+
+    model = committed_gain("nonlinear-proof")[0]
+    cmp = compare_models(model, load_gains(ROOT / "results" / "baselines" / "nonlinear-proof" / "gains.json"))
+    rows = {r["model"]: r for r in cmp["rows"]}
+    assert set(rows) == {"slip-aware", "paper"} and rows["paper"]["status"] == "certified"
