@@ -144,8 +144,8 @@ def _outdir(cfg: Any, outdir: Path | None) -> Path:
 def _note_new(out: Path) -> Path:
     """Record the directories of ``out`` that do not exist yet (deepest first, so that each is empty when its
     turn comes), for :func:`_remove_empty_new_dirs`.  The path is resolved first ('a/ghost/../kept' is
-    'a/kept', a symlink's '..' its target's parent); one the system cannot even look at (too long, no permission) is left to the stage, whose
-    error names it."""
+    'a/kept', a symlink's '..' its target's parent); one the system cannot even look at (too long, no
+    permission) is left to the stage, whose error names it."""
     p = Path(os.path.realpath(out))  # symlinks followed, then '..' (as the system resolves it)
     try:
         while not p.exists() and p != p.parent:

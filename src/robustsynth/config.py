@@ -234,16 +234,6 @@ class SynthesisConfig(_Node):
     multiplier: Literal["structured", "full"] = Field(
         default="structured", description="S-procedure multiplier for Delta: one per block or one scalar"
     )
-
-    @field_validator("symmetry", mode="before")
-    @classmethod
-    def _yaml_off(cls, v: Any) -> Any:
-        """YAML 1.1 reads a bare ``off`` as false (the README writes ``symmetry: off``): take it as 'off'."""
-        if v is False:
-            return "off"
-        if v is True:
-            raise ValueError("write auto or off (YAML reads a bare on / yes / true as a boolean)")
-        return v
     solver: Literal["clarabel", "scs"] = Field(default="clarabel", description="first solver tried")
     weights: ErrorWeights = Field(default_factory=ErrorWeights, description="weights on the error states")
     motor_limits: bool = Field(
@@ -258,6 +248,16 @@ class SynthesisConfig(_Node):
     margin: Annotated[float, Field(gt=0, lt=1e-2)] = Field(
         default=1e-7, description="LMIs are solved as M <= -margin*I (scaled units)"
     )
+
+    @field_validator("symmetry", mode="before")
+    @classmethod
+    def _yaml_off(cls, v: Any) -> Any:
+        """YAML 1.1 reads a bare ``off`` as false (the README writes ``symmetry: off``): take it as 'off'."""
+        if v is False:
+            return "off"
+        if v is True:
+            raise ValueError("write auto or off (YAML reads a bare on / yes / true as a boolean)")
+        return v
 
     @model_validator(mode="after")
     def _consistent(self) -> "SynthesisConfig":
@@ -281,7 +281,6 @@ class SynthesisConfig(_Node):
             raise ValueError(f"{_FIELD}heading_bound: {self.heading_bound:g} rad is for synthesis.kinematics: nonlinear "
                              "(a linearized certificate assumes no heading bound); set kinematics: nonlinear or remove it")
         return self
-
 
 
 class SynthesisSection(_Node):

@@ -729,7 +729,10 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
         notes += validity_notes(model, best.check.figures, best.cert or {})
     used = multiplier_used(model, s.multiplier)
     if s.multiplier == "full" and used != "full":  # asked for explicitly (structured is the default): say it was moot
-        notes.append(f"synthesis.multiplier: full has no effect on this model ({'one scalar multiplier per kinematic or arc channel' if used == 'diagonal' else 'its delay vertices have no norm-bounded Delta'}; it applies to delay_description: norm-bounded)")
+        why = ("one scalar multiplier per kinematic or arc channel" if used == "diagonal"
+               else "its delay vertices have no norm-bounded Delta")
+        notes.append(f"synthesis.multiplier: full has no effect on this model ({why}; it applies to delay_description: "
+                     "norm-bounded)")
     if runner.fallbacks and rec is not None:
         notes.append(f"fallback solver used in {runner.fallbacks} of {len(search)} solves; the accepted K is "
                      f"from {rec.name}")
@@ -749,7 +752,7 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
     return SynthesisResult(
         K=best.K,
         objective=s.objective,
-        multiplier=multiplier_used(model, s.multiplier),
+        multiplier=used,
         certificate=cert,
         check=best.check,
         solver=solver,

@@ -263,10 +263,10 @@ def jump_times(model: Any, S: np.ndarray, samples: int, n_jump: int, rng: np.ran
     ``samples`` without a jump, the next ``n_jump`` with one, the rest, the figure maximizers, without):
     (N, 2) times, the period's end Ts for no jump.  Of the jump runs, every other one has both tracks
     jump at one random time (as the Monte Carlo), the others each track at its own; and a third of those
-    each track exactly at one of the period's switching instants ``S`` strictly inside it (a command's arrival), so that the
-    command intervals on its two sides run at independent slip corners: the combinations the covering
-    certificate's heading rows and within-period vertices take (docs/theory.md §11), which random times
-    reach only approximately (review, stop 47).  Without jumps (``n_jump`` 0): one time per run, Ts.
+    each track exactly at one of the period's switching instants ``S`` strictly inside it (a command's
+    arrival), so that the command intervals on its two sides run at independent slip corners: the
+    combinations the covering certificate's heading rows and within-period vertices take (docs/theory.md
+    §11), which random times reach only approximately (review, stop 47).  Without jumps (``n_jump`` 0): one time per run, Ts.
     The random times come from ``rng``, the instants from ``pick``."""
     N = S.shape[0]
     if not n_jump:  # slip.max_rate, the icr model, one slip corner
