@@ -706,13 +706,38 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
             s, one_minus_cos = float(np.sin(h)), 2.0 * float(np.sin(h / 2.0)) ** 2
             ey = Ts * Ts / 8 * V * wbar + Ts / 4 * 2.0 * abar * s
             ex = Ts / 4 * osc + Ts * Ts / 8 * V * s * wbar + Ts / 4 * 2.0 * abar * one_minus_cos
-    if model.icr:  # e_y' also holds the lateral velocity v_y = row(p) u: its jumps at the switching instants
+    if model.icr and (within_period or model.heading_bound is not None):
+        # the lateral velocity v_y = row(p) u (docs/theory.md §12): e_y' gets v_y cos e_theta, e_x' -v_y sin e_theta;
+        # slip changing within the period (or a heading that turns it) makes it jump at any time, so each part is
+        # bounded by its range: |f - chord| <= Ts/4 (sup f' - inf f') <= Ts/4 2 vy_bar (times sin for e_x)
+        vy = _lateral_on_set(model, cmds, mats, level, inner)
+        h = min(float(heading if heading is not None else 0.0), np.pi / 2)
+        ey += Ts / 4 * 2.0 * vy
+        ex += Ts / 4 * 2.0 * vy * float(np.sin(h))
+    elif model.icr:  # e_y' also holds the lateral velocity v_y = row(p) u: its jumps at the switching instants
         D = model.config.robot.track_distance
         dvy = max(sup_on_set(np.array([lateral_row(mu, D) @ (cmds[j] - cmds[j + 1]) for j in range(d_hi)]), mats,
                              level, inner) for mu in np.asarray(model.corners))
         ey += Ts / 4 * d_hi * dvy
     return {"e_x": round_up(sampled["e_x"] + ex, 12), "e_y": round_up(sampled["e_y"] + ey, 12),
             "e_theta": heading}
+
+
+def _lateral_on_set(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], level: float, inner: int,
+                    yaw_rate: float = 0.0) -> float:
+    """The largest |v_y| of the icr slip model on the set, over every slip corner (v_y is multi-affine in the
+    parameters: its extremes over the box, and over any average of slips, are at the corners) and every
+    command in flight, with a turning reference's feedforward (0, w), |w| <= ``yaw_rate``."""
+    from .model.slip import lateral_row
+
+    uD = np.array([model.V, 0.0])
+    D = model.config.robot.track_distance
+    out = 0.0
+    for mu in np.asarray(model.corners):
+        row = lateral_row(mu, D)
+        out = max(out, abs(float(row @ uD)) + abs(float(row @ model.turn_feedforward)) * yaw_rate
+                  + sup_on_set(np.array([row @ c for c in cmds]), mats, level, inner))
+    return out
 
 
 def _multiplier_size(cert: Mapping[str, Any]) -> int | None:
@@ -731,11 +756,12 @@ def _forward_oscillation(model: Any, cmds: list[np.ndarray], mats: list[np.ndarr
     from .model.slip import slip_matrix
 
     uD = np.array([model.V, 0.0])
+    g = model.turn_feedforward  # the feedforward command per rad/s of yaw rate ((0, 1): M[0, 1])
     Ms = [slip_matrix(mu, model.config.robot.track_distance) for mu in np.asarray(model.corners)]
     osc = 0.0
     for Ma in Ms:
         for Mb in Ms:
-            const = abs(float((Ma[0] - Mb[0]) @ uD)) + (abs(float(Ma[0, 1])) + abs(float(Mb[0, 1]))) * yaw_rate
+            const = abs(float((Ma[0] - Mb[0]) @ uD)) + (abs(float(Ma[0] @ g)) + abs(float(Mb[0] @ g))) * yaw_rate
             for ca in cmds:
                 rows = np.array([Ma[0] @ ca - Mb[0] @ cb for cb in cmds])
                 osc = max(osc, const + sup_on_set(rows, mats, level, inner))
@@ -751,16 +777,17 @@ def _speeds_on_set(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], l
     from .model.slip import slip_matrix
 
     uD = np.array([model.V, 0.0])
+    g = model.turn_feedforward  # the feedforward command per rad/s of yaw rate ((0, 1): M[., 1])
     vbar = wbar = dvbar = abar = 0.0
     for mu in np.asarray(model.corners):
         M = slip_matrix(mu, model.config.robot.track_distance)
         forward = sup_on_set(np.array([M[0] @ c for c in cmds]), mats, level, inner)
-        ff_v = abs(float(M[0, 1])) * yaw_rate  # the feedforward's share of v (asymmetric slip)
+        ff_v = abs(float(M[0] @ g)) * yaw_rate  # the feedforward's share of v (asymmetric slip)
         vbar = max(vbar, abs(float(M[0] @ uD)) + ff_v + forward)
         abar = max(abar, abs(float(M[0] @ uD) - model.V) + ff_v + forward)
-        wbar = max(wbar, abs(float(M[1] @ uD)) + abs(float(M[1, 1])) * yaw_rate
+        wbar = max(wbar, abs(float(M[1] @ uD)) + abs(float(M[1] @ g)) * yaw_rate
                    + sup_on_set(np.array([M[1] @ c for c in cmds]), mats, level, inner))
-        dvbar = max(dvbar, abs(float(M[0, 1])) * yaw_step
+        dvbar = max(dvbar, abs(float(M[0] @ g)) * yaw_step
                     + sup_on_set(np.array([M[0] @ (cmds[j] - cmds[j + 1]) for j in range(model.d_hi)]), mats, level,
                                  inner))
     return vbar, wbar, dvbar, abar
@@ -804,6 +831,11 @@ def _between_samples_on_arcs(model: Any, cmds: list[np.ndarray], mats: list[np.n
     else:
         Py = By + sp * Bx + Ts * Ts / 8 * (vbar * wbar + V * w_r) + Ts / 4 * d_hi * dvbar * s
         Px = Bx + sp * By + Ts * Ts / 8 * (vbar * wbar * s + V * w_r * sp) + Ts / 4 * d_hi * dvbar
+    if model.icr:  # the lateral velocity: (p_y - p_ry)' gets v_y cos theta, (p_x - p_rx)' -v_y sin theta, each
+        # bounded by its range (it jumps wherever the slip or a command does): Ts/4 2 vy_bar (times sin theta_hat)
+        vy = _lateral_on_set(model, cmds, mats, level, inner, w_r)
+        Py += Ts / 4 * 2.0 * vy
+        Px += Ts / 4 * 2.0 * vy * s
     return {"e_x": round_up(Px + sp * Py, 16), "e_y": round_up(Py + sp * Px, 16), "e_theta": heading}
 
 
@@ -1024,7 +1056,7 @@ def _arc_turns(model: Any, figures: Mapping[str, Any]) -> list[dict[str, Any]]:
 
     cfg = model.config
     r = float(cfg.reference.turn_radius)
-    table = PathTable(cfg.verification.path, cfg.reference.speed, r, cfg.network.sampling_time)
+    table = PathTable(cfg.verification.path, cfg.reference.speed, r, cfg.network.sampling_time, cfg.reference.turn_ramp)
     ub = dict(figures["ultimate_bound"])
     for k, v in (figures.get("ultimate_bound_between_samples") or {}).items():
         if v is not None and k in ub:  # review, stop 47: the table showed the sampled bound as the turn's peak

@@ -30,13 +30,15 @@ corner is rounded by an arc of radius r tangent to both segments, and the refere
 that moves at V^D with the yaw rate ``w_k`` constant on each sampling period, the path's heading
 change over the period divided by Ts (so |w_k| <= V^D / r).  Its poses at the sampling instants are
 a table (:class:`PathTable`); step 2 measures in the frame of the reference at t (advanced from
-t_k along its arc), and step 5 sends ``(V^D + dV_k, w_k + omega_k)``: the turning feedforward.
+t_k along its arc), and step 5 sends ``(V^D + dV_k + g_V w_k, omega_k + g_omega w_k)``: the turning
+feedforward, ``g = (g_V, g_omega)`` per rad/s of the reference's yaw rate (``turn_feedforward``: (0, 1), or
+for the icr slip model the command that makes the slip box's centre turn at w_k).
 """
 
 import math
 from bisect import bisect_right
 
-__all__ = ["PathTable", "Law", "Controller", "segment_at", "frame_error", "wrap_angle", "SEGMENT_EPS", "sample_at", "advance",
+__all__ = ["PathTable", "Law", "Controller", "segment_at", "turn_shape", "tangent_length", "frame_error", "wrap_angle", "SEGMENT_EPS", "sample_at", "advance",
            "reference_at", "yaw_rate"]
 
 SEGMENT_EPS = 1e-12  # [s] an instant within this of a waypoint time belongs to the new segment
@@ -54,7 +56,7 @@ class PathTable:
     """A polyline followed at constant speed: per segment its origin, heading (and its cosine and
     sine), length and the time the desired point leaves the origin."""
 
-    def __init__(self, waypoints, speed, turn_radius=None, sampling_time=None):
+    def __init__(self, waypoints, speed, turn_radius=None, sampling_time=None, turn_ramp=None):
         pts = [(float(p[0]), float(p[1])) for p in waypoints]
         if len(pts) < 2:
             raise ValueError("a path needs at least two waypoints")
@@ -76,65 +78,88 @@ class PathTable:
             travelled += self.length[-1]
         self.duration = travelled / self.speed
         self.turn_radius = None
+        self.turn_ramp = None
         self.turning = False
         if turn_radius is not None:
-            self._round_corners(float(turn_radius), float(sampling_time))
+            self._round_corners(float(turn_radius), float(sampling_time), turn_ramp)
 
-    def _round_corners(self, r, Ts):
+    def _round_corners(self, r, Ts, ramp=None):
         """The reference of a turn radius r (module docstring): per sampling instant k its pose
         (ref_x, ref_y, ref_heading, with cosine and sine) and the yaw rate ref_w[k] on [t_k, t_k+1).
-        Raises ValueError (naming the waypoint) when a corner's arc does not fit its segments, a corner
-        turns back (|turn| >= 3 rad), or two arcs turning opposite ways lie within one period (the
-        yaw rate would step by more than V^D / r)."""
+        ``ramp`` [s] > 0: each turn eases in and out (a clothoid easement): its curvature ramps from 0 to 1/r
+        over ``ramp`` seconds of travel, holds, and ramps back, so the yaw rate changes by at most
+        (V^D / r) Ts / ramp from one period to the next; the turn starts where its curve, symmetric about the
+        corner's bisector, ends on the next segment.  Raises ValueError (naming the waypoint) when a corner's
+        turn does not fit its segments, a corner turns back (|turn| >= 3 rad), or two turns lie so close that
+        the yaw rate would step by more than that between periods."""
         if not (r > 0.0 and Ts > 0.0):
             raise ValueError("the turn radius and the sampling time must be positive")
+        ramp = float(ramp or 0.0)
+        if not ramp >= 0.0:
+            raise ValueError("the turn ramp must be >= 0")
+        V = self.speed
+        L_e = V * ramp  # the easement's length [m]
         n = len(self.heading)
         turns = [0.0] + [wrap_angle(self.heading[i] - self.heading[i - 1]) for i in range(1, n)]
-        tangent = [0.0] * (n + 1)  # at waypoint i: the arc's tangent length
+        tangent = [0.0] * (n + 1)  # at waypoint i: the turn's tangent length
+        shapes = [None] * (n + 1)  # at waypoint i: (peak curvature, easement length, length of the whole turn)
         for i in range(1, n):
             if abs(turns[i]) >= 3.0:
                 raise ValueError("waypoint %d turns by %.3g rad: an arc cannot round a corner that turns back" % (i, turns[i]))
-            tangent[i] = r * math.tan(abs(turns[i]) / 2.0)
+            shapes[i] = turn_shape(abs(turns[i]), r, L_e)
+            tangent[i] = tangent_length(abs(turns[i]), *shapes[i])
         for i in range(n):
             need = tangent[i] + tangent[i + 1]
             if need > self.length[i] * (1.0 + 1e-12):
-                raise ValueError("segment %d-%d is %.4g m long, and the arcs of radius %g m at its ends need %.4g m of it: "
-                                 "lower reference.turn_radius or move the waypoints apart" % (i, i + 1, self.length[i], r, need))
-        # heading along the rounded path: breakpoints (arc length, unwrapped heading), linear between
-        pts, s, h = [(0.0, self.heading[0])], 0.0, self.heading[0]
-        corner_at = []  # (arc length where the arc starts, waypoint)
-        self.arcs = []  # per waypoint 1..n-1: (its turn [rad], the time its arc starts [s])
+                raise ValueError("segment %d-%d is %.4g m long, and the turns of radius %g m at its ends need %.4g m of it: "
+                                 "lower reference.turn_radius%s or move the waypoints apart"
+                                 % (i, i + 1, self.length[i], r, need, " or reference.turn_ramp" if ramp else ""))
+        # the heading along the rounded path: pieces (start, end, heading at the start and at the end, turn sign,
+        # shape), the straight ones with no shape
+        pieces, s, h = [], 0.0, self.heading[0]
+        corner_at = []  # (arc length where the turn starts, waypoint)
+        self.arcs = []  # per waypoint 1..n-1: (its turn [rad], the time its turn starts [s])
         for i in range(n):
-            s += self.length[i] - tangent[i] - tangent[i + 1]
-            pts.append((s, h))
+            end = s + self.length[i] - tangent[i] - tangent[i + 1]
+            pieces.append((s, end, h, h, 0.0, None))
+            s = end
             if i + 1 < n:
-                self.arcs.append((turns[i + 1], s / self.speed))
+                self.arcs.append((turns[i + 1], s / V))
             if i + 1 < n and turns[i + 1] != 0.0:
                 corner_at.append((s, i + 1))
-                s += r * abs(turns[i + 1])
+                shape = shapes[i + 1]
+                pieces.append((s, s + shape[2], h, h + turns[i + 1], math.copysign(1.0, turns[i + 1]), shape))
+                s += shape[2]
                 h += turns[i + 1]
-                pts.append((s, h))
         total = s
-        V = self.speed
+        starts = [p[0] for p in pieces]
         steps = int(math.ceil(total / (V * Ts) - 1e-9))
 
         def heading_at(sv):
             if sv >= total:
-                return pts[-1][1]
-            j = max(bisect_right([p[0] for p in pts], sv) - 1, 0)
-            (s0, h0), (s1, h1) = pts[j], pts[min(j + 1, len(pts) - 1)]
-            return h0 if s1 <= s0 else h0 + (h1 - h0) * (sv - s0) / (s1 - s0)
+                return h
+            j = max(bisect_right(starts, sv) - 1, 0)
+            s0, s1, h0, h1, sign, shape = pieces[j]
+            if shape is None or s1 <= s0:
+                return h0
+            if shape[1] <= 0.0:  # an arc: the heading linear in the arc length
+                return h0 + (h1 - h0) * (sv - s0) / (s1 - s0)
+            return h0 + sign * _turned(sv - s0, *shape)
 
         wbar = V / r  # |w_k| <= wbar, also after rounding
+        step = wbar * min(1.0, Ts / ramp) if ramp > 0.0 else wbar  # the largest change of w_k between periods
         ws = [min(max((heading_at(V * Ts * (k + 1)) - heading_at(V * Ts * k)) / Ts, -wbar), wbar) for k in range(steps)]
         for k in range(1, steps):
-            if abs(ws[k] - ws[k - 1]) > wbar * (1.0 + 1e-9):
+            if abs(ws[k] - ws[k - 1]) > step * (1.0 + 1e-9):
                 near = min(corner_at, key=lambda c: abs(c[0] - V * Ts * k))[1] if corner_at else 0
-                raise ValueError("near waypoint %d: two arcs turning opposite ways lie within one period (%g m): the "
-                                 "yaw rate steps by %.3g rad/s, more than V^D / r = %.3g: move the waypoints apart "
-                                 "or lower reference.turn_radius" % (near, V * Ts, abs(ws[k] - ws[k - 1]), wbar))
+                raise ValueError("near waypoint %d: two turns lie so close that the yaw rate steps by %.3g rad/s between "
+                                 "periods, more than %.3g (V^D / r%s): move the waypoints apart or lower "
+                                 "reference.turn_radius" % (near, abs(ws[k] - ws[k - 1]), step,
+                                                             " Ts / turn_ramp" if ramp else ""))
         self._set_reference(ws, Ts, wbar, total)
         self.turn_radius = r
+        self.turn_ramp = ramp if ramp > 0.0 else None
+        self.max_yaw_step = step
 
     def _set_reference(self, ws, Ts, wbar, length):
         """The turning reference from the first waypoint on: the unicycle at V^D with the yaw rate
@@ -171,6 +196,45 @@ class PathTable:
         tab._set_reference(ws, float(sampling_time), max([abs(w) for w in ws] + [0.0]), total)
         tab.arcs = []
         return tab
+
+
+def turn_shape(turn, r, L_e):
+    """(peak curvature, easement length, length) of a turn by ``turn`` > 0 rad: its curvature ramps linearly from
+    0 to the peak over L_e, holds, ramps back; the peak is 1/r, or less where the turn is too small to reach it
+    (turn < L_e / r: two ramps only).  L_e = 0: an arc of radius r."""
+    if L_e <= 0.0:
+        return 1.0 / r, 0.0, turn * r
+    if turn >= L_e / r:
+        return 1.0 / r, L_e, turn * r + L_e
+    return turn / L_e, L_e, 2.0 * L_e
+
+
+def _turned(sigma, k, L_e, length):
+    """How far a turn of shape (k, L_e, length) has turned after ``sigma`` of its length [rad]."""
+    sigma = min(max(sigma, 0.0), length)
+    if L_e <= 0.0:
+        return k * sigma
+    if sigma <= L_e:
+        return k * sigma * sigma / (2.0 * L_e)
+    if sigma <= length - L_e:
+        return k * L_e / 2.0 + k * (sigma - L_e)
+    rest = length - sigma
+    return k * (length - L_e) - k * rest * rest / (2.0 * L_e)
+
+
+def tangent_length(turn, k, L_e, length):
+    """The distance from a turn's start to the corner it rounds: its curve, symmetric about the corner's bisector,
+    moves (dx, dy) in the frame of the segment before it, and ends on the segment after it when the tangent length
+    is dy / sin(turn) (Simpson's rule on the heading, which is smooth; an arc: r tan(turn / 2) exactly)."""
+    if L_e <= 0.0:
+        return (1.0 / k) * math.tan(turn / 2.0)
+    n = 2000  # even; the heading's second derivative is bounded: the error is O(length (k length / n)^4)
+    hstep = length / n
+    acc = 0.0
+    for i in range(n + 1):
+        w = 1.0 if i in (0, n) else (4.0 if i % 2 else 2.0)
+        acc += w * math.sin(_turned(i * hstep, k, L_e, length))
+    return acc * hstep / 3.0 / math.sin(turn)
 
 
 def _sinc(a):
@@ -280,8 +344,9 @@ class Law:
 
 
 class Controller:
-    """``u_hat_k = [V^D, w_k] + K xi_k`` for one robot (w_k = 0 without a turn radius), exactly as verified, from a controller
-    description (the mapping ``robustsynth export --to json`` writes).
+    """``u_hat_k = [V^D, 0] + w_k g + K xi_k`` for one robot (w_k = 0 without a turn radius; g the turning
+    feedforward, ``turn_feedforward``, (0, 1) when the description has none), exactly as verified, from a
+    controller description (the mapping ``robustsynth export --to json`` writes).
 
     Call :meth:`step` once per sampling instant t_k = k Ts with the time since the start of the
     path and the measured pose in the world frame; it returns the command (V_hat, omega_hat) to
@@ -292,7 +357,7 @@ class Controller:
     def __init__(self, description):
         d = description
         self.description = d
-        self.path = PathTable(d["path"], d["reference_speed"], d.get("turn_radius"), d["sampling_time"])
+        self.path = PathTable(d["path"], d["reference_speed"], d.get("turn_radius"), d["sampling_time"], d.get("turn_ramp"))
         self.law = Law(d["K"], d["sampling_time"], d["integral_action"], self.path)
         if self.law.d_hi != d["d_hi"]:
             raise ValueError("d_hi is %d but K has columns for %d past inputs" % (d["d_hi"], self.law.d_hi))
@@ -301,6 +366,8 @@ class Controller:
         R, D = float(d["gear_radius"]), float(d["track_distance"])
         self._inv_R, self._half_D_over_R = 1.0 / R, D / (2.0 * R)  # J^-1 = [[1/R, D/2R], [1/R, -D/2R]]
         self.max_motor_speed = d.get("max_motor_speed")
+        g = d.get("turn_feedforward") or (0.0, 1.0)
+        self.ff_V, self.ff_omega = float(g[0]), float(g[1])
 
     @property
     def d_hi(self):
@@ -315,7 +382,8 @@ class Controller:
     def step(self, t, x, y, theta):
         """The command (V_hat, omega_hat) for the pose measured at t_k (once per sampling instant)."""
         dv, dw = self.law.correction(t, x, y, theta)
-        return self.V + dv, self.law.feedforward(t) + dw
+        w = self.law.feedforward(t)
+        return self.V + dv + w * self.ff_V, dw + w * self.ff_omega
 
     def motor_speeds(self, V_hat, omega_hat):
         """(rho_r, rho_l) = J^-1 (V_hat, omega_hat) [rad/s], not clipped."""

@@ -15,6 +15,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .model.network import gilbert_elliott, with_losses
+from .model.slip import slip_changes
 from .plants.path import PathGeometry, pose_from_error
 
 __all__ = [
@@ -70,11 +71,9 @@ class Scenario:
 
 
 def track_changes(before: np.ndarray, after: np.ndarray, t: np.ndarray) -> list:
-    """Each track's slip going from ``before`` to ``after`` (..., 2) at its own time ``t`` (..., 2) within
-    a period, as the robot's list of changes in time order: ``[(t1, mu_1), (t2, after)]``, the earlier
-    track changed at t1 and both at t2 (``KinematicRobot.period``'s ``switch``)."""
-    t1, t2 = np.min(t, axis=-1), np.max(t, axis=-1)
-    return [(t1, np.where(t <= t1[..., None], after, before)), (t2, after)]
+    """Each track's slip going from ``before`` to ``after`` (..., n_p) at its own time ``t`` (..., 2) within
+    a period, as the robot's list of changes in time order (:func:`~.model.slip.slip_changes`)."""
+    return slip_changes(before, after, t)
 
 
 def _rate_limit(target: np.ndarray, start: np.ndarray, max_step: float | None) -> np.ndarray:
@@ -194,7 +193,7 @@ def draw_scenario(model, runs: int, seed: int, steps: int, path: PathGeometry, d
     e_off = np.array([off.x, off.y, off.theta])
     q0 = np.tile(pose_from_error(path, e_off), (runs, 1))
     mu_switch = None
-    if within_period and slip != "none" and not model.icr:
+    if within_period and slip != "none":
         draw = np.random.default_rng([seed, 2]).uniform(0.0, model.Ts, size=(runs, steps, 2))
         draw[::2, :, 1] = draw[::2, :, 0]  # every other run: both tracks at one time (a corner jump)
         mu_switch = draw if model.slip_step is None else np.repeat(draw[:, :1], steps, axis=1)

@@ -44,7 +44,6 @@ def test_the_config_names_what_is_missing_or_misplaced(over, key) -> None:
 
 @pytest.mark.parametrize("over, what", [
     ({"synthesis.model": "paper"}, "slip-aware"),
-    ({"synthesis.kinematics": "nonlinear"}, "nonlinear"),
     ({"synthesis.delay_description": "norm-bounded"}, "delay vertices"),
 ])
 def test_icr_refuses_what_it_does_not_support(over, what) -> None:

@@ -33,7 +33,7 @@ def _model(name: str):
 
 @pytest.fixture(scope="module")
 def models():
-    return {n: _model(n) for n in ("default", "lossy-link", "delay-full-period")}
+    return {n: _model(n) for n in ("tracks-box", "lossy-link", "delay-full-period")}
 
 
 def _in_parallelogram(u: float, v: float) -> bool:
@@ -105,7 +105,7 @@ def _map_by_expm(model, S, jumps, mu0):
 
 
 def test_switched_map_agrees_with_the_matrix_exponential(models) -> None:
-    m = models["default"]
+    m = models["tracks-box"]
     rng = np.random.default_rng(0)
     for _ in range(20):
         S = np.array([rng.uniform(0.01, 0.08)])
@@ -160,7 +160,7 @@ def _random_history(model, rng, n_jumps: int):
     return mu0, sorted(jumps)
 
 
-@pytest.mark.parametrize("name", ["default", "lossy-link", "delay-full-period"])
+@pytest.mark.parametrize("name", ["tracks-box", "lossy-link", "delay-full-period"])
 def test_within_period_vertices_contain_every_slip_history(models, name: str) -> None:
     m = models[name]
     n_e = m.n_e
@@ -187,7 +187,7 @@ def test_within_period_vertices_contain_every_slip_history(models, name: str) ->
 
 def test_a_slip_outside_the_box_is_outside_the_hull(models) -> None:
     """The negative control: the LP can say no."""
-    m = models["default"]
+    m = models["tracks-box"]
     (rl, _), (ll, _) = m.slip_ranges
     S = np.array([0.05])
     A, B, c = _map_by_expm(m, S, [(0.03, 0, rl - 0.1)], np.array([rl, ll]))
@@ -196,7 +196,7 @@ def test_a_slip_outside_the_box_is_outside_the_hull(models) -> None:
 
 
 def test_which_models_cover_slip_changing_within_a_period() -> None:
-    m = _model("default")
+    m = _model("tracks-box")
     assert len(m.varying) == 3 * 16 * 16  # 3 delay vertices x (4 x 4 per track pair) per command interval
     assert m.slip_variation("common") == (m.varying, "")
     verts, why = m.slip_variation("slip-dependent")

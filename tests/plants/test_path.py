@@ -122,7 +122,7 @@ def test_the_law_sends_the_reference_yaw_rate_as_feedforward() -> None:
 @pytest.mark.parametrize("path,words", [
     ([(0.0, 0.0), (1.0, 0.0), (1.0, 1.0)], "segment 0-1 is 1 m long"),
     ([(0.0, 0.0), (5.0, 0.0), (0.0, 0.1)], "waypoint 1 turns by"),
-    ([(0.0, 0.0), (6.0, 0.0), (6.0, 6.0), (12.05, 6.0), (12.05, 12.0)], "two arcs turning opposite ways"),
+    ([(0.0, 0.0), (6.0, 0.0), (6.0, 6.0), (12.05, 6.0), (12.05, 12.0)], "two turns lie so close"),
 ])
 def test_paths_the_arcs_do_not_fit_are_refused_naming_the_place(path, words) -> None:
     with pytest.raises(ValueError, match=words):

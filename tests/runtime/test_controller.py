@@ -64,7 +64,7 @@ def test_segment_rule_matches_the_path_geometry() -> None:
 
 def test_step_is_the_law_written_out() -> None:
     """One step by hand on segment 1 of the default path: e in the frame, du = K xi, memory shift."""
-    c = Controller.from_files(ROOT / "results" / "baselines" / "default" / "gains.json")
+    c = Controller.from_files(ROOT / "results" / "baselines" / "tracks-box" / "gains.json")
     K = np.array(c.description["K"])
     tab = c.path
     t = tab.t_start[1] + 0.3
@@ -81,7 +81,7 @@ def test_step_is_the_law_written_out() -> None:
 
 
 def test_motor_speeds_are_J_inverse() -> None:
-    c = Controller.from_files(ROOT / "results" / "baselines" / "default" / "gains.json")
+    c = Controller.from_files(ROOT / "results" / "baselines" / "tracks-box" / "gains.json")
     rng = np.random.default_rng(0)
     R, D = c.description["gear_radius"], c.description["track_distance"]
     for V, w in rng.normal(0, 1, size=(50, 2)):
@@ -89,23 +89,23 @@ def test_motor_speeds_are_J_inverse() -> None:
 
 
 def test_a_config_with_another_sampling_time_is_refused(tmp_path: Path) -> None:
-    g = json.loads((ROOT / "results" / "baselines" / "default" / "gains.json").read_text())
+    g = json.loads((ROOT / "results" / "baselines" / "tracks-box" / "gains.json").read_text())
     cfg = tmp_path / "other.yaml"
-    cfg.write_text((ROOT / "configs" / "default.yaml").read_text().replace("sampling_time: 0.1", "sampling_time: 0.05"))
+    cfg.write_text((ROOT / "configs" / "tracks-box.yaml").read_text().replace("sampling_time: 0.1", "sampling_time: 0.05"))
     assert "sampling_time: 0.05" in cfg.read_text()
     with pytest.raises(InputError, match=r"network\.sampling_time: 0\.05 in the config, but the gain was designed with 0\.1"):
-        Controller.from_files(ROOT / "results" / "baselines" / "default" / "gains.json", cfg)
+        Controller.from_files(ROOT / "results" / "baselines" / "tracks-box" / "gains.json", cfg)
     # a different path is fine: it does not change the certificate
-    data = yaml.safe_load((ROOT / "configs" / "default.yaml").read_text())
+    data = yaml.safe_load((ROOT / "configs" / "tracks-box.yaml").read_text())
     data.setdefault("verification", {})["path"] = [[0.0, 0.0], [3.0, 4.0]]
     path_cfg = tmp_path / "path.yaml"
     path_cfg.write_text(yaml.safe_dump(data))
-    d = Controller.from_files(ROOT / "results" / "baselines" / "default" / "gains.json", path_cfg).description
+    d = Controller.from_files(ROOT / "results" / "baselines" / "tracks-box" / "gains.json", path_cfg).description
     assert d["K"] == g["K"] and d["path"] == [[0.0, 0.0], [3.0, 4.0]]
 
 
 def test_a_gain_of_the_wrong_width_is_refused() -> None:
-    g = json.loads((ROOT / "results" / "baselines" / "default" / "gains.json").read_text())
+    g = json.loads((ROOT / "results" / "baselines" / "tracks-box" / "gains.json").read_text())
     g["K"] = [row + [0.0] for row in g["K"]]
     with pytest.raises(InputError, match="K: has 2 x 6 entries"):
         controller_description(g)
@@ -113,7 +113,7 @@ def test_a_gain_of_the_wrong_width_is_refused() -> None:
 
 def test_runtime_imports_neither_cvxpy_nor_matplotlib() -> None:
     code = ("import sys; from robustsynth.runtime import Controller; "
-            f"c = Controller.from_files({str(ROOT / 'results' / 'baselines' / 'default' / 'gains.json')!r}); c.step(0.0, 0.0, 0.0, 0.0); "
+            f"c = Controller.from_files({str(ROOT / 'results' / 'baselines' / 'tracks-box' / 'gains.json')!r}); c.step(0.0, 0.0, 0.0, 0.0); "
             "print(sorted({m.split('.')[0] for m in sys.modules} & {'cvxpy', 'matplotlib', 'clarabel'}))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"

@@ -143,7 +143,7 @@ def test_ros2_and_json_carry_the_controller(tmp_path: Path) -> None:
 
 
 def test_export_cli_writes_atomically_and_refuses_bad_input(tmp_path: Path) -> None:
-    gains = ROOT / "results" / "baselines" / "default" / "gains.json"
+    gains = ROOT / "results" / "baselines" / "tracks-box" / "gains.json"
     run = lambda *a: subprocess.run([sys.executable, "-m", "robustsynth", "export", *a], capture_output=True, text=True)
     r = run(str(gains), "--to", "c", "-o", str(tmp_path / "c"))
     assert r.returncode == 0 and "rs_controller.h" in r.stdout
@@ -166,7 +166,7 @@ def test_a_gain_changed_after_synthesis_is_exported_as_uncertified(tmp_path: Pat
     """A gains file whose K was edited no longer matches its gains_id: its "certified" figures are not this
     gain's, so the export says UNCERTIFIED and carries no figures (a review found an edited K exported as "the
     certified controller"); the file as written stays certified."""
-    src = ROOT / "results" / "baselines" / "default" / "gains.json"
+    src = ROOT / "results" / "baselines" / "tracks-box" / "gains.json"
     d, _ = export_controller(src, "c", tmp_path / "ok")
     assert d["certified"] and "the certified networked-robot controller" in (tmp_path / "ok" / "rs_controller.h").read_text()
     g = json.loads(src.read_text())
@@ -184,7 +184,7 @@ def test_a_rate_bounded_certificates_gains_mat_exports_as_certified(tmp_path: Pa
     from robustsynth import build_model, load_config
     from robustsynth.pipeline import synthesis_stage
 
-    cfg = load_config(ROOT / "configs" / "default.yaml")
+    cfg = load_config(ROOT / "configs" / "tracks-box.yaml")
     cfg = cfg.model_copy(update={"slip": cfg.slip.model_copy(update={"max_rate": 0.5}),
                                  "synthesis": cfg.synthesis.model_copy(update={"lyapunov": "slip-dependent",
                                                                                "alpha_points": 5})})

@@ -130,7 +130,7 @@ def test_the_written_mat_reads_as_its_gains_file_and_a_mismatched_config_is_refu
     with pytest.raises(InputError, match="zbp.yaml has n = 2 states and m = 1 inputs"):
         export_controller(out / "gains.json", "c", tmp_path / "c", configs / "zbp.yaml")
     with pytest.raises(InputError, match="is the tracked robot's"):
-        export_controller(out / "gains.json", "c", tmp_path / "c", configs / "default.yaml")
+        export_controller(out / "gains.json", "c", tmp_path / "c", configs / "tracks-box.yaml")
     # a gains.json whose K was edited is exported, but not as certified (its gains_id no longer matches)
     gd = json.loads((out / "gains.json").read_text())
     assert "the certified law" in (tmp_path / "e" / "rs_lti.py").read_text()
@@ -139,7 +139,7 @@ def test_the_written_mat_reads_as_its_gains_file_and_a_mismatched_config_is_refu
     d, _ = export_controller(tmp_path / "edited.json", "python", tmp_path / "ed")
     assert not d.get("certified") and "UNCERTIFIED" in (tmp_path / "ed" / "rs_lti.py").read_text()
     # and the other way round: the robot's gains (or a bare K) with a linear plant's config (a traceback before)
-    robot = configs.parent / "results" / "baselines" / "default" / "gains.json"
+    robot = configs.parent / "results" / "baselines" / "tracks-box" / "gains.json"
     bare = tmp_path / "bare.json"
     bare.write_text(json.dumps({"K": json.loads(robot.read_text())["K"]}))
     for g in (robot, bare):

@@ -386,7 +386,7 @@ def test_a_result_saves_itself_and_verify_takes_the_path(tmp_path) -> None:
 
 @pytest.mark.parametrize("name,asked,used", [("delay-multi-period", "full", "full"),
                                              ("delay-multi-period", "structured", "structured"),
-                                             ("default", "full", "none"), ("nonlinear-proof", "full", "diagonal")])
+                                             ("tracks-box", "full", "none"), ("nonlinear-proof", "full", "diagonal")])
 def test_the_certificate_records_the_multiplier_its_lmis_took(name, asked, used) -> None:
     """Review, stop 47: `--multiplier full` on a nonlinear config changed nothing (its channels take one
     scalar each) while synthesis.md and gains.json said 'full'.  synthesis.multiplier shapes only the
@@ -405,7 +405,7 @@ def test_an_override_of_what_the_model_was_built_with_is_refused(key, value) -> 
     file recorded them as the settings it was made with."""
     from robustsynth.errors import InputError
 
-    m = committed_gain("default")[0]
+    m = committed_gain("tracks-box")[0]
     with pytest.raises(InputError, match=rf"synthesis\.{key}: {value} differs from the .* the model was built with"):
         synthesize(m, settings=m.config.synthesis.model_copy(update={key: value}))
     if key != "model":  # the keyword form too (model= is synthesize()'s own argument)

@@ -12,12 +12,14 @@ from robustsynth.model import build_model
 from robustsynth.synthesis import synthesize
 from robustsynth.synthesis.diagnose import diagnose, is_large
 
+from ..conftest import BASE_CONFIG
+
 RELAX_TOL = 0.02  # a relaxed problem's bound may exceed the original by the alpha grid's resolution only
 
 
 @pytest.fixture(scope="module")
 def default_diagnosis():
-    cfg = load_config(None)
+    cfg = load_config(BASE_CONFIG)
     res = synthesize(build_model(cfg))
     return cfg, res, diagnose(cfg, res.certified)
 
@@ -42,7 +44,7 @@ def test_large_is_relative_to_the_robot(default_diagnosis) -> None:
 
 
 def test_cli_diagnose_writes_the_section_and_prints_it(tmp_path) -> None:
-    r = CliRunner().invoke(main, ["synthesize", "-o", str(tmp_path), "--diagnose"])
+    r = CliRunner().invoke(main, ["synthesize", str(BASE_CONFIG), "-o", str(tmp_path), "--diagnose"])
     assert r.exit_code == 0, r.output
     assert "where the design is stuck" in r.output and r.output.count("|e_y| <= ") >= 4
     md = (tmp_path / "synthesis.md").read_text()

@@ -89,8 +89,8 @@ def test_the_default_robot_has_none_and_says_why(tmp_path) -> None:
     The line names every heading bound and the alphas tried, the heading and forward-speed ranges of the
     linearized set; no gains file."""
     cfg = tmp_path / "c.yaml"
-    text = (ROOT / "configs" / "default.yaml").read_text().replace("  objective: ultimate-bound",
-                                                                      "  objective: ultimate-bound\n  kinematics: nonlinear")
+    text = (ROOT / "configs" / "tracks-box.yaml").read_text().replace("  kinematics: linearized",
+                                                                      "  kinematics: nonlinear")
     cfg.write_text(text)
     r = CliRunner().invoke(main, ["synthesize", str(cfg), "-o", str(tmp_path / "out")])
     assert r.exit_code == 3, r.output

@@ -18,7 +18,7 @@ from robustsynth.model import build_model
 from robustsynth.synthesis import solve as solve_mod
 from robustsynth.synthesis import synthesize
 
-from ..conftest import default_dict, make_config
+from ..conftest import BASE_CONFIG, default_dict, make_config
 
 
 def _failing(names):
@@ -129,7 +129,7 @@ def test_a_scan_takes_no_retry_unless_asked(monkeypatch) -> None:
 
 def test_both_solvers_failing_exits_4(monkeypatch, tmp_path) -> None:
     monkeypatch.setattr(solve_mod, "_call_solver", _failing({"clarabel", "clarabel-unscaled", "scs"}))
-    r = CliRunner().invoke(main, ["synthesize", "--objective", "hinf", "-o", str(tmp_path)])
+    r = CliRunner().invoke(main, ["synthesize", str(BASE_CONFIG), "--objective", "hinf", "-o", str(tmp_path)])
     assert r.exit_code == 4, r.output
     lines = r.output.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: hinf: the solvers failed")
@@ -138,7 +138,7 @@ def test_both_solvers_failing_exits_4(monkeypatch, tmp_path) -> None:
 
 def test_infeasible_exits_3_and_removes_stale_gains(tmp_path) -> None:
     out = tmp_path / "o"
-    r = CliRunner().invoke(main, ["synthesize", "--objective", "hinf", "-o", str(out)])
+    r = CliRunner().invoke(main, ["synthesize", str(BASE_CONFIG), "--objective", "hinf", "-o", str(out)])
     assert r.exit_code == 0, r.output
     assert (out / "gains.json").exists()
     d = default_dict()
@@ -152,7 +152,7 @@ def test_infeasible_exits_3_and_removes_stale_gains(tmp_path) -> None:
 
 
 def test_synthesize_cli_writes_consistent_files(tmp_path) -> None:
-    r = CliRunner().invoke(main, ["synthesize", "--objective", "stability", "-o", str(tmp_path)])
+    r = CliRunner().invoke(main, ["synthesize", str(BASE_CONFIG), "--objective", "stability", "-o", str(tmp_path)])
     assert r.exit_code == 0, r.output
     g = json.loads((tmp_path / "gains.json").read_text())
     assert g["law"] == "du_k = K xi_k" and g["objective"] == "stability"

@@ -15,6 +15,8 @@ from robustsynth.synthesis.design import _cert_common, _Runner
 from robustsynth.synthesis.lmis import build_stability
 from robustsynth.synthesis.solve import solve
 
+from ..conftest import make_config
+
 R_CUTS = 0.85  # a decay rate at which the default robot's constant-slip LMIs give a gain that fails (measured)
 
 
@@ -66,10 +68,9 @@ def test_a_point_that_fails_only_within_the_period_gets_those_vertices(default_m
 
 @pytest.fixture
 def default_model():
-    from robustsynth import default_config
     from robustsynth.model import build_model
 
-    return build_model(default_config())
+    return build_model(make_config())
 
 
 def test_the_stability_objective_certifies_slip_changing_within_a_period(default_model) -> None:

@@ -348,6 +348,7 @@ def controller_description(gains: dict[str, Any], config: Any | None = None) -> 
     from ..config import load_config
     from ..law import SEGMENT_EPS  # the law is plain Python and imports nothing of ours
     from ..model import gain_lifting, state_names
+    from ..model.slip import turn_feedforward
 
     base = stored_config(gains)
     cfg = config if config is not None else (base if base is not None else load_config(None))
@@ -363,6 +364,11 @@ def controller_description(gains: dict[str, Any], config: Any | None = None) -> 
             raise InputError(f"reference.turn_radius: {r_cfg!r} in the config, but the gain was certified for "
                              + ("straight segments only (null)" if r_gain is None else f"arcs of {r_gain!r} m and wider "
                                 "(a path that jumps at its waypoints is not what it was verified on)"))
+        # eased turns: a shorter ramp steps the yaw rate by more than the certificate covers
+        ramp_gain, ramp_cfg = base.reference.turn_ramp, cfg.reference.turn_ramp
+        if r_gain is not None and ramp_gain is not None and (ramp_cfg or 0.0) < ramp_gain:
+            raise InputError(f"reference.turn_ramp: {ramp_cfg!r} in the config, but the gain was certified for turns eased "
+                             f"in over {ramp_gain!r} s or longer (a shorter ramp steps the yaw rate by more)")
     integral = cfg.synthesis.integral_action
     K = [[float(v) for v in row] for row in gains["K"]]
     try:
@@ -376,9 +382,9 @@ def controller_description(gains: dict[str, Any], config: Any | None = None) -> 
         "format": DESCRIPTION_FORMAT,
         "name": cfg.name,
         "gains_id": gains.get("gains_id"),
-        "law": "u_hat_k = [V^D, w_k] + K xi_k, xi_k = [e_x, e_y, e_theta, du_{k-1}, ..., du_{k-d_hi}(, int_e_x, int_e_y)]"
-               + (" (w_k: the turning reference's yaw rate, turn_radius)" if cfg.reference.turn_radius is not None else
-                  " (w_k = 0: a polyline)"),
+        "law": "u_hat_k = [V^D, 0] + w_k g + K xi_k, xi_k = [e_x, e_y, e_theta, du_{k-1}, ..., du_{k-d_hi}(, int_e_x, int_e_y)]"
+               + (" (w_k: the turning reference's yaw rate, turn_radius; g: turn_feedforward)" if cfg.reference.turn_radius
+                  is not None else " (w_k = 0: a polyline)"),
         "K": K,
         "state_names": list(names) if isinstance(names, list) and len(names) == len(K[0]) else list(state_names(d_hi, integral)),
         "input_names": ["dV", "omega"],
@@ -388,6 +394,9 @@ def controller_description(gains: dict[str, Any], config: Any | None = None) -> 
         "reference_speed": cfg.reference.speed,
         "path": [[float(x), float(y)] for x, y in cfg.verification.path],
         "turn_radius": cfg.reference.turn_radius,
+        "turn_ramp": cfg.reference.turn_ramp,
+        # the command per rad/s of the reference's yaw rate (model.slip.turn_feedforward): (0, 1) for the tracks model
+        "turn_feedforward": [float(v) for v in turn_feedforward(cfg.slip, cfg.robot.track_distance)],
         "segment_eps": SEGMENT_EPS,
         "gear_radius": rob.gear_radius,
         "track_distance": rob.track_distance,

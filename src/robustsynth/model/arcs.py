@@ -124,10 +124,15 @@ def arc_ranges(phi_bar: float, theta_bar: float = 0.0) -> dict[str, tuple[float,
     }
 
 
-def _row_families(r: int, n_turn: int) -> tuple[str, str]:
+def _row_families(r: int, n_turn: int, n_lat_from: int | None = None) -> tuple[str, str]:
     """The arc factor families of channel row ``r`` into e_y and e_x: the turn rows' (``r < n_turn``, per
-    unit of V^D) or the speed rows'."""
-    return ("turn_y", "turn_x") if r < n_turn else ("speed_y", "speed_x")
+    unit of V^D), the speed rows', or (``r >= n_lat_from``) the icr model's lateral rows': ``v_y (cos(psi + eta)
+    - 1)`` into e_y has speed_x's range, ``-v_y sin(psi + eta)`` into e_x speed_y's."""
+    if r < n_turn:
+        return ("turn_y", "turn_x")
+    if n_lat_from is not None and r >= n_lat_from:
+        return ("speed_x", "speed_y")
+    return ("speed_y", "speed_x")
 
 
 def _with_twins(wy: float, wx: float, s_half: float) -> dict[int, float]:
@@ -136,10 +141,11 @@ def _with_twins(wy: float, wx: float, s_half: float) -> dict[int, float]:
     return {1: wy + s_half * wx, 0: wx + s_half * wy}
 
 
-def _arc_weights(r: int, n_turn: int, V: float, rng: dict[str, tuple[float, float]], s_half: float) -> dict[int, float]:
+def _arc_weights(r: int, n_turn: int, V: float, rng: dict[str, tuple[float, float]], s_half: float,
+                 n_lat_from: int | None = None) -> dict[int, float]:
     """The weight of channel row ``r``'s arc factors into e_x (0) and e_y (1): its families' half-widths
     with their turned twins (:func:`_with_twins`); turn rows per unit of V^D."""
-    y, x = _row_families(r, n_turn)
+    y, x = _row_families(r, n_turn, n_lat_from)
     k = V if r < n_turn else 1.0
     return {row: k * w for row, w in _with_twins(rng[y][1], rng[x][1], s_half).items()}
 
@@ -151,7 +157,7 @@ def _max_abs(rng: dict[str, tuple[float, float]], name: str) -> float:
 
 
 def _parts(v: Vertex, ch: KinematicChannels, M11: float, turns: Turns, Ts: float, V: float, n_e: int, n_u: int,
-           d_hi: int, theta_bar: float = 0.0):
+           d_hi: int, theta_bar: float = 0.0, g: np.ndarray = FEEDFORWARD):
     """The unscaled augmented data of one vertex: (A, B, E, C_q, D_q, F_q, B_p).  ``ch``: the channels, built
     at a slip whose ``M(mu)[1, 1] = M11`` (> 0): the vertex's own slip corner, or the box's centre for the
     channels that cover slip changing within a period (``ch.n_dev`` > 0: their deviation channels, one
@@ -164,7 +170,7 @@ def _parts(v: Vertex, ch: KinematicChannels, M11: float, turns: Turns, Ts: float
     rng = arc_ranges(wbar * Ts, theta_bar)
     c_mid, c_half = rng["rot_cos"]
     s_half = rng["rot_sin"][1]
-    g = FEEDFORWARD
+    g = np.asarray(g, dtype=float)  # the feedforward command per rad/s of reference yaw rate
     A, B = np.array(v.A, dtype=float), np.array(v.B, dtype=float)
     # the feedforward of command j reaches the error rows as a command does (not the stored commands)
     ff = [np.concatenate([_slot_coef(A, B, j, n_e, n_u)[:n_e] @ g, np.zeros(n_s - n_e)]) for j in range(n_cmd)]
@@ -175,12 +181,12 @@ def _parts(v: Vertex, ch: KinematicChannels, M11: float, turns: Turns, Ts: float
     # the kinematic channels' rows (and the deviation ones'), with the feedforward in their disturbance
     # columns: turn rows W_j (omega_j - w_k) (W_j from the row's own coefficient on command j: W_j M(mu)[1],
     # M[1, 1] > 0), speed rows len_j a_j, deviation rows f_ij (track i's forward speed per unit of slip)
-    n_dev = ch.n_dev
-    Cc = np.vstack([ch.C] + ([ch.C_dev] if n_dev else [])).astype(float)
-    Dc = np.vstack([ch.D] + ([ch.D_dev] if n_dev else [])).astype(float)
+    n_dev, n_lin = ch.n_dev, ch.n_lin
+    Cc = np.vstack([ch.C] + ([ch.C_dev] if n_dev else []) + ([ch.C_lin] if n_lin else [])).astype(float)
+    Dc = np.vstack([ch.D] + ([ch.D_dev] if n_dev else []) + ([ch.D_lin] if n_lin else [])).astype(float)
     n_f = ch.F.shape[1]
     Fc = np.zeros((Cc.shape[0], E.shape[1]))
-    Fc[:, :n_f] = np.vstack([ch.F] + ([ch.F_dev] if n_dev else []))
+    Fc[:, :n_f] = np.vstack([ch.F] + ([ch.F_dev] if n_dev else []) + ([ch.F_lin] if n_lin else []))
     for j in range(n_cmd):
         coef = _slot_coef(Cc, Dc, j, n_e, n_u)  # (rows, n_u)
         resp = coef @ g
@@ -188,13 +194,14 @@ def _parts(v: Vertex, ch: KinematicChannels, M11: float, turns: Turns, Ts: float
         if j:
             Fc[:, n_f + j] += -b[j - 1] * resp
     n_main = ch.C.shape[0]
-    turn, speed = slice(0, ch.n_turn), slice(ch.n_turn, n_main)
+    lat_from = ch.n_turn + ch.n_speed
+    turn, speed, lat = slice(0, ch.n_turn), slice(ch.n_turn, lat_from), slice(lat_from, n_main)
     for j in range(n_cmd):  # - W_j w_k, with W_j = (W_j M[1, 1]) / M[1, 1]
         row = 1 + j
         Fc[row, n_f] -= wbar * _slot_coef(Cc, Dc, j, n_e, n_u)[row, 1] / M11
     # the families: channel rows, the error row they enter, the factor's scale (V^D on the turn rows), its range
     fams = ((turn, 1, V, rng["turn_y"]), (turn, 0, V, rng["turn_x"]), (speed, 1, 1.0, rng["speed_y"]),
-            (speed, 0, 1.0, rng["speed_x"]))
+            (speed, 0, 1.0, rng["speed_x"]), (lat, 1, 1.0, rng["speed_x"]), (lat, 0, 1.0, rng["speed_y"]))
     # the factors' centres into the map before the rotation
     A_in, B_in, E_in = A.copy(), B.copy(), E.copy()
     for rows, row, k, (centre, _) in fams:
@@ -209,7 +216,7 @@ def _parts(v: Vertex, ch: KinematicChannels, M11: float, turns: Turns, Ts: float
     # factors in [-1, 1], are one channel whose weight is their sum (the same set of values, half the channels)
     if turns.merged:
         for r in range(n_main):
-            into_w = _arc_weights(r, ch.n_turn, V, rng, s_half)
+            into_w = _arc_weights(r, ch.n_turn, V, rng, s_half, lat_from)
             chans += [(Cc[r], Dc[r], Fc[r], 1, into_w[1]), (Cc[r], Dc[r], Fc[r], 0, into_w[0])]
     else:  # per family, each channel and its twin apart
         for rows, into, k, (_, half) in fams:
@@ -223,15 +230,25 @@ def _parts(v: Vertex, ch: KinematicChannels, M11: float, turns: Turns, Ts: float
     # and turns it by kappa_i f_ij dmu_i; its share of int a F_s is at most half_i max|F_s| len_j |f_ij|, of
     # int eta F_t at most half_i max|F_t| |kappa_i| W_j |f_ij|: the weights on q (with the turned twin of the
     # other row's, as above), half_i on p
+    lat_dev = ch.lat_dev_or_zero()
     for r in range(n_dev):
         row = n_main + r
         wy, wx = (float(ch.len_dev[r]) * _max_abs(rng, sp) + float(ch.W_dev[r]) * V * _max_abs(rng, tn)
-                  for sp, tn in (("speed_y", "turn_y"), ("speed_x", "turn_x")))
+                  + float(lat_dev[r]) * _max_abs(rng, lt)
+                  for sp, tn, lt in (("speed_y", "turn_y", "speed_x"), ("speed_x", "turn_x", "speed_y")))
         half = float(ch.half_dev[r])
         weights = _with_twins(wy, wx, s_half)
         for into in (1, 0):
             wq = weights[into]
             chans.append((wq * Cc[row], wq * Dc[row], wq * Fc[row], into, half))
+    # the icr model's linear deviation channels (slip changing within the period, docs/theory.md §12): into the
+    # map before the rotation, e_x and e_y each with its turned twin, e_theta as it is
+    for r in range(n_lin):
+        row = n_main + n_dev + r
+        into, wgt = int(ch.lin_target[r]), float(ch.lin_weight[r])
+        chans.append((Cc[row], Dc[row], Fc[row], into, wgt))
+        if into in (0, 1):
+            chans.append((Cc[row], Dc[row], Fc[row], 1 - into, s_half * wgt))
     Bp = np.zeros((n_s, len(chans)))
     for k, (_, _, _, target, wgt) in enumerate(chans):
         Bp[target, k] = wgt
@@ -259,7 +276,8 @@ def turning_vertices(model, turns: Turns, theta_bar: float | None = None,
     n_d = len(model.covering)
     if within_period:
         lo, hi = (np.array([r[k] for r in model.slip_ranges[:2]], dtype=float) for k in (0, 1))
-        M11 = _turn_gain(model, (lo + hi) / 2.0)  # the covering channels are built at the box's centre
+        # the covering channels are built at the box's centre (the icr model's: at its centre twist)
+        M11 = model.covering[0].turn_gain or _turn_gain(model, (lo + hi) / 2.0)
         jobs = [(v, model.covering[i % n_d], M11, i % n_d) for i, v in enumerate(model.base_vertices)]
         jobs += [(v, model.covering[t], M11, t) for v, t in zip(model.varying, model.varying_delay)]
     else:
@@ -271,7 +289,8 @@ def turning_vertices(model, turns: Turns, theta_bar: float | None = None,
             raise ValueError("turning references need vertices without uncertainty channels")
         if ch.F.shape[1] != np.asarray(v.E).shape[1]:
             raise ValueError("the channels' constant column does not match the vertex's")
-        parts.append(_parts(v, ch, M11, turns, model.Ts, model.V, model.n_e, model.n_u, model.d_hi, tb))
+        parts.append(_parts(v, ch, M11, turns, model.Ts, model.V, model.n_e, model.n_u, model.d_hi, tb,
+                            model.turn_feedforward))
     Bp = parts[0][6]
     if any(not np.array_equal(p[6], Bp) for p in parts):
         raise ValueError("B_p differs between vertices")
@@ -284,10 +303,13 @@ def turning_vertices(model, turns: Turns, theta_bar: float | None = None,
     for (v, _, _, group), (A, B, E, Cq, Dq, Fq, Bp_v) in zip(jobs, parts):
         out.append(Vertex(A, B, E, Bp_v * scale, Cq / scale[:, None], Dq / scale[:, None], v.corner, v.label,
                           Fq / scale[:, None], True, group))
+    if within_period and model.icr:  # the icr channels cover every slip history on the constant-slip vertices
+        return tuple(out[:n_base]), tuple(out[:n_base])
     return tuple(out[:n_base]), tuple(out[n_base:])
 
 
-def heading_yaw_columns(ch: KinematicChannels, turns: Turns, n_e: int, n_u: int, d_hi: int) -> np.ndarray:
+def heading_yaw_columns(ch: KinematicChannels, turns: Turns, n_e: int, n_u: int, d_hi: int,
+                        g: np.ndarray = FEEDFORWARD) -> np.ndarray:
     """The heading rows' coefficients on the reference's yaw-rate coordinates (columns w_k / w_bar and
     (w_k - w_{k-j}) / b_j): eta = e_theta - w_k s at a break point is the straight row plus
     ``sum_j l_j M11_j w_{k-j} - t w_k``, l_j the time command j has acted by then (the row's coefficient on
@@ -295,7 +317,8 @@ def heading_yaw_columns(ch: KinematicChannels, turns: Turns, n_e: int, n_u: int,
     time elapsed (``ch.elapsed_h``)."""
     wbar = float(turns.max_yaw_rate)
     b = turns.step_bounds(d_hi + 1)
-    resp = np.stack([_slot_coef(ch.C_h, ch.D_h, j, n_e, n_u) @ FEEDFORWARD for j in range(d_hi + 1)], axis=1)
+    resp = np.stack([_slot_coef(ch.C_h, ch.D_h, j, n_e, n_u) @ np.asarray(g, dtype=float) for j in range(d_hi + 1)],
+                    axis=1)
     elapsed = np.asarray(ch.elapsed_h, dtype=float)  # (rows,)
     F_h = np.zeros((resp.shape[0], d_hi + 1))
     F_h[:, 0] = wbar * (resp.sum(axis=1) - elapsed)  # w_{k-j} = w_k - (w_k - w_{k-j})
@@ -309,7 +332,8 @@ def turning_heading(model, turns: Turns) -> tuple[tuple[KinematicChannels, ...],
     from dataclasses import replace
 
     def add(chs):
-        return tuple(replace(ch, F_h=heading_yaw_columns(ch, turns, model.n_e, model.n_u, model.d_hi)) for ch in chs)
+        return tuple(replace(ch, F_h=heading_yaw_columns(ch, turns, model.n_e, model.n_u, model.d_hi, model.turn_feedforward))
+                     for ch in chs)
 
     return add(model.channels), add(model.covering)
 
@@ -319,7 +343,8 @@ def _turn_gain(model, mu: np.ndarray) -> float:
     turn rate."""
     from .slip import slip_matrix
 
-    return float(slip_matrix(np.asarray(mu, dtype=float)[:2], float(model.config.robot.track_distance))[1, 1])
+    # (the icr model's yaw factor included: slip_matrix scales the yaw row by it)
+    return float(slip_matrix(np.asarray(mu, dtype=float), float(model.config.robot.track_distance))[1, 1])
 
 
 def straight_delta(ch: KinematicChannels, phi_bar: float, theta_bar: float = 0.0, merged: bool = True) -> np.ndarray:
@@ -336,9 +361,10 @@ def straight_delta(ch: KinematicChannels, phi_bar: float, theta_bar: float = 0.0
 
     out = []
     if merged:
+        lat_from = ch.n_turn + ch.n_speed
         for r in range(ch.C.shape[0]):
-            w = _arc_weights(r, ch.n_turn, 1.0, rng, s_half)  # per unit of the row's scale, as the centres
-            y, x = _row_families(r, ch.n_turn)
+            w = _arc_weights(r, ch.n_turn, 1.0, rng, s_half, lat_from)  # per unit of the row's scale, as the centres
+            y, x = _row_families(r, ch.n_turn, lat_from)
             out += [at_zero(rng[y][0], w[1]), at_zero(rng[x][0], w[0])]
     else:
         n_t, n_v = ch.n_turn, ch.C.shape[0] - ch.n_turn
@@ -347,6 +373,7 @@ def straight_delta(ch: KinematicChannels, phi_bar: float, theta_bar: float = 0.0
     c_mid, c_half = rng["rot_cos"]
     out += [at_zero(c_mid, c_half), 0.0] * 2  # the rotation: cos - 1 and sin per row
     out += [0.0] * (2 * ch.n_dev)  # slip's deviations within the period: none on a straight segment at constant slip
+    out += [0.0] * sum(2 if int(t) in (0, 1) else 1 for t in (ch.lin_target if ch.n_lin else ()))
     return np.array(out)
 
 
@@ -358,14 +385,16 @@ def linearized_arc_period(model, xi: np.ndarray, du: np.ndarray, S: np.ndarray, 
     """The error at t_{k+1}, in the frame of the reference at t_{k+1}, of the kinematics linearized about the
     reference's arc (docs/theory.md §10, "One period, exactly"), evaluated directly rather than bounded: the
     model a linearized turning certificate is for.  ``xi`` (..., n_s) the lifted state at t_k, ``du`` (..., 2) the
-    new correction, ``S`` (..., d_hi) the switching instants, ``mu`` (..., 2) the slip (the tracks model), ``w``
-    (..., d_hi + 1) the reference's yaw rates w_k, w_{k-1}, ..., w_{k-d_hi} (command j carries the feedforward
-    (0, w_{k-j})).  Returns (..., 3).
+    new correction, ``S`` (..., d_hi) the switching instants, ``mu`` (..., 2) the slip (the tracks model; (..., 4) the
+    icr model's parameters), ``w`` (..., d_hi + 1) the reference's yaw rates w_k, w_{k-1}, ..., w_{k-d_hi} (command j
+    carries the feedforward w_{k-j} g, ``Model.turn_feedforward``).  Returns (..., 3).
 
     In the frame F_k of the reference at t_k (origin, heading 0, moving at V^D and yaw rate w_k) the robot's
-    heading is ``w_k s + eta(s)`` and its speed ``V^D + a``; to first order in (eta, a)
+    heading is ``w_k s + eta(s)``, its speed ``V^D + a`` and (icr) its lateral velocity v_y; to first order in
+    (eta, a, v_y)
 
-        d/ds (x - x_ref) = a cos(w_k s) - V^D sin(w_k s) eta,   d/ds (y - y_ref) = a sin(w_k s) + V^D cos(w_k s) eta,
+        d/ds (x - x_ref) = a cos(w_k s) - V^D sin(w_k s) eta - v_y sin(w_k s),
+        d/ds (y - y_ref) = a sin(w_k s) + V^D cos(w_k s) eta + v_y cos(w_k s),
 
     with ``eta`` piecewise linear (slope omega_j - w_k on command j's interval) and ``a``, ``omega_j`` exact in the
     slip, (a_j, omega_j) = M(mu)(u^D + du_{k-j} + (0, w_{k-j})) - (V^D, 0).  The integrals are taken by
@@ -374,12 +403,12 @@ def linearized_arc_period(model, xi: np.ndarray, du: np.ndarray, S: np.ndarray, 
     ``homogeneous``: the map's linear part only, the same operator (it depends on w_k, the slip and the delays)
     without the nominal commands, the feedforward and the reference's turn: the map less its value at xi = 0,
     du = 0, without the cancellation that subtracting them would cost near 0."""
-    from .slip import slip_matrix
+    from .slip import twist_matrix
 
     n_e, n_u, d_hi, V, Ts = model.n_e, model.n_u, model.d_hi, model.V, model.Ts
     mu = np.asarray(mu, dtype=float)
-    if mu.shape[-1] != 2:
-        raise ValueError("linearized_arc_period: the tracks slip model only (mu_r, mu_l)")
+    if mu.shape[-1] not in (2, 4):
+        raise ValueError("linearized_arc_period: mu holds the tracks model's (mu_r, mu_l) or the icr model's four parameters")
     xi, du, S, w = (np.asarray(a, dtype=float) for a in (xi, du, S, w))
     if w.shape[-1] != d_hi + 1:
         raise ValueError(f"linearized_arc_period: w holds w_k, ..., w_(k-d_hi): {d_hi + 1} yaw rates, got {w.shape[-1]}")
@@ -387,11 +416,13 @@ def linearized_arc_period(model, xi: np.ndarray, du: np.ndarray, S: np.ndarray, 
     past = xi[..., n_e : n_e + d_hi * n_u].reshape(lead + (d_hi, n_u))
     u = np.concatenate([du[..., None, :], past], axis=-2)
     if not homogeneous:
-        u = np.array([V, 0.0]) + u + w[..., :, None] * FEEDFORWARD
-    vel = np.einsum("...ij,...kj->...ki", slip_matrix(mu, model.config.robot.track_distance), u)
+        u = np.array([V, 0.0]) + u + w[..., :, None] * model.turn_feedforward
+    # (v_x, v_y, omega) of each command (v_y = 0 for the tracks model; the icr model's lateral slide, §12)
+    vel = np.einsum("...ij,...kj->...ki", twist_matrix(mu, model.config.robot.track_distance), u)
     wk = w[..., 0]
-    # each command's a_j and omega_j - w_k, (..., d_hi + 1); their linear parts only when homogeneous
-    a, turn = (vel[..., 0], vel[..., 1]) if homogeneous else (vel[..., 0] - V, vel[..., 1] - wk[..., None])
+    # each command's a_j, v_y,j and omega_j - w_k, (..., d_hi + 1); their linear parts only when homogeneous
+    a, vy = (vel[..., 0], vel[..., 1]) if homogeneous else (vel[..., 0] - V, vel[..., 1])
+    turn = vel[..., 2] if homogeneous else vel[..., 2] - wk[..., None]
     x_gl, w_gl = np.polynomial.legendre.leggauss(GAUSS_NODES)
     ex, ey, eta = xi[..., 0], xi[..., 1], xi[..., 2]
     start = np.zeros(lead)
@@ -403,8 +434,8 @@ def linearized_arc_period(model, xi: np.ndarray, du: np.ndarray, S: np.ndarray, 
         et = eta[..., None] + slope * (s - start[..., None])
         c, sn = np.cos(wk[..., None] * s), np.sin(wk[..., None] * s)
         weight = h[..., None] / 2.0 * w_gl
-        ex = ex + np.sum(weight * (a[..., j, None] * c - V * sn * et), axis=-1)
-        ey = ey + np.sum(weight * (a[..., j, None] * sn + V * c * et), axis=-1)
+        ex = ex + np.sum(weight * (a[..., j, None] * c - V * sn * et - vy[..., j, None] * sn), axis=-1)
+        ey = ey + np.sum(weight * (a[..., j, None] * sn + V * c * et + vy[..., j, None] * c), axis=-1)
         eta = eta + slope[..., 0] * h
         start = end
     phi = wk * Ts

@@ -13,7 +13,7 @@ from .linearize import Gamma, Gamma_D, Phi, continuous_matrices
 from .slip import lateral_row, slip_corners, slip_matrix, slip_parameter_ranges
 from .uncertainty import embed, slip_box
 from .model import DEFAULT_HEADING_BOUND, MAX_POLYTOPIC_INSTANTS, WIDTH_TOL, Model, frozen_array, frozen_vertex
-from .nonlinear import covering_channels, vertex_channels
+from .nonlinear import covering_channels, icr_covering_channels, vertex_channels
 from .vertices import (Vertex, add_lateral, apply_slip, augment_integral, delay_vertex_gammas, icr_constant,
                        interval_coordinates, loss_vertex_gammas, varying_slip_vertices)
 
@@ -116,7 +116,11 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
             lengths = interval_coordinates(h, q, Ts)[0]  # (n_d, d_hi + 1): each command interval's length
         if icr:
             varying_reason = ("the icr slip model is not affine in its parameters (the yaw factor multiplies the "
-                              "tracks' factors), so the slip averages of §11 do not describe it")
+                              "tracks' factors), so the slip averages of §11 do not describe it; its channels cover slip "
+                              "changing within a period with synthesis.kinematics: nonlinear (docs/theory.md §12)")
+            if delay_description != "norm-bounded":  # the channels for parameters changing within the period
+                covering = [icr_covering_channels(ranges, np.stack([h[t], q[t]], axis=1), V, Ts, D, n_s, n_e, n_u, d_hi)
+                            for t in range(len(labels))]
         elif delay_description != "norm-bounded":
             built = varying_slip_vertices(Ph, A_c, B_c, Ts, V, D, mu_r, mu_l, h, q, labels, integral,
                                           MAX_VARYING_VERTICES)
@@ -148,7 +152,8 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
                     vertices.append(Vertex(At[t], Bt[t], E, np.zeros((n_s, 0)), np.zeros((0, n_s)),
                                            np.zeros((0, n_u)), m, f"{name}; {lab}"))
                     # the kinematic channels, from the delay vertex's coordinates (h_j, h_j^2/2)
-                    channels.append(vertex_channels(mu, np.stack([h[t], q[t]], axis=1), V, Ts, M, n_s, n_e, n_u, d_hi))
+                    channels.append(vertex_channels(mu, np.stack([h[t], q[t]], axis=1), V, Ts, M, n_s, n_e, n_u, d_hi,
+                                                    lateral=lateral_row(mu, D) if icr else None))
     frozen_vertices = tuple(frozen_vertex(v) for v in vertices)
     model = Model(
         config=config,
@@ -190,7 +195,9 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
         model = model.with_heading_bound(DEFAULT_HEADING_BOUND if hb == "auto" else float(hb),
                                          within_period=syn.lyapunov == "common")
     if kind != "paper" and config.reference.turn_radius is not None:  # corners rounded by arcs (model/arcs.py)
-        model = model.with_turns(config.reference.speed / config.reference.turn_radius,
+        wbar = config.reference.speed / config.reference.turn_radius
+        ramp = config.reference.turn_ramp  # eased turns: the yaw rate changes by at most wbar Ts / ramp per period
+        model = model.with_turns(wbar, max_step=wbar * min(1.0, Ts / ramp) if ramp else None,
                                  within_period=syn.lyapunov == "common")
     return model
 

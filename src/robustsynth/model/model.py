@@ -29,8 +29,8 @@ from .slip import (SLIP_PARAMETERS, corner_weights, lateral_row, next_corner_wei
                    slip_parameter_ranges)
 from .uncertainty import SlipBox, UncertainInstant, delta_for
 from .vertices import (Vertex, add_lateral, apply_slip, augment_integral, icr_constant, interval_coordinates,
-                       interval_slip_averages, loss_hull_coordinates, loss_instant_grid, triangle_coordinates,
-                       varying_slip_maps)
+                       interval_slip_averages, loss_hull_coordinates, loss_instant_grid, piecewise_twist_averages,
+                       triangle_coordinates, varying_slip_maps)
 
 __all__ = ["Model", "Mirror", "state_names", "gain_lifting", "pad_gain", "lifted_slice", "INPUT_NAMES", "ERROR_NAMES",
            "SLIP_NAMES", "INTEGRATOR_NAMES", "MODEL_KINDS", "MAX_POLYTOPIC_INSTANTS", "WIDTH_TOL",
@@ -223,6 +223,8 @@ class Model:
                       for v, ch, g in zip(self.base_vertices, chans, groups))
         cover = tuple(frozen_vertex(augment(v, self.covering[t], theta_bar, self.V, scales, group=t))
                       for v, t in zip(self.varying, self.varying_delay)) if covering else ()
+        if covering and self.icr:  # the icr channels cover every slip history on the constant-slip vertices (§12)
+            cover = verts
         return replace(self.linearized(), vertices=verts, heading_bound=theta_bar, covering_vertices=cover)
 
     def with_turns(self, max_yaw_rate: float, max_step: float | None = None,
@@ -239,8 +241,8 @@ class Model:
         from ..errors import InputError
         from .arcs import Turns, turning_heading, turning_vertices
 
-        if self.icr or self.kind != "slip-aware":
-            raise InputError("turning references: built for the slip-aware model with the tracks slip model only")
+        if self.kind != "slip-aware":
+            raise InputError("turning references: built for the slip-aware model only")
         if not self.channels:
             raise InputError("turning references need delay vertices (synthesis.delay_description polytopic or "
                              "lossy-polytopic)")
@@ -261,13 +263,23 @@ class Model:
                        covering=covering, covering_vertices=tuple(frozen_vertex(v) for v in cover))
 
     @property
+    def turn_feedforward(self) -> np.ndarray:
+        """The command (dV, omega) per rad/s of the reference's yaw rate (:func:`~.slip.turn_feedforward`)."""
+        from .slip import turn_feedforward
+
+        return turn_feedforward(self.config.slip, self.config.robot.track_distance)
+
+    @property
     def feedforward_motor_speed(self) -> float:
         """The largest motor speed the feedforward alone asks [rad/s]: V^D/R, plus the turning
-        reference's max_yaw_rate D/(2R)."""
+        reference's share, max_yaw_rate |J^-1 g| for the feedforward direction g (D/(2R) for g = (0, 1))."""
         cfg = self.config
         R = cfg.robot.gear_radius
-        turn = 0.0 if self.turns is None else self.turns.max_yaw_rate * cfg.robot.track_distance / (2.0 * R)
-        return cfg.reference.speed / R + turn
+        if self.turns is None:
+            return cfg.reference.speed / R
+        J_inv = np.asarray(self.J_inv)
+        uD = np.array([cfg.reference.speed, 0.0])
+        return float(np.max(np.abs(J_inv @ uD) + self.turns.max_yaw_rate * np.abs(J_inv @ self.turn_feedforward)))
 
     def slip_variation(self, lyapunov: str = "common", objective: str = "ultimate-bound") -> tuple[tuple[Vertex, ...], str]:
         """The vertices that cover slip changing at any time within a period for a certificate of kind
@@ -285,7 +297,7 @@ class Model:
         if lyapunov != "common":
             return (), (f"a {lyapunov} certificate indexes its Lyapunov matrices by the slip at the sampling "
                         "instants")
-        if not self.varying:
+        if not self.varying and not self.covering_vertices:
             return (), self.varying_reason
         return (self.covering_vertices or self.varying), ""
 
@@ -381,10 +393,19 @@ class Model:
         s = np.asarray(s_tilde, dtype=float)
         h = self.Ts - s
         L, W = interval_coordinates(h, h * h / 2.0, self.Ts)
-        bar, til = interval_slip_averages(s, self.Ts, t_switch, mu, mu_after, per_track)
         D = self.config.robot.track_distance
-        A, B, c = varying_slip_maps(np.asarray(self.Phi), np.asarray(self.A_c), np.asarray(self.B_c), self.Ts, self.V, L,
-                                    W, slip_matrix(bar, D), slip_matrix(til, D))
+        if self.icr:  # multi-affine, not affine: the averages of the twist over the pieces of constant slip
+            from .slip import slip_changes
+
+            ts = np.asarray(t_switch, dtype=float)
+            ts = ts if per_track else np.stack([ts, ts], axis=-1)
+            tb, tt = piecewise_twist_averages(s, self.Ts, mu, slip_changes(mu, mu_after, ts), D)
+            A, B, c = varying_slip_maps(np.asarray(self.Phi), np.asarray(self.A_c), np.asarray(self.B_c), self.Ts, self.V,
+                                        L, W, tb[..., [0, 2], :], tt[..., [0, 2], :], tb[..., 1, :])
+        else:
+            bar, til = interval_slip_averages(s, self.Ts, t_switch, mu, mu_after, per_track)
+            A, B, c = varying_slip_maps(np.asarray(self.Phi), np.asarray(self.A_c), np.asarray(self.B_c), self.Ts, self.V,
+                                        L, W, slip_matrix(bar, D), slip_matrix(til, D))
         if self.integral:
             A, B = augment_integral(A, B, self.Ts, self.n_e)
             c = np.concatenate([c, np.zeros(c.shape[:-1] + (self.n_z,))], axis=-1)

@@ -16,7 +16,7 @@ import numpy as np
 from ..errors import InfeasibleError
 from .kinematics import JHJinv
 
-__all__ = ["slip_corners", "corner_weights", "next_corner_weights", "slip_matrix", "lateral_row", "twist_matrix",
+__all__ = ["slip_changes", "turn_feedforward", "icr_components", "icr_twist", "slip_corners", "corner_weights", "next_corner_weights", "slip_matrix", "lateral_row", "twist_matrix",
            "compensated_command", "required_motor_speeds", "check_physical_feasibility", "SLIP_PARAMETERS",
            "nominal_slip", "slip_parameter_ranges"]
 
@@ -28,6 +28,51 @@ _WIDTH_TOL = 1e-12
 # centre of rotation (the body slides sideways at v_y = -x_icr * omega).
 SLIP_PARAMETERS = {"tracks": ("mu_r", "mu_l"), "icr": ("mu_r", "mu_l", "yaw", "x_icr")}
 _NOMINAL = {"mu_r": 1.0, "mu_l": 1.0, "yaw": 1.0, "x_icr": 0.0}
+
+
+def slip_changes(before: np.ndarray, after: np.ndarray, t: np.ndarray) -> list:
+    """Each track's slip going from ``before`` to ``after`` (..., n_p) at its own time ``t`` (..., 2) within a
+    period, as the robot's list of changes in time order: ``[(t1, mu_1), (t2, after)]``, the earlier track changed
+    at t1 and both at t2 (``KinematicRobot.period``'s ``switch``).  The icr model's yaw factor changes with the
+    right track's time and x_icr with the left's, so its parameters change at two instants, in either order."""
+    t = np.asarray(t, dtype=float)
+    t1, t2 = np.min(t, axis=-1), np.max(t, axis=-1)
+    n_p = np.shape(before)[-1]
+    tp = t if n_p == t.shape[-1] else t[..., [i % 2 for i in range(n_p)]]
+    return [(t1, np.where(tp <= t1[..., None], after, before)), (t2, after)]
+
+
+def turn_feedforward(slip_config, track_distance: float) -> np.ndarray:
+    """The command (dV, omega) sent per rad/s of a turning reference's yaw rate (docs/theory.md §10, §12):
+    ``(0, 1)`` for the tracks model; for the icr model the command that makes the slip box's centre twist
+    turn at one rad/s, ``M_c^-1 (0, 1)`` with M_c the (v_x, omega) rows of the twist whose components (traction,
+    yaw x traction, per track) sit at the middle of their ranges: a robot that turns at 0.6 of its command
+    gets 1/0.6 of the yaw rate as feedforward, and the feedback corrects only the box's spread around it."""
+    if getattr(slip_config, "model", "tracks") != "icr":
+        return np.array([0.0, 1.0])
+    comp = icr_components(slip_parameter_ranges(slip_config))
+    T = icr_twist(comp.mean(axis=1), float(track_distance))
+    return np.linalg.solve(T[[0, 2]], np.array([0.0, 1.0]))
+
+
+def icr_components(ranges: tuple[tuple[float, float], ...]) -> np.ndarray:
+    """The icr model's twist as six components (docs/theory.md §12, "Nonlinear kinematics"): per command (v, omega_c),
+    ``v_x = s v + d (D/4) omega_c``, ``omega = ys omega_c + yd v / D``, ``v_y = -(xs omega_c + xd v / D)`` with
+    ``s = (mu_r + mu_l) / 2``, ``d = mu_r - mu_l``, ``ys = yaw s``, ``yd = yaw d``, ``xs = x_icr yaw s``,
+    ``xd = x_icr yaw d``.  Returns each component's range ``[lo, hi]`` over the slip box, shape (6, 2): every twist
+    of the box, and every average of twists over time, has its components within these (each component is
+    multi-affine in the parameters: its extremes are at the box's corners)."""
+    p = slip_corners(*ranges)  # (n, 4)
+    s, d = (p[:, 0] + p[:, 1]) / 2.0, p[:, 0] - p[:, 1]
+    comp = np.stack([s, d, p[:, 2] * s, p[:, 2] * d, p[:, 3] * p[:, 2] * s, p[:, 3] * p[:, 2] * d], axis=0)
+    return np.stack([comp.min(axis=1), comp.max(axis=1)], axis=1)
+
+
+def icr_twist(c: np.ndarray, D: float) -> np.ndarray:
+    """The twist matrix (3, 2), rows (v_x, v_y, omega) per command (v, omega_c), of the components ``c`` (6,)
+    (:func:`icr_components`' order)."""
+    s, d, ys, yd, xs, xd = (float(x) for x in c)
+    return np.array([[s, d * D / 4.0], [-xd / D, -xs], [yd / D, ys]])
 
 
 def nominal_slip(n_p: int) -> np.ndarray:

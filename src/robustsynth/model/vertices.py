@@ -284,7 +284,7 @@ def interval_slip_averages(S: np.ndarray, Ts: float, t_switch: np.ndarray, mu_be
 
 
 def varying_slip_maps(Phi: np.ndarray, A_c: np.ndarray, B_c: np.ndarray, Ts: float, V: float, L: np.ndarray,
-                      W: np.ndarray, M_bar: np.ndarray, M_til: np.ndarray):
+                      W: np.ndarray, M_bar: np.ndarray, M_til: np.ndarray, lat_bar: np.ndarray | None = None):
     """The lifted map (A, B, E) when command interval i has slip matrix ``M_bar[..., i]`` on average and
     ``M_til[..., i]`` on its (Ts - t)-weighted average (..., d_hi + 1, 2, 2); L, W (..., d_hi + 1) from
     :func:`interval_coordinates`.  Exact for any slip history (§11): the error rows are
@@ -294,6 +294,9 @@ def varying_slip_maps(Phi: np.ndarray, A_c: np.ndarray, B_c: np.ndarray, Ts: flo
     n_e, n_u = B_c.shape
     d_hi = L.shape[-1] - 1
     G = L[..., None, None] * (B_c @ M_bar) + W[..., None, None] * ((A_c @ B_c) @ M_til)  # (..., d_hi + 1, n_e, n_u)
+    if lat_bar is not None:  # the icr model's lateral velocity (its uniform average) into e_y
+        G = G.copy()
+        G[..., 1, :] += L[..., None] * lat_bar
     batch = G.shape[:-3]
     n_s = n_e + d_hi * n_u
     # lift()'s layout, with each command's block G_i itself (not a difference of Gammas: switched_exact
@@ -311,6 +314,38 @@ def varying_slip_maps(Phi: np.ndarray, A_c: np.ndarray, B_c: np.ndarray, Ts: flo
     uD = np.array([V, 0.0])
     E[..., :n_e] = G.sum(axis=-3) @ uD - Gamma(A_c, B_c, Ts) @ uD
     return A, B, E
+
+
+def piecewise_twist_averages(S: np.ndarray, Ts: float, mu0: np.ndarray, changes: list, D: float):
+    """Per command interval (i = 0..d_hi, du_{k-i} on [s~_i, s~_{i-1})) the uniform and (Ts - t)-weighted averages of
+    the twist matrix (v_x, v_y, omega per command; :func:`~.slip.twist_matrix`) when the slip parameters are
+    ``mu0`` (..., n_p) from t_k and take the values of ``changes`` = [(t, mu), ...] (time order) within the period:
+    exact for any slip model (the averages of the twist over each piece of constant slip).  Returns (bar, til),
+    each (..., d_hi + 1, 3, 2)."""
+    from .slip import twist_matrix
+
+    S = np.asarray(S, dtype=float)
+    lead = S.shape[:-1]
+    ends = np.concatenate([np.full(lead + (1,), Ts), S, np.zeros(lead + (1,))], axis=-1)
+    F = lambda t: Ts * t - t * t / 2.0  # noqa: E731  (antiderivative of Ts - t)
+    pieces = [(np.zeros(lead), np.asarray(mu0, dtype=float))] + [(np.asarray(t, dtype=float), np.asarray(m, dtype=float))
+                                                                 for t, m in changes]
+    n_i = S.shape[-1] + 1
+    bar = np.zeros(lead + (n_i, 3, 2))
+    til = np.zeros(lead + (n_i, 3, 2))
+    for i in range(n_i):
+        b, a = ends[..., i], ends[..., i + 1]  # interval i: [a, b)
+        L, W = b - a, F(b) - F(a)
+        for k, (t0, m) in enumerate(pieces):
+            t1 = pieces[k + 1][0] if k + 1 < len(pieces) else np.full(lead, Ts)
+            lo_, hi_ = np.clip(t0, a, b), np.clip(np.maximum(t1, t0), a, b)
+            T = twist_matrix(m, D)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                wl = np.where(L > 0, (hi_ - lo_) / np.where(L > 0, L, 1.0), 1.0 if k == 0 else 0.0)
+                ww = np.where(W > 0, (F(hi_) - F(lo_)) / np.where(W > 0, W, 1.0), 1.0 if k == 0 else 0.0)
+            bar[..., i, :, :] += wl[..., None, None] * T
+            til[..., i, :, :] += ww[..., None, None] * T
+    return bar, til
 
 
 def varying_slip_vertices(Phi: np.ndarray, A_c: np.ndarray, B_c: np.ndarray, Ts: float, V: float, D: float,

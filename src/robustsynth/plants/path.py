@@ -52,10 +52,11 @@ class PathGeometry:
         return np.array([self.waypoints[i, 0] + s * c, self.waypoints[i, 1] + s * sn, self.headings[i]])
 
 
-def make_path(waypoints, speed: float, turn_radius: float | None = None, sampling_time: float | None = None) -> PathGeometry:
-    """The path of ``waypoints`` at ``speed``; with ``turn_radius`` its corners rounded by arcs and the
-    reference sampled every ``sampling_time`` (:class:`~robustsynth.law.PathTable`)."""
-    return _geometry(PathTable(np.asarray(waypoints, dtype=float).tolist(), speed, turn_radius, sampling_time))
+def make_path(waypoints, speed: float, turn_radius: float | None = None, sampling_time: float | None = None,
+              turn_ramp: float | None = None) -> PathGeometry:
+    """The path of ``waypoints`` at ``speed``; with ``turn_radius`` its corners rounded by arcs (eased in and out
+    over ``turn_ramp`` seconds) and the reference sampled every ``sampling_time`` (:class:`~robustsynth.law.PathTable`)."""
+    return _geometry(PathTable(np.asarray(waypoints, dtype=float).tolist(), speed, turn_radius, sampling_time, turn_ramp))
 
 
 def path_from_yaw_rates(yaw_rates, speed: float, sampling_time: float) -> PathGeometry:
@@ -73,7 +74,7 @@ def path_of(config) -> PathGeometry:
     """The verification path of a config: ``verification.path`` at ``reference.speed``, with its corners
     rounded by ``reference.turn_radius`` when set."""
     return make_path(config.verification.path, config.reference.speed, config.reference.turn_radius,
-                     config.network.sampling_time)
+                     config.network.sampling_time, config.reference.turn_ramp)
 
 
 def frame_error(path: PathGeometry, seg: int, q: np.ndarray, t: float) -> np.ndarray:

@@ -79,6 +79,7 @@ void rs_motor_speeds(double V, double omega, double *rho_r, double *rho_l);
 #endif /* RS_CONTROLLER_H */
 """
     K_rows = ",\n    ".join(_c_array(row) for row in d["K"])
+    ff = [float(v) for v in (d.get("turn_feedforward") or (0.0, 1.0))]
     if path.turning:  # the reference's table and its arcs (law.frame_error, law.sample_at), the same operations
         n_ref = len(path.ref_w)
         turning_tables = f"""
@@ -89,6 +90,9 @@ static const double REF_HEADING[RS_N_REF] = {_c_array(path.ref_heading)};
 static const double REF_COS[RS_N_REF] = {_c_array(path.ref_cos)};
 static const double REF_SIN[RS_N_REF] = {_c_array(path.ref_sin)};
 static const double REF_W[RS_N_REF] = {_c_array(path.ref_w)};
+/* the turning feedforward per rad/s of the reference's yaw rate (dV, omega) */
+static const double FF_V = {_f(ff[0])};
+static const double FF_OMEGA = {_f(ff[1])};
 static const double SAMPLE_EPS = {_f(SAMPLE_EPS)};
 /* sin(a) / a, 1 at 0 */
 static double sinc_(double a) {{ return a != 0.0 ? sin(a) / a : 1.0; }}"""
@@ -118,7 +122,8 @@ static double sinc_(double a) {{ return a != 0.0 ? sin(a) / a : 1.0; }}"""
     c->xi[0] = cr * dx + sr * dy;
     c->xi[1] = -sr * dx + cr * dy;
     c->xi[2] = wrap_angle(theta - th);"""
-        omega_out = "REF_W[k] + acc[1]"
+        v_out = "RS_REFERENCE_SPEED + acc[0] + REF_W[k] * FF_V"
+        omega_out = "acc[1] + REF_W[k] * FF_OMEGA"
         path_tables = turning_tables.lstrip("\n")
     else:
         path_tables = f"""static const double SEG_X0[RS_N_SEG] = {_c_array(path.x0)};
@@ -137,6 +142,7 @@ static const double SEGMENT_EPS = {_f(d['segment_eps'])};"""
     c->xi[0] = SEG_COS[seg] * dx + SEG_SIN[seg] * dy - RS_REFERENCE_SPEED * (t - SEG_T_START[seg]);
     c->xi[1] = -SEG_SIN[seg] * dx + SEG_COS[seg] * dy;
     c->xi[2] = wrap_angle(theta - SEG_HEADING[seg]);"""
+        v_out = "RS_REFERENCE_SPEED + acc[0]"
         omega_out = "acc[1]"
     c = f"""/* rs_controller.c: see rs_controller.h.
    {_header_comment(d, 'c')} */
@@ -192,7 +198,7 @@ void rs_step(rs_controller_t *c, double t, double x, double y, double theta, dou
     for (j = 2 * RS_D_HI - 1; j >= 2; --j) c->past[j] = c->past[j - 2];
     c->past[0] = acc[0];
     c->past[1] = acc[1];
-    *V = RS_REFERENCE_SPEED + acc[0];
+    *V = {v_out};
     *omega = {omega_out};
 }}
 
@@ -280,6 +286,7 @@ def ros2_parameters(d: dict[str, Any]) -> bytes:
         "path_y": [float(p[1]) for p in d["path"]],
         "segment_eps": float(d["segment_eps"]),
         "has_turn_radius": d.get("turn_radius") is not None,
+        "turn_feedforward": [float(v) for v in (d.get("turn_feedforward") or (0.0, 1.0))],
         "turn_radius": float(d["turn_radius"]) if d.get("turn_radius") is not None else 0.0,
         # the turning reference per sampling instant (law.PathTable; absent without a turn radius): pose and the
         # yaw rate w_k sent as feedforward on [t_k, t_k+1); the last entry goes on straight
@@ -301,7 +308,7 @@ def _reference_table(d: dict[str, Any]) -> dict[str, list[float]]:
 
     if d.get("turn_radius") is None:  # left out: a ROS 2 params file cannot type an empty list (ros2/rclcpp#1955)
         return {}
-    p = PathTable(d["path"], d["reference_speed"], d["turn_radius"], d["sampling_time"])
+    p = PathTable(d["path"], d["reference_speed"], d["turn_radius"], d["sampling_time"], d.get("turn_ramp"))
     return {"ref_x": [float(v) for v in p.ref_x], "ref_y": [float(v) for v in p.ref_y],
             "ref_heading": [float(v) for v in p.ref_heading], "ref_w": [float(v) for v in p.ref_w]}
 

@@ -22,6 +22,7 @@ __all__ = ["SynthesisResult", "synthesize"]
 MAX_DELAY_VERTICES = 9  # delay-dependent Lyapunov matrices: conditions grow with the square of this
 ALPHA_RANGE = (0.005, 0.95)  # line search range of alpha (log-spaced grid, then parabolic steps)
 GOLDEN_STEPS = 10  # a golden section where a parabola cannot be fitted (an infeasible neighbour)
+GOLDEN_MIN_BRACKET = 0.02  # ... down to a bracket this narrow in log alpha
 # the alpha search stops when a step moves the objective by less than this (relative; the objective is a
 # weighted sum of squared bounds, so a bound moves by half of it).  1e-4 let the unweighted e_x of
 # configs/heavy-slip.yaml drift by 0.9 % along the flat valley; 1e-5 keeps every figure within 0.1 %
@@ -368,6 +369,8 @@ def _golden(evaluate: Callable[[float], float], a: float, b: float) -> None:
     for _ in range(GOLDEN_STEPS):
         if math.isfinite(fc) and math.isfinite(fd) and abs(fc - fd) <= HINT_STOP_REL * min(fc, fd):
             return
+        if b - a < GOLDEN_MIN_BRACKET:  # alpha known to 2 %: where solves keep failing near a flat minimum (the icr
+            return  # model's nonlinear certificates), ten more of them would not move the bound
         if fc <= fd:
             b, d, fd = d, c, fc
             c = b - phi * (b - a)
@@ -890,7 +893,13 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
     unscaled, and for a configured bound the fallback solver too), else InfeasibleError, both naming the
     heading bounds, the alphas tried and the heading and forward-speed ranges of the linearized set."""
     lin = model.linearized()
+    if model.icr and model.covering_vertices:
+        # the icr model's linearized certificate with the covering channels (and the arcs') costs as much as the
+        # nonlinear one (48 vertices of 40 channels: minutes); its alpha and heading only start the search, which
+        # the straight constant-slip one (no channels, seconds) does about as well
+        lin = replace(lin, vertices=model.base_vertices, turns=None, covering_vertices=(), channels=_straight_channels(model))
     sc = s.model_copy(update={"lyapunov": "common", "kinematics": "linearized"})
+    say(f"the linearized common certificate, where the search starts ({len(lin.vertices)} vertices)")
     common, _ = _run_invariance(lin, sc, [], motor, prune=_motor_pruner(lin, sc) if motor else None)
     hint = float(common.cert["alpha"]) if common.cert is not None else None
     auto = s.heading_bound == "auto"
@@ -949,6 +958,12 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                                 f"near infeasibility{retries}). " + _nonlinear_infeasible(model, common, tried, tried_at, auto))
         raise InfeasibleError(_nonlinear_infeasible(model, common, tried, tried_at, auto))
     return best, runner
+
+
+def _straight_channels(model: Any) -> tuple:
+    """The constant-slip kinematic channels of a turning model's vertices without their yaw-rate columns (the
+    straight segment's heading rows)."""
+    return tuple(replace(ch, F_h=None) for ch in model.channels)
 
 
 def _nonlinear_infeasible(model: Any, common: _Best, tried: list, tried_at: dict[float, tuple[int, int]],

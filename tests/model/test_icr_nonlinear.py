@@ -1,0 +1,217 @@
+"""The icr slip model's kinematic channels (model/nonlinear.icr_covering_channels, docs/theory.md §12) against the
+robot itself: one period of exact arcs with lateral slide, from random lifted states and commands, every slip
+parameter jumping between values of its box at its own time within the period, random delays, on a straight
+segment and along arcs with the turning feedforward: wherever |e_theta(t)| (on arcs: its deviation from the
+reference's turn) stays within the heading bound, the robot's e_x, e_y and e_theta at t_{k+1} lie within what the
+constant-slip vertices' hull and the channels allow.  Negative controls: beyond the heading bound, and without
+the linear deviation channels, the robot leaves that allowance."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from robustsynth.config import load_config
+from robustsynth.model import build_model
+from robustsynth.model.slip import corner_weights, slip_changes
+from robustsynth.plants.kinematic import KinematicRobot
+from robustsynth.plants.path import frame_error, make_path, pose_from_error
+from robustsynth.scenarios import random_delays
+
+from ..conftest import ROOT
+
+TOL = 1e-12  # round-off of one period's arcs against the vertex algebra (errors of order 1e-1)
+THETA_BAR = 0.2
+
+
+def _model(radius=None, **over):
+    d = load_config(ROOT / "configs" / "icr-physics.yaml").model_dump(mode="json")
+    d["synthesis"].update(kinematics="nonlinear", heading_bound=THETA_BAR)
+    d["verification"]["motor_saturation"] = False
+    d["reference"]["turn_radius"] = radius
+    for key, v in over.items():
+        node = d
+        *path, last = key.split(".")
+        for p in path:
+            node = node[p]
+        node[last] = v
+    return build_model(load_config(d))
+
+
+def _history(model, rng, N, spread):
+    """Random lifted states, new commands, delays and slip histories: every parameter from one value of its box
+    to another at its own time within the period (half the runs between corners, half anywhere)."""
+    d_hi = model.d_hi
+    xi = np.zeros((N, model.n_s))
+    xi[:, :3] = rng.uniform(-1, 1, (N, 3)) * np.array([0.1, 0.1, spread])
+    xi[:, 3 : 3 + 2 * d_hi] = rng.uniform(-1, 1, (N, 2 * d_hi)) * np.tile([0.3, 0.8], d_hi)
+    du = rng.uniform(-1, 1, (N, 2)) * np.array([0.3, 0.8])
+    lo, hi = (np.array([r[k] for r in model.slip_ranges]) for k in (0, 1))
+    p0 = lo + (hi - lo) * rng.integers(0, 2, (N, 4))
+    p1 = lo + (hi - lo) * rng.integers(0, 2, (N, 4))
+    p0[N // 2 :], p1[N // 2 :] = rng.uniform(lo, hi, (N - N // 2, 4)), rng.uniform(lo, hi, (N - N // 2, 4))
+    times = rng.uniform(0.0, model.Ts, (N, 4))
+    order = np.argsort(times, axis=1)
+    rows = np.arange(N)
+    changes, cur = [], p0.copy()
+    for k in range(4):  # one parameter at a time, in time order
+        cur = cur.copy()
+        cur[rows, order[:, k]] = p1[rows, order[:, k]]
+        changes.append((times[rows, order[:, k]], cur))
+    S = model.s_tilde(random_delays(model, rng, N, 1))[:, 0]
+    return xi, du, p0, changes, S
+
+
+def _hull_weights(model, p0, changes, S):
+    """The vertices' weights for a slip history: the period's average of the multilinear corner weights (the
+    period's average twist is that combination of the corners'), times the delay vertices' weights."""
+    N = p0.shape[0]
+    ts = np.stack([np.zeros(N)] + [t for t, _ in changes] + [np.full(N, model.Ts)], axis=1)
+    values = [p0] + [m for _, m in changes]
+    lam_s = sum(((ts[:, k + 1] - ts[:, k]) / model.Ts)[:, None] * corner_weights(values[k], *model.slip_ranges)
+                for k in range(len(values)))
+    lam, _ = model.hull_coordinates(S, p0)
+    n_c = lam_s.shape[1]
+    delay = lam.reshape(N, n_c, -1).sum(axis=1)
+    return (lam_s[:, :, None] * delay[:, None, :]).reshape(N, -1)
+
+
+def _allowance(model, lam, xi, du, w):
+    """The hull's centre (N, 3) and the channels' allowance |B_p| |q| (N, 3) on e_x, e_y, e_theta."""
+    nominal = sum(lam[:, i, None] * (xi @ v.A.T + du @ v.B.T + w @ v.E.T) for i, v in enumerate(model.vertices))
+    q = sum(lam[:, i, None] * (xi @ v.C_q.T + du @ v.D_q.T + w @ v.F.T) for i, v in enumerate(model.vertices))
+    return nominal[:, :3], np.abs(q) @ np.abs(model.vertices[0].B_p[:3]).T
+
+
+def _straight(model, rng, N, spread):
+    xi, du, p0, changes, S = _history(model, rng, N, spread)
+    path = make_path(((0.0, 0.0), (100.0, 0.0)), model.V)
+    q0 = pose_from_error(path, xi[:, :3])
+    robot = KinematicRobot.of(model)
+    U = robot.send(robot.memory(xi[:, 3 : 3 + 2 * model.d_hi].reshape(N, model.d_hi, 2), N),
+                   np.array([model.V, 0.0]) + du)
+    e1 = frame_error(path, 0, robot.period(q0, U, S, p0, changes), model.Ts)
+    heading = np.abs(xi[:, 2])
+    for t in np.linspace(0.0, model.Ts, 101)[1:]:  # e_theta(t) is piecewise linear: a fine grid finds its extremes
+        heading = np.maximum(heading, np.abs(robot.partial(q0, U, S, p0, t, changes)[:, 2]))
+    lam = _hull_weights(model, p0, changes, S)
+    return e1, heading, _allowance(model, lam, xi, du, np.ones((N, 1)))
+
+
+@pytest.mark.parametrize("over", [{}, {"network.delay.min": 0.0, "network.delay.max": 0.1},
+                                  {"network.dropouts.max_consecutive": 1},
+                                  {"slip.yaw.min": 0.3, "slip.icr_offset.min": -0.2, "slip.icr_offset.max": 0.3}])
+def test_the_robot_with_slip_changing_within_the_period_stays_within_the_channels(over) -> None:
+    model = _model(**over)
+    assert len(model.covering_vertices) == len(model.vertices)  # the constant-slip vertices cover every history
+    assert model.slip_variation("common")[1] == ""
+    e1, heading, (centre, allowed) = _straight(model, np.random.default_rng(1), 1500, 0.12)
+    ok = heading <= THETA_BAR
+    assert ok.mean() > 0.9
+    excess = np.abs(e1 - centre) - allowed
+    assert np.max(excess[ok]) <= TOL, np.max(excess[ok], axis=0)
+    used = np.abs(e1 - centre)[ok] / np.maximum(allowed[ok], 1e-300)
+    assert np.all(np.max(used, axis=0) > 0.2)  # not vacuous, in every row
+
+
+def test_headings_beyond_the_bound_break_the_channels() -> None:
+    model = _model()
+    e1, heading, (centre, allowed) = _straight(model, np.random.default_rng(2), 1500, 1.0)
+    assert np.max((np.abs(e1 - centre) - allowed)[heading > 1.5 * THETA_BAR, :2]) > 1e-3
+
+
+def test_without_the_linear_deviation_channels_slip_changing_within_the_period_is_not_covered() -> None:
+    """The negative control of the third family: the corners' hull alone does not contain the robot's map when
+    the slip changes within the period (e_theta is linear in the slip history, so the excess shows there first)."""
+    model = _model()
+    narrow = replace(model, covering=tuple(replace(c, lin_weight=np.zeros_like(c.lin_weight)) for c in model.covering))
+    narrow = narrow.with_heading_bound(THETA_BAR)
+    e1, heading, (centre, allowed) = _straight(narrow, np.random.default_rng(3), 1500, 0.12)
+    ok = heading <= THETA_BAR
+    assert np.max((np.abs(e1 - centre) - allowed)[ok, 2]) > 1e-4
+
+
+@pytest.mark.parametrize("radius, over", [(3.0, {}), (1.0, {"network.delay.min": 0.05, "network.delay.max": 0.18})])
+def test_the_robot_on_an_arc_with_slip_changing_within_the_period_stays_within_the_channels(radius, over) -> None:
+    """Along arcs: the reference turns at w_k (any value up to V^D / r, steps the certificate allows before it),
+    command j carries the feedforward w_{k-j} g through the slip; the error measured in the reference's frame at
+    t_{k+1}; the heading bound on eta(t) = theta(t) - w_k t."""
+    model = _model(radius, **over)
+    turns = model.turns
+    rng = np.random.default_rng(4)
+    N = 1500
+    xi, du, p0, changes, S = _history(model, rng, N, 0.12)
+    d_hi, V, Ts = model.d_hi, model.V, model.Ts
+    wk = turns.max_yaw_rate * rng.choice([-1.0, -0.5, 0.0, 0.5, 1.0], N)
+    steps = rng.uniform(-1, 1, (N, d_hi)) * turns.step_bounds(d_hi + 1)
+    w = np.concatenate([wk[:, None], np.clip(wk[:, None] - steps, -turns.max_yaw_rate, turns.max_yaw_rate)], axis=1)
+    U = np.empty((N, d_hi + 1, 2))
+    U[:, 0] = np.array([V, 0.0]) + du
+    U[:, 1:] = np.array([V, 0.0]) + xi[:, 3 : 3 + 2 * d_hi].reshape(N, d_hi, 2)
+    U += w[:, :, None] * model.turn_feedforward
+    robot = KinematicRobot.of(model)
+    q0 = xi[:, :3].copy()  # in the frame F_k of the reference at t_k
+    q1 = robot.period(q0, U, S, p0, changes)
+    phi, half = w[:, 0] * Ts, w[:, 0] * Ts / 2.0
+    chord = V * Ts * np.sinc(half / np.pi)
+    dx, dy = q1[:, 0] - chord * np.cos(half), q1[:, 1] - chord * np.sin(half)
+    e1 = np.stack([np.cos(phi) * dx + np.sin(phi) * dy, -np.sin(phi) * dx + np.cos(phi) * dy, q1[:, 2] - phi], axis=1)
+    heading = np.abs(xi[:, 2])
+    for t in np.linspace(0.0, Ts, 101)[1:]:
+        heading = np.maximum(heading, np.abs(robot.partial(q0, U, S, p0, t, changes)[:, 2] - w[:, 0] * t))
+    lam = _hull_weights(model, p0, changes, S)
+    centre, allowed = _allowance(model, lam, xi, du, model.disturbance_coordinates(p0, w))
+    ok = heading <= THETA_BAR
+    assert ok.mean() > 0.9
+    excess = np.abs(e1 - centre) - allowed
+    assert np.max(excess[ok]) <= TOL, np.max(excess[ok], axis=0)
+    assert np.all(np.max(np.abs(e1 - centre)[ok] / np.maximum(allowed[ok], 1e-300), axis=0) > 0.2)
+
+
+def test_the_heading_rows_bound_the_robots_heading_within_the_period() -> None:
+    """|e_theta(t)| over the period never exceeds the largest |heading row| at the run's own delay vertices (the
+    rows are affine in the delay coordinates and in each command interval's slip average)."""
+    model = _model()
+    rng = np.random.default_rng(5)
+    xi, du, p0, changes, S = _history(model, rng, 1000, 0.12)
+    path = make_path(((0.0, 0.0), (100.0, 0.0)), model.V)
+    q0 = pose_from_error(path, xi[:, :3])
+    robot = KinematicRobot.of(model)
+    U = robot.send(robot.memory(xi[:, 3:5].reshape(-1, 1, 2), xi.shape[0]), np.array([model.V, 0.0]) + du)
+    heading = np.abs(xi[:, 2])
+    for t in np.linspace(0.0, model.Ts, 101)[1:]:
+        heading = np.maximum(heading, np.abs(robot.partial(q0, U, S, p0, t, changes)[:, 2]))
+    rows = np.max([np.max(np.abs(xi @ c.C_h.T + du @ c.D_h.T + c.g_h), axis=1) for c in model.covering], axis=0)
+    assert np.max(heading - rows) <= TOL
+
+
+def test_switched_exact_of_the_icr_model() -> None:
+    """The icr model's exact lifted map with a slip change within the period (the probe's linear side): without
+    a change it is robot_exact and constant; with one, e_theta is the robot's exactly (it is linear), and e_x, e_y
+    differ by second-order terms only (tiny deviations)."""
+    model = build_model(load_config(ROOT / "configs" / "icr-physics.yaml"))
+    rng = np.random.default_rng(6)
+    N = 400
+    lo, hi = (np.array([r[k] for r in model.slip_ranges]) for k in (0, 1))
+    mu0, mu1 = rng.uniform(lo, hi, (N, 4)), rng.uniform(lo, hi, (N, 4))
+    t = rng.uniform(0.0, model.Ts, (N, 2))
+    S = model.s_tilde(random_delays(model, rng, N, 1))[:, 0]
+    A, B, c = model.switched_exact(S, mu0, np.full((N, 2), model.Ts), mu1, per_track=True)
+    A0, B0 = model.robot_exact(S, mu0)
+    assert np.max(np.abs(A - A0)) <= TOL and np.max(np.abs(B - B0)) <= TOL
+    assert np.max(np.abs(c - model.constant(mu0))) <= TOL
+    xi = np.zeros((N, model.n_s))
+    xi[:, :3] = rng.uniform(-1, 1, (N, 3)) * 1e-4
+    xi[:, 3:5] = rng.uniform(-1, 1, (N, 2)) * 1e-4
+    du = rng.uniform(-1, 1, (N, 2)) * 1e-4
+    A, B, c = model.switched_exact(S, mu0, t, mu1, per_track=True)
+    lin = np.einsum("nij,nj->ni", A, xi) + np.einsum("nij,nj->ni", B, du) + c
+    path = make_path(((0.0, 0.0), (100.0, 0.0)), model.V)
+    robot = KinematicRobot.of(model)
+    U = robot.send(robot.memory(xi[:, 3:5].reshape(N, 1, 2), N), np.array([model.V, 0.0]) + du)
+    e1 = frame_error(path, 0, robot.period(pose_from_error(path, xi[:, :3]), U, S, mu0, slip_changes(mu0, mu1, t)), model.Ts)
+    assert np.max(np.abs(e1[:, 2] - lin[:, 2])) <= TOL
+    # what the robot's heading drift (up to |omega*| Ts ~ 5 mrad) makes of the forward speed: second order
+    assert np.max(np.abs(e1[:, :2] - lin[:, :2])) <= 1e-5
