@@ -89,7 +89,7 @@ def test_turn_bound_holds_for_states_on_the_boundary(path, over):
     """States on the boundary of the committed default gain's set, in the old segment's frame at the
     first sample at or after the switch, turned into world poses and measured in the new frame by
     the deployed law's own ``frame_error``: V/level after the switch never exceeds the bound."""
-    model, K, cert = committed_gain("default")
+    model, K, cert = committed_gain("tracks-box")
     m = _with_path(model, path, **over)
     chk = check_certificate(m, K, dict(cert, motor_limits_enforced=not over))
     lyap = lyapunov_of(m, cert)
@@ -118,7 +118,7 @@ def test_turn_bound_holds_for_states_on_the_boundary(path, over):
         assert np.max(v) >= 0.5 * t["V_over_level_at_switch"]  # and the bound is not wildly loose
 
 
-@pytest.mark.parametrize("name, lyapunov", [("default", None), ("default", "slip-dependent")])
+@pytest.mark.parametrize("name, lyapunov", [("tracks-box", None), ("tracks-box", "slip-dependent")])
 def test_a_straight_path_has_nothing_to_bound(name, lyapunov):
     """A waypoint that does not turn leaves the state where it is: r = 1 also for a certificate with
     several Lyapunov matrices (whose cross pairs alone would say more)."""
@@ -139,7 +139,7 @@ def test_a_straight_path_has_nothing_to_bound(name, lyapunov):
 
 
 def test_a_gentle_turn_without_a_motor_limit_is_certified_and_a_short_segment_is_not():
-    model, K, cert = committed_gain("default")
+    model, K, cert = committed_gain("tracks-box")
     gentle = ((0.0, 0.0), (5.0, 0.0), (10.0, 0.5), (20.0, 0.5))
     m = _with_path(model, gentle, max_motor_speed=None)
     chk = check_certificate(m, K, dict(cert, motor_limits_enforced=False))
@@ -156,7 +156,7 @@ def test_a_gentle_turn_without_a_motor_limit_is_certified_and_a_short_segment_is
 
 
 def test_the_default_turns_saturate_the_motors():
-    model, K, cert = committed_gain("default")
+    model, K, cert = committed_gain("tracks-box")
     turns = turn_bounds(model, K, cert, check_certificate(model, K, cert).figures)
     assert all(not t["certified"] and "motor peak" in t["reason"] for t in turns)
     assert all(t["motor_speed_peak"] > model.config.robot.max_motor_speed for t in turns)
@@ -174,7 +174,7 @@ def test_a_matrix_read_within_the_symmetry_tolerance_is_proven_as_its_symmetric_
     the matrix proven was the LMI of no symmetric X), and the Lyapunov function is that part's."""
     from robustsynth.certificate import SYMMETRY_TOL, _lyapunov_parts
 
-    model, K, cert = committed_gain("default")
+    model, K, cert = committed_gain("tracks-box")
     Q = np.asarray(cert["Q"], dtype=float)
     skew = np.triu(np.ones_like(Q), 1)
     skew = skew - skew.T  # antisymmetric, |entries| <= 1

@@ -12,6 +12,8 @@ from click.testing import CliRunner
 
 from robustsynth.cli import main
 
+from .conftest import BASE_CONFIG
+
 
 def test_help_lists_commands() -> None:
     r = CliRunner().invoke(main, ["--help"])
@@ -112,10 +114,11 @@ def test_default_config_name_names_the_output_directory(tmp_path) -> None:
 def test_a_stage_clears_what_another_config_left(tmp_path) -> None:
     """build-model of another config on a full run's directory removes that run's gains and reports
     instead of leaving a foreign model beside them."""
-    r = CliRunner().invoke(main, ["run", "-o", str(tmp_path), "--runs", "3", "--no-plots", "--objective", "stability"])
+    r = CliRunner().invoke(main, ["run", str(BASE_CONFIG), "-o", str(tmp_path), "--runs", "3", "--no-plots", "--objective",
+                                  "stability"])
     assert r.exit_code == 0, r.output
     assert (tmp_path / "gains.json").exists() and (tmp_path / "report.md").exists()
-    r = CliRunner().invoke(main, ["build-model", "-o", str(tmp_path)])  # same config: nothing removed
+    r = CliRunner().invoke(main, ["build-model", str(BASE_CONFIG), "-o", str(tmp_path)])  # same config: nothing removed
     assert r.exit_code == 0 and "removed" not in r.output and (tmp_path / "gains.json").exists()
     other = tmp_path / "other.yaml"
     other.write_text(CliRunner().invoke(main, ["default-config", "--name", "other"]).output)
@@ -136,9 +139,11 @@ def test_a_file_written_before_a_key_existed_is_not_foreign(tmp_path) -> None:
     from robustsynth.pipeline import clear_foreign
 
     root = Path(__file__).resolve().parents[1]
-    shutil.copy(root / "results" / "baselines" / "default" / "gains.json", tmp_path / "gains.json")
-    assert "turn_radius" not in json.loads((tmp_path / "gains.json").read_text())["config"]["reference"]
-    text = (root / "configs" / "default.yaml").read_text()
+    g = json.loads((root / "results" / "baselines" / "tracks-box" / "gains.json").read_text())
+    for key in ("turn_radius", "turn_ramp"):  # as a file written before these keys existed
+        del g["config"]["reference"][key]
+    (tmp_path / "gains.json").write_text(json.dumps(g))
+    text = (root / "configs" / "tracks-box.yaml").read_text()
     assert clear_foreign(tmp_path, parse_config(text)) == []
     assert (tmp_path / "gains.json").exists()
     assert clear_foreign(tmp_path, parse_config(text.replace("speed: 0.5", "speed: 0.4"))) == ["gains.json"]
@@ -177,7 +182,7 @@ def test_demo_output_is_not_a_committed_baseline() -> None:
 
 
 def test_verbose_synthesis_prints_the_search(tmp_path) -> None:
-    r = CliRunner().invoke(main, ["synthesize", "-o", str(tmp_path), "-v"])
+    r = CliRunner().invoke(main, ["synthesize", str(BASE_CONFIG), "-o", str(tmp_path), "-v"])
     assert r.exit_code == 0, r.output
     lines = r.stderr.splitlines()
     assert any(ln.startswith("ultimate-bound: scan of alpha") for ln in lines)
@@ -201,7 +206,7 @@ def test_a_linear_plants_gains_and_malformed_kinds_get_one_plain_line(tmp_path) 
     from pathlib import Path
 
     (tmp_path / "lti.json").write_text(json.dumps({"kind": "lti", "K": [[0.1, 0.2]], "lifting": {"n": 2, "m": 1, "d": 0}}))
-    default = Path(__file__).resolve().parents[1] / "configs" / "default.yaml"
+    default = Path(__file__).resolve().parents[1] / "configs" / "tracks-box.yaml"
     r = CliRunner().invoke(main, ["verify", str(default), "--gains", str(tmp_path / "lti.json"), "-o", str(tmp_path / "v")])
     assert r.exit_code == 2 and "a linear plant's gains (kind: lti)" in r.output, r.output
     r = CliRunner().invoke(main, ["check-log", str(default), "--gains", str(tmp_path / "lti.json")])
@@ -254,7 +259,7 @@ def test_the_cleanup_keeps_what_existed_and_never_turns_an_error_into_a_tracebac
     assert r.exit_code == 3 and kept.is_dir()
     r = CliRunner().invoke(main, ["build-model", str(root / "configs" / "fast.yaml"), "-o", str(tmp_path / ("a" * 300))])
     assert r.exit_code == 2 and r.output.startswith("error: ") and "Traceback" not in r.output
-    r = CliRunner().invoke(main, ["verify", str(root / "configs" / "default.yaml"), "--gains",
+    r = CliRunner().invoke(main, ["verify", str(root / "configs" / "tracks-box.yaml"), "--gains",
                                   str(root / "results" / "baselines" / "delay-multi-period" / "gains.json"),
                                   "-o", str(tmp_path / "v" / "x")])
     assert r.exit_code == 2 and not (tmp_path / "v").exists()

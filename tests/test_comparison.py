@@ -12,7 +12,7 @@ def test_the_other_kind_is_designed_with_the_gains_overrides() -> None:
     """Review, stop 47: `synthesize CFG --objective ultimate-bound` on a config saying stability compared its
     gain with a *stability* design of the paper's model (every bound '—'): the other design took the file's
     settings, not the ones the gain was made with (gains.json's synthesis_overrides)."""
-    model = committed_gain("default")[0]
+    model = committed_gain("tracks-box")[0]
     cfg = model.config.model_copy(update={"synthesis": model.config.synthesis.model_copy(update={"objective": "stability"})})
     gains = {"synthesis_overrides": {"synthesis.objective": "ultimate-bound", "synthesis.solver": "scs"}}
     other = other_config(cfg, "paper", gains).synthesis

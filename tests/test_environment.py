@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from .conftest import default_dict
+from .conftest import BASE_CONFIG, PASSING_CONFIG, default_dict
 
 CLI = [sys.executable, "-m", "robustsynth"]
 # The claim (README, exit codes): a run stops "within about a second" of SIGINT / SIGTERM.  That is
@@ -128,7 +128,7 @@ def test_signal_stops_promptly_and_leaves_consistent_files(tmp_path, sig, code, 
     short pause into that stage; the stop is timed from the signal."""
     marker, delay, extra = MOMENTS[moment]
     out = tmp_path / "out"
-    p = subprocess.Popen(CLI + ["-v", "run", "-o", str(out), *extra], stdout=subprocess.DEVNULL,
+    p = subprocess.Popen(CLI + ["-v", "run", str(BASE_CONFIG), "-o", str(out), *extra], stdout=subprocess.DEVNULL,
                          stderr=subprocess.PIPE, text=True, env=_env())
     err = _Stderr(p)
     try:
@@ -203,7 +203,7 @@ def test_closed_pipe_is_quiet(args) -> None:
 def _quick_config(tmp_path) -> str:
     """The default config without the adversary's searches (most of a run's time), for tests of what a run
     writes and prints rather than of what it finds."""
-    d = default_dict()
+    d = yaml.safe_load(PASSING_CONFIG.read_text())
     d["verification"]["adversarial_runs"] = 0
     cfg = tmp_path / "quick.yaml"
     cfg.write_text(yaml.safe_dump(d))

@@ -14,12 +14,13 @@ import yaml
 
 from robustsynth.artifacts.gains import load_gains
 from robustsynth.artifacts.logs import write_log
-from robustsynth.config import default_config
 from robustsynth.identification import check_log, fragment_yaml, identify
 from robustsynth.model import build_model
 from robustsynth.plants.path import make_path
 from robustsynth.scenarios import draw_scenario, steady_state_start
 from robustsynth.verification.simulate import run_logs, simulate
+
+from .conftest import make_config
 
 ROOT = Path(__file__).resolve().parents[1]
 TRUTH = {"delay": (0.02, 0.07), "right": (0.7, 0.95), "left": (0.6, 0.9)}
@@ -35,7 +36,7 @@ def _cfg(**over):
             "network.dropouts.max_consecutive": 2, "robot.max_motor_speed": 20.0,
             "verification.noise.position": NOISE[0], "verification.noise.heading": NOISE[1]}
     base.update(over)
-    return default_config(**base)
+    return make_config(**base)
 
 
 @pytest.fixture(scope="module")

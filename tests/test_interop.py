@@ -22,7 +22,7 @@ POLE_TOL = 1e-9  # python-control's poles vs numpy eigvals of the same matrix
 RESPONSE_TOL = 1e-10  # step response vs closed_loop_run (same recursion, different code)
 
 
-@pytest.fixture(scope="module", params=["default", "delay-multi-period"])
+@pytest.fixture(scope="module", params=["tracks-box", "delay-multi-period"])
 def case(request):
     g = json.loads((ROOT / "results" / "baselines" / request.param / "gains.json").read_text())
     return build_model(Config.model_validate(g["config"])), g

@@ -18,7 +18,7 @@ from robustsynth.synthesis import synthesize
 from robustsynth.synthesis.analysis import analyze_stability
 from robustsynth.verification.lifted import closed_loop_run
 
-from .conftest import make_config
+from .conftest import BASE_CONFIG, make_config
 
 GROWTH_RTOL = 0.01  # simulated per-step growth rate vs spectral radius^(1/p) of the period product
 PERIODS = 200  # periods simulated for the growth rate
@@ -131,7 +131,7 @@ def test_pad_gain_is_the_same_law(cfg, K) -> None:
 def test_margin_cli_json_matches_the_file(tmp_path, cfg, K) -> None:
     gains = tmp_path / "gains.json"
     gains.write_text(json.dumps({"K": K.tolist()}))
-    r = CliRunner().invoke(main, ["margin", "--gains", str(gains), "--json"])  # no -o: beside the gain
+    r = CliRunner().invoke(main, ["margin", str(BASE_CONFIG), "--gains", str(gains), "--json"])  # no -o: beside the gain
     assert r.exit_code == 0, r.output
     printed = json.loads(r.output)
     on_disk = json.loads((tmp_path / "margin.json").read_text())

@@ -265,7 +265,7 @@ def test_a_gain_made_for_another_plant_or_the_robot_is_refused(tmp_path) -> None
     assert lti_gain(cfg, plant, same)[0].shape == (1, 4)
     # the robot's own file (2 x 5 K): named as the robot's, not reported as a K of the wrong shape (review)
     with pytest.raises(InputError, match="the tracked robot's gains"):
-        lti_gain(cfg, plant, root / "results" / "baselines" / "default" / "gains.json")
+        lti_gain(cfg, plant, root / "results" / "baselines" / "tracks-box" / "gains.json")
 
 
 def test_delay_far_must_reach_beyond_the_configured_delay() -> None:

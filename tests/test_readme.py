@@ -60,8 +60,9 @@ def test_quick_start_shell_block_runs(tmp_path: Path) -> None:
             out.write_text(r.stdout)
         ran += 1
     assert ran == 4
-    assert (cwd / "results" / "my-robot" / "report.md").exists()  # named by default-config --name
-    assert (cwd / "results" / "my-robot-stability" / "verification.json").exists()  # verify --gains: beside the gain
+    assert (cwd / "my.yaml").read_text().startswith("# robustsynth default scenario")  # default-config --name
+    assert (cwd / "results" / "quick" / "report.md").exists()
+    assert (cwd / "results" / "tracks-stability" / "verification.json").exists()  # verify --gains: beside the gain
 
 
 def test_docs_are_self_contained() -> None:

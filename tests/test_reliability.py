@@ -22,7 +22,7 @@ from robustsynth.model import build_model
 from robustsynth.artifacts.gains import gains_id
 from robustsynth.certificate import check_certificate
 
-from .conftest import default_dict
+from .conftest import PASSING_CONFIG, default_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 TIMING_FIELDS = {("solver", "solve_time_s")}  # the only field allowed to differ between two runs (README)
@@ -62,7 +62,7 @@ def test_sigkill_at_random_moments_leaves_consistent_results(tmp_path) -> None:
     out = tmp_path / "out"
     cfgs = []
     for i, tmax in enumerate((0.08, 0.05)):
-        d = default_dict()
+        d = yaml.safe_load(PASSING_CONFIG.read_text())  # a verdict that passes: run exits 0
         d["network"]["delay"]["max"] = tmax  # two configs with different gains, same output dir
         d["verification"] = {"runs": 30}
         p = tmp_path / f"c{i}.yaml"
@@ -85,7 +85,7 @@ def test_two_runs_give_identical_json(tmp_path) -> None:
     outs = []
     for name in ("a", "b"):
         o = tmp_path / name
-        r = CliRunner().invoke(main, ["run", "-o", str(o), "--runs", "20", "--no-plots"])
+        r = CliRunner().invoke(main, ["run", str(PASSING_CONFIG), "-o", str(o), "--runs", "20", "--no-plots"])
         assert r.exit_code == 0, r.output
         outs.append(o)
     for f in ("model.json", "verification.json", "summary.json"):

@@ -65,7 +65,7 @@ def test_the_shift_and_outward_rounding_are_upper_bounds() -> None:
 
 @pytest.fixture(scope="module")
 def default_cert():
-    return committed_gain("default")
+    return committed_gain("tracks-box")
 
 
 def test_assembly_radius_bounds_the_rounding_of_an_lmi(default_cert) -> None:

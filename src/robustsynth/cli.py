@@ -603,12 +603,18 @@ def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
 @OUTDIR_OPT
 @_synth_opts
 @_verify_opts
+@click.option("--physics", "physics", type=click.IntRange(min=0, max=1000), default=0, show_default=True,
+              metavar="EPISODES", help="Then validate the gain on the MuJoCo robot with this many episodes (0: skip) -> "
+                                        "OUTDIR/validation/.")
+@click.option("--export", "export_to", type=click.Choice(["c", "python", "ros2", "json"]), default=None,
+              help="Then export the verified controller -> OUTDIR/export/ (refused when verification failed).")
 @click.pass_obj
 @_guard
 def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str | None, solver: str | None,
             multiplier: str | None, diagnose: bool | None, runs: int | None, seed: int | None, fmt: str,
-            no_plots: bool) -> int:
-    """build-model, synthesize and verify in one go; write report.md and summary.json."""
+            no_plots: bool, physics: int, export_to: str | None) -> int:
+    """build-model, synthesize and verify in one go; write report.md and summary.json (with --physics and
+    --export also validate on the physics robot and export the controller)."""
     from .config import is_lti
     from .errors import EXIT_VERIFICATION_FAILED
     from .pipeline import run
@@ -637,8 +643,28 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
     obj.say(_certified_line(res.synthesis.gains))
     _say_diagnosis(obj, res.synthesis.diagnosis)
     _report_checks(obj, res.verification.result, res.verification.model.config)
+    passed = res.passed
+    if physics:
+        from .pipeline import validation_stage
+
+        obj.say("[validate on the physics robot]")
+        vd = validation_stage(res.verification.model, out / "gains.json", out / "validation", episodes=physics,
+                              plots=not no_plots)
+        ratios = ", ".join(f"{k} {v:.2f}" for k, v in vd["ratio_to_certified"].items() if v is not None)
+        obj.say(f"physics robot (MuJoCo, {physics} episodes, {vd['straight_rule'].split(' (')[0]}): observed/certified "
+                + (ratios or "(no certified bounds)") + f"; validation {'passed' if vd['passed'] else 'FAILED'}")
+        passed = passed and vd["passed"]
+    if export_to:
+        if not res.passed:
+            obj.say(f"export skipped: verification failed (robustsynth export {out / 'gains.json'} --to {export_to} "
+                    "exports it as it is)")
+        else:
+            from .runtime.export import export_controller
+
+            _, files = export_controller(out / "gains.json", export_to, out / "export", None)
+            obj.say(f"exported ({export_to}): {', '.join(str(p) for p in files)}")
     obj.say(f"report: {out / 'report.md'}")
-    return EXIT_OK if res.passed else EXIT_VERIFICATION_FAILED
+    return EXIT_OK if passed else EXIT_VERIFICATION_FAILED
 
 
 @main.command("margin")
@@ -741,11 +767,15 @@ def _motor_limit(given: float | None, cfg: Any) -> float | None:
 @click.option("--max-motor-speed", type=click.FloatRange(min=0, min_open=True), default=None,
               help="Skip periods with a command beyond this motor speed [rad/s] (saturated motors) [default: the "
                    "config's robot.max_motor_speed; inf: skip none].")
+@click.option("--settle", type=_FINITE_NONNEG, default=0.0, show_default=True, metavar="SECONDS",
+              help="Skip the periods within this long after a command change (a robot with dynamics is still settling "
+                   "there: the excitation logs of validate --excite on the physics robot want 1).")
 @click.option("--no-plots", is_flag=True, help="Skip the figure.")
 @click.pass_obj
 @_guard
 def identify_cmd(obj: _Ctx, logs: tuple[Path, ...], out: Path | None, config: Path | None, model: str, coverage: float,
-                 pose_noise: tuple[float, float] | None, max_motor_speed: float | None, no_plots: bool) -> None:
+                 pose_noise: tuple[float, float] | None, max_motor_speed: float | None, settle: float,
+                 no_plots: bool) -> None:
     """Delay range, longest loss burst and slip box from robot logs (CSV, see the README's log format).
 
     The result is a config fragment with the data behind each number as comments.
@@ -754,7 +784,7 @@ def identify_cmd(obj: _Ctx, logs: tuple[Path, ...], out: Path | None, config: Pa
 
     cfg = _load(config)
     ident, text, written = identification_stage(list(logs), cfg, out, coverage, model,
-                                                _motor_limit(max_motor_speed, cfg), not no_plots, pose_noise)
+                                                _motor_limit(max_motor_speed, cfg), not no_plots, pose_noise, settle)
     if out is None:
         click.echo(text, nl=False)
     else:
@@ -861,12 +891,12 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
     out = outdir if outdir is not None else Path("results") / cfg.name / ("excitation" if excite else "validation")
     if excite:
         paths = excitation_stage(build_model(cfg), out, episodes=episodes, seed=seed, engine=engine)
-        nz = cfg.verification.noise
-        noise = f"{nz.position:g} {nz.heading:g}" if engine == "kinematic" else "POSITION HEADING"
-        icr = f" --model icr --pose-noise {noise}" if cfg.slip.model == "icr" else ""
+        nz = cfg.verification.noise  # the excitation puts exactly this noise on the logged poses
+        icr = f" --model icr --pose-noise {nz.position:g} {nz.heading:g}" if cfg.slip.model == "icr" else ""
+        settle = " --settle 1" if engine == "physics" else ""  # the engine's robot has dynamics: skip its transients
         obj.say(f"excitation ({engine}): {len(paths)} episodes written to {out / 'logs'}; next: robustsynth identify "
-                f"{out / 'logs'}/*.csv --config {config}{icr} --max-motor-speed {cfg.robot.max_motor_speed or 'R'} "
-                "-o FRAGMENT.yaml")
+                f"{out / 'logs'}/*.csv --config {config}{icr}{settle} --max-motor-speed "
+                f"{cfg.robot.max_motor_speed or 'R'} -o FRAGMENT.yaml")
         return EXIT_OK
     cb, bar = _progress(obj)
     try:
@@ -885,15 +915,19 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
     if vc.get("model") == "paper":
         obj.say("the certificate is for the paper's model (synthesis.model: paper), whose slip is not this robot's: "
                 "its bounds are the paper model's claims (verify judges them on the robot)")
-    obj.say("straight segments: " + ", ".join(
-        f"|{k}| {v * (100 if k != 'e_theta' else 1):.3g} {'cm' if k != 'e_theta' else 'rad'}"
-        + (f" (certified {c[k] * (100 if k != 'e_theta' else 1):.3g}, ratio {v / c[k]:.2f})" if c.get(k) else "")
-        for k, v in sm.items()))
+    through = bool(vd.get("through_turns"))
+    obj.say(("the whole path, turns included (against the bounds for all t): " if through else "straight segments: ")
+            + ", ".join(f"|{k}| {v * (100 if k != 'e_theta' else 1):.3g} {'cm' if k != 'e_theta' else 'rad'}"
+                        + (f" (certified {c[k] * (100 if k != 'e_theta' else 1):.3g}, ratio {v / c[k]:.2f})" if c.get(k) else "")
+                        for k, v in sm.items()))
     tm = vd["turn_max"]
     arcs = vd.get("straight_rule", "").startswith("between the arcs")
-    what = ("arcs (certified; reported apart from the straight segments)" if arcs else "turns (not certified)")
-    obj.say(f"{what}: |e_y| {100 * tm['e_y']:.3g} cm, |e_theta| {tm['e_theta']:.3g} rad; "
-            f"torque-saturated up to {vd['torque_saturated_s']:.1f} s per episode")
+    if through:
+        obj.say(f"torque-saturated up to {vd['torque_saturated_s']:.1f} s per episode")
+    else:
+        what = ("arcs (certified; reported apart from the straight segments)" if arcs else "turns (not certified)")
+        obj.say(f"{what}: |e_y| {100 * tm['e_y']:.3g} cm, |e_theta| {tm['e_theta']:.3g} rad; "
+                f"torque-saturated up to {vd['torque_saturated_s']:.1f} s per episode")
     sl = vd["slip"]
     if sl.get("estimated"):
         b = sl["estimated"]

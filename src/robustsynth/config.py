@@ -78,6 +78,13 @@ class ReferenceConfig(_Node):
         "certificate covers reference yaw rates up to speed / turn_radius (docs/theory.md §10); null: the "
         "reference jumps at the waypoints and the turns are not certified",
     )
+    turn_ramp: Annotated[float, Field(gt=0, le=1e4)] | None = Field(
+        default=None,
+        description="with turn_radius: each turn eases in and out over this time [s] (its curvature ramps from 0 "
+        "to 1/turn_radius, a clothoid easement), so the reference's yaw rate changes by at most speed / turn_radius "
+        "x sampling_time / turn_ramp between periods, which the certificate covers instead of steps of the whole "
+        "yaw rate; null: arcs that start at once",
+    )
 
 
 class DelayRange(_Node):
@@ -452,10 +459,11 @@ class Config(_Named):
         whose corners the arcs round (law.PathTable)."""
         r = self.reference.turn_radius
         if r is None:
+            if self.reference.turn_ramp is not None:
+                raise ValueError(f"{_FIELD}reference.turn_ramp: only with reference.turn_radius (it eases the turns in)")
             return self
         syn = self.synthesis
         for bad, why in ((syn.model == "paper", "synthesis.model: slip-aware"),
-                         (self.slip.model == "icr", "slip.model: tracks"),
                          (syn.delay_description == "norm-bounded", "delay vertices (synthesis.delay_description: auto, "
                           "polytopic or lossy-polytopic)"),
                          (syn.objective == "hinf", "synthesis.objective ultimate-bound or stability")):
@@ -470,7 +478,8 @@ class Config(_Named):
         from .law import PathTable
 
         try:
-            PathTable([list(p) for p in self.verification.path], self.reference.speed, r, self.network.sampling_time)
+            PathTable([list(p) for p in self.verification.path], self.reference.speed, r, self.network.sampling_time,
+                      self.reference.turn_ramp)
         except ValueError as exc:
             raise ValueError(f"{_FIELD}verification.path: with reference.turn_radius {r:g} m, {exc}") from None
         return self
@@ -483,9 +492,6 @@ class Config(_Named):
         if syn.model == "paper":
             raise ValueError(f"{_FIELD}slip.model: icr needs synthesis.model: slip-aware (the paper's model has no "
                              "yaw factor or lateral slip)")
-        if syn.kinematics == "nonlinear":
-            raise ValueError(f"{_FIELD}slip.model: icr is not available with synthesis.kinematics: nonlinear yet "
-                             "(its channels are built for the tracks model)")
         if syn.delay_description == "norm-bounded":
             raise ValueError(f"{_FIELD}slip.model: icr needs delay vertices (synthesis.delay_description: auto, "
                              "polytopic or lossy-polytopic)")
@@ -943,7 +949,11 @@ def named_default_config_text(name: str) -> str:
 def default_config(**overrides: Any) -> Config:
     """The embedded default with dotted-path overrides, validated like a file:
     ``default_config(**{"network.delay.max": 0.2, "robot.max_motor_speed": None})``."""
-    data = yaml.safe_load(default_config_text())
+    return mapping_with(yaml.safe_load(default_config_text()), **overrides)
+
+
+def mapping_with(data: dict[str, Any], **overrides: Any) -> Config:
+    """A config mapping with dotted-path overrides (the mapping is changed), validated like a file."""
     for path, value in overrides.items():
         node = data
         keys = path.split(".")

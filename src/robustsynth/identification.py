@@ -146,10 +146,29 @@ class _Periods:
     where: list[tuple[str, int]]
 
 
-def _periods(logs: Sequence[RobotLog], R: float, D: float, max_motor_speed: float | None
+def _settling(log: RobotLog, settle: float) -> np.ndarray:
+    """Per period (len(log) - 1,), whether a command that differs from its predecessor was applied within
+    ``settle`` seconds before the period or during it: a robot with dynamics (a physics engine, a real one) is
+    still settling there, and the kinematic slip models describe its steady motion only."""
+    n = len(log) - 1
+    if settle <= 0.0 or n <= 0:
+        return np.zeros(max(n, 0), dtype=bool)
+    rho = np.stack([log.rho_r, log.rho_l], axis=1)
+    changed = np.r_[True, np.any(rho[1:] != rho[:-1], axis=1)]
+    at = np.asarray(log.applied, dtype=float)[changed & np.isfinite(log.applied)]
+    t0, t1 = np.asarray(log.t[:-1], dtype=float), np.asarray(log.t[1:], dtype=float)
+    out = np.zeros(n, dtype=bool)
+    for a in at:
+        out |= (a > t0 - settle) & (a < t1)
+    return out
+
+
+def _periods(logs: Sequence[RobotLog], R: float, D: float, max_motor_speed: float | None, settle: float = 0.0
              ) -> tuple[list[_Periods], dict[str, int]]:
-    """Every log's usable periods, and how many were skipped and why."""
+    """Every log's usable periods, and how many were skipped and why (``settle``: :func:`_settling`)."""
     skipped = {"unknown command": 0, "too little motion": 0, "motor limit": 0}
+    if settle > 0.0:
+        skipped["settling after a command change"] = 0
     out = []
     for log in logs:
         idx, dur, known = _segments(log)
@@ -159,6 +178,10 @@ def _periods(logs: Sequence[RobotLog], R: float, D: float, max_motor_speed: floa
         turn = np.sum(dur * np.abs(R / D * (rho[..., 0] - rho[..., 1])), axis=1)
         ok = known.copy()
         skipped["unknown command"] += int(np.sum(~known))
+        if settle > 0.0:
+            unsettled = ok & _settling(log, settle)
+            skipped["settling after a command change"] += int(np.sum(unsettled))
+            ok &= ~unsettled
         little = ok & (travel < MIN_TRAVEL_M) & (turn * D < MIN_TRAVEL_M)
         skipped["too little motion"] += int(np.sum(little))
         ok &= ~little
@@ -174,13 +197,13 @@ def _periods(logs: Sequence[RobotLog], R: float, D: float, max_motor_speed: floa
 
 
 def estimate_slip(logs: Sequence[RobotLog], gear_radius: float, track_distance: float,
-                  max_motor_speed: float | None = None) -> SlipEstimates:
+                  max_motor_speed: float | None = None, settle: float = 0.0) -> SlipEstimates:
     """One (mu_r, mu_l) per usable period of every log (the tracks model)."""
     R, D = float(gear_radius), float(track_distance)
     mus, sigmas, turns, where = [], [], [], []
     res_sq, dof = 0.0, 0
     per_log = []
-    periods, skipped = _periods(logs, R, D, max_motor_speed)
+    periods, skipped = _periods(logs, R, D, max_motor_speed, settle)
     for pr in periods:
         q0, q1, rho, dur = pr.q0, pr.q1, pr.rho, pr.dur
         mu = np.ones((q0.shape[0], 2))
@@ -211,13 +234,13 @@ def estimate_slip(logs: Sequence[RobotLog], gear_radius: float, track_distance: 
 
 
 def _icr_lines(logs: Sequence[RobotLog], R: float, D: float, pose_noise: tuple[float, float],
-               max_motor_speed: float | None):
+               max_motor_speed: float | None, settle: float = 0.0):
     """The icr model's per-period lines over all logs, the periods behind them (None: no usable
     period; a period with a track at rest is skipped: its traction factor is not seen) and the
     skip counts."""
     from .identification_icr import icr_lines, track_at_rest
 
-    periods, skipped = _periods(logs, R, D, max_motor_speed)
+    periods, skipped = _periods(logs, R, D, max_motor_speed, settle)
     skipped["a track at rest"] = 0
     kept = []
     for p in periods:
@@ -271,13 +294,13 @@ def check_pose_noise(pose_noise: Any, source: str = "--pose-noise") -> tuple[flo
 
 
 def estimate_icr(logs: Sequence[RobotLog], gear_radius: float, track_distance: float, pose_noise: tuple[float, float],
-                 max_motor_speed: float | None = None) -> tuple[SlipEstimates, np.ndarray]:
+                 max_motor_speed: float | None = None, settle: float = 0.0) -> tuple[SlipEstimates, np.ndarray]:
     """One (mu_r, mu_l, yaw, x_icr) per usable period of every log (the icr model, in the gauge of
     :mod:`robustsynth.identification_icr`), and the gauge box [[mu_r], [mu_l], [s = 1/yaw]] (lo, hi)."""
     from .identification_icr import S_RANGE, gauge_box, icr_estimates
 
     R, D = float(gear_radius), float(track_distance)
-    lines, periods, skipped = _icr_lines(logs, R, D, pose_noise, max_motor_speed)
+    lines, periods, skipped = _icr_lines(logs, R, D, pose_noise, max_motor_speed, settle)
     if lines is None:
         return SlipEstimates(np.zeros((0, 4)), np.zeros((0, 4)), np.zeros(0), [], skipped, ICR_NAMES), np.zeros((3, 2))
     where = logs[0].path if logs else "identify"
@@ -316,11 +339,15 @@ def _median_sigma(sg: np.ndarray) -> float:
 
 def identify(logs: Sequence[RobotLog], gear_radius: float, track_distance: float, coverage: float = 0.995,
              model: str = "tracks", max_motor_speed: float | None = None,
-             pose_noise: tuple[float, float] | None = None) -> Identification:
+             pose_noise: tuple[float, float] | None = None, settle: float = 0.0) -> Identification:
     """The delay range, the longest loss burst and the slip box that cover the logs.
 
     ``model='icr'`` needs ``pose_noise`` = (position [m], heading [rad]), the std of the logged
-    poses: with as many unknowns as equations per period its fit cannot estimate the noise."""
+    poses: with as many unknowns as equations per period its fit cannot estimate the noise.  ``settle``
+    [s]: skip the periods within that long after a command change (a robot with dynamics, e.g. the excitation
+    logs of the physics robot, is still settling there)."""
+    if not (np.isfinite(settle) and settle >= 0.0):
+        raise InputError(f"--settle: must be a finite number of seconds >= 0 (got {settle!r})")
     if model not in MODELS:
         raise InputError(f"--model: {model!r} is not one of {', '.join(MODELS)}")
     if not 0.5 <= coverage <= 1.0:
@@ -334,9 +361,9 @@ def identify(logs: Sequence[RobotLog], gear_radius: float, track_distance: float
         raise InputError(f"{logs[0].path}: column 'applied': no command was ever applied")
     gauge = None
     if model == "icr":
-        est, gauge = estimate_icr(logs, gear_radius, track_distance, pose_noise, max_motor_speed)
+        est, gauge = estimate_icr(logs, gear_radius, track_distance, pose_noise, max_motor_speed, settle)
     else:
-        est = estimate_slip(logs, gear_radius, track_distance, max_motor_speed)
+        est = estimate_slip(logs, gear_radius, track_distance, max_motor_speed, settle)
     if est.mu.shape[0] < 10:
         raise InputError(f"{logs[0].path}: only {est.mu.shape[0]} periods could be used to estimate slip "
                          f"(skipped: {est.skipped}); a log needs the robot moving under known commands")

@@ -260,7 +260,9 @@ def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, e
     # the bounds the episodes are judged against: the certificate's own, re-checked for this config (a
     # gains file's "certified" figures are what it says, not what holds: an edited K or another config's
     # gain would pass against them)
-    gains = dict(gains, certified={"ultimate_bound": rechecked.figures.get("ultimate_bound")} if rechecked.passed else {})
+    gains = dict(gains, certified={"ultimate_bound": rechecked.figures.get("ultimate_bound"),
+                                   "ultimate_bound_between_samples": rechecked.figures.get("ultimate_bound_between_samples"),
+                                   "turns": (gains.get("certificate") or {}).get("turns")} if rechecked.passed else {})
     res = validate_physics(model, gains, episodes=episodes, seed=seed, progress=progress if workers == 1 else None,
                            workers=workers, engine=engine)
     _write_logs(res["logs"], outdir / "logs")
@@ -381,7 +383,7 @@ def _require_physics() -> None:
 
 def identification_stage(log_paths: list[Path], cfg: Any, out: Path | None, coverage: float, model: str,
                          max_motor_speed: float | None, plots: bool = True,
-                         pose_noise: tuple[float, float] | None = None) -> tuple[Any, str, list[Path]]:
+                         pose_noise: tuple[float, float] | None = None, settle: float = 0.0) -> tuple[Any, str, list[Path]]:
     """`robustsynth identify`: the identification, its config fragment, and (with ``out``) the files
     written: the fragment, ``<stem>.md`` (the data behind it) and ``<stem>.png`` (histograms).  The icr
     model's pose noise defaults to the config's ``verification.noise``."""
@@ -394,7 +396,8 @@ def identification_stage(log_paths: list[Path], cfg: Any, out: Path | None, cove
         from .identification import config_pose_noise
 
         pose_noise = config_pose_noise(cfg)
-    ident = identify(logs, cfg.robot.gear_radius, cfg.robot.track_distance, coverage, model, max_motor_speed, pose_noise)
+    ident = identify(logs, cfg.robot.gear_radius, cfg.robot.track_distance, coverage, model, max_motor_speed, pose_noise,
+                     settle)
     text = fragment_yaml(ident)
     written: list[Path] = []
     if out is not None:

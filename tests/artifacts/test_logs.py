@@ -82,7 +82,7 @@ def test_malformed_logs_name_file_row_and_column(tmp_path) -> None:
 def test_cli_exit_2_one_line_no_traceback(tmp_path) -> None:
     p = tmp_path / "bad.csv"
     p.write_text(_text([r[:3] + r[4:] for r in _good_rows()], LOG_COLUMNS[:3] + LOG_COLUMNS[4:]))
-    for cmd in (["identify", str(p)], ["check-log", str(p), "--config", str(ROOT / "configs" / "default.yaml")]):
+    for cmd in (["identify", str(p)], ["check-log", str(p), "--config", str(ROOT / "configs" / "tracks-box.yaml")]):
         r = subprocess.run([sys.executable, "-m", "robustsynth", *cmd], capture_output=True, text=True)
         assert r.returncode == 2, r.stderr
         lines = r.stderr.strip().splitlines()

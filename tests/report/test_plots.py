@@ -13,7 +13,7 @@ from robustsynth.verification.checks import verify
 from ..conftest import ROOT, committed_gain
 
 
-@pytest.mark.parametrize("name,excludes", [("default", True), ("turns", False)])
+@pytest.mark.parametrize("name,excludes", [("tracks-box", True), ("turns", False)])
 def test_the_excluded_steps_are_named_only_where_there_are_some(name, excludes) -> None:
     """A polyline (the default path) excludes the steps after each waypoint until the robot is back in the
     set, and errors.png and lyapunov.png shade and name them; a path rounded by arcs (configs/turns.yaml)

@@ -125,7 +125,7 @@ def test_cli_chain_on_a_linear_plant(tmp_path) -> None:
     m = json.loads(r.stdout)["margins"]["delay_max"]
     assert m["certified"] >= 0.5 and (m["exhibited"] is None or m["certified"] <= m["exhibited"])
     # a robot's gains file is refused with one line
-    r = _run("verify", str(cfg), "--gains", str(ROOT / "results" / "baselines" / "default" / "gains.json"), "-o",
+    r = _run("verify", str(cfg), "--gains", str(ROOT / "results" / "baselines" / "tracks-box" / "gains.json"), "-o",
              str(tmp_path / "v"))
     assert r.returncode == 2 and "not a linear plant's gains file" in r.stderr and len(r.stderr.strip().splitlines()) == 1
     # ultimate-bound without a disturbance: one line, exit 2, before anything is written

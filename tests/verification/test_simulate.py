@@ -108,10 +108,12 @@ def test_within_period_changes_are_drawn_apart_and_only_where_slip_may_jump(setu
     rated = build_model(make_config(**{"slip.max_rate": 0.5}))
     sw = draw_scenario(rated, 5, seed=9, steps=50, path=path, within_period=True).mu_switch
     assert np.all(sw[:, 1:] == sw[:, 1:2]) and np.all((sw[:, 1] > 0.0) & (sw[:, 1] < m.Ts)) and np.all(sw[:, 0] == 0.0)
-    # the icr model's slip is not affine in its parameters (theory §12): no changes within a period
+    # the icr model: its channels cover changes within a period (theory §12), each parameter changing at one of
+    # the two tracks' times (the yaw factor with the right's, x_icr with the left's)
     icr = build_model(make_config(**{"slip.model": "icr", "slip.yaw": {"min": 0.54, "max": 0.67},
                                      "slip.icr_offset": {"min": 0.0, "max": 0.09}}))
-    assert draw_scenario(icr, 5, seed=9, steps=50, path=path, within_period=True).mu_switch is None
+    sw = draw_scenario(icr, 5, seed=9, steps=50, path=path, within_period=True).mu_switch
+    assert sw.shape == (5, 50, 2) and np.all(sw[:, 0] == 0.0) and np.all((sw >= 0.0) & (sw < m.Ts))
 
 
 def test_constant_delay_no_slip_converges_to_zero(setups) -> None:

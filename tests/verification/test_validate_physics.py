@@ -17,7 +17,7 @@ pytestmark = pytest.mark.skipif(bool(available()), reason=available() or "MuJoCo
 
 
 def _validate(cfg: Path, out: Path, episodes: int = 2):
-    return CliRunner().invoke(main, ["validate", str(cfg), "--gains", str(ROOT / "results" / "baselines" / "default" /
+    return CliRunner().invoke(main, ["validate", str(cfg), "--gains", str(ROOT / "results" / "baselines" / "tracks-box" /
                                                                           "gains.json"), "--episodes", str(episodes), "-o", str(out)])
 
 
@@ -26,7 +26,7 @@ def test_validate_writes_verdict_logs_and_the_observed_slip(tmp_path) -> None:
     reported (larger), the slip the engine shows on the straight segments inside the config's box
     [0.6, 1] (about 0.98: the soft contact's sink), and in the turns outside it (the outer track
     above 1: skid steering is not the paper's slip model)."""
-    r = _validate(ROOT / "configs" / "default.yaml", tmp_path)
+    r = _validate(ROOT / "configs" / "tracks-box.yaml", tmp_path)
     assert r.exit_code == 0, r.output
     vd = json.loads((tmp_path / "validation.json").read_text())
     assert vd["episodes"] == 2 and len(vd["per_episode"]) == 2 and vd["passed"]
@@ -44,7 +44,7 @@ def test_a_box_the_physics_leaves_fails_the_verdict(tmp_path) -> None:
     """A config whose slip box excludes what the engine shows on straight ground (0.98 outside
     [0.6, 0.9]): the certificate does not apply to this robot, exit 1, and it says so."""
     cfg = tmp_path / "c.yaml"
-    cfg.write_text((ROOT / "configs" / "default.yaml").read_text().replace("{min: 0.6, max: 1.0}", "{min: 0.6, max: 0.9}"))
+    cfg.write_text((ROOT / "configs" / "tracks-box.yaml").read_text().replace("{min: 0.6, max: 1.0}", "{min: 0.6, max: 0.9}"))
     r = _validate(cfg, tmp_path / "out", episodes=1)
     assert r.exit_code == 1, r.output
     assert "does not apply" in r.output
@@ -52,7 +52,7 @@ def test_a_box_the_physics_leaves_fails_the_verdict(tmp_path) -> None:
 
 
 def test_validate_without_gains_is_a_usage_error(tmp_path) -> None:
-    r = CliRunner().invoke(main, ["validate", str(ROOT / "configs" / "default.yaml"), "-o", str(tmp_path)])
+    r = CliRunner().invoke(main, ["validate", str(ROOT / "configs" / "tracks-box.yaml"), "-o", str(tmp_path)])
     assert r.exit_code == 2
 
 
@@ -62,7 +62,7 @@ def test_end_to_end_excite_identify_synthesize_validate(tmp_path) -> None:
     bounds, and the slip it shows there lies in the identified box."""
     import yaml
 
-    exc = CliRunner().invoke(main, ["validate", str(ROOT / "configs" / "default.yaml"), "--excite", "--episodes", "2",
+    exc = CliRunner().invoke(main, ["validate", str(ROOT / "configs" / "tracks-box.yaml"), "--excite", "--episodes", "2",
                                     "-o", str(tmp_path / "exc")])
     assert exc.exit_code == 0, exc.output
     logs = sorted((tmp_path / "exc" / "logs").glob("*.csv"))
@@ -71,7 +71,7 @@ def test_end_to_end_excite_identify_synthesize_validate(tmp_path) -> None:
     assert r.exit_code == 0, r.output
     f = yaml.safe_load(frag.read_text())
     assert f["slip"]["left"]["max"] > 1.0  # skid steering: the outer track's factor exceeds 1 in turns
-    d = yaml.safe_load((ROOT / "configs" / "default.yaml").read_text())
+    d = yaml.safe_load((ROOT / "configs" / "tracks-box.yaml").read_text())
     d.update(name="physics-identified", slip=f["slip"])
     d["network"]["delay"] = f["network"]["delay"]
     cfg = tmp_path / "identified.yaml"
@@ -87,8 +87,8 @@ def test_end_to_end_excite_identify_synthesize_validate(tmp_path) -> None:
 
 
 def test_excite_and_gains_are_exclusive(tmp_path) -> None:
-    r = CliRunner().invoke(main, ["validate", str(ROOT / "configs" / "default.yaml"), "--excite", "--gains",
-                                  str(ROOT / "results" / "baselines" / "default" / "gains.json"), "-o", str(tmp_path)])
+    r = CliRunner().invoke(main, ["validate", str(ROOT / "configs" / "tracks-box.yaml"), "--excite", "--gains",
+                                  str(ROOT / "results" / "baselines" / "tracks-box" / "gains.json"), "-o", str(tmp_path)])
     assert r.exit_code == 2 and "exactly one" in r.output
 
 
@@ -101,8 +101,8 @@ def test_workers_split_the_episodes_without_changing_them() -> None:
     from robustsynth.artifacts.gains import load_gains
     from robustsynth.verification.physics import validate_physics
 
-    m = build_model(load_config(ROOT / "configs" / "default.yaml"))
-    g = load_gains(ROOT / "results" / "baselines" / "default" / "gains.json")
+    m = build_model(load_config(ROOT / "configs" / "tracks-box.yaml"))
+    g = load_gains(ROOT / "results" / "baselines" / "tracks-box" / "gains.json")
     one = validate_physics(m, g, episodes=3, seed=1)
     two = validate_physics(m, g, episodes=3, seed=1, workers=2)
     assert np.array_equal(one["e"], two["e"]) and np.array_equal(one["q"], two["q"])
@@ -112,8 +112,8 @@ def test_workers_split_the_episodes_without_changing_them() -> None:
 def test_the_kinematic_engine_recovers_its_own_slip(tmp_path) -> None:
     """--engine kinematic: the model's own robot with one slip per episode from the box; identify finds
     slips inside the box, and the straight segments stay within the certified bounds."""
-    r = CliRunner().invoke(main, ["validate", str(ROOT / "configs" / "default.yaml"), "--engine", "kinematic", "--gains",
-                                  str(ROOT / "results" / "baselines" / "default" / "gains.json"), "--episodes", "3",
+    r = CliRunner().invoke(main, ["validate", str(ROOT / "configs" / "tracks-box.yaml"), "--engine", "kinematic", "--gains",
+                                  str(ROOT / "results" / "baselines" / "tracks-box" / "gains.json"), "--episodes", "3",
                                   "--no-plots", "-o", str(tmp_path)])
     assert r.exit_code == 0, r.output
     vd = json.loads((tmp_path / "validation.json").read_text())
@@ -126,8 +126,8 @@ def test_a_gain_whose_certificate_does_not_hold_here_fails(tmp_path, case) -> No
     """The episodes are judged against the certificate re-checked for this config, not against the figures a
     gains file states: an edited K, or the default's gain on heavy-slip's wider slip box, has no certified
     bounds here, and validation fails (a review found both passing)."""
-    gains = json.loads((ROOT / "results" / "baselines" / "default" / "gains.json").read_text())
-    cfg = ROOT / "configs" / "default.yaml"
+    gains = json.loads((ROOT / "results" / "baselines" / "tracks-box" / "gains.json").read_text())
+    cfg = ROOT / "configs" / "tracks-box.yaml"
     if case == "edited K":
         gains["K"][0][0] += 5.0
     else:
@@ -146,8 +146,8 @@ def test_a_linear_plants_gain_or_a_k_of_another_size_is_bad_input(tmp_path) -> N
     """No law to run: exit 2 with one line, and no output directory (a traceback before, review)."""
     bad = tmp_path / "lti.json"
     bad.write_text(json.dumps({"kind": "lti", "K": [[0.1, 0.2]], "lifting": {"n": 2, "m": 1, "d": 0}}))
-    for cfg, g, what in ((ROOT / "configs" / "default.yaml", bad, "a linear plant's gains"),
-                         (ROOT / "configs" / "delay-multi-period.yaml", ROOT / "results" / "baselines" / "default" /
+    for cfg, g, what in ((ROOT / "configs" / "tracks-box.yaml", bad, "a linear plant's gains"),
+                         (ROOT / "configs" / "delay-multi-period.yaml", ROOT / "results" / "baselines" / "tracks-box" /
                           "gains.json", "K has 2 x 5 entries; this config's controller needs 2 x 9")):
         r = CliRunner().invoke(main, ["validate", str(cfg), "--engine", "kinematic", "--gains", str(g), "--episodes", "1",
                                       "--no-plots", "-o", str(tmp_path / "out")])
@@ -178,8 +178,8 @@ def test_on_a_path_rounded_by_arcs_the_straight_segments_leave_the_arcs_out(tmp_
 def test_a_second_run_leaves_no_stale_logs_or_figure(tmp_path) -> None:
     """validate into a directory an earlier validate filled: its logs beyond this run's episodes and its figure
     (this run has --no-plots) are removed; identify had fitted the stale logs with the new ones (review)."""
-    g = str(ROOT / "results" / "baselines" / "default" / "gains.json")
-    cfg = str(ROOT / "configs" / "default.yaml")
+    g = str(ROOT / "results" / "baselines" / "tracks-box" / "gains.json")
+    cfg = str(ROOT / "configs" / "tracks-box.yaml")
     r = CliRunner().invoke(main, ["validate", cfg, "--engine", "kinematic", "--gains", g, "--episodes", "3", "-o", str(tmp_path)])
     assert r.exit_code == 0, r.output
     assert (tmp_path / "validation.png").exists() and len(list((tmp_path / "logs").glob("episode_*.csv"))) == 3
@@ -199,9 +199,9 @@ def test_a_gains_mat_validates_and_bounds_that_are_not_the_robots_are_said(tmp_p
 
     from robustsynth.artifacts.gains import gains_mat_vars
 
-    gains = json.loads((ROOT / "results" / "baselines" / "default" / "gains.json").read_text())
+    gains = json.loads((ROOT / "results" / "baselines" / "tracks-box" / "gains.json").read_text())
     savemat(tmp_path / "gains.mat", gains_mat_vars(gains))
-    cfg = str(ROOT / "configs" / "default.yaml")
+    cfg = str(ROOT / "configs" / "tracks-box.yaml")
     r = CliRunner().invoke(main, ["validate", cfg, "--engine", "kinematic", "--gains", str(tmp_path / "gains.mat"),
                                   "--episodes", "1", "--no-plots", "-o", str(tmp_path / "m")])
     assert r.exit_code == 0, r.output

@@ -12,11 +12,28 @@ from click.testing import CliRunner
 
 from robustsynth.cli import main
 
+from robustsynth.config import load_config
+
+from ..conftest import BASE_CONFIG, PASSING_CONFIG, make_config
+
 
 @pytest.fixture(scope="module")
 def run_dir(tmp_path_factory):
     out = tmp_path_factory.mktemp("run")
-    r = CliRunner().invoke(main, ["run", "-o", str(out), "--runs", "40"])
+    # the base scenario: a linearized certificate on the tracks box, which the robot leaves from the set's
+    # boundary: the verdict fails (exit 1) and names what did it
+    r = CliRunner().invoke(main, ["run", str(BASE_CONFIG), "-o", str(out), "--runs", "40"])
+    assert r.exit_code == 1, r.output
+    assert "FAILED: nonlinear: one period from the boundary of the certified set stays in it" in r.output
+    assert "the robot left from e = (" in r.output and "delays of the packets acting in the period" in r.output
+    return out
+
+
+@pytest.fixture(scope="module")
+def passing_dir(tmp_path_factory):
+    """A run whose verdict passes (the icr box of the physics robot, linearized: the robot keeps its set)."""
+    out = tmp_path_factory.mktemp("passing")
+    r = CliRunner().invoke(main, ["run", str(PASSING_CONFIG), "-o", str(out), "--runs", "10", "--no-plots"])
     assert r.exit_code == 0, r.output
     return out
 
@@ -40,7 +57,11 @@ def test_verification_json_is_consistent(run_dir) -> None:
     from robustsynth.artifacts.gains import gains_id
 
     v = json.loads((run_dir / "verification.json").read_text())
-    assert v["passed"] is True
+    # failed by the robot, and by nothing else: the probe from the boundary and the adversary from it
+    assert v["passed"] is False
+    assert {c["name"] for c in v["checks"] if not c["passed"]} == {
+        "nonlinear: one period from the boundary of the certified set stays in it",
+        "nonlinear: the adversary from the boundary of the certified set keeps it there"}
     g = json.loads((run_dir / "gains.json").read_text())
     assert v["gains_id"] == g["gains_id"] == gains_id(g)
     for c in v["checks"]:
@@ -69,8 +90,8 @@ def test_verify_without_plots_leaves_no_earlier_figures(run_dir, tmp_path) -> No
     shutil.copytree(run_dir, tmp_path / "r")
     assert len(list((tmp_path / "r" / "figures").glob("*.png"))) == 7
     (tmp_path / "r" / "figures" / "notes.txt").write_text("mine\n")
-    r = CliRunner().invoke(main, ["verify", "-o", str(tmp_path / "r"), "--runs", "1", "--no-plots"])
-    assert r.exit_code == 0, r.output
+    r = CliRunner().invoke(main, ["verify", str(BASE_CONFIG), "-o", str(tmp_path / "r"), "--runs", "1", "--no-plots"])
+    assert r.exit_code == 1, r.output  # the robot leaves this linearized certificate's set
     assert sorted(p.name for p in (tmp_path / "r" / "figures").iterdir()) == ["notes.txt"]
     md = (tmp_path / "r" / "verification.md").read_text()
     assert "figures/" not in md
@@ -78,13 +99,13 @@ def test_verify_without_plots_leaves_no_earlier_figures(run_dir, tmp_path) -> No
     bp = json.loads((tmp_path / "r" / "verification.json").read_text())["monte_carlo"]["boundary_probe"]
     top = max(bp["max_V_over_level_nonlinear"], bp["adversary"]["max_V_over_level"])
     said = f"the proof is for the robot's linearization: from the boundary of its set the nonlinear robot reaches V/level {top:.3f}"
-    assert top > 1.0 and said in r.output and md.splitlines()[2] == f"> Note: {said} (not in the verdict; " \
-        "a certificate made with synthesis.kinematics: nonlinear is proven for the robot, where one exists: docs/theory.md §9)."
+    assert top > 1.0 and said in r.output and md.splitlines()[2] == f"> Note: {said}, so the verdict fails; " \
+        "synthesis.kinematics: nonlinear proves the set for the robot, where one exists: docs/theory.md §9."
 
 
 @pytest.mark.parametrize("bp, says", [
     ({}, False),
-    ({"in_verdict": True, "max_V_over_level_nonlinear": 1.2}, False),  # a nonlinear certificate: its verdict judges it
+    ({"in_verdict": True, "max_V_over_level_nonlinear": 1.2}, "1.200"),  # every verdict judges the robot now
     ({"in_verdict": False, "max_V_over_level_nonlinear": 0.97, "adversary": {"max_V_over_level": 0.99}}, False),
     ({"in_verdict": False, "max_V_over_level_nonlinear": 0.97, "max_V_over_level_linear": 0.95,
       "adversary": {"max_V_over_level": 1.04}}, "1.040"),
@@ -92,49 +113,31 @@ def test_verify_without_plots_leaves_no_earlier_figures(run_dir, tmp_path) -> No
       "arcs": {"max_V_over_level_nonlinear": 1.09}}, "1.090"),
 ])
 def test_robot_leaves_is_said_only_of_a_linearized_certificate_the_robot_leaves(bp, says) -> None:
-    from robustsynth.config import default_config
     from robustsynth.report.verification import robot_leaves
 
-    got = robot_leaves({"boundary_probe": bp} if bp else {}, default_config())
+    got = robot_leaves({"boundary_probe": bp} if bp else {}, make_config())
     assert (got == "") if says is False else (f"linearization: from the boundary of its set the nonlinear robot reaches "
-                                              f"V/level {says} " in got and "synthesis.kinematics: nonlinear is proven" in got)
+                                              f"V/level {says}, so the verdict fails" in got
+                                              and "synthesis.kinematics: nonlinear proves the set for the robot" in got)
 
 
 def test_robot_leaves_blames_the_model_the_exact_map_leaves_and_suggests_only_what_the_config_can_have() -> None:
     """The paper's model: the exact (slip-aware) lifted map leaves the set too, so the linearization is not
-    the cause (review: the note blamed it at 1.348 on the exact map).  The icr slip model has no nonlinear
-    kinematics yet: it is not suggested there, nor the ultimate-bound objective's absence hidden."""
-    from robustsynth.config import default_config
+    the cause (review: the note blamed it at 1.348 on the exact map).  The icr slip model has nonlinear
+    kinematics now: it is suggested there too.  A nonlinear certificate the robot leaves is a defect, said so."""
     from robustsynth.report.verification import robot_leaves
 
-    bp = {"in_verdict": False, "max_V_over_level_nonlinear": 2.584, "max_V_over_level_linear": 1.348}
-    got = robot_leaves({"boundary_probe": bp}, default_config(**{"synthesis.model": "paper"}))
+    bp = {"in_verdict": True, "max_V_over_level_nonlinear": 2.584, "max_V_over_level_linear": 1.348}
+    got = robot_leaves({"boundary_probe": bp}, make_config(**{"synthesis.model": "paper"}))
     assert got.startswith("the certificate's model is not the robot's: from the boundary of its set the exact lifted map "
                           "reaches V/level 1.348 and the nonlinear robot 2.584") and "synthesis.model: slip-aware" in got
     assert "linearization" not in got and "kinematics: nonlinear" not in got
-    bp = {"in_verdict": False, "max_V_over_level_nonlinear": 1.024, "max_V_over_level_linear": 0.95}
-    icr = robot_leaves({"boundary_probe": bp}, default_config(**{"slip.model": "icr", "slip.yaw.min": 0.54, "slip.yaw.max": 0.67,
+    bp = {"in_verdict": True, "max_V_over_level_nonlinear": 1.024, "max_V_over_level_linear": 0.95}
+    icr = robot_leaves({"boundary_probe": bp}, make_config(**{"slip.model": "icr", "slip.yaw.min": 0.54, "slip.yaw.max": 0.67,
                                                           "slip.icr_offset.min": 0.0, "slip.icr_offset.max": 0.09}))
-    assert "is not available for slip.model: icr yet: docs/theory.md §12" in icr and "is proven for the robot" not in icr
-    nb = robot_leaves({"boundary_probe": bp}, default_config(**{"synthesis.delay_description": "norm-bounded"}))
-    assert ("synthesis.kinematics: nonlinear (delay vertices (delay_description auto, polytopic or lossy-polytopic)) "
-            "is proven for the robot") in nb  # review: suggested where the config refuses it
-    stab = robot_leaves({"boundary_probe": bp}, default_config(**{"synthesis.objective": "stability"}))
-    assert "synthesis.kinematics: nonlinear (objective ultimate-bound) is proven for the robot" in stab
-
-
-@pytest.mark.parametrize("factor", [-1.0, 0.0, 20.0])
-def test_destabilizing_gain_exits_1(run_dir, tmp_path, factor) -> None:
-    g = json.loads((run_dir / "gains.json").read_text())
-    g["K"] = (np.asarray(g["K"]) * factor).tolist()
-    bad = tmp_path / "bad.json"
-    bad.write_text(json.dumps(g))
-    r = CliRunner().invoke(main, ["verify", "--gains", str(bad), "-o", str(tmp_path / "v"), "--runs", "10", "--no-plots"])
-    assert r.exit_code == 1, r.output
-    assert "FAILED: certificate: LMIs re-checked in numpy" in r.output
-    assert "FAILED: frozen delays: spectral radius < 1" in r.output
-    v = json.loads((tmp_path / "v" / "verification.json").read_text())
-    assert v["passed"] is False
+    assert "synthesis.kinematics: nonlinear proves the set for the robot" in icr
+    nl = robot_leaves({"boundary_probe": bp}, load_config(PASSING_CONFIG.parent / "nonlinear-proof.yaml"))
+    assert nl.startswith("the robot leaves a set proven for it (V/level 1.024)")
 
 
 def test_gain_without_certificate_gets_one_searched_for_its_fixed_K(run_dir, tmp_path) -> None:
@@ -143,7 +146,7 @@ def test_gain_without_certificate_gets_one_searched_for_its_fixed_K(run_dir, tmp
     g = json.loads((run_dir / "gains.json").read_text())
     bare = tmp_path / "handmade.json"
     bare.write_text(json.dumps({"K": g["K"]}))
-    r = CliRunner().invoke(main, ["verify", "--gains", str(bare), "-o", str(tmp_path / "v"), "--runs", "10", "--no-plots"])
+    r = CliRunner().invoke(main, ["verify", str(BASE_CONFIG), "--gains", str(bare), "-o", str(tmp_path / "v"), "--runs", "10", "--no-plots"])
     assert r.exit_code == 0, r.output
     v = json.loads((tmp_path / "v" / "verification.json").read_text())
     chk = {c["name"]: c for c in v["checks"]}
@@ -157,7 +160,7 @@ def test_gain_nothing_certifies_fails_and_says_so(run_dir, tmp_path) -> None:
     g = json.loads((run_dir / "gains.json").read_text())
     bare = tmp_path / "handmade.json"
     bare.write_text(json.dumps({"K": (20.0 * np.asarray(g["K"])).tolist()}))  # unstable: nothing can certify it
-    r = CliRunner().invoke(main, ["verify", "--gains", str(bare), "-o", str(tmp_path / "v"), "--runs", "10", "--no-plots"])
+    r = CliRunner().invoke(main, ["verify", str(BASE_CONFIG), "--gains", str(bare), "-o", str(tmp_path / "v"), "--runs", "10", "--no-plots"])
     assert r.exit_code == 1
     v = json.loads((tmp_path / "v" / "verification.json").read_text())
     chk = {c["name"]: c for c in v["checks"]}
@@ -197,15 +200,16 @@ def test_missing_gains_exits_2(tmp_path) -> None:
     assert r.exit_code == 2 and "gains file not found" in r.output
 
 
-def test_pdf_figures(run_dir, tmp_path) -> None:
-    r = CliRunner().invoke(main, ["verify", "--gains", str(run_dir / "gains.json"), "-o", str(tmp_path), "--runs", "5",
+def test_pdf_figures(passing_dir, tmp_path) -> None:
+    r = CliRunner().invoke(main, ["verify", str(PASSING_CONFIG), "--gains", str(passing_dir / "gains.json"), "-o", str(tmp_path),
+                                  "--runs", "5",
                                   "--format", "pdf"])
     assert r.exit_code == 0, r.output
     assert (tmp_path / "figures" / "errors.pdf").read_bytes()[:5] == b"%PDF-"
 
 
 def test_run_forwards_synthesis_options(tmp_path) -> None:
-    r = CliRunner().invoke(main, ["run", "-o", str(tmp_path), "--objective", "stability", "--multiplier", "full",
+    r = CliRunner().invoke(main, ["run", str(BASE_CONFIG), "-o", str(tmp_path), "--objective", "stability", "--multiplier", "full",
                                   "--runs", "5", "--no-plots"])
     assert r.exit_code == 0, r.output
     g = json.loads((tmp_path / "gains.json").read_text())
@@ -220,8 +224,8 @@ def test_run_forwards_synthesis_options(tmp_path) -> None:
     assert v["passed"] is True
 
 
-def test_verify_reads_gains_mat(run_dir, tmp_path) -> None:
-    r = CliRunner().invoke(main, ["verify", "--gains", str(run_dir / "gains.mat"), "-o", str(tmp_path), "--runs", "5",
+def test_verify_reads_gains_mat(passing_dir, tmp_path) -> None:
+    r = CliRunner().invoke(main, ["verify", str(PASSING_CONFIG), "--gains", str(passing_dir / "gains.mat"), "-o", str(tmp_path), "--runs", "5",
                                   "--no-plots"])
     assert r.exit_code == 0, r.output
     v = json.loads((tmp_path / "verification.json").read_text())
@@ -229,13 +233,13 @@ def test_verify_reads_gains_mat(run_dir, tmp_path) -> None:
     assert names["certificate: LMIs re-checked in numpy"] is True
 
 
-def test_verify_mat_with_only_K(run_dir, tmp_path) -> None:
+def test_verify_mat_with_only_K(passing_dir, tmp_path) -> None:
     from scipy.io import savemat
 
-    g = json.loads((run_dir / "gains.json").read_text())
+    g = json.loads((passing_dir / "gains.json").read_text())
     p = tmp_path / "other_tool.mat"
     savemat(p, {"K": np.asarray(g["K"])})
-    r = CliRunner().invoke(main, ["verify", "--gains", str(p), "-o", str(tmp_path / "v"), "--runs", "5", "--no-plots"])
+    r = CliRunner().invoke(main, ["verify", str(PASSING_CONFIG), "--gains", str(p), "-o", str(tmp_path / "v"), "--runs", "5", "--no-plots"])
     assert r.exit_code == 0, r.output  # no certificate in the file: one is found for the fixed K
     bad = tmp_path / "broken.mat"
     bad.write_bytes(b"not a mat file")
@@ -262,18 +266,16 @@ def test_path_shorter_than_transient_fails_instead_of_passing_vacuously(run_dir,
     assert "FAILED: nonlinear: steps after the transients exist" in r.output
 
 
-def test_certified_gain_is_judged_from_the_start_of_a_short_path(run_dir, tmp_path) -> None:
+def test_certified_gain_is_judged_from_the_start_of_a_short_path(passing_dir, tmp_path) -> None:
     """With a certificate the runs start in the certified set (steady state of their first slip), so
     every step of a path without waypoints is covered and judged against the certificate itself."""
     import yaml
 
-    from ..conftest import default_dict
-
-    d = default_dict()
+    d = yaml.safe_load(PASSING_CONFIG.read_text())
     d["verification"] = {"path": [[0, 0], [1.0, 0]], "runs": 5, "adversarial_runs": 2, "adversarial_steps": 20}
     cfg = tmp_path / "short.yaml"
     cfg.write_text(yaml.safe_dump(d))
-    r = CliRunner().invoke(main, ["verify", str(cfg), "--gains", str(run_dir / "gains.json"), "-o", str(tmp_path / "v"),
+    r = CliRunner().invoke(main, ["verify", str(cfg), "--gains", str(passing_dir / "gains.json"), "-o", str(tmp_path / "v"),
                                   "--no-plots"])
     assert r.exit_code == 0, r.output
     v = json.loads((tmp_path / "v" / "verification.json").read_text())
@@ -291,12 +293,12 @@ def test_a_gain_for_another_config_names_it_and_the_physics(tmp_path) -> None:
 
     root = Path(__file__).resolve().parents[2]
     cfg = tmp_path / "other.yaml"
-    cfg.write_text((root / "configs" / "default.yaml").read_text().replace("{min: 0.6, max: 1.0}", "{min: 0.3, max: 1.0}")
+    cfg.write_text((root / "configs" / "tracks-box.yaml").read_text().replace("{min: 0.6, max: 1.0}", "{min: 0.3, max: 1.0}")
                    .replace("name: default", "name: other"))
-    r = CliRunner().invoke(main, ["verify", str(cfg), "--gains", str(root / "results" / "baselines" / "default" / "gains.json"),
+    r = CliRunner().invoke(main, ["verify", str(cfg), "--gains", str(root / "results" / "baselines" / "tracks-box" / "gains.json"),
                                   "-o", str(tmp_path / "out"), "--no-plots", "--runs", "3"])
     assert r.exit_code == 1
-    assert "made for config 'default'" in r.output and "slip.right.min 0.6 -> 0.3" in r.output
+    assert "made for config 'tracks-box'" in r.output and "slip.right.min 0.6 -> 0.3" in r.output
     assert "required >= 5e-08" in r.output
     assert "physically infeasible" in r.output and "18.5 rad/s" in r.output
 
@@ -323,7 +325,7 @@ def test_an_unwritable_log_place_is_refused_before_the_work(tmp_path) -> None:
     (a review found the whole verification done and written, "passed" printed, and then exit 2)."""
     (tmp_path / "afile").write_text("x")
     out = tmp_path / "out"
-    gains = Path(__file__).resolve().parents[2] / "results" / "baselines" / "default" / "gains.json"
+    gains = Path(__file__).resolve().parents[2] / "results" / "baselines" / "tracks-box" / "gains.json"
     r = CliRunner().invoke(main, ["verify", "--gains", str(gains), "--runs", "1", "--no-plots", "--log",
                                   str(tmp_path / "afile" / "logs"), "-o", str(out)])
     assert r.exit_code == 2, r.output

@@ -79,7 +79,7 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
         + (f"yaw factor in [{cfg.slip.yaw.min:g}, {cfg.slip.yaw.max:g}], x_icr in [{cfg.slip.icr_offset.min:g}, "
            f"{cfg.slip.icr_offset.max:g}] m (slip.model icr: lateral sliding, docs/theory.md §12), "
            if cfg.slip.model == "icr" else "")
-        + _within_text(result.certified.get("slip_within_period"), len(model.varying))
+        + _within_text(result.certified.get("slip_within_period"), len(model.varying), model.icr)
         + ("free to jump anywhere in its range every period" if rate is None else
         f"changing at most {rate:g} /s (" + (f"the {cfg.synthesis.lyapunov} certificate uses the rate bound"
                                               if cfg.synthesis.lyapunov != "common" else
@@ -98,7 +98,9 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
             f"- model `slip-aware` with **nonlinear kinematics**: exact in slip and delay, and the terms the linearization"
             f" drops (docs/theory.md §2) are covered over the exact arcs of each period as bounded channels, valid while"
             f" |e_theta(t)| <= {hb:g} rad — which the certificate proves on its own set (docs/theory.md §9). Assumed:"
-            f" the kinematic model itself (tracks as the paper's slip factors), "
+            + (" the kinematic model itself (the icr model: per-track traction, a yaw factor, the body sliding sideways"
+               " at v_y = -x_icr omega; slip as an instantaneous map of the commands, no dynamics), " if model.icr else
+               " the kinematic model itself (tracks as the paper's slip factors), ")
             + ("slip free to change within a period (covered, above)" if result.certified.get("slip_within_period") == "covered"
                else "slip constant within a period")
             + f", {_path_text(model)}, in-order delivery. LMIs at {len(model.vertices)}"
@@ -208,8 +210,11 @@ def _path_text(model: Any) -> str:
             "rad/s between periods (reference.turn_radius: the rounded corners are covered, docs/theory.md §10)")
 
 
-def _within_text(within: str | None, n: int) -> str:
-    """How the certificate treats slip that changes between sampling instants (docs/theory.md §11)."""
+def _within_text(within: str | None, n: int, icr: bool = False) -> str:
+    """How the certificate treats slip that changes between sampling instants (docs/theory.md §11, §12)."""
+    if within == "covered" and icr:
+        return ("free to change at any time, also within a sampling period (covered: channels bound the map's deviation "
+                "from the constant-slip vertices' hull, docs/theory.md §12), ")
     if within == "covered":
         return (f"free to change at any time, also within a sampling period (covered: the LMI holds at {n} vertices of"
                 " the slip's averages over each command interval, docs/theory.md §11), ")

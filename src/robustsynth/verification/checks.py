@@ -443,6 +443,39 @@ def _adversary(within: bool, model, *args, **kwargs) -> dict:
     return out
 
 
+def _fmt(x: Any, scale: float = 1.0, digits: int = 3) -> str:
+    return "(" + ", ".join(f"{scale * float(v):.{digits}g}" for v in np.atleast_1d(np.asarray(x, dtype=float))) + ")"
+
+
+def describe_probe_run(model, worst: dict[str, Any]) -> str:
+    """The probe's worst run in words: the boundary state (errors in cm and rad, the stored commands), the slip
+    (and its change within the period), the delays of the packets acting in the period, and V(xi+)/level."""
+    xi = np.asarray(worst["xi"], dtype=float)
+    n_e, n_u, d_hi = model.n_e, model.n_u, model.d_hi
+    names = ", ".join(model.slip_names)
+    mu, after = np.asarray(worst["mu"], dtype=float), np.asarray(worst["mu_after"], dtype=float)
+    t_sw = np.atleast_1d(np.asarray(worst["t_switch"], dtype=float))
+    jump = "" if np.allclose(mu, after) or np.all(t_sw >= model.Ts) else \
+        f" changing to {_fmt(after)} at {_fmt(t_sw, 1e3)} ms into the period"
+    taus = np.asarray(worst["tau"], dtype=float)
+    return (f"e = {_fmt(xi[:2], 100)} cm, e_theta = {xi[2]:.4g} rad, stored commands (dV, omega) "
+            f"{_fmt(xi[n_e:n_e + d_hi * n_u])}, slip ({names}) = {_fmt(mu)}{jump}, delays of the packets acting in the "
+            f"period {_fmt(taus, 1e3)} ms: one period later V/level = {float(worst['V_over_level']):.4g}")
+
+
+def describe_adversary_run(model, worst: dict[str, Any], starts: np.ndarray, level: float) -> str:
+    """The adversary's worst history from the boundary in words: its start, course, slips and delays per period."""
+    mu = np.asarray(worst["mu"], dtype=float)
+    taus = np.asarray(worst["tau"], dtype=float)
+    x0 = np.asarray(starts[int(worst["start"])], dtype=float)
+    shown = min(mu.shape[0], 4)
+    return (f"{mu.shape[0]} periods on the {worst.get('course', 'straight')} course from the boundary state "
+            f"e = {_fmt(x0[:2], 100)} cm, e_theta = {x0[2]:.4g} rad; slip per period "
+            + ", ".join(_fmt(m) for m in mu[:shown]) + (" ..." if mu.shape[0] > shown else "")
+            + f"; delays {_fmt(taus[: shown + model.d_hi], 1e3)}" + (" ..." if taus.size > shown + model.d_hi else "")
+            + f" ms: V/level {float(worst['value']) / level:.4g} at its end")
+
+
 def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: int, progress):
     vc = model.config.verification
     path = path_of(model.config)
@@ -537,14 +570,15 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
                                    + (int(np.sum(adv_v > 1.0 + LEVEL_TOL)) if adv is not None else 0)),
             "waypoints": switches,
         }
-        # a linearized certificate proves nothing about the nonlinear robot on the set's boundary: the probe
-        # is measured and reported beside the verdict (docs/theory.md §7).  A nonlinear certificate claims
-        # exactly this (theory §9): then it is part of the verdict.
+        # the verdict judges the robot, whatever the certificate's kind (issue 49): a nonlinear certificate claims
+        # that no state of its set leaves it (docs/theory.md §9); a linearized one proves it for the robot's
+        # linearization only, and where the robot leaves its set the verdict says so (it fails) and names the
+        # state, slip, delays and period that did it (docs/theory.md §7)
         probe = boundary_probe(model, K, lyap, level, samples=PROBE_SAMPLES, seed=seed,
                                within_period=cert.figures.get("slip_within_period") == "covered", refine=PROBE_REFINE)
         nonlinear_proof = gains["certificate"].get("kinematics", "linearized") == "nonlinear"
         mc["boundary_probe"] = {k: v for k, v in probe.items() if k not in ("worst", "searched_states") and v is not None}
-        mc["boundary_probe"]["in_verdict"] = nonlinear_proof
+        mc["boundary_probe"]["in_verdict"] = True
         if cert.figures.get("ultimate_bound_between_samples"):  # beside what the probe measured between the samples
             mc["boundary_probe"]["between_samples"] = dict(probe["between_samples"],
                                                            bound=dict(cert.figures["ultimate_bound_between_samples"]),
@@ -562,44 +596,49 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
                 mc["boundary_probe"]["adversary"] = {"starts": int(xb.shape[0]), "searched_starts": int(xb.shape[0]) - n_fig,
                                                      "steps": steps_b,
                                                      "max_V_over_level": adv_b["max_V"] / level,
-                                                     "courses": list(adversary_courses(model))}
+                                                     "courses": list(adversary_courses(model)),
+                                                     "worst": describe_adversary_run(model, adv_b["worst"]["V"], xb, level)}
         # waypoint turns: the certificate's bounds through each frame change, beside the verdict (the
         # measured switch values are in V_over_level.waypoints); docs/theory.md §10
         mc["turns"] = turn_bounds(model, K, gains["certificate"], cert.figures)
-        if nonlinear_proof:
-            bp = probe["max_V_over_level_nonlinear"]
-            checks.append(_check("nonlinear: one period from the boundary of the certified set stays in it", bp <= 1.0 + LEVEL_TOL,
-                                 bp, 1.0, f"max V(xi+)/level over {probe['samples']} boundary states (exact arcs, slip corners, "
-                                 "admissible delays)" + (f" and a local search from the {probe['refinement']['starts']} worst"
-                                                         if probe.get("refinement") else "")
-                                 + ": the nonlinear certificate's claim"))
-            arcs = probe.get("arcs")
-            if arcs is not None:  # a turning certificate for the nonlinear robot claims the arcs too (theory §10)
-                checks.append(_check("nonlinear: one period on an arc from the boundary of the certified set stays in it",
-                                     arcs["max_V_over_level_nonlinear"] <= 1.0 + LEVEL_TOL, arcs["max_V_over_level_nonlinear"],
-                                     1.0, f"max V(xi+)/level over {arcs['runs']} boundary states, the reference turning at "
-                                     f"up to {arcs['max_yaw_rate']:.3g} rad/s with the steps the certificate allows (exact "
-                                     "arcs, slip corners, admissible delays"
-                                     + (f"; {arcs['mid_period_runs']} with the slip jumping within the period"
-                                        if arcs.get("mid_period_runs") else "") + ")"))
-            bs = _between_samples_ratio(probe, cert.figures)
-            if bs is not None:  # the bounds for all t are a claim about the robot too (theory §9, §10)
-                checks.append(_check("nonlinear: between samples, the errors from the boundary of the certified set stay "
-                                     "within the bounds for all t", bs[0] <= 1.0 + LEVEL_TOL, bs[0], 1.0,
-                                     f"largest |error(t)| / its bound over {probe['between_samples']['states']} boundary "
-                                     f"states at {probe['between_samples']['instants']} instants of the period (exact arcs"
-                                     + (", on a straight line and on arcs" if "arcs" in probe["between_samples"] else "")
-                                     + f"): {bs[1]}"))
-            if "adversary" in mc["boundary_probe"]:
-                ab = mc["boundary_probe"]["adversary"]
-                checks.append(_check("nonlinear: the adversary from the boundary of the certified set keeps it there",
-                                     ab["max_V_over_level"] <= 1.0 + LEVEL_TOL, ab["max_V_over_level"], 1.0,
-                                     f"beam search over {ab['steps']} periods from {ab['starts']} boundary states (each "
-                                     "figure's maximizer at every slip corner"
-                                     + (f", and the probe's {ab['searched_starts']} worst after its local search"
-                                        if ab.get("searched_starts") else "") + ")" + (", on a straight line and along arcs, fixed ones and ones whose "
-                                                                                  "yaw rates the adversary picks"
-                                                                                  if len(ab["courses"]) > 1 else "")))
+        kind = ("the nonlinear certificate's claim" if nonlinear_proof else
+                "a certificate for the linearization: judged on the robot all the same")
+        bp = probe["max_V_over_level_nonlinear"]
+        checks.append(_check("nonlinear: one period from the boundary of the certified set stays in it", bp <= 1.0 + LEVEL_TOL,
+                             bp, 1.0, f"max V(xi+)/level over {probe['samples']} boundary states (exact arcs, slip corners, "
+                             "admissible delays)" + (f" and a local search from the {probe['refinement']['starts']} worst"
+                                                     if probe.get("refinement") else "")
+                             + f": {kind}" + ("" if bp <= 1.0 + LEVEL_TOL else
+                                              f"; the robot left from {describe_probe_run(model, probe['worst'])}")))
+        arcs = probe.get("arcs")
+        if arcs is not None:  # a turning certificate for the nonlinear robot claims the arcs too (theory §10)
+            checks.append(_check("nonlinear: one period on an arc from the boundary of the certified set stays in it",
+                                 arcs["max_V_over_level_nonlinear"] <= 1.0 + LEVEL_TOL, arcs["max_V_over_level_nonlinear"],
+                                 1.0, f"max V(xi+)/level over {arcs['runs']} boundary states, the reference turning at "
+                                 f"up to {arcs['max_yaw_rate']:.3g} rad/s with the steps the certificate allows (exact "
+                                 "arcs, slip corners, admissible delays"
+                                 + (f"; {arcs['mid_period_runs']} with the slip jumping within the period"
+                                    if arcs.get("mid_period_runs") else "") + ")"))
+        bs = _between_samples_ratio(probe, cert.figures)
+        if bs is not None:  # the bounds for all t are a claim about the robot too (theory §9, §10)
+            checks.append(_check("nonlinear: between samples, the errors from the boundary of the certified set stay "
+                                 "within the bounds for all t", bs[0] <= 1.0 + LEVEL_TOL, bs[0], 1.0,
+                                 f"largest |error(t)| / its bound over {probe['between_samples']['states']} boundary "
+                                 f"states at {probe['between_samples']['instants']} instants of the period (exact arcs"
+                                 + (", on a straight line and on arcs" if "arcs" in probe["between_samples"] else "")
+                                 + f"): {bs[1]}"))
+        if "adversary" in mc["boundary_probe"]:
+            ab = mc["boundary_probe"]["adversary"]
+            left = "" if ab["max_V_over_level"] <= 1.0 + LEVEL_TOL else f"; it left along {ab['worst']}"
+            checks.append(_check("nonlinear: the adversary from the boundary of the certified set keeps it there",
+                                 ab["max_V_over_level"] <= 1.0 + LEVEL_TOL, ab["max_V_over_level"], 1.0,
+                                 f"beam search over {ab['steps']} periods from {ab['starts']} boundary states (each "
+                                 "figure's maximizer at every slip corner"
+                                 + (f", and the probe's {ab['searched_starts']} worst after its local search"
+                                    if ab.get("searched_starts") else "") + ")" + (", on a straight line and along arcs, fixed ones and ones whose "
+                                                                              "yaw rates the adversary picks"
+                                                                              if len(ab["courses"]) > 1 else "")
+                                 + left))
         worst_v = max(mc["V_over_level"]["max_in_certified_steps"], mc["adversarial"]["max_V_over_level"] if adv else 0.0)
         checks.append(_check("nonlinear: the robot's lifted state stays in the certified set", worst_v <= 1.0 + LEVEL_TOL,
                              worst_v, 1.0, f"max V/level on the certified steps of the Monte Carlo, extreme and adversarial "

@@ -98,7 +98,7 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
     corners = slip_vertices(model)
     # slip jumps within the period (the default slip class): samples // 2 more random runs, each with a
     # jump to a random corner at a random time
-    n_jump = samples // 2 if model.slip_step is None and corners.shape[0] > 1 and not model.icr else 0
+    n_jump = samples // 2 if model.slip_step is None and corners.shape[0] > 1 else 0
     dirs = probe_directions(model, K, lyap, samples + n_jump, rng)
     N = dirs.shape[0]
     mu = corners[rng.integers(0, corners.shape[0], size=N)]
@@ -203,9 +203,7 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
                 return np.concatenate([e, after], axis=1)
 
             def arc_admissible(x: np.ndarray, runs: np.ndarray) -> np.ndarray:
-                from ..model.arcs import FEEDFORWARD
-
-                return _within_motor_limit(model, uD + split_state(model, x)[1] + w_k[runs, 1:, None] * FEEDFORWARD)
+                return _within_motor_limit(model, uD + split_state(model, x)[1] + w_k[runs, 1:, None] * model.turn_feedforward)
 
             ra = _refine_worst(model, lyap, level, xi, mu, t_sw, jumped, np.flatnonzero(on_arc), r_arc_all, refine,
                                arc_one_period, lambda x, runs: v_next(x, runs) / level, rng, arc_admissible)
@@ -381,11 +379,10 @@ def arc_yaw_rates(model: Any, N: int, rng: np.random.Generator) -> np.ndarray:
 
 
 def arc_commands(model: Any, du: np.ndarray, du_past: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """The commands in flight (N, d_hi + 1, 2) on an arc: command j is (V^D, w_{k-j}) + du_{k-j}."""
-    from ..model.arcs import FEEDFORWARD
-
+    """The commands in flight (N, d_hi + 1, 2) on an arc: command j is (V^D, 0) + w_{k-j} g + du_{k-j} (g the turning
+    feedforward, ``Model.turn_feedforward``)."""
     uD = np.array([model.V, 0.0])
-    return np.concatenate([(uD + du)[:, None], uD + du_past], axis=1) + w[:, :, None] * FEEDFORWARD
+    return np.concatenate([(uD + du)[:, None], uD + du_past], axis=1) + w[:, :, None] * model.turn_feedforward
 
 
 def errors_between_samples(model: Any, e0: np.ndarray, U: np.ndarray, S: np.ndarray, mu: np.ndarray,

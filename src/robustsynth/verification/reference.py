@@ -69,7 +69,7 @@ def simulate_run(model, K: np.ndarray, path: PathGeometry, scen: Scenario, n: in
             z = z + Ts * e_meas[:2]
         dus.append(du)
         past = [du] + past[:-1]
-        u_hat.append(uD + du + np.array([0.0, path.feedforward(t0)]))  # a turning reference's yaw rate
+        u_hat.append(uD + du + path.feedforward(t0) * model.turn_feedforward)  # a turning reference's yaw rate
         t1 = t0 + Ts
         # the slip: mu[k] over the period, or each track mu[k-1] until its change within the period and
         # mu[k] after it

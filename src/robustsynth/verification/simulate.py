@@ -18,9 +18,8 @@ import numpy as np
 from ..errors import check_interrupt
 from ..plants.kinematic import KinematicRobot
 from ..plants.path import PathGeometry, arc_frame_error, frame_error, make_path, path_from_yaw_rates, pose_from_error
-from ..law import Law
+from ..law import Law, tangent_length, turn_shape
 from ..scenarios import Scenario, delay_candidates, loss_allowed, slip_candidates, split_state, track_changes
-from ..model.arcs import FEEDFORWARD as TURN_FEEDFORWARD
 
 __all__ = [
     "SimResult",
@@ -89,6 +88,7 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
     XI = np.empty((N, steps, model.n_s))
     DU = np.empty((N, steps, 2))
     FF = np.zeros(steps)
+    g = model.turn_feedforward  # the command per rad/s of the reference's yaw rate
     Q[:, 0] = q
     law = control_law(model, K, path, scen)  # the deployed controller, one memory per run
     for k in range(steps):
@@ -98,7 +98,7 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
         dv, dw = law.correction(t[k], meas[:, 0], meas[:, 1], meas[:, 2])  # also z_{k+1} = z_k + Ts (e_x, e_y)_k
         du = np.stack([dv, dw], axis=1)
         FF[k] = law.feedforward(t[k])  # a turning reference's yaw rate w_k (0 on a polyline)
-        U = robot.send(U, uD + du + FF[k] * TURN_FEEDFORWARD)
+        U = robot.send(U, uD + du + FF[k] * g)
         XI[:, k], DU[:, k] = _xi(law), du
         mu_k, change = scen.slip_in_period(k)
         q = robot.period(q, U, S[:, k], mu_k, switch=change)
@@ -106,7 +106,7 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
         if progress is not None and (k % 50 == 0 or k == steps - 1):
             progress(k + 1, steps)
     E[:, steps] = frame_error(path, seg[steps], q, t[steps])
-    rho = (uD + DU + FF[:, None] * TURN_FEEDFORWARD) @ J_inv.T
+    rho = (uD + DU + FF[:, None] * g) @ J_inv.T
     since_switch = t - path.t_start[seg]
     settled = (t >= transient) & (since_switch >= transient)
     return SimResult(t, Q, E, XI, DU, rho, seg, settled)
@@ -234,7 +234,7 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
     maxima = {"e_x": 0.0, "e_y": 0.0, "e_theta": 0.0, "motor_speed": 0.0}
     max_V = -np.inf
     parents, MU, TAU, VK, SW, YAW = [], [], [], [], [], []
-    jumps = within_period and model.slip_step is None and not model.icr
+    jumps = within_period and model.slip_step is None
     for k in range(steps):
         check_interrupt()
         tk = k * Ts
@@ -246,7 +246,7 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
         n_y = W.shape[1]
         dv, dw = law.correction(0.0, q[:, 0], q[:, 1], q[:, 2])
         U = robot.send(np.broadcast_to(U[:, None], (P, n_y) + U.shape[1:]),
-                       (uD + np.stack([dv, dw], axis=1))[:, None] + W[..., None] * TURN_FEEDFORWARD)  # (P, n_y, d_hi + 1, 2)
+                       (uD + np.stack([dv, dw], axis=1))[:, None] + W[..., None] * model.turn_feedforward)  # (P, n_y, d_hi + 1, 2)
         if k == 0:  # the starts' own commands
             maxima["motor_speed"] = float(np.max(np.abs(U[:, :, 0] @ J_inv.T)))
         cand_mu = slip_candidates(model, mu_prev)  # (P, n_c, 2)
@@ -292,7 +292,7 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
             v = np.take_along_axis(v_all, v_arg[..., None], axis=-1)[..., 0]
         # the commands at t_{k+1}, with the next period's feedforward (on the free course the adversary's largest)
         W1 = model.turns.next_yaw_rates(W) if free else np.full((P, 1, 1), path.feedforward(tk + Ts))  # (P, n_y, n_y')
-        u1 = (uD + np.broadcast_to(W1[:, None, None, None, :, :, None], shape + W1.shape[-1:] + (1,)) * TURN_FEEDFORWARD
+        u1 = (uD + np.broadcast_to(W1[:, None, None, None, :, :, None], shape + W1.shape[-1:] + (1,)) * model.turn_feedforward
               + (xi_next @ K.T)[..., None, :])
         rho_all = np.max(np.abs(u1 @ J_inv.T), axis=-1)  # shape + (n_y',)
         w1_arg = np.argmax(rho_all, axis=-1)
@@ -385,7 +385,9 @@ def adversary_course(model, steps: int, course: str = "straight", yaw: np.ndarra
     wbar = float(turns.max_yaw_rate)
     r = V / wbar
     turn = min(wbar * arc * Ts, max(1.0, wbar * Ts))  # [rad] per corner
-    tangent = r * np.tan(turn / 2.0)
+    # eased turns where the certificate covers steps smaller than w_bar (reference.turn_ramp): the same ramp
+    ramp = wbar * Ts / float(turns.max_step) if float(turns.max_step) < wbar else None
+    tangent = tangent_length(turn, *turn_shape(turn, r, V * ramp)) if ramp else r * np.tan(turn / 2.0)
     legs = [tangent]
     while sum(legs) < length + 2 * tangent:
         legs.append(2 * tangent + V * Ts * gap)
@@ -394,7 +396,7 @@ def adversary_course(model, steps: int, course: str = "straight", yaw: np.ndarra
     for i, leg in enumerate(legs):
         wp.append(wp[-1] + leg * np.array([np.cos(heading), np.sin(heading)]))
         heading = turn if i % 2 == 0 else 0.0
-    return make_path(np.array(wp), V, r, Ts)
+    return make_path(np.array(wp), V, r, Ts, ramp)
 
 
 def adversary_start(model, K: np.ndarray, mu0: np.ndarray, steps: int, starts: np.ndarray | None = None,
