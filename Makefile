@@ -26,9 +26,10 @@ $(STAMP): pyproject.toml $(LOCK) | $(PY)
 
 install: $(STAMP)
 
-## make demo: install, then run the whole job on the embedded default config -> results/default/
+## make demo: install, then run the whole job on the embedded default config -> results/default/: synthesize,
+## verify, validate on the MuJoCo robot (4 episodes), export the controller as C
 demo: $(STAMP)
-	$(VENV)/bin/robustsynth run -o results/default
+	$(VENV)/bin/robustsynth run -o results/default --physics 4 --export c
 
 ## make test: install, then run the test suite on TEST_WORKERS processes (pytest-xdist), one BLAS
 ## thread each so the workers do not oversubscribe the cores
