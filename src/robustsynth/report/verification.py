@@ -184,9 +184,11 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
                               "measured time to V <= level [s]", "status"], rows))
     bp = mc.get("boundary_probe")
     if bp:
-        nonlinear = bp.get("in_verdict", False)
+        judged = bp.get("in_verdict", False)
+        # files written before the verdict judged every kind: in_verdict was the certificate's kind
+        nonlinear = bp["kinematics"] == "nonlinear" if "kinematics" in bp else judged
         out.append(
-            f"\n**From the boundary of the certified set** ({'part of the verdict' if nonlinear else 'not part of the verdict'}):"
+            f"\n**From the boundary of the certified set** ({'part of the verdict' if judged else 'not part of the verdict'}):"
             f" {bp['samples']} states on"
             f" V = level, spread over the set and at the maximizers of each bounded figure, with stored commands"
             f" within the motor limit, a slip corner and admissible delays, run for one period. On the exact lifted"
@@ -200,7 +202,7 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
             " per period. "
             + _mid_period_text(bp.get("mid_period") or {})
             + (_arcs_text(bp["arcs"]) if bp.get("arcs") else "")
-            + _between_text(bp.get("between_samples") or {}, nonlinear)
+            + _between_text(bp.get("between_samples") or {}, judged)
             + (f"The adversary's beam search from {bp['adversary']['starts']} of these states (each figure's maximizer"
                " at every slip corner" + (f", and the {bp['adversary']['searched_starts']} worst the local search found"
                                           if bp["adversary"].get("searched_starts") else "")

@@ -579,6 +579,8 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
         nonlinear_proof = gains["certificate"].get("kinematics", "linearized") == "nonlinear"
         mc["boundary_probe"] = {k: v for k, v in probe.items() if k not in ("worst", "searched_states") and v is not None}
         mc["boundary_probe"]["in_verdict"] = True
+        # what the certificate covers: the kinematic terms (nonlinear) or the linearization only
+        mc["boundary_probe"]["kinematics"] = "nonlinear" if nonlinear_proof else "linearized"
         if cert.figures.get("ultimate_bound_between_samples"):  # beside what the probe measured between the samples
             mc["boundary_probe"]["between_samples"] = dict(probe["between_samples"],
                                                            bound=dict(cert.figures["ultimate_bound_between_samples"]),
