@@ -38,8 +38,8 @@ for the icr slip model the command that makes the slip box's centre turn at w_k)
 import math
 from bisect import bisect_right
 
-__all__ = ["PathTable", "Law", "Controller", "segment_at", "turn_shape", "tangent_length", "frame_error", "wrap_angle", "SEGMENT_EPS", "sample_at", "advance",
-           "reference_at", "yaw_rate"]
+__all__ = ["PathTable", "Law", "Controller", "segment_at", "turn_shape", "tangent_length", "frame_error", "wrap_angle",
+           "SEGMENT_EPS", "sample_at", "advance", "reference_at", "yaw_rate"]
 
 SEGMENT_EPS = 1e-12  # [s] an instant within this of a waypoint time belongs to the new segment
 SAMPLE_EPS = 1e-9  # [periods] an instant within this of a sampling instant belongs to its period

@@ -221,10 +221,13 @@ class Model:
         scales = channel_scales(chans, theta_bar, self.V)
         verts = tuple(frozen_vertex(augment(v, ch, theta_bar, self.V, scales, group=g))
                       for v, ch, g in zip(self.base_vertices, chans, groups))
-        cover = tuple(frozen_vertex(augment(v, self.covering[t], theta_bar, self.V, scales, group=t))
-                      for v, t in zip(self.varying, self.varying_delay)) if covering else ()
-        if covering and self.icr:  # the icr channels cover every slip history on the constant-slip vertices (§12)
+        if not covering:
+            cover = ()
+        elif self.icr:  # the icr channels cover every slip history on the constant-slip vertices (§12)
             cover = verts
+        else:
+            cover = tuple(frozen_vertex(augment(v, self.covering[t], theta_bar, self.V, scales, group=t))
+                          for v, t in zip(self.varying, self.varying_delay))
         return replace(self.linearized(), vertices=verts, heading_bound=theta_bar, covering_vertices=cover)
 
     def with_turns(self, max_yaw_rate: float, max_step: float | None = None,

@@ -192,14 +192,13 @@ def icr_covering_channels(ranges: tuple[tuple[float, float], ...], coords: np.nd
 
     Heading rows: e_theta at the break points with each command interval's average yaw row at any of the images
     of the box's corners, independently per interval (e_theta is affine in each)."""
-    from .slip import icr_components, slip_corners, slip_matrix
+    from .slip import icr_components, icr_twist, slip_corners, slip_matrix
 
     coords = np.asarray(coords, dtype=float).reshape(d_hi, 2)
     comp = icr_components(ranges)  # (6, 2): s, d, ys, yd, xs, xd
     c, h = comp.mean(axis=1), (comp[:, 1] - comp[:, 0]) / 2.0
-    cs, cd, cys, cyd, cxs, cxd = c
     hs, hd, hys, hyd, hxs, hxd = h
-    T = np.array([[cs, cd * D / 4.0], [-cxd / D, -cxs], [cyd / D, cys]])  # (v_x, v_y, omega) per (v, omega_c)
+    T = icr_twist(c, D)  # the centre twist: (v_x, v_y, omega) per (v, omega_c)
     ch = vertex_channels(None, coords, V, Ts, T[[0, 2]], n_s, n_e, n_u, d_hi, lateral=T[1])
     lens, Ws = interval_coordinates(coords[:, 0], coords[:, 1], Ts)
     uD = np.array([V, 0.0])

@@ -16,8 +16,8 @@ import numpy as np
 from ..errors import InfeasibleError
 from .kinematics import JHJinv
 
-__all__ = ["slip_changes", "turn_feedforward", "icr_components", "icr_twist", "slip_corners", "corner_weights", "next_corner_weights", "slip_matrix", "lateral_row", "twist_matrix",
-           "compensated_command", "required_motor_speeds", "check_physical_feasibility", "SLIP_PARAMETERS",
+__all__ = ["slip_changes", "turn_feedforward", "icr_components", "icr_twist", "slip_corners", "corner_weights",
+           "next_corner_weights", "slip_matrix", "lateral_row", "twist_matrix", "compensated_command", "required_motor_speeds", "check_physical_feasibility", "SLIP_PARAMETERS",
            "nominal_slip", "slip_parameter_ranges"]
 
 _WIDTH_TOL = 1e-12
