@@ -323,3 +323,27 @@ def test_overlapping_solves_leave_the_warning_filters_as_they_were() -> None:
                                [lambda: True] * 4)
     assert [o.kind for o in outs] == ["ok"] * 4
     assert list(warnings.filters) == before
+
+
+def test_a_pending_signal_ends_the_clarabel_solve_in_flight() -> None:
+    """Signals are held while Clarabel runs (it would swallow SIGINT); its termination callback then ends the
+    solve at its next iteration once SIGTERM is pending, instead of running it to its end (a solve of the
+    default's nonlinear certificate takes ~10 s).  The same problem solves once nothing is pending."""
+    import signal
+    import threading
+
+    X = cp.Variable((6, 6), symmetric=True)
+    A = np.diag(np.linspace(0.2, 0.9, 6)) + 0.05 * np.eye(6, k=1)
+    prob = cp.Problem(cp.Minimize(cp.trace(X)), [X >> np.eye(6), A.T @ X @ A - X << -np.eye(6)])
+    old_handler = signal.signal(signal.SIGTERM, lambda *_: None)  # delivered after the test: ignored
+    old_mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
+    try:
+        signal.pthread_kill(threading.get_ident(), signal.SIGTERM)  # to this thread, which holds it
+        assert signal.SIGTERM in signal.sigpending()
+        with pytest.raises(cp.error.SolverError):
+            solve_mod._call_solver(prob, "clarabel")
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old_mask)  # the pending SIGTERM goes to the no-op handler
+        signal.signal(signal.SIGTERM, old_handler)
+    solve_mod._call_solver(prob, "clarabel")
+    assert prob.status == cp.OPTIMAL

@@ -11,7 +11,7 @@ from typing import Any, Callable, Iterator
 
 import cvxpy as cp
 
-from ..errors import check_interrupt
+from ..errors import check_interrupt, pending_interrupt
 
 __all__ = ["SolveRecord", "Outcome", "solve", "solve_all", "SOLVER_OPTIONS", "solver_options", "solver_version"]
 
@@ -100,13 +100,45 @@ _HELD_SIGNALS = {signal.SIGINT, signal.SIGTERM}
 _POOLED = threading.local()  # .active: this thread is one of solve_all's workers
 
 
+def _stop_on_held_signal(_info: Any) -> bool:
+    """Clarabel's termination callback (every iteration): stop the solve in flight once SIGINT or SIGTERM
+    is pending, held by :func:`_call_solver` (or already delivered through another thread: the CLI's handler
+    recorded it, or raises in here)."""
+    try:
+        return bool(signal.sigpending() & _HELD_SIGNALS) or pending_interrupt() is not None
+    except BaseException:  # noqa: BLE001 - the CLI's handler raised Interrupted while this ran
+        return True
+
+
+def _clarabel_stops_on_signals() -> None:
+    """Every Clarabel solver cvxpy makes gets :func:`_stop_on_held_signal` as its termination callback (cvxpy
+    builds the solver inside its interface and has no hook for it: ``clarabel.DefaultSolver`` is wrapped once).
+    Clarabel builds without callbacks are left alone: their solve runs to its end, as before."""
+    import clarabel
+
+    real = clarabel.DefaultSolver
+    if getattr(real, "_stops_on_held_signals", False) or not hasattr(real, "set_termination_callback"):
+        return
+
+    def DefaultSolver(*args: Any, **kwargs: Any) -> Any:  # noqa: N802 - the name cvxpy calls
+        solver = real(*args, **kwargs)
+        solver.set_termination_callback(_stop_on_held_signal)
+        return solver
+
+    DefaultSolver._stops_on_held_signals = True  # type: ignore[attr-defined]
+    clarabel.DefaultSolver = DefaultSolver
+
+
 def _call_solver(problem: cp.Problem, name: str) -> None:
     """One solver call (a seam for fault-injection tests).
 
     Clarabel catches SIGINT inside its native code and carries on (Ctrl-C was swallowed and the
-    run completed).  SIGINT and SIGTERM are therefore held pending while the solver runs: the
-    signal is delivered, and the run stops, as soon as the solve returns."""
+    run completed).  SIGINT and SIGTERM are therefore held pending while the solver runs, and Clarabel's
+    termination callback ends the solve at its next iteration once one is pending (a solve of the default's
+    nonlinear certificate takes ~10 s): the signal is delivered, and the run stops, when the solve returns."""
     opts = solver_options(name)
+    if opts["solver"] == cp.CLARABEL:
+        _clarabel_stops_on_signals()
     old = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD_SIGNALS)
     try:
         if getattr(_POOLED, "active", False):
@@ -116,6 +148,7 @@ def _call_solver(problem: cp.Problem, name: str) -> None:
                 problem.solve(**opts)
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        check_interrupt()  # a solve the callback ended: the interrupt, not its "solver error"
 
 
 @contextlib.contextmanager
