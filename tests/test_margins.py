@@ -222,3 +222,28 @@ def test_a_margin_line_puts_no_unit_after_none() -> None:
 
     m = Margin("delay_max", "s", "max", 0.05, None, 0.0848, None, None)
     assert m.line().startswith("delay_max: configured 0.05 s, certified none, exhibited 0.0848 s")
+
+
+@pytest.mark.parametrize("certified,exhibited,gap,words", [
+    (0.0, 1.0, 0, "the certificate misses no packet of the exhibited margin"),
+    (0.0, 4.0, 3, "the certificate may miss up to 3 packets of the exhibited margin"),
+    (1.0, 3.0, 1, "the certificate may miss up to 1 packet of the exhibited margin"),
+])
+def test_a_count_margin_says_its_gap_in_packets_never_a_share(certified, exhibited, gap, words) -> None:
+    """Issue 50, item 7: the dropout margin read "exhibited 1 packets (the certificate may miss 0.0 % of the exhibited
+    margin)", and "may miss 75.0 %" of 4 packets: a count says its gap in packets (the truth is a whole number in
+    [certified, exhibited - 1]), singular or plural, and no share, in the line nor in margin.json."""
+    from robustsynth.margins import Margin
+
+    m = Margin("dropouts", "packets", "max", 0.0, certified, exhibited, None, (0.0, 6.0))
+    line = m.line()
+    assert "%" not in line and words in line, line
+    assert "1 packets" not in line and "0 packet " not in line, line
+    for n in (certified, exhibited):
+        assert (f"{int(n)} packet" + ("" if n == 1 else "s")) in line, line
+    assert m.gap is None and m.gap_packets == gap
+    d = m.to_dict()
+    assert d["gap"] is None and d["gap_packets"] == gap
+    # a continuous margin keeps its share
+    s = Margin("delay_max", "s", "max", 0.08, 0.12, 0.15, None, None)
+    assert s.gap == pytest.approx(0.2) and s.gap_packets is None and "20.0 %" in s.line()

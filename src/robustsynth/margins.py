@@ -59,18 +59,34 @@ class Margin:
     evaluations: tuple[dict[str, Any], ...] = ()
 
     @property
+    def integer(self) -> bool:
+        """A count (lost packets): its ends are whole numbers, and its gap is said in them."""
+        return self.unit == "packets"
+
+    @property
     def gap(self) -> float | None:
-        """|exhibited - certified| / exhibited: the share of the true margin the certificate may miss."""
-        if self.certified is None or self.exhibited is None or self.exhibited == 0:
+        """|exhibited - certified| / exhibited: the share of the true margin the certificate may miss.
+        None for a count (packets): a share of a few packets says nothing (issue 50: "may miss 75.0 %"
+        of 4 packets); :attr:`gap_packets` gives that gap in packets."""
+        if self.integer or self.certified is None or self.exhibited is None or self.exhibited == 0:
             return None
-        if self.unit == "packets":  # integers: the truth is in [certified, exhibited - 1]
-            return max(0.0, self.exhibited - 1 - self.certified) / self.exhibited
         return abs(self.exhibited - self.certified) / abs(self.exhibited)
+
+    @property
+    def gap_packets(self) -> int | None:
+        """For a count: how many packets the certificate may miss.  The truth is a whole number in
+        [certified, exhibited - 1] (exhibited destabilizes), so this is exhibited - 1 - certified, 0
+        where the certificate is exact."""
+        if not self.integer or self.certified is None or self.exhibited is None:
+            return None
+        return max(0, int(round(self.exhibited)) - 1 - int(round(self.certified)))
 
     def to_dict(self) -> dict[str, Any]:
         d = {k: v for k, v in asdict(self).items() if k not in {"name", "evaluations"}}
         d["searched"] = list(self.searched) if self.searched is not None else None
         d["gap"] = self.gap
+        if self.integer:
+            d["gap_packets"] = self.gap_packets
         d["evaluations"] = list(self.evaluations)
         return d
 
@@ -79,16 +95,29 @@ class Margin:
             return "none" if x is None else f"{x:.4g}"
 
         def u(x: float | None) -> str:  # no unit after "none" (review: "certified none s")
-            return f"{f(x)} {self.unit}" if self.unit and x is not None else f(x)
+            if x is None or not self.unit:
+                return f(x)
+            if self.integer:  # "1 packet", "2 packets" (issue 50: "exhibited 1 packets")
+                return _packets(x)
+            return f"{f(x)} {self.unit}"
 
         text = f"{self.name}: configured {u(self.configured)}, certified {u(self.certified)}, exhibited {u(self.exhibited)}"
         if self.gap is not None:  # the share of the exhibited margin the certificate may miss
             text += f" (the certificate may miss {100 * self.gap:.1f} % of the exhibited margin)"
+        elif self.gap_packets is not None:  # a count: the gap in packets, never a share
+            text += (" (the certificate misses no packet of the exhibited margin)" if self.gap_packets == 0 else
+                     f" (the certificate may miss up to {_packets(self.gap_packets)} of the exhibited margin)")
         if self.exhibited is None and self.searched is not None:
             text += f" (no instability found in [{self.searched[0]:.4g}, {self.searched[1]:.4g}])"
         if self.note and self.certified is None and self.exhibited is None and self.searched is None:
             text += f" ({self.note})"
         return text
+
+
+def _packets(n: float) -> str:
+    """A whole number of packets, singular or plural."""
+    k = int(round(n))
+    return f"{k} packet" + ("" if k == 1 else "s")
 
 
 @dataclass(frozen=True)

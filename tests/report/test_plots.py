@@ -42,6 +42,70 @@ def _titles_fit(fig) -> None:
             assert box.x0 >= 0 and box.x1 <= width, (ax.get_title(), box.x0, box.x1, width)
 
 
+@pytest.fixture(scope="module")
+def polyline():
+    """tracks-box's committed gain verified on 4 runs (the adversary left out): a polyline path, whose waypoint
+    corners the verdict excludes."""
+    m, _, _ = committed_gain("tracks-box")
+    m = replace(m, config=config_with(m.config, {"verification.adversarial_runs": 0}))
+    return m, verify(m, load_gains(ROOT / "results" / "baselines" / "tracks-box" / "gains.json"), runs=4)
+
+
+def _figures(res, m) -> dict:
+    from robustsynth.report import plots
+
+    return {name: getattr(plots, f"fig_{name}")(res, m) for name in plots.FIGURES}
+
+
+def _shaded(ax) -> list[tuple[float, float]]:
+    """The time intervals an axes shades as excluded (one path per contiguous run of excluded steps)."""
+    spans = [(float(p.vertices[:, 0].min()), float(p.vertices[:, 0].max()))
+             for c in ax.collections if c.get_label().startswith("excluded") for p in c.get_paths()]
+    return sorted(spans)
+
+
+def test_the_path_figure_shades_the_excluded_corner_steps_as_errors_does(polyline) -> None:
+    """Issue 50, item 8: path.png drew e_y through the corners against the certified band, unshaded, while
+    errors.png shaded the steps the verdict excludes there: path.png shades the same intervals (one source,
+    plots._covered) and names them, so the excursion does not read as a violation."""
+    import matplotlib.pyplot as plt
+
+    from robustsynth.report.plots import _covered, fig_errors, fig_path
+
+    m, res = polyline
+    assert (~_covered(res)).any()  # the polyline's corners: something to shade
+    fp, fe = fig_path(res, m), fig_errors(res, m)
+    ey_path = fp.axes[1]
+    shaded = _shaded(ey_path)
+    assert shaded and shaded == _shaded(fe.axes[1]), (shaded, _shaded(fe.axes[1]))
+    assert any(lab.startswith("excluded") for lab in ey_path.get_legend_handles_labels()[1])
+    plt.close(fp)
+    plt.close(fe)
+
+
+def test_no_legend_covers_the_plotted_data_and_titles_are_one_line(polyline) -> None:
+    """Issue 50, item 8: a legend covered a trace, and lyapunov.png's title took three lines.  Every legend of
+    the verification figures lies off every axes' plotting area (beside the axes, or below all of them), so it
+    covers no line, band or point; every title and suptitle is one line and fits the figure."""
+    import matplotlib.pyplot as plt
+
+    m, res = polyline
+    for name, fig in _figures(res, m).items():
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        legends = [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None] + list(fig.legends)
+        assert legends, name
+        for leg in legends:
+            box = leg.get_window_extent(renderer)
+            for ax in fig.axes:
+                # the axes' box holds every plotted line, band and point: off it, the legend covers none
+                assert not box.overlaps(ax.bbox), (name, [t.get_text() for t in leg.get_texts()], box, ax.bbox)
+        titles = [ax.get_title() for ax in fig.axes] + [fig.get_suptitle()]
+        assert all("\n" not in t for t in titles), (name, titles)
+        _titles_fit(fig)
+        plt.close(fig)
+
+
 def test_a_sweep_figure_marks_the_points_that_failed_verification() -> None:
     """The 1-D sweep figure's title counted a certified point that failed verification, and the figure did not
     show it (review): it is marked on its certified |e_y|."""

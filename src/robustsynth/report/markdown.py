@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
-from typing import Sequence
+import re
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-__all__ = ["fmt", "table", "matrix_table"]
+__all__ = ["fmt", "table", "matrix_table", "condition_counts", "conditions_text"]
 
 
 def fmt(x: float | None, digits: int = 4) -> str:
@@ -38,3 +39,39 @@ def matrix_table(M: np.ndarray, row_names: Sequence[str], col_names: Sequence[st
         return "(empty)\n"
     rows = [[f"**{row_names[i]}**"] + [fmt(M[i, j], digits) for j in range(M.shape[1])] for i in range(M.shape[0])]
     return table([""] + [f"`{c}`" for c in col_names], rows)
+
+
+_MEMBERS = (re.compile(r"\bat (\d+) vertex conditions?\b"), re.compile(r"\((?:multipliers, )?(\d+) vertices\)"))
+
+
+def condition_counts(checks: Sequence[Mapping[str, Any]]) -> tuple[int, int, int]:
+    """What a certificate's re-check (certificate.check_certificate's ``checks``) holds: (rows, LMIs,
+    scalar bounds).  Each row is one family of conditions: a matrix inequality per member ("invariance
+    LMI (6b) at 48 vertex conditions": 48 LMIs, "M_i > 0 (multipliers, 12 vertices)": 12, "Q > 0": 1),
+    or one scalar bound (no eigenvalue: the motor speed, the heading bound).  synthesis.md and
+    verification.md both count with this (issue 50: "5 conditions" in one, "108" in the other)."""
+    lmis = scalars = 0
+    for c in checks:
+        if c.get("max_eig") is None and c.get("margin_found") is None:
+            scalars += 1
+            continue
+        name = str(c.get("name", ""))
+        for pat in _MEMBERS:
+            m = pat.search(name)
+            if m:
+                lmis += int(m.group(1))
+                break
+        else:
+            lmis += 1
+    return len(checks), lmis, scalars
+
+
+def conditions_text(checks: Sequence[Mapping[str, Any]], rows_of: str = "synthesis.md's certificate check") -> str:
+    """'145 LMIs in 4 families and 2 scalar bounds (the 6 rows of ...)': the same count in synthesis.md and
+    verification.md (:func:`condition_counts`)."""
+    rows, lmis, scalars = condition_counts(checks)
+    families = rows - scalars
+    out = f"{lmis} LMI{'s' if lmis != 1 else ''} in {families} famil{'ies' if families != 1 else 'y'}"
+    if scalars:
+        out += f" and {scalars} scalar bound{'s' if scalars != 1 else ''}"
+    return out + f" (the {rows} row{'s' if rows != 1 else ''} of {rows_of})"

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["write_figures", "FIGURES"]
+__all__ = ["write_figures", "FIGURES", "FIGURE_CAPTIONS"]
 
 FIGURES = {
     "path": "Path in the plane",
@@ -22,6 +22,21 @@ FIGURES = {
     "ellipsoid": "Certified ellipsoid projections with simulated states",
     "frozen": "Frozen-delay spectral radius",
 }
+# what a figure's title leaves out (a title is one line: issue 50 found lyapunov.png's taking three); the
+# reports print it under the figure
+FIGURE_CAPTIONS = {
+    "path": ("Top: the robot's paths in the plane. Bottom: the cross-track error against the certified band; grey, "
+             "where there are any: the steps after a waypoint the verdict excludes until the robot is back in the "
+             "certified set (as in the tracking errors)."),
+    "lyapunov": ("Top: V on the lifted model, solid the maximum over the runs, dotted the median. The runs are named "
+                 "delays/start: random, alternating or greedy delays (arcs: random delays along arcs; arcs-greedy: the "
+                 "greedy search along arcs), starting on the set's boundary (V = level) or outside it (V = 25 level); "
+                 "dashed: the certified decay from V = 25 level. Bottom: V of the nonlinear robot's true lifted state "
+                 "relative to the certified ellipsoid; grey: the steps excluded after a waypoint, until back in the set."),
+    "frozen": ("The spectral radius of the closed loop with the delay held at each constant tau, the largest over the "
+               "slip corners."),
+}
+EXCLUDED_LABEL = "excluded (some run outside the set after a waypoint)"
 
 
 def _plt():
@@ -40,11 +55,31 @@ def _ellipse(Qsub: np.ndarray, level: float, n: int = 200) -> np.ndarray:
     return (L @ np.vstack([np.cos(t), np.sin(t)])).T
 
 
+def _legend_right(ax, **kw) -> Any:
+    """A legend beside the axes, right of them: it covers no data (issue 50: one covered a trace)."""
+    return ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, fontsize=7, frameon=False, **kw)
+
+
+def _legend_below(fig, handles, labels, ncol: int, rows: int = 1, **kw) -> None:
+    """One legend for the figure, under its axes (laid out with room for it): it covers no data."""
+    fig.tight_layout(rect=(0, 0.02 + 0.035 * rows, 1, 1))
+    fig.legend(handles, labels, loc="lower center", ncol=ncol, fontsize=7, frameon=False, **kw)
+
+
+def _shade_excluded(ax, t: np.ndarray, excluded: np.ndarray, label: str = EXCLUDED_LABEL) -> None:
+    """Grey over the steps the verdict excludes (``~_covered(res)``, the one source every figure shades from);
+    a legend entry only for something drawn (a path rounded by arcs excludes nothing)."""
+    n = min(len(t), len(excluded))
+    if excluded[:n].any():
+        ax.fill_between(t[:n], 0, 1, where=excluded[:n], transform=ax.get_xaxis_transform(), color="grey", alpha=0.12,
+                        label=label)
+
+
 def fig_path(res, model) -> Any:
     plt = _plt()
     sim = res.sim
     W = np.asarray(model.config.verification.path)
-    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(8, 7), gridspec_kw={"height_ratios": [1.3, 1.0]})
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(10, 7), gridspec_kw={"height_ratios": [1.3, 1.0]})
     for n in range(sim.q.shape[0]):
         ax.plot(sim.q[n, :, 0], sim.q[n, :, 1], color="tab:blue", alpha=0.06, lw=0.8)
     ax.plot([], [], color="tab:blue", alpha=0.4, label=f"Monte Carlo runs ({sim.q.shape[0]})")
@@ -63,7 +98,7 @@ def fig_path(res, model) -> Any:
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_title("Path in the plane: desired " + ("polyline" if r is None else "path") + " and the robot over the network")
-    ax.legend(loc="best", fontsize=8)
+    _legend_right(ax)
     ax.grid(alpha=0.3)
     # at the path's scale the tracking error is invisible: the cross-track error itself, in cm
     t = sim.t[: sim.e.shape[1]]
@@ -75,9 +110,11 @@ def fig_path(res, model) -> Any:
         ax2.axhspan(-100 * ub["e_y"], 100 * ub["e_y"], color="tab:green", alpha=0.1, label=f"certified ±{100 * ub['e_y']:.2f} cm")
     for ts in model_path_switches(res, model):
         ax2.axvline(ts, color="0.6", lw=0.8, ls=":")
+    # the steps errors.png shades: e_y there (a turn) is judged separately, not against the band (issue 50)
+    _shade_excluded(ax2, t, ~_covered(res))
     ax2.set_xlabel("time t [s] (dotted: waypoints)")
     ax2.set_ylabel("cross-track error e_y [cm]")
-    ax2.legend(loc="upper right", fontsize=7, framealpha=0.85)
+    _legend_right(ax2)
     ax2.grid(alpha=0.3)
     fig.tight_layout()
     return fig
@@ -103,10 +140,7 @@ def fig_errors(res, model) -> Any:
             ax.axhline(-b, color="tab:green", ls="--", lw=1)
         for ts in model_path_switches(res, model):
             ax.axvline(ts, color="grey", lw=0.8, ls=":")
-        excluded = ~_covered(res)
-        if excluded.any():  # a legend entry only for something drawn (a path rounded by arcs excludes nothing)
-            ax.fill_between(sim.t, 0, 1, where=excluded, transform=ax.get_xaxis_transform(), color="grey", alpha=0.1,
-                            label="excluded (some run outside the set after a waypoint)")
+        _shade_excluded(ax, sim.t, ~_covered(res))
         ax.set_ylabel(f"{name} [{unit}]")
         ax.grid(alpha=0.3)
     handles, labels = axes[0].get_legend_handles_labels()
@@ -153,12 +187,11 @@ def fig_commands(res, model) -> Any:
                                label=f"certified on the set: ±{msb:.2f} (rho_max ±{cfg.robot.max_motor_speed:g})" if s == 1 else None)
         ax.set_ylabel(f"{name} [{unit}]")
         ax.grid(alpha=0.3)
-    axes[0, 0].legend(fontsize=7, framealpha=0.85)
-    axes[1, 0].legend(fontsize=7, loc="lower right", framealpha=0.85)
     for ax in axes[1]:
         ax.set_xlabel("time t [s]")
     fig.suptitle("Commands du_k = K xi_k and nominal motor speeds rho = J^-1 u_hat")
-    fig.tight_layout()
+    handles, labels = axes[1, 0].get_legend_handles_labels()  # every entry: the rho axes draw them all
+    _legend_below(fig, handles, labels, ncol=4)
     return fig
 
 
@@ -168,7 +201,7 @@ def fig_network(res, model) -> Any:
     cfg = model.config
     tk = sim.t[:-1]
     scen_taus, scen_mu = res.scenario.taus, res.scenario.mu
-    fig, axes = plt.subplots(2, 1, figsize=(9, 5), sharex=True)
+    fig, axes = plt.subplots(2, 1, figsize=(10, 5.5), sharex=True)
     ax = axes[0]
     taus = scen_taus[0, model.d_hi :] * 1000
     lost = np.isinf(taus)
@@ -181,7 +214,7 @@ def fig_network(res, model) -> Any:
     ax.axhline(cfg.network.delay.max * 1000, color="k", ls="--", lw=1)
     ax.axhline(cfg.network.sampling_time * 1000, color="grey", ls=":", lw=1, label="Ts")
     ax.set_ylabel("delay [ms]")
-    ax.legend(fontsize=7, loc="upper right", framealpha=0.85)
+    _legend_right(ax)
     ax.grid(alpha=0.3)
     ax = axes[1]
     colors = {"constant": "tab:blue", "random-walk": "tab:orange", "steps": "tab:green", "corners": "tab:purple"}
@@ -194,7 +227,7 @@ def fig_network(res, model) -> Any:
     ax.axhline(max(cfg.slip.right.max, cfg.slip.left.max), color="k", ls=":", lw=1)
     ax.set_ylabel("slip mu [-]")
     ax.set_xlabel("time t [s]")
-    ax.legend(fontsize=7, ncol=3, loc="lower right", bbox_to_anchor=(1.0, 1.0), frameon=False)  # off the traces
+    _legend_right(ax)
     ax.grid(alpha=0.3)
     axes[0].set_title("Network delay and track slip realizations (runs 0–2: constant, random walk, steps)")
     fig.tight_layout()
@@ -205,29 +238,29 @@ def fig_lyapunov(res, model) -> Any:
     plt = _plt()
     vr = res.nonlinear_V_over_level
     if vr is None:
-        fig, ax = plt.subplots(figsize=(8, 4.5))
+        fig, ax = plt.subplots(figsize=(10, 4.5))
     else:
-        fig, (ax, ax2) = plt.subplots(2, 1, figsize=(9, 8))
+        fig, (ax, ax2) = plt.subplots(2, 1, figsize=(11, 8))
         t = res.sim.t[:-1]
         ax2.semilogy(t, vr.max(axis=0), color="tab:red", lw=1.2, label="max over Monte Carlo runs")
         ax2.semilogy(t, np.median(vr, axis=0), color="tab:blue", lw=1, label="median")
         ax2.axhline(1.0, color="k", lw=1.5, label="ellipsoid level (V = level)")
-        excluded = ~_covered(res)[:-1]
-        if excluded.any():
-            ax2.fill_between(t, 0, 1, where=excluded, transform=ax2.get_xaxis_transform(), color="grey",
-                             alpha=0.1, label="excluded (after a waypoint, until back in the set)")
+        _shade_excluded(ax2, t, ~_covered(res)[:-1], "excluded (after a waypoint, until back in the set)")
         ax2.set_xlabel("time t [s]")
         ax2.set_ylabel("V(xi) / level [-]")
         ax2.set_title("Nonlinear robot: V of its true lifted state relative to the certified ellipsoid")
-        ax2.legend(fontsize=7)
+        _legend_right(ax2)
         ax2.grid(alpha=0.3, which="both")
     cert = res.certificate
     traces = res.lifted_traces
     for i, (name, V) in enumerate(sorted(traces.items())):
         col = f"C{i}"
         k = np.arange(V.shape[1])
-        ax.semilogy(k, V.max(axis=0), color=col, lw=1.2, label=f"{name}: max over runs")
+        ax.semilogy(k, V.max(axis=0), color=col, lw=1.2, label=name)
         ax.semilogy(k, np.median(V, axis=0), color=col, lw=0.8, ls=":")
+    if traces:
+        ax.plot([], [], color="0.3", lw=1.2, label="solid: max over runs")
+        ax.plot([], [], color="0.3", lw=0.8, ls=":", label="dotted: median")
     if cert.passed:
         c = res.gains["certificate"]
         if c["objective"] == "ultimate-bound":
@@ -235,7 +268,8 @@ def fig_lyapunov(res, model) -> Any:
             alpha = float(c["alpha"])
             k = np.arange(max(v.shape[1] for v in traces.values()))
             V0 = 25.0 * level
-            ax.semilogy(k, level + (V0 - level) * (1 - alpha) ** k, "k--", lw=1, label="certified: level + (V0 − level)(1−α)^k, V0 = 25·level")
+            ax.semilogy(k, level + (V0 - level) * (1 - alpha) ** k, "k--", lw=1,
+                        label="certified: level + (V0 − level)(1−α)^k,\nV0 = 25·level")
             ax.axhline(level, color="k", lw=1.5, label="ellipsoid level")
         elif cert.figures.get("decay_rate"):
             r = cert.figures["decay_rate"]
@@ -246,11 +280,10 @@ def fig_lyapunov(res, model) -> Any:
         ax.text(0.5, 0.5, "no valid certificate: V is not available", ha="center", transform=ax.transAxes)
     ax.set_xlabel("step k")
     ax.set_ylabel("V(xi_k) = xi' P xi [-]")
-    ax.set_title("Lyapunov function on the lifted model under time-varying delays (dotted: median)\n"
-                 "runs named delays/start: random, alternating or greedy delays (arcs: random delays along arcs;\n"
-                 "arcs-greedy: the greedy search along arcs); starting on the set's boundary (V = level) or outside it"
-                 " (V = 25 level)", fontsize=9)
-    ax.legend(fontsize=7, framealpha=0.85)
+    # one line (issue 50: three); what the runs' names mean is in the legend and FIGURE_CAPTIONS["lyapunov"]
+    ax.set_title("Lifted model under time-varying delays: V by run (delays/start)")
+    if ax.get_legend_handles_labels()[0]:
+        _legend_right(ax)
     ax.grid(alpha=0.3, which="both")
     fig.tight_layout()
     return fig
@@ -281,15 +314,15 @@ def fig_ellipsoid(res, model) -> Any:
         ax.set_xlabel(labels[0])
         ax.set_ylabel(labels[1])
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
     fig.suptitle("Certified invariant ellipsoid, projected, with simulated states")
-    fig.tight_layout()
+    handles, labels = axes[0].get_legend_handles_labels()
+    _legend_below(fig, handles, labels, ncol=3, markerscale=6)
     return fig
 
 
 def fig_frozen(res, model) -> Any:
     plt = _plt()
-    fig, ax = plt.subplots(figsize=(7, 4))
+    fig, ax = plt.subplots(figsize=(7, 4.6))
     fr = res.frozen
     ax.plot(np.asarray(fr["tau"]) * 1000, fr["spectral_radius_vs_tau"], color="tab:blue", lw=1.5, label="rho(A~(tau) + B~(tau) K)")
     ax.axhline(1.0, color="k", ls="--", lw=2, alpha=0.6, label="stability limit (1)")
@@ -302,10 +335,11 @@ def fig_frozen(res, model) -> Any:
     corners = ", ".join("(" + ", ".join(f"{x:g}" for x in c) + ")" for c in np.asarray(model.corners))
     if len(corners) > 90:
         corners = f"{np.asarray(model.corners).shape[0]} corners"
-    ax.set_title(f"Closed loop with the delay frozen at tau\n(the largest over the slip corners ({names}): "
-                 + corners + ")", fontsize=10)
-    ax.legend(fontsize=8, loc="center right", framealpha=0.85)
+    ax.set_title("Closed loop with the delay frozen at tau", fontsize=10)  # one line; the corners: in the legend
     ax.grid(alpha=0.3)
+    handles, labels = ax.get_legend_handles_labels()
+    labels[0] += f", the largest over the slip corners ({names}): {corners}"
+    _legend_below(fig, handles, labels, ncol=1, rows=len(labels))
     return fig
 
 

@@ -8,9 +8,9 @@ from typing import Any
 import numpy as np
 
 from ..artifacts.gains import LAW
-from .markdown import fmt, matrix_table, table
+from .markdown import conditions_text, fmt, matrix_table, table
 
-__all__ = ["synthesis_markdown", "diagnosis_markdown"]
+__all__ = ["synthesis_markdown", "diagnosis_markdown", "certificate_check_markdown"]
 
 MULTIPLIER_TEXT = {  # synthesis.design.multiplier_used
     "structured": "one block per Delta block",
@@ -152,29 +152,7 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
             f"{'enforced as an LMI on the ellipsoid' if c['motor_limits_enforced'] else 'not enforced by this objective'}.\n"
         )
     out.append("\n## Gain\n\n" + matrix_table(np.asarray(result.K), model.input_names, model.state_names))
-    out.append("\n## Certificate check (numpy, independent of the solver)\n\n")
-    out.append(
-        f"Each LMI L was rebuilt in numpy from the written values (`Q`, `M`, `Y = K Q`) and must satisfy"
-        f" L >= {0.5 * c['margin']:.3g} I (half the solve margin {c['margin']:.3g}). This is **proven in verified"
-        " arithmetic**: L minus that threshold, minus a bound on the rounding of L's own assembly, passes Rump's"
-        " floating-point Cholesky test (BIT 46, 2006; docs/theory.md §7). The smallest eigenvalue (eigvalsh) is shown"
-        " beside it; the rounding allowance is the part of the margin the proof sets aside for rounding.\n\n"
-    )
-    crow = []
-    for ch in c["checks"]:
-        val = ch.get("margin_found")
-        if ch["passed"]:
-            verdict = "proven" if ch.get("verified") else "pass"
-        else:
-            verdict = "**not proven (rounding)**" if ch.get("status") == "not proven (rounding)" else "**FAIL**"
-        crow.append([
-            ch["name"],
-            f"{val:.3e}" if val is not None else fmt(ch.get("value")),
-            f">= {-ch['threshold']:.3e}" if val is not None else f"<= {fmt(ch['threshold'])}",
-            f"{ch['rounding_allowance']:.1e}" if ch.get("rounding_allowance") is not None else "—",
-            verdict,
-        ])
-    out.append(table(["check", "smallest eigenvalue / value", "required", "rounding allowance", "result"], crow))
+    out.append(certificate_check_markdown(c))
     if result.search:
         out.append("\n## Search\n\n")
         if "alpha" in result.search[0]:
@@ -198,6 +176,37 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
 
     out.append(comparison_markdown(comparison))
     out.append(diagnosis_markdown(model, result, diagnosis))
+    return "".join(out)
+
+
+def certificate_check_markdown(c: dict[str, Any]) -> str:
+    """The certificate check: each family of conditions re-checked in numpy, and in all how many LMIs
+    (markdown.conditions_text, the count verification.md gives for the same re-check)."""
+    out = ["\n## Certificate check (numpy, independent of the solver)\n\n"]
+    out.append(
+        f"Each LMI L was rebuilt in numpy from the written values (`Q`, `M`, `Y = K Q`) and must satisfy"
+        f" L >= {0.5 * c['margin']:.3g} I (half the solve margin {c['margin']:.3g}). This is **proven in verified"
+        " arithmetic**: L minus that threshold, minus a bound on the rounding of L's own assembly, passes Rump's"
+        " floating-point Cholesky test (BIT 46, 2006; docs/theory.md §7). The smallest eigenvalue (eigvalsh) is shown"
+        " beside it; the rounding allowance is the part of the margin the proof sets aside for rounding.\n\n"
+    )
+    crow = []
+    for ch in c["checks"]:
+        val = ch.get("margin_found")
+        if ch["passed"]:
+            verdict = "proven" if ch.get("verified") else "pass"
+        else:
+            verdict = "**not proven (rounding)**" if ch.get("status") == "not proven (rounding)" else "**FAIL**"
+        crow.append([
+            ch["name"],
+            f"{val:.3e}" if val is not None else fmt(ch.get("value")),
+            f">= {-ch['threshold']:.3e}" if val is not None else f"<= {fmt(ch['threshold'])}",
+            f"{ch['rounding_allowance']:.1e}" if ch.get("rounding_allowance") is not None else "—",
+            verdict,
+        ])
+    out.append(table(["check", "smallest eigenvalue / value", "required", "rounding allowance", "result"], crow))
+    # the same count verification.md gives for its re-check (issue 50: "5 conditions" there, "108" here)
+    out.append(f"\nIn all: {conditions_text(c['checks'], 'this table')}; verification.md counts its re-check the same way.\n")
     return "".join(out)
 
 

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from ..config import config_to_dict
 from .. import __version__
 from ..artifacts.files import SCHEMA_VERSION
 from ..certificate import TURN_REENTRY
-from .markdown import fmt, table
+from .markdown import conditions_text, fmt, table
 
 __all__ = ["verification_dict", "verification_markdown", "report_markdown", "summary_dict"]
 
@@ -91,16 +92,45 @@ def verification_markdown(model: Any, res: Any, vd: dict[str, Any], figures: dic
         f"Gain file `{vd['gains_file']}` (gains_id `{vd['gains_id'][:16]}…`), checked independently of how it was made."
         " Pass/fail rules are in the README (section *Verification rules*).\n\n"
     )
-    rows = [[c["name"], "pass" if c["passed"] else "**FAIL**", _val(c["value"]), _val(c["threshold"]), c["detail"]] for c in res.checks]
-    out.append(table(["check", "result", "value", "threshold", "detail"], rows))
+    out.append(checks_markdown(res))
     mc = res.monte_carlo
     out.append(nonlinear_markdown(cfg, mc))
     if figures:
-        out.append("\n## Figures\n\n")
-        from .plots import FIGURES
+        out.append(figures_markdown(figures))
+    return "".join(out)
 
-        for name, rel in figures.items():
-            out.append(f"### {FIGURES[name]}\n\n![{FIGURES[name]}]({rel})\n\n")
+
+RECHECK = "certificate: LMIs re-checked in numpy"
+
+
+def checks_markdown(res: Any) -> str:
+    """The table of checks.  The re-check's detail counts its conditions as synthesis.md does
+    (markdown.conditions_text): the verifier writes the number of families of conditions ("4 conditions"),
+    synthesis.md their LMIs ("at 768 vertex conditions"), and the two read as contradicting each other
+    (issue 50)."""
+    cert_checks = list(getattr(getattr(res, "certificate", None), "checks", ()) or ())
+
+    def detail(c: dict[str, Any]) -> str:
+        d = str(c["detail"])
+        prefix = f"{len(cert_checks)} conditions, "
+        if c["name"] == RECHECK and cert_checks and d.startswith(prefix):
+            d = conditions_text(cert_checks) + ", " + d[len(prefix):]
+        return d
+
+    rows = [[c["name"], "pass" if c["passed"] else "**FAIL**", _val(c["value"]), _val(c["threshold"]), detail(c)]
+            for c in res.checks]
+    return table(["check", "result", "value", "threshold", "detail"], rows)
+
+
+def figures_markdown(figures: dict[str, str]) -> str:
+    """The figures, each once: a heading, the image, and its caption where it has one."""
+    from .plots import FIGURE_CAPTIONS, FIGURES
+
+    out = ["\n## Figures\n\n"]
+    for name, rel in figures.items():
+        out.append(f"### {FIGURES[name]}\n\n![{FIGURES[name]}]({rel})\n\n")
+        if FIGURE_CAPTIONS.get(name):
+            out.append(f"{FIGURE_CAPTIONS[name]}\n\n")
     return "".join(out)
 
 
@@ -164,17 +194,20 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
                        f" bounds the errors through the turn and the time until V <= {TURN_REENTRY:g} level. Beside them,"
                        " what the Monte Carlo runs measured:\n\n")
         if cfg.reference.turn_radius is not None:  # arcs: no switch, no re-entry
+            cells = [turn_bound_cells(t, cfg) for t in turns]
             out.append(table(["waypoint", "turn [rad]", "arc starts at [s]", "certified |e_y| for all t [cm]",
                               "certified |e_theta| for all t [rad]", "certified peak |rho| [rad/s]", "status"],
-                             [[str(t["waypoint"]), fmt(t["turn_rad"], 3), fmt(t["t_switch_s"]), fmt(100 * t["peak"]["e_y"], 3),
-                               fmt(t["peak"]["e_theta"], 3), fmt(t["motor_speed_peak"], 3), "certified"] for t in turns]))
+                             [[str(t["waypoint"]), fmt(t["turn_rad"], 3), fmt(t["t_switch_s"]), *c, "certified"]
+                              for t, c in zip(turns, cells)]))
+            out.append(_no_bound_text(cells, cfg))
         else:
-            rows = []
+            rows, cells = [], []
             for t in turns:
                 m = _measured(t)
+                ey, th, rho = turn_bound_cells(t, cfg)
+                cells.append((ey, th, rho))
                 rows.append([str(t["waypoint"]), fmt(t["turn_rad"], 3), fmt(t["V_over_level_at_switch"], 3),
-                             fmt(m.get("max_V_over_level_at_switch"), 3), fmt(100 * t["peak"]["e_y"], 3),
-                             fmt(t["peak"]["e_theta"], 3), fmt(t["motor_speed_peak"], 3), fmt(t["time_to_reenter_s"]),
+                             fmt(m.get("max_V_over_level_at_switch"), 3), ey, th, rho, fmt(t["time_to_reenter_s"]),
                              fmt(m.get("max_time_to_reenter_s")),
                              "certified" + (f" ({t['note']})" if t["note"] else "") if t["certified"]
                              else "not certified: " + t["reason"]])
@@ -182,6 +215,7 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
                               "certified peak |e_y| at the samples [cm]", "certified peak |e_theta| at the samples [rad]",
                               "certified peak |rho| [rad/s]", f"certified time to V <= {TURN_REENTRY:g} level [s]",
                               "measured time to V <= level [s]", "status"], rows))
+            out.append(_no_bound_text(cells, cfg))
     bp = mc.get("boundary_probe")
     if bp:
         judged = bp.get("in_verdict", False)
@@ -262,6 +296,57 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
             f"{100 * (mc['nonlinear_slack'] - 1):.0f} %).\n"
         )
     return "".join(out)
+
+
+NO_HEADING_BOUND = "no bound (>= pi)"
+
+
+def turn_bound_cells(turn: dict[str, Any], cfg: Any) -> tuple[str, str, str]:
+    """The cells of a waypoint turn's bounds (certificate.turn_bounds: peak |e_y| [cm], peak |e_theta| [rad],
+    peak |rho| [rad/s]), with a bound that says nothing printed as "no bound" and why, not as a number
+    (issue 50: |e_theta| 6.51 rad, |e_y| 61.3 cm, |rho| 150 rad/s read as certified figures):
+
+    - a heading bound >= pi rad says nothing: every heading error is within pi after wrapping, so the cell
+      reads ``no bound (>= pi)``;
+    - a position bound (|e_y|) larger than half the shortest segment of ``verification.path`` says nothing
+      about which segment the robot follows: ``no bound (> half the shortest segment, X m)``;
+    - a motor-speed bound beyond ``robot.max_motor_speed`` is not a certificate of the limit (the commands
+      saturate there, outside the model): the number stays, marked ``(exceeds the L rad/s limit)``."""
+    peak = turn.get("peak") or {}
+    ey, th = peak.get("e_y"), peak.get("e_theta")
+    half = half_shortest_segment(cfg)
+    if ey is not None and half is not None and float(ey) > half:
+        ey_cell = f"no bound (> half the shortest segment, {half:.3g} m)"
+    else:
+        ey_cell = fmt(None if ey is None else 100 * float(ey), 3)
+    th_cell = NO_HEADING_BOUND if th is not None and float(th) >= math.pi else fmt(th, 3)
+    rho, lim = turn.get("motor_speed_peak"), cfg.robot.max_motor_speed
+    rho_cell = fmt(rho, 3)
+    if rho is not None and lim is not None and float(rho) > float(lim):
+        rho_cell += f" (exceeds the {lim:g} rad/s limit)"
+    return ey_cell, th_cell, rho_cell
+
+
+def half_shortest_segment(cfg: Any) -> float | None:
+    """Half the length of the shortest segment of verification.path [m] (None: fewer than two waypoints)."""
+    wp = [tuple(map(float, w)) for w in cfg.verification.path]
+    lengths = [d for a, b in zip(wp, wp[1:]) if (d := math.hypot(b[0] - a[0], b[1] - a[1])) > 0.0]
+    return 0.5 * min(lengths) if lengths else None
+
+
+def _no_bound_text(cells: list[tuple[str, str, str]], cfg: Any) -> str:
+    """One line under the turn table when a cell says "no bound" or marks a motor peak: why."""
+    flat = [c for row in cells for c in row]
+    why = []
+    if NO_HEADING_BOUND in flat:
+        why.append("a heading bound of pi rad or more says nothing (every heading error is within pi after wrapping)")
+    if any(c.startswith("no bound (> half") for c in flat):
+        why.append(f"a cross-track bound above half the shortest segment ({half_shortest_segment(cfg):.3g} m) says nothing"
+                   " about which segment the robot follows")
+    if any("rad/s limit)" in c for c in flat):
+        why.append("a motor peak above robot.max_motor_speed is no certificate of the limit: the commands saturate"
+                   " there, outside the model")
+    return ("\nIn the table above, " + "; ".join(why) + ".\n") if why else ""
 
 
 def transients_markdown(mc: dict[str, Any]) -> str:
@@ -347,14 +432,7 @@ def report_markdown(model: Any, gains: dict[str, Any], vd: dict[str, Any], figur
     from .comparison import comparison_markdown
 
     out.append(comparison_markdown(comparison))
-    out.append("\n## Figures\n\n")
-    from .plots import FIGURES
-
-    for name, rel in figures.items():
-        out.append(f"- [{FIGURES[name]}]({rel})\n")
-    out.append("\n")
-    for name, rel in figures.items():
-        out.append(f"### {FIGURES[name]}\n\n![{FIGURES[name]}]({rel})\n\n")
+    out.append(figures_markdown(figures))  # each once (issue 50: a list of links, then the same figures again)
     return "".join(out)
 
 
