@@ -121,8 +121,14 @@ def _guard(fn: Callable[..., int | None]) -> Callable[..., None]:
 
 def _load(config: Path | None, lti_ok: bool = False):
     from .config import is_lti, load_config
+    from .errors import ConfigError
 
-    cfg = load_config(config)
+    try:
+        cfg = load_config(config)
+    except ConfigError:
+        if config is not None:  # a file robustsynth wrote, given as CONFIG: one line saying so (issue 50)
+            _not_a_config(config)
+        raise
     if is_lti(cfg) and not lti_ok:
         from .errors import InputError
 
@@ -130,6 +136,75 @@ def _load(config: Path | None, lti_ok: bool = False):
         raise InputError(f"plant.kind: lti: `robustsynth {cmd}` is not available for a linear plant yet "
                          "(available: build-model, synthesize, verify, run, margin, sweep, export)")
     return cfg
+
+
+def _written_by_robustsynth(path: Path) -> tuple[str, dict[str, Any]] | None:
+    """What output file of robustsynth ``path`` is ('gains file', 'verification record (verification.json ...)',
+    ...) and its top-level mapping, from its top-level keys; None when it is none (a config, or unreadable)."""
+    import json
+
+    from .artifacts.gains import DESCRIPTION_FORMAT, MAX_GAINS_BYTES
+
+    try:
+        if not path.is_file():  # a pipe is read once, by load_config
+            return None
+        with path.open("rb") as fh:
+            raw = fh.read(MAX_GAINS_BYTES + 1)
+    except OSError:
+        return None
+    if raw.startswith(b"MATLAB 5.0 MAT-file") or path.suffix.lower() == ".mat":
+        return "gains file", {}
+    try:
+        data = json.loads(raw)
+    except (ValueError, UnicodeDecodeError):
+        return None
+    if not isinstance(data, dict):
+        return None
+    has = data.__contains__
+    if data.get("format") == DESCRIPTION_FORMAT or (data.get("kind") == "lti" and has("law") and has("n")):
+        return "controller description (written by `robustsynth export --to json`)", data
+    if has("K"):  # no config has a top-level K: gains.json (the robot's or a linear plant's), or a bare gain
+        return "gains file", data
+    if has("per_episode") and has("straight_max"):
+        return "validation record (validation.json, written by `robustsynth validate`)", data
+    if has("gains_id") and has("passed") and has("checks"):
+        return "verification record (verification.json, written by `robustsynth verify`)", data
+    if has("coverage_check") or (has("instants") and has("lifted_states")):
+        return "model file (model.json, written by `robustsynth build-model`)", data
+    if has("status") and (has("dimensions") or has("verification_passed") or has("margins")) \
+            or (data.get("kind") == "lti" and has("verification")):
+        return "run summary (summary.json, written by `robustsynth run`)", data
+    if has("margins") and has("gain") or has("meta") and isinstance(data.get("meta"), dict) and "gains_id" in data["meta"]:
+        return "margin record (margin.json, written by `robustsynth margin`)", data
+    if has("rows") and has("columns") and has("spec"):
+        return "sweep result (sweep.json, written by `robustsynth sweep`)", data
+    if has("robustsynth_version") or has("schema_version"):
+        return "file robustsynth wrote", data
+    return None
+
+
+def _not_a_config(path: Path, option: str | None = None) -> None:
+    """InputError in one line when the file given as a config is one robustsynth wrote (a gains file given where
+    CONFIG goes had printed 18 validation errors, issue 50); nothing when it is not."""
+    from .errors import InputError
+
+    found = _written_by_robustsynth(path)
+    if found is None:
+        return
+    what, data = found
+    where = f"{option}: {path}" if option else str(path)
+    inside = " (the config it was made with is stored inside, under 'config')" if isinstance(data.get("config"), dict) else ""
+    if what == "gains file":
+        ctx = click.get_current_context(silent=True)
+        takes_gains = ctx is not None and any(p.name == "gains" for p in ctx.command.params)
+        if option == "--config" and ctx is not None and ctx.info_name == "export":
+            raise InputError(f"{where}: this is a gains file, not a config: give it as GAINS (its config is stored inside)")
+        if takes_gains:
+            raise InputError(f"{where}: this is a gains file, not a config: use --gains {path} (its config is stored inside)")
+        cmd = f"`robustsynth {ctx.info_name}`" if ctx is not None else "this"
+        raise InputError(f"{where}: this is a gains file, not a config: {cmd} takes a config YAML (the gain's own "
+                         "config is stored inside the gains file, under 'config')")
+    raise InputError(f"{where}: this is a {what}, not a config: pass the config YAML{inside}")
 
 
 _NEW_DIRS: list[Path] = []  # output directories this command creates: removed again if it fails and leaves them empty
@@ -395,8 +470,12 @@ def _say_diagnosis(obj: _Ctx, diagnosis: list[Any] | None) -> None:
 
 
 def _say_cleared(obj: _Ctx, out: Path, cleared: tuple[str, ...]) -> None:
+    """The files of another config a stage set aside (pipeline.clear_foreign: moved, not deleted)."""
     if cleared:
-        obj.say(f"removed {len(cleared)} file(s) another config had left in {out}: {', '.join(cleared)}")
+        where = Path(cleared[0]).parts[:2]
+        names = ", ".join(str(Path(*Path(c).parts[2:])) for c in cleared)
+        obj.say(f"set aside {len(cleared)} file(s) another config had left in {out}, under {out / Path(*where)}/ "
+                f"(nothing deleted): {names}")
 
 
 def _certified_line(gains: dict[str, Any]) -> str:
@@ -561,6 +640,11 @@ def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
 
     _needs_its_config(config, gains, "verify")
     cfg = _load(config, lti_ok=True)
+    if config is None and gains is not None:  # the gain's own config, not the default one (as margin; issue 50)
+        stored = _stored_config_instead(_Ctx(True, False), cfg, gains)  # its line is margin's: verify says its own
+        if stored is not cfg:
+            obj.say(f"config: the one stored in {gains} ({stored.name!r}), the gain's own; pass CONFIG to verify it on another")
+        cfg = stored
     out = _gains_outdir(cfg, outdir, gains)
     if is_lti(cfg):
         if logdir is not None:
@@ -655,14 +739,15 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
                 + (ratios or "(no certified bounds)") + f"; validation {'passed' if vd['passed'] else 'FAILED'}")
         passed = passed and vd["passed"]
     if export_to:
-        if not res.passed:
-            obj.say(f"export skipped: verification failed (robustsynth export {out / 'gains.json'} --to {export_to} "
-                    "exports it as it is)")
-        else:
+        if not res.passed:  # not exported as a controller (issue 50); the exit code stays 1
+            obj.say(f"export skipped: verification failed, so the gain is not exported as a controller (robustsynth "
+                    f"export {out / 'gains.json'} --to {export_to} --allow-unverified exports it marked UNVERIFIED)")
+        else:  # export_controller reads the verification.json this run wrote beside gains.json
             from .runtime.export import export_controller
 
-            _, files = export_controller(out / "gains.json", export_to, out / "export", None)
-            obj.say(f"exported ({export_to}): {', '.join(str(p) for p in files)}")
+            d, files = export_controller(out / "gains.json", export_to, out / "export", None)
+            obj.say(f"exported ({export_to}; proven: {d['proof']['proven']}; verification: {d['proof']['verified']}): "
+                    f"{', '.join(str(p) for p in files)}")
     obj.say(f"report: {out / 'report.md'}")
     return EXIT_OK if passed else EXIT_VERIFICATION_FAILED
 
@@ -891,6 +976,10 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
     out = outdir if outdir is not None else Path("results") / cfg.name / ("excitation" if excite else "validation")
     if excite:
         paths = excitation_stage(build_model(cfg), out, episodes=episodes, seed=seed, engine=engine)
+        if engine == "physics":  # which robot the engine drove (issue 50: the default chassis had been used silently)
+            from .verification.physics import physics_config
+
+            obj.say(f"physics robot (MuJoCo): {physics_config(cfg)[1]['summary']}")
         nz = cfg.verification.noise  # the excitation puts exactly this noise on the logged poses
         icr = f" --model icr --pose-noise {nz.position:g} {nz.heading:g}" if cfg.slip.model == "icr" else ""
         settle = " --settle 1" if engine == "physics" else ""  # the engine's robot has dynamics: skip its transients
@@ -907,6 +996,8 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
             bar.render_finish()
     sm, c = vd["straight_max"], vd["certified"]
     vc = vd["certificate"]
+    if vd.get("physics"):  # which robot the engine ran (issue 50: the default chassis had been used silently)
+        obj.say(f"physics robot (MuJoCo): {vd['physics']['summary']}")
     if not vc["passed"]:
         obj.say(f"no certified bounds: {vc['detail']}")
     elif not vc.get("error_bounds"):  # a stability or H-infinity certificate (review: "passed" with nothing judged)
@@ -953,21 +1044,44 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
               help="Directory for the generated files.")
 @click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Take the path from this config [default: the config stored in GAINS].")
+@click.option("--verification", "verification", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="The verification record of GAINS [default: verification.json beside GAINS, written by "
+                   "`robustsynth verify`; it names the gain it verified].")
+@click.option("--allow-unverified", is_flag=True,
+              help="Export a gain whose verification failed, is missing or is of another gain (warned on stderr, "
+                   "the files marked UNVERIFIED).")
 @click.pass_obj
 @_guard
-def export_cmd(obj: _Ctx, gains: Path, target: str, outdir: Path, config: Path | None) -> None:
+def export_cmd(obj: _Ctx, gains: Path, target: str, outdir: Path, config: Path | None, verification: Path | None,
+               allow_unverified: bool) -> int:
     """Generate the controller of GAINS (gains.json or .mat) for the robot.
 
     The generated code implements the law the simulator verified, operation for operation: the
-    gain, sampling time, command memory, integrators, path and motor mapping are baked in.
+    gain, sampling time, command memory, integrators, path and motor mapping are baked in.  Only a
+    gain that passed `robustsynth verify` is exported (exit 1 when its verification failed, 2 when
+    there is none of this gain), unless --allow-unverified; the files state what it is proven for.
     """
+    from .errors import ConfigError
     from .runtime.export import export_controller
 
-    d, files = export_controller(gains, target, outdir, config)
+    try:
+        d, files = export_controller(gains, target, outdir, config, verification_path=verification,
+                                     allow_unverified=allow_unverified)
+    except ConfigError:
+        if config is not None:  # a gains file (or another output of ours) given as --config: one line
+            _not_a_config(config, "--config")
+        raise
+    proof = d["proof"]
+    if proof["verification"]["status"] != "passed":
+        click.echo(f"warning: {gains}: {proof['verified']}; exported anyway (--allow-unverified), marked UNVERIFIED "
+                   "in the files: not a verified controller, do not deploy it as one", err=True)
     if not d.get("certified"):
         obj.say(f"warning: {gains}: no certificate that holds for this gain (none in the file, or its K, certificate "
                 "or config changed after synthesis): exported as UNCERTIFIED (run `robustsynth verify --gains` on it)")
+    obj.say(f"proven: {proof['proven']}")
+    obj.say(f"verification: {proof['verified']}")
     obj.say(f"wrote {', '.join(str(p) for p in files)}")
+    return EXIT_OK
 
 
 def _sweep_progress(obj: _Ctx):

@@ -65,7 +65,7 @@ def _crosses_waypoints(ctl: Controller, rows) -> bool:
 @pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
 @pytest.mark.parametrize("gains", GAINS, ids=lambda p: p.parent.name)
 def test_c_export_compiles_strictly_and_reproduces_the_commands(gains: Path, tmp_path: Path) -> None:
-    _, files = export_controller(gains, "c", tmp_path)
+    _, files = export_controller(gains, "c", tmp_path, allow_unverified=True)  # the code, whatever the verdict
     assert {p.name for p in files} == {"rs_controller.h", "rs_controller.c", "rs_harness.c"}
     src = (tmp_path / "rs_controller.c").read_text()
     assert "malloc" not in src and [ln for ln in src.splitlines() if ln.startswith("#include")] == [
@@ -106,7 +106,7 @@ def test_c_export_of_a_turning_path_has_no_undefined_behaviour_for_a_bad_time(tm
 
 @pytest.mark.parametrize("gains", GAINS, ids=lambda p: p.parent.name)
 def test_python_export_is_dependency_free_and_reproduces_the_commands(gains: Path, tmp_path: Path) -> None:
-    export_controller(gains, "python", tmp_path)
+    export_controller(gains, "python", tmp_path, allow_unverified=True)  # the code, whatever the verdict
     f = tmp_path / "rs_controller.py"
     tree = ast.parse(f.read_text())
     imported = {a.name.split(".")[0] for node in ast.walk(tree) if isinstance(node, ast.Import) for a in node.names}
@@ -127,10 +127,12 @@ def test_python_export_is_dependency_free_and_reproduces_the_commands(gains: Pat
 def test_ros2_and_json_carry_the_controller(tmp_path: Path) -> None:
     gains = ROOT / "results" / "baselines" / "delay-multi-period" / "gains.json"
     ctl = Controller.from_files(gains)
-    export_controller(gains, "ros2", tmp_path)
-    export_controller(gains, "json", tmp_path)
+    export_controller(gains, "ros2", tmp_path, allow_unverified=True)  # the parameters, whatever the verdict
+    export_controller(gains, "json", tmp_path, allow_unverified=True)
     p = yaml.safe_load((tmp_path / "rs_controller.ros2.yaml").read_text())["robustsynth_controller"]["ros__parameters"]
     d = json.loads((tmp_path / "rs_controller.json").read_text())
+    assert d.pop("proof")["verification"]["status"] == "failed"  # what it is proven for, and its verdict (issue 50)
+    assert p["verified"] is False and "UNVERIFIED" in p["proof"]
     assert d == json.loads(json.dumps(ctl.description))
     K = np.array(p["K"]).reshape(p["K_rows"], p["K_cols"])
     assert np.array_equal(K, np.array(ctl.description["K"]))  # floats round-trip exactly
@@ -145,7 +147,7 @@ def test_ros2_and_json_carry_the_controller(tmp_path: Path) -> None:
 def test_export_cli_writes_atomically_and_refuses_bad_input(tmp_path: Path) -> None:
     gains = ROOT / "results" / "baselines" / "tracks-box" / "gains.json"
     run = lambda *a: subprocess.run([sys.executable, "-m", "robustsynth", "export", *a], capture_output=True, text=True)
-    r = run(str(gains), "--to", "c", "-o", str(tmp_path / "c"))
+    r = run(str(gains), "--to", "c", "-o", str(tmp_path / "c"), "--allow-unverified")  # its verification failed
     assert r.returncode == 0 and "rs_controller.h" in r.stdout
     r = run(str(gains), "--to", "fortran", "-o", str(tmp_path / "f"))
     assert r.returncode == 2 and not (tmp_path / "f").exists()
@@ -158,24 +160,26 @@ def test_export_cli_writes_atomically_and_refuses_bad_input(tmp_path: Path) -> N
     g = json.loads(gains.read_text())
     plain = tmp_path / "plain.json"
     plain.write_text(json.dumps({"K": g["K"], "config": g["config"]}))
-    r = run(str(plain), "--to", "json", "-o", str(tmp_path / "plain"))
+    r = run(str(plain), "--to", "json", "-o", str(tmp_path / "plain"), "--allow-unverified")  # never verified
     assert r.returncode == 0 and "no certificate" in r.stdout
 
 
 def test_a_gain_changed_after_synthesis_is_exported_as_uncertified(tmp_path: Path) -> None:
     """A gains file whose K was edited no longer matches its gains_id: its "certified" figures are not this
     gain's, so the export says UNCERTIFIED and carries no figures (a review found an edited K exported as "the
-    certified controller"); the file as written stays certified."""
-    src = ROOT / "results" / "baselines" / "tracks-box" / "gains.json"
+    certified controller"); the file as written stays certified.  (A verified baseline: the edited one is no
+    longer the gain its record verified, so it needs allow_unverified.)"""
+    src = ROOT / "results" / "baselines" / "icr-physics" / "gains.json"
     d, _ = export_controller(src, "c", tmp_path / "ok")
     assert d["certified"] and "the certified networked-robot controller" in (tmp_path / "ok" / "rs_controller.h").read_text()
     g = json.loads(src.read_text())
     g["K"][0][0] += 5.0
     (tmp_path / "edited.json").write_text(json.dumps(g))
     for target, name in (("c", "rs_controller.h"), ("python", "rs_controller.py")):
-        d, _ = export_controller(tmp_path / "edited.json", target, tmp_path / target)
+        d, _ = export_controller(tmp_path / "edited.json", target, tmp_path / target, allow_unverified=True)
         text = (tmp_path / target / name).read_text()
         assert not d.get("certified") and "UNCERTIFIED" in text and "gains_id (none)" in text
+        assert "UNVERIFIED" in text and "Proven: nothing: no certificate that holds for this gain" in text
 
 
 def test_a_rate_bounded_certificates_gains_mat_exports_as_certified(tmp_path: Path) -> None:
@@ -189,7 +193,144 @@ def test_a_rate_bounded_certificates_gains_mat_exports_as_certified(tmp_path: Pa
                                  "synthesis": cfg.synthesis.model_copy(update={"lyapunov": "slip-dependent",
                                                                                "alpha_points": 5})})
     synthesis_stage(build_model(cfg), tmp_path / "g", compare=False)
-    d_json, _ = export_controller(tmp_path / "g" / "gains.json", "python", tmp_path / "j")
-    d_mat, _ = export_controller(tmp_path / "g" / "gains.mat", "python", tmp_path / "m")
+    d_json, _ = export_controller(tmp_path / "g" / "gains.json", "python", tmp_path / "j", allow_unverified=True)
+    d_mat, _ = export_controller(tmp_path / "g" / "gains.mat", "python", tmp_path / "m", allow_unverified=True)
     assert d_json["certified"] and d_mat["certified"]
     assert d_mat["certified"]["ultimate_bound"] == pytest.approx(d_json["certified"]["ultimate_bound"], rel=1e-9)
+
+
+# ------------------------------------------------------------------ what the export says the gain is proven for (issue 50)
+
+def _cli(*args: str):
+    from click.testing import CliRunner
+
+    from robustsynth.cli import main
+
+    return CliRunner().invoke(main, list(args))
+
+
+def _copy(name: str, dest: Path) -> Path:
+    """A baseline's gains.json alone in ``dest`` (no verification record beside it)."""
+    dest.mkdir(parents=True, exist_ok=True)
+    shutil.copy(ROOT / "results" / "baselines" / name / "gains.json", dest / "gains.json")
+    return dest / "gains.json"
+
+
+def _record(passed: bool, gid: str) -> str:
+    """A verification.json as `robustsynth verify` writes it, with the fields export reads."""
+    return json.dumps({"schema_version": 1, "passed": passed, "gains_file": "gains.json", "gains_id": gid,
+                       "config": {"name": "x"}, "checks": []})
+
+
+def test_a_gain_whose_verification_failed_is_refused(tmp_path: Path) -> None:
+    """The tracks-box baseline failed verification (its run's summary.json says so, and a verification.json
+    beside it too): export refuses it with exit 1 and one line naming the file and the remedy, and writes
+    nothing (it had been exported as "the certified controller")."""
+    from robustsynth.artifacts.gains import gains_id, load_gains
+    from robustsynth.errors import VerificationFailed
+
+    gains = ROOT / "results" / "baselines" / "tracks-box" / "gains.json"
+    r = _cli("export", str(gains), "--to", "c", "-o", str(tmp_path / "c"))
+    assert r.exit_code == 1, r.output
+    assert r.stderr.count("\n") == 1 and "its verification failed" in r.stderr and str(gains) in r.stderr
+    assert "--allow-unverified" in r.stderr and "Traceback" not in r.stderr and not (tmp_path / "c").exists()
+    g = _copy("tracks-box", tmp_path / "g")
+    (g.parent / "verification.json").write_text(_record(False, gains_id(load_gains(g))))
+    with pytest.raises(VerificationFailed, match="its verification failed .verification.json beside the gains file"):
+        export_controller(g, "python", tmp_path / "py")
+    assert not (tmp_path / "py").exists()
+
+
+def test_a_gain_without_a_verification_of_its_own_is_refused(tmp_path: Path) -> None:
+    """No verification.json beside the gains file, or one (or --verification) of another gain: exit 2, one line
+    saying to run `robustsynth verify` first; nothing written."""
+    from robustsynth.errors import InputError
+
+    g = _copy("icr-physics", tmp_path / "g")  # a gain whose verification passed, but not recorded beside it here
+    r = _cli("export", str(g), "--to", "c", "-o", str(tmp_path / "c"))
+    assert r.exit_code == 2, r.output
+    assert r.stderr.count("\n") == 1 and "no verification of this gain" in r.stderr
+    assert f"run `robustsynth verify --gains {g}` first" in r.stderr and not (tmp_path / "c").exists()
+    with pytest.raises(InputError, match="no verification of this gain"):
+        export_controller(g, "json", tmp_path / "j")
+    # a record of another gain: beside it, or given with --verification (the default baseline's, passed)
+    other = ROOT / "results" / "baselines" / "default" / "summary.json"
+    (g.parent / "verification.json").write_text(_record(True, json.loads(other.read_text())["gains_id"]))
+    r = _cli("export", str(g), "--to", "c", "-o", str(tmp_path / "c"))
+    assert r.exit_code == 2 and "is the verification of another gain" in r.stderr and "robustsynth verify" in r.stderr
+    (g.parent / "verification.json").unlink()
+    r = _cli("export", str(g), "--to", "json", "-o", str(tmp_path / "c"), "--verification", str(other))
+    assert r.exit_code == 2 and f"{other} is the verification of another gain" in r.stderr, r.stderr
+    assert not (tmp_path / "c").exists()
+    r = _cli("export", str(g), "--to", "json", "-o", str(tmp_path / "c"), "--verification", str(g))
+    assert r.exit_code == 2 and "--verification: " in r.stderr and "not a verification record" in r.stderr
+    # the right record given explicitly: exported
+    r = _cli("export", str(g), "--to", "json", "-o", str(tmp_path / "c"), "--verification",
+             str(ROOT / "results" / "baselines" / "icr-physics" / "summary.json"))
+    assert r.exit_code == 0, r.stderr
+    assert json.loads((tmp_path / "c" / "rs_controller.json").read_text())["proof"]["verification"]["status"] == "passed"
+
+
+def test_allow_unverified_exports_marked_unverified_and_warns(tmp_path: Path) -> None:
+    """--allow-unverified (allow_unverified=True): exported, the headers and the description marked UNVERIFIED,
+    a warning on stderr; never "the certified controller"."""
+    gains = ROOT / "results" / "baselines" / "tracks-box" / "gains.json"
+    r = _cli("export", str(gains), "--to", "c", "-o", str(tmp_path / "c"), "--allow-unverified")
+    assert r.exit_code == 0, r.output
+    assert "warning:" in r.stderr and "UNVERIFIED" in r.stderr and "FAILED" in r.stderr
+    for name in ("rs_controller.h", "rs_controller.c"):
+        text = (tmp_path / "c" / name).read_text()
+        assert "Verification: UNVERIFIED: its verification FAILED (summary.json beside the gains file)." in text
+        assert "the certified networked-robot controller" not in text
+    assert "UNVERIFIED (its verification FAILED)" in (tmp_path / "c" / "rs_controller.h").read_text()
+    g = _copy("tracks-box", tmp_path / "g")  # never verified
+    for target, name in (("python", "rs_controller.py"), ("ros2", "rs_controller.ros2.yaml")):
+        d, _ = export_controller(g, target, tmp_path / target, allow_unverified=True)
+        text = (tmp_path / target / name).read_text()
+        assert d["proof"]["verification"]["status"] == "missing"
+        assert "Verification: UNVERIFIED: no verification of this gain" in text
+    ast.parse((tmp_path / "python" / "rs_controller.py").read_text())  # the header stays a docstring
+    yaml.safe_load((tmp_path / "ros2" / "rs_controller.ros2.yaml").read_text())
+
+
+@pytest.mark.parametrize("name,proven", [
+    ("nonlinear-proof", "certified for the nonlinear robot while |e_theta| <= 0.2 rad (its heading bound); "
+                        "slip model tracks (mu_r in [0.8, 1], mu_l in [0.8, 1]"),
+    ("icr-physics", "certified for the linearization only (certificate kinematics: linearized; not proven for the "
+                    "nonlinear robot); slip model icr (mu_r in [0.95, 1.02]"),
+])
+def test_a_verified_gain_states_what_it_is_proven_for(name: str, proven: str, tmp_path: Path) -> None:
+    """A baseline that passed verification: the CLI prints, the headers and the description state the certificate's
+    kind (the nonlinear robot within its heading bound, or the linearization only), the slip model and that exactly
+    this gain passed verification."""
+    gains = ROOT / "results" / "baselines" / name / "gains.json"
+    r = _cli("export", str(gains), "--to", "c", "-o", str(tmp_path / "c"))
+    assert r.exit_code == 0, r.output
+    assert f"proven: {proven}" in r.stdout and "verification: passed for exactly this gain" in r.stdout
+    assert r.stderr == ""
+    h = (tmp_path / "c" / "rs_controller.h").read_text()
+    assert "the certified networked-robot controller" in h and f"Proven: {proven}" in h
+    assert f"Verification: passed for exactly this gain (summary.json beside the gains file, config '{name}')." in h
+    d, _ = export_controller(gains, "json", tmp_path / "j")
+    assert d["proof"]["certificate"] == ("nonlinear" if name == "nonlinear-proof" else "linearized")
+    assert json.loads((tmp_path / "j" / "rs_controller.json").read_text())["proof"]["proven"].startswith(proven)
+
+
+def test_run_exports_a_gain_whose_verification_passed_and_skips_one_that_failed(tmp_path: Path) -> None:
+    """`robustsynth run --export` (make demo's path): the export reads the verification.json the run wrote beside
+    gains.json; a passed verdict exports and states it, a failed one skips the export with a line, exit 1."""
+    from ..conftest import BASE_CONFIG, PASSING_CONFIG
+
+    r = _cli("run", str(PASSING_CONFIG), "-o", str(tmp_path / "pass"), "--runs", "10", "--no-plots", "--export", "c")
+    assert r.exit_code == 0, r.output
+    assert "exported (c; proven: certified for the linearization only" in r.stdout
+    h = (tmp_path / "pass" / "export" / "rs_controller.h").read_text()
+    assert "the certified networked-robot controller" in h
+    assert "Verification: passed for exactly this gain (verification.json beside the gains file" in h
+    r = _cli("run", str(BASE_CONFIG), "-o", str(tmp_path / "fail"), "--runs", "5", "--no-plots", "--export", "c")
+    assert r.exit_code == 1, r.output
+    assert "export skipped: verification failed" in r.stdout and "--allow-unverified" in r.stdout
+    assert not (tmp_path / "fail" / "export").exists()
+    # a gains.mat beside the gains.json run verified is the same gain
+    d, _ = export_controller(tmp_path / "pass" / "gains.mat", "json", tmp_path / "m")
+    assert d["proof"]["verification"]["status"] == "passed"

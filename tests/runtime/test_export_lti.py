@@ -49,7 +49,7 @@ def _reference(K, xs, n, m, d):
 
 def test_python_module_matches_the_lifted_law(tmp_path) -> None:
     p, K = _gains(tmp_path)
-    _, files = export_controller(p, "python", tmp_path / "py")
+    _, files = export_controller(p, "python", tmp_path / "py", allow_unverified=True)  # a made-up gain: the code only
     spec = importlib.util.spec_from_file_location("rs_lti", files[0])
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
@@ -74,7 +74,7 @@ def test_the_lifted_state_is_written_as_it_is() -> None:
 def test_c_law_matches_bit_for_bit(tmp_path) -> None:
     p, K = _gains(tmp_path, n=2, m=1, d=3, seed=2)
     out = tmp_path / "c"
-    export_controller(p, "c", out)
+    export_controller(p, "c", out, allow_unverified=True)  # a made-up gain: the code only
     (out / "main.c").write_text("""#include <stdio.h>
 #include "rs_lti.h"
 int main(void) { rs_lti_state s; rs_lti_reset(&s); double x[RS_LTI_N], u[RS_LTI_M];
@@ -120,7 +120,7 @@ def test_the_written_mat_reads_as_its_gains_file_and_a_mismatched_config_is_refu
     out = tmp_path / "g"
     lti_synthesis_stage(load_config(cfg_path), out, cfg_path)
     assert load_gains(out / "gains.mat") == load_gains(out / "gains.json")
-    d, _ = export_controller(out / "gains.mat", "python", tmp_path / "e")
+    d, _ = export_controller(out / "gains.mat", "python", tmp_path / "e", allow_unverified=True)  # synthesized only
     assert d["K"] == json.loads((out / "gains.json").read_text())["K"]
     m = loadmat(out / "gains.mat")
     m["K"] = m["K"] * 1.01
@@ -133,10 +133,10 @@ def test_the_written_mat_reads_as_its_gains_file_and_a_mismatched_config_is_refu
         export_controller(out / "gains.json", "c", tmp_path / "c", configs / "tracks-box.yaml")
     # a gains.json whose K was edited is exported, but not as certified (its gains_id no longer matches)
     gd = json.loads((out / "gains.json").read_text())
-    assert "the certified law" in (tmp_path / "e" / "rs_lti.py").read_text()
+    assert "certified law" in (tmp_path / "e" / "rs_lti.py").read_text()
     gd["K"][0][0] *= 1.01
     (tmp_path / "edited.json").write_text(json.dumps(gd))
-    d, _ = export_controller(tmp_path / "edited.json", "python", tmp_path / "ed")
+    d, _ = export_controller(tmp_path / "edited.json", "python", tmp_path / "ed", allow_unverified=True)
     assert not d.get("certified") and "UNCERTIFIED" in (tmp_path / "ed" / "rs_lti.py").read_text()
     # and the other way round: the robot's gains (or a bare K) with a linear plant's config (a traceback before)
     robot = configs.parent / "results" / "baselines" / "tracks-box" / "gains.json"
@@ -146,3 +146,44 @@ def test_the_written_mat_reads_as_its_gains_file_and_a_mismatched_config_is_refu
         with pytest.raises(InputError, match="dc-motor.yaml is a linear plant's"):
             export_controller(g, "c", tmp_path / "c", cfg_path)
     assert not (tmp_path / "c").exists()
+
+
+def test_a_linear_plants_gain_is_exported_only_as_verified(tmp_path) -> None:
+    """The rule of the robot's export for a linear plant's gain (issue 50): with the verification.json that
+    `robustsynth verify` (pipeline_lti) wrote beside it and passed, exported and said so in the files; without one,
+    exit 2 (run verify first); a failed one, exit 1; --allow-unverified exports it marked UNVERIFIED."""
+    from pathlib import Path
+
+    from click.testing import CliRunner
+
+    from robustsynth.artifacts.gains import gains_id, load_gains
+    from robustsynth.cli import main
+    from robustsynth.config import load_config
+    from robustsynth.errors import VerificationFailed
+    from robustsynth.pipeline_lti import lti_synthesis_stage, lti_verification_stage
+
+    cfg_path = Path(__file__).resolve().parents[2] / "configs" / "dc-motor.yaml"
+    out = tmp_path / "g"
+    lti_synthesis_stage(load_config(cfg_path), out, cfg_path)
+    with pytest.raises(InputError, match="no verification of this gain .* run `robustsynth verify --gains"):
+        export_controller(out / "gains.json", "c", tmp_path / "none")
+    r = CliRunner().invoke(main, ["export", str(out / "gains.json"), "--to", "python", "-o", str(tmp_path / "none")])
+    assert r.exit_code == 2 and "robustsynth verify" in r.stderr and not (tmp_path / "none").exists()
+    assert lti_verification_stage(load_config(cfg_path), out, None, cfg_path, runs=8, plots=False)["passed"]
+    r = CliRunner().invoke(main, ["export", str(out / "gains.json"), "--to", "c", "-o", str(tmp_path / "c")])
+    assert r.exit_code == 0, r.output
+    assert "proven: certified for the linear plant (plant: kind: lti)" in r.stdout
+    for name in ("rs_lti.h", "rs_lti.c"):
+        text = (tmp_path / "c" / name).read_text()
+        assert "Verification: passed for exactly this gain (verification.json beside the gains file)." in text
+        assert "with delays in [0.005, 0.04] s and no packet losses" in text and "UNVERIFIED" not in text
+    d, _ = export_controller(out / "gains.mat", "json", tmp_path / "j")  # the .mat is the same gain
+    assert d["proof"]["verification"]["status"] == "passed"
+    # a failed verification of this gain (its fields as pipeline_lti writes them)
+    v = json.loads((out / "verification.json").read_text())
+    assert v["gains_id"] == gains_id(load_gains(out / "gains.json"))
+    (out / "verification.json").write_text(json.dumps(dict(v, passed=False)))
+    with pytest.raises(VerificationFailed, match="its verification failed"):
+        export_controller(out / "gains.json", "python", tmp_path / "f")
+    d, files = export_controller(out / "gains.json", "python", tmp_path / "f", allow_unverified=True)
+    assert "rs_lti.py: the UNVERIFIED (its verification FAILED), certified law" in files[0].read_text()

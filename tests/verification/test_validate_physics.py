@@ -222,3 +222,59 @@ def test_a_gains_mat_validates_and_bounds_that_are_not_the_robots_are_said(tmp_p
         assert said in r.output, r.output
         # the slip box is covered by a stability certificate (robust stability), not by the paper model's
         assert ("covers it" in r.output) == (model == "stability"), r.output
+
+
+def _narrow_robot(tmp_path, **physics) -> Path:
+    """tracks-box with the tracks 0.38 m apart on a short straight path (a tiny episode), ``physics:`` as given."""
+    import yaml
+
+    d = yaml.safe_load((ROOT / "configs" / "tracks-box.yaml").read_text())
+    d["name"] = "narrow"
+    d["robot"]["track_distance"] = 0.38
+    d["verification"]["path"] = [[0.0, 0.0], [1.5, 0.0]]
+    if physics:
+        d["physics"] = physics
+    p = tmp_path / f"narrow-{len(physics)}.yaml"
+    p.write_text(yaml.safe_dump(d))
+    return p
+
+
+def test_validate_says_which_physics_robot_it_ran_and_derives_it_from_the_config(tmp_path) -> None:
+    """A robot whose tracks are 0.38 m apart (issue 50: run silently on the default 0.6 x 0.5 m chassis): the
+    chassis is as wide as its tracks imply (0.38 + 2 x 0.025 m), the wheels are its sprockets (robot.gear_radius),
+    and the CLI line and validation.json say so, with what is a default; the engine really runs that chassis
+    (the same episode on the default-width chassis, set explicitly, moves differently) and a size the config
+    sets is kept."""
+    import numpy as np
+
+    from robustsynth import build_model, load_config
+    from robustsynth.artifacts.gains import load_gains
+    from robustsynth.verification.physics import validate_physics
+
+    cfg = _narrow_robot(tmp_path)
+    r = CliRunner().invoke(main, ["validate", str(cfg), "--gains", str(ROOT / "results" / "baselines" / "tracks-box" /
+                                                                          "gains.json"), "--episodes", "1", "--no-plots",
+                                  "-o", str(tmp_path / "out")])
+    assert r.exit_code in (0, 1), r.output
+    assert r.exception is None or isinstance(r.exception, SystemExit), r.exception
+    line = next(ln for ln in r.output.splitlines() if ln.startswith("physics robot (MuJoCo): "))
+    assert "chassis 20 kg (default)" in line and "0.6 x 0.43 x 0.15 m (width from robot.track_distance: 0.38 m" in line
+    assert "tracks 0.38 m apart (robot.track_distance)" in line and "sprocket radius 0.09 m (robot.gear_radius)" in line
+    ph = json.loads((tmp_path / "out" / "validation.json").read_text())["physics"]
+    assert ph["parameters"]["chassis_size"] == [0.6, 0.43, 0.15] and ph["parameters"]["track_spacing"] == 0.38
+    assert ph["parameters"]["sprocket_radius"] == 0.09 and ph["source"]["chassis_mass"] == "default"
+    assert ph["source"]["chassis_size"].startswith("width from robot.track_distance")
+    assert {"chassis_size", "sprocket_radius", "track_spacing"} <= set(ph["derived"])
+    # explicitly set values are kept, and the engine runs what the record says
+    wide = load_config(_narrow_robot(tmp_path, chassis_size=[0.6, 0.5, 0.15], chassis_mass=12.0))
+    g = load_gains(ROOT / "results" / "baselines" / "tracks-box" / "gains.json")
+    res_wide = validate_physics(build_model(wide), g, episodes=1, seed=0)
+    rec = res_wide["validation"]["physics"]
+    assert rec["parameters"]["chassis_size"] == [0.6, 0.5, 0.15] and rec["source"]["chassis_size"] == "config"
+    assert rec["parameters"]["chassis_mass"] == 12.0 and "chassis 12 kg (physics: in the config)" in rec["summary"]
+    narrow12 = load_config(_narrow_robot(tmp_path, chassis_mass=12.0))
+    res_narrow = validate_physics(build_model(narrow12), g, episodes=1, seed=0)
+    assert res_narrow["validation"]["physics"]["parameters"]["chassis_size"] == [0.6, 0.43, 0.15]
+    assert not np.array_equal(res_narrow["q"], res_wide["q"])  # another chassis in the engine, not just in the record
+    # the kinematic engine runs no physics robot: nothing to state
+    assert validate_physics(build_model(narrow12), g, episodes=1, engine="kinematic")["validation"]["physics"] is None

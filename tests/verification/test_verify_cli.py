@@ -350,20 +350,20 @@ def test_a_failed_verify_leaves_no_empty_log_place(tmp_path) -> None:
     assert r.exit_code == 2 and kept.is_dir()  # a place that existed before stays
 
 
-def test_a_synthesized_gains_mat_exports_as_certified_and_an_edited_one_does_not(run_dir, tmp_path) -> None:
+def test_a_synthesized_gains_mat_exports_as_certified_and_an_edited_one_does_not(passing_dir, tmp_path) -> None:
     """A gains.mat keeps the certificate, not its figures: export re-checks it on the stored config and carries the
     figures of gains.json (a review found every synthesized gains.mat exported as UNCERTIFIED); K edited in the
-    .mat fails the re-check."""
+    .mat fails the re-check (exported only with allow_unverified)."""
     from scipy.io import loadmat, savemat
 
     from robustsynth.runtime.export import export_controller
 
-    d_mat, _ = export_controller(run_dir / "gains.mat", "python", tmp_path / "m")
-    d_json, _ = export_controller(run_dir / "gains.json", "python", tmp_path / "j")
+    d_mat, _ = export_controller(passing_dir / "gains.mat", "python", tmp_path / "m")
+    d_json, _ = export_controller(passing_dir / "gains.json", "python", tmp_path / "j")
     assert d_mat["certified"]["ultimate_bound"] == pytest.approx(d_json["certified"]["ultimate_bound"], rel=1e-9)
     assert "the certified networked-robot controller" in (tmp_path / "m" / "rs_controller.py").read_text()
-    m = loadmat(run_dir / "gains.mat")
+    m = loadmat(passing_dir / "gains.mat")
     m["K"][0, 0] += 5.0
     savemat(tmp_path / "edited.mat", {k: v for k, v in m.items() if not k.startswith("__")})
-    d, _ = export_controller(tmp_path / "edited.mat", "python", tmp_path / "e")
+    d, _ = export_controller(tmp_path / "edited.mat", "python", tmp_path / "e", allow_unverified=True)
     assert not d.get("certified") and "UNCERTIFIED" in (tmp_path / "e" / "rs_controller.py").read_text()

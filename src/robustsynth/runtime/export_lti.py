@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-__all__ = ["lti_export_files", "LTI_TARGETS"]
+__all__ = ["lti_export_files", "lti_proven", "LTI_TARGETS"]
 
 LTI_TARGETS = ("c", "python", "json")
 
@@ -29,13 +29,40 @@ def _description(gd: dict[str, Any]) -> dict[str, Any]:
     lift = gd["lifting"]
     return {"kind": "lti", "name": gd.get("config", {}).get("name", "lti"), "law": gd["law"], "K": gd["K"],
             "n": int(lift["n"]), "m": int(lift["m"]), "d": int(lift["d"]), "states": lift.get("states"),
-            "sampling_time": gd["network"]["sampling_time"], "certified": gd.get("certified")}
+            "sampling_time": gd["network"]["sampling_time"], "certified": gd.get("certified"),
+            "gains_id": gd.get("gains_id")}
 
 
 def certified_word(d: dict[str, Any]) -> str:
     """How a generated file names its controller: certified only when the gains file carries its certificate's
-    figures (a bare K, or a file changed after synthesis, does not)."""
-    return "certified" if d.get("certified") else "UNCERTIFIED (no certificate that holds for this gain)"
+    figures (a bare K, or a file changed after synthesis, does not); UNVERIFIED first when the description's
+    proof (``export_controller``) says this gain's verification failed or is missing (issue 50: a baseline whose
+    verification failed was exported as "the certified controller")."""
+    word = "certified" if d.get("certified") else "UNCERTIFIED (no certificate that holds for this gain)"
+    proof = d.get("proof")
+    if isinstance(proof, dict) and (proof.get("verification") or {}).get("status") != "passed":
+        return f"UNVERIFIED ({UNVERIFIED_WHY.get(proof['verification'].get('status'), 'not verified')}), {word}"
+    return word
+
+
+UNVERIFIED_WHY = {"failed": "its verification FAILED", "missing": "no verification of this gain",
+                  "other-gain": "its verification record is of another gain"}
+
+
+def comment_safe(text: str) -> str:
+    """Text that can stand in a C comment, a Python docstring and a YAML comment line (a path could end any of
+    them)."""
+    out = str(text).replace("*/", "* /").replace('"""', "'''").replace("\\", "/")
+    return " ".join(out.splitlines())
+
+
+def proof_lines(d: dict[str, Any]) -> list[str]:
+    """The header lines that say what the gain is proven for and whether this gain was verified (none when the
+    description carries no proof)."""
+    proof = d.get("proof")
+    if not isinstance(proof, dict):
+        return []
+    return [comment_safe(f"Proven: {proof['proven']}."), comment_safe(f"Verification: {proof['verified']}.")]
 
 
 def _lifted(d: int) -> str:
@@ -51,7 +78,8 @@ def _c_files(d: dict[str, Any]) -> dict[str, bytes]:
     K = d["K"]
     width = n + dd * m
     flat = ", ".join("{" + ", ".join(_f(v) for v in row) + "}" for row in K)
-    h = f"""/* rs_lti.h: the {certified_word(d)} law u_k = K xi_k of '{d['name']}' (robustsynth, plant: kind: lti).
+    proof = "".join(f"\n   {line}" for line in proof_lines(d))
+    h = f"""/* rs_lti.h: the {certified_word(d)} law u_k = K xi_k of '{d['name']}' (robustsynth, plant: kind: lti).{proof}
    xi_k = {_lifted(dd)}: the state, then the commands this controller sent, newest first.
    Call rs_lti_step once per sampling instant (every RS_LTI_TS s) with the measured state; send u.
    Bit-identical to the verified law when compiled without floating-point contraction (-ffp-contract=off).
@@ -67,7 +95,7 @@ void rs_lti_reset(rs_lti_state *s);
 void rs_lti_step(rs_lti_state *s, const double x[RS_LTI_N], double u[RS_LTI_M]);
 #endif
 """
-    c = f"""/* rs_lti.c: see rs_lti.h. */
+    c = f"""/* rs_lti.c: see rs_lti.h (the {certified_word(d)} law).{proof} */
 #include "rs_lti.h"
 
 static const double K[RS_LTI_M][{width}] = {{{flat}}};
@@ -93,7 +121,8 @@ void rs_lti_step(rs_lti_state *s, const double x[RS_LTI_N], double u[RS_LTI_M]) 
 def _python_module(d: dict[str, Any]) -> bytes:
     n, m, dd = d["n"], d["m"], d["d"]
     rows = ",\n    ".join("(" + ", ".join(_f(v) for v in row) + ",)" for row in d["K"])
-    return f'''"""rs_lti.py: the {certified_word(d)} law u_k = K xi_k of '{d['name']}' (robustsynth, plant: kind: lti), no numpy.
+    proof = "".join(f"\n{line}" for line in proof_lines(d))
+    return f'''"""rs_lti.py: the {certified_word(d)} law u_k = K xi_k of '{d['name']}' (robustsynth, plant: kind: lti), no numpy.{proof}
 
 xi_k = {_lifted(dd)}: the state, then the commands this controller sent, newest first.
 Call step(x) once per sampling instant (every TS s) and send the commands it returns.
@@ -129,8 +158,23 @@ class Controller:
 '''.encode()
 
 
-def lti_export_files(gd: dict[str, Any], target: str) -> tuple[dict[str, Any], dict[str, bytes]]:
-    """(description, files) of a linear plant's gains mapping for ``target`` (c, python or json)."""
+def lti_proven(gd: dict[str, Any]) -> str:
+    """What a linear plant's certificate is a proof for (the first half of the exports' statement)."""
+    if not gd.get("certified"):
+        return "no certificate that holds for this gain"
+    net = gd.get("network") or {}
+    delay, ml = net.get("delay"), net.get("max_consecutive")
+    losses = "no packet losses" if not ml else f"up to {int(ml)} consecutive packet losses"
+    where = (f" with delays in [{float(delay[0]):g}, {float(delay[1]):g}] s and {losses}"
+             if isinstance(delay, (list, tuple)) and len(delay) == 2 and ml is not None else "")
+    return (f"certified for the linear plant (plant: kind: lti) on its exactly lifted loop{where}; no slip model "
+            "(not the tracked robot)")
+
+
+def lti_export_files(gd: dict[str, Any], target: str,
+                     proof: dict[str, Any] | None = None) -> tuple[dict[str, Any], dict[str, bytes]]:
+    """(description, files) of a linear plant's gains mapping for ``target`` (c, python or json); ``proof``
+    (``export_controller``): what the gain is proven for and whether it was verified, stated in the files."""
     import json
 
     from ..errors import InputError
@@ -145,6 +189,8 @@ def lti_export_files(gd: dict[str, Any], target: str) -> tuple[dict[str, Any], d
     if len(K) != d["m"] or any(len(r) != d["n"] + d["d"] * d["m"] for r in K):
         raise InputError(f"K: must be {d['m']} x {d['n'] + d['d'] * d['m']} (m x (n + d m)) for this lifting")
     d["K"] = K
+    if proof is not None:
+        d["proof"] = proof
     if target == "c":
         return d, _c_files(d)
     if target == "python":

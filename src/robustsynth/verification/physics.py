@@ -9,6 +9,12 @@ segments (after ``verification.transient`` seconds from each waypoint, and from 
 the largest errors are compared with the certified bounds; the turns are reported beside them.
 The episodes come back as robot logs (``identify``'s format); the pipeline estimates from them the
 slip the engine showed and compares it with the config's box.
+
+The robot in the engine is the config's (:func:`physics_config`): the sprocket radius is robot.gear_radius,
+the tracks robot.track_distance apart, and the chassis as wide as the tracks imply unless ``physics:``
+sets its size; every other ``physics:`` value is the config's or the feasibility study's default, and
+the validation says which (``physics`` in validation.json: a robot with tracks 0.38 m apart had been
+run silently on the default 0.5 m chassis, issue 50).
 """
 
 from __future__ import annotations
@@ -21,10 +27,61 @@ import numpy as np
 from ..law import Law
 from ..plants.path import frame_error, path_of, pose_from_error
 
-__all__ = ["validate_physics", "excite", "excitation_slip", "excitation_steps", "PERTURBATION"]
+__all__ = ["validate_physics", "excite", "excitation_slip", "excitation_steps", "physics_config", "PERTURBATION",
+           "CHASSIS_OVERHANG"]
 
 PERTURBATION = (0.02, 0.02, 0.05)  # perturbed starts: uniform offsets up to this in e_x, e_y [m], e_theta [rad]
 TORQUE_SATURATED = 0.999  # a period counts as torque-saturated when a track's peak reaches this share of the limit
+# how far the chassis reaches beyond each track's centre line [m]: the study's robot, a 0.5 m wide chassis on
+# tracks 0.45 m apart (the physics.chassis_size default); a config's chassis is robot.track_distance + 2 x this wide
+CHASSIS_OVERHANG = 0.025
+
+
+def physics_config(config: Any) -> tuple[Any, dict[str, Any]]:
+    """The config whose ``physics:`` the engine's robot is built from, and the record of what it used.
+
+    What the robot section implies is derived: the wheels' radius is robot.gear_radius (the sprocket), the
+    tracks lie robot.track_distance apart and the chassis is robot.track_distance + 2 CHASSIS_OVERHANG wide
+    (length and height the defaults) unless ``physics.chassis_size`` is set; a value the config sets is kept.
+    The record (validation.json's ``physics``): every parameter's value, where it came from ("config",
+    "default" or the robot key it follows) and a one-line ``summary``."""
+    from ..config import PhysicsConfig
+
+    p = config.physics
+    given = set(p.model_fields_set)
+    R, D, rho = config.robot.gear_radius, config.robot.track_distance, config.robot.max_motor_speed
+    source = {k: ("config" if k in given else "default") for k in PhysicsConfig.model_fields}
+    size = [float(v) for v in p.chassis_size]
+    if "chassis_size" not in given:
+        size[1] = round(float(D) + 2.0 * CHASSIS_OVERHANG, 12)
+        source["chassis_size"] = (f"width from robot.track_distance: {float(D):g} m + 2 x {CHASSIS_OVERHANG:g} m; "
+                                  "length, height: default")
+        config = config.model_copy(update={"physics": p.model_copy(update={"chassis_size": size})})
+    p = config.physics
+    params = {k: (list(v) if isinstance(v, (list, tuple)) else v) for k, v in p.model_dump(mode="json").items()}
+    params.update(sprocket_radius=float(R), track_spacing=float(D), max_motor_speed=rho)
+    source.update(sprocket_radius="robot.gear_radius", track_spacing="robot.track_distance",
+                  max_motor_speed="robot.max_motor_speed")
+
+    def said(key: str, text: str) -> str:
+        src = source[key]
+        return f"{text} ({'physics: in the config' if src == 'config' else src})"
+
+    L, W, H = size
+    summary = ", ".join([
+        said("chassis_mass", f"chassis {p.chassis_mass:g} kg"),
+        said("chassis_size", f"{L:g} x {W:g} x {H:g} m"),
+        said("track_spacing", f"tracks {D:g} m apart"),
+        said("sprocket_radius", f"sprocket radius {R:g} m"),
+        said("wheels_per_track", f"{p.wheels_per_track} wheels per track") + " " + said("wheel_span", f"over {p.wheel_span:g} m"),
+        said("friction", f"friction {p.friction:g}"),
+        said("track_torque", f"{p.track_torque:g} N m per track"),
+        said("payload_mass", f"payload {p.payload_mass:g} kg {p.payload_x:+g} m ahead" if p.payload_mass else "no payload"),
+        said("timestep", f"time step {p.timestep:g} s"),
+    ])
+    record = {"parameters": params, "source": source, "summary": summary,
+              "derived": [k for k, v in source.items() if v not in ("config", "default")]}
+    return config, record
 
 
 class _KinematicEngine:
@@ -80,7 +137,7 @@ def _run_episodes(model: Any, gains: dict[str, Any], first: int, count: int, see
         mus.append([rng.uniform(lo, hi) for lo, hi in model.slip_ranges])  # every slip parameter (icr: 4)
     taus = np.array(taus)  # (N, d_hi + steps): the d_hi packets before t_0 first
     q0 = pose_from_error(path, offsets)
-    robot = PhysicsRobot(cfg, N) if engine == "physics" else _KinematicEngine(model, np.array(mus))
+    robot = PhysicsRobot(physics_config(cfg)[0], N) if engine == "physics" else _KinematicEngine(model, np.array(mus))
     robot.reset(q0, V)
     S = model.s_tilde(taus)  # (N, steps, d_hi)
     law = Law(K.tolist(), Ts, bool(model.n_z), path.table)
@@ -186,6 +243,8 @@ def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed:
     turns = {nm: max(ep["turn_max"][nm] for ep in per_episode) for nm in names}
     out = {
         "engine": "physics (MuJoCo)" if engine == "physics" else "kinematic (exact arcs, one slip per episode from the box)", "episodes": N, "seed": seed, "steps": steps, "duration_s": steps * Ts,
+        # the physics robot's parameters and where each came from (the kinematic engine has none)
+        "physics": physics_config(cfg)[1] if engine == "physics" else None,
         "straight_rule": (f"every instant, through the turns the certificate covers (after a perturbed start from {tr:g} s on), "
                           "against the bounds for all t" if through_turns else
                           "between the arcs, where no command in flight turns (and after a perturbed start, from "
@@ -252,7 +311,7 @@ def excite(model: Any, episodes: int = 4, seed: int = 0, engine: str = "physics"
     if engine == "physics":
         from ..plants.physics import PhysicsRobot
 
-        robot = PhysicsRobot(cfg, episodes)
+        robot = PhysicsRobot(physics_config(cfg)[0], episodes)
     else:
         robot = _KinematicEngine(model, excitation_slip(model, episodes, steps, seed))
     robot.reset(np.zeros((episodes, 3)), V)
