@@ -111,21 +111,30 @@ def test_default_config_name_names_the_output_directory(tmp_path) -> None:
     assert r.exit_code == 2 and "reserved" in r.output and len(r.output.strip().splitlines()) == 1
 
 
-def test_a_stage_clears_what_another_config_left(tmp_path) -> None:
-    """build-model of another config on a full run's directory removes that run's gains and reports
-    instead of leaving a foreign model beside them."""
+def test_a_stage_sets_aside_what_another_config_left(tmp_path) -> None:
+    """build-model of another config on a full run's directory moves that run's gains and reports under
+    stale/<time>/ instead of leaving a foreign model beside them, and deletes none of them (issue 50: a
+    rebuild had removed 14 files)."""
     r = CliRunner().invoke(main, ["run", str(BASE_CONFIG), "-o", str(tmp_path), "--runs", "3", "--no-plots", "--objective",
                                   "stability"])
     assert r.exit_code == 0, r.output
     assert (tmp_path / "gains.json").exists() and (tmp_path / "report.md").exists()
-    r = CliRunner().invoke(main, ["build-model", str(BASE_CONFIG), "-o", str(tmp_path)])  # same config: nothing removed
-    assert r.exit_code == 0 and "removed" not in r.output and (tmp_path / "gains.json").exists()
+    before = {p.relative_to(tmp_path): p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
+    r = CliRunner().invoke(main, ["build-model", str(BASE_CONFIG), "-o", str(tmp_path)])  # same config: nothing moved
+    assert r.exit_code == 0 and "set aside" not in r.output and (tmp_path / "gains.json").exists()
+    assert not (tmp_path / "stale").exists()
     other = tmp_path / "other.yaml"
     other.write_text(CliRunner().invoke(main, ["default-config", "--name", "other"]).output)
     r = CliRunner().invoke(main, ["build-model", str(other), "-o", str(tmp_path)])
-    assert r.exit_code == 0 and "another config had left" in r.output
+    assert r.exit_code == 0 and "another config had left" in r.output and "nothing deleted" in r.output
     assert sorted(p.name for p in tmp_path.iterdir() if p.is_file() and p.suffix != ".yaml") == ["model.json", "model.md"]
     assert json.loads((tmp_path / "model.json").read_text())["config"]["name"] == "other"
+    (stale,) = (tmp_path / "stale").iterdir()
+    assert "another config" in (stale / "STALE.txt").read_text()
+    # every file of the earlier run is kept, byte for byte, under stale/<time>/ (model.json/.md of the same
+    # config were rewritten by the same-config build-model above with the same bytes)
+    for rel, data in before.items():
+        assert (stale / rel).read_bytes() == data, rel
 
 
 def test_a_file_written_before_a_key_existed_is_not_foreign(tmp_path) -> None:
@@ -146,7 +155,9 @@ def test_a_file_written_before_a_key_existed_is_not_foreign(tmp_path) -> None:
     text = (root / "configs" / "tracks-box.yaml").read_text()
     assert clear_foreign(tmp_path, parse_config(text)) == []
     assert (tmp_path / "gains.json").exists()
-    assert clear_foreign(tmp_path, parse_config(text.replace("speed: 0.5", "speed: 0.4"))) == ["gains.json"]
+    (moved,) = clear_foreign(tmp_path, parse_config(text.replace("speed: 0.5", "speed: 0.4")))
+    assert moved.startswith("stale/") and moved.endswith("/gains.json") and (tmp_path / moved).is_file()
+    assert not (tmp_path / "gains.json").exists()
 
 
 def test_a_linear_plants_stage_clears_what_another_config_left(tmp_path) -> None:
@@ -161,7 +172,7 @@ def test_a_linear_plants_stage_clears_what_another_config_left(tmp_path) -> None
         r = CliRunner().invoke(main, [cmd, str(configs / "zbp.yaml"), "-o", str(tmp_path)])
         assert r.exit_code == 0, r.output
         assert ("another config had left" in r.output) == (cmd == "build-model"), r.output
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["gains.json", "gains.mat", "model.json", "synthesis.md"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["gains.json", "gains.mat", "model.json", "stale", "synthesis.md"]
     assert json.loads((tmp_path / "gains.json").read_text())["config"]["name"] == "zbp"
 
 

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
-from .artifacts.files import remove_files
+from .artifacts.files import remove_files, set_aside
 from .config import Config
 from .model import Model, build_model, coverage_check
 
@@ -40,9 +40,10 @@ def default_outdir(config: Config) -> Path:
 
 
 def clear_foreign(outdir: str | Path, config: Config) -> list[str]:
-    """Remove the files another config left in ``outdir``: when its model.json, gains.json or
-    summary.json was written for a different config, every file of every stage goes (a foreign
-    model beside an old gain and report would read as one run).  Returns the removed names."""
+    """Set aside the files another config left in ``outdir``: when its model.json, gains.json or
+    summary.json was written for a different config, every file of every stage moves to
+    ``outdir/stale/<time>/`` (a foreign model beside an old gain and report would read as one run;
+    deleting them had cost a user 14 files, issue 50).  Returns the moved files' new paths."""
     from .config import config_to_dict
 
     outdir = Path(outdir)
@@ -71,9 +72,16 @@ def clear_foreign(outdir: str | Path, config: Config) -> list[str]:
                  + ("margin.json", "margin.md", "verification.png", "verification.pdf", "verification.svg"))
     if (outdir / "figures").is_dir():
         names += [f"figures/{p.name}" for p in sorted((outdir / "figures").iterdir()) if p.is_file()]
-    removed = [n for n in names if (outdir / n).exists()]
-    remove_files(outdir, tuple(removed))
-    return removed
+    return list(set_aside(outdir, names, f"they were written for another config than '{config.name}' "
+                                         "(a stage of that config wrote into this directory)"))
+
+
+def figure_files(outdir: str | Path) -> tuple[str, ...]:
+    """The verification figures in ``outdir/figures/`` (relative names)."""
+    fig = Path(outdir) / "figures"
+    if not fig.is_dir():
+        return ()
+    return tuple(f"figures/{p.name}" for p in sorted(fig.iterdir()) if p.is_file() and p.suffix in (".png", ".pdf", ".svg"))
 
 
 def _same_config(stored: Any, mine: dict[str, Any]) -> bool:
@@ -150,7 +158,9 @@ def synthesis_stage(model: Model, outdir: str | Path, compare: bool = True,
         result = synthesize(model, on_step=on_step, **overrides)
     except RobustSynthError as exc:
         if outdir.is_dir() and not isinstance(exc, (Interrupted, OutputError)):
-            remove_files(outdir, SYNTHESIS_FILES + VERIFICATION_FILES + RUN_FILES)
+            set_aside(outdir, SYNTHESIS_FILES + VERIFICATION_FILES + RUN_FILES + figure_files(outdir),
+                      f"synthesize found no certified gain for '{model.config.name}' as configured now (exit "
+                      f"{getattr(exc, 'exit_code', '?')}); these are of the gain before")
         raise
     gd = gains_dict(model, result)
     diagnosis = None
@@ -169,7 +179,8 @@ def synthesis_stage(model: Model, outdir: str | Path, compare: bool = True,
         "synthesis.md": synthesis_markdown(model, result, gd, cmp, diagnosis).encode("utf-8"),
         "gains.json": json_bytes(gd),
     }
-    written = commit_files(outdir, files, primary="gains.json", invalidate=VERIFICATION_FILES + RUN_FILES)
+    written = commit_files(outdir, files, primary="gains.json", invalidate=VERIFICATION_FILES + RUN_FILES + figure_files(outdir),
+                           reason="they verified and reported the gain that synthesize replaced")
     return SynthesisStage(model, result, gd, tuple(written), cmp, tuple(cleared), diagnosis)
 
 
@@ -206,7 +217,8 @@ def verification_stage(
     gp = Path(gains_path) if gains_path is not None else outdir / "gains.json"
     gains = load_gains(gp)
     res = verify(model, gains, runs=runs, seed=seed, progress=progress)
-    remove_files(outdir, ("verification.json",) + RUN_FILES)
+    remove_files(outdir, ("verification.json",))
+    set_aside(outdir, RUN_FILES, "they reported the verification that verify replaced")
     figures: dict[str, Path] = {}
     if plots:
         from .report.plots import write_figures
@@ -214,10 +226,9 @@ def verification_stage(
         figures = write_figures(res, model, outdir, fmt)
     # figures/ is this stage's: an earlier verification's figures (another gain, format, or before --no-plots)
     # would read as this one's (review)
-    if (outdir / "figures").is_dir():
-        kept = {p.name for p in figures.values()}
-        remove_files(outdir, tuple(f"figures/{p.name}" for p in sorted((outdir / "figures").iterdir())
-                                   if p.is_file() and p.suffix in (".png", ".pdf", ".svg") and p.name not in kept))
+    kept = {f"figures/{p.name}" for p in figures.values()}
+    set_aside(outdir, tuple(n for n in figure_files(outdir) if n not in kept),
+              "they were figures of an earlier verification (another gain, format, or before --no-plots)")
     rel = {k: str(v.relative_to(outdir)) for k, v in figures.items()}
     try:  # a path relative to OUTDIR keeps verification.json identical across output directories
         shown = str(gp.resolve().relative_to(outdir.resolve()))

@@ -99,7 +99,7 @@ def lti_synthesis_stage(config: Any, outdir: str | Path, config_path: str | Path
     """Synthesize and prove a gain (:func:`robustsynth.synthesis.lti.synthesize_lti`); write gains.json
     (last), gains.mat and synthesis.md.  No certified gain: the old gain files are removed and
     InfeasibleError (exit 3) or SolverFailure (exit 4) is raised."""
-    from .artifacts.files import remove_files
+    from .artifacts.files import set_aside
     from .artifacts.gains import lti_gains_dict, lti_gains_mat_vars
     from .errors import InfeasibleError, SolverFailure
     from .report.lti import lti_synthesis_markdown
@@ -110,7 +110,8 @@ def lti_synthesis_stage(config: Any, outdir: str | Path, config_path: str | Path
     out = make_dir(outdir)
     cleared = clear_foreign(out, config)
     if not design.certified:
-        remove_files(out, SYNTHESIS_FILES + VERIFICATION_FILES + RUN_FILES)
+        set_aside(out, SYNTHESIS_FILES + VERIFICATION_FILES + RUN_FILES + FIGURES,
+                  f"synthesize found no certified gain for '{config.name}' as configured now; these are of the gain before")
         why = design.message or design.status
         if design.status == "infeasible":
             raise InfeasibleError(f"no certified gain for {config.name}: {why}")
@@ -123,7 +124,8 @@ def lti_synthesis_stage(config: Any, outdir: str | Path, config_path: str | Path
     gd = lti_gains_dict(config, plant, design, over)
     files = {"gains.mat": mat_bytes(lti_gains_mat_vars(gd)), "synthesis.md": lti_synthesis_markdown(gd).encode("utf-8"),
              "gains.json": json_bytes(gd)}
-    written = commit_files(out, files, primary="gains.json", invalidate=VERIFICATION_FILES + RUN_FILES)
+    written = commit_files(out, files, primary="gains.json", invalidate=VERIFICATION_FILES + RUN_FILES + FIGURES,
+                           reason="they verified and reported the gain that synthesize replaced")
     return {"gains": gd, "design": design, "files": [str(p) for p in written], "cleared": cleared}
 
 
@@ -183,7 +185,7 @@ def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Pa
     out = make_dir(out)
     written = commit_files(out, {"verification.md": lti_verification_markdown(data).encode("utf-8"),
                                  "verification.json": json_bytes(data)}, primary="verification.json",
-                           invalidate=RUN_FILES + FIGURES)
+                           invalidate=RUN_FILES + FIGURES, reason="they reported and drew the verification that verify replaced")
     if plots:
         from .report.plots import lti_verification_figure
 

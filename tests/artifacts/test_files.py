@@ -40,6 +40,8 @@ def test_commit_files_writes_primary_last_and_invalidates(tmp_path) -> None:
                            invalidate=("verification.json",))
     assert [p.name for p in written] == ["synthesis.md", "gains.json"]
     assert not (tmp_path / "verification.json").exists()
+    (kept,) = (tmp_path / "stale").iterdir()  # set aside, not deleted
+    assert (kept / "verification.json").read_text() == "{}" and (kept / "STALE.txt").is_file()
     assert not (tmp_path / ".gains.json.x.tmp").exists()
 
 

@@ -3,7 +3,8 @@
 Every file is written to a temporary file in the target directory, flushed, fsync'ed and renamed
 over the target (``os.replace``), so a reader sees the old file or the new one, never a part.
 A stage that writes several files uses :func:`commit_files`: it first removes its primary file and
-every file that depends on it, then writes the others, and the primary last, so that whenever a
+sets aside every file of another stage that depends on it (:func:`set_aside`: moved under
+``stale/<time>/``, never deleted), then writes the others, and the primary last, so that whenever a
 primary file exists, the files written with it are from the same run.
 """
 
@@ -22,7 +23,7 @@ import numpy as np
 
 from ..errors import OutputError
 
-__all__ = ["make_dir", "check_writable_dir", "writable_dir", "output_error", "atomic_write", "remove_files", "to_jsonable", "json_bytes", "mat_bytes", "commit_files", "sha256", "SCHEMA_VERSION"]
+__all__ = ["make_dir", "check_writable_dir", "writable_dir", "output_error", "atomic_write", "remove_files", "set_aside", "STALE_DIR", "to_jsonable", "json_bytes", "mat_bytes", "commit_files", "sha256", "SCHEMA_VERSION"]
 
 SCHEMA_VERSION = 1
 
@@ -165,17 +166,56 @@ def remove_files(outdir: Path, names: tuple[str, ...] | list[str]) -> None:
             raise output_error(outdir / name, exc) from None
 
 
+STALE_DIR = "stale"  # OUTDIR/stale/<UTC time>/: the results a stage set aside (set_aside)
+
+
+def set_aside(outdir: str | Path, names: tuple[str, ...] | list[str], reason: str) -> tuple[str, ...]:
+    """Move the files ``names`` (relative to ``outdir``, e.g. ``figures/path.png``) that exist into a new
+    ``outdir/stale/<UTC time>/`` (same relative paths) with a ``STALE.txt`` saying ``reason``: a stage
+    never deletes what another stage wrote (issue 50: a rebuild had removed 14 files of results), and
+    nothing left beside a new primary file reads as its own.  Returns the moved files' new paths,
+    relative to ``outdir`` (empty when none existed).  A failure to move: OutputError naming the file."""
+    import time
+
+    outdir = Path(outdir)
+    present = [n for n in names if (outdir / n).is_file()]
+    if not present:
+        return ()
+    stamp = time.strftime("%Y%m%dT%H%M%SZ", time.gmtime())
+    dest, k = outdir / STALE_DIR / stamp, 1
+    while dest.exists():  # two stages within one second
+        k += 1
+        dest = outdir / STALE_DIR / f"{stamp}-{k}"
+    moved = []
+    for name in present:
+        target = dest / name
+        try:
+            target.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(outdir / name, target)
+        except FileNotFoundError:  # another process took it meanwhile
+            continue
+        except OSError as exc:
+            raise output_error(target, exc) from None
+        moved.append(str(target.relative_to(outdir)))
+    atomic_write(dest / "STALE.txt", (f"Set aside by robustsynth at {time.strftime('%Y-%m-%d %H:%M:%S UTC', time.gmtime())}: "
+                                      f"{reason}.\nKept for reference; no robustsynth command reads them. Delete the directory "
+                                      "when you no longer need them.\n").encode("utf-8"))
+    return tuple(moved)
+
+
 def commit_files(
     outdir: str | Path,
     files: Mapping[str, bytes],
     primary: str,
     invalidate: tuple[str, ...] = (),
+    reason: str = "they belonged to the earlier result the new one replaced",
 ) -> list[Path]:
-    """Write a stage's files: remove ``primary`` and ``invalidate`` first, write the others,
-    then ``primary`` last.  Returns the written paths."""
+    """Write a stage's files: remove ``primary`` and set ``invalidate`` aside first (:func:`set_aside`,
+    with ``reason``), write the others, then ``primary`` last.  Returns the written paths."""
     outdir = make_dir(outdir)
     remove_stale_temps(outdir)
-    remove_files(outdir, (primary, *invalidate))
+    remove_files(outdir, (primary,))
+    set_aside(outdir, invalidate, reason)
     written: list[Path] = []
     try:
         for name, data in files.items():
