@@ -95,15 +95,20 @@ class Outcome:
 
 
 _HELD_SIGNALS = {signal.SIGINT, signal.SIGTERM}
+POLL_S = 0.05  # [s]: how often the waiting thread looks for a held signal while solves run
 
 
 _POOLED = threading.local()  # .active: this thread is one of solve_all's workers
+_CANCEL = threading.local()  # .event: set once the thread that waits for this solve has given it up
 
 
 def _stop_on_held_signal(_info: Any) -> bool:
     """Clarabel's termination callback (every iteration): stop the solve in flight once SIGINT or SIGTERM
-    is pending, held by :func:`_call_solver` (or already delivered through another thread: the CLI's handler
-    recorded it, or raises in here)."""
+    is pending (held by :func:`_in_threads`), was delivered through another thread (the CLI's handler
+    recorded it, or raises in here), or the waiting thread gave the solve up."""
+    event = getattr(_CANCEL, "event", None)
+    if event is not None and event.is_set():
+        return True
     try:
         return bool(signal.sigpending() & _HELD_SIGNALS) or pending_interrupt() is not None
     except BaseException:  # noqa: BLE001 - the CLI's handler raised Interrupted while this ran
@@ -113,7 +118,7 @@ def _stop_on_held_signal(_info: Any) -> bool:
 def _clarabel_stops_on_signals() -> None:
     """Every Clarabel solver cvxpy makes gets :func:`_stop_on_held_signal` as its termination callback (cvxpy
     builds the solver inside its interface and has no hook for it: ``clarabel.DefaultSolver`` is wrapped once).
-    Clarabel builds without callbacks are left alone: their solve runs to its end, as before."""
+    Clarabel builds without callbacks are left alone: their solve is given up by :func:`_in_threads` instead."""
     import clarabel
 
     real = clarabel.DefaultSolver
@@ -129,26 +134,84 @@ def _clarabel_stops_on_signals() -> None:
     clarabel.DefaultSolver = DefaultSolver
 
 
-def _call_solver(problem: cp.Problem, name: str) -> None:
-    """One solver call (a seam for fault-injection tests).
+def _take_held_signal(cancel: threading.Event) -> None:
+    """While solves run: a SIGINT / SIGTERM held pending is taken here and its handler run in this (the
+    waiting) thread; when it raises (the CLI's: Interrupted, Python's: KeyboardInterrupt) the solves are given
+    up.  Taken with ``sigtimedwait``, not by unblocking it: a solver that installs its own SIGINT handler for
+    the solve (SCS, Clarabel) would otherwise swallow it.  Without a Python handler the signal's own action
+    (SIGTERM: the process ends) is what happens."""
+    if pending_interrupt() is not None:  # the CLI's handler saw a signal another thread took
+        cancel.set()
+        check_interrupt()
+    info = signal.sigtimedwait(_HELD_SIGNALS, 0)
+    if info is None:
+        return
+    signo = info.si_signo
+    handler = signal.getsignal(signo)
+    try:
+        if callable(handler):
+            handler(signo, None)
+        elif handler != signal.SIG_IGN:  # SIG_DFL, or a handler not set from Python: the default action
+            signal.signal(signo, signal.SIG_DFL)
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signo})
+            signal.raise_signal(signo)
+    except BaseException:
+        cancel.set()
+        raise
 
-    Clarabel catches SIGINT inside its native code and carries on (Ctrl-C was swallowed and the
-    run completed).  SIGINT and SIGTERM are therefore held pending while the solver runs, and Clarabel's
-    termination callback ends the solve at its next iteration once one is pending (a solve of the default's
-    nonlinear certificate takes ~10 s): the signal is delivered, and the run stops, when the solve returns."""
+
+def _in_threads(fns: list[Callable[[], Any]]) -> list[Any]:
+    """Run each of ``fns`` (solver calls) in a daemon thread of its own and wait for them: their results in
+    order, or the first one's exception.  The solvers' native code runs outside the GIL, so two solves on two
+    cores take the time of one.  SIGINT and SIGTERM are held in every thread meanwhile (Clarabel catches SIGINT
+    in its native code and carries on; SCS takes it for its own) and the waiting thread looks for them every
+    POLL_S: a signal ends the wait at once, whatever the solver (issue 50: SIGTERM during SCS fallback retries
+    went unheard for minutes).  A solve given up runs on in its thread (Clarabel stops at its next iteration:
+    its termination callback sees the cancel; SCS has none and ends by its iteration cap); nothing waits
+    for it, and the process may exit meanwhile."""
+    cancel = threading.Event()
+    results: list[Any] = [None] * len(fns)
+    errors: list[BaseException | None] = [None] * len(fns)
+
+    def target(i: int, fn: Callable[[], Any]) -> None:
+        _CANCEL.event = cancel
+        try:
+            results[i] = fn()
+        except BaseException as exc:  # noqa: BLE001 - handed to the waiting thread
+            errors[i] = exc
+
+    check_interrupt()
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD_SIGNALS)  # the threads inherit the mask
+    try:
+        threads = [threading.Thread(target=target, args=(i, fn), daemon=True, name=f"robustsynth-solve-{i}")
+                   for i, fn in enumerate(fns)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            while t.is_alive():
+                t.join(POLL_S)
+                if t.is_alive():
+                    _take_held_signal(cancel)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+    check_interrupt()  # a solve the callback ended: the interrupt, not its "solver error"
+    for exc in errors:
+        if exc is not None:
+            raise exc
+    return results
+
+
+def _call_solver(problem: cp.Problem, name: str) -> None:
+    """One solver call (a seam for fault-injection tests), in a thread of its own that this one waits for
+    while it looks for SIGINT / SIGTERM (:func:`_in_threads`); within :func:`solve_all`'s threads, directly."""
     opts = solver_options(name)
     if opts["solver"] == cp.CLARABEL:
         _clarabel_stops_on_signals()
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD_SIGNALS)
-    try:
-        if getattr(_POOLED, "active", False):
-            problem.solve(**opts)  # solve_all's caller holds the warning filter (catch_warnings is process-wide)
-        else:
-            with _quiet():
-                problem.solve(**opts)
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
-        check_interrupt()  # a solve the callback ended: the interrupt, not its "solver error"
+    if getattr(_POOLED, "active", False):
+        problem.solve(**opts)  # solve_all's caller waits, holds the signals and the warning filter
+        return
+    with _quiet():  # (catch_warnings is process-wide: entered here, it holds for the solve's thread)
+        _in_threads([lambda: problem.solve(**opts)])
 
 
 @contextlib.contextmanager
@@ -296,13 +359,11 @@ def solve_all(problems: list[cp.Problem], primary: str, accepts: list[Callable[[
     the solvers' native code runs outside the GIL, so two problems on two cores take the time of
     one.  Each problem must be its own cvxpy object (a problem's parameters are not shared between
     threads).  ``accept`` runs afterwards in the calling thread, in the problems' order, so the outcomes
-    do not depend on how many ran at once.  SIGINT and SIGTERM are held pending until every solve has
-    returned, as for one solve (the threads inherit the calling thread's signal mask); a solver's
-    output on fd 2 is captured, and cvxpy's inaccuracy warning filtered, once around all of them (both
-    are process-wide)."""
+    do not depend on how many ran at once.  SIGINT and SIGTERM end the wait at once, as for one solve
+    (:func:`_in_threads`); a solver's output on fd 2 is captured, and cvxpy's inaccuracy warning filtered,
+    once around all of them (both are process-wide)."""
     if len(problems) == 1:
         return [solve(problems[0], primary, accepts[0], fallback=False)]
-    from concurrent.futures import ThreadPoolExecutor
 
     def work(problem: cp.Problem) -> tuple[SolveRecord, bool]:
         _POOLED.active = True
@@ -311,17 +372,10 @@ def solve_all(problems: list[cp.Problem], primary: str, accepts: list[Callable[[
         finally:
             _POOLED.active = False
 
-    check_interrupt()
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, _HELD_SIGNALS)
-    try:
-        with _NativeStderr() as err, _quiet():
-            with ThreadPoolExecutor(max_workers=len(problems), thread_name_prefix="robustsynth-solve") as pool:
-                runs = list(pool.map(work, problems))
-            if any(panicked for _, panicked in runs):
-                err.release(keep=False)
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
-    check_interrupt()
+    with _NativeStderr() as err, _quiet():
+        runs = _in_threads([lambda p=p: work(p) for p in problems])
+        if any(panicked for _, panicked in runs):
+            err.release(keep=False)
     out = []
     for (rec, _), accept in zip(runs, accepts):
         done = _decide(rec, accept, [rec])
