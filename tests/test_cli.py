@@ -160,6 +160,49 @@ def test_a_file_written_before_a_key_existed_is_not_foreign(tmp_path) -> None:
     assert not (tmp_path / "gains.json").exists()
 
 
+def test_a_file_written_with_the_path_at_its_old_place_is_not_foreign(tmp_path) -> None:
+    """The committed baselines store the path as verification.path (its old place); configs/fast.yaml, whose path
+    is not the default, now writes it as reference.path: the same config, so a stage keeps the files beside it.
+    Another path is another config."""
+    import shutil
+
+    from robustsynth.config import parse_config
+    from robustsynth.pipeline import clear_foreign
+
+    root = Path(__file__).resolve().parents[1]
+    shutil.copy(root / "results" / "baselines" / "fast" / "gains.json", tmp_path / "gains.json")
+    assert "path" in json.loads((tmp_path / "gains.json").read_text())["config"]["verification"]
+    text = (root / "configs" / "fast.yaml").read_text()
+    assert clear_foreign(tmp_path, parse_config(text)) == [] and (tmp_path / "gains.json").exists()
+    (moved,) = clear_foreign(tmp_path, parse_config(text.replace("[48.0, 6.0]", "[50.0, 6.0]")))
+    assert moved.startswith("stale/") and moved.endswith("/gains.json")
+
+
+def test_schema_and_default_config_hold_the_path_under_reference() -> None:
+    import yaml
+
+    r = CliRunner().invoke(main, ["schema"])
+    assert r.exit_code == 0
+    defs = json.loads(r.output)["$defs"]
+    assert "path" in defs["ReferenceConfig"]["properties"] and "path" not in defs["VerificationConfig"]["properties"]
+    r = CliRunner().invoke(main, ["default-config"])
+    assert r.exit_code == 0
+    d = yaml.safe_load(r.output)
+    assert d["reference"]["path"] == [[0.0, 0.0], [6.0, 0.0], [10.0, 2.0], [16.0, 2.0]] and "path" not in d["verification"]
+
+
+def test_a_gear_radius_in_centimetres_exits_2_with_the_unit_it_looks_like(tmp_path) -> None:
+    """gear_radius: 7 (cm written as m) was accepted; now one line naming the key and the likely unit."""
+    cfg = tmp_path / "cm.yaml"
+    cfg.write_text(CliRunner().invoke(main, ["default-config"]).output.replace("gear_radius: 0.09", "gear_radius: 7"))
+    r = CliRunner().invoke(main, ["build-model", str(cfg), "-o", str(tmp_path / "out")])
+    assert r.exit_code == 2
+    assert r.output.strip().splitlines() == ["error: robot.gear_radius: 7 m is not a plausible sprocket radius (below 1 m "
+                                             "for a tracked robot; lengths are in metres: 7 looks like centimetres, did "
+                                             "you mean 0.07 m?)"]
+    assert not (tmp_path / "out").exists()
+
+
 def test_a_linear_plants_stage_clears_what_another_config_left(tmp_path) -> None:
     """The same for a linear plant (a review found dc-motor's gains and report left beside zbp's model), and its
     own files stay through its stages (its model.json and summary.json name their config, not hold it)."""
@@ -296,3 +339,22 @@ def test_the_cleanup_follows_symlinks_and_covers_a_gains_files_directory(tmp_pat
     assert r.exit_code == 3 and sorted(p.name for p in (tmp_path / "real").iterdir()) == ["sub"]
     r = CliRunner().invoke(main, ["verify", str(root / "configs" / "fast.yaml"), "--gains", str(tmp_path / "g" / "x" / "gains.json")])
     assert r.exit_code == 2 and not (tmp_path / "g").exists()
+
+
+def test_a_long_stage_gets_a_line_at_least_every_heartbeat(monkeypatch, capsys) -> None:
+    """On a terminal a long command prints its steps and, between them, a line of its own at least every
+    HEARTBEAT_S (issue 50: a nonlinear synthesis was silent for 12.6 minutes).  Here with the period shortened
+    to 1.5 s (the thread looks once a second) and 4.5 s without a step."""
+    import time
+
+    from robustsynth import cli
+
+    monkeypatch.setattr(cli, "HEARTBEAT_S", 1.5)
+    say = cli._Heartbeat()
+    say("step one")
+    time.sleep(4.5)
+    say("step two")
+    err = capsys.readouterr().err.splitlines()
+    assert err[0] == "step one" and err[-1] == "step two"
+    beats = [line for line in err[1:-1] if "still working" in line]
+    assert len(beats) >= 2 and len(beats) == len(err) - 2, err

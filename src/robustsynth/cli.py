@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 import os
 import signal
+import time
 import sys
 from pathlib import Path
 from typing import Any, Callable
@@ -559,11 +560,42 @@ class _LazyBar:
             self.bar.render_finish()
 
 
+HEARTBEAT_S = 10.0  # [s]: on a terminal, a line at least this often while a command works
+
+
+class _Heartbeat:
+    """The stage lines of a long command, and a line of its own whenever HEARTBEAT_S pass without one (a solve
+    of a nonlinear certificate can take minutes: issue 50 found 12.6 minutes of silence).  A daemon thread that
+    only prints; it stops with the process."""
+
+    def __init__(self) -> None:
+        import threading
+
+        self.t0 = self.last = time.monotonic()
+        self.lock = threading.Lock()
+        threading.Thread(target=self._beat, daemon=True, name="robustsynth-heartbeat").start()
+
+    def __call__(self, msg: str) -> None:
+        with self.lock:
+            self.last = time.monotonic()
+            click.echo(msg, err=True)
+
+    def _beat(self) -> None:
+        while True:
+            time.sleep(1.0)
+            with self.lock:
+                now = time.monotonic()
+                if now - self.last >= HEARTBEAT_S:
+                    self.last = now
+                    m, sec = divmod(int(now - self.t0), 60)
+                    click.echo(f"  ... still working ({m}:{sec:02d} since the start; Ctrl-C stops)", err=True)
+
+
 def _stage_lines(obj: _Ctx) -> Callable[[str], None]:
     """Where a command can take long: its stages and steps as lines on stderr when that is a terminal
-    (and not --quiet); otherwise only with -v."""
+    (and not --quiet), with a line at least every HEARTBEAT_S (:class:`_Heartbeat`); otherwise only with -v."""
     if not obj.quiet and sys.stderr.isatty():
-        return lambda m: click.echo(m, err=True)
+        return _Heartbeat()
     return obj.detail
 
 

@@ -411,3 +411,23 @@ def test_an_override_of_what_the_model_was_built_with_is_refused(key, value) -> 
     if key != "model":  # the keyword form too (model= is synthesize()'s own argument)
         with pytest.raises(InputError, match=rf"synthesis\.{key}: {value} differs"):
             synthesize(m, **{key: value})
+
+
+def test_the_nonlinear_search_reports_its_start_with_lmi_counts_and_positions() -> None:
+    """The linearized start of a nonlinear search had no lines of its own (issue 50: minutes of silence): now
+    every solve of it is a line, after one line with the problem's size, each grid point with its position in
+    the scan and, after the first, an estimate of what the rest costs."""
+    from robustsynth.model import build_model
+    from robustsynth.synthesis import synthesize
+
+    lines: list[str] = []
+    cfg = make_config(**{"synthesis.kinematics": "nonlinear", "synthesis.heading_bound": 0.3, "synthesis.alpha_points": 6})
+    with pytest.raises(InfeasibleError):  # the tracks box has no certificate for the robot: the lines are the point
+        synthesize(build_model(cfg), on_step=lines.append)
+    start = lines.index(next(m for m in lines if m.startswith("the linearized common certificate")))
+    heading = lines.index(next(m for m in lines if "nonlinear kinematics with |e_theta(t)| <= 0.3 rad" in m))
+    first = lines[start + 1:heading]
+    assert "LMIs (the largest" in first[0], first[:2]
+    points = [m for m in first if "(point " in m]
+    assert points[0].startswith("  alpha = 0.005 (point 1 of at most 6)"), points[:1]
+    assert all("left in this scan" in m for m in points[1:]) and len(points) >= 3, points

@@ -240,3 +240,31 @@ def test_a_scan_whose_primary_solver_always_fails_finds_the_same_certificate(mon
     REFINED_REL = 2e-3  # the alpha search's own spread between solvers, on |e_y|
     got, want = res.check.figures["ultimate_bound"]["e_y"], committed["certified"]["ultimate_bound"]["e_y"]
     assert abs(got / want - 1) <= REFINED_REL, (got, want)
+
+
+def test_a_start_proven_infeasible_ends_the_nonlinear_search_at_once() -> None:
+    """Motors barely above what the slip needs (9.26 rad/s at mu = 0.6): the linearized start's LMIs need at
+    least ~10.4 rad/s at every alpha of the scan, so no heading bound can have a certificate (the nonlinear LMIs
+    contain them) and the search ends with exit 3 saying so, instead of scanning every heading bound (issue 50:
+    136 s before on this config, with the same answer).  The claim checked where it rests, independently: at a
+    heading bound and two alphas of the grid the solver proves the nonlinear LMIs infeasible too."""
+    from robustsynth.errors import InfeasibleError
+    from robustsynth.synthesis import synthesize
+    from robustsynth.synthesis.design import _build, _weights
+    from robustsynth.synthesis.lmis import build_invariance
+    from robustsynth.synthesis.solve import solve
+
+    cfg = make_config(**{"robot.max_motor_speed": 9.5, "synthesis.kinematics": "nonlinear"})
+    model = build_model(cfg)
+    with pytest.raises(InfeasibleError, match="the heading bounds were not tried") as info:
+        synthesize(model)
+    msg = str(info.value)
+    assert "need at least" in msg and "9.5 rad/s" in msg and "robot.max_motor_speed" in msg
+    assert "\n" not in msg
+    s = cfg.synthesis
+    lp = _build(build_invariance, model.with_heading_bound(0.3, within_period=True), s.multiplier, s.margin,
+                _weights(s), True, s.lyapunov, symmetry=True)
+    for alpha in (0.1458, 0.2122):  # on the scan's grid
+        lp.params["alpha"].value, lp.params["one_minus_alpha"].value = alpha, 1.0 - alpha
+        out = solve(lp.problem, "clarabel", lambda: True, fallback=False, retry=True)
+        assert out.kind == "infeasible", [(r.name, r.status) for r in out.attempts]

@@ -314,6 +314,23 @@ def _wider_turns(model: Any, sep: str = ", ") -> str:
     return f"{sep}widen reference.turn_radius (now {model.V / model.turns.max_yaw_rate:.3g} m)"
 
 
+def lmi_count(lp: LMIProblem) -> int:
+    """The matrix inequalities of a problem (its PSD constraints; scalar ones not counted)."""
+    import cvxpy as cp
+
+    return sum(1 for c in lp.problem.constraints if isinstance(c, cp.constraints.PSD))
+
+
+def lmi_rows(lp: LMIProblem) -> int:
+    import cvxpy as cp
+
+    return max((int(c.args[0].shape[0]) for c in lp.problem.constraints if isinstance(c, cp.constraints.PSD)), default=0)
+
+
+def _duration(sec: float) -> str:
+    return f"{sec:.0f} s" if sec < 90 else f"{sec / 60:.0f} min"
+
+
 def _attempts(out: Any) -> str:
     return ", ".join(f"{a.name} {a.status} {a.solve_time_s:.2f} s" for a in out.attempts)
 
@@ -478,6 +495,10 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     runner = _Runner(model, lp, s.solver, make_cert, full=full)
     cache: dict[float, float] = {}
     last: list[Outcome] = []  # the outcome of evaluate's latest solve
+    if not probe_only:
+        say(f"  {lmi_count(lp)} LMIs (the largest {lmi_rows(lp)} rows) per alpha; each point is one solve, a "
+            "failed one is retried")
+    position = [""]  # where the scan stands, for the lines below (set by the grid loop)
 
     def evaluate(log_a: float, fallback: bool = False, cheap: bool = False, unscaled_only: bool = False) -> float:
         # The scan uses the primary solver only: a point it cannot solve costs a slow fallback
@@ -500,7 +521,7 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                 best.value, best.cert, best.K, best.check, best.record = val, cert, K, chk, out.record
         search.append({"alpha": a, "status": out.kind, "objective": None if math.isinf(val) else val})
         what = (f"certified, |e_y| <= {100 * chk.figures['ultimate_bound']['e_y']:.2f} cm" if out.kind == "ok" else out.kind)
-        say(f"  alpha = {a:.4g}: {what} ({_attempts(out)}); best so far "
+        say(f"  alpha = {a:.4g}{position[0]}: {what} ({_attempts(out)}); best so far "
             + (f"|e_y| <= {100 * best.check.figures['ultimate_bound']['e_y']:.2f} cm" if best.check is not None else "none"))
         cache[log_a] = val
         return val
@@ -522,8 +543,15 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     vals: list[float] = []
     failures = 0  # solver failures in a row, with nothing certified yet
     gave_up = False
-    for g in grid:
+    t_scan = time.perf_counter()
+    for i, g in enumerate(grid):
+        left = ""
+        if i:  # what the rest of the grid costs at most, at the mean time per point so far
+            per = (time.perf_counter() - t_scan) / i
+            left = f", at most ~{_duration(per * (len(grid) - i))} left in this scan"
+        position[0] = f" (point {i + 1} of at most {len(grid)}{left})"
         vals.append(evaluate(float(g)))
+        position[0] = ""
         failures = failures + 1 if best.cert is None and runner.failed_at.get(float(np.exp(g)), False) else 0
         if give_up is not None and failures >= give_up:
             gave_up = True
@@ -840,7 +868,8 @@ def _run_linearized(model: Any, s: SynthesisConfig, search: list, motor: bool,
         # the common certificate is cheap (one Lyapunov matrix) and its best alpha lies near the
         # richer classes' (measured: within a grid step on every class of the default robot)
         sc = s.model_copy(update={"lyapunov": "common"})
-        common, _ = _run_invariance(model, sc, [], motor, prune=_motor_pruner(model, sc) if motor else None)
+        say(f"the common certificate first: its best alpha starts the {s.lyapunov} search ({len(model.vertices)} vertices)")
+        common, _ = _run_invariance(model, sc, [], motor, say, prune=_motor_pruner(model, sc, say=say) if motor else None)
         hint = float(common.cert["alpha"]) if common.cert is not None else None
     how = (f"walk of alpha from the common certificate's {hint:.4g}" if hint is not None
            else f"scan of alpha over {s.alpha_points} points")
@@ -900,7 +929,10 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
         lin = replace(lin, vertices=model.base_vertices, turns=None, covering_vertices=(), channels=_straight_channels(model))
     sc = s.model_copy(update={"lyapunov": "common", "kinematics": "linearized"})
     say(f"the linearized common certificate, where the search starts ({len(lin.vertices)} vertices)")
-    common, _ = _run_invariance(lin, sc, [], motor, prune=_motor_pruner(lin, sc) if motor else None)
+    least: dict[float, float | None] = {}  # alpha -> the linearized LMIs' least motor bound, where proven
+    common, crunner = _run_invariance(lin, sc, [], motor, say, prune=_motor_pruner(lin, sc, least, say=say) if motor else None)
+    if common.cert is None and s.lyapunov == "common":
+        _stop_if_the_start_is_infeasible(model, crunner, least, motor)
     hint = float(common.cert["alpha"]) if common.cert is not None else None
     auto = s.heading_bound == "auto"
     if auto:  # upwards from about the linearized set's own heading: a smaller bound rarely helps
@@ -910,11 +942,13 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
         bounds = (float(s.heading_bound),)
     best, runner, tried, below = _Best(), None, [], None
     tried_at: dict[float, tuple[int, int]] = {}  # heading bound -> (alphas solved, of which the solver failed)
-    for tb in bounds:
+    for j, tb in enumerate(bounds):
         # the channels for slip changing within a period only where the certificate is proven at the
         # within-period vertices: a common Lyapunov matrix (Model.slip_variation)
         m = model.with_heading_bound(tb, within_period=s.lyapunov == "common")
-        say(f"{s.objective}, nonlinear kinematics with |e_theta(t)| <= {tb:g} rad: alpha "
+        say(f"{s.objective}, nonlinear kinematics with |e_theta(t)| <= {tb:g} rad"
+            + (f" (heading bound {j + 1} of at most {len(bounds)}: {', '.join(f'{b:g}' for b in bounds)} rad)" if auto else "")
+            + ": alpha "
             + (f"walk from {hint:.4g}" if hint is not None else f"scan over {s.alpha_points} points")
             + f" ({len(m.vertices)} vertices, {m.vertices[0].n_q} kinematic channels each)")
         try:
@@ -960,6 +994,30 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
     return best, runner
 
 
+def _stop_if_the_start_is_infeasible(model: Any, start: _Runner, least: dict[float, float | None], motor: bool) -> None:
+    """Exit 3 at once when the linearized common certificate, where a nonlinear search starts, is proven
+    infeasible at every alpha it tried (by the solver, or by a least motor bound above the limit): the nonlinear
+    LMIs at any heading bound are these LMIs with the kinematic channels' terms added (S-procedure blocks that
+    only tighten them, docs/theory.md §9; the icr start drops vertices, a relaxation too), so none of them has a
+    solution at those alphas either (issue 50: a turning synthesis whose bound showed the motors short went on
+    for minutes into every heading bound and the fallback solver).  A point where the solver failed proves
+    nothing: then the search goes on."""
+    if not start.failed_at or any(start.failed_at.values()):
+        return
+    cfg = model.config
+    rho_max = cfg.robot.max_motor_speed
+    known = [r for r in least.values() if r is not None and math.isfinite(r)]
+    why = (f"with |rho| <= {rho_max:g} rad/s they need at least {min(known):.4g} rad/s" if motor and known
+           and min(known) > rho_max else "they are infeasible")
+    raise InfeasibleError(
+        f"ultimate-bound (nonlinear kinematics): no certificate exists at any of the {len(start.failed_at)} alphas "
+        f"tried: already the linearized LMIs with one Lyapunov matrix, which the nonlinear ones contain, have no "
+        f"solution there ({why}); the heading bounds were not tried. "
+        + (f"Raise robot.max_motor_speed, lower reference.speed{_wider_turns(model)}" if motor and known and min(known) > rho_max
+           else f"Narrow network.delay or slip, lower reference.speed{_wider_turns(model)}")
+        + ", or use synthesis.lyapunov: slip-dependent (a richer certificate than this bound covers)")
+
+
 def _straight_channels(model: Any) -> tuple:
     """The constant-slip kinematic channels of a turning model's vertices without their yaw-rate columns (the
     straight segment's heading rows)."""
@@ -995,7 +1053,9 @@ def _nonlinear_infeasible(model: Any, common: _Best, tried: list, tried_at: dict
         for mu in model.corners:
             M = slip_matrix(mu, model.config.robot.track_distance)
             speed = max(speed, abs(float(M[0] @ uD) - model.V) + sup_on_set(np.array([M[0] @ K]), S, float(f["ellipsoid_level"])))
-        msg += (f". The linearized certificate's set ({100 * f['ultimate_bound']['e_y']:.2f} cm) holds headings up to "
+        msg += (f". The search's start, a linearized certificate with one Lyapunov matrix (|e_y| <= "
+                f"{100 * f['ultimate_bound']['e_y']:.2f} cm; not the gain `synthesize` gives with synthesis.kinematics: "
+                "linearized, whose search is its own), has a set that holds headings up to "
                 f"{f.get('heading_within_period', f['ultimate_bound']['e_theta']):.3g} rad within a period and forward-speed "
                 f"deviations up to {speed:.3g} m/s (V^D = {model.V:g} m/s): on it a sin e_theta alone reaches "
                 f"{speed * np.sin(min(f.get('heading_within_period', 0.3), 1.0)):.3g} m/s. Narrow slip, lower "
@@ -1037,7 +1097,7 @@ def validity_notes(model: Any, figures: dict[str, Any], cert: dict[str, Any]) ->
         out.append(f"certified |e_theta| <= {th:.3g} rad lies beyond where the linearization holds (~{LINEARIZATION_HEADING:g} "
                    "rad: sin e_theta ~ e_theta); the bound is proven for the linearization only "
                    "(synthesis.kinematics: nonlinear proves its own heading bound)")
-    wp = np.asarray(model.config.verification.path, dtype=float)
+    wp = np.asarray(model.config.reference.path, dtype=float)
     seg = float(np.min(np.hypot(*np.diff(wp, axis=0).T))) if wp.shape[0] > 1 else math.inf
     big = max((ub.get(k) or 0.0) for k in ("e_x", "e_y")) if ub else 0.0
     if big > seg / 2:
