@@ -36,7 +36,7 @@ def main() -> dict[str, float]:
     for pos, head in ((0.0, 0.0), (2e-5, 5e-5), (1e-4, 2e-4), (1e-3, 2e-3)):
         cfg = default_config(**over, **{"verification.noise.position": pos, "verification.noise.heading": head})
         m = build_model(cfg)
-        path = make_path(cfg.verification.path, cfg.reference.speed)
+        path = make_path(cfg.reference.path, cfg.reference.speed)
         scen = steady_state_start(m, K, path, draw_scenario(m, 40, seed=3, steps=251, path=path))
         logs = run_logs(m, simulate(m, K, path, scen), scen)
         t0 = time.perf_counter()

@@ -26,7 +26,7 @@ def main() -> dict[str, float]:
     model = build_model(load_config())
     K = synthesize(model).K
     vc = model.config.verification
-    path = make_path(vc.path, model.V)
+    path = make_path(model.config.reference.path, model.V)
     steps = int(path.duration / model.Ts)
     out: dict[str, float] = {}
     for runs in (200, 2000):

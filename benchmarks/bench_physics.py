@@ -24,7 +24,7 @@ def main() -> dict[str, float]:
         return {}
     cfg = load_config(ROOT / "configs" / "default.yaml")
     # a 20 s path: one straight 10 m segment at 0.5 m/s
-    cfg = cfg.model_copy(update={"verification": cfg.verification.model_copy(update={"path": [[0.0, 0.0], [10.0, 0.0]]})})
+    cfg = cfg.model_copy(update={"reference": cfg.reference.model_copy(update={"path": ((0.0, 0.0), (10.0, 0.0))})})
     model = build_model(cfg)
     gains = load_gains(ROOT / "results" / "baselines" / "default" / "gains.json")
     out = {}

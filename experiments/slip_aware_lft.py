@@ -209,7 +209,7 @@ if __name__ == "__main__":
             continue
         K, ub = min(sols, key=lambda r: r[1][1])
         vc = m.config.verification
-        path = make_path(vc.path, m.V)
+        path = make_path(m.config.reference.path, m.V)
         sim = simulate(m, K, path, draw_scenario(m, 200, 0, int(path.duration / m.Ts), path), vc.transient)
         mc = np.abs(sim.e[:, sim.settled]).max(axis=(0, 1))
         print(head + f"certified |e_y| <= {100 * ub[1]:.2f} cm; nonlinear MC max {100 * mc[1]:.2f} cm")

@@ -75,7 +75,7 @@ TURN_SAMPLES = 20000
 
 
 def _with_path(model, path, **over):
-    cfg = model.config.model_copy(update={"verification": model.config.verification.model_copy(update={"path": path})})
+    cfg = model.config.model_copy(update={"reference": model.config.reference.model_copy(update={"path": path})})
     if over:
         cfg = cfg.model_copy(update={"robot": cfg.robot.model_copy(update=over)})
     return build_model(cfg)

@@ -11,7 +11,7 @@ import yaml
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from robustsynth.config import MAX_MOTION_PER_PERIOD, Config, load_config, parse_config
+from robustsynth.config import MAX_GEAR_RADIUS, MAX_MOTION_PER_PERIOD, MAX_TRACK_DISTANCE, Config, load_config, parse_config
 from robustsynth.errors import ConfigError
 
 from .conftest import default_dict
@@ -77,8 +77,8 @@ BAD = [
     ("synthesis.objective", "fastest", "synthesis.objective: "),
     ("synthesis.weights.e_y", -1.0, "synthesis.weights.e_y: "),
     ("verification.runs", 0, "verification.runs: "),
-    ("verification.path", [[0, 0]], "verification.path: needs at least 2 waypoints"),
-    ("verification.path", [[0, 0], [0, 0]], "verification.path: waypoints 0 and 1 coincide"),
+    ("reference.path", [[0, 0]], "reference.path: needs at least 2 waypoints"),
+    ("reference.path", [[0, 0], [0, 0]], "reference.path: waypoints 0 and 1 coincide"),
     ("name", "../evil", "name: "),
     ("name", _DELETE, "name: required key is missing"),
     ("network.sampling_time", 0.001, "network.delay.max: must be <= 20 * network.sampling_time"),
@@ -135,7 +135,9 @@ def test_billion_laughs_is_refused_quickly() -> None:
 
 
 @given(
-    R=st.floats(1e-3, 10), D=st.floats(1e-3, 10), V=st.floats(1e-3, 20), Ts=st.floats(1e-4, 2),
+    # lengths up to what a tracked robot has: beyond, refused as a likely unit mistake (test below)
+    R=st.floats(1e-3, MAX_GEAR_RADIUS, exclude_max=True), D=st.floats(1e-3, MAX_TRACK_DISTANCE), V=st.floats(1e-3, 20),
+    Ts=st.floats(1e-4, 2),
     t1=st.floats(0, 19.9), t2=st.floats(0, 19.9), m1=st.floats(1e-3, 3), m2=st.floats(1e-3, 3),
     rho=st.one_of(st.none(), st.floats(1e-3, 1e4)),
 )
@@ -332,3 +334,120 @@ def test_a_bare_yaml_off_is_the_setting_off() -> None:
     assert parse_config(text.replace("synthesis:\n", "synthesis:\n  symmetry: 'off'\n", 1)).synthesis.symmetry == "off"
     with pytest.raises(ConfigError, match=r"synthesis\.symmetry: write auto or off"):
         parse_config(text.replace("synthesis:\n", "synthesis:\n  symmetry: on\n", 1))
+
+
+# ---------------------------------------------------------------- the path is the reference's (issue 50, item 6)
+
+DEFAULT_WAYPOINTS = [[0.0, 0.0], [6.0, 0.0], [10.0, 2.0], [16.0, 2.0]]
+
+
+def test_the_path_is_under_reference_and_dumped_only_there() -> None:
+    """The path the controller follows (export bakes it in) is ``reference.path``; the dumped config and the
+    schema hold it there only (``reference.path`` was an unknown key)."""
+    from robustsynth.config import check_config_key, config_schema, config_to_dict
+
+    d = default_dict()
+    d["reference"]["path"] = [[0, 0], [5, 0], [5, 5]]
+    cfg = parse_config(_dump(d))
+    assert cfg.reference.path == ((0.0, 0.0), (5.0, 0.0), (5.0, 5.0))
+    dumped = config_to_dict(cfg)
+    assert dumped["reference"]["path"] == [[0.0, 0.0], [5.0, 0.0], [5.0, 5.0]] and "path" not in dumped["verification"]
+    assert Config.model_validate(dumped) == cfg
+    assert config_to_dict(load_config())["reference"]["path"] == DEFAULT_WAYPOINTS
+    schema = config_schema()["$defs"]
+    assert schema["ReferenceConfig"]["properties"]["path"]["default"] == DEFAULT_WAYPOINTS
+    assert "path" not in schema["VerificationConfig"]["properties"]
+    check_config_key("reference.path")
+
+
+def test_the_old_verification_path_still_reads_as_the_reference_path() -> None:
+    """A file (or an override) writing the path at its old place, verification.path, is the same config as one
+    writing reference.path; both given: one line naming both keys."""
+    from robustsynth.config import config_with, default_config
+
+    new, old = default_dict(), default_dict()
+    new["reference"]["path"] = [[0, 0], [4, 0], [4, 3]]
+    old["verification"]["path"] = [[0, 0], [4, 0], [4, 3]]
+    assert parse_config(_dump(old)) == parse_config(_dump(new)) != parse_config(_dump(default_dict()))
+    both = copy.deepcopy(new)
+    both["verification"]["path"] = [[0, 0], [4, 0], [4, 3]]
+    with pytest.raises(ConfigError) as exc:
+        parse_config(_dump(both))
+    assert str(exc.value) == ("verification.path: reference.path is given too: give the path once, as reference.path "
+                              "(verification.path is its old place)")
+    # an override at the old place replaces the path, also of the default (which writes reference.path)
+    assert default_config(**{"verification.path": [[0, 0], [3, 0]]}).reference.path == ((0.0, 0.0), (3.0, 0.0))
+    assert config_with(load_config(), {"verification.path": [[0, 0], [2, 0]]}).reference.path == ((0.0, 0.0), (2.0, 0.0))
+
+
+def test_a_stored_config_with_the_path_at_its_old_place_is_the_same_config() -> None:
+    """Every committed baseline's gains.json stores its config with verification.path (fast's is not the default
+    path): read through config_from_dict it is the config of configs/<name>.yaml, which writes reference.path."""
+    import json
+    from pathlib import Path
+
+    from robustsynth.config import config_from_dict, config_to_dict
+    from robustsynth.pipeline import _same_config
+
+    root = Path(__file__).resolve().parents[1]
+    fast = json.loads((root / "results" / "baselines" / "fast" / "gains.json").read_text())["config"]
+    assert fast["verification"]["path"] == [[0.0, 0.0], [18.0, 0.0], [30.0, 6.0], [48.0, 6.0]] and "path" not in fast["reference"]
+    assert "path:" in (root / "configs" / "fast.yaml").read_text().split("network:")[0]  # under reference:
+    cfg = load_config(root / "configs" / "fast.yaml")
+    assert config_from_dict(fast) == cfg and _same_config(fast, config_to_dict(cfg))
+    assert cfg.reference.path == ((0.0, 0.0), (18.0, 0.0), (30.0, 6.0), (48.0, 6.0))
+
+
+def test_default_config_writes_every_key_a_user_needs_with_a_comment() -> None:
+    """`robustsynth default-config` spells out, each with a comment, the keys every user sets: the path (the default's
+    own waypoints), the turn radius, the kinematics the proof is for, the Monte Carlo runs and seed."""
+    from robustsynth.config import default_config_text
+
+    text = default_config_text()
+    raw = yaml.safe_load(text)
+    assert raw["reference"]["path"] == DEFAULT_WAYPOINTS
+    assert "path" not in raw["verification"]
+    for section, key in (("reference", "path"), ("reference", "turn_radius"), ("synthesis", "kinematics"),
+                         ("verification", "runs"), ("verification", "seed")):
+        assert key in raw[section], (section, key)
+        lines = text.splitlines()
+        start = lines.index(f"{section}:")
+        i = next(j for j in range(start + 1, len(lines)) if lines[j].startswith(f"  {key}:"))
+        assert "#" in lines[i] or lines[i - 1].lstrip().startswith("#"), f"{section}.{key} has no comment"
+    assert load_config() == parse_config(text)
+
+
+# ---------------------------------------------------------------- lengths in the wrong unit (issue 50, item 6)
+
+@pytest.mark.parametrize("robot, expected", [
+    ({"gear_radius": 7}, "robot.gear_radius: 7 m is not a plausible sprocket radius (below 1 m for a tracked robot; "
+                         "lengths are in metres: 7 looks like centimetres, did you mean 0.07 m?)"),
+    ({"gear_radius": 90}, "robot.gear_radius: 90 m is not a plausible sprocket radius (below 1 m for a tracked robot; "
+                          "lengths are in metres: 90 looks like millimetres, did you mean 0.09 m?)"),
+    ({"gear_radius": 1.2}, "robot.gear_radius: 1.2 m is not a plausible sprocket radius (below 1 m for a tracked robot; "
+                           "lengths are in metres)"),
+    ({"track_distance": 45}, "robot.track_distance: 45 m is not a plausible distance between the tracks (at most 10 m "
+                             "for a tracked robot; lengths are in metres: 45 looks like centimetres, did you mean 0.45 m?)"),
+    ({"track_distance": 450}, "robot.track_distance: 450 m is not a plausible distance between the tracks (at most 10 m "
+                              "for a tracked robot; lengths are in metres: 450 looks like millimetres, did you mean 0.45 m?)"),
+    ({"gear_radius": 9, "track_distance": 45}, "robot.gear_radius: 9 m is not a plausible sprocket radius (below 1 m for "
+                                              "a tracked robot; lengths are in metres: 9 looks like centimetres, did you "
+                                              "mean 0.09 m?)"),
+])
+def test_a_length_no_tracked_robot_has_is_named_a_unit_mistake(robot, expected) -> None:
+    """Centimetres or millimetres written as metres (gear_radius: 7) are refused in one line naming the key and
+    the unit they look like, as times in milliseconds are; a gear radius above the schema's old bound too."""
+    d = default_dict()
+    d["robot"].update(robot)
+    with pytest.raises(ConfigError) as exc:
+        parse_config(_dump(d))
+    assert str(exc.value) == expected
+
+
+@pytest.mark.parametrize("R, D", [(0.09, 0.45), (0.35, 3.1), (0.01, 0.08), (0.09, 0.05), (0.999, 10.0), (0.002, 0.004)])
+def test_lengths_of_real_tracked_robots_are_accepted(R, D) -> None:
+    """The default, a main battle tank, a pipe crawler, the narrow robot of tests/test_reliability.py and the bounds."""
+    d = default_dict()
+    d["robot"].update(gear_radius=R, track_distance=D)
+    cfg = parse_config(_dump(d))
+    assert (cfg.robot.gear_radius, cfg.robot.track_distance) == (R, D)

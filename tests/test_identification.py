@@ -48,7 +48,7 @@ def logs():
     base = load_gains(ROOT / "results" / "baselines" / "lossy-link" / "gains.json")
     assert base["config"]["network"]["dropouts"]["max_consecutive"] == 2 and base["config"]["network"]["delay"]["max"] >= 0.07
     K = np.array(base["K"], dtype=float)
-    path = make_path(cfg.verification.path, cfg.reference.speed)
+    path = make_path(cfg.reference.path, cfg.reference.speed)
     scen = steady_state_start(m, K, path, draw_scenario(m, 40, seed=3, steps=250, path=path))
     sim = simulate(m, K, path, scen)
     lost = ~np.isfinite(scen.taus[:, m.d_hi:])
@@ -99,7 +99,7 @@ def test_logs_of_delays_longer_than_a_period_say_when_each_command_acted() -> No
 
     m, K, _ = committed_gain("delay-multi-period")
     cfg = m.config
-    path = make_path(cfg.verification.path, cfg.reference.speed)
+    path = make_path(cfg.reference.path, cfg.reference.speed)
     scen = steady_state_start(m, K, path, draw_scenario(m, 6, seed=2, steps=120, path=path))
     arrival = (np.arange(scen.taus.shape[1]) - m.d_hi) * m.Ts + scen.taus
     assert np.any(np.diff(arrival, axis=1) < 0)  # some commands do arrive before older ones

@@ -957,7 +957,7 @@ TURN_LINEARIZATION_HEADING = 0.5  # [rad]: beyond it the linearization's turn bo
 
 
 def turn_bounds(model: Any, K: np.ndarray, cert: Mapping[str, Any], figures: Mapping[str, Any]) -> list[dict[str, Any]]:
-    """Bounds through each waypoint turn of ``verification.path`` from an ultimate-bound certificate
+    """Bounds through each waypoint turn of ``reference.path`` from an ultimate-bound certificate
     (docs/theory.md §10).
 
     The law switches to segment i at the first sample t_k >= t_switch, delta = t_k - t_switch in
@@ -977,7 +977,7 @@ def turn_bounds(model: Any, K: np.ndarray, cert: Mapping[str, Any], figures: Map
     peak within a period exceeds a nonlinear certificate's heading bound (outside its channels), or
     when the next waypoint comes before the re-entry.  Floating point, not verified arithmetic."""
     ub = figures.get("ultimate_bound")
-    wp = np.asarray(model.config.verification.path, dtype=float)
+    wp = np.asarray(model.config.reference.path, dtype=float)
     if not ub or wp.shape[0] < 3 or "alpha" not in cert:
         return []
     if getattr(model, "turns", None) is not None:
@@ -1056,7 +1056,7 @@ def _arc_turns(model: Any, figures: Mapping[str, Any]) -> list[dict[str, Any]]:
 
     cfg = model.config
     r = float(cfg.reference.turn_radius)
-    table = PathTable(cfg.verification.path, cfg.reference.speed, r, cfg.network.sampling_time, cfg.reference.turn_ramp)
+    table = PathTable(cfg.reference.path, cfg.reference.speed, r, cfg.network.sampling_time, cfg.reference.turn_ramp)
     ub = dict(figures["ultimate_bound"])
     for k, v in (figures.get("ultimate_bound_between_samples") or {}).items():
         if v is not None and k in ub:  # review, stop 47: the table showed the sampled bound as the turn's peak

@@ -47,6 +47,15 @@ NonNeg = Annotated[float, Field(ge=0)]
 RESERVED_NAMES = {"baselines": "regression baselines", "sweeps": "sweep tables"}  # results/<name>/ of a run
 MAX_D_HI = 20  # longest delay, in sampling periods (the lifted state grows with it)
 MAX_MOTION_PER_PERIOD = 2.0  # [m]: reference.speed * sampling_time above this is named a likely unit mistake
+# [m]: a robot.gear_radius at or above MAX_GEAR_RADIUS, a robot.track_distance above MAX_TRACK_DISTANCE is no
+# tracked robot's (a main battle tank's sprocket is ~0.35 m, its gauge ~3 m): named a likely unit mistake
+MAX_GEAR_RADIUS = 1.0
+MAX_TRACK_DISTANCE = 10.0
+# what a unit hint may suggest instead: lengths [m] and a ratio track_distance / gear_radius of real robots
+_TYPICAL_LENGTH = {"gear_radius": (0.005, 0.5), "track_distance": (0.05, 5.0)}
+_TYPICAL_RATIO = (1.5, 30.0)
+# old key path -> its place now: still read there (a file, an override), never written
+RENAMED_KEYS = {"verification.path": "reference.path"}
 # Tokens in validator messages: _SIBLING is replaced by the sibling key's full path; a message
 # starting with _FIELD "name: ..." (from a model validator) is reported at that field's path.
 _SIBLING = "@sibling:"
@@ -62,16 +71,70 @@ class _Node(BaseModel):
     model_config = _MODEL
 
 
+def _length(v: Any) -> float | None:
+    """A length as given (a finite positive number), else None (its field's validation names the problem)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return None
+    x = float(v)
+    return x if math.isfinite(x) and x > 0 else None
+
+
+def _implausible_length(key: str, v: float) -> bool:
+    return v >= MAX_GEAR_RADIUS if key == "gear_radius" else v > MAX_TRACK_DISTANCE
+
+
+def _length_unit_hint(key: str, lengths: dict[str, float]) -> str:
+    """'; lengths are in metres: 7 looks like centimetres, did you mean 0.07 m?' for the implausible length
+    ``key``: centimetres (/100) or else millimetres (/1000), whichever gives a typical tracked robot with the
+    other length (scaled alike when it is implausible too: the same mistake); '' when neither does."""
+    value = lengths[key]
+    for k, unit in ((100.0, "centimetres"), (1000.0, "millimetres")):
+        scaled = {n: v / k if n == key or _implausible_length(n, v) else v for n, v in lengths.items()}
+        typical = all(_TYPICAL_LENGTH[n][0] <= scaled[n] <= _TYPICAL_LENGTH[n][1]
+                      for n, v in lengths.items() if scaled[n] != v)
+        if typical and len(scaled) == 2:
+            typical = _TYPICAL_RATIO[0] <= scaled["track_distance"] / scaled["gear_radius"] <= _TYPICAL_RATIO[1]
+        if typical:
+            return f": {value:g} looks like {unit}, did you mean {value / k:g} m?"
+    return ""
+
+
 class RobotConfig(_Node):
-    gear_radius: Annotated[float, Field(gt=0, le=10)] = Field(description="R: radius of the gears driving the tracks [m]")
-    track_distance: Annotated[float, Field(gt=0, le=100)] = Field(description="D: distance between the tracks [m]")
+    gear_radius: Annotated[float, Field(gt=0, lt=MAX_GEAR_RADIUS)] = Field(
+        description="R: radius of the gears driving the tracks [m] (below 1 m: more is refused as a likely unit mistake)")
+    track_distance: Annotated[float, Field(gt=0, le=MAX_TRACK_DISTANCE)] = Field(
+        description="D: distance between the tracks [m] (at most 10 m: more is refused as a likely unit mistake)")
     max_motor_speed: Annotated[float, Field(gt=0, le=1e6)] | None = Field(
         default=None, description="rho_max: limit on |rho_r|, |rho_l| [rad/s]; null for none"
     )
 
+    @model_validator(mode="before")
+    @classmethod
+    def _plausible_lengths(cls, data: Any) -> Any:
+        """Lengths no tracked robot has (centimetres or millimetres written as metres: gear_radius 7): named
+        with the likely unit, as times in milliseconds are (NetworkConfig._lifting_size, Config._plausible_motion)."""
+        if not isinstance(data, Mapping):
+            return data
+        lengths = {k: x for k in ("gear_radius", "track_distance") if (x := _length(data.get(k))) is not None}
+        for key, what, bound in (("gear_radius", "sprocket radius", f"below {MAX_GEAR_RADIUS:g} m"),
+                                 ("track_distance", "distance between the tracks", f"at most {MAX_TRACK_DISTANCE:g} m")):
+            if key in lengths and _implausible_length(key, lengths[key]):
+                raise ValueError(f"{_FIELD}{key}: {lengths[key]:g} m is not a plausible {what} ({bound} for a tracked "
+                                 f"robot; lengths are in metres{_length_unit_hint(key, lengths)})")
+        return data
+
+
+Coord = Annotated[float, Field(ge=-1e6, le=1e6)]
+Waypoint = Annotated[tuple[Coord, Coord], Field(description="(x, y) [m]")]
+
+_DEFAULT_PATH: tuple[tuple[float, float], ...] = ((0.0, 0.0), (6.0, 0.0), (10.0, 2.0), (16.0, 2.0))
+
 
 class ReferenceConfig(_Node):
     speed: Annotated[float, Field(gt=0, le=100)] = Field(description="V^D: desired forward speed along each segment [m/s]")
+    # the path the controller follows (export bakes it in) and verification simulates; verification.path is its
+    # old place, still read (Config._path_moved)
+    path: tuple[Waypoint, ...] = Field(default=_DEFAULT_PATH, max_length=1000, description="waypoints of the polyline [m]")
     turn_radius: Annotated[float, Field(gt=0, le=1e6)] | None = Field(
         default=None,
         description="round every corner of the path by an arc of this radius [m] and certify the turns: the "
@@ -85,6 +148,24 @@ class ReferenceConfig(_Node):
         "x sampling_time / turn_ramp between periods, which the certificate covers instead of steps of the whole "
         "yaw rate; null: arcs that start at once",
     )
+
+    @field_validator("path", mode="before")
+    @classmethod
+    def _lists_to_tuples(cls, v: Any) -> Any:
+        # YAML gives lists; strict mode takes tuples only.
+        if isinstance(v, list):
+            return tuple(tuple(p) if isinstance(p, list) else p for p in v)
+        return v
+
+    @field_validator("path")
+    @classmethod
+    def _path_ok(cls, v: tuple[tuple[float, float], ...]) -> tuple[tuple[float, float], ...]:
+        if len(v) < 2:
+            raise ValueError("needs at least 2 waypoints")
+        for i in range(1, len(v)):
+            if math.hypot(v[i][0] - v[i - 1][0], v[i][1] - v[i - 1][1]) <= 1e-9:
+                raise ValueError(f"waypoints {i - 1} and {i} coincide")
+        return v
 
 
 class DelayRange(_Node):
@@ -310,12 +391,6 @@ class NoiseConfig(_Node):
     heading: Annotated[float, Field(ge=0, le=math.pi)] = Field(default=0.0, description="std of heading measurement noise [rad]")
 
 
-Coord = Annotated[float, Field(ge=-1e6, le=1e6)]
-Waypoint = Annotated[tuple[Coord, Coord], Field(description="(x, y) [m]")]
-
-_DEFAULT_PATH: tuple[tuple[float, float], ...] = ((0.0, 0.0), (6.0, 0.0), (10.0, 2.0), (16.0, 2.0))
-
-
 class LossChannel(_Node):
     """Gilbert-Elliott (bursty) loss channel of the simulator: a good state that delivers and a bad
     state that loses; stationary loss probability and mean burst length set its two transition
@@ -335,7 +410,6 @@ class LossChannel(_Node):
 class VerificationConfig(_Node):
     runs: Annotated[int, Field(ge=1, le=100_000)] = Field(default=200, description="Monte Carlo runs")
     seed: Annotated[int, Field(ge=0, le=2**32 - 1)] = Field(default=0, description="random seed")
-    path: tuple[Waypoint, ...] = Field(default=_DEFAULT_PATH, max_length=1000, description="waypoints of the polyline [m]")
     initial_offset: InitialOffset = Field(default_factory=InitialOffset, description="initial pose error")
     noise: NoiseConfig = Field(default_factory=NoiseConfig, description="measurement noise")
     transient: Annotated[float, Field(ge=0, le=1e4)] = Field(
@@ -370,24 +444,6 @@ class VerificationConfig(_Node):
         default=300, description="periods of the adversarial search (a straight segment)"
     )
     dropouts: LossChannel = Field(default_factory=LossChannel, description="the simulated lossy channel")
-
-    @field_validator("path", mode="before")
-    @classmethod
-    def _lists_to_tuples(cls, v: Any) -> Any:
-        # YAML gives lists; strict mode takes tuples only.
-        if isinstance(v, list):
-            return tuple(tuple(p) if isinstance(p, list) else p for p in v)
-        return v
-
-    @field_validator("path")
-    @classmethod
-    def _path_ok(cls, v: tuple[tuple[float, float], ...]) -> tuple[tuple[float, float], ...]:
-        if len(v) < 2:
-            raise ValueError("needs at least 2 waypoints")
-        for i in range(1, len(v)):
-            if math.hypot(v[i][0] - v[i - 1][0], v[i][1] - v[i - 1][1]) <= 1e-9:
-                raise ValueError(f"waypoints {i - 1} and {i} coincide")
-        return v
 
 
 class PhysicsConfig(_Node):
@@ -440,6 +496,26 @@ class Config(_Named):
     verification: VerificationConfig = Field(default_factory=VerificationConfig)
     physics: PhysicsConfig = Field(default_factory=PhysicsConfig)
 
+    @model_validator(mode="before")
+    @classmethod
+    def _path_moved(cls, data: Any) -> Any:
+        """verification.path, the path's old place (files and stored configs written before it moved to the
+        reference, which export bakes into the controller): read as reference.path; both given: refused."""
+        if not isinstance(data, Mapping):
+            return data
+        ver = data.get("verification")
+        if not isinstance(ver, Mapping) or "path" not in ver:
+            return data
+        ref = data.get("reference")
+        if isinstance(ref, Mapping) and "path" in ref:
+            raise ValueError(f"{_FIELD}verification.path: reference.path is given too: give the path once, as "
+                             "reference.path (verification.path is its old place)")
+        out = dict(data)
+        out["verification"] = {k: v for k, v in ver.items() if k != "path"}
+        if isinstance(ref, Mapping):  # else reference's own problem is named
+            out["reference"] = {**ref, "path": ver["path"]}
+        return out
+
     @model_validator(mode="after")
     def _plausible_motion(self) -> "Config":
         step = self.reference.speed * self.network.sampling_time
@@ -478,10 +554,10 @@ class Config(_Named):
         from .law import PathTable
 
         try:
-            PathTable([list(p) for p in self.verification.path], self.reference.speed, r, self.network.sampling_time,
+            PathTable([list(p) for p in self.reference.path], self.reference.speed, r, self.network.sampling_time,
                       self.reference.turn_ramp)
         except ValueError as exc:
-            raise ValueError(f"{_FIELD}verification.path: with reference.turn_radius {r:g} m, {exc}") from None
+            raise ValueError(f"{_FIELD}reference.path: with reference.turn_radius {r:g} m, {exc}") from None
         return self
 
     @model_validator(mode="after")
@@ -955,6 +1031,7 @@ def default_config(**overrides: Any) -> Config:
 def mapping_with(data: dict[str, Any], **overrides: Any) -> Config:
     """A config mapping with dotted-path overrides (the mapping is changed), validated like a file."""
     for path, value in overrides.items():
+        path = _new_key(data, path)
         node = data
         keys = path.split(".")
         for k in keys[:-1]:
@@ -964,6 +1041,21 @@ def mapping_with(data: dict[str, Any], **overrides: Any) -> Config:
         return Config.model_validate(data)
     except ValidationError as exc:
         raise ConfigError(_format_validation_error(exc)) from None
+
+
+def _new_key(data: dict[str, Any], path: str) -> str:
+    """The key path an override ``path`` sets now (RENAMED_KEYS), with the value at the renamed key's old
+    place in ``data`` removed: the override replaces it."""
+    path = RENAMED_KEYS.get(path, path)
+    for old, new in RENAMED_KEYS.items():
+        if new == path:
+            *parents, leaf = old.split(".")
+            node: Any = data
+            for k in parents:
+                node = node.get(k) if isinstance(node, dict) else None
+            if isinstance(node, dict):
+                node.pop(leaf, None)
+    return path
 
 
 def _node_class(annotation: Any) -> type[BaseModel] | None:
@@ -983,6 +1075,8 @@ def check_config_key(path: str, root: "type[BaseModel] | None" = None) -> None:
     """ConfigError naming ``path`` unless it is a dotted path to a leaf of the configuration
     (``network.delay.max``; of ``root``, default the robot's Config), with the keys that exist there."""
     node: type[BaseModel] = root or Config
+    if node is Config:
+        path = RENAMED_KEYS.get(path, path)  # an old key path is read at its place now
     parts = path.split(".")
     for i, part in enumerate(parts):
         fields = node.model_fields
@@ -1008,6 +1102,8 @@ def config_with(config: "Config | LtiConfig", overrides: dict[str, Any]) -> "Con
     data = config.model_dump(mode="python")
     for path, value in overrides.items():
         check_config_key(path, type(config))
+        if isinstance(config, Config):
+            path = _new_key(data, path)
         node = data
         keys = path.split(".")
         for k in keys[:-1]:

@@ -293,7 +293,7 @@ def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, e
         from .report.plots import validation_figure
 
         res["validation"]["passed"] = vd["passed"]
-        validation_figure(res, model.config.verification.path, outdir / "validation.png")
+        validation_figure(res, model.config.reference.path, outdir / "validation.png")
         vd["figure"] = "validation.png"
     elif (outdir / "validation.png").exists():  # an earlier run's figure would read as this one's (review)
         remove_files(outdir, ("validation.png",))

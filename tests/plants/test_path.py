@@ -127,8 +127,8 @@ def test_the_law_sends_the_reference_yaw_rate_as_feedforward() -> None:
 def test_paths_the_arcs_do_not_fit_are_refused_naming_the_place(path, words) -> None:
     with pytest.raises(ValueError, match=words):
         PathTable(path, V, 3.0, TS)
-    with pytest.raises(ConfigError, match=r"^verification\.path: with reference\.turn_radius 3 m, .*" + words):
-        make_config(**{"reference.turn_radius": 3.0, "verification.path": path})
+    with pytest.raises(ConfigError, match=r"^reference\.path: with reference\.turn_radius 3 m, .*" + words):
+        make_config(**{"reference.turn_radius": 3.0, "reference.path": path})
 
 
 def test_the_turn_radius_needs_a_certificate_that_can_carry_it(tmp_path) -> None:
@@ -150,7 +150,7 @@ def test_the_turn_radius_needs_a_certificate_that_can_carry_it(tmp_path) -> None
     r = subprocess.run([sys.executable, "-m", "robustsynth", "build-model", str(cfg), "-o", str(tmp_path / "out")],
                        capture_output=True, text=True)
     assert r.returncode == 2 and "Traceback" not in r.stderr
-    assert r.stderr.strip().splitlines()[-1].startswith("error: verification.path: with reference.turn_radius 30 m, segment")
+    assert r.stderr.strip().splitlines()[-1].startswith("error: reference.path: with reference.turn_radius 30 m, segment")
     assert not (tmp_path / "out" / "model.json").exists()
 
 

@@ -69,7 +69,7 @@ def test_turn_bounds_that_say_nothing_print_no_bound_not_a_number(polyline) -> N
     m, res = polyline
     cfg = m.config
     lim = cfg.robot.max_motor_speed
-    wp = cfg.verification.path
+    wp = cfg.reference.path
     half = 0.5 * min(math.dist(a, b) for a, b in zip(wp, wp[1:]))  # [m]
     assert lim is not None and half is not None and half < 10.0
 

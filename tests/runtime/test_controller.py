@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 import yaml
 
+from robustsynth.config import config_from_dict
 from robustsynth.errors import InputError
 from robustsynth.model.kinematics import motor_speeds
 from robustsynth.runtime import Controller, controller_description
@@ -41,9 +42,11 @@ def test_from_files_uses_the_gains_config_and_reset_restarts(gains: Path) -> Non
     c = Controller.from_files(gains)
     cfg = g["config"]
     assert c.Ts == cfg["network"]["sampling_time"] and c.V == cfg["reference"]["speed"]
-    assert c.description["path"] == [list(map(float, p)) for p in cfg["verification"]["path"]]
+    # read like any stored config: a file written before the path moved holds it as verification.path
+    waypoints = config_from_dict(cfg).reference.path
+    assert c.description["path"] == [list(map(float, p)) for p in waypoints]
     assert c.description["K"] == g["K"] and c.description["gains_id"] == g["gains_id"]
-    path = make_path(cfg["verification"]["path"], c.V)
+    path = make_path(waypoints, c.V)
     t, q = _poses_along(path, int(path.duration / c.Ts) + 20, np.random.default_rng(1), c.Ts)
     first = [c.step(tk, *qk) for tk, qk in zip(t, q)]
     assert len(c.state) == len(g["K"][0])
@@ -97,7 +100,7 @@ def test_a_config_with_another_sampling_time_is_refused(tmp_path: Path) -> None:
         Controller.from_files(ROOT / "results" / "baselines" / "tracks-box" / "gains.json", cfg)
     # a different path is fine: it does not change the certificate
     data = yaml.safe_load((ROOT / "configs" / "tracks-box.yaml").read_text())
-    data.setdefault("verification", {})["path"] = [[0.0, 0.0], [3.0, 4.0]]
+    data["reference"]["path"] = [[0.0, 0.0], [3.0, 4.0]]
     path_cfg = tmp_path / "path.yaml"
     path_cfg.write_text(yaml.safe_dump(data))
     d = Controller.from_files(ROOT / "results" / "baselines" / "tracks-box" / "gains.json", path_cfg).description

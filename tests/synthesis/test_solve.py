@@ -169,7 +169,7 @@ def test_synthesize_cli_writes_consistent_files(tmp_path) -> None:
     # what the C / ROS 2 exports carry (issue 11): sampling time, lifting, path, limits, the config
     cfg = g["config"]
     assert mat["Ts"].item() == cfg["network"]["sampling_time"] and mat["d_hi"].item() == 1
-    assert mat["path"].tolist() == cfg["verification"]["path"]
+    assert mat["path"].tolist() == cfg["reference"]["path"]
     assert mat["max_motor_speed"].item() == cfg["robot"]["max_motor_speed"]
     assert mat["reference_speed"].item() == cfg["reference"]["speed"] and not mat["integral_action"].item()
     assert json.loads(str(mat["config_json"][0])) == cfg

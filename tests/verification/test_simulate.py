@@ -76,7 +76,7 @@ def test_vectorized_equals_per_run_reference(setups, name, steady, within) -> No
     arcs, in the reference one more actuation event), and the change must matter: the same runs with
     the changes at the sampling instants end elsewhere."""
     m, K = setups[name]
-    path = make_path(m.config.verification.path, m.V)
+    path = make_path(m.config.reference.path, m.V)
     steps = int(path.duration / m.Ts)
     scen = draw_scenario(m, 6, seed=3, steps=steps, path=path, slip="corners" if within else None, within_period=within)
     if steady:
@@ -93,7 +93,7 @@ def test_vectorized_equals_per_run_reference(setups, name, steady, within) -> No
 
 def test_within_period_changes_are_drawn_apart_and_only_where_slip_may_jump(setups) -> None:
     m, _ = setups["paper"]
-    path = make_path(m.config.verification.path, m.V)
+    path = make_path(m.config.reference.path, m.V)
     a = draw_scenario(m, 5, seed=9, steps=50, path=path)
     b = draw_scenario(m, 5, seed=9, steps=50, path=path, within_period=True)
     # the other draws are unchanged (a stream of its own), the times lie in the period, none at t_0
@@ -129,7 +129,7 @@ def test_constant_delay_no_slip_converges_to_zero(setups) -> None:
 
 def test_slip_profiles_stay_in_bounds(setups) -> None:
     m, _ = setups["paper"]
-    path = make_path(m.config.verification.path, m.V)
+    path = make_path(m.config.reference.path, m.V)
     scen = draw_scenario(m, 30, seed=1, steps=300, path=path)
     assert set(scen.profiles) == {"constant", "random-walk", "steps", "corners"}
     assert np.all(scen.mu >= 0.6 - 1e-12) and np.all(scen.mu <= 1.0 + 1e-12)
@@ -145,7 +145,7 @@ RATE_TOL = 1e-12  # round-off on a slip increment
 
 def test_rate_bounded_slip_profiles_respect_the_rate() -> None:
     m = build_model(make_config(**{"slip.max_rate": 0.5}))
-    path = make_path(m.config.verification.path, m.V)
+    path = make_path(m.config.reference.path, m.V)
     scen = draw_scenario(m, 40, seed=4, steps=300, path=path)
     step = np.max(np.abs(np.diff(scen.mu, axis=1)))
     assert step <= 0.5 * m.Ts + RATE_TOL and step > 0.5 * m.Ts * 0.99  # ramps use the whole rate
@@ -350,7 +350,7 @@ def test_the_adversary_that_picks_the_yaw_rates_keeps_them_admissible_and_its_hi
 
 def test_scenarios_are_reproducible(setups) -> None:
     m, _ = setups["paper"]
-    path = make_path(m.config.verification.path, m.V)
+    path = make_path(m.config.reference.path, m.V)
     a = draw_scenario(m, 5, seed=9, steps=50, path=path)
     b = draw_scenario(m, 5, seed=9, steps=50, path=path)
     assert np.array_equal(a.taus, b.taus) and np.array_equal(a.mu, b.mu)
@@ -366,7 +366,7 @@ def test_saturation_clips_motor_speeds_and_changes_the_turns(setups) -> None:
     rho = saturate(u, J, J_inv, 12.0) @ J_inv.T
     assert np.all(np.abs(rho) <= 12.0 + 1e-12)
     assert np.allclose(saturate(u[2:], J, J_inv, 12.0), u[2:])  # inside the limit: unchanged
-    path = make_path(m.config.verification.path, m.V)
+    path = make_path(m.config.reference.path, m.V)
     steps = int(path.duration / m.Ts)
     scen = draw_scenario(m, 4, seed=2, steps=steps, path=path)
     sat = simulate(m, K, path, scen)
@@ -379,7 +379,7 @@ def test_lossy_scenarios_lose_packets_in_capped_bursts(setups) -> None:
     from robustsynth.model.network import longest_burst
 
     m, _ = setups["lossy"]
-    path = make_path(m.config.verification.path, m.V)
+    path = make_path(m.config.reference.path, m.V)
     scen = draw_scenario(m, 40, seed=2, steps=300, path=path)
     lost = np.isinf(scen.taus)
     assert lost.mean() == pytest.approx(0.3, abs=0.05)  # the configured long-run loss fraction
@@ -402,7 +402,7 @@ def test_simulator_commands_are_the_deployed_controllers(setups, name) -> None:
     from robustsynth.runtime import Controller, controller_description
 
     m, K = setups[name]
-    path = make_path(m.config.verification.path, m.V)
+    path = make_path(m.config.reference.path, m.V)
     steps = int(path.duration / m.Ts)
     scen = steady_state_start(m, K, path, draw_scenario(m, m.config.verification.runs, seed=5, steps=steps, path=path))
     sim = simulate(m, K, path, scen)
@@ -431,7 +431,7 @@ def test_vectorized_equals_per_run_reference_on_arcs(setups) -> None:
     scen = steady_state_start(m, K, path, draw_scenario(m, 6, seed=4, steps=steps, path=path, within_period=True))
     vec = simulate(m, K, path, scen)
     _agrees_with_reference(m, K, path, scen, vec)
-    polyline = make_path(m.config.verification.path, m.V)
+    polyline = make_path(m.config.reference.path, m.V)
     assert np.max(np.abs(simulate(m, K, polyline, scen).q - vec.q)) > 0.1
 
 

@@ -231,7 +231,7 @@ def _narrow_robot(tmp_path, **physics) -> Path:
     d = yaml.safe_load((ROOT / "configs" / "tracks-box.yaml").read_text())
     d["name"] = "narrow"
     d["robot"]["track_distance"] = 0.38
-    d["verification"]["path"] = [[0.0, 0.0], [1.5, 0.0]]
+    d["reference"]["path"] = [[0.0, 0.0], [1.5, 0.0]]
     if physics:
         d["physics"] = physics
     p = tmp_path / f"narrow-{len(physics)}.yaml"

@@ -255,7 +255,8 @@ def test_path_shorter_than_transient_fails_instead_of_passing_vacuously(run_dir,
     from ..conftest import default_dict
 
     d = default_dict()
-    d["verification"] = {"path": [[0, 0], [1.0, 0]], "transient": 5.0, "runs": 5}  # 2 s of path
+    d["reference"]["path"] = [[0, 0], [1.0, 0]]  # 2 s of path
+    d["verification"] = {"transient": 5.0, "runs": 5}
     cfg = tmp_path / "short.yaml"
     cfg.write_text(yaml.safe_dump(d))
     g = json.loads((run_dir / "gains.json").read_text())
@@ -272,7 +273,8 @@ def test_certified_gain_is_judged_from_the_start_of_a_short_path(passing_dir, tm
     import yaml
 
     d = yaml.safe_load(PASSING_CONFIG.read_text())
-    d["verification"] = {"path": [[0, 0], [1.0, 0]], "runs": 5, "adversarial_runs": 2, "adversarial_steps": 20}
+    d["reference"]["path"] = [[0, 0], [1.0, 0]]
+    d["verification"] = {"runs": 5, "adversarial_runs": 2, "adversarial_steps": 20}
     cfg = tmp_path / "short.yaml"
     cfg.write_text(yaml.safe_dump(d))
     r = CliRunner().invoke(main, ["verify", str(cfg), "--gains", str(passing_dir / "gains.json"), "-o", str(tmp_path / "v"),

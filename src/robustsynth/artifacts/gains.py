@@ -392,7 +392,7 @@ def controller_description(gains: dict[str, Any], config: Any | None = None) -> 
         "d_hi": d_hi,
         "integral_action": integral,
         "reference_speed": cfg.reference.speed,
-        "path": [[float(x), float(y)] for x, y in cfg.verification.path],
+        "path": [[float(x), float(y)] for x, y in cfg.reference.path],
         "turn_radius": cfg.reference.turn_radius,
         "turn_ramp": cfg.reference.turn_ramp,
         # the command per rad/s of the reference's yaw rate (model.slip.turn_feedforward): (0, 1) for the tracks model

@@ -71,9 +71,9 @@ def _geometry(tab: PathTable) -> PathGeometry:
 
 
 def path_of(config) -> PathGeometry:
-    """The verification path of a config: ``verification.path`` at ``reference.speed``, with its corners
+    """The verification path of a config: ``reference.path`` at ``reference.speed``, with its corners
     rounded by ``reference.turn_radius`` when set."""
-    return make_path(config.verification.path, config.reference.speed, config.reference.turn_radius,
+    return make_path(config.reference.path, config.reference.speed, config.reference.turn_radius,
                      config.network.sampling_time, config.reference.turn_ramp)
 
 

@@ -78,7 +78,7 @@ def _shade_excluded(ax, t: np.ndarray, excluded: np.ndarray, label: str = EXCLUD
 def fig_path(res, model) -> Any:
     plt = _plt()
     sim = res.sim
-    W = np.asarray(model.config.verification.path)
+    W = np.asarray(model.config.reference.path)
     fig, (ax, ax2) = plt.subplots(2, 1, figsize=(10, 7), gridspec_kw={"height_ratios": [1.3, 1.0]})
     for n in range(sim.q.shape[0]):
         ax.plot(sim.q[n, :, 0], sim.q[n, :, 1], color="tab:blue", alpha=0.06, lw=0.8)

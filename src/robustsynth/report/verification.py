@@ -138,7 +138,7 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
     """The nonlinear robot's section: how the runs were made, what is excluded, maxima vs certificate."""
     out = [
         f"\n## The nonlinear robot\n\n{mc['runs']} Monte Carlo runs (seed {mc['seed']}), {mc['steps']} steps of "
-        f"{cfg.network.sampling_time:g} s along the path {list(map(list, cfg.verification.path))}; delays {mc['delays']};"
+        f"{cfg.network.sampling_time:g} s along the path {list(map(list, cfg.reference.path))}; delays {mc['delays']};"
         f" slip profiles {mc['slip_profiles']}"
         + (f", slip rate at most {mc['slip_max_rate']:g} /s" if mc.get("slip_max_rate") else ", slip may jump every period")
         + (f", changes {mc['slip_changes']}" if mc.get("slip_changes") else "")
@@ -308,7 +308,7 @@ def turn_bound_cells(turn: dict[str, Any], cfg: Any) -> tuple[str, str, str]:
 
     - a heading bound >= pi rad says nothing: every heading error is within pi after wrapping, so the cell
       reads ``no bound (>= pi)``;
-    - a position bound (|e_y|) larger than half the shortest segment of ``verification.path`` says nothing
+    - a position bound (|e_y|) larger than half the shortest segment of ``reference.path`` says nothing
       about which segment the robot follows: ``no bound (> half the shortest segment, X m)``;
     - a motor-speed bound beyond ``robot.max_motor_speed`` is not a certificate of the limit (the commands
       saturate there, outside the model): the number stays, marked ``(exceeds the L rad/s limit)``."""
@@ -328,8 +328,8 @@ def turn_bound_cells(turn: dict[str, Any], cfg: Any) -> tuple[str, str, str]:
 
 
 def half_shortest_segment(cfg: Any) -> float | None:
-    """Half the length of the shortest segment of verification.path [m] (None: fewer than two waypoints)."""
-    wp = [tuple(map(float, w)) for w in cfg.verification.path]
+    """Half the length of the shortest segment of reference.path [m] (None: fewer than two waypoints)."""
+    wp = [tuple(map(float, w)) for w in cfg.reference.path]
     lengths = [d for a, b in zip(wp, wp[1:]) if (d := math.hypot(b[0] - a[0], b[1] - a[1])) > 0.0]
     return 0.5 * min(lengths) if lengths else None
 

@@ -662,7 +662,7 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
     mc["transients"] = _transients(model, sim, mask)
     if int(np.sum(mask)) == 0:  # otherwise every maximum below would be vacuous
         checks.append(_check("nonlinear: steps after the transients exist", False, 0, 1,
-                             "no sampling instant is covered: lengthen verification.path or shorten verification.transient"))
+                             "no sampling instant is covered: lengthen reference.path or shorten verification.transient"))
     worst_of = {k: max(float(np.max(mx[k])), float(np.max(mx_ext[k])), (adv and mc["adversarial"]["max"].get(k)) or 0.0)
                 for k in ("e_x", "e_y", "e_theta", "motor_speed")}
     if ub:
@@ -720,8 +720,9 @@ def _provenance(model: Any, gains: dict[str, Any]) -> str:
         return out
 
     a, b = flat(config_to_dict(made)), flat(config_to_dict(model.config))
-    keys = [k for k in sorted(set(a) | set(b)) if k != "name" and not k.startswith(("verification.", "physics."))
-            and a.get(k) != b.get(k)]
+    # the path (reference.path, once verification.path) and the verification and physics settings make no gain
+    keys = [k for k in sorted(set(a) | set(b)) if k not in ("name", "reference.path")
+            and not k.startswith(("verification.", "physics.")) and a.get(k) != b.get(k)]
     if not keys:
         return ""
     shown = ", ".join(f"{k} {a.get(k)!r} -> {b.get(k)!r}" for k in keys[:6]) + (f" and {len(keys) - 6} more" if len(keys) > 6 else "")
