@@ -544,20 +544,26 @@ class _LazyBar:
     """A Monte Carlo progress bar on stderr that starts at the first progress report, so that its
     ETA is measured on the simulation alone (not on the model building and synthesis before it)."""
 
-    def __init__(self) -> None:
+    def __init__(self, heartbeat: "_Heartbeat | None" = None) -> None:
         self.bar: Any = None
         self.last = 0
+        self.heartbeat = heartbeat  # told of every update, so that it speaks only between the bar's phases
 
     def __call__(self, done: int, total: int) -> None:
+        if self.heartbeat is not None:
+            self.heartbeat.touch()
         if self.bar is None:
             self.bar = click.progressbar(length=100, label="Monte Carlo", file=sys.stderr)
         pct = int(100 * done / max(total, 1))
         self.bar.update(pct - self.last)
         self.last = pct
+        if done >= total:  # the checks after the runs may take minutes: the heartbeat's lines go below the bar
+            self.render_finish()
 
     def render_finish(self) -> None:
-        if self.bar is not None:
+        if self.bar is not None and not getattr(self, "_finished", False):
             self.bar.render_finish()
+            self._finished = True
 
 
 HEARTBEAT_S = 10.0  # [s]: on a terminal, a line at least this often while a command works
@@ -580,6 +586,10 @@ class _Heartbeat:
             self.last = time.monotonic()
             click.echo(msg, err=True)
 
+    def touch(self) -> None:
+        """Something else (a progress bar) showed progress just now."""
+        self.last = time.monotonic()
+
     def _beat(self) -> None:
         while True:
             time.sleep(1.0)
@@ -599,11 +609,12 @@ def _stage_lines(obj: _Ctx) -> Callable[[str], None]:
     return obj.detail
 
 
-def _progress(obj: _Ctx):
-    """A progress bar on stderr when it is a terminal (and not --quiet); else (None, None)."""
+def _progress(obj: _Ctx, heartbeat: "_Heartbeat | None" = None):
+    """A progress bar on stderr when it is a terminal (and not --quiet), with a heartbeat line whenever
+    HEARTBEAT_S pass without an update (the checks after the Monte Carlo runs); else (None, None)."""
     if obj.quiet or not sys.stderr.isatty():
         return None, None
-    bar = _LazyBar()
+    bar = _LazyBar(heartbeat if heartbeat is not None else _Heartbeat())
     return bar, bar
 
 
@@ -747,10 +758,10 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
         _lti_report(obj, res["verification"])
         obj.say(f"report: {out / 'report.md'}")
         return EXIT_OK if res["verification"]["passed"] else EXIT_VERIFICATION_FAILED
-    cb, bar = _progress(obj)
+    stage = _stage_lines(obj)  # the stages and each step of the synthesis (a heartbeat between them, on a terminal)
+    cb, bar = _progress(obj, stage if isinstance(stage, _Heartbeat) else None)
     try:
-        stage = _stage_lines(obj)
-        res = run(cfg, out, runs, seed, fmt, not no_plots, cb, on_stage=lambda s: stage(f"[{s}]"), on_step=obj.detail,
+        res = run(cfg, out, runs, seed, fmt, not no_plots, cb, on_stage=lambda s: stage(f"[{s}]"), on_step=stage,
                   diagnose=diagnose, objective=objective, solver=solver, multiplier=multiplier)
     finally:
         if bar is not None:
