@@ -13,7 +13,7 @@ LOCKED := PIP_CONSTRAINT=$(CURDIR)/$(LOCK)
 LATEST := .venv-latest
 TESTENV := OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
 
-.PHONY: demo test test-latest lock bench baselines install clean
+.PHONY: demo test test-slow test-all test-latest lock bench baselines install clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -32,9 +32,17 @@ demo: $(STAMP)
 	$(VENV)/bin/robustsynth run -o results/default --physics 4 --export c
 
 ## make test: install, then run the test suite on TEST_WORKERS processes (pytest-xdist), one BLAS
-## thread each so the workers do not oversubscribe the cores
+## thread each so the workers do not oversubscribe the cores; without the tests marked slow (the
+## regression on configs/, the README's commands, kills and signals at random moments, the heaviest
+## end-to-end runs): minutes.  make test-slow runs those, make test-all both (CI: .ci/run)
 TEST_WORKERS ?= 2
 test: $(STAMP)
+	$(TESTENV) $(PY) -m pytest -q -n $(TEST_WORKERS) --dist worksteal -m "not slow"
+
+test-slow: $(STAMP)
+	$(TESTENV) $(PY) -m pytest -q -n $(TEST_WORKERS) --dist worksteal -m slow
+
+test-all: $(STAMP)
 	$(TESTENV) $(PY) -m pytest -q -n $(TEST_WORKERS)
 
 ## make test-latest: a fresh venv (.venv-latest) with the newest releases of every dependency (no

@@ -344,7 +344,7 @@ def test_the_cleanup_follows_symlinks_and_covers_a_gains_files_directory(tmp_pat
 def test_a_long_stage_gets_a_line_at_least_every_heartbeat(monkeypatch, capsys) -> None:
     """On a terminal a long command prints its steps and, between them, a line of its own at least every
     HEARTBEAT_S (issue 50: a nonlinear synthesis was silent for 12.6 minutes).  Here with the period shortened
-    to 1.5 s (the thread looks once a second) and 4.5 s without a step."""
+    to 1.5 s (the thread looks once a second) and 4.5 s without a step; once stopped, it says nothing more."""
     import time
 
     from robustsynth import cli
@@ -354,6 +354,8 @@ def test_a_long_stage_gets_a_line_at_least_every_heartbeat(monkeypatch, capsys) 
     say("step one")
     time.sleep(4.5)
     say("step two")
+    cli._stop_heartbeats()  # as every command does when it ends: no line after its last one
+    time.sleep(2.0)
     err = capsys.readouterr().err.splitlines()
     assert err[0] == "step one" and err[-1] == "step two"
     beats = [line for line in err[1:-1] if "still working" in line]

@@ -121,6 +121,7 @@ MOMENTS = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("sig,code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
 @pytest.mark.parametrize("moment", range(len(MOMENTS)))
 def test_signal_stops_promptly_and_leaves_consistent_files(tmp_path, sig, code, moment) -> None:
@@ -210,6 +211,7 @@ def _quick_config(tmp_path) -> str:
     return str(cfg)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mask,fmode,dmode", [(0o022, 0o644, 0o755), (0o027, 0o640, 0o750)])
 def test_files_and_directories_honour_the_umask(tmp_path, mask, fmode, dmode) -> None:
     out = tmp_path / "o" / "deep"
@@ -224,6 +226,7 @@ def test_files_and_directories_honour_the_umask(tmp_path, mask, fmode, dmode) ->
         assert stat.S_IMODE(d.stat().st_mode) == dmode, d
 
 
+@pytest.mark.slow
 def test_quiet_and_verbose_after_the_subcommand(tmp_path) -> None:
     r = subprocess.run(CLI + ["build-model", "-o", str(tmp_path / "a"), "-q"], capture_output=True, text=True, env=_env())
     assert r.returncode == 0 and r.stdout == "", r.stderr

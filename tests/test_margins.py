@@ -65,6 +65,7 @@ def test_witness_growth_matches_its_spectral_radius(cfg, K) -> None:
     assert rate == pytest.approx(w["spectral_radius"], rel=GROWTH_RTOL)
 
 
+@pytest.mark.slow
 def test_delay_margin_brackets_the_truth(cfg, K, report) -> None:
     d = report.delay_max
     assert d.configured == cfg.network.delay.max
@@ -128,6 +129,7 @@ def test_pad_gain_is_the_same_law(cfg, K) -> None:
     np.testing.assert_allclose(a[:, :, :3], b[:, :, :3], rtol=0, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_margin_cli_json_matches_the_file(tmp_path, cfg, K) -> None:
     gains = tmp_path / "gains.json"
     gains.write_text(json.dumps({"K": K.tolist()}))
@@ -153,6 +155,7 @@ def test_margin_cli_rejects_a_gain_of_the_wrong_shape(tmp_path) -> None:
     assert not (tmp_path / "o" / "margin.json").exists()
 
 
+@pytest.mark.slow
 def test_icr_margins_per_slip_parameter() -> None:
     """slip.model icr: a margin per slip parameter (issue 24).  The ICR offset's: the certified end has a
     certificate an independent re-run finds again, and the witness (its slip holds x_icr = exhibited)

@@ -140,6 +140,7 @@ def test_cli_margin_on_a_linear_plant_and_the_commands_it_lacks(tmp_path) -> Non
     assert r.returncode == 2 and "plant.B" in r.stderr and len(r.stderr.strip().splitlines()) == 1
 
 
+@pytest.mark.slow
 def test_a_certificate_holds_on_sampled_exact_loops_of_a_harder_plant() -> None:
     """Certificate vs the exact loops: a 3-state, 2-input, open-loop unstable plant with complex
     eigenvalues, a gain on the lifted state, delays in [1.2, 2.6] periods and one loss in a row.  The
@@ -178,6 +179,7 @@ def test_no_certificate_at_the_exhibited_bound(h1) -> None:
     assert not _certify(lti_plant(cfg), 1.0, 0.0, ex + EDGE, 0, 8).certified
 
 
+@pytest.mark.slow
 def test_schema_of_a_linear_plant_and_the_controllability_warning(tmp_path) -> None:
     run = lambda *a: subprocess.run([sys.executable, "-m", "robustsynth", *a], capture_output=True, text=True)  # noqa: E731
     r = run("schema", "--plant", "lti")

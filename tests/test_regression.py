@@ -10,6 +10,8 @@ import pytest
 
 from robustsynth.regression import compare, run_config
 
+pytestmark = pytest.mark.slow  # make test-all / CI (`make test` runs the rest in minutes)
+
 ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = sorted((ROOT / "configs").glob("*.yaml"))
 REQUIRED = {"default", "tracks-box", "paper-model", "delay-full-period", "delay-multi-period", "delay-dlo1", "heavy-slip", "fast", "tight-motors",

@@ -24,6 +24,8 @@ from robustsynth.certificate import check_certificate
 
 from .conftest import PASSING_CONFIG, default_dict
 
+pytestmark = pytest.mark.slow  # make test-all / CI (`make test` runs the rest in minutes)
+
 ROOT = Path(__file__).resolve().parents[1]
 TIMING_FIELDS = {("solver", "solve_time_s")}  # the only field allowed to differ between two runs (README)
 

@@ -94,7 +94,10 @@ def _guard(fn: Callable[..., int | None]) -> Callable[..., None]:
     def wrapper(*args: Any, **kwargs: Any) -> None:
         _NEW_DIRS.clear()  # this command's own (one process may run several: tests, scripts)
         try:
-            code = fn(*args, **kwargs)
+            try:
+                code = fn(*args, **kwargs)
+            finally:
+                _stop_heartbeats()  # none speaks after the command's last line ('interrupted', an error)
             sys.stdout.flush()
             check_interrupt()  # a signal whose exception Python swallowed (see errors.on_signal)
         except Interrupted as exc:
@@ -567,6 +570,12 @@ class _LazyBar:
 
 
 HEARTBEAT_S = 10.0  # [s]: on a terminal, a line at least this often while a command works
+_HEARTBEATS: list["_Heartbeat"] = []  # the running command's (stopped when it ends: _guard)
+
+
+def _stop_heartbeats() -> None:
+    while _HEARTBEATS:
+        _HEARTBEATS.pop().close()
 
 
 class _Heartbeat:
@@ -579,7 +588,14 @@ class _Heartbeat:
 
         self.t0 = self.last = time.monotonic()
         self.lock = threading.Lock()
+        self.stopped = threading.Event()
+        _HEARTBEATS.append(self)
         threading.Thread(target=self._beat, daemon=True, name="robustsynth-heartbeat").start()
+
+    def close(self) -> None:
+        """No line after this one returns (the lock: a line being written is finished first)."""
+        with self.lock:
+            self.stopped.set()
 
     def __call__(self, msg: str) -> None:
         with self.lock:
@@ -591,11 +607,10 @@ class _Heartbeat:
         self.last = time.monotonic()
 
     def _beat(self) -> None:
-        while True:
-            time.sleep(1.0)
+        while not self.stopped.wait(1.0):
             with self.lock:
                 now = time.monotonic()
-                if now - self.last >= HEARTBEAT_S:
+                if not self.stopped.is_set() and now - self.last >= HEARTBEAT_S:
                     self.last = now
                     m, sec = divmod(int(now - self.t0), 60)
                     click.echo(f"  ... still working ({m}:{sec:02d} since the start; Ctrl-C stops)", err=True)

@@ -316,6 +316,7 @@ def test_a_verified_gain_states_what_it_is_proven_for(name: str, proven: str, tm
     assert json.loads((tmp_path / "j" / "rs_controller.json").read_text())["proof"]["proven"].startswith(proven)
 
 
+@pytest.mark.slow
 def test_run_exports_a_gain_whose_verification_passed_and_skips_one_that_failed(tmp_path: Path) -> None:
     """`robustsynth run --export` (make demo's path): the export reads the verification.json the run wrote beside
     gains.json; a passed verdict exports and states it, a failed one skips the export with a line, exit 1."""

@@ -94,6 +94,7 @@ def test_local_workers_give_the_serial_rows(spec_path, serial, tmp_path) -> None
     assert done == sorted(done) and done[-1] == 6 and seen[-1][2] == 4  # 4 points not certified
 
 
+@pytest.mark.slow
 def test_dask_cluster_gives_the_serial_rows(spec_path, serial, tmp_path) -> None:
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
@@ -131,6 +132,7 @@ def _alive(pid: int) -> bool:
     return state not in ("Z", "X")  # a zombie has exited (nobody may reap it in a container)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("workers", [1, 2])
 def test_sigkill_loses_only_points_in_flight(tmp_path, workers) -> None:
     """The driver is killed with SIGKILL: stored points are whole, local workers exit with it (no

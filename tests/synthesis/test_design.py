@@ -254,9 +254,10 @@ def test_the_least_motor_bound_prunes_only_the_alphas_it_proves_infeasible() -> 
         synthesize(m, on_step=lines.append, **FAST)
     first = next(i for i, ln in enumerate(lines) if "least motor bound" in ln)
     last = max(i for i, ln in enumerate(lines) if "least motor bound" in ln)
-    alpha = lambda ln: re.search(r"alpha = (\S+):", ln).group(1)  # noqa: E731
-    failed = {alpha(ln) for ln in lines[:first] if re.search(r"alpha = \S+: failed", ln)}
-    retried = {alpha(ln) for ln in lines[last + 1:] if re.search(r"alpha = \S+: ", ln)}
+    at = r"alpha = (\S+)(?: \(point [^)]*\))?: "  # a grid point's line names its position in the scan
+    alpha = lambda ln: re.search(at, ln).group(1)  # noqa: E731
+    failed = {alpha(ln) for ln in lines[:first] if re.search(at + "failed", ln)}
+    retried = {alpha(ln) for ln in lines[last + 1:] if re.search(at, ln)}
     pruned = set()
     for ln in lines[first:last + 1]:  # proven ('optimal', 'infeasible'), or 'optimal_inaccurate' far above the limit
         got = re.search(r"is ([0-9.]+) rad/s \(clarabel (optimal|optimal_inaccurate)\)|is none \(infeasible\)", ln)
@@ -314,6 +315,7 @@ def test_infeasible_below_nominal_motor_speed() -> None:
     smin=st.floats(0.6, 0.95),
     V=st.floats(0.2, 1.0),
 )
+@pytest.mark.slow
 @settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 def test_random_configs_certify_and_recheck(tmax, smin, V) -> None:
     m = build_model(make_config(**{"network.delay.max": tmax, "slip.right.min": smin, "reference.speed": V,
@@ -370,6 +372,7 @@ def test_an_override_that_conflicts_with_the_config_names_the_option() -> None:
                                    "nonlinear is available for objective ultimate-bound")
 
 
+@pytest.mark.slow
 def test_a_result_saves_itself_and_verify_takes_the_path(tmp_path) -> None:
     """Issue 27: SynthesisResult.save writes gains.json / gains.mat; verify(model, path) reads it."""
     from robustsynth.artifacts.gains import load_gains
@@ -413,6 +416,7 @@ def test_an_override_of_what_the_model_was_built_with_is_refused(key, value) -> 
             synthesize(m, **{key: value})
 
 
+@pytest.mark.slow
 def test_the_nonlinear_search_reports_its_start_with_lmi_counts_and_positions() -> None:
     """The linearized start of a nonlinear search had no lines of its own (issue 50: minutes of silence): now
     every solve of it is a line, after one line with the problem's size, each grid point with its position in

@@ -24,6 +24,7 @@ def default_diagnosis():
     return cfg, res, diagnose(cfg, res.certified)
 
 
+@pytest.mark.slow
 def test_each_constraint_is_relaxed_once_and_sorted(default_diagnosis) -> None:
     cfg, res, rel = default_diagnosis
     assert {r.name for r in rel} == {"motor limit", "slip range", "delay bound"}  # no slip rate configured
@@ -43,6 +44,7 @@ def test_large_is_relative_to_the_robot(default_diagnosis) -> None:
     assert is_large(cfg, {"ultimate_bound": {"e_y": 0.3}})
 
 
+@pytest.mark.slow
 def test_cli_diagnose_writes_the_section_and_prints_it(tmp_path) -> None:
     r = CliRunner().invoke(main, ["synthesize", str(BASE_CONFIG), "-o", str(tmp_path), "--diagnose"])
     assert r.exit_code == 0, r.output
@@ -51,6 +53,7 @@ def test_cli_diagnose_writes_the_section_and_prints_it(tmp_path) -> None:
     assert "## Where the design is stuck" in md and "responds most to the **" in md
 
 
+@pytest.mark.slow
 def test_slip_above_one_with_slow_motors_is_diagnosed_not_a_solver_failure(tmp_path) -> None:
     """Issue 13: slip above 1 on a robot whose motors cannot use it once ran 64 s and ended 'every
     solve failed' (exit 4).  Now: certified when the motors allow it, else exit 3 naming the motors."""

@@ -81,6 +81,7 @@ def test_a_within_period_certificate_needs_a_model_that_covers_it(committed) -> 
     assert not check_certificate(m, K, dropped).passed
 
 
+@pytest.mark.slow
 def test_the_default_robot_has_none_and_says_why(tmp_path) -> None:
     """Slip in [0.6, 1] per track: no heading bound gives an invariant set.  Clarabel ends every solve of these
     LMIs in a numerical error; the same solver without its equilibration concludes 'infeasible' at each (the
@@ -214,6 +215,7 @@ def test_a_broken_heading_bound_in_the_certificate_fails_naming_its_key(committe
     assert chk.reason.startswith("certificate.heading_bound: nonlinear kinematics need a number in (0, 1] rad (got ")
 
 
+@pytest.mark.slow
 def test_a_scan_whose_primary_solver_always_fails_finds_the_same_certificate(monkeypatch) -> None:
     """Scaled Clarabel made to fail at every solve: the nonlinear scan gives up after 5 failures, its points
     are retried unscaled, the rest of the grid is scanned unscaled and the best point refined unscaled, so the

@@ -71,6 +71,7 @@ def _closed_loop(model, K, P, level, w, seed=0):
     return worst, ey
 
 
+@pytest.mark.slow
 def test_the_turning_certificate_is_rechecked_with_the_turns_it_names(designs) -> None:
     base, turning, _, r = designs
     assert r.check.passed, r.check.reason

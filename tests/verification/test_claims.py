@@ -30,6 +30,7 @@ def _claim_check(model, gd):
     return c
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("factor, passes", [(1.0, True), (1.01, True), (0.99, False)])
 def test_a_file_may_claim_less_than_the_recheck_proves_never_more(written, factor, passes):
     model, gd = written

@@ -103,6 +103,7 @@ def _run(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "robustsynth", *args], capture_output=True, text=True)
 
 
+@pytest.mark.slow
 def test_cli_chain_on_a_linear_plant(tmp_path) -> None:
     cfg = tmp_path / "zbpd.yaml"
     cfg.write_text(CONFIG)

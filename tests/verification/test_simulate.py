@@ -70,6 +70,7 @@ def _agrees_with_reference(m, K, path, scen, vec) -> None:
     ("paper", False, False), ("paper", True, False), ("multi-period", True, False), ("d_lo>=1", False, False),
     ("ideal-actuator", True, False), ("integral", True, False), ("lossy", True, False), ("lossy", False, False),
     ("paper", True, True), ("multi-period", True, True), ("lossy", True, True)])
+@pytest.mark.slow
 def test_vectorized_equals_per_run_reference(setups, name, steady, within) -> None:
     """The vectorized simulator against the per-run reference.  ``within``: slip that changes at a
     random time within each period (Scenario.mu_switch; in the simulator one more piece of the exact

@@ -56,6 +56,7 @@ def test_validate_without_gains_is_a_usage_error(tmp_path) -> None:
     assert r.exit_code == 2
 
 
+@pytest.mark.slow
 def test_end_to_end_excite_identify_synthesize_validate(tmp_path) -> None:
     """The README's recipe: excitation logs -> identify (the slip box of the turns) -> a config ->
     synthesize -> validate: on straight segments the physics robot stays within the certified

@@ -82,6 +82,7 @@ def test_verification_json_is_consistent(run_dir) -> None:
     assert mc["adversarial"]["slip_change_times"] == [0.0, 0.5]
 
 
+@pytest.mark.slow
 def test_verify_without_plots_leaves_no_earlier_figures(run_dir, tmp_path) -> None:
     """figures/ belongs to the verification: with --no-plots, an earlier run's figures go (they read as this
     verification's, a review found them kept); a file of another kind in figures/ stays."""
@@ -200,6 +201,7 @@ def test_missing_gains_exits_2(tmp_path) -> None:
     assert r.exit_code == 2 and "gains file not found" in r.output
 
 
+@pytest.mark.slow
 def test_pdf_figures(passing_dir, tmp_path) -> None:
     r = CliRunner().invoke(main, ["verify", str(PASSING_CONFIG), "--gains", str(passing_dir / "gains.json"), "-o", str(tmp_path),
                                   "--runs", "5",
@@ -233,6 +235,7 @@ def test_verify_reads_gains_mat(passing_dir, tmp_path) -> None:
     assert names["certificate: LMIs re-checked in numpy"] is True
 
 
+@pytest.mark.slow
 def test_verify_mat_with_only_K(passing_dir, tmp_path) -> None:
     from scipy.io import savemat
 
