@@ -589,6 +589,7 @@ class _Heartbeat:
         self.t0 = self.last = time.monotonic()
         self.lock = threading.Lock()
         self.stopped = threading.Event()
+        self.open_line = False  # the last output was a line rewritten in place, without its newline
         _HEARTBEATS.append(self)
         threading.Thread(target=self._beat, daemon=True, name="robustsynth-heartbeat").start()
 
@@ -612,6 +613,9 @@ class _Heartbeat:
                 now = time.monotonic()
                 if not self.stopped.is_set() and now - self.last >= HEARTBEAT_S:
                     self.last = now
+                    if self.open_line:  # a rewritten line (a count) is on the terminal: below it
+                        click.echo("", err=True)
+                        self.open_line = False
                     m, sec = divmod(int(now - self.t0), 60)
                     click.echo(f"  ... still working ({m}:{sec:02d} since the start; Ctrl-C stops)", err=True)
 
@@ -1146,10 +1150,14 @@ def _sweep_progress(obj: _Ctx):
     """points done/total, not certified so far, ETA: one rewritten stderr line on a terminal."""
     if obj.quiet or not sys.stderr.isatty():
         return None
+    beat = _Heartbeat()  # a point can take minutes: a line between the counts
 
     def cb(done: int, total: int, bad: int, eta: float | None) -> None:
         eta_s = "" if eta is None else f", ETA {int(eta) // 60}:{int(eta) % 60:02d}"
-        click.echo(f"\r{done}/{total} points, {bad} not certified{eta_s}   ", nl=done == total, err=True)
+        with beat.lock:
+            beat.last = time.monotonic()
+            beat.open_line = done != total
+            click.echo(f"\r{done}/{total} points, {bad} not certified{eta_s}   ", nl=done == total, err=True)
 
     return cb
 
