@@ -55,8 +55,8 @@ def paths(tmp: Path) -> dict[str, tuple[list[str], tuple[float, float]]]:
         "margin (nonlinear gain)": (["margin", "--gains", str(ROOT / "results/baselines/nonlinear-proof/gains.json")],
                                     (2.0, 30.0)),
         "sweep (2 workers)": (["sweep", str(tmp / "sweep.yaml"), "--workers", "2"], (3.0, 20.0)),
-        "validate (MuJoCo)": (["validate", "--gains", str(ROOT / "results/baselines/icr-physics/gains.json"),
-                               "--episodes", "2", "--no-plots"], (2.0, 15.0)),
+        "validate (MuJoCo)": (["validate", str(ROOT / "configs" / "icr-physics.yaml"), "--gains", str(ROOT / "results/baselines/icr-physics/gains.json"),
+                               "--episodes", "2", "--no-plots"], (1.0, 7.0)),
         "run (verification)": (["run", base, "--runs", "300", "--no-plots"], (1.0, 20.0)),
     }
 

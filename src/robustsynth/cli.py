@@ -58,7 +58,24 @@ def _quiet_stdout() -> None:
 def _exit_interrupted(exc: Interrupted) -> None:
     _remove_empty_new_dirs()
     click.echo(f"{exc}", err=True)
-    sys.exit(exc.exit_code)
+    _exit_leaving_solves(exc.exit_code)
+
+
+def _exit_leaving_solves(code: int) -> None:
+    """Exit with ``code``.  A solve the interrupt gave up may still run in its thread (synthesis.solve._in_threads);
+    the interpreter's shutdown would unwind that thread through the solver's native frames (Clarabel's Rust then
+    aborts: 'FATAL: exception not rethrown', exit -6, measured in bench_interrupts).  Such a thread is given
+    SOLVE_GRACE_S to end (Clarabel's stops at its next iteration); one still running is left to the OS:
+    the process ends without the interpreter's shutdown (every file is committed or removed by now)."""
+    solve = sys.modules.get("robustsynth.synthesis.solve")
+    if solve is not None and not solve.abandoned_solves_ended(SOLVE_GRACE_S):
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    sys.exit(code)
+
+
+SOLVE_GRACE_S = 2.0
 
 
 def _exit_if_signalled() -> None:
@@ -105,7 +122,7 @@ def _guard(fn: Callable[..., int | None]) -> Callable[..., None]:
         except KeyboardInterrupt:
             _remove_empty_new_dirs()
             click.echo("interrupted", err=True)
-            sys.exit(EXIT_INTERRUPTED)
+            _exit_leaving_solves(EXIT_INTERRUPTED)
         except BrokenPipeError:
             _quiet_stdout()
             sys.exit(EXIT_BROKEN_PIPE)

@@ -201,6 +201,15 @@ def _in_threads(fns: list[Callable[[], Any]]) -> list[Any]:
     return results
 
 
+def abandoned_solves_ended(timeout: float) -> bool:
+    """Wait up to ``timeout`` [s] in all for the solves :func:`_in_threads` gave up; whether none still runs."""
+    deadline = time.monotonic() + timeout
+    for t in threading.enumerate():
+        if t.name.startswith("robustsynth-solve-") and t.is_alive():
+            t.join(max(0.0, deadline - time.monotonic()))
+    return not any(t.name.startswith("robustsynth-solve-") and t.is_alive() for t in threading.enumerate())
+
+
 def _call_solver(problem: cp.Problem, name: str) -> None:
     """One solver call (a seam for fault-injection tests), in a thread of its own that this one waits for
     while it looks for SIGINT / SIGTERM (:func:`_in_threads`); within :func:`solve_all`'s threads, directly."""
