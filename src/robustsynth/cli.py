@@ -159,57 +159,14 @@ def _load(config: Path | None, lti_ok: bool = False):
     return cfg
 
 
-def _written_by_robustsynth(path: Path) -> tuple[str, dict[str, Any]] | None:
-    """What output file of robustsynth ``path`` is ('gains file', 'verification record (verification.json ...)',
-    ...) and its top-level mapping, from its top-level keys; None when it is none (a config, or unreadable)."""
-    import json
-
-    from .artifacts.gains import DESCRIPTION_FORMAT, MAX_GAINS_BYTES
-
-    try:
-        if not path.is_file():  # a pipe is read once, by load_config
-            return None
-        with path.open("rb") as fh:
-            raw = fh.read(MAX_GAINS_BYTES + 1)
-    except OSError:
-        return None
-    if raw.startswith(b"MATLAB 5.0 MAT-file") or path.suffix.lower() == ".mat":
-        return "gains file", {}
-    try:
-        data = json.loads(raw)
-    except (ValueError, UnicodeDecodeError):
-        return None
-    if not isinstance(data, dict):
-        return None
-    has = data.__contains__
-    if data.get("format") == DESCRIPTION_FORMAT or (data.get("kind") == "lti" and has("law") and has("n")):
-        return "controller description (written by `robustsynth export --to json`)", data
-    if has("K"):  # no config has a top-level K: gains.json (the robot's or a linear plant's), or a bare gain
-        return "gains file", data
-    if has("per_episode") and has("straight_max"):
-        return "validation record (validation.json, written by `robustsynth validate`)", data
-    if has("gains_id") and has("passed") and has("checks"):
-        return "verification record (verification.json, written by `robustsynth verify`)", data
-    if has("coverage_check") or (has("instants") and has("lifted_states")):
-        return "model file (model.json, written by `robustsynth build-model`)", data
-    if has("status") and (has("dimensions") or has("verification_passed") or has("margins")) \
-            or (data.get("kind") == "lti" and has("verification")):
-        return "run summary (summary.json, written by `robustsynth run`)", data
-    if has("margins") and has("gain") or has("meta") and isinstance(data.get("meta"), dict) and "gains_id" in data["meta"]:
-        return "margin record (margin.json, written by `robustsynth margin`)", data
-    if has("rows") and has("columns") and has("spec"):
-        return "sweep result (sweep.json, written by `robustsynth sweep`)", data
-    if has("robustsynth_version") or has("schema_version"):
-        return "file robustsynth wrote", data
-    return None
-
-
 def _not_a_config(path: Path, option: str | None = None) -> None:
     """InputError in one line when the file given as a config is one robustsynth wrote (a gains file given where
     CONFIG goes had printed 18 validation errors, issue 50); nothing when it is not."""
     from .errors import InputError
 
-    found = _written_by_robustsynth(path)
+    from .artifacts.gains import written_by_robustsynth
+
+    found = written_by_robustsynth(path)
     if found is None:
         return
     what, data = found
@@ -568,6 +525,7 @@ class _LazyBar:
         self.bar: Any = None
         self.last = 0
         self.heartbeat = heartbeat  # told of every update, so that it speaks only between the bar's phases
+        self._finished = False
 
     def __call__(self, done: int, total: int) -> None:
         if self.heartbeat is not None:
@@ -581,7 +539,7 @@ class _LazyBar:
             self.render_finish()
 
     def render_finish(self) -> None:
-        if self.bar is not None and not getattr(self, "_finished", False):
+        if self.bar is not None and not self._finished:
             self.bar.render_finish()
             self._finished = True
 
@@ -598,7 +556,7 @@ def _stop_heartbeats() -> None:
 class _Heartbeat:
     """The stage lines of a long command, and a line of its own whenever HEARTBEAT_S pass without one (a solve
     of a nonlinear certificate can take minutes: issue 50 found 12.6 minutes of silence).  A daemon thread that
-    only prints; it stops with the process."""
+    only prints; it stops when the command ends (:func:`_stop_heartbeats`, called by ``_guard``)."""
 
     def __init__(self) -> None:
         import threading
@@ -619,6 +577,13 @@ class _Heartbeat:
         with self.lock:
             self.last = time.monotonic()
             click.echo(msg, err=True)
+
+    def rewrite(self, msg: str, end: bool) -> None:
+        """A line rewritten in place (``msg`` starts with a carriage return), finished with its newline at ``end``."""
+        with self.lock:
+            self.last = time.monotonic()
+            self.open_line = not end
+            click.echo(msg, nl=end, err=True)
 
     def touch(self) -> None:
         """Something else (a progress bar) showed progress just now."""
@@ -1171,10 +1136,7 @@ def _sweep_progress(obj: _Ctx):
 
     def cb(done: int, total: int, bad: int, eta: float | None) -> None:
         eta_s = "" if eta is None else f", ETA {int(eta) // 60}:{int(eta) % 60:02d}"
-        with beat.lock:
-            beat.last = time.monotonic()
-            beat.open_line = done != total
-            click.echo(f"\r{done}/{total} points, {bad} not certified{eta_s}   ", nl=done == total, err=True)
+        beat.rewrite(f"\r{done}/{total} points, {bad} not certified{eta_s}   ", done == total)
 
     return cb
 

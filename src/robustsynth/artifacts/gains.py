@@ -24,7 +24,7 @@ from .. import __version__
 from ..errors import InputError
 from .files import SCHEMA_VERSION
 
-__all__ = ["gains_dict", "gains_id", "certified_figures", "gains_mat_vars", "load_gains", "as_gains", "stored_config", "controller_description",
+__all__ = ["written_by_robustsynth", "gains_dict", "gains_id", "certified_figures", "gains_mat_vars", "load_gains", "as_gains", "stored_config", "controller_description",
            "LAW", "CERTIFIED_KEYS", "DESCRIPTION_FORMAT", "MAX_GAINS_BYTES", "SCHEMA_VERSION"]
 
 LAW = "du_k = K xi_k"
@@ -450,3 +450,44 @@ def lti_gains_mat_vars(gd: dict[str, Any]) -> dict[str, Any]:
             "max_consecutive": int(net["max_consecutive"]), "d": int(gd["lifting"]["d"]),
             # the whole gains file: `verify` and `export` read the .mat as they read gains.json
             "lti_gains_json": json_bytes(gd).decode("utf-8")}
+
+
+def written_by_robustsynth(path: Path) -> tuple[str, dict[str, Any]] | None:
+    """What output file of robustsynth ``path`` is ('gains file', 'verification record (verification.json ...)',
+    ...) and its top-level mapping, from its top-level keys; None when it is none (a config, or unreadable)."""
+    try:
+        if not path.is_file():  # a pipe is read once, by load_config
+            return None
+        with path.open("rb") as fh:
+            raw = fh.read(MAX_GAINS_BYTES + 1)
+    except OSError:
+        return None
+    if raw.startswith(b"MATLAB 5.0 MAT-file") or path.suffix.lower() == ".mat":
+        return "gains file", {}
+    try:
+        data = json.loads(raw)
+    except (ValueError, UnicodeDecodeError):
+        return None
+    if not isinstance(data, dict):
+        return None
+    has = data.__contains__
+    if data.get("format") == DESCRIPTION_FORMAT or (data.get("kind") == "lti" and has("law") and has("n")):
+        return "controller description (written by `robustsynth export --to json`)", data
+    if has("K"):  # no config has a top-level K: gains.json (the robot's or a linear plant's), or a bare gain
+        return "gains file", data
+    if has("per_episode") and has("straight_max"):
+        return "validation record (validation.json, written by `robustsynth validate`)", data
+    if has("gains_id") and has("passed") and has("checks"):
+        return "verification record (verification.json, written by `robustsynth verify`)", data
+    if has("coverage_check") or (has("instants") and has("lifted_states")):
+        return "model file (model.json, written by `robustsynth build-model`)", data
+    if has("status") and (has("dimensions") or has("verification_passed") or has("margins")) \
+            or (data.get("kind") == "lti" and has("verification")):
+        return "run summary (summary.json, written by `robustsynth run`)", data
+    if has("margins") and has("gain") or has("meta") and isinstance(data.get("meta"), dict) and "gains_id" in data["meta"]:
+        return "margin record (margin.json, written by `robustsynth margin`)", data
+    if has("rows") and has("columns") and has("spec"):
+        return "sweep result (sweep.json, written by `robustsynth sweep`)", data
+    if has("robustsynth_version") or has("schema_version"):
+        return "file robustsynth wrote", data
+    return None
