@@ -12,6 +12,7 @@ from typing import Any, Callable, Iterator
 import cvxpy as cp
 
 from ..errors import check_interrupt, pending_interrupt
+from . import solver_process
 
 __all__ = ["SolveRecord", "Outcome", "solve", "solve_all", "SOLVER_OPTIONS", "solver_options", "solver_version"]
 
@@ -116,22 +117,37 @@ def _stop_on_held_signal(_info: Any) -> bool:
 
 
 def _clarabel_stops_on_signals() -> None:
-    """Every Clarabel solver cvxpy makes gets :func:`_stop_on_held_signal` as its termination callback (cvxpy
-    builds the solver inside its interface and has no hook for it: ``clarabel.DefaultSolver`` is wrapped once).
-    Clarabel builds without callbacks are left alone: their solve is given up by :func:`_in_threads` instead."""
+    """Every Clarabel solver cvxpy makes is built here (cvxpy builds it inside its interface and has no hook
+    for it: ``clarabel.DefaultSolver`` is wrapped once).  A problem of at least ``solver_process.CHILD_ROWS``
+    rows is solved in a child process (its setup would hold the GIL for seconds: no signal heard meanwhile);
+    any other gets :func:`_stop_on_held_signal` as its termination callback (a Clarabel build without
+    callbacks: its solve is given up by :func:`_in_threads` instead)."""
     import clarabel
 
     real = clarabel.DefaultSolver
-    if getattr(real, "_stops_on_held_signals", False) or not hasattr(real, "set_termination_callback"):
+    if getattr(real, "_stops_on_held_signals", False):
         return
+    callbacks = hasattr(real, "set_termination_callback")
 
-    def DefaultSolver(*args: Any, **kwargs: Any) -> Any:  # noqa: N802 - the name cvxpy calls
-        solver = real(*args, **kwargs)
-        solver.set_termination_callback(_stop_on_held_signal)
+    def DefaultSolver(P: Any, q: Any, A: Any, b: Any, cones: Any, settings: Any) -> Any:  # noqa: N802, N803
+        if A.shape[0] >= solver_process.CHILD_ROWS:
+            carried = solver_process.serialize_cones(cones)
+            if carried is not None:
+                return solver_process.ChildSolver(P, q, A, b, carried, solver_process.serialize_settings(settings),
+                                                  getattr(_CANCEL, "event", None))
+        solver = real(P, q, A, b, cones, settings)
+        if callbacks:
+            solver.set_termination_callback(_stop_on_held_signal)
         return solver
 
     DefaultSolver._stops_on_held_signals = True  # type: ignore[attr-defined]
     clarabel.DefaultSolver = DefaultSolver
+
+
+def _give_up(cancel: threading.Event) -> None:
+    """The solves of this wait are given up: their callbacks see it, their child processes are killed."""
+    cancel.set()
+    solver_process.kill_given_up(cancel)
 
 
 def _take_held_signal(cancel: threading.Event) -> None:
@@ -141,7 +157,7 @@ def _take_held_signal(cancel: threading.Event) -> None:
     the solve (SCS, Clarabel) would otherwise swallow it.  Without a Python handler the signal's own action
     (SIGTERM: the process ends) is what happens."""
     if pending_interrupt() is not None:  # the CLI's handler saw a signal another thread took
-        cancel.set()
+        _give_up(cancel)
         check_interrupt()
     info = signal.sigtimedwait(_HELD_SIGNALS, 0)
     if info is None:
@@ -156,7 +172,7 @@ def _take_held_signal(cancel: threading.Event) -> None:
             signal.pthread_sigmask(signal.SIG_UNBLOCK, {signo})
             signal.raise_signal(signo)
     except BaseException:
-        cancel.set()
+        _give_up(cancel)
         raise
 
 
@@ -192,6 +208,9 @@ def _in_threads(fns: list[Callable[[], Any]]) -> list[Any]:
                 t.join(POLL_S)
                 if t.is_alive():
                     _take_held_signal(cancel)
+    except BaseException:  # the handler ran here, e.g. for a signal a thread that does not hold it took
+        _give_up(cancel)
+        raise
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
     check_interrupt()  # a solve the callback ended: the interrupt, not its "solver error"
@@ -291,12 +310,12 @@ def _run(problem: cp.Problem, name: str) -> tuple[SolveRecord, bool]:
     t0 = time.perf_counter()
     try:
         _call_solver(problem, name)
-    except (cp.error.SolverError, ValueError, ArithmeticError) as exc:
+    except (cp.error.SolverError, ValueError, ArithmeticError, solver_process.ChildFailed) as exc:
         return SolveRecord(name, "solver_error", None, time.perf_counter() - t0, str(exc).splitlines()[0][:200]), False
     except BaseException as exc:  # noqa: BLE001
         # a panic in a solver's native code (Clarabel's Rust: pyo3_runtime.PanicException derives
         # from BaseException, e.g. "Eigval error" in a PSD cone step) is a failed attempt, not a crash
-        if type(exc).__name__ != "PanicException":
+        if type(exc).__name__ != "PanicException" and not isinstance(exc, solver_process.SolverPanic):
             raise
         msg = (str(exc).splitlines() or ["panic"])[0][:200]
         return SolveRecord(name, "solver_error", None, time.perf_counter() - t0, f"solver panicked: {msg}"), True
