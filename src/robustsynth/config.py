@@ -294,9 +294,14 @@ class SynthesisConfig(_Node):
     integral_action: bool = Field(
         default=False, description="integrator states int_e_x, int_e_y appended to the lifted state (zero steady error)"
     )
-    delay_description: Literal["auto", "polytopic", "norm-bounded", "lossy-polytopic"] = Field(
+    delay_description: Literal["auto", "polytopic", "polytopic-product", "in-order-common", "norm-bounded",
+                               "lossy-polytopic"] = Field(
         default="auto",
-        description="slip-aware model: delay instants by the vertices of a triangle covering each instant's curve (polytopic), by the "
+        description="slip-aware model: delay instants by the vertices of a triangle covering each instant's curve, the "
+        "combinations of them in-order delivery needs (polytopic: at most 9 (n-1) n / 2 for n uncertain instants, the "
+        "product where no two instants share a range), every combination (polytopic-product: 3^n), or the in-order ones "
+        "with every triangle on the instants' common range (in-order-common: (n+1)(n+2)/2, covering more delays than "
+        "configured, looser), by the "
         "norm-bounded embedding with multipliers, by the vertices of the instants a lossy link can really produce "
         "(lossy-polytopic; needs network.delay.max <= network.sampling_time), or auto (lossy-polytopic on a lossy "
         "link with delay.max <= Ts, else polytopic for one uncertain instant, else norm-bounded)",

@@ -14,7 +14,8 @@ from .slip import lateral_row, slip_corners, slip_matrix, slip_parameter_ranges
 from .uncertainty import embed, slip_box
 from .model import DEFAULT_HEADING_BOUND, MAX_POLYTOPIC_INSTANTS, WIDTH_TOL, Model, frozen_array, frozen_vertex
 from .nonlinear import covering_channels, icr_covering_channels, vertex_channels
-from .vertices import (Vertex, add_lateral, apply_slip, augment_integral, delay_vertex_gammas, icr_constant,
+from .vertices import (Vertex, add_lateral, apply_slip, augment_integral, delay_cover_ranges, delay_vertex_gammas,
+                       icr_constant,
                        interval_coordinates, loss_vertex_gammas, varying_slip_vertices)
 
 __all__ = ["build_model", "coverage_check", "MAX_VARYING_VERTICES"]
@@ -82,6 +83,7 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
     C_q = _augment_cols(C_q, n_z)
     n_s = A.shape[0]
     delay_description = "norm-bounded"
+    delay_cover, delay_uncertain, delay_cover_h, delay_combos = "product", [], None, []
     vertices: list[Vertex] = []
     channels: list = []
     varying: list[Vertex] | None = None
@@ -104,8 +106,14 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
             delay_description = "lossy-polytopic"
             labels, gammas = loss_vertex_gammas(A_c, B_c, Ts, tmin, tau_hi, dropouts, d_hi, WIDTH_TOL * max(Ts, 1.0))
             A_t, B_t, _ = lift(Ph, gammas, Gamma(A_c, B_c, Ts), GD)
-        elif delay_description == "polytopic":  # the delay vertices, the same for every slip corner
-            labels, gammas, _ = delay_vertex_gammas(A_c, B_c, Ts, inst_ranges, WIDTH_TOL * max(Ts, 1.0))
+        elif delay_description in ("polytopic", "polytopic-product", "in-order-common"):  # the same for every slip corner
+            delay_cover = {"polytopic": "in-order", "polytopic-product": "product"}.get(delay_description, delay_description)
+            delay_description = "polytopic"
+            labels, gammas, delay_uncertain, delay_combos = delay_vertex_gammas(
+                A_c, B_c, Ts, inst_ranges, WIDTH_TOL * max(Ts, 1.0), delay_cover)
+            if delay_cover == "in-order" and len(delay_combos) == 3 ** len(delay_uncertain):
+                delay_cover = "product"  # no two instants share a range: the product itself, with its weights
+            delay_cover_h = delay_cover_ranges(Ts, inst_ranges, WIDTH_TOL * max(Ts, 1.0), delay_cover)[1]
             A_t, B_t, _ = lift(Ph, gammas, Gamma(A_c, B_c, Ts), GD)
         if delay_description == "norm-bounded":
             varying_reason = ("the norm-bounded delay description has no delay vertices to tie the slip averages "
@@ -189,6 +197,10 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
         varying_reason=varying_reason,
         covering=tuple(covering),
         varying_delay=tuple(varying_delay),
+        delay_cover=delay_cover,
+        delay_uncertain=tuple(delay_uncertain),
+        delay_cover_h=None if delay_cover_h is None else frozen_array(delay_cover_h),
+        delay_combos=tuple(delay_combos),
     )
     if kind != "paper" and syn.kinematics == "nonlinear":
         hb = syn.heading_bound
@@ -228,6 +240,8 @@ def coverage_check(model: Model, n_sequences: int = 1000, steps: int = 20, seed:
         corners = model.reachable_instants(5)
     else:
         corners = np.array(np.meshgrid(*[r for r in model.instant_ranges], indexing="ij")).reshape(model.d_hi, -1).T
+        if model.delay_cover != "product":  # the corners delivery in order can produce (s~_0 >= s~_1 >= ...)
+            corners = corners[np.all(np.diff(corners, axis=1) <= 0.0, axis=1)]
     s = np.vstack([s, corners])
     ranges = model.slip_ranges
     mu = np.stack([rng.uniform(lo, hi, s.shape[0]) for lo, hi in ranges], axis=1)

@@ -30,7 +30,7 @@ from .slip import (SLIP_PARAMETERS, corner_weights, lateral_row, next_corner_wei
 from .uncertainty import SlipBox, UncertainInstant, delta_for
 from .vertices import (Vertex, add_lateral, apply_slip, augment_integral, icr_constant, interval_coordinates,
                        interval_slip_averages, loss_hull_coordinates, loss_instant_grid, piecewise_twist_averages,
-                       triangle_coordinates, varying_slip_maps)
+                       triangle_coordinates, varying_slip_maps, in_order_weights)
 
 __all__ = ["Model", "Mirror", "state_names", "gain_lifting", "pad_gain", "lifted_slice", "INPUT_NAMES", "ERROR_NAMES",
            "SLIP_NAMES", "INTEGRATOR_NAMES", "MODEL_KINDS", "MAX_POLYTOPIC_INSTANTS", "WIDTH_TOL",
@@ -169,6 +169,12 @@ class Model:
     covering_vertices: tuple = field(default=(), repr=False)
     # the reference yaw rates the vertices cover (model/arcs.py; None: straight segments only)
     turns: Any = None
+    # polytopic delays: which combinations of the instants' triangles are vertices (vertices.DELAY_COVERS),
+    # the uncertain instants, their triangles' h-ranges (n, 2) and the combination of each delay vertex
+    delay_cover: str = "product"
+    delay_uncertain: tuple = ()
+    delay_cover_h: Any = field(default=None, repr=False)
+    delay_combos: tuple = field(default=(), repr=False)
 
     @property
     def kinematics(self) -> str:
@@ -648,6 +654,11 @@ class Model:
                                       self.d_hi, WIDTH_TOL * max(self.Ts, 1.0))
             out = (lam[..., :, None] * w[..., None, :]).reshape(batch + (-1,))
             return out, dlt
+        if self.delay_cover != "product":  # corner-major, then the in-order coupling of the instants' coordinates
+            h = self.Ts - s_tilde[..., list(self.delay_uncertain)]
+            w = in_order_weights(h, self.delay_cover_h, list(self.delay_combos)) if self.delay_uncertain else \
+                np.ones(batch + (1,))
+            return (lam[..., :, None] * w[..., None, :]).reshape(batch + (-1,)), dlt
         # polytopic: corner-major, then the product of the per-instant triangle coordinates
         tri = [np.ones(batch + (1,))]
         for j in range(self.d_hi):

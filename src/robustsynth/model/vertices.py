@@ -13,7 +13,9 @@ multiplier) therefore holds everywhere.
   by the norm-bounded embedding (same Delta for every corner) or by a covering triangle: the curve
   (h, h^2/2) lies in the triangle of its end points and the crossing of its end tangents, which
   contains its convex hull (strictly: it is not the hull itself), so each uncertain instant
-  contributes 3 vertices (4 * 3^n_b in all).
+  contributes 3 vertices: every combination (``product``, 4 * 3^n_b in all), or only the combinations
+  in-order delivery needs (:func:`in_order_combinations`: (n+1)(n+2)/2 when the instants' triangles
+  share one range).
 """
 
 from __future__ import annotations
@@ -23,7 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Vertex", "apply_slip", "add_lateral", "icr_constant", "augment_integral", "triangle", "triangle_coordinates", "delay_vertex_gammas"]
+__all__ = ["Vertex", "apply_slip", "add_lateral", "icr_constant", "augment_integral", "triangle", "triangle_coordinates", "delay_vertex_gammas",
+           "DELAY_COVERS", "in_order_combinations", "in_order_weights", "delay_cover_ranges"]
 
 
 @dataclass(frozen=True)
@@ -138,25 +141,114 @@ def triangle_coordinates(h: np.ndarray, h_min: float, h_max: float) -> np.ndarra
     return np.stack([(1.0 - t) ** 2, t**2, 2.0 * t * (1.0 - t)], axis=-1)
 
 
-def delay_vertex_gammas(A_c: np.ndarray, B_c: np.ndarray, Ts: float, ranges: np.ndarray, width_tol: float):
+DELAY_COVERS = ("product", "in-order", "in-order-common")
+
+# the triangle vertices of one instant (:func:`triangle`'s rows) and where the in-order coupling puts them on
+# [0, 1] (:func:`in_order_weights`): h_max ("high", weight t^2) first, then the tangents' crossing, then h_min
+LOW, HIGH, MID = 0, 1, 2
+# the pairs (newer instant i, older instant j) no in-order point needs when both triangles share one range
+_OUT_OF_ORDER = {(HIGH, MID), (MID, LOW), (HIGH, LOW)}
+
+
+def in_order_combinations(cover: np.ndarray, tol: float) -> list[tuple[int, ...]]:
+    """The combinations of triangle vertices (one per uncertain instant, in the order of
+    ``itertools.product``) that in-order delivery can need, for triangles on the ranges ``cover``
+    (n, 2) of h_j = Ts - s~_j (h_0 <= h_1 <= ...: a newer command switches no earlier than an older one).
+
+    Theorem (docs/theory.md §4, "in-order delay vertices"): couple the instants' barycentric weights
+    ((1-t)^2, t^2, 2t(1-t)) through one uniform U on [0, 1] (:func:`in_order_weights`).  At every
+    admissible h the combinations of positive mass reproduce (h_j, h_j^2/2) for every j, and none has a
+    pair of instants with one range and states (i, j) in ``_OUT_OF_ORDER`` (they would need t_i > t_j, or
+    t_i > sqrt(t_j (2 - t_j)) >= t_j, where h_i <= h_j gives t_i <= t_j).  Instants on different ranges
+    are left free (every pair of states is reachable there), so the result is the product when no two
+    instants share a range, and (n+1)(n+2)/2 combinations (patterns low..., tangents..., high...) when
+    all do."""
+    n = len(cover)
+    same = [[abs(cover[i][0] - cover[j][0]) <= tol and abs(cover[i][1] - cover[j][1]) <= tol for j in range(n)]
+            for i in range(n)]
+    out: list[tuple[int, ...]] = []
+
+    def extend(prefix: tuple[int, ...]) -> None:
+        j = len(prefix)
+        if j == n:
+            out.append(prefix)
+            return
+        for c in (LOW, HIGH, MID):
+            if all(not same[i][j] or (prefix[i], c) not in _OUT_OF_ORDER for i in range(j)):
+                extend(prefix + (c,))
+
+    extend(())
+    return out
+
+
+def in_order_weights(h: np.ndarray, cover: np.ndarray, combos: list[tuple[int, ...]], tol: float = 1e-12) -> np.ndarray:
+    """Convex weights (..., len(combos)) of instants ``h`` (..., n) (in order, each within its cover range)
+    over the combinations of :func:`in_order_combinations`: the mass of {U : every instant j is in state
+    c_j}, where instant j is HIGH on [0, t_j^2), MID on [t_j^2, 1-(1-t_j)^2), LOW on the rest.  Their
+    marginals are the triangle coordinates of every instant (:func:`triangle_coordinates`); raises
+    ValueError when the combinations miss mass (instants out of order or out of their ranges)."""
+    h = np.asarray(h, dtype=float)
+    cover = np.asarray(cover, dtype=float)
+    t = (h - cover[:, 0]) / (cover[:, 1] - cover[:, 0])
+    if np.any(t < -tol) or np.any(t > 1 + tol):
+        raise ValueError("switching instants outside the ranges of their delay vertices")
+    t = np.clip(t, 0.0, 1.0)
+    e1, e2 = t * t, 1.0 - (1.0 - t) ** 2
+    lo = np.stack([e2, np.zeros_like(t), e1], axis=-1)  # (..., n, 3): per state its interval of U
+    hi = np.stack([np.ones_like(t), e1, e2], axis=-1)
+    idx = np.arange(h.shape[-1])
+    out = np.empty(h.shape[:-1] + (len(combos),))
+    for k, c in enumerate(combos):
+        c = np.asarray(c)
+        out[..., k] = np.maximum(0.0, hi[..., idx, c].min(axis=-1) - lo[..., idx, c].max(axis=-1))
+    missing = np.abs(out.sum(axis=-1) - 1.0)
+    if np.any(missing > 1e-9):
+        raise ValueError(f"switching instants not in order: the in-order delay vertices miss {float(missing.max()):.3g} "
+                         "of their weight")
+    return out
+
+
+def delay_cover_ranges(Ts: float, ranges: np.ndarray, width_tol: float, cover: str) -> tuple[list[int], np.ndarray]:
+    """The uncertain instants and the h-ranges (n, 2) of their triangles: their own, or with
+    ``in-order-common`` all the envelope of them (more delays than the config's: sound, looser)."""
+    unc = [j for j, (lo, hi) in enumerate(np.asarray(ranges)) if (Ts - lo) - (Ts - hi) > width_tol]
+    own = np.array([[Ts - ranges[j][1], Ts - ranges[j][0]] for j in unc]).reshape(-1, 2)
+    if cover == "in-order-common" and len(unc):
+        own = np.tile([own[:, 0].min(), own[:, 1].max()], (len(unc), 1))
+    return unc, own
+
+
+def delay_vertex_gammas(A_c: np.ndarray, B_c: np.ndarray, Ts: float, ranges: np.ndarray, width_tol: float,
+                        cover: str = "product"):
     """Per-instant Gammas of every delay vertex: (list of labels, array (n_v, d_hi, n_e, n_u), list of
-    uncertain instant indices).  A fixed instant contributes its exact Gamma."""
+    uncertain instant indices, the combinations of triangle vertices used (one tuple per delay vertex)).
+    A fixed instant contributes its exact Gamma.  ``cover``: every combination of the instants' triangles
+    (``product``, 3^n), or only those in-order delivery needs (:func:`in_order_combinations`), on each
+    instant's own range (``in-order``) or on their common range (``in-order-common``)."""
+    if cover not in DELAY_COVERS:
+        raise ValueError(f"unknown delay cover {cover!r}")
     AB = A_c @ B_c
-    per, unc = [], []
+    unc, tri_ranges = delay_cover_ranges(Ts, ranges, width_tol, cover)
+    per = []
     for j, (lo, hi) in enumerate(np.asarray(ranges)):
-        h_min, h_max = Ts - hi, Ts - lo
-        if h_max - h_min <= width_tol:
+        if j not in unc:
+            h_max = Ts - lo
             per.append([(f"s{j}={lo:g}", h_max * B_c + h_max**2 / 2.0 * AB)])
             continue
-        unc.append(j)
+        h_min, h_max = tri_ranges[unc.index(j)]
         tri = triangle(h_min, h_max)
-        names = (f"s{j}={hi:g}", f"s{j}={lo:g}", f"s{j}:tangents")
+        names = (f"s{j}={Ts - h_min:g}", f"s{j}={Ts - h_max:g}", f"s{j}:tangents")
         per.append([(names[v], tri[v, 0] * B_c + tri[v, 1] * AB) for v in range(3)])
+    if cover == "product":
+        combos = list(itertools.product(range(3), repeat=len(unc)))
+    else:
+        combos = in_order_combinations(tri_ranges, width_tol)
     labels, gammas = [], []
-    for combo in itertools.product(*per):
-        labels.append(", ".join(c[0] for c in combo))
-        gammas.append(np.stack([c[1] for c in combo]))
-    return labels, np.array(gammas), unc
+    for combo in combos:
+        pick = [per[j][0] if j not in unc else per[j][combo[unc.index(j)]] for j in range(len(per))]
+        labels.append(", ".join(c[0] for c in pick))
+        gammas.append(np.stack([c[1] for c in pick]))
+    return labels, np.array(gammas), unc, combos
 
 
 def loss_pieces(Ts: float, tau_min: float, tau_max: float, m: int, d_hi: int) -> list[tuple[str, int]]:

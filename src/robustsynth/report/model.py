@@ -197,8 +197,14 @@ def kind_markdown(model: Model) -> str:
                 " `robustsynth verify` shows the gap). The LMIs use one vertex: the norm-bounded form below with the slip"
                 " as a box disturbance `B_d W w`.\n")
     corners = ", ".join("(" + ", ".join(fmt(x) for x in m) + ")" for m in model.corners)
+    combos = {"product": "every combination of them",
+              "in-order": "the combinations in-order delivery needs (docs/theory.md §4: instants that share a range need "
+                          "only the patterns low, tangents, high in order)",
+              "in-order-common": "with every triangle on the instants' common range, the combinations in-order delivery "
+                                 "needs (covers more delays than configured)"}.get(model.delay_cover, "")
     desc = ("a covering triangle for each uncertain instant: the curve (h, h²/2) lies in the triangle of its end points"
-            " and the crossing of its end tangents, which contains the curve's convex hull (3 vertices per instant)" if model.delay_description == "polytopic" else
+            " and the crossing of its end tangents, which contains the curve's convex hull (3 vertices per instant), "
+            f"{combos}: {len(model.delay_combos) or 1} delay vertices" if model.delay_description == "polytopic" else
             "the norm-bounded embedding below (the same Delta at every slip corner, one multiplier per vertex)")
     out = ["\n## Slip-aware model\n\n", NEGLECTED,
            f"\nVertices: the {model.corners.shape[0]} slip corners ({', '.join(model.slip_names)}) = {corners} (the slip"
