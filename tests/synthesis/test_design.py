@@ -435,3 +435,21 @@ def test_the_nonlinear_search_reports_its_start_with_lmi_counts_and_positions() 
     points = [m for m in first if "(point " in m]
     assert points[0].startswith("  alpha = 0.005 (point 1 of at most 6)"), points[:1]
     assert all("left in this scan" in m for m in points[1:]) and len(points) >= 3, points
+
+
+def test_the_solve_estimate_grows_with_the_dense_blocks_of_the_lmis() -> None:
+    """The time shown before the first solve (issue 51) is the sum over the LMIs of (r(r+1)/2)^2 times the
+    measured constants: a problem with twice the LMIs is estimated at twice the time, one with larger LMIs
+    at the square of the growth of their triangles."""
+    import cvxpy as cp
+
+    from robustsynth.synthesis.design import ITERATIONS_PER_SOLVE, SECONDS_PER_KKT_ENTRY, solve_estimate
+
+    class LP:
+        def __init__(self, sizes):
+            self.problem = cp.Problem(cp.Minimize(0), [cp.Variable((r, r), symmetric=True) >> 0 for r in sizes])
+
+    one = solve_estimate(LP([9]))
+    assert one == pytest.approx(SECONDS_PER_KKT_ENTRY * ITERATIONS_PER_SOLVE * 45**2)
+    assert solve_estimate(LP([9, 9])) == pytest.approx(2 * one)
+    assert solve_estimate(LP([18])) == pytest.approx(one * (171 / 45) ** 2)

@@ -327,6 +327,23 @@ def lmi_rows(lp: LMIProblem) -> int:
     return max((int(c.args[0].shape[0]) for c in lp.problem.constraints if isinstance(c, cp.constraints.PSD)), default=0)
 
 
+# Clarabel's time per iteration grows with the dense blocks its PSD cones put in the KKT system, sum over
+# the LMIs of (r(r+1)/2)^2 for r rows: measured 2.6 s per iteration at 1.23e8 (108 vertices of 45 and 22 rows,
+# d_hi = 3) and 0.81 s at 4.5e7 (40 such vertices), one core busy beside it; ~30 iterations per solve
+SECONDS_PER_KKT_ENTRY = 2e-8
+ITERATIONS_PER_SOLVE = 30
+
+
+def solve_estimate(lp: LMIProblem) -> float:
+    """A rough time [s] of one Clarabel solve of ``lp`` on a machine like the one the constants were measured on,
+    from its size alone (shown before the first solve: issue 51)."""
+    import cvxpy as cp
+
+    kkt = sum((r * (r + 1) // 2) ** 2 for r in (int(c.args[0].shape[0]) for c in lp.problem.constraints
+                                                 if isinstance(c, cp.constraints.PSD)))
+    return SECONDS_PER_KKT_ENTRY * kkt * ITERATIONS_PER_SOLVE
+
+
 def _duration(sec: float) -> str:
     return f"{sec:.0f} s" if sec < 90 else f"{sec / 60:.0f} min"
 
@@ -496,8 +513,9 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     cache: dict[float, float] = {}
     last: list[Outcome] = []  # the outcome of evaluate's latest solve
     if not probe_only:
-        say(f"  {lmi_count(lp)} LMIs (the largest {lmi_rows(lp)} rows) per alpha; each point is one solve, a "
-            "failed one is retried")
+        est = solve_estimate(lp)
+        say(f"  {lmi_count(lp)} LMIs (the largest {lmi_rows(lp)} rows) per alpha; each point is one solve"
+            + (f" (about {_duration(est)} each, estimated from its size)" if est >= 1.0 else "") + ", a failed one is retried")
     position = [""]  # where the scan stands, for the lines below (set by the grid loop)
 
     def evaluate(log_a: float, fallback: bool = False, cheap: bool = False, unscaled_only: bool = False) -> float:
