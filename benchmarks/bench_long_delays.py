@@ -6,8 +6,8 @@ Each synthesis runs as its own `robustsynth synthesize --no-diagnose` process (p
 capped at CAP_S; a run past the cap is reported as "no conclusion in CAP_S".  The delay range for d_hi = d is
 tau in [0.2 Ts, (d - 0.1) Ts].
 
-    .venv/bin/python benchmarks/run_all.py bench_long_delays               (hours: every row)
-    .venv/bin/python benchmarks/bench_long_delays.py --kinematics linearized --d-max 5 --cap 900
+    .venv/bin/python benchmarks/run_all.py bench_long_delays        (linearized, d_hi 1..5, both Ts: about an hour)
+    .venv/bin/python benchmarks/bench_long_delays.py --kinematics nonlinear --d-max 3 --cap 900      (the robot proof)
 """
 
 from __future__ import annotations
@@ -90,6 +90,10 @@ def _run(cfg_path: Path, out: Path, cap: float) -> dict:
         os.killpg(p.pid, signal.SIGKILL)
         _, err = p.communicate()
         timed_out = True
+    finally:  # this benchmark stopped (Ctrl-C, SIGTERM): its run and the run's solver child with it
+        if p.poll() is None:
+            os.killpg(p.pid, signal.SIGKILL)
+            p.wait()
     done.set()
     w.join()
     wall = time.perf_counter() - t0
@@ -112,11 +116,12 @@ def _run(cfg_path: Path, out: Path, cap: float) -> dict:
 
 def main(argv: list[str] | None = None) -> list[dict]:
     ap = argparse.ArgumentParser()
-    ap.add_argument("--kinematics", choices=["linearized", "nonlinear", "both"], default="both")
+    ap.add_argument("--kinematics", choices=["linearized", "nonlinear", "both"], default="linearized")
     ap.add_argument("--d-max", type=int, default=5)
     ap.add_argument("--ts", type=float, nargs="*", default=[0.1, 0.05])
     ap.add_argument("--cap", type=float, default=CAP_S)
     args = ap.parse_args(argv if argv is not None else [])
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))  # unwinds through _run's cleanup
     base = yaml.safe_load((ROOT / "configs" / "default.yaml").read_text())
     kins = ["linearized", "nonlinear"] if args.kinematics == "both" else [args.kinematics]
     rows = []

@@ -155,7 +155,7 @@ def in_order_combinations(cover: np.ndarray, tol: float) -> list[tuple[int, ...]
     ``itertools.product``) that in-order delivery can need, for triangles on the ranges ``cover``
     (n, 2) of h_j = Ts - s~_j (h_0 <= h_1 <= ...: a newer command switches no earlier than an older one).
 
-    Theorem (docs/theory.md §4, "in-order delay vertices"): couple the instants' barycentric weights
+    Theorem (docs/theory.md §5, "in-order delay vertices"): couple the instants' barycentric weights
     ((1-t)^2, t^2, 2t(1-t)) through one uniform U on [0, 1] (:func:`in_order_weights`).  At every
     admissible h the combinations of positive mass reproduce (h_j, h_j^2/2) for every j, and none has a
     pair of instants with one range and states (i, j) in ``_OUT_OF_ORDER`` (they would need t_i > t_j, or

@@ -198,7 +198,7 @@ def kind_markdown(model: Model) -> str:
                 " as a box disturbance `B_d W w`.\n")
     corners = ", ".join("(" + ", ".join(fmt(x) for x in m) + ")" for m in model.corners)
     combos = {"product": "every combination of them",
-              "in-order": "the combinations in-order delivery needs (docs/theory.md §4: instants that share a range need "
+              "in-order": "the combinations in-order delivery needs (docs/theory.md §5: instants that share a range need "
                           "only the patterns low, tangents, high in order)",
               "in-order-common": "with every triangle on the instants' common range, the combinations in-order delivery "
                                  "needs (covers more delays than configured)"}.get(model.delay_cover, "")
