@@ -283,3 +283,152 @@ def test_delay_far_must_reach_beyond_the_configured_delay() -> None:
         cfg = load_config(dict(base, margin={"delay_far": far}))
         with pytest.raises(InputError, match=rf"margin.delay_far: {far:g} s does not reach beyond network.delay.max"):
             lti_margins(cfg, lti_plant(cfg))
+
+
+# ------------------------------------------------------------------ issue 53: the exhibited search goes far
+
+SERVO_A = np.array([[0.0, 1.0], [0.0, -72.5]])
+SERVO_B = np.array([[0.0], [75.3]])
+SERVO_K = -np.array([[7.27, 0.14]])
+SERVO_TS = 0.02
+
+
+def _servo_G(t: float) -> np.ndarray:
+    M = np.zeros((3, 3))
+    M[:2, :2], M[:2, 2:] = SERVO_A, SERVO_B
+    return expm(M * t)[:2, 2:]
+
+
+def servo_frozen(tau: float, depth: int = 12) -> np.ndarray:
+    """By hand: [x_k; u_{k-1}; ...; u_{k-depth}] -> next for a constant delay tau = q Ts + r (0 <= r < Ts),
+    q < depth: u_{k-q-1} acts for the first r of the period, then u_{k-q}."""
+    q = int(np.floor(tau / SERVO_TS + 1e-12))
+    r = tau - q * SERVO_TS
+    assert q < depth
+    Phi = expm(SERVO_A * SERVO_TS)
+    late, early = _servo_G(SERVO_TS - r), _servo_G(SERVO_TS) - _servo_G(SERVO_TS - r)
+    M = np.zeros((2 + depth, 2 + depth))
+    M[:2, :2] = Phi
+    for j, g in ((q, late), (q + 1, early)):  # u_{k-q} and u_{k-q-1}; u_{k-j} is K x_k for j = 0
+        if j == 0:
+            M[:2, :2] += g @ SERVO_K
+        else:
+            M[:2, 1 + j:2 + j] += g  # u_{k-j} sits in column 2 + (j - 1)
+    M[2:3, :2] = SERVO_K  # u_k is stored as u_{(k+1)-1}
+    for j in range(1, depth):
+        M[2 + j, 1 + j] = 1.0  # shift the register
+    return M
+
+
+SERVO_EDGE = 2e-3  # s: the search bisects to margin.tolerance = 1e-3; two steps of it
+
+
+def _servo_cfg(tmp_path: Path) -> Path:
+    text = (ROOT / "configs" / "dc-servo.yaml").read_text()
+    assert "max: 0.06" in text  # the configured delay the issue tried
+    text += "margin:\n  pieces: 2\n"  # a coarse certificate: the instability search is what is tested here
+    path = tmp_path / "servo.yaml"
+    path.write_text(text)
+    return path
+
+
+@pytest.fixture(scope="module")
+def servo(tmp_path_factory):
+    path = _servo_cfg(tmp_path_factory.mktemp("servo"))
+    cfg = load_config(path)
+    return cfg, lti_margins(cfg, lti_plant(cfg))
+
+
+@pytest.mark.slow  # the servo's margin: its certificate bisection takes minutes (the search itself ~1 s)
+def test_servo_instability_is_found_far_beyond_the_configured_delay(servo) -> None:
+    """Issue 53: with delay.max 0.06 s the search used to stop at 0.08 s and report none.  It must go on
+    until it destabilizes: the exhibited bound is the hand-built loop's first unstable constant delay
+    (found here by an independent scan and bisection) to SERVO_EDGE, far beyond 4/3 of the configured."""
+    cfg, mg = servo
+    d = mg["delay_max"]
+    assert d["exhibited"] is not None, d["note"]
+    assert d["exhibited"] > 4.0 / 3.0 * cfg.network.delay.max + SERVO_EDGE
+    rho_hand = lambda tau: rho(servo_frozen(tau))  # noqa: E731
+    taus = np.arange(0.0, 0.4, SERVO_TS / 20)
+    first = next(t for t in taus if rho_hand(t) > 1.0)
+    lo, hi = first - SERVO_TS / 20, first
+    while hi - lo > 1e-6:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if rho_hand(mid) > 1.0 else (mid, hi)
+    # no switching sequence of the search destabilizes below the frozen threshold for this plant, so the
+    # exhibited bound is that threshold (from above: the bisection's bad end)
+    assert hi - 1e-6 <= d["exhibited"] <= hi + SERVO_EDGE
+    w = d["witness"]
+    assert max(x for x in w["delays"] if x is not None) <= d["exhibited"] + 1e-12
+    assert w["check"]["ok"] and w["check"]["lower_bound"] > 1.0 + w["check"]["margin"]
+    if w["period"] == 1:  # a frozen witness: by hand
+        assert rho_hand(w["delays"][0]) == pytest.approx(w["spectral_radius"], rel=1e-9)
+    # the certified bound stays below it and the ratio is reported
+    assert d["certified"] is not None and d["certified"] < d["exhibited"]
+    assert d["ratio"] == pytest.approx(d["certified"] / d["exhibited"], rel=1e-12)
+    assert f"certified / exhibited {d['ratio']:.3f}" in d["note"]
+    assert d["searched_up_to"] == pytest.approx(20 * SERVO_TS) and "20 Ts" in d["note"]
+
+
+def test_hand_built_servo_loop_matches_the_library_lifting() -> None:
+    """The hand-built frozen loop above is what the library lifts (so the comparison above is not vacuous)."""
+    from robustsynth.margins_lti import spectral_radius
+
+    pl = {"A": SERVO_A, "B": SERVO_B, "K": SERVO_K}
+    for tau in (0.0, 0.013, 0.06, 0.1999, 0.2031):
+        assert spectral_radius(pl, SERVO_TS, np.array([[tau]]))[0] == pytest.approx(rho(servo_frozen(tau)), rel=1e-9)
+
+
+def test_the_witness_check_recomputes_the_exact_product_and_rejects_a_stable_sequence(h1) -> None:
+    """check_witness rebuilds the periodic product from the exact lifted matrices: on the benchmark's
+    switching witness it agrees with the hand-built product (rel 1e-9) and confirms it; the same
+    sequence 5 % shorter is stable, and the check says not ok."""
+    from robustsynth.margins_lti import check_witness
+
+    cfg, mg = h1
+    pl = lti_plant(cfg)
+    w = mg["delay_max"]["witness"]
+    c = check_witness(pl, 1.0, w)
+    prod = np.eye(3)
+    for tau in w["delays"]:
+        prod = one_period(1.0, tau) @ prod
+    assert c["spectral_radius"] == pytest.approx(rho(prod) ** (1 / len(w["delays"])), rel=1e-9)
+    assert c["ok"] and c["lower_bound"] > 1.0 + c["margin"] and 0.0 < c["rounding_bound"] < 1e-6
+    shorter = dict(w, delays=[0.95 * x for x in w["delays"]])
+    assert not check_witness(pl, 1.0, shorter)["ok"]
+
+
+def test_a_switching_witness_where_no_constant_delay_destabilizes(h1) -> None:
+    """ZBP at h = 1 s: the exhibited bound (about 0.685 s) is a switching sequence; every constant delay up
+    to it is stable in the hand-built loop (a GRID s grid), and the witness's product, by hand, is not."""
+    GRID = 5e-4  # s; the first unstable constant delay (about 0.715 s) lies some 60 grid steps beyond the witness
+    _, mg = h1
+    d = mg["delay_max"]
+    w = d["witness"]
+    assert w["period"] >= 2 and len(set(w["delays"])) >= 2  # not a constant delay
+    grid = np.arange(0.0, d["exhibited"] + GRID, GRID)  # one step beyond the exhibited bound too
+    assert max(rho(one_period(1.0, tau)) for tau in grid) < 1.0
+    prod = np.eye(3)
+    for tau in w["delays"]:
+        prod = one_period(1.0, tau) @ prod
+    assert rho(prod) ** (1 / len(w["delays"])) > 1.0
+
+
+def test_the_cap_is_reported_when_nothing_destabilizes(tmp_path) -> None:
+    """A strongly stable loop (x' = -5 x + u, u = -0.1 x: small gain 0.02, stable for any delay): nothing is
+    found, and the result and the CLI line say how far the search went, 20 Ts = 2 s, not 4/3 of the
+    configured 0.1 s."""
+    from click.testing import CliRunner
+
+    from robustsynth.cli import main
+
+    cfg = tmp_path / "stable.yaml"
+    cfg.write_text("name: stable\nplant: {kind: lti, A: [[-5]], B: [[1]]}\ncontroller: {gain: [[-0.1]]}\n"
+                   "network: {sampling_time: 0.1, delay: {min: 0.0, max: 0.1}}\nmargin: {pieces: 2}\n")
+    r = CliRunner().invoke(main, ["margin", str(cfg), "-o", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    dm = json.loads((tmp_path / "o" / "margin.json").read_text())["margins"]["delay_max"]
+    assert dm["exhibited"] is None and dm["witness"] is None and dm["ratio"] is None
+    assert dm["searched_up_to"] == pytest.approx(2.0) and dm["searched_periods"] == pytest.approx(20.0)
+    line = next(x for x in r.output.splitlines() if x.startswith("delay_max:"))
+    assert "no instability found up to 2 s" in line and "20 Ts" in line and "switching sequences" in line
