@@ -324,7 +324,7 @@ SERVO_EDGE = 2e-3  # s: the search bisects to margin.tolerance = 1e-3; two steps
 
 
 def _servo_cfg(tmp_path: Path) -> Path:
-    text = (ROOT / "configs" / "dc-servo.yaml").read_text()
+    text = (ROOT / "tests" / "data" / "dc-servo.yaml").read_text()
     assert "max: 0.06" in text  # the configured delay the issue tried
     text += "margin:\n  pieces: 2\n"  # a coarse certificate: the instability search is what is tested here
     path = tmp_path / "servo.yaml"
