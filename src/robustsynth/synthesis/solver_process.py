@@ -119,10 +119,12 @@ class _Child:
                                      close_fds=True)
 
     def solve(self, request: dict[str, Any]) -> dict[str, Any]:
-        assert self.proc.stdin is not None and self.proc.stdout is not None
+        stdin, stdout = self.proc.stdin, self.proc.stdout  # both pipes: Popen was given PIPE for them
+        if stdin is None or stdout is None:
+            raise ChildFailed("the solver's process has no pipes")
         try:
-            _send(self.proc.stdin, request)
-            kind, payload = _recv(self.proc.stdout)
+            _send(stdin, request)
+            kind, payload = _recv(stdout)
         except (EOFError, OSError, pickle.UnpicklingError) as exc:
             try:
                 code = self.proc.wait(timeout=2.0)  # a pipe closed by its death: reap it for its exit code
