@@ -314,17 +314,20 @@ def _wider_turns(model: Any, sep: str = ", ") -> str:
     return f"{sep}widen reference.turn_radius (now {model.V / model.turns.max_yaw_rate:.3g} m)"
 
 
-def lmi_count(lp: LMIProblem) -> int:
-    """The matrix inequalities of a problem (its PSD constraints; scalar ones not counted)."""
+def _lmi_sizes(lp: LMIProblem) -> list[int]:
+    """The rows of each matrix inequality of a problem (its PSD constraints; scalar ones not counted)."""
     import cvxpy as cp
 
-    return sum(1 for c in lp.problem.constraints if isinstance(c, cp.constraints.PSD))
+    return [int(c.args[0].shape[0]) for c in lp.problem.constraints if isinstance(c, cp.constraints.PSD)]
+
+
+def lmi_count(lp: LMIProblem) -> int:
+    """The matrix inequalities of a problem."""
+    return len(_lmi_sizes(lp))
 
 
 def lmi_rows(lp: LMIProblem) -> int:
-    import cvxpy as cp
-
-    return max((int(c.args[0].shape[0]) for c in lp.problem.constraints if isinstance(c, cp.constraints.PSD)), default=0)
+    return max(_lmi_sizes(lp), default=0)
 
 
 # Clarabel's time per iteration grows with the dense blocks its PSD cones put in the KKT system, sum over
@@ -337,10 +340,7 @@ ITERATIONS_PER_SOLVE = 30
 def solve_estimate(lp: LMIProblem) -> float:
     """A rough time [s] of one Clarabel solve of ``lp`` on a machine like the one the constants were measured on,
     from its size alone (shown before the first solve: issue 51)."""
-    import cvxpy as cp
-
-    kkt = sum((r * (r + 1) // 2) ** 2 for r in (int(c.args[0].shape[0]) for c in lp.problem.constraints
-                                                 if isinstance(c, cp.constraints.PSD)))
+    kkt = sum((r * (r + 1) // 2) ** 2 for r in _lmi_sizes(lp))
     return SECONDS_PER_KKT_ENTRY * kkt * ITERATIONS_PER_SOLVE
 
 
