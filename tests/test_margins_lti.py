@@ -116,11 +116,11 @@ def test_the_numpy_check_rejects_a_broken_certificate() -> None:
     pw = over_approximation(A, B, pad_lti_gain(K, 2, 1, 1), 1.0, 0.0, 0.5, 1, 4)
     res = analyze_lti(pw)
     assert res.certified and res.check["ok"]
-    combos, ends = vertex_combinations(pw)
+    verts = vertex_combinations(pw)
     P = res.P.copy()
     P[0, 0] *= 0.5  # no longer a Lyapunov function
-    assert not check_lti_certificate(pw, P, res.eps, 1.0 - 1e-6, combos, ends)["ok"]
-    assert not check_lti_certificate(pw, res.P, -res.eps - 1.0, 1.0 - 1e-6, combos, ends)["ok"]
+    assert not check_lti_certificate(pw, P, res.eps, 1.0 - 1e-6, verts)["ok"]
+    assert not check_lti_certificate(pw, res.P, -res.eps - 1.0, 1.0 - 1e-6, verts)["ok"]
     far = over_approximation(A, B, pad_lti_gain(K, 2, 1, 1), 1.0, 0.0, 0.9, 1, 4)  # beyond the exhibited 0.685
     assert not analyze_lti(far).certified
 
@@ -321,12 +321,12 @@ def servo_frozen(tau: float, depth: int = 12) -> np.ndarray:
 
 
 SERVO_EDGE = 2e-3  # s: the search bisects to margin.tolerance = 1e-3; two steps of it
+SERVO_RATIO = 0.8  # issue 53's target for a fast plant with multi-period delays: certified / exhibited
 
 
 def _servo_cfg(tmp_path: Path) -> Path:
     text = (ROOT / "tests" / "data" / "dc-servo.yaml").read_text()
     assert "max: 0.06" in text  # the configured delay the issue tried
-    text += "margin:\n  pieces: 2\n"  # a coarse certificate: the instability search is what is tested here
     path = tmp_path / "servo.yaml"
     path.write_text(text)
     return path
@@ -339,7 +339,6 @@ def servo(tmp_path_factory):
     return cfg, lti_margins(cfg, lti_plant(cfg))
 
 
-@pytest.mark.slow  # the servo's margin: its certificate bisection takes minutes (the search itself ~1 s)
 def test_servo_instability_is_found_far_beyond_the_configured_delay(servo) -> None:
     """Issue 53: with delay.max 0.06 s the search used to stop at 0.08 s and report none.  It must go on
     until it destabilizes: the exhibited bound is the hand-built loop's first unstable constant delay
@@ -363,8 +362,8 @@ def test_servo_instability_is_found_far_beyond_the_configured_delay(servo) -> No
     assert w["check"]["ok"] and w["check"]["lower_bound"] > 1.0 + w["check"]["margin"]
     if w["period"] == 1:  # a frozen witness: by hand
         assert rho_hand(w["delays"][0]) == pytest.approx(w["spectral_radius"], rel=1e-9)
-    # the certified bound stays below it and the ratio is reported
-    assert d["certified"] is not None and d["certified"] < d["exhibited"]
+    # the certified bound stays below it, within SERVO_RATIO of it (issue 53's target), and the ratio is reported
+    assert d["certified"] is not None and SERVO_RATIO * d["exhibited"] <= d["certified"] < d["exhibited"]
     assert d["ratio"] == pytest.approx(d["certified"] / d["exhibited"], rel=1e-12)
     assert f"certified / exhibited {d['ratio']:.3f}" in d["note"]
     assert d["searched_up_to"] == pytest.approx(20 * SERVO_TS) and "20 Ts" in d["note"]

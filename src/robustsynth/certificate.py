@@ -1076,45 +1076,93 @@ def _arc_turns(model: Any, figures: Mapping[str, Any]) -> list[dict[str, Any]]:
 # ------------------------------------------------------------------ any linear plant (plant: kind: lti)
 
 
-def lti_vertex_blocks(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, combos: np.ndarray, ends: np.ndarray,
+def lti_multipliers(pw: Any, eps: np.ndarray, n_c: int) -> tuple[np.ndarray, bool] | None:
+    """The multipliers of an lti certificate as (n_c, d, 1 + n) and whether they are directional: the
+    synthesis' full-block form (n_c, d) (channels E, one multiplier per instant), or the analysis' (n_c, d,
+    1 + n) (channels E U_j: per instant the full block, then one per direction of ``pw.dirs``).  None when
+    the shape is neither."""
+    eps = np.asarray(eps, dtype=float)
+    d, n = pw.d_hi, pw.E.shape[1]
+    if eps.shape == (n_c, d):
+        return np.concatenate([eps[..., None], np.zeros((n_c, d, n))], axis=-1), False
+    if eps.shape == (n_c, d, 1 + n) and pw.dirs is not None:
+        return eps, True
+    return None
+
+
+def lti_vertex_blocks(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, verts: tuple,
                       dist: float | None = None, out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """The robust-stability blocks of an lti certificate (docs/theory.md §14), one per vertex, as
     floats, with their magnitudes (the same formula on absolute values) and the number of terms per
-    entry: ``-[[M' P M - decay^2 P + sum_j eps_j rho_j^2 F_j' F_j, M' P E~], [E~' P M, E~' P E~ -
-    diag(eps_j I)]]`` for every piece combination (``combos`` (n_c, d): a piece per instant) and
-    end combination (``ends`` (n_e, d) in {0, 1}).  ``eps`` (n_c, d).  With ``dist`` = c, a
-    disturbance d (|d| <= 1) enters the plant's rows too: E~ gains a block E and the diagonal c I
-    (docs/theory.md §15: V+ <= decay^2 V + c |d|^2 for every admissible step).  With ``out`` = C the
-    top block gains C' C (hinf: V+ - V + |C xi|^2 <= c |d|^2)."""
+    entry: ``-[[M' P M - decay^2 P + sum_j (eps_j0 rho_j^2 + sum_l eps_jl rho_jl^2) F_j' F_j, M' P E~],
+    [E~' P M, E~' P E~ - diag_j(eps_j0 I + diag_l eps_jl)]]`` for every vertex of ``verts`` = (combos
+    (n_c, d), owner (n_v,), fractions (n_v, d)) (:func:`robustsynth.model.lti.vertex_combinations`);
+    E~ = [E U_0, ..., E U_d-1] over the kept directions (:func:`robustsynth.model.lti.kept_directions`; the
+    dropped ones by Young's inequality: decay^2 / (1 + YOUNG_DELTA) and a term pbar n_drop / YOUNG_DELTA
+    rho_D^2 F' F, pbar a bound on lambda_max(P)); E alone for the full-block multipliers (n_c, d).
+    With ``dist`` = c, a disturbance d (|d| <= 1) enters the plant's rows too: E~ gains a block E and the
+    diagonal c I (docs/theory.md §15: V+ <= decay^2 V + c |d|^2 for every admissible step).  With ``out`` =
+    C the top block gains C' C (hinf: V+ - V + |C xi|^2 <= c |d|^2)."""
     P = np.asarray(P, dtype=float)
+    combos, owner, frac = verts
     d = pw.d_hi
     n_s, n = pw.E.shape
-    Et = np.hstack([pw.E] * (d + (dist is not None)))  # (n_s, d n) (+ n)
-    lam = np.append(eps, [[dist]] * len(eps), axis=1) if dist is not None else eps
+    lam, directional = lti_multipliers(pw, eps, len(combos))
+    if directional:  # the rounding-level directions are no channel: Young's inequality covers them
+        from .model.lti import YOUNG_DELTA, kept_directions
+
+        kept, dropped = kept_directions(pw)
+        chans = [pw.channels(j)[:, kept[j]] for j in range(d)]
+        n_drop = sum(len(kj) < n for kj in kept)
+        # V(y + r) <= (1 + delta) V(y) + (1 + 1/delta) pbar |r|^2, |r|^2 <= n_drop sum_j rho_Dj^2 |F_j xi|^2:
+        # the kept LMI with decay^2 / (1 + delta) and pbar n_drop / delta rho_Dj^2 F_j' F_j (pbar >= lambda_max(P))
+        pbar = round_up(float(np.max(np.sum(np.abs(P), axis=1))), n_s)  # Gershgorin: a row's sum of n_s terms
+        penalty = pbar * n_drop / YOUNG_DELTA if n_drop else 0.0
+        shrink = 1.0 / (1.0 + YOUNG_DELTA) if n_drop else 1.0
+    else:
+        kept = [np.arange(n)] * d
+        chans = [pw.E] * d
+        dropped, penalty, shrink = None, 0.0, 1.0
+    Et = np.hstack(chans + ([pw.E] if dist is not None else []))  # (n_s, sum of the channels) (+ n)
+    Et_abs = np.abs(Et)
+    FF = [pw.F[j].T @ pw.F[j] for j in range(d)]
+    FF_abs = [np.abs(pw.F[j]).T @ np.abs(pw.F[j]) for j in range(d)]
+    low0 = Et.T @ P @ Et
+    low0_abs = Et_abs.T @ np.abs(P) @ Et_abs
     blocks, mags = [], []
-    for c, combo in enumerate(combos):
-        for end in ends:
-            M, Mabs = pw.vertex(combo, end), pw.vertex(combo, end, absolute=True)
-            top = M.T @ P @ M - decay**2 * P
-            top_abs = Mabs.T @ np.abs(P) @ Mabs + decay**2 * np.abs(P)
-            if out is not None:
-                top = top + out.T @ out
-                top_abs = top_abs + np.abs(out).T @ np.abs(out)
-            for j in range(d):
-                r2 = float(pw.rho[j][combo[j]]) ** 2
-                top = top + eps[c, j] * r2 * (pw.F[j].T @ pw.F[j])
-                top_abs = top_abs + abs(eps[c, j]) * r2 * (np.abs(pw.F[j]).T @ np.abs(pw.F[j]))
-            off = M.T @ P @ Et
-            off_abs = Mabs.T @ np.abs(P) @ np.abs(Et)
-            low = Et.T @ P @ Et - np.kron(np.diag(lam[c]), np.eye(n))
-            low_abs = np.abs(Et).T @ np.abs(P) @ np.abs(Et) + np.kron(np.diag(np.abs(lam[c])), np.eye(n))
-            X = np.block([[top, off], [off.T, low]])
-            Xa = np.block([[top_abs, off_abs], [off_abs.T, low_abs]])
-            blocks.append(-(X + X.T) / 2.0)
-            mags.append(Xa)
+    for c, end in zip(owner, frac):
+        combo = combos[c]
+        M, Mabs = pw.vertex(combo, end), pw.vertex(combo, end, absolute=True)
+        top = M.T @ P @ M - decay**2 * shrink * P
+        top_abs = Mabs.T @ np.abs(P) @ Mabs + decay**2 * shrink * np.abs(P)
+        if out is not None:
+            top = top + out.T @ out
+            top_abs = top_abs + np.abs(out).T @ np.abs(out)
+        diag = []
+        for j in range(d):
+            i = combo[j]
+            r2 = lam[c, j, 0] * float(pw.rho[j][i]) ** 2
+            if directional:
+                r2 = r2 + float(np.dot(lam[c, j, 1 + kept[j]], pw.rho_dir[j][i, kept[j]] ** 2))
+                r2 = r2 + penalty * float(dropped[j][i]) ** 2
+            top = top + r2 * FF[j]
+            top_abs = top_abs + abs(r2) * FF_abs[j]
+            diag.append(lam[c, j, 0] + lam[c, j, 1 + kept[j]])
+        if dist is not None:
+            diag.append(np.full(n, dist))
+        diag = np.concatenate(diag)
+        off = M.T @ P @ Et
+        off_abs = Mabs.T @ np.abs(P) @ Et_abs
+        low = low0 - np.diag(diag)
+        low_abs = low0_abs + np.diag(np.abs(diag))
+        X = np.block([[top, off], [off.T, low]])
+        Xa = np.block([[top_abs, off_abs], [off_abs.T, low_abs]])
+        blocks.append(-(X + X.T) / 2.0)
+        mags.append(Xa)
     # the longest sum of products behind an entry, generously: M itself is a sum of d + 1 products,
-    # M' P M sums n_s^2 of those, the eps terms add d, the symmetrization one
-    terms = (n_s * n_s * (2 * d + 3) + 2 * d + 4 + (2 if dist is not None else 0)  # the disturbance's c: one term
+    # M' P M sums n_s^2 of those, the multiplier terms add d (1 + n) (each a sum of 1 + n products), the
+    # symmetrization one (E U_j is exact: E selects rows)
+    terms = (n_s * n_s * (2 * d + 3) + 2 * d * (n + 2) + 4 + (2 if dist is not None else 0)
              + (0 if out is None else out.shape[0] + 1))  # C' C: a sum of p products
     return np.array(blocks), np.array(mags), terms
 
@@ -1122,23 +1170,25 @@ def lti_vertex_blocks(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, com
 LTI_PROOF_MARGIN = 1e-8  # every vertex block is proven <= -this (I): room for the data's own rounding
 
 
-def check_lti_certificate(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, combos: np.ndarray,
-                          ends: np.ndarray, dist: float | None = None, out: np.ndarray | None = None) -> dict[str, Any]:
+def check_lti_certificate(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, verts: tuple,
+                          dist: float | None = None, out: np.ndarray | None = None) -> dict[str, Any]:
     """The lti certificate re-checked in numpy: P proven positive definite and every vertex block
     proven <= -LTI_PROOF_MARGIN I in verified arithmetic (Rump's test, with the blocks' assembly error
-    as a radius); the multipliers >= 0.  The data (the pieces from expm, the remainder bounds) are
-    taken as computed: the margin, not a proof, covers their rounding (docs/theory.md §14).
+    as a radius); the multipliers >= 0 and of a shape :func:`lti_multipliers` reads.  The data (the
+    pieces from expm, the remainder bounds, the directions' orthonormality) are taken as computed: the
+    margin, not a proof, covers their rounding (docs/theory.md §14).
     Returns {"ok", "failing", "vertices", "min_eig"}."""
     P = np.asarray(P, dtype=float)
     P = (P + P.T) / 2.0
     eps = np.asarray(eps, dtype=float)
     if dist is not None and not (math.isfinite(dist) and dist > 0):
         return {"ok": False, "failing": -1, "vertices": 0, "min_eig": float("nan")}
-    if not np.all(np.isfinite(P)) or not np.all(np.isfinite(eps)) or np.any(eps < 0):
+    if (not np.all(np.isfinite(P)) or not np.all(np.isfinite(eps)) or np.any(eps < 0)
+            or lti_multipliers(pw, eps, len(verts[0])) is None):
         return {"ok": False, "failing": -1, "vertices": 0, "min_eig": float("nan")}
     if not proves_at_least(P, 0.0, assembly_radius(np.abs(P), 1)):
         return {"ok": False, "failing": -1, "vertices": 0, "min_eig": float(np.min(np.linalg.eigvalsh(P)))}
-    blocks, mags, terms = lti_vertex_blocks(pw, P, eps, decay, combos, ends, dist, out)
+    blocks, mags, terms = lti_vertex_blocks(pw, P, eps, decay, verts, dist, out)
     radius = assembly_radius_batch(mags, terms)
     ok = proves_at_least_batch(blocks, LTI_PROOF_MARGIN, radius)
     failing = np.flatnonzero(~ok)
@@ -1146,7 +1196,7 @@ def check_lti_certificate(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float,
             "min_eig": float(np.min(np.linalg.eigvalsh(blocks)))}
 
 
-def check_lti_scaled(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, combos: np.ndarray, ends: np.ndarray,
+def check_lti_scaled(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, verts: tuple,
                      dist: float | None = None, out: np.ndarray | None = None) -> dict[str, Any]:
     """:func:`check_lti_certificate` of a certificate of any scale: ``V+ <= decay^2 V + c |d|^2 (- |C xi|^2)``
     is homogeneous in (P, eps, c, C'C), so it is checked for s P with s = 1 / lambda_min(P) (P >= I, the
@@ -1156,7 +1206,7 @@ def check_lti_scaled(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, comb
     if not lam > 0:
         return {"ok": False, "failing": -1, "vertices": 0, "min_eig": lam}
     s = 1.0 / lam
-    return check_lti_certificate(pw, s * P, s * np.asarray(eps, dtype=float), decay, combos, ends,
+    return check_lti_certificate(pw, s * P, s * np.asarray(eps, dtype=float), decay, verts,
                                  None if dist is None else s * dist, None if out is None else np.sqrt(s) * out)
 
 
@@ -1209,10 +1259,11 @@ def recheck_lti(plant: dict, gains: Mapping[str, Any], Ts: float, tau_min: float
     elif figs.get("disturbance_step_bound") is not None:
         dist = (1.0 - alpha) / disturbance_bound(A, plant["E"], plant["w_max"], Ts) ** 2
     pw = over_approximation(A, B, K, Ts, tau_min, tau_max + m_lost * Ts, d, pieces)
-    combos, ends = vertex_combinations(pw)
-    if eps.shape != combos.shape:
-        return {"ok": False, "reason": f"multipliers {eps.shape}, the vertices need {combos.shape}"}
-    chk = check_lti_scaled(pw, P, eps, float(np.sqrt(alpha)), combos, ends, dist, out)
+    verts = vertex_combinations(pw)
+    if lti_multipliers(pw, eps, len(verts[0])) is None:
+        n_c, n = len(verts[0]), B.shape[0]
+        return {"ok": False, "reason": f"multipliers {eps.shape}, the vertices need ({n_c}, {d}) or ({n_c}, {d}, {1 + n})"}
+    chk = check_lti_scaled(pw, P, eps, float(np.sqrt(alpha)), verts, dist, out)
     if not chk["ok"]:
         return {"ok": False, "reason": f"vertex block {chk['failing']} not proven (min eigenvalue {chk['min_eig']:.3g})"}
     outs = [o for o in figs.get("outputs") or () if o.get("bound") is not None]

@@ -42,9 +42,13 @@ EXHIBIT_TOL = 1e-9
 EXHIBIT_CAP = 20  # sampling periods: the delay search's end without margin.delay_far (config.MAX_D_HI, the lifting's longest)
 WITNESS_SAFETY = 1e3  # the witness check's rounding bound: this many times n_s eps times the product of the factors' norms
 SCAN = 20  # steps of the outward scan before the bisection
-PIECE_STAGES = (2, 4)  # coarse-to-fine pieces of the certificate bisection (then margin.pieces)
-MAX_VERTICES = 1024  # a certificate's vertex budget: fewer pieces per instant beyond it, not attempted beyond 2^d
+PIECE_STAGES = (1, 2, 4)  # coarse-to-fine pieces of the certificate bisection (then margin.pieces)
+MAX_VERTICES = 1024  # a certificate's vertex budget: fewer pieces per instant beyond it, not attempted with one piece beyond it
 MAX_COEFFICIENTS = 2e7  # floats of the LMIs' coefficient tensor (vertices x P entries x block^2): ~160 MB
+# the interior-point solver's work per iteration: vertices x (k (k + 1) / 2)^2, Clarabel's dense scaling block per
+# PSD cone of a k x k block; 3.4e6 took 0.26 s an iteration, 38 iterations (the servo at d = 9, one piece, 18
+# vertices), 2e7 1.6 s (d = 8, two pieces, 165 vertices: 53 s a solve)
+MAX_SCALING = 6e6
 MAX_LOSSES = 3  # the loss margin is searched up to this many losses in a row
 
 
@@ -157,26 +161,37 @@ def _certify(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int
     return lti_certificate(plant, Ts, tau_min, tau_max, m_lost, pieces)[0]
 
 
+def budget_pieces(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int, pieces: int
+                  ) -> tuple[int, int, int, int]:
+    """(d_hi, the pieces per instant within the budget, their vertices, the budget): ``pieces`` reduced while
+    the vertices (:func:`robustsynth.model.lti.vertex_count`) exceed MAX_VERTICES or what MAX_COEFFICIENTS
+    or MAX_SCALING allow (one piece is kept, vertices above the budget then say it is beyond it)."""
+    from .model.lti import vertex_count
+
+    n, m = plant["B"].shape
+    d = max(lti_depth(tau_max, m_lost, Ts), (plant["K"].shape[1] - n) // m)
+    k = n + d * m + d * n  # the vertex blocks' size
+    n_p = (n + d * m) * (n + d * m + 1) // 2
+    budget = min(MAX_VERTICES, int(MAX_COEFFICIENTS // (n_p * k * k)), int(MAX_SCALING // (k * (k + 1) // 2) ** 2))
+    vertices = vertex_count(tau_min, tau_max + m_lost * Ts, Ts, d, pieces, budget)
+    while pieces > 1 and vertices > budget:  # long delay ranges: fewer pieces per instant
+        pieces -= 1
+        vertices = vertex_count(tau_min, tau_max + m_lost * Ts, Ts, d, pieces, budget)
+    return d, pieces, vertices, budget
+
+
 def lti_certificate(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int, pieces: int
                     ) -> tuple[Any, np.ndarray, int]:
     """(the analysis of ``plant["K"]``'s certificate at delays [tau_min, tau_max] with m_lost losses in a
-    row, K padded to the lifting, the pieces used).  Pieces are reduced while the vertices (instants with a
-    range of positive width only) exceed MAX_VERTICES, and a problem beyond the budget even with one piece
-    is not attempted (certified False, status 'budget')."""
-    from .model.lifting import instant_ranges
+    row, K padded to the lifting, the pieces used): the pieces within the budget (:func:`budget_pieces`); a
+    problem beyond it even with one piece is not attempted (certified False, status 'budget')."""
     from .model.lti import over_approximation, pad_lti_gain
     from .synthesis.lti import analyze_lti
 
     n, m = plant["B"].shape
-    d = max(lti_depth(tau_max, m_lost, Ts), (plant["K"].shape[1] - n) // m)
-    live = int(np.sum(np.diff(instant_ranges(tau_min, tau_max + m_lost * Ts, Ts, d), axis=1) > 0))
-    while pieces > 1 and (2 * pieces) ** live > MAX_VERTICES:  # long delay ranges: fewer pieces per instant
-        pieces -= 1
-    k = n + d * m + d * n  # the vertex blocks' size
-    n_p = (n + d * m) * (n + d * m + 1) // 2
-    vertices = (2 * pieces) ** live
+    d, pieces, vertices, budget = budget_pieces(plant, Ts, tau_min, tau_max, m_lost, pieces)
     K = pad_lti_gain(plant["K"], n, m, d)
-    if vertices > MAX_VERTICES or vertices * n_p * k * k > MAX_COEFFICIENTS:
+    if vertices > budget:
         return _NotAttempted(vertices), K, pieces
     try:
         pw = over_approximation(plant["A"], plant["B"], K, Ts, tau_min, tau_max + m_lost * Ts, d, pieces)
@@ -269,18 +284,24 @@ def _certified_delay(plant: dict, Ts: float, t_lo: float, top: float, m_lost: in
     the previous refinement gained.  Every value returned is proven by its own certificate.
     Returns (value, solves)."""
     solves = 0
+    seen: dict = {}
 
-    def ok(x: float, N: int) -> bool:
+    def ok(x: float, N: int) -> bool:  # a stage whose pieces the budget cuts back solves what an earlier one did
         nonlocal solves
-        solves += 1
-        return bool(_certify(plant, Ts, t_lo, x, m_lost, N).certified)
+        key = (x, budget_pieces(plant, Ts, t_lo, x, m_lost, N)[1])
+        if key not in seen:
+            solves += 1
+            seen[key] = bool(_certify(plant, Ts, t_lo, x, m_lost, N).certified)
+        return seen[key]
 
     stages = [N for N in PIECE_STAGES if N < pieces] + [pieces]
     lo = _last_good(lambda x: ok(x, stages[0]), t_lo, top, tol)
     if lo is None:
         return None, solves
     gained = max(top - lo, tol) / 4.0
-    for N in stages[1:]:
+    for prev, N in zip(stages, stages[1:]):
+        if budget_pieces(plant, Ts, t_lo, lo, m_lost, N)[1] <= budget_pieces(plant, Ts, t_lo, lo, m_lost, prev)[1]:
+            continue  # the budget allows no finer pieces here: the stage would solve what the last one did
         before = lo
         lo = _gallop(lambda x, N=N: ok(x, N), lo, top, max(2.0 * gained, tol), tol)
         gained = max(lo - before, tol)

@@ -83,8 +83,9 @@ def lti_model_stage(config: Any, outdir: str | Path, config_path: str | Path | N
     cov = coverage_check(plant["A"], plant["B"], K0, Ts, lo, hi + ml * Ts, d, pw)
     data = {"kind": "lti", "config": config.name, "n": n, "m": m, "lifting": d, "lifted_states": n + d * m,
             "controllable": plant["controllable"], "pieces": pieces,
-            "instants": [{"theta": th.tolist(), "width": w.tolist(), "remainder_bound": r.tolist()}
-                         for th, w, r in zip(pw.theta, pw.width, pw.rho)],
+            "instants": [{"theta": th.tolist(), "width": w.tolist(), "remainder_bound": r.tolist(),
+                          "directions": U.tolist(), "direction_bounds": rd.tolist()}
+                         for th, w, r, U, rd in zip(pw.theta, pw.width, pw.rho, pw.dirs, pw.rho_dir)],
             "coverage": cov, "A": plant["A"], "B": plant["B"]}
     out = make_dir(outdir)
     data["cleared"] = clear_foreign(out, config)

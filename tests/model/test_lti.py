@@ -163,3 +163,94 @@ def test_the_robots_calls_refuse_a_linear_plants_config() -> None:
     for call in (lambda: build_model(cfg), lambda: synthesize(cfg), lambda: margin(cfg, ZBP_K)):
         with pytest.raises(InputError, match="linear plant's .*synthesize_lti"):
             call()
+
+
+SERVO_A = np.array([[0.0, 1.0], [0.0, -72.5]])  # one fast real mode: the remainder lies along one direction
+SERVO_B = np.array([[0.0], [75.3]])
+SERVO_K = -np.array([[7.27, 0.14]])
+STIFF_A = np.array([[-1.0, 1.0, 0.0], [0.0, -400.0, 50.0], [0.0, 0.0, -30.0]])  # poles 12-40x faster than 1/Ts
+STIFF_B = np.array([[0.0], [0.0], [30.0]])
+STIFF_K = np.array([[-0.5, -0.01, -0.05]])
+HULL_TOL = 1e-9  # the LP's feasibility tolerance on the convex weights
+
+
+@pytest.mark.parametrize("A,B,K,Ts,tau_max,pieces", [(SERVO_A, SERVO_B, SERVO_K, 0.02, 0.16, 1),
+                                                     (SERVO_A, SERVO_B, SERVO_K, 0.02, 0.07, 3),
+                                                     (STIFF_A, STIFF_B, STIFF_K, 0.1, 0.25, 2),
+                                                     (OSC_A, OSC_B, OSC_K, 0.2, 0.5, 3)])
+def test_directional_bounds_cover_fast_and_oscillatory_plants(A, B, K, Ts, tau_max, pieces) -> None:
+    """Issue 53: on 10 000 in-order instants the remainder stays within its full-block bound and within
+    every direction's; the bounds are not vacuous (ratio > 0.5: the sampled sup plus what lies between
+    samples); the servo's remainder lies along one direction, the other at rounding level, so the
+    analysis drops it (kept_directions)."""
+    from robustsynth.model.lti import kept_directions
+
+    n, m = B.shape
+    d = delay_indices(0.0, tau_max, Ts)[1]
+    Kp = pad_lti_gain(K, n, m, d)
+    pw = over_approximation(A, B, Kp, Ts, 0.0, tau_max, d, pieces)
+    cov = coverage_check(A, B, Kp, Ts, 0.0, tau_max, d, pw, samples=10_000)
+    assert cov["remainder_ratio"] <= 1.0 and cov["direction_ratio"] <= 1.0
+    assert cov["remainder_ratio"] > 0.5 and cov["direction_ratio"] > 0.5
+    assert cov["reconstruction"] < 1e-12
+    for U in pw.dirs:
+        assert np.max(np.abs(U.T @ U - np.eye(n))) < 1e-13
+    kept, _ = kept_directions(pw)
+    if A is SERVO_A:
+        assert all(len(kj) <= 1 for kj in kept) and any(len(kj) == 1 for kj in kept)
+
+
+def test_the_interval_bound_holds_between_samples() -> None:
+    """_interval_sup on f(t) = sin(w t) (|f''| <= w^2, |f'| <= w) sampled coarsely: never below the true
+    sup on a fine grid, and the chord form wins for smooth f, the Lipschitz form for a steep one."""
+    from robustsynth.model.lti import _interval_sup
+
+    for w in (1.0, 10.0, 200.0):
+        t = np.linspace(0.0, 1.0, 9)
+        h = t[1] - t[0]
+        a = np.abs(np.sin(w * t))
+        got = _interval_sup(a, np.full(8, w * w), np.full(8, w), h)
+        true = np.max(np.abs(np.sin(w * np.linspace(0.0, 1.0, 100_001))))
+        assert got >= true
+        assert got <= min(a.max() + h * h / 8 * w * w, a.max() + h / 2 * w) + 1e-15
+
+
+def _in_hull(points: np.ndarray, x: np.ndarray) -> bool:
+    from scipy.optimize import linprog
+
+    k = len(points)
+    res = linprog(np.zeros(k), A_eq=np.vstack([points.T, np.ones(k)]), b_eq=np.append(x, 1.0), bounds=[(0, None)] * k,
+                  method="highs")
+    return res.status == 0 and np.max(np.abs(points.T @ res.x - x)) < HULL_TOL
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_in_order_vertices_hold_every_in_order_instant(seed) -> None:
+    """Every vertex lies in its piece box and in order; every random in-order point of the instants' ranges
+    lies in the convex hull of the vertices of the combination its pieces make (an LP, independent of the
+    run enumeration); the count is below the box's 2^d per combination."""
+    from robustsynth.model.lifting import instant_ranges
+    from robustsynth.model.lti import in_order_vertices, piece_grid
+
+    rng = np.random.default_rng(seed)
+    Ts = 1.0
+    d = int(rng.integers(2, 5))
+    lo = float(rng.uniform(0.0, 0.8))
+    hi = lo + float(rng.uniform(0.1, d - lo))
+    d = delay_indices(lo, hi, Ts)[1]
+    pieces = int(rng.integers(1, 4))
+    theta, width = piece_grid(lo, hi, Ts, d, pieces)
+    combos, owner, frac = in_order_vertices(theta, width)
+    pos = {tuple(c): i for i, c in enumerate(combos.tolist())}
+    pts = np.array([[theta[j][combos[c, j]] + frac[v, j] * width[j][combos[c, j]] for j in range(d)]
+                    for v, c in enumerate(owner)])
+    assert np.all(np.diff(pts, axis=1) >= -1e-12)
+    assert len(owner) <= len(combos) * 2**d
+    r = instant_ranges(lo, hi, Ts, d)
+    s = r[:, 0] + (r[:, 1] - r[:, 0]) * rng.random((300, d))
+    s = np.maximum.accumulate(s[:, ::-1], axis=1)[:, ::-1]
+    for th in Ts - s:
+        combo = tuple(int(np.clip(np.searchsorted(theta[j], th[j], side="right") - 1, 0, theta[j].size - 1))
+                      for j in range(d))
+        assert combo in pos
+        assert _in_hull(pts[owner == pos[combo]], th)

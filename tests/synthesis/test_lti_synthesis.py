@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from robustsynth.certificate import check_lti_certificate, lti_within
+from robustsynth.certificate import check_lti_certificate, check_lti_scaled, lti_within
 from robustsynth.model.lifting import instant_ranges
 from robustsynth.model.lti import disturbance_bound, exact_closed_loop, lti_plant_from, over_approximation
 from robustsynth.synthesis.lti import _midpoints, synthesize_lti, vertex_combinations
@@ -140,13 +140,13 @@ def test_the_primal_check_refuses_a_tampered_gain(zbp_bound) -> None:
     the same P and multipliers; the original passes."""
     pl, r = zbp_bound
     pw = over_approximation(pl["A"], pl["B"], r.K, 0.5, 0.0, 0.5, r.d_hi, 2)
-    combos, ends = vertex_combinations(pw)
+    verts = vertex_combinations(pw)
     s = 1.0 / float(np.min(np.linalg.eigvalsh(r.P)))
     c = (1.0 - r.alpha) * r.figures["disturbance_step_bound"] ** -2 * s
-    assert check_lti_certificate(pw, s * r.P, s * r.eps, np.sqrt(r.alpha), combos, ends, c)["ok"]
+    assert check_lti_certificate(pw, s * r.P, s * r.eps, np.sqrt(r.alpha), verts, c)["ok"]
     bad = over_approximation(pl["A"], pl["B"], 1.5 * r.K, 0.5, 0.0, 0.5, r.d_hi, 2)
-    assert not check_lti_certificate(bad, s * r.P, s * r.eps, np.sqrt(r.alpha), combos, ends, c)["ok"]
-    assert not check_lti_certificate(pw, s * r.P, s * r.eps, np.sqrt(r.alpha) * 0.9, combos, ends, c)["ok"]
+    assert not check_lti_certificate(bad, s * r.P, s * r.eps, np.sqrt(r.alpha), verts, c)["ok"]
+    assert not check_lti_certificate(pw, s * r.P, s * r.eps, np.sqrt(r.alpha) * 0.9, verts, c)["ok"]
     assert not lti_within(r.P, np.array([[1.0, 0, 0]]), np.array([0.5 * r.figures["outputs"][0]["bound"]])).any()
 
 
@@ -179,11 +179,11 @@ def test_hinf_dissipation_on_exact_loops_and_a_tampered_gamma() -> None:
     rhs = gam**2 * np.sum(dd**2, axis=1) / g**2
     assert np.all(lhs <= rhs + EXACT_TOL * (np.abs(lhs) + rhs))
     pw = over_approximation(pl["A"], pl["B"], r.K, Ts, lo, hi + ml * Ts, r.d_hi, 2)
-    combos, ends = vertex_combinations(pw)
+    verts = vertex_combinations(pw)
     C = np.zeros((1, n_s))
     C[0, 0] = 1.0
-    assert check_lti_certificate(pw, r.P, r.eps, 1.0, combos, ends, gam**2 / g**2, C)["ok"]
-    assert not check_lti_certificate(pw, r.P, r.eps, 1.0, combos, ends, (gam / 2) ** 2 / g**2, C)["ok"]
+    assert check_lti_scaled(pw, r.P, r.eps, 1.0, verts, gam**2 / g**2, C)["ok"]  # P of any scale (lambda_min 2e-4)
+    assert not check_lti_scaled(pw, r.P, r.eps, 1.0, verts, (gam / 2) ** 2 / g**2, C)["ok"]
 
 
 def test_the_gain_does_not_depend_on_how_many_solves_run_at_once(zbp_bound) -> None:

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model.lti import vertex_combinations
+from ..model.lti import YOUNG_DELTA, kept_directions, vertex_combinations
 
 __all__ = ["LtiAnalysis", "analyze_lti", "vertex_combinations", "LtiDesign", "synthesize_lti", "synthesize_lti_config",
            "auto_threads", "DECAY", "STRICT"]
@@ -54,59 +54,94 @@ def _sym_basis(n: int) -> np.ndarray:
     return basis
 
 
-def _vertex_matrices(pw, combos: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Every vertex's closed-loop matrix M (n_v, n_s, n_s) and the combination it belongs to (n_v,)."""
-    Ms, owner = [], []
-    for c, combo in enumerate(combos):
-        for end in ends:
-            Ms.append(pw.vertex(combo, end))
-            owner.append(c)
-    return np.array(Ms), np.array(owner)
+def _vertex_matrices(pw, verts: tuple) -> np.ndarray:
+    """Every vertex's closed-loop matrix M (n_v, n_s, n_s) (``verts`` = (combos, owner, fractions))."""
+    combos, owner, frac = verts
+    return np.array([pw.vertex(combos[c], end) for c, end in zip(owner, frac)])
 
 
 def analyze_lti(pw, decay: float = DECAY, solver: str = "clarabel") -> LtiAnalysis:
-    """Search P, eps for the LMIs of the module docstring; the verdict is the numpy check's.
+    """Search P and the multipliers for the LMIs of the module docstring; the verdict is the numpy check's.
 
-    Every vertex's block is linear in the unknowns y = (P's upper triangle, eps): its coefficient
-    matrices are computed in numpy, and enter as parameters of a problem compiled once per structure."""
+    Per instant j the remainder enters through the channels E U_j (U_j = ``pw.dirs[j]``) with two kinds of
+    multiplier: one on the full block (|w_j| <= rho_j |F_j xi|) and one per direction (|w_jl| <= rho_jl |F_j
+    xi|); the LMIs hold when the sum of the S-procedure terms does, so either kind alone, or both, may
+    carry the proof (a remainder along one direction: the directional ones are far tighter; an isotropic
+    one: the full block).  Every vertex's block is linear in the unknowns y = (P's upper triangle,
+    multipliers): its coefficient matrices are computed in numpy, and enter as parameters of a problem
+    compiled once per structure."""
     from ..certificate import check_lti_certificate
     from .solve import solve
 
-    combos, ends = vertex_combinations(pw)
+    verts = vertex_combinations(pw)
+    combos, owner, _ = verts
     n_s, n = pw.E.shape
     d = pw.d_hi
-    k = n_s + d * n
-    Et = np.hstack([pw.E] * d)
-    Ms, owner = _vertex_matrices(pw, combos, ends)
+    kept, dropped = kept_directions(pw)
+    n_drop = sum(len(kj) < n for kj in kept)
+    shrink = 1.0 / (1.0 + YOUNG_DELTA) if n_drop else 1.0  # the dropped directions (certificate.lti_vertex_blocks)
+    width = [len(kj) for kj in kept]
+    k = n_s + sum(width)
+    # the multipliers: per instant the full block, then one per kept direction (flat index, and where in
+    # the (d, 1 + n) layout the numpy check reads it)
+    slots = [(j, 0) for j in range(d) if width[j]] + [(j, 1 + int(l)) for j in range(d) for l in kept[j]]
+    q = len(slots)
+    Et = np.hstack([pw.channels(j)[:, kept[j]] for j in range(d)])
+    Ms = _vertex_matrices(pw, verts)
     basis = _sym_basis(n_s)  # P = sum_i p_i S_i
     n_p = len(basis)
     # the P-part of every vertex block, per basis matrix: [[M' S M - decay^2 S, M' S E~], [E~' S M, E~' S E~]]
     MtS = np.einsum("vab,ibc->viac", Ms.transpose(0, 2, 1), basis)  # (n_v, n_p, n_s, n_s)
-    top = MtS @ Ms[:, None] - decay**2 * basis[None]
+    top = MtS @ Ms[:, None] - decay**2 * shrink * basis[None]
     off = MtS @ Et
-    low = np.broadcast_to(Et.T @ basis @ Et, (len(Ms),) + (n_p, d * n, d * n))
+    low = np.broadcast_to(Et.T @ basis @ Et, (len(Ms),) + (n_p, k - n_s, k - n_s))
     CP = np.concatenate([np.concatenate([top, off], axis=-1),
                          np.concatenate([off.transpose(0, 1, 3, 2), low], axis=-1)], axis=-2)  # (n_v, n_p, k, k)
-    # the eps part: eps_j rho_j^2 F_j' F_j in the top block, -eps_j I in block j of the low one
-    CE = np.zeros((len(Ms), d, k, k))
+    # pbar >= lambda_max(P) carries the dropped directions' term pbar n_drop / delta rho_D^2 F_j' F_j
+    CB = np.zeros((len(Ms), k, k))
+    # the multipliers' part: (eps_j0 rho_j^2 + eps_jl rho_jl^2) F_j' F_j in the top block, -eps_j0 I and
+    # -eps_jl at direction l in block j of the low one
+    CE = np.zeros((len(Ms), q, k, k))
+    start = np.cumsum([n_s] + width)
     for j in range(d):
-        rho2 = np.array([float(pw.rho[j][combos[c, j]]) ** 2 for c in owner])
-        CE[:, j, :n_s, :n_s] = rho2[:, None, None] * (pw.F[j].T @ pw.F[j])
-        CE[:, j, n_s + j * n : n_s + (j + 1) * n, n_s + j * n : n_s + (j + 1) * n] -= np.eye(n)
+        FF = pw.F[j].T @ pw.F[j]
+        piece = combos[owner, j]
+        if n_drop:
+            CB[:, :n_s, :n_s] += (n_drop / YOUNG_DELTA * dropped[j][piece] ** 2)[:, None, None] * FF
+        for e, (jj, slot) in enumerate(slots):
+            if jj != j:
+                continue
+            if slot == 0:
+                CE[:, e, :n_s, :n_s] = (pw.rho[j][piece] ** 2)[:, None, None] * FF
+                idx = np.arange(start[j], start[j + 1])
+                CE[:, e, idx, idx] = -1.0
+            else:
+                CE[:, e, :n_s, :n_s] = (pw.rho_dir[j][piece, slot - 1] ** 2)[:, None, None] * FF
+                a = start[j] + int(np.flatnonzero(kept[j] == slot - 1)[0])
+                CE[:, e, a, a] = -1.0
     with _PROBLEMS_LOCK:  # the cached problem's parameters and values belong to one solve at a time
-        prob, p, eps, CPp, CEp = _analysis_problem(len(Ms), n_p, k, d, len(combos), n_s, tuple(owner.tolist()), basis)
+        prob, p, eps, pbar, CPp, CEp, CBp = _analysis_problem(len(Ms), n_p, k, q, len(combos), n_s,
+                                                               tuple(owner.tolist()), basis)
         for v in range(len(Ms)):  # the vertices' coefficients: parameters of a problem compiled once per structure
             CPp[v].value = CP[v].reshape(n_p, k * k).T
-            CEp[v].value = CE[v].reshape(d, k * k).T
+            CEp[v].value = CE[v].reshape(q, k * k).T
+            CBp[v].value = CB[v].reshape(k * k)
         held: dict = {}
 
         def P_value() -> np.ndarray:
             return np.einsum("i,iab->ab", np.asarray(p.value, dtype=float), basis)
 
+        def eps_value() -> np.ndarray:
+            flat = np.maximum(np.asarray(eps.value, dtype=float), 0.0)
+            out = np.zeros((len(combos), d, 1 + n))
+            for e, (j, slot) in enumerate(slots):
+                out[:, j, slot] = flat[:, e]
+            return out
+
         def accept() -> bool:
             if p.value is None or eps.value is None:
                 return False
-            held["check"] = check_lti_certificate(pw, P_value(), np.maximum(eps.value, 0.0), decay, combos, ends)
+            held["check"] = check_lti_certificate(pw, P_value(), eps_value(), decay, verts)
             return bool(held["check"]["ok"])
 
         t0 = time.perf_counter()
@@ -116,8 +151,7 @@ def analyze_lti(pw, decay: float = DECAY, solver: str = "clarabel") -> LtiAnalys
         dt = time.perf_counter() - t0
         vertices = len(Ms)
         if out.kind == "ok":
-            return LtiAnalysis(True, "certified", P_value(), np.maximum(np.array(eps.value), 0.0), vertices, dt,
-                               held["check"])
+            return LtiAnalysis(True, "certified", P_value(), eps_value(), vertices, dt, held["check"])
         status = "infeasible" if out.kind == "infeasible" else ("rejected" if "check" in held else "failed")
         return LtiAnalysis(False, status, None, None, vertices, dt, held.get("check", {}))
 
@@ -127,25 +161,27 @@ _PROBLEMS_KEPT = 4
 _PROBLEMS_LOCK = threading.RLock()
 
 
-def _analysis_problem(n_v: int, n_p: int, k: int, d: int, n_c: int, n_s: int, owner: tuple, basis: np.ndarray):
+def _analysis_problem(n_v: int, n_p: int, k: int, q: int, n_c: int, n_s: int, owner: tuple, basis: np.ndarray):
     """(problem, p, eps, coefficient parameters per vertex) of a structure: the margins' bisections solve
     the same structure many times with new coefficients, and cvxpy then reuses its compilation (DPP),
     which took two thirds of a solve's time (measured: profile of `robustsynth margin configs/zbp.yaml`)."""
     import cvxpy as cp
 
-    key = (n_v, n_p, k, d, n_c, n_s, owner)
+    key = (n_v, n_p, k, q, n_c, n_s, owner)
     if key in _PROBLEMS:
         return _PROBLEMS[key]
     p = cp.Variable(n_p)
-    eps = cp.Variable((n_c, d), nonneg=True)
+    eps = cp.Variable((n_c, q), nonneg=True)
+    pbar = cp.Variable(nonneg=True)  # >= lambda_max(P): the dropped directions' term
     CPp = [cp.Parameter((k * k, n_p)) for _ in range(n_v)]
-    CEp = [cp.Parameter((k * k, d)) for _ in range(n_v)]
+    CEp = [cp.Parameter((k * k, q)) for _ in range(n_v)]
+    CBp = [cp.Parameter(k * k) for _ in range(n_v)]
     P = cp.reshape(basis.reshape(n_p, -1).T @ p, (n_s, n_s), order="C")
-    cons = [P >> np.eye(n_s)]
+    cons = [P >> np.eye(n_s), P << pbar * np.eye(n_s)]
     for v in range(n_v):
-        X = cp.reshape(CPp[v] @ p + CEp[v] @ eps[owner[v]], (k, k), order="C")
+        X = cp.reshape(CPp[v] @ p + CEp[v] @ eps[owner[v]] + CBp[v] * pbar, (k, k), order="C")
         cons.append((X + X.T) / 2 << -STRICT * np.eye(k))
-    entry = (cp.Problem(cp.Minimize(0), cons), p, eps, CPp, CEp)
+    entry = (cp.Problem(cp.Minimize(0), cons), p, eps, pbar, CPp, CEp, CBp)
     while len(_PROBLEMS) >= _PROBLEMS_KEPT:
         _PROBLEMS.pop(next(iter(_PROBLEMS)))
     _PROBLEMS[key] = entry
@@ -190,20 +226,20 @@ class _Vertices:
         self.n_s = n + d * m
         pw0 = over_approximation(A, B, np.zeros((m, self.n_s)), Ts, tau_min, tau_hi, d, pieces)
         self.pw0 = pw0
-        self.combos, self.ends = vertex_combinations(pw0)
+        self.verts = vertex_combinations(pw0)
+        self.combos, self.owner, frac = self.verts
         B0 = np.zeros((self.n_s, m))
         B0[n : n + m] = np.eye(m)  # u_k enters the shift register; the plant's rows through G_0 only
-        Av, Bv, owner, rho = [], [], [], []
-        for c, combo in enumerate(self.combos):
-            for end in self.ends:
-                Av.append(pw0.vertex(combo, end))
-                i = combo[0]
-                G0 = pw0.base[0][i] + end[0] * pw0.width[0][i] * pw0.slope[0][i]
-                Bv.append(B0 + pw0.E @ G0)
-                owner.append(c)
-                rho.append([float(pw0.rho[j][combo[j]]) for j in range(d)])
+        Av, Bv, rho = [], [], []
+        for c, end in zip(self.owner, frac):
+            combo = self.combos[c]
+            Av.append(pw0.vertex(combo, end))
+            i = combo[0]
+            G0 = pw0.base[0][i] + end[0] * pw0.width[0][i] * pw0.slope[0][i]
+            Bv.append(B0 + pw0.E @ G0)
+            rho.append([float(pw0.rho[j][combo[j]]) for j in range(d)])
         self.Av, self.Bv = np.array(Av), np.array(Bv)
-        self.owner, self.rho = np.array(owner), np.array(rho)
+        self.rho = np.array(rho)
         self.Fa = pw0.F  # with K = 0: the past commands' differences
 
 
@@ -336,7 +372,7 @@ def _prove(plant: dict, V: _Vertices, Ts: float, tau_min: float, tau_hi: float, 
     if not (np.all(np.isfinite(K)) and np.all(np.isfinite(eta))):
         return {"ok": False, "failing": -1, "vertices": 0, "min_eig": float("nan")}, K, P, eta
     pw = over_approximation(plant["A"], plant["B"], K, Ts, tau_min, tau_hi, V.d, pieces)
-    return check_lti_scaled(pw, P, eta, float(np.sqrt(alpha)), V.combos, V.ends, c_dist, C_out), K, P, eta
+    return check_lti_scaled(pw, P, eta, float(np.sqrt(alpha)), V.verts, c_dist, C_out), K, P, eta
 
 
 def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int, objective: str,
