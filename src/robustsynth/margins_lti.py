@@ -46,9 +46,9 @@ PIECE_STAGES = (1, 2, 4)  # coarse-to-fine pieces of the certificate bisection (
 MAX_VERTICES = 1024  # a certificate's vertex budget: fewer pieces per instant beyond it, not attempted with one piece beyond it
 MAX_COEFFICIENTS = 2e7  # floats of the LMIs' coefficient tensor (vertices x P entries x block^2): ~160 MB
 # the interior-point solver's work per iteration: vertices x (k (k + 1) / 2)^2, Clarabel's dense scaling block per
-# PSD cone of a k x k block; 3.4e6 took 0.26 s an iteration, 38 iterations (the servo at d = 9, one piece, 18
-# vertices), 2e7 1.6 s (d = 8, two pieces, 165 vertices: 53 s a solve)
-MAX_SCALING = 6e6
+# PSD cone of a k x k block, with k counting every direction (an upper bound: rounding-level ones are dropped);
+# 3.4e6 took 0.26 s an iteration, 38 iterations (the servo at d = 9, one piece, 18 vertices, all directions)
+MAX_SCALING = 1.2e7
 MAX_LOSSES = 3  # the loss margin is searched up to this many losses in a row
 
 
