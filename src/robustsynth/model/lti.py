@@ -12,18 +12,16 @@ which :func:`.lifting.lift` assembles into ``xi_{k+1} = A~ xi_k + B~ u_k`` for a
 successor's arrival, so with at most m losses in a row every instant lies in the ranges of the
 delays [tau_min, tau_max + m Ts] (:func:`.lifting.effective_delays`).
 
-**Over-approximation** (first-order Taylor on a grid, with a bounded remainder; the method of
-Hetel et al. 2006 / Cloosterman et al. 2009 in its simplest form): split the range of
-``theta_j = Ts - s~_j`` into pieces [theta_i, theta_i + delta]; on a piece
+**Over-approximation** (a secant on a grid, with bounded remainders; in the spirit of Hetel et al.
+2006 / Cloosterman et al. 2009; docs/theory.md §14): split the range of ``theta_j = Ts - s~_j`` into
+pieces [theta_i, theta_i + w] (:func:`piece_grid`); on a piece
 
-    G(theta_i + t) = G(theta_i) + t e^{A theta_i} B + R_i(t),
-    ||R_i(t)||_2 <= ||e^{A theta_i}||_2 min(t^2/2 e^{mu t} ||A B||_2, t (e^{mu t} + 1) ||B||_2),
+    G(theta_i + t) = G(theta_i) + C_i + t S_i + R_i(t),   S_i the secant, C_i the centre of its error,
 
-mu the positive part of A's logarithmic norm (``||e^{A s}|| <= e^{mu s}``), from
-``G(theta_i + t) - G(theta_i) = e^{A theta_i} G(t)`` and ``G(t) - t B = int_0^t int_0^s e^{A r} dr ds A B``.  The
-affine part takes its values at the piece's two ends (the vertices); the remainder is a
-norm-bounded uncertainty of radius rho_i (inflated by REMAINDER_INFLATION for the floating-point
-evaluation of the norms).  :func:`coverage_check` tests the containment on random instants.
+with ``||R_i|| <= rho_i`` (full block) and ``||u_l' R_i|| <= rho_il`` along orthonormal directions u_l
+(:func:`_secant_pieces`: sampled, plus a guaranteed bound between samples, a rounding floor and
+REMAINDER_INFLATION).  The affine part takes its values at the vertices of the in-order instants'
+polytope (:func:`in_order_vertices`).  :func:`coverage_check` tests the containment on random instants.
 """
 
 from __future__ import annotations

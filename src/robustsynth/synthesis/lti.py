@@ -2,12 +2,14 @@
 docs/theory.md §14): one quadratic Lyapunov function for every admissible delay sequence.
 
 With the over-approximation of :func:`robustsynth.model.lti.over_approximation` the closed loop is
-``xi+ = M(t) xi + sum_j E w_j``, M affine in the pieces' positions t and ``|w_j| <= rho_j |F_j xi|``.
-``V = xi' P xi`` decreases by the factor ``decay^2`` for every such step when, for every piece
-combination and its ends (V(M(t) xi + E w) is convex in t, so the ends suffice) and with
+``xi+ = M(t) xi + sum_j E w_j``, M affine in the instants' positions t and ``|w_j| <= rho_j |F_j xi|``.
+``V = xi' P xi`` decreases by the factor ``decay^2`` for every such step when, at every vertex of the
+in-order instants' polytope (V(M(t) xi + E w) is convex in t, so the vertices suffice) and with
 S-procedure multipliers ``eps_j >= 0``,
 
-    [[M' P M - decay^2 P + sum_j eps_j rho_j^2 F_j' F_j,  M' P E~], [E~' P M,  E~' P E~ - diag(eps_j I)]] < 0.
+    [[M' P M - decay^2 P + sum_j eps_j rho_j^2 F_j' F_j,  M' P E~], [E~' P M,  E~' P E~ - diag(eps_j I)]] < 0
+
+(the synthesis' form; :func:`analyze_lti` adds a multiplier per direction of the remainder).
 
 A point is accepted only after :func:`robustsynth.certificate.check_lti_certificate` proved it in
 verified arithmetic.
