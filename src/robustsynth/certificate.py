@@ -934,7 +934,7 @@ class Lyapunov:
 
     def V_max(self, xi: np.ndarray) -> np.ndarray:
         xi = np.asarray(xi, dtype=float)
-        vals = [np.einsum("...i,ij,...j->...", xi, P, xi) for P in self.P]
+        vals = [np.sum((xi @ P) * xi, axis=-1) for P in self.P]
         return np.max(vals, axis=0)
 
 

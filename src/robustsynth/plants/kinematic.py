@@ -46,17 +46,28 @@ def arc_step(q: np.ndarray, v: np.ndarray, w: np.ndarray, h: np.ndarray | float,
     dy likewise; stable for w -> 0.  ``vy`` None: no lateral velocity (the tracks model)."""
     th = q[..., 2]
     half = w * h / 2.0
-    scale = h * np.sinc(half / np.pi)  # np.sinc(x) = sin(pi x)/(pi x)
+    scale = h * _sinc(half)
     chord = v * scale
-    out = np.empty_like(q)
-    out[..., 0] = q[..., 0] + chord * np.cos(th + half)
-    out[..., 1] = q[..., 1] + chord * np.sin(th + half)
+    mid = th + half
+    c, s = np.cos(mid), np.sin(mid)
+    out = np.empty(np.broadcast_shapes(q.shape, np.shape(mid) + (3,)))
+    out[..., 0] = q[..., 0] + chord * c
+    out[..., 1] = q[..., 1] + chord * s
     if vy is not None:
         side = vy * scale
-        out[..., 0] -= side * np.sin(th + half)
-        out[..., 1] += side * np.cos(th + half)
+        out[..., 0] -= side * s
+        out[..., 1] += side * c
     out[..., 2] = th + w * h
     return out
+
+
+def _sinc(x: np.ndarray) -> np.ndarray:
+    """sin(x) / x, 1 at 0 (numpy's sinc without its factor pi and its copies)."""
+    x = np.asarray(x, dtype=float)
+    small = np.abs(x) < 1e-4
+    safe = np.where(small, 1.0, x)
+    # below 1e-4 the series 1 - x^2/6 is exact to rounding (the next term, x^4/120, is below 1e-18)
+    return np.where(small, 1.0 - x * x / 6.0, np.sin(safe) / safe)
 
 
 def saturate(u_hat: np.ndarray, J: np.ndarray, J_inv: np.ndarray, rho_max: float | None) -> np.ndarray:
@@ -86,7 +97,10 @@ def period(q: np.ndarray, U: np.ndarray, S: np.ndarray, M: np.ndarray, Ts: float
         mats = [M] + [Mc for _, Mc in changes]
         pieces = [(mats[i], np.clip(changes[i][0], start, end)) for i in range(len(changes))] + [(mats[-1], end)]
         for Mp, stop in pieces:
-            u_eff = np.einsum("...ij,...j->...i", Mp, u)
+            # on the distinct maps and commands only (a search's candidates broadcast a few of each): the same
+            # numbers, broadcast to the runs by the arc below
+            Mc = _compact(Mp)
+            u_eff = Mc[..., 0] * u[..., None, 0] + Mc[..., 1] * u[..., None, 1]
             if u_eff.shape[-1] == 3:
                 q = arc_step(q, u_eff[..., 0], u_eff[..., 2], stop - start, u_eff[..., 1])
             else:
