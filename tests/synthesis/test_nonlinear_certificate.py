@@ -217,20 +217,24 @@ def test_a_broken_heading_bound_in_the_certificate_fails_naming_its_key(committe
 
 @pytest.mark.slow
 def test_a_scan_whose_primary_solver_always_fails_finds_the_same_certificate(monkeypatch) -> None:
-    """Scaled Clarabel made to fail at every solve: the nonlinear scan gives up after 5 failures, its points
-    are retried unscaled, the rest of the grid is scanned unscaled and the best point refined unscaled, so the
-    certificate is the one the committed baseline has (a review found the scan cut at the give-up and the
-    refinement left to the failing solver: 2.553 cm at the bare hint instead of 2.529 cm)."""
+    """The channels' first solver (Clarabel unscaled, design.KINEMATIC_PRIMARY) made to fail at every solve: the
+    nonlinear scan gives up after 5 failures, its points are retried with the other Clarabel (scaled), the rest
+    of the grid is scanned with it and the best point refined with it, so the certificate is the one the
+    committed baseline has (a review found the scan cut at the give-up and the refinement left to the failing
+    solver: 2.553 cm at the bare hint instead of 2.529 cm)."""
     import cvxpy as cp
 
+    from robustsynth.synthesis import design
     from robustsynth.synthesis import solve as solve_mod
     from robustsynth.synthesis import synthesize
 
     real = solve_mod._call_solver
 
+    primary = design.KINEMATIC_PRIMARY["clarabel"]
+
     def failing(problem, name):
-        if name == "clarabel":
-            raise cp.error.SolverError("injected failure of clarabel")
+        if name == primary:
+            raise cp.error.SolverError(f"injected failure of {primary}")
         return real(problem, name)
 
     monkeypatch.setattr(solve_mod, "_call_solver", failing)
@@ -238,7 +242,7 @@ def test_a_scan_whose_primary_solver_always_fails_finds_the_same_certificate(mon
     committed = json.loads((ROOT / "results" / "baselines" / "nonlinear-proof" / "gains.json").read_text())
     theta = float(committed["certificate"]["heading_bound"])
     res = synthesize(build_model(cfg), heading_bound=theta)
-    assert res.check.passed and res.solver["name"] == "clarabel-unscaled" and res.solver["fallback_used"]
+    assert res.check.passed and res.solver["name"] == solve_mod.RETRY[primary] and res.solver["fallback_used"]
     REFINED_REL = 2e-3  # the alpha search's own spread between solvers, on |e_y|
     got, want = res.check.figures["ultimate_bound"]["e_y"], committed["certified"]["ultimate_bound"]["e_y"]
     assert abs(got / want - 1) <= REFINED_REL, (got, want)
@@ -270,3 +274,32 @@ def test_a_start_proven_infeasible_ends_the_nonlinear_search_at_once() -> None:
         lp.params["alpha"].value, lp.params["one_minus_alpha"].value = alpha, 1.0 - alpha
         out = solve(lp.problem, "clarabel", lambda: True, fallback=False, retry=True)
         assert out.kind == "infeasible", [(r.name, r.status) for r in out.attempts]
+
+
+@pytest.mark.slow  # the default's synthesis and one more solve: about 25 s
+def test_auto_tightens_a_heading_bound_the_set_leaves_room_in_and_skips_larger_ones() -> None:
+    """The default robot (icr slip, nonlinear kinematics, heading_bound: auto): at the grid's first bound its set's
+    heading within a period stays below HEADING_SLACK of it, so larger bounds are not tried (they widen every
+    channel's interval: checked here, at the best alpha the next grid bound certifies a larger |e_y| or nothing) and
+    a smaller bound just above the set's heading is, which certifies a smaller |e_y|.  The certificate passes the
+    numpy re-check, its bound just above its set's heading."""
+    from robustsynth.synthesis import synthesize
+    from robustsynth.synthesis.design import HEADING_GRID, HEADING_ROOM, HEADING_SLACK, _run_invariance
+
+    model = build_model(load_config(ROOT / "configs" / "default.yaml"))
+    said: list[str] = []
+    res = synthesize(model, on_step=said.append)
+    f = res.check.figures
+    assert res.check.passed and f["heading_bound"] < HEADING_GRID[0]
+    first = [ln for ln in said if f"|e_theta(t)| <= {HEADING_GRID[0]:g} rad (heading bound 1" in ln]
+    assert first and not any(f"|e_theta(t)| <= {HEADING_GRID[1]:g} rad" in ln for ln in said), said
+    assert any("leaves the bound room" in ln for ln in said), said
+    # the bound sits just above the set's heading: a further tightening would gain less than a tenth
+    assert f["heading_within_period"] <= f["heading_bound"] and HEADING_ROOM * f["heading_within_period"] > 0.9 * f["heading_bound"]
+    # the premise of skipping: at the best alpha the next grid bound is no better
+    s = model.config.synthesis.model_copy(update={"solver": "clarabel-unscaled"})
+    larger, _ = _run_invariance(model.with_heading_bound(HEADING_GRID[1], within_period=True), s, [], True,
+                                alpha_hint=float(res.certificate["alpha"]), retry=False, probe_only=True)
+    ey = f["ultimate_bound"]["e_y"]
+    assert larger.check is None or larger.check.figures["ultimate_bound"]["e_y"] > ey
+    assert HEADING_SLACK < 1.0

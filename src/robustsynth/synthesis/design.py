@@ -394,14 +394,14 @@ def _run_stability(model: Any, s: SynthesisConfig, search: list, say: Callable[[
     return best, runner
 
 
-def _golden(evaluate: Callable[[float], float], a: float, b: float) -> None:
+def _golden(evaluate: Callable[[float], float], a: float, b: float, rel: float = HINT_STOP_REL) -> None:
     """Golden-section search of ``evaluate`` (log alpha) on [a, b]; it stops once the
-    two inner points agree to HINT_STOP_REL (the bound then moves by less than that)."""
+    two inner points agree to ``rel`` (the bound then moves by less than that)."""
     phi = (math.sqrt(5.0) - 1.0) / 2.0
     c, d = b - phi * (b - a), a + phi * (b - a)
     fc, fd = evaluate(c), evaluate(d)
     for _ in range(GOLDEN_STEPS):
-        if math.isfinite(fc) and math.isfinite(fd) and abs(fc - fd) <= HINT_STOP_REL * min(fc, fd):
+        if math.isfinite(fc) and math.isfinite(fd) and abs(fc - fd) <= rel * min(fc, fd):
             return
         if b - a < GOLDEN_MIN_BRACKET:  # alpha known to 2 %: where solves keep failing near a flat minimum (the icr
             return  # model's nonlinear certificates), ten more of them would not move the bound
@@ -417,16 +417,22 @@ def _golden(evaluate: Callable[[float], float], a: float, b: float) -> None:
 
 REFINE_STEPS = 4  # parabolic steps after the walk, at most
 WALK_STEP = 0.25  # the hinted walk's step, in grid steps of log alpha
+# the stop tolerance of the searches whose solves take seconds (the kinematic channels, docs/theory.md §9): the
+# objective is a weighted sum of squared bounds, so 2e-3 is a bound within 0.1 % of the best along alpha; the default
+# robot's bound is flat there (2.35 / 2.34 / 2.34 cm at alpha 0.149 / 0.145 / 0.141), and each solve of 1e-5's
+# refinement cost about 5 s of a 60 s synthesis for the last 0.01 cm
+COSTLY_STOP_REL = 2e-3
 
 
-def _parabolic(evaluate: Callable[[float], float], pts: list[tuple[float, float]], predict: bool = False) -> None:
+def _parabolic(evaluate: Callable[[float], float], pts: list[tuple[float, float]], predict: bool = False,
+               rel: float = HINT_STOP_REL) -> None:
     """Successive parabolic interpolation of ``evaluate`` (log alpha) from bracketing points: near its
     minimum the objective is smooth in log alpha, so the vertex of the parabola through the best point
     and its two neighbours lands on it in a step or two (a golden section needs ten).  Stops when a
-    step no longer improves the objective by HINT_STOP_REL, or when the best point has no finite
+    step no longer improves the objective by ``rel`` (HINT_STOP_REL), or when the best point has no finite
     neighbour on a side (then a golden section on its bracket).  With ``predict`` (a bracket a few
     quarter grid steps wide, where the parabola is accurate) it also stops *before* a step whose
-    predicted gain is below HINT_STOP_REL; on the wide bracket of the full scan that prediction let an
+    predicted gain is below ``rel``; on the wide bracket of the full scan that prediction let an
     unweighted figure drift by ~1 % along the flat valley (configs/heavy-slip.yaml's e_x)."""
     pts = sorted(pts)
     for _ in range(REFINE_STEPS):
@@ -435,11 +441,11 @@ def _parabolic(evaluate: Callable[[float], float], pts: list[tuple[float, float]
             if len(pts) > 1:  # between it and its neighbour, as the golden section always did
                 j = 1 if i == 0 else len(pts) - 2
                 if math.isfinite(pts[j][1]):
-                    _golden(evaluate, min(pts[i][0], pts[j][0]), max(pts[i][0], pts[j][0]))
+                    _golden(evaluate, min(pts[i][0], pts[j][0]), max(pts[i][0], pts[j][0]), rel)
             return
         (x1, f1), (x2, f2), (x3, f3) = pts[i - 1], pts[i], pts[i + 1]
         if not (math.isfinite(f1) and math.isfinite(f3)):
-            _golden(evaluate, x1, x3)
+            _golden(evaluate, x1, x3, rel)
             return
         num = (x2 - x1) ** 2 * (f2 - f3) - (x2 - x3) ** 2 * (f2 - f1)
         den = (x2 - x1) * (f2 - f3) - (x2 - x3) * (f2 - f1)
@@ -448,7 +454,7 @@ def _parabolic(evaluate: Callable[[float], float], pts: list[tuple[float, float]
         x = x2 - 0.5 * num / den
         # the parabola's value at its vertex: a step that cannot gain the tolerance is not taken
         a = ((f3 - f2) / (x3 - x2) - (f2 - f1) / (x2 - x1)) / (x3 - x1)
-        if predict and a > 0 and a * (x - x2) ** 2 <= HINT_STOP_REL * f2:
+        if predict and a > 0 and a * (x - x2) ** 2 <= rel * f2:
             return
         # stay strictly inside the bracket, away from the points already solved
         gap = 0.05 * (x3 - x1)
@@ -457,13 +463,14 @@ def _parabolic(evaluate: Callable[[float], float], pts: list[tuple[float, float]
             return
         f = evaluate(x)
         pts = sorted(pts + [(x, f)])
-        if math.isfinite(f) and abs(f2 - f) <= HINT_STOP_REL * f2:
+        if math.isfinite(f) and abs(f2 - f) <= rel * f2:
             return  # the parabola's vertex and the best point agree: the minimum is found to the tolerance
 
 
-def _walk(evaluate: Callable[[float], float], x0: float, step: float, lo: float, hi: float) -> list[tuple[float, float]]:
-    """From x0 (log alpha), one ``step`` at a time in each direction while the objective falls: the
-    points evaluated, which bracket the minimum near x0."""
+def _walk(evaluate: Callable[[float], float], x0: float, step: float, lo: float, hi: float,
+          rel: float = 0.0) -> list[tuple[float, float]]:
+    """From x0 (log alpha), one ``step`` at a time in each direction while the objective falls (by more than
+    the fraction ``rel``): the points evaluated, which bracket the minimum near x0."""
     pts = [(x0, evaluate(x0))]
     if not math.isfinite(pts[0][1]):
         return pts
@@ -475,7 +482,7 @@ def _walk(evaluate: Callable[[float], float], x0: float, step: float, lo: float,
                 break
             fn = evaluate(xn)
             pts.append((xn, fn))
-            if not fn < f:
+            if not fn < f * (1.0 - rel):
                 break
             x, f = xn, fn
     return sorted(pts)
@@ -485,7 +492,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     say: Callable[[str], None] = lambda _m: None,
                     alpha_hint: float | None = None, retry: bool | str = True, probe_only: bool = False,
                     give_up: int | None = None,
-                    prune: Callable[[list[float]], set[float]] | None = None) -> tuple[_Best, _Runner]:
+                    prune: Callable[[list[float]], set[float]] | None = None,
+                    stop_rel: float = HINT_STOP_REL) -> tuple[_Best, _Runner]:
     """The alpha line search of the invariance LMIs.  Without a hint: a log grid of alpha_points
     scanned upwards, then parabolic steps around its best point.  With ``alpha_hint`` (the best alpha
     of a cheaper certificate class): walk from the hint in quarter grid steps while the bound falls,
@@ -494,7 +502,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     points again, with the fallback chain (True), only the same solver unscaled ('cheap'), or not (False).
     ``prune``: given the scan's alphas that were not
     certified, before the failed ones are retried with the fallback solver, returns those proven
-    infeasible otherwise (they are not retried)."""
+    infeasible otherwise (they are not retried).  ``stop_rel``: the refinement's stop tolerance on the objective
+    (COSTLY_STOP_REL where each solve takes seconds; the hinted walk then also stops at smaller gains)."""
     lp = _build(build_invariance, model, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,
                 symmetry=s.symmetry == "auto")
     full = lambda mdl: build_invariance(mdl, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,  # noqa: E731
@@ -553,9 +562,10 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         # quarter grid steps: the richer classes' best alpha lies within a step or two of the common
         # certificate's (measured on the default robot: 0.219 -> 0.218 / 0.228 / 0.231), and a tight
         # bracket makes the parabola exact enough to stop after one or two solves
-        pts = _walk(evaluate, min(max(math.log(alpha_hint), lo), hi), WALK_STEP * float(grid[1] - grid[0]), lo, hi)
+        pts = _walk(evaluate, min(max(math.log(alpha_hint), lo), hi), WALK_STEP * float(grid[1] - grid[0]), lo, hi,
+                    rel=0.0 if stop_rel == HINT_STOP_REL else stop_rel)
         if best.cert is not None:
-            _parabolic(evaluate, pts, predict=True)
+            _parabolic(evaluate, pts, predict=True, rel=stop_rel)
             return best, runner
         say("  the hint is not feasible for this class: full scan")
     vals: list[float] = []
@@ -637,7 +647,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     extra = [(g, v) for g, v in cache.items() if g not in on_grid and math.isfinite(v)]
     # refined by the solver that certified: the unscaled one where the primary failed at every point it tried
     unscaled = best.record is not None and best.record.name == RETRY.get(runner.primary)
-    _parabolic(lambda x: evaluate(x, unscaled_only=unscaled), sorted([(float(g), v) for g, v in zip(grid, vals)] + extra))
+    _parabolic(lambda x: evaluate(x, unscaled_only=unscaled), sorted([(float(g), v) for g, v in zip(grid, vals)] + extra),
+               rel=stop_rel)
     return best, runner
 
 
@@ -823,7 +834,7 @@ def _least_kind(status: str, solver: str) -> str | None:
     guess with no tolerance behind it (a review found such bounds 40 % below Clarabel's optimal ones)."""
     if status in ("optimal", "infeasible"):
         return "proven"
-    return "inaccurate" if status == "optimal_inaccurate" and solver == "clarabel" else None
+    return "inaccurate" if status == "optimal_inaccurate" and solver.startswith("clarabel") else None
 
 
 def _least_motor_speeds(model: Any, s: SynthesisConfig, alphas: list[float],
@@ -925,6 +936,19 @@ def _run_linearized(model: Any, s: SynthesisConfig, search: list, motor: bool,
 
 
 HEADING_GRID = (0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.7)  # heading_bound: auto tries these [rad]
+# auto's heading bound binds when the certified set's heading within a period reaches this fraction of it; below,
+# larger bounds are not tried (they widen every channel's interval and loosen only rows that do not bind: for each
+# alpha the LMIs are convex, so their optimum is the one without the heading rows, over channels that only widen) and
+# a smaller one is, just above the set's heading (HEADING_ROOM): the default robot's 0.1 rad left its set at 0.078 rad
+HEADING_SLACK = 0.95
+HEADING_ROOM = 1.03  # the smaller bound tried: this times the set's heading within a period (rounded up to 1e-3 rad)
+HEADING_TIGHTEN = 2  # smaller bounds tried at most, each one solve at the best alpha
+# the first solver of the kinematic channels' problems: Clarabel without its equilibration concluded (optimal or
+# infeasible) at every alpha and heading bound tried on the default robot, where the scaled one returned inaccurate
+# points or failed at most of them (scaled: 9 of 10 solves at heading 0.1 rad inaccurate, 2 failed); on the tracks
+# configs both conclude alike, the unscaled one in 0.3-0.7 s against 0.5-1.2 s (measured, stop 64).  The scaled
+# Clarabel is its retry
+KINEMATIC_PRIMARY = {"clarabel": "clarabel-unscaled"}
 # a heading bound's alpha scan stops after this many solver failures in a row with nothing certified (the
 # grid's lowest alphas are the hardest: a band of 3 failures there below a feasible minimum was seen in a
 # constructed case; 5 is a third of the default grid)
@@ -946,6 +970,9 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
         # the straight constant-slip one (no channels, seconds) does about as well
         lin = replace(lin, vertices=model.base_vertices, turns=None, covering_vertices=(), channels=_straight_channels(model))
     sc = s.model_copy(update={"lyapunov": "common", "kinematics": "linearized"})
+    # the channels' searches below (the linearized start keeps the configured solver: on configs/turns.yaml's arc
+    # channels the scaled one took 1.4 s a point against 2.0 s unscaled, both optimal)
+    s = s.model_copy(update={"solver": KINEMATIC_PRIMARY.get(s.solver, s.solver)})
     say(f"the linearized common certificate, where the search starts ({len(lin.vertices)} vertices)")
     least: dict[float, float | None] = {}  # alpha -> the linearized LMIs' least motor bound, where proven
     common, crunner = _run_invariance(lin, sc, [], motor, say, prune=_motor_pruner(lin, sc, least, say=say) if motor else None)
@@ -978,7 +1005,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     break
             b, r = _run_invariance(m, s, search, motor, say, alpha_hint=hint, retry="cheap" if auto else True,
                                    give_up=NONLINEAR_GIVE_UP,
-                                   prune=_motor_pruner(m, s, say=say) if motor else None)
+                                   prune=_motor_pruner(m, s, say=say) if motor else None, stop_rel=COSTLY_STOP_REL)
         except InfeasibleError as exc:  # the heading bound is below the slip's own turn
             say(f"  {exc}")
             tried.append((tb, "below the slip's own turn within a period"))
@@ -994,6 +1021,28 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
             best, runner = b, r
         elif best.cert is not None:  # past the best bound: larger headings cost more
             break
+        if auto and b.cert is not None and _heading_room(b) < HEADING_SLACK * tb:
+            say(f"  the set's heading within a period, {_heading_room(b):.3g} rad, leaves the bound room: larger "
+                "bounds only widen the channels")
+            break
+    if auto and best.cert is not None:  # a smaller bound, just above the set's own heading
+        for _ in range(HEADING_TIGHTEN):
+            tb0, h = float(best.check.figures["heading_bound"]), _heading_room(best)
+            tb = math.ceil(HEADING_ROOM * h * 1e3) / 1e3
+            if not tb < 0.9 * tb0:
+                break
+            say(f"{s.objective}, nonlinear kinematics with |e_theta(t)| <= {tb:g} rad (the set's heading within a period "
+                f"at {tb0:g} rad was {h:.3g}): one solve at the best alpha")
+            try:
+                pb, pr = _run_invariance(model.with_heading_bound(tb, within_period=s.lyapunov == "common"), s, search,
+                                         motor, say, alpha_hint=float(best.cert["alpha"]), retry=False, probe_only=True)
+            except InfeasibleError as exc:  # below the slip's own turn within a period
+                say(f"  {exc}")
+                break
+            tried.append((tb, "certified" if pb.cert is not None else "not certified at the best alpha"))
+            if pb.cert is None or pb.value >= best.value:
+                break
+            best, runner = pb, pr
     if best.cert is None:
         # exit 4 where no solve of any heading bound concluded (every one failed), exit 3 where one did (a solver's
         # infeasibility, or a bound below the slip's own turn): the same rule for one bound and for auto's several
@@ -1002,14 +1051,21 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
         if tried and all(why == "solver failed" for _, why in tried):
             retries = ""
             if auto:
-                retries = ("; heading_bound: auto retries its failed points with Clarabel unscaled only, a single "
-                           "synthesis.heading_bound also with the fallback solver" if s.solver in RETRY else
+                retries = (f"; the solves ran on {s.solver}; heading_bound: auto retries its failed points with "
+                           f"{RETRY.get(s.solver)} only, a single synthesis.heading_bound also with the fallback solver"
+                           if s.solver in RETRY else
                            "; heading_bound: auto retries nothing, a single synthesis.heading_bound retries with the "
                            "fallback solver")
             raise SolverFailure("ultimate-bound (nonlinear kinematics): every solve failed (numerical trouble, usually "
                                 f"near infeasibility{retries}). " + _nonlinear_infeasible(model, common, tried, tried_at, auto))
         raise InfeasibleError(_nonlinear_infeasible(model, common, tried, tried_at, auto))
     return best, runner
+
+
+def _heading_room(best: _Best) -> float:
+    """The certified set's largest |e_theta(t)| within a period (its heading rows' figure)."""
+    f = best.check.figures
+    return float(f.get("heading_within_period") or f["ultimate_bound"]["e_theta"])
 
 
 def _stop_if_the_start_is_infeasible(model: Any, start: _Runner, least: dict[float, float | None], motor: bool) -> None:

@@ -43,8 +43,10 @@ SOLVER_OPTIONS: dict[str, dict[str, Any]] = {
 # solve 'solver_error' in ~0.3 s scaled, 'infeasible' in ~0.3 s unscaled, where SCS takes 1-29 s to say
 # the same; on certified points both give the same optimum)
 SOLVER_OPTIONS["clarabel-unscaled"] = {**SOLVER_OPTIONS["clarabel"], "equilibrate_enable": False}
-RETRY = {"clarabel": "clarabel-unscaled"}  # the cheap retry: after its solver, before the fallback solver
-FALLBACK = {"clarabel": "scs", "scs": "clarabel"}
+# the cheap retry: after its solver, before the fallback solver (each Clarabel the other: the kinematic channels'
+# problems start unscaled, synthesis.design.KINEMATIC_PRIMARY)
+RETRY = {"clarabel": "clarabel-unscaled", "clarabel-unscaled": "clarabel"}
+FALLBACK = {"clarabel": "scs", "clarabel-unscaled": "scs", "scs": "clarabel"}
 
 
 def solver_options(name: str) -> dict[str, Any]:
