@@ -962,29 +962,18 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
     linearized common certificate's best alpha; the smallest weighted bound wins.  When no bound gives a
     certificate it raises SolverFailure where every solve of every bound failed (after the retries: Clarabel
     unscaled, and for a configured bound the fallback solver too), else InfeasibleError, both naming the
-    heading bounds, the alphas tried and the heading and forward-speed ranges of the linearized set."""
-    lin = model.linearized()
-    if model.icr and model.covering_vertices:
-        # the icr model's linearized certificate with the covering channels (and the arcs') costs as much as the
-        # nonlinear one (48 vertices of 40 channels: minutes); its alpha and heading only start the search, which
-        # the straight constant-slip one (no channels, seconds) does about as well
-        lin = replace(lin, vertices=model.base_vertices, turns=None, covering_vertices=(), channels=_straight_channels(model))
-    sc = s.model_copy(update={"lyapunov": "common", "kinematics": "linearized"})
+    heading bounds, the alphas tried and the heading and forward-speed ranges of the linearized set; an exit 3
+    also names what each remedy gave when tried (:mod:`robustsynth.synthesis.remedies`)."""
+    common, crunner, least = _start(model, s, motor, say)
+    given = s
     # the channels' searches below (the linearized start keeps the configured solver: on configs/turns.yaml's arc
     # channels the scaled one took 1.4 s a point against 2.0 s unscaled, both optimal)
     s = s.model_copy(update={"solver": KINEMATIC_PRIMARY.get(s.solver, s.solver)})
-    say(f"the linearized common certificate, where the search starts ({len(lin.vertices)} vertices)")
-    least: dict[float, float | None] = {}  # alpha -> the linearized LMIs' least motor bound, where proven
-    common, crunner = _run_invariance(lin, sc, [], motor, say, prune=_motor_pruner(lin, sc, least, say=say) if motor else None)
     if common.cert is None and s.lyapunov == "common":
         _stop_if_the_start_is_infeasible(model, crunner, least, motor)
     hint = float(common.cert["alpha"]) if common.cert is not None else None
     auto = s.heading_bound == "auto"
-    if auto:  # upwards from about the linearized set's own heading: a smaller bound rarely helps
-        start = 0.9 * float(common.check.figures.get("heading_within_period", 0.0)) if common.check is not None else 0.0
-        bounds = tuple(b for b in HEADING_GRID if b >= start) or HEADING_GRID[-1:]
-    else:
-        bounds = (float(s.heading_bound),)
+    bounds = _auto_bounds(common) if auto else (float(s.heading_bound),)
     best, runner, tried, below = _Best(), None, [], None
     tried_at: dict[float, tuple[int, int]] = {}  # heading bound -> (alphas solved, of which the solver failed)
     for j, tb in enumerate(bounds):
@@ -1058,8 +1047,55 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                            "fallback solver")
             raise SolverFailure("ultimate-bound (nonlinear kinematics): every solve failed (numerical trouble, usually "
                                 f"near infeasibility{retries}). " + _nonlinear_infeasible(model, common, tried, tried_at, auto))
-        raise InfeasibleError(_nonlinear_infeasible(model, common, tried, tried_at, auto))
+        from .remedies import try_remedies
+
+        tries = try_remedies(model, lambda m: _first_try(m, given, motor), say)
+        raise InfeasibleError(_nonlinear_infeasible(model, common, tried, tried_at, auto)
+                              + (". Tried (" + "; ".join(tries) + ")" if tries else ""))
     return best, runner
+
+
+def _start(model: Any, s: SynthesisConfig, motor: bool, say: Callable[[str], None]
+           ) -> tuple[_Best, _Runner, dict[float, float | None]]:
+    """The linearized common certificate where a nonlinear search starts (its alpha and heading), the runner of
+    its scan, and its least motor bounds per alpha where proven."""
+    lin = model.linearized()
+    if model.icr and model.covering_vertices:
+        # the icr model's linearized certificate with the covering channels (and the arcs') costs as much as the
+        # nonlinear one (48 vertices of 40 channels: minutes); its alpha and heading only start the search, which
+        # the straight constant-slip one (no channels, seconds) does about as well
+        lin = replace(lin, vertices=model.base_vertices, turns=None, covering_vertices=(), channels=_straight_channels(model))
+    sc = s.model_copy(update={"lyapunov": "common", "kinematics": "linearized"})
+    say(f"the linearized common certificate, where the search starts ({len(lin.vertices)} vertices)")
+    least: dict[float, float | None] = {}  # alpha -> the linearized LMIs' least motor bound, where proven
+    common, crunner = _run_invariance(lin, sc, [], motor, say, prune=_motor_pruner(lin, sc, least, say=say) if motor else None)
+    return common, crunner, least
+
+
+def _auto_bounds(common: _Best) -> tuple[float, ...]:
+    """heading_bound: auto's bounds, upwards from about the linearized set's own heading (a smaller bound rarely
+    helps; the search tightens a certified one afterwards)."""
+    start = 0.9 * float(common.check.figures.get("heading_within_period", 0.0)) if common.check is not None else 0.0
+    return tuple(b for b in HEADING_GRID if b >= start) or HEADING_GRID[-1:]
+
+
+def _first_try(model: Any, s: SynthesisConfig, motor: bool) -> dict[str, Any] | None:
+    """A quick search of the nonlinear certificate (remedies): the linearized start, then one solve at its best
+    alpha for each heading bound auto would try, upwards; the certified figures of the first that certifies (a
+    bound the full search reaches or improves on), or None."""
+    common, _, _ = _start(model, s, motor, lambda _m: None)
+    if common.cert is None:
+        return None
+    s = s.model_copy(update={"heading_bound": "auto", "solver": KINEMATIC_PRIMARY.get(s.solver, s.solver)})
+    for tb in _auto_bounds(common):
+        try:
+            b, _ = _run_invariance(model.with_heading_bound(tb, within_period=s.lyapunov == "common"), s, [], motor,
+                                   alpha_hint=float(common.cert["alpha"]), retry=False, probe_only=True)
+        except InfeasibleError:  # below the slip's own turn within a period
+            continue
+        if b.cert is not None:
+            return dict(b.check.figures)
+    return None
 
 
 def _heading_room(best: _Best) -> float:

@@ -247,12 +247,15 @@ def _call_solver(problem: cp.Problem, name: str) -> None:
 @contextlib.contextmanager
 def _quiet() -> Iterator[None]:
     """cvxpy's UserWarning about an inaccurate solution is held back: the status reports it and the
-    caller handles it.  ``warnings.catch_warnings`` saves and restores the process-wide filter list,
-    so it must not be entered by threads that overlap (solve_all enters it once around its pool)."""
+    caller handles it; so are numpy's RuntimeWarnings from cvxpy's unpacking of a failed solve (an overflow in
+    its PSD utilities reached the terminal after a solver error: the status says it).  ``warnings.catch_warnings``
+    saves and restores the process-wide filter list, so it must not be entered by threads that overlap
+    (solve_all enters it once around its pool)."""
     import warnings
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
+        warnings.filterwarnings("ignore", category=RuntimeWarning, module=r"cvxpy\.")
         yield
 
 

@@ -1,0 +1,83 @@
+"""Where no proof for the robot exists: each remedy tried, with the figure it gives (issue 49).
+
+When the nonlinear-kinematics search ends without a certificate (exit 3), the remedies its message names are
+tried on copies of the config, cheapest first, within a time budget: a slip box half as wide about its centre, a
+bound on the slip's rate, half the reference speed, turns of twice the radius.  Each try is one quick search
+(``first_try``, from :mod:`robustsynth.synthesis.design`: the linearized start, then one solve at its best alpha
+for each of the first two heading bounds auto would try), so a figure it gives is one that ``synthesize`` with
+that change reaches or improves on, and "none at the first try" proves nothing: it says only that this one try
+found no set.  This module does not import the search (it is handed ``first_try``): the search calls it.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any, Callable
+
+__all__ = ["try_remedies", "candidates", "REMEDY_BUDGET_S", "RATE_PERIODS"]
+
+REMEDY_BUDGET_S = 60.0  # [s] the tries together; a remedy whose turn comes after it is named, not tried
+RATE_PERIODS = 10  # the tried slip rate crosses the slip box in this many periods
+
+
+def candidates(cfg: Any) -> list[tuple[str, dict[str, Any]]]:
+    """The remedies that apply to ``cfg``, as (what it is, in words, the config's changed keys as a nested
+    mapping): the slip box half as wide about its centre; where slip may jump, a rate that crosses the box in
+    RATE_PERIODS periods; half the reference speed; turns of twice the radius (a turning reference)."""
+    slip = cfg.slip
+    keys = ["right", "left"] + (["yaw", "icr_offset"] if slip.model == "icr" else [])
+    half: dict[str, Any] = {}
+    for k in keys:
+        r = getattr(slip, k)
+        c, w = (r.min + r.max) / 2.0, (r.max - r.min) / 4.0
+        half[k] = {"min": c - w, "max": c + w}
+    box = ", ".join(f"{k} [{half[k]['min']:.4g}, {half[k]['max']:.4g}]" for k in keys)
+    out = [(f"slip half as wide ({box})", {"slip": half})]
+    if slip.max_rate is None:
+        width = max(slip.right.max - slip.right.min, slip.left.max - slip.left.min)
+        rate = width / (RATE_PERIODS * cfg.network.sampling_time)
+        out.append((f"slip.max_rate {rate:.3g} /s (the box crossed in {RATE_PERIODS} periods)", {"slip": {"max_rate": rate}}))
+    out.append((f"reference.speed {cfg.reference.speed / 2.0:g} m/s", {"reference": {"speed": cfg.reference.speed / 2.0}}))
+    if cfg.reference.turn_radius is not None:
+        out.append((f"reference.turn_radius {2.0 * cfg.reference.turn_radius:g} m",
+                    {"reference": {"turn_radius": 2.0 * cfg.reference.turn_radius}}))
+    return out
+
+
+def _merged(base: dict[str, Any], change: dict[str, Any]) -> dict[str, Any]:
+    out = dict(base)
+    for k, v in change.items():
+        out[k] = _merged(base.get(k) or {}, v) if isinstance(v, dict) else v
+    return out
+
+
+def try_remedies(model: Any, first_try: Callable[[Any], dict[str, Any] | None], say: Callable[[str], None],
+                 budget_s: float = REMEDY_BUDGET_S) -> list[str]:
+    """One line per remedy of :func:`candidates`: the certified |e_y| the quick search found for the robot with it
+    (``first_try(model)``: the certified figures, or None), "none at the first try", why it could not be tried (the
+    config refuses the change, the model cannot be built), or "not tried" once ``budget_s`` is spent."""
+    from ..config import config_to_dict, load_config
+    from ..errors import RobustSynthError
+    from ..model import build_model
+
+    cfg = model.config
+    base = config_to_dict(cfg)
+    lines: list[str] = []
+    t0 = time.perf_counter()
+    for what, change in candidates(cfg):
+        if time.perf_counter() - t0 > budget_s:
+            lines.append(f"{what}: not tried (the tries' {budget_s:.0f} s were spent)")
+            continue
+        say(f"remedy: {what}, a quick search")
+        try:
+            figures = first_try(build_model(load_config(_merged(base, change))))
+        except RobustSynthError as exc:  # the change itself is refused (a config error), or found infeasible at once
+            lines.append(f"{what}: refused ({exc})")
+            continue
+        if figures is None:
+            lines.append(f"{what}: none at the first try")
+        else:
+            ub = figures["ultimate_bound"]
+            lines.append(f"{what}: proven for the robot, |e_y| <= {100 * ub['e_y']:.2f} cm at the first try "
+                         f"(heading bound {figures['heading_bound']:g} rad)")
+    return lines

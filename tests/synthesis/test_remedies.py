@@ -1,0 +1,85 @@
+"""Where no proof for the robot exists, the remedies are tried (robustsynth.synthesis.remedies, issue 49): what
+each one changes in the config, and that a figure a quick try reports is one the full search reaches."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from robustsynth.config import config_to_dict, load_config
+from robustsynth.synthesis.remedies import RATE_PERIODS, _merged, candidates
+
+ROOT = Path(__file__).resolve().parents[2]
+EXACT = 1e-12  # the changed values are arithmetic on the config's own
+
+
+def _changed(cfg, change):
+    return load_config(_merged(config_to_dict(cfg), change))
+
+
+def test_each_remedy_changes_what_it_says_and_nothing_else() -> None:
+    """tracks-box (slip [0.6, 1] free to jump, straight path): the box half as wide about its centre, a rate that
+    crosses it in RATE_PERIODS periods, half the speed; no turn radius to widen.  Every changed config loads, and
+    apart from the changed keys it is the config itself."""
+    cfg = load_config(ROOT / "configs" / "tracks-box.yaml")
+    got = candidates(cfg)
+    assert [c[0].split(" ")[0] for c in got] == ["slip", "slip.max_rate", "reference.speed"]
+    half, rate, speed = (_changed(cfg, c[1]) for c in got)
+    for track in ("right", "left"):
+        r = getattr(half.slip, track)
+        assert abs(r.min - 0.7) <= EXACT and abs(r.max - 0.9) <= EXACT
+    assert abs(rate.slip.max_rate - 0.4 / (RATE_PERIODS * cfg.network.sampling_time)) <= EXACT
+    assert speed.reference.speed == cfg.reference.speed / 2
+    base = config_to_dict(cfg)
+    for new, keys in ((half, ("slip",)), (rate, ("slip",)), (speed, ("reference",))):
+        d = config_to_dict(new)
+        assert {k for k in base if base[k] != d[k]} == set(keys)
+
+
+def test_the_icr_box_halves_every_parameter_and_a_turning_path_gets_wider_turns() -> None:
+    """The default (icr box, 8 m turns): all four parameters' ranges halved about their centres, turns of 16 m
+    (which its path's short segment refuses: the remedy's line then says why); a config that already bounds the
+    slip's rate gets no rate remedy."""
+    from robustsynth.errors import ConfigError
+
+    cfg = load_config(ROOT / "configs" / "default.yaml")
+    got = dict(candidates(cfg))
+    half = _changed(cfg, next(v for k, v in got.items() if k.startswith("slip half")))
+    for key in ("right", "left", "yaw", "icr_offset"):
+        old, new = getattr(cfg.slip, key), getattr(half.slip, key)
+        assert abs((new.min + new.max) - (old.min + old.max)) <= EXACT
+        assert abs(2 * (new.max - new.min) - (old.max - old.min)) <= EXACT
+    wider = next(v for k, v in got.items() if k.startswith("reference.turn_radius"))
+    assert wider == {"reference": {"turn_radius": 2 * cfg.reference.turn_radius}}
+    with pytest.raises(ConfigError, match="reference.path: with reference.turn_radius 16 m"):
+        _changed(cfg, wider)
+    rated = _changed(cfg, next(v for k, v in got.items() if k.startswith("slip.max_rate")))
+    assert not any(k.startswith("slip.max_rate") for k, _ in candidates(rated))
+
+
+@pytest.mark.slow  # three syntheses of the tracks box: about a minute and a half
+def test_an_exit_3_names_the_remedies_tried_and_their_figures_hold() -> None:
+    """tracks-box with nonlinear kinematics has no robot proof: the exit-3 message says what each remedy gave
+    at the first try, on one line; the half-wide box is proven there, and the full search on that box reaches
+    that figure or better (the quick try's is one point of the full search's space)."""
+    import re
+
+    from robustsynth.errors import InfeasibleError
+    from robustsynth.model import build_model
+    from robustsynth.synthesis import synthesize
+
+    cfg = load_config(ROOT / "configs" / "tracks-box.yaml")
+    nl = load_config(_merged(config_to_dict(cfg), {"synthesis": {"kinematics": "nonlinear", "heading_bound": "auto"}}))
+    with pytest.raises(InfeasibleError) as info:
+        synthesize(build_model(nl))
+    msg = str(info.value)
+    assert "\n" not in msg and ". Tried (" in msg
+    found = re.search(r"slip half as wide \([^)]*\): proven for the robot, \|e_y\| <= ([0-9.]+) cm at the first try", msg)
+    assert found, msg
+    for what, _ in candidates(nl):
+        assert what in msg
+    half = next(v for k, v in candidates(nl) if k.startswith("slip half"))
+    full = synthesize(build_model(_changed(nl, half)))
+    assert full.check.passed
+    assert 100 * full.check.figures["ultimate_bound"]["e_y"] <= float(found.group(1)) + 0.005  # the message's 2 decimals
