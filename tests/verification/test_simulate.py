@@ -458,3 +458,27 @@ def test_top_distinct_sorts_a_prefix_and_picks_what_the_full_sort_picks(n, width
     score = rng.integers(0, levels, size=n).astype(float) + rng.choice([0.0, 1e-14], size=n)
     score[rng.random(n) < infs] = -np.inf
     assert np.array_equal(_top_distinct(score, width), _top_distinct_by_full_sort(score, width))
+
+
+def test_the_adversarys_searches_on_threads_give_what_one_thread_gives() -> None:
+    """verify runs the adversary's independent searches (courses, slip changing within the period or not) on
+    threads and merges them in their order: every figure and every worst history is the one of a single thread,
+    bit for bit (configs/turns.yaml's committed gain: five courses, a turning model)."""
+    from robustsynth.certificate import lyapunov_of
+    from robustsynth.verification.checks import _adversary
+
+    from ..conftest import committed_gain
+
+    m, K, cert = committed_gain("turns")
+    lyap = lyapunov_of(m, cert)
+    runs = [_adversary(True, m, K, lyap.V, slip_vertices(m), 12, width=3, objectives=ADVERSARY_OBJECTIVES, workers=w)
+            for w in (1, 2)]
+
+    def same(a, b) -> bool:
+        if isinstance(a, dict):
+            return a.keys() == b.keys() and all(same(a[k], b[k]) for k in a)
+        if isinstance(a, (list, tuple)):
+            return len(a) == len(b) and all(same(x, y) for x, y in zip(a, b))
+        return np.array_equal(np.asarray(a), np.asarray(b))
+
+    assert same(*runs)

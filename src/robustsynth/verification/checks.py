@@ -427,20 +427,46 @@ def _beyond_cap(model, K, gains: dict, cert: CertificateCheck, ub, runs: int, se
     return out
 
 
-def _adversary(within: bool, model, *args, **kwargs) -> dict:
+ADVERSARY_WORKERS = 2  # threads for the adversary's searches (numpy releases the GIL in its array loops)
+
+
+def _adversary(within: bool, model, *args, workers: int = ADVERSARY_WORKERS, **kwargs) -> dict:
     """:func:`adversarial_nonlinear`; where the certificate covers slip changing within a period
     (``within``), merged with the same search that also picks the times of the changes (a beam search
     with more choices keeps different histories and does not always find more); for a turning model,
     merged with the same searches along the arcs of :func:`~robustsynth.verification.simulate.adversary_course` and
     along references whose yaw rates the adversary picks (FREE_YAW; with slip changing at the sampling instants only:
     the times within a period multiply its choices by 4 again, 17 s against 3 s on configs/turns.yaml for the same
-    figures, and the fixed courses pick them)."""
-    out = None
-    for course in adversary_courses(model):
-        for w in (False, True) if within and course != FREE_YAW else (False,):
-            adv = adversarial_nonlinear(model, *args, within_period=w, course=course, **kwargs)
-            out = adv if out is None else merge_adversaries(out, adv)
+    figures, and the fixed courses pick them).  The searches are independent: they run on ``workers`` threads and
+    are merged in their order, so the result does not depend on ``workers``."""
+    jobs = [(course, w) for course in adversary_courses(model)
+            for w in ((False, True) if within and course != FREE_YAW else (False,))]
+    outs = _threaded(lambda job: adversarial_nonlinear(model, *args, within_period=job[1], course=job[0], **kwargs),
+                     jobs, workers)
+    out = outs[0]
+    for adv in outs[1:]:
+        out = merge_adversaries(out, adv)
     return out
+
+
+def _threaded(fn: Callable[[Any], Any], jobs: list, workers: int) -> list:
+    """``[fn(job) for job in jobs]`` on ``workers`` threads, BLAS on one thread meanwhile (the threads share the
+    cores).  An interrupt reaches the jobs through :func:`~robustsynth.errors.check_interrupt` (every period of a
+    search); the waiting thread does not wait for them to end."""
+    workers = max(1, min(int(workers), len(jobs)))
+    if workers == 1:
+        return [fn(job) for job in jobs]
+    from concurrent.futures import ThreadPoolExecutor
+
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1, user_api="blas"):
+        pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="robustsynth-adversary")
+        try:
+            futures = [pool.submit(fn, job) for job in jobs]
+            return [f.result() for f in futures]
+        finally:
+            pool.shutdown(wait=False, cancel_futures=True)
 
 
 def _fmt(x: Any, scale: float = 1.0, digits: int = 3) -> str:
