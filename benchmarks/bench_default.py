@@ -8,10 +8,14 @@
    largest V/level from the boundary, observed / certified per figure and certified / robot maximum on |e_y|.
 4. The physics robot (4 episodes each) at friction 1.0, 0.4 and with the payload: observed / certified per figure
    over the whole path (the certificate covers the turns).
-5. Per committed config with a baseline: the certificate's kind, its certified |e_y| and the baseline's verdict.
+5. Per committed robot config, synthesized, verified and validated in this run (issue 49 item 7): the
+   certificate's kind, its |e_y| at the samples and for all t, the boundary probe and the adversary from the
+   boundary, certified / robot maximum on |e_y|, physics observed / certified |e_y|, verdict, synthesis and
+   verification times (about 10 minutes for all).
 
     .venv/bin/python benchmarks/run_all.py bench_default
     .venv/bin/python benchmarks/bench_default.py box            # part 1 only
+    .venv/bin/python benchmarks/bench_default.py configs turns  # part 5 for the named configs
 """
 
 from __future__ import annotations
@@ -108,27 +112,57 @@ def default() -> None:
                   + f" | {vd['torque_saturated_s']:.1f} s ({time.perf_counter() - t0:.0f} s, {'passed' if vd['passed'] else 'FAILED'}) |")
 
 
-def configs() -> None:
-    """Part 5: every committed config's baseline."""
+def configs(names: list[str] | None = None) -> None:
+    """Part 5: every committed robot config (or ``names``) synthesized, verified and run on the physics robot in
+    this run: the certificate's kind, its |e_y| at the samples and for all t, the boundary probe and the adversary
+    from the boundary (max V/level; the robot's claim is <= 1), certified / robot maximum on |e_y| (the Monte Carlo
+    and the adversary from the steady states), the physics robot's observed / certified |e_y| (4 episodes, friction
+    1.0), the verdict and the times."""
     import yaml
 
-    print("| config | kinematics | slip model | certified \\|e_y\\| | verdict | failed checks |")
-    print("|---|---|---|---|---|---|")
+    from robustsynth.errors import RobustSynthError
+    from robustsynth.config import load_config
+    from robustsynth.model import build_model
+    from robustsynth.pipeline import synthesis_stage, validation_stage, verification_stage
+
+    print("| config | kinematics | slip | d_hi | certified \\|e_y\\| (all t) | probe | adversary from the boundary | "
+          "certified / robot max \\|e_y\\| | physics observed / certified \\|e_y\\| | verdict | synthesis / verify |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for p in sorted((ROOT / "configs").glob("*.yaml")):
-        base = ROOT / "results" / "baselines" / p.stem / "summary.json"
-        if not base.exists():
-            continue
-        s = json.loads(base.read_text())
         d = yaml.safe_load(p.read_text())
-        if d.get("plant"):
+        if d.get("plant") or (names and p.stem not in names):
             continue
-        ub = (s.get("certified") or {}).get("ultimate_bound") or {}
         kin = (d.get("synthesis") or {}).get("kinematics", "linearized")
-        verdict = s.get("verification_passed")
-        print(f"| {p.stem} | {kin} | {(d.get('slip') or {}).get('model', 'tracks')} | "
-              + (f"{100 * ub['e_y']:.2f} cm" if ub.get("e_y") else s["status"]) + " | "
-              + ("passed" if verdict else "failed" if verdict is not None else "—") + " | "
-              + "; ".join(c.removeprefix("nonlinear: ") for c in s.get("failed_checks") or []) + " |")
+        cfg = load_config(p)
+        model = build_model(cfg)
+        row = f"| {p.stem} | {kin} | {cfg.slip.model} | {model.d_hi} | "
+        with tempfile.TemporaryDirectory() as tmp:
+            out = Path(tmp)
+            t0 = time.perf_counter()
+            try:
+                ss = synthesis_stage(model, out, compare=False)
+            except RobustSynthError as exc:
+                print(row + f"exit {exc.exit_code} ({time.perf_counter() - t0:.0f} s) | | | | | | |")
+                continue
+            t_syn = time.perf_counter() - t0
+            c = ss.gains["certified"]
+            ub, allt = c["ultimate_bound"], c.get("ultimate_bound_between_samples") or {}
+            t0 = time.perf_counter()
+            vs = verification_stage(model, out, plots=False)
+            t_ver = time.perf_counter() - t0
+            mc = vs.data["monte_carlo"]
+            bp = mc.get("boundary_probe") or {}
+            probe = max(bp.get("max_V_over_level_nonlinear", 0.0), (bp.get("arcs") or {}).get("max_V_over_level_nonlinear", 0.0))
+            adv = (bp.get("adversary") or {}).get("max_V_over_level")
+            ey = mc["ratio_to_certified"]["e_y"]
+            try:
+                vd = validation_stage(model, out / "gains.json", out / "val", episodes=4, plots=False)
+                phys = f"{vd['ratio_to_certified']['e_y']:.2g}"
+            except RobustSynthError as exc:
+                phys = f"exit {exc.exit_code}"
+            bound = f"{100 * ub['e_y']:.2f} cm" + (f" ({100 * allt['e_y']:.2f})" if allt.get("e_y") else "")
+            print(row + f"{bound} | {probe:.3f} | {'—' if adv is None else f'{adv:.3f}'} | {1.0 / ey:.2f} | {phys} | "
+                  f"{'passed' if vs.data['passed'] else 'FAILED'} | {t_syn:.0f} s / {t_ver:.0f} s |")
 
 
 def main() -> None:
@@ -138,7 +172,7 @@ def main() -> None:
     if not parts or "default" in parts:
         default()
     if not parts or "configs" in parts:
-        configs()
+        configs([p for p in parts if p not in ("box", "default", "configs")] or None)
 
 
 if __name__ == "__main__":
