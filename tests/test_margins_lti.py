@@ -201,19 +201,22 @@ def test_schema_of_a_linear_plant_and_the_controllability_warning(tmp_path) -> N
 
 def test_the_compiled_analysis_problem_holds_no_stale_answer() -> None:
     """The analysis LMIs are compiled once per structure and re-solved with new coefficients: a
-    certifiable, an uncertifiable and again the certifiable delay range of one structure give
+    certifiable gain, one that a constant delay in the range destabilizes and again the certifiable one, on
+    the same delay range (one structure: the in-order vertices depend on the range, not on the gain), give
     True, False, True, each proven on its own."""
-    from robustsynth.model.lti import over_approximation
+    from robustsynth.margins_lti import spectral_radius
+    from robustsynth.model.lti import over_approximation, vertex_combinations
     from robustsynth.synthesis.lti import analyze_lti
 
     A = np.array([[0.0, 1.0], [0.0, -0.1]])
     B = np.array([[0.0], [0.1]])
     K = -np.array([[3.75, 11.5]])
-    K = np.hstack([K, np.zeros((1, 2))])
     from robustsynth.synthesis import lti as syn
 
-    ok = over_approximation(A, B, K, 0.5, 0.0, 0.84, 2, 4)
-    bad = over_approximation(A, B, K, 0.5, 0.0, 0.95, 2, 4)  # beyond the exhibited 0.923 s
+    ok = over_approximation(A, B, np.hstack([K, np.zeros((1, 2))]), 0.5, 0.0, 0.84, 2, 4)
+    bad = over_approximation(A, B, np.hstack([1.5 * K, np.zeros((1, 2))]), 0.5, 0.0, 0.84, 2, 4)
+    assert spectral_radius({"A": A, "B": B, "K": 1.5 * K}, 0.5, np.array([[0.84]]))[0] > 1.0  # no certificate exists
+    assert np.array_equal(vertex_combinations(ok)[1], vertex_combinations(bad)[1])
     before = len(syn._PROBLEMS)
     got = [analyze_lti(pw).certified for pw in (ok, bad, ok)]
     assert got == [True, False, True]
