@@ -17,8 +17,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .verified import (assembly_radius, assembly_radius_batch, gamma, proves_at_least, proves_at_least_batch, round_up,
-                       rump_shift, rump_shift_batch)
+from .verified import (assembly_radius, assembly_radius_batch, gamma, proves_at_least, proves_at_least_batch, round_down_array,
+                       round_up, rump_shift, rump_shift_batch)
 
 __all__ = [
     "CHECK_FRACTION",
@@ -1091,7 +1091,8 @@ def lti_multipliers(pw: Any, eps: np.ndarray, n_c: int) -> tuple[np.ndarray, boo
 
 
 def lti_vertex_blocks(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, verts: tuple,
-                      dist: float | None = None, out: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+                      dist: float | None = None, out: np.ndarray | None = None, merge: bool = True
+                      ) -> tuple[np.ndarray, np.ndarray, int]:
     """The robust-stability blocks of an lti certificate (docs/theory.md §14), one per vertex, as
     floats, with their magnitudes (the same formula on absolute values) and the number of terms per
     entry: ``-[[M' P M - decay^2 P + sum_j (eps_j0 rho_j^2 + sum_l eps_jl rho_jl^2) F_j' F_j, M' P E~],
@@ -1100,6 +1101,12 @@ def lti_vertex_blocks(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, ver
     E~ = [E U_0, ..., E U_d-1] over the kept directions (:func:`robustsynth.model.lti.kept_directions`; the
     dropped ones by Young's inequality: decay^2 / (1 + YOUNG_DELTA) and a term pbar n_drop / YOUNG_DELTA
     rho_D^2 F' F, pbar a bound on lambda_max(P)); E alone for the full-block multipliers (n_c, d).
+    Instants with equal channels share one (:func:`robustsynth.model.lti.channel_groups`; ``merge=False``:
+    one per instant): their remainders enter as one sum W = sum_j w_j, and the shared channel's diagonal is
+    the parallel sum of their multipliers ``(sum_j (eps_j0 + eps_jl)^-1)^-1`` per direction, rounded down
+    (:func:`_parallel_sum_down`), the least that ``sum_j w_j' D_j w_j`` takes over the splits of W: sound for
+    any multipliers, and exactly as tight as a channel per instant (without the proof margin, the two blocks
+    are negative definite together when every multiplier is positive; docs/theory.md §14).
     With ``dist`` = c, a disturbance d (|d| <= 1) enters the plant's rows too: E~ gains a block E and the
     diagonal c I (docs/theory.md §15: V+ <= decay^2 V + c |d|^2 for every admissible step).  With ``out`` =
     C the top block gains C' C (hinf: V+ - V + |C xi|^2 <= c |d|^2)."""
@@ -1109,10 +1116,11 @@ def lti_vertex_blocks(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, ver
     n_s, n = pw.E.shape
     lam, directional = lti_multipliers(pw, eps, len(combos))
     if directional:  # the rounding-level directions are no channel: Young's inequality covers them
-        from .model.lti import YOUNG_DELTA, kept_directions
+        from .model.lti import YOUNG_DELTA, channel_groups, kept_directions
 
         kept, dropped = kept_directions(pw)
-        chans = [pw.channels(j)[:, kept[j]] for j in range(d)]
+        groups = channel_groups(pw, kept) if merge else [[j] for j in range(d) if len(kept[j])]
+        chans = [pw.channels(g[0])[:, kept[g[0]]] for g in groups]
         n_drop = sum(len(kj) < n for kj in kept)
         # V(y + r) <= (1 + delta) V(y) + (1 + 1/delta) pbar |r|^2, |r|^2 <= n_drop sum_j rho_Dj^2 |F_j xi|^2:
         # the kept LMI with decay^2 / (1 + delta) and pbar n_drop / delta rho_Dj^2 F_j' F_j (pbar >= lambda_max(P))
@@ -1121,6 +1129,7 @@ def lti_vertex_blocks(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, ver
         shrink = 1.0 / (1.0 + YOUNG_DELTA) if n_drop else 1.0
     else:
         kept = [np.arange(n)] * d
+        groups = [[j] for j in range(d)]
         chans = [pw.E] * d
         dropped, penalty, shrink = None, 0.0, 1.0
     Et = np.hstack(chans + ([pw.E] if dist is not None else []))  # (n_s, sum of the channels) (+ n)
@@ -1138,7 +1147,6 @@ def lti_vertex_blocks(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, ver
         if out is not None:
             top = top + out.T @ out
             top_abs = top_abs + np.abs(out).T @ np.abs(out)
-        diag = []
         for j in range(d):
             i = combo[j]
             r2 = lam[c, j, 0] * float(pw.rho[j][i]) ** 2
@@ -1147,7 +1155,12 @@ def lti_vertex_blocks(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, ver
                 r2 = r2 + penalty * float(dropped[j][i]) ** 2
             top = top + r2 * FF[j]
             top_abs = top_abs + abs(r2) * FF_abs[j]
-            diag.append(lam[c, j, 0] + lam[c, j, 1 + kept[j]])
+        # a group's channel carries the sum W of its instants' remainders w_j: every split of W costs at least
+        # W' H W, H the parallel sum of their multipliers per direction (a lower bound: the block is then no
+        # more negative than the exact one); an instant of its own keeps eps_j0 + eps_jl (the assembly radius)
+        diag = [lam[c, g[0], 0] + lam[c, g[0], 1 + kept[g[0]]] if len(g) == 1 else
+                _parallel_sum_down(np.stack([np.maximum(round_down_array(lam[c, j, 0] + lam[c, j, 1 + kept[j]]), 0.0)
+                                             for j in g], axis=-1)) for g in groups]
         if dist is not None:
             diag.append(np.full(n, dist))
         diag = np.concatenate(diag)
@@ -1167,16 +1180,35 @@ def lti_vertex_blocks(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, ver
     return np.array(blocks), np.array(mags), terms
 
 
+PARALLEL_SUM_RANGE = 1e300  # _parallel_sum_down: terms and results within [1 / this, this] stay normal floats
+
+
+def _parallel_sum_down(a: np.ndarray) -> np.ndarray:
+    """A lower bound of the parallel sum ``H = (sum_j 1 / a_j)^-1`` of the exact values of the floats ``a_j >= 0``
+    along the last axis (g of them): the float result less its rounding, g + 1 roundings (g reciprocals, g - 1
+    additions of positive terms, the last reciprocal: a relative error below (g + 1) u + O(u^2)).  0, which
+    needs no rounding model, where some a_j is 0 (H = 0) or where a term or the result leaves
+    [1 / PARALLEL_SUM_RANGE, PARALLEL_SUM_RANGE] (a subnormal reciprocal's error is not relative)."""
+    a = np.asarray(a, dtype=float)
+    g = a.shape[-1]
+    with np.errstate(divide="ignore", over="ignore", under="ignore"):
+        h = 1.0 / np.sum(1.0 / a, axis=-1)
+    normal = (np.all((a >= 1.0 / PARALLEL_SUM_RANGE) & (a <= PARALLEL_SUM_RANGE), axis=-1)
+              & (h >= 1.0 / PARALLEL_SUM_RANGE) & (h <= PARALLEL_SUM_RANGE))
+    return np.where(normal, np.maximum(round_down_array(np.where(normal, h, 0.0), g + 1), 0.0), 0.0)
+
+
 LTI_PROOF_MARGIN = 1e-8  # every vertex block is proven <= -this (I): room for the data's own rounding
 
 
 def check_lti_certificate(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, verts: tuple,
-                          dist: float | None = None, out: np.ndarray | None = None) -> dict[str, Any]:
+                          dist: float | None = None, out: np.ndarray | None = None, merge: bool = True) -> dict[str, Any]:
     """The lti certificate re-checked in numpy: P proven positive definite and every vertex block
     proven <= -LTI_PROOF_MARGIN I in verified arithmetic (Rump's test, with the blocks' assembly error
     as a radius); the multipliers >= 0 and of a shape :func:`lti_multipliers` reads.  The data (the
     pieces from expm, the remainder bounds, the directions' orthonormality) are taken as computed: the
-    margin, not a proof, covers their rounding (docs/theory.md §14).
+    margin, not a proof, covers their rounding (docs/theory.md §14).  ``merge``: instants with equal channels
+    share one (:func:`lti_vertex_blocks`; False: a channel per instant, the check before issue 53's grouping).
     Returns {"ok", "failing", "vertices", "min_eig"}."""
     P = np.asarray(P, dtype=float)
     P = (P + P.T) / 2.0
@@ -1188,7 +1220,7 @@ def check_lti_certificate(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float,
         return {"ok": False, "failing": -1, "vertices": 0, "min_eig": float("nan")}
     if not proves_at_least(P, 0.0, assembly_radius(np.abs(P), 1)):
         return {"ok": False, "failing": -1, "vertices": 0, "min_eig": float(np.min(np.linalg.eigvalsh(P)))}
-    blocks, mags, terms = lti_vertex_blocks(pw, P, eps, decay, verts, dist, out)
+    blocks, mags, terms = lti_vertex_blocks(pw, P, eps, decay, verts, dist, out, merge)
     radius = assembly_radius_batch(mags, terms)
     ok = proves_at_least_batch(blocks, LTI_PROOF_MARGIN, radius)
     failing = np.flatnonzero(~ok)

@@ -25,7 +25,7 @@ import math
 import numpy as np
 
 __all__ = ["UNIT_ROUNDOFF", "gamma", "rump_shift", "is_pd", "proves_at_least", "round_up", "assembly_radius",
-           "round_up_array", "rump_shift_batch", "is_pd_batch", "proves_at_least_batch", "assembly_radius_batch"]
+           "round_up_array", "round_down_array", "rump_shift_batch", "is_pd_batch", "proves_at_least_batch", "assembly_radius_batch"]
 
 UNIT_ROUNDOFF = 2.0**-53  # u: rounding to nearest in double precision
 _ETA = 2.0**-1074  # the smallest positive subnormal
@@ -119,6 +119,15 @@ def round_up_array(x: np.ndarray, ops: int = 1) -> np.ndarray:
     x = np.asarray(x, dtype=float)
     grown = x + np.abs(x) * (ops + 1) * UNIT_ROUNDOFF * 2.0
     return np.where(np.isfinite(x), np.nextafter(grown, np.inf), x)
+
+
+def round_down_array(x: np.ndarray, ops: int = 1) -> np.ndarray:
+    """Elementwise a lower bound of the exact result of computations whose float results are ``x`` after at
+    most ``ops`` roundings each, each a relative error of at most u (products, quotients, sums of terms of one
+    sign, in the normal range; :func:`round_up_array` mirrored)."""
+    x = np.asarray(x, dtype=float)
+    shrunk = x - np.abs(x) * (ops + 1) * UNIT_ROUNDOFF * 2.0
+    return np.where(np.isfinite(x), np.nextafter(shrunk, -np.inf), x)
 
 
 def rump_shift_batch(diag: np.ndarray) -> np.ndarray:

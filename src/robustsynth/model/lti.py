@@ -35,7 +35,8 @@ from .lifting import instant_ranges, lift
 
 __all__ = ["gamma", "exact_closed_loop", "Piecewise", "over_approximation", "coverage_check", "lti_plant", "pad_lti_gain",
            "check_lti_gain", "disturbance_bound", "lti_depth", "lifted_rows", "periodic_spectral_radius", "vertex_combinations", "lti_plant_from", "REMAINDER_INFLATION",
-           "piece_grid", "in_order_vertices", "vertex_count", "kept_directions", "YOUNG_DELTA"]
+           "piece_grid", "in_order_vertices", "vertex_count", "kept_directions", "YOUNG_DELTA",
+           "channel_groups"]
 
 REMAINDER_INFLATION = 1e-9  # relative: the remainder bound's own rounding (norms by SVD, expm)
 ROUNDING_FLOOR = 64 * float(np.finfo(float).eps)  # the remainder bound never below this relative rounding
@@ -304,6 +305,27 @@ def kept_directions(pw: Piecewise) -> tuple[list[np.ndarray], list[np.ndarray]]:
     return kept, dropped
 
 
+def channel_groups(pw: Piecewise, kept: list[np.ndarray]) -> list[list[int]]:
+    """The instants with a channel (kept directions), grouped by equal channels ``E dirs[j][:, kept[j]]``:
+    instants whose kept directions and ``dirs`` are bit for bit the same (instants on equal ranges:
+    :func:`over_approximation` computes their pieces once).  Their remainders enter the plant's rows as one
+    sum ``E U W``, W = sum_j w_j, so the LMIs need one channel per group (docs/theory.md §14; the numpy check,
+    :func:`robustsynth.certificate.lti_vertex_blocks`, bounds W by the parallel sum of the instants'
+    multipliers, which holds for any split of W).  Equality of the channel matrices is all the soundness needs."""
+    groups: list[list[int]] = []
+    for j in range(pw.d_hi):
+        if not len(kept[j]):
+            continue
+        for g in groups:
+            i = g[0]
+            if np.array_equal(kept[i], kept[j]) and (pw.dirs is None or np.array_equal(pw.dirs[i], pw.dirs[j])):
+                g.append(j)
+                break
+        else:
+            groups.append([j])
+    return groups
+
+
 def over_approximation(A: np.ndarray, B: np.ndarray, K: np.ndarray, Ts: float, tau_min: float, tau_max: float,
                        d_hi: int, pieces: int) -> Piecewise:
     """The pieces of every instant's range (:func:`piece_grid`), their secants and remainder bounds
@@ -317,9 +339,13 @@ def over_approximation(A: np.ndarray, B: np.ndarray, K: np.ndarray, Ts: float, t
     mu = max(float(np.max(np.linalg.eigvalsh((A + A.T) / 2.0))), 0.0)  # the logarithmic norm's positive part
     thetas, widths = piece_grid(tau_min, tau_max, Ts, d_hi, pieces)
     bases, slopes, rhos, dirs, rho_dirs = [], [], [], [], []
+    done: dict = {}  # instants on equal ranges share their pieces, bit for bit (channel_groups merges them)
     with np.errstate(over="ignore", invalid="ignore"):
         for th, w in zip(thetas, widths):
-            base, slope, rho, U, rho_dir = _secant_pieces(A, B, th, w, mu)
+            key = (th.tobytes(), w.tobytes())
+            if key not in done:
+                done[key] = _secant_pieces(A, B, th, w, mu)
+            base, slope, rho, U, rho_dir = done[key]
             if not (np.all(np.isfinite(rho)) and np.all(np.isfinite(rho_dir)) and np.all(np.isfinite(base))):
                 raise ValueError("over_approximation: the remainder bound overflows (a stiff plant over a long range)")
             bases.append(base)

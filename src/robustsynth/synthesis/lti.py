@@ -9,7 +9,8 @@ S-procedure multipliers ``eps_j >= 0``,
 
     [[M' P M - decay^2 P + sum_j eps_j rho_j^2 F_j' F_j,  M' P E~], [E~' P M,  E~' P E~ - diag(eps_j I)]] < 0
 
-(the synthesis' form; :func:`analyze_lti` adds a multiplier per direction of the remainder).
+(the synthesis' form; :func:`analyze_lti` adds a multiplier per direction of the remainder, and gives
+instants on equal ranges one channel: their remainders enter as one sum).
 
 A point is accepted only after :func:`robustsynth.certificate.check_lti_certificate` proved it in
 verified arithmetic.
@@ -23,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..model.lti import YOUNG_DELTA, kept_directions, vertex_combinations
+from ..model.lti import YOUNG_DELTA, channel_groups, kept_directions, vertex_combinations
 
 __all__ = ["LtiAnalysis", "analyze_lti", "vertex_combinations", "LtiDesign", "synthesize_lti", "synthesize_lti_config",
            "auto_threads", "DECAY", "STRICT"]
@@ -62,14 +63,18 @@ def _vertex_matrices(pw, verts: tuple) -> np.ndarray:
     return np.array([pw.vertex(combos[c], end) for c, end in zip(owner, frac)])
 
 
-def analyze_lti(pw, decay: float = DECAY, solver: str = "clarabel") -> LtiAnalysis:
+def analyze_lti(pw, decay: float = DECAY, solver: str = "clarabel", merge: bool = True) -> LtiAnalysis:
     """Search P and the multipliers for the LMIs of the module docstring; the verdict is the numpy check's.
 
     Per instant j the remainder enters through the channels E U_j (U_j = ``pw.dirs[j]``) with two kinds of
     multiplier: one on the full block (|w_j| <= rho_j |F_j xi|) and one per direction (|w_jl| <= rho_jl |F_j
     xi|); the LMIs hold when the sum of the S-procedure terms does, so either kind alone, or both, may
     carry the proof (a remainder along one direction: the directional ones are far tighter; an isotropic
-    one: the full block).  Every vertex's block is linear in the unknowns y = (P's upper triangle,
+    one: the full block).  Instants with equal channels (:func:`robustsynth.model.lti.channel_groups`: equal
+    ranges) share one channel and one set of multipliers per combination (``merge=False``: a channel and
+    multipliers per instant): their remainders enter as one sum W, and with a multiplier a on each of the
+    group's g instants every split of W costs at least a |W|^2 / g, so the channel's diagonal is -a / g,
+    linear (docs/theory.md §14).  Every vertex's block is linear in the unknowns y = (P's upper triangle,
     multipliers): its coefficient matrices are computed in numpy, and enter as parameters of a problem
     compiled once per structure."""
     from ..certificate import check_lti_certificate
@@ -82,13 +87,14 @@ def analyze_lti(pw, decay: float = DECAY, solver: str = "clarabel") -> LtiAnalys
     kept, dropped = kept_directions(pw)
     n_drop = sum(len(kj) < n for kj in kept)
     shrink = 1.0 / (1.0 + YOUNG_DELTA) if n_drop else 1.0  # the dropped directions (certificate.lti_vertex_blocks)
-    width = [len(kj) for kj in kept]
-    k = n_s + sum(width)
-    # the multipliers: per instant the full block, then one per kept direction (flat index, and where in
-    # the (d, 1 + n) layout the numpy check reads it)
-    slots = [(j, 0) for j in range(d) if width[j]] + [(j, 1 + int(l)) for j in range(d) for l in kept[j]]
+    groups = channel_groups(pw, kept) if merge else [[j] for j in range(d) if len(kept[j])]
+    dirs = [kept[g[0]] for g in groups]  # a group's kept directions (its instants' are equal)
+    k = n_s + sum(len(u) for u in dirs)
+    # the multipliers, per group: the full block, then one per kept direction (flat index; the numpy check
+    # reads them per instant in a (d, 1 + n) layout, every instant of a group with the group's values)
+    slots = [(g, 0) for g in range(len(groups))] + [(g, 1 + int(l)) for g in range(len(groups)) for l in dirs[g]]
     q = len(slots)
-    Et = np.hstack([pw.channels(j)[:, kept[j]] for j in range(d)])
+    Et = np.hstack([pw.channels(g[0])[:, u] for g, u in zip(groups, dirs)])
     Ms = _vertex_matrices(pw, verts)
     basis = _sym_basis(n_s)  # P = sum_i p_i S_i
     n_p = len(basis)
@@ -99,28 +105,24 @@ def analyze_lti(pw, decay: float = DECAY, solver: str = "clarabel") -> LtiAnalys
     low = np.broadcast_to(Et.T @ basis @ Et, (len(Ms),) + (n_p, k - n_s, k - n_s))
     CP = np.concatenate([np.concatenate([top, off], axis=-1),
                          np.concatenate([off.transpose(0, 1, 3, 2), low], axis=-1)], axis=-2)  # (n_v, n_p, k, k)
+    FF = [pw.F[j].T @ pw.F[j] for j in range(d)]
     # pbar >= lambda_max(P) carries the dropped directions' term pbar n_drop / delta rho_D^2 F_j' F_j
     CB = np.zeros((len(Ms), k, k))
-    # the multipliers' part: (eps_j0 rho_j^2 + eps_jl rho_jl^2) F_j' F_j in the top block, -eps_j0 I and
-    # -eps_jl at direction l in block j of the low one
+    if n_drop:
+        for j in range(d):
+            CB[:, :n_s, :n_s] += (n_drop / YOUNG_DELTA * dropped[j][combos[owner, j]] ** 2)[:, None, None] * FF[j]
+    # the multipliers' part: sum over the group's instants of (eps_0 rho_j^2 + eps_l rho_jl^2) F_j' F_j in the
+    # top block, and -eps_0 / g on the group's channel, -eps_l / g at its direction l, in the low one
     CE = np.zeros((len(Ms), q, k, k))
-    start = np.cumsum([n_s] + width)
-    for j in range(d):
-        FF = pw.F[j].T @ pw.F[j]
-        piece = combos[owner, j]
-        if n_drop:
-            CB[:, :n_s, :n_s] += (n_drop / YOUNG_DELTA * dropped[j][piece] ** 2)[:, None, None] * FF
-        for e, (jj, slot) in enumerate(slots):
-            if jj != j:
-                continue
-            if slot == 0:
-                CE[:, e, :n_s, :n_s] = (pw.rho[j][piece] ** 2)[:, None, None] * FF
-                idx = np.arange(start[j], start[j + 1])
-                CE[:, e, idx, idx] = -1.0
-            else:
-                CE[:, e, :n_s, :n_s] = (pw.rho_dir[j][piece, slot - 1] ** 2)[:, None, None] * FF
-                a = start[j] + int(np.flatnonzero(kept[j] == slot - 1)[0])
-                CE[:, e, a, a] = -1.0
+    start = np.cumsum([n_s] + [len(u) for u in dirs])
+    for e, (g, slot) in enumerate(slots):
+        for j in groups[g]:
+            piece = combos[owner, j]
+            bound = pw.rho[j][piece] if slot == 0 else pw.rho_dir[j][piece, slot - 1]
+            CE[:, e, :n_s, :n_s] += (bound**2)[:, None, None] * FF[j]
+        idx = (np.arange(start[g], start[g + 1]) if slot == 0 else
+               start[g] + int(np.flatnonzero(dirs[g] == slot - 1)[0]))
+        CE[:, e, idx, idx] = -1.0 / len(groups[g])
     with _PROBLEMS_LOCK:  # the cached problem's parameters and values belong to one solve at a time
         prob, p, eps, pbar, CPp, CEp, CBp = _analysis_problem(len(Ms), n_p, k, q, len(combos), n_s,
                                                                tuple(owner.tolist()), basis)
@@ -136,8 +138,8 @@ def analyze_lti(pw, decay: float = DECAY, solver: str = "clarabel") -> LtiAnalys
         def eps_value() -> np.ndarray:
             flat = np.maximum(np.asarray(eps.value, dtype=float), 0.0)
             out = np.zeros((len(combos), d, 1 + n))
-            for e, (j, slot) in enumerate(slots):
-                out[:, j, slot] = flat[:, e]
+            for e, (g, slot) in enumerate(slots):
+                out[:, groups[g], slot] = flat[:, e, None]
             return out
 
         def accept() -> bool:
