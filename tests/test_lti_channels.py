@@ -233,3 +233,25 @@ def test_a_grouped_certificate_makes_V_shrink_on_exactly_lifted_loops(grouped) -
     # V(M xi) <= decay^2 V(xi) for all xi iff the spectral norm of L' M L^-T is at most decay
     Mt = np.einsum("ab,vbc,cd->vad", L.T, M, Li.T)
     assert np.max(np.linalg.norm(Mt, 2, axis=(-2, -1))) < DECAY
+
+
+@pytest.mark.parametrize("plant,fractions,m_lost", [(SERVO, (0.1, 0.35, 0.6, 0.9), 0), (CURRENT, (0.2, 0.5, 0.9), 0),
+                                                    (CURRENT, (0.3,), 2)])
+def test_the_budgets_block_size_is_the_grouped_lmis_or_more(plant, fractions, m_lost) -> None:
+    """margins_lti.block_size, which sets the pieces before anything is built, is never below the size of the
+    grouped LMIs' blocks (the lifted state and every group's kept directions), and counts fewer channels than
+    one per instant once the delays span several periods."""
+    from robustsynth.margins_lti import block_size
+
+    A, B, K, Ts = plant
+    n, m = B.shape
+    for f in fractions:
+        pw, tau = _plant_pw(plant, f)
+        d = lti_depth(tau, m_lost, Ts)
+        pw = over_approximation(A, B, pad_lti_gain(K, n, m, d), Ts, 0.0, tau + m_lost * Ts, d, 2)
+        kept, groups, _ = _layouts(pw)
+        actual = n + d * m + sum(len(kept[g[0]]) for g in groups)
+        estimate = block_size(n, m, d, 0.0, tau + m_lost * Ts, Ts)
+        assert actual <= estimate
+        if d >= 4:
+            assert estimate < n + d * m + d * n

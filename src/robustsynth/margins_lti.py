@@ -46,9 +46,10 @@ PIECE_STAGES = (1, 2, 4)  # coarse-to-fine pieces of the certificate bisection (
 MAX_VERTICES = 1024  # a certificate's vertex budget: fewer pieces per instant beyond it, not attempted with one piece beyond it
 MAX_COEFFICIENTS = 2e7  # floats of the LMIs' coefficient tensor (vertices x P entries x block^2): ~160 MB
 # the interior-point solver's work per iteration: vertices x (k (k + 1) / 2)^2, Clarabel's dense scaling block per
-# PSD cone of a k x k block, with k counting every direction (an upper bound: rounding-level ones are dropped);
-# 3.4e6 took 0.26 s an iteration, 38 iterations (the servo at d = 9, one piece, 18 vertices, all directions)
-MAX_SCALING = 1.2e7
+# PSD cone of a k x k block (k: block_size, n channels per distinct range of the instants).  Measured
+# with shared channels, 1.4-3.4 s per 1e6 on this 2-core machine under load (the servo at d = 9 with 2 pieces,
+# 548 vertices, 4.5e6: 12-20 s a solve, for +0.004 of certified / exhibited): one solve stays within seconds
+MAX_SCALING = 2e6
 MAX_LOSSES = 3  # the loss margin is searched up to this many losses in a row
 
 
@@ -161,16 +162,28 @@ def _certify(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int
     return lti_certificate(plant, Ts, tau_min, tau_max, m_lost, pieces)[0]
 
 
+def block_size(n: int, m: int, d: int, tau_min: float, tau_hi: float, Ts: float) -> int:
+    """The analysis LMIs' vertex block size, estimated before the over-approximation is built: the lifted state
+    and n channels per distinct range of the instants (instants on equal ranges share theirs,
+    :func:`robustsynth.model.lti.channel_groups`; an instant on a point has a rounding-level remainder, no
+    channel, :func:`robustsynth.model.lti.kept_directions`, unless every remainder is at that level)."""
+    from .model.lti import piece_grid
+
+    ranges = {(th.tobytes(), w.tobytes()) for th, w in zip(*piece_grid(tau_min, tau_hi, Ts, d, 1)) if np.any(w > 0)}
+    return n + d * m + n * max(len(ranges), 1)
+
+
 def budget_pieces(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int, pieces: int
                   ) -> tuple[int, int, int, int]:
     """(d_hi, the pieces per instant within the budget, their vertices, the budget): ``pieces`` reduced while
     the vertices (:func:`robustsynth.model.lti.vertex_count`) exceed MAX_VERTICES or what MAX_COEFFICIENTS
-    or MAX_SCALING allow (one piece is kept, vertices above the budget then say it is beyond it)."""
+    or MAX_SCALING allow for blocks of :func:`block_size` (one piece is kept, vertices above the budget then
+    say it is beyond it)."""
     from .model.lti import vertex_count
 
     n, m = plant["B"].shape
     d = max(lti_depth(tau_max, m_lost, Ts), (plant["K"].shape[1] - n) // m)
-    k = n + d * m + d * n  # the vertex blocks' size
+    k = block_size(n, m, d, tau_min, tau_max + m_lost * Ts, Ts)
     n_p = (n + d * m) * (n + d * m + 1) // 2
     budget = min(MAX_VERTICES, int(MAX_COEFFICIENTS // (n_p * k * k)), int(MAX_SCALING // (k * (k + 1) // 2) ** 2))
     vertices = vertex_count(tau_min, tau_max + m_lost * Ts, Ts, d, pieces, budget)
