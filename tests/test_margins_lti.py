@@ -237,18 +237,53 @@ def test_margin_of_the_gain_synthesize_wrote_and_a_margin_at_the_search_end(tmp_
     out = tmp_path / "o"
     r = CliRunner().invoke(main, ["synthesize", str(cfg), "-o", str(out)])
     assert r.exit_code == 0, r.output
+    assert "robust stability of this gain, delay_max: configured 0.5, certified at least 0.9" in r.output
     r = CliRunner().invoke(main, ["margin", str(cfg), "-o", str(out)])
     assert r.exit_code == 0, r.output
     data = json.loads((out / "margin.json").read_text())
+    gd = json.loads((out / "gains.json").read_text())
     assert data["gains"] == str(out / "gains.json")
-    assert data["gain"] == json.loads((out / "gains.json").read_text())["K"]
+    assert data["gain"] == gd["K"]
     dm = data["margins"]["delay_max"]
     assert dm["exhibited"] is None and dm["certified"] >= 0.9 - 1e-3 and "at least" in dm["note"]
     assert "delay_max: configured 0.5, certified at least 0.9" in r.output
+    # synthesize recorded the same delay margin for its gain (one function, margins_lti.delay_margin)
+    assert {k: gd["delay_margin"][k] for k in ("certified", "exhibited", "at_least", "note")} == \
+        {k: dm[k] for k in ("certified", "exhibited", "at_least", "note")}
     lo = data["margins"]["dropouts"]
     assert lo["exhibited"] is None and lo["certified"] == lo["searched_up_to"] == 3 and "at least" in lo["note"]
     assert "dropouts: configured 0, certified at least 3, exhibited none" in r.output
     assert "None" not in r.output
+
+
+def test_synthesize_reports_and_records_certified_over_exhibited_for_its_gain(tmp_path) -> None:
+    """Issue 53 item 3: synthesize on a linear plant prints the delay margin of the gain it made and records it in
+    gains.json (delay_margin, outside the gain's id): certified below exhibited, at least the configured delay
+    (the synthesis proved that range), their ratio as printed, and a witness that destabilizes the exactly lifted
+    loop of the synthesized K (recomputed here)."""
+    from click.testing import CliRunner
+
+    from robustsynth.artifacts.gains import gains_id
+    from robustsynth.cli import main
+    from robustsynth.margins_lti import spectral_radius
+
+    cfg = ROOT / "configs" / "zbp.yaml"
+    out = tmp_path / "o"
+    r = CliRunner().invoke(main, ["synthesize", str(cfg), "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    gd = json.loads((out / "gains.json").read_text())
+    dm = gd["delay_margin"]
+    conf = load_config(cfg)
+    assert conf.network.delay.max <= dm["certified"] < dm["exhibited"]
+    assert dm["ratio"] == pytest.approx(dm["certified"] / dm["exhibited"], rel=1e-12)
+    assert f"certified / exhibited {dm['ratio']:.3f}" in r.output and "robust stability of this gain" in r.output
+    w = dm["witness"]
+    assert w["check"]["ok"]
+    K = np.asarray(gd["K"], dtype=float)
+    pl = dict(lti_plant(conf), K=K)
+    assert spectral_radius(pl, conf.network.sampling_time, np.array([w["delays"]]))[0] > 1.0
+    assert gains_id({k: v for k, v in gd.items() if k != "delay_margin"}) == gd["gains_id"]
+    assert "**Delay margin**" in (out / "synthesis.md").read_text()
 
 
 def test_a_gain_made_for_another_plant_or_the_robot_is_refused(tmp_path) -> None:

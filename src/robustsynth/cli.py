@@ -424,6 +424,7 @@ def synthesize(obj: _Ctx, config: Path | None, outdir: Path | None, objective: s
         res = lti_synthesis_stage(cfg, out, config, _stage_lines(obj), objective, solver)
         _say_cleared(obj, out, tuple(res["cleared"]))
         obj.say(_lti_certified_line(res["gains"]))
+        obj.say("robust stability of this gain, " + _lti_margin_line("delay_max", res["gains"]["delay_margin"]))
         obj.say(f"wrote {', '.join(res['files'])}")
         return
     obj.detail(f"building the model of '{cfg.name}'")
@@ -505,6 +506,23 @@ def _lti_certified_line(gd: dict[str, Any]) -> str:
     if c.get("inputs"):
         parts.append("inputs within " + ", ".join(f"|{u['name']}| <= {u['limit']:g}" for u in c["inputs"]))
     return f"certified ({gd['objective']}, d = {gd['lifting']['d']}): " + ", ".join(parts)
+
+
+def _lti_margin_line(name: str, mg: dict[str, Any]) -> str:
+    """One margin of a linear plant's gain (margins_lti): configured, certified, exhibited, the witness, the note
+    (certified / exhibited and how far the search went)."""
+    from .report.markdown import fmt
+
+    def num(v: Any) -> str:
+        return "none" if v is None else fmt(v)
+
+    w = mg["witness"]
+    at_least = "at least " if mg.get("at_least") else ""
+    delays = ", ".join("lost" if x is None else fmt(x) for x in w["delays"]) if w else ""
+    return (f"{name}: configured {num(mg['configured'])}, certified {at_least}{num(mg['certified'])}, exhibited "
+            f"{num(mg['exhibited'])}" + (f" (witness: period {w['period']}, delays [{delays}], spectral radius "
+                                         f"{w['spectral_radius']:.6f})" if w else "")
+            + f" [{mg['unit']}]" + (f"; {mg['note']}" if mg.get("note") else ""))
 
 
 def _lti_report(obj: _Ctx, data: dict[str, Any]) -> None:
@@ -756,6 +774,7 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
         res = lti_run(cfg, out, config, _stage_lines(obj), objective, solver, runs, seed, plots=not no_plots)
         _say_cleared(obj, out, tuple(res["synthesis"]["cleared"]))
         obj.say(_lti_certified_line(res["synthesis"]["gains"]))
+        obj.say("robust stability of this gain, " + _lti_margin_line("delay_max", res["synthesis"]["gains"]["delay_margin"]))
         _lti_report(obj, res["verification"])
         obj.say(f"report: {out / 'report.md'}")
         return EXIT_OK if res["verification"]["passed"] else EXIT_VERIFICATION_FAILED
@@ -839,19 +858,8 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
 
             click.echo(json.dumps(data, indent=2))
             return
-        from .report.markdown import fmt
-
-        def num(v: Any) -> str:
-            return "none" if v is None else fmt(v)
-
         for name, mg in data["margins"].items():
-            w = mg["witness"]
-            at_least = "at least " if mg.get("at_least") else ""
-            delays = ", ".join("lost" if x is None else fmt(x) for x in w["delays"]) if w else ""
-            obj.say(f"{name}: configured {num(mg['configured'])}, certified {at_least}{num(mg['certified'])}, exhibited "
-                    f"{num(mg['exhibited'])}" + (f" (witness: period {w['period']}, delays [{delays}], spectral radius "
-                                                 f"{w['spectral_radius']:.6f})" if w else "")
-                    + f" [{mg['unit']}]" + (f"; {mg['note']}" if mg.get("note") else ""))
+            obj.say(_lti_margin_line(name, mg))
         obj.say(f"wrote {', '.join(data['files'])}")
         return
     out = _gains_outdir(cfg, outdir, gains)

@@ -29,7 +29,7 @@ from .errors import check_interrupt
 from .margins import _bisect
 from .model.lti import lti_depth
 
-__all__ = ["lti_margins", "find_lti_instability", "spectral_radius", "check_witness", "SEARCH_DELAYS", "SEARCH_PERIOD",
+__all__ = ["lti_margins", "delay_margin", "find_lti_instability", "spectral_radius", "check_witness", "SEARCH_DELAYS", "SEARCH_PERIOD",
            "SWITCH_FAMILIES", "EXHIBIT_CAP"]
 
 SEARCH_DELAYS = 9  # grid points of [tau_min, tau_max] in the switching search
@@ -321,9 +321,10 @@ def _certified_delay(plant: dict, Ts: float, t_lo: float, top: float, m_lost: in
     return lo, solves
 
 
-def lti_margins(cfg, plant: dict, say: Callable[[str], None] = lambda s: None) -> dict[str, Any]:
-    """The delay margin (delay.max) and the loss margin (dropouts.max_consecutive) of the configured
-    gain: certified and exhibited, with the witness and the evaluations' count and time."""
+def delay_margin(cfg, plant: dict, say: Callable[[str], None] = lambda s: None) -> dict[str, Any]:
+    """The delay margin (delay.max) of the gain ``plant["K"]``: certified (bisection of the analysis LMIs) and
+    exhibited (the instability search), their ratio, the witness, how far it searched and the time; the
+    ``delay_max`` entry of :func:`lti_margins`, which ``synthesize`` records for its own gain too."""
     net = cfg.network
     Ts, t_lo, t_hi, m0 = net.sampling_time, net.delay.min, net.delay.max, net.dropouts.max_consecutive
     pieces, tol = cfg.margin.pieces, cfg.margin.tolerance
@@ -345,7 +346,6 @@ def lti_margins(cfg, plant: dict, say: Callable[[str], None] = lambda s: None) -
     far = min(far, MAX_D_HI * Ts)  # the lifting's longest delay
     ex_far = given if given is not None else min(EXHIBIT_CAP, MAX_D_HI) * Ts
     ex_far = max(min(ex_far, MAX_D_HI * Ts), far)
-    out: dict[str, Any] = {}
     t0 = time.perf_counter()
     say(f"delay_max: instability search up to {ex_far:.6g} s")
     with _one_blas_thread():
@@ -359,25 +359,35 @@ def lti_margins(cfg, plant: dict, say: Callable[[str], None] = lambda s: None) -
     families = (f"constant delays and periodic switching sequences of up to "
                 f"{max(p for p, _ in SWITCH_FAMILIES) if m0 == 0 else max(SEARCH_PERIOD, m0 + 1)} packets"
                 + (f", up to {m0} lost in a row" if m0 else ""))
-    out["delay_max"] = {"configured": t_hi, "certified": cert, "exhibited": ex, "witness": witness, "unit": "s",
-                        "ratio": ratio, "searched_up_to": round(ex_far, 12),
-                        "searched_periods": round(ex_far / Ts, 9), "searched": families,
-                        "certificate_searched_up_to": round(cert_top, 12), "search_s": round(t1 - t0, 3),
-                        "certificate_s": round(time.perf_counter() - t1, 3), "solves": solves}
+    out: dict[str, Any] = {"configured": t_hi, "certified": cert, "exhibited": ex, "witness": witness, "unit": "s",
+                           "ratio": ratio, "searched_up_to": round(ex_far, 12),
+                           "searched_periods": round(ex_far / Ts, 9), "searched": families,
+                           "certificate_searched_up_to": round(cert_top, 12), "search_s": round(t1 - t0, 3),
+                           "certificate_s": round(time.perf_counter() - t1, 3), "solves": solves}
     # nothing destabilizes within the search: a certified end at the certificate search's end is a lower bound
-    out["delay_max"]["at_least"] = ex is None and cert is not None and cert >= far - tol
+    out["at_least"] = ex is None and cert is not None and cert >= far - tol
     if ex is None:
         end = ("margin.delay_far" if given is not None else
                f"{ex_far / Ts:.3g} Ts" + (", the lifting's longest delay" if ex_far >= MAX_D_HI * Ts - 1e-12 else ""))
         further = (f"the lifting's longest delay, {MAX_D_HI} periods" if capped else "margin.delay_far searches further")
         note = f"no instability found up to {ex_far:.6g} s ({end}; {families})"
-        if out["delay_max"]["at_least"]:
+        if out["at_least"]:
             note += f"; certified up to the certificate search's end, {far:.6g} s: the margin is at least this ({further})"
     else:
         note = (f"certified / exhibited {ratio:.3f}; " if ratio is not None else "") + (
             f"the first instability upwards from {t_lo:.6g} s, searched up to {ex_far:.6g} s at most "
             f"({ex_far / Ts:.3g} Ts; {families})")
-    out["delay_max"]["note"] = note
+    out["note"] = note
+    return out
+
+
+def lti_margins(cfg, plant: dict, say: Callable[[str], None] = lambda s: None) -> dict[str, Any]:
+    """The delay margin (delay.max, :func:`delay_margin`) and the loss margin (dropouts.max_consecutive) of the
+    configured gain: certified and exhibited, with the witness and the evaluations' count and time."""
+    net = cfg.network
+    Ts, t_lo, t_hi, m0 = net.sampling_time, net.delay.min, net.delay.max, net.dropouts.max_consecutive
+    pieces = cfg.margin.pieces
+    out: dict[str, Any] = {"delay_max": delay_margin(cfg, plant, say)}
     t0 = time.perf_counter()
     say("dropouts: instability and certificate search")
     m_ex, m_w, m_cert = None, None, None

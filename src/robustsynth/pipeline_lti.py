@@ -97,9 +97,10 @@ def lti_model_stage(config: Any, outdir: str | Path, config_path: str | Path | N
 def lti_synthesis_stage(config: Any, outdir: str | Path, config_path: str | Path | None = None,
                         on_step: Callable[[str], None] | None = None, objective: str | None = None,
                         solver: str | None = None) -> dict[str, Any]:
-    """Synthesize and prove a gain (:func:`robustsynth.synthesis.lti.synthesize_lti`); write gains.json
-    (last), gains.mat and synthesis.md.  No certified gain: the old gain files are removed and
-    InfeasibleError (exit 3) or SolverFailure (exit 4) is raised."""
+    """Synthesize and prove a gain (:func:`robustsynth.synthesis.lti.synthesize_lti`), and find its delay margin
+    (:func:`robustsynth.margins_lti.delay_margin`: certified / exhibited, seconds beside the synthesis); write
+    gains.json (last, with the margin as ``delay_margin``), gains.mat and synthesis.md.  No certified gain: the
+    old gain files are removed and InfeasibleError (exit 3) or SolverFailure (exit 4) is raised."""
     from .artifacts.files import set_aside
     from .artifacts.gains import lti_gains_dict, lti_gains_mat_vars
     from .errors import InfeasibleError, SolverFailure
@@ -107,7 +108,13 @@ def lti_synthesis_stage(config: Any, outdir: str | Path, config_path: str | Path
     from .synthesis.lti import synthesize_lti_config
 
     plant = lti_plant_of(config, config_path)
-    design = synthesize_lti_config(config, plant, objective, solver, on_step or (lambda s: None))
+    say = on_step or (lambda s: None)
+    design = synthesize_lti_config(config, plant, objective, solver, say)
+    margin = None
+    if design.certified:  # how far its delay bound goes: certified / exhibited, as `robustsynth margin` finds them
+        from .margins_lti import delay_margin
+
+        margin = delay_margin(config, dict(plant, K=np.asarray(design.K, dtype=float)), say)
     out = make_dir(outdir)
     cleared = clear_foreign(out, config)
     if not design.certified:
@@ -122,7 +129,7 @@ def lti_synthesis_stage(config: Any, outdir: str | Path, config_path: str | Path
         over["synthesis.objective"] = objective
     if solver is not None and solver != config.synthesis.solver:
         over["synthesis.solver"] = solver
-    gd = lti_gains_dict(config, plant, design, over)
+    gd = lti_gains_dict(config, plant, design, over, margin)
     files = {"gains.mat": mat_bytes(lti_gains_mat_vars(gd)), "synthesis.md": lti_synthesis_markdown(gd).encode("utf-8"),
              "gains.json": json_bytes(gd)}
     written = commit_files(out, files, primary="gains.json", invalidate=VERIFICATION_FILES + RUN_FILES + FIGURES,

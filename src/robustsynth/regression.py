@@ -47,7 +47,10 @@ def run_config(config_path: Path, outdir: Path) -> dict[str, Any]:
                        "failed_checks": [ch["name"] for ch in ver["checks"] if not ch["ok"]],
                        "certified": {"decay_rate": c["decay"], "hinf_gain": c.get("hinf_gain"),
                                      "ultimate_bound": {o["name"]: o["bound"] for o in c.get("outputs") or ()
-                                                        if o.get("bound") is not None}}}
+                                                        if o.get("bound") is not None}},
+                       # the synthesized gain's delay margin (synthesize reports it), compared as the margins are
+                       "margins": {"delay_max": {f: res["synthesis"]["gains"]["delay_margin"][f]
+                                                 for f in ("configured", "certified", "exhibited")}}}
         atomic_write(outdir / "summary.json", json_bytes(summary))
         return summary
     if is_lti(cfg):  # a linear plant with a gain: its margins (certified and exhibited) are the summary

@@ -408,11 +408,13 @@ def controller_description(gains: dict[str, Any], config: Any | None = None) -> 
 # ------------------------------------------------------------------ any linear plant (plant: kind: lti)
 
 
-def lti_gains_dict(config: Any, plant: dict[str, Any], design: Any, overrides: dict[str, Any] | None = None) -> dict[str, Any]:
+def lti_gains_dict(config: Any, plant: dict[str, Any], design: Any, overrides: dict[str, Any] | None = None,
+                   delay_margin: dict[str, Any] | None = None) -> dict[str, Any]:
     """The gains.json mapping of a linear plant's synthesized gain (``kind: lti``): u_k = K xi_k on the
     lifted state xi = [x; u_{k-1}; ...; u_{k-d}], the certified set {xi' P xi <= 1} and its figures.
     ``overrides``: the settings it was made with that differ from the config's (key path -> value), recorded
-    as ``synthesis_overrides`` (as for the robot)."""
+    as ``synthesis_overrides`` (as for the robot); ``delay_margin``: the gain's delay margin
+    (:func:`robustsynth.margins_lti.delay_margin`, margin.json's ``delay_max``), not part of its ``gains_id``."""
     from ..config import config_to_dict
 
     n, m = plant["B"].shape
@@ -433,6 +435,8 @@ def lti_gains_dict(config: Any, plant: dict[str, Any], design: Any, overrides: d
     }
     if overrides:
         out["synthesis_overrides"] = dict(overrides)
+    if delay_margin is not None:
+        out["delay_margin"] = delay_margin
     from .files import to_jsonable
 
     out = to_jsonable(out)

@@ -50,6 +50,10 @@ def lti_synthesis_markdown(gd: dict[str, Any]) -> str:
               f"{cert['check'].get('min_eig', float('nan')):.3g}). {gd['solver']['solves']} solves, "
               f"{gd['solver']['time_s']:.2f} s.\n\n")
     md.append(f"    P = {_mat(cert['P'])}\n")
+    if gd.get("delay_margin"):
+        md.append("\n**Delay margin** of this gain (robust stability, V shrinking by a common quadratic function, as "
+                  "`robustsynth margin` finds it):\n\n")
+        md += _margin_table({"delay_max": gd["delay_margin"]})
     return "".join(md)
 
 
@@ -73,12 +77,10 @@ def lti_verification_markdown(data: dict[str, Any]) -> str:
     return "".join(md)
 
 
-def lti_margin_markdown(data: dict[str, Any]) -> str:
-    md = ["# Margins of a linear plant's gain\n\n",
-          f"Config {data['config']}: n = {data['plant']['n']}, m = {data['plant']['m']}, "
-          f"Ts = {data['network']['sampling_time']:g} s, gain {data['gain']}.\n\n",
-          "| margin | configured | certified | exhibited | certified / exhibited | witness |\n|---|---|---|---|---|---|\n"]
-    for name, mg in data["margins"].items():
+def _margin_table(margins: dict[str, Any]) -> list[str]:
+    """The margins' table (configured, certified, exhibited, their ratio, the witness) and their notes."""
+    md = ["| margin | configured | certified | exhibited | certified / exhibited | witness |\n|---|---|---|---|---|---|\n"]
+    for name, mg in margins.items():
         ratio = (f"{mg['certified'] / mg['exhibited']:.3f}" if mg["certified"] is not None and mg["exhibited"]
                  else "-")
         w = mg["witness"]
@@ -87,10 +89,17 @@ def lti_margin_markdown(data: dict[str, Any]) -> str:
         at_least = "≥ " if mg.get("at_least") else ""
         md.append(f"| {name} ({mg['unit']}) | {fmt(mg['configured'])} | {at_least}{fmt(mg['certified'])} | "
                   f"{fmt(mg['exhibited'])} | {ratio} | {wtxt} |\n")
-    notes = [f"- {name}: {mg['note']}\n" for name, mg in data["margins"].items() if mg.get("note")]
+    notes = [f"- {name}: {mg['note']}\n" for name, mg in margins.items() if mg.get("note")]
     if notes:
         md.append("\n" + "".join(notes))
     md.append("\nCertified: a common quadratic Lyapunov function of the guaranteed over-approximation (docs/theory.md "
               "§14), proven in numpy. Exhibited: a destabilizing periodic delay/loss sequence of the exactly lifted "
               "closed loop.\n")
-    return "".join(md)
+    return md
+
+
+def lti_margin_markdown(data: dict[str, Any]) -> str:
+    md = ["# Margins of a linear plant's gain\n\n",
+          f"Config {data['config']}: n = {data['plant']['n']}, m = {data['plant']['m']}, "
+          f"Ts = {data['network']['sampling_time']:g} s, gain {data['gain']}.\n\n"]
+    return "".join(md + _margin_table(data["margins"]))
