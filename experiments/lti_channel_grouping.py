@@ -33,9 +33,8 @@ import numpy as np
 
 from robustsynth.certificate import check_lti_certificate
 from robustsynth.config import load_config
-from robustsynth.model.lti import (YOUNG_DELTA, channel_groups, kept_directions, lti_depth, lti_plant, over_approximation,
-                                   pad_lti_gain, vertex_combinations)
-from robustsynth.synthesis.lti import DECAY, STRICT, _vertex_matrices, analyze_lti
+from robustsynth.model.lti import YOUNG_DELTA, lti_depth, lti_plant, over_approximation, pad_lti_gain, vertex_combinations
+from robustsynth.synthesis.lti import DECAY, STRICT, _vertex_matrices, analyze_lti, channel_layout
 
 TOL = 1e-5  # s: the bisection's end
 
@@ -43,16 +42,11 @@ TOL = 1e-5  # s: the bisection's end
 def analyze_exact(pw, decay: float = DECAY) -> tuple[bool, float]:
     """The shared channels with the exact parallel sum (2 x 2 PSD cones), per-instant multipliers; (proven, time)."""
     verts = vertex_combinations(pw)
-    combos, owner, frac = verts
+    combos, owner, _ = verts
     n_s, n = pw.E.shape
     d = pw.d_hi
-    kept, dropped = kept_directions(pw)
-    n_drop = sum(len(kj) < n for kj in kept)
-    shrink = 1.0 / (1.0 + YOUNG_DELTA) if n_drop else 1.0
-    groups = channel_groups(pw, kept)
-    dirs = [kept[g[0]] for g in groups]
-    k = n_s + sum(len(u) for u in dirs)
-    Et = np.hstack([pw.channels(g[0])[:, u] for g, u in zip(groups, dirs)])
+    kept, dropped, n_drop, shrink, groups, dirs, Et = channel_layout(pw)
+    k = n_s + Et.shape[1]
     Ms = _vertex_matrices(pw, verts)
     n_c = len(combos)
     P = cp.Variable((n_s, n_s), symmetric=True)

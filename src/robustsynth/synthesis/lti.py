@@ -63,6 +63,22 @@ def _vertex_matrices(pw, verts: tuple) -> np.ndarray:
     return np.array([pw.vertex(combos[c], end) for c, end in zip(owner, frac)])
 
 
+def channel_layout(pw, merge: bool = True) -> tuple:
+    """The analysis LMIs' remainder channels: (kept directions and the dropped ones' bounds per instant
+    (:func:`robustsynth.model.lti.kept_directions`), the instants with dropped directions, the decay's factor
+    for them (Young's inequality, as in :func:`robustsynth.certificate.lti_vertex_blocks`), the groups of
+    instants sharing a channel (:func:`robustsynth.model.lti.channel_groups`; ``merge=False``: one per
+    instant), each group's kept directions, and the channels E~ (n_s, their total width))."""
+    n = pw.E.shape[1]
+    kept, dropped = kept_directions(pw)
+    n_drop = sum(len(kj) < n for kj in kept)
+    shrink = 1.0 / (1.0 + YOUNG_DELTA) if n_drop else 1.0
+    groups = channel_groups(pw, kept) if merge else [[j] for j in range(pw.d_hi) if len(kept[j])]
+    dirs = [kept[g[0]] for g in groups]  # a group's kept directions (its instants' are equal)
+    Et = np.hstack([pw.channels(g[0])[:, u] for g, u in zip(groups, dirs)])
+    return kept, dropped, n_drop, shrink, groups, dirs, Et
+
+
 def analyze_lti(pw, decay: float = DECAY, solver: str = "clarabel", merge: bool = True) -> LtiAnalysis:
     """Search P and the multipliers for the LMIs of the module docstring; the verdict is the numpy check's.
 
@@ -84,17 +100,12 @@ def analyze_lti(pw, decay: float = DECAY, solver: str = "clarabel", merge: bool 
     combos, owner, _ = verts
     n_s, n = pw.E.shape
     d = pw.d_hi
-    kept, dropped = kept_directions(pw)
-    n_drop = sum(len(kj) < n for kj in kept)
-    shrink = 1.0 / (1.0 + YOUNG_DELTA) if n_drop else 1.0  # the dropped directions (certificate.lti_vertex_blocks)
-    groups = channel_groups(pw, kept) if merge else [[j] for j in range(d) if len(kept[j])]
-    dirs = [kept[g[0]] for g in groups]  # a group's kept directions (its instants' are equal)
-    k = n_s + sum(len(u) for u in dirs)
+    kept, dropped, n_drop, shrink, groups, dirs, Et = channel_layout(pw, merge)
+    k = n_s + Et.shape[1]
     # the multipliers, per group: the full block, then one per kept direction (flat index; the numpy check
     # reads them per instant in a (d, 1 + n) layout, every instant of a group with the group's values)
     slots = [(g, 0) for g in range(len(groups))] + [(g, 1 + int(l)) for g in range(len(groups)) for l in dirs[g]]
     q = len(slots)
-    Et = np.hstack([pw.channels(g[0])[:, u] for g, u in zip(groups, dirs)])
     Ms = _vertex_matrices(pw, verts)
     basis = _sym_basis(n_s)  # P = sum_i p_i S_i
     n_p = len(basis)
