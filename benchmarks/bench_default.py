@@ -73,31 +73,40 @@ def box() -> dict:
     return union
 
 
+def _synthesized_and_verified(model, out: Path) -> dict:
+    """``synthesize`` then ``verify`` (no figures) into ``out``: the stages' results, their times, the boundary
+    probe's largest V/level (straight and on arcs) and the adversary's from the boundary (None without)."""
+    from robustsynth.pipeline import synthesis_stage, verification_stage
+
+    t0 = time.perf_counter()
+    ss = synthesis_stage(model, out, compare=False)
+    t_syn = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    vs = verification_stage(model, out, plots=False)
+    mc = vs.data["monte_carlo"]
+    bp = mc.get("boundary_probe") or {}
+    return {"ss": ss, "vs": vs, "mc": mc, "t_syn": t_syn, "t_ver": time.perf_counter() - t0,
+            "probe": max(bp.get("max_V_over_level_nonlinear", 0.0), (bp.get("arcs") or {}).get("max_V_over_level_nonlinear", 0.0)),
+            "adv": (bp.get("adversary") or {}).get("max_V_over_level")}
+
+
 def default() -> None:
     """Parts 2-4."""
     from robustsynth.model import build_model
-    from robustsynth.pipeline import synthesis_stage, validation_stage, verification_stage
+    from robustsynth.pipeline import validation_stage
 
     cfg = _config()
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
         model = build_model(cfg)
-        t0 = time.perf_counter()
-        ss = synthesis_stage(model, out, compare=False)
-        t_syn = time.perf_counter() - t0
+        r = _synthesized_and_verified(model, out)
+        ss, vs, t_syn, t_ver, probe, adv = r["ss"], r["vs"], r["t_syn"], r["t_ver"], r["probe"], r["adv"]
         c = ss.gains["certified"]
         ub, allt = c["ultimate_bound"], c.get("ultimate_bound_between_samples") or {}
         print(f"synthesis {t_syn:.0f} s: |e_y| <= {100 * ub['e_y']:.2f} cm at the samples, {100 * allt.get('e_y', float('nan')):.2f} cm "
               f"for all t (through the turns); |e_x| <= {100 * ub['e_x']:.2f} cm, |e_theta| <= {ub['e_theta']:.3f} rad, "
               f"|rho| <= {c['motor_speed_bound']:.2f} rad/s; heading bound {ss.gains['certificate'].get('heading_bound')}")
-        t0 = time.perf_counter()
-        vs = verification_stage(model, out, plots=False)
-        t_ver = time.perf_counter() - t0
-        mc = vs.data["monte_carlo"]
-        bp = mc.get("boundary_probe") or {}
-        probe = max(bp.get("max_V_over_level_nonlinear", 0.0), (bp.get("arcs") or {}).get("max_V_over_level_nonlinear", 0.0))
-        adv = (bp.get("adversary") or {}).get("max_V_over_level")
-        ratios = mc["ratio_to_certified"]
+        ratios = r["mc"]["ratio_to_certified"]
         print(f"verification {t_ver:.0f} s: {'passed' if vs.data['passed'] else 'FAILED'}; probe V/level {probe:.3f}, "
               f"adversary from the boundary {adv:.3f}; observed / certified " + ", ".join(f"{k} {v:.3f}" for k, v in ratios.items())
               + f"; certified / robot maximum |e_y| {1.0 / ratios['e_y']:.2f}")
@@ -107,8 +116,8 @@ def default() -> None:
             m = build_model(_config(phys))
             t0 = time.perf_counter()
             vd = validation_stage(m, out / "gains.json", out / f"val-{len(name)}", episodes=4, plots=False)
-            r = vd["ratio_to_certified"]
-            print(f"| {name} | " + " | ".join(f"{r[k]:.3f}" for k in ("e_x", "e_y", "e_theta"))
+            rt = vd["ratio_to_certified"]
+            print(f"| {name} | " + " | ".join(f"{rt[k]:.3f}" for k in ("e_x", "e_y", "e_theta"))
                   + f" | {vd['torque_saturated_s']:.1f} s ({time.perf_counter() - t0:.0f} s, {'passed' if vd['passed'] else 'FAILED'}) |")
 
 
@@ -123,7 +132,7 @@ def configs(names: list[str] | None = None) -> None:
     from robustsynth.errors import RobustSynthError
     from robustsynth.config import load_config
     from robustsynth.model import build_model
-    from robustsynth.pipeline import synthesis_stage, validation_stage, verification_stage
+    from robustsynth.pipeline import validation_stage
 
     print("| config | kinematics | slip | d_hi | certified \\|e_y\\| (all t) | probe | adversary from the boundary | "
           "certified / robot max \\|e_y\\| | physics observed / certified \\|e_y\\| | verdict | synthesis / verify |")
@@ -140,21 +149,14 @@ def configs(names: list[str] | None = None) -> None:
             out = Path(tmp)
             t0 = time.perf_counter()
             try:
-                ss = synthesis_stage(model, out, compare=False)
+                r = _synthesized_and_verified(model, out)
             except RobustSynthError as exc:
                 print(row + f"exit {exc.exit_code} ({time.perf_counter() - t0:.0f} s) | | | | | | |")
                 continue
-            t_syn = time.perf_counter() - t0
-            c = ss.gains["certified"]
+            vs, t_syn, t_ver, probe, adv = r["vs"], r["t_syn"], r["t_ver"], r["probe"], r["adv"]
+            c = r["ss"].gains["certified"]
             ub, allt = c["ultimate_bound"], c.get("ultimate_bound_between_samples") or {}
-            t0 = time.perf_counter()
-            vs = verification_stage(model, out, plots=False)
-            t_ver = time.perf_counter() - t0
-            mc = vs.data["monte_carlo"]
-            bp = mc.get("boundary_probe") or {}
-            probe = max(bp.get("max_V_over_level_nonlinear", 0.0), (bp.get("arcs") or {}).get("max_V_over_level_nonlinear", 0.0))
-            adv = (bp.get("adversary") or {}).get("max_V_over_level")
-            ey = mc["ratio_to_certified"]["e_y"]
+            ey = r["mc"]["ratio_to_certified"]["e_y"]
             try:
                 vd = validation_stage(model, out / "gains.json", out / "val", episodes=4, plots=False)
                 phys = f"{vd['ratio_to_certified']['e_y']:.2g}"
