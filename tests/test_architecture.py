@@ -15,7 +15,7 @@ PKG = "robustsynth"
 
 # bottom -> top; a name covers the module and everything under it (longest match wins)
 LAYERS: list[tuple[str, ...]] = [
-    ("robustsynth", "robustsynth.errors", "robustsynth.law", "robustsynth.verified"),  # the face, errors, the pure law, verified arithmetic
+    ("robustsynth", "robustsynth.errors", "robustsynth.law", "robustsynth.monitor", "robustsynth.verified"),  # the face, errors, the pure law and its monitor, verified arithmetic
     ("robustsynth.config",),
     ("robustsynth.model",),
     ("robustsynth.certificate",),  # the numpy re-check of LMI certificates: the proof checker

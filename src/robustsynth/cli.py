@@ -989,6 +989,39 @@ def check_log_cmd(obj: _Ctx, logs: tuple[Path, ...], config: Path | None, gains:
     return EXIT_VERIFICATION_FAILED if bad else EXIT_OK
 
 
+@main.command("monitor")
+@_verbosity
+@click.argument("logs", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="The gains file whose certificate the monitor watches.")
+@click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="The config (its path, network, slip box, monitor settings) [default: the one stored in --gains].")
+@click.option("-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Also write monitor.json (every alarm, per log) here.")
+@click.pass_obj
+@_guard
+def monitor_cmd(obj: _Ctx, logs: tuple[Path, ...], gains: Path, config: Path | None, outdir: Path | None) -> int:
+    """Replay the runtime monitor over robot logs: every alarm, with its period and cause.
+
+    Exit 1 if any period raised an alarm (an assumption of the certificate broken, as far as the monitor sees).
+    """
+    from .errors import EXIT_VERIFICATION_FAILED
+    from .monitor import CAUSES
+    from .runtime.replay import monitor_files
+
+    res = monitor_files(list(logs), gains, _load(config) if config is not None else None, outdir)
+    for run in res["runs"]:
+        for a in run["alarms"]:
+            by = ", ".join(f"{c} by {a['by'][c]:.4g}" for c in a["causes"].split(", ") if c in a["by"])
+            obj.say(f"{run['log']}: period {a['period']} (t = {a['t']:.3f} s): {by}")
+        if run["fallback_engaged_at"] is not None:
+            obj.say(f"{run['log']}: the fallback ({run['fallback']}) would have engaged at period {run['fallback_engaged_at']}")
+    counts = ", ".join(f"{n} {res['alarm_periods'][n]}" for n, _ in CAUSES if res["alarm_periods"][n])
+    obj.say(f"monitor: {res['runs_with_alarms']} of {res['logs']} logs with alarms" + (f" (periods: {counts})" if counts else "")
+            + (f"; wrote {outdir / 'monitor.json'}" if outdir is not None else ""))
+    return EXIT_VERIFICATION_FAILED if res["runs_with_alarms"] else EXIT_OK
+
+
 @main.command("validate")
 @_verbosity
 @click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
@@ -1082,6 +1115,11 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
     if whole:
         obj.say(f"  with the turns: right [{whole['right'][0]:.3f}, {whole['right'][1]:.3f}], left [{whole['left'][0]:.3f}, "
                 f"{whole['left'][1]:.3f}]" + (" (with the arcs)" if arcs else " (the turns are not certified)"))
+    mon = vd.get("monitor")
+    if mon:
+        counts = ", ".join(f"{k} {v}" for k, v in mon["alarm_periods"].items() if v)
+        obj.say(f"runtime monitor over the episodes: {mon['runs_with_alarms']} of {mon['logs']} with alarms"
+                + (f" (periods: {counts})" if counts else ""))
     obj.say(f"validation {'passed' if vd['passed'] else 'FAILED'}: {episodes} episodes; wrote {out / 'validation.json'}")
     return EXIT_OK if vd["passed"] else EXIT_VERIFICATION_FAILED
 

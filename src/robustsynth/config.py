@@ -475,6 +475,28 @@ class PhysicsConfig(_Node):
     timestep: Annotated[float, Field(gt=0, le=0.01)] = Field(default=0.002, description="physics time step [s]")
 
 
+class MonitorConfig(_Node):
+    """The runtime monitor beside the deployed law (``robustsynth.monitor``, docs/theory.md §16): its fallback and
+    what it tolerates.  The pose noise it allows for is ``verification.noise`` times ``noise_sigmas``."""
+
+    fallback: Literal["stop", "hold", "slow"] = Field(
+        default="stop", description="what the controller sends once the monitor's alarms persist: stop (0, 0), hold "
+        "(the last command before the alarms), slow (the law's command times slow_factor); engaged until reset")
+    persistence: Annotated[int, Field(ge=1, le=1000)] = Field(
+        default=2, description="periods in a row with an alarm before the fallback engages")
+    slow_factor: Annotated[float, Field(gt=0, le=1)] = Field(
+        default=0.5, description="fallback slow: the fraction of the law's command sent")
+    window: Annotated[int, Field(ge=1, le=1000)] = Field(
+        default=10, description="periods of pose increments the slip check sums (more: less noise, slower to see)")
+    noise_sigmas: Annotated[float, Field(ge=0, le=100)] = Field(
+        default=6.0, description="the pose noise bound the thresholds carry, in standard deviations of verification.noise")
+    clock_tol: Annotated[float, Field(ge=0, le=1)] = Field(
+        default=1e-3, description="timestamps' tolerance [s]: a delay within it of [tau_min, tau_max] is admissible")
+    model_tol: Annotated[float, Field(ge=0, le=1)] = Field(
+        default=0.02, description="the slip check's relative allowance for what its body-frame increments leave "
+        "out (the commands' order within a period, the arcs' curvature)")
+
+
 class _Named(_Node):
     """A scenario's name: its default output directory results/<name>/."""
 
@@ -500,6 +522,7 @@ class Config(_Named):
     synthesis: SynthesisConfig = Field(default_factory=SynthesisConfig)
     verification: VerificationConfig = Field(default_factory=VerificationConfig)
     physics: PhysicsConfig = Field(default_factory=PhysicsConfig)
+    monitor: MonitorConfig = Field(default_factory=MonitorConfig)
 
     @model_validator(mode="before")
     @classmethod

@@ -402,6 +402,54 @@ def controller_description(gains: dict[str, Any], config: Any | None = None) -> 
         "track_distance": rob.track_distance,
         "max_motor_speed": rob.max_motor_speed,
         "certified": gains.get("certified"),
+        "monitor": monitor_description(gains, cfg),
+    }
+
+
+def monitor_description(gains: dict[str, Any], config: Any) -> dict[str, Any] | None:
+    """What the runtime monitor (:mod:`robustsynth.monitor`) checks for this gain under ``config``: the delay
+    range and loss cap, the certified set (its Lyapunov matrices and level) with the threshold V must pass for
+    the true state to be outside it given the pose noise, the heading bound the kinematic channels assume, the
+    motor limit, the slip box as the ranges of its six twist components (docs/theory.md §12), the noise bounds
+    and the fallback (``config.monitor``).  None for a gain without a certificate's set (``P`` and
+    ``ellipsoid_level``): there is nothing to monitor it against."""
+    import numpy as np
+
+    from ..model.slip import icr_components, slip_parameter_ranges
+
+    cert = gains.get("certificate") or {}
+    if cert.get("P") is None or cert.get("ellipsoid_level") is None:
+        return None
+    P = np.asarray(cert["P"], dtype=float)
+    Ps = [P] if P.ndim == 2 else list(P)
+    level = float(cert["ellipsoid_level"])
+    mon, net, noise = config.monitor, config.network, config.verification.noise
+    a, b = mon.noise_sigmas * noise.position, mon.noise_sigmas * noise.heading
+    # the measured error is the true one plus n, |n| <= (a, a, b) on e_x, e_y, e_theta: sqrt V moves by at most
+    # sqrt(n' P n) <= sqrt(sum_ij |P_ij| n_i n_j) (the commands in xi are the controller's own, exact)
+    n = np.array([a, a, b])
+    shift = max(float(np.sqrt(n @ np.abs(Pm[:3, :3]) @ n)) for Pm in Ps)
+    ranges = slip_parameter_ranges(config.slip)
+    comp = icr_components(ranges if len(ranges) == 4 else ranges + ((1.0, 1.0), (0.0, 0.0)))
+    nonlinear = cert.get("kinematics") == "nonlinear" and cert.get("heading_bound") is not None
+    return {
+        "tau_min": float(net.delay.min), "tau_max": float(net.delay.max), "max_lost": int(net.dropouts.max_consecutive),
+        "clock_tol": mon.clock_tol,
+        "P": [Pm.tolist() for Pm in Ps], "level": level,
+        "set_threshold": float((np.sqrt(level) + shift) ** 2 * (1.0 + 1e-12)),
+        "heading_limit": float(cert["heading_bound"]) + b if nonlinear else None,
+        "set_entry": float(max(np.sqrt(level) - shift, 0.0) ** 2),
+        "rho_limit": config.robot.max_motor_speed,
+        "window": mon.window, "components": comp.tolist(), "position_noise": float(a), "heading_noise": float(b),
+        "model_tol": mon.model_tol, "fallback": mon.fallback, "persistence": mon.persistence,
+        "slow_factor": mon.slow_factor,
+        # what is sure to be flagged: a departure to V/level above set_ratio (the noise can hide 2 shifts of sqrt V),
+        # a traction this far outside the box's forward range over a window driven straight at V^D (the slip check's
+        # allowance, twice: the noise may move the estimate inside by one), within the window's time
+        "detects": {"set_ratio": float(((np.sqrt(level) + 2.0 * shift) / np.sqrt(level)) ** 2),
+                    "traction": float(2.0 * (np.sqrt(2.0) * a * 2.0 + mon.window * net.sampling_time * config.reference.speed
+                                             * (b + mon.model_tol)) / (mon.window * net.sampling_time * config.reference.speed)),
+                    "window_s": float(mon.window * net.sampling_time)},
     }
 
 

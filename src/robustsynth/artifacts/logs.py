@@ -88,6 +88,11 @@ def read_log(path: str | Path) -> RobotLog:
         raise InputError(f"{p}: log file not found") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"{p}: cannot read ({exc})") from None
+    if text.strip() and not text.endswith(("\n", "\r")):
+        # a file cut short (a copy interrupted, a logger killed) ends within a row, whose last number may still
+        # read as one: its row is not taken for a sampling instant
+        n = len([ln for ln in text.splitlines() if ln.strip()])
+        raise InputError(f"{p}: row {n}: not ended by a line break (a truncated file?); a log ends with a newline")
     rows = list(csv.reader(io.StringIO(text)))
     rows = [r for r in rows if any(c.strip() for c in r)]
     if not rows:

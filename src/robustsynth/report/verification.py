@@ -295,7 +295,22 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
             f"\nThe nonlinear robot exceeds the certificate by up to {100 * (max(ratios) - 1):.1f} % (allowed: "
             f"{100 * (mc['nonlinear_slack'] - 1):.0f} %).\n"
         )
+    out.append(monitor_markdown(mc.get("monitor")))
     return "".join(out)
+
+
+def monitor_markdown(mon: dict[str, Any] | None) -> str:
+    """The runtime monitor over the runs (recorded, not in the verdict): alarms per cause, what it is sure to see."""
+    if not mon:
+        return ""
+    det = mon["detects"]
+    counts = ", ".join(f"{k} {v}" for k, v in mon["alarm_periods"].items() if v)
+    return ("\n### The runtime monitor over these runs\n\n"
+            f"Replayed over the {mon['logs']} Monte Carlo runs (they keep every assumption): {mon['runs_with_alarms']} runs "
+            "raised an alarm" + (f" (alarm periods: {counts}; a false alarm unless the robot left its set)" if counts else "")
+            + f". Once the state was seen inside its set, a departure to V/level above {det['set_ratio']:.3g} is always "
+            f"flagged; a traction {det['traction']:.3g} or more outside the box, within {det['window_s']:g} s "
+            "(README, *The runtime monitor*).\n")
 
 
 NO_HEADING_BOUND = "no bound (>= pi)"

@@ -251,17 +251,29 @@ int main(int argc, char **argv)
 
 
 def python_module(d: dict[str, Any]) -> bytes:
-    """rs_controller.py: :mod:`.law` verbatim, then ``DESCRIPTION`` and ``Controller()`` bound to it
-    (pure Python, no numpy)."""
-    src = resources.files("robustsynth").joinpath("law.py").read_text(encoding="utf-8")
+    """rs_controller.py: :mod:`.law` verbatim, then :mod:`.monitor` (without its docstring, its ``import math``
+    and its ``__all__``; its helpers are named apart from the law's), then ``DESCRIPTION`` and ``Controller()``
+    and ``Monitor()`` bound to it (pure Python, no numpy)."""
+    pkg = resources.files("robustsynth")
+    src = pkg.joinpath("law.py").read_text(encoding="utf-8")
     head = f'"""rs_controller: the {certified_word(d)} networked-robot controller, {_header_comment(d, "python", "")}\n\n' \
-           'Usage: ``c = Controller(); V, omega = c.step(t, x, y, theta)`` once per sampling instant."""\n\n'
+           'Usage: ``c = Controller(); V, omega = c.step(t, x, y, theta)`` once per sampling instant; beside it\n' \
+           '``m = Monitor()`` and ``status, (V, omega) = m.step(t, x, y, theta, c.state, (V, omega), seq, reports)``\n' \
+           '(robustsynth.monitor: the certificate\'s assumptions watched every period)."""\n\n'
     body = src.split('"""', 2)[2].lstrip("\n")  # the law without its module docstring
+    mon = pkg.joinpath("monitor.py").read_text(encoding="utf-8").split('"""', 2)[2]
+    mon = "\n".join(ln for ln in mon.splitlines() if ln != "import math" and not ln.startswith("__all__ = "))
     tail = (
+        "\n\n# ---------------------------------------------------------------- the runtime monitor (robustsynth.monitor)\n"
+        + mon.strip("\n") + "\n"
         "\n\n# ---------------------------------------------------------------- generated description\n"
         f"DESCRIPTION = {pprint.pformat(d, width=100, sort_dicts=False)}\n\n"
-        "_BaseController = Controller\n\n\n"
+        "_BaseController = Controller\n"
+        "_BaseMonitor = Monitor\n\n\n"
         "class Controller(_BaseController):  # noqa: F811 - bound to DESCRIPTION\n"
+        "    def __init__(self, description=None):\n"
+        "        super().__init__(DESCRIPTION if description is None else description)\n\n\n"
+        "class Monitor(_BaseMonitor):  # noqa: F811 - bound to DESCRIPTION\n"
         "    def __init__(self, description=None):\n"
         "        super().__init__(DESCRIPTION if description is None else description)\n"
     )

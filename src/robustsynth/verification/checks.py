@@ -719,7 +719,28 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
         worst = worst_of["motor_speed"]
         checks.append(_check("nonlinear: max commanded |rho| <= rho_max", worst <= rho_max, worst, rho_max,
                              f"(rad/s) the motors' physical limit, on the steps in the {rule}"))
+    mc["monitor"] = _monitor_status(model, gains, sim, scen)
     return checks, mc, sim, ext, scen, v_ratio, np.asarray(mask)
+
+
+def _monitor_status(model, gains: dict[str, Any], sim, scen) -> dict[str, Any] | None:
+    """What the runtime monitor (robustsynth.monitor) raises over the Monte Carlo runs, replayed from their logs
+    (:mod:`robustsynth.runtime.replay`): recorded, not in the verdict.  The runs keep every assumption of the
+    certificate, so an alarm here is a false alarm of the monitor (its noise bound, or its slip ranges), unless
+    the robot leaves its set, which the verdict judges.  None for a gain without a certified set."""
+    from ..artifacts.gains import controller_description
+    from ..runtime.replay import monitor_logs
+    from .simulate import run_logs
+
+    try:
+        desc = controller_description(gains, model.config)
+    except InputError:  # a config the gain cannot be deployed with (its verdict says why): nothing to monitor
+        return None
+    if not desc.get("monitor"):
+        return None
+    res = monitor_logs(run_logs(model, sim, scen), desc)
+    return {**{k: res[k] for k in ("logs", "runs_with_alarms", "alarm_periods", "fallback_engaged", "first")},
+            "detects": desc["monitor"]["detects"]}
 
 
 def _provenance(model: Any, gains: dict[str, Any]) -> str:

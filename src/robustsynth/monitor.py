@@ -1,0 +1,298 @@
+"""The runtime monitor: every period, does what the certificate assumed still hold?  Plain Python: no numpy,
+no imports beyond ``math`` (like :mod:`robustsynth.law`, it is exported verbatim and mirrored in C).
+
+A certificate is a theorem with assumptions (docs/theory.md §7, §9, §12, §16).  Each sampling instant t_k the
+controller hands :meth:`Monitor.step` what it can measure — the pose sample, the lifted state its law used, the
+command it is about to send and the network's reports (which commands were applied when, which were lost) — and
+the monitor checks:
+
+* ``DELAY``: each applied command's delay ``applied - t_j`` against [tau_min, tau_max] (t_j the sampling instant
+  it was computed at, the theory's tau), and in-order delivery;
+* ``LOSSES``: the run of lost commands against ``network.dropouts.max_consecutive``; a command without a report
+  by ``t_j + tau_max`` counts as lost (a report that comes later is a delay beyond tau_max);
+* ``SET``: V(xi_k) against the certified level, with the pose noise's largest effect on V added: above that
+  threshold the true state is outside the certified set (a proof, given the noise bound).  Only a departure
+  counts: once the state was seen inside (V below the level less the noise's effect) since the start or the
+  last waypoint of a path without turns (where the error jumps to the next segment's frame), leaving the set is
+  an alarm; before, the robot is on its way in (the set attracts);
+* ``HEADING``: |e_theta(t_k)| against the heading bound the kinematic channels assume (plus the noise bound);
+* ``MOTOR``: the command's motor speeds against robot.max_motor_speed (exact: the monitor computes them);
+* ``SLIP``: over the last ``window`` periods, the pose increments in the body frame (forward, heading, lateral)
+  against the ranges the slip box allows for the commands that acted (from the reports' applied times), each
+  range widened by the pose noise's effect.  The box's twist components (theory §12: traction sum and
+  difference, yaw factor times those, x_icr times those) enter by interval arithmetic, so an increment outside
+  its range has no explanation inside the box (an estimate from noisy poses: see ``slip_margin``).
+
+The noise bounds are ``noise_sigmas`` standard deviations of the config's ``verification.noise``.  A status is a
+word of these bits (0: every assumption holds as far as the monitor can see) with, per bit, by how much.  After
+``persistence`` periods in a row with an alarm the fallback engages and stays engaged until :meth:`reset`:
+``stop`` sends (0, 0), ``hold`` the last command sent before the alarms began, ``slow`` the law's command times
+``slow_factor``.
+
+Assumed: the reports of commands applied up to t_k reach the monitor before its step at t_k (an acknowledgement
+latency below the sampling time; otherwise the delay and slip checks see them a period later); the pose noise
+stays within ``noise_sigmas`` standard deviations.
+"""
+
+import math
+
+__all__ = ["Monitor", "OK", "DELAY", "LOSSES", "SET", "HEADING", "MOTOR", "SLIP", "CAUSES", "describe"]
+
+OK = 0
+DELAY = 1
+LOSSES = 2
+SET = 4
+HEADING = 8
+MOTOR = 16
+SLIP = 32
+CAUSES = (("delay", DELAY), ("losses", LOSSES), ("set", SET), ("heading", HEADING), ("motor", MOTOR), ("slip", SLIP))
+
+
+def describe(status):
+    """The names of the bits set in ``status``, comma-separated ("ok" for 0)."""
+    names = [name for name, bit in CAUSES if status & bit]
+    return ", ".join(names) if names else "ok"
+
+
+def _mon_wrap(a):
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def _mon_sinc(a):
+    """sin(a) / a, 1 at 0 (the series below 1e-4: exact to rounding)."""
+    return 1.0 - a * a / 6.0 if abs(a) < 1e-4 else math.sin(a) / a
+
+
+def _mon_scaled(lo, hi, c):
+    """The interval [lo, hi] times the number c."""
+    return (lo * c, hi * c) if c >= 0.0 else (hi * c, lo * c)
+
+
+class Monitor:
+    """The monitor of one controller description's certificate (``description["monitor"]``, written by
+    :func:`robustsynth.artifacts.gains.monitor_description`).  One instance per robot; :meth:`step` once per
+    sampling instant, in order."""
+
+    def __init__(self, description):
+        m = description.get("monitor")
+        if not m:
+            raise ValueError("this controller description has no monitor: its gain has no certificate (P and "
+                             "ellipsoid_level) to watch")
+        self.description = description
+        self.Ts = float(description["sampling_time"])
+        self.R, self.D = float(description["gear_radius"]), float(description["track_distance"])
+        self.tau_min, self.tau_max = float(m["tau_min"]), float(m["tau_max"])
+        self.clock_tol = float(m["clock_tol"])
+        self.max_lost = int(m["max_lost"])
+        self.P = [[[float(v) for v in row] for row in P] for P in m["P"]]
+        self.level = float(m["level"])
+        self.set_threshold = float(m["set_threshold"])
+        self.set_entry = float(m["set_entry"])
+        self.heading_limit = None if m.get("heading_limit") is None else float(m["heading_limit"])
+        # a path without turns: the error jumps at each waypoint (its segments' start times re-arm the set check)
+        self.segment_starts = []
+        if description.get("turn_radius") is None:
+            pts, travelled = description["path"], 0.0
+            for (xa, ya), (xb, yb) in zip(pts[:-1], pts[1:]):
+                self.segment_starts.append(travelled / float(description["reference_speed"]))
+                travelled = travelled + math.hypot(xb - xa, yb - ya)
+        self.rho_limit = m.get("rho_limit")
+        self.window = int(m["window"])
+        self.components = [(float(lo), float(hi)) for lo, hi in m["components"]]  # s, d, ys, yd, xs, xd
+        self.pos_noise, self.head_noise = float(m["position_noise"]), float(m["heading_noise"])
+        self.model_tol = float(m["model_tol"])
+        self.fallback = m["fallback"]
+        self.persistence = int(m["persistence"])
+        self.slow_factor = float(m["slow_factor"])
+        self.reset()
+
+    def reset(self):
+        """Forget everything (a new run): no command in flight, no pose, the fallback disengaged."""
+        self.pending = {}  # seq -> (t_k, V_hat, omega_hat) of the commands not yet reported
+        self.overdue = {}  # the same, of the commands counted as lost for want of a report by t_k + tau_max
+        self.schedule = []  # (applied time, V_hat, omega_hat) of the applied commands, in order
+        self.last_applied = -math.inf
+        self.lost_run = 0
+        self.poses = []  # (t, x, y, theta) of the last window + 1 samples
+        self.periods = []  # per period of the window: (ds, dtheta, dlat, Vc, Wc, |dpos|, |dtheta_mid|)
+        self.alarm_run = 0
+        self.engaged = False
+        self.inside = False  # the state was seen inside the set (since the start or the last waypoint)
+        self.segment = 0
+        self.held = None  # the last command sent before the alarms began
+        self.last_sent = None
+        self.amounts = {}
+
+    # ------------------------------------------------------------------------------------------ the checks
+    def _reports(self, t, reports, amounts):
+        status = 0
+        for seq, applied in reports:
+            late = seq in self.overdue
+            if not late and seq not in self.pending:
+                continue  # reported twice, or a command this monitor never saw
+            tk, v, w = self.overdue.pop(seq) if late else self.pending.pop(seq)
+            if applied is None or applied != applied:  # lost (None or NaN)
+                if not late:  # (an overdue one was counted already)
+                    self.lost_run += 1
+                continue
+            tau = applied - tk
+            excess = max(self.tau_min - self.clock_tol - tau, tau - self.tau_max - self.clock_tol)
+            if applied < self.last_applied - self.clock_tol:  # overtook a newer command
+                excess = max(excess, self.last_applied - applied)
+            if excess > 0.0:
+                status |= DELAY
+                amounts["delay"] = max(amounts.get("delay", 0.0), excess)
+            self.last_applied = max(self.last_applied, applied)
+            self.schedule.append((applied, v, w))
+            self.schedule.sort(key=lambda e: e[0])
+            if not late:
+                self.lost_run = 0
+        for seq in sorted(self.pending):  # no report by t_j + tau_max: lost, as far as the certificate goes
+            tk, v, w = self.pending[seq]
+            if t - tk > self.tau_max + self.clock_tol:
+                self.overdue[seq] = self.pending.pop(seq)
+                self.lost_run += 1
+        for seq in [s for s in self.overdue if t - self.overdue[s][0] > self.tau_max + self.Ts * (self.max_lost + 2)]:
+            del self.overdue[seq]  # long gone: a report now would be a delay far beyond any bound anyway
+        if self.lost_run > self.max_lost:
+            status |= LOSSES
+            amounts["losses"] = float(self.lost_run - self.max_lost)
+        return status
+
+    def _V(self, xi):
+        best = 0.0
+        for P in self.P:
+            acc = 0.0
+            for i, row in enumerate(P):
+                s = 0.0
+                for j, p in enumerate(row):
+                    s = s + p * xi[j]
+                acc = acc + xi[i] * s
+            best = max(best, acc)
+        return best
+
+    def _rho(self, v, w):
+        """The larger motor speed of the command (V_hat, omega_hat): |J^-1 u| (rad/s)."""
+        return max(abs(v / self.R + w * self.D / (2.0 * self.R)), abs(v / self.R - w * self.D / (2.0 * self.R)))
+
+    def _commanded(self, t0, t1):
+        """The integrals of the commanded (V_hat, omega_hat) over [t0, t1] by the applied schedule, and whether the
+        period cannot be judged: a command beyond the motor limit acted in it (the motors then give less than
+        commanded: not slip), or no command is known to act from its start (the first periods of a run)."""
+        Vc = Wc = 0.0
+        sched = self.schedule
+        clipped = not sched or sched[0][0] > t0  # no command known to act from the period's start: not judged
+        for i, (start, v, w) in enumerate(sched):
+            end = sched[i + 1][0] if i + 1 < len(sched) else math.inf
+            a, b = max(start, t0), min(end, t1)
+            if b > a:
+                Vc = Vc + (b - a) * v
+                Wc = Wc + (b - a) * w
+                clipped = clipped or (self.rho_limit is not None and self._rho(v, w) > self.rho_limit)
+        return Vc, Wc, clipped
+
+    def _slip(self, t, x, y, theta, amounts):
+        """The window's body-frame increments against the ranges the box allows (module docstring).  Forward:
+        sum_k (p_k - p_k-1) . c_k / sinc(dtheta_k / 2), c_k the direction at the period's mid heading: the
+        position noise (|n| <= sqrt 2 a) telescopes to sqrt 2 a (2 + sum |mid_k - mid_k-1|), the heading noise
+        turns each projection by at most b (|dp_k| b); heading: the increments telescope to theta_end -
+        theta_start (2 b)."""
+        if self.poses:
+            t0, x0, y0, th0 = self.poses[-1]
+            dth = _mon_wrap(theta - th0)
+            mid = th0 + dth / 2.0
+            c, s, k = math.cos(mid), math.sin(mid), 1.0 / _mon_sinc(dth / 2.0)
+            dx, dy = x - x0, y - y0
+            Vc, Wc, clipped = self._commanded(t0, t)
+            self.periods.append(((dx * c + dy * s) * k, dth, (dy * c - dx * s) * k, Vc, Wc, math.hypot(dx, dy), mid,
+                                 clipped))
+            self.periods = self.periods[-self.window:]
+        self.poses = (self.poses + [(t, x, y, theta)])[-(self.window + 1):]
+        while len(self.schedule) > 1 and self.schedule[1][0] <= self.poses[0][0]:
+            self.schedule.pop(0)  # acted wholly before the window
+        if len(self.periods) < self.window or any(p[7] for p in self.periods):
+            return 0  # a window not yet full, or one in which the motors were asked for more than they give
+        S = TH = L = Vc = Wc = travel = turns = turned = 0.0
+        for i, p in enumerate(self.periods):
+            S, TH, L, Vc, Wc = S + p[0], TH + p[1], L + p[2], Vc + p[3], Wc + p[4]
+            travel, turned = travel + p[5], turned + abs(p[1])
+            if i:
+                turns = turns + abs(_mon_wrap(p[6] - self.periods[i - 1][6]))
+        (s_lo, s_hi), (d_lo, d_hi), (ys_lo, ys_hi), (yd_lo, yd_hi), (xs_lo, xs_hi), (xd_lo, xd_hi) = self.components
+        a, b = self.pos_noise, self.head_noise
+        planar = math.sqrt(2.0) * a * (2.0 + turns) + travel * (b + self.model_tol)
+        # forward: v_x = s v + d (D/4) omega_c; yaw: omega = ys omega_c + yd v / D; lateral: v_y = -(xs omega_c + xd v / D)
+        ranges = (
+            ("forward", S, _mon_scaled(s_lo, s_hi, Vc), _mon_scaled(d_lo, d_hi, self.D / 4.0 * Wc), planar),
+            ("heading", TH, _mon_scaled(ys_lo, ys_hi, Wc), _mon_scaled(yd_lo, yd_hi, Vc / self.D), 2.0 * b + self.model_tol * turned),
+            ("lateral", L, _mon_scaled(-xs_hi, -xs_lo, Wc), _mon_scaled(-xd_hi, -xd_lo, Vc / self.D), planar),
+        )
+        worst = 0.0
+        for _name, got, (p_lo, p_hi), (q_lo, q_hi), err in ranges:
+            lo, hi = p_lo + q_lo - err, p_hi + q_hi + err
+            worst = max(worst, lo - got, got - hi)
+        if worst > 0.0:
+            amounts["slip"] = worst
+            return SLIP
+        return 0
+
+    def step(self, t, x, y, theta, xi, command, seq, reports=()):
+        """One period: :meth:`check`, then the command to send (the law's, or the fallback's once engaged),
+        registered as sent with sequence number ``seq`` (:meth:`sent`).  Returns (status, command to send)."""
+        status = self.check(t, x, y, theta, xi, command, reports)
+        out = self.fallback_command(command)
+        self.sent(seq, t, out)
+        return status, out
+
+    def check(self, t, x, y, theta, xi, command, reports=()):
+        """The checks of one period: the pose (x, y, theta) measured at t_k, the lifted state ``xi`` the law
+        used, the ``command`` (V_hat, omega_hat) it computed, and the network's ``reports`` since the last step,
+        ``(seq, applied time)`` per command (None or NaN: lost).  Returns the status word; ``self.amounts`` says
+        by how much each of its bits was exceeded, ``self.engaged`` whether the fallback is engaged."""
+        amounts = {}
+        status = self._reports(t, reports, amounts)
+        seg = max(sum(1 for s in self.segment_starts if s <= t + 1e-12) - 1, 0)  # the path's segment at t
+        if seg != self.segment:
+            self.segment, self.inside = seg, False
+        V = self._V(xi)
+        v_hat, w_hat = command
+        if self.inside:  # the set's claims: the heading the channels assume, the motor bound
+            if V > self.set_threshold:
+                status |= SET
+                amounts["set"] = V / self.level
+            if self.heading_limit is not None and abs(xi[2]) > self.heading_limit:
+                status |= HEADING
+                amounts["heading"] = abs(xi[2]) - self.heading_limit
+            rho = self._rho(v_hat, w_hat)
+            if self.rho_limit is not None and rho > self.rho_limit:
+                status |= MOTOR
+                amounts["motor"] = rho - self.rho_limit
+        self.inside = self.inside or V <= self.set_entry
+        status |= self._slip(t, x, y, theta, amounts)
+        self.amounts = amounts
+        if status:
+            if self.alarm_run == 0:
+                self.held = self.last_sent
+            self.alarm_run += 1
+            if self.alarm_run >= self.persistence:
+                self.engaged = True
+        else:
+            self.alarm_run = 0
+        return status
+
+    def fallback_command(self, command):
+        """The command to send: ``command`` (the law's), or once the fallback is engaged: stop (0, 0), hold (the
+        last command sent before the alarms began), slow (``command`` times slow_factor)."""
+        if not self.engaged:
+            return (command[0], command[1])
+        if self.fallback == "stop":
+            return (0.0, 0.0)
+        if self.fallback == "hold":
+            return self.held if self.held is not None else (0.0, 0.0)
+        return (command[0] * self.slow_factor, command[1] * self.slow_factor)
+
+    def sent(self, seq, t, command):
+        """The command (V_hat, omega_hat) sent at t_k with sequence number ``seq`` (what the robot will apply:
+        the slip check integrates it over the time it acts)."""
+        self.pending[seq] = (t, command[0], command[1])
+        self.last_sent = (command[0], command[1])

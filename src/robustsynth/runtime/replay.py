@@ -1,0 +1,102 @@
+"""The runtime monitor (:mod:`robustsynth.monitor`) run over robot logs: ``robustsynth monitor LOG --gains G``,
+and what ``verify`` and ``validate`` record of their runs.
+
+Each log row k is one period: the pose measured at t_k, the command sent then (its motor speeds) and when it
+started acting (empty: lost).  The lifted state the monitor judges is the law's: the error of the logged pose in
+the path's frame (:class:`robustsynth.law.Law`), with the logged commands, less the reference's feedforward, as the
+stored corrections (what the robot was really sent).  The reports reach the monitor as they would on the robot:
+a command's applied time at the first sampling instant at or after it; a lost command is never reported, so the
+monitor counts it lost once tau_max has passed.  The commands in flight before the log's first row are unknown:
+the stored corrections start at zero and the slip check starts with the first command the log shows acting.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from ..law import Controller
+from ..monitor import CAUSES, Monitor, describe
+
+__all__ = ["monitor_log", "monitor_logs"]
+
+
+def monitor_log(log: Any, description: dict[str, Any]) -> dict[str, Any]:
+    """The monitor over one :class:`~robustsynth.artifacts.logs.RobotLog` with the controller ``description``
+    (:func:`robustsynth.artifacts.gains.controller_description`, with its ``monitor``): per period the status word,
+    and the alarms (period, t, causes, by how much), the period the fallback would have engaged (None: never)."""
+    ctl = Controller(description)
+    mon = Monitor(description)
+    R, D = float(description["gear_radius"]), float(description["track_distance"])
+    V, d_hi = float(description["reference_speed"]), ctl.d_hi
+    law = ctl.law
+    corrections: list[tuple[float, float]] = []  # the logged commands less u^D and the feedforward, newest last
+    pending = sorted((float(log.applied[k]), k) for k in range(len(log)) if math.isfinite(float(log.applied[k])))
+    nxt = 0
+    statuses, alarms, engaged = [], [], None
+    for k in range(len(log)):
+        t = float(log.t[k])
+        reports = []
+        while nxt < len(pending) and pending[nxt][0] <= t + 1e-12:
+            applied, j = pending[nxt]
+            reports.append((int(log.seq[j]), applied))
+            nxt += 1
+        past = [c for pair in reversed(corrections[-d_hi:]) for c in pair]
+        law.past = past + [0.0] * (2 * d_hi - len(past))
+        ctl.step(t, float(log.x[k]), float(log.y[k]), float(log.theta[k]))
+        rr, rl = float(log.rho_r[k]), float(log.rho_l[k])
+        command = (R / 2.0 * (rr + rl), R / D * (rr - rl))  # u_hat = J rho
+        w = law.feedforward(t)
+        corrections.append((command[0] - V - w * ctl.ff_V, command[1] - w * ctl.ff_omega))
+        status = mon.check(t, float(log.x[k]), float(log.y[k]), float(log.theta[k]), ctl.state, command, reports)
+        mon.sent(int(log.seq[k]), t, command)  # what the robot was sent (the fallback only says when it would engage)
+        statuses.append(status)
+        if status:
+            alarms.append({"period": k, "t": t, "causes": describe(status), "by": dict(mon.amounts)})
+        if mon.engaged and engaged is None:
+            engaged = k
+    counts = {name: sum(1 for s in statuses if s & bit) for name, bit in CAUSES}
+    return {"log": str(log.path), "periods": len(statuses), "statuses": statuses, "alarms": alarms,
+            "alarm_periods": counts, "fallback_engaged_at": engaged, "fallback": description["monitor"]["fallback"]}
+
+
+def monitor_logs(logs: list[Any], description: dict[str, Any]) -> dict[str, Any]:
+    """:func:`monitor_log` of each log, and the totals: runs with an alarm, alarm periods per cause, the first
+    alarm of each cause (log and period)."""
+    runs = [monitor_log(lg, description) for lg in logs]
+    first: dict[str, Any] = {}
+    for r in runs:
+        for a in r["alarms"]:
+            for cause in a["causes"].split(", "):
+                first.setdefault(cause, {"log": r["log"], "period": a["period"], "t": a["t"], "by": a["by"].get(cause)})
+    return {"runs": runs, "logs": len(runs), "runs_with_alarms": sum(1 for r in runs if r["alarms"]),
+            "alarm_periods": {name: sum(r["alarm_periods"][name] for r in runs) for name, _ in CAUSES},
+            "fallback_engaged": sum(1 for r in runs if r["fallback_engaged_at"] is not None), "first": first}
+
+
+def monitor_files(log_paths: list[Any], gains_path: Any, config: Any = None, outdir: Any = None) -> dict[str, Any]:
+    """``robustsynth monitor``: the monitor of the gain in ``gains_path`` (with ``config``, else the config stored in
+    the gains file) over the robot logs ``log_paths``; the totals of :func:`monitor_logs` with every alarm, and,
+    with ``outdir``, ``monitor.json`` written there (atomically).  A linear plant's gains, a gains file without a
+    config or without a certificate, a malformed log: InputError (exit 2), nothing written."""
+    from ..artifacts.files import commit_files, json_bytes
+    from ..artifacts.gains import controller_description, load_gains, stored_config
+    from ..artifacts.logs import read_log
+    from ..errors import InputError
+
+    gains = load_gains(gains_path)
+    if gains.get("kind") == "lti":
+        raise InputError(f"{gains_path}: a linear plant's gains (kind: lti); the monitor watches the tracked robot's certificate")
+    cfg = config if config is not None else stored_config(gains)
+    if cfg is None:
+        raise InputError(f"{gains_path}: config: the gains file holds no config (give CONFIG)")
+    description = controller_description(gains, cfg)
+    if not description.get("monitor"):
+        raise InputError(f"{gains_path}: certificate: no certified set (P, ellipsoid_level) to monitor against")
+    logs = [read_log(p) for p in log_paths]
+    out = monitor_logs(logs, description)
+    out.update({"gains": str(gains_path), "gains_id": gains.get("gains_id"), "config": cfg.name,
+                "monitor": description["monitor"]})
+    if outdir is not None:
+        commit_files(outdir, {"monitor.json": json_bytes(out)}, primary="monitor.json")
+    return out
