@@ -1,7 +1,8 @@
 """The deployed controller: Controller.step (Python, one robot), the exported pure-Python module,
 and the exported C step, on every committed gain shape (d_hi 1 and 3) and with integral action.
 
-Targets (issue 11): Controller.step >= 200 000 steps/s; the C step <= 1 us."""
+Targets (issue 11): Controller.step >= 200 000 steps/s; the C step <= 1 us.  Issue 54: the C runtime monitor beside the
+law, per step, law + monitor <= 3x the law alone (the monitor's harness on a straight run with one report a period)."""
 
 from __future__ import annotations
 
@@ -21,6 +22,15 @@ def _rate(step, n: int = 200_000) -> float:
     for k in range(n):
         step((k % 600) * Ts, 0.001 * (k % 7), 0.002 * (k % 5), 0.0)
     return n / (time.perf_counter() - t0)
+
+
+def _c_ns(cc: str, tmp: Path, harness: str, source: str) -> float:
+    """ns per step of an exported C harness (``--bench``), compiled with -O2."""
+    exe = tmp / harness
+    subprocess.run([cc, "-std=c99", "-O2", "-o", str(exe), str(tmp / f"{harness}.c"), str(tmp / f"{source}.c"), "-lm"],
+                   check=True)
+    res = subprocess.run([str(exe), "--bench", "20000000"], capture_output=True, text=True, check=True)
+    return float(res.stdout.split()[0])
 
 
 def main() -> dict[str, float]:
@@ -50,13 +60,13 @@ def main() -> dict[str, float]:
             line = (f"{label}: Controller.step {rate:,.0f} steps/s (target >= 200,000), "
                     f"exported rs_controller.py {rate_py:,.0f} steps/s")
             if cc:
-                exe = Path(tmp) / "rs_harness"
-                subprocess.run([cc, "-std=c99", "-O2", "-o", str(exe), str(Path(tmp) / "rs_harness.c"),
-                                str(Path(tmp) / "rs_controller.c"), "-lm"], check=True)
-                res = subprocess.run([str(exe), "--bench", "20000000"], capture_output=True, text=True, check=True)
-                ns = float(res.stdout.split()[0])
+                ns = _c_ns(cc, Path(tmp), "rs_harness", "rs_controller")
                 out[f"{label} c_ns"] = ns
                 line += f", C rs_step {ns:.1f} ns (target <= 1000 ns; cc -O2)"
+                if d.get("monitor"):  # the runtime monitor beside it (issue 54: law + monitor <= 3x the law), same run
+                    mns = _c_ns(cc, Path(tmp), "rs_monitor_harness", "rs_monitor")
+                    out[f"{label} c_monitor_ns"] = mns
+                    line += f", C rs_monitor_step {mns:.1f} ns: law + monitor {(ns + mns) / ns:.1f}x the law (target <= 3x)"
             print(line)
     return out
 

@@ -59,8 +59,9 @@ def _mon_wrap(a):
 
 
 def _mon_sinc(a):
-    """sin(a) / a, 1 at 0 (the series below 1e-4: exact to rounding)."""
-    return 1.0 - a * a / 6.0 if abs(a) < 1e-4 else math.sin(a) / a
+    """sin(a) / a: below 0.05 its series to a^4 (the next term, a^6 / 5040, is below 4e-12: far inside the slip
+    check's model_tol), else by the sine."""
+    return 1.0 - a * a / 6.0 + a * a * a * a / 120.0 if abs(a) < 0.05 else math.sin(a) / a
 
 
 def _mon_scaled(lo, hi, c):
@@ -81,6 +82,7 @@ class Monitor:
         self.description = description
         self.Ts = float(description["sampling_time"])
         self.R, self.D = float(description["gear_radius"]), float(description["track_distance"])
+        self.inv_R, self.half_D_over_R = 1.0 / self.R, self.D / (2.0 * self.R)  # J^-1 = [[1/R, D/2R], [1/R, -D/2R]]
         self.tau_min, self.tau_max = float(m["tau_min"]), float(m["tau_max"])
         self.clock_tol = float(m["clock_tol"])
         self.max_lost = int(m["max_lost"])
@@ -143,7 +145,7 @@ class Monitor:
                 status |= DELAY
                 amounts["delay"] = max(amounts.get("delay", 0.0), excess)
             self.last_applied = max(self.last_applied, applied)
-            self.schedule.append((applied, v, w))
+            self.schedule.append((applied, v, w, self.rho_limit is not None and self._rho(v, w) > self.rho_limit))
             self.schedule.sort(key=lambda e: e[0])
             if not late:
                 self.lost_run = 0
@@ -173,7 +175,7 @@ class Monitor:
 
     def _rho(self, v, w):
         """The larger motor speed of the command (V_hat, omega_hat): |J^-1 u| (rad/s)."""
-        return max(abs(v / self.R + w * self.D / (2.0 * self.R)), abs(v / self.R - w * self.D / (2.0 * self.R)))
+        return max(abs(v * self.inv_R + w * self.half_D_over_R), abs(v * self.inv_R - w * self.half_D_over_R))
 
     def _commanded(self, t0, t1):
         """The integrals of the commanded (V_hat, omega_hat) over [t0, t1] by the applied schedule, and whether the
@@ -182,13 +184,13 @@ class Monitor:
         Vc = Wc = 0.0
         sched = self.schedule
         clipped = not sched or sched[0][0] > t0  # no command known to act from the period's start: not judged
-        for i, (start, v, w) in enumerate(sched):
+        for i, (start, v, w, beyond) in enumerate(sched):
             end = sched[i + 1][0] if i + 1 < len(sched) else math.inf
             a, b = max(start, t0), min(end, t1)
             if b > a:
                 Vc = Vc + (b - a) * v
                 Wc = Wc + (b - a) * w
-                clipped = clipped or (self.rho_limit is not None and self._rho(v, w) > self.rho_limit)
+                clipped = clipped or beyond
         return Vc, Wc, clipped
 
     def _slip(self, t, x, y, theta, amounts):
@@ -204,8 +206,9 @@ class Monitor:
             c, s, k = math.cos(mid), math.sin(mid), 1.0 / _mon_sinc(dth / 2.0)
             dx, dy = x - x0, y - y0
             Vc, Wc, clipped = self._commanded(t0, t)
-            self.periods.append(((dx * c + dy * s) * k, dth, (dy * c - dx * s) * k, Vc, Wc, math.hypot(dx, dy), mid,
-                                 clipped))
+            dmid = abs(_mon_wrap(mid - self.periods[-1][6])) if self.periods else 0.0  # the direction's turn since
+            self.periods.append(((dx * c + dy * s) * k, dth, (dy * c - dx * s) * k, Vc, Wc, math.sqrt(dx * dx + dy * dy), mid,
+                                 clipped, dmid))
             self.periods = self.periods[-self.window:]
         self.poses = (self.poses + [(t, x, y, theta)])[-(self.window + 1):]
         while len(self.schedule) > 1 and self.schedule[1][0] <= self.poses[0][0]:
@@ -217,7 +220,7 @@ class Monitor:
             S, TH, L, Vc, Wc = S + p[0], TH + p[1], L + p[2], Vc + p[3], Wc + p[4]
             travel, turned = travel + p[5], turned + abs(p[1])
             if i:
-                turns = turns + abs(_mon_wrap(p[6] - self.periods[i - 1][6]))
+                turns = turns + p[8]
         (s_lo, s_hi), (d_lo, d_hi), (ys_lo, ys_hi), (yd_lo, yd_hi), (xs_lo, xs_hi), (xd_lo, xd_hi) = self.components
         a, b = self.pos_noise, self.head_noise
         planar = math.sqrt(2.0) * a * (2.0 + turns) + travel * (b + self.model_tol)

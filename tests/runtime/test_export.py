@@ -66,10 +66,13 @@ def _crosses_waypoints(ctl: Controller, rows) -> bool:
 @pytest.mark.parametrize("gains", GAINS, ids=lambda p: p.parent.name)
 def test_c_export_compiles_strictly_and_reproduces_the_commands(gains: Path, tmp_path: Path) -> None:
     _, files = export_controller(gains, "c", tmp_path, allow_unverified=True)  # the code, whatever the verdict
-    assert {p.name for p in files} == {"rs_controller.h", "rs_controller.c", "rs_harness.c"}
-    src = (tmp_path / "rs_controller.c").read_text()
-    assert "malloc" not in src and [ln for ln in src.splitlines() if ln.startswith("#include")] == [
-        "#include <math.h>", '#include "rs_controller.h"']
+    # the law and, for a gain with a certified set, its runtime monitor (tests/runtime/test_export_monitor.py)
+    assert {p.name for p in files} == {"rs_controller.h", "rs_controller.c", "rs_harness.c", "rs_monitor.h", "rs_monitor.c",
+                                       "rs_monitor_harness.c"}
+    for name, own in (("rs_controller.c", "rs_controller.h"), ("rs_monitor.c", "rs_monitor.h")):
+        src = (tmp_path / name).read_text()
+        assert "malloc" not in src and [ln for ln in src.splitlines() if ln.startswith("#include")] == [
+            "#include <math.h>", f'#include "{own}"']
     exe = tmp_path / "rs_harness"
     subprocess.run([CC, "-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2", "-o", str(exe),
                     str(tmp_path / "rs_harness.c"), str(tmp_path / "rs_controller.c"), "-lm"], check=True,

@@ -43,6 +43,7 @@ def c_files(d: dict[str, Any]) -> dict[str, bytes]:
     and timing harness: ``rs_harness < steps.txt`` reads lines ``t x y theta`` (or ``reset``) and
     prints ``V omega`` with 17 digits; ``rs_harness --bench N`` times N steps."""
     from ..law import SAMPLE_EPS, Controller
+    from .export_monitor import c_wrap
 
     ctl = Controller(d)  # validates the description
     path = ctl.path
@@ -161,17 +162,7 @@ static const double TWO_PI_ = {_f(2.0 * math.pi)};
 static const double INV_R = {_f(1.0 / R)};
 static const double HALF_D_OVER_R = {_f(D / (2.0 * R))};
 
-/* angle in [-pi, pi): floor modulo, as Python's and numpy's % */
-static double wrap_angle(double a)
-{{
-    double m = fmod(a + PI_, TWO_PI_);
-    if (m != 0.0) {{
-        if (m < 0.0) m += TWO_PI_;
-    }} else {{
-        m = 0.0;
-    }}
-    return m - PI_;
-}}
+{c_wrap("wrap_angle", "angle in [-pi, pi): floor modulo, as Python's and numpy's %")}
 
 void rs_init(rs_controller_t *c)
 {{
@@ -247,7 +238,12 @@ int main(int argc, char **argv)
     return 0;
 }
 """
-    return {"rs_controller.h": h.encode(), "rs_controller.c": c.encode(), "rs_harness.c": harness.encode()}
+    files = {"rs_controller.h": h.encode(), "rs_controller.c": c.encode(), "rs_harness.c": harness.encode()}
+    if d.get("monitor"):  # the runtime monitor of its certificate (robustsynth.monitor), beside it
+        from .export_monitor import c_monitor_files
+
+        files.update(c_monitor_files(d))
+    return files
 
 
 def python_module(d: dict[str, Any]) -> bytes:
@@ -314,12 +310,37 @@ def ros2_parameters(d: dict[str, Any]) -> bytes:
         "track_distance": float(d["track_distance"]),
         "has_motor_limit": rho is not None,
         "max_motor_speed": float(rho) if rho is not None else 0.0,
+        **_monitor_parameters(d),
     }
     head = (f"# ROS 2 parameters of the robustsynth controller node, {_header_comment(d, 'ros2', '# ')}\n"
             "# K is row-major, K_rows x K_cols, on the lifted state named in state_names.\n"
             "# The node calls the law once per sampling_time; see README 'Deploying the controller'.\n")
     return (head + yaml.safe_dump({"robustsynth_controller": {"ros__parameters": params}}, sort_keys=False,
                                   default_flow_style=None, width=120)).encode()
+
+
+def _monitor_parameters(d: dict[str, Any]) -> dict[str, Any]:
+    """The runtime monitor's description (robustsynth.monitor) as flat ROS 2 parameters, ``monitor_*`` (none without
+    one): the node runs the exported C monitor (rs_monitor.c) or the Python class with them."""
+    m = d.get("monitor")
+    if not m:
+        return {"has_monitor": False}
+    P = [float(v) for Pm in m["P"] for row in Pm for v in row]
+    return {
+        "has_monitor": True,
+        "monitor_tau_min": float(m["tau_min"]), "monitor_tau_max": float(m["tau_max"]),
+        "monitor_max_lost": int(m["max_lost"]), "monitor_clock_tol": float(m["clock_tol"]),
+        "monitor_P_count": len(m["P"]), "monitor_P": P, "monitor_level": float(m["level"]),
+        "monitor_set_threshold": float(m["set_threshold"]), "monitor_set_entry": float(m["set_entry"]),
+        "monitor_has_heading_limit": m["heading_limit"] is not None,
+        "monitor_heading_limit": float(m["heading_limit"]) if m["heading_limit"] is not None else 0.0,
+        "monitor_has_rho_limit": m["rho_limit"] is not None,
+        "monitor_rho_limit": float(m["rho_limit"]) if m["rho_limit"] is not None else 0.0,
+        "monitor_window": int(m["window"]), "monitor_components": [float(v) for pair in m["components"] for v in pair],
+        "monitor_position_noise": float(m["position_noise"]), "monitor_heading_noise": float(m["heading_noise"]),
+        "monitor_model_tol": float(m["model_tol"]), "monitor_fallback": m["fallback"],
+        "monitor_persistence": int(m["persistence"]), "monitor_slow_factor": float(m["slow_factor"]),
+    }
 
 
 def _reference_table(d: dict[str, Any]) -> dict[str, list[float]]:

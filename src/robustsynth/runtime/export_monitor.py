@@ -1,0 +1,477 @@
+"""The runtime monitor (:mod:`robustsynth.monitor`) as C99: rs_monitor.h / rs_monitor.c beside rs_controller.c,
+the same operations in the same order as the Python class (bit-identical: ``tests/runtime/test_export_monitor.py``),
+only <math.h>, no heap (fixed arrays: the commands in flight, the applied schedule of the window, its poses), and
+rs_monitor_harness.c, which replays periods from stdin for the tests and times a step (``--bench N``)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ..monitor import CAUSES, Monitor
+
+__all__ = ["c_monitor_files", "c_wrap", "MONITOR_CAPACITY"]
+
+MONITOR_CAPACITY = 64  # commands in flight / overdue / applied in the window the C monitor keeps (fixed arrays)
+
+
+def _f(v: float) -> str:
+    return repr(float(v)) if v == v and abs(v) != float("inf") else ("(0.0 / 0.0)" if v != v else ("HUGE_VAL" if v > 0 else "-HUGE_VAL"))
+
+
+def c_wrap(name: str, comment: str) -> str:
+    """A C function ``name`` giving an angle in [-pi, pi) by floor modulo, as Python's ``(a + pi) % (2 pi) - pi``
+    (fmod, then the sign's correction Python's float % makes): the law's and the monitor's C share it."""
+    return f"""/* {comment} */
+static double {name}(double a)
+{{
+    double m = fmod(a + PI_, TWO_PI_);
+    if (m != 0.0) {{
+        if (m < 0.0) m += TWO_PI_;
+    }} else {{
+        m = 0.0;
+    }}
+    return m - PI_;
+}}"""
+
+
+def _arr(values) -> str:
+    return "{" + ", ".join(_f(v) for v in values) + "}"
+
+
+def c_monitor_files(d: dict[str, Any]) -> dict[str, bytes]:
+    """rs_monitor.h, rs_monitor.c and rs_monitor_harness.c of the description ``d`` (with its ``monitor``)."""
+    m = Monitor(d)  # validates the description and computes what the Python class derives (the segments' starts)
+    n_s = len(m.P[0])
+    n_p = len(m.P)
+    W = m.window
+    cap = max(MONITOR_CAPACITY, 4 * W + 16)
+    P = ",\n    ".join("{" + ", ".join(_arr(row) for row in Pm) + "}" for Pm in m.P)
+    comp = ", ".join(f"{{{_f(lo)}, {_f(hi)}}}" for lo, hi in m.components)
+    fallback = {"stop": 0, "hold": 1, "slow": 2}[m.fallback]
+    bits = "\n".join(f"#define RS_MON_{name.upper()} {bit}" for name, bit in CAUSES)
+    h = f"""/* rs_monitor.h: the runtime monitor of the certificate's assumptions (robustsynth.monitor, the same
+   operations in the same order: bit-identical to the Python class).  Each period, after rs_step:
+     status = rs_monitor_step(&m, t, x, y, theta, c.xi, V, omega, seq, n, seqs, applied, &V_out, &omega_out);
+   with the reports of the commands applied since the last period (applied time; NaN: lost), then send
+   (V_out, omega_out): the law's command, or the fallback's once engaged.  status: a word of RS_MON_* bits
+   (0: every assumption holds as far as the monitor sees); m.amounts[i]: by how much bit i was exceeded. */
+#ifndef RS_MONITOR_H
+#define RS_MONITOR_H
+
+{bits}
+#define RS_MON_CAUSES {len(CAUSES)}
+#define RS_MON_N_S {n_s}
+#define RS_MON_WINDOW {W}
+#define RS_MON_CAPACITY {cap}
+
+typedef struct {{
+    long pend_seq[RS_MON_CAPACITY];                         /* sent, not yet reported (by seq) */
+    double pend_t[RS_MON_CAPACITY], pend_v[RS_MON_CAPACITY], pend_w[RS_MON_CAPACITY];
+    int n_pend;
+    long over_seq[RS_MON_CAPACITY];                         /* counted lost: no report by t_j + tau_max */
+    double over_t[RS_MON_CAPACITY], over_v[RS_MON_CAPACITY], over_w[RS_MON_CAPACITY];
+    int n_over;
+    double sched_t[RS_MON_CAPACITY], sched_v[RS_MON_CAPACITY], sched_w[RS_MON_CAPACITY]; /* applied, in time order */
+    int sched_beyond[RS_MON_CAPACITY];                      /* the command asks the motors for more than rho_max */
+    int n_sched, sched_first;
+    double last_applied;
+    long lost_run;
+    double pose[RS_MON_WINDOW + 1][4];                      /* t, x, y, theta: a ring, pose_first the oldest */
+    int n_poses, pose_first;
+    double period[RS_MON_WINDOW][9];  /* ds, dtheta, dlat, Vc, Wc, |dp|, mid heading, unjudged, |turn of mid|: a ring */
+    int n_periods, period_first, n_unjudged;               /* n_unjudged: periods of the ring flagged unjudged */
+    long alarm_run;
+    int engaged, inside, segment, has_held, has_sent;
+    double held[2], last_sent[2];
+    double amounts[RS_MON_CAUSES];                          /* by how much each bit of the last status */
+}} rs_monitor_t;
+
+void rs_monitor_init(rs_monitor_t *m);
+int rs_monitor_check(rs_monitor_t *m, double t, double x, double y, double theta, const double *xi, double V,
+                     double omega, int n_reports, const long *seqs, const double *applied);
+void rs_monitor_fallback(const rs_monitor_t *m, double V, double omega, double *V_out, double *omega_out);
+void rs_monitor_sent(rs_monitor_t *m, long seq, double t, double V, double omega);
+int rs_monitor_step(rs_monitor_t *m, double t, double x, double y, double theta, const double *xi, double V,
+                    double omega, long seq, int n_reports, const long *seqs, const double *applied, double *V_out,
+                    double *omega_out);
+
+#endif /* RS_MONITOR_H */
+"""
+    seg = _arr(m.segment_starts) if m.segment_starts else "{0.0}"
+    c = f"""/* rs_monitor.c: see rs_monitor.h (generated by robustsynth from the gain's certificate). */
+#include <math.h>
+#include "rs_monitor.h"
+
+static const double TS = {_f(m.Ts)};
+static const double D_ = {_f(m.D)};
+static const double INV_R = {_f(m.inv_R)};
+static const double HALF_D_OVER_R = {_f(m.half_D_over_R)};
+static const double TAU_MIN = {_f(m.tau_min)};
+static const double TAU_MAX = {_f(m.tau_max)};
+static const double CLOCK_TOL = {_f(m.clock_tol)};
+static const long MAX_LOST = {m.max_lost};
+#define N_P {n_p}
+static const double P[N_P][RS_MON_N_S][RS_MON_N_S] = {{
+    {P}
+}};
+static const double LEVEL = {_f(m.level)};
+static const double SET_THRESHOLD = {_f(m.set_threshold)};
+static const double SET_ENTRY = {_f(m.set_entry)};
+static const int HAS_HEADING = {0 if m.heading_limit is None else 1};
+static const double HEADING_LIMIT = {_f(m.heading_limit if m.heading_limit is not None else 0.0)};
+static const int HAS_RHO = {0 if m.rho_limit is None else 1};
+static const double RHO_LIMIT = {_f(m.rho_limit if m.rho_limit is not None else 0.0)};
+static const double COMP[6][2] = {{{comp}}};
+static const double POS_NOISE = {_f(m.pos_noise)};
+static const double HEAD_NOISE = {_f(m.head_noise)};
+static const double MODEL_TOL = {_f(m.model_tol)};
+static const int FALLBACK = {fallback}; /* 0 stop, 1 hold, 2 slow */
+static const long PERSISTENCE = {m.persistence};
+static const double SLOW_FACTOR = {_f(m.slow_factor)};
+#define N_SEG {len(m.segment_starts)}
+static const double SEGMENT_STARTS[N_SEG > 0 ? N_SEG : 1] = {seg};
+static const double PI_ = {_f(3.141592653589793)};
+static const double TWO_PI_ = {_f(6.283185307179586)};
+
+{c_wrap("wrap_", "Python's float % (floor modulo), as the monitor's _mon_wrap")}
+static double sinc_(double a) {{ return fabs(a) < 0.05 ? 1.0 - a * a / 6.0 + a * a * a * a / 120.0 : sin(a) / a; }}
+static double max_(double a, double b) {{ return b > a ? b : a; }} /* Python's max(a, b) */
+static double min_(double a, double b) {{ return b < a ? b : a; }} /* Python's min(a, b) */
+static void scaled_(double lo, double hi, double c, double *out_lo, double *out_hi)
+{{
+    if (c >= 0.0) {{ *out_lo = lo * c; *out_hi = hi * c; }} else {{ *out_lo = hi * c; *out_hi = lo * c; }}
+}}
+static double rho_(double v, double w)
+{{
+    return max_(fabs(v * INV_R + w * HALF_D_OVER_R), fabs(v * INV_R - w * HALF_D_OVER_R));
+}}
+
+void rs_monitor_init(rs_monitor_t *m)
+{{
+    int i;
+    m->n_pend = m->n_over = m->n_sched = m->n_poses = m->n_periods = m->pose_first = m->period_first = 0;
+    m->n_unjudged = m->sched_first = 0;
+    m->last_applied = -HUGE_VAL;
+    m->lost_run = 0;
+    m->alarm_run = 0;
+    m->engaged = m->inside = m->segment = m->has_held = m->has_sent = 0;
+    m->held[0] = m->held[1] = m->last_sent[0] = m->last_sent[1] = 0.0;
+    for (i = 0; i < RS_MON_CAUSES; ++i) m->amounts[i] = 0.0;
+}}
+
+static int find_(const long *seqs, int n, long seq)
+{{
+    int i;
+    for (i = 0; i < n; ++i) if (seqs[i] == seq) return i;
+    return -1;
+}}
+
+static void remove_(long *s, double *a, double *b, double *c, int *n, int i)
+{{
+    for (; i + 1 < *n; ++i) {{ s[i] = s[i + 1]; a[i] = a[i + 1]; b[i] = b[i + 1]; c[i] = c[i + 1]; }}
+    --*n;
+}}
+
+/* the applied schedule: entries sched_first .. sched_first + n_sched - 1 of its arrays, in time order */
+#define SCH_T(i) m->sched_t[m->sched_first + (i)]
+#define SCH_V(i) m->sched_v[m->sched_first + (i)]
+#define SCH_W(i) m->sched_w[m->sched_first + (i)]
+#define SCH_B(i) m->sched_beyond[m->sched_first + (i)]
+
+static void drop_first_(rs_monitor_t *m)
+{{
+    ++m->sched_first;
+    --m->n_sched;
+}}
+
+static void schedule_(rs_monitor_t *m, double applied, double v, double w) /* a stable insertion by time */
+{{
+    int i;
+    if (m->n_sched == RS_MON_CAPACITY) drop_first_(m); /* full: the oldest goes (it acted before the window) */
+    if (m->sched_first + m->n_sched == RS_MON_CAPACITY) {{ /* at the arrays' end: the entries move to their start */
+        for (i = 0; i < m->n_sched; ++i) {{
+            m->sched_t[i] = SCH_T(i); m->sched_v[i] = SCH_V(i); m->sched_w[i] = SCH_W(i); m->sched_beyond[i] = SCH_B(i);
+        }}
+        m->sched_first = 0;
+    }}
+    i = m->n_sched;
+    while (i > 0 && SCH_T(i - 1) > applied) {{
+        SCH_T(i) = SCH_T(i - 1); SCH_V(i) = SCH_V(i - 1); SCH_W(i) = SCH_W(i - 1); SCH_B(i) = SCH_B(i - 1);
+        --i;
+    }}
+    SCH_T(i) = applied; SCH_V(i) = v; SCH_W(i) = w;
+    SCH_B(i) = HAS_RHO && rho_(v, w) > RHO_LIMIT;
+    ++m->n_sched;
+}}
+
+static int reports_(rs_monitor_t *m, double t, int n, const long *seqs, const double *applied)
+{{
+    int status = 0, r, i, late;
+    for (r = 0; r < n; ++r) {{
+        double tk, v, w, tau, excess;
+        i = find_(m->over_seq, m->n_over, seqs[r]);
+        late = i >= 0;
+        if (late) {{
+            tk = m->over_t[i]; v = m->over_v[i]; w = m->over_w[i];
+            remove_(m->over_seq, m->over_t, m->over_v, m->over_w, &m->n_over, i);
+        }} else {{
+            i = find_(m->pend_seq, m->n_pend, seqs[r]);
+            if (i < 0) continue;
+            tk = m->pend_t[i]; v = m->pend_v[i]; w = m->pend_w[i];
+            remove_(m->pend_seq, m->pend_t, m->pend_v, m->pend_w, &m->n_pend, i);
+        }}
+        if (applied[r] != applied[r]) {{ /* lost */
+            if (!late) m->lost_run += 1;
+            continue;
+        }}
+        tau = applied[r] - tk;
+        excess = max_(TAU_MIN - CLOCK_TOL - tau, tau - TAU_MAX - CLOCK_TOL);
+        if (applied[r] < m->last_applied - CLOCK_TOL) excess = max_(excess, m->last_applied - applied[r]);
+        if (excess > 0.0) {{
+            status |= RS_MON_DELAY;
+            m->amounts[0] = max_(m->amounts[0], excess);
+        }}
+        m->last_applied = max_(m->last_applied, applied[r]);
+        schedule_(m, applied[r], v, w);
+        if (!late) m->lost_run = 0;
+    }}
+    i = 0;
+    while (i < m->n_pend) {{ /* in seq order: the arrays are kept sorted by seq */
+        if (t - m->pend_t[i] > TAU_MAX + CLOCK_TOL) {{
+            if (m->n_over < RS_MON_CAPACITY) {{
+                m->over_seq[m->n_over] = m->pend_seq[i]; m->over_t[m->n_over] = m->pend_t[i];
+                m->over_v[m->n_over] = m->pend_v[i]; m->over_w[m->n_over] = m->pend_w[i];
+                ++m->n_over;
+            }}
+            remove_(m->pend_seq, m->pend_t, m->pend_v, m->pend_w, &m->n_pend, i);
+            m->lost_run += 1;
+        }} else {{
+            ++i;
+        }}
+    }}
+    i = 0;
+    while (i < m->n_over) {{
+        if (t - m->over_t[i] > TAU_MAX + TS * (double)(MAX_LOST + 2))
+            remove_(m->over_seq, m->over_t, m->over_v, m->over_w, &m->n_over, i);
+        else
+            ++i;
+    }}
+    if (m->lost_run > MAX_LOST) {{
+        status |= RS_MON_LOSSES;
+        m->amounts[1] = (double)(m->lost_run - MAX_LOST);
+    }}
+    return status;
+}}
+
+static double V_(const double *xi)
+{{
+    double best = 0.0;
+    int k, i, j;
+    for (k = 0; k < N_P; ++k) {{
+        double acc = 0.0;
+        for (i = 0; i < RS_MON_N_S; ++i) {{
+            double s = 0.0;
+            for (j = 0; j < RS_MON_N_S; ++j) s = s + P[k][i][j] * xi[j];
+            acc = acc + xi[i] * s;
+        }}
+        best = max_(best, acc);
+    }}
+    return best;
+}}
+
+static void commanded_(const rs_monitor_t *m, double t0, double t1, double *Vc, double *Wc, int *clipped)
+{{
+    int i;
+    *Vc = *Wc = 0.0;
+    *clipped = m->n_sched == 0 || SCH_T(0) > t0;
+    for (i = 0; i < m->n_sched; ++i) {{
+        double end = i + 1 < m->n_sched ? SCH_T(i + 1) : HUGE_VAL;
+        double a = max_(SCH_T(i), t0), b = min_(end, t1);
+        if (b > a) {{
+            *Vc = *Vc + (b - a) * SCH_V(i);
+            *Wc = *Wc + (b - a) * SCH_W(i);
+            *clipped = *clipped || SCH_B(i);
+        }}
+    }}
+}}
+
+static int slip_(rs_monitor_t *m, double t, double x, double y, double theta)
+{{
+    int i, j, n;
+    double S = 0.0, TH = 0.0, L = 0.0, Vc = 0.0, Wc = 0.0, travel = 0.0, turns = 0.0, turned = 0.0, a, b, planar, worst;
+    double lo[3], hi[3], got[3], err[3], p_lo, p_hi, q_lo, q_hi;
+    if (m->n_poses > 0) {{
+        const double *q0 = m->pose[(m->pose_first + m->n_poses - 1) % (RS_MON_WINDOW + 1)];
+        double dth = wrap_(theta - q0[3]);
+        double mid = q0[3] + dth / 2.0;
+        double c = cos(mid), s = sin(mid), k = 1.0 / sinc_(dth / 2.0);
+        double dx = x - q0[1], dy = y - q0[2], vc, wc, dmid = 0.0, *p;
+        int clipped;
+        commanded_(m, q0[0], t, &vc, &wc, &clipped);
+        if (m->n_periods > 0) dmid = fabs(wrap_(mid - m->period[(m->period_first + m->n_periods - 1) % RS_MON_WINDOW][6]));
+        if (m->n_periods == RS_MON_WINDOW) {{ /* the oldest goes */
+            m->n_unjudged -= m->period[m->period_first][7] != 0.0;
+            m->period_first = m->period_first + 1 == RS_MON_WINDOW ? 0 : m->period_first + 1;
+            --m->n_periods;
+        }}
+        p = m->period[(m->period_first + m->n_periods) % RS_MON_WINDOW];
+        p[0] = (dx * c + dy * s) * k;
+        p[1] = dth;
+        p[2] = (dy * c - dx * s) * k;
+        p[3] = vc;
+        p[4] = wc;
+        p[5] = sqrt(dx * dx + dy * dy);
+        p[6] = mid;
+        p[7] = clipped ? 1.0 : 0.0;
+        p[8] = dmid;
+        m->n_unjudged += clipped != 0;
+        ++m->n_periods;
+    }}
+    if (m->n_poses == RS_MON_WINDOW + 1) {{
+        m->pose_first = (m->pose_first + 1) % (RS_MON_WINDOW + 1);
+        --m->n_poses;
+    }}
+    {{
+        double *q = m->pose[(m->pose_first + m->n_poses) % (RS_MON_WINDOW + 1)];
+        q[0] = t; q[1] = x; q[2] = y; q[3] = theta;
+        ++m->n_poses;
+    }}
+    while (m->n_sched > 1 && SCH_T(1) <= m->pose[m->pose_first][0]) drop_first_(m);
+    if (m->n_periods < RS_MON_WINDOW || m->n_unjudged > 0) return 0;
+    for (n = 0, j = m->period_first; n < m->n_periods; ++n, j = j + 1 == RS_MON_WINDOW ? 0 : j + 1) {{
+        const double *p = m->period[j];
+        S = S + p[0]; TH = TH + p[1]; L = L + p[2]; Vc = Vc + p[3]; Wc = Wc + p[4];
+        travel = travel + p[5]; turned = turned + fabs(p[1]);
+        if (n) turns = turns + p[8];
+    }}
+    a = POS_NOISE; b = HEAD_NOISE;
+    planar = sqrt(2.0) * a * (2.0 + turns) + travel * (b + MODEL_TOL);
+    scaled_(COMP[0][0], COMP[0][1], Vc, &p_lo, &p_hi); scaled_(COMP[1][0], COMP[1][1], D_ / 4.0 * Wc, &q_lo, &q_hi);
+    got[0] = S; lo[0] = p_lo + q_lo; hi[0] = p_hi + q_hi; err[0] = planar;
+    scaled_(COMP[2][0], COMP[2][1], Wc, &p_lo, &p_hi); scaled_(COMP[3][0], COMP[3][1], Vc / D_, &q_lo, &q_hi);
+    got[1] = TH; lo[1] = p_lo + q_lo; hi[1] = p_hi + q_hi; err[1] = 2.0 * b + MODEL_TOL * turned;
+    scaled_(-COMP[4][1], -COMP[4][0], Wc, &p_lo, &p_hi); scaled_(-COMP[5][1], -COMP[5][0], Vc / D_, &q_lo, &q_hi);
+    got[2] = L; lo[2] = p_lo + q_lo; hi[2] = p_hi + q_hi; err[2] = planar;
+    worst = 0.0;
+    for (i = 0; i < 3; ++i) worst = max_(max_(worst, lo[i] - err[i] - got[i]), got[i] - (hi[i] + err[i]));
+    if (worst > 0.0) {{
+        m->amounts[5] = worst;
+        return RS_MON_SLIP;
+    }}
+    return 0;
+}}
+
+int rs_monitor_check(rs_monitor_t *m, double t, double x, double y, double theta, const double *xi, double V,
+                     double omega, int n_reports, const long *seqs, const double *applied)
+{{
+    int status, i, seg = 0;
+    double v;
+    for (i = 0; i < RS_MON_CAUSES; ++i) m->amounts[i] = 0.0;
+    status = reports_(m, t, n_reports, seqs, applied);
+    for (i = 0; i < N_SEG; ++i) if (SEGMENT_STARTS[i] <= t + 1e-12) ++seg;
+    seg = seg - 1 > 0 ? seg - 1 : 0;
+    if (seg != m->segment) {{ m->segment = seg; m->inside = 0; }}
+    v = V_(xi);
+    if (m->inside) {{
+        double rho;
+        if (v > SET_THRESHOLD) {{ status |= RS_MON_SET; m->amounts[2] = v / LEVEL; }}
+        if (HAS_HEADING && fabs(xi[2]) > HEADING_LIMIT) {{ status |= RS_MON_HEADING; m->amounts[3] = fabs(xi[2]) - HEADING_LIMIT; }}
+        rho = rho_(V, omega);
+        if (HAS_RHO && rho > RHO_LIMIT) {{ status |= RS_MON_MOTOR; m->amounts[4] = rho - RHO_LIMIT; }}
+    }}
+    m->inside = m->inside || v <= SET_ENTRY;
+    status |= slip_(m, t, x, y, theta);
+    if (status) {{
+        if (m->alarm_run == 0) {{ m->has_held = m->has_sent; m->held[0] = m->last_sent[0]; m->held[1] = m->last_sent[1]; }}
+        m->alarm_run += 1;
+        if (m->alarm_run >= PERSISTENCE) m->engaged = 1;
+    }} else {{
+        m->alarm_run = 0;
+    }}
+    return status;
+}}
+
+void rs_monitor_fallback(const rs_monitor_t *m, double V, double omega, double *V_out, double *omega_out)
+{{
+    if (!m->engaged) {{ *V_out = V; *omega_out = omega; }}
+    else if (FALLBACK == 0) {{ *V_out = 0.0; *omega_out = 0.0; }}
+    else if (FALLBACK == 1) {{ *V_out = m->has_held ? m->held[0] : 0.0; *omega_out = m->has_held ? m->held[1] : 0.0; }}
+    else {{ *V_out = V * SLOW_FACTOR; *omega_out = omega * SLOW_FACTOR; }}
+}}
+
+void rs_monitor_sent(rs_monitor_t *m, long seq, double t, double V, double omega)
+{{
+    int i = m->n_pend;
+    if (i == RS_MON_CAPACITY) {{ /* full: the oldest goes */
+        remove_(m->pend_seq, m->pend_t, m->pend_v, m->pend_w, &m->n_pend, 0);
+        i = m->n_pend;
+    }}
+    while (i > 0 && m->pend_seq[i - 1] > seq) {{ /* kept sorted by seq */
+        m->pend_seq[i] = m->pend_seq[i - 1]; m->pend_t[i] = m->pend_t[i - 1];
+        m->pend_v[i] = m->pend_v[i - 1]; m->pend_w[i] = m->pend_w[i - 1];
+        --i;
+    }}
+    m->pend_seq[i] = seq; m->pend_t[i] = t; m->pend_v[i] = V; m->pend_w[i] = omega;
+    ++m->n_pend;
+    m->has_sent = 1;
+    m->last_sent[0] = V;
+    m->last_sent[1] = omega;
+}}
+
+int rs_monitor_step(rs_monitor_t *m, double t, double x, double y, double theta, const double *xi, double V,
+                    double omega, long seq, int n_reports, const long *seqs, const double *applied, double *V_out,
+                    double *omega_out)
+{{
+    int status = rs_monitor_check(m, t, x, y, theta, xi, V, omega, n_reports, seqs, applied);
+    rs_monitor_fallback(m, V, omega, V_out, omega_out);
+    rs_monitor_sent(m, seq, t, *V_out, *omega_out);
+    return status;
+}}
+"""
+    harness = """/* rs_monitor_harness.c: replays periods through rs_monitor_step (generated by robustsynth).
+   rs_monitor_harness < periods.txt   a line per period: t x y theta V omega seq xi[RS_MON_N_S] n (seq applied)*n
+                                      (applied: nan for lost) -> "status V_out omega_out amounts[6] engaged" (17 digits)
+   rs_monitor_harness --bench N       mean time of N calls of rs_monitor_step [ns] */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include "rs_monitor.h"
+
+int main(int argc, char **argv)
+{
+    rs_monitor_t m;
+    double t, x, y, th, V, w, xi[RS_MON_N_S], Vo, wo, applied[RS_MON_CAPACITY];
+    long seq, seqs[RS_MON_CAPACITY];
+    int n, i, status;
+    rs_monitor_init(&m);
+    if (argc == 3 && strcmp(argv[1], "--bench") == 0) {
+        long N = atol(argv[2]), k;
+        double sink = 0.0;
+        clock_t t0 = clock();
+        for (i = 0; i < RS_MON_N_S; ++i) xi[i] = 0.0;
+        for (k = 0; k < N; ++k) {
+            long kk = k % 600;
+            if (kk == 0) rs_monitor_init(&m);
+            seqs[0] = kk - 1; applied[0] = (double)(kk - 1) * 0.1 + 0.05;
+            status = rs_monitor_step(&m, (double)kk * 0.1, 0.05 * (double)kk, 0.0, 0.0, xi, 0.5, 0.0, kk, kk > 0 ? 1 : 0,
+                                     seqs, applied, &Vo, &wo);
+            sink += Vo + (double)status;
+        }
+        printf("%.3f ns/step (checksum %.6g)\\n", 1e9 * (double)(clock() - t0) / CLOCKS_PER_SEC / (double)N, sink);
+        return 0;
+    }
+    while (scanf("%lf %lf %lf %lf %lf %lf %ld", &t, &x, &y, &th, &V, &w, &seq) == 7) {
+        for (i = 0; i < RS_MON_N_S; ++i) if (scanf("%lf", &xi[i]) != 1) return 2;
+        if (scanf("%d", &n) != 1 || n < 0 || n > RS_MON_CAPACITY) return 2;
+        for (i = 0; i < n; ++i) if (scanf("%ld %lf", &seqs[i], &applied[i]) != 2) return 2;
+        status = rs_monitor_step(&m, t, x, y, th, xi, V, w, seq, n, seqs, applied, &Vo, &wo);
+        printf("%d %.17g %.17g", status, Vo, wo);
+        for (i = 0; i < RS_MON_CAUSES; ++i) printf(" %.17g", m.amounts[i]);
+        printf(" %d\\n", m.engaged);
+    }
+    return 0;
+}
+"""
+    return {"rs_monitor.h": h.encode(), "rs_monitor.c": c.encode(), "rs_monitor_harness.c": harness.encode()}

@@ -1,0 +1,104 @@
+"""The runtime monitor exported as C99 (runtime/export_monitor.py): compiled, it gives the Python class's status,
+command and amounts bit for bit over simulated periods in the envelope and with each kind of violation."""
+
+from __future__ import annotations
+
+import math
+import shutil
+import subprocess
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from robustsynth.artifacts.gains import controller_description, load_gains
+from robustsynth.config import load_config
+from robustsynth.law import Controller
+from robustsynth.model import build_model
+from robustsynth.monitor import CAUSES, Monitor
+from robustsynth.plants.path import path_of
+from robustsynth.runtime.export import c_files
+from robustsynth.scenarios import draw_scenario, steady_state_start
+from robustsynth.verification.simulate import run_logs, simulate
+
+ROOT = Path(__file__).resolve().parents[2]
+CC = shutil.which("cc") or shutil.which("gcc")
+pytestmark = pytest.mark.skipif(CC is None, reason="no C compiler")
+CONFIGS = ("default", "icr-physics", "nonlinear-proof")  # arcs and icr; a polyline and icr; a polyline and tracks
+
+
+def _periods(name: str, runs: int = 3):
+    """Lines for the harness and the Python monitor's outputs, over simulated runs of the committed gain (one run in
+    the envelope, one with a delay spike and a loss, one pushed and given a command beyond the motor limit)."""
+    cfg = load_config(ROOT / "configs" / f"{name}.yaml")
+    gains = load_gains(ROOT / "results" / "baselines" / name / "gains.json")
+    d = controller_description(gains, cfg)
+    model = build_model(cfg)
+    K = np.asarray(gains["K"])
+    path = path_of(cfg)
+    steps = int(path.duration / model.Ts)
+    scen = steady_state_start(model, K, path, draw_scenario(model, runs, 1, steps, path))
+    tau = scen.taus.copy()
+    tau[1, model.d_hi + 60] = cfg.network.delay.max + 0.05
+    tau[1, model.d_hi + 90] = np.inf
+    scen = replace(scen, taus=tau)
+    logs = run_logs(model, simulate(model, K, path, scen), scen)
+    lg = logs[2]
+    logs[2] = replace(lg, y=np.where(np.arange(len(lg)) >= 120, lg.y + 0.05, lg.y),
+                      rho_r=np.where(np.arange(len(lg)) == 150, 1.5 * (cfg.robot.max_motor_speed or 10.0), lg.rho_r))
+    lines, expected = [], []
+    R, D = d["gear_radius"], d["track_distance"]
+    for lg in logs:
+        ctl, mon = Controller(d), Monitor(d)
+        lines.append("reset")
+        expected.append("reset")
+        pending = sorted((float(lg.applied[k]), k) for k in range(len(lg)) if math.isfinite(float(lg.applied[k])))
+        nxt = 0
+        for k in range(len(lg)):
+            t = float(lg.t[k])
+            reports = []
+            while nxt < len(pending) and pending[nxt][0] <= t + 1e-12:
+                reports.append((int(lg.seq[pending[nxt][1]]), pending[nxt][0]))
+                nxt += 1
+            if k == 90:  # the lost command reported lost (NaN) too, once
+                reports.append((89, float("nan")))
+            x, y, th = float(lg.x[k]), float(lg.y[k]), float(lg.theta[k])
+            ctl.step(t, x, y, th)
+            V, w = R / 2.0 * (lg.rho_r[k] + lg.rho_l[k]), R / D * (lg.rho_r[k] - lg.rho_l[k])
+            xi = ctl.state
+            st, (Vo, wo) = mon.step(t, x, y, th, xi, (float(V), float(w)), int(lg.seq[k]), reports)
+            lines.append(" ".join([repr(t), repr(x), repr(y), repr(th), repr(float(V)), repr(float(w)), str(int(lg.seq[k]))]
+                                  + [repr(float(v)) for v in xi] + [str(len(reports))]
+                                  + [f"{s} {a!r}" for s, a in reports]))
+            expected.append((st, Vo, wo, [mon.amounts.get(c, 0.0) for c, _ in CAUSES], int(mon.engaged)))
+    return c_files(d), lines, expected
+
+
+@pytest.mark.parametrize("name", CONFIGS)
+def test_the_c_monitor_is_the_python_monitor_bit_for_bit(name: str, tmp_path: Path) -> None:
+    files, lines, expected = _periods(name)
+    for k, v in files.items():
+        (tmp_path / k).write_bytes(v)
+    exe = tmp_path / "rs_monitor_harness"
+    subprocess.run([CC, "-std=c99", "-O2", "-Wall", "-Wextra", "-pedantic", "-Werror", "-ffp-contract=off", "-o", str(exe),
+                    str(tmp_path / "rs_monitor_harness.c"), str(tmp_path / "rs_monitor.c"), "-lm"], check=True)
+    blocks = "\n".join(lines).split("reset\n")[1:]
+    exp_blocks, cur = [], None
+    for e in expected:
+        if e == "reset":
+            cur = []
+            exp_blocks.append(cur)
+        else:
+            cur.append(e)
+    alarms = 0
+    for block, exp in zip(blocks, exp_blocks):  # one harness run per simulated run: it starts from rs_monitor_init
+        out = subprocess.run([str(exe)], input=block + "\n", capture_output=True, text=True, check=True).stdout.split("\n")
+        rows = [r for r in out if r]
+        assert len(rows) == len(exp)
+        for row, (st, Vo, wo, amounts, engaged) in zip(rows, exp):
+            got = row.split()
+            assert int(got[0]) == st and float(got[1]) == Vo and float(got[2]) == wo, (row, st, Vo, wo)
+            assert [float(v) for v in got[3:3 + len(CAUSES)]] == amounts and int(got[-1]) == engaged, (row, amounts)
+            alarms += bool(st)
+    assert alarms > 0  # the violations were there to be seen
