@@ -26,9 +26,13 @@ ROOT = Path(__file__).resolve().parents[2]
 CC = shutil.which("cc") or shutil.which("gcc")
 pytestmark = pytest.mark.skipif(CC is None, reason="no C compiler")
 CONFIGS = ("default", "icr-physics", "nonlinear-proof")  # arcs and icr; a polyline and icr; a polyline and tracks
+# every committed robot gain with a certified set (make test-slow), 10 000 periods or more each
+ALL = tuple(sorted(p.parent.name for p in (ROOT / "results" / "baselines").glob("*/gains.json")
+                   if "ellipsoid_level" in p.read_text() and "\"kind\": \"lti\"" not in p.read_text()))
+LONG = 10_000  # periods replayed per gain in the slow run
 
 
-def _periods(name: str, runs: int = 3):
+def _periods(name: str, runs: int = 3, periods: int = 0):
     """Lines for the harness and the Python monitor's outputs, over simulated runs of the committed gain (one run in
     the envelope, one with a delay spike and a loss, one pushed and given a command beyond the motor limit)."""
     cfg = load_config(ROOT / "configs" / f"{name}.yaml")
@@ -38,6 +42,7 @@ def _periods(name: str, runs: int = 3):
     K = np.asarray(gains["K"])
     path = path_of(cfg)
     steps = int(path.duration / model.Ts)
+    runs = max(runs, -(-periods // steps))
     scen = steady_state_start(model, K, path, draw_scenario(model, runs, 1, steps, path))
     tau = scen.taus.copy()
     tau[1, model.d_hi + 60] = cfg.network.delay.max + 0.05
@@ -77,7 +82,18 @@ def _periods(name: str, runs: int = 3):
 
 @pytest.mark.parametrize("name", CONFIGS)
 def test_the_c_monitor_is_the_python_monitor_bit_for_bit(name: str, tmp_path: Path) -> None:
-    files, lines, expected = _periods(name)
+    _compare(*_periods(name), tmp_path)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ALL)
+def test_every_committed_gains_c_monitor_is_its_python_monitor_over_10000_periods(name: str, tmp_path: Path) -> None:
+    files, lines, expected = _periods(name, periods=LONG)
+    assert sum(1 for e in expected if e != "reset") >= LONG
+    _compare(files, lines, expected, tmp_path)
+
+
+def _compare(files, lines, expected, tmp_path: Path) -> None:
     for k, v in files.items():
         (tmp_path / k).write_bytes(v)
     exe = tmp_path / "rs_monitor_harness"
