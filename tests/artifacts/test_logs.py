@@ -87,3 +87,16 @@ def test_cli_exit_2_one_line_no_traceback(tmp_path) -> None:
         assert r.returncode == 2, r.stderr
         lines = r.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith(f"error: {p}: row 1: column 'theta' is missing"), r.stderr
+
+
+def test_a_log_cut_short_is_refused_naming_its_row(tmp_path) -> None:
+    """A file that ends within a row (its last field may still read as a number): one line, the row named."""
+    text = (ROOT / "docs" / "sample-log.csv").read_text()
+    cut = tmp_path / "cut.csv"
+    cut.write_text(text[: text.index("\n", 400) - 3])
+    rows = cut.read_text().count("\n") + 1
+    with pytest.raises(InputError, match=rf"cut.csv: row {rows}: not ended by a line break \(a truncated file\?\)"):
+        read_log(cut)
+    whole = tmp_path / "whole.csv"
+    whole.write_text(text)
+    assert len(read_log(whole)) == len(read_log(ROOT / "docs" / "sample-log.csv"))

@@ -17,7 +17,8 @@ applied    s       when it started acting on the robot (empty or NaN: lost, it n
 enc_r/l    rad/s   optional: measured track speeds (read, not used yet)
 =========  ======  ================================================================================
 
-Errors name the file, the row (1-based, header = row 1) and the column, in one line.
+The file ends with a line break (one that ends within a row was cut short, and is refused).  Errors name the file,
+the row (1-based, header = row 1) and the column, in one line.
 """
 
 from __future__ import annotations
