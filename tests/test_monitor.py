@@ -24,7 +24,7 @@ def _description(**monitor):
          "rho_limit": 12.0, "window": 5, "components": [[0.97, 1.04], [-0.07, 0.07], [0.97, 1.04], [-0.07, 0.07],
                                                           [0.0, 0.0], [0.0, 0.0]],
          "position_noise": 0.0, "heading_noise": 0.0, "model_tol": 0.02, "fallback": "stop", "persistence": 2,
-         "slow_factor": 0.5}
+         "slow_factor": 0.5, "segment_starts": []}
     m.update(monitor)
     return {"sampling_time": TS, "gear_radius": R, "track_distance": D, "reference_speed": V, "turn_radius": 5.0,
             "path": [[0.0, 0.0], [10.0, 0.0]], "monitor": m}
@@ -114,7 +114,7 @@ def test_set_heading_and_motor_count_once_the_state_was_inside() -> None:
     assert robot.run(1, xi=(0, 0, 0.35, 0, 0)) == [HEADING] and mon.amounts["heading"] == pytest.approx(0.05)
     rho_fast = 13.0
     assert robot.run(1, command=(rho_fast * R, 0.0)) == [MOTOR] and mon.amounts["motor"] == pytest.approx(rho_fast - 12.0)
-    poly = Monitor(dict(_description(), turn_radius=None, path=[[0.0, 0.0], [1.0, 0.0], [1.0, 5.0]]))
+    poly = Monitor(_description(segment_starts=[0.0, 2.0]))  # a path [0, 0] -> [1, 0] -> [1, 5] at 0.5 m/s
     robot = _Robot(poly)
     robot.run(3, xi=(0.1, 0, 0, 0, 0))
     assert poly.inside and poly.segment == 0

@@ -92,12 +92,7 @@ class Monitor:
         self.set_entry = float(m["set_entry"])
         self.heading_limit = None if m.get("heading_limit") is None else float(m["heading_limit"])
         # a path without turns: the error jumps at each waypoint (its segments' start times re-arm the set check)
-        self.segment_starts = []
-        if description.get("turn_radius") is None:
-            pts, travelled = description["path"], 0.0
-            for (xa, ya), (xb, yb) in zip(pts[:-1], pts[1:]):
-                self.segment_starts.append(travelled / float(description["reference_speed"]))
-                travelled = travelled + math.hypot(xb - xa, yb - ya)
+        self.segment_starts = [float(v) for v in m["segment_starts"]]
         self.rho_limit = m.get("rho_limit")
         self.window = int(m["window"])
         self.components = [(float(lo), float(hi)) for lo, hi in m["components"]]  # s, d, ys, yd, xs, xd
@@ -112,11 +107,11 @@ class Monitor:
         """Forget everything (a new run): no command in flight, no pose, the fallback disengaged."""
         self.pending = {}  # seq -> (t_k, V_hat, omega_hat) of the commands not yet reported
         self.overdue = {}  # the same, of the commands counted as lost for want of a report by t_k + tau_max
-        self.schedule = []  # (applied time, V_hat, omega_hat) of the applied commands, in order
+        self.schedule = []  # (applied time, V_hat, omega_hat, beyond rho_max) of the applied commands, in order
         self.last_applied = -math.inf
         self.lost_run = 0
         self.poses = []  # (t, x, y, theta) of the last window + 1 samples
-        self.periods = []  # per period of the window: (ds, dtheta, dlat, Vc, Wc, |dpos|, |dtheta_mid|)
+        self.periods = []  # per period of the window: (ds, dtheta, dlat, Vc, Wc, |dp|, mid heading, unjudged, |turn of mid|)
         self.alarm_run = 0
         self.engaged = False
         self.inside = False  # the state was seen inside the set (since the start or the last waypoint)

@@ -415,6 +415,7 @@ def monitor_description(gains: dict[str, Any], config: Any) -> dict[str, Any] | 
     ``ellipsoid_level``): there is nothing to monitor it against."""
     import numpy as np
 
+    from ..law import PathTable
     from ..model.slip import icr_components, slip_parameter_ranges
 
     cert = gains.get("certificate") or {}
@@ -438,6 +439,9 @@ def monitor_description(gains: dict[str, Any], config: Any) -> dict[str, Any] | 
         "P": [Pm.tolist() for Pm in Ps], "level": level,
         "set_threshold": float((np.sqrt(level) + shift) ** 2 * (1.0 + 1e-12)),
         "heading_limit": float(cert["heading_bound"]) + b if nonlinear else None,
+        # a path without turns: its segments' start times (law.PathTable), where the error jumps to the next frame
+        "segment_starts": [] if config.reference.turn_radius is not None else
+        [float(v) for v in PathTable(config.reference.path, config.reference.speed).t_start],
         "set_entry": float(max(np.sqrt(level) - shift, 0.0) ** 2),
         "rho_limit": config.robot.max_motor_speed,
         "window": mon.window, "components": comp.tolist(), "position_noise": float(a), "heading_noise": float(b),

@@ -16,7 +16,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from .export_lti import _f, certified_word, proof_lines  # _f: a C double literal that reads back exactly
+from .export_lti import _c_array, _f, certified_word, proof_lines  # _f: a C double literal that reads back exactly
 
 __all__ = ["TARGETS", "export_controller", "export_files", "c_files", "python_module", "ros2_parameters", "json_description",
            "verification_record", "VERIFICATION_FILE"]
@@ -24,10 +24,6 @@ __all__ = ["TARGETS", "export_controller", "export_files", "c_files", "python_mo
 VERIFICATION_FILE = "verification.json"  # what `robustsynth verify` writes beside the gains file it verified
 
 TARGETS = ("c", "python", "ros2", "json")
-
-
-def _c_array(values) -> str:
-    return "{" + ", ".join(_f(v) for v in values) + "}"
 
 
 def _header_comment(d: dict[str, Any], target: str, prefix: str = "   ") -> str:
@@ -340,6 +336,9 @@ def _monitor_parameters(d: dict[str, Any]) -> dict[str, Any]:
         "monitor_position_noise": float(m["position_noise"]), "monitor_heading_noise": float(m["heading_noise"]),
         "monitor_model_tol": float(m["model_tol"]), "monitor_fallback": m["fallback"],
         "monitor_persistence": int(m["persistence"]), "monitor_slow_factor": float(m["slow_factor"]),
+        # a path without turns: its segments' start times (no list when empty: a params file cannot type one)
+        "monitor_has_segment_starts": bool(m["segment_starts"]),
+        **({"monitor_segment_starts": [float(v) for v in m["segment_starts"]]} if m["segment_starts"] else {}),
     }
 
 

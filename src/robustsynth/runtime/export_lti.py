@@ -25,6 +25,11 @@ def _f(v: float) -> str:
     return s if any(ch in s for ch in ".eE") else s + ".0"
 
 
+def _c_array(values) -> str:
+    """A C array initializer of the doubles ``values`` (:func:`_f` each)."""
+    return "{" + ", ".join(_f(v) for v in values) + "}"
+
+
 def _description(gd: dict[str, Any]) -> dict[str, Any]:
     lift = gd["lifting"]
     return {"kind": "lti", "name": gd.get("config", {}).get("name", "lti"), "law": gd["law"], "K": gd["K"],
@@ -77,7 +82,7 @@ def _c_files(d: dict[str, Any]) -> dict[str, bytes]:
     n, m, dd = d["n"], d["m"], d["d"]
     K = d["K"]
     width = n + dd * m
-    flat = ", ".join("{" + ", ".join(_f(v) for v in row) + "}" for row in K)
+    flat = ", ".join(_c_array(row) for row in K)
     proof = "".join(f"\n   {line}" for line in proof_lines(d))
     h = f"""/* rs_lti.h: the {certified_word(d)} law u_k = K xi_k of '{d['name']}' (robustsynth, plant: kind: lti).{proof}
    xi_k = {_lifted(dd)}: the state, then the commands this controller sent, newest first.

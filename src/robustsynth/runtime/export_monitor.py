@@ -5,17 +5,15 @@ rs_monitor_harness.c, which replays periods from stdin for the tests and times a
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from ..monitor import CAUSES, Monitor
+from .export_lti import _c_array as _arr, _f  # C double literals that read back exactly
 
 __all__ = ["c_monitor_files", "c_wrap", "MONITOR_CAPACITY"]
 
 MONITOR_CAPACITY = 64  # commands in flight / overdue / applied in the window the C monitor keeps (fixed arrays)
-
-
-def _f(v: float) -> str:
-    return repr(float(v)) if v == v and abs(v) != float("inf") else ("(0.0 / 0.0)" if v != v else ("HUGE_VAL" if v > 0 else "-HUGE_VAL"))
 
 
 def c_wrap(name: str, comment: str) -> str:
@@ -32,10 +30,6 @@ static double {name}(double a)
     }}
     return m - PI_;
 }}"""
-
-
-def _arr(values) -> str:
-    return "{" + ", ".join(_f(v) for v in values) + "}"
 
 
 def c_monitor_files(d: dict[str, Any]) -> dict[str, bytes]:
@@ -130,8 +124,8 @@ static const long PERSISTENCE = {m.persistence};
 static const double SLOW_FACTOR = {_f(m.slow_factor)};
 #define N_SEG {len(m.segment_starts)}
 static const double SEGMENT_STARTS[N_SEG > 0 ? N_SEG : 1] = {seg};
-static const double PI_ = {_f(3.141592653589793)};
-static const double TWO_PI_ = {_f(6.283185307179586)};
+static const double PI_ = {_f(math.pi)};
+static const double TWO_PI_ = {_f(2.0 * math.pi)};
 
 {c_wrap("wrap_", "Python's float % (floor modulo), as the monitor's _mon_wrap")}
 static double sinc_(double a) {{ return fabs(a) < 0.05 ? 1.0 - a * a / 6.0 + a * a * a * a / 120.0 : sin(a) / a; }}

@@ -18,7 +18,7 @@ from typing import Any
 from ..law import Controller
 from ..monitor import CAUSES, Monitor, describe
 
-__all__ = ["monitor_log", "monitor_logs"]
+__all__ = ["monitor_log", "monitor_logs", "monitor_summary", "monitor_files"]
 
 
 def monitor_log(log: Any, description: dict[str, Any]) -> dict[str, Any]:
@@ -72,6 +72,25 @@ def monitor_logs(logs: list[Any], description: dict[str, Any]) -> dict[str, Any]
     return {"runs": runs, "logs": len(runs), "runs_with_alarms": sum(1 for r in runs if r["alarms"]),
             "alarm_periods": {name: sum(r["alarm_periods"][name] for r in runs) for name, _ in CAUSES},
             "fallback_engaged": sum(1 for r in runs if r["fallback_engaged_at"] is not None), "first": first}
+
+
+def monitor_summary(logs: list[Any], gains: dict[str, Any], config: Any) -> dict[str, Any] | None:
+    """What ``verify`` and ``validate`` record of the monitor over their runs' logs (not in a verdict): the totals of
+    :func:`monitor_logs` without the per-run detail, and what the monitor is sure to see.  None where there is
+    nothing to monitor: a gain without a certified set, or a config it cannot be deployed with (the verdict says
+    why)."""
+    from ..artifacts.gains import controller_description
+    from ..errors import InputError
+
+    try:
+        desc = controller_description(gains, config)
+    except InputError:
+        return None
+    if not desc.get("monitor"):
+        return None
+    res = monitor_logs(logs, desc)
+    return {**{k: res[k] for k in ("logs", "runs_with_alarms", "alarm_periods", "fallback_engaged", "first")},
+            "detects": desc["monitor"]["detects"]}
 
 
 def monitor_files(log_paths: list[Any], gains_path: Any, config: Any = None, outdir: Any = None) -> dict[str, Any]:

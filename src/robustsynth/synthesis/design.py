@@ -968,7 +968,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
     given = s
     # the channels' searches below (the linearized start keeps the configured solver: on configs/turns.yaml's arc
     # channels the scaled one took 1.4 s a point against 2.0 s unscaled, both optimal)
-    s = s.model_copy(update={"solver": KINEMATIC_PRIMARY.get(s.solver, s.solver)})
+    s = _kinematic(s)
     if common.cert is None and s.lyapunov == "common":
         _stop_if_the_start_is_infeasible(model, crunner, least, motor)
     hint = float(common.cert["alpha"]) if common.cert is not None else None
@@ -1010,9 +1010,10 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
             best, runner = b, r
         elif best.cert is not None:  # past the best bound: larger headings cost more
             break
-        if auto and b.cert is not None and _heading_room(b) < HEADING_SLACK * tb:
-            say(f"  the set's heading within a period, {_heading_room(b):.3g} rad, leaves the bound room: larger "
-                "bounds only widen the channels")
+        room = _heading_room(b) if b.cert is not None else None
+        if auto and room is not None and room < HEADING_SLACK * tb:
+            say(f"  the set's heading within a period, {room:.3g} rad, leaves the bound room: larger bounds only widen "
+                "the channels")
             break
     if auto and best.cert is not None:  # a smaller bound, just above the set's own heading
         for _ in range(HEADING_TIGHTEN):
@@ -1055,6 +1056,11 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
     return best, runner
 
 
+def _kinematic(s: SynthesisConfig) -> SynthesisConfig:
+    """The settings of the kinematic channels' solves: the configured solver's KINEMATIC_PRIMARY."""
+    return s.model_copy(update={"solver": KINEMATIC_PRIMARY.get(s.solver, s.solver)})
+
+
 def _start(model: Any, s: SynthesisConfig, motor: bool, say: Callable[[str], None]
            ) -> tuple[_Best, _Runner, dict[float, float | None]]:
     """The linearized common certificate where a nonlinear search starts (its alpha and heading), the runner of
@@ -1086,7 +1092,7 @@ def _first_try(model: Any, s: SynthesisConfig, motor: bool) -> dict[str, Any] | 
     common, _, _ = _start(model, s, motor, lambda _m: None)
     if common.cert is None:
         return None
-    s = s.model_copy(update={"heading_bound": "auto", "solver": KINEMATIC_PRIMARY.get(s.solver, s.solver)})
+    s = _kinematic(s).model_copy(update={"heading_bound": "auto"})
     for tb in _auto_bounds(common):
         try:
             b, _ = _run_invariance(model.with_heading_bound(tb, within_period=s.lyapunov == "common"), s, [], motor,

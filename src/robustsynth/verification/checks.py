@@ -33,13 +33,14 @@ from ..plants.path import path_of
 from ..scenarios import (alternating_delays, draw_scenario, random_delays, rate_limited_slip, slip_vertices,
                          steady_state_start)
 from ..certificate import CertificateCheck, check_certificate, lyapunov_of, turn_bounds
+from ..runtime.replay import monitor_summary
 from .probe import boundary_probe, boundary_states
 
 BOUNDARY_ADVERSARY_STEPS = 50  # the adversary from the boundary: what matters happens in the first periods
 from .lifted import (arc_closed_loop_run, closed_loop_run, frozen_instant_grid, frozen_spectral_radius,
                      greedy_worst_case, random_yaw_rates, yaw_windows)
 from .simulate import (ADVERSARY_OBJECTIVES, ARC_COURSES, FREE_YAW, SimResult, adversarial_nonlinear, adversary_courses,
-                       merge_adversaries, simulate)
+                       merge_adversaries, run_logs, simulate)
 
 __all__ = ["VerificationResult", "verify", "SPECTRAL_TOL", "LEVEL_TOL", "DIVERGENCE_LIMIT"]
 
@@ -719,28 +720,10 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
         worst = worst_of["motor_speed"]
         checks.append(_check("nonlinear: max commanded |rho| <= rho_max", worst <= rho_max, worst, rho_max,
                              f"(rad/s) the motors' physical limit, on the steps in the {rule}"))
-    mc["monitor"] = _monitor_status(model, gains, sim, scen)
+    # the runtime monitor over the runs (robustsynth.monitor; recorded, not in the verdict): they keep every
+    # assumption of the certificate, so an alarm is its false alarm unless the robot left its set (judged above)
+    mc["monitor"] = monitor_summary(run_logs(model, sim, scen), gains, model.config)
     return checks, mc, sim, ext, scen, v_ratio, np.asarray(mask)
-
-
-def _monitor_status(model, gains: dict[str, Any], sim, scen) -> dict[str, Any] | None:
-    """What the runtime monitor (robustsynth.monitor) raises over the Monte Carlo runs, replayed from their logs
-    (:mod:`robustsynth.runtime.replay`): recorded, not in the verdict.  The runs keep every assumption of the
-    certificate, so an alarm here is a false alarm of the monitor (its noise bound, or its slip ranges), unless
-    the robot leaves its set, which the verdict judges.  None for a gain without a certified set."""
-    from ..artifacts.gains import controller_description
-    from ..runtime.replay import monitor_logs
-    from .simulate import run_logs
-
-    try:
-        desc = controller_description(gains, model.config)
-    except InputError:  # a config the gain cannot be deployed with (its verdict says why): nothing to monitor
-        return None
-    if not desc.get("monitor"):
-        return None
-    res = monitor_logs(run_logs(model, sim, scen), desc)
-    return {**{k: res[k] for k in ("logs", "runs_with_alarms", "alarm_periods", "fallback_engaged", "first")},
-            "detects": desc["monitor"]["detects"]}
 
 
 def _provenance(model: Any, gains: dict[str, Any]) -> str:

@@ -268,27 +268,12 @@ def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed:
         logs.append(RobotLog(f"episode_{n:03d}.csv", tk.copy(), Q[n, :, 0], Q[n, :, 1], Q[n, :, 2],
                              np.arange(steps, dtype=float), RHO[n, :, 0], RHO[n, :, 1], tk.copy(), applied))
     out["passed"] = bool(all(ep["passed"] for ep in per_episode))
-    out["monitor"] = _monitor_status(gains, cfg, logs)
+    # the runtime monitor over the episodes (recorded, not in the verdict): an alarm inside the certificate's
+    # assumptions is its false alarm, or slip the box does not hold
+    from ..runtime.replay import monitor_summary
+
+    out["monitor"] = monitor_summary(logs, gains, cfg)
     return {"validation": out, "logs": logs, "straight": straight, "t": tk, "e": E, "q": Q}
-
-
-def _monitor_status(gains: dict[str, Any], cfg: Any, logs: list) -> dict[str, Any] | None:
-    """The runtime monitor (robustsynth.monitor) replayed over the episodes' logs: recorded, not in the verdict (an
-    alarm on the physics robot inside the certificate's assumptions is the monitor's false alarm, or slip the box
-    does not hold).  None for a gain without a certified set."""
-    from ..artifacts.gains import controller_description
-    from ..runtime.replay import monitor_logs
-
-    from ..errors import InputError
-
-    try:
-        desc = controller_description(gains, cfg)
-    except InputError:  # a config the gain cannot be deployed with: nothing to monitor
-        return None
-    if not desc.get("monitor"):
-        return None
-    res = monitor_logs(logs, desc)
-    return {k: res[k] for k in ("logs", "runs_with_alarms", "alarm_periods", "fallback_engaged", "first")}
 
 
 EXCITATION_TURNS = (0.0, 0.25, -0.25, 0.5, -0.5, 1.0, -1.0, 2.0, -2.0)  # omega / V [rad/m] of the excitation's stretches
