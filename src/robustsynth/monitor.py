@@ -66,7 +66,8 @@ def _mon_sinc(a):
 
 def _mon_scaled(lo, hi, c):
     """The interval [lo, hi] times the number c."""
-    return (lo * c, hi * c) if c >= 0.0 else (hi * c, lo * c)
+    a, b = lo * c, hi * c
+    return min(a, b), max(a, b)
 
 
 class Monitor:
@@ -87,6 +88,9 @@ class Monitor:
         self.clock_tol = float(m["clock_tol"])
         self.max_lost = int(m["max_lost"])
         self.P = [[[float(v) for v in row] for row in P] for P in m["P"]]
+        # V(xi) = max over the P's of xi' P xi, as a sum of its nonzero upper-triangle terms (coef, i, j), in order
+        self.V_terms = [[(P[i][i] if i == j else P[i][j] + P[j][i], i, j) for i in range(len(P)) for j in range(i, len(P))
+                         if (P[i][i] if i == j else P[i][j] + P[j][i]) != 0.0] for P in self.P]
         self.level = float(m["level"])
         self.set_threshold = float(m["set_threshold"])
         self.set_entry = float(m["set_entry"])
@@ -112,6 +116,10 @@ class Monitor:
         self.lost_run = 0
         self.poses = []  # (t, x, y, theta) of the last window + 1 samples
         self.periods = []  # per period of the window: (ds, dtheta, dlat, Vc, Wc, |dp|, mid heading, unjudged, |turn of mid|)
+        # the window's running sums of ds, dtheta, dlat, Vc, Wc, |dp|, |dtheta|, |turn of mid|: each period adds its own
+        # and takes off the oldest's; every window periods they are summed afresh (the rounding stays that of window sums)
+        self.sums = [0.0] * 8
+        self.since = 0
         self.alarm_run = 0
         self.engaged = False
         self.inside = False  # the state was seen inside the set (since the start or the last waypoint)
@@ -158,13 +166,10 @@ class Monitor:
 
     def _V(self, xi):
         best = 0.0
-        for P in self.P:
+        for terms in self.V_terms:
             acc = 0.0
-            for i, row in enumerate(P):
-                s = 0.0
-                for j, p in enumerate(row):
-                    s = s + p * xi[j]
-                acc = acc + xi[i] * s
+            for c, i, j in terms:
+                acc = acc + c * xi[i] * xi[j]
             best = max(best, acc)
         return best
 
@@ -202,20 +207,30 @@ class Monitor:
             dx, dy = x - x0, y - y0
             Vc, Wc, clipped = self._commanded(t0, t)
             dmid = abs(_mon_wrap(mid - self.periods[-1][6])) if self.periods else 0.0  # the direction's turn since
-            self.periods.append(((dx * c + dy * s) * k, dth, (dy * c - dx * s) * k, Vc, Wc, math.sqrt(dx * dx + dy * dy), mid,
-                                 clipped, dmid))
-            self.periods = self.periods[-self.window:]
+            sums = self.sums
+            if len(self.periods) == self.window:  # the oldest goes
+                o = self.periods.pop(0)
+                for i, v in enumerate((o[0], o[1], o[2], o[3], o[4], o[5], abs(o[1]), o[8])):
+                    sums[i] = sums[i] - v
+            p = ((dx * c + dy * s) * k, dth, (dy * c - dx * s) * k, Vc, Wc, math.sqrt(dx * dx + dy * dy), mid, clipped, dmid)
+            self.periods.append(p)
+            self.since += 1
+            if self.since == self.window:  # afresh
+                self.since = 0
+                sums[:] = [0.0] * 8
+                for o in self.periods:
+                    for i, v in enumerate((o[0], o[1], o[2], o[3], o[4], o[5], abs(o[1]), o[8])):
+                        sums[i] = sums[i] + v
+            else:
+                for i, v in enumerate((p[0], p[1], p[2], p[3], p[4], p[5], abs(p[1]), p[8])):
+                    sums[i] = sums[i] + v
         self.poses = (self.poses + [(t, x, y, theta)])[-(self.window + 1):]
         while len(self.schedule) > 1 and self.schedule[1][0] <= self.poses[0][0]:
             self.schedule.pop(0)  # acted wholly before the window
         if len(self.periods) < self.window or any(p[7] for p in self.periods):
             return 0  # a window not yet full, or one in which the motors were asked for more than they give
-        S = TH = L = Vc = Wc = travel = turns = turned = 0.0
-        for i, p in enumerate(self.periods):
-            S, TH, L, Vc, Wc = S + p[0], TH + p[1], L + p[2], Vc + p[3], Wc + p[4]
-            travel, turned = travel + p[5], turned + abs(p[1])
-            if i:
-                turns = turns + p[8]
+        S, TH, L, Vc, Wc, travel, turned, turns = self.sums
+        turns = turns - self.periods[0][8]  # the mid direction's turns between the window's periods
         (s_lo, s_hi), (d_lo, d_hi), (ys_lo, ys_hi), (yd_lo, yd_hi), (xs_lo, xs_hi), (xd_lo, xd_hi) = self.components
         a, b = self.pos_noise, self.head_noise
         planar = math.sqrt(2.0) * a * (2.0 + turns) + travel * (b + self.model_tol)

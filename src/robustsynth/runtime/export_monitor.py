@@ -22,7 +22,9 @@ def c_wrap(name: str, comment: str) -> str:
     return f"""/* {comment} */
 static double {name}(double a)
 {{
-    double m = fmod(a + PI_, TWO_PI_);
+    double m = a + PI_;
+    if (m >= 0.0 && m < TWO_PI_) return m - PI_; /* fmod would return m itself */
+    m = fmod(m, TWO_PI_);
     if (m != 0.0) {{
         if (m < 0.0) m += TWO_PI_;
     }} else {{
@@ -39,7 +41,8 @@ def c_monitor_files(d: dict[str, Any]) -> dict[str, bytes]:
     n_p = len(m.P)
     W = m.window
     cap = max(MONITOR_CAPACITY, 4 * W + 16)
-    P = ",\n    ".join("{" + ", ".join(_arr(row) for row in Pm) + "}" for Pm in m.P)
+    V_body = "\n".join("    acc = 0.0;\n" + "".join(f"    acc = acc + {_f(c)} * xi[{i}] * xi[{j}];\n" for c, i, j in terms)
+                       + "    best = max_(best, acc);" for terms in m.V_terms)
     comp = ", ".join(f"{{{_f(lo)}, {_f(hi)}}}" for lo, hi in m.components)
     fallback = {"stop": 0, "hold": 1, "slow": 2}[m.fallback]
     bits = "\n".join(f"#define RS_MON_{name.upper()} {bit}" for name, bit in CAUSES)
@@ -70,10 +73,13 @@ typedef struct {{
     int n_sched, sched_first;
     double last_applied;
     long lost_run;
-    double pose[RS_MON_WINDOW + 1][4];                      /* t, x, y, theta: a ring, pose_first the oldest */
+    double pose_t[RS_MON_WINDOW + 1];                       /* the poses' times: a ring, pose_first the oldest */
     int n_poses, pose_first;
+    double last[4], last_mid;                               /* the newest pose, the newest period's mid heading */
     double period[RS_MON_WINDOW][9];  /* ds, dtheta, dlat, Vc, Wc, |dp|, mid heading, unjudged, |turn of mid|: a ring */
     int n_periods, period_first, n_unjudged;               /* n_unjudged: periods of the ring flagged unjudged */
+    double sums[8];  /* the ring's running sums of ds, dtheta, dlat, Vc, Wc, |dp|, |dtheta|, |turn of mid| */
+    int since;                                              /* periods since they were last summed afresh */
     long alarm_run;
     int engaged, inside, segment, has_held, has_sent;
     double held[2], last_sent[2];
@@ -104,10 +110,6 @@ static const double TAU_MIN = {_f(m.tau_min)};
 static const double TAU_MAX = {_f(m.tau_max)};
 static const double CLOCK_TOL = {_f(m.clock_tol)};
 static const long MAX_LOST = {m.max_lost};
-#define N_P {n_p}
-static const double P[N_P][RS_MON_N_S][RS_MON_N_S] = {{
-    {P}
-}};
 static const double LEVEL = {_f(m.level)};
 static const double SET_THRESHOLD = {_f(m.set_threshold)};
 static const double SET_ENTRY = {_f(m.set_entry)};
@@ -133,7 +135,9 @@ static double max_(double a, double b) {{ return b > a ? b : a; }} /* Python's m
 static double min_(double a, double b) {{ return b < a ? b : a; }} /* Python's min(a, b) */
 static void scaled_(double lo, double hi, double c, double *out_lo, double *out_hi)
 {{
-    if (c >= 0.0) {{ *out_lo = lo * c; *out_hi = hi * c; }} else {{ *out_lo = hi * c; *out_hi = lo * c; }}
+    double a = lo * c, b = hi * c;
+    *out_lo = min_(a, b);
+    *out_hi = max_(a, b);
 }}
 static double rho_(double v, double w)
 {{
@@ -144,7 +148,9 @@ void rs_monitor_init(rs_monitor_t *m)
 {{
     int i;
     m->n_pend = m->n_over = m->n_sched = m->n_poses = m->n_periods = m->pose_first = m->period_first = 0;
-    m->n_unjudged = m->sched_first = 0;
+    m->n_unjudged = m->sched_first = m->since = 0;
+    for (i = 0; i < 8; ++i) m->sums[i] = 0.0;
+    m->last_mid = 0.0;
     m->last_applied = -HUGE_VAL;
     m->lost_run = 0;
     m->alarm_run = 0;
@@ -257,19 +263,10 @@ static int reports_(rs_monitor_t *m, double t, int n, const long *seqs, const do
     return status;
 }}
 
-static double V_(const double *xi)
+static double V_(const double *xi) /* max over the P's of xi' P xi: their nonzero upper-triangle terms, in order */
 {{
-    double best = 0.0;
-    int k, i, j;
-    for (k = 0; k < N_P; ++k) {{
-        double acc = 0.0;
-        for (i = 0; i < RS_MON_N_S; ++i) {{
-            double s = 0.0;
-            for (j = 0; j < RS_MON_N_S; ++j) s = s + P[k][i][j] * xi[j];
-            acc = acc + xi[i] * s;
-        }}
-        best = max_(best, acc);
-    }}
+    double best = 0.0, acc;
+{V_body}
     return best;
 }}
 
@@ -278,7 +275,9 @@ static void commanded_(const rs_monitor_t *m, double t0, double t1, double *Vc, 
     int i;
     *Vc = *Wc = 0.0;
     *clipped = m->n_sched == 0 || SCH_T(0) > t0;
-    for (i = 0; i < m->n_sched; ++i) {{
+    i = m->n_sched - 1;
+    while (i > 0 && SCH_T(i) > t0) --i; /* the entries before the last one starting by t0 ended by t0 */
+    for (; i < m->n_sched; ++i) {{
         double end = i + 1 < m->n_sched ? SCH_T(i + 1) : HUGE_VAL;
         double a = max_(SCH_T(i), t0), b = min_(end, t1);
         if (b > a) {{
@@ -291,24 +290,28 @@ static void commanded_(const rs_monitor_t *m, double t0, double t1, double *Vc, 
 
 static int slip_(rs_monitor_t *m, double t, double x, double y, double theta)
 {{
-    int i, j, n;
-    double S = 0.0, TH = 0.0, L = 0.0, Vc = 0.0, Wc = 0.0, travel = 0.0, turns = 0.0, turned = 0.0, a, b, planar, worst;
-    double lo[3], hi[3], got[3], err[3], p_lo, p_hi, q_lo, q_hi;
+    int i, j, n, e;
+    double S, TH, L, Vc, Wc, travel, turns, turned, a, b, planar, worst, err, p_lo, p_hi, q_lo, q_hi;
     if (m->n_poses > 0) {{
-        const double *q0 = m->pose[(m->pose_first + m->n_poses - 1) % (RS_MON_WINDOW + 1)];
+        const double *q0 = m->last;
         double dth = wrap_(theta - q0[3]);
         double mid = q0[3] + dth / 2.0;
         double c = cos(mid), s = sin(mid), k = 1.0 / sinc_(dth / 2.0);
-        double dx = x - q0[1], dy = y - q0[2], vc, wc, dmid = 0.0, *p;
+        double dx = x - q0[1], dy = y - q0[2], vc, wc, dmid = 0.0, *p, *sum = m->sums;
         int clipped;
         commanded_(m, q0[0], t, &vc, &wc, &clipped);
-        if (m->n_periods > 0) dmid = fabs(wrap_(mid - m->period[(m->period_first + m->n_periods - 1) % RS_MON_WINDOW][6]));
+        if (m->n_periods > 0) dmid = fabs(wrap_(mid - m->last_mid));
+        m->last_mid = mid;
         if (m->n_periods == RS_MON_WINDOW) {{ /* the oldest goes */
-            m->n_unjudged -= m->period[m->period_first][7] != 0.0;
+            const double *o = m->period[m->period_first];
+            sum[0] = sum[0] - o[0]; sum[1] = sum[1] - o[1]; sum[2] = sum[2] - o[2]; sum[3] = sum[3] - o[3];
+            sum[4] = sum[4] - o[4]; sum[5] = sum[5] - o[5]; sum[6] = sum[6] - fabs(o[1]); sum[7] = sum[7] - o[8];
+            m->n_unjudged -= o[7] != 0.0;
             m->period_first = m->period_first + 1 == RS_MON_WINDOW ? 0 : m->period_first + 1;
             --m->n_periods;
         }}
-        p = m->period[(m->period_first + m->n_periods) % RS_MON_WINDOW];
+        e = m->period_first + m->n_periods;
+        p = m->period[e >= RS_MON_WINDOW ? e - RS_MON_WINDOW : e];
         p[0] = (dx * c + dy * s) * k;
         p[1] = dth;
         p[2] = (dy * c - dx * s) * k;
@@ -320,34 +323,42 @@ static int slip_(rs_monitor_t *m, double t, double x, double y, double theta)
         p[8] = dmid;
         m->n_unjudged += clipped != 0;
         ++m->n_periods;
+        if (++m->since == RS_MON_WINDOW) {{ /* the sums afresh, in the ring's order */
+            m->since = 0;
+            for (i = 0; i < 8; ++i) sum[i] = 0.0;
+            for (n = 0, j = m->period_first; n < m->n_periods; ++n, j = j + 1 == RS_MON_WINDOW ? 0 : j + 1) {{
+                const double *o = m->period[j];
+                sum[0] = sum[0] + o[0]; sum[1] = sum[1] + o[1]; sum[2] = sum[2] + o[2]; sum[3] = sum[3] + o[3];
+                sum[4] = sum[4] + o[4]; sum[5] = sum[5] + o[5]; sum[6] = sum[6] + fabs(o[1]); sum[7] = sum[7] + o[8];
+            }}
+        }} else {{
+            sum[0] = sum[0] + p[0]; sum[1] = sum[1] + p[1]; sum[2] = sum[2] + p[2]; sum[3] = sum[3] + p[3];
+            sum[4] = sum[4] + p[4]; sum[5] = sum[5] + p[5]; sum[6] = sum[6] + fabs(p[1]); sum[7] = sum[7] + p[8];
+        }}
     }}
-    if (m->n_poses == RS_MON_WINDOW + 1) {{
-        m->pose_first = (m->pose_first + 1) % (RS_MON_WINDOW + 1);
+    if (m->n_poses == RS_MON_WINDOW + 1) {{ /* the oldest pose's time goes */
+        m->pose_first = m->pose_first == RS_MON_WINDOW ? 0 : m->pose_first + 1;
         --m->n_poses;
     }}
-    {{
-        double *q = m->pose[(m->pose_first + m->n_poses) % (RS_MON_WINDOW + 1)];
-        q[0] = t; q[1] = x; q[2] = y; q[3] = theta;
-        ++m->n_poses;
-    }}
-    while (m->n_sched > 1 && SCH_T(1) <= m->pose[m->pose_first][0]) drop_first_(m);
+    e = m->pose_first + m->n_poses;
+    m->pose_t[e > RS_MON_WINDOW ? e - (RS_MON_WINDOW + 1) : e] = t;
+    m->last[0] = t; m->last[1] = x; m->last[2] = y; m->last[3] = theta;
+    ++m->n_poses;
+    while (m->n_sched > 1 && SCH_T(1) <= m->pose_t[m->pose_first]) drop_first_(m);
     if (m->n_periods < RS_MON_WINDOW || m->n_unjudged > 0) return 0;
-    for (n = 0, j = m->period_first; n < m->n_periods; ++n, j = j + 1 == RS_MON_WINDOW ? 0 : j + 1) {{
-        const double *p = m->period[j];
-        S = S + p[0]; TH = TH + p[1]; L = L + p[2]; Vc = Vc + p[3]; Wc = Wc + p[4];
-        travel = travel + p[5]; turned = turned + fabs(p[1]);
-        if (n) turns = turns + p[8];
-    }}
+    S = m->sums[0]; TH = m->sums[1]; L = m->sums[2]; Vc = m->sums[3]; Wc = m->sums[4]; travel = m->sums[5];
+    turned = m->sums[6];
+    turns = m->sums[7] - m->period[m->period_first][8]; /* the mid direction's turns between the window's periods */
     a = POS_NOISE; b = HEAD_NOISE;
     planar = sqrt(2.0) * a * (2.0 + turns) + travel * (b + MODEL_TOL);
-    scaled_(COMP[0][0], COMP[0][1], Vc, &p_lo, &p_hi); scaled_(COMP[1][0], COMP[1][1], D_ / 4.0 * Wc, &q_lo, &q_hi);
-    got[0] = S; lo[0] = p_lo + q_lo; hi[0] = p_hi + q_hi; err[0] = planar;
-    scaled_(COMP[2][0], COMP[2][1], Wc, &p_lo, &p_hi); scaled_(COMP[3][0], COMP[3][1], Vc / D_, &q_lo, &q_hi);
-    got[1] = TH; lo[1] = p_lo + q_lo; hi[1] = p_hi + q_hi; err[1] = 2.0 * b + MODEL_TOL * turned;
-    scaled_(-COMP[4][1], -COMP[4][0], Wc, &p_lo, &p_hi); scaled_(-COMP[5][1], -COMP[5][0], Vc / D_, &q_lo, &q_hi);
-    got[2] = L; lo[2] = p_lo + q_lo; hi[2] = p_hi + q_hi; err[2] = planar;
     worst = 0.0;
-    for (i = 0; i < 3; ++i) worst = max_(max_(worst, lo[i] - err[i] - got[i]), got[i] - (hi[i] + err[i]));
+    scaled_(COMP[0][0], COMP[0][1], Vc, &p_lo, &p_hi); scaled_(COMP[1][0], COMP[1][1], D_ / 4.0 * Wc, &q_lo, &q_hi);
+    worst = max_(max_(worst, p_lo + q_lo - planar - S), S - (p_hi + q_hi + planar));
+    err = 2.0 * b + MODEL_TOL * turned;
+    scaled_(COMP[2][0], COMP[2][1], Wc, &p_lo, &p_hi); scaled_(COMP[3][0], COMP[3][1], Vc / D_, &q_lo, &q_hi);
+    worst = max_(max_(worst, p_lo + q_lo - err - TH), TH - (p_hi + q_hi + err));
+    scaled_(-COMP[4][1], -COMP[4][0], Wc, &p_lo, &p_hi); scaled_(-COMP[5][1], -COMP[5][0], Vc / D_, &q_lo, &q_hi);
+    worst = max_(max_(worst, p_lo + q_lo - planar - L), L - (p_hi + q_hi + planar));
     if (worst > 0.0) {{
         m->amounts[5] = worst;
         return RS_MON_SLIP;
