@@ -6,6 +6,9 @@
 2. 20 episodes on the MuJoCo robot (friction 1.0 and 0.4, 10 each): the same.
 3. Injected (one run each, the same noise): a delay beyond tau_max, a loss burst beyond the cap, a traction of
    0.9 and of 0.6 (the box: 0.97-1.04), each from period 150: the period of the first alarm and its cause.
+4. Injected on the MuJoCo robot (``validate --inject``, one episode each, from period 150): a delay spike, a loss
+   burst, a mud patch (friction 0.3 with drag), a push, a command beyond the motor limit; and a patch of friction
+   0.3 and 0.05 without drag (this robot's slip stays in the box there: no violation, no alarm expected).
 
     .venv/bin/python benchmarks/run_all.py bench_monitor
 """
@@ -92,6 +95,18 @@ def main() -> dict[str, float]:
         r = monitor_log(runs(1, 5, **change)[0], desc)
         first = r["alarms"][0] if r["alarms"] else None
         print(f"{name} from period {K0}: " + (f"first alarm at period {first['period']} ({first['causes']})" if first else "no alarm"))
+    if validate_physics is not None:
+        from robustsynth.verification.physics import Injection
+
+        for inj in (Injection("delay", K0), Injection("losses", K0), Injection("friction", K0), Injection("push", K0),
+                    Injection("command", K0), Injection("friction", K0, 0.3, drag=0.0), Injection("friction", K0, 0.05, drag=0.0)):
+            res = validate_physics(model, gains, episodes=1, seed=3, inject=inj)
+            r = monitor_log(res["logs"][0], desc)
+            first = r["alarms"][0] if r["alarms"] else None
+            print(f"physics robot, {inj.describe()}: " + (f"first alarm at period {first['period']} ({first['causes']})"
+                                                           if first else "no alarm"))
+            out[f"physics {inj.kind}{'' if inj.drag or inj.kind != 'friction' else f' {inj.size:g} no drag'} first alarm"] = (
+                first["period"] if first else -1)
     return out
 
 

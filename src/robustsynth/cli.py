@@ -1041,15 +1041,26 @@ def monitor_cmd(obj: _Ctx, logs: tuple[Path, ...], gains: Path, config: Path | N
 @click.option("-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Output directory (default results/<name>/validation).")
 @click.option("--no-plots", is_flag=True, help="Skip the figure.")
+@click.option("--inject", type=click.Choice(["delay", "losses", "friction", "push", "command"]), default=None,
+              help="Break one of the certificate's assumptions in every episode, to see the runtime monitor flag it: "
+                   "delay (a command SIZE s beyond tau_max), losses (SIZE commands beyond the cap in a row), friction "
+                   "(a mud patch: ground of friction SIZE that drags the robot back), push (sideways, SIZE x its "
+                   "weight for a period), command (SIZE x the motor limit).")
+@click.option("--inject-period", type=click.IntRange(min=1), default=150, show_default=True,
+              help="The period the injection starts at.")
+@click.option("--inject-size", type=float, default=None,
+              help="The injection's size [default: delay 0.07 s, losses 1, friction 0.3, push 3, command 2].")
 @click.pass_obj
 @_guard
 def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, episodes: int, seed: int, workers: int,
-                 engine: str, outdir: Path | None, no_plots: bool) -> int:
+                 engine: str, outdir: Path | None, no_plots: bool, inject: str | None, inject_period: int,
+                 inject_size: float | None) -> int:
     """Run the deployed law on a physics-engine robot (MuJoCo; slip from contact and friction).
 
     Writes validation.json and the episodes as robot logs (logs/, identify's format).  Exit 1 when
     an error on a straight segment exceeds its certified bound, or when the slip the engine showed
-    (estimated by identify) leaves the config's slip box.
+    (estimated by identify) leaves the config's slip box.  With --inject, the episodes leave the certificate's
+    assumptions on purpose: the console says when the runtime monitor first flagged it.
     """
     from .errors import EXIT_VERIFICATION_FAILED, InputError
     from .model import build_model
@@ -1057,6 +1068,15 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
 
     if excite == (gains is not None):
         raise InputError("validate: give exactly one of --gains (validate a gain) and --excite (excitation logs)")
+    if excite and inject is not None:
+        raise InputError("validate: --inject runs the closed loop (--gains), not the excitation (--excite)")
+    if inject is None and inject_size is not None:
+        raise InputError("validate: --inject-size without --inject")
+    injection = None
+    if inject is not None:
+        from .verification.physics import Injection
+
+        injection = Injection(inject, inject_period, inject_size)
     cfg = _load(config)
     out = outdir if outdir is not None else Path("results") / cfg.name / ("excitation" if excite else "validation")
     if excite:
@@ -1075,7 +1095,7 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
     cb, bar = _progress(obj)
     try:
         vd = validation_stage(build_model(cfg), gains, out, episodes=episodes, seed=seed, progress=cb, plots=not no_plots,
-                              workers=workers, engine=engine)
+                              workers=workers, engine=engine, inject=injection)
     finally:
         if bar is not None:
             bar.render_finish()
@@ -1120,6 +1140,11 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
         counts = ", ".join(f"{k} {v}" for k, v in mon["alarm_periods"].items() if v)
         obj.say(f"runtime monitor over the episodes: {mon['runs_with_alarms']} of {mon['logs']} with alarms"
                 + (f" (periods: {counts})" if counts else ""))
+    if injection is not None:
+        firsts = (mon or {}).get("first_per_log") or []
+        seen = "; ".join(f"episode {i}: " + (f"period {f['period']} ({f['causes']})" if f else "not flagged")
+                         for i, f in enumerate(firsts)) or "no monitor (the gain has no certified set)"
+        obj.say(f"injected {injection.describe()}; the runtime monitor's first alarm: {seen}")
     obj.say(f"validation {'passed' if vd['passed'] else 'FAILED'}: {episodes} episodes; wrote {out / 'validation.json'}")
     return EXIT_OK if vd["passed"] else EXIT_VERIFICATION_FAILED
 

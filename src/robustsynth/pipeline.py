@@ -245,9 +245,10 @@ def verification_stage(
 
 def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, episodes: int = 4, seed: int = 0,
                      progress: ProgressFn | None = None, plots: bool = True, workers: int = 1,
-                     engine: str = "physics") -> dict[str, Any]:
+                     engine: str = "physics", inject: Any = None) -> dict[str, Any]:
     """``robustsynth validate``: the deployed law on the physics robot (:mod:`.verification.physics`);
-    writes the episodes as robot logs under ``outdir/logs/`` and ``validation.json`` (last)."""
+    writes the episodes as robot logs under ``outdir/logs/`` and ``validation.json`` (last).  ``inject``: a
+    violation of one of the certificate's assumptions in every episode (:class:`.verification.physics.Injection`)."""
     import numpy as np
 
     from .artifacts.files import commit_files, json_bytes, make_dir
@@ -266,6 +267,8 @@ def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, e
     if size != (model.n_u, model.n_s):  # no law to run (a traceback before)
         raise InputError(f"{gains_path}: K has {size[0]} x {size[1]} entries; this config's controller "
                          f"needs {model.n_u} x {model.n_s} (d_hi = {model.d_hi})")
+    if inject is not None:
+        inject.check(model, engine)
     outdir = make_dir(outdir)  # after the inputs are checked: a refusal leaves no directory behind
     rechecked = recheck_gains(model, gains)
     # the bounds the episodes are judged against: the certificate's own, re-checked for this config (a
@@ -275,7 +278,7 @@ def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, e
                                    "ultimate_bound_between_samples": rechecked.figures.get("ultimate_bound_between_samples"),
                                    "turns": (gains.get("certificate") or {}).get("turns")} if rechecked.passed else {})
     res = validate_physics(model, gains, episodes=episodes, seed=seed, progress=progress if workers == 1 else None,
-                           workers=workers, engine=engine)
+                           workers=workers, engine=engine, inject=inject)
     _write_logs(res["logs"], outdir / "logs")
     vd = dict(res["validation"], gains_id=gains_id(gains), config=model.config.name)
     # the slip the certificate has to cover: on the straight segments it certifies; the turns' (ICR

@@ -279,3 +279,68 @@ def test_validate_says_which_physics_robot_it_ran_and_derives_it_from_the_config
     assert not np.array_equal(res_narrow["q"], res_wide["q"])  # another chassis in the engine, not just in the record
     # the kinematic engine runs no physics robot: nothing to state
     assert validate_physics(build_model(narrow12), g, episodes=1, engine="kinematic")["validation"]["physics"] is None
+
+
+# --------------------------------------------------------------------------- the runtime monitor on the physics robot
+K0 = 150  # the injections' period
+
+
+@pytest.fixture(scope="module")
+def default_robot():
+    from robustsynth.artifacts.gains import controller_description, load_gains
+    from robustsynth.config import load_config
+    from robustsynth.model import build_model
+
+    cfg = load_config(ROOT / "configs" / "default.yaml")
+    gains = load_gains(ROOT / "results" / "baselines" / "default" / "gains.json")
+    return build_model(cfg), gains, controller_description(gains, cfg)
+
+
+def _alarms(model, gains, desc, inject=None, episodes=1):
+    from robustsynth.runtime.replay import monitor_log
+    from robustsynth.verification.physics import validate_physics
+
+    res = validate_physics(model, gains, episodes=episodes, seed=3, inject=inject)
+    return [monitor_log(log, desc)["alarms"] for log in res["logs"]], res["validation"]
+
+
+def test_episodes_inside_the_assumptions_raise_no_alarm(default_robot) -> None:
+    """The default's gain on the physics robot, whole path (turns included), perturbed starts: the monitor is silent."""
+    alarms, val = _alarms(*default_robot, episodes=3)
+    assert val["passed"] and alarms == [[], [], []]
+
+
+@pytest.mark.parametrize("kind, cause, within", [
+    ("delay", "delay", 2), ("losses", "losses", 2), ("push", "set", 2), ("command", "motor", 2),
+    ("friction", "slip", 10),  # the slip check's window (monitor.window: 10 periods)
+])
+def test_each_violation_injected_on_the_physics_robot_is_flagged_with_its_cause(default_robot, kind, cause, within) -> None:
+    """Each kind of violation, injected from period K0 into an episode on the MuJoCo robot (validate --inject): the
+    monitor names its cause within two periods (slip: within its window), and raises nothing before K0."""
+    from robustsynth.verification.physics import Injection
+
+    alarms, val = _alarms(*default_robot, inject=Injection(kind, K0))
+    assert val["injected"].startswith(f"{kind} from period {K0}")
+    periods = [a["period"] for a in alarms[0]]
+    assert periods and min(periods) >= K0, alarms[0][:3]
+    seen = {c for a in alarms[0] if a["period"] <= K0 + within for c in a["causes"].split(", ")}
+    assert cause in seen, alarms[0][:5]
+
+
+def test_validate_inject_says_when_the_monitor_flagged_it_and_refuses_what_cannot_happen(tmp_path) -> None:
+    gains = str(ROOT / "results" / "baselines" / "default" / "gains.json")
+    cfg = str(ROOT / "configs" / "default.yaml")
+    r = CliRunner().invoke(main, ["validate", cfg, "--gains", gains, "--episodes", "1", "--inject", "command",
+                                  "--no-plots", "-o", str(tmp_path / "v")])
+    # one command beyond the motor limit (the motors clip it) keeps this robot within its bounds: the verdict judges
+    # what the robot did, the monitor says which assumption broke
+    assert r.exit_code == 0 and "validation passed" in r.output, r.output
+    assert f"injected command from period {K0}" in r.output and f"episode 0: period {K0} (motor" in r.output
+    assert json.loads((tmp_path / "v" / "validation.json").read_text())["injected"].startswith("command")
+    for args, words in ((["--inject", "push", "--inject-period", "100000"], "--inject-period"),
+                        (["--inject", "push", "--engine", "kinematic"], "only on the physics robot"),
+                        (["--inject-size", "2"], "--inject-size without --inject"),
+                        (["--inject", "push", "--inject-size", "-1"], "--inject-size")):
+        r = CliRunner().invoke(main, ["validate", cfg, "--gains", gains, "-o", str(tmp_path / "bad"), *args])
+        assert r.exit_code == 2 and words in r.output, (args, r.output)
+        assert not (tmp_path / "bad").exists()

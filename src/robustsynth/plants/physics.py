@@ -140,6 +140,24 @@ class PhysicsRobot:
         n = self.n_w
         return np.array([[float(np.sum(d.actuator_force[:n])), float(np.sum(d.actuator_force[n:]))] for d in self.data])
 
+    def set_friction(self, mu: float) -> None:
+        """Every robot drives onto ground of sliding friction ``mu`` from now on (a patch: the ground's and the
+        wheels' friction, as MuJoCo takes the larger of a contact's two)."""
+        self.model.geom_friction[:, 0] = float(mu)
+
+    def push(self, force: np.ndarray) -> None:
+        """A horizontal force ``force[n] = (f_x, f_y)`` [N] in the world frame on each chassis from now on, until the
+        next call (zeros: none) — a push, or a drag."""
+        body = self.model.body("chassis").id
+        for d, f in zip(self.data, np.broadcast_to(np.asarray(force, dtype=float), (self.runs, 2))):
+            d.xfrc_applied[body, :] = 0.0
+            d.xfrc_applied[body, :2] = f
+
+    @property
+    def mass(self) -> float:
+        """The robot's whole mass [kg] (chassis, payload, wheels)."""
+        return float(np.sum(self.model.body_mass))
+
     def period(self, U: np.ndarray, S: np.ndarray) -> np.ndarray:
         """One sampling period: ``U[n, j]`` (commands u_hat in flight, newest first) acts on
         ``[S[n, j], S[n, j-1])`` (S[n, -1] = Ts, the end 0); returns the largest |torque| per track

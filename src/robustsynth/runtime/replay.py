@@ -62,7 +62,7 @@ def monitor_log(log: Any, description: dict[str, Any]) -> dict[str, Any]:
 
 def monitor_logs(logs: list[Any], description: dict[str, Any]) -> dict[str, Any]:
     """:func:`monitor_log` of each log, and the totals: runs with an alarm, alarm periods per cause, the first
-    alarm of each cause (log and period)."""
+    alarm of each cause (log and period), and each log's first alarm (``first_per_log``: period and causes, or None)."""
     runs = [monitor_log(lg, description) for lg in logs]
     first: dict[str, Any] = {}
     for r in runs:
@@ -71,7 +71,9 @@ def monitor_logs(logs: list[Any], description: dict[str, Any]) -> dict[str, Any]
                 first.setdefault(cause, {"log": r["log"], "period": a["period"], "t": a["t"], "by": a["by"].get(cause)})
     return {"runs": runs, "logs": len(runs), "runs_with_alarms": sum(1 for r in runs if r["alarms"]),
             "alarm_periods": {name: sum(r["alarm_periods"][name] for r in runs) for name, _ in CAUSES},
-            "fallback_engaged": sum(1 for r in runs if r["fallback_engaged_at"] is not None), "first": first}
+            "fallback_engaged": sum(1 for r in runs if r["fallback_engaged_at"] is not None), "first": first,
+            "first_per_log": [{"period": r["alarms"][0]["period"], "causes": r["alarms"][0]["causes"]} if r["alarms"] else None
+                              for r in runs]}
 
 
 def monitor_summary(logs: list[Any], gains: dict[str, Any], config: Any) -> dict[str, Any] | None:
@@ -89,7 +91,7 @@ def monitor_summary(logs: list[Any], gains: dict[str, Any], config: Any) -> dict
     if not desc.get("monitor"):
         return None
     res = monitor_logs(logs, desc)
-    return {**{k: res[k] for k in ("logs", "runs_with_alarms", "alarm_periods", "fallback_engaged", "first")},
+    return {**{k: res[k] for k in ("logs", "runs_with_alarms", "alarm_periods", "fallback_engaged", "first", "first_per_log")},
             "detects": desc["monitor"]["detects"]}
 
 

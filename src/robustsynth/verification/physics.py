@@ -28,13 +28,89 @@ from ..law import Law
 from ..plants.path import frame_error, path_of, pose_from_error
 
 __all__ = ["validate_physics", "excite", "excitation_slip", "excitation_steps", "physics_config", "PERTURBATION",
-           "CHASSIS_OVERHANG"]
+           "CHASSIS_OVERHANG", "Injection", "INJECTIONS"]
 
 PERTURBATION = (0.02, 0.02, 0.05)  # perturbed starts: uniform offsets up to this in e_x, e_y [m], e_theta [rad]
 TORQUE_SATURATED = 0.999  # a period counts as torque-saturated when a track's peak reaches this share of the limit
 # how far the chassis reaches beyond each track's centre line [m]: the study's robot, a 0.5 m wide chassis on
 # tracks 0.45 m apart (the physics.chassis_size default); a config's chassis is robot.track_distance + 2 x this wide
 CHASSIS_OVERHANG = 0.025
+
+
+# what `validate --inject KIND` breaks, and its size when none is given (issue 54: the runtime monitor must flag it)
+INJECTIONS = {
+    "delay": ("the command sent at the period arrives SIZE s after tau_max", 0.07),
+    "losses": ("network.dropouts.max_consecutive + SIZE commands in a row are lost from the period on", 1.0),
+    "friction": ("the robot drives onto a mud patch: ground of friction SIZE (from physics.friction) that drags it back "
+                 "with MUD_DRAG /s x its mass x its forward speed", 0.3),
+    "push": ("a sideways push of SIZE times the robot's weight on its chassis (to its left) for one period", 3.0),
+    "command": ("the command sent at the period asks a motor for SIZE times robot.max_motor_speed", 2.0),
+}
+MUD_DRAG = 8.0  # the mud patch's drag per unit of mass and forward speed [1/s] (more than friction 0.3 holds at V^D)
+
+
+class Injection:
+    """A violation of one assumption of the certificate, injected into every episode from period ``period`` on
+    (:data:`INJECTIONS`: what each ``kind`` does, and its default ``size``): for showing the runtime monitor flag it
+    on the physics robot.  The validation's verdict then speaks of a robot outside the certificate's assumptions."""
+
+    def __init__(self, kind: str, period: int = 150, size: float | None = None, drag: float = MUD_DRAG) -> None:
+        from ..errors import InputError
+
+        if kind not in INJECTIONS:
+            raise InputError(f"--inject: {kind!r} is not one of {', '.join(INJECTIONS)}")
+        if period < 1:
+            raise InputError(f"--inject-period: {period} must be 1 or more")
+        self.kind, self.period, self.drag = kind, int(period), float(drag)  # drag: the mud's (0: friction alone)
+        self.size = float(INJECTIONS[kind][1] if size is None else size)
+        if not (self.size > 0.0 and math.isfinite(self.size)):
+            raise InputError(f"--inject-size: {size!r} must be a positive number")
+
+    def check(self, model: Any, engine: str) -> None:
+        """InputError unless this injection can happen in ``engine``'s episodes of ``model``'s path."""
+        from ..errors import InputError
+
+        if engine != "physics" and self.kind in ("friction", "push"):
+            raise InputError(f"--inject {self.kind}: only on the physics robot (--engine physics)")
+        if self.period >= _steps(model):
+            raise InputError(f"--inject-period: {self.period} is beyond the episode's {_steps(model)} periods")
+
+    def describe(self) -> str:
+        text = INJECTIONS[self.kind][0].replace("SIZE", f"{self.size:g}").replace("MUD_DRAG", f"{self.drag:g}")
+        if self.kind == "friction" and self.drag == 0.0:
+            text = f"the robot drives onto ground of friction {self.size:g} (from physics.friction), no drag"
+        return f"{self.kind} from period {self.period}: {text}"
+
+    def taus(self, model: Any, taus: np.ndarray) -> np.ndarray:
+        """The episodes' packet delays (N, d_hi + steps) with a delay spike or a loss burst."""
+        taus = np.array(taus, dtype=float)
+        k = model.d_hi + self.period
+        if self.kind == "delay":
+            taus[:, k] = model.config.network.delay.max + self.size
+        elif self.kind == "losses":
+            n = model.config.network.dropouts.max_consecutive + int(math.ceil(self.size))
+            taus[:, k:k + n] = np.inf
+        return taus
+
+    def command(self, model: Any, u: np.ndarray, k: int) -> np.ndarray:
+        """The commands (N, 2) sent at period k: beyond the motor limit at the injection's period."""
+        if self.kind != "command" or k != self.period:
+            return u
+        R, D = model.config.robot.gear_radius, model.config.robot.track_distance
+        rho = self.size * (model.config.robot.max_motor_speed or 1e3)
+        V = u[:, :1]
+        return np.concatenate([V, (rho - V / R) * 2.0 * R / D], axis=1)  # the right track at rho
+
+    def forces(self, robot: Any, q: np.ndarray, k: int) -> None:
+        """The ground and the forces on the physics robot for period k (poses ``q``, (N, 3))."""
+        if self.kind == "friction" and k >= self.period:
+            if k == self.period:
+                robot.set_friction(self.size)
+            v = robot.body_velocity()[:, 0]  # forward speed at the period's start (the drag held over the period)
+            robot.push((-self.drag * robot.mass * v)[:, None] * np.stack([np.cos(q[:, 2]), np.sin(q[:, 2])], axis=1))
+        elif self.kind == "push" and k in (self.period, self.period + 1):
+            f = self.size * robot.mass * 9.81 if k == self.period else 0.0
+            robot.push(f * np.stack([-np.sin(q[:, 2]), np.cos(q[:, 2])], axis=1))
 
 
 def physics_config(config: Any) -> tuple[Any, dict[str, Any]]:
@@ -114,7 +190,8 @@ ENGINES = ("physics", "kinematic")
 
 
 def _run_episodes(model: Any, gains: dict[str, Any], first: int, count: int, seed: int,
-                  progress: Callable[[int, int], None] | None = None, engine: str = "physics") -> dict[str, np.ndarray]:
+                  progress: Callable[[int, int], None] | None = None, engine: str = "physics",
+                  inject: Injection | None = None) -> dict[str, np.ndarray]:
     """Episodes ``first .. first + count - 1`` in one process: each has its own random stream
     (``seed``, index), so the results do not depend on how episodes are split over workers.
     Episode 0 starts on the path; the others from offsets up to PERTURBATION."""
@@ -136,6 +213,8 @@ def _run_episodes(model: Any, gains: dict[str, Any], first: int, count: int, see
         taus.append(random_delays(model, rng, 1, steps)[0])
         mus.append([rng.uniform(lo, hi) for lo, hi in model.slip_ranges])  # every slip parameter (icr: 4)
     taus = np.array(taus)  # (N, d_hi + steps): the d_hi packets before t_0 first
+    if inject is not None:
+        taus = inject.taus(model, taus)
     q0 = pose_from_error(path, offsets)
     robot = PhysicsRobot(physics_config(cfg)[0], N) if engine == "physics" else _KinematicEngine(model, np.array(mus))
     robot.reset(q0, V)
@@ -159,6 +238,9 @@ def _run_episodes(model: Any, gains: dict[str, Any], first: int, count: int, see
         dv, dw = law.correction(t, q[:, 0], q[:, 1], q[:, 2])
         u = uD + np.stack([np.asarray(dv, dtype=float) * np.ones(N), np.asarray(dw, dtype=float) * np.ones(N)], axis=1)
         u = u + law.feedforward(t) * model.turn_feedforward  # the turning feedforward, as the simulator sends it
+        if inject is not None:
+            u = inject.command(model, u, k)
+            inject.forces(robot, q, k)
         # J^-1 u row by row (not a matmul, whose summation order may depend on how many episodes a worker has)
         RHO[:, k] = u[:, :1] * J_inv[:, 0] + u[:, 1:] * J_inv[:, 1]
         U = np.concatenate([u[:, None], U[:, :-1]], axis=1)
@@ -175,16 +257,17 @@ def _steps(model: Any) -> int:
 
 
 def _chunk(args: tuple) -> dict[str, np.ndarray]:
-    model, gains, first, count, seed, engine = args
-    return _run_episodes(model, gains, first, count, seed, None, engine)
+    model, gains, first, count, seed, engine, inject = args
+    return _run_episodes(model, gains, first, count, seed, None, engine, inject)
 
 
 def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed: int = 0,
                      progress: Callable[[int, int], None] | None = None, workers: int = 1,
-                     engine: str = "physics") -> dict[str, Any]:
+                     engine: str = "physics", inject: Injection | None = None) -> dict[str, Any]:
     """Run ``episodes`` closed-loop episodes on the physics robot (``workers`` processes: the
     episodes split between them, the same results); returns the validation mapping (per episode and
-    overall maxima against the certified figures, the verdict) and the logs."""
+    overall maxima against the certified figures, the verdict) and the logs.  ``inject``: a violation of one of
+    the certificate's assumptions in every episode (:class:`Injection`; the validation records it)."""
     from ..artifacts.logs import RobotLog
 
     cfg = model.config
@@ -197,13 +280,15 @@ def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed:
         from ..errors import InputError
 
         raise InputError(f"--engine: {engine!r} is not one of {', '.join(ENGINES)}")
+    if inject is not None:
+        inject.check(model, engine)
     if workers == 1:
-        parts = [_run_episodes(model, gains, 0, N, seed, progress, engine)]
+        parts = [_run_episodes(model, gains, 0, N, seed, progress, engine, inject)]
     else:
         from concurrent.futures import ProcessPoolExecutor
 
         bounds = np.linspace(0, N, workers + 1).astype(int)
-        jobs = [(model, gains, int(a), int(b - a), seed, engine) for a, b in zip(bounds[:-1], bounds[1:])]
+        jobs = [(model, gains, int(a), int(b - a), seed, engine, inject) for a, b in zip(bounds[:-1], bounds[1:])]
         with ProcessPoolExecutor(max_workers=workers) as pool:
             parts = list(pool.map(_chunk, jobs))
     offsets, taus, E, Q, RHO, sat = (np.concatenate([p[k] for p in parts]) for k in ("offsets", "taus", "E", "Q", "RHO", "sat"))
@@ -259,6 +344,7 @@ def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed:
         "max_motor_speed": rho_max,
         "torque_saturated_s": max(ep["torque_saturated_s"] for ep in per_episode),
         "per_episode": per_episode,
+        "injected": None if inject is None else inject.describe(),
     }
     logs = []
     for n in range(N):
