@@ -1154,7 +1154,8 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
 @click.argument("gains", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--to", "target", type=click.Choice(["c", "python", "ros2", "json"]), required=True,
               help="c: rs_controller.h/.c (C99, no heap) + rs_harness.c; python: rs_controller.py (no numpy); "
-                   "ros2: a ros__parameters YAML; json: the controller description.")
+                   "ros2: a ros__parameters YAML, rs_node.py (an rclpy node running the law and its monitor) and "
+                   "rs_controller.py; json: the controller description.")
 @click.option("-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), required=True,
               help="Directory for the generated files.")
 @click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path), default=None,

@@ -310,7 +310,8 @@ def ros2_parameters(d: dict[str, Any]) -> bytes:
     }
     head = (f"# ROS 2 parameters of the robustsynth controller node, {_header_comment(d, 'ros2', '# ')}\n"
             "# K is row-major, K_rows x K_cols, on the lifted state named in state_names.\n"
-            "# The node calls the law once per sampling_time; see README 'Deploying the controller'.\n")
+            "# rs_node.py (beside it) runs rs_controller.py's law and monitor once per sampling_time and refuses\n"
+            "# parameters of another gain: python3 rs_node.py --ros-args --params-file rs_controller.ros2.yaml\n")
     return (head + yaml.safe_dump({"robustsynth_controller": {"ros__parameters": params}}, sort_keys=False,
                                   default_flow_style=None, width=120)).encode()
 
@@ -362,8 +363,9 @@ def export_files(d: dict[str, Any], target: str) -> dict[str, bytes]:
         return c_files(d)
     if target == "python":
         return {"rs_controller.py": python_module(d)}
-    if target == "ros2":
-        return {"rs_controller.ros2.yaml": ros2_parameters(d)}
+    if target == "ros2":  # the parameters, and the node that runs the law and its monitor (rs_controller.py) with them
+        node = resources.files("robustsynth").joinpath("runtime", "ros2_node.py").read_text(encoding="utf-8")
+        return {"rs_controller.ros2.yaml": ros2_parameters(d), "rs_controller.py": python_module(d), "rs_node.py": node.encode()}
     if target == "json":
         return {"rs_controller.json": json_description(d)}
     raise ValueError(f"unknown export target {target!r} (one of {', '.join(TARGETS)})")

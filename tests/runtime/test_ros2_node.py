@@ -1,0 +1,108 @@
+"""The ROS 2 node export (issue 54): `export --to ros2` writes the parameters, rs_controller.py and rs_node.py; the
+node's loop (plain Python; rclpy only in its main) runs the exported law and monitor on the node's clock with the
+base's reports, and says what `robustsynth monitor` says of the same run."""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import subprocess
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from robustsynth.artifacts.gains import controller_description, load_gains
+from robustsynth.config import load_config
+from robustsynth.model import build_model
+from robustsynth.plants.path import path_of
+from robustsynth.runtime.export import export_controller
+from robustsynth.runtime.replay import monitor_log
+from robustsynth.scenarios import draw_scenario
+from robustsynth.verification.simulate import run_logs, simulate
+
+ROOT = Path(__file__).resolve().parents[2]
+T0 = 1733.25  # the node clock at the path's start [s]: the loop must count from it
+LATE = 0.003  # the timer's callbacks run this late [s]; the base stamps an application on the same clock
+K0 = 150
+COMMAND_TOL = 1e-12  # the simulator's vectorized law against the exported one, per command [m/s, rad/s]
+
+
+def _load(path: Path, name: str):
+    spec = importlib.util.spec_from_file_location(name, path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[name] = mod
+    spec.loader.exec_module(mod)  # type: ignore[union-attr]
+    return mod
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory):
+    out = tmp_path_factory.mktemp("ros2")
+    export_controller(ROOT / "results" / "baselines" / "default" / "gains.json", "ros2", out)
+    return out
+
+
+def test_the_export_writes_the_node_beside_its_parameters_and_the_law(exported) -> None:
+    assert sorted(p.name for p in exported.iterdir()) == ["rs_controller.py", "rs_controller.ros2.yaml", "rs_node.py"]
+    params = yaml.safe_load((exported / "rs_controller.ros2.yaml").read_text())["robustsynth_controller"]["ros__parameters"]
+    ctl = _load(exported / "rs_controller.py", "rs_controller")
+    assert params["gains_id"] == ctl.DESCRIPTION["gains_id"] and params["has_monitor"]
+    # importable without ROS 2: rclpy only inside main(), which says what is missing
+    r = subprocess.run([sys.executable, "-c", "import rs_node, sys; sys.exit(0 if 'rclpy' not in sys.modules else 3)"],
+                       cwd=exported, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    r = subprocess.run([sys.executable, "rs_node.py"], cwd=exported, capture_output=True, text=True)
+    if importlib.util.find_spec("rclpy") is None:
+        assert r.returncode == 1 and "rs_node needs ROS 2 (rclpy" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_yaw_of_a_quaternion() -> None:
+    from robustsynth.runtime.ros2_node import yaw_of
+
+    for yaw in np.linspace(-3.1, 3.1, 13):
+        assert yaw_of(0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)) == pytest.approx(yaw, abs=1e-12)
+
+
+def test_the_nodes_loop_says_what_the_monitor_replay_says(exported) -> None:
+    """A simulated run of the default with a loss burst from period K0: the node's loop, fed the run's poses and the
+    base's reports on a clock starting at T0, sends the run's commands and raises, period by period, the statuses
+    `robustsynth monitor` raises over the run's log, until its fallback engages; from then on it sends the fallback's
+    command (the log's run went on with the law's: there the two part)."""
+    ctl_mod = _load(exported / "rs_controller.py", "rs_controller")
+    node = _load(exported / "rs_node.py", "rs_node")
+    cfg = load_config(ROOT / "configs" / "default.yaml")
+    gains = load_gains(ROOT / "results" / "baselines" / "default" / "gains.json")
+    model, K, path = build_model(cfg), np.asarray(gains["K"]), path_of(cfg)
+    steps = int(path.duration / model.Ts)
+    scen = draw_scenario(model, 1, 4, steps, path, within_period=True)  # from rest: the node's law starts with no memory
+    taus = scen.taus.copy()
+    taus[:, model.d_hi + K0: model.d_hi + K0 + cfg.network.dropouts.max_consecutive + 2] = np.inf
+    scen = replace(scen, taus=taus)
+    log = run_logs(model, simulate(model, K, path, scen), scen)[0]
+    desc = controller_description(gains, cfg)
+    want = monitor_log(log, desc)
+    loop = node.Loop(ctl_mod.Controller(), ctl_mod.Monitor())
+    pending = sorted((float(log.applied[k]), int(log.seq[k])) for k in range(len(log)) if math.isfinite(float(log.applied[k])))
+    R, D = float(cfg.robot.gear_radius), float(cfg.robot.track_distance)
+    statuses, nxt, engaged = [], 0, None
+    for k in range(len(log)):
+        t = float(log.t[k])
+        while nxt < len(pending) and pending[nxt][0] <= t + 1e-12:
+            loop.applied(pending[nxt][1], T0 + LATE + pending[nxt][0])
+            nxt += 1
+        V, omega, seq, status = loop.tick(T0 + LATE + t, float(log.x[k]), float(log.y[k]), float(log.theta[k]))
+        assert seq == k
+        statuses.append(status)
+        if engaged is None and loop.monitor.engaged:
+            engaged = k
+        if engaged is None:
+            assert V == pytest.approx(R / 2 * (log.rho_r[k] + log.rho_l[k]), abs=COMMAND_TOL), k
+            assert omega == pytest.approx(R / D * (log.rho_r[k] - log.rho_l[k]), abs=COMMAND_TOL), k
+        elif desc["monitor"]["fallback"] == "stop":
+            assert (V, omega) == (0.0, 0.0)
+    assert next(k for k, s in enumerate(statuses) if s) == K0 + 1 and statuses[K0 + 1] & 2  # losses
+    assert engaged == want["fallback_engaged_at"] and statuses[:engaged + 1] == want["statuses"][:engaged + 1]
