@@ -173,3 +173,26 @@ def test_describe_names_the_bits() -> None:
     with pytest.raises(ValueError, match="no monitor"):
         Monitor({"sampling_time": TS, "monitor": None})
     assert math.isfinite(TS)
+
+
+def test_slip_within_the_box_that_follows_a_turn_back_and_forth_raises_nothing() -> None:
+    """A robot turning in place, left then right (omega_hat = +-1 rad/s, five periods each), whose yaw factor is the
+    box's top while it turns left and its bottom while it turns right: every instant within the box.  Over a window
+    the commanded turn nets zero while the heading nets (0.70 - 0.53) x 0.5 rad: bounding the integral of ys(t) omega(t)
+    by [ys_lo, ys_hi] x (integral of omega) would call that slip; with omega's sign changing it is ys_mid x integral
+    of omega +- ys_rad x integral of |omega|, which holds it (and a factor beyond the box is still seen)."""
+    def spin(top, bottom, periods=40, tau=0.01):
+        mon = Monitor(_description(window=10, persistence=1000, components=[[0.97, 1.04], [-0.07, 0.07], [0.53, 0.70],
+                                                                            [-0.05, 0.05], [0.0, 0.0], [0.0, 0.0]]))
+        theta, acting, out = 0.0, (0.0, 0.0), []
+        for k in range(periods):
+            t = k * TS
+            w = 1.0 if (k // 5) % 2 == 0 else -1.0
+            out.append(mon.step(t, 0.0, 0.0, theta, [0.0] * 5, (0.0, w), k, [(k - 1, t - TS + tau)] if k else [])[0])
+            factor = lambda u: top if u > 0 else bottom  # noqa: E731 - the yaw factor follows the command's sign
+            theta += factor(acting[1]) * acting[1] * tau + factor(w) * w * (TS - tau)
+            acting = (0.0, w)
+        return out
+
+    assert set(spin(0.70, 0.53)) == {0}
+    assert any(s & SLIP for s in spin(0.80, 0.53))  # a yaw factor of 0.8 turning left: outside the box

@@ -64,10 +64,10 @@ def _mon_sinc(a):
     return 1.0 - a * a / 6.0 + a * a * a * a / 120.0 if abs(a) < 0.05 else math.sin(a) / a
 
 
-def _mon_scaled(lo, hi, c):
-    """The interval [lo, hi] times the number c."""
-    a, b = lo * c, hi * c
-    return min(a, b), max(a, b)
+def _mon_range(mid, rad, c, a):
+    """Where the integral of x(t) u(t) lies when x(t) stays in [mid - rad, mid + rad], the integral of u is c and that
+    of |u| is a: mid c +- rad a (u may change sign: a command turning one way, then the other)."""
+    return mid * c - rad * a, mid * c + rad * a
 
 
 class Monitor:
@@ -100,6 +100,8 @@ class Monitor:
         self.rho_limit = m.get("rho_limit")
         self.window = int(m["window"])
         self.components = [(float(lo), float(hi)) for lo, hi in m["components"]]  # s, d, ys, yd, xs, xd
+        self.comp_mid = [(lo + hi) / 2.0 for lo, hi in self.components]  # their centres and radii
+        self.comp_rad = [(hi - lo) / 2.0 for lo, hi in self.components]
         self.pos_noise, self.head_noise = float(m["position_noise"]), float(m["heading_noise"])
         self.model_tol = float(m["model_tol"])
         self.fallback = m["fallback"]
@@ -115,10 +117,11 @@ class Monitor:
         self.last_applied = -math.inf
         self.lost_run = 0
         self.poses = []  # (t, x, y, theta) of the last window + 1 samples
-        self.periods = []  # per period of the window: (ds, dtheta, dlat, Vc, Wc, |dp|, mid heading, unjudged, |turn of mid|)
-        # the window's running sums of ds, dtheta, dlat, Vc, Wc, |dp|, |dtheta|, |turn of mid|: each period adds its own
-        # and takes off the oldest's; every window periods they are summed afresh (the rounding stays that of window sums)
-        self.sums = [0.0] * 8
+        # per period of the window: (ds, dtheta, dlat, Vc, Wc, |dp|, mid heading, unjudged, |turn of mid|, Va, Wa)
+        self.periods = []
+        # the window's running sums of ds, dtheta, dlat, Vc, Wc, |dp|, |dtheta|, |turn of mid|, Va, Wa: each period adds
+        # its own and takes off the oldest's; every window periods they are summed afresh (the rounding of window sums)
+        self.sums = [0.0] * 10
         self.since = 0
         self.alarm_run = 0
         self.engaged = False
@@ -178,10 +181,10 @@ class Monitor:
         return max(abs(v * self.inv_R + w * self.half_D_over_R), abs(v * self.inv_R - w * self.half_D_over_R))
 
     def _commanded(self, t0, t1):
-        """The integrals of the commanded (V_hat, omega_hat) over [t0, t1] by the applied schedule, and whether the
-        period cannot be judged: a command beyond the motor limit acted in it (the motors then give less than
-        commanded: not slip), or no command is known to act from its start (the first periods of a run)."""
-        Vc = Wc = 0.0
+        """The integrals of the commanded V_hat, omega_hat, |V_hat| and |omega_hat| over [t0, t1] by the applied
+        schedule, and whether the period cannot be judged: a command beyond the motor limit acted in it (the motors then
+        give less than commanded: not slip), or no command is known to act from its start (the first periods of a run)."""
+        Vc = Wc = Va = Wa = 0.0
         sched = self.schedule
         clipped = not sched or sched[0][0] > t0  # no command known to act from the period's start: not judged
         for i, (start, v, w, beyond) in enumerate(sched):
@@ -190,8 +193,10 @@ class Monitor:
             if b > a:
                 Vc = Vc + (b - a) * v
                 Wc = Wc + (b - a) * w
+                Va = Va + (b - a) * abs(v)
+                Wa = Wa + (b - a) * abs(w)
                 clipped = clipped or beyond
-        return Vc, Wc, clipped
+        return Vc, Wc, Va, Wa, clipped
 
     def _slip(self, t, x, y, theta, amounts):
         """The window's body-frame increments against the ranges the box allows (module docstring).  Forward:
@@ -205,40 +210,43 @@ class Monitor:
             mid = th0 + dth / 2.0
             c, s, k = math.cos(mid), math.sin(mid), 1.0 / _mon_sinc(dth / 2.0)
             dx, dy = x - x0, y - y0
-            Vc, Wc, clipped = self._commanded(t0, t)
+            Vc, Wc, Va, Wa, clipped = self._commanded(t0, t)
             dmid = abs(_mon_wrap(mid - self.periods[-1][6])) if self.periods else 0.0  # the direction's turn since
             sums = self.sums
             if len(self.periods) == self.window:  # the oldest goes
                 o = self.periods.pop(0)
-                for i, v in enumerate((o[0], o[1], o[2], o[3], o[4], o[5], abs(o[1]), o[8])):
+                for i, v in enumerate((o[0], o[1], o[2], o[3], o[4], o[5], abs(o[1]), o[8], o[9], o[10])):
                     sums[i] = sums[i] - v
-            p = ((dx * c + dy * s) * k, dth, (dy * c - dx * s) * k, Vc, Wc, math.sqrt(dx * dx + dy * dy), mid, clipped, dmid)
+            p = ((dx * c + dy * s) * k, dth, (dy * c - dx * s) * k, Vc, Wc, math.sqrt(dx * dx + dy * dy), mid, clipped, dmid,
+                 Va, Wa)
             self.periods.append(p)
             self.since += 1
             if self.since == self.window:  # afresh
                 self.since = 0
-                sums[:] = [0.0] * 8
+                sums[:] = [0.0] * 10
                 for o in self.periods:
-                    for i, v in enumerate((o[0], o[1], o[2], o[3], o[4], o[5], abs(o[1]), o[8])):
+                    for i, v in enumerate((o[0], o[1], o[2], o[3], o[4], o[5], abs(o[1]), o[8], o[9], o[10])):
                         sums[i] = sums[i] + v
             else:
-                for i, v in enumerate((p[0], p[1], p[2], p[3], p[4], p[5], abs(p[1]), p[8])):
+                for i, v in enumerate((p[0], p[1], p[2], p[3], p[4], p[5], abs(p[1]), p[8], p[9], p[10])):
                     sums[i] = sums[i] + v
         self.poses = (self.poses + [(t, x, y, theta)])[-(self.window + 1):]
         while len(self.schedule) > 1 and self.schedule[1][0] <= self.poses[0][0]:
             self.schedule.pop(0)  # acted wholly before the window
         if len(self.periods) < self.window or any(p[7] for p in self.periods):
             return 0  # a window not yet full, or one in which the motors were asked for more than they give
-        S, TH, L, Vc, Wc, travel, turned, turns = self.sums
+        S, TH, L, Vc, Wc, travel, turned, turns, Va, Wa = self.sums
         turns = turns - self.periods[0][8]  # the mid direction's turns between the window's periods
-        (s_lo, s_hi), (d_lo, d_hi), (ys_lo, ys_hi), (yd_lo, yd_hi), (xs_lo, xs_hi), (xd_lo, xd_hi) = self.components
+        (s_m, d_m, ys_m, yd_m, xs_m, xd_m), (s_r, d_r, ys_r, yd_r, xs_r, xd_r) = self.comp_mid, self.comp_rad
         a, b = self.pos_noise, self.head_noise
         planar = math.sqrt(2.0) * a * (2.0 + turns) + travel * (b + self.model_tol)
         # forward: v_x = s v + d (D/4) omega_c; yaw: omega = ys omega_c + yd v / D; lateral: v_y = -(xs omega_c + xd v / D)
+        q = self.D / 4.0
         ranges = (
-            ("forward", S, _mon_scaled(s_lo, s_hi, Vc), _mon_scaled(d_lo, d_hi, self.D / 4.0 * Wc), planar),
-            ("heading", TH, _mon_scaled(ys_lo, ys_hi, Wc), _mon_scaled(yd_lo, yd_hi, Vc / self.D), 2.0 * b + self.model_tol * turned),
-            ("lateral", L, _mon_scaled(-xs_hi, -xs_lo, Wc), _mon_scaled(-xd_hi, -xd_lo, Vc / self.D), planar),
+            ("forward", S, _mon_range(s_m, s_r, Vc, Va), _mon_range(d_m, d_r, q * Wc, q * Wa), planar),
+            ("heading", TH, _mon_range(ys_m, ys_r, Wc, Wa), _mon_range(yd_m, yd_r, Vc / self.D, Va / self.D),
+             2.0 * b + self.model_tol * turned),
+            ("lateral", L, _mon_range(-xs_m, xs_r, Wc, Wa), _mon_range(-xd_m, xd_r, Vc / self.D, Va / self.D), planar),
         )
         worst = 0.0
         for _name, got, (p_lo, p_hi), (q_lo, q_hi), err in ranges:

@@ -118,3 +118,20 @@ def _compare(files, lines, expected, tmp_path: Path) -> None:
             assert [float(v) for v in got[3:3 + len(CAUSES)]] == amounts and int(got[-1]) == engaged, (row, amounts)
             alarms += bool(st)
     assert alarms > 0  # the violations were there to be seen
+
+
+@pytest.mark.skipif(shutil.which("valgrind") is None, reason="no valgrind")
+@pytest.mark.parametrize("name", ("default", "delay-multi-period"))  # d_hi 3: periods with no command applied yet
+def test_the_c_monitor_reads_no_uninitialised_memory(name: str, tmp_path: Path) -> None:
+    """valgrind's memcheck over the harness (every run, violations included): a read of an uninitialised or freed
+    value is an error (an empty schedule once read its entry -1: bit-identical by luck until a long run)."""
+    files, lines, _ = _periods(name)
+    for k, v in files.items():
+        (tmp_path / k).write_bytes(v)
+    exe = tmp_path / "rs_monitor_harness"
+    subprocess.run([CC, "-std=c99", "-O0", "-g", "-o", str(exe), str(tmp_path / "rs_monitor_harness.c"),
+                    str(tmp_path / "rs_monitor.c"), "-lm"], check=True)
+    for block in "\n".join(lines).split("reset\n")[1:]:
+        r = subprocess.run(["valgrind", "-q", "--error-exitcode=9", str(exe)], input=block + "\n", capture_output=True,
+                           text=True)
+        assert r.returncode == 0, r.stderr[:2000]

@@ -43,7 +43,7 @@ def c_monitor_files(d: dict[str, Any]) -> dict[str, bytes]:
     cap = max(MONITOR_CAPACITY, 4 * W + 16)
     V_body = "\n".join("    acc = 0.0;\n" + "".join(f"    acc = acc + {_f(c)} * xi[{i}] * xi[{j}];\n" for c, i, j in terms)
                        + "    best = max_(best, acc);" for terms in m.V_terms)
-    comp = ", ".join(f"{{{_f(lo)}, {_f(hi)}}}" for lo, hi in m.components)
+    comp_mid, comp_rad = _arr(m.comp_mid), _arr(m.comp_rad)
     fallback = {"stop": 0, "hold": 1, "slow": 2}[m.fallback]
     bits = "\n".join(f"#define RS_MON_{name.upper()} {bit}" for name, bit in CAUSES)
     h = f"""/* rs_monitor.h: the runtime monitor of the certificate's assumptions (robustsynth.monitor, the same
@@ -76,9 +76,9 @@ typedef struct {{
     double pose_t[RS_MON_WINDOW + 1];                       /* the poses' times: a ring, pose_first the oldest */
     int n_poses, pose_first;
     double last[4], last_mid;                               /* the newest pose, the newest period's mid heading */
-    double period[RS_MON_WINDOW][9];  /* ds, dtheta, dlat, Vc, Wc, |dp|, mid heading, unjudged, |turn of mid|: a ring */
+    double period[RS_MON_WINDOW][11]; /* ds, dtheta, dlat, Vc, Wc, |dp|, mid heading, unjudged, |turn of mid|, Va, Wa */
     int n_periods, period_first, n_unjudged;               /* n_unjudged: periods of the ring flagged unjudged */
-    double sums[8];  /* the ring's running sums of ds, dtheta, dlat, Vc, Wc, |dp|, |dtheta|, |turn of mid| */
+    double sums[10]; /* the ring's running sums of ds, dtheta, dlat, Vc, Wc, |dp|, |dtheta|, |turn of mid|, Va, Wa */
     int since;                                              /* periods since they were last summed afresh */
     long alarm_run;
     int engaged, inside, segment, has_held, has_sent;
@@ -117,7 +117,8 @@ static const int HAS_HEADING = {0 if m.heading_limit is None else 1};
 static const double HEADING_LIMIT = {_f(m.heading_limit if m.heading_limit is not None else 0.0)};
 static const int HAS_RHO = {0 if m.rho_limit is None else 1};
 static const double RHO_LIMIT = {_f(m.rho_limit if m.rho_limit is not None else 0.0)};
-static const double COMP[6][2] = {{{comp}}};
+static const double COMP_MID[6] = {comp_mid}; /* the slip box's twist components: centres and radii */
+static const double COMP_RAD[6] = {comp_rad};
 static const double POS_NOISE = {_f(m.pos_noise)};
 static const double HEAD_NOISE = {_f(m.head_noise)};
 static const double MODEL_TOL = {_f(m.model_tol)};
@@ -133,11 +134,10 @@ static const double TWO_PI_ = {_f(2.0 * math.pi)};
 static double sinc_(double a) {{ return fabs(a) < 0.05 ? 1.0 - a * a / 6.0 + a * a * a * a / 120.0 : sin(a) / a; }}
 static double max_(double a, double b) {{ return b > a ? b : a; }} /* Python's max(a, b) */
 static double min_(double a, double b) {{ return b < a ? b : a; }} /* Python's min(a, b) */
-static void scaled_(double lo, double hi, double c, double *out_lo, double *out_hi)
+static void range_(double mid, double rad, double c, double a, double *out_lo, double *out_hi)
 {{
-    double a = lo * c, b = hi * c;
-    *out_lo = min_(a, b);
-    *out_hi = max_(a, b);
+    *out_lo = mid * c - rad * a;
+    *out_hi = mid * c + rad * a;
 }}
 static double rho_(double v, double w)
 {{
@@ -149,7 +149,7 @@ void rs_monitor_init(rs_monitor_t *m)
     int i;
     m->n_pend = m->n_over = m->n_sched = m->n_poses = m->n_periods = m->pose_first = m->period_first = 0;
     m->n_unjudged = m->sched_first = m->since = 0;
-    for (i = 0; i < 8; ++i) m->sums[i] = 0.0;
+    for (i = 0; i < 10; ++i) m->sums[i] = 0.0;
     m->last_mid = 0.0;
     m->last_applied = -HUGE_VAL;
     m->lost_run = 0;
@@ -270,12 +270,13 @@ static double V_(const double *xi) /* max over the P's of xi' P xi: their nonzer
     return best;
 }}
 
-static void commanded_(const rs_monitor_t *m, double t0, double t1, double *Vc, double *Wc, int *clipped)
+static void commanded_(const rs_monitor_t *m, double t0, double t1, double *Vc, double *Wc, double *Va, double *Wa,
+                       int *clipped)
 {{
     int i;
-    *Vc = *Wc = 0.0;
+    *Vc = *Wc = *Va = *Wa = 0.0;
     *clipped = m->n_sched == 0 || SCH_T(0) > t0;
-    i = m->n_sched - 1;
+    i = m->n_sched > 0 ? m->n_sched - 1 : 0;
     while (i > 0 && SCH_T(i) > t0) --i; /* the entries before the last one starting by t0 ended by t0 */
     for (; i < m->n_sched; ++i) {{
         double end = i + 1 < m->n_sched ? SCH_T(i + 1) : HUGE_VAL;
@@ -283,6 +284,8 @@ static void commanded_(const rs_monitor_t *m, double t0, double t1, double *Vc, 
         if (b > a) {{
             *Vc = *Vc + (b - a) * SCH_V(i);
             *Wc = *Wc + (b - a) * SCH_W(i);
+            *Va = *Va + (b - a) * fabs(SCH_V(i));
+            *Wa = *Wa + (b - a) * fabs(SCH_W(i));
             *clipped = *clipped || SCH_B(i);
         }}
     }}
@@ -291,21 +294,22 @@ static void commanded_(const rs_monitor_t *m, double t0, double t1, double *Vc, 
 static int slip_(rs_monitor_t *m, double t, double x, double y, double theta)
 {{
     int i, j, n, e;
-    double S, TH, L, Vc, Wc, travel, turns, turned, a, b, planar, worst, err, p_lo, p_hi, q_lo, q_hi;
+    double S, TH, L, Vc, Wc, Va, Wa, travel, turns, turned, a, b, planar, worst, err, p_lo, p_hi, q_lo, q_hi;
     if (m->n_poses > 0) {{
         const double *q0 = m->last;
         double dth = wrap_(theta - q0[3]);
         double mid = q0[3] + dth / 2.0;
         double c = cos(mid), s = sin(mid), k = 1.0 / sinc_(dth / 2.0);
-        double dx = x - q0[1], dy = y - q0[2], vc, wc, dmid = 0.0, *p, *sum = m->sums;
+        double dx = x - q0[1], dy = y - q0[2], vc, wc, va, wa, dmid = 0.0, *p, *sum = m->sums;
         int clipped;
-        commanded_(m, q0[0], t, &vc, &wc, &clipped);
+        commanded_(m, q0[0], t, &vc, &wc, &va, &wa, &clipped);
         if (m->n_periods > 0) dmid = fabs(wrap_(mid - m->last_mid));
         m->last_mid = mid;
         if (m->n_periods == RS_MON_WINDOW) {{ /* the oldest goes */
             const double *o = m->period[m->period_first];
             sum[0] = sum[0] - o[0]; sum[1] = sum[1] - o[1]; sum[2] = sum[2] - o[2]; sum[3] = sum[3] - o[3];
             sum[4] = sum[4] - o[4]; sum[5] = sum[5] - o[5]; sum[6] = sum[6] - fabs(o[1]); sum[7] = sum[7] - o[8];
+            sum[8] = sum[8] - o[9]; sum[9] = sum[9] - o[10];
             m->n_unjudged -= o[7] != 0.0;
             m->period_first = m->period_first + 1 == RS_MON_WINDOW ? 0 : m->period_first + 1;
             --m->n_periods;
@@ -321,19 +325,23 @@ static int slip_(rs_monitor_t *m, double t, double x, double y, double theta)
         p[6] = mid;
         p[7] = clipped ? 1.0 : 0.0;
         p[8] = dmid;
+        p[9] = va;
+        p[10] = wa;
         m->n_unjudged += clipped != 0;
         ++m->n_periods;
         if (++m->since == RS_MON_WINDOW) {{ /* the sums afresh, in the ring's order */
             m->since = 0;
-            for (i = 0; i < 8; ++i) sum[i] = 0.0;
+            for (i = 0; i < 10; ++i) sum[i] = 0.0;
             for (n = 0, j = m->period_first; n < m->n_periods; ++n, j = j + 1 == RS_MON_WINDOW ? 0 : j + 1) {{
                 const double *o = m->period[j];
                 sum[0] = sum[0] + o[0]; sum[1] = sum[1] + o[1]; sum[2] = sum[2] + o[2]; sum[3] = sum[3] + o[3];
                 sum[4] = sum[4] + o[4]; sum[5] = sum[5] + o[5]; sum[6] = sum[6] + fabs(o[1]); sum[7] = sum[7] + o[8];
+                sum[8] = sum[8] + o[9]; sum[9] = sum[9] + o[10];
             }}
         }} else {{
             sum[0] = sum[0] + p[0]; sum[1] = sum[1] + p[1]; sum[2] = sum[2] + p[2]; sum[3] = sum[3] + p[3];
             sum[4] = sum[4] + p[4]; sum[5] = sum[5] + p[5]; sum[6] = sum[6] + fabs(p[1]); sum[7] = sum[7] + p[8];
+            sum[8] = sum[8] + p[9]; sum[9] = sum[9] + p[10];
         }}
     }}
     if (m->n_poses == RS_MON_WINDOW + 1) {{ /* the oldest pose's time goes */
@@ -347,17 +355,18 @@ static int slip_(rs_monitor_t *m, double t, double x, double y, double theta)
     while (m->n_sched > 1 && SCH_T(1) <= m->pose_t[m->pose_first]) drop_first_(m);
     if (m->n_periods < RS_MON_WINDOW || m->n_unjudged > 0) return 0;
     S = m->sums[0]; TH = m->sums[1]; L = m->sums[2]; Vc = m->sums[3]; Wc = m->sums[4]; travel = m->sums[5];
-    turned = m->sums[6];
+    turned = m->sums[6]; Va = m->sums[8]; Wa = m->sums[9];
     turns = m->sums[7] - m->period[m->period_first][8]; /* the mid direction's turns between the window's periods */
     a = POS_NOISE; b = HEAD_NOISE;
     planar = sqrt(2.0) * a * (2.0 + turns) + travel * (b + MODEL_TOL);
     worst = 0.0;
-    scaled_(COMP[0][0], COMP[0][1], Vc, &p_lo, &p_hi); scaled_(COMP[1][0], COMP[1][1], D_ / 4.0 * Wc, &q_lo, &q_hi);
+    range_(COMP_MID[0], COMP_RAD[0], Vc, Va, &p_lo, &p_hi);
+    range_(COMP_MID[1], COMP_RAD[1], D_ / 4.0 * Wc, D_ / 4.0 * Wa, &q_lo, &q_hi);
     worst = max_(max_(worst, p_lo + q_lo - planar - S), S - (p_hi + q_hi + planar));
     err = 2.0 * b + MODEL_TOL * turned;
-    scaled_(COMP[2][0], COMP[2][1], Wc, &p_lo, &p_hi); scaled_(COMP[3][0], COMP[3][1], Vc / D_, &q_lo, &q_hi);
+    range_(COMP_MID[2], COMP_RAD[2], Wc, Wa, &p_lo, &p_hi); range_(COMP_MID[3], COMP_RAD[3], Vc / D_, Va / D_, &q_lo, &q_hi);
     worst = max_(max_(worst, p_lo + q_lo - err - TH), TH - (p_hi + q_hi + err));
-    scaled_(-COMP[4][1], -COMP[4][0], Wc, &p_lo, &p_hi); scaled_(-COMP[5][1], -COMP[5][0], Vc / D_, &q_lo, &q_hi);
+    range_(-COMP_MID[4], COMP_RAD[4], Wc, Wa, &p_lo, &p_hi); range_(-COMP_MID[5], COMP_RAD[5], Vc / D_, Va / D_, &q_lo, &q_hi);
     worst = max_(max_(worst, p_lo + q_lo - planar - L), L - (p_hi + q_hi + planar));
     if (worst > 0.0) {{
         m->amounts[5] = worst;
