@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from robustsynth.monitor import DELAY, HEADING, LOSSES, MOTOR, SET, SLIP, Monitor, describe
+from robustsynth.monitor import DELAY, HEADING, LOSSES, MOTOR, RATE, SET, SLIP, Monitor, describe
 
 ROOT = Path(__file__).resolve().parents[1]
 TS = 0.1
@@ -196,3 +196,21 @@ def test_slip_within_the_box_that_follows_a_turn_back_and_forth_raises_nothing()
 
     assert set(spin(0.70, 0.53)) == {0}
     assert any(s & SLIP for s in spin(0.80, 0.53))  # a yaw factor of 0.8 turning left: outside the box
+
+
+def test_a_traction_that_jumps_faster_than_the_rate_bound_is_flagged() -> None:
+    """slip.max_rate 0.01 /s: traction 1.04, then 0.97 from period 20 on (both inside the box 0.97..1.04): the window's
+    halves imply traction sums 0.07 apart, beyond 0.01 x 0.5 s and their allowances (no noise; model_tol 0.02 of each
+    half's 0.1 m travel: 0.02 each) — flagged as 'rate' while the jump is inside the window, never as 'slip'.  The same
+    change made at the rate bound (0.0005 a period) raises nothing; without max_rate nothing is checked."""
+    def drive(max_rate, steps):
+        robot = _Robot(Monitor(_description(max_rate=max_rate, persistence=1000)))
+        return [s for mu in steps for s in robot.run(1, mu=mu)]
+
+    jump = [1.04] * 20 + [0.97] * 20
+    st = drive(0.01, jump)
+    assert any(s & RATE for s in st[20:26]) and not any(s & RATE for s in st[:21]) and not any(s & SLIP for s in st)
+    assert not any(s & RATE for s in st[30:])  # the jump has left the window
+    assert set(drive(0.01, [1.04 - 0.0005 * k for k in range(40)])) == {0}
+    assert set(drive(None, jump)) == {0}
+    assert describe(RATE) == "rate"

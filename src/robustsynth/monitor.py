@@ -21,7 +21,10 @@ the monitor checks:
   against the ranges the slip box allows for the commands that acted (from the reports' applied times), each
   range widened by the pose noise's effect.  The box's twist components (theory §12: traction sum and
   difference, yaw factor times those, x_icr times those) enter by interval arithmetic, so an increment outside
-  its range has no explanation inside the box (an estimate from noisy poses: see ``slip_margin``).
+  its range has no explanation inside the box (an estimate from noisy poses: see ``slip_margin``);
+* ``RATE`` (with ``slip.max_rate``): the window's two halves each bound the traction sum s = (mu_r + mu_l) / 2 they
+  imply (the forward range over the half's commanded travel, driven forward throughout); two bounds farther apart
+  than max_rate x the window's time are no traction that changed at most that fast.
 
 The noise bounds are ``noise_sigmas`` standard deviations of the config's ``verification.noise``.  A status is a
 word of these bits (0: every assumption holds as far as the monitor can see) with, per bit, by how much.  After
@@ -36,7 +39,7 @@ stays within ``noise_sigmas`` standard deviations.
 
 import math
 
-__all__ = ["Monitor", "OK", "DELAY", "LOSSES", "SET", "HEADING", "MOTOR", "SLIP", "CAUSES", "describe"]
+__all__ = ["Monitor", "OK", "DELAY", "LOSSES", "SET", "HEADING", "MOTOR", "SLIP", "RATE", "CAUSES", "describe"]
 
 OK = 0
 DELAY = 1
@@ -45,7 +48,9 @@ SET = 4
 HEADING = 8
 MOTOR = 16
 SLIP = 32
-CAUSES = (("delay", DELAY), ("losses", LOSSES), ("set", SET), ("heading", HEADING), ("motor", MOTOR), ("slip", SLIP))
+RATE = 64
+CAUSES = (("delay", DELAY), ("losses", LOSSES), ("set", SET), ("heading", HEADING), ("motor", MOTOR), ("slip", SLIP),
+          ("rate", RATE))
 
 
 def describe(status):
@@ -104,6 +109,7 @@ class Monitor:
         self.comp_rad = [(hi - lo) / 2.0 for lo, hi in self.components]
         self.pos_noise, self.head_noise = float(m["position_noise"]), float(m["heading_noise"])
         self.model_tol = float(m["model_tol"])
+        self.max_rate = None if m.get("max_rate") is None else float(m["max_rate"])  # slip.max_rate [1/s]
         self.fallback = m["fallback"]
         self.persistence = int(m["persistence"])
         self.slow_factor = float(m["slow_factor"])
@@ -252,10 +258,36 @@ class Monitor:
         for _name, got, (p_lo, p_hi), (q_lo, q_hi), err in ranges:
             lo, hi = p_lo + q_lo - err, p_hi + q_hi + err
             worst = max(worst, lo - got, got - hi)
+        status = 0
         if worst > 0.0:
             amounts["slip"] = worst
-            return SLIP
-        return 0
+            status = SLIP
+        if self.max_rate is not None:
+            excess = self._rate()
+            if excess > 0.0:
+                amounts["rate"] = excess
+                status |= RATE
+        return status
+
+    def _rate(self):
+        """By how much the traction sums the window's halves imply lie farther apart than max_rate x the window's
+        time (0 where a half was not driven forward throughout: its travel is then no weighted average of s)."""
+        h = len(self.periods) // 2
+        a, b, q = self.pos_noise, self.head_noise, self.D / 4.0
+        bounds = []
+        for part in (self.periods[:h], self.periods[h:]):
+            S = Vc = Wc = Va = Wa = travel = turns = 0.0
+            for i, p in enumerate(part):
+                S, Vc, Wc, travel, Va, Wa = S + p[0], Vc + p[3], Wc + p[4], travel + p[5], Va + p[9], Wa + p[10]
+                if i:
+                    turns = turns + p[8]
+            if not (Vc > 0.0 and Va == Vc):  # a command with V_hat < 0 acted in it
+                return 0.0
+            err = math.sqrt(2.0) * a * (2.0 + turns) + travel * (b + self.model_tol)
+            q_lo, q_hi = _mon_range(self.comp_mid[1], self.comp_rad[1], q * Wc, q * Wa)
+            bounds.append(((S - err - q_hi) / Vc, (S + err - q_lo) / Vc))
+        (lo1, hi1), (lo2, hi2) = bounds
+        return max(lo2 - hi1, lo1 - hi2) - self.max_rate * (len(self.periods) * self.Ts)
 
     def step(self, t, x, y, theta, xi, command, seq, reports=()):
         """One period: :meth:`check`, then the command to send (the law's, or the fallback's once engaged),

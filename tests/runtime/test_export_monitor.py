@@ -16,7 +16,7 @@ from robustsynth.artifacts.gains import controller_description, load_gains
 from robustsynth.config import load_config
 from robustsynth.law import Controller
 from robustsynth.model import build_model
-from robustsynth.monitor import CAUSES, Monitor
+from robustsynth.monitor import CAUSES, RATE, Monitor
 from robustsynth.plants.path import path_of
 from robustsynth.runtime.export import c_files
 from robustsynth.scenarios import draw_scenario, steady_state_start
@@ -32,10 +32,13 @@ ALL = tuple(sorted(p.parent.name for p in (ROOT / "results" / "baselines").glob(
 LONG = 10_000  # periods replayed per gain in the slow run
 
 
-def _periods(name: str, runs: int = 3, periods: int = 0):
+def _periods(name: str, runs: int = 3, periods: int = 0, max_rate: float | None = None):
     """Lines for the harness and the Python monitor's outputs, over simulated runs of the committed gain (one run in
-    the envelope, one with a delay spike and a loss, one pushed and given a command beyond the motor limit)."""
+    the envelope, one with a delay spike and a loss, one pushed and given a command beyond the motor limit);
+    ``max_rate``: the config's slip.max_rate (the runs' slip still jumps within the box: the rate check fires)."""
     cfg = load_config(ROOT / "configs" / f"{name}.yaml")
+    if max_rate is not None:
+        cfg = cfg.model_copy(update={"slip": cfg.slip.model_copy(update={"max_rate": max_rate})})
     gains = load_gains(ROOT / "results" / "baselines" / name / "gains.json")
     d = controller_description(gains, cfg)
     model = build_model(cfg)
@@ -83,6 +86,15 @@ def _periods(name: str, runs: int = 3, periods: int = 0):
 @pytest.mark.parametrize("name", CONFIGS)
 def test_the_c_monitor_is_the_python_monitor_bit_for_bit(name: str, tmp_path: Path) -> None:
     _compare(*_periods(name), tmp_path)
+
+
+@pytest.mark.parametrize("name", ("default", "nonlinear-proof"))  # icr and tracks
+def test_the_c_monitors_rate_check_is_the_pythons(name: str, tmp_path: Path) -> None:
+    """With slip.max_rate 0.001 /s (the simulated slip jumps within the box every few periods): the rate check fires,
+    and C says what Python says, bit for bit."""
+    files, lines, expected = _periods(name, max_rate=0.001)
+    assert any(e != "reset" and e[0] & RATE for e in expected)
+    _compare(files, lines, expected, tmp_path)
 
 
 @pytest.mark.slow

@@ -453,7 +453,14 @@ def monitor_description(gains: dict[str, Any], config: Any) -> dict[str, Any] | 
         "detects": {"set_ratio": float(((np.sqrt(level) + 2.0 * shift) / np.sqrt(level)) ** 2),
                     "traction": float(2.0 * (np.sqrt(2.0) * a * 2.0 + mon.window * net.sampling_time * config.reference.speed
                                              * (b + mon.model_tol)) / (mon.window * net.sampling_time * config.reference.speed)),
-                    "window_s": float(mon.window * net.sampling_time)},
+                    "window_s": float(mon.window * net.sampling_time),
+                    # with slip.max_rate: a jump of the traction sum this large, driven straight at V^D (the window's
+                    # time at the rate, and each half's allowance twice: the noise may move each estimate by one)
+                    **({"rate_jump": float(config.slip.max_rate * mon.window * net.sampling_time + 4.0 * (
+                        np.sqrt(2.0) * a * 2.0 + (mon.window // 2) * net.sampling_time * config.reference.speed
+                        * (b + mon.model_tol)) / ((mon.window // 2) * net.sampling_time * config.reference.speed))}
+                       if config.slip.max_rate is not None else {})},
+        "max_rate": config.slip.max_rate,
     }
 
 

@@ -336,6 +336,8 @@ def _monitor_parameters(d: dict[str, Any]) -> dict[str, Any]:
         "monitor_window": int(m["window"]), "monitor_components": [float(v) for pair in m["components"] for v in pair],
         "monitor_position_noise": float(m["position_noise"]), "monitor_heading_noise": float(m["heading_noise"]),
         "monitor_model_tol": float(m["model_tol"]), "monitor_fallback": m["fallback"],
+        "monitor_has_max_rate": m.get("max_rate") is not None,
+        "monitor_max_rate": float(m["max_rate"]) if m.get("max_rate") is not None else 0.0,
         "monitor_persistence": int(m["persistence"]), "monitor_slow_factor": float(m["slow_factor"]),
         # a path without turns: its segments' start times (no list when empty: a params file cannot type one)
         "monitor_has_segment_starts": bool(m["segment_starts"]),

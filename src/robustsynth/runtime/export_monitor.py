@@ -122,6 +122,8 @@ static const double COMP_RAD[6] = {comp_rad};
 static const double POS_NOISE = {_f(m.pos_noise)};
 static const double HEAD_NOISE = {_f(m.head_noise)};
 static const double MODEL_TOL = {_f(m.model_tol)};
+static const int HAS_RATE = {0 if m.max_rate is None else 1};
+static const double MAX_RATE = {_f(m.max_rate if m.max_rate is not None else 0.0)}; /* slip.max_rate [1/s] */
 static const int FALLBACK = {fallback}; /* 0 stop, 1 hold, 2 slow */
 static const long PERSISTENCE = {m.persistence};
 static const double SLOW_FACTOR = {_f(m.slow_factor)};
@@ -291,9 +293,32 @@ static void commanded_(const rs_monitor_t *m, double t0, double t1, double *Vc, 
     }}
 }}
 
+/* by how much the traction sums the window's halves imply lie farther apart than MAX_RATE x the window's time */
+static double rate_(const rs_monitor_t *m)
+{{
+    int h = m->n_periods / 2, part, i, i0, i1;
+    double lo[2], hi[2], q = D_ / 4.0;
+    for (part = 0; part < 2; ++part) {{
+        double S = 0.0, Vc = 0.0, Wc = 0.0, Va = 0.0, Wa = 0.0, travel = 0.0, turns = 0.0, err, q_lo, q_hi;
+        i0 = part ? h : 0;
+        i1 = part ? m->n_periods : h;
+        for (i = i0; i < i1; ++i) {{
+            const double *p = m->period[(m->period_first + i) % RS_MON_WINDOW];
+            S = S + p[0]; Vc = Vc + p[3]; Wc = Wc + p[4]; travel = travel + p[5]; Va = Va + p[9]; Wa = Wa + p[10];
+            if (i > i0) turns = turns + p[8];
+        }}
+        if (!(Vc > 0.0 && Va == Vc)) return 0.0; /* a command with V_hat < 0 acted in it */
+        err = sqrt(2.0) * POS_NOISE * (2.0 + turns) + travel * (HEAD_NOISE + MODEL_TOL);
+        range_(COMP_MID[1], COMP_RAD[1], q * Wc, q * Wa, &q_lo, &q_hi);
+        lo[part] = (S - err - q_hi) / Vc;
+        hi[part] = (S + err - q_lo) / Vc;
+    }}
+    return max_(lo[1] - hi[0], lo[0] - hi[1]) - MAX_RATE * ((double)m->n_periods * TS);
+}}
+
 static int slip_(rs_monitor_t *m, double t, double x, double y, double theta)
 {{
-    int i, j, n, e;
+    int i, j, n, e, status;
     double S, TH, L, Vc, Wc, Va, Wa, travel, turns, turned, a, b, planar, worst, err, p_lo, p_hi, q_lo, q_hi;
     if (m->n_poses > 0) {{
         const double *q0 = m->last;
@@ -368,11 +393,19 @@ static int slip_(rs_monitor_t *m, double t, double x, double y, double theta)
     worst = max_(max_(worst, p_lo + q_lo - err - TH), TH - (p_hi + q_hi + err));
     range_(-COMP_MID[4], COMP_RAD[4], Wc, Wa, &p_lo, &p_hi); range_(-COMP_MID[5], COMP_RAD[5], Vc / D_, Va / D_, &q_lo, &q_hi);
     worst = max_(max_(worst, p_lo + q_lo - planar - L), L - (p_hi + q_hi + planar));
+    status = 0;
     if (worst > 0.0) {{
         m->amounts[5] = worst;
-        return RS_MON_SLIP;
+        status = RS_MON_SLIP;
     }}
-    return 0;
+    if (HAS_RATE) {{
+        double excess = rate_(m);
+        if (excess > 0.0) {{
+            m->amounts[6] = excess;
+            status |= RS_MON_RATE;
+        }}
+    }}
+    return status;
 }}
 
 int rs_monitor_check(rs_monitor_t *m, double t, double x, double y, double theta, const double *xi, double V,

@@ -10,7 +10,8 @@ Wiring (topics relative to the node's namespace)::
     cmd_vel       geometry_msgs/Twist              out: linear.x = V_hat [m/s], angular.z = omega_hat [rad/s]
     cmd_seq       std_msgs/Int64                   out: the sequence number of the cmd_vel just sent (= the period k)
     monitor_status std_msgs/Int32                  out: the monitor's status word (0: every assumption holds;
-                                                        bits: 1 delay, 2 losses, 4 set, 8 heading, 16 motor, 32 slip)
+                                                        bits: 1 delay, 2 losses, 4 set, 8 heading, 16 motor, 32 slip,
+                                                        64 rate)
 
 A timer calls :meth:`Loop.tick` every ``sampling_time`` seconds: t_k = k Ts from the first tick (the path's start),
 the law's command, the monitor's check with the reports received since the last tick, and the command to send
