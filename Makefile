@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
-EXTRAS := test,dask,control,physics
+EXTRAS := test,dask,control,physics,docs
 # constraints.txt: the exact versions the suite last passed with (every package, the extras, pip
 # and the build backend).  PIP_CONSTRAINT (not -c) so that it also holds in pip's isolated build
 # environment.  `make lock` refreshes it from the newest releases, after the suite passed on them.
@@ -13,7 +13,7 @@ LOCKED := PIP_CONSTRAINT=$(CURDIR)/$(LOCK)
 LATEST := .venv-latest
 TESTENV := OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
 
-.PHONY: demo test test-slow test-all test-latest lock bench baselines install clean
+.PHONY: demo test test-slow test-all test-latest lock bench baselines install clean docs docs-check
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -65,6 +65,17 @@ lock: test-latest
 	mv $(LOCK).tmp $(LOCK)
 	@echo "wrote $(LOCK): review 'git diff $(LOCK)', then commit it"
 
+## make docs: the documentation site (docs/ -> docs/_build/html), offline, warnings as errors (a broken link, a
+## missing reference, a config key or CLI option the generated reference lacks fails the build)
+DOCS_OUT ?= docs/_build/html
+docs: $(STAMP)
+	$(VENV)/bin/sphinx-build -W --keep-going -n -q -b html docs $(DOCS_OUT)
+
+## make docs-check: make docs, then open the index and the first tutorial in headless chromium: images
+## load, the math renders (MathJax from the site itself, no network), no console errors
+docs-check: docs
+	$(PY) docs/_ext/browser_check.py $(DOCS_OUT)
+
 ## make bench: start-up, synthesis and Monte Carlo benchmarks (prints figures)
 bench: $(STAMP)
 	$(PY) benchmarks/run_all.py
@@ -74,4 +85,4 @@ baselines: $(STAMP)
 	$(PY) -m robustsynth.regression --write
 
 clean:
-	rm -rf $(VENV) $(LATEST) .pytest_cache .hypothesis
+	rm -rf $(VENV) $(LATEST) .pytest_cache .hypothesis docs/_build
