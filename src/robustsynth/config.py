@@ -284,7 +284,7 @@ class SynthesisConfig(_Node):
         "paper: the seed paper's linearization at mu = 1 (reproduction and comparison)",
     )
     objective: Literal["ultimate-bound", "stability", "hinf"] = Field(
-        default="ultimate-bound", description="what the LMIs optimize (see README)"
+        default="ultimate-bound", description="what the LMIs optimize (docs/theory/concepts.md, Synthesis)"
     )
     lyapunov: Literal["common", "slip-dependent", "delay-dependent", "path-dependent"] = Field(
         default="common", description="one Lyapunov matrix, one per slip corner, one per slip corner and "
@@ -345,7 +345,7 @@ class SynthesisConfig(_Node):
     @field_validator("symmetry", mode="before")
     @classmethod
     def _yaml_off(cls, v: Any) -> Any:
-        """YAML 1.1 reads a bare ``off`` as false (the README writes ``symmetry: off``): take it as 'off'."""
+        """YAML 1.1 reads a bare ``off`` as false (the docs write ``symmetry: off``): take it as 'off'."""
         if v is False:
             return "off"
         if v is True:

@@ -310,7 +310,7 @@ def ros2_parameters(d: dict[str, Any]) -> bytes:
     }
     head = (f"# ROS 2 parameters of the robustsynth controller node, {_header_comment(d, 'ros2', '# ')}\n"
             "# K is row-major, K_rows x K_cols, on the lifted state named in state_names.\n"
-            "# The node calls the law once per sampling_time; see README 'Deploying the controller'.\n")
+            "# The node calls the law once per sampling_time; see docs/howto/exports-ros2.md.\n")
     return (head + yaml.safe_dump({"robustsynth_controller": {"ros__parameters": params}}, sort_keys=False,
                                   default_flow_style=None, width=120)).encode()
 

@@ -681,8 +681,8 @@ def synthesize(model: Any, settings: SynthesisConfig | None = None, *, on_step: 
     """Design and certify ``du_k = K xi_k`` for ``model``.
 
     ``settings`` defaults to ``model.config.synthesis``; keyword ``overrides`` (``objective``,
-    ``solver``, ``multiplier``, ...) replace single settings.  Raises :class:`InfeasibleError`
-    (exit 3) when the LMIs have no solution and :class:`SolverFailure` (exit 4) when the solvers
+    ``solver``, ``multiplier``, ...) replace single settings.  Raises :class:`~robustsynth.errors.InfeasibleError`
+    (exit 3) when the LMIs have no solution and :class:`~robustsynth.errors.SolverFailure` (exit 4) when the solvers
     fail or no returned point passes the certificate check.  ``on_step`` receives one line per
     solve (the alpha scan, the decay-rate bisection): what was tried, by which solver, how long.
     """

@@ -1,6 +1,6 @@
 """``verify``: every check of a gain against a config, independent of how the gain was made.
 
-Pass/fail rules (also in the README):
+Pass/fail rules (also in docs/reference/verification.md):
 
 - certificate: the LMIs rebuilt in numpy from the file keep half their margin;
 - frozen delays: spectral radius < 1 on the grid, and <= the certified decay rate + 1e-6;
