@@ -13,7 +13,7 @@ LOCKED := PIP_CONSTRAINT=$(CURDIR)/$(LOCK)
 LATEST := .venv-latest
 TESTENV := OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
 
-.PHONY: demo test test-slow test-all test-latest lock bench baselines install clean docs docs-check
+.PHONY: demo test test-slow test-all test-latest lock bench baselines install clean docs docs-check docs-figures
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -71,10 +71,16 @@ DOCS_OUT ?= docs/_build/html
 docs: $(STAMP)
 	$(VENV)/bin/sphinx-build -W --keep-going -n -q -b html docs $(DOCS_OUT)
 
+## make docs-figures: regenerate the figures the docs show (docs/figures/default/) from a real run: verify the
+## committed default gain on configs/default.yaml, as make demo does (about 2 minutes); commit them
+docs-figures: $(STAMP)
+	tmp=$$(mktemp -d) && $(VENV)/bin/robustsynth verify configs/default.yaml --gains results/baselines/default/gains.json \
+	  -o $$tmp && cp $$tmp/figures/*.png docs/figures/default/ && rm -rf $$tmp
+
 ## make docs-check: make docs, then open the index and the first tutorial in headless chromium: images
 ## load, the math renders (MathJax from the site itself, no network), no console errors
 docs-check: docs
-	$(PY) docs/_ext/browser_check.py $(DOCS_OUT)
+	$(PY) docs/_tools/browser_check.py $(DOCS_OUT)
 
 ## make bench: start-up, synthesis and Monte Carlo benchmarks (prints figures)
 bench: $(STAMP)
