@@ -58,6 +58,9 @@ nitpick_ignore = [
     ("py:func", "robustsynth.certificate.check_lti_certificate"),
     ("py:func", "robustsynth.certificate.lti_within"),
     ("py:mod", "nonlinear"),
+    # numpydoc's words for duck types in a Parameters section
+    ("py:class", "callable"),
+    ("py:class", "sequence"),
 ]
 
 html_theme = "furo"

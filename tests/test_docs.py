@@ -260,3 +260,31 @@ def test_the_site_in_a_headless_browser(site: Path) -> None:
         found, problems = browser_check.check_page(chromium, site / page)
         assert not problems, f"{page}: {problems}"
         assert found["images"] and found["math"] > 0, (page, found)
+
+
+def test_every_public_function_documents_its_parameters_and_return() -> None:
+    """numpydoc sections on the public API: a Parameters entry for every parameter of the signature, and
+    a Returns section (the API reference renders them)."""
+    import importlib
+    import inspect
+
+    import robustsynth
+
+    problems = []
+    for name, module in robustsynth._EXPORTS.items():
+        obj = getattr(importlib.import_module(module), name)
+        if inspect.isclass(obj):
+            continue
+        doc = inspect.getdoc(obj) or ""
+        params = re.search(r"^Parameters\n-+\n(.*?)(?=^\w+\n-+\n|\Z)", doc, flags=re.S | re.M)
+        documented = set()
+        for line in (params.group(1) if params else "").splitlines():
+            head = re.match(r"^(\*{0,2}\w+(?:, \*{0,2}\w+)*)(?: :|$)", line)
+            if head:
+                documented |= {n.strip().lstrip("*") for n in head.group(1).split(",")}
+        wanted = {p for p in inspect.signature(obj).parameters}
+        if wanted - documented:
+            problems.append(f"{module}.{name}: parameters not documented: {sorted(wanted - documented)}")
+        if not re.search(r"^Returns\n-+\n", doc, flags=re.M):
+            problems.append(f"{module}.{name}: no Returns section")
+    assert not problems, "\n".join(problems)

@@ -42,6 +42,9 @@ def _model_in(annotation: Any) -> type[BaseModel] | None:
 def _constraints(meta: list[Any]) -> list[str]:
     out = []
     for m in meta:
+        if isinstance(m, FieldInfo):  # Annotated[float, Field(gt=0)] inside a union: its own constraints
+            out += _constraints(list(m.metadata))
+            continue
         for cls, sym in ((at.Gt, ">"), (at.Ge, "≥"), (at.Lt, "<"), (at.Le, "≤")):
             if isinstance(m, cls):
                 out.append(f"{sym} {getattr(m, next(iter(cls.__dataclass_fields__)))!r}")
@@ -133,7 +136,10 @@ class ConfigReference(SphinxDirective):
         tops = [r for r in rows if "." not in r["key"]]
         for top in tops:
             section = [r for r in rows if r["key"] == top["key"] or r["key"].startswith(top["key"] + ".")]
-            lines += [f".. rubric:: ``{top['key']}``", "", _describe(_cell(top["description"])), "",
+            lines += [f".. rubric:: ``{top['key']}``", ""]
+            if top["description"]:
+                lines += [_describe(_cell(top["description"])), ""]
+            lines += [
                       ".. list-table::", "   :header-rows: 1", "   :widths: 22 14 8 12 14 30",
                       "   :class: config-keys", "",
                       "   * - key", "     - type", "     - unit", "     - default", "     - range", "     - meaning"]

@@ -685,6 +685,29 @@ def synthesize(model: Any, settings: SynthesisConfig | None = None, *, on_step: 
     (exit 3) when the LMIs have no solution and :class:`~robustsynth.errors.SolverFailure` (exit 4) when the solvers
     fail or no returned point passes the certificate check.  ``on_step`` receives one line per
     solve (the alpha scan, the decay-rate bisection): what was tried, by which solver, how long.
+
+    Parameters
+    ----------
+    model : Model
+        The model to design for (:func:`~robustsynth.model.build_model`).
+    settings : SynthesisConfig or None
+        The synthesis settings (default: the model's config's).
+    on_step : callable or None
+        Receives one line per solve.
+    **overrides : Any
+        Single settings replaced (``objective``, ``solver``, ``multiplier``, ...).
+
+    Returns
+    -------
+    SynthesisResult
+        The gain ``K``, its certificate and the figures the numpy re-check proves (``certified``).
+
+    Raises
+    ------
+    InfeasibleError
+        No gain meets the guarantee (exit 3).
+    SolverFailure
+        No solve concluded, or none passed the certificate check (exit 4).
     """
     token = _SPLIT.set(_Split())
     try:
