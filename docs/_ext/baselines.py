@@ -67,6 +67,43 @@ class BaselineCosts(SphinxDirective):
         return node.children
 
 
+def _kind(v: Any) -> str:
+    if isinstance(v, dict):
+        return "object"
+    if isinstance(v, list):
+        depth, x = 0, v
+        while isinstance(x, list) and x:
+            depth, x = depth + 1, x[0]
+        return "matrix" if depth >= 2 else "list"
+    return {bool: "bool", int: "number", float: "number", str: "string", type(None): "null"}[type(v)]
+
+
+def json_key_lines(data: dict[str, Any], depth: int = 2, indent: str = "") -> list[str]:
+    """A nested list of a JSON document's keys with the kind of each value, to ``depth`` levels."""
+    out = []
+    for k, v in data.items():
+        out.append(f"{indent}- ``{k}``: {_kind(v)}")
+        if isinstance(v, dict) and depth > 1 and v:
+            out += [""] + json_key_lines(v, depth - 1, indent + "  ") + [""]
+    return out
+
+
+class JsonKeys(SphinxDirective):
+    """``{json-keys} results/...json``: the keys of a committed JSON file (path from the repository's root)."""
+
+    required_arguments = 1
+
+    def run(self) -> list[nodes.Node]:
+        path = BASELINES.parents[1] / self.arguments[0]
+        self.env.note_dependency(str(path))
+        lines = ["```{eval-rst}", *json_key_lines(json.loads(path.read_text())), "```"]
+        node = nodes.section()
+        node.document = self.state.document
+        self.state.nested_parse(StringList(lines, source=str(path)), self.content_offset, node)
+        return node.children
+
+
 def setup(app: Any) -> dict[str, Any]:
     app.add_directive("baseline-costs", BaselineCosts)
+    app.add_directive("json-keys", JsonKeys)
     return {"version": "1", "parallel_read_safe": True, "parallel_write_safe": True}
