@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
-EXTRAS := test,dask,control,physics
+EXTRAS := test,dask,control,physics,docs
 # constraints.txt: the exact versions the suite last passed with (every package, the extras, pip
 # and the build backend).  PIP_CONSTRAINT (not -c) so that it also holds in pip's isolated build
 # environment.  `make lock` refreshes it from the newest releases, after the suite passed on them.
@@ -13,7 +13,7 @@ LOCKED := PIP_CONSTRAINT=$(CURDIR)/$(LOCK)
 LATEST := .venv-latest
 TESTENV := OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
 
-.PHONY: demo test test-slow test-all test-latest lock bench baselines install clean
+.PHONY: demo test test-slow test-all test-latest lock bench baselines install clean docs docs-check docs-figures
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -65,6 +65,24 @@ lock: test-latest
 	mv $(LOCK).tmp $(LOCK)
 	@echo "wrote $(LOCK): review 'git diff $(LOCK)', then commit it"
 
+## make docs: the documentation site (docs/ -> docs/_build/html), rebuilt whole (-E: docstrings are re-read),
+## offline, warnings as errors (a broken link or a missing reference fails it); the CLI, config and API
+## references are generated from the code (tests/test_docs.py compares them with click and the schema)
+DOCS_OUT ?= docs/_build/html
+docs: $(STAMP)
+	$(VENV)/bin/sphinx-build -E -W --keep-going -n -q -b html docs $(DOCS_OUT)
+
+## make docs-figures: regenerate the figures the docs show (docs/figures/default/) from a real run: verify the
+## committed default gain on configs/default.yaml, as make demo does (about 2 minutes); commit them
+docs-figures: $(STAMP)
+	tmp=$$(mktemp -d) && $(VENV)/bin/robustsynth verify configs/default.yaml --gains results/baselines/default/gains.json \
+	  -o $$tmp && cp $$tmp/figures/*.png docs/figures/default/ && rm -rf $$tmp
+
+## make docs-check: make docs, then open the index and the first tutorial in headless chromium: images
+## load, the math renders (MathJax from the site itself, no network), no console errors
+docs-check: docs
+	$(PY) docs/_tools/browser_check.py $(DOCS_OUT)
+
 ## make bench: start-up, synthesis and Monte Carlo benchmarks (prints figures)
 bench: $(STAMP)
 	$(PY) benchmarks/run_all.py
@@ -74,4 +92,4 @@ baselines: $(STAMP)
 	$(PY) -m robustsynth.regression --write
 
 clean:
-	rm -rf $(VENV) $(LATEST) .pytest_cache .hypothesis
+	rm -rf $(VENV) $(LATEST) .pytest_cache .hypothesis docs/_build

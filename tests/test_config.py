@@ -326,7 +326,7 @@ def test_a_misspelt_key_that_looks_like_a_type_name_keeps_its_name() -> None:
 
 
 def test_a_bare_yaml_off_is_the_setting_off() -> None:
-    """Review, stop 47: the README writes `synthesis.symmetry: off`, which YAML 1.1 reads as false, and
+    """Review, stop 47: the README (now docs/) writes `synthesis.symmetry: off`, which YAML 1.1 reads as false, and
     the config refused its own documented value ("Input should be 'auto' or 'off'")."""
     d = default_dict()
     text = _dump(d) + "\n"

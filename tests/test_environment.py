@@ -21,7 +21,7 @@ import yaml
 from .conftest import BASE_CONFIG, PASSING_CONFIG, default_dict
 
 CLI = [sys.executable, "-m", "robustsynth"]
-# The claim (README, exit codes): a run stops "within about a second" of SIGINT / SIGTERM.  That is
+# The claim (docs/reference/exit-codes.md): a run stops "within about a second" of SIGINT / SIGTERM.  That is
 # a speed figure, measured from the signal by `benchmarks/bench_interrupts.py` (make bench).  Here
 # the time from the signal to the exit only has to stay under a cap that tells a prompt stop from a
 # run that carried on to its end (the runs below last minutes), loose enough for a loaded CI machine.

@@ -158,7 +158,7 @@ def test_a_command_overtaken_by_a_newer_one_never_acts() -> None:
 
 # --- the icr model (issue 24): open-loop excitation of the model's own robot, a new slip every period or few
 ICR_TRUTH = {"right": (0.95, 1.02), "left": (0.95, 1.02), "yaw": (0.54, 0.67), "icr_offset": (0.0, 0.09)}
-ICR_NOISE = (4e-6, 1e-5)  # [m], [rad]: the icr box within 2 % needs 5x less noise than the tracks' (see README)
+ICR_NOISE = (4e-6, 1e-5)  # [m], [rad]: the icr box within 2 % needs 5x less noise than the tracks' (see docs/tutorials/robot-logs.md)
 ICR_EPISODES = 16  # x 629 periods: ~10 000
 
 

@@ -27,7 +27,7 @@ from .conftest import PASSING_CONFIG, default_dict
 pytestmark = pytest.mark.slow  # make test-all / CI (`make test` runs the rest in minutes)
 
 ROOT = Path(__file__).resolve().parents[1]
-TIMING_FIELDS = {("solver", "solve_time_s")}  # the only field allowed to differ between two runs (README)
+TIMING_FIELDS = {("solver", "solve_time_s")}  # the only field allowed to differ between two runs (docs/reference/output-files.md)
 
 
 def _strip_timing(d: dict) -> dict:

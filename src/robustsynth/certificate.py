@@ -244,7 +244,22 @@ def recheck_gains(model: Any, gains: Mapping[str, Any]) -> CertificateCheck:
 
 
 def check_certificate(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateCheck:
-    """Re-check ``cert`` for gain ``K`` on ``model``; never raises on a bad certificate."""
+    """Re-check ``cert`` for gain ``K`` on ``model``; never raises on a bad certificate.
+
+    Parameters
+    ----------
+    model : Model
+        The model the certificate is claimed for.
+    K : numpy.ndarray
+        The gain.
+    cert : Mapping
+        The certificate (``gains.json``'s ``certificate``, or a ``SynthesisResult``'s).
+
+    Returns
+    -------
+    CertificateCheck
+        Whether every LMI holds with half its margin, each check, and the figures it proves.
+    """
     try:
         return _check(model, K, cert)
     except (KeyError, ValueError, TypeError, IndexError, np.linalg.LinAlgError) as exc:

@@ -270,8 +270,7 @@ def main(ctx: click.Context, quiet: bool, verbose: bool) -> None:
 
     CONFIG is a YAML scenario file; without it the embedded default is used.  A config with
     `plant: {kind: lti, A: ..., B: ...}` is any linear plant instead of the robot: build-model,
-    synthesize, verify, run, margin, sweep and export (c, python) work on it too (README, "Any
-    linear plant").
+    synthesize, verify, run, margin, sweep and export (c, python) work on it too (docs/tutorials/linear-plant.md).
     Exit codes: 0 ok, 1 verification failed, 2 bad input or usage, 3 infeasible, 4 solver failure,
     130 interrupted (Ctrl-C), 143 terminated (SIGTERM).
     """
@@ -913,7 +912,7 @@ def _motor_limit(given: float | None, cfg: Any) -> float | None:
 def identify_cmd(obj: _Ctx, logs: tuple[Path, ...], out: Path | None, config: Path | None, model: str, coverage: float,
                  pose_noise: tuple[float, float] | None, max_motor_speed: float | None, settle: float,
                  no_plots: bool) -> None:
-    """Delay range, longest loss burst and slip box from robot logs (CSV, see the README's log format).
+    """Delay range, longest loss burst and slip box from robot logs (CSV, the log format of docs/tutorials/robot-logs.md).
 
     The result is a config fragment with the data behind each number as comments.
     """

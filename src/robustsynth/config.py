@@ -284,7 +284,7 @@ class SynthesisConfig(_Node):
         "paper: the seed paper's linearization at mu = 1 (reproduction and comparison)",
     )
     objective: Literal["ultimate-bound", "stability", "hinf"] = Field(
-        default="ultimate-bound", description="what the LMIs optimize (see README)"
+        default="ultimate-bound", description="what the LMIs optimize (docs/theory/concepts.md, Synthesis)"
     )
     lyapunov: Literal["common", "slip-dependent", "delay-dependent", "path-dependent"] = Field(
         default="common", description="one Lyapunov matrix, one per slip corner, one per slip corner and "
@@ -345,7 +345,7 @@ class SynthesisConfig(_Node):
     @field_validator("symmetry", mode="before")
     @classmethod
     def _yaml_off(cls, v: Any) -> Any:
-        """YAML 1.1 reads a bare ``off`` as false (the README writes ``symmetry: off``): take it as 'off'."""
+        """YAML 1.1 reads a bare ``off`` as false (the docs write ``symmetry: off``): take it as 'off'."""
         if v is False:
             return "off"
         if v is True:
@@ -987,7 +987,25 @@ def _validate(data: dict[str, Any]) -> "Config | LtiConfig":
 
 
 def parse_config(text: str | bytes, source: str = "<config>") -> Config:
-    """Parse and validate a YAML document (``text``) into a :class:`Config`."""
+    """Parse and validate a YAML document (``text``) into a :class:`Config`.
+
+    Parameters
+    ----------
+    text : str or bytes
+        The YAML document.
+    source : str
+        The name errors give the document (a file path).
+
+    Returns
+    -------
+    Config
+        The validated, frozen configuration.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the key path and the problem.
+    """
     if isinstance(text, bytes):
         if len(text) > MAX_CONFIG_BYTES:
             raise ConfigError(f"{source}: file is larger than 1 MiB ({len(text)} bytes)")
@@ -1052,7 +1070,23 @@ def named_default_config_text(name: str) -> str:
 
 def default_config(**overrides: Any) -> Config:
     """The embedded default with dotted-path overrides, validated like a file:
-    ``default_config(**{"network.delay.max": 0.2, "robot.max_motor_speed": None})``."""
+    ``default_config(**{"network.delay.max": 0.2, "robot.max_motor_speed": None})``.
+
+    Parameters
+    ----------
+    **overrides : Any
+        Dotted key paths and their values (``"network.delay.max"``, ...).
+
+    Returns
+    -------
+    Config
+        The embedded default with those values, validated.
+
+    Raises
+    ------
+    ConfigError
+        An unknown key or an invalid value, named.
+    """
     return mapping_with(yaml.safe_load(default_config_text()), **overrides)
 
 
@@ -1149,7 +1183,23 @@ def load_config(path: str | Path | Mapping[str, Any] | None = None) -> Config:
     """Load a configuration file (or validate a mapping with the same rules and messages); ``None``
     gives the embedded default.  To change single values of the default: ``default_config(**{"network.
     delay.max": 0.09})``; of a loaded config: ``cfg.model_copy(update=...)`` per section, or dump,
-    edit and reload (``load_config(config_to_dict(cfg) | {...})``)."""
+    edit and reload (``load_config(config_to_dict(cfg) | {...})``).
+
+    Parameters
+    ----------
+    path : str, Path, Mapping or None
+        A YAML file, or a mapping validated with the same rules; ``None``: the embedded default.
+
+    Returns
+    -------
+    Config
+        The validated, frozen configuration (a ``LtiConfig`` for ``plant: kind: lti``).
+
+    Raises
+    ------
+    ConfigError
+        One line naming the key path and the problem (the CLI's exit 2).
+    """
     if path is None:
         return parse_config(default_config_text(), "<default config>")
     if isinstance(path, Mapping):

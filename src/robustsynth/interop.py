@@ -57,7 +57,24 @@ def to_statespace(model: Any, gains: Any, instants: Any = None, slip: Any = None
     """The closed loop of ``gains`` (a gains mapping, a SynthesisResult or K) on ``model`` at the
     switching instants ``instants`` (d_hi values in [0, Ts]; default the middle of each range)
     and slip ``slip`` = (mu_r, mu_l) (default the middle of the slip box), as a discrete-time
-    ``control.StateSpace`` with dt = Ts and named states, inputs and outputs."""
+    ``control.StateSpace`` with dt = Ts and named states, inputs and outputs.
+
+    Parameters
+    ----------
+    model : Model
+        The robot's lifted model.
+    gains : Mapping, SynthesisResult or numpy.ndarray
+        The gain.
+    instants : sequence of float or None
+        The switching instants (above).
+    slip : sequence of float or None
+        The slip (above).
+
+    Returns
+    -------
+    control.StateSpace
+        The closed loop, discrete time.
+    """
     try:
         import control
     except ImportError:
@@ -76,7 +93,28 @@ def lti_config(sys: Any, *, sampling_time: float, delay: Any, max_consecutive: i
     the outputs the certificate bounds.  ``sections``: the config's other keys, e.g.
     ``disturbance={"E": ..., "bound": ...}``, ``input_limits=[...]``, ``controller={"gain": ...}``,
     ``synthesis={...}``, ``margin={...}`` (plant keys go into ``plant``).  Problems raise ConfigError
-    naming the key, as for a YAML file."""
+    naming the key, as for a YAML file.
+
+    Parameters
+    ----------
+    sys : control.StateSpace
+        A continuous-time plant.
+    sampling_time : float
+        Ts [s].
+    delay : tuple of float
+        (tau_min, tau_max) [s].
+    max_consecutive : int
+        Commands lost in a row at most.
+    name : str
+        The scenario's name.
+    **sections : Any
+        Other keys of the config (above).
+
+    Returns
+    -------
+    LtiConfig
+        The validated config.
+    """
     from .config import config_from_dict
 
     for attr in ("A", "B", "C", "dt"):

@@ -448,7 +448,24 @@ def margin(config: Config, K: np.ndarray, *, lyapunov: str | None = None,
     'delay-dependent' or 'path-dependent' (one matrix per slip corner only where a point's delays
     have no vertices), or
     'auto' (common, then slip-dependent where common fails: tighter, and several times slower);
-    default ``config.synthesis.lyapunov``."""
+    default ``config.synthesis.lyapunov``.
+
+    Parameters
+    ----------
+    config : Config
+        The scenario whose delay and slip ranges are the starting point.
+    K : numpy.ndarray
+        The gain.
+    lyapunov : str or None
+        The certificate class (above).
+    on_step : callable or None
+        Receives one line per step of the searches.
+
+    Returns
+    -------
+    MarginReport
+        Each margin's configured, certified and exhibited values, with the destabilizing witness.
+    """
     from .config import refuse_lti
 
     refuse_lti(config, "margin")

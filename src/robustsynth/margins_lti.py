@@ -383,7 +383,22 @@ def delay_margin(cfg, plant: dict, say: Callable[[str], None] = lambda s: None) 
 
 def lti_margins(cfg, plant: dict, say: Callable[[str], None] = lambda s: None) -> dict[str, Any]:
     """The delay margin (delay.max, :func:`delay_margin`) and the loss margin (dropouts.max_consecutive) of the
-    configured gain: certified and exhibited, with the witness and the evaluations' count and time."""
+    configured gain: certified and exhibited, with the witness and the evaluations' count and time.
+
+    Parameters
+    ----------
+    cfg : LtiConfig
+        A linear plant's config with its gain (``controller.gain``).
+    plant : dict
+        The plant's arrays (:func:`~robustsynth.model.lti.lti_plant`).
+    say : callable
+        Receives progress lines.
+
+    Returns
+    -------
+    dict
+        ``delay_max`` and ``dropouts``: configured, certified, exhibited, witness.
+    """
     net = cfg.network
     Ts, t_lo, t_hi, m0 = net.sampling_time, net.delay.min, net.delay.max, net.dropouts.max_consecutive
     pieces = cfg.margin.pieces

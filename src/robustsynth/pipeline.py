@@ -460,7 +460,39 @@ def run(
 
     When synthesis finds no gain, summary.json records the status ('infeasible' or
     'solver-failure') and the error is raised again.  ``synthesis_overrides`` (objective, solver,
-    multiplier) replace the config's synthesis settings."""
+    multiplier) replace the config's synthesis settings.
+
+    Parameters
+    ----------
+    config : Config
+        The scenario.
+    outdir : str, Path or None
+        Output directory (default ``results/<name>/``).
+    runs, seed : int or None
+        Monte Carlo runs and their seed (default: the config's).
+    fmt : str
+        Figure format: ``png``, ``pdf`` or ``svg``.
+    plots : bool
+        Draw the figures.
+    progress : callable or None
+        Called with (runs done, runs in all) during verification.
+    on_stage : callable or None
+        Called with each stage's name as it starts.
+    compare : bool
+        Add the paper-model comparison to the synthesis report.
+    on_step : callable or None
+        Receives one line per solve.
+    diagnose : bool or None
+        Re-solve with each constraint relaxed (None: when the certified |e_y| exceeds half the track
+        distance).
+    **synthesis_overrides : Any
+        ``objective``, ``solver``, ``multiplier``.
+
+    Returns
+    -------
+    RunResult
+        The model, synthesis and verification stages and the files written; ``passed`` is the verdict.
+    """
     from .errors import InfeasibleError, Interrupted, OutputError, RobustSynthError
     from .artifacts.files import atomic_write, commit_files, json_bytes
     from .report.verification import report_markdown, summary_dict

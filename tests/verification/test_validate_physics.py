@@ -58,7 +58,7 @@ def test_validate_without_gains_is_a_usage_error(tmp_path) -> None:
 
 @pytest.mark.slow
 def test_end_to_end_excite_identify_synthesize_validate(tmp_path) -> None:
-    """The README's recipe: excitation logs -> identify (the slip box of the turns) -> a config ->
+    """The recipe of docs/tutorials/robot-logs.md: excitation logs -> identify (the slip box of the turns) -> a config ->
     synthesize -> validate: on straight segments the physics robot stays within the certified
     bounds, and the slip it shows there lies in the identified box."""
     import yaml

@@ -275,7 +275,23 @@ def _load_mat(p: Path) -> dict[str, Any]:
 
 def load_gains(path: str | Path) -> dict[str, Any]:
     """Read a gains.json (or a .mat with a matrix K); InputError with the key path on anything
-    malformed."""
+    malformed.
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``gains.json``, or a ``.mat`` with a matrix ``K``.
+
+    Returns
+    -------
+    dict
+        The gains mapping (``K``, ``certificate``, ``config``, ...).
+
+    Raises
+    ------
+    InputError
+        A missing or malformed file, with the key path.
+    """
     p = Path(path)
     try:
         if p.stat().st_size > MAX_GAINS_BYTES:

@@ -44,7 +44,20 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
 
     ``min_lifting``: keep at least this many past inputs in the lifted state even when the delay
     bound needs fewer (the extra switching instants are fixed at 0): to analyse a gain designed for
-    a longer lifting on a shorter delay range."""
+    a longer lifting on a shorter delay range.
+
+    Parameters
+    ----------
+    config : Config
+        The scenario.
+    min_lifting : int or None
+        The least number of past inputs in the lifted state (default: what the delay bound needs).
+
+    Returns
+    -------
+    Model
+        The frozen lifted model: its matrices, vertices and uncertainty structure.
+    """
     from ..config import refuse_lti
 
     refuse_lti(config, "build_model")

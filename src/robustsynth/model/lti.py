@@ -425,7 +425,20 @@ def periodic_spectral_radius(A: np.ndarray, B: np.ndarray, K: np.ndarray, Ts: fl
 def lti_plant(cfg, base_dir: str | None = None) -> dict:
     """The plant of an lti config as arrays: {"A", "B", "K" (m x n_k), "states", "units",
     "controllable"}.  A ``plant.file`` (.mat or .npz with arrays A and B) is read relative to
-    ``base_dir``; its problems raise InputError naming the file and the key."""
+    ``base_dir``; its problems raise InputError naming the file and the key.
+
+    Parameters
+    ----------
+    cfg : LtiConfig
+        A linear plant's config.
+    base_dir : str or None
+        Where ``plant.file`` is read from.
+
+    Returns
+    -------
+    dict
+        The plant's arrays and names (above).
+    """
     from pathlib import Path
 
     from ..errors import InputError, Interrupted

@@ -73,7 +73,7 @@ def frozen_vertex(v: Vertex) -> Vertex:
 
 @dataclass(frozen=True)
 class Mirror:
-    """The left/right mirror symmetry of a model (:meth:`Model.mirror`): the reflection's signs on the
+    """The left/right mirror symmetry of a model (:meth:`robustsynth.model.Model.mirror`): the reflection's signs on the
     lifted state (``t``) and on the command (``tu``), and the permutations it induces on the vertices
     and on a certificate's Lyapunov matrices (involutions)."""
 

@@ -44,5 +44,5 @@ def comparison_markdown(cmp: dict[str, Any] | None) -> str:
     out.append("\nThe paper's certificate is proven for a model the robot does not follow: under slip the robot"
                " receives `M(mu) (u^D + du)`, so the correction is multiplied by the slip, and the controller settles"
                " at a slip-compensated command. The slip-aware certificate covers that; what it still assumes is in"
-               " the README, section *What is proven and what is assumed*.\n")
+               " docs/reference/verification.md, *What is proven and what is assumed*.\n")
     return "".join(out)

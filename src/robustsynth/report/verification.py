@@ -90,7 +90,7 @@ def verification_markdown(model: Any, res: Any, vd: dict[str, Any], figures: dic
         out.append(f"> Note: {leaves}.\n\n")
     out.append(
         f"Gain file `{vd['gains_file']}` (gains_id `{vd['gains_id'][:16]}…`), checked independently of how it was made."
-        " Pass/fail rules are in the README (section *Verification rules*).\n\n"
+        " Pass/fail rules are in docs/reference/verification.md (*Verification rules*).\n\n"
     )
     out.append(checks_markdown(res))
     mc = res.monte_carlo
@@ -310,7 +310,7 @@ def monitor_markdown(mon: dict[str, Any] | None) -> str:
             "raised an alarm" + (f" (alarm periods: {counts}; a false alarm unless the robot left its set)" if counts else "")
             + f". Once the state was seen inside its set, a departure to V/level above {det['set_ratio']:.3g} is always "
             f"flagged; a traction {det['traction']:.3g} or more outside the box, within {det['window_s']:g} s "
-            "(README, *The runtime monitor*).\n")
+            "(docs/howto/runtime-monitor.md).\n")
 
 
 NO_HEADING_BOUND = "no bound (>= pi)"

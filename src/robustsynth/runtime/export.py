@@ -311,7 +311,8 @@ def ros2_parameters(d: dict[str, Any]) -> bytes:
     head = (f"# ROS 2 parameters of the robustsynth controller node, {_header_comment(d, 'ros2', '# ')}\n"
             "# K is row-major, K_rows x K_cols, on the lifted state named in state_names.\n"
             "# rs_node.py (beside it) runs rs_controller.py's law and monitor once per sampling_time and refuses\n"
-            "# parameters of another gain: python3 rs_node.py --ros-args --params-file rs_controller.ros2.yaml\n")
+            "# parameters of another gain: python3 rs_node.py --ros-args --params-file rs_controller.ros2.yaml\n"
+            "# (docs/howto/exports-ros2.md).\n")
     return (head + yaml.safe_dump({"robustsynth_controller": {"ros__parameters": params}}, sort_keys=False,
                                   default_flow_style=None, width=120)).encode()
 

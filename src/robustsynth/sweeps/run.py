@@ -272,7 +272,32 @@ def sweep(spec: SweepSpec, outdir: str | Path, *, verify_runs: int | None = None
           write: bool = True) -> SweepResult:
     """Run every point of ``spec``; write ``outdir/points/``, ``sweep.csv``, ``sweep.json`` (and the
     figure, unless ``write`` is False).  ``workers``: local processes (default: all cores; 1 runs
-    in this process); ``scheduler``: the address of a dask.distributed scheduler."""
+    in this process); ``scheduler``: the address of a dask.distributed scheduler.
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The grid (:func:`~robustsynth.sweeps.load_sweep`).
+    outdir : str or Path
+        Output directory.
+    verify_runs : int or None
+        Also verify each point with this many Monte Carlo runs.
+    workers : int or None
+        Local processes (above).
+    scheduler : str or None
+        A dask.distributed scheduler's address.
+    force : bool
+        Recompute points whose results exist.
+    progress : callable or None
+        Called with (points done, points in all, points failed, seconds left or None).
+    write : bool
+        Write the table, JSON and figure.
+
+    Returns
+    -------
+    SweepResult
+        The rows (one per point), the columns and the files written.
+    """
     from ..artifacts.files import atomic_write, json_bytes, make_dir, remove_stale_temps
 
     t0 = time.perf_counter()

@@ -164,6 +164,24 @@ def parse_sweep(text: str | bytes, source: str = "<sweep>", directory: Path | No
 
 
 def load_sweep(path: str | Path) -> SweepSpec:
+    """Read a sweep file: a base config, the axes (dotted config keys and their values), the mode and
+    the figure (docs/howto/margins-sweeps.md).
+
+    Parameters
+    ----------
+    path : str or Path
+        The sweep's YAML file; its ``base`` is read relative to it.
+
+    Returns
+    -------
+    SweepSpec
+        The validated grid (every axis a known config key; the point count within the limit).
+
+    Raises
+    ------
+    ConfigError
+        An unreadable or invalid file, one line naming the key.
+    """
     p = Path(path)
     try:
         if p.is_dir():

@@ -681,10 +681,33 @@ def synthesize(model: Any, settings: SynthesisConfig | None = None, *, on_step: 
     """Design and certify ``du_k = K xi_k`` for ``model``.
 
     ``settings`` defaults to ``model.config.synthesis``; keyword ``overrides`` (``objective``,
-    ``solver``, ``multiplier``, ...) replace single settings.  Raises :class:`InfeasibleError`
-    (exit 3) when the LMIs have no solution and :class:`SolverFailure` (exit 4) when the solvers
+    ``solver``, ``multiplier``, ...) replace single settings.  Raises :class:`~robustsynth.errors.InfeasibleError`
+    (exit 3) when the LMIs have no solution and :class:`~robustsynth.errors.SolverFailure` (exit 4) when the solvers
     fail or no returned point passes the certificate check.  ``on_step`` receives one line per
     solve (the alpha scan, the decay-rate bisection): what was tried, by which solver, how long.
+
+    Parameters
+    ----------
+    model : Model
+        The model to design for (:func:`~robustsynth.model.build_model`).
+    settings : SynthesisConfig or None
+        The synthesis settings (default: the model's config's).
+    on_step : callable or None
+        Receives one line per solve.
+    **overrides : Any
+        Single settings replaced (``objective``, ``solver``, ``multiplier``, ...).
+
+    Returns
+    -------
+    SynthesisResult
+        The gain ``K``, its certificate and the figures the numpy re-check proves (``certified``).
+
+    Raises
+    ------
+    InfeasibleError
+        No gain meets the guarantee (exit 3).
+    SolverFailure
+        No solve concluded, or none passed the certificate check (exit 4).
     """
     token = _SPLIT.set(_Split())
     try:

@@ -406,7 +406,36 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
     per period and beta = 1 - sqrt(alpha) (which keeps Q of order one), and every figure is scaled back.
 
     The line search solves ``threads`` alphas at once (None: :func:`auto_threads`); it visits the same
-    alphas whatever that number, so the gain does not depend on the machine."""
+    alphas whatever that number, so the gain does not depend on the machine.
+
+    Parameters
+    ----------
+    plant : dict
+        The plant's arrays (:func:`~robustsynth.model.lti.lti_plant`).
+    Ts, tau_min, tau_max : float
+        Sampling period and delay bounds [s].
+    m_lost : int
+        Commands lost in a row at most.
+    objective : str
+        ``stability``, ``ultimate-bound``, ``hinf`` or ``auto``.
+    decay : float
+        ``stability``: the decay per period.
+    pieces : int
+        Pieces per switching instant's range in the over-approximation.
+    alpha_points : int
+        ``ultimate-bound``: the line search's grid.
+    solver : str
+        ``clarabel`` or ``scs``.
+    say : callable
+        Receives progress lines.
+    threads : int or None
+        Solves run at once (above).
+
+    Returns
+    -------
+    LtiDesign
+        The gain, its certificate and the figures proven in numpy.
+    """
     from ..certificate import lti_within
     from ..errors import InputError
     from ..model.lti import disturbance_bound, lti_depth

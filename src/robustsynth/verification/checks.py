@@ -1,6 +1,6 @@
 """``verify``: every check of a gain against a config, independent of how the gain was made.
 
-Pass/fail rules (also in the README):
+Pass/fail rules (also in docs/reference/verification.md):
 
 - certificate: the LMIs rebuilt in numpy from the file keep half their margin;
 - frozen delays: spectral radius < 1 on the grid, and <= the certified decay rate + 1e-6;
@@ -762,7 +762,26 @@ def _provenance(model: Any, gains: dict[str, Any]) -> str:
 def verify(model, gains: Any, runs: int | None = None, seed: int | None = None,
            progress: Callable[[int, int], None] | None = None) -> VerificationResult:
     """Run every check of ``gains`` against ``model``: a gains.json mapping (:func:`~robustsynth.artifacts.gains.load_gains`),
-    the result of :func:`~robustsynth.synthesis.synthesize`, or a bare matrix K."""
+    the result of :func:`~robustsynth.synthesis.synthesize`, or a bare matrix K.
+
+    Parameters
+    ----------
+    model : Model
+        The model of the config to verify against.
+    gains : Mapping, SynthesisResult, numpy.ndarray or str
+        The gain: a gains mapping or file, a synthesis result, or a bare K.
+    runs : int or None
+        Monte Carlo runs (default ``verification.runs``).
+    seed : int or None
+        Their random seed (default ``verification.seed``).
+    progress : callable or None
+        Called with (runs done, runs in all).
+
+    Returns
+    -------
+    VerificationResult
+        ``passed``, every check with its value and threshold, and the simulations behind them.
+    """
     gains = as_gains(model, gains)
     vc = model.config.verification
     runs = vc.runs if runs is None else runs

@@ -89,7 +89,32 @@ def verify_lti(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, tau_min: fl
     The first check re-proves the certificate (P, ``multipliers``, ``figures["alpha"]`` and ``pieces``:
     an :class:`~robustsynth.synthesis.lti.LtiDesign`'s ``eps`` and the synthesis' pieces, or a gains
     file's ``certificate``) in numpy for *this* plant and network (:func:`robustsynth.certificate.recheck_lti`).
-    Without the multipliers it cannot, and the verdict is failed: simulations alone prove nothing."""
+    Without the multipliers it cannot, and the verdict is failed: simulations alone prove nothing.
+
+    Parameters
+    ----------
+    plant : dict
+        The plant's arrays (:func:`~robustsynth.model.lti.lti_plant`).
+    K, P : numpy.ndarray
+        The gain and its certificate's matrix.
+    Ts, tau_min, tau_max : float
+        Sampling period and delay bounds [s].
+    m_lost : int
+        Commands lost in a row at most.
+    figures : dict
+        The certified figures (with ``alpha``).
+    runs, periods, seed : int
+        Simulated delay sequences, their length, their seed.
+    multipliers : numpy.ndarray or None
+        The certificate's multipliers (above).
+    pieces : int
+        The over-approximation's pieces the certificate was made with.
+
+    Returns
+    -------
+    dict
+        ``passed``, ``checks`` and ``families``.
+    """
     from ..errors import InputError
     from ..model.lifting import s_tilde_sequence
     from ..model.lti import exact_closed_loop, gamma, lifted_rows, lti_depth, pad_lti_gain, periodic_spectral_radius
