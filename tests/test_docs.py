@@ -135,6 +135,23 @@ def test_every_public_name_is_in_the_api_reference(site: Path) -> None:
     assert not missing, f"public names missing from the API reference: {missing}"
 
 
+
+def test_the_examples_gallery_shows_every_committed_config_and_its_result(site: Path) -> None:
+    """docs/examples.md's gallery is generated from configs/ and results/baselines/: every config, its command, and
+    what its baseline says (the default's certified |e_y| as its summary.json states it; a failed verdict as failed)."""
+    import html
+    import json
+
+    page = html.unescape(re.sub(r"<[^>]+>", "", (site / "examples.html").read_text(encoding="utf-8")))
+    for cfg in sorted((ROOT / "configs").glob("*.yaml")):
+        assert f"robustsynth run configs/{cfg.name}" in page, cfg.name
+        assert f"Committed result (results/baselines/{cfg.stem}/)" in page, cfg.stem
+    default = json.loads((ROOT / "results" / "baselines" / "default" / "summary.json").read_text())
+    assert f"|e_y| ≤ {100 * default['certified']['ultimate_bound']['e_y']:.2f} cm" in page
+    tracks = json.loads((ROOT / "results" / "baselines" / "tracks-box" / "summary.json").read_text())
+    assert not tracks["verification_passed"] and "linearization only" in page and "verification FAILED" in page
+
+
 # ------------------------------------------------------------------ code blocks of README and docs
 
 def _blocks(langs: tuple[str, ...]) -> list[tuple[str, str]]:

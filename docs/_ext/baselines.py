@@ -103,7 +103,69 @@ class JsonKeys(SphinxDirective):
         return node.children
 
 
+CONFIGS = BASELINES.parents[1] / "configs"
+
+
+def _header(text: str) -> str:
+    """The comment lines a config file starts with, as one paragraph (what the scenario is)."""
+    out = []
+    for line in text.splitlines():
+        if not line.startswith("#"):
+            break
+        out.append(line.lstrip("#").strip())
+    return " ".join(x for x in out if x)
+
+
+def _outcome(name: str) -> str:
+    """What the committed baseline of config ``name`` says: its certified figures and verdict, or why it has none."""
+    d = BASELINES / name
+    if not (d / "summary.json").exists():
+        return "no committed baseline"
+    s = json.loads((d / "summary.json").read_text())
+    if s.get("message"):
+        return f"{s.get('status', 'no certificate')}: {s['message']}"
+    if s.get("status") == "lti-margins":
+        m = s["margins"]["delay_max"]
+        return (f"its gain's delay margin: certified {m['certified']:.4g} s, exhibited {m['exhibited']:.4g} s "
+                f"(configured {m['configured']:g} s)")
+    ub = (s.get("certified") or {}).get("ultimate_bound") or {}
+    g = json.loads((d / "gains.json").read_text()) if (d / "gains.json").exists() else {}
+    if g.get("kind") == "lti":
+        figs = ", ".join(f"\\|{k}\\| ≤ {v:.4g}" for k, v in ub.items())
+        proven = "for the linear plant"
+    else:
+        figs = ", ".join(f"\\|{k}\\| ≤ {100 * v:.2f} cm" if k != "e_theta" else f"\\|{k}\\| ≤ {v:.3g} rad"
+                         for k, v in ub.items() if isinstance(v, (int, float)))
+        kin = ((g.get("config") or {}).get("synthesis") or {}).get("kinematics")
+        proven = {"nonlinear": "for the nonlinear robot", "linearized": "for the linearization only"}.get(kin, "")
+    verdict = ("verification passed" if s.get("verification_passed") else
+               "verification FAILED" + (f" ({', '.join(s['failed_checks'])})" if s.get("failed_checks") else ""))
+    return f"certified {proven}: {figs or 'stability'}; {verdict}"
+
+
+class ConfigGallery(SphinxDirective):
+    """``{config-gallery}``: every committed config of configs/ as an example — what it is (its own header
+    comment), what its committed baseline certifies and whether its verification passed, the command that
+    reproduces it and the file itself (folded).  Read from the files at build time, never copied by hand."""
+
+    def run(self) -> list[nodes.Node]:
+        lines: list[str] = []
+        for path in sorted(CONFIGS.glob("*.yaml")):
+            self.env.note_dependency(str(path))
+            text = path.read_text()
+            name = path.stem
+            lines += ["```{rubric} " + name, "```", "", _header(text) or "(no description)", "",
+                      f"**Committed result** (`results/baselines/{name}/`): {_outcome(name)}.", "",
+                      "```sh", f"robustsynth run configs/{name}.yaml", "```", "",
+                      f":::{{admonition}} configs/{name}.yaml", "", "```yaml", text.rstrip("\n"), "```", ":::", ""]
+        node = nodes.section()
+        node.document = self.state.document
+        self.state.nested_parse(StringList(lines, source=str(CONFIGS)), self.content_offset, node)
+        return node.children
+
+
 def setup(app: Any) -> dict[str, Any]:
+    app.add_directive("config-gallery", ConfigGallery)
     app.add_directive("baseline-costs", BaselineCosts)
     app.add_directive("json-keys", JsonKeys)
     return {"version": "1", "parallel_read_safe": True, "parallel_write_safe": True}
