@@ -12,7 +12,7 @@ import inspect
 from typing import Any
 
 from docutils import nodes
-from docutils.statemachine import StringList
+from generated import parsed
 from sphinx.util.docutils import SphinxDirective
 
 
@@ -38,12 +38,7 @@ class ApiReference(SphinxDirective):
             elif kind == "autoclass":
                 lines += ["   :members:", "   :inherited-members:"]
             lines += [""]
-        node = nodes.section()
-        node.document = self.state.document
-        # MyST parses a directive's content as Markdown: hand it the reST in an eval-rst block
-        lines = ["```{eval-rst}", *lines, "```"]
-        self.state.nested_parse(StringList(lines, source="robustsynth._EXPORTS"), self.content_offset, node)
-        return node.children
+        return parsed(self, lines, "robustsynth._EXPORTS", rst=True)
 
 
 def setup(app: Any) -> dict[str, Any]:

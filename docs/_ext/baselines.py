@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from docutils import nodes
-from docutils.statemachine import StringList
+from generated import parsed
 from sphinx.util.docutils import SphinxDirective
 
 BASELINES = Path(__file__).resolve().parents[2] / "results" / "baselines"
@@ -59,12 +59,7 @@ class BaselineCosts(SphinxDirective):
         lines += ["   * - " + heads[0]] + [f"     - {h}" for h in heads[1:]]
         for r in baseline_rows():
             lines += ["   * - " + r[cols[0]]] + [f"     - {r[c]}" for c in cols[1:]]
-        node = nodes.section()
-        node.document = self.state.document
-        # MyST parses a directive's content as Markdown: hand it the reST in an eval-rst block
-        lines = ["```{eval-rst}", *lines, "```"]
-        self.state.nested_parse(StringList(lines, source="results/baselines"), self.content_offset, node)
-        return node.children
+        return parsed(self, lines, "results/baselines", rst=True)
 
 
 def _kind(v: Any) -> str:
@@ -96,11 +91,7 @@ class JsonKeys(SphinxDirective):
     def run(self) -> list[nodes.Node]:
         path = BASELINES.parents[1] / self.arguments[0]
         self.env.note_dependency(str(path))
-        lines = ["```{eval-rst}", *json_key_lines(json.loads(path.read_text())), "```"]
-        node = nodes.section()
-        node.document = self.state.document
-        self.state.nested_parse(StringList(lines, source=str(path)), self.content_offset, node)
-        return node.children
+        return parsed(self, json_key_lines(json.loads(path.read_text())), str(path), rst=True)
 
 
 CONFIGS = BASELINES.parents[1] / "configs"
@@ -158,10 +149,7 @@ class ConfigGallery(SphinxDirective):
                       f"**Committed result** (`results/baselines/{name}/`): {_outcome(name)}.", "",
                       "```sh", f"robustsynth run configs/{name}.yaml", "```", "",
                       f":::{{admonition}} configs/{name}.yaml", "", "```yaml", text.rstrip("\n"), "```", ":::", ""]
-        node = nodes.section()
-        node.document = self.state.document
-        self.state.nested_parse(StringList(lines, source=str(CONFIGS)), self.content_offset, node)
-        return node.children
+        return parsed(self, lines, str(CONFIGS))
 
 
 def setup(app: Any) -> dict[str, Any]:

@@ -18,7 +18,7 @@ from typing import Any
 
 import annotated_types as at
 from docutils import nodes
-from docutils.statemachine import StringList
+from generated import parsed
 from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 from pydantic_core import PydanticUndefined
@@ -149,12 +149,7 @@ class ConfigReference(SphinxDirective):
                           f"     - {_cell(r['type'])}", f"     - {_cell(r['unit'])}", f"     - {_cell(r['default'])}",
                           f"     - {_cell(r['range'])}", f"     - {_describe(_cell(r['description']))}"]
             lines.append("")
-        node = nodes.section()
-        node.document = self.state.document
-        # MyST parses a directive's content as Markdown: hand it the reST in an eval-rst block
-        lines = ["```{eval-rst}", *lines, "```"]
-        self.state.nested_parse(StringList(lines, source="robustsynth.config"), self.content_offset, node)
-        return node.children
+        return parsed(self, lines, "robustsynth.config", rst=True)
 
 
 def setup(app: Any) -> dict[str, Any]:
