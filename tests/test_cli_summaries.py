@@ -201,6 +201,12 @@ def test_margin(monkeypatch, tmp_path) -> None:
         "note: the margins are robust stability of the linearization; the gain's certificate for the nonlinear robot "
         "(synthesis.kinematics: nonlinear) holds for the configured delay and slip ranges only\n"
         "wrote margin.json\n"), "")
+    gains = ROOT / "results" / "baselines"
+    assert _invoke(["margin", "--gains", str(gains / "nonlinear-proof" / "gains.json"), "-o", str(tmp_path)])[1] == (
+        f"config: the one stored in {gains / 'nonlinear-proof' / 'gains.json'} ('nonlinear-proof'); pass CONFIG to take "
+        "the gain's margins on another\ntau_max: one\nslip: two\n" + "".join(
+            f"{line}\n" for line in _invoke(["margin", DEFAULT, "-o", str(tmp_path)])[1].splitlines()[2:]))
+    assert _invoke(["margin", "--gains", str(gains / "default" / "gains.json"), "-o", str(tmp_path)])[1].startswith("tau")
     mg = {"configured": None, "certified": 2, "exhibited": None, "witness": None, "unit": "packets"}
     data = {"plant": {"controllable": True}, "margins": {"losses_max": mg}, "files": ["margin.json"]}
     _patch(monkeypatch, "robustsynth.pipeline_lti", lti_margin_stage=lambda *a, **k: data)

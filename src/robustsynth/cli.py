@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import math
 import os
-import signal
 import sys
 from pathlib import Path
 from typing import Any, Callable
@@ -15,7 +14,9 @@ from typing import Any, Callable
 import click
 
 from . import __version__
-from .errors import EXIT_INTERRUPTED, EXIT_OK, Interrupted, RobustSynthError, check_interrupt, on_signal, pending_interrupt
+from .artifacts.inputs import NewDirs
+from .errors import (EXIT_BROKEN_PIPE, EXIT_INTERRUPTED, EXIT_OK, Interrupted, RobustSynthError, check_interrupt,
+                     exit_leaving_solves, install_signal_handlers, pending_interrupt)
 from .report.progress import Heartbeat, progress_bar, stage_lines, stop_heartbeats, sweep_counts
 
 CONFIG_ARG = click.argument("config", required=False, type=click.Path(dir_okay=False, path_type=Path))
@@ -53,9 +54,6 @@ class _Ctx:
                 self.say(line)
 
 
-EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE: the reader went away (e.g. `| head`)
-
-
 def _quiet_stdout() -> None:
     """After a broken pipe: point stdout at /dev/null so the interpreter's final flush is silent."""
     try:
@@ -66,26 +64,9 @@ def _quiet_stdout() -> None:
 
 
 def _exit_interrupted(exc: Interrupted) -> None:
-    _remove_empty_new_dirs()
+    _NEW_DIRS.remove_empty()
     click.echo(f"{exc}", err=True)
-    _exit_leaving_solves(exc.exit_code)
-
-
-def _exit_leaving_solves(code: int) -> None:
-    """Exit with ``code``.  A solve the interrupt gave up may still run in its thread (synthesis.solve._in_threads);
-    the interpreter's shutdown would unwind that thread through the solver's native frames (Clarabel's Rust then
-    aborts: 'FATAL: exception not rethrown', exit -6, measured in bench_interrupts).  Such a thread is given
-    SOLVE_GRACE_S to end (Clarabel's stops at its next iteration); one still running is left to the OS:
-    the process ends without the interpreter's shutdown (every file is committed or removed by now)."""
-    solve = sys.modules.get("robustsynth.synthesis.solve")
-    if solve is not None and not solve.abandoned_solves_ended(SOLVE_GRACE_S):
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(code)
-    sys.exit(code)
-
-
-SOLVE_GRACE_S = 2.0
+    exit_leaving_solves(exc.exit_code)
 
 
 def _exit_if_signalled() -> None:
@@ -130,9 +111,9 @@ def _guard(fn: Callable[..., int | None]) -> Callable[..., None]:
         except Interrupted as exc:
             _exit_interrupted(exc)
         except KeyboardInterrupt:
-            _remove_empty_new_dirs()
+            _NEW_DIRS.remove_empty()
             click.echo("interrupted", err=True)
-            _exit_leaving_solves(EXIT_INTERRUPTED)
+            exit_leaving_solves(EXIT_INTERRUPTED)
         except BrokenPipeError:
             _quiet_stdout()
             sys.exit(EXIT_BROKEN_PIPE)
@@ -140,7 +121,7 @@ def _guard(fn: Callable[..., int | None]) -> Callable[..., None]:
             _exit_if_signalled()
             if not isinstance(exc, RobustSynthError):
                 raise
-            _remove_empty_new_dirs()
+            _NEW_DIRS.remove_empty()
             click.echo(f"error: {exc}", err=True)
             sys.exit(exc.exit_code)
         sys.exit(EXIT_OK if code is None else code)
@@ -170,104 +151,36 @@ def _load(config: Path | None, lti_ok: bool = False):
 
 
 def _not_a_config(path: Path, option: str | None = None) -> None:
-    """InputError in one line when the file given as a config is one robustsynth wrote (a gains file given where
-    CONFIG goes had printed 18 validation errors, issue 50); nothing when it is not."""
-    from .errors import InputError
+    """One line when a file robustsynth wrote is given as a config (artifacts.inputs.not_a_config)."""
+    from .artifacts.inputs import not_a_config
 
-    from .artifacts.gains import written_by_robustsynth
-
-    found = written_by_robustsynth(path)
-    if found is None:
-        return
-    what, data = found
-    where = f"{option}: {path}" if option else str(path)
-    inside = " (the config it was made with is stored inside, under 'config')" if isinstance(data.get("config"), dict) else ""
-    if what == "gains file":
-        ctx = click.get_current_context(silent=True)
-        takes_gains = ctx is not None and any(p.name == "gains" for p in ctx.command.params)
-        if option == "--config" and ctx is not None and ctx.info_name == "export":
-            raise InputError(f"{where}: this is a gains file, not a config: give it as GAINS (its config is stored inside)")
-        if takes_gains:
-            raise InputError(f"{where}: this is a gains file, not a config: use --gains {path} (its config is stored inside)")
-        cmd = f"`robustsynth {ctx.info_name}`" if ctx is not None else "this"
-        raise InputError(f"{where}: this is a gains file, not a config: {cmd} takes a config YAML (the gain's own "
-                         "config is stored inside the gains file, under 'config')")
-    raise InputError(f"{where}: this is a {what}, not a config: pass the config YAML{inside}")
+    ctx = click.get_current_context(silent=True)
+    not_a_config(path, option, None if ctx is None else ctx.info_name,
+                 ctx is not None and any(p.name == "gains" for p in ctx.command.params))
 
 
-_NEW_DIRS: list[Path] = []  # output directories this command creates: removed again if it fails and leaves them empty
+_NEW_DIRS = NewDirs()  # output directories this command creates: removed again if it fails and leaves them empty
 
 
-def _outdir(cfg: Any, outdir: Path | None) -> Path:
+def _outdir(cfg: Any, outdir: Path | None, gains: Path | None = None) -> Path:
+    """-o if given, else beside --gains (the files belong to that gain), else results/<name>/."""
     from .pipeline import default_outdir
 
-    return _note_new(outdir if outdir is not None else default_outdir(cfg))
+    return _NEW_DIRS.note(outdir if outdir is not None else gains.parent if gains is not None else default_outdir(cfg))
 
 
-def _note_new(out: Path) -> Path:
-    """Record the directories of ``out`` that do not exist yet (deepest first, so that each is empty when its
-    turn comes), for :func:`_remove_empty_new_dirs`.  The path is resolved first ('a/ghost/../kept' is
-    'a/kept', a symlink's '..' its target's parent); one the system cannot even look at (too long, no
-    permission) is left to the stage, whose error names it."""
-    p = Path(os.path.realpath(out))  # symlinks followed, then '..' (as the system resolves it)
-    try:
-        while not p.exists() and p != p.parent:
-            _NEW_DIRS.append(p)
-            p = p.parent
-    except OSError:
-        pass
-    return out
+def _gains_config(obj: _Ctx, config: Path | None, gains: Path | None, said: str) -> Any:
+    """CONFIG, else the config stored in --gains when it is another than the default one, ``said`` in one line."""
+    from .artifacts.inputs import gains_own_config, needs_its_config
 
-
-def _remove_empty_new_dirs() -> None:
-    """A failed command leaves no empty directory it made (review, stop 47: `synthesize` exiting 3 left one)."""
-    for d in _NEW_DIRS:
-        try:
-            d.rmdir()  # only when empty: whatever a stage wrote and kept stays
-        except OSError:
-            pass
-
-
-def _needs_its_config(config: Path | None, gains: Path | None, command: str) -> None:
-    """Without CONFIG the tracked robot's default config is used: a linear plant's gains file with it is
-    a mistake whose error would speak of the robot's shapes; say what is missing instead."""
+    needs_its_config(config, gains, click.get_current_context().info_name)
+    cfg = _load(config, lti_ok=True)
     if config is not None or gains is None:
-        return
-    from .artifacts.gains import load_gains
-    from .errors import InputError
-
-    try:
-        kind = load_gains(gains).get("kind")
-    except (InputError, OSError, ValueError, AttributeError):
-        return  # the command's own loading reports what is wrong with the file
-    if kind == "lti":
-        raise InputError(f"--gains: {gains} is a linear plant's gain (kind: lti): pass its config too "
-                         f"(robustsynth {command} CONFIG --gains {gains})")
-
-
-def _stored_config_instead(obj: Any, default: Any, gains: Path) -> Any:
-    """Without CONFIG: the config stored in the gains file when it is another than the default one (the
-    gain's margins against the default robot, network and slip had been reported silently), said in one line."""
-    from .artifacts.gains import load_gains, stored_config
-    from .config import config_to_dict
-    from .errors import InputError
-
-    try:
-        gd = load_gains(gains)
-    except (InputError, OSError):
-        return default  # the command's own loading reports what is wrong with the file
-    stored = stored_config(gd)  # an invalid one: InputError naming it (review)
-    if stored is None or config_to_dict(stored) == config_to_dict(default):
-        return default
-    obj.say(f"config: the one stored in {gains} ({stored.name!r}); pass CONFIG to take the gain's margins on another")
+        return cfg
+    stored = gains_own_config(cfg, gains)
+    if stored is not cfg:
+        obj.say(f"config: the one stored in {gains} ({stored.name!r}){said}")
     return stored
-
-
-def _gains_outdir(cfg: Any, outdir: Path | None, gains: Path | None) -> Path:
-    """-o if given, else beside --gains (the files belong to that gain), else results/<name>/."""
-    if outdir is not None:
-        return _note_new(outdir)
-    return _note_new(gains.parent) if gains is not None else _outdir(cfg, None)
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -285,30 +198,7 @@ def main(ctx: click.Context, quiet: bool, verbose: bool) -> None:
     130 interrupted (Ctrl-C), 143 terminated (SIGTERM).
     """
     ctx.obj = _Ctx(quiet, verbose)
-    _install_signal_handlers()
-
-
-_DEFAULT_UNRAISABLE = sys.unraisablehook
-
-
-def _unraisable(info: Any) -> None:
-    """An interrupt raised where Python cannot propagate it (a weakref callback during an import)
-    is not printed: it was recorded, and the next checkpoint raises it (errors.on_signal)."""
-    if isinstance(info.exc_value, Interrupted):
-        return
-    _DEFAULT_UNRAISABLE(info)
-
-
-def _install_signal_handlers() -> None:
-    """SIGINT and SIGTERM stop the command (exit 130 / 143, see errors.on_signal); a file-size
-    limit makes a write fail (EFBIG, exit 2) instead of killing the process."""
-    try:
-        signal.signal(signal.SIGINT, on_signal)
-        signal.signal(signal.SIGTERM, on_signal)
-        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
-        sys.unraisablehook = _unraisable
-    except ValueError:  # not the main thread (e.g. an embedding application)
-        pass
+    install_signal_handlers()
 
 
 def _set_flag(ctx: click.Context, param: click.Parameter, value: bool) -> None:
@@ -471,14 +361,8 @@ def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
     from .pipeline import verification_stage
     from .report import console
 
-    _needs_its_config(config, gains, "verify")
-    cfg = _load(config, lti_ok=True)
-    if config is None and gains is not None:  # the gain's own config, not the default one (as margin; issue 50)
-        stored = _stored_config_instead(_Ctx(True, False), cfg, gains)  # its line is margin's: verify says its own
-        if stored is not cfg:
-            obj.say(f"config: the one stored in {gains} ({stored.name!r}), the gain's own; pass CONFIG to verify it on another")
-        cfg = stored
-    out = _gains_outdir(cfg, outdir, gains)
+    cfg = _gains_config(obj, config, gains, ", the gain's own; pass CONFIG to verify it on another")  # issue 50
+    out = _outdir(cfg, outdir, gains)
     if is_lti(cfg):
         if logdir is not None:
             from .errors import InputError
@@ -589,10 +473,7 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
     from .pipeline import margin_stage
     from .report import console
 
-    _needs_its_config(config, gains, "margin")
-    cfg = _load(config, lti_ok=True)
-    if config is None and gains is not None:  # the gain's own config, not the default one (review)
-        cfg = _stored_config_instead(obj, cfg, gains)
+    cfg = _gains_config(obj, config, gains, "; pass CONFIG to take the gain's margins on another")  # review
     if is_lti(cfg):
         if lyapunov is not None:
             from .errors import InputError
@@ -600,11 +481,11 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
             raise InputError("--lyapunov: a linear plant's certificate is one common quadratic function")
         from .pipeline_lti import lti_margin_stage
 
-        data = lti_margin_stage(cfg, _gains_outdir(cfg, outdir, gains), config, on_step=stage_lines(obj.quiet, obj.detail),
+        data = lti_margin_stage(cfg, _outdir(cfg, outdir, gains), config, on_step=stage_lines(obj.quiet, obj.detail),
                                 gains_path=gains)
         obj.show(console.lti_margin_summary(data, as_json))
     else:
-        st = margin_stage(cfg, _gains_outdir(cfg, outdir, gains), gains, lyapunov, on_step=stage_lines(obj.quiet, obj.detail))
+        st = margin_stage(cfg, _outdir(cfg, outdir, gains), gains, lyapunov, on_step=stage_lines(obj.quiet, obj.detail))
         data = st.data
         if not as_json:
             obj.show(console.margin_summary(st))
@@ -612,15 +493,6 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
         import json
 
         click.echo(json.dumps(data, indent=2))
-
-
-def _motor_limit(given: float | None, cfg: Any) -> float | None:
-    """--max-motor-speed, else the config's robot.max_motor_speed: the motors saturate there, and a period
-    with a command beyond it says nothing about slip (a review found the verifier's own logs flagged at
-    the waypoint turns, commands of 19.7 rad/s against 12); inf: no period skipped."""
-    if given is None:
-        return cfg.robot.max_motor_speed
-    return None if given == float("inf") else given
 
 
 @main.command("identify")
@@ -654,11 +526,12 @@ def identify_cmd(obj: _Ctx, logs: tuple[Path, ...], out: Path | None, config: Pa
 
     The result is a config fragment with the data behind each number as comments.
     """
+    from .artifacts.inputs import motor_limit
     from .pipeline import identification_stage
 
     cfg = _load(config)
     ident, text, written = identification_stage(list(logs), cfg, out, coverage, model,
-                                                _motor_limit(max_motor_speed, cfg), not no_plots, pose_noise, settle)
+                                                motor_limit(max_motor_speed, cfg), not no_plots, pose_noise, settle)
     if out is None:
         click.echo(text, nl=False)
     else:
@@ -690,6 +563,7 @@ def check_log_cmd(obj: _Ctx, logs: tuple[Path, ...], config: Path | None, gains:
 
     Exit 1 if any assumption is violated by more than --tolerance of its samples.
     """
+    from .artifacts.inputs import check_log_config, motor_limit
     from .artifacts.logs import read_log
     from .errors import EXIT_VERIFICATION_FAILED, InputError
     from .identification import check_log
@@ -697,18 +571,8 @@ def check_log_cmd(obj: _Ctx, logs: tuple[Path, ...], config: Path | None, gains:
 
     if (config is None) == (gains is None):
         raise InputError("check-log: give exactly one of --config and --gains")
-    if gains is not None:
-        from .artifacts.gains import load_gains, stored_config
-
-        gd = load_gains(gains)
-        if gd.get("kind") == "lti":
-            raise InputError(f"{gains}: a linear plant's gains (kind: lti); check-log reads the tracked robot's logs")
-        cfg = stored_config(gd)
-        if cfg is None:
-            raise InputError(f"{gains}: config: the gains file holds no config (use --config)")
-    else:
-        cfg = _load(config)
-    rows = check_log([read_log(p) for p in logs], cfg, _motor_limit(max_motor_speed, cfg), pose_noise)
+    cfg = check_log_config(gains) if gains is not None else _load(config)
+    rows = check_log([read_log(p) for p in logs], cfg, motor_limit(max_motor_speed, cfg), pose_noise)
     obj.show(console.check_log_summary(rows, tolerance))
     return EXIT_VERIFICATION_FAILED if any(console.violated(r, tolerance) for r in rows) else EXIT_OK
 
@@ -892,7 +756,7 @@ def entry() -> None:
     command bodies (start-up, argument parsing), where click would print 'Aborted!' and exit 1.
     The handlers go in before click parses anything, so that the window in which a signal meets
     the interpreter's defaults is only the interpreter's own start-up."""
-    _install_signal_handlers()
+    install_signal_handlers()
     try:
         main.main(standalone_mode=False)
         check_interrupt()
