@@ -19,15 +19,14 @@ from .errors import (EXIT_BROKEN_PIPE, EXIT_INTERRUPTED, EXIT_OK, Interrupted, R
                      exit_leaving_solves, install_signal_handlers, pending_interrupt)
 from .report.progress import Heartbeat, progress_bar, stage_lines, stop_heartbeats, sweep_counts
 
-CONFIG_ARG = click.argument("config", required=False, type=click.Path(dir_okay=False, path_type=Path))
-OUTDIR_OPT = click.option(
-    "-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
-    help="Output directory [default: results/<config name>/].",
-)
-GAINS_OUTDIR_OPT = click.option(
-    "-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
-    help="Output directory [default: the directory of --gains, else results/<config name>/].",
-)
+FILE = click.Path(dir_okay=False, path_type=Path)
+DIR = click.Path(file_okay=False, path_type=Path)
+CONFIG_ARG = click.argument("config", required=False, type=FILE)
+LOGS_ARG = click.argument("logs", nargs=-1, required=True, type=FILE)
+OUTDIR_OPT = click.option("-o", "--outdir", type=DIR, default=None, help="Output directory [default: results/<config name>/].")
+GAINS_OUTDIR_OPT = click.option("-o", "--outdir", type=DIR, default=None,
+                                help="Output directory [default: the directory of --gains, else results/<config name>/].")
+NO_FIGURE_OPT = click.option("--no-plots", is_flag=True, help="Skip the figure.")
 
 
 class _Ctx:
@@ -42,6 +41,10 @@ class _Ctx:
     def detail(self, msg: str) -> None:
         if self.verbose and not self.quiet:
             click.echo(msg, err=True)
+
+    def stages(self) -> Callable[[str], None]:
+        """The stage lines of a long command (report.progress.stage_lines)."""
+        return stage_lines(self.quiet, self.detail)
 
     def show(self, lines: list[str]) -> None:
         """A command's summary (report.console): an Err line on stderr (also under --quiet), the others on stdout."""
@@ -305,11 +308,11 @@ def synthesize(obj: _Ctx, config: Path | None, outdir: Path | None, objective: s
         _lti_only(multiplier=multiplier, diagnose=diagnose)
         from .pipeline_lti import lti_synthesis_stage
 
-        obj.show(console.lti_synthesis_summary(out, lti_synthesis_stage(cfg, out, config, stage_lines(obj.quiet, obj.detail), objective,
+        obj.show(console.lti_synthesis_summary(out, lti_synthesis_stage(cfg, out, config, obj.stages(), objective,
                                                                          solver)))
         return
     obj.detail(f"building the model of '{cfg.name}'")
-    obj.show(console.synthesis_summary(out, synthesis_stage(build_model(cfg), out, on_step=stage_lines(obj.quiet, obj.detail),
+    obj.show(console.synthesis_summary(out, synthesis_stage(build_model(cfg), out, on_step=obj.stages(),
                                                             diagnose=diagnose, objective=objective, solver=solver,
                                                             multiplier=multiplier)))
 
@@ -341,11 +344,10 @@ def _verify_opts(fn):
 @main.command("verify")
 @_verbosity
 @CONFIG_ARG
-@click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="Gains file [default: OUTDIR/gains.json].")
+@click.option("--gains", "gains", type=FILE, default=None, help="Gains file [default: OUTDIR/gains.json].")
 @GAINS_OUTDIR_OPT
 @_verify_opts
-@click.option("--log", "logdir", type=click.Path(file_okay=False, path_type=Path), default=None,
+@click.option("--log", "logdir", type=DIR, default=None,
               help="Also write each Monte Carlo run as a robot log (CSV, the format identify and check-log read) here.")
 @click.pass_obj
 @_guard
@@ -420,11 +422,11 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
         _lti_only(multiplier=multiplier, diagnose=diagnose)
         from .pipeline_lti import lti_run
 
-        res = lti_run(cfg, out, config, stage_lines(obj.quiet, obj.detail), objective, solver, runs, seed, plots=not no_plots)
+        res = lti_run(cfg, out, config, obj.stages(), objective, solver, runs, seed, plots=not no_plots)
         obj.show(console.cleared(out, tuple(res["synthesis"]["cleared"])) + console.lti_gain_lines(res["synthesis"]["gains"])
                  + console.lti_checks(res["verification"]) + [f"report: {out / 'report.md'}"])
         return EXIT_OK if res["verification"]["passed"] else EXIT_VERIFICATION_FAILED
-    stage = stage_lines(obj.quiet, obj.detail)  # the stages and each step of the synthesis (a heartbeat between them, on a terminal)
+    stage = obj.stages()  # the stages and each step of the synthesis (a heartbeat between them, on a terminal)
     with progress_bar(obj.quiet, stage if isinstance(stage, Heartbeat) else None) as cb:
         res = run(cfg, out, runs, seed, fmt, not no_plots, cb, on_stage=lambda s: stage(f"[{s}]"), on_step=stage,
                   diagnose=diagnose, objective=objective, solver=solver, multiplier=multiplier)
@@ -451,7 +453,7 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
 @main.command("margin")
 @_verbosity
 @CONFIG_ARG
-@click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), default=None,
+@click.option("--gains", "gains", type=FILE, default=None,
               help="Gains file [default: OUTDIR/gains.json; for a linear plant the config's controller.gain "
                    "comes first].")
 @GAINS_OUTDIR_OPT
@@ -481,11 +483,11 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
             raise InputError("--lyapunov: a linear plant's certificate is one common quadratic function")
         from .pipeline_lti import lti_margin_stage
 
-        data = lti_margin_stage(cfg, _outdir(cfg, outdir, gains), config, on_step=stage_lines(obj.quiet, obj.detail),
+        data = lti_margin_stage(cfg, _outdir(cfg, outdir, gains), config, on_step=obj.stages(),
                                 gains_path=gains)
         obj.show(console.lti_margin_summary(data, as_json))
     else:
-        st = margin_stage(cfg, _outdir(cfg, outdir, gains), gains, lyapunov, on_step=stage_lines(obj.quiet, obj.detail))
+        st = margin_stage(cfg, _outdir(cfg, outdir, gains), gains, lyapunov, on_step=obj.stages())
         data = st.data
         if not as_json:
             obj.show(console.margin_summary(st))
@@ -497,10 +499,10 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
 
 @main.command("identify")
 @_verbosity
-@click.argument("logs", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
-@click.option("-o", "--output", "out", type=click.Path(dir_okay=False, path_type=Path), default=None,
+@LOGS_ARG
+@click.option("-o", "--output", "out", type=FILE, default=None,
               help="Write the config fragment here, with <stem>.md and <stem>.png beside it [default: print it].")
-@click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path), default=None,
+@click.option("--config", "config", type=FILE, default=None,
               help="The robot's config (gear radius, track distance) [default: the embedded default].")
 @click.option("--model", type=click.Choice(["tracks", "icr"]), default="tracks", show_default=True,
               help="Slip description to identify (tracks: one traction factor per track; icr: also the yaw factor "
@@ -516,7 +518,7 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
 @click.option("--settle", type=_FINITE_NONNEG, default=0.0, show_default=True, metavar="SECONDS",
               help="Skip the periods within this long after a command change (a robot with dynamics is still settling "
                    "there: the excitation logs of validate --excite on the physics robot want 1).")
-@click.option("--no-plots", is_flag=True, help="Skip the figure.")
+@NO_FIGURE_OPT
 @click.pass_obj
 @_guard
 def identify_cmd(obj: _Ctx, logs: tuple[Path, ...], out: Path | None, config: Path | None, model: str, coverage: float,
@@ -542,10 +544,9 @@ def identify_cmd(obj: _Ctx, logs: tuple[Path, ...], out: Path | None, config: Pa
 
 @main.command("check-log")
 @_verbosity
-@click.argument("logs", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="The config whose assumptions are checked.")
-@click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), default=None,
+@LOGS_ARG
+@click.option("--config", "config", type=FILE, default=None, help="The config whose assumptions are checked.")
+@click.option("--gains", "gains", type=FILE, default=None,
               help="Check the assumptions of the config stored in this gains file instead.")
 @click.option("--tolerance", type=click.FloatRange(0.0, 1.0), default=0.005, show_default=True,
               help="Fraction of samples allowed outside an assumption before it counts as violated.")
@@ -579,13 +580,12 @@ def check_log_cmd(obj: _Ctx, logs: tuple[Path, ...], config: Path | None, gains:
 
 @main.command("monitor")
 @_verbosity
-@click.argument("logs", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), required=True,
+@LOGS_ARG
+@click.option("--gains", "gains", type=FILE, required=True,
               help="The gains file whose certificate the monitor watches.")
-@click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path), default=None,
+@click.option("--config", "config", type=FILE, default=None,
               help="The config (its path, network, slip box, monitor settings) [default: the one stored in --gains].")
-@click.option("-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="Also write monitor.json (every alarm, per log) here.")
+@click.option("-o", "--outdir", type=DIR, default=None, help="Also write monitor.json (every alarm, per log) here.")
 @click.pass_obj
 @_guard
 def monitor_cmd(obj: _Ctx, logs: tuple[Path, ...], gains: Path, config: Path | None, outdir: Path | None) -> int:
@@ -604,9 +604,8 @@ def monitor_cmd(obj: _Ctx, logs: tuple[Path, ...], gains: Path, config: Path | N
 
 @main.command("validate")
 @_verbosity
-@click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="The gains file to validate (not with --excite).")
+@click.argument("config", type=FILE)
+@click.option("--gains", "gains", type=FILE, default=None, help="The gains file to validate (not with --excite).")
 @click.option("--excite", is_flag=True,
               help="Instead: drive the robot open loop (turns at several rates, speed changes) and write the "
                    "episodes as robot logs for identify (with the config's verification.noise on the poses).")
@@ -618,9 +617,8 @@ def monitor_cmd(obj: _Ctx, logs: tuple[Path, ...], gains: Path, config: Path | N
 @click.option("--engine", type=click.Choice(["physics", "kinematic"]), default="physics", show_default=True,
               help="physics: MuJoCo (slip from contact); kinematic: the model's own robot, one slip per episode from the "
                    "box (--excite: the simulator's slip profiles, a new slip every period or few).")
-@click.option("-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="Output directory (default results/<name>/validation).")
-@click.option("--no-plots", is_flag=True, help="Skip the figure.")
+@click.option("-o", "--outdir", type=DIR, default=None, help="Output directory (default results/<name>/validation).")
+@NO_FIGURE_OPT
 @click.option("--inject", type=click.Choice(["delay", "losses", "friction", "push", "command"]), default=None,
               help="Break one of the certificate's assumptions in every episode, to see the runtime monitor flag it: "
                    "delay (a command SIZE s beyond tau_max), losses (SIZE commands beyond the cap in a row), friction "
@@ -678,16 +676,15 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
 
 @main.command("export")
 @_verbosity
-@click.argument("gains", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("gains", type=FILE)
 @click.option("--to", "target", type=click.Choice(["c", "python", "ros2", "json"]), required=True,
               help="c: rs_controller.h/.c (C99, no heap) + rs_harness.c; python: rs_controller.py (no numpy); "
                    "ros2: a ros__parameters YAML, rs_node.py (an rclpy node running the law and its monitor) and "
                    "rs_controller.py; json: the controller description.")
-@click.option("-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), required=True,
-              help="Directory for the generated files.")
-@click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path), default=None,
+@click.option("-o", "--outdir", type=DIR, required=True, help="Directory for the generated files.")
+@click.option("--config", "config", type=FILE, default=None,
               help="Take the path from this config [default: the config stored in GAINS].")
-@click.option("--verification", "verification", type=click.Path(dir_okay=False, path_type=Path), default=None,
+@click.option("--verification", "verification", type=FILE, default=None,
               help="The verification record of GAINS [default: verification.json beside GAINS, written by "
                    "`robustsynth verify`; it names the gain it verified].")
 @click.option("--allow-unverified", is_flag=True,
@@ -721,8 +718,8 @@ def export_cmd(obj: _Ctx, gains: Path, target: str, outdir: Path, config: Path |
 
 @main.command("sweep")
 @_verbosity
-@click.argument("spec", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
+@click.argument("spec", type=FILE)
+@click.option("-o", "--outdir", type=DIR, default=None,
               help="Output directory [default: results/sweeps/<sweep file name>/].")
 @click.option("--verify", "verify_runs", type=click.IntRange(min=1, max=100_000), default=None, metavar="RUNS",
               help="Also verify each certified gain with RUNS Monte Carlo runs.")
