@@ -20,6 +20,15 @@ DEFAULT = str(ROOT / "configs" / "default.yaml")
 TRACKS = str(ROOT / "configs" / "tracks-box.yaml")
 
 
+# the certified figures of _robot_gains() and the gain of _lti_gains(), as synthesize and run print them
+ROBOT_CERTIFIED = ("certified (ultimate-bound): decay rate 0.9123, |e_x| <= 1.23 cm, |e_y| <= 4.56 cm, "
+                   "|e_theta| <= 0.0789 rad, |rho| <= 10.500 rad/s")
+LTI_GAIN = ("certified (ultimate-bound, d = 2): V+ <= 0.9500 V + 0.0500 (invariant, attracting set), |angle| <= 0.123 "
+            "rad, from rest within |x| <= 1.5, inputs within |voltage| <= 12\n"
+            "robust stability of this gain, delay_max: configured 0.01, certified at least 0.0123, exhibited 0.02 "
+            "(witness: period 3, delays [0.01, lost, 0.02], spectral radius 1.000123) [s]; searched to 0.05\n")
+
+
 def _invoke(args: list[str]) -> tuple[int, str, str]:
     r = CliRunner().invoke(main, args)
     if r.exception is not None and not isinstance(r.exception, SystemExit):
@@ -104,20 +113,14 @@ def test_synthesize(monkeypatch, tmp_path) -> None:
     _patch(monkeypatch, "robustsynth.model", build_model=lambda cfg: None)
     _patch(monkeypatch, "robustsynth.pipeline", synthesis_stage=lambda *a, **k: st)
     assert _invoke(["synthesize", DEFAULT, "-o", str(tmp_path)]) == (0, (
-        "certified (ultimate-bound): decay rate 0.9123, |e_x| <= 1.23 cm, |e_y| <= 4.56 cm, |e_theta| <= 0.0789 rad, "
-        "|rho| <= 10.500 rad/s, for the nonlinear robot (|e_theta(t)| <= 0.5 rad)\n"
+        ROBOT_CERTIFIED + ", for the nonlinear robot (|e_theta(t)| <= 0.5 rad)\n"
         "note: first note\nnote: second note\n"
         "where the design is stuck (one re-synthesis per relaxed constraint; see synthesis.md):\n"
         "  motor limit x2: |e_y| <= 3.12 cm (-31 %)\n  slip range halved: infeasible\n"
         "wrote g.json, s.md\n"), "")
     res = {"cleared": [], "gains": _lti_gains(), "files": ["g.json"]}
     _patch(monkeypatch, "robustsynth.pipeline_lti", lti_synthesis_stage=lambda *a, **k: res)
-    assert _invoke(["synthesize", LTI, "-o", str(tmp_path)]) == (0, (
-        "certified (ultimate-bound, d = 2): V+ <= 0.9500 V + 0.0500 (invariant, attracting set), |angle| <= 0.123 rad, "
-        "from rest within |x| <= 1.5, inputs within |voltage| <= 12\n"
-        "robust stability of this gain, delay_max: configured 0.01, certified at least 0.0123, exhibited 0.02 (witness: "
-        "period 3, delays [0.01, lost, 0.02], spectral radius 1.000123) [s]; searched to 0.05\n"
-        "wrote g.json\n"), "")
+    assert _invoke(["synthesize", LTI, "-o", str(tmp_path)]) == (0, LTI_GAIN + "wrote g.json\n", "")
 
 
 def test_verify(monkeypatch, tmp_path) -> None:
@@ -169,8 +172,7 @@ def test_run(monkeypatch, tmp_path) -> None:
     _patch(monkeypatch, "robustsynth.runtime.export", export_controller=lambda *a: (proof, [Path("x.c"), Path("x.h")]))
     o = tmp_path / "r"
     assert _invoke(["run", DEFAULT, "-o", str(o), "--physics", "3", "--export", "c"]) == (1, (
-        "certified (ultimate-bound): decay rate 0.9123, |e_x| <= 1.23 cm, |e_y| <= 4.56 cm, |e_theta| <= 0.0789 rad, "
-        "|rho| <= 10.500 rad/s\n"
+        ROBOT_CERTIFIED + "\n"
         "verification passed: 4 checks, 20 Monte Carlo runs; worst/certified: e_x 0.412, e_y 0.733\n"
         "[validate on the physics robot]\n"
         "physics robot (MuJoCo, 3 episodes, straight): observed/certified e_x 0.50, e_theta 0.25; validation FAILED\n"
@@ -183,11 +185,7 @@ def test_run(monkeypatch, tmp_path) -> None:
         f"{o / 'gains.json'} --to python --allow-unverified exports it marked UNVERIFIED)", f"report: {o / 'report.md'}"]
     res = {"synthesis": {"cleared": [], "gains": _lti_gains()}, "verification": _lti_checks(True)}
     _patch(monkeypatch, "robustsynth.pipeline_lti", lti_run=lambda *a, **k: res)
-    assert _invoke(["run", LTI, "-o", str(o)]) == (0, (
-        "certified (ultimate-bound, d = 2): V+ <= 0.9500 V + 0.0500 (invariant, attracting set), |angle| <= 0.123 rad, "
-        "from rest within |x| <= 1.5, inputs within |voltage| <= 12\n"
-        "robust stability of this gain, delay_max: configured 0.01, certified at least 0.0123, exhibited 0.02 (witness: "
-        "period 3, delays [0.01, lost, 0.02], spectral radius 1.000123) [s]; searched to 0.05\n"
+    assert _invoke(["run", LTI, "-o", str(o)]) == (0, LTI_GAIN + (
         "verification passed: 2 checks, 8 starts on the set's boundary x 2 delay families; invariance 0.98, outputs 1.2\n"
         f"report: {o / 'report.md'}\n"), "")
 

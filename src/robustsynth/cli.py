@@ -1,12 +1,12 @@
-"""Command-line interface: parses options, calls one library function, maps errors to exit codes.
+"""Command-line interface: parses options, calls one library function, prints the summary lines
+:mod:`.report.console` makes of its result, maps errors to exit codes.
 
-No mathematics here; heavy modules are imported inside the commands.
+No mathematics and no formatting of results here; heavy modules are imported inside the commands.
 """
 
 from __future__ import annotations
 
 import math
-import os
 import sys
 from pathlib import Path
 from typing import Any, Callable
@@ -15,7 +15,7 @@ import click
 
 from . import __version__
 from .artifacts.inputs import NewDirs
-from .errors import (EXIT_BROKEN_PIPE, EXIT_INTERRUPTED, EXIT_OK, Interrupted, RobustSynthError, check_interrupt,
+from .errors import (EXIT_INTERRUPTED, EXIT_OK, Interrupted, RobustSynthError, check_interrupt, exit_broken_pipe,
                      exit_leaving_solves, install_signal_handlers, pending_interrupt)
 from .report.progress import Heartbeat, progress_bar, stage_lines, stop_heartbeats, sweep_counts
 
@@ -55,15 +55,6 @@ class _Ctx:
                 click.echo(line, err=True)
             else:
                 self.say(line)
-
-
-def _quiet_stdout() -> None:
-    """After a broken pipe: point stdout at /dev/null so the interpreter's final flush is silent."""
-    try:
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
-    except (OSError, ValueError):
-        pass
 
 
 def _exit_interrupted(exc: Interrupted) -> None:
@@ -118,8 +109,7 @@ def _guard(fn: Callable[..., int | None]) -> Callable[..., None]:
             click.echo("interrupted", err=True)
             exit_leaving_solves(EXIT_INTERRUPTED)
         except BrokenPipeError:
-            _quiet_stdout()
-            sys.exit(EXIT_BROKEN_PIPE)
+            exit_broken_pipe()
         except Exception as exc:
             _exit_if_signalled()
             if not isinstance(exc, RobustSynthError):
@@ -765,8 +755,7 @@ def entry() -> None:
     except Interrupted as exc:
         _exit_interrupted(exc)
     except BrokenPipeError:
-        _quiet_stdout()
-        sys.exit(EXIT_BROKEN_PIPE)
+        exit_broken_pipe()
     except click.ClickException as exc:  # usage errors: one line with click's message, exit 2
         if type(exc).__name__ == "NoArgsIsHelpError":  # bare `robustsynth`: the help itself, as click shows it
             exc.show()

@@ -28,6 +28,7 @@ __all__ = [
     "check_interrupt",
     "install_signal_handlers",
     "exit_leaving_solves",
+    "exit_broken_pipe",
 ]
 
 EXIT_OK = 0
@@ -159,3 +160,13 @@ def exit_leaving_solves(code: int) -> None:
         sys.stderr.flush()
         os._exit(code)
     sys.exit(code)
+
+
+def exit_broken_pipe() -> None:
+    """Exit 141 after a broken pipe, stdout pointed at /dev/null first so the interpreter's final flush is silent."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+    sys.exit(EXIT_BROKEN_PIPE)
