@@ -23,7 +23,8 @@ FILE = click.Path(dir_okay=False, path_type=Path)
 DIR = click.Path(file_okay=False, path_type=Path)
 CONFIG_ARG = click.argument("config", required=False, type=FILE)
 LOGS_ARG = click.argument("logs", nargs=-1, required=True, type=FILE)
-OUTDIR_OPT = click.option("-o", "--outdir", type=DIR, default=None, help="Output directory [default: results/<config name>/].")
+OUTDIR_OPT = click.option("-o", "--outdir", type=DIR, default=None,
+                          help="Output directory [default: results/<config name>/].")
 GAINS_OUTDIR_OPT = click.option("-o", "--outdir", type=DIR, default=None,
                                 help="Output directory [default: the directory of --gains, else results/<config name>/].")
 NO_FIGURE_OPT = click.option("--no-plots", is_flag=True, help="Skip the figure.")
@@ -378,8 +379,7 @@ def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
         if logdir is not None:
             from .pipeline import write_run_logs
 
-            logs = write_run_logs(st.model, st.result, logdir)
-            obj.say(f"wrote {len(logs)} run logs to {logdir}/")
+            obj.say(console.logs_line(write_run_logs(st.model, st.result, logdir), logdir))
     return EXIT_OK if st.result.passed else EXIT_VERIFICATION_FAILED
 
 
@@ -413,8 +413,7 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
         from .pipeline_lti import lti_run
 
         res = lti_run(cfg, out, config, obj.stages(), objective, solver, runs, seed, plots=not no_plots)
-        obj.show(console.cleared(out, tuple(res["synthesis"]["cleared"])) + console.lti_gain_lines(res["synthesis"]["gains"])
-                 + console.lti_checks(res["verification"]) + [f"report: {out / 'report.md'}"])
+        obj.show(console.lti_run_summary(out, res))
         return EXIT_OK if res["verification"]["passed"] else EXIT_VERIFICATION_FAILED
     stage = obj.stages()  # the stages and each step of the synthesis (a heartbeat between them, on a terminal)
     with progress_bar(obj.quiet, stage if isinstance(stage, Heartbeat) else None) as cb:

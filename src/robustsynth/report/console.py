@@ -14,9 +14,10 @@ from .markdown import fmt
 
 __all__ = ["Err", "wrote", "cleared", "model_summary", "lti_model_summary", "synthesis_summary",
            "lti_synthesis_summary", "lti_gain_lines", "robot_certified", "verification_summary",
-           "lti_verification_summary", "robot_checks", "lti_checks", "run_summary", "physics_line", "run_export_lines",
-           "margin_summary", "lti_margin_summary", "lti_margin", "check_log_summary", "violated", "monitor_summary",
-           "excitation_summary", "validation_summary", "export_summary", "sweep_summary", "identified_line"]
+           "lti_verification_summary", "robot_checks", "lti_checks", "run_summary", "logs_line", "lti_run_summary",
+           "physics_line", "run_export_lines", "margin_summary", "lti_margin_summary", "lti_margin",
+           "check_log_summary", "violated", "monitor_summary", "excitation_summary", "validation_summary",
+           "export_summary", "sweep_summary", "identified_line"]
 
 
 class Err(str):
@@ -202,6 +203,17 @@ def run_summary(out: Path, res: Any) -> list[str]:
     """`run` (a pipeline.RunResult): the certified figures, the diagnosis, the verification."""
     return (cleared(out, res.model.cleared) + [robot_certified(res.synthesis.gains)] + _diagnosis(res.synthesis.diagnosis)
             + robot_checks(res.verification.result, res.verification.model.config))
+
+
+def logs_line(logs: Sequence[Any], logdir: Path) -> str:
+    """verify --log: the run logs written."""
+    return f"wrote {len(logs)} run logs to {logdir}/"
+
+
+def lti_run_summary(out: Path, res: Mapping[str, Any]) -> list[str]:
+    """`run` on a linear plant (pipeline_lti.lti_run): the gain, its verification, the report."""
+    return (cleared(out, tuple(res["synthesis"]["cleared"])) + lti_gain_lines(res["synthesis"]["gains"])
+            + lti_checks(res["verification"]) + [f"report: {out / 'report.md'}"])
 
 
 def physics_line(vd: Mapping[str, Any], episodes: int) -> str:
