@@ -245,9 +245,9 @@ def test_verbose_synthesis_prints_the_search(tmp_path) -> None:
 
 
 def test_progress_bar_starts_with_the_first_report() -> None:
-    from robustsynth.cli import _LazyBar
+    from robustsynth.report.progress import LazyBar
 
-    bar = _LazyBar()
+    bar = LazyBar()
     assert bar.bar is None  # nothing before the Monte Carlo starts: its ETA counts the simulation only
     bar(1, 100)
     assert bar.bar is not None and bar.last == 1
@@ -347,15 +347,15 @@ def test_a_long_stage_gets_a_line_at_least_every_heartbeat(monkeypatch, capsys) 
     to 1.5 s (the thread looks once a second) and 4.5 s without a step; once stopped, it says nothing more."""
     import time
 
-    from robustsynth import cli
+    from robustsynth.report import progress
 
-    monkeypatch.setattr(cli, "HEARTBEAT_S", 1.5)
-    say = cli._Heartbeat()
+    monkeypatch.setattr(progress, "HEARTBEAT_S", 1.5)
+    say = progress.Heartbeat()
     say("step one")
     say.open_line = True  # as a rewritten count line (sweep) leaves it: the first beat goes below it
     time.sleep(4.5)
     say("step two")
-    cli._stop_heartbeats()  # as every command does when it ends: no line after its last one
+    progress.stop_heartbeats()  # as every command does when it ends: no line after its last one
     time.sleep(2.0)
     err = capsys.readouterr().err.splitlines()
     assert err[0] == "step one" and err[-1] == "step two"

@@ -1,14 +1,12 @@
-"""Command-line interface: parses options, calls one library function, maps errors to exit codes.
+"""Command-line interface: parses options, calls one library function, prints the summary lines
+:mod:`.report.console` makes of its result, maps errors to exit codes.
 
-No mathematics here; heavy modules are imported inside the commands.
+No mathematics and no formatting of results here; heavy modules are imported inside the commands.
 """
 
 from __future__ import annotations
 
 import math
-import os
-import signal
-import time
 import sys
 from pathlib import Path
 from typing import Any, Callable
@@ -16,17 +14,20 @@ from typing import Any, Callable
 import click
 
 from . import __version__
-from .errors import EXIT_INTERRUPTED, EXIT_OK, Interrupted, RobustSynthError, check_interrupt, on_signal, pending_interrupt
+from .artifacts.inputs import NewDirs
+from .errors import (EXIT_INTERRUPTED, EXIT_OK, Interrupted, RobustSynthError, check_interrupt, exit_broken_pipe,
+                     exit_leaving_solves, install_signal_handlers, pending_interrupt)
+from .report.progress import Heartbeat, progress_bar, stage_lines, stop_heartbeats, sweep_counts
 
-CONFIG_ARG = click.argument("config", required=False, type=click.Path(dir_okay=False, path_type=Path))
-OUTDIR_OPT = click.option(
-    "-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
-    help="Output directory [default: results/<config name>/].",
-)
-GAINS_OUTDIR_OPT = click.option(
-    "-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
-    help="Output directory [default: the directory of --gains, else results/<config name>/].",
-)
+FILE = click.Path(dir_okay=False, path_type=Path)
+DIR = click.Path(file_okay=False, path_type=Path)
+CONFIG_ARG = click.argument("config", required=False, type=FILE)
+LOGS_ARG = click.argument("logs", nargs=-1, required=True, type=FILE)
+OUTDIR_OPT = click.option("-o", "--outdir", type=DIR, default=None,
+                          help="Output directory [default: results/<config name>/].")
+GAINS_OUTDIR_OPT = click.option("-o", "--outdir", type=DIR, default=None,
+                                help="Output directory [default: the directory of --gains, else results/<config name>/].")
+NO_FIGURE_OPT = click.option("--no-plots", is_flag=True, help="Skip the figure.")
 
 
 class _Ctx:
@@ -42,40 +43,25 @@ class _Ctx:
         if self.verbose and not self.quiet:
             click.echo(msg, err=True)
 
+    def stages(self) -> Callable[[str], None]:
+        """The stage lines of a long command (report.progress.stage_lines)."""
+        return stage_lines(self.quiet, self.detail)
 
-EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE: the reader went away (e.g. `| head`)
+    def show(self, lines: list[str]) -> None:
+        """A command's summary (report.console): an Err line on stderr (also under --quiet), the others on stdout."""
+        from .report.console import Err
 
-
-def _quiet_stdout() -> None:
-    """After a broken pipe: point stdout at /dev/null so the interpreter's final flush is silent."""
-    try:
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
-    except (OSError, ValueError):
-        pass
+        for line in lines:
+            if isinstance(line, Err):
+                click.echo(line, err=True)
+            else:
+                self.say(line)
 
 
 def _exit_interrupted(exc: Interrupted) -> None:
-    _remove_empty_new_dirs()
+    _NEW_DIRS.remove_empty()
     click.echo(f"{exc}", err=True)
-    _exit_leaving_solves(exc.exit_code)
-
-
-def _exit_leaving_solves(code: int) -> None:
-    """Exit with ``code``.  A solve the interrupt gave up may still run in its thread (synthesis.solve._in_threads);
-    the interpreter's shutdown would unwind that thread through the solver's native frames (Clarabel's Rust then
-    aborts: 'FATAL: exception not rethrown', exit -6, measured in bench_interrupts).  Such a thread is given
-    SOLVE_GRACE_S to end (Clarabel's stops at its next iteration); one still running is left to the OS:
-    the process ends without the interpreter's shutdown (every file is committed or removed by now)."""
-    solve = sys.modules.get("robustsynth.synthesis.solve")
-    if solve is not None and not solve.abandoned_solves_ended(SOLVE_GRACE_S):
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(code)
-    sys.exit(code)
-
-
-SOLVE_GRACE_S = 2.0
+    exit_leaving_solves(exc.exit_code)
 
 
 def _exit_if_signalled() -> None:
@@ -114,23 +100,22 @@ def _guard(fn: Callable[..., int | None]) -> Callable[..., None]:
             try:
                 code = fn(*args, **kwargs)
             finally:
-                _stop_heartbeats()  # none speaks after the command's last line ('interrupted', an error)
+                stop_heartbeats()  # none speaks after the command's last line ('interrupted', an error)
             sys.stdout.flush()
             check_interrupt()  # a signal whose exception Python swallowed (see errors.on_signal)
         except Interrupted as exc:
             _exit_interrupted(exc)
         except KeyboardInterrupt:
-            _remove_empty_new_dirs()
+            _NEW_DIRS.remove_empty()
             click.echo("interrupted", err=True)
-            _exit_leaving_solves(EXIT_INTERRUPTED)
+            exit_leaving_solves(EXIT_INTERRUPTED)
         except BrokenPipeError:
-            _quiet_stdout()
-            sys.exit(EXIT_BROKEN_PIPE)
+            exit_broken_pipe()
         except Exception as exc:
             _exit_if_signalled()
             if not isinstance(exc, RobustSynthError):
                 raise
-            _remove_empty_new_dirs()
+            _NEW_DIRS.remove_empty()
             click.echo(f"error: {exc}", err=True)
             sys.exit(exc.exit_code)
         sys.exit(EXIT_OK if code is None else code)
@@ -160,104 +145,36 @@ def _load(config: Path | None, lti_ok: bool = False):
 
 
 def _not_a_config(path: Path, option: str | None = None) -> None:
-    """InputError in one line when the file given as a config is one robustsynth wrote (a gains file given where
-    CONFIG goes had printed 18 validation errors, issue 50); nothing when it is not."""
-    from .errors import InputError
+    """One line when a file robustsynth wrote is given as a config (artifacts.inputs.not_a_config)."""
+    from .artifacts.inputs import not_a_config
 
-    from .artifacts.gains import written_by_robustsynth
-
-    found = written_by_robustsynth(path)
-    if found is None:
-        return
-    what, data = found
-    where = f"{option}: {path}" if option else str(path)
-    inside = " (the config it was made with is stored inside, under 'config')" if isinstance(data.get("config"), dict) else ""
-    if what == "gains file":
-        ctx = click.get_current_context(silent=True)
-        takes_gains = ctx is not None and any(p.name == "gains" for p in ctx.command.params)
-        if option == "--config" and ctx is not None and ctx.info_name == "export":
-            raise InputError(f"{where}: this is a gains file, not a config: give it as GAINS (its config is stored inside)")
-        if takes_gains:
-            raise InputError(f"{where}: this is a gains file, not a config: use --gains {path} (its config is stored inside)")
-        cmd = f"`robustsynth {ctx.info_name}`" if ctx is not None else "this"
-        raise InputError(f"{where}: this is a gains file, not a config: {cmd} takes a config YAML (the gain's own "
-                         "config is stored inside the gains file, under 'config')")
-    raise InputError(f"{where}: this is a {what}, not a config: pass the config YAML{inside}")
+    ctx = click.get_current_context(silent=True)
+    not_a_config(path, option, None if ctx is None else ctx.info_name,
+                 ctx is not None and any(p.name == "gains" for p in ctx.command.params))
 
 
-_NEW_DIRS: list[Path] = []  # output directories this command creates: removed again if it fails and leaves them empty
+_NEW_DIRS = NewDirs()  # output directories this command creates: removed again if it fails and leaves them empty
 
 
-def _outdir(cfg: Any, outdir: Path | None) -> Path:
+def _outdir(cfg: Any, outdir: Path | None, gains: Path | None = None) -> Path:
+    """-o if given, else beside --gains (the files belong to that gain), else results/<name>/."""
     from .pipeline import default_outdir
 
-    return _note_new(outdir if outdir is not None else default_outdir(cfg))
+    return _NEW_DIRS.note(outdir if outdir is not None else gains.parent if gains is not None else default_outdir(cfg))
 
 
-def _note_new(out: Path) -> Path:
-    """Record the directories of ``out`` that do not exist yet (deepest first, so that each is empty when its
-    turn comes), for :func:`_remove_empty_new_dirs`.  The path is resolved first ('a/ghost/../kept' is
-    'a/kept', a symlink's '..' its target's parent); one the system cannot even look at (too long, no
-    permission) is left to the stage, whose error names it."""
-    p = Path(os.path.realpath(out))  # symlinks followed, then '..' (as the system resolves it)
-    try:
-        while not p.exists() and p != p.parent:
-            _NEW_DIRS.append(p)
-            p = p.parent
-    except OSError:
-        pass
-    return out
+def _gains_config(obj: _Ctx, config: Path | None, gains: Path | None, said: str) -> Any:
+    """CONFIG, else the config stored in --gains when it is another than the default one, ``said`` in one line."""
+    from .artifacts.inputs import gains_own_config, needs_its_config
 
-
-def _remove_empty_new_dirs() -> None:
-    """A failed command leaves no empty directory it made (review, stop 47: `synthesize` exiting 3 left one)."""
-    for d in _NEW_DIRS:
-        try:
-            d.rmdir()  # only when empty: whatever a stage wrote and kept stays
-        except OSError:
-            pass
-
-
-def _needs_its_config(config: Path | None, gains: Path | None, command: str) -> None:
-    """Without CONFIG the tracked robot's default config is used: a linear plant's gains file with it is
-    a mistake whose error would speak of the robot's shapes; say what is missing instead."""
+    needs_its_config(config, gains, click.get_current_context().info_name)
+    cfg = _load(config, lti_ok=True)
     if config is not None or gains is None:
-        return
-    from .artifacts.gains import load_gains
-    from .errors import InputError
-
-    try:
-        kind = load_gains(gains).get("kind")
-    except (InputError, OSError, ValueError, AttributeError):
-        return  # the command's own loading reports what is wrong with the file
-    if kind == "lti":
-        raise InputError(f"--gains: {gains} is a linear plant's gain (kind: lti): pass its config too "
-                         f"(robustsynth {command} CONFIG --gains {gains})")
-
-
-def _stored_config_instead(obj: Any, default: Any, gains: Path) -> Any:
-    """Without CONFIG: the config stored in the gains file when it is another than the default one (the
-    gain's margins against the default robot, network and slip had been reported silently), said in one line."""
-    from .artifacts.gains import load_gains, stored_config
-    from .config import config_to_dict
-    from .errors import InputError
-
-    try:
-        gd = load_gains(gains)
-    except (InputError, OSError):
-        return default  # the command's own loading reports what is wrong with the file
-    stored = stored_config(gd)  # an invalid one: InputError naming it (review)
-    if stored is None or config_to_dict(stored) == config_to_dict(default):
-        return default
-    obj.say(f"config: the one stored in {gains} ({stored.name!r}); pass CONFIG to take the gain's margins on another")
+        return cfg
+    stored = gains_own_config(cfg, gains)
+    if stored is not cfg:
+        obj.say(f"config: the one stored in {gains} ({stored.name!r}){said}")
     return stored
-
-
-def _gains_outdir(cfg: Any, outdir: Path | None, gains: Path | None) -> Path:
-    """-o if given, else beside --gains (the files belong to that gain), else results/<name>/."""
-    if outdir is not None:
-        return _note_new(outdir)
-    return _note_new(gains.parent) if gains is not None else _outdir(cfg, None)
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -275,30 +192,7 @@ def main(ctx: click.Context, quiet: bool, verbose: bool) -> None:
     130 interrupted (Ctrl-C), 143 terminated (SIGTERM).
     """
     ctx.obj = _Ctx(quiet, verbose)
-    _install_signal_handlers()
-
-
-_DEFAULT_UNRAISABLE = sys.unraisablehook
-
-
-def _unraisable(info: Any) -> None:
-    """An interrupt raised where Python cannot propagate it (a weakref callback during an import)
-    is not printed: it was recorded, and the next checkpoint raises it (errors.on_signal)."""
-    if isinstance(info.exc_value, Interrupted):
-        return
-    _DEFAULT_UNRAISABLE(info)
-
-
-def _install_signal_handlers() -> None:
-    """SIGINT and SIGTERM stop the command (exit 130 / 143, see errors.on_signal); a file-size
-    limit makes a write fail (EFBIG, exit 2) instead of killing the process."""
-    try:
-        signal.signal(signal.SIGINT, on_signal)
-        signal.signal(signal.SIGTERM, on_signal)
-        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
-        sys.unraisablehook = _unraisable
-    except ValueError:  # not the main thread (e.g. an embedding application)
-        pass
+    install_signal_handlers()
 
 
 def _set_flag(ctx: click.Context, param: click.Parameter, value: bool) -> None:
@@ -354,32 +248,16 @@ def build_model_cmd(obj: _Ctx, config: Path | None, outdir: Path | None) -> None
     """
     from .config import is_lti
     from .pipeline import model_stage
+    from .report import console
 
     cfg = _load(config, lti_ok=True)
     out = _outdir(cfg, outdir)
     if is_lti(cfg):
         from .pipeline_lti import lti_model_stage
 
-        data = lti_model_stage(cfg, out, config)
-        _say_cleared(obj, out, tuple(data["cleared"]))
-        cov = data["coverage"]
-        obj.say(f"model '{cfg.name}' (linear plant): n={data['n']} m={data['m']} d_hi={data['lifting']} "
-                f"n_s={data['lifted_states']} pieces={data['pieces']} "
-                f"coverage={'ok' if cov['remainder_ratio'] <= 1 else 'FAILED'} "
-                f"(worst remainder / bound {cov['remainder_ratio']:.3f} on {int(cov['samples'])} instants, residual "
-                f"{cov['reconstruction']:.1e})")
-        _warn_uncontrollable(data["controllable"])
-        obj.say(f"wrote {', '.join(data['files'])}")
+        obj.show(console.lti_model_summary(cfg.name, out, lti_model_stage(cfg, out, config)))
         return
-    st = model_stage(cfg, out)
-    _say_cleared(obj, out, st.cleared)
-    m = st.model
-    obj.say(
-        f"model '{cfg.name}': d_lo={m.d_lo} d_hi={m.d_hi} n_s={m.n_s} "
-        f"uncertain instants={len(m.instants)} coverage={'ok' if st.coverage['passed'] else 'FAILED'} "
-        f"(max|Delta|={st.coverage['max_abs_delta']:.4f}, residual={st.coverage['max_residual']:.1e})"
-    )
-    obj.say(f"wrote {', '.join(str(p) for p in st.files)}")
+    obj.show(console.model_summary(cfg.name, out, model_stage(cfg, out)))
 
 
 SYNTH_OPTS = [
@@ -413,6 +291,7 @@ def synthesize(obj: _Ctx, config: Path | None, outdir: Path | None, objective: s
     from .config import is_lti
     from .model import build_model
     from .pipeline import synthesis_stage
+    from .report import console
 
     cfg = _load(config, lti_ok=True)
     out = _outdir(cfg, outdir)
@@ -420,58 +299,13 @@ def synthesize(obj: _Ctx, config: Path | None, outdir: Path | None, objective: s
         _lti_only(multiplier=multiplier, diagnose=diagnose)
         from .pipeline_lti import lti_synthesis_stage
 
-        res = lti_synthesis_stage(cfg, out, config, _stage_lines(obj), objective, solver)
-        _say_cleared(obj, out, tuple(res["cleared"]))
-        obj.say(_lti_certified_line(res["gains"]))
-        obj.say("robust stability of this gain, " + _lti_margin_line("delay_max", res["gains"]["delay_margin"]))
-        obj.say(f"wrote {', '.join(res['files'])}")
+        obj.show(console.lti_synthesis_summary(out, lti_synthesis_stage(cfg, out, config, obj.stages(), objective,
+                                                                         solver)))
         return
     obj.detail(f"building the model of '{cfg.name}'")
-    st = synthesis_stage(build_model(cfg), out, on_step=_stage_lines(obj), diagnose=diagnose, objective=objective,
-                         solver=solver, multiplier=multiplier)
-    _say_cleared(obj, out, st.cleared)
-    obj.say(_certified_line(st.gains))
-    for note in st.gains.get("notes") or ():
-        obj.say(f"note: {note}")
-    _say_diagnosis(obj, st.diagnosis)
-    obj.say(f"wrote {', '.join(str(p) for p in st.files)}")
-
-
-def _say_diagnosis(obj: _Ctx, diagnosis: list[Any] | None) -> None:
-    """Where the design is stuck, one line per relaxed constraint, the most effective first."""
-    if not diagnosis:
-        return
-    obj.say("where the design is stuck (one re-synthesis per relaxed constraint; see synthesis.md):")
-    for r in diagnosis:
-        obj.say(f"  {r.constraint}: " + (f"|e_y| <= {100 * r.e_y:.2f} cm ({100 * r.change:+.0f} %)"
-                                         if r.e_y is not None and r.change is not None else r.status))
-
-
-def _say_cleared(obj: _Ctx, out: Path, cleared: tuple[str, ...]) -> None:
-    """The files of another config a stage set aside (pipeline.clear_foreign: moved, not deleted)."""
-    if cleared:
-        where = Path(cleared[0]).parts[:2]
-        names = ", ".join(str(Path(*Path(c).parts[2:])) for c in cleared)
-        obj.say(f"set aside {len(cleared)} file(s) another config had left in {out}, under {out / Path(*where)}/ "
-                f"(nothing deleted): {names}")
-
-
-def _certified_line(gains: dict[str, Any]) -> str:
-    c = gains["certified"]
-    parts = [f"certified ({gains['objective']}):"]
-    if c.get("decay_rate") is not None:
-        parts.append(f"decay rate {c['decay_rate']:.4f}")
-    ub = c.get("ultimate_bound")
-    if ub:
-        parts.append(f"|e_x| <= {ub['e_x'] * 100:.2f} cm, |e_y| <= {ub['e_y'] * 100:.2f} cm, "
-                     f"|e_theta| <= {ub['e_theta']:.4f} rad")
-    if c.get("motor_speed_bound") is not None:
-        parts.append(f"|rho| <= {c['motor_speed_bound']:.3f} rad/s")
-    if c.get("hinf_gain") is not None:
-        parts.append(f"l2 gain {c['hinf_gain']:.4g}")
-    if gains.get("certificate", {}).get("kinematics") == "nonlinear":
-        parts.append(f"for the nonlinear robot (|e_theta(t)| <= {gains['certificate']['heading_bound']:g} rad)")
-    return " ".join(parts[:1]) + " " + ", ".join(parts[1:])
+    obj.show(console.synthesis_summary(out, synthesis_stage(build_model(cfg), out, on_step=obj.stages(),
+                                                            diagnose=diagnose, objective=objective, solver=solver,
+                                                            multiplier=multiplier)))
 
 
 def _lti_only(**robot_options: Any) -> None:
@@ -481,159 +315,6 @@ def _lti_only(**robot_options: Any) -> None:
         from .errors import InputError
 
         raise InputError(f"--{given[0]}: a robot synthesis option, not available for a linear plant")
-
-
-def _warn_uncontrollable(controllable: bool) -> None:
-    if not controllable:
-        click.echo("warning: plant: (A, B) is not controllable; a stabilizing gain may not exist", err=True)
-
-
-def _lti_certified_line(gd: dict[str, Any]) -> str:
-    c = gd["certified"]
-    if c.get("hinf_gain") is not None:
-        parts = [f"l2 gain {c['hinf_gain']:.4g} from the disturbance (per-period peak) to "
-                 + ", ".join(o["name"] for o in c["outputs"])]
-    elif c.get("disturbance_step_bound") is not None:
-        parts = [f"V+ <= {c['alpha']:.4f} V + {1 - c['alpha']:.4f} (invariant, attracting set)"]
-    else:
-        parts = [f"decay {c['decay']:.4f} per period"]
-    for o in c.get("outputs") or ():
-        if o.get("bound") is not None:
-            parts.append(f"|{o['name']}| <= {o['bound']:.4g} {o['unit']}")
-    if c.get("rest_radius") is not None:
-        parts.append(f"from rest within |x| <= {c['rest_radius']:.4g}")
-    if c.get("inputs"):
-        parts.append("inputs within " + ", ".join(f"|{u['name']}| <= {u['limit']:g}" for u in c["inputs"]))
-    return f"certified ({gd['objective']}, d = {gd['lifting']['d']}): " + ", ".join(parts)
-
-
-def _lti_margin_line(name: str, mg: dict[str, Any]) -> str:
-    """One margin of a linear plant's gain (margins_lti): configured, certified, exhibited, the witness, the note
-    (certified / exhibited and how far the search went)."""
-    from .report.markdown import fmt
-
-    def num(v: Any) -> str:
-        return "none" if v is None else fmt(v)
-
-    w = mg["witness"]
-    at_least = "at least " if mg.get("at_least") else ""
-    delays = ", ".join("lost" if x is None else fmt(x) for x in w["delays"]) if w else ""
-    return (f"{name}: configured {num(mg['configured'])}, certified {at_least}{num(mg['certified'])}, exhibited "
-            f"{num(mg['exhibited'])}" + (f" (witness: period {w['period']}, delays [{delays}], spectral radius "
-                                         f"{w['spectral_radius']:.6f})" if w else "")
-            + f" [{mg['unit']}]" + (f"; {mg['note']}" if mg.get("note") else ""))
-
-
-def _lti_report(obj: _Ctx, data: dict[str, Any]) -> None:
-    for c in data["checks"]:
-        if not c["ok"]:
-            click.echo(f"FAILED: {c['name']} (value {c['value']:.6g}, limit {c['limit']:g}): {c['detail']}", err=True)
-    worst = ", ".join(f"{c['name'].split(' (')[0]} {c['value']:.4g}" for c in data["checks"])
-    where = (f"{data['starts']} starts on the set's boundary x {len(data['families'])} delay families" if data["starts"]
-             else "delay sequences from rest")
-    obj.say(f"verification {'passed' if data['passed'] else 'FAILED'}: {len(data['checks'])} checks, {where}; {worst}")
-
-
-class _LazyBar:
-    """A Monte Carlo progress bar on stderr that starts at the first progress report, so that its
-    ETA is measured on the simulation alone (not on the model building and synthesis before it)."""
-
-    def __init__(self, heartbeat: "_Heartbeat | None" = None) -> None:
-        self.bar: Any = None
-        self.last = 0
-        self.heartbeat = heartbeat  # told of every update, so that it speaks only between the bar's phases
-        self._finished = False
-
-    def __call__(self, done: int, total: int) -> None:
-        if self.heartbeat is not None:
-            self.heartbeat.touch()
-        if self.bar is None:
-            self.bar = click.progressbar(length=100, label="Monte Carlo", file=sys.stderr)
-        pct = int(100 * done / max(total, 1))
-        self.bar.update(pct - self.last)
-        self.last = pct
-        if done >= total:  # the checks after the runs may take minutes: the heartbeat's lines go below the bar
-            self.render_finish()
-
-    def render_finish(self) -> None:
-        if self.bar is not None and not self._finished:
-            self.bar.render_finish()
-            self._finished = True
-
-
-HEARTBEAT_S = 10.0  # [s]: on a terminal, a line at least this often while a command works
-_HEARTBEATS: list["_Heartbeat"] = []  # the running command's (stopped when it ends: _guard)
-
-
-def _stop_heartbeats() -> None:
-    while _HEARTBEATS:
-        _HEARTBEATS.pop().close()
-
-
-class _Heartbeat:
-    """The stage lines of a long command, and a line of its own whenever HEARTBEAT_S pass without one (a solve
-    of a nonlinear certificate can take minutes: issue 50 found 12.6 minutes of silence).  A daemon thread that
-    only prints; it stops when the command ends (:func:`_stop_heartbeats`, called by ``_guard``)."""
-
-    def __init__(self) -> None:
-        import threading
-
-        self.t0 = self.last = time.monotonic()
-        self.lock = threading.Lock()
-        self.stopped = threading.Event()
-        self.open_line = False  # the last output was a line rewritten in place, without its newline
-        _HEARTBEATS.append(self)
-        threading.Thread(target=self._beat, daemon=True, name="robustsynth-heartbeat").start()
-
-    def close(self) -> None:
-        """No line after this one returns (the lock: a line being written is finished first)."""
-        with self.lock:
-            self.stopped.set()
-
-    def __call__(self, msg: str) -> None:
-        with self.lock:
-            self.last = time.monotonic()
-            click.echo(msg, err=True)
-
-    def rewrite(self, msg: str, end: bool) -> None:
-        """A line rewritten in place (``msg`` starts with a carriage return), finished with its newline at ``end``."""
-        with self.lock:
-            self.last = time.monotonic()
-            self.open_line = not end
-            click.echo(msg, nl=end, err=True)
-
-    def touch(self) -> None:
-        """Something else (a progress bar) showed progress just now."""
-        self.last = time.monotonic()
-
-    def _beat(self) -> None:
-        while not self.stopped.wait(1.0):
-            with self.lock:
-                now = time.monotonic()
-                if not self.stopped.is_set() and now - self.last >= HEARTBEAT_S:
-                    self.last = now
-                    if self.open_line:  # a rewritten line (a count) is on the terminal: below it
-                        click.echo("", err=True)
-                        self.open_line = False
-                    m, sec = divmod(int(now - self.t0), 60)
-                    click.echo(f"  ... still working ({m}:{sec:02d} since the start; Ctrl-C stops)", err=True)
-
-
-def _stage_lines(obj: _Ctx) -> Callable[[str], None]:
-    """Where a command can take long: its stages and steps as lines on stderr when that is a terminal
-    (and not --quiet), with a line at least every HEARTBEAT_S (:class:`_Heartbeat`); otherwise only with -v."""
-    if not obj.quiet and sys.stderr.isatty():
-        return _Heartbeat()
-    return obj.detail
-
-
-def _progress(obj: _Ctx, heartbeat: "_Heartbeat | None" = None):
-    """A progress bar on stderr when it is a terminal (and not --quiet), with a heartbeat line whenever
-    HEARTBEAT_S pass without an update (the checks after the Monte Carlo runs); else (None, None)."""
-    if obj.quiet or not sys.stderr.isatty():
-        return None, None
-    bar = _LazyBar(heartbeat if heartbeat is not None else _Heartbeat())
-    return bar, bar
 
 
 VERIFY_OPTS = [
@@ -651,40 +332,13 @@ def _verify_opts(fn):
     return fn
 
 
-def _report_checks(obj: _Ctx, result: Any, cfg: Any) -> None:
-    for c in result.checks:
-        if not c["passed"]:
-            what = f" (value {c['value']:.4g}, threshold {c['threshold']:.4g})" if isinstance(c.get("value"), (int, float)) \
-                and isinstance(c.get("threshold"), (int, float)) else ""
-            click.echo(f"FAILED: {c['name']}{what}" + (f": {c['detail']}" if c.get("detail") else ""), err=True)
-    mc = result.monte_carlo
-    ratios = ", ".join(f"{k} {v:.3f}" for k, v in mc["ratio_to_certified"].items())
-    obj.say(f"verification {'passed' if result.passed else 'FAILED'}: {len(result.checks)} checks, "
-            f"{mc['runs']} Monte Carlo runs" + (f"; worst/certified: {ratios}" if ratios else ""))
-    from .report.verification import robot_leaves
-
-    leaves = robot_leaves(mc, cfg)
-    if leaves:
-        obj.say(leaves)
-    turns = mc.get("turns") or []
-    bad = [t for t in turns if not t["certified"]]
-    if turns and all(t.get("note", "").startswith("along an arc") for t in turns):  # reference.turn_radius
-        obj.say(f"waypoint turns: {len(turns)} of {len(turns)} certified (arcs the certificate covers; the Monte Carlo "
-                "maxima include them)")
-    elif turns:
-        obj.say(f"waypoint turns (not in the verdict): {len(turns) - len(bad)} of {len(turns)} certified"
-                + (f"; waypoint {bad[0]['waypoint']}: {bad[0]['reason']} (reference.turn_radius rounds the corners "
-                   "into arcs the certificate can cover: docs/theory.md §10)" if bad else ""))
-
-
 @main.command("verify")
 @_verbosity
 @CONFIG_ARG
-@click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="Gains file [default: OUTDIR/gains.json].")
+@click.option("--gains", "gains", type=FILE, default=None, help="Gains file [default: OUTDIR/gains.json].")
 @GAINS_OUTDIR_OPT
 @_verify_opts
-@click.option("--log", "logdir", type=click.Path(file_okay=False, path_type=Path), default=None,
+@click.option("--log", "logdir", type=DIR, default=None,
               help="Also write each Monte Carlo run as a robot log (CSV, the format identify and check-log read) here.")
 @click.pass_obj
 @_guard
@@ -698,15 +352,10 @@ def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
     from .errors import EXIT_VERIFICATION_FAILED
     from .model import build_model
     from .pipeline import verification_stage
+    from .report import console
 
-    _needs_its_config(config, gains, "verify")
-    cfg = _load(config, lti_ok=True)
-    if config is None and gains is not None:  # the gain's own config, not the default one (as margin; issue 50)
-        stored = _stored_config_instead(_Ctx(True, False), cfg, gains)  # its line is margin's: verify says its own
-        if stored is not cfg:
-            obj.say(f"config: the one stored in {gains} ({stored.name!r}), the gain's own; pass CONFIG to verify it on another")
-        cfg = stored
-    out = _gains_outdir(cfg, outdir, gains)
+    cfg = _gains_config(obj, config, gains, ", the gain's own; pass CONFIG to verify it on another")  # issue 50
+    out = _outdir(cfg, outdir, gains)
     if is_lti(cfg):
         if logdir is not None:
             from .errors import InputError
@@ -715,8 +364,7 @@ def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
         from .pipeline_lti import lti_verification_stage
 
         data = lti_verification_stage(cfg, out, gains, config, runs, seed, plots=not no_plots, fmt=fmt)
-        _lti_report(obj, data)
-        obj.say(f"wrote {', '.join(data['files'])}")
+        obj.show(console.lti_verification_summary(data))
         return EXIT_OK if data["passed"] else EXIT_VERIFICATION_FAILED
     from contextlib import nullcontext
 
@@ -725,20 +373,13 @@ def verify_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
     # the log place is proven writable before the work (a review found exit 2 at the end), and removed
     # again if the work fails before any log is in it
     with writable_dir(logdir) if logdir is not None else nullcontext():
-        cb, bar = _progress(obj)
-        try:
+        with progress_bar(obj.quiet) as cb:
             st = verification_stage(build_model(cfg), out, gains, runs, seed, fmt, not no_plots, cb)
-        finally:
-            if bar is not None:
-                bar.render_finish()
-        _report_checks(obj, st.result, st.model.config)
-        obj.say(f"wrote {out / 'verification.json'}, {out / 'verification.md'}"
-                + (f" and {len(st.figures)} figures" if st.figures else ""))
+        obj.show(console.verification_summary(out, st))
         if logdir is not None:
             from .pipeline import write_run_logs
 
-            logs = write_run_logs(st.model, st.result, logdir)
-            obj.say(f"wrote {len(logs)} run logs to {logdir}/")
+            obj.say(console.logs_line(write_run_logs(st.model, st.result, logdir), logdir))
     return EXIT_OK if st.result.passed else EXIT_VERIFICATION_FAILED
 
 
@@ -763,6 +404,7 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
     from .config import is_lti
     from .errors import EXIT_VERIFICATION_FAILED
     from .pipeline import run
+    from .report import console
 
     cfg = _load(config, lti_ok=True)
     out = _outdir(cfg, outdir)
@@ -770,25 +412,14 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
         _lti_only(multiplier=multiplier, diagnose=diagnose)
         from .pipeline_lti import lti_run
 
-        res = lti_run(cfg, out, config, _stage_lines(obj), objective, solver, runs, seed, plots=not no_plots)
-        _say_cleared(obj, out, tuple(res["synthesis"]["cleared"]))
-        obj.say(_lti_certified_line(res["synthesis"]["gains"]))
-        obj.say("robust stability of this gain, " + _lti_margin_line("delay_max", res["synthesis"]["gains"]["delay_margin"]))
-        _lti_report(obj, res["verification"])
-        obj.say(f"report: {out / 'report.md'}")
+        res = lti_run(cfg, out, config, obj.stages(), objective, solver, runs, seed, plots=not no_plots)
+        obj.show(console.lti_run_summary(out, res))
         return EXIT_OK if res["verification"]["passed"] else EXIT_VERIFICATION_FAILED
-    stage = _stage_lines(obj)  # the stages and each step of the synthesis (a heartbeat between them, on a terminal)
-    cb, bar = _progress(obj, stage if isinstance(stage, _Heartbeat) else None)
-    try:
+    stage = obj.stages()  # the stages and each step of the synthesis (a heartbeat between them, on a terminal)
+    with progress_bar(obj.quiet, stage if isinstance(stage, Heartbeat) else None) as cb:
         res = run(cfg, out, runs, seed, fmt, not no_plots, cb, on_stage=lambda s: stage(f"[{s}]"), on_step=stage,
                   diagnose=diagnose, objective=objective, solver=solver, multiplier=multiplier)
-    finally:
-        if bar is not None:
-            bar.render_finish()
-    _say_cleared(obj, out, res.model.cleared)
-    obj.say(_certified_line(res.synthesis.gains))
-    _say_diagnosis(obj, res.synthesis.diagnosis)
-    _report_checks(obj, res.verification.result, res.verification.model.config)
+    obj.show(console.run_summary(out, res))
     passed = res.passed
     if physics:
         from .pipeline import validation_stage
@@ -796,20 +427,14 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
         obj.say("[validate on the physics robot]")
         vd = validation_stage(res.verification.model, out / "gains.json", out / "validation", episodes=physics,
                               plots=not no_plots)
-        ratios = ", ".join(f"{k} {v:.2f}" for k, v in vd["ratio_to_certified"].items() if v is not None)
-        obj.say(f"physics robot (MuJoCo, {physics} episodes, {vd['straight_rule'].split(' (')[0]}): observed/certified "
-                + (ratios or "(no certified bounds)") + f"; validation {'passed' if vd['passed'] else 'FAILED'}")
+        obj.say(console.physics_line(vd, physics))
         passed = passed and vd["passed"]
-    if export_to:
-        if not res.passed:  # not exported as a controller (issue 50); the exit code stays 1
-            obj.say(f"export skipped: verification failed, so the gain is not exported as a controller (robustsynth "
-                    f"export {out / 'gains.json'} --to {export_to} --allow-unverified exports it marked UNVERIFIED)")
-        else:  # export_controller reads the verification.json this run wrote beside gains.json
-            from .runtime.export import export_controller
+    if export_to:  # a failed verification is not exported as a controller (issue 50); the exit code stays 1
+        from .runtime.export import export_controller
 
-            d, files = export_controller(out / "gains.json", export_to, out / "export", None)
-            obj.say(f"exported ({export_to}; proven: {d['proof']['proven']}; verification: {d['proof']['verified']}): "
-                    f"{', '.join(str(p) for p in files)}")
+        # export_controller reads the verification.json this run wrote beside gains.json
+        exported = export_controller(out / "gains.json", export_to, out / "export", None) if res.passed else None
+        obj.show(console.run_export_lines(export_to, out / "gains.json", exported))
     obj.say(f"report: {out / 'report.md'}")
     return EXIT_OK if passed else EXIT_VERIFICATION_FAILED
 
@@ -817,7 +442,7 @@ def run_cmd(obj: _Ctx, config: Path | None, outdir: Path | None, objective: str 
 @main.command("margin")
 @_verbosity
 @CONFIG_ARG
-@click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), default=None,
+@click.option("--gains", "gains", type=FILE, default=None,
               help="Gains file [default: OUTDIR/gains.json; for a linear plant the config's controller.gain "
                    "comes first].")
 @GAINS_OUTDIR_OPT
@@ -837,11 +462,9 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
     """
     from .config import is_lti
     from .pipeline import margin_stage
+    from .report import console
 
-    _needs_its_config(config, gains, "margin")
-    cfg = _load(config, lti_ok=True)
-    if config is None and gains is not None:  # the gain's own config, not the default one (review)
-        cfg = _stored_config_instead(obj, cfg, gains)
+    cfg = _gains_config(obj, config, gains, "; pass CONFIG to take the gain's margins on another")  # review
     if is_lti(cfg):
         if lyapunov is not None:
             from .errors import InputError
@@ -849,48 +472,26 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
             raise InputError("--lyapunov: a linear plant's certificate is one common quadratic function")
         from .pipeline_lti import lti_margin_stage
 
-        data = lti_margin_stage(cfg, _gains_outdir(cfg, outdir, gains), config, on_step=_stage_lines(obj),
+        data = lti_margin_stage(cfg, _outdir(cfg, outdir, gains), config, on_step=obj.stages(),
                                 gains_path=gains)
-        _warn_uncontrollable(data["plant"]["controllable"])
-        if as_json:
-            import json
-
-            click.echo(json.dumps(data, indent=2))
-            return
-        for name, mg in data["margins"].items():
-            obj.say(_lti_margin_line(name, mg))
-        obj.say(f"wrote {', '.join(data['files'])}")
-        return
-    out = _gains_outdir(cfg, outdir, gains)
-    st = margin_stage(cfg, out, gains, lyapunov, on_step=_stage_lines(obj))
+        obj.show(console.lti_margin_summary(data, as_json))
+    else:
+        st = margin_stage(cfg, _outdir(cfg, outdir, gains), gains, lyapunov, on_step=obj.stages())
+        data = st.data
+        if not as_json:
+            obj.show(console.margin_summary(st))
     if as_json:
         import json
 
-        click.echo(json.dumps(st.data, indent=2))
-        return
-    for m in st.report.margins:
-        obj.say(m.line())
-    if st.data["meta"].get("gains_kinematics") == "nonlinear":
-        obj.say("note: the margins are robust stability of the linearization; the gain's certificate for the "
-                "nonlinear robot (synthesis.kinematics: nonlinear) holds for the configured delay and slip ranges only")
-    obj.say(f"wrote {', '.join(str(p) for p in st.files)}")
-
-
-def _motor_limit(given: float | None, cfg: Any) -> float | None:
-    """--max-motor-speed, else the config's robot.max_motor_speed: the motors saturate there, and a period
-    with a command beyond it says nothing about slip (a review found the verifier's own logs flagged at
-    the waypoint turns, commands of 19.7 rad/s against 12); inf: no period skipped."""
-    if given is None:
-        return cfg.robot.max_motor_speed
-    return None if given == float("inf") else given
+        click.echo(json.dumps(data, indent=2))
 
 
 @main.command("identify")
 @_verbosity
-@click.argument("logs", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
-@click.option("-o", "--output", "out", type=click.Path(dir_okay=False, path_type=Path), default=None,
+@LOGS_ARG
+@click.option("-o", "--output", "out", type=FILE, default=None,
               help="Write the config fragment here, with <stem>.md and <stem>.png beside it [default: print it].")
-@click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path), default=None,
+@click.option("--config", "config", type=FILE, default=None,
               help="The robot's config (gear radius, track distance) [default: the embedded default].")
 @click.option("--model", type=click.Choice(["tracks", "icr"]), default="tracks", show_default=True,
               help="Slip description to identify (tracks: one traction factor per track; icr: also the yaw factor "
@@ -906,7 +507,7 @@ def _motor_limit(given: float | None, cfg: Any) -> float | None:
 @click.option("--settle", type=_FINITE_NONNEG, default=0.0, show_default=True, metavar="SECONDS",
               help="Skip the periods within this long after a command change (a robot with dynamics is still settling "
                    "there: the excitation logs of validate --excite on the physics robot want 1).")
-@click.option("--no-plots", is_flag=True, help="Skip the figure.")
+@NO_FIGURE_OPT
 @click.pass_obj
 @_guard
 def identify_cmd(obj: _Ctx, logs: tuple[Path, ...], out: Path | None, config: Path | None, model: str, coverage: float,
@@ -916,24 +517,25 @@ def identify_cmd(obj: _Ctx, logs: tuple[Path, ...], out: Path | None, config: Pa
 
     The result is a config fragment with the data behind each number as comments.
     """
+    from .artifacts.inputs import motor_limit
     from .pipeline import identification_stage
 
     cfg = _load(config)
     ident, text, written = identification_stage(list(logs), cfg, out, coverage, model,
-                                                _motor_limit(max_motor_speed, cfg), not no_plots, pose_noise, settle)
+                                                motor_limit(max_motor_speed, cfg), not no_plots, pose_noise, settle)
     if out is None:
         click.echo(text, nl=False)
     else:
-        obj.say(f"identified from {ident.logs} log(s), {ident.slip.mu.shape[0]} periods: wrote "
-                + ", ".join(str(p) for p in written))
+        from .report.console import identified_line
+
+        obj.say(identified_line(ident, written))
 
 
 @main.command("check-log")
 @_verbosity
-@click.argument("logs", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="The config whose assumptions are checked.")
-@click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), default=None,
+@LOGS_ARG
+@click.option("--config", "config", type=FILE, default=None, help="The config whose assumptions are checked.")
+@click.option("--gains", "gains", type=FILE, default=None,
               help="Check the assumptions of the config stored in this gains file instead.")
 @click.option("--tolerance", type=click.FloatRange(0.0, 1.0), default=0.005, show_default=True,
               help="Fraction of samples allowed outside an assumption before it counts as violated.")
@@ -951,52 +553,28 @@ def check_log_cmd(obj: _Ctx, logs: tuple[Path, ...], config: Path | None, gains:
 
     Exit 1 if any assumption is violated by more than --tolerance of its samples.
     """
+    from .artifacts.inputs import check_log_config, motor_limit
     from .artifacts.logs import read_log
     from .errors import EXIT_VERIFICATION_FAILED, InputError
     from .identification import check_log
+    from .report import console
 
     if (config is None) == (gains is None):
         raise InputError("check-log: give exactly one of --config and --gains")
-    if gains is not None:
-        from .artifacts.gains import load_gains, stored_config
-
-        gd = load_gains(gains)
-        if gd.get("kind") == "lti":
-            raise InputError(f"{gains}: a linear plant's gains (kind: lti); check-log reads the tracked robot's logs")
-        cfg = stored_config(gd)
-        if cfg is None:
-            raise InputError(f"{gains}: config: the gains file holds no config (use --config)")
-    else:
-        cfg = _load(config)
-    rows = check_log([read_log(p) for p in logs], cfg, _motor_limit(max_motor_speed, cfg), pose_noise)
-    bad = unchecked = 0
-    for r in rows:
-        rng = f"{r['assumption']} in [{r['range'][0]:g}, {r['range'][1]:g}] ({r['unit']})"
-        if not r["samples"]:
-            unchecked += 1
-            obj.say(f"{'n/a':8s} {rng}: not checked (no period of the logs says anything about it)")
-            continue
-        viol = r["fraction_outside"] > tolerance
-        bad += viol
-        worst = "" if r["worst"] is None else f", worst {r['worst']:.4g}" + (f" at {r['where']}" if r["where"] else "")
-        obj.say(f"{'VIOLATED' if viol else 'ok':8s} {rng}: {r['outside']} of {r['samples']} outside "
-                f"({100 * r['fraction_outside']:.2f} %){worst}")
-    obj.say(f"check-log: {len(rows) - bad - unchecked} of {len(rows)} assumptions hold"
-            + (f", {unchecked} not checked" if unchecked else "") + f" (tolerance {100 * tolerance:g} %)"
-            + (f"; pose noise assumed {rows[-1]['pose_noise'][0]:g} m, {rows[-1]['pose_noise'][1]:g} rad"
-               if rows and rows[-1].get("pose_noise") else ""))
-    return EXIT_VERIFICATION_FAILED if bad else EXIT_OK
+    cfg = check_log_config(gains) if gains is not None else _load(config)
+    rows = check_log([read_log(p) for p in logs], cfg, motor_limit(max_motor_speed, cfg), pose_noise)
+    obj.show(console.check_log_summary(rows, tolerance))
+    return EXIT_VERIFICATION_FAILED if any(console.violated(r, tolerance) for r in rows) else EXIT_OK
 
 
 @main.command("monitor")
 @_verbosity
-@click.argument("logs", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), required=True,
+@LOGS_ARG
+@click.option("--gains", "gains", type=FILE, required=True,
               help="The gains file whose certificate the monitor watches.")
-@click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path), default=None,
+@click.option("--config", "config", type=FILE, default=None,
               help="The config (its path, network, slip box, monitor settings) [default: the one stored in --gains].")
-@click.option("-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="Also write monitor.json (every alarm, per log) here.")
+@click.option("-o", "--outdir", type=DIR, default=None, help="Also write monitor.json (every alarm, per log) here.")
 @click.pass_obj
 @_guard
 def monitor_cmd(obj: _Ctx, logs: tuple[Path, ...], gains: Path, config: Path | None, outdir: Path | None) -> int:
@@ -1005,27 +583,18 @@ def monitor_cmd(obj: _Ctx, logs: tuple[Path, ...], gains: Path, config: Path | N
     Exit 1 if any period raised an alarm (an assumption of the certificate broken, as far as the monitor sees).
     """
     from .errors import EXIT_VERIFICATION_FAILED
-    from .monitor import CAUSES
+    from .report.console import monitor_summary
     from .runtime.replay import monitor_files
 
     res = monitor_files(list(logs), gains, _load(config) if config is not None else None, outdir)
-    for run in res["runs"]:
-        for a in run["alarms"]:
-            by = ", ".join(f"{c} by {a['by'][c]:.4g}" for c in a["causes"].split(", ") if c in a["by"])
-            obj.say(f"{run['log']}: period {a['period']} (t = {a['t']:.3f} s): {by}")
-        if run["fallback_engaged_at"] is not None:
-            obj.say(f"{run['log']}: the fallback ({run['fallback']}) would have engaged at period {run['fallback_engaged_at']}")
-    counts = ", ".join(f"{n} {res['alarm_periods'][n]}" for n, _ in CAUSES if res["alarm_periods"][n])
-    obj.say(f"monitor: {res['runs_with_alarms']} of {res['logs']} logs with alarms" + (f" (periods: {counts})" if counts else "")
-            + (f"; wrote {outdir / 'monitor.json'}" if outdir is not None else ""))
+    obj.show(monitor_summary(res, outdir))
     return EXIT_VERIFICATION_FAILED if res["runs_with_alarms"] else EXIT_OK
 
 
 @main.command("validate")
 @_verbosity
-@click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--gains", "gains", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="The gains file to validate (not with --excite).")
+@click.argument("config", type=FILE)
+@click.option("--gains", "gains", type=FILE, default=None, help="The gains file to validate (not with --excite).")
 @click.option("--excite", is_flag=True,
               help="Instead: drive the robot open loop (turns at several rates, speed changes) and write the "
                    "episodes as robot logs for identify (with the config's verification.noise on the poses).")
@@ -1037,9 +606,8 @@ def monitor_cmd(obj: _Ctx, logs: tuple[Path, ...], gains: Path, config: Path | N
 @click.option("--engine", type=click.Choice(["physics", "kinematic"]), default="physics", show_default=True,
               help="physics: MuJoCo (slip from contact); kinematic: the model's own robot, one slip per episode from the "
                    "box (--excite: the simulator's slip profiles, a new slip every period or few).")
-@click.option("-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="Output directory (default results/<name>/validation).")
-@click.option("--no-plots", is_flag=True, help="Skip the figure.")
+@click.option("-o", "--outdir", type=DIR, default=None, help="Output directory (default results/<name>/validation).")
+@NO_FIGURE_OPT
 @click.option("--inject", type=click.Choice(["delay", "losses", "friction", "push", "command"]), default=None,
               help="Break one of the certificate's assumptions in every episode, to see the runtime monitor flag it: "
                    "delay (a command SIZE s beyond tau_max), losses (SIZE commands beyond the cap in a row), friction "
@@ -1064,6 +632,7 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
     from .errors import EXIT_VERIFICATION_FAILED, InputError
     from .model import build_model
     from .pipeline import excitation_stage, validation_stage
+    from .report import console
 
     if excite == (gains is not None):
         raise InputError("validate: give exactly one of --gains (validate a gain) and --excite (excitation logs)")
@@ -1080,86 +649,31 @@ def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, epis
     out = outdir if outdir is not None else Path("results") / cfg.name / ("excitation" if excite else "validation")
     if excite:
         paths = excitation_stage(build_model(cfg), out, episodes=episodes, seed=seed, engine=engine)
+        physics = None
         if engine == "physics":  # which robot the engine drove (issue 50: the default chassis had been used silently)
             from .verification.physics import physics_config
 
-            obj.say(f"physics robot (MuJoCo): {physics_config(cfg)[1]['summary']}")
-        nz = cfg.verification.noise  # the excitation puts exactly this noise on the logged poses
-        icr = f" --model icr --pose-noise {nz.position:g} {nz.heading:g}" if cfg.slip.model == "icr" else ""
-        settle = " --settle 1" if engine == "physics" else ""  # the engine's robot has dynamics: skip its transients
-        obj.say(f"excitation ({engine}): {len(paths)} episodes written to {out / 'logs'}; next: robustsynth identify "
-                f"{out / 'logs'}/*.csv --config {config}{icr}{settle} --max-motor-speed "
-                f"{cfg.robot.max_motor_speed or 'R'} -o FRAGMENT.yaml")
+            physics = physics_config(cfg)[1]["summary"]
+        obj.show(console.excitation_summary(cfg, config, engine, out, len(paths), physics))
         return EXIT_OK
-    cb, bar = _progress(obj)
-    try:
+    with progress_bar(obj.quiet) as cb:
         vd = validation_stage(build_model(cfg), gains, out, episodes=episodes, seed=seed, progress=cb, plots=not no_plots,
                               workers=workers, engine=engine, inject=injection)
-    finally:
-        if bar is not None:
-            bar.render_finish()
-    sm, c = vd["straight_max"], vd["certified"]
-    vc = vd["certificate"]
-    if vd.get("physics"):  # which robot the engine ran (issue 50: the default chassis had been used silently)
-        obj.say(f"physics robot (MuJoCo): {vd['physics']['summary']}")
-    if not vc["passed"]:
-        obj.say(f"no certified bounds: {vc['detail']}")
-    elif not vc.get("error_bounds"):  # a stability or H-infinity certificate (review: "passed" with nothing judged)
-        obj.say("the certificate states no error bounds (its objective is not ultimate-bound): the errors below are "
-                "not judged, only the slip")
-    if vc.get("model") == "paper":
-        obj.say("the certificate is for the paper's model (synthesis.model: paper), whose slip is not this robot's: "
-                "its bounds are the paper model's claims (verify judges them on the robot)")
-    through = bool(vd.get("through_turns"))
-    obj.say(("the whole path, turns included (against the bounds for all t): " if through else "straight segments: ")
-            + ", ".join(f"|{k}| {v * (100 if k != 'e_theta' else 1):.3g} {'cm' if k != 'e_theta' else 'rad'}"
-                        + (f" (certified {c[k] * (100 if k != 'e_theta' else 1):.3g}, ratio {v / c[k]:.2f})" if c.get(k) else "")
-                        for k, v in sm.items()))
-    tm = vd["turn_max"]
-    arcs = vd.get("straight_rule", "").startswith("between the arcs")
-    if through:
-        obj.say(f"torque-saturated up to {vd['torque_saturated_s']:.1f} s per episode")
-    else:
-        what = ("arcs (certified; reported apart from the straight segments)" if arcs else "turns (not certified)")
-        obj.say(f"{what}: |e_y| {100 * tm['e_y']:.3g} cm, |e_theta| {tm['e_theta']:.3g} rad; "
-                f"torque-saturated up to {vd['torque_saturated_s']:.1f} s per episode")
-    sl = vd["slip"]
-    if sl.get("estimated"):
-        b = sl["estimated"]
-        obj.say(f"slip the engine showed on the straight segments (identify): right [{b['right'][0]:.3f}, {b['right'][1]:.3f}], left "
-                f"[{b['left'][0]:.3f}, {b['left'][1]:.3f}] — " + ("inside" if sl["inside_box"] else "OUTSIDE")
-                + " the config's box" + ("" if not vc["passed"] or vc.get("model") == "paper" else
-                                         ": the certificate " + ("covers it" if sl["inside_box"] else "does not apply to this robot")))
-    whole = vd.get("slip_whole_episodes", {}).get("estimated")
-    if whole:
-        obj.say(f"  with the turns: right [{whole['right'][0]:.3f}, {whole['right'][1]:.3f}], left [{whole['left'][0]:.3f}, "
-                f"{whole['left'][1]:.3f}]" + (" (with the arcs)" if arcs else " (the turns are not certified)"))
-    mon = vd.get("monitor")
-    if mon:
-        counts = ", ".join(f"{k} {v}" for k, v in mon["alarm_periods"].items() if v)
-        obj.say(f"runtime monitor over the episodes: {mon['runs_with_alarms']} of {mon['logs']} with alarms"
-                + (f" (periods: {counts})" if counts else ""))
-    if injection is not None:
-        firsts = (mon or {}).get("first_per_log") or []
-        seen = "; ".join(f"episode {i}: " + (f"period {f['period']} ({f['causes']})" if f else "not flagged")
-                         for i, f in enumerate(firsts)) or "no monitor (the gain has no certified set)"
-        obj.say(f"injected {injection.describe()}; the runtime monitor's first alarm: {seen}")
-    obj.say(f"validation {'passed' if vd['passed'] else 'FAILED'}: {episodes} episodes; wrote {out / 'validation.json'}")
+    obj.show(console.validation_summary(vd, episodes, out, None if injection is None else injection.describe()))
     return EXIT_OK if vd["passed"] else EXIT_VERIFICATION_FAILED
 
 
 @main.command("export")
 @_verbosity
-@click.argument("gains", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("gains", type=FILE)
 @click.option("--to", "target", type=click.Choice(["c", "python", "ros2", "json"]), required=True,
               help="c: rs_controller.h/.c (C99, no heap) + rs_harness.c; python: rs_controller.py (no numpy); "
                    "ros2: a ros__parameters YAML, rs_node.py (an rclpy node running the law and its monitor) and "
                    "rs_controller.py; json: the controller description.")
-@click.option("-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), required=True,
-              help="Directory for the generated files.")
-@click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path), default=None,
+@click.option("-o", "--outdir", type=DIR, required=True, help="Directory for the generated files.")
+@click.option("--config", "config", type=FILE, default=None,
               help="Take the path from this config [default: the config stored in GAINS].")
-@click.option("--verification", "verification", type=click.Path(dir_okay=False, path_type=Path), default=None,
+@click.option("--verification", "verification", type=FILE, default=None,
               help="The verification record of GAINS [default: verification.json beside GAINS, written by "
                    "`robustsynth verify`; it names the gain it verified].")
 @click.option("--allow-unverified", is_flag=True,
@@ -1177,6 +691,7 @@ def export_cmd(obj: _Ctx, gains: Path, target: str, outdir: Path, config: Path |
     there is none of this gain), unless --allow-unverified; the files state what it is proven for.
     """
     from .errors import ConfigError
+    from .report.console import export_summary
     from .runtime.export import export_controller
 
     try:
@@ -1186,36 +701,14 @@ def export_cmd(obj: _Ctx, gains: Path, target: str, outdir: Path, config: Path |
         if config is not None:  # a gains file (or another output of ours) given as --config: one line
             _not_a_config(config, "--config")
         raise
-    proof = d["proof"]
-    if proof["verification"]["status"] != "passed":
-        click.echo(f"warning: {gains}: {proof['verified']}; exported anyway (--allow-unverified), marked UNVERIFIED "
-                   "in the files: not a verified controller, do not deploy it as one", err=True)
-    if not d.get("certified"):
-        obj.say(f"warning: {gains}: no certificate that holds for this gain (none in the file, or its K, certificate "
-                "or config changed after synthesis): exported as UNCERTIFIED (run `robustsynth verify --gains` on it)")
-    obj.say(f"proven: {proof['proven']}")
-    obj.say(f"verification: {proof['verified']}")
-    obj.say(f"wrote {', '.join(str(p) for p in files)}")
+    obj.show(export_summary(gains, d, files))
     return EXIT_OK
-
-
-def _sweep_progress(obj: _Ctx):
-    """points done/total, not certified so far, ETA: one rewritten stderr line on a terminal."""
-    if obj.quiet or not sys.stderr.isatty():
-        return None
-    beat = _Heartbeat()  # a point can take minutes: a line between the counts
-
-    def cb(done: int, total: int, bad: int, eta: float | None) -> None:
-        eta_s = "" if eta is None else f", ETA {int(eta) // 60}:{int(eta) % 60:02d}"
-        beat.rewrite(f"\r{done}/{total} points, {bad} not certified{eta_s}   ", done == total)
-
-    return cb
 
 
 @main.command("sweep")
 @_verbosity
-@click.argument("spec", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("-o", "--outdir", type=click.Path(file_okay=False, path_type=Path), default=None,
+@click.argument("spec", type=FILE)
+@click.option("-o", "--outdir", type=DIR, default=None,
               help="Output directory [default: results/sweeps/<sweep file name>/].")
 @click.option("--verify", "verify_runs", type=click.IntRange(min=1, max=100_000), default=None, metavar="RUNS",
               help="Also verify each certified gain with RUNS Monte Carlo runs.")
@@ -1233,17 +726,15 @@ def sweep_cmd(obj: _Ctx, spec: Path, outdir: Path | None, verify_runs: int | Non
     SPEC names a base config and axes over dotted config keys (grid or zip).  Writes sweep.csv,
     sweep.json, the figure, and one file per point under points/ (a rerun skips those).
     """
+    from .report.console import sweep_summary
     from .sweeps import load_sweep, sweep
 
     sp = load_sweep(spec)
     out = outdir if outdir is not None else Path("results") / "sweeps" / spec.stem
     obj.detail(f"{len(sp.points())} points over {', '.join(sp.keys)} ({sp.mode})")
     res = sweep(sp, out, verify_runs=verify_runs, workers=workers, scheduler=scheduler, force=force,
-                progress=_sweep_progress(obj))
-    counts = ", ".join(f"{n} {s}" for s, n in res.counts.items() if n)
-    reused = f", {res.reused} read from {out / 'points'}" if res.reused else ""
-    obj.say(f"sweep: {len(res.rows)} points: {counts} ({res.engine['kind']}, {res.time_s:.1f} s{reused})")
-    obj.say(f"wrote {', '.join(str(p) for p in res.files)} and {out / 'points'}/")
+                progress=sweep_counts(obj.quiet))
+    obj.show(sweep_summary(res, out))
 
 
 def entry() -> None:
@@ -1251,7 +742,7 @@ def entry() -> None:
     command bodies (start-up, argument parsing), where click would print 'Aborted!' and exit 1.
     The handlers go in before click parses anything, so that the window in which a signal meets
     the interpreter's defaults is only the interpreter's own start-up."""
-    _install_signal_handlers()
+    install_signal_handlers()
     try:
         main.main(standalone_mode=False)
         check_interrupt()
@@ -1263,8 +754,7 @@ def entry() -> None:
     except Interrupted as exc:
         _exit_interrupted(exc)
     except BrokenPipeError:
-        _quiet_stdout()
-        sys.exit(EXIT_BROKEN_PIPE)
+        exit_broken_pipe()
     except click.ClickException as exc:  # usage errors: one line with click's message, exit 2
         if type(exc).__name__ == "NoArgsIsHelpError":  # bare `robustsynth`: the help itself, as click shows it
             exc.show()

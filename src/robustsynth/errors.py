@@ -1,6 +1,11 @@
-"""Exceptions of robustsynth and the exit codes the CLI maps them to (one table, here)."""
+"""Exceptions of robustsynth and the exit codes the CLI maps them to (one table, here); the signals that
+become exceptions, and how the process ends after one."""
 
 from __future__ import annotations
+
+import os
+import sys
+from typing import Any
 
 __all__ = [
     "EXIT_OK",
@@ -18,8 +23,12 @@ __all__ = [
     "Interrupted",
     "EXIT_INTERRUPTED",
     "EXIT_TERMINATED",
+    "EXIT_BROKEN_PIPE",
     "on_signal",
     "check_interrupt",
+    "install_signal_handlers",
+    "exit_leaving_solves",
+    "exit_broken_pipe",
 ]
 
 EXIT_OK = 0
@@ -29,6 +38,7 @@ EXIT_INFEASIBLE = 3
 EXIT_SOLVER_FAILURE = 4
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report it
 EXIT_TERMINATED = 143  # 128 + SIGTERM
+EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE: the reader went away (e.g. `| head`)
 
 
 class RobustSynthError(Exception):
@@ -108,3 +118,55 @@ def check_interrupt() -> None:
     recorded unless the CLI's handler is installed)."""
     if _PENDING:
         raise Interrupted(_PENDING[0])
+
+
+def _unraisable(info: Any) -> None:
+    """An interrupt raised where Python cannot propagate it (a weakref callback during an import)
+    is not printed: it was recorded, and the next checkpoint raises it (:func:`on_signal`)."""
+    if isinstance(info.exc_value, Interrupted):
+        return
+    _DEFAULT_UNRAISABLE(info)
+
+
+_DEFAULT_UNRAISABLE = sys.unraisablehook
+
+
+def install_signal_handlers() -> None:
+    """SIGINT and SIGTERM stop the command (exit 130 / 143, see :func:`on_signal`); a file-size
+    limit makes a write fail (EFBIG, exit 2) instead of killing the process."""
+    import signal
+
+    try:
+        signal.signal(signal.SIGINT, on_signal)
+        signal.signal(signal.SIGTERM, on_signal)
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        sys.unraisablehook = _unraisable
+    except ValueError:  # not the main thread (e.g. an embedding application)
+        pass
+
+
+SOLVE_GRACE_S = 2.0
+
+
+def exit_leaving_solves(code: int) -> None:
+    """Exit with ``code``.  A solve the interrupt gave up may still run in its thread (synthesis.solve._in_threads);
+    the interpreter's shutdown would unwind that thread through the solver's native frames (Clarabel's Rust then
+    aborts: 'FATAL: exception not rethrown', exit -6, measured in bench_interrupts).  Such a thread is given
+    SOLVE_GRACE_S to end (Clarabel's stops at its next iteration); one still running is left to the OS:
+    the process ends without the interpreter's shutdown (every file is committed or removed by now)."""
+    solve = sys.modules.get("robustsynth.synthesis.solve")
+    if solve is not None and not solve.abandoned_solves_ended(SOLVE_GRACE_S):
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    sys.exit(code)
+
+
+def exit_broken_pipe() -> None:
+    """Exit 141 after a broken pipe, stdout pointed at /dev/null first so the interpreter's final flush is silent."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+    sys.exit(EXIT_BROKEN_PIPE)

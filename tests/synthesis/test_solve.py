@@ -325,7 +325,7 @@ try:
 except Interrupted as exc:
     alive = [t.name for t in threading.enumerate() if t.name.startswith("robustsynth-solve") and t.is_alive()]
     print("interrupted", exc.exit_code, prob.status, "solve thread alive" if alive else "solve thread ended")
-# as the CLI ends (cli._exit_leaving_solves): a solve given up in its setup or initialization (no callback there;
+# as the CLI ends (errors.exit_leaving_solves): a solve given up in its setup or initialization (no callback there;
 # a loaded machine) may still run, and the interpreter's shutdown under it makes Clarabel's Rust panic
 sys.stdout.flush()
 os._exit(0)
