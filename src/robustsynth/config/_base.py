@@ -28,6 +28,16 @@ class _Node(BaseModel):
     model_config = _MODEL
 
 
+class _Range(_Node):
+    # a range {min, max} (its subclasses declare both, with their bounds): a max below the min is refused
+
+    @field_validator("max", check_fields=False)
+    @classmethod
+    def _ordered(cls, v: float, info: Any) -> float:
+        _range_check(info.data.get("min"), v)
+        return v
+
+
 class _Named(_Node):
     """A scenario's name: its default output directory results/<name>/."""
 

@@ -3,22 +3,16 @@
 from __future__ import annotations
 
 import math
-from typing import Annotated, Any
+from typing import Annotated
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import Field, model_validator
 
-from ._base import _FIELD, MAX_D_HI, _Node, _range_check
+from ._base import _FIELD, MAX_D_HI, _Node, _Range
 
 
-class DelayRange(_Node):
+class DelayRange(_Range):
     min: Annotated[float, Field(ge=0, le=1e4)] = Field(description="tau_min [s]")
     max: Annotated[float, Field(ge=0, le=1e4)] = Field(description="tau_max [s]")
-
-    @field_validator("max")
-    @classmethod
-    def _ordered(cls, v: float, info: Any) -> float:
-        _range_check(info.data.get("min"), v)
-        return v
 
 
 class Dropouts(_Node):

@@ -2,33 +2,21 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+from typing import Annotated, Literal
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import Field, model_validator
 
-from ._base import _FIELD, _Node, _range_check
+from ._base import _FIELD, _Node, _Range
 
 
-class SlipRange(_Node):
+class SlipRange(_Range):
     min: Annotated[float, Field(gt=0, le=10)] = Field(description="smallest slip coefficient mu (dimensionless, > 0)")
     max: Annotated[float, Field(gt=0, le=10)] = Field(description="largest slip coefficient mu (dimensionless, > 0)")
 
-    @field_validator("max")
-    @classmethod
-    def _ordered(cls, v: float, info: Any) -> float:
-        _range_check(info.data.get("min"), v)
-        return v
 
-
-class OffsetRange(_Node):
+class OffsetRange(_Range):
     min: Annotated[float, Field(ge=-1, le=1)] = Field(description="smallest longitudinal ICR offset x_icr [m]")
     max: Annotated[float, Field(ge=-1, le=1)] = Field(description="largest longitudinal ICR offset x_icr [m]")
-
-    @field_validator("max")
-    @classmethod
-    def _ordered(cls, v: float, info: Any) -> float:
-        _range_check(info.data.get("min"), v)
-        return v
 
 
 class SlipConfig(_Node):
