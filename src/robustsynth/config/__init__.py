@@ -34,7 +34,7 @@ from .messages import _fields_at, _format_validation_error, _loc, _one_problem, 
 from .roots import _validate, config_schema, config_to_dict, is_lti, refuse_lti
 from .overrides import RENAMED_KEYS, _new_key, check_config_key, config_with, mapping_with
 from .loading import (MAX_CONFIG_BYTES, _StrictLoader, config_from_dict, default_config, default_config_text,
-                      load_config, named_default_config_text, parse_config)
+                      load_config, named_default_config_text, parse_config, read_config_text)
 
 __all__ = [
     "Config",

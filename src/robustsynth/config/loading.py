@@ -79,10 +79,7 @@ def parse_config(text: str | bytes, source: str = "<config>") -> Config:
     if isinstance(text, bytes):
         if len(text) > MAX_CONFIG_BYTES:
             raise ConfigError(f"{source}: file is larger than 1 MiB ({len(text)} bytes)")
-        try:
-            text = text.decode("utf-8")
-        except UnicodeDecodeError as exc:
-            raise ConfigError(f"{source}: not valid UTF-8 (byte {exc.start})") from None
+        text = _utf8(text, source)
     if len(text) > MAX_CONFIG_BYTES:
         raise ConfigError(f"{source}: file is larger than 1 MiB")
     try:
@@ -188,10 +185,16 @@ def load_config(path: str | Path | Mapping[str, Any] | None = None) -> Config:
             return _validate(dict(path))
         except ValidationError as exc:
             raise ConfigError(_format_validation_error(exc)) from None
+    return parse_config(read_config_text(path), str(Path(path)))
+
+
+def read_config_text(path: str | Path, what: str = "config file") -> str:
+    """The text of a YAML file of at most MAX_CONFIG_BYTES (a config, a sweep): ConfigError naming the file
+    when it is a directory (not a ``what``), unreadable, larger, or not UTF-8."""
     p = Path(path)
     try:
         if p.is_dir():
-            raise ConfigError(f"{p}: is a directory, not a config file")
+            raise ConfigError(f"{p}: is a directory, not a {what}")
         with p.open("rb") as fh:  # regular files, and pipes such as <(...) or /dev/stdin
             raw = fh.read(MAX_CONFIG_BYTES + 1)
     except ConfigError:
@@ -200,4 +203,11 @@ def load_config(path: str | Path | Mapping[str, Any] | None = None) -> Config:
         raise ConfigError(f"{p}: cannot read ({exc.strerror or exc})") from None
     if len(raw) > MAX_CONFIG_BYTES:
         raise ConfigError(f"{p}: file is larger than 1 MiB")
-    return parse_config(raw, str(p))
+    return _utf8(raw, str(p))
+
+
+def _utf8(raw: bytes, source: str) -> str:
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{source}: not valid UTF-8 (byte {exc.start})") from None
