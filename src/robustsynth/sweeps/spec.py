@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from ..config import MAX_CONFIG_BYTES, Config, check_config_key, is_lti, load_config
+from ..config import Config, check_config_key, is_lti, load_config, read_config_text
 from ..errors import ConfigError
 
 __all__ = ["SweepSpec", "parse_sweep", "load_sweep", "FIGURE_KEYS", "MAX_POINTS"]
@@ -183,17 +183,4 @@ def load_sweep(path: str | Path) -> SweepSpec:
         An unreadable or invalid file, one line naming the key.
     """
     p = Path(path)
-    try:
-        if p.is_dir():
-            raise ConfigError(f"{p}: is a directory, not a sweep file")
-        with p.open("rb") as fh:
-            raw = fh.read(MAX_CONFIG_BYTES + 1)
-    except OSError as exc:
-        raise ConfigError(f"{p}: cannot read ({exc.strerror or exc})") from None
-    if len(raw) > MAX_CONFIG_BYTES:
-        raise ConfigError(f"{p}: file is larger than 1 MiB")
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise ConfigError(f"{p}: not valid UTF-8 (byte {exc.start})") from None
-    return parse_sweep(text, str(p), p.parent)
+    return parse_sweep(read_config_text(p, "sweep file"), str(p), p.parent)
