@@ -451,3 +451,19 @@ def test_lengths_of_real_tracked_robots_are_accepted(R, D) -> None:
     d["robot"].update(gear_radius=R, track_distance=D)
     cfg = parse_config(_dump(d))
     assert (cfg.robot.gear_radius, cfg.robot.track_distance) == (R, D)
+
+
+def test_a_linear_plants_unknown_key_is_matched_against_its_own_keys() -> None:
+    """The "did you mean" of a linear plant's config names its own keys (it had looked at the robot's: 'monitr' got
+    'monitor', a section a linear plant does not have)."""
+    from pathlib import Path
+
+    base = yaml.safe_load((Path(__file__).resolve().parents[1] / "configs" / "dc-motor.yaml").read_text())
+    for key, want in (("monitr", "monitr: unknown key"), ("netwrk", "netwrk: unknown key (did you mean network?)"),
+                      ("plnt", "plnt: unknown key (did you mean plant?)")):
+        with pytest.raises(ConfigError) as exc:
+            parse_config(yaml.safe_dump(dict(base, **{key: {}})))
+        assert str(exc.value).split("; ")[0].endswith(want), str(exc.value)
+        assert "did you mean monitor" not in str(exc.value)
+    with pytest.raises(ConfigError, match=r"network\.delayy: unknown key \(did you mean network\.delay\?\)"):
+        parse_config(yaml.safe_dump(dict(base, network=dict(base["network"], delayy=1))))

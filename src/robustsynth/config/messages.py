@@ -22,9 +22,10 @@ def _loc(loc: tuple[Any, ...]) -> str:
     return "".join(parts) or "<root>"
 
 
-def _fields_at(loc: tuple[Any, ...]) -> list[str]:
-    """The keys of the config section at ``loc`` (empty when ``loc`` is not a section)."""
-    node: type[BaseModel] | None = Config
+def _fields_at(root: "type[BaseModel] | None", loc: tuple[Any, ...]) -> list[str]:
+    """The keys of the section at ``loc`` of the config model ``root`` (the robot's ``Config`` when None; empty when
+    ``loc`` is not a section)."""
+    node: type[BaseModel] | None = root if root is not None else Config
     for part in loc:
         if node is None or not isinstance(part, str) or part not in node.model_fields:
             return []
@@ -103,7 +104,7 @@ def _format_validation_error(err: ValidationError) -> str:
         tags = _union_parts(root, loc)
         path, msg = _one_problem(dict(e, loc=tuple(p for i, p in enumerate(loc) if i not in tags)))
         if e["type"] == "extra_forbidden" and loc and isinstance(loc[-1], str):
-            close = difflib.get_close_matches(loc[-1], _fields_at(loc[:-1]), n=1, cutoff=0.6)
+            close = difflib.get_close_matches(loc[-1], _fields_at(root, loc[:-1]), n=1, cutoff=0.6)
             if close:
                 target = loc[:-1] + (close[0],)
                 msg += f" (did you mean {_loc(target)}?)"
