@@ -24,19 +24,10 @@ from pydantic.fields import FieldInfo
 from pydantic_core import PydanticUndefined
 from sphinx.util.docutils import SphinxDirective
 
+from robustsynth.config._base import _node_class  # the model a field annotation holds
+
 UNIT = re.compile(r"\[([^\]]+)\]")
 THEORY = re.compile(r"docs/theory\.md (§\s?(\d+)[a-z]?)")
-
-
-def _model_in(annotation: Any) -> type[BaseModel] | None:
-    """The (first) pydantic model an annotation holds: Model, Model | None, Annotated[Model, ...]."""
-    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
-        return annotation
-    for arg in typing.get_args(annotation):
-        m = _model_in(arg)
-        if m is not None:
-            return m
-    return None
 
 
 def _constraints(meta: list[Any]) -> list[str]:
@@ -107,7 +98,7 @@ def config_keys(model: type[BaseModel], prefix: str = "") -> list[dict[str, str]
         path = f"{prefix}{name}"
         ranges = _constraints(field.metadata)
         kind = _type(field.annotation, ranges)
-        sub = _model_in(field.annotation)
+        sub = _node_class(field.annotation)
         desc = field.description or ((sub.__doc__ or "").strip().split("\n\n")[0] if sub else "")
         unit = UNIT.search(field.description or "")
         rows.append({"key": path, "type": kind, "unit": unit.group(1) if unit else "",

@@ -69,6 +69,11 @@ def _mon_sinc(a):
     return 1.0 - a * a / 6.0 + a * a * a * a / 120.0 if abs(a) < 0.05 else math.sin(a) / a
 
 
+def _mon_summands(p):
+    """What a period adds to the window's running sums: ds, dtheta, dlat, Vc, Wc, |dp|, |dtheta|, |turn of mid|, Va, Wa."""
+    return (p[0], p[1], p[2], p[3], p[4], p[5], abs(p[1]), p[8], p[9], p[10])
+
+
 def _mon_range(mid, rad, c, a):
     """Where the integral of x(t) u(t) lies when x(t) stays in [mid - rad, mid + rad], the integral of u is c and that
     of |u| is a: mid c +- rad a (u may change sign: a command turning one way, then the other)."""
@@ -221,20 +226,17 @@ class Monitor:
             sums = self.sums
             if len(self.periods) == self.window:  # the oldest goes
                 o = self.periods.pop(0)
-                for i, v in enumerate((o[0], o[1], o[2], o[3], o[4], o[5], abs(o[1]), o[8], o[9], o[10])):
+                for i, v in enumerate(_mon_summands(o)):
                     sums[i] = sums[i] - v
             p = ((dx * c + dy * s) * k, dth, (dy * c - dx * s) * k, Vc, Wc, math.sqrt(dx * dx + dy * dy), mid, clipped, dmid,
                  Va, Wa)
             self.periods.append(p)
             self.since += 1
-            if self.since == self.window:  # afresh
+            if self.since == self.window:  # afresh, in the window's order
                 self.since = 0
                 sums[:] = [0.0] * 10
-                for o in self.periods:
-                    for i, v in enumerate((o[0], o[1], o[2], o[3], o[4], o[5], abs(o[1]), o[8], o[9], o[10])):
-                        sums[i] = sums[i] + v
-            else:
-                for i, v in enumerate((p[0], p[1], p[2], p[3], p[4], p[5], abs(p[1]), p[8], p[9], p[10])):
+            for o in (self.periods if self.since == 0 else [p]):
+                for i, v in enumerate(_mon_summands(o)):
                     sums[i] = sums[i] + v
         self.poses = (self.poses + [(t, x, y, theta)])[-(self.window + 1):]
         while len(self.schedule) > 1 and self.schedule[1][0] <= self.poses[0][0]:
@@ -244,14 +246,13 @@ class Monitor:
         S, TH, L, Vc, Wc, travel, turned, turns, Va, Wa = self.sums
         turns = turns - self.periods[0][8]  # the mid direction's turns between the window's periods
         (s_m, d_m, ys_m, yd_m, xs_m, xd_m), (s_r, d_r, ys_r, yd_r, xs_r, xd_r) = self.comp_mid, self.comp_rad
-        a, b = self.pos_noise, self.head_noise
-        planar = math.sqrt(2.0) * a * (2.0 + turns) + travel * (b + self.model_tol)
+        planar = self._planar(turns, travel)
         # forward: v_x = s v + d (D/4) omega_c; yaw: omega = ys omega_c + yd v / D; lateral: v_y = -(xs omega_c + xd v / D)
         q = self.D / 4.0
         ranges = (
             ("forward", S, _mon_range(s_m, s_r, Vc, Va), _mon_range(d_m, d_r, q * Wc, q * Wa), planar),
             ("heading", TH, _mon_range(ys_m, ys_r, Wc, Wa), _mon_range(yd_m, yd_r, Vc / self.D, Va / self.D),
-             2.0 * b + self.model_tol * turned),
+             2.0 * self.head_noise + self.model_tol * turned),
             ("lateral", L, _mon_range(-xs_m, xs_r, Wc, Wa), _mon_range(-xd_m, xd_r, Vc / self.D, Va / self.D), planar),
         )
         worst = 0.0
@@ -269,11 +270,16 @@ class Monitor:
                 status |= RATE
         return status
 
+    def _planar(self, turns, travel):
+        """The noise's and the model's allowance on a forward or lateral sum over ``travel`` metres whose directions
+        turned by ``turns`` between periods (module docstring, :meth:`_slip`)."""
+        return math.sqrt(2.0) * self.pos_noise * (2.0 + turns) + travel * (self.head_noise + self.model_tol)
+
     def _rate(self):
         """By how much the traction sums the window's halves imply lie farther apart than max_rate x the window's
         time (0 where a half was not driven forward throughout: its travel is then no weighted average of s)."""
         h = len(self.periods) // 2
-        a, b, q = self.pos_noise, self.head_noise, self.D / 4.0
+        q = self.D / 4.0
         bounds = []
         for part in (self.periods[:h], self.periods[h:]):
             S = Vc = Wc = Va = Wa = travel = turns = 0.0
@@ -283,7 +289,7 @@ class Monitor:
                     turns = turns + p[8]
             if not (Vc > 0.0 and Va == Vc):  # a command with V_hat < 0 acted in it
                 return 0.0
-            err = math.sqrt(2.0) * a * (2.0 + turns) + travel * (b + self.model_tol)
+            err = self._planar(turns, travel)
             q_lo, q_hi = _mon_range(self.comp_mid[1], self.comp_rad[1], q * Wc, q * Wa)
             bounds.append(((S - err - q_hi) / Vc, (S + err - q_lo) / Vc))
         (lo1, hi1), (lo2, hi2) = bounds

@@ -136,6 +136,24 @@ static const double TWO_PI_ = {_f(2.0 * math.pi)};
 static double sinc_(double a) {{ return fabs(a) < 0.05 ? 1.0 - a * a / 6.0 + a * a * a * a / 120.0 : sin(a) / a; }}
 static double max_(double a, double b) {{ return b > a ? b : a; }} /* Python's max(a, b) */
 static double min_(double a, double b) {{ return b < a ? b : a; }} /* Python's min(a, b) */
+/* what a period p adds to the window's running sums (Python's _mon_summands), added or taken off */
+static void add_(double *sum, const double *p)
+{{
+    sum[0] = sum[0] + p[0]; sum[1] = sum[1] + p[1]; sum[2] = sum[2] + p[2]; sum[3] = sum[3] + p[3];
+    sum[4] = sum[4] + p[4]; sum[5] = sum[5] + p[5]; sum[6] = sum[6] + fabs(p[1]); sum[7] = sum[7] + p[8];
+    sum[8] = sum[8] + p[9]; sum[9] = sum[9] + p[10];
+}}
+static void sub_(double *sum, const double *p)
+{{
+    sum[0] = sum[0] - p[0]; sum[1] = sum[1] - p[1]; sum[2] = sum[2] - p[2]; sum[3] = sum[3] - p[3];
+    sum[4] = sum[4] - p[4]; sum[5] = sum[5] - p[5]; sum[6] = sum[6] - fabs(p[1]); sum[7] = sum[7] - p[8];
+    sum[8] = sum[8] - p[9]; sum[9] = sum[9] - p[10];
+}}
+/* the noise's and the model's allowance on a forward or lateral sum (Python's Monitor._planar) */
+static double planar_(double turns, double travel)
+{{
+    return sqrt(2.0) * POS_NOISE * (2.0 + turns) + travel * (HEAD_NOISE + MODEL_TOL);
+}}
 static void range_(double mid, double rad, double c, double a, double *out_lo, double *out_hi)
 {{
     *out_lo = mid * c - rad * a;
@@ -308,7 +326,7 @@ static double rate_(const rs_monitor_t *m)
             if (i > i0) turns = turns + p[8];
         }}
         if (!(Vc > 0.0 && Va == Vc)) return 0.0; /* a command with V_hat < 0 acted in it */
-        err = sqrt(2.0) * POS_NOISE * (2.0 + turns) + travel * (HEAD_NOISE + MODEL_TOL);
+        err = planar_(turns, travel);
         range_(COMP_MID[1], COMP_RAD[1], q * Wc, q * Wa, &q_lo, &q_hi);
         lo[part] = (S - err - q_hi) / Vc;
         hi[part] = (S + err - q_lo) / Vc;
@@ -319,7 +337,7 @@ static double rate_(const rs_monitor_t *m)
 static int slip_(rs_monitor_t *m, double t, double x, double y, double theta)
 {{
     int i, j, n, e, status;
-    double S, TH, L, Vc, Wc, Va, Wa, travel, turns, turned, a, b, planar, worst, err, p_lo, p_hi, q_lo, q_hi;
+    double S, TH, L, Vc, Wc, Va, Wa, travel, turns, turned, planar, worst, err, p_lo, p_hi, q_lo, q_hi;
     if (m->n_poses > 0) {{
         const double *q0 = m->last;
         double dth = wrap_(theta - q0[3]);
@@ -332,9 +350,7 @@ static int slip_(rs_monitor_t *m, double t, double x, double y, double theta)
         m->last_mid = mid;
         if (m->n_periods == RS_MON_WINDOW) {{ /* the oldest goes */
             const double *o = m->period[m->period_first];
-            sum[0] = sum[0] - o[0]; sum[1] = sum[1] - o[1]; sum[2] = sum[2] - o[2]; sum[3] = sum[3] - o[3];
-            sum[4] = sum[4] - o[4]; sum[5] = sum[5] - o[5]; sum[6] = sum[6] - fabs(o[1]); sum[7] = sum[7] - o[8];
-            sum[8] = sum[8] - o[9]; sum[9] = sum[9] - o[10];
+            sub_(sum, o);
             m->n_unjudged -= o[7] != 0.0;
             m->period_first = m->period_first + 1 == RS_MON_WINDOW ? 0 : m->period_first + 1;
             --m->n_periods;
@@ -357,16 +373,10 @@ static int slip_(rs_monitor_t *m, double t, double x, double y, double theta)
         if (++m->since == RS_MON_WINDOW) {{ /* the sums afresh, in the ring's order */
             m->since = 0;
             for (i = 0; i < 10; ++i) sum[i] = 0.0;
-            for (n = 0, j = m->period_first; n < m->n_periods; ++n, j = j + 1 == RS_MON_WINDOW ? 0 : j + 1) {{
-                const double *o = m->period[j];
-                sum[0] = sum[0] + o[0]; sum[1] = sum[1] + o[1]; sum[2] = sum[2] + o[2]; sum[3] = sum[3] + o[3];
-                sum[4] = sum[4] + o[4]; sum[5] = sum[5] + o[5]; sum[6] = sum[6] + fabs(o[1]); sum[7] = sum[7] + o[8];
-                sum[8] = sum[8] + o[9]; sum[9] = sum[9] + o[10];
-            }}
+            for (n = 0, j = m->period_first; n < m->n_periods; ++n, j = j + 1 == RS_MON_WINDOW ? 0 : j + 1)
+                add_(sum, m->period[j]);
         }} else {{
-            sum[0] = sum[0] + p[0]; sum[1] = sum[1] + p[1]; sum[2] = sum[2] + p[2]; sum[3] = sum[3] + p[3];
-            sum[4] = sum[4] + p[4]; sum[5] = sum[5] + p[5]; sum[6] = sum[6] + fabs(p[1]); sum[7] = sum[7] + p[8];
-            sum[8] = sum[8] + p[9]; sum[9] = sum[9] + p[10];
+            add_(sum, p);
         }}
     }}
     if (m->n_poses == RS_MON_WINDOW + 1) {{ /* the oldest pose's time goes */
@@ -382,13 +392,12 @@ static int slip_(rs_monitor_t *m, double t, double x, double y, double theta)
     S = m->sums[0]; TH = m->sums[1]; L = m->sums[2]; Vc = m->sums[3]; Wc = m->sums[4]; travel = m->sums[5];
     turned = m->sums[6]; Va = m->sums[8]; Wa = m->sums[9];
     turns = m->sums[7] - m->period[m->period_first][8]; /* the mid direction's turns between the window's periods */
-    a = POS_NOISE; b = HEAD_NOISE;
-    planar = sqrt(2.0) * a * (2.0 + turns) + travel * (b + MODEL_TOL);
+    planar = planar_(turns, travel);
     worst = 0.0;
     range_(COMP_MID[0], COMP_RAD[0], Vc, Va, &p_lo, &p_hi);
     range_(COMP_MID[1], COMP_RAD[1], D_ / 4.0 * Wc, D_ / 4.0 * Wa, &q_lo, &q_hi);
     worst = max_(max_(worst, p_lo + q_lo - planar - S), S - (p_hi + q_hi + planar));
-    err = 2.0 * b + MODEL_TOL * turned;
+    err = 2.0 * HEAD_NOISE + MODEL_TOL * turned;
     range_(COMP_MID[2], COMP_RAD[2], Wc, Wa, &p_lo, &p_hi); range_(COMP_MID[3], COMP_RAD[3], Vc / D_, Va / D_, &q_lo, &q_hi);
     worst = max_(max_(worst, p_lo + q_lo - err - TH), TH - (p_hi + q_hi + err));
     range_(-COMP_MID[4], COMP_RAD[4], Wc, Wa, &p_lo, &p_hi); range_(-COMP_MID[5], COMP_RAD[5], Vc / D_, Va / D_, &q_lo, &q_hi);
