@@ -493,7 +493,7 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     alpha_hint: float | None = None, retry: bool | str = True, probe_only: bool = False,
                     give_up: int | None = None,
                     prune: Callable[[list[float]], set[float]] | None = None,
-                    stop_rel: float = HINT_STOP_REL) -> tuple[_Best, _Runner]:
+                    stop_rel: float = HINT_STOP_REL, bar: float | None = None) -> tuple[_Best, _Runner]:
     """The alpha line search of the invariance LMIs.  Without a hint: a log grid of alpha_points
     scanned upwards, then parabolic steps around its best point.  With ``alpha_hint`` (the best alpha
     of a cheaper certificate class): walk from the hint in quarter grid steps while the bound falls,
@@ -503,7 +503,9 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     ``prune``: given the scan's alphas that were not
     certified, before the failed ones are retried with the fallback solver, returns those proven
     infeasible otherwise (they are not retried).  ``stop_rel``: the refinement's stop tolerance on the objective
-    (COSTLY_STOP_REL where each solve takes seconds; the hinted walk then also stops at smaller gains)."""
+    (COSTLY_STOP_REL where each solve takes seconds; the hinted walk then also stops at smaller gains).  ``bar``
+    (with a hint): the objective to beat; when the hint's own solve does not certify below it, the search ends
+    there (one solve: is this class worth a search?), else it walks on from the hint (that solve counted)."""
     lp = _build(build_invariance, model, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,
                 symmetry=s.symmetry == "auto")
     full = lambda mdl: build_invariance(mdl, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,  # noqa: E731
@@ -557,6 +559,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     if probe_only and alpha_hint is not None:  # one solve at the hint (is this class worth a search?)
         evaluate(math.log(alpha_hint))
         return best, runner
+    if bar is not None and alpha_hint is not None and not evaluate(math.log(alpha_hint)) < bar:
+        return best, runner  # not better at the hint: no search (the walk below would start with this solve)
     if alpha_hint is not None:
         lo, hi = float(grid[0]), float(grid[-1])
         # quarter grid steps: the richer classes' best alpha lies within a step or two of the common
@@ -1003,21 +1007,23 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
         # the channels for slip changing within a period only where the certificate is proven at the
         # within-period vertices: a common Lyapunov matrix (Model.slip_variation)
         m = model.with_heading_bound(tb, within_period=s.lyapunov == "common")
+        # past a certified bound: one solve at its best alpha first, where a larger bound that is no better stops
+        # the search; a better one walks on from there (the same problem, that solve counted: one compile)
+        start = float(best.cert["alpha"]) if best.cert is not None else hint
         say(f"{s.objective}, nonlinear kinematics with |e_theta(t)| <= {tb:g} rad"
             + (f" (heading bound {j + 1} of at most {len(bounds)}: {', '.join(f'{b:g}' for b in bounds)} rad)" if auto else "")
             + ": alpha "
-            + (f"walk from {hint:.4g}" if hint is not None else f"scan over {s.alpha_points} points")
+            + (f"walk from {start:.4g}" + (" (the best alpha so far)" if best.cert is not None else "")
+               if start is not None else f"scan over {s.alpha_points} points")
             + f" ({len(m.vertices)} vertices, {m.vertices[0].n_q} kinematic channels each)")
         try:
-            if best.cert is not None:  # one solve at the best alpha first: a larger bound that is worse there stops
-                pb, _ = _run_invariance(m, s, search, motor, say, alpha_hint=float(best.cert["alpha"]), retry=False,
-                                        probe_only=True)
-                if pb.cert is None or pb.value >= best.value:
-                    tried.append((tb, "not better at the best alpha"))
-                    break
-            b, r = _run_invariance(m, s, search, motor, say, alpha_hint=hint, retry="cheap" if auto else True,
+            b, r = _run_invariance(m, s, search, motor, say, alpha_hint=start, retry="cheap" if auto else True,
                                    give_up=NONLINEAR_GIVE_UP,
-                                   prune=_motor_pruner(m, s, say=say) if motor else None, stop_rel=COSTLY_STOP_REL)
+                                   prune=_motor_pruner(m, s, say=say) if motor else None, stop_rel=COSTLY_STOP_REL,
+                                   bar=best.value if best.cert is not None else None)
+            if best.cert is not None and (b.cert is None or b.value >= best.value):
+                tried.append((tb, "not better at the best alpha"))
+                break
         except InfeasibleError as exc:  # the heading bound is below the slip's own turn
             say(f"  {exc}")
             tried.append((tb, "below the slip's own turn within a period"))
