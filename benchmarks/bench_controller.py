@@ -24,13 +24,16 @@ def _rate(step, n: int = 200_000) -> float:
     return n / (time.perf_counter() - t0)
 
 
-def _c_ns(cc: str, tmp: Path, harness: str, source: str) -> float:
-    """ns per step of an exported C harness (``--bench``), compiled with -O2."""
+def _c_ns(cc: str, tmp: Path, harness: str, source: str, *extra: str) -> float:
+    """ns per step of an exported C harness (``--bench``, then ``extra``), compiled with -O2: the best of three
+    runs (the machine is shared; the least disturbed run is the nearest to the code's own cost)."""
     exe = tmp / harness
-    subprocess.run([cc, "-std=c99", "-O2", "-o", str(exe), str(tmp / f"{harness}.c"), str(tmp / f"{source}.c"), "-lm"],
-                   check=True)
-    res = subprocess.run([str(exe), "--bench", "20000000"], capture_output=True, text=True, check=True)
-    return float(res.stdout.split()[0])
+    if not exe.exists():
+        subprocess.run([cc, "-std=c99", "-O2", "-o", str(exe), str(tmp / f"{harness}.c"), str(tmp / f"{source}.c"),
+                        "-lm"], check=True)
+    runs = [subprocess.run([str(exe), "--bench", "20000000", *extra], capture_output=True, text=True, check=True)
+            for _ in range(3)]
+    return min(float(r.stdout.split()[0]) for r in runs)
 
 
 def main() -> dict[str, float]:
@@ -61,12 +64,17 @@ def main() -> dict[str, float]:
                     f"exported rs_controller.py {rate_py:,.0f} steps/s")
             if cc:
                 ns = _c_ns(cc, Path(tmp), "rs_harness", "rs_controller")
+                # a timestamp off the sampling instant (a clock's jitter, here 0.1 ms): the reference's arc step
+                ns_off = _c_ns(cc, Path(tmp), "rs_harness", "rs_controller", "1e-4")
                 out[f"{label} c_ns"] = ns
-                line += f", C rs_step {ns:.1f} ns (target <= 1000 ns; cc -O2)"
+                out[f"{label} c_ns_off_instant"] = ns_off
+                line += (f", C rs_step {ns:.1f} ns on the sampling instants, {ns_off:.1f} ns 0.1 ms off them "
+                         "(target <= 1000 ns; cc -O2)")
                 if d.get("monitor"):  # the runtime monitor beside it (issue 54: law + monitor <= 3x the law), same run
                     mns = _c_ns(cc, Path(tmp), "rs_monitor_harness", "rs_monitor")
                     out[f"{label} c_monitor_ns"] = mns
-                    line += f", C rs_monitor_step {mns:.1f} ns: law + monitor {(ns + mns) / ns:.1f}x the law (target <= 3x)"
+                    line += (f", C rs_monitor_step {mns:.1f} ns: law + monitor {(ns + mns) / ns:.1f}x the law on the "
+                             f"instants, {(ns_off + mns) / ns_off:.1f}x off them (target <= 3x)")
             print(line)
     return out
 
