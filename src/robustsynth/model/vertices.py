@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["Vertex", "apply_slip", "add_lateral", "icr_constant", "augment_integral", "triangle", "triangle_coordinates", "delay_vertex_gammas",
-           "DELAY_COVERS", "in_order_combinations", "in_order_weights", "delay_cover_ranges"]
+           "DELAY_COVERS", "TANGENTS", "in_order_combinations", "in_order_weights", "delay_cover_ranges"]
 
 
 @dataclass(frozen=True)
@@ -142,6 +142,9 @@ def triangle_coordinates(h: np.ndarray, h_min: float, h_max: float) -> np.ndarra
 
 
 DELAY_COVERS = ("product", "in-order", "in-order-common")
+# the name of a triangle's third vertex (the crossing of its end tangents) in vertex labels; a vertex without it has
+# every uncertain instant at an end of its range
+TANGENTS = "tangents"
 
 # the triangle vertices of one instant (:func:`triangle`'s rows) and where the in-order coupling puts them on
 # [0, 1] (:func:`in_order_weights`): h_max ("high", weight t^2) first, then the tangents' crossing, then h_min
@@ -237,7 +240,7 @@ def delay_vertex_gammas(A_c: np.ndarray, B_c: np.ndarray, Ts: float, ranges: np.
             continue
         h_min, h_max = tri_ranges[unc.index(j)]
         tri = triangle(h_min, h_max)
-        names = (f"s{j}={Ts - h_min:g}", f"s{j}={Ts - h_max:g}", f"s{j}:tangents")
+        names = (f"s{j}={Ts - h_min:g}", f"s{j}={Ts - h_max:g}", f"s{j}:{TANGENTS}")
         per.append([(names[v], tri[v, 0] * B_c + tri[v, 1] * AB) for v in range(3)])
     if cover == "product":
         combos = list(itertools.product(range(3), repeat=len(unc)))
@@ -275,7 +278,7 @@ def loss_vertex_gammas(A_c: np.ndarray, B_c: np.ndarray, Ts: float, tau_min: flo
     for kind, g in loss_pieces(Ts, tau_min, tau_max, m, d_hi):
         if kind == "R":
             for v, (h, q) in enumerate(tri):
-                name = ("tau=max", "tau=min", "tangents")[v] if len(tri) == 3 else "tau"
+                name = ("tau=max", "tau=min", TANGENTS)[v] if len(tri) == 3 else "tau"
                 labels.append(f"received after {g} lost, {name}")
                 gammas.append(np.stack([G(h, q) if j <= g else zero for j in range(d_hi)]))
         else:

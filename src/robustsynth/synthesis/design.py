@@ -15,6 +15,7 @@ from ..errors import InfeasibleError, InputError, SolverFailure
 from ..model.slip import check_physical_feasibility
 from ..certificate import CertificateCheck, check_certificate, varying_failures
 from .lmis import LMIProblem, build_hinf, build_invariance, build_stability
+from .phase1 import T_PROVEN, Phase1, prove_no_set
 from .solve import RETRY, Outcome, Rejected, SolveRecord, solve, solver_version
 
 __all__ = ["SynthesisResult", "synthesize"]
@@ -139,6 +140,7 @@ class _Runner:
         self.failures = 0
         self.full_retries = 0
         self.failed_at: dict[float, bool] = {}  # alpha -> the solver failed (not: infeasible)
+        self.phase1: Phase1 | None = None  # the phase-1 problems asked where the solver failed (_settled_by_phase1)
         self._failed_first: dict[tuple, list[LMIProblem]] = {}  # parameters -> problems the primary solver failed on
         self.last_kind = ""
 
@@ -493,7 +495,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     alpha_hint: float | None = None, retry: bool | str = True, probe_only: bool = False,
                     give_up: int | None = None,
                     prune: Callable[[list[float]], set[float]] | None = None,
-                    stop_rel: float = HINT_STOP_REL, bar: float | None = None) -> tuple[_Best, _Runner]:
+                    stop_rel: float = HINT_STOP_REL, bar: float | None = None,
+                    prove: Callable[[], Phase1] | None = None) -> tuple[_Best, _Runner]:
     """The alpha line search of the invariance LMIs.  Without a hint: a log grid of alpha_points
     scanned upwards, then parabolic steps around its best point.  With ``alpha_hint`` (the best alpha
     of a cheaper certificate class): walk from the hint in quarter grid steps while the bound falls,
@@ -505,7 +508,10 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     infeasible otherwise (they are not retried).  ``stop_rel``: the refinement's stop tolerance on the objective
     (COSTLY_STOP_REL where each solve takes seconds; the hinted walk then also stops at smaller gains).  ``bar``
     (with a hint): the objective to beat; when the hint's own solve does not certify below it, the search ends
-    there (one solve: is this class worth a search?), else it walks on from the hint (that solve counted)."""
+    there (one solve: is this class worth a search?), else it walks on from the hint (that solve counted).
+    ``prove``: phase-1 problems over the whole alpha range (:func:`.phase1.prove_no_set`), asked where the solver
+    failed: at the hint (before the full scan, which it then spares when they settle the range) or anywhere in a
+    search that certified nothing; where they settle it, the failed points count as infeasible."""
     lp = _build(build_invariance, model, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,
                 symmetry=s.symmetry == "auto")
     full = lambda mdl: build_invariance(mdl, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,  # noqa: E731
@@ -570,6 +576,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     rel=0.0 if stop_rel == HINT_STOP_REL else stop_rel)
         if best.cert is not None:
             _parabolic(evaluate, pts, predict=True, rel=stop_rel)
+            return best, runner
+        if prove is not None and runner.last_kind == "failed" and _settled_by_phase1(runner, prove, search, say):
             return best, runner
         say("  the hint is not feasible for this class: full scan")
     vals: list[float] = []
@@ -646,6 +654,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                 if any(math.isfinite(v) for v in vals[:-1]) and not math.isfinite(vals[-1]):
                     break  # the end of the feasible interval
     if best.cert is None:
+        if prove is not None and runner.phase1 is None and any(runner.failed_at.values()):
+            _settled_by_phase1(runner, prove, search, say)
         return best, runner
     # the retried points off the grid (the hint's) where they certified: the parabolic steps start from them too
     extra = [(g, v) for g, v in cache.items() if g not in on_grid and math.isfinite(v)]
@@ -654,6 +664,25 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     _parabolic(lambda x: evaluate(x, unscaled_only=unscaled), sorted([(float(g), v) for g, v in zip(grid, vals)] + extra),
                rel=stop_rel)
     return best, runner
+
+
+def _settled_by_phase1(runner: _Runner, prove: Callable[[], Phase1], search: list, say: Callable[[str], None]) -> bool:
+    """Ask the phase-1 problems (``prove``); where they settle the alpha range, the runner's failed points count
+    as infeasible (so an exit says 3, with the evidence, not 4).  Whether they did."""
+    say("  the solver failed here: phase-1 problems over the alpha range (docs/theory.md §6j)")
+    proof = prove()
+    runner.phase1 = proof
+    say(f"  {proof.summary()}")
+    for a, b, t, n, status in proof.intervals:
+        search.append({"alpha_interval": [a, b], "status": "infeasible" if t is not None and t <= -T_PROVEN else "failed",
+                       "objective": None, "by": f"phase-1 ({n} vertices)", "t": t})
+    if not proof.proven:
+        return False
+    flipped = [a for a, failed in runner.failed_at.items() if failed]
+    for a in flipped:
+        runner.failed_at[a] = False
+    runner.failures -= len(flipped)
+    return True
 
 
 def _run_hinf(model: Any, s: SynthesisConfig, search: list, say: Callable[[str], None]) -> tuple[_Best, _Runner]:
@@ -1020,7 +1049,8 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
             b, r = _run_invariance(m, s, search, motor, say, alpha_hint=start, retry="cheap" if auto else True,
                                    give_up=NONLINEAR_GIVE_UP,
                                    prune=_motor_pruner(m, s, say=say) if motor else None, stop_rel=COSTLY_STOP_REL,
-                                   bar=best.value if best.cert is not None else None)
+                                   bar=best.value if best.cert is not None else None,
+                                   prove=lambda m=m: prove_no_set(m, s, motor, ALPHA_RANGE, say))
             if best.cert is not None and (b.cert is None or b.value >= best.value):
                 tried.append((tb, "not better at the best alpha"))
                 break
@@ -1031,7 +1061,9 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
             continue
         # per alpha, its final outcome (after any fallback): failed everywhere is a solver failure, not a proof
         solver_failed = b.cert is None and bool(r.failed_at) and all(r.failed_at.values())
-        tried.append((tb, "certified" if b.cert is not None else ("solver failed" if solver_failed else "infeasible")))
+        settled = b.cert is None and r.phase1 is not None and r.phase1.proven
+        tried.append((tb, "certified" if b.cert is not None else "infeasible (phase-1)" if settled else
+                      ("solver failed" if solver_failed else "infeasible")))
         tried_at[tb] = (len(r.failed_at), sum(r.failed_at.values()))
         if runner is None:
             runner = r
@@ -1177,6 +1209,9 @@ def _nonlinear_infeasible(model: Any, common: _Best, tried: list, tried_at: dict
     ``auto``) also where it lies against that set's heading, and that auto searches."""
     def why_at(tb: float, why: str) -> str:
         n, failed = tried_at.get(tb, (0, 0))
+        if why == "infeasible (phase-1)":
+            return (f"no set with |e_x|, |e_y| <= 1 m at any alpha in [{ALPHA_RANGE[0]:g}, {ALPHA_RANGE[1]:g}]: phase-1 "
+                    "problems, where the solver had failed")
         if why == "infeasible" and n:
             return f"infeasible at the {n} alphas tried" if not failed else \
                 f"infeasible at {n - failed} of the {n} alphas tried, the solver failed at the others"

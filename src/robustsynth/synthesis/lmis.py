@@ -386,18 +386,29 @@ def build_stability(model: Any, kind: str, margin: float, lyapunov: str = "commo
 
 
 def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, motor: bool,
-                     lyapunov: str = "common", symmetry: bool = True, least_motor: bool = False) -> LMIProblem:
+                     lyapunov: str = "common", symmetry: bool = True, least_motor: bool = False,
+                     phase1: float | None = None) -> LMIProblem:
     """Invariant, attracting ellipsoid under every admissible delay and slip (docs/theory.md §6b);
     parameter alpha.  Minimizes sum_i weights_i * (bound on state i)^2 / level over e_x, e_y, e_theta.
     ``symmetry``: use the model's mirror symmetry when it has one (the same optimum, fewer LMIs).
     ``least_motor``: minimize instead the squared bound u^2 of the motor LMIs (§6c) on the commanded
-    deviation, ``extra['u2']`` (``motor`` is then ignored)."""
+    deviation, ``extra['u2']`` (``motor`` is then ignored).
+
+    ``phase1`` (kappa > 0): the same LMIs as a problem that always has a solution: maximize t (``extra['t']``) with
+    the vertex LMIs and X >= t I instead of >= margin I, and the set's position extents X_00, X_11 <= kappa (the
+    other constraints as they are).  A solution of the LMIs above with X_00, X_11 <= kappa is one with t = margin >= 0,
+    so a maximum t* < 0 says that none exists whose set keeps |e_x|, |e_y| <= sqrt(kappa).  Its parameters may differ from (alpha, 1 - alpha):
+    ``one_minus_alpha`` = 1 - alpha_lo and ``alpha`` = alpha_hi make it a relaxation of every alpha in
+    [alpha_lo, alpha_hi] ((1 - alpha) X and sum beta <= alpha loosen as alpha falls and rises): t* < 0 then holds for
+    the whole interval (docs/theory.md §6j)."""
     lv = _Lyap(model, lyapunov, mirror=model.mirror(lyapunov) if symmetry else None)
     n_s, n_w = model.n_s, model.n_w
     alpha = cp.Parameter(nonneg=True, name="alpha", value=0.1)
     one_minus = cp.Parameter(nonneg=True, name="one_minus_alpha", value=0.9)
     beta = cp.Variable(n_w, name="beta")
     Ms, cons = _multipliers(model, kind, margin, lv.mirror)
+    t = cp.Variable(name="t") if phase1 is not None else None
+    floor = margin if t is None else t
     Zsw = np.zeros((n_s, n_w))
     for i, (v, M) in enumerate(zip(model.vertices, Ms)):
         AX, CX = _vertex_parts(v, lv)
@@ -414,8 +425,8 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
                 rows[2].append(np.zeros((n_s, v.n_q)))
                 rows.append([CX, np.asarray(v.F), np.zeros((v.n_q, n_s)), M])
             L = cp.bmat(rows)
-            cons.append(_sym(L) >> margin * np.eye(L.shape[0]))
-    cons += [cp.sum(beta) <= alpha] + lv.scale(margin)
+            cons.append(_sym(L) >> floor * np.eye(L.shape[0]))
+    cons += [cp.sum(beta) <= alpha] + lv.scale(floor)
     extra = {"beta": beta}
     u2 = cp.Variable(nonneg=True, name="u2") if least_motor else None
     if motor or least_motor:
@@ -423,6 +434,11 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
             cons += motor_constraints(model, lv.left(j), lv.Y, rows=lv.motor_rows(model, j), u2=u2)
     if model.heading_bound is not None:
         cons += heading_constraints(model, lv)
+    if t is not None:
+        cons += [lv.mats[j][i, i] <= float(phase1) for j in lv.own for i in (0, 1)]
+        extra["t"] = t
+        return LMIProblem(cp.Problem(cp.Maximize(t), cons), M=Ms, params={"alpha": alpha, "one_minus_alpha": one_minus},
+                          extra=extra, **lv.problem_kwargs())
     if least_motor:
         objective = u2
         extra["u2"] = u2

@@ -1,0 +1,76 @@
+"""Phase-1 problems of the invariance LMIs (synthesis/phase1.py, docs/theory.md §6j): where the solver fails on the
+robot proof's LMIs, a problem that always has a solution (maximize t, every vertex LMI >= t I, X <= kappa I) over an
+interval of alpha settles it.  Cross-checked against the ordinary solves: never 'proven' where a certificate
+exists, and where an interval is proven, no alpha inside it certifies."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from robustsynth.config import mapping_with
+from robustsynth.model import build_model
+from robustsynth.synthesis.design import _Runner, _kinematic, _settled_by_phase1
+from robustsynth.synthesis.lmis import build_invariance
+from robustsynth.synthesis.phase1 import PHASE1_BOX, T_PROVEN, Phase1, prove_no_set
+from robustsynth.synthesis.solve import solve
+
+from ..conftest import committed_gain
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _nonlinear_proof(**overrides):
+    """configs/nonlinear-proof.yaml with dotted-path overrides: its model and the kinematic channels' settings."""
+    cfg = mapping_with(yaml.safe_load((ROOT / "configs" / "nonlinear-proof.yaml").read_text()), **overrides)
+    return build_model(cfg), _kinematic(cfg.synthesis)
+
+
+def test_an_interval_around_a_certified_alpha_is_never_proven() -> None:
+    """The committed nonlinear-proof certificate is a solution within the box (its set's |e_x|, |e_y| <= 1 m) at
+    its alpha: the phase-1 maximum over any interval holding that alpha is >= 0, so no proof may come out there."""
+    m, _, cert = committed_gain("nonlinear-proof")
+    Q = np.asarray(cert["Q"], dtype=float)
+    assert max(Q[0, 0], Q[1, 1]) <= PHASE1_BOX  # inside the box the phase-1 problems use
+    a = float(cert["alpha"])
+    _, s = _nonlinear_proof()
+    model = m.with_heading_bound(float(cert["heading_bound"]), within_period=True)
+    proof = prove_no_set(model, s, bool(cert["motor_limits_enforced"]), (a / 1.1, a * 1.1), intervals=1)
+    assert not proof.proven
+    assert all(t is not None and t >= -T_PROVEN for _, _, t, _, _ in proof.intervals)
+
+
+def test_a_proven_interval_has_no_certifiable_alpha_inside() -> None:
+    """Integral action at heading bound 0.2 rad has no set at small alphas: the phase-1 problem over [0.005, 0.0096]
+    proves it (t* < 0), and the ordinary LMIs at alphas inside the interval are not solvable either."""
+    m, s = _nonlinear_proof(**{"synthesis.integral_action": True})
+    model = m.with_heading_bound(0.2, within_period=True)
+    proof = prove_no_set(model, s, True, (0.005, 0.0096), intervals=1)
+    assert proof.proven, proof.summary()
+    lp = build_invariance(model, s.multiplier, s.margin, np.array([1.0, 1.0, 1.0]), True, s.lyapunov, symmetry=False)
+    for a in (0.005, 0.007, 0.0096):
+        lp.params["alpha"].value = a
+        lp.params["one_minus_alpha"].value = 1.0 - a
+        out = solve(lp.problem, s.solver, lambda: True, fallback=False, retry=True)
+        assert out.kind != "ok", a
+
+
+def test_a_proof_turns_the_failed_points_into_infeasible_ones() -> None:
+    """The search's bookkeeping: where the phase-1 problems settle the range, the alphas at which the solver failed
+    count as infeasible (the exit is 3 with the evidence, not 4); where they do not, nothing changes."""
+    m, s = _nonlinear_proof()
+    runner = _Runner(m, None, s.solver, lambda vals: {})  # (the problem is not solved here)
+    for proven in (False, True):
+        runner.failed_at, runner.failures, runner.phase1 = {0.05: True, 0.1: False, 0.2: True}, 2, None
+        proof = Phase1(0.005, 0.95, [(0.005, 0.1, -1e-3, 8, "optimal"), (0.1, 0.95, -2e-3 if proven else 1e-4, 8, "optimal")])
+        search: list = []
+        assert _settled_by_phase1(runner, lambda p=proof: p, search, lambda _m: None) is proven
+        assert runner.phase1 is proof
+        assert [e["status"] for e in search] == ["infeasible", "infeasible" if proven else "failed"]
+        if proven:
+            assert runner.failed_at == {0.05: False, 0.1: False, 0.2: False} and runner.failures == 0
+        else:
+            assert runner.failed_at == {0.05: True, 0.1: False, 0.2: True} and runner.failures == 2
