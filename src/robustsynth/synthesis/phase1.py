@@ -8,7 +8,8 @@ with ``phase1``).  Its maximum t* < 0 says that the LMIs have no solution whose 
 interval [alpha_lo, alpha_hi] of the line search (``1 - alpha_lo`` before X, ``sum beta <= alpha_hi``) the problem
 relaxes the LMIs of every alpha in it, so a few such problems cover the whole search range, not only its grid.
 A subset of the vertices is a relaxation too: the vertices with every uncertain instant at an end of its range
-(no triangle's tangent point) go first, being fewer; an interval they do not settle is solved with all of them.
+(no triangle's tangent point) go first, being fewer; an interval they do not settle is halved, and a half they
+still do not settle is solved with all of them.
 
 Said plainly: t* is the solver's optimum (Clarabel at its tolerances, 'optimal' or 'optimal_inaccurate'), not a
 certificate re-checked in numpy; an interval counts only with t* <= -T_PROVEN.
@@ -25,7 +26,7 @@ import numpy as np
 
 from ..model.vertices import TANGENTS
 from .lmis import build_invariance
-from .solve import solve
+from .solve import solve, solve_all
 
 __all__ = ["Phase1", "prove_no_set", "PHASE1_BOX", "T_PROVEN", "INTERVALS"]
 
@@ -34,6 +35,7 @@ __all__ = ["Phase1", "prove_no_set", "PHASE1_BOX", "T_PROVEN", "INTERVALS"]
 PHASE1_BOX = 1.0
 T_PROVEN = 1e-7  # an interval counts as proven only with t* <= -T_PROVEN (far beyond the solver's 1e-9 tolerances)
 INTERVALS = 8  # log-spaced intervals over the alpha range, each halved once where it does not settle
+PARALLEL = 2  # intervals solved at once, each on its own copy of the problem (this machine's two cores)
 
 
 @dataclass
@@ -71,22 +73,32 @@ def _exact_end_vertices(model: Any) -> Any | None:
     return replace(model, vertices=keep)
 
 
-def _t_star(lp: Any, lo: float, hi: float, solver: str) -> tuple[float | None, str]:
-    lp.params["one_minus_alpha"].value = 1.0 - lo
-    lp.params["alpha"].value = hi
-    t = lp.extra["t"]
-    out = solve(lp.problem, solver, lambda: t.value is not None and math.isfinite(float(t.value)), fallback=False,
-                retry=True)
-    if out.kind != "ok":
-        return None, out.record.status
-    return float(t.value), out.record.status
+def _accept(lp: Any) -> Callable[[], bool]:
+    return lambda: lp.extra["t"].value is not None and math.isfinite(float(lp.extra["t"].value))
+
+
+def _t_stars(lps: list[Any], intervals: list[tuple[float, float]], solver: str) -> list[tuple[float | None, str]]:
+    """t* of each interval, on its own copy of the problem (``lps``, one per interval), solved at once
+    (:func:`~.solve.solve_all`: two copies on two cores take the time of one); a copy whose solver failed is solved
+    again with the other Clarabel (its retry)."""
+    for lp, (lo, hi) in zip(lps, intervals):
+        lp.params["one_minus_alpha"].value = 1.0 - lo
+        lp.params["alpha"].value = hi
+    outs = solve_all([lp.problem for lp in lps], solver, [_accept(lp) for lp in lps])
+    res = []
+    for lp, out in zip(lps, outs):
+        if out.kind != "ok":
+            out = solve(lp.problem, solver, _accept(lp), fallback=False, retry=True, skip_first=True)
+        res.append((float(lp.extra["t"].value), out.record.status) if out.kind == "ok" else (None, out.record.status))
+    return res
 
 
 def prove_no_set(model: Any, s: Any, motor: bool, alpha_range: tuple[float, float],
                  say: Callable[[str], None] = lambda _m: None, intervals: int = INTERVALS) -> Phase1:
     """Phase-1 problems of the invariance LMIs of ``model`` (settings ``s``: multiplier, weights, Lyapunov kind,
-    solver) over ``intervals`` log-spaced intervals of ``alpha_range``: on the vertices with their instants at the
-    ends of their ranges first, an interval they leave unsettled again with every vertex, then halved once."""
+    solver) over ``intervals`` log-spaced intervals of ``alpha_range``, PARALLEL at a time: on the vertices with their
+    instants at the ends of their ranges, an interval they leave unsettled halved once, and a half still unsettled
+    solved again with every vertex.  Stops at the first interval left unsettled (no proof can come out any more)."""
     t0 = time.perf_counter()
     lo, hi = alpha_range
     edges = np.exp(np.linspace(math.log(lo), math.log(hi), intervals + 1))
@@ -94,31 +106,42 @@ def prove_no_set(model: Any, s: Any, motor: bool, alpha_range: tuple[float, floa
     build = lambda m: build_invariance(m, s.multiplier, s.margin, w, motor, s.lyapunov, symmetry=False,  # noqa: E731
                                        phase1=PHASE1_BOX)
     sub = _exact_end_vertices(model)
-    problems = [(sub, None), (model, None)] if sub is not None else [(model, None)]
+    kinds = [sub, model] if sub is not None else [model]  # the fewer vertices first
+    copies: list[list[Any]] = [[] for _ in kinds]  # per kind, its compiled copies (one per interval solved at once)
     result = Phase1(float(lo), float(hi))
 
-    def settle(a: float, b: float, depth: int) -> None:
-        t, status, n = None, "", 0
-        for i, (m, lp) in enumerate(problems):
-            if lp is None:
-                lp = build(m)
-                problems[i] = (m, lp)
-            t, status = _t_star(lp, a, b, s.solver)
-            n = len(m.vertices)
-            say(f"  phase-1 on alpha in [{a:.4g}, {b:.4g}] ({n} vertices): "
+    def run(i: int, ivs: list[tuple[float, float]]) -> list[tuple[float | None, str]]:
+        while len(copies[i]) < len(ivs):
+            copies[i].append(build(kinds[i]))
+        ts = _t_stars(copies[i][: len(ivs)], ivs, s.solver)
+        for (a, b), (t, status) in zip(ivs, ts):
+            say(f"  phase-1 on alpha in [{a:.4g}, {b:.4g}] ({len(kinds[i].vertices)} vertices): "
                 + ("the solver failed" if t is None else f"t* = {t:.3g}") + f" ({status})")
-            if t is not None and t <= -T_PROVEN:
-                break
-        if (t is None or t > -T_PROVEN) and depth > 0:
-            mid = math.sqrt(a * b)
-            settle(a, mid, depth - 1)
-            settle(mid, b, depth - 1)
-            return
-        result.intervals.append((a, b, t, n, status))
+        return ts
 
-    for a, b in zip(edges[:-1], edges[1:]):
-        settle(float(a), float(b), 1)
-        if not result.proven:
-            break  # an interval not settled: the rest cannot make it a proof
+    def settled(t: float | None) -> bool:
+        return t is not None and t <= -T_PROVEN
+
+    def settle(ivs: list[tuple[float, float]], depth: int) -> bool:
+        """Settle ``ivs`` (PARALLEL at a time) on the fewer vertices, halving what they leave, and what is left
+        then on every vertex; False at the first interval left unsettled (no proof can come out any more)."""
+        for k in range(0, len(ivs), PARALLEL):
+            chunk = ivs[k : k + PARALLEL]
+            for (a, b), (t, status) in zip(chunk, run(0, chunk)):
+                n = len(kinds[0].vertices)
+                if not settled(t) and depth > 0:
+                    mid = math.sqrt(a * b)
+                    if not settle([(a, mid), (mid, b)], depth - 1):
+                        return False
+                    continue
+                if not settled(t) and len(kinds) > 1:
+                    (t, status), = run(1, [(a, b)])
+                    n = len(kinds[1].vertices)
+                result.intervals.append((a, b, t, n, status))
+                if not settled(t):
+                    return False
+        return True
+
+    settle([(float(a), float(b)) for a, b in zip(edges[:-1], edges[1:])], 1)
     result.seconds = time.perf_counter() - t0
     return result
