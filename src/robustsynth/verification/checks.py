@@ -32,7 +32,8 @@ from ..model.slip import check_physical_feasibility
 from ..plants.path import path_of
 from ..scenarios import (alternating_delays, draw_scenario, random_delays, rate_limited_slip, slip_vertices,
                          steady_state_start)
-from ..certificate import CertificateCheck, check_certificate, lyapunov_of, turn_bounds
+from ..certificate import CertificateCheck, check_certificate, lyapunov_of
+from ..certificate_turns import turn_bounds
 from ..runtime.replay import monitor_summary
 from .probe import boundary_probe, boundary_states
 
