@@ -214,78 +214,16 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
                      "(synthesis.model)")
     if K.shape != (n_u, n_s):
         return _fail(f"K has shape {K.shape}, expected {(n_u, n_s)}")
-    kin = cert.get("kinematics", "linearized")
-    if objective in ("stability", "hinf") and kin == "linearized":
-        # these LMIs are written on the linearization (synthesis.lmis.build_stability / build_hinf),
-        # also when the config asks for nonlinear kinematics (robust stability of a fixed K: margins)
-        model = model.linearized()
-    if kin != model.kinematics:
-        return _fail(f"the certificate is for {kin} kinematics, the config asks for {model.kinematics} "
-                     "(synthesis.kinematics)")
-    if kin == "nonlinear":  # the kinematic channels of the certificate's own heading bound
-        hb = cert.get("heading_bound")
-        if isinstance(hb, bool) or not isinstance(hb, (int, float)) or not 0.0 < float(hb) <= 1.0:
-            return _fail(f"certificate.heading_bound: nonlinear kinematics need a number in (0, 1] rad (got {hb!r})")
-        hb = float(hb)
-        within = bool(cert.get("within_period_channels", False))  # for slip changing within a period (§9)
-        if within and not model.covering:
-            return _fail("the certificate's kinematic channels are for slip changing within a period, which this "
-                         f"config's model does not cover ({model.varying_reason})")
-        if hb != model.heading_bound or within != bool(model.covering_vertices):
-            model = model.with_heading_bound(hb, within_period=within)
-    turns, have = cert.get("turns"), getattr(model, "turns", None)
-    if turns is not None:  # the vertices of the certificate's own turning reference (model/arcs.py)
-        want = (float(turns["max_yaw_rate"]), float(turns["max_step"]))
-        if have is not None and not (want[0] >= have.max_yaw_rate and want[1] >= have.max_step):
-            return _fail(f"the certificate covers reference yaw rates up to {want[0]:.4g} rad/s (steps {want[1]:.4g}), "
-                         f"the model asks for {have.max_yaw_rate:.4g} (steps {have.max_step:.4g}): "
-                         "reference.turn_radius is smaller than the one the gain was certified for")
-        if have is None:
-            return _fail(f"the certificate is for a reference turning along arcs (yaw rates up to {want[0]:.4g} rad/s), "
-                         "the config's path jumps at its waypoints (reference.turn_radius is null): set "
-                         "reference.turn_radius to the gain's radius or wider")
-        # the turning vertices of the certificate's own yaw rates, for slip changing within a period where its
-        # channels are (within_period_channels; a certificate made before they existed assumes it constant)
-        within = bool(cert.get("within_period_channels", False))
-        if within and not model.covering:
-            return _fail("the certificate's channels are for slip changing within a period, which this config's "
-                         f"model does not cover ({model.varying_reason})")
-        from .errors import InputError
-
-        try:
-            if (have.max_yaw_rate, have.max_step) != want or within != bool(model.covering_vertices):
-                model = model.with_turns(*want, within_period=within)
-            size = _multiplier_size(cert)
-            if not within and size not in (None, model.vertices[0].n_q ** 2):
-                # made before the arc channels were merged (docs/theory.md §10): their own layout, if it fits
-                legacy = model.with_turns(*want, within_period=False, merged=False)
-                if size == legacy.vertices[0].n_q ** 2:
-                    model = legacy
-        except InputError as exc:
-            return _fail(f"the certificate is for a turning reference, which this model cannot carry: {exc}")
-    elif have is not None:
-        return _fail("the certificate is for straight segments, the model for a turning reference")
+    model = _model_of(model, cert, objective)
+    if isinstance(model, str):
+        return _fail(model)
     parts = _lyapunov_parts(model, cert, n_s)
     if isinstance(parts, str):
         return _fail(parts)
     lyap, X, conds, mats = parts
-    mult = cert["multipliers"]
-    n_v = len(model.vertices)
-    raw = mult["M"]
-    if len(raw) != n_v:
-        return _fail(f"multipliers.M has {len(raw)} entries, expected one per vertex ({n_v})")
-    Ms = []
-    for i, (x, v) in enumerate(zip(raw, model.vertices)):
-        M = _arr(x, f"multipliers.M[{i}]")
-        if M.size != v.n_q * v.n_q:
-            return _fail(f"multipliers.M[{i}] has {M.size} entries, expected {v.n_q} x {v.n_q} (the vertex's uncertainty "
-                         "channels): the certificate was made for other channels")
-        M = M.reshape(v.n_q, v.n_q)
-        err = _symmetric(M, f"multipliers.M[{i}]") or multiplier_structure_error(
-            M, v.n_q // 3, mult.get("kind", "structured"), v.diagonal)
-        if err:
-            return _fail(err)
-        Ms.append(_sym(M))
+    Ms = _multipliers(model, cert["multipliers"])
+    if isinstance(Ms, str):
+        return _fail(Ms)
     margin = float(cert["margin"])
     if not margin > 0:
         return _fail("margin must be > 0")
@@ -296,159 +234,336 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
             if Pm.shape != Sm.shape or np.max(np.abs(Pm @ Sm - np.eye(n_s))) > 1e-6:
                 return _fail("P is not the inverse of the Lyapunov matrix")
     threshold = CHECK_FRACTION * margin
-    Y = K @ X
-    aX, aY = np.abs(X), np.abs(K) @ np.abs(X)  # Y's magnitude: Y = K X is computed, not given
-    lmin = lambda L: float(np.linalg.eigvalsh(L)[0])  # noqa: E731
+    checks = _positivity(model, lyap, mats, Ms, threshold)
+    # slip changing within a period (docs/theory.md §11): a common certificate must also hold at the
+    # vertices that cover every slip history; the others state that they assume it constant
+    varying, varying_reason = model.slip_variation(lyap, objective)
+    group_multipliers = _group_multipliers(model, varying, Ms)
+    if group_multipliers is None:
+        return _fail("the within-period vertices' channels have no multiplier (no vertex of their group)", checks)
+    family = _Family(model, Ms, conds, K @ X, np.abs(K) @ np.abs(X),  # Y's magnitude: Y = K X is computed, not given
+                     threshold, X.shape[0] * (K.shape[0] + 1) + len(mats), varying, group_multipliers)
+    figures: dict[str, Any] = {"robust_stability": False, "decay_rate": None, "ultimate_bound": None,
+                               "motor_speed_bound": None, "hinf_gain": None}
+    within = "covered" if varying else f"assumed constant: {varying_reason}"
+    if objective == "stability":
+        failed = _stability(cert, family, X, checks, figures)
+    elif objective == "ultimate-bound":
+        failed = _ultimate_bound(cert, family, K, X, lyap, mats, checks, figures)
+    elif objective == "hinf":
+        failed = _hinf(cert, family, X, lyap, checks, figures)
+    else:
+        return _fail(f"unknown objective {objective!r}")
+    if failed is not None:
+        return failed
+    return _verdict(checks, figures, within)
+
+
+def _model_of(model: Any, cert: Mapping[str, Any], objective: str) -> Any:
+    """The model the certificate's LMIs are written on (its kinematics, heading bound and turning
+    reference, where the config's model allows them), or why there is none (a string)."""
+    kin = cert.get("kinematics", "linearized")
+    if objective in ("stability", "hinf") and kin == "linearized":
+        # these LMIs are written on the linearization (synthesis.lmis.build_stability / build_hinf),
+        # also when the config asks for nonlinear kinematics (robust stability of a fixed K: margins)
+        model = model.linearized()
+    if kin != model.kinematics:
+        return (f"the certificate is for {kin} kinematics, the config asks for {model.kinematics} "
+                "(synthesis.kinematics)")
+    if kin == "nonlinear":  # the kinematic channels of the certificate's own heading bound
+        hb = cert.get("heading_bound")
+        if isinstance(hb, bool) or not isinstance(hb, (int, float)) or not 0.0 < float(hb) <= 1.0:
+            return f"certificate.heading_bound: nonlinear kinematics need a number in (0, 1] rad (got {hb!r})"
+        hb = float(hb)
+        within = bool(cert.get("within_period_channels", False))  # for slip changing within a period (§9)
+        if within and not model.covering:
+            return ("the certificate's kinematic channels are for slip changing within a period, which this "
+                    f"config's model does not cover ({model.varying_reason})")
+        if hb != model.heading_bound or within != bool(model.covering_vertices):
+            model = model.with_heading_bound(hb, within_period=within)
+    return _model_of_turns(model, cert)
+
+
+def _model_of_turns(model: Any, cert: Mapping[str, Any]) -> Any:
+    """The model with the vertices of the certificate's own turning reference (model/arcs.py), or why
+    it cannot carry them (a string)."""
+    turns, have = cert.get("turns"), getattr(model, "turns", None)
+    if turns is None:
+        return "the certificate is for straight segments, the model for a turning reference" if have is not None else model
+    want = (float(turns["max_yaw_rate"]), float(turns["max_step"]))
+    if have is not None and not (want[0] >= have.max_yaw_rate and want[1] >= have.max_step):
+        return (f"the certificate covers reference yaw rates up to {want[0]:.4g} rad/s (steps {want[1]:.4g}), "
+                f"the model asks for {have.max_yaw_rate:.4g} (steps {have.max_step:.4g}): "
+                "reference.turn_radius is smaller than the one the gain was certified for")
+    if have is None:
+        return (f"the certificate is for a reference turning along arcs (yaw rates up to {want[0]:.4g} rad/s), "
+                "the config's path jumps at its waypoints (reference.turn_radius is null): set "
+                "reference.turn_radius to the gain's radius or wider")
+    # the turning vertices of the certificate's own yaw rates, for slip changing within a period where its
+    # channels are (within_period_channels; a certificate made before they existed assumes it constant)
+    within = bool(cert.get("within_period_channels", False))
+    if within and not model.covering:
+        return ("the certificate's channels are for slip changing within a period, which this config's "
+                f"model does not cover ({model.varying_reason})")
+    from .errors import InputError
+
+    try:
+        if (have.max_yaw_rate, have.max_step) != want or within != bool(model.covering_vertices):
+            model = model.with_turns(*want, within_period=within)
+        size = _multiplier_size(cert)
+        if not within and size not in (None, model.vertices[0].n_q ** 2):
+            # made before the arc channels were merged (docs/theory.md §10): their own layout, if it fits
+            legacy = model.with_turns(*want, within_period=False, merged=False)
+            if size == legacy.vertices[0].n_q ** 2:
+                model = legacy
+    except InputError as exc:
+        return f"the certificate is for a turning reference, which this model cannot carry: {exc}"
+    return model
+
+
+def _multipliers(model: Any, mult: Mapping[str, Any]) -> list[np.ndarray] | str:
+    """The certificate's multipliers, one per vertex (symmetrized), or why they do not fit (a string)."""
+    n_v = len(model.vertices)
+    raw = mult["M"]
+    if len(raw) != n_v:
+        return f"multipliers.M has {len(raw)} entries, expected one per vertex ({n_v})"
+    Ms = []
+    for i, (x, v) in enumerate(zip(raw, model.vertices)):
+        M = _arr(x, f"multipliers.M[{i}]")
+        if M.size != v.n_q * v.n_q:
+            return (f"multipliers.M[{i}] has {M.size} entries, expected {v.n_q} x {v.n_q} (the vertex's uncertainty "
+                    "channels): the certificate was made for other channels")
+        M = M.reshape(v.n_q, v.n_q)
+        err = _symmetric(M, f"multipliers.M[{i}]") or multiplier_structure_error(
+            M, v.n_q // 3, mult.get("kind", "structured"), v.diagonal)
+        if err:
+            return err
+        Ms.append(_sym(M))
+    return Ms
+
+
+def _lmin(L: np.ndarray) -> float:
+    """The smallest eigenvalue of L (floating point)."""
+    return float(np.linalg.eigvalsh(L)[0])
+
+
+def _positivity(model: Any, lyap: str, mats: list[np.ndarray], Ms: list[np.ndarray], threshold: float
+                ) -> list[dict[str, Any]]:
+    """The items that the Lyapunov matrices and the multipliers are >= threshold I."""
     checks = []
     for m, Sm in enumerate(mats):
         nm = "Q > 0" if lyap == "common" else f"S[{m}] > 0"
         ok, allow = _proof(Sm, None, 0, threshold)
-        checks.append(_item(nm, lmin(Sm), threshold, verified=ok, allowance=allow, unproven="" if ok else nm))
+        checks.append(_item(nm, _lmin(Sm), threshold, verified=ok, allowance=allow, unproven="" if ok else nm))
     if any(v.n_q for v in model.vertices):
         idx = [i for i, v in enumerate(model.vertices) if v.n_q]
-        worst = min((lmin(Ms[i]), i) for i in idx)
+        worst = min((_lmin(Ms[i]), i) for i in idx)
         proofs = [(_proof(Ms[i], None, 0, threshold), i) for i in idx]
         bad = [model.vertices[i].label for (ok, _), i in proofs if not ok]
         checks.append(_item(f"M_i > 0 (multipliers, {len(idx)} vertices)", worst[0], threshold,
                             model.vertices[worst[1]].label, verified=not bad,
                             allowance=max(a for (_, a), _ in proofs), unproven=bad[0] if bad else ""))
-    # slip changing within a period (docs/theory.md §11): a common certificate must also hold at the
-    # vertices that cover every slip history; the others state that they assume it constant
-    varying, varying_reason = model.slip_variation(lyap, objective)
+    return checks
+
+
+def _group_multipliers(model: Any, varying: tuple, Ms: list[np.ndarray]) -> np.ndarray | None:
+    """The within-period vertices' multipliers: with channels (§9) each takes the multiplier of its group's
+    first vertex (None when a group has no vertex); an empty (0, 0) without."""
     group_multipliers = np.zeros((0, 0))
-    if varying and varying[0].n_q:  # with channels (§9): each takes the multiplier of its group's first vertex
+    if varying and varying[0].n_q:
         first: dict[int, int] = {}
         for i, v in enumerate(model.vertices):
             if v.group >= 0:
                 first.setdefault(v.group, i)
         if any(v.group not in first for v in varying):
-            return _fail("the within-period vertices' channels have no multiplier (no vertex of their group)", checks)
+            return None
         group_multipliers = np.stack([Ms[first[v.group]] for v in varying])
-    terms = lambda k: 2 * k + X.shape[0] * (K.shape[0] + 1) + len(mats)  # noqa: E731  (products per entry)
+    return group_multipliers
 
-    def vertex_family(name: str, build) -> list[dict[str, Any]]:
+
+@dataclass(frozen=True)
+class _Family:
+    """What every vertex condition of one certificate is assembled and proven from: the model, the
+    multipliers, the Lyapunov conditions per vertex (:func:`_lyapunov_parts`), Y = K X and its magnitude,
+    the threshold, the products per entry besides the matrix's own (``base``), the within-period
+    vertices and their multipliers."""
+
+    model: Any
+    Ms: list[np.ndarray]
+    conds: list
+    Y: np.ndarray
+    aY: np.ndarray
+    threshold: float
+    base: int
+    varying: tuple
+    group_multipliers: np.ndarray
+
+    def terms(self, k: int) -> int:
+        """The products per entry of a k x k condition."""
+        return 2 * k + self.base
+
+    def items(self, name: str, build) -> list[dict[str, Any]]:
         """Every vertex condition: its smallest eigenvalue (floating point) and its verified proof
         (``build(v, M, left, right, Y, mag)`` assembles the matrix, or its magnitude); one item per
         family of vertices."""
+        items = [self._at_vertices(name, build)]
+        if self.varying:
+            items.append(self._within_period(name, build))
+        return items
+
+    def _at_vertices(self, name: str, build) -> dict[str, Any]:
         worst_val, worst_lab, count, allowance, unproven = np.inf, "", 0, 0.0, ""
-        for i, v in enumerate(model.vertices):
-            av, aM = _AbsVertex(v), np.abs(Ms[i])
-            for left, right, lab, aleft, aright in conds[i]:
-                L = build(v, Ms[i], left, right, Y, False)
-                val = lmin(L)
+        for i, v in enumerate(self.model.vertices):
+            av, aM = _AbsVertex(v), np.abs(self.Ms[i])
+            for left, right, lab, aleft, aright in self.conds[i]:
+                L = build(v, self.Ms[i], left, right, self.Y, False)
+                val = _lmin(L)
                 count += 1
                 if val < worst_val:
                     worst_val = val
                     worst_lab = v.label + lab
-                mag = build(av, aM, aleft, aright, aY, True)
-                ok, allow = _proof(L, mag, terms(L.shape[0]), threshold)
+                mag = build(av, aM, aleft, aright, self.aY, True)
+                ok, allow = _proof(L, mag, self.terms(L.shape[0]), self.threshold)
                 allowance = max(allowance, allow)
                 if not ok and not unproven:
                     unproven = v.label + lab
-        items = [_item(f"{name} at {count} vertex condition{'s' if count != 1 else ''}", worst_val, threshold, worst_lab,
-                       verified=not unproven, allowance=allowance, unproven=unproven)]
-        if varying:  # one stack: the common certificate's single condition at every vertex (§11)
-            left, right, _, aleft, aright = conds[0][0]
-            stack, abs_stack = _stacks(varying)
-            Mv = group_multipliers
-            L = build(stack, Mv, left, right, Y, False)
-            vals = np.linalg.eigvalsh(L)[:, 0]
-            radius = assembly_radius_batch(build(abs_stack, np.abs(Mv), aleft, aright, aY, True), terms(L.shape[-1]))
-            proven = proves_at_least_batch(L, threshold, radius)
-            allow = radius + rump_shift_batch(np.maximum(np.abs(np.diagonal(L, axis1=-2, axis2=-1)), 1e-300))
-            worst = int(np.argmin(vals))
-            bad = np.flatnonzero(~proven)
-            item = _item(f"{name} at {len(varying)} vertex conditions, slip changing within a period",
-                         float(vals[worst]), threshold, varying[worst].label, verified=not bad.size,
-                         allowance=float(np.max(allow)), unproven=varying[bad[0]].label if bad.size else "")
-            # the vertices that fail, worst first (synthesis adds them to its LMIs: Model.with_cuts)
-            failing = np.flatnonzero((vals < threshold) | ~proven)
-            item[VARYING_FAILURES] = [int(i) for i in failing[np.argsort(vals[failing], kind="stable")]]
-            items.append(item)
-        return items
+        return _item(f"{name} at {count} vertex condition{'s' if count != 1 else ''}", worst_val, self.threshold,
+                     worst_lab, verified=not unproven, allowance=allowance, unproven=unproven)
 
-    figures: dict[str, Any] = {"robust_stability": False, "decay_rate": None, "ultimate_bound": None,
-                               "motor_speed_bound": None, "hinf_gain": None}
-    within = "covered" if varying else f"assumed constant: {varying_reason}"
-    cfg = model.config
-    if objective == "stability":
-        r2 = float(cert["r2"])
-        if not 0 < r2 < 1:
-            return _fail("r2 must be in (0, 1)", checks, figures)
-        checks.extend(vertex_family("decay LMI (6a)", lambda v, M, lf, rt, y, mag: lmi_stability(
-            v, aX if mag else X, lf, rt, y, M, r2, mag)))
-        figures["decay_rate"] = round_up(np.sqrt(r2), 2)
-    elif objective == "ultimate-bound":
-        alpha = float(cert["alpha"])
-        beta = _arr(cert["beta"], "beta").reshape(-1)
-        if beta.shape != (model.n_w,):
-            return _fail(f"beta has {beta.size} entries, expected {model.n_w}", checks, figures)
-        if not 0 < alpha < 1:
-            return _fail("alpha must be in (0, 1)", checks, figures)
-        if np.any(beta <= 0):
-            return _fail("beta must be > 0", checks, figures)
-        checks.extend(vertex_family("invariance LMI (6b)", lambda v, M, lf, rt, y, mag: lmi_invariance(
-            v, aX if mag else X, lf, rt, y, M, np.abs(beta) if mag else beta, alpha, mag)))
-        # the figures are claimed as bounds: rounded outwards (any level >= sum beta / alpha is invariant)
-        level = round_up(float(np.sum(beta) / alpha), beta.size + 1)  # {xi' P xi <= level}: invariant, attracting
-        figures["decay_rate"] = round_up(np.sqrt(1.0 - alpha), 2)
-        figures["ellipsoid_level"] = level
-        # per bounded figure the largest value the set allows over every slip (and previous delay), the
-        # smallest over the delay vertices V takes its maximum over (set_max; docs/theory.md §6i)
-        inner = model.delay_vertex_count if lyap in ("delay-dependent", "path-dependent") else 1
-        diags = np.array([np.diag(Sm) for Sm in mats])
-        figures["ultimate_bound"] = {
-            name: round_up(np.sqrt(level * set_max(diags[:, k], inner)), 2)
-            for k, name in enumerate(("e_x", "e_y", "e_theta"))
-        }
-        J_inv = np.asarray(model.J_inv)
-        # c S c' with c = J^-1 K, bounded above with its rounding: + gamma |c| |S| |c|'
-        g = gamma(2 * n_s + 2 * n_u + 4)
-        aJK = np.abs(J_inv) @ np.abs(K)
-        devs = np.array([np.einsum("ij,jk,ik->i", J_inv, K @ Sm @ K.T, J_inv)
-                         + g * (1 + g) * np.einsum("ij,jk,ik->i", aJK, np.abs(Sm), aJK) for Sm in mats])
-        dev = max(set_max(devs[:, i], inner) for i in range(devs.shape[1]))
-        figures["motor_speed_bound"] = round_up(model.feedforward_motor_speed + np.sqrt(max(round_up(level * dev), 0.0)), 3)
-        # |e_theta(t)| on the set and the errors between samples (docs/theory.md §9; on arcs against the
-        # turning reference, §10)
-        if model.channels:
-            figures["heading_within_period"] = heading_within_period(model, K, mats, level, inner)
-        figures["ultimate_bound_between_samples"] = between_samples(
-            model, K, mats, level, figures["ultimate_bound"], figures.get("heading_within_period"), inner,
-            within_period=bool(varying))
-        if model.heading_bound is not None:
-            figures["heading_bound"] = model.heading_bound
-            checks.append({
-                "name": "|e_theta(t)| within every period on the set <= heading bound [rad]",
-                "max_eig": None,
-                "threshold": float(model.heading_bound),
-                "margin_found": None,
-                "value": figures["heading_within_period"],
-                "passed": bool(figures["heading_within_period"] <= model.heading_bound),
-            })
-        rho_max = cfg.robot.max_motor_speed
-        if rho_max is not None and cert.get("motor_limits_enforced", False):
-            checks.append({
-                "name": "motor speed on the invariant set (6c) [rad/s]",
-                "max_eig": None,
-                "threshold": float(rho_max),
-                "margin_found": None,
-                "value": figures["motor_speed_bound"],
-                "passed": bool(figures["motor_speed_bound"] <= rho_max),
-            })
-    elif objective == "hinf":
-        if lyap != "common":
-            return _fail("hinf certificates use a common Lyapunov matrix")
-        g = float(cert["gamma2"])
-        w = cfg.synthesis.weights
-        Cz = np.zeros((3, n_s))
-        Cz[:3, :3] = np.diag([w.e_x, w.e_y, w.e_theta])
-        Bd = np.asarray(model.B_d)
-        checks.extend(vertex_family("bounded-real LMI (6d)", lambda v, M, lf, rt, y, mag: lmi_hinf(
-            v, np.abs(Bd) if mag else Bd, np.abs(Cz) if mag else Cz, aX if mag else X, y, M, g, mag)))
-        figures["hinf_gain"] = round_up(np.sqrt(g), 2)
-    else:
-        return _fail(f"unknown objective {objective!r}")
+    def _within_period(self, name: str, build) -> dict[str, Any]:
+        """One stack: the common certificate's single condition at every within-period vertex (§11)."""
+        varying, threshold = self.varying, self.threshold
+        left, right, _, aleft, aright = self.conds[0][0]
+        stack, abs_stack = _stacks(varying)
+        Mv = self.group_multipliers
+        L = build(stack, Mv, left, right, self.Y, False)
+        vals = np.linalg.eigvalsh(L)[:, 0]
+        radius = assembly_radius_batch(build(abs_stack, np.abs(Mv), aleft, aright, self.aY, True), self.terms(L.shape[-1]))
+        proven = proves_at_least_batch(L, threshold, radius)
+        allow = radius + rump_shift_batch(np.maximum(np.abs(np.diagonal(L, axis1=-2, axis2=-1)), 1e-300))
+        worst = int(np.argmin(vals))
+        bad = np.flatnonzero(~proven)
+        item = _item(f"{name} at {len(varying)} vertex conditions, slip changing within a period",
+                     float(vals[worst]), threshold, varying[worst].label, verified=not bad.size,
+                     allowance=float(np.max(allow)), unproven=varying[bad[0]].label if bad.size else "")
+        # the vertices that fail, worst first (synthesis adds them to its LMIs: Model.with_cuts)
+        failing = np.flatnonzero((vals < threshold) | ~proven)
+        item[VARYING_FAILURES] = [int(i) for i in failing[np.argsort(vals[failing], kind="stable")]]
+        return item
+
+
+def _stability(cert: Mapping[str, Any], family: _Family, X: np.ndarray, checks: list, figures: dict
+               ) -> CertificateCheck | None:
+    """The decay LMIs (6a) and the decay rate; a failure, or None."""
+    aX = np.abs(X)
+    r2 = float(cert["r2"])
+    if not 0 < r2 < 1:
+        return _fail("r2 must be in (0, 1)", checks, figures)
+    checks.extend(family.items("decay LMI (6a)", lambda v, M, lf, rt, y, mag: lmi_stability(
+        v, aX if mag else X, lf, rt, y, M, r2, mag)))
+    figures["decay_rate"] = round_up(np.sqrt(r2), 2)
+    return None
+
+
+def _ultimate_bound(cert: Mapping[str, Any], family: _Family, K: np.ndarray, X: np.ndarray, lyap: str,
+                    mats: list[np.ndarray], checks: list, figures: dict) -> CertificateCheck | None:
+    """The invariance LMIs (6b) and the figures on the invariant set; a failure, or None."""
+    model, aX = family.model, np.abs(X)
+    alpha = float(cert["alpha"])
+    beta = _arr(cert["beta"], "beta").reshape(-1)
+    if beta.shape != (model.n_w,):
+        return _fail(f"beta has {beta.size} entries, expected {model.n_w}", checks, figures)
+    if not 0 < alpha < 1:
+        return _fail("alpha must be in (0, 1)", checks, figures)
+    if np.any(beta <= 0):
+        return _fail("beta must be > 0", checks, figures)
+    checks.extend(family.items("invariance LMI (6b)", lambda v, M, lf, rt, y, mag: lmi_invariance(
+        v, aX if mag else X, lf, rt, y, M, np.abs(beta) if mag else beta, alpha, mag)))
+    # the figures are claimed as bounds: rounded outwards (any level >= sum beta / alpha is invariant)
+    level = round_up(float(np.sum(beta) / alpha), beta.size + 1)  # {xi' P xi <= level}: invariant, attracting
+    figures["decay_rate"] = round_up(np.sqrt(1.0 - alpha), 2)
+    figures["ellipsoid_level"] = level
+    _set_figures(model, K, lyap, mats, level, bool(family.varying), figures)
+    checks.extend(_set_checks(model, cert, figures))
+    return None
+
+
+def _set_figures(model: Any, K: np.ndarray, lyap: str, mats: list[np.ndarray], level: float, varying: bool,
+                 figures: dict) -> None:
+    """The bounds on the set {V <= level}: the errors at the samples, the motor speeds, |e_theta(t)| and
+    the errors between the samples (into ``figures``)."""
+    n_u, n_s = K.shape
+    # per bounded figure the largest value the set allows over every slip (and previous delay), the
+    # smallest over the delay vertices V takes its maximum over (set_max; docs/theory.md §6i)
+    inner = model.delay_vertex_count if lyap in ("delay-dependent", "path-dependent") else 1
+    diags = np.array([np.diag(Sm) for Sm in mats])
+    figures["ultimate_bound"] = {
+        name: round_up(np.sqrt(level * set_max(diags[:, k], inner)), 2)
+        for k, name in enumerate(("e_x", "e_y", "e_theta"))
+    }
+    J_inv = np.asarray(model.J_inv)
+    # c S c' with c = J^-1 K, bounded above with its rounding: + gamma |c| |S| |c|'
+    g = gamma(2 * n_s + 2 * n_u + 4)
+    aJK = np.abs(J_inv) @ np.abs(K)
+    devs = np.array([np.einsum("ij,jk,ik->i", J_inv, K @ Sm @ K.T, J_inv)
+                     + g * (1 + g) * np.einsum("ij,jk,ik->i", aJK, np.abs(Sm), aJK) for Sm in mats])
+    dev = max(set_max(devs[:, i], inner) for i in range(devs.shape[1]))
+    figures["motor_speed_bound"] = round_up(model.feedforward_motor_speed + np.sqrt(max(round_up(level * dev), 0.0)), 3)
+    # |e_theta(t)| on the set and the errors between samples (docs/theory.md §9; on arcs against the
+    # turning reference, §10)
+    if model.channels:
+        figures["heading_within_period"] = heading_within_period(model, K, mats, level, inner)
+    figures["ultimate_bound_between_samples"] = between_samples(
+        model, K, mats, level, figures["ultimate_bound"], figures.get("heading_within_period"), inner,
+        within_period=varying)
+
+
+def _set_checks(model: Any, cert: Mapping[str, Any], figures: dict) -> list[dict[str, Any]]:
+    """The conditions on the set's figures: |e_theta(t)| within a nonlinear certificate's heading bound,
+    the motor speeds within their limit where the certificate enforces it."""
+    checks = []
+    if model.heading_bound is not None:
+        figures["heading_bound"] = model.heading_bound
+        checks.append({
+            "name": "|e_theta(t)| within every period on the set <= heading bound [rad]",
+            "max_eig": None,
+            "threshold": float(model.heading_bound),
+            "margin_found": None,
+            "value": figures["heading_within_period"],
+            "passed": bool(figures["heading_within_period"] <= model.heading_bound),
+        })
+    rho_max = model.config.robot.max_motor_speed
+    if rho_max is not None and cert.get("motor_limits_enforced", False):
+        checks.append({
+            "name": "motor speed on the invariant set (6c) [rad/s]",
+            "max_eig": None,
+            "threshold": float(rho_max),
+            "margin_found": None,
+            "value": figures["motor_speed_bound"],
+            "passed": bool(figures["motor_speed_bound"] <= rho_max),
+        })
+    return checks
+
+
+def _hinf(cert: Mapping[str, Any], family: _Family, X: np.ndarray, lyap: str, checks: list, figures: dict
+          ) -> CertificateCheck | None:
+    """The bounded-real LMIs (6d) and the l2 gain; a failure, or None."""
+    if lyap != "common":
+        return _fail("hinf certificates use a common Lyapunov matrix")
+    model, aX = family.model, np.abs(X)
+    g = float(cert["gamma2"])
+    w = model.config.synthesis.weights
+    Cz = np.zeros((3, X.shape[0]))
+    Cz[:3, :3] = np.diag([w.e_x, w.e_y, w.e_theta])
+    Bd = np.asarray(model.B_d)
+    checks.extend(family.items("bounded-real LMI (6d)", lambda v, M, lf, rt, y, mag: lmi_hinf(
+        v, np.abs(Bd) if mag else Bd, np.abs(Cz) if mag else Cz, aX if mag else X, y, M, g, mag)))
+    figures["hinf_gain"] = round_up(np.sqrt(g), 2)
+    return None
+
+
+def _verdict(checks: list[dict[str, Any]], figures: dict[str, Any], within: str) -> CertificateCheck:
+    """The check of every condition: passed when all hold (else the figures are withdrawn), and the reason."""
     passed = all(c["passed"] for c in checks)
     figures["robust_stability"] = passed
     if not passed:
