@@ -12,7 +12,7 @@ from .markdown import conditions_text, fmt, matrix_table, table
 
 __all__ = ["synthesis_markdown", "diagnosis_markdown", "certificate_check_markdown"]
 
-MULTIPLIER_TEXT = {  # synthesis.design.multiplier_used
+MULTIPLIER_TEXT = {  # synthesis.runner.multiplier_used
     "structured": "one block per Delta block",
     "full": "mu I, the paper’s |Delta| <= 1",
     "diagonal": ("one scalar per channel of independent factors: the kinematic channels of docs/theory.md §9, the arc "
