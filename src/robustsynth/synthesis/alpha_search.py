@@ -161,40 +161,11 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         return c
 
     runner = _Runner(model, lp, s.solver, make_cert, full=full)
-    cache: dict[float, float] = {}
-    last: list[Outcome] = []  # the outcome of evaluate's latest solve
+    evaluate = _Evaluator(lp, runner, best, w, search, say)
     if not probe_only:
         est = solve_estimate(lp)
         say(f"  {lmi_count(lp)} LMIs (the largest {lmi_rows(lp)} rows) per alpha; each point is one solve"
             + (f" (about {_duration(est)} each, estimated from its size)" if est >= 1.0 else "") + ", a failed one is retried")
-    position = [""]  # where the scan stands, for the lines below (set by the grid loop)
-
-    def evaluate(log_a: float, fallback: bool = False, cheap: bool = False, unscaled_only: bool = False) -> float:
-        # The scan uses the primary solver only: a point it cannot solve costs a slow fallback
-        # and rarely matters once its neighbours are solved.  Only when no point at all was
-        # certified are the failed ones retried (below): fallback, the whole chain; cheap, the
-        # primary solver unscaled only; either way not the primary again where it failed on this problem.
-        if log_a in cache and not (fallback or cheap):
-            return cache[log_a]
-        a = float(np.exp(log_a))
-        lp.params["alpha"].value = a
-        lp.params["one_minus_alpha"].value = 1.0 - a
-        out, cert, K, chk = runner.run(fallback=fallback, retry=fallback or cheap, again=fallback or cheap,
-                                       unscaled_only=unscaled_only)
-        last[:] = [out]
-        val = math.inf
-        if out.kind == "ok":
-            ub = chk.figures["ultimate_bound"]
-            val = float(w[0] * ub["e_x"] ** 2 + w[1] * ub["e_y"] ** 2 + w[2] * ub["e_theta"] ** 2)
-            if val < best.value:
-                best.value, best.cert, best.K, best.check, best.record = val, cert, K, chk, out.record
-        search.append({"alpha": a, "status": out.kind, "objective": None if math.isinf(val) else val})
-        what = (f"certified, |e_y| <= {100 * chk.figures['ultimate_bound']['e_y']:.2f} cm" if out.kind == "ok" else out.kind)
-        say(f"  alpha = {a:.4g}{position[0]}: {what} ({_attempts(out)}); best so far "
-            + (f"|e_y| <= {100 * best.check.figures['ultimate_bound']['e_y']:.2f} cm" if best.check is not None else "none"))
-        cache[log_a] = val
-        return val
-
     grid = np.linspace(math.log(ALPHA_RANGE[0]), math.log(ALPHA_RANGE[1]), s.alpha_points)
     if probe_only and alpha_hint is not None:  # one solve at the hint (is this class worth a search?)
         evaluate(math.log(alpha_hint))
@@ -210,6 +181,77 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
             _parabolic(evaluate, pts, predict=True, rel=stop_rel)
             return best, runner
         say("  the hint is not feasible for this class: full scan")
+    vals, gave_up = _scan(evaluate, grid, give_up, say)
+    if retry == "cheap" and runner.primary not in RETRY:  # no cheap retry for this solver
+        retry = False
+    if best.cert is None and retry:
+        _retry_failed(evaluate, grid, vals, retry, prune)
+        if gave_up and evaluate.cheap_concluded:
+            # the give-up cut the scan where only the primary solver was failing: the unscaled retry concludes
+            # there, so the rest of the grid goes to it directly (an exit 3 then rests on every alpha of the scan;
+            # a certificate found by the retries is refined from the whole grid)
+            say(f"  the retries concluded: the rest of the scan with {RETRY[runner.primary]}")
+            _scan_unscaled(evaluate, grid, vals)
+    if best.cert is None:
+        return best, runner
+    on_grid = set(grid)
+    # the retried points off the grid (the hint's) where they certified: the parabolic steps start from them too
+    extra = [(g, v) for g, v in evaluate.cache.items() if g not in on_grid and math.isfinite(v)]
+    # refined by the solver that certified: the unscaled one where the primary failed at every point it tried
+    unscaled = best.record is not None and best.record.name == RETRY.get(runner.primary)
+    _parabolic(lambda x: evaluate(x, unscaled_only=unscaled), sorted([(float(g), v) for g, v in zip(grid, vals)] + extra),
+               rel=stop_rel)
+    return best, runner
+
+
+class _Evaluator:
+    """The search's objective at one log alpha: one solve of the invariance LMIs there, the weighted sum of the
+    squared certified bounds (inf where nothing is certified), kept in ``cache``; the best point in ``best``,
+    one entry in ``search`` and one line to ``say`` per solve.  ``last``: the outcome of the latest solve;
+    ``position``: where the scan stands, for the lines; ``cheap_concluded``: a retry by the unscaled primary
+    concluded (set by :func:`_retry_failed`)."""
+
+    def __init__(self, lp: Any, runner: _Runner, best: _Best, w: np.ndarray, search: list,
+                 say: Callable[[str], None]) -> None:
+        self.lp, self.runner, self.best, self.w, self.search, self.say = lp, runner, best, w, search, say
+        self.cache: dict[float, float] = {}
+        self.last: Outcome | None = None
+        self.position = ""
+        self.cheap_concluded = False
+
+    def __call__(self, log_a: float, fallback: bool = False, cheap: bool = False, unscaled_only: bool = False) -> float:
+        # The scan uses the primary solver only: a point it cannot solve costs a slow fallback
+        # and rarely matters once its neighbours are solved.  Only when no point at all was
+        # certified are the failed ones retried (below): fallback, the whole chain; cheap, the
+        # primary solver unscaled only; either way not the primary again where it failed on this problem.
+        lp, best, w = self.lp, self.best, self.w
+        if log_a in self.cache and not (fallback or cheap):
+            return self.cache[log_a]
+        a = float(np.exp(log_a))
+        lp.params["alpha"].value = a
+        lp.params["one_minus_alpha"].value = 1.0 - a
+        out, cert, K, chk = self.runner.run(fallback=fallback, retry=fallback or cheap, again=fallback or cheap,
+                                            unscaled_only=unscaled_only)
+        self.last = out
+        val = math.inf
+        if out.kind == "ok":
+            ub = chk.figures["ultimate_bound"]
+            val = float(w[0] * ub["e_x"] ** 2 + w[1] * ub["e_y"] ** 2 + w[2] * ub["e_theta"] ** 2)
+            if val < best.value:
+                best.value, best.cert, best.K, best.check, best.record = val, cert, K, chk, out.record
+        self.search.append({"alpha": a, "status": out.kind, "objective": None if math.isinf(val) else val})
+        what = (f"certified, |e_y| <= {100 * chk.figures['ultimate_bound']['e_y']:.2f} cm" if out.kind == "ok" else out.kind)
+        self.say(f"  alpha = {a:.4g}{self.position}: {what} ({_attempts(out)}); best so far "
+                 + (f"|e_y| <= {100 * best.check.figures['ultimate_bound']['e_y']:.2f} cm" if best.check is not None else "none"))
+        self.cache[log_a] = val
+        return val
+
+
+def _scan(evaluate: _Evaluator, grid: np.ndarray, give_up: int | None, say: Callable[[str], None]
+          ) -> tuple[list[float], bool]:
+    """The grid scanned upwards until past the minimum or the end of the feasible interval, or until ``give_up``
+    solver failures in a row with nothing certified: the objective at each point scanned, and whether it gave up."""
+    runner, best = evaluate.runner, evaluate.best
     vals: list[float] = []
     failures = 0  # solver failures in a row, with nothing certified yet
     gave_up = False
@@ -219,9 +261,9 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         if i:  # what the rest of the grid costs at most, at the mean time per point so far
             per = (time.perf_counter() - t_scan) / i
             left = f", at most ~{_duration(per * (len(grid) - i))} left in this scan"
-        position[0] = f" (point {i + 1} of at most {len(grid)}{left})"
+        evaluate.position = f" (point {i + 1} of at most {len(grid)}{left})"
         vals.append(evaluate(float(g)))
-        position[0] = ""
+        evaluate.position = ""
         failures = failures + 1 if best.cert is None and runner.failed_at.get(float(np.exp(g)), False) else 0
         if give_up is not None and failures >= give_up:
             gave_up = True
@@ -240,58 +282,55 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
             failed_last = runner.failed_at.get(float(np.exp(g)), False)
             if not failed_last or (len(vals) >= 2 and not math.isfinite(vals[-2])):
                 break
-    if retry == "cheap" and runner.primary not in RETRY:  # no cheap retry for this solver
-        retry = False
+    return vals, gave_up
+
+
+def _retry_failed(evaluate: _Evaluator, grid: np.ndarray, vals: list[float], retry: bool | str,
+                  prune: Callable[[list[float]], set[float]] | None) -> None:
+    """Nothing was certified: the points where the solver failed (the scan's and the hint's) solved again, with
+    the fallback chain (``retry`` True) or the primary unscaled ('cheap'), less those ``prune`` proves
+    infeasible; ``vals`` takes the retried grid points' objectives."""
+    runner = evaluate.runner
     grid_points = list(grid)
     on_grid = set(grid_points)
-    if best.cert is None and retry:
-        failed = [g for g, v in zip(grid, vals) if not math.isfinite(v) and runner.failed_at.get(float(np.exp(g)))]
-        # the hint's point too, where it failed
-        failed = sorted(failed + [g for g in cache if g not in on_grid and runner.failed_at.get(float(np.exp(g)))])
-        if prune is not None and failed and retry is True:  # told every alpha of the scan that was not certified
-            proven = prune([float(np.exp(g)) for g, v in zip(grid, vals) if not math.isfinite(v)])
-            for a in (float(np.exp(g)) for g in failed):  # proven infeasible otherwise: no solver failure any more
-                if a in proven:
-                    search.append({"alpha": a, "status": "infeasible", "objective": None, "by": "least motor bound"})
-                    runner.failed_at[a] = False
-                    runner.failures -= 1  # (the exit-3 texts tell "infeasible" from "solver failed" by these counts)
-            failed = [g for g in failed if float(np.exp(g)) not in proven]
-        tried: list[float] = []
-        cheap_concluded = False  # the unscaled retry itself concluded somewhere (not the fallback after it)
-        for g in failed:
-            tried.append(evaluate(float(g), fallback=retry is True, cheap=True))
-            cheap_concluded = cheap_concluded or (last[0].kind != "failed"
-                                                  and last[0].record.name == RETRY.get(runner.primary))
-            if g in on_grid:
-                vals[grid_points.index(g)] = tried[-1]
-            # the scan's stopping rules on the retried points: past the minimum (two rises in a row), or
-            # three failures in a row after a success (one more than the scan allows: a retry that fails,
-            # fails, then certifies further up was seen in a constructed case) -- Ts = 1e-3 had spent 10
-            # fallback solves of 5 s each past its minimum
-            if len(tried) >= 3 and math.isfinite(tried[-3]) and tried[-1] > tried[-2] > tried[-3]:
-                break
-            if len(tried) >= 4 and any(map(math.isfinite, tried[:-3])) and not any(map(math.isfinite, tried[-3:])):
-                break
-        if gave_up and cheap_concluded:
-            # the give-up cut the scan where only the primary solver was failing: the unscaled retry concludes
-            # there, so the rest of the grid goes to it directly (an exit 3 then rests on every alpha of the scan;
-            # a certificate found by the retries is refined from the whole grid)
-            say(f"  the retries concluded: the rest of the scan with {RETRY[runner.primary]}")
-            for g in grid[len(vals):]:
-                vals.append(evaluate(float(g), unscaled_only=True))
-                if len(vals) >= 3 and math.isfinite(vals[-3]) and vals[-1] > vals[-2] > vals[-3]:
-                    break  # past the minimum (the scan's rule)
-                if any(math.isfinite(v) for v in vals[:-1]) and not math.isfinite(vals[-1]):
-                    break  # the end of the feasible interval
-    if best.cert is None:
-        return best, runner
-    # the retried points off the grid (the hint's) where they certified: the parabolic steps start from them too
-    extra = [(g, v) for g, v in cache.items() if g not in on_grid and math.isfinite(v)]
-    # refined by the solver that certified: the unscaled one where the primary failed at every point it tried
-    unscaled = best.record is not None and best.record.name == RETRY.get(runner.primary)
-    _parabolic(lambda x: evaluate(x, unscaled_only=unscaled), sorted([(float(g), v) for g, v in zip(grid, vals)] + extra),
-               rel=stop_rel)
-    return best, runner
+    failed = [g for g, v in zip(grid, vals) if not math.isfinite(v) and runner.failed_at.get(float(np.exp(g)))]
+    # the hint's point too, where it failed
+    failed = sorted(failed + [g for g in evaluate.cache if g not in on_grid and runner.failed_at.get(float(np.exp(g)))])
+    if prune is not None and failed and retry is True:  # told every alpha of the scan that was not certified
+        proven = prune([float(np.exp(g)) for g, v in zip(grid, vals) if not math.isfinite(v)])
+        for a in (float(np.exp(g)) for g in failed):  # proven infeasible otherwise: no solver failure any more
+            if a in proven:
+                evaluate.search.append({"alpha": a, "status": "infeasible", "objective": None, "by": "least motor bound"})
+                runner.failed_at[a] = False
+                runner.failures -= 1  # (the exit-3 texts tell "infeasible" from "solver failed" by these counts)
+        failed = [g for g in failed if float(np.exp(g)) not in proven]
+    tried: list[float] = []
+    for g in failed:
+        tried.append(evaluate(float(g), fallback=retry is True, cheap=True))
+        # the unscaled retry itself concluded somewhere (not the fallback after it)
+        evaluate.cheap_concluded = evaluate.cheap_concluded or (evaluate.last.kind != "failed"
+                                                                and evaluate.last.record.name == RETRY.get(runner.primary))
+        if g in on_grid:
+            vals[grid_points.index(g)] = tried[-1]
+        # the scan's stopping rules on the retried points: past the minimum (two rises in a row), or
+        # three failures in a row after a success (one more than the scan allows: a retry that fails,
+        # fails, then certifies further up was seen in a constructed case) -- Ts = 1e-3 had spent 10
+        # fallback solves of 5 s each past its minimum
+        if len(tried) >= 3 and math.isfinite(tried[-3]) and tried[-1] > tried[-2] > tried[-3]:
+            break
+        if len(tried) >= 4 and any(map(math.isfinite, tried[:-3])) and not any(map(math.isfinite, tried[-3:])):
+            break
+
+
+def _scan_unscaled(evaluate: _Evaluator, grid: np.ndarray, vals: list[float]) -> None:
+    """The rest of the grid, beyond the points in ``vals``, scanned by the primary solver unscaled (appended to
+    ``vals``), with the scan's stopping rules."""
+    for g in grid[len(vals):]:
+        vals.append(evaluate(float(g), unscaled_only=True))
+        if len(vals) >= 3 and math.isfinite(vals[-3]) and vals[-1] > vals[-2] > vals[-3]:
+            break  # past the minimum (the scan's rule)
+        if any(math.isfinite(v) for v in vals[:-1]) and not math.isfinite(vals[-1]):
+            break  # the end of the feasible interval
 
 
 LEAST_MOTOR_TOL = 1e-4  # relative: a least motor bound this far above the limit proves the limited LMIs infeasible
