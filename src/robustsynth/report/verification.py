@@ -49,7 +49,7 @@ def robot_leaves(mc: dict[str, Any], cfg: Any) -> str:
     The blame follows the exact lifted map on the same states: at most 1, the linearization (a certificate made
     with synthesis.kinematics: linearized); above, the certificate's model itself (the paper's, which leaves slip
     out of the commands).  It points to nonlinear kinematics only where the config can have them."""
-    from ..verification.checks import LEVEL_TOL
+    from ..verification.verdict import LEVEL_TOL
 
     bp = mc.get("boundary_probe") or {}
     if not bp:
