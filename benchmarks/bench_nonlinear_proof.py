@@ -57,7 +57,7 @@ def main(names: list[str] | None = None) -> dict[str, dict[str, float]]:
     from robustsynth import build_model, load_config
     from robustsynth.artifacts.gains import load_gains
     from robustsynth.certificate import check_certificate, lyapunov_of
-    from robustsynth.verification.checks import PROBE_REFINE, PROBE_SAMPLES
+    from robustsynth.verification.nonlinear_checks import PROBE_REFINE, PROBE_SAMPLES
     from robustsynth.verification.probe import boundary_probe
 
     out: dict[str, dict[str, float]] = {}

@@ -25,7 +25,7 @@ def main() -> dict[str, dict[str, float]]:
 
     from robustsynth import build_model, default_config
     from robustsynth.certificate import check_certificate
-    from robustsynth.synthesis.design import _cert_common, _weights
+    from robustsynth.synthesis.runner import _cert_common, _weights
     from robustsynth.synthesis.lmis import build_invariance
     from robustsynth.synthesis.solve import solver_options
 

@@ -40,7 +40,7 @@ from robustsynth import default_config
 from robustsynth.model.nonlinear import vertex_channels
 from robustsynth.model.slip import slip_matrix
 from robustsynth.model.vertices import Vertex
-from robustsynth.synthesis.design import _cert_common, _Runner, _weights
+from robustsynth.synthesis.runner import _cert_common, _Runner, _weights
 from robustsynth.synthesis.lmis import build_invariance
 
 _COORDS: list[np.ndarray] = []

@@ -18,7 +18,8 @@ LAYERS: list[tuple[str, ...]] = [
     ("robustsynth", "robustsynth.errors", "robustsynth.law", "robustsynth.monitor", "robustsynth.verified"),  # the face, errors, the pure law and its monitor, verified arithmetic
     ("robustsynth.config",),
     ("robustsynth.model",),
-    ("robustsynth.certificate",),  # the numpy re-check of LMI certificates: the proof checker
+    ("robustsynth.certificate", "robustsynth.certificate_lmis", "robustsynth.certificate_bounds",
+     "robustsynth.certificate_turns", "robustsynth.certificate_lti"),  # the numpy re-check of LMI certificates: the proof checker
     ("robustsynth.artifacts",),  # output files, the gains file's format
     ("robustsynth.runtime",),  # the controller on the robot, its exports
     ("robustsynth.plants",),  # what the controller acts on

@@ -16,7 +16,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from robustsynth.certificate import TURN_REENTRY, check_certificate, lyapunov_of, set_max, turn_bounds
+from robustsynth.certificate import check_certificate, lyapunov_of
+from robustsynth.certificate_bounds import set_max
+from robustsynth.certificate_turns import TURN_REENTRY, turn_bounds
 from robustsynth.law import PathTable
 from robustsynth.law import frame_error as law_frame_error
 from robustsynth.model import build_model

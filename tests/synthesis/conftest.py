@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from robustsynth.synthesis.design import _cert_common, _Runner, _weights
+from robustsynth.synthesis.runner import _cert_common, _Runner, _weights
 from robustsynth.synthesis.lmis import build_invariance
 
 

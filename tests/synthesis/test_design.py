@@ -275,7 +275,7 @@ def test_the_least_motor_bound_prunes_only_the_alphas_it_proves_infeasible() -> 
 def test_only_clarabels_inaccurate_least_bounds_count() -> None:
     """'optimal_inaccurate' is Clarabel's reduced tolerances (usable 1 % from the limit) but SCS's iteration-cap
     guess (a review found SCS's 40 % below the optimum, which would have pruned alphas that certify)."""
-    from robustsynth.synthesis.design import _least_kind
+    from robustsynth.synthesis.alpha_search import _least_kind
 
     assert _least_kind("optimal", "scs") == _least_kind("infeasible", "clarabel") == "proven"
     assert _least_kind("optimal_inaccurate", "clarabel") == "inaccurate"
@@ -285,7 +285,7 @@ def test_only_clarabels_inaccurate_least_bounds_count() -> None:
 def test_least_motor_bound_below_every_certificate(default_model, ub_result) -> None:
     # the least motor bound is a relaxation of the limited problem: at a certified point's alpha it is
     # at most the limit that certificate meets (12 rad/s), and it is what the certificate's own gain needs
-    from robustsynth.synthesis.design import _least_motor_speeds
+    from robustsynth.synthesis.alpha_search import _least_motor_speeds
 
     a = float(ub_result.certificate["alpha"])
     least, _proven = _least_motor_speeds(default_model, default_model.config.synthesis, [a], lambda _m: None)[a]
@@ -395,7 +395,7 @@ def test_the_certificate_records_the_multiplier_its_lmis_took(name, asked, used)
     scalar each) while synthesis.md and gains.json said 'full'.  synthesis.multiplier shapes only the
     norm-bounded delay description's blocks; delay vertices have no Delta at all."""
     from robustsynth.report.synthesis import MULTIPLIER_TEXT
-    from robustsynth.synthesis.design import multiplier_used
+    from robustsynth.synthesis.runner import multiplier_used
 
     m = committed_gain(name)[0]
     assert multiplier_used(m, asked) == used and used in MULTIPLIER_TEXT
@@ -443,7 +443,7 @@ def test_the_solve_estimate_grows_with_the_dense_blocks_of_the_lmis() -> None:
     at the square of the growth of their triangles."""
     import cvxpy as cp
 
-    from robustsynth.synthesis.design import ITERATIONS_PER_SOLVE, SECONDS_PER_KKT_ENTRY, solve_estimate
+    from robustsynth.synthesis.runner import ITERATIONS_PER_SOLVE, SECONDS_PER_KKT_ENTRY, solve_estimate
 
     class LP:
         def __init__(self, sizes):

@@ -217,20 +217,20 @@ def test_a_broken_heading_bound_in_the_certificate_fails_naming_its_key(committe
 
 @pytest.mark.slow
 def test_a_scan_whose_primary_solver_always_fails_finds_the_same_certificate(monkeypatch) -> None:
-    """The channels' first solver (Clarabel unscaled, design.KINEMATIC_PRIMARY) made to fail at every solve: the
+    """The channels' first solver (Clarabel unscaled, heading_search.KINEMATIC_PRIMARY) made to fail at every solve: the
     nonlinear scan gives up after 5 failures, its points are retried with the other Clarabel (scaled), the rest
     of the grid is scanned with it and the best point refined with it, so the certificate is the one the
     committed baseline has (a review found the scan cut at the give-up and the refinement left to the failing
     solver: 2.553 cm at the bare hint instead of 2.529 cm)."""
     import cvxpy as cp
 
-    from robustsynth.synthesis import design
+    from robustsynth.synthesis import heading_search
     from robustsynth.synthesis import solve as solve_mod
     from robustsynth.synthesis import synthesize
 
     real = solve_mod._call_solver
 
-    primary = design.KINEMATIC_PRIMARY["clarabel"]
+    primary = heading_search.KINEMATIC_PRIMARY["clarabel"]
 
     def failing(problem, name):
         if name == primary:
@@ -256,7 +256,7 @@ def test_a_start_proven_infeasible_ends_the_nonlinear_search_at_once() -> None:
     heading bound and two alphas of the grid the solver proves the nonlinear LMIs infeasible too."""
     from robustsynth.errors import InfeasibleError
     from robustsynth.synthesis import synthesize
-    from robustsynth.synthesis.design import _build, _weights
+    from robustsynth.synthesis.runner import _build, _weights
     from robustsynth.synthesis.lmis import build_invariance
     from robustsynth.synthesis.solve import solve
 
@@ -284,7 +284,8 @@ def test_auto_tightens_a_heading_bound_the_set_leaves_room_in_and_skips_larger_o
     a smaller bound just above the set's heading is, which certifies a smaller |e_y|.  The certificate passes the
     numpy re-check, its bound just above its set's heading."""
     from robustsynth.synthesis import synthesize
-    from robustsynth.synthesis.design import HEADING_GRID, HEADING_ROOM, HEADING_SLACK, _run_invariance
+    from robustsynth.synthesis.alpha_search import _run_invariance
+    from robustsynth.synthesis.heading_search import HEADING_GRID, HEADING_ROOM, HEADING_SLACK
 
     model = build_model(load_config(ROOT / "configs" / "default.yaml"))
     said: list[str] = []

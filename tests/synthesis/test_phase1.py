@@ -13,7 +13,9 @@ import yaml
 
 from robustsynth.config import mapping_with
 from robustsynth.model import build_model
-from robustsynth.synthesis.design import _Runner, _kinematic, _settled_by_phase1
+from robustsynth.synthesis.alpha_search import _settled_by_phase1
+from robustsynth.synthesis.heading_search import _kinematic
+from robustsynth.synthesis.runner import _Runner
 from robustsynth.synthesis.lmis import build_invariance
 from robustsynth.synthesis.phase1 import PHASE1_BOX, T_PROVEN, Phase1, prove_no_set
 from robustsynth.synthesis.solve import solve

@@ -1,4 +1,4 @@
-"""The alpha search's refinement (``synthesis.design._parabolic``) on functions whose minimum is
+"""The alpha search's refinement (``synthesis.alpha_search._parabolic``) on functions whose minimum is
 known: few evaluations on a smooth valley, the minimum to the stop tolerance, and the golden-section
 fallback beside an infeasible (infinite) point."""
 
@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from robustsynth.synthesis.design import HINT_STOP_REL, REFINE_STEPS, _parabolic
+from robustsynth.synthesis.alpha_search import HINT_STOP_REL, REFINE_STEPS, _parabolic
 
 
 def _recorder(f):

@@ -58,7 +58,7 @@ def test_a_retried_point_skips_the_primary_only_on_the_problem_it_failed_on(monk
     constraint generation since (never solved) starts from the primary again (review: it kept skipping)."""
     from types import SimpleNamespace
 
-    import robustsynth.synthesis.design as design
+    import robustsynth.synthesis.runner as runner_mod
     from robustsynth.synthesis.solve import Outcome, SolveRecord
 
     calls = []
@@ -66,18 +66,18 @@ def test_a_retried_point_skips_the_primary_only_on_the_problem_it_failed_on(monk
     def fake_solve(problem, primary, accept, fallback=True, retry=None, skip_first=False):
         calls.append((problem, skip_first))
         if len(calls) == 2:  # the retry on P0 finds within-period vertices failing: the problem grows
-            exc = design._Cuts([3])
+            exc = runner_mod._Cuts([3])
             exc.attempts = [SolveRecord("clarabel-unscaled", "optimal", 1, 0.0)]
             raise exc
         rec = SolveRecord(primary, "solver_error", None, 0.0)
         return Outcome("failed", rec, [rec])
 
-    monkeypatch.setattr(design, "solve", fake_solve)
-    monkeypatch.setattr(design, "_build", lambda fn, *a, **k: fn(*a, **k))
+    monkeypatch.setattr(runner_mod, "solve", fake_solve)
+    monkeypatch.setattr(runner_mod, "_build", lambda fn, *a, **k: fn(*a, **k))
     alpha = SimpleNamespace(value=0.1)
     lp0 = SimpleNamespace(mirrored=False, params={"alpha": alpha}, problem="P0")
     grown = SimpleNamespace(mirrored=False, params={"alpha": SimpleNamespace(value=None)}, problem="P1")
-    runner = design._Runner(SimpleNamespace(with_cuts=lambda idx: None), lp0, "clarabel", lambda v: {},
+    runner = runner_mod._Runner(SimpleNamespace(with_cuts=lambda idx: None), lp0, "clarabel", lambda v: {},
                             full=lambda m: grown)
     runner.run(fallback=False)  # the scan: the primary fails on P0
     runner.run(fallback=True, again=True)

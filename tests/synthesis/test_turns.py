@@ -124,7 +124,7 @@ def test_exit_3_of_a_turning_model_names_the_turn_radius_as_a_remedy() -> None:
     for one.  Reached here through the motor check before any solve; from a config, motors too weak for the
     arcs' feedforward are refused earlier still, by the physical check, which names the radius too."""
     from robustsynth.errors import InfeasibleError
-    from robustsynth.synthesis.design import _wider_turns
+    from robustsynth.synthesis.runner import _wider_turns
 
     straight = build_model(make_config(**{"synthesis.delay_description": "polytopic", "robot.max_motor_speed": 7.0,
                                           "slip.right.min": 0.9, "slip.left.min": 0.9}))
@@ -349,7 +349,8 @@ def test_a_turning_certificate_made_before_the_channels_were_merged_is_rechecked
 def test_a_turning_model_without_even_a_linearized_set_names_the_turn_radius() -> None:
     """Review, stop 47: `turn_radius: 1` on turns.yaml ended in exit 3 after every heading bound with no
     remedy at all, since the remedies came with the linearized set's ranges, and it had none."""
-    from robustsynth.synthesis.design import _Best, _nonlinear_infeasible
+    from robustsynth.synthesis.heading_search import _nonlinear_infeasible
+    from robustsynth.synthesis.runner import _Best
 
     model = committed_gain("turns")[0]
     msg = _nonlinear_infeasible(model, _Best(), [(0.1, "infeasible"), (0.15, "infeasible")], {0.1: (15, 0), 0.15: (15, 0)})

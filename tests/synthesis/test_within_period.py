@@ -11,7 +11,7 @@ import pytest
 
 from robustsynth.certificate import check_certificate, varying_failures
 from robustsynth.synthesis import synthesize
-from robustsynth.synthesis.design import _cert_common, _Runner
+from robustsynth.synthesis.runner import _cert_common, _Runner
 from robustsynth.synthesis.lmis import build_stability
 from robustsynth.synthesis.solve import solve
 

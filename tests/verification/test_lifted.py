@@ -185,7 +185,7 @@ def test_a_stability_certificate_for_turns_holds_along_arcs() -> None:
     arc map, which depends on the yaw rates, decreases V by its r^2 as the straight one does (verify's check)."""
     from robustsynth.model import build_model
     from robustsynth.synthesis import synthesize
-    from robustsynth.verification.checks import _lifted
+    from robustsynth.verification.lifted_checks import _lifted
 
     from ..conftest import make_config
 

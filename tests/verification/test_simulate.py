@@ -465,7 +465,7 @@ def test_the_adversarys_searches_on_threads_give_what_one_thread_gives() -> None
     threads and merges them in their order: every figure and every worst history is the one of a single thread,
     bit for bit (configs/turns.yaml's committed gain: five courses, a turning model)."""
     from robustsynth.certificate import lyapunov_of
-    from robustsynth.verification.checks import _adversary
+    from robustsynth.verification.nonlinear_checks import _adversary
 
     from ..conftest import committed_gain
 

@@ -12,7 +12,7 @@ from .markdown import conditions_text, fmt, matrix_table, table
 
 __all__ = ["synthesis_markdown", "diagnosis_markdown", "certificate_check_markdown"]
 
-MULTIPLIER_TEXT = {  # synthesis.design.multiplier_used
+MULTIPLIER_TEXT = {  # synthesis.runner.multiplier_used
     "structured": "one block per Delta block",
     "full": "mu I, the paper’s |Delta| <= 1",
     "diagonal": ("one scalar per channel of independent factors: the kinematic channels of docs/theory.md §9, the arc "
@@ -87,36 +87,7 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
         + "; verification's profiles respect it)")
         + ";\n"
     )
-    if model.kind == "paper":
-        out.append(
-            "- model `paper`: the seed paper's linearization at mu = 1 (slip only as the additive box `B_d W w`); the"
-            " robot does not follow it under slip (see model.md), so these guarantees are for the paper's model only;\n\n"
-        )
-    elif result.certificate.get("kinematics") == "nonlinear":
-        hb = result.certificate["heading_bound"]
-        out.append(
-            f"- model `slip-aware` with **nonlinear kinematics**: exact in slip and delay, and the terms the linearization"
-            f" drops (docs/theory.md §2) are covered over the exact arcs of each period as bounded channels, valid while"
-            f" |e_theta(t)| <= {hb:g} rad — which the certificate proves on its own set (docs/theory.md §9). Assumed:"
-            + (" the kinematic model itself (the icr model: per-track traction, a yaw factor, the body sliding sideways"
-               " at v_y = -x_icr omega; slip as an instantaneous map of the commands, no dynamics), " if model.icr else
-               " the kinematic model itself (tracks as the paper's slip factors), ")
-            + ("slip free to change within a period (covered, above)" if result.certified.get("slip_within_period") == "covered"
-               else "slip constant within a period")
-            + f", {_path_text(model)}, in-order delivery. LMIs at {len(model.vertices)}"
-            f" vertices ({model.corners.shape[0]} slip corners, delays {model.delay_description},"
-            f" {model.vertices[0].n_q} kinematic channels each), Lyapunov matrix `{cfg.synthesis.lyapunov}`"
-            + (", integral action on e_x, e_y" if model.integral else "") + ".\n\n"
-        )
-    else:
-        out.append(
-            f"- model `slip-aware`: exact in slip and delay, linearized at the slip-compensated operating point; the"
-            f" neglected terms (model.md) are of second order in (e_theta, speed deviation) — the forward-speed factor"
-            f" sigma is taken as 1 (synthesis.kinematics: nonlinear covers them); {_path_text(model)}."
-            f" LMIs at {len(model.vertices)} vertices ({model.corners.shape[0]} slip corners,"
-            f" delays {model.delay_description}), Lyapunov matrix `{cfg.synthesis.lyapunov}`"
-            + (", integral action on e_x, e_y" if model.integral else "") + ".\n\n"
-        )
+    out.append(_model_text(model, result))
     out.append("## Certified figures\n\n")
     ub = figs.get("ultimate_bound") or {}
     rows = [
@@ -153,17 +124,7 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
         )
     out.append("\n## Gain\n\n" + matrix_table(np.asarray(result.K), model.input_names, model.state_names))
     out.append(certificate_check_markdown(c))
-    if result.search:
-        out.append("\n## Search\n\n")
-        if "alpha" in result.search[0]:
-            rows = [[fmt(p["alpha"]), p["status"], fmt(p["objective"]) if p.get("objective") is not None else "—"]
-                    for p in sorted(result.search, key=lambda p: p["alpha"])]
-            out.append("Line search over alpha (objective: sum of weight x bound² over e_x, e_y, e_theta):\n\n")
-            out.append(table(["alpha", "result", "objective"], rows))
-        elif "r" in result.search[0]:
-            rows = [[fmt(p["r"], 6), p["status"]] for p in result.search]
-            out.append("Bisection on the decay rate r (in the order solved):\n\n")
-            out.append(table(["r", "result"], rows))
+    out.append(_search_markdown(result))
     s = gd["solver"]
     out.append(
         f"\n## Solver\n\n{s['name']} {s['version']}, status `{s['status']}`, {s['iterations']} iterations in the final"
@@ -176,6 +137,61 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
 
     out.append(comparison_markdown(comparison))
     out.append(diagnosis_markdown(model, result, diagnosis))
+    return "".join(out)
+
+
+def _model_text(model: Any, result: Any) -> str:
+    """The assumption the model makes: the paper's linearization, the nonlinear kinematics' channels, or the
+    slip-aware linearization."""
+    cfg = model.config
+    out = []
+    if model.kind == "paper":
+        out.append(
+            "- model `paper`: the seed paper's linearization at mu = 1 (slip only as the additive box `B_d W w`); the"
+            " robot does not follow it under slip (see model.md), so these guarantees are for the paper's model only;\n\n"
+        )
+    elif result.certificate.get("kinematics") == "nonlinear":
+        hb = result.certificate["heading_bound"]
+        out.append(
+            f"- model `slip-aware` with **nonlinear kinematics**: exact in slip and delay, and the terms the linearization"
+            f" drops (docs/theory.md §2) are covered over the exact arcs of each period as bounded channels, valid while"
+            f" |e_theta(t)| <= {hb:g} rad — which the certificate proves on its own set (docs/theory.md §9). Assumed:"
+            + (" the kinematic model itself (the icr model: per-track traction, a yaw factor, the body sliding sideways"
+               " at v_y = -x_icr omega; slip as an instantaneous map of the commands, no dynamics), " if model.icr else
+               " the kinematic model itself (tracks as the paper's slip factors), ")
+            + ("slip free to change within a period (covered, above)" if result.certified.get("slip_within_period") == "covered"
+               else "slip constant within a period")
+            + f", {_path_text(model)}, in-order delivery. LMIs at {len(model.vertices)}"
+            f" vertices ({model.corners.shape[0]} slip corners, delays {model.delay_description},"
+            f" {model.vertices[0].n_q} kinematic channels each), Lyapunov matrix `{cfg.synthesis.lyapunov}`"
+            + (", integral action on e_x, e_y" if model.integral else "") + ".\n\n"
+        )
+    else:
+        out.append(
+            f"- model `slip-aware`: exact in slip and delay, linearized at the slip-compensated operating point; the"
+            f" neglected terms (model.md) are of second order in (e_theta, speed deviation) — the forward-speed factor"
+            f" sigma is taken as 1 (synthesis.kinematics: nonlinear covers them); {_path_text(model)}."
+            f" LMIs at {len(model.vertices)} vertices ({model.corners.shape[0]} slip corners,"
+            f" delays {model.delay_description}), Lyapunov matrix `{cfg.synthesis.lyapunov}`"
+            + (", integral action on e_x, e_y" if model.integral else "") + ".\n\n"
+        )
+    return "".join(out)
+
+
+def _search_markdown(result: Any) -> str:
+    """The search's section: the alpha line search or the decay-rate bisection, point by point ('' without one)."""
+    out = []
+    if result.search:
+        out.append("\n## Search\n\n")
+        if "alpha" in result.search[0]:
+            rows = [[fmt(p["alpha"]), p["status"], fmt(p["objective"]) if p.get("objective") is not None else "—"]
+                    for p in sorted(result.search, key=lambda p: p["alpha"])]
+            out.append("Line search over alpha (objective: sum of weight x bound² over e_x, e_y, e_theta):\n\n")
+            out.append(table(["alpha", "result", "objective"], rows))
+        elif "r" in result.search[0]:
+            rows = [[fmt(p["r"], 6), p["status"]] for p in result.search]
+            out.append("Bisection on the decay rate r (in the order solved):\n\n")
+            out.append(table(["r", "result"], rows))
     return "".join(out)
 
 

@@ -8,7 +8,7 @@ from typing import Any
 from ..config import config_to_dict
 from .. import __version__
 from ..artifacts.files import SCHEMA_VERSION
-from ..certificate import TURN_REENTRY
+from ..certificate_turns import TURN_REENTRY
 from .markdown import conditions_text, fmt, table
 
 __all__ = ["verification_dict", "verification_markdown", "report_markdown", "summary_dict"]
@@ -49,7 +49,7 @@ def robot_leaves(mc: dict[str, Any], cfg: Any) -> str:
     The blame follows the exact lifted map on the same states: at most 1, the linearization (a certificate made
     with synthesis.kinematics: linearized); above, the certificate's model itself (the paper's, which leaves slip
     out of the commands).  It points to nonlinear kinematics only where the config can have them."""
-    from ..verification.checks import LEVEL_TOL
+    from ..verification.verdict import LEVEL_TOL
 
     bp = mc.get("boundary_probe") or {}
     if not bp:
@@ -317,7 +317,7 @@ NO_HEADING_BOUND = "no bound (>= pi)"
 
 
 def turn_bound_cells(turn: dict[str, Any], cfg: Any) -> tuple[str, str, str]:
-    """The cells of a waypoint turn's bounds (certificate.turn_bounds: peak |e_y| [cm], peak |e_theta| [rad],
+    """The cells of a waypoint turn's bounds (certificate_turns.turn_bounds: peak |e_y| [cm], peak |e_theta| [rad],
     peak |rho| [rad/s]), with a bound that says nothing printed as "no bound" and why, not as a number
     (issue 50: |e_theta| 6.51 rad, |e_y| 61.3 cm, |rho| 150 rad/s read as certified figures):
 

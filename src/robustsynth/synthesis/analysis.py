@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..certificate import CertificateCheck, check_certificate, varying_failures
-from .design import CUTS_PER_ROUND, MAX_CUT_ROUNDS, _cert_common, _Cuts
+from .runner import CUTS_PER_ROUND, MAX_CUT_ROUNDS, _cert_common, _Cuts
 from .lmis import ANALYSIS_KAPPA, ANALYSIS_KAPPA_WIDE, build_stability
 from .solve import solve
 

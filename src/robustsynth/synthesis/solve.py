@@ -44,7 +44,7 @@ SOLVER_OPTIONS: dict[str, dict[str, Any]] = {
 # the same; on certified points both give the same optimum)
 SOLVER_OPTIONS["clarabel-unscaled"] = {**SOLVER_OPTIONS["clarabel"], "equilibrate_enable": False}
 # the cheap retry: after its solver, before the fallback solver (each Clarabel the other: the kinematic channels'
-# problems start unscaled, synthesis.design.KINEMATIC_PRIMARY)
+# problems start unscaled, synthesis.heading_search.KINEMATIC_PRIMARY)
 RETRY = {"clarabel": "clarabel-unscaled", "clarabel-unscaled": "clarabel"}
 FALLBACK = {"clarabel": "scs", "clarabel-unscaled": "scs", "scs": "clarabel"}
 

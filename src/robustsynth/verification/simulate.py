@@ -212,7 +212,7 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
     if unknown or not objectives or width < 1:
         raise ValueError(f"objectives must be a non-empty subset of {ADVERSARY_OBJECTIVES} and width >= 1")
     K = np.asarray(K, dtype=float)
-    Ts, d_hi, V = model.Ts, model.d_hi, model.V
+    Ts, V = model.Ts, model.V
     robot = KinematicRobot.of(model)
     J_inv = robot.J_inv
     taus = delay_candidates(model, n_tau)  # with a lossy link also inf: the newest packet is lost
@@ -249,73 +249,18 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
                        (uD + np.stack([dv, dw], axis=1))[:, None] + W[..., None] * model.turn_feedforward)  # (P, n_y, d_hi + 1, 2)
         if k == 0:  # the starts' own commands
             maxima["motor_speed"] = float(np.max(np.abs(U[:, :, 0] @ J_inv.T)))
-        cand_mu = slip_candidates(model, mu_prev)  # (P, n_c, 2)
-        n_c = cand_mu.shape[1]
-        seq = np.concatenate([np.repeat(hist[:, None, :], n_tau, axis=1),
-                              np.broadcast_to(taus[None, :, None], (P, n_tau, 1))], axis=2)
-        S = model.s_tilde(seq)[:, :, 0, :]  # (P, n_tau, d_hi)
-        # when each track's new slip takes over (n_w, 2): every pair of the times, each track on its own
-        times = WITHIN_PERIOD_TIMES if jumps and k > 0 else (0.0,)
-        sw = Ts * np.array([(a, b) for a in times for b in times])
-        n_w = sw.shape[0]
-        shape = (P, n_c, n_w, n_tau, n_y)
-        after = np.broadcast_to(cand_mu[:, :, None, None, None, :], shape + cand_mu.shape[-1:])
-        args = (np.broadcast_to(q[:, None, None, None, None, :], shape + (3,)),
-                np.broadcast_to(U[:, None, None, None], shape + U.shape[2:]),
-                np.broadcast_to(S[:, None, None, :, None], shape + (d_hi,)))
-        if n_w == 1 and not np.any(sw):
-            q_next = robot.period(*args, after)
-        else:  # the earlier track's change first (the slip in between: that track new, the other old)
-            before = np.broadcast_to(mu_prev[:, None, None, None, None, :], after.shape)
-            q_next = robot.period(*args, before,
-                                  switch=track_changes(before, after, np.broadcast_to(sw[None, None, :, None, None, :], shape + (2,))))
-        e_next = arc_frame_error(q_next, W[:, None, None, None, :], Ts, V)
-        rest = np.stack(law.past + law.z, axis=1)  # the controller's memory after step k
-        xi_next = np.concatenate([e_next, np.broadcast_to(rest[:, None, None, None, None, :], shape + rest.shape[1:])],
-                                 axis=-1)
-        # the sample (xi_{k+1}, mu_{k+1}): xi_{k+1} does not depend on the next period's slip, which the
-        # adversary picks among its candidates to make V largest
-        nxt_mu = slip_candidates(model, cand_mu)  # (P, n_c, n_c', 2)
-        n_n = nxt_mu.shape[2]
-        if slip_free and not with_delay:
-            v = V_fn(xi_next)
-            v_arg = np.zeros(shape, dtype=np.intp)
-        else:
-            xi_b = np.broadcast_to(xi_next[..., None, :], shape + (n_n, xi_next.shape[-1]))
-            mu_b = np.broadcast_to(nxt_mu[:, :, None, None, None], shape + (n_n, nxt_mu.shape[-1]))
-            if with_delay:
-                dwt = model.delay_weights(S)  # (P, n_tau, n_d): this period's, the next sample's "previous"
-                v_all = V_fn(xi_b, mu_b, prev=np.broadcast_to(dwt[:, None, None, :, None, None], shape + (n_n, dwt.shape[-1])))
-            else:
-                v_all = V_fn(xi_b, mu_b)
-            v_arg = np.argmax(v_all, axis=-1)
-            v = np.take_along_axis(v_all, v_arg[..., None], axis=-1)[..., 0]
-        # the commands at t_{k+1}, with the next period's feedforward (on the free course the adversary's largest)
-        W1 = model.turns.next_yaw_rates(W) if free else np.full((P, 1, 1), path.feedforward(tk + Ts))  # (P, n_y, n_y')
-        u1 = (uD + np.broadcast_to(W1[:, None, None, None, :, :, None], shape + W1.shape[-1:] + (1,)) * model.turn_feedforward
-              + (xi_next @ K.T)[..., None, :])
-        rho_all = np.max(np.abs(u1 @ J_inv.T), axis=-1)  # shape + (n_y',)
-        w1_arg = np.argmax(rho_all, axis=-1)
-        rho = np.take_along_axis(rho_all, w1_arg[..., None], axis=-1)[..., 0]
-        scores = {"V": v, "e_x": np.abs(e_next[..., 0]), "e_y": np.abs(e_next[..., 1]),
-                  "e_theta": np.abs(e_next[..., 2]), "motor_speed": rho}
-        if model.dropouts:  # a loss only while the burst is below the cap
-            bad = np.isinf(taus)[None, None, None, :, None] & ~loss_allowed(model, hist)[:, None, None, None, None]
-            scores = {o: np.where(bad, -np.inf, x) for o, x in scores.items()}
-        flat = {o: x.reshape(-1) for o, x in scores.items()}
+        cand_mu, S, sw, shape, e_next, xi_next = _one_period(model, robot, law, q, U, hist, taus, mu_prev, W,
+                                                             jumps and k > 0)
+        n_c, n_w = cand_mu.shape[1], sw.shape[0]
+        v, v_arg, nxt_mu = _next_V(model, V_fn, xi_next, cand_mu, S, shape, slip_free, with_delay)
+        W1, w1_arg, rho = _next_motor_speeds(model, path, free, W, shape, xi_next, K, J_inv, tk + Ts)
+        flat = _scores(model, v, e_next, rho, taus, hist)
         for o in maxima:
             maxima[o] = max(maxima[o], float(np.max(flat[o])))
         max_V = max(max_V, float(np.max(flat["V"])))
-        per = n_c * n_w * n_tau * n_y  # the first N histories are greedy, one per start: each goes on with its largest V
-        greedy = np.arange(N) * per + np.argmax(flat["V"].reshape(P, per)[:N], axis=1)
-        keep = np.concatenate([greedy] + [_top_distinct(flat[o], width) for o in objectives])
+        keep = _kept(flat, N, P, n_c * n_w * n_tau * n_y, objectives, width)
         pi, ci, wi, ti, yi = np.unravel_index(keep, shape)
-        for j, o in enumerate(objectives):
-            i = N + j * width
-            if flat[o][keep[i]] > best[o][0]:
-                at = (pi[i], ci[i], wi[i], ti[i], yi[i])
-                w1 = W1[pi[i], yi[i], w1_arg[at]] if o == "motor_speed" else W1[pi[i], yi[i], 0]
-                best[o] = (float(flat[o][keep[i]]), k, i, nxt_mu[pi[i], ci[i], v_arg[at]], float(w1))
+        _update_best(best, objectives, flat, keep, (pi, ci, wi, ti, yi), N, width, k, W1, w1_arg, nxt_mu, v_arg)
         q = e_next[pi, ci, wi, ti, yi]
         U = U[pi, yi]
         law.past = [x[pi] for x in law.past]
@@ -330,16 +275,131 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
         TAU.append(taus[ti])
         YAW.append(W[pi, yi])
         VK.append(flat["V"][keep])
+    worst = _worst_histories(best, parents, MU, TAU, SW, YAW, scen.taus, model.n_p, course)
+    return {"max": maxima, "max_V": max_V, "V": np.array(VK), "tau": np.array(TAU), "worst": worst,
+            "switch_times": tuple(WITHIN_PERIOD_TIMES) if jumps and steps > 1 else (0.0,)}
+
+
+def _next_motor_speeds(model, path, free: bool, W: np.ndarray, shape: tuple, xi_next: np.ndarray, K: np.ndarray,
+                       J_inv: np.ndarray, t_next: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The largest |rho| each candidate's commands at t_{k+1} reach, with the next period's feedforward (on the free
+    course the adversary's largest): the next yaw rates W1 (P, n_y, n_y'), the index of the largest and |rho|."""
+    P, uD = W.shape[0], np.array([model.V, 0.0])
+    W1 = model.turns.next_yaw_rates(W) if free else np.full((P, 1, 1), path.feedforward(t_next))  # (P, n_y, n_y')
+    u1 = (uD + np.broadcast_to(W1[:, None, None, None, :, :, None], shape + W1.shape[-1:] + (1,)) * model.turn_feedforward
+          + (xi_next @ K.T)[..., None, :])
+    rho_all = np.max(np.abs(u1 @ J_inv.T), axis=-1)  # shape + (n_y',)
+    w1_arg = np.argmax(rho_all, axis=-1)
+    rho = np.take_along_axis(rho_all, w1_arg[..., None], axis=-1)[..., 0]
+    return W1, w1_arg, rho
+
+
+def _scores(model, v: np.ndarray, e_next: np.ndarray, rho: np.ndarray, taus: np.ndarray, hist: np.ndarray
+            ) -> dict[str, np.ndarray]:
+    """Each objective's score of every candidate, flat; -inf for a loss where the burst is at the cap."""
+    scores = {"V": v, "e_x": np.abs(e_next[..., 0]), "e_y": np.abs(e_next[..., 1]),
+              "e_theta": np.abs(e_next[..., 2]), "motor_speed": rho}
+    if model.dropouts:  # a loss only while the burst is below the cap
+        bad = np.isinf(taus)[None, None, None, :, None] & ~loss_allowed(model, hist)[:, None, None, None, None]
+        scores = {o: np.where(bad, -np.inf, x) for o, x in scores.items()}
+    return {o: x.reshape(-1) for o, x in scores.items()}
+
+
+def _kept(flat: dict[str, np.ndarray], N: int, P: int, per: int, objectives: tuple[str, ...], width: int) -> np.ndarray:
+    """The candidates kept for the next period (flat indices): each start's greedy history, then for each objective
+    the ``width`` of the largest distinct scores."""
+    # the first N histories are greedy, one per start: each goes on with its largest V
+    greedy = np.arange(N) * per + np.argmax(flat["V"].reshape(P, per)[:N], axis=1)
+    keep = np.concatenate([greedy] + [_top_distinct(flat[o], width) for o in objectives])
+    return keep
+
+
+def _update_best(best: dict, objectives: tuple[str, ...], flat: dict[str, np.ndarray], keep: np.ndarray, idx: tuple,
+                 N: int, width: int, k: int, W1: np.ndarray, w1_arg: np.ndarray, nxt_mu: np.ndarray,
+                 v_arg: np.ndarray) -> None:
+    """Each objective's best candidate so far (its score, step, kept index, V's next slip and next yaw rate) in
+    ``best``, from this period's kept candidates (``idx``: their indices in the candidates' shape)."""
+    pi, ci, wi, ti, yi = idx
+    for j, o in enumerate(objectives):
+        i = N + j * width
+        if flat[o][keep[i]] > best[o][0]:
+            at = (pi[i], ci[i], wi[i], ti[i], yi[i])
+            w1 = W1[pi[i], yi[i], w1_arg[at]] if o == "motor_speed" else W1[pi[i], yi[i], 0]
+            best[o] = (float(flat[o][keep[i]]), k, i, nxt_mu[pi[i], ci[i], v_arg[at]], float(w1))
+
+
+def _one_period(model, robot, law, q: np.ndarray, U: np.ndarray, hist: np.ndarray, taus: np.ndarray,
+                mu_prev: np.ndarray, W: np.ndarray, jumps: bool) -> tuple:
+    """One period of every kept history (P of them) with every candidate of the adversary: the slips it may pick
+    (n_c), the times within the period each track's new slip takes over (n_w; only the instant unless ``jumps``),
+    the delays of the newest packet (n_tau) and the reference's yaw rates ``W`` (n_y).  Returns the candidate slips
+    (P, n_c, 2), the switching instants S (P, n_tau, d_hi), the switching times (n_w, 2), the candidates' shape
+    (P, n_c, n_w, n_tau, n_y), their errors at t_{k+1} and their lifted states xi_{k+1}."""
+    Ts, V, d_hi = model.Ts, model.V, model.d_hi
+    P, n_tau, n_y = q.shape[0], taus.size, W.shape[1]
+    cand_mu = slip_candidates(model, mu_prev)  # (P, n_c, 2)
+    n_c = cand_mu.shape[1]
+    seq = np.concatenate([np.repeat(hist[:, None, :], n_tau, axis=1),
+                          np.broadcast_to(taus[None, :, None], (P, n_tau, 1))], axis=2)
+    S = model.s_tilde(seq)[:, :, 0, :]  # (P, n_tau, d_hi)
+    # when each track's new slip takes over (n_w, 2): every pair of the times, each track on its own
+    times = WITHIN_PERIOD_TIMES if jumps else (0.0,)
+    sw = Ts * np.array([(a, b) for a in times for b in times])
+    n_w = sw.shape[0]
+    shape = (P, n_c, n_w, n_tau, n_y)
+    after = np.broadcast_to(cand_mu[:, :, None, None, None, :], shape + cand_mu.shape[-1:])
+    args = (np.broadcast_to(q[:, None, None, None, None, :], shape + (3,)),
+            np.broadcast_to(U[:, None, None, None], shape + U.shape[2:]),
+            np.broadcast_to(S[:, None, None, :, None], shape + (d_hi,)))
+    if n_w == 1 and not np.any(sw):
+        q_next = robot.period(*args, after)
+    else:  # the earlier track's change first (the slip in between: that track new, the other old)
+        before = np.broadcast_to(mu_prev[:, None, None, None, None, :], after.shape)
+        q_next = robot.period(*args, before,
+                              switch=track_changes(before, after, np.broadcast_to(sw[None, None, :, None, None, :], shape + (2,))))
+    e_next = arc_frame_error(q_next, W[:, None, None, None, :], Ts, V)
+    rest = np.stack(law.past + law.z, axis=1)  # the controller's memory after step k
+    xi_next = np.concatenate([e_next, np.broadcast_to(rest[:, None, None, None, None, :], shape + rest.shape[1:])],
+                             axis=-1)
+    return cand_mu, S, sw, shape, e_next, xi_next
+
+
+def _next_V(model, V_fn: Callable[..., np.ndarray], xi_next: np.ndarray, cand_mu: np.ndarray, S: np.ndarray,
+            shape: tuple, slip_free: bool, with_delay: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """V at each candidate's sample (xi_{k+1}, mu_{k+1}): xi_{k+1} does not depend on the next period's slip, which
+    the adversary picks among its candidates to make V largest.  Returns V, the index of that slip and the next
+    period's candidate slips (P, n_c, n_c', 2)."""
+    nxt_mu = slip_candidates(model, cand_mu)  # (P, n_c, n_c', 2)
+    n_n = nxt_mu.shape[2]
+    if slip_free and not with_delay:
+        v = V_fn(xi_next)
+        v_arg = np.zeros(shape, dtype=np.intp)
+    else:
+        xi_b = np.broadcast_to(xi_next[..., None, :], shape + (n_n, xi_next.shape[-1]))
+        mu_b = np.broadcast_to(nxt_mu[:, :, None, None, None], shape + (n_n, nxt_mu.shape[-1]))
+        if with_delay:
+            dwt = model.delay_weights(S)  # (P, n_tau, n_d): this period's, the next sample's "previous"
+            v_all = V_fn(xi_b, mu_b, prev=np.broadcast_to(dwt[:, None, None, :, None, None], shape + (n_n, dwt.shape[-1])))
+        else:
+            v_all = V_fn(xi_b, mu_b)
+        v_arg = np.argmax(v_all, axis=-1)
+        v = np.take_along_axis(v_all, v_arg[..., None], axis=-1)[..., 0]
+    return v, v_arg, nxt_mu
+
+
+def _worst_histories(best: dict, parents: list, MU: list, TAU: list, SW: list, YAW: list, start_taus: np.ndarray,
+                     n_p: int, course: str) -> dict[str, dict]:
+    """For each objective the history of its best candidate, walked back from the step it was found at to its
+    start (``start_taus``: the starts' delays)."""
     worst = {}
     for o, (value, k, i, mu_v, w1) in best.items():
-        mu_h, tau_h, sw_h, yaw_h = np.empty((k + 1, model.n_p)), np.empty(k + 1), np.empty((k + 1, 2)), np.empty(k + 1)
+        mu_h, tau_h, sw_h, yaw_h = np.empty((k + 1, n_p)), np.empty(k + 1), np.empty((k + 1, 2)), np.empty(k + 1)
         for j in range(k, -1, -1):  # walk the history back to its start
             mu_h[j], tau_h[j], sw_h[j], yaw_h[j] = MU[j][i], TAU[j][i], SW[j][i], YAW[j][i]
             i = parents[j][i]
-        worst[o] = {"mu": mu_h, "tau": np.concatenate([scen.taus[i], tau_h]), "start": int(i), "value": value,
+        worst[o] = {"mu": mu_h, "tau": np.concatenate([start_taus[i], tau_h]), "start": int(i), "value": value,
                     "mu_next": mu_v, "t_switch": sw_h, "course": course, "yaw": np.append(yaw_h, w1)}
-    return {"max": maxima, "max_V": max_V, "V": np.array(VK), "tau": np.array(TAU), "worst": worst,
-            "switch_times": tuple(WITHIN_PERIOD_TIMES) if jumps and steps > 1 else (0.0,)}
+    return worst
 
 
 _LOCAL_FRAME = make_path(((0.0, 0.0), (1.0, 0.0)), 1.0)  # the law measures a pose given in its reference's frame at t_k

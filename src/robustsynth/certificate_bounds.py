@@ -1,0 +1,260 @@
+"""The certified figures on the invariant set of an ultimate-bound certificate, beyond the sampled
+ellipsoid bounds: the largest value a row of the state takes on the set (:func:`set_max`,
+:func:`sup_on_set`), |e_theta(t)| within every period (:func:`heading_within_period`) and the errors
+between the samples (:func:`between_samples`; docs/theory.md §6i, §9-§12).  Every figure is rounded
+outwards."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .verified import gamma, round_up
+
+__all__ = ["heading_within_period", "set_max", "sup_on_set", "between_samples"]
+
+
+def heading_within_period(model: Any, K: np.ndarray, mats: list[np.ndarray], level: float, inner: int = 1) -> float:
+    """An upper bound on |e_theta(t)| for t in every period, over the set {V <= level}: e_theta is
+    piecewise linear in t, so its extremes are at the break points, ``r xi + g`` (r = C_h + D_h K) at
+    each vertex; the supremum over the set is ``|g| + sqrt(level r S r')`` (its rounding bound added),
+    convex in (r, g), so the vertices' largest covers every delay and slip.  On a turning model the rows
+    also carry the reference's yaw-rate coordinates (``F_h``, each in [-1, 1]: model/arcs.turning_heading),
+    which add ``sum |F_h|``, convex in them too."""
+    n = K.shape[0] + 2 * model.n_s + 4
+    g = gamma(n)
+    out = 0.0
+    for ch in model.heading_channels:
+        R = ch.C_h + ch.D_h @ K
+        aR = np.abs(ch.C_h) + np.abs(ch.D_h) @ np.abs(K)
+        q = np.array([_form_upper(R, aR, S, g) for S in mats])  # (n_mats, n_rows)
+        off = ch.heading_offsets  # |g|, plus a turning reference's sum |F_h|
+        for i in range(q.shape[1]):
+            val = float(off[i]) * (1 + g) + np.sqrt(max(level * set_max(q[:, i], inner), 0.0))
+            out = max(out, float(val))
+    return round_up(out, 8)  # the product with level, the square root and the sum
+
+
+def _form_upper(R: np.ndarray, aR: np.ndarray, S: np.ndarray, g: float) -> np.ndarray:
+    """r S r' for every row r of R, plus its rounding bound g (1 + g) |r| |S| |r|' (aR: the rows'
+    magnitudes, which bound their own rounding when they were computed)."""
+    return np.einsum("ij,jk,ik->i", R, S, R) + g * (1 + g) * np.einsum("ij,jk,ik->i", aR, np.abs(S), aR)
+
+
+def set_max(q: np.ndarray, inner: int = 1) -> float:
+    """An upper bound on ``max c S(mu, ...) c'`` that the set {V <= level} allows, from ``q[j]`` >= c S_j c'
+    (one per Lyapunov matrix, in the certificate's order), ``|c xi|^2 <= level * set_max(q)`` on it
+    (docs/theory.md §6i).
+
+    ``inner``: how many consecutive matrices V takes its maximum over (the delay vertices d of a
+    delay- or path-dependent certificate, 1 otherwise).  On the set, ``xi' S(mu, d)^-1 xi <= level`` for
+    every d, so ``|c xi|^2 <= level sum_d theta_d c S(mu, d) c'`` for any convex weights theta, and
+    ``c S(mu, d) c'`` is a convex combination of the corners' (and previous delay vertices') values: the
+    bound is ``min_theta max_outer sum_d theta_d q[outer, d]`` (a small linear program), never above
+    ``min_d max_outer q`` nor the largest q.  Any theta gives a valid bound, so the program's accuracy
+    only decides how tight it is; the value is evaluated at its theta and rounded up."""
+    q = np.maximum(np.asarray(q, dtype=float).reshape(-1, inner), 0.0)
+    best = float(np.min(np.max(q, axis=0)))  # theta a unit vector: min over d of max over the rest
+    if inner > 1 and q.shape[0] > 1:
+        from scipy.optimize import linprog
+
+        n_o = q.shape[0]
+        # min s  s.t.  q theta - s <= 0, sum theta = 1, theta >= 0
+        res = linprog(np.r_[np.zeros(inner), 1.0], A_ub=np.c_[q, -np.ones(n_o)], b_ub=np.zeros(n_o),
+                      A_eq=np.r_[np.ones(inner), 0.0][None, :], b_eq=[1.0],
+                      bounds=[(0, None)] * inner + [(None, None)], method="highs")
+        if res.status == 0:
+            theta = np.maximum(res.x[:inner], 0.0)
+            total = float(np.sum(theta))
+            if total > 0:
+                # sum(theta q) / sum(theta): weights that sum to one whatever the rounding of theta
+                val = round_up(float(np.max(q @ theta)) / total, 2 * inner + 2)  # dot products, sum, division
+                best = min(best, val)
+    return best
+
+
+def sup_on_set(rows: np.ndarray, mats: list[np.ndarray], level: float, inner: int = 1) -> float:
+    """max over the rows r of the largest |r xi| on the set, sqrt(level * set_max(r S r')), with the
+    rounding of r S r' added (``inner``: :func:`set_max`)."""
+    g = gamma(2 * rows.shape[1] + 4)
+    q = np.array([_form_upper(rows, np.abs(rows), S, g) for S in mats])  # (n_mats, n_rows)
+    top = max(set_max(q[:, i], inner) for i in range(q.shape[1]))
+    return float(np.sqrt(max(round_up(level * top), 0.0)))
+
+
+def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: float, sampled: dict[str, float],
+                    heading: float | None, inner: int = 1, within_period: bool = False) -> dict[str, float | None]:
+    """Bounds on |e_x(t)|, |e_y(t)|, |e_theta(t)| for every t, not only at the sampling instants
+    (docs/theory.md §9).  Both ends of a period lie in the set, so within it each error is at most
+    its sampled bound plus its distance from the chord between the ends, which is at most
+    ``Ts^2/8 sup|f''| + Ts/4 sum |jumps of f'|`` (the Green's function of f'' on [0, Ts] lies in
+    [0, Ts/4] and integrates to at most Ts^2/8).  On the exact arcs ``e_y' = v sin e_theta`` and
+    ``e_x' = v cos e_theta - V`` (``f'' = +-v omega cos/sin``, jumps ``|dv|`` times sin / cos at the d_hi
+    switching instants); on the linearization ``e_y' = V e_theta`` (``f'' = V omega``, no jumps) and
+    ``e_x' = a`` (only jumps); with the icr slip model e_y' also holds v_y, whose jumps add to e_y's.
+    v, omega and the jumps dv of the commands in flight are bounded on the set at every slip corner
+    (multi-affine in the slip).  e_theta(t): :func:`heading_within_period`.
+
+    ``within_period``: slip may also change within the period (docs/theory.md §11).  Then e_x' = a(t)
+    jumps wherever the slip does, and the chord distance is bounded by ``Ts/4 (sup a - inf a)`` over
+    the period instead (for f' in [m, M]: |f(t) - chord(t)| <= t (Ts - t) / Ts (M - m)): the largest
+    difference of a between any two slip corners and any two commands in flight, on the set.  e_y'' =
+    V omega(t) is bounded pointwise, whatever the slip does.  On the exact arcs (a nonlinear
+    certificate) e_y' = V sin e_theta + a sin e_theta: the first part has a bounded f'', the second
+    (a jumps with the slip) is bounded by its range; e_x' likewise."""
+    from .model.slip import lateral_row
+
+    n_s, n_e, n_u, d_hi = model.n_s, model.n_e, model.n_u, model.d_hi
+    Ts, V = model.Ts, model.V
+    cmds = [np.asarray(K, dtype=float)]
+    for j in range(1, d_hi + 1):
+        E = np.zeros((n_u, n_s))
+        E[:, n_e + (j - 1) * n_u : n_e + j * n_u] = np.eye(n_u)
+        cmds.append(E)
+    if getattr(model, "turns", None) is not None:
+        return _between_samples_on_arcs(model, cmds, mats, level, sampled, heading, inner, within_period)
+    vbar, wbar, dvbar, abar = _speeds_on_set(model, cmds, mats, level, inner)
+    if model.heading_bound is not None:
+        s = float(np.sin(min(float(heading), np.pi / 2)))
+        ey = Ts * Ts / 8 * vbar * wbar + Ts / 4 * d_hi * dvbar * s
+        ex = Ts * Ts / 8 * vbar * wbar * s + Ts / 4 * d_hi * dvbar
+    else:
+        ey = Ts * Ts / 8 * V * wbar
+        ex = Ts / 4 * d_hi * dvbar
+    if within_period:
+        osc = _forward_oscillation(model, cmds, mats, level, inner)
+        ex = Ts / 4 * osc
+        if model.heading_bound is not None:
+            # the exact arcs, split so that only the parts in which a = v - V (which jumps with the slip)
+            # appears are bounded by their ranges: e_y' = V sin e_theta + a sin e_theta, the first with
+            # |f''| = |V cos e_theta omega| <= V wbar, the second in +-abar s; e_x' = a - V (1 - cos e_theta)
+            # - a (1 - cos e_theta): a ranges over osc, the second has |f''| <= V s wbar, the third is in
+            # +-abar (1 - cos)
+            h = min(float(heading), np.pi / 2)
+            s, one_minus_cos = float(np.sin(h)), 2.0 * float(np.sin(h / 2.0)) ** 2
+            ey = Ts * Ts / 8 * V * wbar + Ts / 4 * 2.0 * abar * s
+            ex = Ts / 4 * osc + Ts * Ts / 8 * V * s * wbar + Ts / 4 * 2.0 * abar * one_minus_cos
+    if model.icr and (within_period or model.heading_bound is not None):
+        # the lateral velocity v_y = row(p) u (docs/theory.md §12): e_y' gets v_y cos e_theta, e_x' -v_y sin e_theta;
+        # slip changing within the period (or a heading that turns it) makes it jump at any time, so each part is
+        # bounded by its range: |f - chord| <= Ts/4 (sup f' - inf f') <= Ts/4 2 vy_bar (times sin for e_x)
+        vy = _lateral_on_set(model, cmds, mats, level, inner)
+        h = min(float(heading if heading is not None else 0.0), np.pi / 2)
+        ey += Ts / 4 * 2.0 * vy
+        ex += Ts / 4 * 2.0 * vy * float(np.sin(h))
+    elif model.icr:  # e_y' also holds the lateral velocity v_y = row(p) u: its jumps at the switching instants
+        D = model.config.robot.track_distance
+        dvy = max(sup_on_set(np.array([lateral_row(mu, D) @ (cmds[j] - cmds[j + 1]) for j in range(d_hi)]), mats,
+                             level, inner) for mu in np.asarray(model.corners))
+        ey += Ts / 4 * d_hi * dvy
+    return {"e_x": round_up(sampled["e_x"] + ex, 12), "e_y": round_up(sampled["e_y"] + ey, 12),
+            "e_theta": heading}
+
+
+def _lateral_on_set(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], level: float, inner: int,
+                    yaw_rate: float = 0.0) -> float:
+    """The largest |v_y| of the icr slip model on the set, over every slip corner (v_y is multi-affine in the
+    parameters: its extremes over the box, and over any average of slips, are at the corners) and every
+    command in flight, with a turning reference's feedforward (0, w), |w| <= ``yaw_rate``."""
+    from .model.slip import lateral_row
+
+    uD = np.array([model.V, 0.0])
+    D = model.config.robot.track_distance
+    out = 0.0
+    for mu in np.asarray(model.corners):
+        row = lateral_row(mu, D)
+        out = max(out, abs(float(row @ uD)) + abs(float(row @ model.turn_feedforward)) * yaw_rate
+                  + sup_on_set(np.array([row @ c for c in cmds]), mats, level, inner))
+    return out
+
+
+def _forward_oscillation(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], level: float, inner: int,
+                         yaw_rate: float = 0.0) -> float:
+    """The largest difference of the forward speed a = v - V^D between any two instants of a period on the
+    set, slip changing at any time: between any two slip corners and any two commands in flight (``cmds``),
+    with a turning reference's feedforward (0, w), |w| <= ``yaw_rate``, in each."""
+    from .model.slip import slip_matrix
+
+    uD = np.array([model.V, 0.0])
+    g = model.turn_feedforward  # the feedforward command per rad/s of yaw rate ((0, 1): M[0, 1])
+    Ms = [slip_matrix(mu, model.config.robot.track_distance) for mu in np.asarray(model.corners)]
+    osc = 0.0
+    for Ma in Ms:
+        for Mb in Ms:
+            const = abs(float((Ma[0] - Mb[0]) @ uD)) + (abs(float(Ma[0] @ g)) + abs(float(Mb[0] @ g))) * yaw_rate
+            for ca in cmds:
+                rows = np.array([Ma[0] @ ca - Mb[0] @ cb for cb in cmds])
+                osc = max(osc, const + sup_on_set(rows, mats, level, inner))
+    return osc
+
+
+def _speeds_on_set(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], level: float, inner: int,
+                   yaw_rate: float = 0.0, yaw_step: float = 0.0) -> tuple[float, float, float, float]:
+    """Bounds on the set, over every slip corner and command in flight (``cmds``: the rows that give
+    each command from xi), on the forward speed |v|, the turn rate |omega|, the jump |dv| between
+    consecutive commands and the forward-speed deviation |a| = |v - V^D|; with a turning reference's
+    feedforward (0, w), |w| <= ``yaw_rate`` and steps <= ``yaw_step``, in every command."""
+    from .model.slip import slip_matrix
+
+    uD = np.array([model.V, 0.0])
+    g = model.turn_feedforward  # the feedforward command per rad/s of yaw rate ((0, 1): M[., 1])
+    vbar = wbar = dvbar = abar = 0.0
+    for mu in np.asarray(model.corners):
+        M = slip_matrix(mu, model.config.robot.track_distance)
+        forward = sup_on_set(np.array([M[0] @ c for c in cmds]), mats, level, inner)
+        ff_v = abs(float(M[0] @ g)) * yaw_rate  # the feedforward's share of v (asymmetric slip)
+        vbar = max(vbar, abs(float(M[0] @ uD)) + ff_v + forward)
+        abar = max(abar, abs(float(M[0] @ uD) - model.V) + ff_v + forward)
+        wbar = max(wbar, abs(float(M[1] @ uD)) + abs(float(M[1] @ g)) * yaw_rate
+                   + sup_on_set(np.array([M[1] @ c for c in cmds]), mats, level, inner))
+        dvbar = max(dvbar, abs(float(M[0] @ g)) * yaw_step
+                    + sup_on_set(np.array([M[0] @ (cmds[j] - cmds[j + 1]) for j in range(model.d_hi)]), mats, level,
+                                 inner))
+    return vbar, wbar, dvbar, abar
+
+
+def _between_samples_on_arcs(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], level: float,
+                              sampled: dict[str, float], heading: float, inner: int,
+                              within_period: bool = False) -> dict[str, float | None]:
+    """:func:`between_samples` for a reference turning along arcs (docs/theory.md §10), on the exact arcs
+    (for either kinematics: the linearization's own flow is not the robot's).  In the frame F_k of the
+    reference at t_k, with p the robot's position and p_r the reference's (heading psi = w_k s), the error
+    at time s is ``R(-psi) (p - p_r)`` and ``e_theta = eta``.  Each component f of ``p - p_r`` is within
+    ``max(|f(0)|, |f(Ts)|)`` of its chord plus ``Ts^2/8 sup|f''| + Ts/4 sum|jumps of f'|``: ``f(0)`` is
+    e(t_k), ``f(Ts)`` is ``R(-phi) e(t_{k+1})`` (both in the set: ``|p_y - p_ry| <= B_y + sin phi_bar B_x`` at
+    the ends); ``(p_y - p_ry)'' = v omega cos theta - V w cos psi``, ``(p_x - p_rx)'' = -v omega sin theta + V w
+    sin psi`` (theta = psi + eta, |theta| <= phi_bar + |eta|), jumps ``|dv|`` (times sin theta for y) at
+    the d_hi switching instants.  v, omega (the turning feedforward (0, w_{k-j}) included) and the jumps
+    dv (steps of w included) are bounded on the set at every slip corner.  Then ``|e_y| <= P_y + sin phi_bar
+    P_x`` and ``|e_x| <= P_x + sin phi_bar P_y``, P the bounds on |p - p_r| over the period.
+
+    ``within_period``: slip may also change within the period, so v jumps wherever it does.  As on straight
+    segments (:func:`between_samples`) only the parts in which a = v - V^D appears are bounded by their
+    ranges: ``(p_y - p_ry)' = V (sin theta - sin psi) + a sin theta``, the first with ``|f''| <= V (omega_bar +
+    w_bar)``, the second in ``+-abar sin theta_hat``; ``(p_x - p_rx)' = a + V (cos theta - cos psi) + a (cos theta
+    - 1)``: a ranges over its oscillation, the second has ``|f''| <= V (omega_bar sin theta_hat + w_bar sin
+    phi_bar)``, the third is in ``+-abar (1 - cos theta_hat)`` (theta_hat = phi_bar + |eta|)."""
+    turns = model.turns
+    Ts, V, d_hi = model.Ts, model.V, model.d_hi
+    w_r = float(turns.max_yaw_rate)
+    phi = w_r * Ts
+    sp = float(np.sin(phi))
+    vbar, wbar, dvbar, abar = _speeds_on_set(model, cmds, mats, level, inner, w_r, float(turns.max_step))
+    top = phi + float(heading)  # |theta| <= phi_bar + |eta|: sin grows up to pi/2, 1 - cos up to pi
+    s, one_minus_cos = float(np.sin(min(top, np.pi / 2))), 2.0 * float(np.sin(min(top, np.pi) / 2.0)) ** 2
+    Bx, By = float(sampled["e_x"]), float(sampled["e_y"])
+    if within_period:
+        osc = _forward_oscillation(model, cmds, mats, level, inner, w_r)
+        Py = By + sp * Bx + Ts * Ts / 8 * V * (wbar + w_r) + Ts / 4 * 2.0 * abar * s
+        Px = (Bx + sp * By + Ts / 4 * osc + Ts * Ts / 8 * V * (wbar * s + w_r * sp)
+              + Ts / 4 * 2.0 * abar * one_minus_cos)
+    else:
+        Py = By + sp * Bx + Ts * Ts / 8 * (vbar * wbar + V * w_r) + Ts / 4 * d_hi * dvbar * s
+        Px = Bx + sp * By + Ts * Ts / 8 * (vbar * wbar * s + V * w_r * sp) + Ts / 4 * d_hi * dvbar
+    if model.icr:  # the lateral velocity: (p_y - p_ry)' gets v_y cos theta, (p_x - p_rx)' -v_y sin theta, each
+        # bounded by its range (it jumps wherever the slip or a command does): Ts/4 2 vy_bar (times sin theta_hat)
+        vy = _lateral_on_set(model, cmds, mats, level, inner, w_r)
+        Py += Ts / 4 * 2.0 * vy
+        Px += Ts / 4 * 2.0 * vy * s
+    return {"e_x": round_up(Px + sp * Py, 16), "e_y": round_up(Py + sp * Px, 16), "e_theta": heading}

@@ -1,0 +1,430 @@
+"""The alpha line search of the invariance LMIs (:func:`_run_invariance`): a log grid scanned upwards, or a
+walk from a cheaper certificate's alpha, then parabolic steps (a golden section where no parabola fits);
+and the least motor bound per alpha, which proves a motor-limited scan's points infeasible before they are
+retried (:func:`_motor_pruner`)."""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any, Callable
+
+import numpy as np
+
+from ..config import SynthesisConfig
+from .lmis import build_invariance
+from .phase1 import T_PROVEN, Phase1
+from .runner import _attempts, _Best, _build, _cert_common, _duration, _Runner, _weights, lmi_count, lmi_rows, solve_estimate
+from .solve import RETRY, Outcome, solve
+
+
+ALPHA_RANGE = (0.005, 0.95)  # line search range of alpha (log-spaced grid, then parabolic steps)
+
+
+GOLDEN_STEPS = 10  # a golden section where a parabola cannot be fitted (an infeasible neighbour)
+
+
+GOLDEN_MIN_BRACKET = 0.02  # ... down to a bracket this narrow in log alpha
+
+
+# the alpha search stops when a step moves the objective by less than this (relative; the objective is a
+# weighted sum of squared bounds, so a bound moves by half of it).  1e-4 let the unweighted e_x of
+# configs/heavy-slip.yaml drift by 0.9 % along the flat valley; 1e-5 keeps every figure within 0.1 %
+HINT_STOP_REL = 1e-5
+
+
+def _golden(evaluate: Callable[[float], float], a: float, b: float, rel: float = HINT_STOP_REL) -> None:
+    """Golden-section search of ``evaluate`` (log alpha) on [a, b]; it stops once the
+    two inner points agree to ``rel`` (the bound then moves by less than that)."""
+    phi = (math.sqrt(5.0) - 1.0) / 2.0
+    c, d = b - phi * (b - a), a + phi * (b - a)
+    fc, fd = evaluate(c), evaluate(d)
+    for _ in range(GOLDEN_STEPS):
+        if math.isfinite(fc) and math.isfinite(fd) and abs(fc - fd) <= rel * min(fc, fd):
+            return
+        if b - a < GOLDEN_MIN_BRACKET:  # alpha known to 2 %: where solves keep failing near a flat minimum (the icr
+            return  # model's nonlinear certificates), ten more of them would not move the bound
+        if fc <= fd:
+            b, d, fd = d, c, fc
+            c = b - phi * (b - a)
+            fc = evaluate(c)
+        else:
+            a, c, fc = c, d, fd
+            d = a + phi * (b - a)
+            fd = evaluate(d)
+
+
+REFINE_STEPS = 4  # parabolic steps after the walk, at most
+
+
+WALK_STEP = 0.25  # the hinted walk's step, in grid steps of log alpha
+
+
+# the stop tolerance of the searches whose solves take seconds (the kinematic channels, docs/theory.md §9): the
+# objective is a weighted sum of squared bounds, so 2e-3 is a bound within 0.1 % of the best along alpha; the default
+# robot's bound is flat there (2.35 / 2.34 / 2.34 cm at alpha 0.149 / 0.145 / 0.141), and each solve of 1e-5's
+# refinement cost about 5 s of a 60 s synthesis for the last 0.01 cm
+COSTLY_STOP_REL = 2e-3
+
+
+def _parabolic(evaluate: Callable[[float], float], pts: list[tuple[float, float]], predict: bool = False,
+               rel: float = HINT_STOP_REL) -> None:
+    """Successive parabolic interpolation of ``evaluate`` (log alpha) from bracketing points: near its
+    minimum the objective is smooth in log alpha, so the vertex of the parabola through the best point
+    and its two neighbours lands on it in a step or two (a golden section needs ten).  Stops when a
+    step no longer improves the objective by ``rel`` (HINT_STOP_REL), or when the best point has no finite
+    neighbour on a side (then a golden section on its bracket).  With ``predict`` (a bracket a few
+    quarter grid steps wide, where the parabola is accurate) it also stops *before* a step whose
+    predicted gain is below ``rel``; on the wide bracket of the full scan that prediction let an
+    unweighted figure drift by ~1 % along the flat valley (configs/heavy-slip.yaml's e_x)."""
+    pts = sorted(pts)
+    for _ in range(REFINE_STEPS):
+        i = int(np.argmin([f for _, f in pts]))
+        if i == 0 or i == len(pts) - 1:  # the minimum sits at an end of the points: no parabola
+            if len(pts) > 1:  # between it and its neighbour, as the golden section always did
+                j = 1 if i == 0 else len(pts) - 2
+                if math.isfinite(pts[j][1]):
+                    _golden(evaluate, min(pts[i][0], pts[j][0]), max(pts[i][0], pts[j][0]), rel)
+            return
+        (x1, f1), (x2, f2), (x3, f3) = pts[i - 1], pts[i], pts[i + 1]
+        if not (math.isfinite(f1) and math.isfinite(f3)):
+            _golden(evaluate, x1, x3, rel)
+            return
+        num = (x2 - x1) ** 2 * (f2 - f3) - (x2 - x3) ** 2 * (f2 - f1)
+        den = (x2 - x1) * (f2 - f3) - (x2 - x3) * (f2 - f1)
+        if den == 0.0:
+            return
+        x = x2 - 0.5 * num / den
+        # the parabola's value at its vertex: a step that cannot gain the tolerance is not taken
+        a = ((f3 - f2) / (x3 - x2) - (f2 - f1) / (x2 - x1)) / (x3 - x1)
+        if predict and a > 0 and a * (x - x2) ** 2 <= rel * f2:
+            return
+        # stay strictly inside the bracket, away from the points already solved
+        gap = 0.05 * (x3 - x1)
+        x = min(max(x, x1 + gap), x3 - gap)
+        if min(abs(x - x1), abs(x - x2), abs(x - x3)) < 1e-3 * (x3 - x1):
+            return
+        f = evaluate(x)
+        pts = sorted(pts + [(x, f)])
+        if math.isfinite(f) and abs(f2 - f) <= rel * f2:
+            return  # the parabola's vertex and the best point agree: the minimum is found to the tolerance
+
+
+def _walk(evaluate: Callable[[float], float], x0: float, step: float, lo: float, hi: float,
+          rel: float = 0.0) -> list[tuple[float, float]]:
+    """From x0 (log alpha), one ``step`` at a time in each direction while the objective falls (by more than
+    the fraction ``rel``): the points evaluated, which bracket the minimum near x0."""
+    pts = [(x0, evaluate(x0))]
+    if not math.isfinite(pts[0][1]):
+        return pts
+    for direction in (1.0, -1.0):
+        x, f = pts[0]
+        while True:
+            xn = x + direction * step
+            if xn < lo - 1e-12 or xn > hi + 1e-12:
+                break
+            fn = evaluate(xn)
+            pts.append((xn, fn))
+            if not fn < f * (1.0 - rel):
+                break
+            x, f = xn, fn
+    return sorted(pts)
+
+
+def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
+                    say: Callable[[str], None] = lambda _m: None,
+                    alpha_hint: float | None = None, retry: bool | str = True, probe_only: bool = False,
+                    give_up: int | None = None,
+                    prune: Callable[[list[float]], set[float]] | None = None,
+                    stop_rel: float = HINT_STOP_REL, bar: float | None = None,
+                    prove: Callable[[], Phase1] | None = None) -> tuple[_Best, _Runner]:
+    """The alpha line search of the invariance LMIs.  Without a hint: a log grid of alpha_points
+    scanned upwards, then parabolic steps around its best point.  With ``alpha_hint`` (the best alpha
+    of a cheaper certificate class): walk from the hint in quarter grid steps while the bound falls,
+    then parabolic steps in that bracket, stopped once they no longer move the bound (the full scan
+    when the hint is not feasible for this class).  ``retry``: when nothing was certified, the scan's failed
+    points again, with the fallback chain (True), only the same solver unscaled ('cheap'), or not (False).
+    ``prune``: given the scan's alphas that were not
+    certified, before the failed ones are retried with the fallback solver, returns those proven
+    infeasible otherwise (they are not retried).  ``stop_rel``: the refinement's stop tolerance on the objective
+    (COSTLY_STOP_REL where each solve takes seconds; the hinted walk then also stops at smaller gains).  ``bar``
+    (with a hint): the objective to beat; when the hint's own solve does not certify below it, the search ends
+    there (one solve: is this class worth a search?), else it walks on from the hint (that solve counted).
+    ``prove``: phase-1 problems over the whole alpha range (:func:`.phase1.prove_no_set`), asked where the solver
+    failed: at the hint (before the full scan, which it then spares when they settle the range) or anywhere in a
+    search that certified nothing; where they settle it, the failed points count as infeasible."""
+    lp = _build(build_invariance, model, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,
+                symmetry=s.symmetry == "auto")
+    full = lambda mdl: build_invariance(mdl, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,  # noqa: E731
+                                        symmetry=False)
+    w = _weights(s)
+    best = _Best()
+
+    def make_cert(vals: dict) -> dict:
+        c = _cert_common(model, vals, s.multiplier, s.margin, "ultimate-bound")
+        c["alpha"] = float(lp.params["alpha"].value)
+        c["beta"] = vals["beta"]
+        c["motor_limits_enforced"] = motor
+        return c
+
+    runner = _Runner(model, lp, s.solver, make_cert, full=full)
+    evaluate = _Evaluator(lp, runner, best, w, search, say)
+    if not probe_only:
+        est = solve_estimate(lp)
+        say(f"  {lmi_count(lp)} LMIs (the largest {lmi_rows(lp)} rows) per alpha; each point is one solve"
+            + (f" (about {_duration(est)} each, estimated from its size)" if est >= 1.0 else "") + ", a failed one is retried")
+    grid = np.linspace(math.log(ALPHA_RANGE[0]), math.log(ALPHA_RANGE[1]), s.alpha_points)
+    if probe_only and alpha_hint is not None:  # one solve at the hint (is this class worth a search?)
+        evaluate(math.log(alpha_hint))
+        return best, runner
+    if bar is not None and alpha_hint is not None and not evaluate(math.log(alpha_hint)) < bar:
+        return best, runner  # not better at the hint: no search (the walk below would start with this solve)
+    if alpha_hint is not None:
+        lo, hi = float(grid[0]), float(grid[-1])
+        # quarter grid steps: the richer classes' best alpha lies within a step or two of the common
+        # certificate's (measured on the default robot: 0.219 -> 0.218 / 0.228 / 0.231), and a tight
+        # bracket makes the parabola exact enough to stop after one or two solves
+        pts = _walk(evaluate, min(max(math.log(alpha_hint), lo), hi), WALK_STEP * float(grid[1] - grid[0]), lo, hi,
+                    rel=0.0 if stop_rel == HINT_STOP_REL else stop_rel)
+        if best.cert is not None:
+            _parabolic(evaluate, pts, predict=True, rel=stop_rel)
+            return best, runner
+        if prove is not None and runner.last_kind == "failed" and _settled_by_phase1(runner, prove, search, say):
+            return best, runner
+        say("  the hint is not feasible for this class: full scan")
+    vals, gave_up = _scan(evaluate, grid, give_up, say)
+    if retry == "cheap" and runner.primary not in RETRY:  # no cheap retry for this solver
+        retry = False
+    if best.cert is None and retry:
+        _retry_failed(evaluate, grid, vals, retry, prune)
+        if gave_up and evaluate.cheap_concluded:
+            # the give-up cut the scan where only the primary solver was failing: the unscaled retry concludes
+            # there, so the rest of the grid goes to it directly (an exit 3 then rests on every alpha of the scan;
+            # a certificate found by the retries is refined from the whole grid)
+            say(f"  the retries concluded: the rest of the scan with {RETRY[runner.primary]}")
+            _scan_unscaled(evaluate, grid, vals)
+    if best.cert is None:
+        if prove is not None and runner.phase1 is None and any(runner.failed_at.values()):
+            _settled_by_phase1(runner, prove, search, say)
+        return best, runner
+    on_grid = set(grid)
+    # the retried points off the grid (the hint's) where they certified: the parabolic steps start from them too
+    extra = [(g, v) for g, v in evaluate.cache.items() if g not in on_grid and math.isfinite(v)]
+    # refined by the solver that certified: the unscaled one where the primary failed at every point it tried
+    unscaled = best.record is not None and best.record.name == RETRY.get(runner.primary)
+    _parabolic(lambda x: evaluate(x, unscaled_only=unscaled), sorted([(float(g), v) for g, v in zip(grid, vals)] + extra),
+               rel=stop_rel)
+    return best, runner
+
+
+def _settled_by_phase1(runner: _Runner, prove: Callable[[], Phase1], search: list, say: Callable[[str], None]) -> bool:
+    """Ask the phase-1 problems (``prove``); where they settle the alpha range, the runner's failed points count
+    as infeasible (so an exit says 3, with the evidence, not 4).  Whether they did."""
+    say("  the solver failed here: phase-1 problems over the alpha range (docs/theory.md §6j)")
+    proof = prove()
+    runner.phase1 = proof
+    say(f"  {proof.summary()}")
+    for a, b, t, n, status in proof.intervals:
+        search.append({"alpha_interval": [a, b], "status": "infeasible" if t is not None and t <= -T_PROVEN else "failed",
+                       "objective": None, "by": f"phase-1 ({n} vertices)", "t": t})
+    if not proof.proven:
+        return False
+    flipped = [a for a, failed in runner.failed_at.items() if failed]
+    for a in flipped:
+        runner.failed_at[a] = False
+    runner.failures -= len(flipped)
+    return True
+
+
+class _Evaluator:
+    """The search's objective at one log alpha: one solve of the invariance LMIs there, the weighted sum of the
+    squared certified bounds (inf where nothing is certified), kept in ``cache``; the best point in ``best``,
+    one entry in ``search`` and one line to ``say`` per solve.  ``last``: the outcome of the latest solve;
+    ``position``: where the scan stands, for the lines; ``cheap_concluded``: a retry by the unscaled primary
+    concluded (set by :func:`_retry_failed`)."""
+
+    def __init__(self, lp: Any, runner: _Runner, best: _Best, w: np.ndarray, search: list,
+                 say: Callable[[str], None]) -> None:
+        self.lp, self.runner, self.best, self.w, self.search, self.say = lp, runner, best, w, search, say
+        self.cache: dict[float, float] = {}
+        self.last: Outcome | None = None
+        self.position = ""
+        self.cheap_concluded = False
+
+    def __call__(self, log_a: float, fallback: bool = False, cheap: bool = False, unscaled_only: bool = False) -> float:
+        # The scan uses the primary solver only: a point it cannot solve costs a slow fallback
+        # and rarely matters once its neighbours are solved.  Only when no point at all was
+        # certified are the failed ones retried (below): fallback, the whole chain; cheap, the
+        # primary solver unscaled only; either way not the primary again where it failed on this problem.
+        lp, best, w = self.lp, self.best, self.w
+        if log_a in self.cache and not (fallback or cheap):
+            return self.cache[log_a]
+        a = float(np.exp(log_a))
+        lp.params["alpha"].value = a
+        lp.params["one_minus_alpha"].value = 1.0 - a
+        out, cert, K, chk = self.runner.run(fallback=fallback, retry=fallback or cheap, again=fallback or cheap,
+                                            unscaled_only=unscaled_only)
+        self.last = out
+        val = math.inf
+        if out.kind == "ok":
+            ub = chk.figures["ultimate_bound"]
+            val = float(w[0] * ub["e_x"] ** 2 + w[1] * ub["e_y"] ** 2 + w[2] * ub["e_theta"] ** 2)
+            if val < best.value:
+                best.value, best.cert, best.K, best.check, best.record = val, cert, K, chk, out.record
+        self.search.append({"alpha": a, "status": out.kind, "objective": None if math.isinf(val) else val})
+        what = (f"certified, |e_y| <= {100 * chk.figures['ultimate_bound']['e_y']:.2f} cm" if out.kind == "ok" else out.kind)
+        self.say(f"  alpha = {a:.4g}{self.position}: {what} ({_attempts(out)}); best so far "
+                 + (f"|e_y| <= {100 * best.check.figures['ultimate_bound']['e_y']:.2f} cm" if best.check is not None else "none"))
+        self.cache[log_a] = val
+        return val
+
+
+def _scan(evaluate: _Evaluator, grid: np.ndarray, give_up: int | None, say: Callable[[str], None]
+          ) -> tuple[list[float], bool]:
+    """The grid scanned upwards until past the minimum or the end of the feasible interval, or until ``give_up``
+    solver failures in a row with nothing certified: the objective at each point scanned, and whether it gave up."""
+    runner, best = evaluate.runner, evaluate.best
+    vals: list[float] = []
+    failures = 0  # solver failures in a row, with nothing certified yet
+    gave_up = False
+    t_scan = time.perf_counter()
+    for i, g in enumerate(grid):
+        left = ""
+        if i:  # what the rest of the grid costs at most, at the mean time per point so far
+            per = (time.perf_counter() - t_scan) / i
+            left = f", at most ~{_duration(per * (len(grid) - i))} left in this scan"
+        evaluate.position = f" (point {i + 1} of at most {len(grid)}{left})"
+        vals.append(evaluate(float(g)))
+        evaluate.position = ""
+        failures = failures + 1 if best.cert is None and runner.failed_at.get(float(np.exp(g)), False) else 0
+        if give_up is not None and failures >= give_up:
+            gave_up = True
+            # a problem on which every solve fails is usually one that has no solution near it (the kinematic
+            # channels at a large heading bound: delay-multi-period spent 16 solves of 19 s each, 5 min)
+            say(f"  {failures} solver failures in a row and nothing certified: the scan stops here")
+            break
+        # Scan upwards; stop once past the minimum (two rises in a row) or at the end of the
+        # feasible interval (an infeasible point after a success): the points beyond cost solver
+        # time and cannot improve the bound.  A solver *failure* is not the end of the interval (a
+        # sweep found one at alpha = 0.007 cut a scan whose minimum lay near 0.15, a bound 13x too
+        # large): the scan goes on, and stops only after two failures in a row.
+        if len(vals) >= 3 and math.isfinite(vals[-3]) and vals[-1] > vals[-2] > vals[-3]:
+            break
+        if any(math.isfinite(v) for v in vals[:-1]) and not math.isfinite(vals[-1]):
+            failed_last = runner.failed_at.get(float(np.exp(g)), False)
+            if not failed_last or (len(vals) >= 2 and not math.isfinite(vals[-2])):
+                break
+    return vals, gave_up
+
+
+def _retry_failed(evaluate: _Evaluator, grid: np.ndarray, vals: list[float], retry: bool | str,
+                  prune: Callable[[list[float]], set[float]] | None) -> None:
+    """Nothing was certified: the points where the solver failed (the scan's and the hint's) solved again, with
+    the fallback chain (``retry`` True) or the primary unscaled ('cheap'), less those ``prune`` proves
+    infeasible; ``vals`` takes the retried grid points' objectives."""
+    runner = evaluate.runner
+    grid_points = list(grid)
+    on_grid = set(grid_points)
+    failed = [g for g, v in zip(grid, vals) if not math.isfinite(v) and runner.failed_at.get(float(np.exp(g)))]
+    # the hint's point too, where it failed
+    failed = sorted(failed + [g for g in evaluate.cache if g not in on_grid and runner.failed_at.get(float(np.exp(g)))])
+    if prune is not None and failed and retry is True:  # told every alpha of the scan that was not certified
+        proven = prune([float(np.exp(g)) for g, v in zip(grid, vals) if not math.isfinite(v)])
+        for a in (float(np.exp(g)) for g in failed):  # proven infeasible otherwise: no solver failure any more
+            if a in proven:
+                evaluate.search.append({"alpha": a, "status": "infeasible", "objective": None, "by": "least motor bound"})
+                runner.failed_at[a] = False
+                runner.failures -= 1  # (the exit-3 texts tell "infeasible" from "solver failed" by these counts)
+        failed = [g for g in failed if float(np.exp(g)) not in proven]
+    tried: list[float] = []
+    for g in failed:
+        tried.append(evaluate(float(g), fallback=retry is True, cheap=True))
+        # the unscaled retry itself concluded somewhere (not the fallback after it)
+        evaluate.cheap_concluded = evaluate.cheap_concluded or (evaluate.last.kind != "failed"
+                                                                and evaluate.last.record.name == RETRY.get(runner.primary))
+        if g in on_grid:
+            vals[grid_points.index(g)] = tried[-1]
+        # the scan's stopping rules on the retried points: past the minimum (two rises in a row), or
+        # three failures in a row after a success (one more than the scan allows: a retry that fails,
+        # fails, then certifies further up was seen in a constructed case) -- Ts = 1e-3 had spent 10
+        # fallback solves of 5 s each past its minimum
+        if len(tried) >= 3 and math.isfinite(tried[-3]) and tried[-1] > tried[-2] > tried[-3]:
+            break
+        if len(tried) >= 4 and any(map(math.isfinite, tried[:-3])) and not any(map(math.isfinite, tried[-3:])):
+            break
+
+
+def _scan_unscaled(evaluate: _Evaluator, grid: np.ndarray, vals: list[float]) -> None:
+    """The rest of the grid, beyond the points in ``vals``, scanned by the primary solver unscaled (appended to
+    ``vals``), with the scan's stopping rules."""
+    for g in grid[len(vals):]:
+        vals.append(evaluate(float(g), unscaled_only=True))
+        if len(vals) >= 3 and math.isfinite(vals[-3]) and vals[-1] > vals[-2] > vals[-3]:
+            break  # past the minimum (the scan's rule)
+        if any(math.isfinite(v) for v in vals[:-1]) and not math.isfinite(vals[-1]):
+            break  # the end of the feasible interval
+
+
+LEAST_MOTOR_TOL = 1e-4  # relative: a least motor bound this far above the limit proves the limited LMIs infeasible
+
+
+# the same for a bound the solver returned 'optimal_inaccurate' (its reduced tolerances: gap 5e-5, residuals 1e-4)
+LEAST_MOTOR_TOL_INACCURATE = 1e-2
+
+
+def _least_kind(status: str, solver: str) -> str | None:
+    """What a least-motor solve's status is worth: 'proven' (optimal, or infeasible), 'inaccurate' (Clarabel's
+    reduced tolerances: usable far from the limit), or None.  An inaccurate SCS point is its iteration cap's best
+    guess with no tolerance behind it (a review found such bounds 40 % below Clarabel's optimal ones)."""
+    if status in ("optimal", "infeasible"):
+        return "proven"
+    return "inaccurate" if status == "optimal_inaccurate" and solver.startswith("clarabel") else None
+
+
+def _least_motor_speeds(model: Any, s: SynthesisConfig, alphas: list[float],
+                        say: Callable[[str], None]) -> dict[float, tuple[float | None, bool]]:
+    """The least |rho| bound the invariance LMIs allow at each alpha: every LMI of the limited problem,
+    with the motor LMIs' bound u^2 (docs/theory.md §6c) a variable that is minimized; |rho| = the
+    feedforward's speed + u.  These are the limited problem's constraints (without the mirror reduction
+    and the within-period vertices added by constraint generation, so a relaxation), so where the least
+    bound exceeds robot.max_motor_speed the limited problem is infeasible at that alpha.  Per alpha:
+    (the bound, inf where the LMIs are infeasible whatever the motors, None where nothing came back;
+    proven: the solver ended 'optimal' or 'infeasible'; an unproven bound is Clarabel's 'optimal_inaccurate')."""
+    import cvxpy as cp
+
+    lp = _build(build_invariance, model, s.multiplier, s.margin, _weights(s), True, s.lyapunov, symmetry=False,
+                least_motor=True)
+    out: dict[float, tuple[float | None, bool]] = {}
+    for a in alphas:
+        lp.params["alpha"].value = a
+        lp.params["one_minus_alpha"].value = 1.0 - a
+        status = solve(lp.problem, s.solver, lambda: True, fallback=False).record.status
+        u2 = lp.extra["u2"].value
+        r: float | None = None
+        if status == cp.INFEASIBLE:  # no invariant set at this alpha, whatever the motors
+            r = math.inf
+        elif status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and u2 is not None:
+            r = float(model.feedforward_motor_speed + math.sqrt(max(float(u2), 0.0)))
+        kind = _least_kind(status, s.solver)
+        out[a] = (r if kind else None, kind == "proven")
+        what = "unknown" if r is None else ("none (infeasible)" if math.isinf(r) else f"{r:.4g} rad/s")
+        say(f"  alpha = {a:.4g}: the least motor bound of these LMIs is {what} ({s.solver} {status})")
+    return out
+
+
+def _motor_pruner(model: Any, s: SynthesisConfig, least: dict[float, float | None] | None = None,
+                  say: Callable[[str], None] = lambda _m: None) -> Callable[[list[float]], set[float]]:
+    """``_run_invariance``'s prune hook for a motor-limited scan: before the slow fallback retries, the alphas
+    where even the least motor bound of these LMIs exceeds the limit (the limited problem is infeasible there;
+    a turning model's fallback solves took 8 minutes).  Fills ``least`` (alpha -> bound where proven, else None)."""
+    rho_max = model.config.robot.max_motor_speed
+    least = {} if least is None else least
+
+    def prune(alphas: list[float]) -> set[float]:
+        found = _least_motor_speeds(model, s, alphas, say)
+        least.update({a: r if proven else None for a, (r, proven) in found.items()})
+        # an 'optimal_inaccurate' bound (the solver's reduced tolerances, ~1e-4) counts only far above the limit
+        return {a for a, (r, proven) in found.items()
+                if r is not None and r > rho_max * (1.0 + (LEAST_MOTOR_TOL if proven else LEAST_MOTOR_TOL_INACCURATE))}
+
+    return prune

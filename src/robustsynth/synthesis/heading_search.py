@@ -1,0 +1,302 @@
+"""The ultimate-bound search with the kinematic channels (docs/theory.md §9, :func:`_run_nonlinear`): it
+starts from the linearized common certificate's alpha and heading, runs the alpha search for the configured
+heading bound or for each of auto's, then tightens the best; where none certifies, the exit message names
+the bounds tried, the linearized set's ranges and what each remedy gave (:func:`_first_try`)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import Any, Callable
+
+import numpy as np
+
+from ..config import SynthesisConfig
+from ..errors import InfeasibleError, SolverFailure
+from .alpha_search import ALPHA_RANGE, COSTLY_STOP_REL, _motor_pruner, _run_invariance
+from .phase1 import prove_no_set
+from .runner import _Best, _Runner, _wider_turns
+from .solve import RETRY
+
+
+HEADING_GRID = (0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.7)  # heading_bound: auto tries these [rad]
+
+
+# auto's heading bound binds when the certified set's heading within a period reaches this fraction of it; below,
+# larger bounds are not tried (they widen every channel's interval and loosen only rows that do not bind: for each
+# alpha the LMIs are convex, so their optimum is the one without the heading rows, over channels that only widen) and
+# a smaller one is, just above the set's heading (HEADING_ROOM): the default robot's 0.1 rad left its set at 0.078 rad
+HEADING_SLACK = 0.95
+
+
+HEADING_ROOM = 1.03  # the smaller bound tried: this times the set's heading within a period (rounded up to 1e-3 rad)
+
+
+HEADING_TIGHTEN = 2  # smaller bounds tried at most, each one solve at the best alpha
+
+
+# the first solver of the kinematic channels' problems: Clarabel without its equilibration concluded (optimal or
+# infeasible) at every alpha and heading bound tried on the default robot, where the scaled one returned inaccurate
+# points or failed at most of them (scaled: 9 of 10 solves at heading 0.1 rad inaccurate, 2 failed); on the tracks
+# configs both conclude alike, the unscaled one in 0.3-0.7 s against 0.5-1.2 s (measured, stop 64).  The scaled
+# Clarabel is its retry
+KINEMATIC_PRIMARY = {"clarabel": "clarabel-unscaled"}
+
+
+# a heading bound's alpha scan stops after this many solver failures in a row with nothing certified (the
+# grid's lowest alphas are the hardest: a band of 3 failures there below a feasible minimum was seen in a
+# constructed case; 5 is a third of the default grid)
+NONLINEAR_GIVE_UP = 5
+
+
+def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
+                   say: Callable[[str], None]) -> tuple[_Best, _Runner]:
+    """The ultimate-bound search with the kinematic channels (docs/theory.md §9): for the configured
+    heading bound, or for each of HEADING_GRID (auto), the alpha search, walking from the
+    linearized common certificate's best alpha; the smallest weighted bound wins.  When no bound gives a
+    certificate it raises SolverFailure where every solve of every bound failed (after the retries: Clarabel
+    unscaled, and for a configured bound the fallback solver too), else InfeasibleError, both naming the
+    heading bounds, the alphas tried and the heading and forward-speed ranges of the linearized set; an exit 3
+    also names what each remedy gave when tried (:mod:`robustsynth.synthesis.remedies`)."""
+    common, crunner, least = _start(model, s, motor, say)
+    given = s
+    # the channels' searches below (the linearized start keeps the configured solver: on configs/turns.yaml's arc
+    # channels the scaled one took 1.4 s a point against 2.0 s unscaled, both optimal)
+    s = _kinematic(s)
+    if common.cert is None and s.lyapunov == "common":
+        _stop_if_the_start_is_infeasible(model, crunner, least, motor)
+    hint = float(common.cert["alpha"]) if common.cert is not None else None
+    auto = s.heading_bound == "auto"
+    bounds = _auto_bounds(common) if auto else (float(s.heading_bound),)
+    best, runner, tried, below = _Best(), None, [], None
+    tried_at: dict[float, tuple[int, int]] = {}  # heading bound -> (alphas solved, of which the solver failed)
+    for j, tb in enumerate(bounds):
+        # the channels for slip changing within a period only where the certificate is proven at the
+        # within-period vertices: a common Lyapunov matrix (Model.slip_variation)
+        m = model.with_heading_bound(tb, within_period=s.lyapunov == "common")
+        # past a certified bound: one solve at its best alpha first, where a larger bound that is no better stops
+        # the search; a better one walks on from there (the same problem, that solve counted: one compile)
+        start = float(best.cert["alpha"]) if best.cert is not None else hint
+        say(f"{s.objective}, nonlinear kinematics with |e_theta(t)| <= {tb:g} rad"
+            + (f" (heading bound {j + 1} of at most {len(bounds)}: {', '.join(f'{b:g}' for b in bounds)} rad)" if auto else "")
+            + ": alpha "
+            + (f"walk from {start:.4g}" + (" (the best alpha so far)" if best.cert is not None else "")
+               if start is not None else f"scan over {s.alpha_points} points")
+            + f" ({len(m.vertices)} vertices, {m.vertices[0].n_q} kinematic channels each)")
+        try:
+            b, r = _run_invariance(m, s, search, motor, say, alpha_hint=start, retry="cheap" if auto else True,
+                                   give_up=NONLINEAR_GIVE_UP,
+                                   prune=_motor_pruner(m, s, say=say) if motor else None, stop_rel=COSTLY_STOP_REL,
+                                   bar=best.value if best.cert is not None else None,
+                                   prove=lambda m=m: prove_no_set(m, s, motor, ALPHA_RANGE, say))
+            if best.cert is not None and (b.cert is None or b.value >= best.value):
+                tried.append((tb, "not better at the best alpha"))
+                break
+        except InfeasibleError as exc:  # the heading bound is below the slip's own turn
+            say(f"  {exc}")
+            tried.append((tb, "below the slip's own turn within a period"))
+            below = str(exc)
+            continue
+        # per alpha, its final outcome (after any fallback): failed everywhere is a solver failure, not a proof
+        solver_failed = b.cert is None and bool(r.failed_at) and all(r.failed_at.values())
+        settled = b.cert is None and r.phase1 is not None and r.phase1.proven
+        tried.append((tb, "certified" if b.cert is not None else "infeasible (phase-1)" if settled else
+                      ("solver failed" if solver_failed else "infeasible")))
+        tried_at[tb] = (len(r.failed_at), sum(r.failed_at.values()))
+        if runner is None:
+            runner = r
+        if b.cert is not None and b.value < best.value:
+            best, runner = b, r
+        elif best.cert is not None:  # past the best bound: larger headings cost more
+            break
+        room = _heading_room(b) if b.cert is not None else None
+        if auto and room is not None and room < HEADING_SLACK * tb:
+            say(f"  the set's heading within a period, {room:.3g} rad, leaves the bound room: larger bounds only widen "
+                "the channels")
+            break
+    if auto and best.cert is not None:  # a smaller bound, just above the set's own heading
+        for _ in range(HEADING_TIGHTEN):
+            tb0, h = float(best.check.figures["heading_bound"]), _heading_room(best)
+            tb = math.ceil(HEADING_ROOM * h * 1e3) / 1e3
+            if not tb < 0.9 * tb0:
+                break
+            say(f"{s.objective}, nonlinear kinematics with |e_theta(t)| <= {tb:g} rad (the set's heading within a period "
+                f"at {tb0:g} rad was {h:.3g}): one solve at the best alpha")
+            try:
+                pb, pr = _run_invariance(model.with_heading_bound(tb, within_period=s.lyapunov == "common"), s, search,
+                                         motor, say, alpha_hint=float(best.cert["alpha"]), retry=False, probe_only=True)
+            except InfeasibleError as exc:  # below the slip's own turn within a period
+                say(f"  {exc}")
+                break
+            tried.append((tb, "certified" if pb.cert is not None else "not certified at the best alpha"))
+            if pb.cert is None or pb.value >= best.value:
+                break
+            best, runner = pb, pr
+    if best.cert is None:
+        # exit 4 where no solve of any heading bound concluded (every one failed), exit 3 where one did (a solver's
+        # infeasibility, or a bound below the slip's own turn): the same rule for one bound and for auto's several
+        if not auto and below is not None:  # the configured bound itself is the cause
+            raise InfeasibleError(f"{below}; raise synthesis.heading_bound above it, or set it to auto")
+        if tried and all(why == "solver failed" for _, why in tried):
+            retries = ""
+            if auto:
+                retries = (f"; the solves ran on {s.solver}; heading_bound: auto retries its failed points with "
+                           f"{RETRY.get(s.solver)} only, a single synthesis.heading_bound also with the fallback solver"
+                           if s.solver in RETRY else
+                           "; heading_bound: auto retries nothing, a single synthesis.heading_bound retries with the "
+                           "fallback solver")
+            raise SolverFailure("ultimate-bound (nonlinear kinematics): every solve failed (numerical trouble, usually "
+                                f"near infeasibility{retries}). " + _nonlinear_infeasible(model, common, tried, tried_at, auto))
+        from .remedies import try_remedies
+
+        tries = try_remedies(model, lambda m: _first_try(m, given, motor), say)
+        raise InfeasibleError(_nonlinear_infeasible(model, common, tried, tried_at, auto)
+                              + (". Tried (" + "; ".join(tries) + ")" if tries else ""))
+    return best, runner
+
+
+def _kinematic(s: SynthesisConfig) -> SynthesisConfig:
+    """The settings of the kinematic channels' solves: the configured solver's KINEMATIC_PRIMARY."""
+    return s.model_copy(update={"solver": KINEMATIC_PRIMARY.get(s.solver, s.solver)})
+
+
+def _start(model: Any, s: SynthesisConfig, motor: bool, say: Callable[[str], None]
+           ) -> tuple[_Best, _Runner, dict[float, float | None]]:
+    """The linearized common certificate where a nonlinear search starts (its alpha and heading), the runner of
+    its scan, and its least motor bounds per alpha where proven."""
+    lin = model.linearized()
+    if model.icr and model.covering_vertices:
+        # the icr model's linearized certificate with the covering channels (and the arcs') costs as much as the
+        # nonlinear one (48 vertices of 40 channels: minutes); its alpha and heading only start the search, which
+        # the straight constant-slip one (no channels, seconds) does about as well
+        lin = replace(lin, vertices=model.base_vertices, turns=None, covering_vertices=(), channels=_straight_channels(model))
+    sc = s.model_copy(update={"lyapunov": "common", "kinematics": "linearized"})
+    say(f"the linearized common certificate, where the search starts ({len(lin.vertices)} vertices)")
+    least: dict[float, float | None] = {}  # alpha -> the linearized LMIs' least motor bound, where proven
+    common, crunner = _run_invariance(lin, sc, [], motor, say, prune=_motor_pruner(lin, sc, least, say=say) if motor else None)
+    return common, crunner, least
+
+
+def _auto_bounds(common: _Best) -> tuple[float, ...]:
+    """heading_bound: auto's bounds, upwards from about the linearized set's own heading (a smaller bound rarely
+    helps; the search tightens a certified one afterwards)."""
+    start = 0.9 * float(common.check.figures.get("heading_within_period", 0.0)) if common.check is not None else 0.0
+    return tuple(b for b in HEADING_GRID if b >= start) or HEADING_GRID[-1:]
+
+
+def _first_try(model: Any, s: SynthesisConfig, motor: bool) -> dict[str, Any] | None:
+    """A quick search of the nonlinear certificate (remedies): the linearized start, then one solve at its best
+    alpha for each heading bound auto would try, upwards; the certified figures of the first that certifies (a
+    bound the full search reaches or improves on), or None."""
+    common, _, _ = _start(model, s, motor, lambda _m: None)
+    if common.cert is None:
+        return None
+    s = _kinematic(s).model_copy(update={"heading_bound": "auto"})
+    for tb in _auto_bounds(common):
+        try:
+            b, _ = _run_invariance(model.with_heading_bound(tb, within_period=s.lyapunov == "common"), s, [], motor,
+                                   alpha_hint=float(common.cert["alpha"]), retry=False, probe_only=True)
+        except InfeasibleError:  # below the slip's own turn within a period
+            continue
+        if b.cert is not None:
+            return dict(b.check.figures)
+    return None
+
+
+def _heading_room(best: _Best) -> float:
+    """The certified set's largest |e_theta(t)| within a period (its heading rows' figure)."""
+    f = best.check.figures
+    return float(f.get("heading_within_period") or f["ultimate_bound"]["e_theta"])
+
+
+def _stop_if_the_start_is_infeasible(model: Any, start: _Runner, least: dict[float, float | None], motor: bool) -> None:
+    """Exit 3 at once when the linearized common certificate, where a nonlinear search starts, is proven
+    infeasible at every alpha it tried (by the solver, or by a least motor bound above the limit): the nonlinear
+    LMIs at any heading bound are these LMIs with the kinematic channels' terms added (S-procedure blocks that
+    only tighten them, docs/theory.md §9; the icr start drops vertices, a relaxation too), so none of them has a
+    solution at those alphas either (issue 50: a turning synthesis whose bound showed the motors short went on
+    for minutes into every heading bound and the fallback solver).  A point where the solver failed proves
+    nothing: then the search goes on."""
+    if not start.failed_at or any(start.failed_at.values()):
+        return
+    cfg = model.config
+    rho_max = cfg.robot.max_motor_speed
+    known = [r for r in least.values() if r is not None and math.isfinite(r)]
+    why = (f"with |rho| <= {rho_max:g} rad/s they need at least {min(known):.4g} rad/s" if motor and known
+           and min(known) > rho_max else "they are infeasible")
+    raise InfeasibleError(
+        f"ultimate-bound (nonlinear kinematics): no certificate exists at any of the {len(start.failed_at)} alphas "
+        f"tried: already the linearized LMIs with one Lyapunov matrix, which the nonlinear ones contain, have no "
+        f"solution there ({why}); the heading bounds were not tried. "
+        + (f"Raise robot.max_motor_speed, lower reference.speed{_wider_turns(model)}" if motor and known and min(known) > rho_max
+           else f"Narrow network.delay or slip, lower reference.speed{_wider_turns(model)}")
+        + ", or use synthesis.lyapunov: slip-dependent (a richer certificate than this bound covers)")
+
+
+def _straight_channels(model: Any) -> tuple:
+    """The constant-slip kinematic channels of a turning model's vertices without their yaw-rate columns (the
+    straight segment's heading rows)."""
+    return tuple(replace(ch, F_h=None) for ch in model.channels)
+
+
+def _nonlinear_infeasible(model: Any, common: _Best, tried: list, tried_at: dict[float, tuple[int, int]],
+                          auto: bool = True) -> str:
+    """The message of exit 3 or 4: which heading bounds failed (at how many alphas: a scan gives up after
+    NONLINEAR_GIVE_UP points in a row without a certificate), and the heading and forward-speed ranges of
+    the linearized certificate's set, which the kinematic terms grow with.  For a bound set by hand (not
+    ``auto``) also where it lies against that set's heading, and that auto searches."""
+    def why_at(tb: float, why: str) -> str:
+        n, failed = tried_at.get(tb, (0, 0))
+        if why == "infeasible (phase-1)":
+            return (f"no set with |e_x|, |e_y| <= 1 m at any alpha in [{ALPHA_RANGE[0]:g}, {ALPHA_RANGE[1]:g}]: phase-1 "
+                    "problems, where the solver had failed")
+        if why == "infeasible" and n:
+            return f"infeasible at the {n} alphas tried" if not failed else \
+                f"infeasible at {n - failed} of the {n} alphas tried, the solver failed at the others"
+        if why == "solver failed" and n:
+            return f"the solver failed at the {n} alphas tried"
+        return why
+
+    what = ", ".join(f"{tb:g} rad ({why_at(tb, why)})" for tb, why in tried)
+    msg = f"synthesis.kinematics: nonlinear: found no invariant set for the nonlinear robot with |e_theta(t)| within {what}"
+    if common.cert is not None and common.check is not None:
+        from ..certificate import lyapunov_of
+        from ..certificate_bounds import sup_on_set
+        from ..model.slip import slip_matrix
+
+        f = common.check.figures
+        S = list(lyapunov_of(model.linearized(), common.cert).S)
+        K = np.asarray(common.K)
+        uD = np.array([model.V, 0.0])
+        speed = 0.0  # the largest forward-speed deviation a on the set, at every slip corner
+        for mu in model.corners:
+            M = slip_matrix(mu, model.config.robot.track_distance)
+            speed = max(speed, abs(float(M[0] @ uD) - model.V) + sup_on_set(np.array([M[0] @ K]), S, float(f["ellipsoid_level"])))
+        msg += (f". The search's start, a linearized certificate with one Lyapunov matrix (|e_y| <= "
+                f"{100 * f['ultimate_bound']['e_y']:.2f} cm; not the gain `synthesize` gives with synthesis.kinematics: "
+                "linearized, whose search is its own), has a set that holds headings up to "
+                f"{f.get('heading_within_period', f['ultimate_bound']['e_theta']):.3g} rad within a period and forward-speed "
+                f"deviations up to {speed:.3g} m/s (V^D = {model.V:g} m/s): on it a sin e_theta alone reaches "
+                f"{speed * np.sin(min(f.get('heading_within_period', 0.3), 1.0)):.3g} m/s. Narrow slip, lower "
+                "reference.speed, " + _wider_turns(model, sep="") + (", " if getattr(model, "turns", None) is not None else "")
+                + "or use synthesis.kinematics: linearized (whose proof is for the linearization)")
+        heading = float(f.get("heading_within_period", f["ultimate_bound"]["e_theta"]))
+        if not auto and tried:  # review, stop 47: a hand-set bound got only the advice above
+            tb = float(tried[0][0])
+            # review, stop 47: above the linearized heading the direction is not known (the nonlinear set is
+            # usually larger than the linearized one, so a bound just above it may be too small)
+            where = (f"below the linearized set's own {heading:.3g} rad, and a set within it rarely exists: raise it"
+                     if tb < heading else
+                     f"above the linearized set's {heading:.3g} rad; a larger bound widens every channel (like sin), a "
+                     "smaller one constrains the set more: try another")
+            grid = ", ".join(f"{x:g}" for x in HEADING_GRID)
+            msg += (f". synthesis.heading_bound {tb:g} rad is {where}, or set it to auto, which tries {grid} rad "
+                    "upwards from 0.9 times that heading")
+    else:  # review, stop 47: a turning config too tight even for the linearized set ended without any remedy
+        msg += (". The linearized common certificate, where the search starts, gave none either: narrow slip, lower "
+                "reference.speed" + _wider_turns(model))
+    if model.covering and model.config.synthesis.lyapunov == "common":
+        msg += (". These channels cover slip changing at any time within a period; with synthesis.lyapunov "
+                "slip-dependent (or delay-, path-dependent) they assume it constant within each period, which costs "
+                "less and is stated with the certificate (docs/theory.md §9)")
+    return msg

@@ -1,0 +1,321 @@
+"""One compiled LMI problem solved point by point (:class:`_Runner`): every returned point's certificate
+(:func:`_cert_common`) is re-checked by :func:`robustsynth.certificate.check_certificate` before it counts,
+within-period vertices that fail are added to the LMIs (constraint generation), and the attempts, counts
+and times are kept (:class:`_Split`).  Also a problem's size and its estimated solve time, and the words
+the searches' lines and exit messages share."""
+
+from __future__ import annotations
+
+import math
+import time
+from contextvars import ContextVar
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any, Callable
+
+import numpy as np
+
+from ..certificate import CertificateCheck, check_certificate, varying_failures
+from ..config import SynthesisConfig
+from .lmis import LMIProblem
+from .solve import Outcome, Rejected, SolveRecord, solve
+
+if TYPE_CHECKING:
+    from .phase1 import Phase1
+
+
+@dataclass
+class _Split:
+    """Where a synthesis spends its time (``SynthesisResult.timings``), over every solve it makes, the
+    cheaper certificate that gives the alpha hint included."""
+
+    build_s: float = 0.0  # writing the LMIs (cvxpy expressions)
+    call_s: float = 0.0  # solver calls: cvxpy's canonicalization / parameter update / unpacking and the solver
+    solver_s: float = 0.0  # the solver's own time, as it reports it
+    check_s: float = 0.0  # the numpy (verified) re-check of the returned points
+    solves: int = 0
+
+    def add(self, rec: SolveRecord) -> None:
+        self.call_s += rec.solve_time_s
+        self.solver_s += rec.solver_time_s if rec.solver_time_s is not None else rec.solve_time_s
+        self.solves += 1
+
+
+_SPLIT: ContextVar[_Split | None] = ContextVar("robustsynth_synthesis_split", default=None)
+
+
+def _build(fn: Callable[..., LMIProblem], *args: Any, **kwargs: Any) -> LMIProblem:
+    t0 = time.perf_counter()
+    lp = fn(*args, **kwargs)
+    split = _SPLIT.get()
+    if split is not None:
+        split.build_s += time.perf_counter() - t0
+    return lp
+
+
+@dataclass
+class _Best:
+    value: float = math.inf
+    cert: dict[str, Any] | None = None
+    K: np.ndarray | None = None
+    check: CertificateCheck | None = None
+    record: SolveRecord | None = None
+
+
+class _Cuts(Rejected):
+    """A solved point failed the re-check only at within-period vertices (``indices`` into Model.varying)."""
+
+    def __init__(self, indices: list[int]) -> None:
+        super().__init__(f"{len(indices)} within-period vertices fail")
+        self.indices = indices
+
+
+MAX_CUT_ROUNDS = 6  # constraint generation: rounds of within-period vertices added to the LMIs
+
+
+CUTS_PER_ROUND = 8  # the worst failing within-period vertices added per round
+
+
+class _Runner:
+    """Solves one compiled problem repeatedly; remembers attempts, counts and times.
+
+    ``full(model)`` builds the same problem for a model without the mirror symmetry.  Clarabel 0.11
+    reports an error on a mirror-invariant problem where the full problem reports 'infeasible'
+    (measured at the default robot's infeasible alphas).  A search point that fails counts as not
+    certified either way, so only a solve that asks for the fallback or the cheap retry (the retries
+    when nothing was certified, the first decay rate) first solves the point again on the full
+    problem: then infeasibility is still told from a solver failure (exit 3, not 4), and the search
+    itself does not pay for a full solve at every infeasible alpha (the lossy link: 6 s instead of 10 s).
+
+    Slip changing within a period (docs/theory.md §11) is covered by constraint generation: the LMIs
+    hold the model's own vertices; the re-check proves the certificate at every within-period vertex
+    too, and when a point fails only there, the worst of those vertices are added to the LMIs
+    (``Model.with_cuts``, built by ``full``) and the point is solved again, up to MAX_CUT_ROUNDS times.
+    The search goes on with the grown problem (``self.active``); its parameters are set on ``lp``."""
+
+    def __init__(self, model: Any, lp: LMIProblem, primary: str, make_cert: Callable[[dict], dict],
+                 full: Callable[[Any], LMIProblem] | None = None):
+        self.model, self.lp, self.primary, self.make_cert = model, lp, primary, make_cert
+        self._builder = full
+        self._full: LMIProblem | None = None
+        self.active = lp  # lp, or the problem with the within-period vertices added so far
+        self.cuts: list[int] = []
+        self.records: list[SolveRecord] = []
+        self.fallbacks = 0
+        self.solves = 0
+        self.failures = 0
+        self.full_retries = 0
+        self.failed_at: dict[float, bool] = {}  # alpha -> the solver failed (not: infeasible)
+        self.phase1: Phase1 | None = None  # the phase-1 problems asked where the solver failed (_settled_by_phase1)
+        self._failed_first: dict[tuple, list[LMIProblem]] = {}  # parameters -> problems the primary solver failed on
+        self.last_kind = ""
+
+    def _set_params(self, target: LMIProblem) -> None:
+        if target is not self.lp:
+            for name, par in self.lp.params.items():
+                target.params[name].value = par.value
+
+    def run(self, fallback: bool = True, retry: bool | None = None, again: bool = False,
+            unscaled_only: bool = False) -> tuple[Outcome, dict | None, np.ndarray | None, CertificateCheck | None]:
+        """One point: ``fallback`` as :func:`solve`'s, ``retry`` its cheap retry (by default with the fallback).
+        ``again``: a point solved before; where the primary solver failed on this very problem (the same
+        parameters and the same constraints), it is not run again (Clarabel from scratch is deterministic:
+        the same problem fails the same way).  ``unscaled_only``: skip the primary solver in any case (the
+        rest of a scan whose primary solves all failed and whose retries concluded)."""
+        retry = (fallback if retry is None else retry) or unscaled_only
+        spent: list[SolveRecord] = []
+        rounds = 0
+        while True:
+            skip = unscaled_only or (again and any(p is self.active for p in self._failed_first.get(self._key(), ())))
+            try:
+                out, res = self._run_mirrored(fallback, retry, skip, force=unscaled_only)
+                out = replace(out, attempts=spent + out.attempts)
+                break
+            except _Cuts as c:
+                spent += c.attempts
+                unscaled_only = False  # the grown problem (constraint generation) from its first solver
+                new = [i for i in c.indices if i not in self.cuts][:CUTS_PER_ROUND]
+                if rounds >= MAX_CUT_ROUNDS or not new or self._builder is None:
+                    # not a solver failure: the point fails the re-check within the period after the
+                    # rounds (or at vertices already in the LMIs: the solver's accuracy); not certified
+                    why = ("within-period vertices already in the LMIs still fail (solver accuracy)" if not new else
+                           f"constraint generation did not converge in {rounds} rounds")
+                    last = replace(spent[-1], status=f"{spent[-1].status}; {why}")
+                    out, res = Outcome("failed", last, spent[:-1] + [last]), (None, None, None)
+                    break
+                rounds += 1
+                self.cuts += new
+                self.active = _build(self._builder, self.model.with_cuts(self.cuts))
+                self._full = None
+        self.last_kind = out.kind
+        if out.kind == "failed":
+            self.failures += 1
+        alpha = self.lp.params.get("alpha")
+        if alpha is not None:
+            self.failed_at[float(alpha.value)] = out.kind == "failed"
+        return (out, *res)
+
+    def _key(self) -> tuple:
+        return tuple((name, float(p.value)) for name, p in sorted(self.lp.params.items()))
+
+    def _run_mirrored(self, fallback: bool, retry: bool, skip: bool = False, force: bool = False
+                      ) -> tuple[Outcome, tuple]:
+        """``skip``: not the primary solver on the active problem; ``force``: not on the full one either."""
+        self._set_params(self.active)
+        if not (self.active.mirrored and self._builder is not None) or not (fallback or retry):
+            return self._run_on(self.active, fallback, retry, skip)
+        if skip:  # the mirrored problem failed before: straight to the full one
+            out, res = Outcome("failed", SolveRecord(self.primary, "failed before", None, 0.0), [], 1), (None, None, None)
+        else:
+            out, res = self._run_on(self.active, False, False)
+        if out.kind == "failed":
+            if self._full is None:
+                self._full = _build(self._builder, self.model)
+            self._set_params(self._full)
+            self.full_retries += 1
+            first = out.attempts
+            skipped = out.skipped
+            out, res = self._run_on(self._full, fallback, retry, skip=force)
+            out = replace(out, attempts=first + out.attempts, skipped=skipped + out.skipped)
+        return out, res
+
+    def _count(self, attempts: list[SolveRecord]) -> None:
+        split = _SPLIT.get()
+        if split is not None:
+            for rec in attempts:
+                split.add(rec)
+        self.solves += len(attempts)
+        self.records.extend(attempts)
+
+    def _run_on(self, lp: LMIProblem, fallback: bool, retry: bool, skip: bool = False) -> tuple[Outcome, tuple]:
+        holder: dict[str, Any] = {}
+
+        split = _SPLIT.get()
+
+        def accept() -> bool:
+            t0 = time.perf_counter()
+            try:
+                return _accept()
+            finally:
+                if split is not None:
+                    split.check_s += time.perf_counter() - t0
+
+        def _accept() -> bool:
+            vals = lp.values()
+            try:
+                X = vals["Q"] if "Q" in vals else vals["G"]
+                K = np.linalg.solve(X.T, vals["Y"].T).T  # K = Y Q^-1 (or Y G^-1)
+                cert = self.make_cert(vals)  # computes P = Q^-1 (or S_m^-1)
+            except np.linalg.LinAlgError:
+                return False
+            chk = check_certificate(self.model, K, cert)
+            holder.update(cert=cert, K=K, check=chk)
+            failing = varying_failures(chk)
+            if failing:
+                raise _Cuts(failing)
+            return chk.passed
+
+        try:
+            out = solve(lp.problem, self.primary, accept, fallback=fallback, retry=retry, skip_first=skip)
+        except _Cuts as exc:
+            self._count(exc.attempts)
+            raise
+        self._count(out.attempts)
+        if not skip and out.attempts and (out.kind == "failed" or len(out.attempts) > 1):  # the primary failed here
+            self._failed_first.setdefault(self._key(), []).append(lp)
+        if out.fallback_used:
+            self.fallbacks += 1
+        if out.kind == "ok":
+            return out, (holder["cert"], holder["K"], holder["check"])
+        return out, (None, None, None)
+
+
+def multiplier_used(model: Any, kind: str) -> str:
+    """The S-procedure multiplier the LMIs of ``model`` take: ``kind`` (synthesis.multiplier) where a vertex
+    has the norm-bounded delay description's Delta blocks; 'diagonal' where only the kinematic channels
+    have one (one scalar per channel, whatever ``kind`` says, §9); 'none' where no vertex has a Delta
+    (delay vertices: the setting has no effect)."""
+    if any(v.n_q and not v.diagonal for v in model.vertices):
+        return kind
+    return "diagonal" if any(v.n_q for v in model.vertices) else "none"
+
+
+def _cert_common(model: Any, vals: dict, kind: str, margin: float, objective: str) -> dict[str, Any]:
+    out: dict[str, Any] = {"objective": objective, "model": model.kind, "vertices": len(model.vertices)}
+    if "Q" in vals:
+        out.update(lyapunov="common", Q=vals["Q"], P=np.linalg.inv(vals["Q"]))
+    else:
+        out.update(lyapunov=vals["lyapunov"], G=vals["G"], S=vals["S"], P=[np.linalg.inv(S) for S in vals["S"]],
+                   slip_step=model.slip_step if model.rate_bounded else None)
+    # one multiplier per vertex of ``model``: an LMI that also held within-period vertices (Model.with_cuts,
+    # appended last) keeps none for those (without channels they have none; with the kinematic channels
+    # they share their delay vertex's, which is stored with its own vertices: Vertex.group)
+    out["multipliers"] = {"kind": multiplier_used(model, kind), "M": list(vals["M"])[: len(model.vertices)], "blocks": [i.j for i in model.instants]
+                          if model.n_q and any(v.n_q for v in model.vertices) else []}
+    out["margin"] = margin
+    out["kinematics"] = model.kinematics
+    if model.heading_bound is not None:
+        out["heading_bound"] = float(model.heading_bound)
+    if model.covering_vertices:  # the channels hold for slip changing within a period (§9, §10)
+        out["within_period_channels"] = True
+    if getattr(model, "turns", None) is not None:  # the reference yaw rates the vertices cover (model/arcs.py)
+        out["turns"] = {"max_yaw_rate": model.turns.max_yaw_rate, "max_step": model.turns.max_step}
+    return out
+
+
+def _weights(settings: SynthesisConfig) -> np.ndarray:
+    w = settings.weights
+    return np.array([w.e_x, w.e_y, w.e_theta])
+
+
+def _delay_text(model: Any) -> str:
+    m = model.config.network.dropouts.max_consecutive
+    return f"delays up to {model.config.network.delay.max:g} s" + (f" and {m} lost commands in a row" if m else "")
+
+
+def _wider_turns(model: Any, sep: str = ", ") -> str:
+    """The remedy a turning model adds to an exit-3 message: gentler arcs (a smaller yaw rate and feedforward).
+    The radius is the model's own, V^D / max_yaw_rate (a model turned by ``Model.with_turns`` may have none in its
+    config)."""
+    if getattr(model, "turns", None) is None:
+        return ""
+    return f"{sep}widen reference.turn_radius (now {model.V / model.turns.max_yaw_rate:.3g} m)"
+
+
+def _lmi_sizes(lp: LMIProblem) -> list[int]:
+    """The rows of each matrix inequality of a problem (its PSD constraints; scalar ones not counted)."""
+    import cvxpy as cp
+
+    return [int(c.args[0].shape[0]) for c in lp.problem.constraints if isinstance(c, cp.constraints.PSD)]
+
+
+def lmi_count(lp: LMIProblem) -> int:
+    """The matrix inequalities of a problem."""
+    return len(_lmi_sizes(lp))
+
+
+def lmi_rows(lp: LMIProblem) -> int:
+    return max(_lmi_sizes(lp), default=0)
+
+
+# Clarabel's time per iteration grows with the dense blocks its PSD cones put in the KKT system, sum over
+# the LMIs of (r(r+1)/2)^2 for r rows: measured 2.6 s per iteration at 1.23e8 (108 vertices of 45 and 22 rows,
+# d_hi = 3) and 0.81 s at 4.5e7 (40 such vertices), one core busy beside it; ~30 iterations per solve
+SECONDS_PER_KKT_ENTRY = 2e-8
+
+
+ITERATIONS_PER_SOLVE = 30
+
+
+def solve_estimate(lp: LMIProblem) -> float:
+    """A rough time [s] of one Clarabel solve of ``lp`` on a machine like the one the constants were measured on,
+    from its size alone (shown before the first solve: issue 51)."""
+    kkt = sum((r * (r + 1) // 2) ** 2 for r in _lmi_sizes(lp))
+    return SECONDS_PER_KKT_ENTRY * kkt * ITERATIONS_PER_SOLVE
+
+
+def _duration(sec: float) -> str:
+    return f"{sec:.0f} s" if sec < 90 else f"{sec / 60:.0f} min"
+
+
+def _attempts(out: Any) -> str:
+    return ", ".join(f"{a.name} {a.status} {a.solve_time_s:.2f} s" for a in out.attempts)
