@@ -76,3 +76,26 @@ def test_a_proof_turns_the_failed_points_into_infeasible_ones() -> None:
             assert runner.failed_at == {0.05: False, 0.1: False, 0.2: False} and runner.failures == 0
         else:
             assert runner.failed_at == {0.05: True, 0.1: False, 0.2: True} and runner.failures == 2
+
+
+def test_asked_first_the_phase1_problems_spare_every_solve_or_are_asked_once() -> None:
+    """After a heading bound that only phase-1 problems settled, the next bound asks them before any solve
+    (``prove_first``): proven, no solve is made and the next bound will ask first too; not proven, the hinted
+    search runs as without them, and they are not asked a second time where its solves fail."""
+    from robustsynth.synthesis.alpha_search import _run_invariance
+
+    m, s = _nonlinear_proof()
+    model = m.with_heading_bound(0.2, within_period=True)
+    for t in (-1e-3, 1e-3):
+        asked: list[int] = []
+
+        def prove(t=t) -> Phase1:
+            asked.append(1)
+            return Phase1(0.005, 0.95, [(0.005, 0.95, t, 8, "optimal")])
+
+        best, runner = _run_invariance(model, s, [], True, alpha_hint=0.2, retry=False, prove=prove, prove_first=True)
+        assert len(asked) == 1
+        if t < 0:
+            assert best.cert is None and runner.solves == 0 and runner.phase1_alone
+        else:
+            assert runner.solves > 0 and best.cert is not None  # (the committed certificate's class: it certifies)

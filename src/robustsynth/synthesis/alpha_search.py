@@ -137,7 +137,7 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     give_up: int | None = None,
                     prune: Callable[[list[float]], set[float]] | None = None,
                     stop_rel: float = HINT_STOP_REL, bar: float | None = None,
-                    prove: Callable[[], Phase1] | None = None) -> tuple[_Best, _Runner]:
+                    prove: Callable[[], Phase1] | None = None, prove_first: bool = False) -> tuple[_Best, _Runner]:
     """The alpha line search of the invariance LMIs.  Without a hint: a log grid of alpha_points
     scanned upwards, then parabolic steps around its best point.  With ``alpha_hint`` (the best alpha
     of a cheaper certificate class): walk from the hint in quarter grid steps while the bound falls,
@@ -152,7 +152,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     there (one solve: is this class worth a search?), else it walks on from the hint (that solve counted).
     ``prove``: phase-1 problems over the whole alpha range (:func:`.phase1.prove_no_set`), asked where the solver
     failed: at the hint (before the full scan, which it then spares when they settle the range) or anywhere in a
-    search that certified nothing; where they settle it, the failed points count as infeasible."""
+    search that certified nothing; where they settle it, the failed points count as infeasible.  ``prove_first``:
+    asked before any solve (a related problem's solves all failed: the hint's would most likely fail too)."""
     lp = _build(build_invariance, model, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,
                 symmetry=s.symmetry == "auto")
     full = lambda mdl: build_invariance(mdl, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,  # noqa: E731
@@ -174,6 +175,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         say(f"  {lmi_count(lp)} LMIs (the largest {lmi_rows(lp)} rows) per alpha; each point is one solve"
             + (f" (about {_duration(est)} each, estimated from its size)" if est >= 1.0 else "") + ", a failed one is retried")
     grid = np.linspace(math.log(ALPHA_RANGE[0]), math.log(ALPHA_RANGE[1]), s.alpha_points)
+    if prove is not None and prove_first and _settled_by_phase1(runner, prove, search, say, first=True):
+        return best, runner
     if probe_only and alpha_hint is not None:  # one solve at the hint (is this class worth a search?)
         evaluate(math.log(alpha_hint))
         return best, runner
@@ -189,7 +192,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         if best.cert is not None:
             _parabolic(evaluate, pts, predict=True, rel=stop_rel)
             return best, runner
-        if prove is not None and runner.last_kind == "failed" and _settled_by_phase1(runner, prove, search, say):
+        if prove is not None and runner.phase1 is None and runner.last_kind == "failed" and \
+                _settled_by_phase1(runner, prove, search, say):
             return best, runner
         say("  the hint is not feasible for this class: full scan")
     vals, gave_up = _scan(evaluate, grid, give_up, say)
@@ -217,10 +221,12 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     return best, runner
 
 
-def _settled_by_phase1(runner: _Runner, prove: Callable[[], Phase1], search: list, say: Callable[[str], None]) -> bool:
+def _settled_by_phase1(runner: _Runner, prove: Callable[[], Phase1], search: list, say: Callable[[str], None],
+                       first: bool = False) -> bool:
     """Ask the phase-1 problems (``prove``); where they settle the alpha range, the runner's failed points count
     as infeasible (so an exit says 3, with the evidence, not 4).  Whether they did."""
-    say("  the solver failed here: phase-1 problems over the alpha range (docs/theory.md §6j)")
+    say("  the solver failed at the last heading bound: phase-1 problems over the alpha range first (docs/theory.md §6j)"
+        if first else "  the solver failed here: phase-1 problems over the alpha range (docs/theory.md §6j)")
     proof = prove()
     runner.phase1 = proof
     say(f"  {proof.summary()}")
@@ -229,6 +235,7 @@ def _settled_by_phase1(runner: _Runner, prove: Callable[[], Phase1], search: lis
                        "objective": None, "by": f"phase-1 ({n} vertices)", "t": t})
     if not proof.proven:
         return False
+    runner.phase1_alone = all(runner.failed_at.values())  # no solve of this problem concluded (or none was made)
     flipped = [a for a, failed in runner.failed_at.items() if failed]
     for a in flipped:
         runner.failed_at[a] = False

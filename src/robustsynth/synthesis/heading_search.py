@@ -69,6 +69,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
     auto = s.heading_bound == "auto"
     bounds = _auto_bounds(common) if auto else (float(s.heading_bound),)
     best, runner, tried, below = _Best(), None, [], None
+    r_last: _Runner | None = None  # the previous bound's runner
     tried_at: dict[float, tuple[int, int]] = {}  # heading bound -> (alphas solved, of which the solver failed)
     for j, tb in enumerate(bounds):
         # the channels for slip changing within a period only where the certificate is proven at the
@@ -88,7 +89,8 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                                    give_up=NONLINEAR_GIVE_UP,
                                    prune=_motor_pruner(m, s, say=say) if motor else None, stop_rel=COSTLY_STOP_REL,
                                    bar=best.value if best.cert is not None else None,
-                                   prove=lambda m=m: prove_no_set(m, s, motor, ALPHA_RANGE, say))
+                                   prove=lambda m=m: prove_no_set(m, s, motor, ALPHA_RANGE, say),
+                                   prove_first=r_last is not None and r_last.phase1_alone)
             if best.cert is not None and (b.cert is None or b.value >= best.value):
                 tried.append((tb, "not better at the best alpha"))
                 break
@@ -103,6 +105,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
         tried.append((tb, "certified" if b.cert is not None else "infeasible (phase-1)" if settled else
                       ("solver failed" if solver_failed else "infeasible")))
         tried_at[tb] = (len(r.failed_at), sum(r.failed_at.values()))
+        r_last = r  # where the phase-1 problems alone settled this bound, the next asks them first
         if runner is None:
             runner = r
         if b.cert is not None and b.value < best.value:

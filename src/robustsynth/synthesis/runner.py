@@ -106,6 +106,7 @@ class _Runner:
         self.full_retries = 0
         self.failed_at: dict[float, bool] = {}  # alpha -> the solver failed (not: infeasible)
         self.phase1: Phase1 | None = None  # the phase-1 problems asked where the solver failed (_settled_by_phase1)
+        self.phase1_alone = False  # they settled a problem on which no solve had concluded
         self._failed_first: dict[tuple, list[LMIProblem]] = {}  # parameters -> problems the primary solver failed on
         self.last_kind = ""
 
