@@ -151,8 +151,9 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     (with a hint): the objective to beat; when the hint's own solve does not certify below it, the search ends
     there (one solve: is this class worth a search?), else it walks on from the hint (that solve counted).
     ``prove``: phase-1 problems over the whole alpha range (:func:`.phase1.prove_no_set`), asked where the solver
-    failed: at the hint (before the full scan, which it then spares when they settle the range) or anywhere in a
-    search that certified nothing; where they settle it, the failed points count as infeasible.  ``prove_first``:
+    failed: at the hint (before the full scan, which it then spares when they settle the range) or in a scan that
+    certified nothing (before the retries of its failed points); where they settle it, the failed points count as
+    infeasible.  ``prove_first``:
     asked before any solve (a related problem's solves all failed: the hint's would most likely fail too)."""
     lp = _build(build_invariance, model, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,
                 symmetry=s.symmetry == "auto")
@@ -197,6 +198,9 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
             return best, runner
         say("  the hint is not feasible for this class: full scan")
     vals, gave_up = _scan(evaluate, grid, give_up, say)
+    if best.cert is None and prove is not None and runner.phase1 is None and any(runner.failed_at.values()) and \
+            _settled_by_phase1(runner, prove, search, say):
+        return best, runner  # (before the retries of the failed points: they would settle nothing the proof does not)
     if retry == "cheap" and runner.primary not in RETRY:  # no cheap retry for this solver
         retry = False
     if best.cert is None and retry:
@@ -208,8 +212,6 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
             say(f"  the retries concluded: the rest of the scan with {RETRY[runner.primary]}")
             _scan_unscaled(evaluate, grid, vals)
     if best.cert is None:
-        if prove is not None and runner.phase1 is None and any(runner.failed_at.values()):
-            _settled_by_phase1(runner, prove, search, say)
         return best, runner
     on_grid = set(grid)
     # the retried points off the grid (the hint's) where they certified: the parabolic steps start from them too
