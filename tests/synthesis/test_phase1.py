@@ -99,3 +99,21 @@ def test_asked_first_the_phase1_problems_spare_every_solve_or_are_asked_once() -
             assert best.cert is None and runner.solves == 0 and runner.phase1_alone
         else:
             assert runner.solves > 0 and best.cert is not None  # (the committed certificate's class: it certifies)
+
+
+def test_the_synthesis_report_lists_the_phase1_intervals_among_the_alphas() -> None:
+    """synthesis.md's search table holds the phase-1 intervals beside the solved alphas, in alpha order, each with
+    its t* (a KeyError on them once broke `synthesize` of configs/nonlinear-proof.yaml after the search)."""
+    from types import SimpleNamespace
+
+    from robustsynth.report.synthesis import _search_markdown
+
+    search = [{"alpha": 0.2, "status": "ok", "objective": 1e-3},
+              {"alpha_interval": [0.005, 0.0096], "status": "infeasible", "objective": None, "by": "phase-1 (8 vertices)",
+               "t": -1e-3},
+              {"alpha_interval": [0.0096, 0.0186], "status": "failed", "objective": None, "by": "phase-1 (12 vertices)",
+               "t": None}]
+    text = _search_markdown(SimpleNamespace(search=search))
+    rows = [line for line in text.splitlines() if line.startswith("| ") and "alpha" not in line]
+    assert [r.split("|")[1].strip() for r in rows] == ["[0.005, 0.0096]", "[0.0096, 0.0186]", "0.2"]
+    assert "t* = -0.001" in rows[0] and "the solver failed" in rows[1]

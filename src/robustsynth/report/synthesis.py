@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import math
+
 from typing import Any
 
 import numpy as np
@@ -183,16 +185,37 @@ def _search_markdown(result: Any) -> str:
     out = []
     if result.search:
         out.append("\n## Search\n\n")
-        if "alpha" in result.search[0]:
-            rows = [[fmt(p["alpha"]), p["status"], fmt(p["objective"]) if p.get("objective") is not None else "—"]
-                    for p in sorted(result.search, key=lambda p: p["alpha"])]
-            out.append("Line search over alpha (objective: sum of weight x bound² over e_x, e_y, e_theta):\n\n")
+        if "alpha" in result.search[0] or "alpha_interval" in result.search[0]:
+            rows = [[_alpha_cell(p), _result_cell(p), fmt(p["objective"]) if p.get("objective") is not None else "—"]
+                    for p in sorted(result.search, key=_alpha_key)]
+            out.append("Line search over alpha (objective: sum of weight x bound² over e_x, e_y, e_theta; an interval: "
+                       "a phase-1 problem over it, docs/theory.md §6j):\n\n")
             out.append(table(["alpha", "result", "objective"], rows))
         elif "r" in result.search[0]:
             rows = [[fmt(p["r"], 6), p["status"]] for p in result.search]
             out.append("Bisection on the decay rate r (in the order solved):\n\n")
             out.append(table(["r", "result"], rows))
     return "".join(out)
+
+
+def _alpha_key(p: dict[str, Any]) -> float:
+    """Where a search point sits on the alpha axis: its alpha, or the middle (in log alpha) of a phase-1 interval."""
+    if "alpha" in p:
+        return float(p["alpha"])
+    a, b = p["alpha_interval"]
+    return math.sqrt(a * b)
+
+
+def _alpha_cell(p: dict[str, Any]) -> str:
+    return fmt(p["alpha"]) if "alpha" in p else f"[{fmt(p['alpha_interval'][0])}, {fmt(p['alpha_interval'][1])}]"
+
+
+def _result_cell(p: dict[str, Any]) -> str:
+    """The point's outcome; a phase-1 interval's with its t* (below 0: no set in the interval)."""
+    if "alpha_interval" not in p:
+        return p["status"]
+    t = p.get("t")
+    return f"{p['status']} ({p['by']}, " + ("the solver failed" if t is None else f"t* = {t:.3g}") + ")"
 
 
 def certificate_check_markdown(c: dict[str, Any]) -> str:
