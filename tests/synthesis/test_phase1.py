@@ -117,3 +117,26 @@ def test_the_synthesis_report_lists_the_phase1_intervals_among_the_alphas() -> N
     rows = [line for line in text.splitlines() if line.startswith("| ") and "alpha" not in line]
     assert [r.split("|")[1].strip() for r in rows] == ["[0.005, 0.0096]", "[0.0096, 0.0186]", "0.2"]
     assert "t* = -0.001" in rows[0] and "the solver failed" in rows[1]
+
+
+@pytest.mark.slow
+def test_below_an_infeasible_hint_the_search_descends_and_finds_the_full_scans_bound() -> None:
+    """Integral action at 0.3 rad: the linearized start's alpha (~0.127) is infeasible and the feasible alphas lie
+    below it.  The search descends the grid from the hint (alpha_search._descend) instead of scanning it from its
+    bottom: fewer solves, every one at or below the hint, and the bound of the full scan (both refined to
+    COSTLY_STOP_REL's 0.1 % on the bound)."""
+    from robustsynth.synthesis.alpha_search import COSTLY_STOP_REL, _run_invariance
+
+    m, s = _nonlinear_proof(**{"synthesis.integral_action": True})
+    model = m.with_heading_bound(0.3, within_period=True)
+    hint = 0.1267
+    down: list = []
+    b1, r1 = _run_invariance(model, s, down, True, alpha_hint=hint, retry=False, stop_rel=COSTLY_STOP_REL)
+    full: list = []
+    b2, r2 = _run_invariance(model, s, full, True, retry=False, stop_rel=COSTLY_STOP_REL)
+    assert b1.cert is not None and b2.cert is not None
+    assert all(p["alpha"] <= hint * (1 + 1e-12) for p in down)
+    assert r1.solves < r2.solves, (r1.solves, r2.solves)
+    BOUND_REL = 2e-3  # both refinements stop within 0.1 % of the bound along alpha
+    e1, e2 = (b.check.figures["ultimate_bound"]["e_y"] for b in (b1, b2))
+    assert e1 <= e2 * (1 + BOUND_REL), (e1, e2)

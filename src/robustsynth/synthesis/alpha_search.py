@@ -196,6 +196,12 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         if prove is not None and runner.phase1 is None and runner.last_kind == "failed" and \
                 _settled_by_phase1(runner, prove, search, say):
             return best, runner
+        if runner.last_kind == "infeasible":  # the feasible interval lies off the hint: below it first
+            pts = _descend(evaluate, grid, math.log(alpha_hint), give_up)
+            if pts is not None:
+                say("  refined below the hint")
+                _parabolic(evaluate, pts, rel=stop_rel)
+                return best, runner
         say("  the hint is not feasible for this class: full scan")
     vals, gave_up = _scan(evaluate, grid, give_up, say)
     if best.cert is None and prove is not None and runner.phase1 is None and any(runner.failed_at.values()) and \
@@ -221,6 +227,30 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     _parabolic(lambda x: evaluate(x, unscaled_only=unscaled), sorted([(float(g), v) for g, v in zip(grid, vals)] + extra),
                rel=stop_rel)
     return best, runner
+
+
+def _descend(evaluate: "_Evaluator", grid: np.ndarray, hint: float, give_up: int | None
+             ) -> list[tuple[float, float]] | None:
+    """The grid's points below an infeasible hint (log alpha), downwards, until past the minimum (a certified point
+    above the one before it) or the end of the feasible interval (one not certified after one that was), or
+    ``give_up`` solver failures in a row with nothing certified: the points evaluated with the hint's, or None
+    where none certified (the full scan then finds these in its cache).  On configs/nonlinear-proof.yaml with
+    integral action (0.3 rad) the feasible alphas lie at 0.03-0.12, below the linearized start's 0.127: the
+    scan from the grid's bottom solved 12 points there."""
+    pts = [(hint, evaluate(hint))]
+    failures = 0
+    for g in sorted((float(x) for x in grid if x < hint - 1e-12), reverse=True):
+        v = evaluate(g)
+        pts.append((g, v))
+        certified = [f for _, f in pts if math.isfinite(f)]
+        if certified:
+            if not math.isfinite(v) or (len(certified) >= 2 and certified[-1] > certified[-2]):
+                break
+        else:
+            failures = failures + 1 if evaluate.runner.failed_at.get(float(np.exp(g)), False) else 0
+            if give_up is not None and failures >= give_up:
+                break
+    return sorted(pts) if any(math.isfinite(f) for _, f in pts) else None
 
 
 def _settled_by_phase1(runner: _Runner, prove: Callable[[], Phase1], search: list, say: Callable[[str], None],
