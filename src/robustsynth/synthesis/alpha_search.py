@@ -13,7 +13,7 @@ import numpy as np
 
 from ..config import SynthesisConfig
 from .lmis import build_invariance
-from .phase1 import T_PROVEN, Phase1
+from .phase1 import Phase1, settles
 from .runner import _attempts, _Best, _build, _cert_common, _duration, _Runner, _weights, lmi_count, lmi_rows, solve_estimate
 from .solve import RETRY, Outcome, solve
 
@@ -263,7 +263,7 @@ def _settled_by_phase1(runner: _Runner, prove: Callable[[], Phase1], search: lis
     runner.phase1 = proof
     say(f"  {proof.summary()}")
     for a, b, t, n, status in proof.intervals:
-        search.append({"alpha_interval": [a, b], "status": "infeasible" if t is not None and t <= -T_PROVEN else "failed",
+        search.append({"alpha_interval": [a, b], "status": "infeasible" if settles(t) else "failed",
                        "objective": None, "by": f"phase-1 ({n} vertices)", "t": t})
     if not proof.proven:
         return False

@@ -28,7 +28,7 @@ from ..model.vertices import TANGENTS
 from .lmis import build_invariance
 from .solve import solve, solve_all
 
-__all__ = ["Phase1", "prove_no_set", "PHASE1_BOX", "T_PROVEN", "INTERVALS"]
+__all__ = ["Phase1", "prove_no_set", "settles", "PHASE1_BOX", "T_PROVEN", "INTERVALS"]
 
 # X_00, X_11 <= PHASE1_BOX [m^2]: the set {xi' X^-1 xi <= 1} keeps |e_x|, |e_y| <= 1 m (the other states are bounded
 # by the heading and motor rows already); a set larger than that is of no use on a path of metre-scale segments
@@ -36,6 +36,11 @@ PHASE1_BOX = 1.0
 T_PROVEN = 1e-7  # an interval counts as proven only with t* <= -T_PROVEN (far beyond the solver's 1e-9 tolerances)
 INTERVALS = 8  # log-spaced intervals over the alpha range, each halved once where it does not settle
 PARALLEL = 2  # intervals solved at once, each on its own copy of the problem (this machine's two cores)
+
+
+def settles(t: float | None) -> bool:
+    """Whether a phase-1 maximum t* (None: the solver failed) shows its interval has no set: t* <= -T_PROVEN."""
+    return t is not None and t <= -T_PROVEN
 
 
 @dataclass
@@ -50,7 +55,7 @@ class Phase1:
 
     @property
     def proven(self) -> bool:
-        return bool(self.intervals) and all(t is not None and t <= -T_PROVEN for _, _, t, _, _ in self.intervals)
+        return bool(self.intervals) and all(settles(t) for _, _, t, _, _ in self.intervals)
 
     def summary(self) -> str:
         if not self.proven:
@@ -60,7 +65,7 @@ class Phase1:
                 f"({len(self.intervals)} phase-1 problems, largest t* {worst:.3g}, {self.seconds:.0f} s)")
 
     def _unsettled(self) -> str:
-        bad = [(a, b, t) for a, b, t, _, _ in self.intervals if t is None or t > -T_PROVEN]
+        bad = [(a, b, t) for a, b, t, _, _ in self.intervals if not settles(t)]
         return ", ".join(f"[{a:.3g}, {b:.3g}]: " + ("the solver failed" if t is None else f"t* {t:.3g}") for a, b, t in bad)
 
 
@@ -119,9 +124,6 @@ def prove_no_set(model: Any, s: Any, motor: bool, alpha_range: tuple[float, floa
                 + ("the solver failed" if t is None else f"t* = {t:.3g}") + f" ({status})")
         return ts
 
-    def settled(t: float | None) -> bool:
-        return t is not None and t <= -T_PROVEN
-
     def settle(ivs: list[tuple[float, float]], depth: int) -> bool:
         """Settle ``ivs`` (PARALLEL at a time) on the fewer vertices, halving what they leave, and what is left
         then on every vertex; False at the first interval left unsettled (no proof can come out any more)."""
@@ -129,16 +131,16 @@ def prove_no_set(model: Any, s: Any, motor: bool, alpha_range: tuple[float, floa
             chunk = ivs[k : k + PARALLEL]
             for (a, b), (t, status) in zip(chunk, run(0, chunk)):
                 n = len(kinds[0].vertices)
-                if not settled(t) and depth > 0:
+                if not settles(t) and depth > 0:
                     mid = math.sqrt(a * b)
                     if not settle([(a, mid), (mid, b)], depth - 1):
                         return False
                     continue
-                if not settled(t) and len(kinds) > 1:
+                if not settles(t) and len(kinds) > 1:
                     (t, status), = run(1, [(a, b)])
                     n = len(kinds[1].vertices)
                 result.intervals.append((a, b, t, n, status))
-                if not settled(t):
+                if not settles(t):
                     return False
         return True
 
