@@ -14,9 +14,12 @@ import math
 import pprint
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from .export_lti import _c_array, _f, certified_word, proof_lines  # _f: a C double literal that reads back exactly
+
+if TYPE_CHECKING:
+    from ..law import Controller, PathTable
 
 __all__ = ["TARGETS", "export_controller", "export_files", "c_files", "python_module", "ros2_parameters", "json_description",
            "verification_record", "VERIFICATION_FILE"]
@@ -34,20 +37,39 @@ def _header_comment(d: dict[str, Any], target: str, prefix: str = "   ") -> str:
     return lines[0] + "".join(f"\n{prefix}{line}" for line in lines[1:])
 
 
+class _CPath(NamedTuple):
+    """The parts of rs_controller.c that depend on the path's kind (turning reference or straight segments)."""
+
+    tables: str  # its constant tables (static const ...), after K
+    frame: str  # rs_step's locals, then the code that computes the frame error c->xi[0..2] at t
+    v_out: str  # the C expression of the command V
+    omega_out: str  # the C expression of the command omega
+
+
 def c_files(d: dict[str, Any]) -> dict[str, bytes]:
     """rs_controller.h / rs_controller.c (C99, only <math.h>, no heap) and rs_harness.c, a test
     and timing harness: ``rs_harness < steps.txt`` reads lines ``t x y theta`` (or ``reset``) and
     prints ``V omega`` with 17 digits; ``rs_harness --bench N`` times N steps."""
-    from ..law import SAMPLE_EPS, Controller
-    from .export_monitor import c_wrap
+    from ..law import Controller
 
     ctl = Controller(d)  # validates the description
-    path = ctl.path
-    n_s, d_hi, n_z, n_seg = len(d["K"][0]), ctl.d_hi, ctl.law.n_z, len(path.t_start)
-    R, D = float(d["gear_radius"]), float(d["track_distance"])
+    h = _c_header(d, ctl)
+    c = _c_source(d, ctl)
+    files = {"rs_controller.h": h.encode(), "rs_controller.c": c.encode(), "rs_harness.c": _c_harness().encode()}
+    if d.get("monitor"):  # the runtime monitor of its certificate (robustsynth.monitor), beside it
+        from .export_monitor import c_monitor_files
+
+        files.update(c_monitor_files(d))
+    return files
+
+
+def _c_header(d: dict[str, Any], ctl: Controller) -> str:
+    """rs_controller.h: the sizes and constants (RS_TS, RS_D_HI, RS_N_S, ...), the controller's memory
+    (rs_controller_t) and the prototypes of rs_init, rs_step and rs_motor_speeds."""
+    n_s, d_hi, n_z, n_seg = len(d["K"][0]), ctl.d_hi, ctl.law.n_z, len(ctl.path.t_start)
     rho = d.get("max_motor_speed")
     names = ", ".join(d["state_names"])
-    h = f"""/* rs_controller.h: the {certified_word(d)} networked-robot controller.
+    return f"""/* rs_controller.h: the {certified_word(d)} networked-robot controller.
    {_header_comment(d, 'c')}
 
    Call rs_step once per sampling instant t_k = k * RS_TS with t the time since the start of the
@@ -78,12 +100,83 @@ void rs_motor_speeds(double V, double omega, double *rho_r, double *rho_l);
 
 #endif /* RS_CONTROLLER_H */
 """
+
+
+def _c_source(d: dict[str, Any], ctl: Controller) -> str:
+    """rs_controller.c: K, the path's tables (:func:`_c_turning_path`, :func:`_c_segment_path`), the motor
+    mapping's constants, wrap_angle, and rs_init, rs_step (law.Law.step, operation for operation) and
+    rs_motor_speeds."""
+    from .export_monitor import c_wrap
+
+    path = ctl.path
+    R, D = float(d["gear_radius"]), float(d["track_distance"])
     K_rows = ",\n    ".join(_c_array(row) for row in d["K"])
     ff = [float(v) for v in (d.get("turn_feedforward") or (0.0, 1.0))]
-    if path.turning:  # the reference's table and its arcs (law.frame_error, law.sample_at), the same operations
-        n_ref = len(path.ref_w)
-        turning_tables = f"""
-#define RS_N_REF {n_ref} /* the turning reference's sampling instants */
+    p = _c_turning_path(path, ff) if path.turning else _c_segment_path(d, path)
+    return f"""/* rs_controller.c: see rs_controller.h.
+   {_header_comment(d, 'c')} */
+#include <math.h>
+#include "rs_controller.h"
+
+static const double K[2][RS_N_S] = {{
+    {K_rows}
+}};
+{p.tables}
+static const double PI_ = {_f(math.pi)};
+static const double TWO_PI_ = {_f(2.0 * math.pi)};
+static const double INV_R = {_f(1.0 / R)};
+static const double HALF_D_OVER_R = {_f(D / (2.0 * R))};
+
+{c_wrap("wrap_angle", "angle in [-pi, pi): floor modulo, as Python's and numpy's %")}
+
+void rs_init(rs_controller_t *c)
+{{
+    int i;
+    for (i = 0; i < 2 * RS_D_HI; ++i) c->past[i] = 0.0;
+    c->z[0] = 0.0;
+    c->z[1] = 0.0;
+    for (i = 0; i < RS_N_S; ++i) c->xi[i] = 0.0;
+}}
+
+void rs_step(rs_controller_t *c, double t, double x, double y, double theta, double *V, double *omega)
+{{
+{p.frame}
+    for (j = 0; j < 2 * RS_D_HI; ++j) c->xi[3 + j] = c->past[j];
+#if RS_N_Z > 0
+    c->xi[3 + 2 * RS_D_HI] = c->z[0];
+    c->xi[4 + 2 * RS_D_HI] = c->z[1];
+#endif
+    for (i = 0; i < 2; ++i) {{
+        acc[i] = 0.0;
+        for (j = 0; j < RS_N_S; ++j) acc[i] = acc[i] + K[i][j] * c->xi[j];
+    }}
+#if RS_N_Z > 0
+    c->z[0] = c->z[0] + RS_TS * c->xi[0];
+    c->z[1] = c->z[1] + RS_TS * c->xi[1];
+#endif
+    for (j = 2 * RS_D_HI - 1; j >= 2; --j) c->past[j] = c->past[j - 2];
+    c->past[0] = acc[0];
+    c->past[1] = acc[1];
+    *V = {p.v_out};
+    *omega = {p.omega_out};
+}}
+
+void rs_motor_speeds(double V, double omega, double *rho_r, double *rho_l)
+{{
+    *rho_r = V * INV_R + omega * HALF_D_OVER_R;
+    *rho_l = V * INV_R - omega * HALF_D_OVER_R;
+}}
+"""
+
+
+def _c_turning_path(path: PathTable, ff: list[float]) -> _CPath:
+    """rs_controller.c's path with a turn radius: the turning reference's table per sampling instant (REF_*), the
+    turning feedforward ``ff`` (FF_V, FF_OMEGA), and the frame error against the reference advanced along its arc
+    within the period (law.frame_error, law.sample_at: the same operations); the commands add the feedforward."""
+    from ..law import SAMPLE_EPS
+
+    n_ref = len(path.ref_w)
+    tables = f"""#define RS_N_REF {n_ref} /* the turning reference's sampling instants */
 static const double REF_X[RS_N_REF] = {_c_array(path.ref_x)};
 static const double REF_Y[RS_N_REF] = {_c_array(path.ref_y)};
 static const double REF_HEADING[RS_N_REF] = {_c_array(path.ref_heading)};
@@ -96,7 +189,7 @@ static const double FF_OMEGA = {_f(ff[1])};
 static const double SAMPLE_EPS = {_f(SAMPLE_EPS)};
 /* sin(a) / a, 1 at 0 */
 static double sinc_(double a) {{ return a != 0.0 ? sin(a) / a : 1.0; }}"""
-        frame = """    int i, j;
+    frame = """    int i, j;
     long k;
     double dx, dy, acc[2], tau, xr, yr, th, cr, sr, kf;
     /* the sampling period that holds t, within the turning reference's table (the last entry goes on);
@@ -122,18 +215,20 @@ static double sinc_(double a) {{ return a != 0.0 ? sin(a) / a : 1.0; }}"""
     c->xi[0] = cr * dx + sr * dy;
     c->xi[1] = -sr * dx + cr * dy;
     c->xi[2] = wrap_angle(theta - th);"""
-        v_out = "RS_REFERENCE_SPEED + acc[0] + REF_W[k] * FF_V"
-        omega_out = "acc[1] + REF_W[k] * FF_OMEGA"
-        path_tables = turning_tables.lstrip("\n")
-    else:
-        path_tables = f"""static const double SEG_X0[RS_N_SEG] = {_c_array(path.x0)};
+    return _CPath(tables, frame, "RS_REFERENCE_SPEED + acc[0] + REF_W[k] * FF_V", "acc[1] + REF_W[k] * FF_OMEGA")
+
+
+def _c_segment_path(d: dict[str, Any], path: PathTable) -> _CPath:
+    """rs_controller.c's path of straight segments: their tables (SEG_*), and the frame error against the desired
+    point of the segment active at t (the last one goes on past its end)."""
+    tables = f"""static const double SEG_X0[RS_N_SEG] = {_c_array(path.x0)};
 static const double SEG_Y0[RS_N_SEG] = {_c_array(path.y0)};
 static const double SEG_HEADING[RS_N_SEG] = {_c_array(path.heading)};
 static const double SEG_COS[RS_N_SEG] = {_c_array(path.cos)};
 static const double SEG_SIN[RS_N_SEG] = {_c_array(path.sin)};
 static const double SEG_T_START[RS_N_SEG] = {_c_array(path.t_start)};
 static const double SEGMENT_EPS = {_f(d['segment_eps'])};"""
-        frame = """    int seg = 0, i, j;
+    frame = """    int seg = 0, i, j;
     double dx, dy, acc[2];
     /* the segment whose desired point is active at t (the last one goes on past its end) */
     while (seg + 1 < RS_N_SEG && SEG_T_START[seg + 1] <= t + SEGMENT_EPS) ++seg;
@@ -142,63 +237,13 @@ static const double SEGMENT_EPS = {_f(d['segment_eps'])};"""
     c->xi[0] = SEG_COS[seg] * dx + SEG_SIN[seg] * dy - RS_REFERENCE_SPEED * (t - SEG_T_START[seg]);
     c->xi[1] = -SEG_SIN[seg] * dx + SEG_COS[seg] * dy;
     c->xi[2] = wrap_angle(theta - SEG_HEADING[seg]);"""
-        v_out = "RS_REFERENCE_SPEED + acc[0]"
-        omega_out = "acc[1]"
-    c = f"""/* rs_controller.c: see rs_controller.h.
-   {_header_comment(d, 'c')} */
-#include <math.h>
-#include "rs_controller.h"
+    return _CPath(tables, frame, "RS_REFERENCE_SPEED + acc[0]", "acc[1]")
 
-static const double K[2][RS_N_S] = {{
-    {K_rows}
-}};
-{path_tables}
-static const double PI_ = {_f(math.pi)};
-static const double TWO_PI_ = {_f(2.0 * math.pi)};
-static const double INV_R = {_f(1.0 / R)};
-static const double HALF_D_OVER_R = {_f(D / (2.0 * R))};
 
-{c_wrap("wrap_angle", "angle in [-pi, pi): floor modulo, as Python's and numpy's %")}
-
-void rs_init(rs_controller_t *c)
-{{
-    int i;
-    for (i = 0; i < 2 * RS_D_HI; ++i) c->past[i] = 0.0;
-    c->z[0] = 0.0;
-    c->z[1] = 0.0;
-    for (i = 0; i < RS_N_S; ++i) c->xi[i] = 0.0;
-}}
-
-void rs_step(rs_controller_t *c, double t, double x, double y, double theta, double *V, double *omega)
-{{
-{frame}
-    for (j = 0; j < 2 * RS_D_HI; ++j) c->xi[3 + j] = c->past[j];
-#if RS_N_Z > 0
-    c->xi[3 + 2 * RS_D_HI] = c->z[0];
-    c->xi[4 + 2 * RS_D_HI] = c->z[1];
-#endif
-    for (i = 0; i < 2; ++i) {{
-        acc[i] = 0.0;
-        for (j = 0; j < RS_N_S; ++j) acc[i] = acc[i] + K[i][j] * c->xi[j];
-    }}
-#if RS_N_Z > 0
-    c->z[0] = c->z[0] + RS_TS * c->xi[0];
-    c->z[1] = c->z[1] + RS_TS * c->xi[1];
-#endif
-    for (j = 2 * RS_D_HI - 1; j >= 2; --j) c->past[j] = c->past[j - 2];
-    c->past[0] = acc[0];
-    c->past[1] = acc[1];
-    *V = {v_out};
-    *omega = {omega_out};
-}}
-
-void rs_motor_speeds(double V, double omega, double *rho_r, double *rho_l)
-{{
-    *rho_r = V * INV_R + omega * HALF_D_OVER_R;
-    *rho_l = V * INV_R - omega * HALF_D_OVER_R;
-}}
-"""
-    harness = """/* rs_harness.c: test and timing harness for rs_controller.c (generated by robustsynth).
+def _c_harness() -> str:
+    """rs_harness.c: replays lines ``t x y theta`` (or ``reset``) through rs_step and prints ``V omega`` with 17
+    digits; ``--bench N [J]`` times N steps, each J s after its sampling instant."""
+    return """/* rs_harness.c: test and timing harness for rs_controller.c (generated by robustsynth).
    rs_harness < steps.txt   lines "t x y theta" -> "V omega" (17 digits); a line "reset" calls rs_init
    rs_harness --bench N [J] mean time of N calls of rs_step [ns], each J s after its sampling instant (default 0: on
                             the instants; a clock's timestamp is off them by its jitter: the reference's arc step) */
@@ -235,12 +280,6 @@ int main(int argc, char **argv)
     return 0;
 }
 """
-    files = {"rs_controller.h": h.encode(), "rs_controller.c": c.encode(), "rs_harness.c": harness.encode()}
-    if d.get("monitor"):  # the runtime monitor of its certificate (robustsynth.monitor), beside it
-        from .export_monitor import c_monitor_files
-
-        files.update(c_monitor_files(d))
-    return files
 
 
 def python_module(d: dict[str, Any]) -> bytes:
