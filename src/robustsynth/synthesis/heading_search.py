@@ -14,7 +14,7 @@ import numpy as np
 from ..config import SynthesisConfig
 from ..errors import InfeasibleError, SolverFailure
 from .alpha_search import ALPHA_RANGE, COSTLY_STOP_REL, _motor_pruner, _run_invariance
-from .phase1 import prove_no_set
+from .phase1 import Active, prove_no_set
 from .runner import _Best, _Runner, _wider_turns
 from .solve import RETRY
 
@@ -71,6 +71,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
     best, runner, tried, below = _Best(), None, [], None
     r_last: _Runner | None = None  # the previous bound's runner
     tried_at: dict[float, tuple[int, int]] = {}  # heading bound -> (alphas solved, of which the solver failed)
+    active = Active()  # the vertices that bound the last phase-1 problems, tried first at the next (the same order)
     for j, tb in enumerate(bounds):
         # the channels for slip changing within a period only where the certificate is proven at the
         # within-period vertices: a common Lyapunov matrix (Model.slip_variation)
@@ -89,7 +90,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                                    give_up=NONLINEAR_GIVE_UP,
                                    prune=_motor_pruner(m, s, say=say) if motor else None, stop_rel=COSTLY_STOP_REL,
                                    bar=best.value if best.cert is not None else None,
-                                   prove=lambda m=m: prove_no_set(m, s, motor, ALPHA_RANGE, say),
+                                   prove=lambda m=m: prove_no_set(m, s, motor, ALPHA_RANGE, say, active=active),
                                    prove_first=r_last is not None and r_last.phase1_alone)
             if best.cert is not None and (b.cert is None or b.value >= best.value):
                 tried.append((tb, "not better at the best alpha"))

@@ -451,12 +451,14 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
     t = cp.Variable(name="t") if phase1 is not None else None
     floor = margin if t is None else t
     Zsw = np.zeros((n_s, n_w))
+    vertex_lmis: list[list[Any]] = []  # per vertex its LMIs (phase-1: their duals rank the vertices)
     for i, (v, M) in enumerate(zip(model.vertices, Ms)):
         AX, CX = _vertex_parts(v, lv)
         E = np.asarray(v.E)
         Bp = np.asarray(v.B_p)
         pairs, below = lv.grouped(i)
         cons += below
+        vertex_lmis.append([])
         for left, right in pairs:
             rows = [[one_minus * left, Zsw, AX.T], [Zsw.T, cp.diag(beta), E.T],
                     [AX, E, right - (Bp @ M @ Bp.T if v.n_q else 0)]]
@@ -467,6 +469,7 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
                 rows.append([CX, np.asarray(v.F), np.zeros((v.n_q, n_s)), M])
             L = cp.bmat(rows)
             cons.append(_sym(L) >> floor * np.eye(L.shape[0]))
+            vertex_lmis[-1].append(cons[-1])
     cons += [cp.sum(beta) <= alpha] + lv.scale(floor)
     extra = {"beta": beta}
     u2 = cp.Variable(nonneg=True, name="u2") if least_motor else None
@@ -478,6 +481,7 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
     if t is not None:
         cons += [lv.mats[j][i, i] <= float(phase1) for j in lv.own for i in (0, 1)]
         extra["t"] = t
+        extra["vertex_lmis"] = vertex_lmis
         return LMIProblem(cp.Problem(cp.Maximize(t), cons), M=Ms, params={"alpha": alpha, "one_minus_alpha": one_minus},
                           extra=extra, **lv.problem_kwargs())
     if least_motor:
