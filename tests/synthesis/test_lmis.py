@@ -76,3 +76,14 @@ def test_the_default_robots_heading_rows_shrink_to_those_that_bound_the_others()
         X = L @ L.T + 1e-6 * np.eye(V.shape[1])
         X /= np.max(_worst_ratio(V[keep], room[keep], X)) ** 2
         assert np.all(_worst_ratio(V, room, X) <= 1.0 + ROUND)
+
+
+def test_beyond_the_cap_every_row_is_kept() -> None:
+    """One LP per row costs ~n^2: past IMPLIED_MAX_ROWS rows none is left out (a d_hi = 3 icr robot has 60 281)."""
+    from robustsynth.synthesis.lmis import IMPLIED_MAX_ROWS
+
+    e = np.eye(2)
+    rows = [e[0], e[1]] + [e[0] + e[1]] * (IMPLIED_MAX_ROWS - 1)  # every copy implied by the first two
+    rooms = [1.0, 1.0] + [10.0] * (IMPLIED_MAX_ROWS - 1)
+    assert implied_rows_left_out(rows, rooms) == list(range(IMPLIED_MAX_ROWS + 1))
+    assert implied_rows_left_out(rows[:3], rooms[:3]) == [0, 1]
