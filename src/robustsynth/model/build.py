@@ -3,6 +3,9 @@ test of the vertex description (:func:`coverage_check`)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field, replace
+from typing import Any
+
 import numpy as np
 
 from ..config import Config
@@ -39,6 +42,48 @@ def _resolve_delay_description(requested: str, n_uncertain: int, nonlinear: bool
     return requested
 
 
+PAPER_VARYING_REASON = "the paper's model describes slip as an additive box, not per command interval"
+
+
+@dataclass(frozen=True)
+class _Delays:
+    """The delay description the model is built with, and its delay vertices (none for norm-bounded):
+    ``labels`` and ``gammas`` per delay vertex, the lifted ``A_t``, ``B_t`` at each (before slip), and
+    how the polytopic description covers the instants (``cover``, ``uncertain``, ``cover_h``, ``combos``:
+    the Model's ``delay_*`` fields)."""
+
+    description: str
+    cover: str = "product"
+    uncertain: list = field(default_factory=list)
+    cover_h: np.ndarray | None = None
+    combos: list = field(default_factory=list)
+    labels: Any = None
+    gammas: np.ndarray | None = None
+    A_t: np.ndarray | None = None
+    B_t: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class _Intervals:
+    """Each delay vertex's command intervals: ``h`` and ``q`` (n_d, d_hi + 1), the coordinates (h_j, h_j^2/2)
+    the kinematic channels are made from, and ``lengths``, each interval's length."""
+
+    h: np.ndarray
+    q: np.ndarray
+    lengths: np.ndarray
+
+
+@dataclass(frozen=True)
+class _WithinPeriod:
+    """Slip changing within a period (docs/theory.md §11): its vertices (None: not covered), the delay vertex
+    of each, the covering kinematic channels per delay vertex, and why it is not covered ("" when it is)."""
+
+    varying: list[Vertex] | None = None
+    varying_delay: list[int] = field(default_factory=list)
+    covering: list = field(default_factory=list)
+    reason: str = ""
+
+
 def build_model(config: Config, min_lifting: int | None = None) -> Model:
     """Build the model of ``config`` (kind ``config.synthesis.model``; docs/theory.md §1-5).
 
@@ -61,17 +106,43 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
     from ..config import refuse_lti
 
     refuse_lti(config, "build_model")
+    nominal = _nominal_model(config, min_lifting)
+    if nominal.kind == "paper":
+        delays = _Delays("norm-bounded")
+        vertices = [Vertex(nominal.A, nominal.B, nominal.B_d @ nominal.slip.W, nominal.B_p, nominal.C_q, nominal.D_q, 0,
+                           "nominal (mu = 1), slip as additive box")]
+        channels: list = []
+        within = _WithinPeriod(reason=PAPER_VARYING_REASON)
+    else:
+        delays = _delay_vertices(config, nominal)
+        intervals = None if delays.description == "norm-bounded" else _intervals(delays, nominal)
+        within = _within_period(config, nominal, delays, intervals)
+        vertices, channels = _corner_vertices(config, nominal, delays, intervals)
+    frozen_vertices = tuple(frozen_vertex(v) for v in vertices)
+    model = replace(nominal, vertices=frozen_vertices, base_vertices=frozen_vertices, channels=tuple(channels),
+                    delay_description=delays.description, delay_cover=delays.cover,
+                    delay_uncertain=tuple(delays.uncertain),
+                    delay_cover_h=None if delays.cover_h is None else frozen_array(delays.cover_h),
+                    delay_combos=tuple(delays.combos), varying=tuple(frozen_vertex(v) for v in within.varying or ()),
+                    varying_reason=within.reason, covering=tuple(within.covering),
+                    varying_delay=tuple(within.varying_delay))
+    return _with_kinematic_terms(model, config)
+
+
+def _nominal_model(config: Config, min_lifting: int | None) -> Model:
+    """The model's nominal part, its vertices still to be added: the continuous matrices at V^D, the delay's
+    lifting (d_lo, d_hi, the switching instants' ranges), the norm-bounded embedding (B_p, C_q, D_q), the
+    lifted A, B, B_d (with the integrators when asked), the slip box and its corners.  A lost command is
+    superseded when its successor arrives: the lifting covers an effective delay of up to tau_max + m Ts
+    (m lost in a row) with a zero-length active interval (docs/theory.md, packet loss); ``min_lifting``
+    lengthens it."""
     R = config.robot.gear_radius
     D = config.robot.track_distance
     V = config.reference.speed
     Ts = config.network.sampling_time
-    syn = config.synthesis
-    kind = syn.model
-    integral = syn.integral_action
+    integral = config.synthesis.integral_action
     n_z = 2 if integral else 0
     dropouts = config.network.dropouts.max_consecutive
-    # a lost command is superseded when its successor arrives: an effective delay of up to
-    # tau_max + m Ts with a zero-length active interval (docs/theory.md, packet loss)
     tmin, tmax = config.network.delay.min, config.network.delay.max + dropouts * config.network.sampling_time
     A_c, B_c, B_D_c = continuous_matrices(V, D)
     d_lo, d_hi = delay_indices(tmin, tmax, Ts)
@@ -82,144 +153,139 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
     Ph = Phi(A_c, Ts)
     GD = Gamma_D(A_c, B_D_c, Ts)
     A, B, B_d = lift(Ph, Gammas0, Gamma(A_c, B_c, Ts), GD)
+    if integral:  # the nominal matrices in the augmented state
+        A, B = augment_integral(A, B, Ts, n_e)
+    arrays = {"instant_ranges": inst_ranges, "A_c": A_c, "B_c": B_c, "B_D_c": B_D_c, "Phi": Ph, "Gamma_D": GD, "A": A,
+              "B": B, "B_d": _augment_rows(B_d, n_z), "B_p": _augment_rows(B_p, n_z), "C_q": _augment_cols(C_q, n_z),
+              "D_q": D_q, "corners": slip_corners(*slip_parameter_ranges(config.slip)), "J": J_matrix(R, D),
+              "J_inv": J_inverse(R, D)}
+    slip = slip_box((config.slip.right.min, config.slip.right.max), (config.slip.left.min, config.slip.left.max))
+    return Model(config=config, kind=config.synthesis.model, d_lo=d_lo, d_hi=d_hi, Ts=Ts, V=V, instants=instants,
+                 slip=slip, vertices=(), delay_description="norm-bounded", integral=integral, dropouts=dropouts,
+                 **{k: frozen_array(v) for k, v in arrays.items()})
+
+
+def _delay_vertices(config: Config, nominal: Model) -> _Delays:
+    """The delay description of the slip-aware model and its delay vertices, the same for every slip corner.
+    ``auto`` takes delay vertices where the kinematic channels, the icr model's lateral term or the turning
+    vertices need them; with lost commands and tau_max <= Ts the lossy-polytopic ones (the instants a lossy
+    link produces), whose requirement tau_max <= Ts raises ConfigError when asked for explicitly."""
+    syn = config.synthesis
+    A_c, B_c, Ts, Ph, GD = nominal.A_c, nominal.B_c, nominal.Ts, nominal.Phi, nominal.Gamma_D
+    tau_hi = config.network.delay.max  # of a received command (lost ones: the effective tmax)
+    nonlinear = syn.kinematics == "nonlinear"
+    turning = config.reference.turn_radius is not None  # the turning vertices need the delay vertices too
+    icr = config.slip.model == "icr"  # its lateral term needs them too
+    description = _resolve_delay_description(syn.delay_description, len(nominal.instants), nonlinear or icr or turning)
+    dropouts = nominal.dropouts
+    if syn.delay_description == "lossy-polytopic" or (syn.delay_description == "auto" and dropouts and tau_hi <= Ts):
+        if tau_hi > Ts * (1 + 1e-12):
+            raise ConfigError(f"synthesis.delay_description: lossy-polytopic needs network.delay.max <= "
+                              f"network.sampling_time (got {tau_hi:g} > {Ts:g}); use auto or norm-bounded")
+        labels, gammas = loss_vertex_gammas(A_c, B_c, Ts, config.network.delay.min, tau_hi, dropouts, nominal.d_hi,
+                                            WIDTH_TOL * max(Ts, 1.0))
+        A_t, B_t, _ = lift(Ph, gammas, Gamma(A_c, B_c, Ts), GD)
+        return _Delays("lossy-polytopic", labels=labels, gammas=gammas, A_t=A_t, B_t=B_t)
+    if description not in ("polytopic", "polytopic-product", "in-order-common"):
+        return _Delays(description)
+    ranges = nominal.instant_ranges
+    cover = {"polytopic": "in-order", "polytopic-product": "product"}.get(description, description)
+    labels, gammas, uncertain, combos = delay_vertex_gammas(A_c, B_c, Ts, ranges, WIDTH_TOL * max(Ts, 1.0), cover)
+    if cover == "in-order" and len(combos) == 3 ** len(uncertain):
+        cover = "product"  # no two instants share a range: the product itself, with its weights
+    cover_h = delay_cover_ranges(Ts, ranges, WIDTH_TOL * max(Ts, 1.0), cover)[1]
+    A_t, B_t, _ = lift(Ph, gammas, Gamma(A_c, B_c, Ts), GD)
+    return _Delays("polytopic", cover=cover, uncertain=uncertain, cover_h=cover_h, combos=combos, labels=labels,
+                   gammas=gammas, A_t=A_t, B_t=B_t)
+
+
+def _intervals(delays: _Delays, nominal: Model) -> _Intervals:
+    """The command intervals of each delay vertex, read off its gammas: gammas[t, j] = h_j B + q_j A B
+    (vertices.py), with B[0, 0] = 1 and (A B)[1, 1] = V^D > 0."""
+    h = delays.gammas[:, :, 0, 0]
+    q = delays.gammas[:, :, 1, 1] / nominal.V
+    return _Intervals(h, q, interval_coordinates(h, q, nominal.Ts)[0])
+
+
+def _within_period(config: Config, nominal: Model, delays: _Delays, iv: _Intervals | None) -> _WithinPeriod:
+    """Whether and how the slip-aware model covers slip changing within a period (docs/theory.md §11, §12):
+    the tracks model by the slip averages' vertices and their kinematic channels (per delay vertex), the icr
+    model by its covering channels alone; neither without delay vertices (``iv`` None), nor when covering
+    would take more than MAX_VARYING_VERTICES vertices.  Says why where it does not."""
+    V, Ts, D = nominal.V, nominal.Ts, config.robot.track_distance
+    dims = (nominal.n_s, nominal.n_e, nominal.n_u, nominal.d_hi)
     mu_r = (config.slip.right.min, config.slip.right.max)
     mu_l = (config.slip.left.min, config.slip.left.max)
-    slip = slip_box(mu_r, mu_l)
-    ranges = slip_parameter_ranges(config.slip)
-    icr = config.slip.model == "icr"
-    corners = slip_corners(*ranges)
-    # nominal matrices in the (possibly augmented) state
-    if integral:
-        A, B = augment_integral(A, B, Ts, n_e)
-    B_d = _augment_rows(B_d, n_z)
-    B_p = _augment_rows(B_p, n_z)
-    C_q = _augment_cols(C_q, n_z)
-    n_s = A.shape[0]
-    delay_description = "norm-bounded"
-    delay_cover, delay_uncertain, delay_cover_h, delay_combos = "product", [], None, []
+    if config.slip.model == "icr":
+        reason = ("the icr slip model is not affine in its parameters (the yaw factor multiplies the tracks' factors), "
+                  "so the slip averages of §11 do not describe it; its channels cover slip changing within a period "
+                  "with synthesis.kinematics: nonlinear (docs/theory.md §12)")
+        if iv is None:
+            return _WithinPeriod(reason=reason)
+        ranges = slip_parameter_ranges(config.slip)  # the channels for parameters changing within the period
+        return _WithinPeriod(covering=[icr_covering_channels(ranges, np.stack([iv.h[t], iv.q[t]], axis=1), V, Ts, D,
+                                                             *dims) for t in range(len(delays.labels))], reason=reason)
+    if iv is None:
+        return _WithinPeriod(reason="the norm-bounded delay description has no delay vertices to tie the slip averages "
+                                    "to (synthesis.delay_description: polytopic or lossy-polytopic)")
+    built = varying_slip_vertices(nominal.Phi, nominal.A_c, nominal.B_c, Ts, V, D, mu_r, mu_l, iv.h, iv.q,
+                                  delays.labels, nominal.integral, MAX_VARYING_VERTICES)
+    if built is None:
+        return _WithinPeriod(reason=f"the delay range spans more than two command intervals in a period (covering it "
+                                    f"would also take up to 16^intervals vertices, at most {MAX_VARYING_VERTICES})")
+    varying, varying_delay = built  # the kinematic channels for slip changing within the period, per delay vertex
+    return _WithinPeriod(varying, varying_delay, [covering_channels(mu_r, mu_l, np.stack([iv.h[t], iv.q[t]], axis=1),
+                                                                    V, Ts, D, *dims)
+                                                  for t in range(len(delays.labels))])
+
+
+def _corner_vertices(config: Config, nominal: Model, delays: _Delays, iv: _Intervals | None
+                     ) -> tuple[list[Vertex], list]:
+    """The slip-aware model's vertices, slip corner by slip corner, and their kinematic channels: one vertex per
+    corner with the delay embedding's Delta (norm-bounded, ``iv`` None), else one per corner and delay vertex,
+    with the icr model's lateral velocity and the integrators, and the channels from the delay vertex's
+    coordinates (h_j, h_j^2/2)."""
+    n_s, n_e, n_u, d_hi = nominal.n_s, nominal.n_e, nominal.n_u, nominal.d_hi
+    D, icr = config.robot.track_distance, config.slip.model == "icr"
     vertices: list[Vertex] = []
     channels: list = []
-    varying: list[Vertex] | None = None
-    varying_delay: list[int] = []
-    covering: list = []
-    varying_reason = ""
-    if kind == "paper":
-        varying_reason = "the paper's model describes slip as an additive box, not per command interval"
-        vertices.append(Vertex(A, B, B_d @ slip.W, B_p, C_q, D_q, 0, "nominal (mu = 1), slip as additive box"))
-    else:
-        tau_hi = config.network.delay.max  # of a received command (lost ones: the effective tmax)
-        nonlinear = syn.kinematics == "nonlinear"
-        # the kinematic channels and the icr slip model's lateral term need delay vertices
-        turning = config.reference.turn_radius is not None  # the turning vertices need the delay vertices too
-        delay_description = _resolve_delay_description(syn.delay_description, len(instants), nonlinear or icr or turning)
-        if syn.delay_description == "lossy-polytopic" or (syn.delay_description == "auto" and dropouts and tau_hi <= Ts):
-            if tau_hi > Ts * (1 + 1e-12):
-                raise ConfigError(f"synthesis.delay_description: lossy-polytopic needs network.delay.max <= "
-                                  f"network.sampling_time (got {tau_hi:g} > {Ts:g}); use auto or norm-bounded")
-            delay_description = "lossy-polytopic"
-            labels, gammas = loss_vertex_gammas(A_c, B_c, Ts, tmin, tau_hi, dropouts, d_hi, WIDTH_TOL * max(Ts, 1.0))
-            A_t, B_t, _ = lift(Ph, gammas, Gamma(A_c, B_c, Ts), GD)
-        elif delay_description in ("polytopic", "polytopic-product", "in-order-common"):  # the same for every slip corner
-            delay_cover = {"polytopic": "in-order", "polytopic-product": "product"}.get(delay_description, delay_description)
-            delay_description = "polytopic"
-            labels, gammas, delay_uncertain, delay_combos = delay_vertex_gammas(
-                A_c, B_c, Ts, inst_ranges, WIDTH_TOL * max(Ts, 1.0), delay_cover)
-            if delay_cover == "in-order" and len(delay_combos) == 3 ** len(delay_uncertain):
-                delay_cover = "product"  # no two instants share a range: the product itself, with its weights
-            delay_cover_h = delay_cover_ranges(Ts, inst_ranges, WIDTH_TOL * max(Ts, 1.0), delay_cover)[1]
-            A_t, B_t, _ = lift(Ph, gammas, Gamma(A_c, B_c, Ts), GD)
-        if delay_description == "norm-bounded":
-            varying_reason = ("the norm-bounded delay description has no delay vertices to tie the slip averages "
-                              "to (synthesis.delay_description: polytopic or lossy-polytopic)")
-        else:
-            h = gammas[:, :, 0, 0]  # gammas[t, j] = h_j B + q_j A B (vertices.py): B[0, 0] = 1, (A B)[1, 1] = V
-            q = gammas[:, :, 1, 1] / V  # (V^D > 0)
-            lengths = interval_coordinates(h, q, Ts)[0]  # (n_d, d_hi + 1): each command interval's length
-        if icr:
-            varying_reason = ("the icr slip model is not affine in its parameters (the yaw factor multiplies the "
-                              "tracks' factors), so the slip averages of §11 do not describe it; its channels cover slip "
-                              "changing within a period with synthesis.kinematics: nonlinear (docs/theory.md §12)")
-            if delay_description != "norm-bounded":  # the channels for parameters changing within the period
-                covering = [icr_covering_channels(ranges, np.stack([h[t], q[t]], axis=1), V, Ts, D, n_s, n_e, n_u, d_hi)
-                            for t in range(len(labels))]
-        elif delay_description != "norm-bounded":
-            built = varying_slip_vertices(Ph, A_c, B_c, Ts, V, D, mu_r, mu_l, h, q, labels, integral,
-                                          MAX_VARYING_VERTICES)
-            if built is None:
-                varying_reason = (f"the delay range spans more than two command intervals in a period (covering "
-                                  f"it would also take up to 16^intervals vertices, at most {MAX_VARYING_VERTICES})")
-            else:  # the kinematic channels for slip changing within the period, per delay vertex
-                varying, varying_delay = built
-                covering = [covering_channels(mu_r, mu_l, np.stack([h[t], q[t]], axis=1), V, Ts, D, n_s, n_e, n_u, d_hi)
-                            for t in range(len(labels))]
-        for m, mu in enumerate(corners):
-            M = slip_matrix(mu, D)
-            c = (mu - 1.0) @ B_d.T if not icr else icr_constant(A_c, B_c, Ts, V, mu, D, n_s)
-            E = c[:, None]
-            name = f"mu=({mu[0]:g}, {mu[1]:g})" + (f", yaw={mu[2]:g}, x_icr={mu[3]:g}" if icr else "")
-            if delay_description == "norm-bounded":
-                Am, Bm = apply_slip(A, B, M, n_e, n_u, d_hi)
-                T = np.eye(n_s)
-                for j in range(d_hi):
-                    T[n_e + j * n_u : n_e + (j + 1) * n_u, n_e + j * n_u : n_e + (j + 1) * n_u] = M
-                vertices.append(Vertex(Am, Bm, E, B_p, C_q @ T, D_q @ M, m, name))
-            else:
-                At, Bt = apply_slip(A_t, B_t, M, n_e, n_u, d_hi)
-                if icr:  # the lateral velocity: each command interval's length times v_y into e_y
-                    At, Bt = add_lateral(At, Bt, lengths, lateral_row(mu, D), n_e, n_u)
-                if integral:
-                    At, Bt = augment_integral(At, Bt, Ts, n_e)
-                for t, lab in enumerate(labels):
-                    vertices.append(Vertex(At[t], Bt[t], E, np.zeros((n_s, 0)), np.zeros((0, n_s)),
-                                           np.zeros((0, n_u)), m, f"{name}; {lab}"))
-                    # the kinematic channels, from the delay vertex's coordinates (h_j, h_j^2/2)
-                    channels.append(vertex_channels(mu, np.stack([h[t], q[t]], axis=1), V, Ts, M, n_s, n_e, n_u, d_hi,
-                                                    lateral=lateral_row(mu, D) if icr else None))
-    frozen_vertices = tuple(frozen_vertex(v) for v in vertices)
-    model = Model(
-        config=config,
-        kind=kind,
-        d_lo=d_lo,
-        d_hi=d_hi,
-        Ts=Ts,
-        V=V,
-        instant_ranges=frozen_array(inst_ranges),
-        A_c=frozen_array(A_c),
-        B_c=frozen_array(B_c),
-        B_D_c=frozen_array(B_D_c),
-        Phi=frozen_array(Ph),
-        Gamma_D=frozen_array(GD),
-        A=frozen_array(A),
-        B=frozen_array(B),
-        B_d=frozen_array(B_d),
-        B_p=frozen_array(B_p),
-        C_q=frozen_array(C_q),
-        D_q=frozen_array(D_q),
-        instants=instants,
-        slip=slip,
-        corners=frozen_array(corners),
-        vertices=frozen_vertices,
-        delay_description=delay_description,
-        integral=integral,
-        dropouts=dropouts,
-        J=frozen_array(J_matrix(R, D)),
-        J_inv=frozen_array(J_inverse(R, D)),
-        channels=tuple(channels),
-        base_vertices=frozen_vertices,
-        varying=tuple(frozen_vertex(v) for v in varying or ()),
-        varying_reason=varying_reason,
-        covering=tuple(covering),
-        varying_delay=tuple(varying_delay),
-        delay_cover=delay_cover,
-        delay_uncertain=tuple(delay_uncertain),
-        delay_cover_h=None if delay_cover_h is None else frozen_array(delay_cover_h),
-        delay_combos=tuple(delay_combos),
-    )
+    for m, mu in enumerate(nominal.corners):
+        M = slip_matrix(mu, D)
+        c = (mu - 1.0) @ nominal.B_d.T if not icr else icr_constant(nominal.A_c, nominal.B_c, nominal.Ts, nominal.V,
+                                                                     mu, D, n_s)
+        E = c[:, None]
+        name = f"mu=({mu[0]:g}, {mu[1]:g})" + (f", yaw={mu[2]:g}, x_icr={mu[3]:g}" if icr else "")
+        if iv is None:
+            Am, Bm = apply_slip(nominal.A, nominal.B, M, n_e, n_u, d_hi)
+            T = np.eye(n_s)
+            for j in range(d_hi):
+                T[n_e + j * n_u : n_e + (j + 1) * n_u, n_e + j * n_u : n_e + (j + 1) * n_u] = M
+            vertices.append(Vertex(Am, Bm, E, nominal.B_p, nominal.C_q @ T, nominal.D_q @ M, m, name))
+            continue
+        At, Bt = apply_slip(delays.A_t, delays.B_t, M, n_e, n_u, d_hi)
+        if icr:  # the lateral velocity: each command interval's length times v_y into e_y
+            At, Bt = add_lateral(At, Bt, iv.lengths, lateral_row(mu, D), n_e, n_u)
+        if nominal.integral:
+            At, Bt = augment_integral(At, Bt, nominal.Ts, n_e)
+        for t, lab in enumerate(delays.labels):
+            vertices.append(Vertex(At[t], Bt[t], E, np.zeros((n_s, 0)), np.zeros((0, n_s)),
+                                   np.zeros((0, n_u)), m, f"{name}; {lab}"))
+            channels.append(vertex_channels(mu, np.stack([iv.h[t], iv.q[t]], axis=1), nominal.V, nominal.Ts, M, n_s,
+                                            n_e, n_u, d_hi, lateral=lateral_row(mu, D) if icr else None))
+    return vertices, channels
+
+
+def _with_kinematic_terms(model: Model, config: Config) -> Model:
+    """The slip-aware model with what its certificate must cover beyond the linearization: the kinematic terms
+    at the heading bound (synthesis.kinematics: nonlinear; auto starts at DEFAULT_HEADING_BOUND, synthesis
+    searches) and the reference turning along arcs (reference.turn_radius; model/arcs.py)."""
+    syn = config.synthesis
+    kind, Ts = syn.model, config.network.sampling_time
     if kind != "paper" and syn.kinematics == "nonlinear":
         hb = syn.heading_bound
         model = model.with_heading_bound(DEFAULT_HEADING_BOUND if hb == "auto" else float(hb),
                                          within_period=syn.lyapunov == "common")
-    if kind != "paper" and config.reference.turn_radius is not None:  # corners rounded by arcs (model/arcs.py)
+    if kind != "paper" and config.reference.turn_radius is not None:  # corners rounded by arcs
         wbar = config.reference.speed / config.reference.turn_radius
         ramp = config.reference.turn_ramp  # eased turns: the yaw rate changes by at most wbar Ts / ramp per period
         model = model.with_turns(wbar, max_step=wbar * min(1.0, Ts / ramp) if ramp else None,

@@ -136,14 +136,32 @@ def figures_markdown(figures: dict[str, str]) -> str:
 
 def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
     """The nonlinear robot's section: how the runs were made, what is excluded, maxima vs certificate."""
-    out = [
-        f"\n## The nonlinear robot\n\n{mc['runs']} Monte Carlo runs (seed {mc['seed']}), {mc['steps']} steps of "
-        f"{cfg.network.sampling_time:g} s along the path {list(map(list, cfg.reference.path))}; delays {mc['delays']};"
-        f" slip profiles {mc['slip_profiles']}"
-        + (f", slip rate at most {mc['slip_max_rate']:g} /s" if mc.get("slip_max_rate") else ", slip may jump every period")
-        + (f", changes {mc['slip_changes']}" if mc.get("slip_changes") else "")
-        + f". Runs start at the {mc['start']}. Maxima are taken over the steps in the {mc['excluded']}.\n\n"
-    ]
+    vl = mc.get("V_over_level")
+    out = [_runs_text(cfg, mc), _maxima_markdown(mc), _adversarial_text(mc.get("adversarial")), _lyapunov_markdown(vl)]
+    if mc.get("turns"):
+        out.append(_turns_markdown(cfg, mc["turns"], vl))
+    if mc.get("boundary_probe"):
+        out.append(_boundary_text(mc["boundary_probe"]))
+    out += [_dropouts_text(mc.get("dropouts")), _beyond_cap_text(mc.get("beyond_cap"), cfg),
+            _steady_state_text(mc.get("steady_state")), _whole_runs_text(mc, cfg), _exceeds_text(mc),
+            monitor_markdown(mc.get("monitor"))]
+    return "".join(out)
+
+
+def _runs_text(cfg: Any, mc: dict[str, Any]) -> str:
+    """The section's heading and how the Monte Carlo runs were made: their number, seed and length, the path,
+    the delays and slip profiles, where they start and which steps the maxima leave out."""
+    return (f"\n## The nonlinear robot\n\n{mc['runs']} Monte Carlo runs (seed {mc['seed']}), {mc['steps']} steps of "
+            f"{cfg.network.sampling_time:g} s along the path {list(map(list, cfg.reference.path))}; delays {mc['delays']};"
+            f" slip profiles {mc['slip_profiles']}"
+            + (f", slip rate at most {mc['slip_max_rate']:g} /s" if mc.get("slip_max_rate") else ", slip may jump every period")
+            + (f", changes {mc['slip_changes']}" if mc.get("slip_changes") else "")
+            + f". Runs start at the {mc['start']}. Maxima are taken over the steps in the {mc['excluded']}.\n\n")
+
+
+def _maxima_markdown(mc: dict[str, Any]) -> str:
+    """The table of each bounded figure's maxima (Monte Carlo mean, p95 and max, the extreme switching runs,
+    the adversary) beside the certified bound and the worst run's ratio to it."""
     rows = []
     units = {"e_x": ("cm", 100), "e_y": ("cm", 100), "e_theta": ("rad", 1), "motor_speed": ("rad/s", 1)}
     adv = mc.get("adversarial")
@@ -154,149 +172,190 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
         rows.append([f"max |{k}| [{u}]", fmt(m["mean"] * sc), fmt(m["p95"] * sc), fmt(m["max"] * sc),
                      fmt(mc["extreme_maxima"][k] * sc), fmt(adv["max"][k] * sc) if adv else "—",
                      fmt(cert * sc) if cert is not None else "—", fmt(ratio, 3) if ratio is not None else "—"])
-    out.append(table(["quantity", "mean", "p95", "max", "extreme switching", "adversarial", "certified",
-                      "worst / certified"], rows))
-    if adv:
-        out.append(f"\nAdversarial search over {adv['steps']} periods: {adv['search']}; "
-                   f"max V/level = {adv['max_V_over_level']:.4f}, "
-                   f"{100 * adv['fraction_of_steps_outside']:.2f} % of the states it kept lie outside the certified set.\n")
-    vl = mc.get("V_over_level")
-    if vl:
-        out.append(
-            f"\nLyapunov function of the robot's true lifted state on the certified steps: max V/level ="
-            f" {vl['max_in_certified_steps']:.4f}; {100 * vl['fraction_of_certified_steps_outside']:.3f} % of them lie"
-            " outside the certified set (V/level > 1).\n"
-        )
-        if vl["waypoints"]:
-            out.append("\nAfter each waypoint the segment's frame changes, the state starts outside the set, and the"
-                       " certificate promises only attraction; these steps are excluded until the robot is back:\n\n")
-            out.append(table(["waypoint at [s]", "max V/level at the switch", "longest time to re-enter [s]",
-                              "runs not back before the next waypoint"],
-                             [[fmt(w["t_switch_s"]), fmt(w["max_V_over_level_at_switch"], 4),
-                               fmt(w["max_time_to_reenter_s"]), str(w["runs_not_reentered"])] for w in vl["waypoints"]]))
-    turns = mc.get("turns")
-    if turns:
-        measured = {round(w["t_switch_s"], 6): w for w in (vl.get("waypoints") or [])} if vl else {}
+    return table(["quantity", "mean", "p95", "max", "extreme switching", "adversarial", "certified",
+                  "worst / certified"], rows)
 
-        def _measured(t: dict) -> dict:  # the simulated switch nearest to the certified one (one period apart)
-            near = [w for k, w in measured.items() if abs(k - t["t_switch_s"]) <= 1.0]
-            return min(near, key=lambda w: abs(w["t_switch_s"] - t["t_switch_s"])) if near else {}
 
-        n_ok = sum(1 for t in turns if t["certified"])
-        if cfg.reference.turn_radius is not None:
-            out.append(f"\n**Waypoint turns** (docs/theory.md §10, \"Turning along arcs\"): {n_ok} of {len(turns)} turns"
-                       f" certified. Every corner is rounded by an arc of radius {cfg.reference.turn_radius:g} m: the"
-                       " reference does not jump, and the certificate covers its yaw rate, so the certified set and its"
-                       " bounds hold through the turns (the Monte Carlo maxima above include them):\n\n")
-        else:
-            out.append(f"\n**Waypoint turns** (not part of the verdict; docs/theory.md §10): {n_ok} of {len(turns)} turns"
-                       " certified. From the certified set, the frame change bounds V/level at the switch; the decay then"
-                       f" bounds the errors through the turn and the time until V <= {TURN_REENTRY:g} level. Beside them,"
-                       " what the Monte Carlo runs measured:\n\n")
-        if cfg.reference.turn_radius is not None:  # arcs: no switch, no re-entry
-            cells = [turn_bound_cells(t, cfg) for t in turns]
-            out.append(table(["waypoint", "turn [rad]", "arc starts at [s]", "certified |e_y| for all t [cm]",
-                              "certified |e_theta| for all t [rad]", "certified peak |rho| [rad/s]", "status"],
-                             [[str(t["waypoint"]), fmt(t["turn_rad"], 3), fmt(t["t_switch_s"]), *c, "certified"]
-                              for t, c in zip(turns, cells)]))
-            out.append(_no_bound_text(cells, cfg))
-        else:
-            rows, cells = [], []
-            for t in turns:
-                m = _measured(t)
-                ey, th, rho = turn_bound_cells(t, cfg)
-                cells.append((ey, th, rho))
-                rows.append([str(t["waypoint"]), fmt(t["turn_rad"], 3), fmt(t["V_over_level_at_switch"], 3),
-                             fmt(m.get("max_V_over_level_at_switch"), 3), ey, th, rho, fmt(t["time_to_reenter_s"]),
-                             fmt(m.get("max_time_to_reenter_s")),
-                             "certified" + (f" ({t['note']})" if t["note"] else "") if t["certified"]
-                             else "not certified: " + t["reason"]])
-            out.append(table(["waypoint", "turn [rad]", "certified V/level at the switch", "measured max",
-                              "certified peak |e_y| at the samples [cm]", "certified peak |e_theta| at the samples [rad]",
-                              "certified peak |rho| [rad/s]", f"certified time to V <= {TURN_REENTRY:g} level [s]",
-                              "measured time to V <= level [s]", "status"], rows))
-            out.append(_no_bound_text(cells, cfg))
-    bp = mc.get("boundary_probe")
-    if bp:
-        judged = bp.get("in_verdict", False)
-        # files written before the verdict judged every kind: in_verdict was the certificate's kind
-        nonlinear = bp["kinematics"] == "nonlinear" if "kinematics" in bp else judged
-        out.append(
-            f"\n**From the boundary of the certified set** ({'part of the verdict' if judged else 'not part of the verdict'}):"
-            f" {bp['samples']} states on"
-            f" V = level, spread over the set and at the maximizers of each bounded figure, with stored commands"
-            f" within the motor limit, a slip corner and admissible delays, run for one period. On the exact lifted"
-            f" map the certificate is about, max V(xi+)/level = {bp['max_V_over_level_linear']:.4f}. On the nonlinear"
-            f" robot (exact arcs) it is {bp['max_V_over_level_nonlinear']:.4f}"
-            + (f" ({bp['refinement']['max_V_over_level_before']:.4f} on these states; a local search from the"
-               f" {bp['refinement']['starts']} worst along the boundary, {bp['refinement']['runs']} more periods, reached"
-               f" {bp['refinement']['max_V_over_level_after']:.4f})" if bp.get("refinement") else "")
-            + f", and {100 * bp['fraction_outside_nonlinear']:.2f} % of these states leave the set. The two differ by up to"
-            f" {1000 * bp['max_period_gap']['e_x']:.1f} mm in e_x and {1000 * bp['max_period_gap']['e_y']:.1f} mm in e_y"
-            " per period. "
-            + _mid_period_text(bp.get("mid_period") or {})
-            + (_arcs_text(bp["arcs"]) if bp.get("arcs") else "")
-            + _between_text(bp.get("between_samples") or {}, judged)
-            + (f"The adversary's beam search from {bp['adversary']['starts']} of these states (each figure's maximizer"
-               " at every slip corner" + (f", and the {bp['adversary']['searched_starts']} worst the local search found"
-                                          if bp["adversary"].get("searched_starts") else "")
-               + f") over {bp['adversary']['steps']} periods"
-               + (" (on a straight line and along arcs, fixed ones and ones whose yaw rates it picks)" if len(bp["adversary"].get("courses", ())) > 1 else "")
-               + " reaches max V/level ="
-               f" {bp['adversary']['max_V_over_level']:.4f}. " if bp.get("adversary") else "")
-            + ("The certificate covers these terms (nonlinear kinematics, docs/theory.md §9"
-               + (", on arcs §10" if bp.get("arcs") else "") + "): a value above 1 would contradict it.\n" if nonlinear else
-               "The certificate proves the bounds for the robot's linearization; the kinematic terms it drops"
-               " (docs/theory.md §2, §7) are not part of this proof (synthesis.kinematics: nonlinear covers them).\n")
-        )
-    dr = mc.get("dropouts")
-    if dr:
-        ch = dr["channel"]
-        out.append(f"\nLossy link: {ch['model']} channel (loss probability {ch['probability']:g}, mean burst "
-                   f"{ch['mean_burst']:g} packets), bursts cut at {dr['max_consecutive']}: {dr['lost_packets']} commands "
-                   f"lost ({100 * dr['lost_fraction']:.1f} %), longest burst {dr['longest_burst']}"
-                   + (f"; the adversary dropped {100 * dr['adversary_lost_fraction']:.1f} % of its packets"
-                      if "adversary_lost_fraction" in dr else "") + ".\n")
-    bc = mc.get("beyond_cap")
-    if bc:
-        out.append(f"\n**Outside the model** (`verification.dropouts.exceed_cap`, not part of the verdict): {bc['runs']} runs "
-                   f"on the same channel with bursts not cut; {bc['runs_outside_model']} of them have a burst longer than "
-                   f"{cfg.network.dropouts.max_consecutive} (longest {bc['longest_burst']}), "
-                   f"{100 * bc['lost_fraction']:.1f} % lost.")
-        mo = bc.get("max_outside")
-        if mo:
-            out.append(f" Over whole runs they reach |e_x| = {100 * mo['e_x']:.2f} cm, |e_y| = {100 * mo['e_y']:.2f} cm, "
-                       f"|e_theta| = {mo['e_theta']:.4f} rad, |rho| = {mo['motor_speed']:.3f} rad/s")
-            if "max_V_over_level_outside" in bc:
-                r = bc["ratio_to_certified_outside"]
-                out.append(f"; max V/level {bc['max_V_over_level_outside']:.3f}, |e_y| {r['e_y']:.2f} x certified")
-            out.append(".")
-        out.append("\n")
-    ss = mc.get("steady_state")
-    if ss:
-        out.append(f"\nSteady state under constant slip (each corner of the slip box): |e_x*| <= "
-                   f"{100 * ss['max_abs']['e_x']:.3f} cm, |e_y*| <= {100 * ss['max_abs']['e_y']:.3f} cm.\n")
-    m_all = mc["maxima"]["motor_speed_all"]["max"]
-    if cfg.robot.max_motor_speed is not None:
-        note = "exceeds" if m_all > cfg.robot.max_motor_speed else "stays within"
-        if cfg.reference.turn_radius is not None:
-            out.append(
-                f"\nOver whole Monte Carlo runs (the adversary's aside), arcs included, the commanded motor speed (the turning feedforward with it) reaches "
-                f"{m_all:.3f} rad/s, which {note} rho_max = {cfg.robot.max_motor_speed:g} rad/s.\n")
-        else:
-            out.append(
-                f"\nOver whole Monte Carlo runs (the adversary's aside), waypoint transients included, the commanded motor speed reaches {m_all:.3f} rad/s, which"
-                f" {note} rho_max = {cfg.robot.max_motor_speed:g} rad/s: the certificate covers the invariant set, and the"
-                " waypoint turns start each segment outside it.\n"
-            )
-    ratios = [r for r in mc["ratio_to_certified"].values() if r is not None]
-    if ratios and max(ratios) > 1:
-        out.append(
-            f"\nThe nonlinear robot exceeds the certificate by up to {100 * (max(ratios) - 1):.1f} % (allowed: "
-            f"{100 * (mc['nonlinear_slack'] - 1):.0f} %).\n"
-        )
-    out.append(monitor_markdown(mc.get("monitor")))
+def _adversarial_text(adv: dict[str, Any] | None) -> str:
+    """The adversarial search from the steady states: its length and kind, the largest V/level it reached and
+    how many of its states lie outside the set ("" without one)."""
+    if not adv:
+        return ""
+    return (f"\nAdversarial search over {adv['steps']} periods: {adv['search']}; "
+            f"max V/level = {adv['max_V_over_level']:.4f}, "
+            f"{100 * adv['fraction_of_steps_outside']:.2f} % of the states it kept lie outside the certified set.\n")
+
+
+def _lyapunov_markdown(vl: dict[str, Any] | None) -> str:
+    """V/level of the robot's true lifted state on the certified steps, and the waypoints after which the
+    steps are excluded until the robot is back in the set (a table; "" without the record)."""
+    if not vl:
+        return ""
+    out = [f"\nLyapunov function of the robot's true lifted state on the certified steps: max V/level ="
+           f" {vl['max_in_certified_steps']:.4f}; {100 * vl['fraction_of_certified_steps_outside']:.3f} % of them lie"
+           " outside the certified set (V/level > 1).\n"]
+    if vl["waypoints"]:
+        out.append("\nAfter each waypoint the segment's frame changes, the state starts outside the set, and the"
+                   " certificate promises only attraction; these steps are excluded until the robot is back:\n\n")
+        out.append(table(["waypoint at [s]", "max V/level at the switch", "longest time to re-enter [s]",
+                          "runs not back before the next waypoint"],
+                         [[fmt(w["t_switch_s"]), fmt(w["max_V_over_level_at_switch"], 4),
+                           fmt(w["max_time_to_reenter_s"]), str(w["runs_not_reentered"])] for w in vl["waypoints"]]))
     return "".join(out)
+
+
+def _turns_markdown(cfg: Any, turns: list[dict[str, Any]], vl: dict[str, Any] | None) -> str:
+    """The waypoint turns' certified bounds: on arcs (reference.turn_radius) part of the certified set's claims,
+    at sharp corners beside what the Monte Carlo runs measured at the nearest switch (not part of the verdict)."""
+    measured = {round(w["t_switch_s"], 6): w for w in (vl.get("waypoints") or [])} if vl else {}
+
+    def _measured(t: dict) -> dict:  # the simulated switch nearest to the certified one (one period apart)
+        near = [w for k, w in measured.items() if abs(k - t["t_switch_s"]) <= 1.0]
+        return min(near, key=lambda w: abs(w["t_switch_s"] - t["t_switch_s"])) if near else {}
+
+    n_ok = sum(1 for t in turns if t["certified"])
+    if cfg.reference.turn_radius is not None:  # arcs: no switch, no re-entry
+        cells = [turn_bound_cells(t, cfg) for t in turns]
+        return (f"\n**Waypoint turns** (docs/theory.md §10, \"Turning along arcs\"): {n_ok} of {len(turns)} turns"
+                f" certified. Every corner is rounded by an arc of radius {cfg.reference.turn_radius:g} m: the"
+                " reference does not jump, and the certificate covers its yaw rate, so the certified set and its"
+                " bounds hold through the turns (the Monte Carlo maxima above include them):\n\n"
+                + table(["waypoint", "turn [rad]", "arc starts at [s]", "certified |e_y| for all t [cm]",
+                         "certified |e_theta| for all t [rad]", "certified peak |rho| [rad/s]", "status"],
+                        [[str(t["waypoint"]), fmt(t["turn_rad"], 3), fmt(t["t_switch_s"]), *c, "certified"]
+                         for t, c in zip(turns, cells)])
+                + _no_bound_text(cells, cfg))
+    rows, cells = [], []
+    for t in turns:
+        m = _measured(t)
+        ey, th, rho = turn_bound_cells(t, cfg)
+        cells.append((ey, th, rho))
+        rows.append([str(t["waypoint"]), fmt(t["turn_rad"], 3), fmt(t["V_over_level_at_switch"], 3),
+                     fmt(m.get("max_V_over_level_at_switch"), 3), ey, th, rho, fmt(t["time_to_reenter_s"]),
+                     fmt(m.get("max_time_to_reenter_s")),
+                     "certified" + (f" ({t['note']})" if t["note"] else "") if t["certified"]
+                     else "not certified: " + t["reason"]])
+    return (f"\n**Waypoint turns** (not part of the verdict; docs/theory.md §10): {n_ok} of {len(turns)} turns"
+            " certified. From the certified set, the frame change bounds V/level at the switch; the decay then"
+            f" bounds the errors through the turn and the time until V <= {TURN_REENTRY:g} level. Beside them,"
+            " what the Monte Carlo runs measured:\n\n"
+            + table(["waypoint", "turn [rad]", "certified V/level at the switch", "measured max",
+                     "certified peak |e_y| at the samples [cm]", "certified peak |e_theta| at the samples [rad]",
+                     "certified peak |rho| [rad/s]", f"certified time to V <= {TURN_REENTRY:g} level [s]",
+                     "measured time to V <= level [s]", "status"], rows)
+            + _no_bound_text(cells, cfg))
+
+
+def _boundary_text(bp: dict[str, Any]) -> str:
+    """The boundary probe's paragraph: whether it is part of the verdict, what it ran, V(xi+)/level on the
+    exact lifted map and on the nonlinear robot (with its local search), the runs with slip jumps, on arcs
+    and between the samples, the adversary from the boundary, and what a value above 1 means for this
+    certificate's kind."""
+    judged = bp.get("in_verdict", False)
+    # files written before the verdict judged every kind: in_verdict was the certificate's kind
+    nonlinear = bp["kinematics"] == "nonlinear" if "kinematics" in bp else judged
+    return (
+        f"\n**From the boundary of the certified set** ({'part of the verdict' if judged else 'not part of the verdict'}):"
+        f" {bp['samples']} states on"
+        f" V = level, spread over the set and at the maximizers of each bounded figure, with stored commands"
+        f" within the motor limit, a slip corner and admissible delays, run for one period. On the exact lifted"
+        f" map the certificate is about, max V(xi+)/level = {bp['max_V_over_level_linear']:.4f}. On the nonlinear"
+        f" robot (exact arcs) it is {bp['max_V_over_level_nonlinear']:.4f}"
+        + (f" ({bp['refinement']['max_V_over_level_before']:.4f} on these states; a local search from the"
+           f" {bp['refinement']['starts']} worst along the boundary, {bp['refinement']['runs']} more periods, reached"
+           f" {bp['refinement']['max_V_over_level_after']:.4f})" if bp.get("refinement") else "")
+        + f", and {100 * bp['fraction_outside_nonlinear']:.2f} % of these states leave the set. The two differ by up to"
+        f" {1000 * bp['max_period_gap']['e_x']:.1f} mm in e_x and {1000 * bp['max_period_gap']['e_y']:.1f} mm in e_y"
+        " per period. "
+        + _mid_period_text(bp.get("mid_period") or {})
+        + (_arcs_text(bp["arcs"]) if bp.get("arcs") else "")
+        + _between_text(bp.get("between_samples") or {}, judged)
+        + _boundary_adversary_text(bp.get("adversary"))
+        + ("The certificate covers these terms (nonlinear kinematics, docs/theory.md §9"
+           + (", on arcs §10" if bp.get("arcs") else "") + "): a value above 1 would contradict it.\n" if nonlinear else
+           "The certificate proves the bounds for the robot's linearization; the kinematic terms it drops"
+           " (docs/theory.md §2, §7) are not part of this proof (synthesis.kinematics: nonlinear covers them).\n")
+    )
+
+
+def _boundary_adversary_text(adv: dict[str, Any] | None) -> str:
+    """The adversary's beam search from the boundary: its starts (and those the probe's local search found),
+    its periods and courses, the largest V/level it reached ("" without one)."""
+    if not adv:
+        return ""
+    return (f"The adversary's beam search from {adv['starts']} of these states (each figure's maximizer"
+            " at every slip corner" + (f", and the {adv['searched_starts']} worst the local search found"
+                                       if adv.get("searched_starts") else "")
+            + f") over {adv['steps']} periods"
+            + (" (on a straight line and along arcs, fixed ones and ones whose yaw rates it picks)"
+               if len(adv.get("courses", ())) > 1 else "")
+            + " reaches max V/level ="
+            f" {adv['max_V_over_level']:.4f}. ")
+
+
+def _dropouts_text(dr: dict[str, Any] | None) -> str:
+    """The lossy link the runs went through: its channel, the cap on bursts, what was lost ("" without one)."""
+    if not dr:
+        return ""
+    ch = dr["channel"]
+    return (f"\nLossy link: {ch['model']} channel (loss probability {ch['probability']:g}, mean burst "
+            f"{ch['mean_burst']:g} packets), bursts cut at {dr['max_consecutive']}: {dr['lost_packets']} commands "
+            f"lost ({100 * dr['lost_fraction']:.1f} %), longest burst {dr['longest_burst']}"
+            + (f"; the adversary dropped {100 * dr['adversary_lost_fraction']:.1f} % of its packets"
+               if "adversary_lost_fraction" in dr else "") + ".\n")
+
+
+def _beyond_cap_text(bc: dict[str, Any] | None, cfg: Any) -> str:
+    """The runs outside the model (verification.dropouts.exceed_cap): bursts longer than the cap, and how far
+    the robot went in them ("" without them)."""
+    if not bc:
+        return ""
+    out = [f"\n**Outside the model** (`verification.dropouts.exceed_cap`, not part of the verdict): {bc['runs']} runs "
+           f"on the same channel with bursts not cut; {bc['runs_outside_model']} of them have a burst longer than "
+           f"{cfg.network.dropouts.max_consecutive} (longest {bc['longest_burst']}), "
+           f"{100 * bc['lost_fraction']:.1f} % lost."]
+    mo = bc.get("max_outside")
+    if mo:
+        out.append(f" Over whole runs they reach |e_x| = {100 * mo['e_x']:.2f} cm, |e_y| = {100 * mo['e_y']:.2f} cm, "
+                   f"|e_theta| = {mo['e_theta']:.4f} rad, |rho| = {mo['motor_speed']:.3f} rad/s")
+        if "max_V_over_level_outside" in bc:
+            r = bc["ratio_to_certified_outside"]
+            out.append(f"; max V/level {bc['max_V_over_level_outside']:.3f}, |e_y| {r['e_y']:.2f} x certified")
+        out.append(".")
+    out.append("\n")
+    return "".join(out)
+
+
+def _steady_state_text(ss: dict[str, Any] | None) -> str:
+    """The steady state under constant slip at the slip box's corners ("" without the record)."""
+    if not ss:
+        return ""
+    return (f"\nSteady state under constant slip (each corner of the slip box): |e_x*| <= "
+            f"{100 * ss['max_abs']['e_x']:.3f} cm, |e_y*| <= {100 * ss['max_abs']['e_y']:.3f} cm.\n")
+
+
+def _whole_runs_text(mc: dict[str, Any], cfg: Any) -> str:
+    """The commanded motor speed over whole Monte Carlo runs (turns included) against robot.max_motor_speed
+    ("" without a motor limit)."""
+    m_all = mc["maxima"]["motor_speed_all"]["max"]
+    if cfg.robot.max_motor_speed is None:
+        return ""
+    note = "exceeds" if m_all > cfg.robot.max_motor_speed else "stays within"
+    if cfg.reference.turn_radius is not None:
+        return (f"\nOver whole Monte Carlo runs (the adversary's aside), arcs included, the commanded motor speed (the turning feedforward with it) reaches "
+                f"{m_all:.3f} rad/s, which {note} rho_max = {cfg.robot.max_motor_speed:g} rad/s.\n")
+    return (f"\nOver whole Monte Carlo runs (the adversary's aside), waypoint transients included, the commanded motor speed reaches {m_all:.3f} rad/s, which"
+            f" {note} rho_max = {cfg.robot.max_motor_speed:g} rad/s: the certificate covers the invariant set, and the"
+            " waypoint turns start each segment outside it.\n")
+
+
+def _exceeds_text(mc: dict[str, Any]) -> str:
+    """How far the nonlinear robot exceeds the certificate, beside the slack allowed ("" where it does not)."""
+    ratios = [r for r in mc["ratio_to_certified"].values() if r is not None]
+    if not (ratios and max(ratios) > 1):
+        return ""
+    return (f"\nThe nonlinear robot exceeds the certificate by up to {100 * (max(ratios) - 1):.1f} % (allowed: "
+            f"{100 * (mc['nonlinear_slack'] - 1):.0f} %).\n")
 
 
 def monitor_markdown(mon: dict[str, Any] | None) -> str:

@@ -436,21 +436,12 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
     LtiDesign
         The gain, its certificate and the figures proven in numpy.
     """
-    from ..certificate_lti import lti_within
     from ..errors import InputError
-    from ..model.lti import disturbance_bound, lti_depth
-    from ..verified import assembly_radius, proves_at_least, round_up
-    from .solve import solve_all
+    from ..model.lti import lti_depth
 
-    A, B = plant["A"], plant["B"]
-    n, m = B.shape
-    if objective == "auto":  # as the config's auto: ultimate-bound with a disturbance, else stability
-        objective = "ultimate-bound" if plant.get("E") is not None else "stability"
-    if objective not in ("stability", "ultimate-bound", "hinf"):
-        raise InputError(f"synthesis.objective: {objective!r} is not one of auto, stability, ultimate-bound, hinf")
+    objective = _resolved_objective(plant, objective)
     d = lti_depth(tau_max, m_lost, Ts)
     tau_hi = tau_max + m_lost * Ts
-    dist = objective == "ultimate-bound"
     if objective in ("ultimate-bound", "hinf") and plant.get("E") is None:
         raise InputError(f"synthesis.objective: {objective} needs plant.disturbance (E and its bound)")
     t0 = time.perf_counter()
@@ -458,71 +449,134 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
     nv = len(V.Av)
     if objective == "hinf":
         return _synthesize_hinf(plant, V, C, Ts, tau_min, tau_hi, pieces, solver, say, t0)
-    delta = disturbance_bound(A, plant["E"], plant["w_max"], Ts) if dist else 1.0
-    u_max = plant.get("u_max")
-    scale = np.asarray(plant["scale"], dtype=float)
-    grid = 1.0 - np.geomspace(ALPHA_FAR, 0.002, alpha_points) if dist else np.array([decay**2])
-    n_threads = max(1, int(threads)) if threads is not None else auto_threads()
-    points: list[_LinePoint] = []  # one problem per solve that runs at once (cvxpy's parameters are per problem)
-    held: dict = {"tried": []}
+    search = _LineSearch(plant, V, C, Ts, tau_min, tau_hi, pieces, objective == "ultimate-bound", decay, alpha_points,
+                         threads, solver, say)
+    best = search.run()
+    solves = search.held.get("solves", 0)
+    dt = time.perf_counter() - t0
+    if best is None:
+        return _uncertified(plant, objective, search, decay, d, nv, solves, dt)
+    return _certified_design(plant, objective, search, best, d, nv, solves, dt)
 
-    def beta(a: float) -> float:
-        return 1.0 - float(np.sqrt(a)) if dist else 1.0
 
-    def attempts(alphas: list[float]) -> None:
-        """Solve at each alpha, ``n_threads`` at once; held["ok"][a] = (the bound in the plant's units,
-        min over scale, or the rest ball; then the proof's check, K, P, eta, Q) for every proven one."""
-        for i0 in range(0, len(alphas), n_threads):
-            chunk = alphas[i0 : i0 + n_threads]
+def _resolved_objective(plant: dict, objective: str) -> str:
+    """The objective ``auto`` stands for (as the config's auto: ultimate-bound with a disturbance, else
+    stability); InputError for one that is none of them."""
+    from ..errors import InputError
+
+    if objective == "auto":
+        objective = "ultimate-bound" if plant.get("E") is not None else "stability"
+    if objective not in ("stability", "ultimate-bound", "hinf"):
+        raise InputError(f"synthesis.objective: {objective!r} is not one of auto, stability, ultimate-bound, hinf")
+    return objective
+
+
+class _LineSearch:
+    """The line search over alpha (ultimate-bound: a grid of 1 - alpha from ALPHA_FAR, then REFINE_ROUNDS
+    rounds around the best; stability: the one alpha decay^2), ``n_threads`` solves at once, each on a
+    :class:`_LinePoint` of its own (cvxpy's parameters are per problem).  ``held``: "tried" (the alphas in
+    order), "solves", "last" (the last solve's proof, if its point reached one) and "ok"[alpha] = (the bound
+    in the plant's units, min over scale, or the rest ball; then the proof's check, K, P, eta, Q) for every
+    proven alpha."""
+
+    def __init__(self, plant: dict, V: _Vertices, C: np.ndarray, Ts: float, tau_min: float, tau_hi: float, pieces: int,
+                 dist: bool, decay: float, alpha_points: int, threads: int | None, solver: str, say) -> None:
+        from ..model.lti import disturbance_bound
+
+        self.plant, self.V, self.C, self.Ts, self.tau_min, self.tau_hi, self.pieces = plant, V, C, Ts, tau_min, tau_hi, pieces
+        self.dist, self.solver, self.say = dist, solver, say
+        self.n = plant["B"].shape[0]
+        # xi beta / delta in the LMIs: delta the disturbance's bound per period
+        self.delta = disturbance_bound(plant["A"], plant["E"], plant["w_max"], Ts) if dist else 1.0
+        self.u_max = plant.get("u_max")
+        self.scale = np.asarray(plant["scale"], dtype=float)
+        self.grid = 1.0 - np.geomspace(ALPHA_FAR, 0.002, alpha_points) if dist else np.array([decay**2])
+        self.n_threads = max(1, int(threads)) if threads is not None else auto_threads()
+        self.points: list[_LinePoint] = []
+        self.held: dict = {"tried": []}
+
+    def beta(self, a: float) -> float:
+        """1 - sqrt(alpha), which keeps Q of order one (1 without the disturbance)."""
+        return 1.0 - float(np.sqrt(a)) if self.dist else 1.0
+
+    def run(self) -> float | None:
+        """The grid, then (ultimate-bound) the refinement around the best alpha, two solves a round on
+        either side of it: the best proven alpha, or None."""
+        self.attempts([float(a) for a in self.grid])
+        best = _best(self.held, self.dist)
+        if self.dist and best is not None:
+            for _ in range(REFINE_ROUNDS):
+                self.attempts(_midpoints(self.held["tried"], best))
+                best = _best(self.held, self.dist)
+        return best
+
+    def attempts(self, alphas: list[float]) -> None:
+        """Solve at each alpha, ``n_threads`` at once, each point's solution proven in numpy (:func:`_prove`)
+        before it is accepted; what they gave into ``held``."""
+        from .solve import solve_all
+
+        dist, u_max, delta, held, points = self.dist, self.u_max, self.delta, self.held, self.points
+        for i0 in range(0, len(alphas), self.n_threads):
+            chunk = alphas[i0 : i0 + self.n_threads]
             while len(points) < len(chunk):
-                points.append(_LinePoint(V, C, dist, scale, n, u_max is not None))
+                points.append(_LinePoint(self.V, self.C, dist, self.scale, self.n, u_max is not None))
             accepts = []
             for pt, a in zip(points, chunk):
-                b = beta(a)
+                b = self.beta(a)
                 c_dist = (1.0 - a) / b**2 if dist else None
                 # the limits with a relative back-off, so that the numpy proof on P = Q^-1 has room for rounding
                 u2 = (((1.0 - INPUT_BACKOFF) * np.asarray(u_max, dtype=float) * b / delta) ** 2 if u_max is not None
                       else None)
                 pt.set(a, 1.0 / c_dist if dist else 0.0, u2)
                 accepts.append(pt.acceptor(lambda Qv, Yv, ev, a=a, c=c_dist: _prove(
-                    plant, V, Ts, tau_min, tau_hi, pieces, Qv, Yv, ev, a, c)))
-            for pt, a, out in zip(points, chunk, solve_all([pt.prob for pt in points[: len(chunk)]], solver, accepts)):
+                    self.plant, self.V, self.Ts, self.tau_min, self.tau_hi, self.pieces, Qv, Yv, ev, a, c)))
+            for pt, a, out in zip(points, chunk, solve_all([pt.prob for pt in points[: len(chunk)]], self.solver,
+                                                            accepts)):
                 held["solves"] = held.get("solves", 0) + 1
                 held["tried"].append(float(a))
                 held["last"] = pt.proof or None  # the last solve's proof, if its point reached one
                 if out.kind != "ok":
-                    say(f"alpha {a:.4f}: {out.kind}")
+                    self.say(f"alpha {a:.4f}: {out.kind}")
                     continue
-                val = float(np.sqrt(max(float(pt.t.value), 0.0))) * (delta / beta(a) if dist else 1.0)
-                say(f"alpha {a:.4f}: {'largest bound / scale' if dist else 'ball at rest'} {val:.6g} (proven)")
+                val = float(np.sqrt(max(float(pt.t.value), 0.0))) * (delta / self.beta(a) if dist else 1.0)
+                self.say(f"alpha {a:.4f}: {'largest bound / scale' if dist else 'ball at rest'} {val:.6g} (proven)")
                 held.setdefault("ok", {})[a] = (val,) + pt.proof
 
-    attempts([float(a) for a in grid])
-    best = _best(held, dist)
-    if dist and best is not None:  # refine around the best alpha: two solves a round, on either side of it
-        for _ in range(REFINE_ROUNDS):
-            attempts(_midpoints(held["tried"], best))
-            best = _best(held, dist)
-    solves = held.get("solves", 0)
-    dt = time.perf_counter() - t0
-    if best is None:
-        last = held.get("last")
-        status = "rejected" if last is not None and not last[0]["ok"] else "infeasible"
-        why = "no alpha of the line search gave a proven certificate" if dist else f"no certificate with decay {decay:g} per period"
-        hints = []
-        if not plant.get("controllable", True):
-            hints.append("the plant is not controllable (rank [B, AB, ...] < n): its uncontrollable modes must decay "
-                         "by themselves" + ("" if dist else f", at least by {decay:g} per period"))
-        if dist and u_max is not None:  # (stability is homogeneous: its limits shrink the rest ball, never bind)
-            hints.append("the input limits may be what binds: try larger plant.input_limits or a smaller disturbance bound")
-        if not dist:
-            hints.append("try a decay closer to 1 (synthesis.decay asks sqrt(V) to shrink by it per period) or a "
-                         "shorter delay range")
-        return LtiDesign(False, status, objective, None, None, None, None, {}, last[0] if last else {}, d, nv,
-                         solves, dt, why + ("; " + "; ".join(hints) if hints else ""))
-    a = best
-    val, chk, K, P, eta, Qv = held["ok"][a]
-    unit = delta / beta(a)  # xi = unit * (the LMIs' xi)
+
+def _uncertified(plant: dict, objective: str, search: _LineSearch, decay: float, d: int, nv: int, solves: int,
+                 dt: float) -> LtiDesign:
+    """The design when no alpha gave a proven certificate: rejected where the last solve's proof failed, else
+    infeasible, with what may bind (an uncontrollable plant, the input limits, the decay or the delay range)."""
+    dist, held = search.dist, search.held
+    last = held.get("last")
+    status = "rejected" if last is not None and not last[0]["ok"] else "infeasible"
+    why = "no alpha of the line search gave a proven certificate" if dist else f"no certificate with decay {decay:g} per period"
+    hints = []
+    if not plant.get("controllable", True):
+        hints.append("the plant is not controllable (rank [B, AB, ...] < n): its uncontrollable modes must decay "
+                     "by themselves" + ("" if dist else f", at least by {decay:g} per period"))
+    if dist and search.u_max is not None:  # (stability is homogeneous: its limits shrink the rest ball, never bind)
+        hints.append("the input limits may be what binds: try larger plant.input_limits or a smaller disturbance bound")
+    if not dist:
+        hints.append("try a decay closer to 1 (synthesis.decay asks sqrt(V) to shrink by it per period) or a "
+                     "shorter delay range")
+    return LtiDesign(False, status, objective, None, None, None, None, {}, last[0] if last else {}, d, nv,
+                     solves, dt, why + ("; " + "; ".join(hints) if hints else ""))
+
+
+def _certified_design(plant: dict, objective: str, search: _LineSearch, a: float, d: int, nv: int, solves: int,
+                      dt: float) -> LtiDesign:
+    """The design at the best alpha ``a``, its figures proven in numpy in the plant's units (xi = unit * the
+    LMIs' xi, unit = delta / beta): the output bounds on the set (ultimate-bound) or the ball at rest inside
+    it (stability with input limits), the input limits on it; rejected where a proof fails or the set's
+    matrix is not finite in the plant's units."""
+    from ..certificate_lti import lti_within
+    from ..verified import assembly_radius, proves_at_least, round_up
+
+    n, m = plant["B"].shape
+    dist, u_max, delta, C = search.dist, search.u_max, search.delta, search.C
+    val, chk, K, P, eta, Qv = search.held["ok"][a]
+    unit = delta / search.beta(a)  # xi = unit * (the LMIs' xi)
     figures: dict = {"alpha": a, "decay": round_up(float(np.sqrt(a)), 2)}
 
     def refuse(why: str) -> LtiDesign:

@@ -115,12 +115,34 @@ def verify_lti(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, tau_min: fl
     dict
         ``passed``, ``checks`` and ``families``.
     """
-    from ..errors import InputError
-    from ..model.lifting import s_tilde_sequence
-    from ..model.lti import exact_closed_loop, gamma, lifted_rows, lti_depth, pad_lti_gain, periodic_spectral_radius
+    K, P, d = _checked_certificate(plant, K, P, Ts, tau_max, m_lost)
+    rng = np.random.default_rng(seed)
+    checks: list[dict[str, Any]] = [_reproof(plant, K, P, multipliers, pieces, figures, Ts, tau_min, tau_max, m_lost)]
+    frozen_check, frozen = _frozen_check(plant, K, Ts, tau_min, tau_max, m_lost)
+    checks.append(frozen_check)
+    traces: dict[str, Any] = {"frozen": frozen, "V": {}}
+    if figures.get("hinf_gain") is not None:
+        checks.append(_l2_gain_check(plant, K, Ts, tau_min, tau_max, m_lost, d, float(figures["hinf_gain"]), rng))
+        return {"passed": all(c["ok"] for c in checks), "checks": checks, "families": {}, "starts": 0,
+                "periods": HINF_PERIODS, "lifting": d, "traces": traces}
+    boundary = _BoundaryRuns(plant, K, P, Ts, figures, runs, rng, traces)
+    _fixed_sequences(boundary, plant, K, Ts, tau_min, tau_max, m_lost, d, periods, rng)
+    _greedy_adversary(boundary, plant, K, Ts, tau_min, tau_max, d, periods)
+    checks += boundary.checks()
+    traces["alpha"], traces["set"] = boundary.alpha, bool(boundary.dist)
+    return {"passed": all(c["ok"] for c in checks), "checks": checks, "families": boundary.families,
+            "starts": boundary.R, "periods": periods, "lifting": d, "traces": traces}
 
-    A, B = plant["A"], plant["B"]
-    n, m = B.shape
+
+def _checked_certificate(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, tau_max: float, m_lost: int
+                         ) -> tuple[np.ndarray, np.ndarray, int]:
+    """The gain padded to the lifting (the delay bound's, or the gain's own when longer), the certificate's
+    matrix symmetrized, and the lifting d; InputError where P does not fit the lifted state, K or P is not
+    finite, or P is not positive definite (the certified set must be an ellipsoid)."""
+    from ..errors import InputError
+    from ..model.lti import lti_depth, pad_lti_gain
+
+    n, m = plant["B"].shape
     d = max(lti_depth(tau_max, m_lost, Ts), (K.shape[1] - n) // m)
     K = pad_lti_gain(np.asarray(K, dtype=float), n, m, d)
     n_s = n + d * m
@@ -132,55 +154,84 @@ def verify_lti(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, tau_min: fl
     P = (P + P.T) / 2.0
     if np.min(np.linalg.eigvalsh(P)) <= 0:
         raise InputError("P: must be positive definite (the certified set {xi' P xi <= 1} is an ellipsoid)")
-    rng = np.random.default_rng(seed)
-    checks: list[dict[str, Any]] = [_reproof(plant, K, P, multipliers, pieces, figures, Ts, tau_min, tau_max, m_lost)]
+    return K, P, d
 
-    def V(xi: np.ndarray) -> np.ndarray:
-        return np.einsum("ri,ij,rj->r", xi, P, xi)
 
-    # frozen delays
+def _frozen_check(plant: dict, K: np.ndarray, Ts: float, tau_min: float, tau_max: float, m_lost: int
+                  ) -> tuple[dict[str, Any], dict[str, list]]:
+    """The check "frozen-delay spectral radius": the exact closed loop's spectral radius at CONSTANT_DELAYS
+    constant delays in [tau_min, tau_max] (with the losses) is below 1; and its trace (delay, radius)."""
+    from ..model.lti import periodic_spectral_radius
+
     taus = np.linspace(tau_min, tau_max, CONSTANT_DELAYS)[:, None]
-    rho = periodic_spectral_radius(A, B, K, Ts, taus, m_lost)
-    traces: dict[str, Any] = {"frozen": {"delay": taus[:, 0].tolist(), "spectral_radius": rho.tolist()}, "V": {}}
+    rho = periodic_spectral_radius(plant["A"], plant["B"], K, Ts, taus, m_lost)
+    trace = {"delay": taus[:, 0].tolist(), "spectral_radius": rho.tolist()}
     i = int(np.argmax(rho))
-    checks.append({"name": "frozen-delay spectral radius", "value": float(rho[i]), "limit": 1.0,
-                   "ok": bool(rho[i] < 1.0), "detail": f"worst at constant delay {taus[i, 0]:.6g} s"})
+    return ({"name": "frozen-delay spectral radius", "value": float(rho[i]), "limit": 1.0,
+             "ok": bool(rho[i] < 1.0), "detail": f"worst at constant delay {taus[i, 0]:.6g} s"}, trace)
 
-    if figures.get("hinf_gain") is not None:
-        checks.append(_l2_gain_check(plant, K, Ts, tau_min, tau_max, m_lost, d, float(figures["hinf_gain"]), rng))
-        return {"passed": all(c["ok"] for c in checks), "checks": checks, "families": {}, "starts": 0,
-                "periods": HINF_PERIODS, "lifting": d, "traces": traces}
-    dist = figures.get("disturbance_step_bound") is not None
-    Gw = gamma(A, plant["E"], Ts) if dist else None  # the disturbance held over a period
-    w_max = float(plant["w_max"]) if dist else 0.0
-    C = lifted_rows(plant["C"], n_s)
-    out_bounds = np.array([o["bound"] for o in figures.get("outputs", [])]) if dist else None
-    u_max = plant.get("u_max")
-    alpha = float(figures["alpha"])
-    rows = [*C] + [*K]
-    x0 = _boundary_states(P, np.array(rows), runs, rng)
-    R = len(x0)
 
-    worst = {"V": 0.0, "decay": 0.0, "outputs": 0.0, "inputs": 0.0}
-    fam_report: dict[str, dict[str, float]] = {}
+class _BoundaryRuns:
+    """The runs from the certified set's boundary: their starts (random, and each output's and input's
+    maximizer), one step of the lifted loop with the disturbance held at its bound, and what each family of
+    delay sequences reached (the worst V, decay, output and input ratios; the worst run's V as a trace)."""
 
-    def record(name: str, Vs: np.ndarray, xs: np.ndarray, V0: np.ndarray) -> None:
+    def __init__(self, plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, figures: dict, runs: int,
+                 rng: np.random.Generator, traces: dict[str, Any]) -> None:
+        from ..model.lti import gamma, lifted_rows
+
+        self.P, self.K, self.rng, self.traces = P, K, rng, traces
+        self.n = plant["B"].shape[0]
+        self.dist = figures.get("disturbance_step_bound") is not None
+        self.Gw = gamma(plant["A"], plant["E"], Ts) if self.dist else None  # the disturbance held over a period
+        self.w_max = float(plant["w_max"]) if self.dist else 0.0
+        self.C = lifted_rows(plant["C"], P.shape[0])
+        self.out_bounds = np.array([o["bound"] for o in figures.get("outputs", [])]) if self.dist else None
+        self.u_max = plant.get("u_max")
+        self.alpha = float(figures["alpha"])
+        self.x0 = _boundary_states(P, np.array([*self.C] + [*K]), runs, rng)
+        self.R = len(self.x0)
+        self.worst = {"V": 0.0, "decay": 0.0, "outputs": 0.0, "inputs": 0.0}
+        self.families: dict[str, dict[str, float]] = {}
+
+    def V(self, xi: np.ndarray) -> np.ndarray:
+        return np.einsum("ri,ij,rj->r", xi, self.P, xi)
+
+    def step(self, xi_next: np.ndarray, worst_dir: bool) -> np.ndarray:
+        """The next states with the disturbance held over the period at its bound: in the direction that
+        maximizes the next V (``worst_dir``), else a random one (none without a disturbance)."""
+        if not self.dist:
+            return xi_next
+        Gw, n = self.Gw, self.n
+        q = Gw.shape[1]
+        if worst_dir:
+            g = (self.P[:, :n] @ Gw).T @ xi_next.T  # (q, R): the gradient of V along w, up to 2
+            w = (g / np.maximum(np.linalg.norm(g, axis=0, keepdims=True), 1e-300)).T
+        else:
+            w = self.rng.standard_normal((len(xi_next), q))
+            w /= np.maximum(np.linalg.norm(w, axis=1, keepdims=True), 1e-300)
+        out = xi_next.copy()
+        out[:, :n] += self.w_max * w @ Gw.T
+        return out
+
+    def record(self, name: str, Vs: np.ndarray, xs: np.ndarray, V0: np.ndarray) -> None:
         """V after the first step (the starts are on the boundary by construction); the outputs and
         inputs from the start on (the starts include each one's maximizer on the set).  NaN counts
         as a violation."""
+        worst, dist = self.worst, self.dist
         k = np.arange(1, Vs.shape[1])
         if dist:
             vmax = float(np.max(Vs[:, 1:]))
             worst["V"] = max(worst["V"], vmax) if np.isfinite(vmax) else np.inf
         else:
-            ratio = float(np.max(Vs[:, 1:] / (alpha ** k[None, :] * V0[:, None])))
+            ratio = float(np.max(Vs[:, 1:] / (self.alpha ** k[None, :] * V0[:, None])))
             worst["decay"] = max(worst["decay"], ratio) if np.isfinite(ratio) else np.inf
             vmax = ratio
         rep = {"max_V_ratio": vmax}
         shown = Vs if dist else Vs / V0[:, None]  # V (set: V <= 1) or V_k / V_0 (against alpha^k)
-        traces["V"][name] = shown[int(np.argmax(np.max(shown[:, 1:], axis=1)))].tolist()  # the worst run
+        self.traces["V"][name] = shown[int(np.argmax(np.max(shown[:, 1:], axis=1)))].tolist()  # the worst run
         inside = Vs <= 1.0 + TOL
-        for key, rows, lim in (("outputs", C, out_bounds), ("inputs", K, u_max)):
+        for key, rows, lim in (("outputs", self.C, self.out_bounds), ("inputs", self.K, self.u_max)):
             if lim is None:
                 continue
             r = np.where(inside[..., None], np.abs(np.einsum("ij,rkj->rki", rows, xs)) / lim, 0.0)
@@ -189,47 +240,69 @@ def verify_lti(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, tau_min: fl
             worst[key] = max(worst[key], o) if np.isfinite(o) else np.inf
             worst[key + "_later"] = max(worst.get(key + "_later", 0.0), later)
             rep[f"max_{key[:-1]}_ratio"] = later  # after the first step: how close the runs come
-        fam_report[name] = rep
+        self.families[name] = rep
 
-    def step_dist(xi_next: np.ndarray, worst_dir: bool) -> np.ndarray:
-        if not dist:
-            return xi_next
-        q = Gw.shape[1]
-        if worst_dir:
-            g = (P[:, :n] @ Gw).T @ xi_next.T  # (q, R): the gradient of V along w, up to 2
-            w = (g / np.maximum(np.linalg.norm(g, axis=0, keepdims=True), 1e-300)).T
+    def checks(self) -> list[dict[str, Any]]:
+        """The verdict's checks on what the runs reached: the set invariant (with the disturbance) or V
+        shrinking at the certified rate (without), the outputs and the inputs within their bounds."""
+        worst, out = self.worst, []
+        if self.dist:
+            out.append({"name": "the set is invariant (max V from its boundary)", "value": worst["V"],
+                        "limit": 1.0, "ok": worst["V"] <= 1.0 + TOL,
+                        "detail": f"{self.R} starts x {len(self.families)} families"})
         else:
-            w = rng.standard_normal((len(xi_next), q))
-            w /= np.maximum(np.linalg.norm(w, axis=1, keepdims=True), 1e-300)
-        out = xi_next.copy()
-        out[:, :n] += w_max * w @ Gw.T
+            out.append({"name": "V shrinks at the certified rate (max V_k / (alpha^k V_0))", "value": worst["decay"],
+                        "limit": 1.0, "ok": worst["decay"] <= 1.0 + TOL, "detail": f"alpha = {self.alpha:.6g}"})
+        if self.out_bounds is not None:
+            out.append({"name": "outputs within their certified bounds (max |y| / bound)", "value": worst["outputs"],
+                        "limit": 1.0, "ok": worst["outputs"] <= 1.0 + TOL,
+                        "detail": f"inside the set; at the maximizing starts, then {worst['outputs_later']:.4g} after a period"})
+        if self.u_max is not None:
+            out.append({"name": "inputs within their limits on the set (max |u| / limit)", "value": worst["inputs"],
+                        "limit": 1.0, "ok": worst["inputs"] <= 1.0 + TOL,
+                        "detail": f"inside the set; at the maximizing starts, then {worst['inputs_later']:.4g} after a period"})
         return out
 
-    # sequences fixed in advance
-    for name, seq in _families(tau_min, tau_max, m_lost, R, periods + d + m_lost + 1, rng).items():
-        s = s_tilde_sequence(seq, Ts, d)[:, :periods]
-        M = exact_closed_loop(A, B, K, Ts, s)  # (R, periods, n_s, n_s)
-        xi = x0.copy()
-        xs, Vs = [xi], [V(xi)]
-        for k in range(periods):
-            xi = step_dist(np.einsum("rij,rj->ri", M[:, k], xi), worst_dir=(name != "random"))
-            xs.append(xi)
-            Vs.append(V(xi))
-        record(name, np.array(Vs).T, np.array(xs).transpose(1, 0, 2), Vs[0])
 
-    # greedy adversary: each packet's delay chosen from a grid to maximize the next V (losses are left to
-    # the families above: a lost packet's effect depends on its successor's delay, not chosen yet)
+def _fixed_sequences(boundary: _BoundaryRuns, plant: dict, K: np.ndarray, Ts: float, tau_min: float, tau_max: float,
+                     m_lost: int, d: int, periods: int, rng: np.random.Generator) -> None:
+    """The runs along delay sequences fixed in advance (:func:`_families`), ``periods`` each, with the
+    disturbance in a random direction (the random family) or the worst one (the others)."""
+    from ..model.lifting import s_tilde_sequence
+    from ..model.lti import exact_closed_loop
+
+    for name, seq in _families(tau_min, tau_max, m_lost, boundary.R, periods + d + m_lost + 1, rng).items():
+        s = s_tilde_sequence(seq, Ts, d)[:, :periods]
+        M = exact_closed_loop(plant["A"], plant["B"], K, Ts, s)  # (R, periods, n_s, n_s)
+        xi = boundary.x0.copy()
+        xs, Vs = [xi], [boundary.V(xi)]
+        for k in range(periods):
+            xi = boundary.step(np.einsum("rij,rj->ri", M[:, k], xi), worst_dir=(name != "random"))
+            xs.append(xi)
+            Vs.append(boundary.V(xi))
+        boundary.record(name, np.array(Vs).T, np.array(xs).transpose(1, 0, 2), Vs[0])
+
+
+def _greedy_adversary(boundary: _BoundaryRuns, plant: dict, K: np.ndarray, Ts: float, tau_min: float, tau_max: float,
+                      d: int, periods: int) -> None:
+    """The greedy adversary, up to 60 periods: each packet's delay chosen from a grid of GREEDY_GRID to
+    maximize the next V, the disturbance in its worst direction (losses are left to the families: a lost
+    packet's effect depends on its successor's delay, not chosen yet)."""
+    from ..model.lifting import s_tilde_sequence
+    from ..model.lti import exact_closed_loop
+
+    A, B, R = plant["A"], plant["B"], boundary.R
     grid = np.unique(np.linspace(tau_min, tau_max, GREEDY_GRID))
     past = np.full((R, d), tau_max)  # the packets sent before t_0
-    xi = x0.copy()
-    xs, Vs = [xi], [V(xi)]
+    xi = boundary.x0.copy()
+    xs, Vs = [xi], [boundary.V(xi)]
     for _ in range(min(periods, 60)):
         best_V = np.full(R, -np.inf)
         best_xi, best_tau = xi.copy(), np.zeros(R)
         for tau in grid:
             s_k = s_tilde_sequence(np.concatenate([past, np.full((R, 1), tau)], axis=1), Ts, d)[:, 0]
-            nxt = step_dist(np.einsum("rij,rj->ri", exact_closed_loop(A, B, K, Ts, s_k), xi), worst_dir=True)
-            Vn = V(nxt)
+            nxt = boundary.step(np.einsum("rij,rj->ri", exact_closed_loop(A, B, K, Ts, s_k), xi), worst_dir=True)
+            Vn = boundary.V(nxt)
             better = Vn > best_V
             best_V = np.where(better, Vn, best_V)
             best_xi = np.where(better[:, None], nxt, best_xi)
@@ -238,25 +311,7 @@ def verify_lti(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, tau_min: fl
         xi = best_xi
         xs.append(xi)
         Vs.append(best_V)
-    record("greedy-adversary", np.array(Vs).T, np.array(xs).transpose(1, 0, 2), Vs[0])
-
-    if dist:
-        checks.append({"name": "the set is invariant (max V from its boundary)", "value": worst["V"],
-                       "limit": 1.0, "ok": worst["V"] <= 1.0 + TOL, "detail": f"{R} starts x {len(fam_report)} families"})
-    else:
-        checks.append({"name": "V shrinks at the certified rate (max V_k / (alpha^k V_0))", "value": worst["decay"],
-                       "limit": 1.0, "ok": worst["decay"] <= 1.0 + TOL, "detail": f"alpha = {alpha:.6g}"})
-    if out_bounds is not None:
-        checks.append({"name": "outputs within their certified bounds (max |y| / bound)", "value": worst["outputs"],
-                       "limit": 1.0, "ok": worst["outputs"] <= 1.0 + TOL,
-                       "detail": f"inside the set; at the maximizing starts, then {worst['outputs_later']:.4g} after a period"})
-    if u_max is not None:
-        checks.append({"name": "inputs within their limits on the set (max |u| / limit)", "value": worst["inputs"],
-                       "limit": 1.0, "ok": worst["inputs"] <= 1.0 + TOL,
-                       "detail": f"inside the set; at the maximizing starts, then {worst['inputs_later']:.4g} after a period"})
-    traces["alpha"], traces["set"] = alpha, bool(dist)
-    return {"passed": all(c["ok"] for c in checks), "checks": checks, "families": fam_report,
-            "starts": R, "periods": periods, "lifting": d, "traces": traces}
+    boundary.record("greedy-adversary", np.array(Vs).T, np.array(xs).transpose(1, 0, 2), Vs[0])
 
 
 def _l2_gain_check(plant: dict, K: np.ndarray, Ts: float, tau_min: float, tau_max: float, m_lost: int, d: int,

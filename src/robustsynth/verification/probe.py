@@ -27,6 +27,7 @@ beside (``mid_period``).
 
 from __future__ import annotations
 
+from dataclasses import dataclass, fields, is_dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -99,145 +100,25 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
     # slip jumps within the period (the default slip class): samples // 2 more random runs, each with a
     # jump to a random corner at a random time
     n_jump = samples // 2 if model.slip_step is None and corners.shape[0] > 1 else 0
-    dirs = probe_directions(model, K, lyap, samples + n_jump, rng)
-    N = dirs.shape[0]
-    mu = corners[rng.integers(0, corners.shape[0], size=N)]
-    # on the boundary of the set of this slip (with the largest value over an unknown previous delay)
-    scale = np.sqrt(level / lyap.V(dirs, mu))
-    xi = dirs * scale[:, None]
-    taus = random_delays(model, rng, N, 1)  # (N, 1 + d_hi): the packets acting in the period
-    dl = model.config.network.delay
-    taus[: min(N, 8) : 2] = dl.min
-    taus[1 : min(N, 8) : 2] = dl.max
-    S = model.s_tilde(taus)[:, 0]  # (N, d_hi)
-    dw = model.delay_weights(S) if lyap.path else None
-    n_e = model.n_e
-    du_past = split_state(model, xi)[1]
-    # admissible past: the stored commands were sent from states of the set, within the motor limit
-    # the certificate enforces there (a state with others in its memory is never reached)
-    uD = np.array([model.V, 0.0])
-    admissible = _within_motor_limit(model, uD + du_past)
-
-    jumped = np.zeros(N, dtype=bool)
-    jumped[samples : samples + n_jump] = True
-    mu_after = np.where(jumped[:, None], corners[rng.integers(0, corners.shape[0], size=N)], mu)
-    t_sw = jump_times(model, S, samples, n_jump, rng, np.random.default_rng((seed, 1)))
-    # the nonlinear robot on a straight line along x, at the pose of the error e
-    xi_nl, du, U, changes = _robot_period(model, K, xi, S, mu, mu_after, t_sw, bool(n_jump))
-
-    # between the samples (docs/theory.md §9): the same periods cut at BETWEEN_INSTANTS instants, the errors
-    # in the frame of the reference at t (on the straight line it moves at V^D along x from the pose at t_k)
-    between, rise = errors_between_samples(model, xi[:, :n_e], U, S, mu, changes)
-
-    # a turning certificate (reference.turn_radius): the same states, slips (and jumps) and delays on arcs
-    # (the reference turning at w_k after steps it allows, the feedforward in the commands in flight)
-    xi_arc = between_arc = None
-    arc_memory = admissible  # on arcs the stored commands also carry their feedforward
-    if getattr(model, "turns", None) is not None:
-        w = arc_yaw_rates(model, N, rng)
-        e_arc = arc_period(model, xi[:, :n_e], du, du_past, S, mu, rng, switch=changes, w=w)
-        xi_arc = np.concatenate([e_arc, xi_nl[:, n_e:]], axis=1)  # the same memory and integrators as on the line
-        U_arc = arc_commands(model, du, du_past, w)
-        between_arc = errors_between_samples(model, xi[:, :n_e], U_arc, S, mu, changes, w[:, 0])[0]
-        arc_memory = _within_motor_limit(model, U_arc[:, 1:])
-
-    # the exact lifted map of the certificate, same states, slips and delays
-    A, B, c = model.switched_exact(S, mu, t_sw, mu_after, per_track=bool(n_jump))
-    xi_lin = np.einsum("nij,nj->ni", A, xi) + np.einsum("nij,nj->ni", B, du) + c
-
-    keep = admissible
-    xi_arc = xi_arc[keep] if xi_arc is not None else None
-    between, rise = between[keep], rise[keep]
-    between_arc = between_arc[keep] if between_arc is not None else None
-    arc_memory = arc_memory[keep]
-    xi, mu, mu_next, t_sw, taus = xi[keep], mu[keep], mu_after[keep], t_sw[keep], taus[keep]
-    xi_nl, xi_lin, jumped = xi_nl[keep], xi_lin[keep], jumped[keep]
-    dw = dw[keep] if dw is not None else None
-    nxt = slip_candidates(model, mu_next)  # (n, n_c, 2): the next slips the world may pick (from the slip at t_k+1)
-
-    def v_next(x: np.ndarray, runs: np.ndarray | None = None) -> np.ndarray:
-        """V at t_k+1 of the states x of ``runs`` (default: every kept run), the largest over the next slips."""
-        nx = nxt if runs is None else nxt[runs]
-        xb = np.broadcast_to(x[:, None, :], nx.shape[:2] + x.shape[1:])
-        if lyap.path:
-            d = dw if runs is None else dw[runs]
-            return np.max(lyap.V(xb, nx, prev=np.broadcast_to(d[:, None, :], nx.shape[:2] + d.shape[1:])), axis=1)
-        return np.max(lyap.V(xb, nx), axis=1)
-
-    r_nl_all, r_lin_all = v_next(xi_nl) / level, v_next(xi_lin) / level
-    judged = np.ones_like(jumped) if within_period else ~jumped  # the runs the certificate speaks about
+    starts = _starts(model, K, lyap, level, corners, samples, n_jump, seed, rng)
+    N = starts.xi.shape[0]
+    keep = starts.admissible
+    r = _kept(_periods(model, K, starts, n_jump, rng), keep)
+    st = r.st
+    v_over_level = _v_next_over_level(lyap, level, slip_candidates(model, st.mu_after), st.dw)
+    r_nl_all, r_lin_all = v_over_level(r.xi_nl), v_over_level(r.xi_lin)
+    judged = np.ones_like(st.jumped) if within_period else ~st.jumped  # the runs the certificate speaks about
     r_nl, r_lin = r_nl_all[judged], r_lin_all[judged]
     worst = int(np.flatnonzero(judged)[np.argmax(r_nl)])
-    refined = None
-    if refine:
-        def one_period(x: np.ndarray, runs: np.ndarray, t: np.ndarray) -> np.ndarray:
-            return _robot_period(model, K, x, S[keep][runs], mu[runs], mu_next[runs], t, bool(n_jump))[0]
-
-        refined = _refine_worst(model, lyap, level, xi, mu, t_sw, jumped, np.flatnonzero(judged), r_nl_all, refine,
-                                one_period, lambda x, runs: v_next(x, runs) / level, rng,
-                                lambda x, runs: _within_motor_limit(model, uD + split_state(model, x)[1]))
-    gap = np.max(np.abs(xi_nl[judged, :n_e] - xi_lin[judged, :n_e]), axis=0)
-    mid = {"runs": int(np.count_nonzero(jumped)), "covered": bool(within_period)}
-    if mid["runs"]:
-        mid.update(max_V_over_level_nonlinear=float(np.max(r_nl_all[jumped])),
-                   max_V_over_level_linear=float(np.max(r_lin_all[jumped])))
-    arcs = None
-    if xi_arc is not None:  # judged as on the straight line: the runs with a jump only where the certificate covers them
-        r_arc_all = v_next(xi_arc) / level
-        on_arc = judged & arc_memory
-        r_arc = r_arc_all[on_arc]
-        arcs = {"runs": int(r_arc.size), "mid_period_runs": int(np.count_nonzero(jumped & on_arc)),
-                "dropped_inadmissible_memory": int(np.count_nonzero(judged & ~arc_memory)),
-                "max_yaw_rate": float(model.turns.max_yaw_rate),
-                "max_V_over_level_nonlinear": float(np.max(r_arc)), "fraction_outside_nonlinear": float(np.mean(r_arc > 1.0))}
-        if np.any(jumped & arc_memory):  # the runs with a jump, judged or not
-            arcs["mid_period_max_V_over_level_nonlinear"] = float(np.max(r_arc_all[jumped & arc_memory]))
-        if refine:  # the local search on the arcs, each start keeping its yaw rates
-            w_k = w[keep]
-
-            def arc_one_period(x: np.ndarray, runs: np.ndarray, t: np.ndarray) -> np.ndarray:
-                _, _, du_r, after = _law_step(model, K, x)
-                changes_r = track_changes(mu[runs], mu_next[runs], t) if n_jump else None
-                e = arc_period(model, x[:, :n_e], du_r, split_state(model, x)[1], S[keep][runs], mu[runs], rng,
-                               switch=changes_r, w=w_k[runs])
-                return np.concatenate([e, after], axis=1)
-
-            def arc_admissible(x: np.ndarray, runs: np.ndarray) -> np.ndarray:
-                return _within_motor_limit(model, uD + split_state(model, x)[1] + w_k[runs, 1:, None] * model.turn_feedforward)
-
-            ra = _refine_worst(model, lyap, level, xi, mu, t_sw, jumped, np.flatnonzero(on_arc), r_arc_all, refine,
-                               arc_one_period, lambda x, runs: v_next(x, runs) / level, rng, arc_admissible)
-            arcs["refinement"] = {"starts": ra["starts"], "runs": ra["runs"],
-                                  "max_V_over_level_before": arcs["max_V_over_level_nonlinear"],
-                                  "max_V_over_level_after": ra["max"]}
-            arcs["max_V_over_level_nonlinear"] = max(arcs["max_V_over_level_nonlinear"], ra["max"])
-    names = ("e_x", "e_y", "e_theta")
-    cont = {"instants": BETWEEN_INSTANTS, "states": int(np.count_nonzero(judged)),
-            "straight": dict(zip(names, (float(x) for x in np.max(between[judged], axis=0)))),
-            # on the straight line: the largest rise above the larger end, e_x and e_y (the chord term)
-            "straight_rise": dict(zip(names[:2], (float(x) for x in np.max(rise[judged, :2], axis=0))))}
-    if between_arc is not None:
-        cont["arcs"] = dict(zip(names, (float(x) for x in np.max(between_arc[judged & arc_memory], axis=0))))
-    if np.any(jumped & ~judged):  # slip jumping within the period, which this certificate does not cover: reported
-        cont["mid_period"] = {"runs": int(np.count_nonzero(jumped & ~judged)),
-                              **dict(zip(names, (float(x) for x in np.max(between[jumped & ~judged], axis=0))))}
-    worst_run = {"xi": xi[worst], "mu": mu[worst], "mu_after": mu_next[worst], "t_switch": t_sw[worst],
-                 "tau": taus[worst], "xi_next": xi_nl[worst],
-                 "V_over_level": float(r_nl_all[worst]), "V_over_level_linear": float(r_lin_all[worst])}
-    max_nl = float(np.max(r_nl))
-    refinement = None
-    if refined is not None:
-        refinement = {"starts": refined["starts"], "rounds": REFINE_ROUNDS, "tries": REFINE_TRIES, "runs": refined["runs"],
-                      "max_V_over_level_before": max_nl, "max_V_over_level_after": refined["max"]}
-        if refined["max"] > max_nl:
-            j = refined["run"]
-            max_nl = refined["max"]
-            worst_run = {"xi": refined["xi"], "mu": mu[j], "mu_after": mu_next[j], "t_switch": refined["t_switch"],
-                         "tau": taus[j], "xi_next": refined["xi_next"], "V_over_level": refined["max"],
-                         "V_over_level_linear": None}  # the exact map was not run on the refined state
+    refined = (_refine_straight(model, K, lyap, level, r, judged, r_nl_all, refine, bool(n_jump), v_over_level, rng)
+               if refine else None)
+    gap = np.max(np.abs(r.xi_nl[judged, :model.n_e] - r.xi_lin[judged, :model.n_e]), axis=0)
+    arcs = (_arcs_record(model, K, lyap, level, r, judged, refine, bool(n_jump), v_over_level, rng)
+            if r.xi_arc is not None else None)
+    worst_run, max_nl, refinement = _worst_run(r, worst, r_nl_all, r_lin_all, float(np.max(r_nl)), refined)
     return {
         "arcs": arcs,
-        "between_samples": cont,
+        "between_samples": _between_record(r, judged),
         "refinement": refinement,
         # the search's best states, worst first, and their slips: starts for the adversary (None without a search)
         "searched_states": (refined["states"], refined["states_mu"]) if refined is not None else None,
@@ -249,10 +130,234 @@ def boundary_probe(model: Any, K: np.ndarray, lyap: Any, level: float, samples: 
         "fraction_outside_nonlinear": float(np.mean(r_nl > 1.0)),
         "fraction_outside_linear": float(np.mean(r_lin > 1.0)),
         "max_period_gap": {"e_x": float(gap[0]), "e_y": float(gap[1]), "e_theta": float(gap[2])},
-        "mid_period": mid,
+        "mid_period": _mid_record(r, r_nl_all, r_lin_all, within_period),
         # t_switch: each track's time (2,) when the probe drew jumps, else one time (the period's end: none)
         "worst": worst_run,
     }
+
+
+@dataclass(frozen=True)
+class _Starts:
+    """The probe's starts, one per run: the states ``xi`` on the boundary V = level of their slip ``mu``, the
+    delays ``taus`` of the packets acting in the period and their instants ``S`` (with the delay weights ``dw``
+    of a path-dependent V), whether the stored commands are ``admissible`` (within the motor limit), and the
+    slip jumps within the period (``jumped``, to ``mu_after`` at ``t_sw``)."""
+
+    xi: np.ndarray
+    mu: np.ndarray
+    taus: np.ndarray
+    S: np.ndarray
+    dw: np.ndarray | None
+    du_past: np.ndarray
+    admissible: np.ndarray
+    jumped: np.ndarray
+    mu_after: np.ndarray
+    t_sw: np.ndarray
+
+
+def _starts(model: Any, K: np.ndarray, lyap: Any, level: float, corners: np.ndarray, samples: int, n_jump: int,
+            seed: int, rng: np.random.Generator) -> _Starts:
+    """``samples`` random and every figure-maximizing boundary state (:func:`probe_directions`), ``n_jump`` more
+    random ones with a slip jump, each at a random slip corner with random admissible delays (the first few at
+    constant minimum or maximum delays), on the boundary of the set of its slip with the largest value over an
+    unknown previous delay.  Stored commands beyond the motor limit the certificate enforces in the set are
+    marked inadmissible: a state with them in its memory is never reached."""
+    dirs = probe_directions(model, K, lyap, samples + n_jump, rng)
+    N = dirs.shape[0]
+    mu = corners[rng.integers(0, corners.shape[0], size=N)]
+    scale = np.sqrt(level / lyap.V(dirs, mu))
+    xi = dirs * scale[:, None]
+    taus = random_delays(model, rng, N, 1)  # (N, 1 + d_hi): the packets acting in the period
+    dl = model.config.network.delay
+    taus[: min(N, 8) : 2] = dl.min
+    taus[1 : min(N, 8) : 2] = dl.max
+    S = model.s_tilde(taus)[:, 0]  # (N, d_hi)
+    dw = model.delay_weights(S) if lyap.path else None
+    du_past = split_state(model, xi)[1]
+    admissible = _within_motor_limit(model, np.array([model.V, 0.0]) + du_past)
+    jumped = np.zeros(N, dtype=bool)
+    jumped[samples : samples + n_jump] = True
+    mu_after = np.where(jumped[:, None], corners[rng.integers(0, corners.shape[0], size=N)], mu)
+    t_sw = jump_times(model, S, samples, n_jump, rng, np.random.default_rng((seed, 1)))
+    return _Starts(xi, mu, taus, S, dw, du_past, admissible, jumped, mu_after, t_sw)
+
+
+@dataclass(frozen=True)
+class _Runs:
+    """The probe's runs of one period from their starts ``st``: the lifted state at t_k+1 on the nonlinear robot
+    (``xi_nl``) and on the exact lifted map (``xi_lin``), the largest errors between the samples and their rise
+    above the ends (``between``, ``rise``); on arcs (None without turns) the state at t_k+1, the errors between
+    the samples, whose memory with the feedforward is within the motor limit, and the yaw rates ``w``."""
+
+    st: _Starts
+    xi_nl: np.ndarray
+    xi_lin: np.ndarray
+    between: np.ndarray
+    rise: np.ndarray
+    arc_memory: np.ndarray
+    xi_arc: np.ndarray | None = None
+    between_arc: np.ndarray | None = None
+    w: np.ndarray | None = None
+
+
+def _kept(record: Any, keep: np.ndarray) -> Any:
+    """The runs ``keep`` selects (those with an admissible memory) of a record of per-run arrays (:class:`_Starts`,
+    :class:`_Runs`): every array indexed, None kept, a record within it likewise."""
+    def part(x: Any) -> Any:
+        return None if x is None else _kept(x, keep) if is_dataclass(x) else x[keep]
+
+    return replace(record, **{f.name: part(getattr(record, f.name)) for f in fields(record)})
+
+
+def _periods(model: Any, K: np.ndarray, st: _Starts, n_jump: int, rng: np.random.Generator) -> _Runs:
+    """One period from each start: on the nonlinear robot on a straight line along x, at the pose of the
+    error e (and the errors between the samples, docs/theory.md §9: the period cut at BETWEEN_INSTANTS
+    instants, in the frame of the reference at t, which moves at V^D along x from the pose at t_k); with a
+    turning certificate (reference.turn_radius) the same states, slips (and jumps) and delays on arcs, the
+    reference turning at yaw rates w_k it allows (:func:`arc_yaw_rates`), the feedforward in the commands in
+    flight; and on the exact lifted map of the certificate."""
+    n_e = model.n_e
+    xi, mu, S = st.xi, st.mu, st.S
+    xi_nl, du, U, changes = _robot_period(model, K, xi, S, mu, st.mu_after, st.t_sw, bool(n_jump))
+    between, rise = errors_between_samples(model, xi[:, :n_e], U, S, mu, changes)
+    arcs: dict[str, Any] = {"arc_memory": st.admissible}  # on arcs the stored commands also carry their feedforward
+    if getattr(model, "turns", None) is not None:
+        w = arc_yaw_rates(model, xi.shape[0], rng)
+        e_arc = arc_period(model, xi[:, :n_e], du, st.du_past, S, mu, rng, switch=changes, w=w)
+        U_arc = arc_commands(model, du, st.du_past, w)
+        arcs = {"xi_arc": np.concatenate([e_arc, xi_nl[:, n_e:]], axis=1),  # the same memory and integrators
+                "between_arc": errors_between_samples(model, xi[:, :n_e], U_arc, S, mu, changes, w[:, 0])[0],
+                "arc_memory": _within_motor_limit(model, U_arc[:, 1:]), "w": w}
+    A, B, c = model.switched_exact(S, mu, st.t_sw, st.mu_after, per_track=bool(n_jump))
+    xi_lin = np.einsum("nij,nj->ni", A, xi) + np.einsum("nij,nj->ni", B, du) + c
+    return _Runs(st=st, xi_nl=xi_nl, xi_lin=xi_lin, between=between, rise=rise, **arcs)
+
+
+def _v_next_over_level(lyap: Any, level: float, nxt: np.ndarray, dw: np.ndarray | None) -> Any:
+    """``v(x, runs=None)``: V/level at t_k+1 of the states x of ``runs`` (default: every kept run), the largest
+    over the next slips the world may pick (``nxt`` (n, n_c, 2), from the slip at t_k+1), at the period's delay
+    weights ``dw`` where V is path-dependent."""
+
+    def v(x: np.ndarray, runs: np.ndarray | None = None) -> np.ndarray:
+        nx = nxt if runs is None else nxt[runs]
+        xb = np.broadcast_to(x[:, None, :], nx.shape[:2] + x.shape[1:])
+        if lyap.path:
+            d = dw if runs is None else dw[runs]
+            return np.max(lyap.V(xb, nx, prev=np.broadcast_to(d[:, None, :], nx.shape[:2] + d.shape[1:])), axis=1) / level
+        return np.max(lyap.V(xb, nx), axis=1) / level
+
+    return v
+
+
+def _refine_straight(model: Any, K: np.ndarray, lyap: Any, level: float, r: _Runs, judged: np.ndarray,
+                     r_all: np.ndarray, refine: int, jumps: bool, v_over_level: Any, rng: np.random.Generator
+                     ) -> dict[str, Any]:
+    """The local search (:func:`_refine_worst`) from the ``refine`` worst judged runs on the straight line."""
+    st = r.st
+    uD = np.array([model.V, 0.0])
+
+    def one_period(x: np.ndarray, runs: np.ndarray, t: np.ndarray) -> np.ndarray:
+        return _robot_period(model, K, x, st.S[runs], st.mu[runs], st.mu_after[runs], t, jumps)[0]
+
+    return _refine_worst(model, lyap, level, st.xi, st.mu, st.t_sw, st.jumped, np.flatnonzero(judged), r_all, refine,
+                         one_period, v_over_level, rng,
+                         lambda x, runs: _within_motor_limit(model, uD + split_state(model, x)[1]))
+
+
+def _arcs_record(model: Any, K: np.ndarray, lyap: Any, level: float, r: _Runs, judged: np.ndarray, refine: int,
+                 jumps: bool, v_over_level: Any, rng: np.random.Generator) -> dict[str, Any]:
+    """The runs on arcs, judged as on the straight line (the runs with a jump only where the certificate covers
+    them) among those whose memory with the feedforward is admissible: the largest V(xi+)/level and the fraction
+    outside, the runs with a jump judged or not, and (``refine``) the local search on the arcs, each start
+    keeping its yaw rates."""
+    st = r.st
+    r_arc_all = v_over_level(r.xi_arc)
+    on_arc = judged & r.arc_memory
+    r_arc = r_arc_all[on_arc]
+    arcs = {"runs": int(r_arc.size), "mid_period_runs": int(np.count_nonzero(st.jumped & on_arc)),
+            "dropped_inadmissible_memory": int(np.count_nonzero(judged & ~r.arc_memory)),
+            "max_yaw_rate": float(model.turns.max_yaw_rate),
+            "max_V_over_level_nonlinear": float(np.max(r_arc)), "fraction_outside_nonlinear": float(np.mean(r_arc > 1.0))}
+    if np.any(st.jumped & r.arc_memory):  # the runs with a jump, judged or not
+        arcs["mid_period_max_V_over_level_nonlinear"] = float(np.max(r_arc_all[st.jumped & r.arc_memory]))
+    if refine:
+        ra = _refine_arcs(model, K, lyap, level, r, on_arc, r_arc_all, refine, jumps, v_over_level, rng)
+        arcs["refinement"] = {"starts": ra["starts"], "runs": ra["runs"],
+                              "max_V_over_level_before": arcs["max_V_over_level_nonlinear"],
+                              "max_V_over_level_after": ra["max"]}
+        arcs["max_V_over_level_nonlinear"] = max(arcs["max_V_over_level_nonlinear"], ra["max"])
+    return arcs
+
+
+def _refine_arcs(model: Any, K: np.ndarray, lyap: Any, level: float, r: _Runs, on_arc: np.ndarray, r_all: np.ndarray,
+                 refine: int, jumps: bool, v_over_level: Any, rng: np.random.Generator) -> dict[str, Any]:
+    """The local search (:func:`_refine_worst`) from the ``refine`` worst judged runs on arcs, each start keeping
+    its yaw rates; a memory is admissible with the feedforward of its yaw rates."""
+    st = r.st
+    n_e, uD = model.n_e, np.array([model.V, 0.0])
+
+    def arc_one_period(x: np.ndarray, runs: np.ndarray, t: np.ndarray) -> np.ndarray:
+        _, _, du_r, after = _law_step(model, K, x)
+        changes_r = track_changes(st.mu[runs], st.mu_after[runs], t) if jumps else None
+        e = arc_period(model, x[:, :n_e], du_r, split_state(model, x)[1], st.S[runs], st.mu[runs], rng,
+                       switch=changes_r, w=r.w[runs])
+        return np.concatenate([e, after], axis=1)
+
+    def arc_admissible(x: np.ndarray, runs: np.ndarray) -> np.ndarray:
+        return _within_motor_limit(model, uD + split_state(model, x)[1] + r.w[runs, 1:, None] * model.turn_feedforward)
+
+    return _refine_worst(model, lyap, level, st.xi, st.mu, st.t_sw, st.jumped, np.flatnonzero(on_arc), r_all, refine,
+                         arc_one_period, v_over_level, rng, arc_admissible)
+
+
+def _between_record(r: _Runs, judged: np.ndarray) -> dict[str, Any]:
+    """The largest errors between the samples over the judged runs, on the straight line (and their rise above
+    the larger end: e_x and e_y, the chord term) and on arcs; the runs whose slip jumps within the period,
+    which this certificate does not cover, reported beside."""
+    st = r.st
+    names = ("e_x", "e_y", "e_theta")
+    cont = {"instants": BETWEEN_INSTANTS, "states": int(np.count_nonzero(judged)),
+            "straight": dict(zip(names, (float(x) for x in np.max(r.between[judged], axis=0)))),
+            "straight_rise": dict(zip(names[:2], (float(x) for x in np.max(r.rise[judged, :2], axis=0))))}
+    if r.between_arc is not None:
+        cont["arcs"] = dict(zip(names, (float(x) for x in np.max(r.between_arc[judged & r.arc_memory], axis=0))))
+    if np.any(st.jumped & ~judged):
+        cont["mid_period"] = {"runs": int(np.count_nonzero(st.jumped & ~judged)),
+                              **dict(zip(names, (float(x) for x in np.max(r.between[st.jumped & ~judged], axis=0))))}
+    return cont
+
+
+def _mid_record(r: _Runs, r_nl_all: np.ndarray, r_lin_all: np.ndarray, within_period: bool) -> dict[str, Any]:
+    """The runs with a slip jump within the period: how many, whether the certificate covers them, and the
+    largest V(xi+)/level they reach on the nonlinear robot and on the exact map."""
+    st = r.st
+    mid = {"runs": int(np.count_nonzero(st.jumped)), "covered": bool(within_period)}
+    if mid["runs"]:
+        mid.update(max_V_over_level_nonlinear=float(np.max(r_nl_all[st.jumped])),
+                   max_V_over_level_linear=float(np.max(r_lin_all[st.jumped])))
+    return mid
+
+
+def _worst_run(r: _Runs, worst: int, r_nl_all: np.ndarray, r_lin_all: np.ndarray, max_nl: float,
+               refined: dict[str, Any] | None) -> tuple[dict[str, Any], float, dict[str, Any] | None]:
+    """The worst judged run (its start, slips, switch times, delays, state at t_k+1 and V(xi+)/level), replaced
+    by the local search's best state where that went higher (the exact map was not run on it); the largest
+    V(xi+)/level on the nonlinear robot, ``max_nl`` or the search's; and the search's record (None without one)."""
+    st = r.st
+    worst_run = {"xi": st.xi[worst], "mu": st.mu[worst], "mu_after": st.mu_after[worst], "t_switch": st.t_sw[worst],
+                 "tau": st.taus[worst], "xi_next": r.xi_nl[worst],
+                 "V_over_level": float(r_nl_all[worst]), "V_over_level_linear": float(r_lin_all[worst])}
+    if refined is None:
+        return worst_run, max_nl, None
+    refinement = {"starts": refined["starts"], "rounds": REFINE_ROUNDS, "tries": REFINE_TRIES, "runs": refined["runs"],
+                  "max_V_over_level_before": max_nl, "max_V_over_level_after": refined["max"]}
+    if refined["max"] > max_nl:
+        j = refined["run"]
+        worst_run = {"xi": refined["xi"], "mu": st.mu[j], "mu_after": st.mu_after[j], "t_switch": refined["t_switch"],
+                     "tau": st.taus[j], "xi_next": refined["xi_next"], "V_over_level": refined["max"],
+                     "V_over_level_linear": None}
+        max_nl = refined["max"]
+    return worst_run, max_nl, refinement
 
 
 def jump_times(model: Any, S: np.ndarray, samples: int, n_jump: int, rng: np.random.Generator,
