@@ -10,6 +10,7 @@ result's data.  Options of another plant kind are refused before any work, by na
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
@@ -51,32 +52,37 @@ def _refuse(**options: Any) -> None:
             raise InputError(f"--{name.replace('_', '-')}: {why}")
 
 
-class Jobs:
+class Jobs(ABC):
     """A plant kind's commands.  ``commands``: the ones it offers (the CLI refuses the others by name)."""
 
     kind = ""
     noun = ""  # what the plant is called in a message: "a linear plant"
     commands: frozenset[str] = frozenset()
 
+    @abstractmethod
     def model(self, cfg: Any, out: Path, con: Console, config_path: Path | None) -> Outcome:
-        raise NotImplementedError
+        """build-model: the model files and their summary."""
 
+    @abstractmethod
     def synthesize(self, cfg: Any, out: Path, con: Console, config_path: Path | None, *, objective: str | None,
                    solver: str | None, multiplier: str | None, diagnose: bool | None) -> Outcome:
-        raise NotImplementedError
+        """synthesize: the certified gain (``multiplier``, ``diagnose``: the robot's options)."""
 
+    @abstractmethod
     def verify(self, cfg: Any, out: Path, con: Console, config_path: Path | None, *, gains: Path | None,
                runs: int | None, seed: int | None, fmt: str, plots: bool, logdir: Path | None) -> Outcome:
-        raise NotImplementedError
+        """verify: the gain's checks; exit 1 when one fails (``logdir``: the robot's run logs)."""
 
+    @abstractmethod
     def run(self, cfg: Any, out: Path, con: Console, config_path: Path | None, *, objective: str | None,
             solver: str | None, multiplier: str | None, diagnose: bool | None, runs: int | None, seed: int | None,
             fmt: str, plots: bool, physics: int, export_to: str | None) -> Outcome:
-        raise NotImplementedError
+        """run: synthesize and verify (``physics``: then the MuJoCo robot; ``export_to``: then the controller)."""
 
+    @abstractmethod
     def margin(self, cfg: Any, out: Path, con: Console, config_path: Path | None, *, gains: Path | None,
                lyapunov: str | None, as_json: bool) -> Outcome:
-        raise NotImplementedError
+        """margin: how far the delay (and slip) bounds can be pushed for the gain (``data``: margin.json)."""
 
 
 class RobotJobs(Jobs):

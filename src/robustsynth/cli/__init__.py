@@ -14,6 +14,8 @@ import click
 
 from .. import __version__
 from ..commands import JOBS as PLANT_KINDS
+from ..commands import jobs_for as _jobs
+from ..commands import require
 from ..errors import EXIT_OK, install_signal_handlers
 from ..report.progress import sweep_counts
 from ._console import _NEW_DIRS, _Ctx, _guard, run_main
@@ -23,7 +25,6 @@ from ._options import (_FINITE_NONNEG, CONFIG_ARG, DIR, FILE, GAINS_OUTDIR_OPT, 
 
 def _load(config: Path | None):
     """CONFIG (or the embedded default), refused when its plant kind does not offer this command."""
-    from ..commands import require
     from ..config import load_config
     from ..errors import ConfigError
 
@@ -35,12 +36,6 @@ def _load(config: Path | None):
         raise
     require(cfg, click.get_current_context().info_name)
     return cfg
-
-
-def _jobs(cfg: Any) -> Any:
-    from ..commands import jobs_for
-
-    return jobs_for(cfg)
 
 
 def _not_a_config(path: Path, option: str | None = None) -> None:

@@ -302,7 +302,14 @@ def heading_constraints(model: Any, lv: _Lyap) -> list[Any]:
                     + "): no set can keep |e_theta(t)| below it")
             rows.append((np.asarray(c, dtype=float), np.asarray(d, dtype=float), room))
     cons = []
-    for i in implied_rows_left_out([np.concatenate([c, d]) for c, d, _ in rows], [r for _, _, r in rows]):
+    V = np.array([np.concatenate([c, d]) for c, d, _ in rows])
+    rooms = np.array([r for _, _, r in rows])
+    # the rows are the model's, not the vertex subset's: phase-1 builds several copies on one model (one pruning)
+    key = (V.tobytes(), rooms.tobytes(), V.shape)
+    if key not in _KEPT:
+        _KEPT.clear()  # the last model's only: a search builds its problems one heading bound after another
+        _KEPT[key] = implied_rows_left_out(list(V), list(rooms))
+    for i in _KEPT[key]:
         c, d, room = rows[i]
         row = c @ lv.X + d @ lv.Y
         for j in range(len(lv.mats)):
@@ -319,6 +326,7 @@ IMPLIED_ROOM, IMPLIED_RESIDUAL = 1e-6, 1e-9
 # robot's rows: 300 in 1.0 s, 600 in 2.5 s, 1000 in 6.1 s); that robot has 60 281 heading rows at 0.1 rad (its
 # covering channels' corner combinations): leaving them out took over 10 minutes, building them all 22 s
 IMPLIED_MAX_ROWS = 1000
+_KEPT: dict[tuple[bytes, bytes, tuple[int, ...]], list[int]] = {}  # the last row set's kept rows (heading_constraints)
 
 
 def implied_rows_left_out(vecs: list[np.ndarray], rooms: list[float]) -> list[int]:
