@@ -39,7 +39,7 @@ stays within ``noise_sigmas`` standard deviations.
 
 import math
 
-__all__ = ["Monitor", "OK", "DELAY", "LOSSES", "SET", "HEADING", "MOTOR", "SLIP", "RATE", "CAUSES", "describe"]
+__all__ = ["Monitor", "slip_estimate_bound", "OK", "DELAY", "LOSSES", "SET", "HEADING", "MOTOR", "SLIP", "RATE", "CAUSES", "describe"]
 
 OK = 0
 DELAY = 1
@@ -80,6 +80,58 @@ def _mon_range(mid, rad, c, a):
     return mid * c - rad * a, mid * c + rad * a
 
 
+def _mon_clip(poly, a, b, c):
+    """The part of the convex polygon ``poly`` (vertices in order) where ``a x + b y <= c`` (Sutherland-Hodgman,
+    one edge): a convex polygon again, empty where none of it is."""
+    out = []
+    for i in range(len(poly)):
+        P, Q = poly[i - 1], poly[i]
+        fp = a * P[0] + b * P[1] - c
+        fq = a * Q[0] + b * Q[1] - c
+        if (fp <= 0.0) != (fq <= 0.0):  # the edge crosses the line
+            t = fp / (fp - fq)
+            out.append((P[0] + t * (Q[0] - P[0]), P[1] + t * (Q[1] - P[1])))
+        if fq <= 0.0:
+            out.append(Q)
+    return out
+
+
+# the estimate's intervals are widened by this much (absolute) for the rounding of the sums and of the clipping: far
+# below the allowances they carry (model_tol alone is 2 % of the travel)
+_EST_ROUND = 1e-9
+
+
+def slip_estimate_bound(description):
+    """What the slip estimate (:meth:`Monitor.slip_estimate`) is sure to achieve, from the description alone: on a
+    straight segment driven at the reference speed with constant commands, each track's traction is estimated
+    within ``half[name]`` of its value at the sampling instant (the best window of 1 ... ``window`` periods;
+    docs/theory.md §17), and a command it is used for meets a traction within ``at_action[name]`` of the estimate
+    (``lag``: what max_rate lets the traction move between t_k and the end of the command's action).  None without
+    ``slip.max_rate`` (the traction now may then be anywhere in the box).  ``observable``: False for the traction
+    difference of the icr model (its yaw factor, free to jump, hides it), whose bound is then the box's."""
+    m = description.get("monitor") or {}
+    if m.get("max_rate") is None or m.get("slip_ranges") is None:
+        return None
+    r, Ts = float(m["max_rate"]), float(description["sampling_time"])
+    V, D = float(description["reference_speed"]), float(description["track_distance"])
+    a, b, tol = float(m["position_noise"]), float(m["heading_noise"]), float(m["model_tol"])
+    (r_lo, r_hi), (l_lo, l_hi) = m["slip_ranges"][0], m["slip_ranges"][1]
+    h_s = h_d = math.inf
+    for n in range(1, int(m["window"]) + 1):
+        T = n * Ts
+        MV = V * T * T / 2.0 + Ts * V * T  # the integral of (t_k - t + Ts) V over the window
+        h_s = min(h_s, (math.sqrt(2.0) * a * 2.0 + V * T * (b + tol) + r * MV) / (V * T))
+        h_d = min(h_d, (2.0 * b + 2.0 * r * MV / D) * D / (V * T))
+    tracks = m.get("slip_model", "tracks") == "tracks"
+    if not tracks:  # the heading says nothing of the traction difference now: its range is the box's
+        h_d = ((r_hi - l_lo) - (r_lo - l_hi)) / 2.0
+    half = {"mu_r": min(h_s + h_d / 2.0, (r_hi - r_lo) / 2.0), "mu_l": min(h_s + h_d / 2.0, (l_hi - l_lo) / 2.0)}
+    lag = r * (float(m["tau_max"]) + Ts * (int(m["max_lost"]) + 1) + Ts)
+    return {"half": half, "lag": lag, "at_action": {k: v + lag for k, v in half.items()},
+            "box_half": {"mu_r": (r_hi - r_lo) / 2.0, "mu_l": (l_hi - l_lo) / 2.0}, "observable": tracks,
+            "speed": V, "max_rate": r}
+
+
 class Monitor:
     """The monitor of one controller description's certificate (``description["monitor"]``, written by
     :func:`robustsynth.artifacts.gains.monitor_description`).  One instance per robot; :meth:`step` once per
@@ -115,6 +167,9 @@ class Monitor:
         self.pos_noise, self.head_noise = float(m["position_noise"]), float(m["heading_noise"])
         self.model_tol = float(m["model_tol"])
         self.max_rate = None if m.get("max_rate") is None else float(m["max_rate"])  # slip.max_rate [1/s]
+        # the slip model and its parameters' ranges (the slip estimate's box; None in descriptions made before)
+        self.slip_model = m.get("slip_model", "tracks")
+        self.slip_ranges = None if m.get("slip_ranges") is None else [(float(lo), float(hi)) for lo, hi in m["slip_ranges"]]
         self.fallback = m["fallback"]
         self.persistence = int(m["persistence"])
         self.slow_factor = float(m["slow_factor"])
@@ -128,7 +183,8 @@ class Monitor:
         self.last_applied = -math.inf
         self.lost_run = 0
         self.poses = []  # (t, x, y, theta) of the last window + 1 samples
-        # per period of the window: (ds, dtheta, dlat, Vc, Wc, |dp|, mid heading, unjudged, |turn of mid|, Va, Wa)
+        # per period of the window: (ds, dtheta, dlat, Vc, Wc, |dp|, mid heading, unjudged, |turn of mid|, Va, Wa,
+        # the integrals of (t_end - t) |V_hat| and (t_end - t) |omega_hat| over it)
         self.periods = []
         # the window's running sums of ds, dtheta, dlat, Vc, Wc, |dp|, |dtheta|, |turn of mid|, Va, Wa: each period adds
         # its own and takes off the oldest's; every window periods they are summed afresh (the rounding of window sums)
@@ -195,7 +251,7 @@ class Monitor:
         """The integrals of the commanded V_hat, omega_hat, |V_hat| and |omega_hat| over [t0, t1] by the applied
         schedule, and whether the period cannot be judged: a command beyond the motor limit acted in it (the motors then
         give less than commanded: not slip), or no command is known to act from its start (the first periods of a run)."""
-        Vc = Wc = Va = Wa = 0.0
+        Vc = Wc = Va = Wa = mV = mW = 0.0
         sched = self.schedule
         clipped = not sched or sched[0][0] > t0  # no command known to act from the period's start: not judged
         for i, (start, v, w, beyond) in enumerate(sched):
@@ -206,8 +262,11 @@ class Monitor:
                 Wc = Wc + (b - a) * w
                 Va = Va + (b - a) * abs(v)
                 Wa = Wa + (b - a) * abs(w)
+                moment = (b - a) * ((t1 - a) + (t1 - b)) / 2.0  # the integral of (t1 - t) over [a, b]
+                mV = mV + moment * abs(v)
+                mW = mW + moment * abs(w)
                 clipped = clipped or beyond
-        return Vc, Wc, Va, Wa, clipped
+        return Vc, Wc, Va, Wa, clipped, mV, mW
 
     def _slip(self, t, x, y, theta, amounts):
         """The window's body-frame increments against the ranges the box allows (module docstring).  Forward:
@@ -221,7 +280,7 @@ class Monitor:
             mid = th0 + dth / 2.0
             c, s, k = math.cos(mid), math.sin(mid), 1.0 / _mon_sinc(dth / 2.0)
             dx, dy = x - x0, y - y0
-            Vc, Wc, Va, Wa, clipped = self._commanded(t0, t)
+            Vc, Wc, Va, Wa, clipped, mV, mW = self._commanded(t0, t)
             dmid = abs(_mon_wrap(mid - self.periods[-1][6])) if self.periods else 0.0  # the direction's turn since
             sums = self.sums
             if len(self.periods) == self.window:  # the oldest goes
@@ -229,7 +288,7 @@ class Monitor:
                 for i, v in enumerate(_mon_summands(o)):
                     sums[i] = sums[i] - v
             p = ((dx * c + dy * s) * k, dth, (dy * c - dx * s) * k, Vc, Wc, math.sqrt(dx * dx + dy * dy), mid, clipped, dmid,
-                 Va, Wa)
+                 Va, Wa, mV, mW)
             self.periods.append(p)
             self.since += 1
             if self.since == self.window:  # afresh, in the window's order
@@ -294,6 +353,76 @@ class Monitor:
             bounds.append(((S - err - q_hi) / Vc, (S + err - q_lo) / Vc))
         (lo1, hi1), (lo2, hi2) = bounds
         return max(lo2 - hi1, lo1 - hi2) - self.max_rate * (len(self.periods) * self.Ts)
+
+    def slip_estimate(self):
+        """The tracks' traction now (at the last pose's instant t_k), as far as the poses and the commands that acted
+        show it (docs/theory.md §17): a set-membership estimate, sure to contain the true value when the slip stays
+        in its box, moves at most ``slip.max_rate`` (a change of at most max_rate x Ts within each period, or a rate
+        bound: |mu(t) - mu(t_k)| <= max_rate (t_k - t + Ts)) and the pose noise within its bound.  Each window of the
+        last 1 ... ``window`` judged periods bounds ``s = (mu_r + mu_l) / 2`` and ``d = mu_r - mu_l`` by a slab
+        (forward: ``s Vc + d (D/4) Wc``; heading, tracks model only: ``s Wc + d Vc / D``), widened by the noise's,
+        the model's and the rate's allowances; their intersection with the box is a convex polygon in (s, d), whose
+        extremes give mu_r and mu_l.
+
+        Returns None when the description has no slip ranges (made before); else ``{"t", "windows" (periods
+        used), "consistent" (False: no traction in the box explains the window, as the SLIP check says), "ranges"
+        {name: (lo, hi)}, "estimate" {name: centre}, "bound" {name: half-width}, "observed" {name: narrower than
+        the box}}``.  Without ``slip.max_rate`` the traction now is anywhere in the box (windows 0).  The icr
+        model's yaw factor and x_icr have no rate bound: they stay their box, and so does the traction
+        difference they hide (the heading window bounds yaw x d)."""
+        if self.slip_ranges is None:
+            return None
+        ranges = [tuple(rg) for rg in self.slip_ranges]
+        (r_lo, r_hi), (l_lo, l_hi) = ranges[0], ranges[1]
+        poly = [((r + l) / 2.0, r - l) for r, l in ((r_lo, l_lo), (r_hi, l_lo), (r_hi, l_hi), (r_lo, l_hi))]
+        used = 0
+        if self.max_rate is not None and self.poses:
+            poly, used = self._estimate_windows(poly)
+        t = self.poses[-1][0] if self.poses else None
+        if not poly:
+            return {"t": t, "windows": used, "consistent": False, "ranges": {}, "estimate": {}, "bound": {},
+                    "observed": {}}
+        out = {"mu_r": (min(s + d / 2.0 for s, d in poly) - _EST_ROUND, max(s + d / 2.0 for s, d in poly) + _EST_ROUND),
+               "mu_l": (min(s - d / 2.0 for s, d in poly) - _EST_ROUND, max(s - d / 2.0 for s, d in poly) + _EST_ROUND)}
+        out = {k: (max(lo, ranges[i][0]), min(hi, ranges[i][1])) for i, (k, (lo, hi)) in enumerate(out.items())}
+        if self.slip_model == "icr":
+            out["yaw"], out["icr_offset"] = ranges[2], ranges[3]
+        box = dict(zip(("mu_r", "mu_l", "yaw", "icr_offset"), ranges))
+        return {"t": t, "windows": used, "consistent": True, "ranges": out,
+                "estimate": {k: (lo + hi) / 2.0 for k, (lo, hi) in out.items()},
+                "bound": {k: (hi - lo) / 2.0 for k, (lo, hi) in out.items()},
+                "observed": {k: hi - lo < (box[k][1] - box[k][0]) * (1.0 - 1e-9) for k, (lo, hi) in out.items()}}
+
+    def _estimate_windows(self, poly):
+        """``poly`` clipped by the slabs of every window of the last 1 ... len(periods) judged periods (newest
+        first; :meth:`slip_estimate`).  Returns the polygon and the number of periods used."""
+        r, Ts, q, D = self.max_rate, self.Ts, self.D / 4.0, self.D
+        tk = self.poses[-1][0]
+        S = TH = Vc = Wc = Va = Wa = travel = turned = turns = MV = MW = 0.0
+        n = len(self.periods)
+        used = 0
+        for j in range(n):
+            p = self.periods[n - 1 - j]
+            if p[7]:  # a command beyond the motor limit acted (or none was known): not judged, nor anything before
+                break
+            if j:
+                turns = turns + self.periods[n - j][8]  # the mid direction's turn between this period and the next
+            t_end = self.poses[len(self.poses) - 1 - j][0]
+            S, TH, Vc, Wc, travel = S + p[0], TH + p[1], Vc + p[3], Wc + p[4], travel + p[5]
+            turned, Va, Wa = turned + abs(p[1]), Va + p[9], Wa + p[10]
+            MV = MV + p[11] + (tk - t_end) * p[9]  # the integrals of (t_k - t) |V_hat| and |omega_hat| so far
+            MW = MW + p[12] + (tk - t_end) * p[10]
+            rv, rw = r * (MV + Ts * Va), r * (MW + Ts * Wa)  # what the rate lets s move under them (d: twice)
+            e = self._planar(turns, travel) + rv + 2.0 * q * rw
+            slabs = [(Vc, q * Wc, S, e)]
+            if self.slip_model == "tracks":
+                slabs.append((Wc, Vc / D, TH, 2.0 * self.head_noise + self.model_tol * turned + rw + 2.0 * rv / D))
+            for a, b, c, err in slabs:
+                poly = _mon_clip(_mon_clip(poly, a, b, c + err), -a, -b, err - c)
+            used = j + 1
+            if not poly:
+                break
+        return poly, used
 
     def step(self, t, x, y, theta, xi, command, seq, reports=()):
         """One period: :meth:`check`, then the command to send (the law's, or the fallback's once engaged),

@@ -115,3 +115,30 @@ def test_the_monitor_command_replays_logs_and_refuses_bad_input(default, tmp_pat
         r = run(*args, "-o", str(tmp_path / "bad"))
         assert r.returncode == 2 and r.stderr.startswith("error: ") and len(r.stderr.strip().splitlines()) == 1, r.stderr
         assert "Traceback" not in r.stderr and not (tmp_path / "bad").exists()
+
+
+def test_with_a_slip_rate_the_monitor_command_prints_and_records_the_slip_estimate(tmp_path) -> None:
+    """tracks-box (tracks [0.6, 1]) with slip.max_rate 0.1 and exact poses: the replay's slip estimate over the
+    logs is printed and written, and it is informative (the box's half-width is 0.2)."""
+    import json
+
+    import yaml
+
+    d = config_to_dict(load_config(ROOT / "configs" / "tracks-box.yaml"))
+    d["slip"]["max_rate"] = 0.1
+    (tmp_path / "rate.yaml").write_text(yaml.safe_dump(d))
+    cfg = load_config(d)
+    gains = ROOT / "results" / "baselines" / "tracks-box" / "gains.json"
+    model, path = build_model(cfg), path_of(cfg)
+    K = np.asarray(load_gains(gains)["K"])
+    scen = steady_state_start(model, K, path, draw_scenario(model, 2, 0, 120, path, within_period=True))
+    for lg in run_logs(model, simulate(model, K, path, scen), scen):
+        write_log(tmp_path / lg.path, lg)
+    r = subprocess.run([sys.executable, "-m", "robustsynth", "monitor", *(str(p) for p in sorted(tmp_path.glob("run_*.csv"))),
+                        "--gains", str(gains), "--config", str(tmp_path / "rate.yaml"), "-o", str(tmp_path / "out")],
+                       capture_output=True, text=True)
+    assert r.returncode in (0, 1), r.stderr
+    line = next(ln for ln in r.stdout.splitlines() if ln.startswith("slip estimate over "))
+    est = json.loads((tmp_path / "out" / "monitor.json").read_text())["slip_estimate"]
+    assert est["periods"] > 200 and est["inconsistent"] == 0
+    assert est["parameters"]["mu_r"]["median_half"] < 0.1 and "mu_r within +-" in line

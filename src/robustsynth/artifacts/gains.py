@@ -477,6 +477,8 @@ def monitor_description(gains: dict[str, Any], config: Any) -> dict[str, Any] | 
                         * (b + mon.model_tol)) / ((mon.window // 2) * net.sampling_time * config.reference.speed))}
                        if config.slip.max_rate is not None else {})},
         "max_rate": config.slip.max_rate,
+        # the slip estimate's box (monitor.Monitor.slip_estimate): the model and its parameters' ranges
+        "slip_model": getattr(config.slip, "model", "tracks"), "slip_ranges": [list(r) for r in ranges],
     }
 
 

@@ -278,6 +278,15 @@ def check_log_summary(rows: Sequence[Mapping[str, Any]], tolerance: float) -> li
     return lines
 
 
+def slip_estimate_line(est: Mapping[str, Any]) -> str:
+    """One line of the slip estimates over logs (runtime.replay.estimate_summary)."""
+    parts = [f"{name} within +-{p['median_half']:.3f} (median; largest {p['max_half']:.3f}), narrower than the box in "
+             f"{100.0 * p['observed_share']:.0f} % of them" for name, p in est["parameters"].items()
+             if name in ("mu_r", "mu_l")]
+    return (f"slip estimate over {est['periods']} periods: " + "; ".join(parts or ["none"])
+            + (f"; {est['inconsistent']} periods no traction in the box explains" if est["inconsistent"] else ""))
+
+
 def monitor_summary(res: Mapping[str, Any], outdir: Path | None) -> list[str]:
     """The monitor replayed over logs (runtime.replay.monitor_files): every alarm, the fallback, the count."""
     lines = []
@@ -289,6 +298,8 @@ def monitor_summary(res: Mapping[str, Any], outdir: Path | None) -> list[str]:
             lines.append(f"{run['log']}: the fallback ({run['fallback']}) would have engaged at period "
                          f"{run['fallback_engaged_at']}")
     counts = ", ".join(f"{n} {res['alarm_periods'][n]}" for n, _ in CAUSES if res["alarm_periods"][n])
+    if res.get("slip_estimate"):
+        lines.append(slip_estimate_line(res["slip_estimate"]))
     lines.append(f"monitor: {res['runs_with_alarms']} of {res['logs']} logs with alarms"
                  + (f" (periods: {counts})" if counts else "")
                  + (f"; wrote {outdir / 'monitor.json'}" if outdir is not None else ""))
@@ -372,6 +383,8 @@ def _monitor_lines(vd: Mapping[str, Any], injected: str | None) -> list[str]:
         counts = ", ".join(f"{k} {v}" for k, v in mon["alarm_periods"].items() if v)
         lines.append(f"runtime monitor over the episodes: {mon['runs_with_alarms']} of {mon['logs']} with alarms"
                      + (f" (periods: {counts})" if counts else ""))
+        if mon.get("slip_estimate"):
+            lines.append("  " + slip_estimate_line(mon["slip_estimate"]))
     if injected is not None:
         firsts = (mon or {}).get("first_per_log") or []
         seen = "; ".join(f"episode {i}: " + (f"period {f['period']} ({f['causes']})" if f else "not flagged")

@@ -369,7 +369,18 @@ def monitor_markdown(mon: dict[str, Any] | None) -> str:
             "raised an alarm" + (f" (alarm periods: {counts}; a false alarm unless the robot left its set)" if counts else "")
             + f". Once the state was seen inside its set, a departure to V/level above {det['set_ratio']:.3g} is always "
             f"flagged; a traction {det['traction']:.3g} or more outside the box, within {det['window_s']:g} s "
-            "(docs/howto/runtime-monitor.md).\n")
+            "(docs/howto/runtime-monitor.md).\n" + _estimate_markdown(mon.get("slip_estimate")))
+
+
+def _estimate_markdown(est: dict[str, Any] | None) -> str:
+    """The slip estimate over the runs (with slip.max_rate; docs/theory/17-the-slip-estimate.md)."""
+    if not est or not est["parameters"]:
+        return ""
+    rows = "".join(f"| {name} | {p['median_half']:.4f} | {p['max_half']:.4f} | {100.0 * p['observed_share']:.0f} % |\n"
+                   for name, p in est["parameters"].items())
+    return ("\nThe slip estimate over the same runs (each period: the tracks' traction now, sure to contain it under the "
+            f"stated rate, box and noise; {est['periods']} periods, {est['inconsistent']} that no traction in the box "
+            "explains):\n\n| parameter | median half-width | largest | narrower than the box |\n|---|---|---|---|\n" + rows)
 
 
 NO_HEADING_BOUND = "no bound (>= pi)"

@@ -18,13 +18,15 @@ from typing import Any
 from ..law import Controller
 from ..monitor import CAUSES, Monitor, describe
 
-__all__ = ["monitor_log", "monitor_logs", "monitor_summary", "monitor_files"]
+__all__ = ["estimate_summary", "monitor_log", "monitor_logs", "monitor_summary", "monitor_files"]
 
 
-def monitor_log(log: Any, description: dict[str, Any]) -> dict[str, Any]:
+def monitor_log(log: Any, description: dict[str, Any], estimate: bool = False) -> dict[str, Any]:
     """The monitor over one :class:`~robustsynth.artifacts.logs.RobotLog` with the controller ``description``
     (:func:`robustsynth.artifacts.gains.controller_description`, with its ``monitor``): per period the status word,
-    and the alarms (period, t, causes, by how much), the period the fallback would have engaged (None: never)."""
+    and the alarms (period, t, causes, by how much), the period the fallback would have engaged (None: never).
+    ``estimate``: also the slip estimate of every period (:meth:`~robustsynth.monitor.Monitor.slip_estimate`),
+    ``"estimates"``."""
     ctl = Controller(description)
     mon = Monitor(description)
     R, D = float(description["gear_radius"]), float(description["track_distance"])
@@ -33,7 +35,7 @@ def monitor_log(log: Any, description: dict[str, Any]) -> dict[str, Any]:
     corrections: list[tuple[float, float]] = []  # the logged commands less u^D and the feedforward, newest last
     pending = sorted((float(log.applied[k]), k) for k in range(len(log)) if math.isfinite(float(log.applied[k])))
     nxt = 0
-    statuses, alarms, engaged = [], [], None
+    statuses, alarms, engaged, estimates = [], [], None, []
     for k in range(len(log)):
         t = float(log.t[k])
         reports = []
@@ -51,19 +53,45 @@ def monitor_log(log: Any, description: dict[str, Any]) -> dict[str, Any]:
         status = mon.check(t, float(log.x[k]), float(log.y[k]), float(log.theta[k]), ctl.state, command, reports)
         mon.sent(int(log.seq[k]), t, command)  # what the robot was sent (the fallback only says when it would engage)
         statuses.append(status)
+        if estimate:
+            estimates.append(mon.slip_estimate())
         if status:
             alarms.append({"period": k, "t": t, "causes": describe(status), "by": dict(mon.amounts)})
         if mon.engaged and engaged is None:
             engaged = k
     counts = {name: sum(1 for s in statuses if s & bit) for name, bit in CAUSES}
-    return {"log": str(log.path), "periods": len(statuses), "statuses": statuses, "alarms": alarms,
-            "alarm_periods": counts, "fallback_engaged_at": engaged, "fallback": description["monitor"]["fallback"]}
+    out = {"log": str(log.path), "periods": len(statuses), "statuses": statuses, "alarms": alarms,
+           "alarm_periods": counts, "fallback_engaged_at": engaged, "fallback": description["monitor"]["fallback"]}
+    if estimate:
+        out["estimates"] = estimates
+    return out
 
 
-def monitor_logs(logs: list[Any], description: dict[str, Any]) -> dict[str, Any]:
+def estimate_summary(estimates: list[Any]) -> dict[str, Any]:
+    """What the slip estimates of some periods (:meth:`~robustsynth.monitor.Monitor.slip_estimate`, None or with no
+    window skipped) show: the periods estimated, those no traction in the box explains (``inconsistent``), and per
+    parameter the median and the largest half-width and the share of periods it was narrower than the box."""
+    used = [e for e in estimates if e is not None and e["windows"] > 0]
+    ok = [e for e in used if e["consistent"]]
+    out: dict[str, Any] = {"periods": len(used), "inconsistent": len(used) - len(ok), "parameters": {}}
+    for name in (ok[0]["bound"] if ok else ()):
+        half = sorted(e["bound"][name] for e in ok)
+        out["parameters"][name] = {"median_half": half[len(half) // 2], "max_half": half[-1],
+                                   "observed_share": sum(1 for e in ok if e["observed"][name]) / len(ok)}
+    return out
+
+
+def monitor_logs(logs: list[Any], description: dict[str, Any], estimate: bool = False) -> dict[str, Any]:
     """:func:`monitor_log` of each log, and the totals: runs with an alarm, alarm periods per cause, the first
-    alarm of each cause (log and period), and each log's first alarm (``first_per_log``: period and causes, or None)."""
-    runs = [monitor_log(lg, description) for lg in logs]
+    alarm of each cause (log and period), and each log's first alarm (``first_per_log``: period and causes, or None).
+    ``estimate``: also the slip estimates of every period, summed up in ``slip_estimate`` (:func:`estimate_summary`)
+    and, per run, its last one (``last_estimate``)."""
+    runs = [monitor_log(lg, description, estimate=estimate) for lg in logs]
+    summary = {}
+    if estimate:
+        summary["slip_estimate"] = estimate_summary([e for r in runs for e in r["estimates"]])
+        for r in runs:
+            r["last_estimate"] = r.pop("estimates")[-1] if r["estimates"] else None
     first: dict[str, Any] = {}
     for r in runs:
         for a in r["alarms"]:
@@ -73,7 +101,7 @@ def monitor_logs(logs: list[Any], description: dict[str, Any]) -> dict[str, Any]
             "alarm_periods": {name: sum(r["alarm_periods"][name] for r in runs) for name, _ in CAUSES},
             "fallback_engaged": sum(1 for r in runs if r["fallback_engaged_at"] is not None), "first": first,
             "first_per_log": [{"period": r["alarms"][0]["period"], "causes": r["alarms"][0]["causes"]} if r["alarms"] else None
-                              for r in runs]}
+                              for r in runs], **summary}
 
 
 def monitor_summary(logs: list[Any], gains: dict[str, Any], config: Any) -> dict[str, Any] | None:
@@ -90,9 +118,9 @@ def monitor_summary(logs: list[Any], gains: dict[str, Any], config: Any) -> dict
         return None
     if not desc.get("monitor"):
         return None
-    res = monitor_logs(logs, desc)
-    return {**{k: res[k] for k in ("logs", "runs_with_alarms", "alarm_periods", "fallback_engaged", "first", "first_per_log")},
-            "detects": desc["monitor"]["detects"]}
+    res = monitor_logs(logs, desc, estimate=desc["monitor"].get("max_rate") is not None)
+    keys = ("logs", "runs_with_alarms", "alarm_periods", "fallback_engaged", "first", "first_per_log", "slip_estimate")
+    return {**{k: res[k] for k in keys if k in res}, "detects": desc["monitor"]["detects"]}
 
 
 def monitor_files(log_paths: list[Any], gains_path: Any, config: Any = None, outdir: Any = None) -> dict[str, Any]:
@@ -115,7 +143,7 @@ def monitor_files(log_paths: list[Any], gains_path: Any, config: Any = None, out
     if not description.get("monitor"):
         raise InputError(f"{gains_path}: certificate: no certified set (P, ellipsoid_level) to monitor against")
     logs = [read_log(p) for p in log_paths]
-    out = monitor_logs(logs, description)
+    out = monitor_logs(logs, description, estimate=description["monitor"].get("max_rate") is not None)
     out.update({"gains": str(gains_path), "gains_id": gains.get("gains_id"), "config": cfg.name,
                 "monitor": description["monitor"]})
     if outdir is not None:
