@@ -79,8 +79,18 @@ def _periods(name: str, runs: int = 3, periods: int = 0, max_rate: float | None 
             lines.append(" ".join([repr(t), repr(x), repr(y), repr(th), repr(float(V)), repr(float(w)), str(int(lg.seq[k]))]
                                   + [repr(float(v)) for v in xi] + [str(len(reports))]
                                   + [f"{s} {a!r}" for s, a in reports]))
-            expected.append((st, Vo, wo, [mon.amounts.get(c, 0.0) for c, _ in CAUSES], int(mon.engaged)))
+            expected.append((st, Vo, wo, [mon.amounts.get(c, 0.0) for c, _ in CAUSES], int(mon.engaged), _estimate(mon)))
     return c_files(d), lines, expected
+
+
+def _estimate(mon: Monitor):
+    """What the harness prints of the slip estimate after ``E``: consistent (1/0), the windows used and (lo, hi) of
+    mu_r, mu_l (and the icr model's yaw, x_icr; (0, 0) where inconsistent)."""
+    e = mon.slip_estimate()
+    if e is None:
+        return None
+    names = ("mu_r", "mu_l", "yaw", "icr_offset")[:len(mon.slip_ranges)]
+    return [int(e["consistent"]), e["windows"]] + [v for k in names for v in e["ranges"].get(k, (0.0, 0.0))]
 
 
 @pytest.mark.parametrize("name", CONFIGS)
@@ -95,6 +105,25 @@ def test_the_c_monitors_rate_check_is_the_pythons(name: str, tmp_path: Path) -> 
     files, lines, expected = _periods(name, max_rate=0.001)
     assert any(e != "reset" and e[0] & RATE for e in expected)
     _compare(files, lines, expected, tmp_path)
+
+
+@pytest.mark.parametrize("name", ("default", "nonlinear-proof"))  # icr and tracks
+def test_the_c_slip_estimate_is_the_pythons(name: str, tmp_path: Path) -> None:
+    """With slip.max_rate 0.1 /s (the simulated slip moves at that rate): the slip estimate of every period, its
+    windows and its ranges, bit for bit; most periods estimated from a window, and on the tracks model many narrower
+    than the box (on the icr default each track's range is the box: the traction difference is unobserved)."""
+    files, lines, expected = _periods(name, max_rate=0.1)
+    est = [e[5] for e in expected if e != "reset"]
+    narrower = sum(1 for e in est if e[0] and any(hi - lo < 0.999 * (b - a) for (lo, hi), (a, b) in
+                                                  zip(zip(e[2::2], e[3::2]), _box(name))))
+    assert narrower > 100 if name == "nonlinear-proof" else narrower == 0
+    assert _compare(files, lines, expected, tmp_path) > len(est) // 2
+
+
+def _box(name: str):
+    from robustsynth.model.slip import slip_parameter_ranges
+
+    return slip_parameter_ranges(load_config(ROOT / "configs" / f"{name}.yaml").slip)
 
 
 @pytest.mark.slow
@@ -119,25 +148,32 @@ def _compare(files, lines, expected, tmp_path: Path) -> None:
             exp_blocks.append(cur)
         else:
             cur.append(e)
-    alarms = 0
+    alarms = estimated = 0
     for block, exp in zip(blocks, exp_blocks):  # one harness run per simulated run: it starts from rs_monitor_init
         out = subprocess.run([str(exe)], input=block + "\n", capture_output=True, text=True, check=True).stdout.split("\n")
         rows = [r for r in out if r]
         assert len(rows) == len(exp)
-        for row, (st, Vo, wo, amounts, engaged) in zip(rows, exp):
+        for row, (st, Vo, wo, amounts, engaged, est) in zip(rows, exp):
             got = row.split()
+            n = 3 + len(CAUSES)
             assert int(got[0]) == st and float(got[1]) == Vo and float(got[2]) == wo, (row, st, Vo, wo)
-            assert [float(v) for v in got[3:3 + len(CAUSES)]] == amounts and int(got[-1]) == engaged, (row, amounts)
+            assert [float(v) for v in got[3:n]] == amounts and int(got[n]) == engaged, (row, amounts)
+            if est is not None:  # the slip estimate, bit for bit: "E ok windows lo hi ..."
+                assert got[n + 1] == "E" and [int(got[n + 2]), int(got[n + 3])] == est[:2], (row, est)
+                assert [float(v) for v in got[n + 4:n + 2 + len(est)]] == est[2:], (row, est)
+                estimated += est[1] > 0
             alarms += bool(st)
     assert alarms > 0  # the violations were there to be seen
+    return estimated
 
 
 @pytest.mark.skipif(shutil.which("valgrind") is None, reason="no valgrind")
-@pytest.mark.parametrize("name", ("default", "delay-multi-period"))  # d_hi 3: periods with no command applied yet
-def test_the_c_monitor_reads_no_uninitialised_memory(name: str, tmp_path: Path) -> None:
+@pytest.mark.parametrize("name, max_rate", [("default", None), ("delay-multi-period", None),  # d_hi 3: no command yet
+                                             ("nonlinear-proof", 0.1)])  # the slip estimate's windows and clipping
+def test_the_c_monitor_reads_no_uninitialised_memory(name: str, max_rate: float | None, tmp_path: Path) -> None:
     """valgrind's memcheck over the harness (every run, violations included): a read of an uninitialised or freed
     value is an error (an empty schedule once read its entry -1: bit-identical by luck until a long run)."""
-    files, lines, _ = _periods(name)
+    files, lines, _ = _periods(name, max_rate=max_rate)
     for k, v in files.items():
         (tmp_path / k).write_bytes(v)
     exe = tmp_path / "rs_monitor_harness"

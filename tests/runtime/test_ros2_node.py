@@ -106,3 +106,30 @@ def test_the_nodes_loop_says_what_the_monitor_replay_says(exported) -> None:
             assert (V, omega) == (0.0, 0.0)
     assert next(k for k, s in enumerate(statuses) if s) == K0 + 1 and statuses[K0 + 1] & 2  # losses
     assert engaged == want["fallback_engaged_at"] and statuses[:engaged + 1] == want["statuses"][:engaged + 1]
+
+
+def test_the_loop_publishes_the_monitors_slip_estimate_only_with_a_rate() -> None:
+    """The slip_estimate topic's data: the monitor's estimate of the period ([consistent, windows, lo, hi per
+    parameter]) where the config has slip.max_rate, None (nothing published) without."""
+    from robustsynth.law import Controller
+    from robustsynth.monitor import Monitor
+    from robustsynth.runtime.ros2_node import Loop
+
+    gains = load_gains(ROOT / "results" / "baselines" / "nonlinear-proof" / "gains.json")
+    cfg = load_config(ROOT / "configs" / "nonlinear-proof.yaml")
+    rated = cfg.model_copy(update={"slip": cfg.slip.model_copy(update={"max_rate": 0.1})})
+    for c, expect in ((cfg, False), (rated, True)):
+        desc = controller_description(gains, c)
+        loop = Loop(Controller(desc), Monitor(desc))
+        x, acting = 0.0, 0.0
+        for k in range(15):  # straight ahead at traction 0.9, every command applied 50 ms after its instant
+            if k:
+                loop.applied(k - 1, T0 + (k - 1) * 0.1 + 0.05)
+            V, _, _, _ = loop.tick(T0 + k * 0.1, x, 0.0, 0.0)
+            x, acting = x + 0.9 * (0.05 * acting + 0.05 * V), V
+        msg = loop.slip_estimate_message()
+        if not expect:
+            assert msg is None
+            continue
+        e = loop.monitor.slip_estimate()
+        assert msg == [1.0, float(e["windows"]), *e["ranges"]["mu_r"], *e["ranges"]["mu_l"]] and e["windows"] > 0

@@ -12,6 +12,9 @@ Wiring (topics relative to the node's namespace)::
     monitor_status std_msgs/Int32                  out: the monitor's status word (0: every assumption holds;
                                                         bits: 1 delay, 2 losses, 4 set, 8 heading, 16 motor, 32 slip,
                                                         64 rate)
+    slip_estimate std_msgs/Float64MultiArray       out: with slip.max_rate, each period [consistent (1/0), windows,
+                                                        mu_r lo, hi, mu_l lo, hi (, yaw lo, hi, x_icr lo, hi)]: the
+                                                        monitor's slip estimate (docs/theory.md §17)
 
 A timer calls :meth:`Loop.tick` every ``sampling_time`` seconds: t_k = k Ts from the first tick (the path's start),
 the law's command, the monitor's check with the reports received since the last tick, and the command to send
@@ -64,6 +67,16 @@ class Loop:
         self.k += 1
         return V, omega, seq, status
 
+    def slip_estimate_message(self):
+        """The monitor's slip estimate as the slip_estimate topic's data, or None where the config has no
+        slip.max_rate (the traction now is then anywhere in its box: nothing to publish)."""
+        if self.monitor.max_rate is None or self.monitor.slip_ranges is None:
+            return None
+        e = self.monitor.slip_estimate()
+        names = ("mu_r", "mu_l", "yaw", "icr_offset")[:len(self.monitor.slip_ranges)]
+        return [1.0 if e["consistent"] else 0.0, float(e["windows"])] + [
+            float(v) for k in names for v in e["ranges"].get(k, (math.nan, math.nan))]
+
 
 def main(args=None):  # pragma: no cover - needs ROS 2 (rclpy), which the tests do not install
     try:
@@ -90,6 +103,7 @@ def main(args=None):  # pragma: no cover - needs ROS 2 (rclpy), which the tests 
             self.cmd = self.create_publisher(Twist, "cmd_vel", 10)
             self.seq = self.create_publisher(Int64, "cmd_seq", 10)
             self.status = self.create_publisher(Int32, "monitor_status", 10)
+            self.estimate = self.create_publisher(Float64MultiArray, "slip_estimate", 10)
             self.create_timer(self.loop.Ts, self.on_tick)
 
         def on_odom(self, msg):
@@ -110,6 +124,9 @@ def main(args=None):  # pragma: no cover - needs ROS 2 (rclpy), which the tests 
             self.cmd.publish(cmd)
             self.seq.publish(Int64(data=seq))
             self.status.publish(Int32(data=status))
+            est = self.loop.slip_estimate_message()
+            if est is not None:
+                self.estimate.publish(Float64MultiArray(data=est))
             if status:
                 self.get_logger().warn(f"period {seq}: monitor status {status} {self.loop.monitor.amounts}")
 
