@@ -357,8 +357,8 @@ class Monitor:
     def slip_estimate(self):
         """The tracks' traction now (at the last pose's instant t_k), as far as the poses and the commands that acted
         show it (docs/theory.md §17): a set-membership estimate, sure to contain the true value when the slip stays
-        in its box, moves at most ``slip.max_rate`` (a change of at most max_rate x Ts within each period, or a rate
-        bound: |mu(t) - mu(t_k)| <= max_rate (t_k - t + Ts)) and the pose noise within its bound.  Each window of the
+        in its box, moves as ``slip.max_rate`` r allows (|mu(t) - mu(t')| <= r (|t - t'| + Ts): a rate bound, or jumps
+        of at most r Ts no two closer than Ts) and the pose noise stays within its bound.  Each window of the
         last 1 ... ``window`` judged periods bounds ``s = (mu_r + mu_l) / 2`` and ``d = mu_r - mu_l`` by a slab
         (forward: ``s Vc + d (D/4) Wc``; heading, tracks model only: ``s Wc + d Vc / D``), widened by the noise's,
         the model's and the rate's allowances; their intersection with the box is a convex polygon in (s, d), whose
