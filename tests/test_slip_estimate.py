@@ -132,10 +132,13 @@ def _closed_loop(config: str, gains: str, rate: float, assumed_rate: float, runs
                 out["inconsistent"] += 1
                 continue
             out["est"].append(e)
-            for i, name in enumerate(("mu_r", "mu_l")):
+            mu = scen.mu[n, k - 1]
+            for name, true in (("mu_r", mu[0]), ("mu_l", mu[1]), ("traction", (mu[0] + mu[1]) / 2.0),
+                               ("difference", mu[0] - mu[1])):
                 lo, hi = e["ranges"][name]
-                out["inside" if lo <= scen.mu[n, k - 1, i] <= hi else "outside"] += 1
-                out["half"].append(e["bound"][name])
+                out["inside" if lo <= true <= hi else "outside"] += 1
+                if name in ("mu_r", "mu_l"):
+                    out["half"].append(e["bound"][name])
     return out
 
 
@@ -157,7 +160,9 @@ def test_the_icr_model_leaves_the_yaw_factor_x_icr_and_the_traction_difference_u
     assert res["outside"] == 0 and res["inconsistent"] == 0 and res["est"]
     for e in res["est"]:
         assert e["ranges"]["yaw"] == (0.53, 0.70) and e["ranges"]["icr_offset"] == (0.0, 0.10)
-        assert not e["observed"]["yaw"] and not e["observed"]["icr_offset"]
+        assert not e["observed"]["yaw"] and not e["observed"]["icr_offset"] and not e["observed"]["difference"]
+    # the traction sum is seen, by the forward slabs alone
+    assert sum(e["observed"]["traction"] for e in res["est"]) > len(res["est"]) // 2
     from robustsynth.artifacts.gains import controller_description, load_gains
     from robustsynth.config import config_to_dict, load_config
 

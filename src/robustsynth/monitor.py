@@ -367,7 +367,7 @@ class Monitor:
 
         Returns None when the description has no slip ranges (made before); else ``{"t", "windows" (periods
         used), "consistent" (False: no traction in the box explains the window, as the SLIP check says), "ranges"
-        {name: (lo, hi)}, "estimate" {name: centre}, "bound" {name: half-width}, "observed" {name: narrower than
+        {name: (lo, hi)} (mu_r, mu_l, their mean ``traction`` s and their ``difference`` d; icr: yaw, icr_offset), "estimate" {name: centre}, "bound" {name: half-width}, "observed" {name: narrower than
         the box}}``.  Without ``slip.max_rate`` the traction now is anywhere in the box (windows 0).  The icr
         model's yaw factor and x_icr have no rate bound: they stay their box, and so does the traction
         difference they hide (the heading window bounds yaw x d)."""
@@ -383,12 +383,16 @@ class Monitor:
         if not poly:
             return {"t": t, "windows": used, "consistent": False, "ranges": {}, "estimate": {}, "bound": {},
                     "observed": {}}
+        box = dict(zip(("mu_r", "mu_l", "yaw", "icr_offset"), ranges))
+        box["traction"] = ((r_lo + l_lo) / 2.0, (r_hi + l_hi) / 2.0)
+        box["difference"] = (r_lo - l_hi, r_hi - l_lo)
         out = {"mu_r": (min(s + d / 2.0 for s, d in poly) - _EST_ROUND, max(s + d / 2.0 for s, d in poly) + _EST_ROUND),
-               "mu_l": (min(s - d / 2.0 for s, d in poly) - _EST_ROUND, max(s - d / 2.0 for s, d in poly) + _EST_ROUND)}
-        out = {k: (max(lo, ranges[i][0]), min(hi, ranges[i][1])) for i, (k, (lo, hi)) in enumerate(out.items())}
+               "mu_l": (min(s - d / 2.0 for s, d in poly) - _EST_ROUND, max(s - d / 2.0 for s, d in poly) + _EST_ROUND),
+               "traction": (min(s for s, d in poly) - _EST_ROUND, max(s for s, d in poly) + _EST_ROUND),
+               "difference": (min(d for s, d in poly) - _EST_ROUND, max(d for s, d in poly) + _EST_ROUND)}
+        out = {k: (max(lo, box[k][0]), min(hi, box[k][1])) for k, (lo, hi) in out.items()}
         if self.slip_model == "icr":
             out["yaw"], out["icr_offset"] = ranges[2], ranges[3]
-        box = dict(zip(("mu_r", "mu_l", "yaw", "icr_offset"), ranges))
         return {"t": t, "windows": used, "consistent": True, "ranges": out,
                 "estimate": {k: (lo + hi) / 2.0 for k, (lo, hi) in out.items()},
                 "bound": {k: (hi - lo) / 2.0 for k, (lo, hi) in out.items()},

@@ -89,7 +89,7 @@ def _estimate(mon: Monitor):
     e = mon.slip_estimate()
     if e is None:
         return None
-    names = ("mu_r", "mu_l", "yaw", "icr_offset")[:len(mon.slip_ranges)]
+    names = ("mu_r", "mu_l", "traction", "difference", "yaw", "icr_offset")[:2 + len(mon.slip_ranges)]
     return [int(e["consistent"]), e["windows"]] + [v for k in names for v in e["ranges"].get(k, (0.0, 0.0))]
 
 
@@ -115,7 +115,7 @@ def test_the_c_slip_estimate_is_the_pythons(name: str, tmp_path: Path) -> None:
     files, lines, expected = _periods(name, max_rate=0.1)
     est = [e[5] for e in expected if e != "reset"]
     narrower = sum(1 for e in est if e[0] and any(hi - lo < 0.999 * (b - a) for (lo, hi), (a, b) in
-                                                  zip(zip(e[2::2], e[3::2]), _box(name))))
+                                                  zip(zip(e[2:6:2], e[3:6:2]), _box(name))))
     assert narrower > 100 if name == "nonlinear-proof" else narrower == 0
     assert _compare(files, lines, expected, tmp_path) > len(est) // 2
 

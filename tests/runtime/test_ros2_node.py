@@ -132,4 +132,5 @@ def test_the_loop_publishes_the_monitors_slip_estimate_only_with_a_rate() -> Non
             assert msg is None
             continue
         e = loop.monitor.slip_estimate()
-        assert msg == [1.0, float(e["windows"]), *e["ranges"]["mu_r"], *e["ranges"]["mu_l"]] and e["windows"] > 0
+        assert msg == [1.0, float(e["windows"]), *e["ranges"]["mu_r"], *e["ranges"]["mu_l"], *e["ranges"]["traction"],
+                       *e["ranges"]["difference"]] and e["windows"] > 0

@@ -282,7 +282,7 @@ def slip_estimate_line(est: Mapping[str, Any]) -> str:
     """One line of the slip estimates over logs (runtime.replay.estimate_summary)."""
     parts = [f"{name} within +-{p['median_half']:.3f} (median; largest {p['max_half']:.3f}), narrower than the box in "
              f"{100.0 * p['observed_share']:.0f} % of them" for name, p in est["parameters"].items()
-             if name in ("mu_r", "mu_l")]
+             if name in ("mu_r", "mu_l", "traction")]
     return (f"slip estimate over {est['periods']} periods: " + "; ".join(parts or ["none"])
             + (f"; {est['inconsistent']} periods no traction in the box explains" if est["inconsistent"] else ""))
 

@@ -13,8 +13,9 @@ Wiring (topics relative to the node's namespace)::
                                                         bits: 1 delay, 2 losses, 4 set, 8 heading, 16 motor, 32 slip,
                                                         64 rate)
     slip_estimate std_msgs/Float64MultiArray       out: with slip.max_rate, each period [consistent (1/0), windows,
-                                                        mu_r lo, hi, mu_l lo, hi (, yaw lo, hi, x_icr lo, hi)]: the
-                                                        monitor's slip estimate (docs/theory.md §17)
+                                                        mu_r lo, hi, mu_l lo, hi, (mu_r + mu_l)/2 lo, hi, mu_r - mu_l
+                                                        lo, hi (, yaw lo, hi, x_icr lo, hi)]: the monitor's slip
+                                                        estimate (docs/theory.md §17)
 
 A timer calls :meth:`Loop.tick` every ``sampling_time`` seconds: t_k = k Ts from the first tick (the path's start),
 the law's command, the monitor's check with the reports received since the last tick, and the command to send
@@ -73,7 +74,7 @@ class Loop:
         if self.monitor.max_rate is None or self.monitor.slip_ranges is None:
             return None
         e = self.monitor.slip_estimate()
-        names = ("mu_r", "mu_l", "yaw", "icr_offset")[:len(self.monitor.slip_ranges)]
+        names = ("mu_r", "mu_l", "traction", "difference", "yaw", "icr_offset")[:2 + len(self.monitor.slip_ranges)]
         return [1.0 if e["consistent"] else 0.0, float(e["windows"])] + [
             float(v) for k in names for v in e["ranges"].get(k, (math.nan, math.nan))]
 
