@@ -14,7 +14,8 @@ import numpy as np
 from ..config import SynthesisConfig
 from .lmis import build_invariance
 from .phase1 import Phase1, settles
-from .runner import _attempts, _Best, _build, _cert_common, _duration, _Runner, _weights, lmi_count, lmi_rows, solve_estimate
+from .cost import solve_estimate
+from .runner import _attempts, _Best, _build, _cert_common, _duration, _Runner, _weights, lmi_count, lmi_rows
 from .solve import RETRY, Outcome, solve
 
 
