@@ -6,6 +6,7 @@ the bounds tried, the linearized set's ranges and what each remedy gave (:func:`
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import replace
 from typing import Any, Callable
 
@@ -153,7 +154,8 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                                 f"near infeasibility{retries}). " + _nonlinear_infeasible(model, common, tried, tried_at, auto))
         from .remedies import try_remedies
 
-        tries = try_remedies(model, lambda m: _first_try(m, given, motor, hint=hint, active=active, say=say), say)
+        tries = try_remedies(model, lambda m, end: _first_try(m, given, motor, hint=hint, active=active, say=say, deadline=end),
+                             say)
         raise InfeasibleError(_nonlinear_infeasible(model, common, tried, tried_at, auto)
                               + (". Tried (" + "; ".join(tries) + ")" if tries else ""))
     return best, runner
@@ -194,17 +196,20 @@ def _auto_bounds(common: _Best) -> tuple[float, ...]:
 
 
 def _first_try(model: Any, s: SynthesisConfig, motor: bool, hint: float | None = None, active: Active | None = None,
-               say: Callable[[str], None] = lambda _m: None) -> dict[str, Any] | None:
+               say: Callable[[str], None] = lambda _m: None, deadline: float = math.inf
+               ) -> tuple[dict[str, Any] | None, tuple[float, ...]]:
     """A quick search of the nonlinear certificate (remedies): the linearized start (a walk from ``hint``, the main
     search's alpha: a few solves near it, not the scan), then one solve at its best alpha for each heading bound auto
-    would try, upwards; the certified figures of the first that certifies (a bound the full search reaches or improves
-    on), or None.  Where the main search needed phase-1 problems (``active``: the vertices that bound them, of a model
-    with as many vertices as this one's), each such solve is first screened by a phase-1 problem at that alpha on those
-    vertices, two bounds at a time (:func:`.phase1.screen`, a fraction of the solve's cost on the issue-51 robot: 10 of
-    108 vertices); where its t* <= -T_PROVEN the LMIs there have no set within 1 m, and the solve is spared."""
+    would try, upwards: the certified figures of the first that certifies (a bound the full search reaches or improves
+    on), or None, and the heading bounds left untried because ``deadline`` (time.perf_counter) had passed (checked
+    before each bound but the first).  Where the main search needed phase-1 problems (``active``: the vertices that
+    bound them, of a model with as many vertices as this one's), each such solve is first screened by a phase-1 problem
+    at that alpha on those vertices, two bounds at a time (:func:`.phase1.screen`, a fraction of the solve's cost on the
+    issue-51 robot: 10 of 108 vertices); where its t* <= -T_PROVEN the LMIs there have no set within 1 m, and the solve
+    is spared."""
     common, _, _ = _start(model, s, motor, say, hint=hint)
     if common.cert is None:
-        return None
+        return None, ()
     s = _kinematic(s).model_copy(update={"heading_bound": "auto"})
     alpha = float(common.cert["alpha"])
     models = []
@@ -214,8 +219,10 @@ def _first_try(model: Any, s: SynthesisConfig, motor: bool, hint: float | None =
         except InfeasibleError:  # below the slip's own turn within a period
             continue
     usable = active is not None and bool(active.indices) and all(len(m.vertices) == active.vertices for _, m in models)
-    step = PARALLEL if usable else max(len(models), 1)
+    step = PARALLEL if usable else 1
     for k in range(0, len(models), step):
+        if k and time.perf_counter() > deadline:
+            return None, tuple(tb for tb, _ in models[k:])
         chunk = models[k : k + step]
         ts = screen([m for _, m in chunk], s, motor, alpha, active) if usable else [None] * len(chunk)
         for (tb, m), t in zip(chunk, ts):
@@ -224,8 +231,8 @@ def _first_try(model: Any, s: SynthesisConfig, motor: bool, hint: float | None =
                 continue
             b, _ = _run_invariance(m, s, [], motor, say, alpha_hint=alpha, retry=False, probe_only=True)
             if b.cert is not None:
-                return dict(b.check.figures)
-    return None
+                return dict(b.check.figures), ()
+    return None, ()
 
 
 def _heading_room(best: _Best) -> float:
