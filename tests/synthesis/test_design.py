@@ -437,19 +437,43 @@ def test_the_nonlinear_search_reports_its_start_with_lmi_counts_and_positions() 
     assert all("left in this scan" in m for m in points[1:]) and len(points) >= 3, points
 
 
-def test_the_solve_estimate_grows_with_the_dense_blocks_of_the_lmis() -> None:
-    """The time shown before the first solve (issue 51) is the sum over the LMIs of (r(r+1)/2)^2 times the
-    measured constants: a problem with twice the LMIs is estimated at twice the time, one with larger LMIs
-    at the square of the growth of their triangles."""
+def test_the_solve_estimate_counts_the_cliques_clarabel_factors() -> None:
+    """The time shown before the first solve (issue 51) follows Clarabel's chordal decomposition (synthesis.cost): a
+    dense LMI of r rows is one block of T(r)^2 entries, SECONDS_AT_A_MILLION x (T(r)^2 / 10^6)^GROWTH; an LMI whose two
+    diagonal blocks are uncoupled costs what the two blocks cost as two LMIs, far less than a dense one of its size;
+    more LMIs cost more; the variables keep their values."""
     import cvxpy as cp
 
-    from robustsynth.synthesis.runner import ITERATIONS_PER_SOLVE, SECONDS_PER_KKT_ENTRY, solve_estimate
+    from robustsynth.synthesis.cost import GROWTH, SECONDS_AT_A_MILLION, solve_estimate
 
     class LP:
-        def __init__(self, sizes):
-            self.problem = cp.Problem(cp.Minimize(0), [cp.Variable((r, r), symmetric=True) >> 0 for r in sizes])
+        def __init__(self, cons):
+            self.problem = cp.Problem(cp.Minimize(0), cons)
 
-    one = solve_estimate(LP([9]))
-    assert one == pytest.approx(SECONDS_PER_KKT_ENTRY * ITERATIONS_PER_SOLVE * 45**2)
-    assert solve_estimate(LP([9, 9])) == pytest.approx(2 * one)
-    assert solve_estimate(LP([18])) == pytest.approx(one * (171 / 45) ** 2)
+    def dense(r):
+        return cp.Variable((r, r), symmetric=True) >> 0
+
+    one = solve_estimate(LP([dense(9)]))
+    assert one == pytest.approx(SECONDS_AT_A_MILLION * (45**2 / 1e6) ** GROWTH, rel=1e-12)
+    two = solve_estimate(LP([dense(9), dense(9)]))
+    assert two == pytest.approx(2**GROWTH * one, rel=1e-12) and two > one
+    X, Y = cp.Variable((9, 9), symmetric=True), cp.Variable((9, 9), symmetric=True)
+    X.value = np.eye(9)
+    block = cp.bmat([[X, np.zeros((9, 9))], [np.zeros((9, 9)), Y]]) >> 0
+    assert solve_estimate(LP([block])) == pytest.approx(two, rel=1e-12)
+    assert solve_estimate(LP([block])) < solve_estimate(LP([dense(18)])) / 10
+    assert np.array_equal(X.value, np.eye(9)) and Y.value is None
+
+
+def test_the_cliques_of_sparse_patterns() -> None:
+    """clique_sizes: a dense pattern is one clique; a band of width one splits into its n-1 pairs (merging two pairs
+    into a triple costs more than the pair: no merge); two dense blocks sharing one row stay two cliques."""
+    from robustsynth.synthesis.cost import clique_sizes
+
+    assert clique_sizes(np.ones((6, 6), dtype=bool)) == (6,)
+    band = np.eye(6, dtype=bool) | np.eye(6, k=1, dtype=bool) | np.eye(6, k=-1, dtype=bool)
+    assert clique_sizes(band) == (2,) * 5
+    two = np.zeros((9, 9), dtype=bool)
+    two[:5, :5] = True
+    two[4:, 4:] = True
+    assert clique_sizes(two) == (5, 5)

@@ -83,3 +83,34 @@ def test_an_exit_3_names_the_remedies_tried_and_their_figures_hold() -> None:
     full = synthesize(build_model(_changed(nl, half)))
     assert full.check.passed
     assert 100 * full.check.figures["ultimate_bound"]["e_y"] <= float(found.group(1)) + 0.005  # the message's 2 decimals
+
+
+def test_each_try_gets_its_share_of_what_is_left_of_the_budget(monkeypatch) -> None:
+    """try_remedies on a clock of its own (no time measured): each try's deadline is what is left of the budget over
+    the remedies still to try, so a try that runs to its deadline leaves the later ones their turn; the bounds a try
+    left untried are named; once the budget is spent a remedy is named, not tried."""
+    from robustsynth.model import build_model
+    from robustsynth.synthesis import remedies
+
+    clock = [100.0]
+    monkeypatch.setattr(remedies.time, "perf_counter", lambda: clock[0])
+    model = build_model(load_config(ROOT / "configs" / "tracks-box.yaml"))
+    deadlines = []
+
+    def slow(m, deadline):  # runs to its deadline (and a second beyond), untried bounds left
+        deadlines.append(deadline)
+        clock[0] = deadline + 1.0
+        return None, (0.5, 0.7)
+
+    lines = remedies.try_remedies(model, slow, lambda _m: None, budget_s=60.0)
+    assert len(deadlines) == 3 and len(lines) == 3
+    assert deadlines[0] == 100.0 + 60.0 / 3
+    assert deadlines[1] == 121.0 + (60.0 - 21.0) / 2 and deadlines[2] == 141.5 + (60.0 - 41.5)
+    assert all("none at the first try (heading bounds 0.5, 0.7 rad not tried" in line for line in lines)
+
+    def hog(m, deadline):  # the first try takes the whole budget
+        clock[0] += 61.0
+        return None, ()
+
+    lines = remedies.try_remedies(model, hog, lambda _m: None, budget_s=60.0)
+    assert lines[0].endswith("none at the first try") and all("not tried (the tries' 60 s were spent)" in x for x in lines[1:])

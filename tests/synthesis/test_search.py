@@ -63,3 +63,36 @@ def test_a_step_predicted_to_gain_nothing_is_not_taken():
     assert calls == []
     _parabolic(evaluate, pts, predict=False)
     assert len(calls) >= 1
+
+
+@pytest.mark.parametrize("x_star", [-1.7, -1.2, -0.9])
+def test_a_costly_refinement_stops_at_the_first_step_that_gains_little(x_star):
+    """The cost rule (issue 51, alpha_search._refine): on a problem whose solve is costly every refinement step but
+    the last lowers the best objective by at least COSTLY_GAIN, the last by less, and it takes no more steps than the
+    same refinement without the rule (which goes on to HINT_STOP_REL); without it, _parabolic itself."""
+    from robustsynth.synthesis.alpha_search import COSTLY_GAIN, _refine
+    from robustsynth.synthesis.runner import _Best
+
+    f = lambda x: 3.0 + 0.8 * (x - x_star) ** 2 + 0.1 * (x - x_star) ** 3  # noqa: E731
+    pts = [(x, f(x)) for x in (-2.2, -1.3, -0.4)]
+
+    def run(costly):
+        best = _Best(value=min(v for _, v in pts))
+        seen = [best.value]
+
+        def evaluate(x: float) -> float:
+            v = f(x)
+            best.value = min(best.value, v)
+            seen.append(best.value)
+            return v
+
+        _refine(evaluate, pts, best, costly, lambda _m: None)
+        return seen
+
+    costly, cheap = run(True), run(False)
+    gains = [(a - b) / a for a, b in zip(costly, costly[1:])]
+    assert gains and all(g >= COSTLY_GAIN for g in gains[:-1]) and gains[-1] < COSTLY_GAIN
+    assert len(costly) <= len(cheap)
+    evaluate, calls = _recorder(f)
+    _parabolic(evaluate, pts)
+    assert len(calls) == len(cheap) - 1

@@ -14,7 +14,8 @@ import numpy as np
 from ..config import SynthesisConfig
 from .lmis import build_invariance
 from .phase1 import Phase1, settles
-from .runner import _attempts, _Best, _build, _cert_common, _duration, _Runner, _weights, lmi_count, lmi_rows, solve_estimate
+from .cost import solve_estimate
+from .runner import _attempts, _Best, _build, _cert_common, _duration, _Runner, _weights, lmi_count, lmi_rows
 from .solve import RETRY, Outcome, solve
 
 
@@ -110,6 +111,45 @@ def _parabolic(evaluate: Callable[[float], float], pts: list[tuple[float, float]
             return  # the parabola's vertex and the best point agree: the minimum is found to the tolerance
 
 
+# The refinement of a costly problem stops sooner (issue 51).  Where one solve is estimated at COSTLY_SOLVE_S or more
+# (cost.solve_estimate, from the problem's structure: the same on any machine, under any load), the parabolic and
+# golden steps after the scan or the walk stop once a step improved the best objective by less than COSTLY_GAIN
+# (relative; the objective is a weighted sum of squared bounds, so a bound moves by about half of it: 0.5 %).  On the
+# icr default with Ts 0.1 s and tau in [0.02, 0.29] s (d_hi 3, 432 vertices, ~6 s a solve, estimated 5 s) the
+# linearized start spent four steps for 3.69 -> 3.66 cm, the last three within 0.01 cm.  No problem of configs/ is
+# estimated at COSTLY_SOLVE_S (their largest: 0.99 s, the default's nonlinear ones; docs/theory/06-lmis.md §6j), so
+# their refinement, and every committed baseline, is as it was.
+COSTLY_SOLVE_S = 3.0  # [s] estimated, one solve
+
+
+COSTLY_GAIN = 1e-2  # the least relative gain of the objective per refinement step of a costly problem
+
+
+class _Enough(Exception):
+    """A costly problem's refinement step gained less than COSTLY_GAIN: the refinement stops."""
+
+
+def _refine(evaluate: Callable[[float], float], pts: list[tuple[float, float]], best: _Best, costly: bool,
+            say: Callable[[str], None], **kwargs: Any) -> None:
+    """:func:`_parabolic` from ``pts``; where ``costly``, each of its steps must lower ``best`` by COSTLY_GAIN of it,
+    else the refinement stops there."""
+    if not costly:
+        _parabolic(evaluate, pts, **kwargs)
+        return
+
+    def step(x: float) -> float:
+        before = best.value
+        f = evaluate(x)
+        if not before - best.value > COSTLY_GAIN * before:
+            raise _Enough
+        return f
+
+    try:
+        _parabolic(step, pts, **kwargs)
+    except _Enough:
+        say(f"  refined enough: the last step gained less than {100 * COSTLY_GAIN:g} % of the objective")
+
+
 def _walk(evaluate: Callable[[float], float], x0: float, step: float, lo: float, hi: float,
           rel: float = 0.0) -> list[tuple[float, float]]:
     """From x0 (log alpha), one ``step`` at a time in each direction while the objective falls (by more than
@@ -137,7 +177,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     give_up: int | None = None,
                     prune: Callable[[list[float]], set[float]] | None = None,
                     stop_rel: float = HINT_STOP_REL, bar: float | None = None,
-                    prove: Callable[[], Phase1] | None = None, prove_first: bool = False) -> tuple[_Best, _Runner]:
+                    prove: Callable[[], Phase1] | None = None, prove_first: bool = False,
+                    gain_rule: bool | None = None) -> tuple[_Best, _Runner]:
     """The alpha line search of the invariance LMIs.  Without a hint: a log grid of alpha_points
     scanned upwards, then parabolic steps around its best point.  With ``alpha_hint`` (the best alpha
     of a cheaper certificate class): walk from the hint in quarter grid steps while the bound falls,
@@ -154,7 +195,9 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     failed: at the hint (before the full scan, which it then spares when they settle the range) or in a scan that
     certified nothing (before the retries of its failed points); where they settle it, the failed points count as
     infeasible.  ``prove_first``:
-    asked before any solve (a related problem's solves all failed: the hint's would most likely fail too)."""
+    asked before any solve (a related problem's solves all failed: the hint's would most likely fail too).
+    ``gain_rule``: the refinement stops at a step that gains less than COSTLY_GAIN (:func:`_refine`): by default where a
+    solve is estimated at COSTLY_SOLVE_S or more; True: always (a remedy's quick try)."""
     lp = _build(build_invariance, model, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,
                 symmetry=s.symmetry == "auto")
     full = lambda mdl: build_invariance(mdl, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,  # noqa: E731
@@ -171,8 +214,9 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
 
     runner = _Runner(model, lp, s.solver, make_cert, full=full)
     evaluate = _Evaluator(lp, runner, best, w, search, say)
+    est = 0.0 if probe_only else solve_estimate(lp)
+    costly = est >= COSTLY_SOLVE_S if gain_rule is None else gain_rule
     if not probe_only:
-        est = solve_estimate(lp)
         say(f"  {lmi_count(lp)} LMIs (the largest {lmi_rows(lp)} rows) per alpha; each point is one solve"
             + (f" (about {_duration(est)} each, estimated from its size)" if est >= 1.0 else "") + ", a failed one is retried")
     grid = np.linspace(math.log(ALPHA_RANGE[0]), math.log(ALPHA_RANGE[1]), s.alpha_points)
@@ -191,7 +235,7 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         pts = _walk(evaluate, min(max(math.log(alpha_hint), lo), hi), WALK_STEP * float(grid[1] - grid[0]), lo, hi,
                     rel=0.0 if stop_rel == HINT_STOP_REL else stop_rel)
         if best.cert is not None:
-            _parabolic(evaluate, pts, predict=True, rel=stop_rel)
+            _refine(evaluate, pts, best, costly, say, predict=True, rel=stop_rel)
             return best, runner
         if prove is not None and runner.phase1 is None and runner.last_kind == "failed" and \
                 _settled_by_phase1(runner, prove, search, say):
@@ -200,7 +244,7 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
             pts = _descend(evaluate, grid, math.log(alpha_hint), give_up)
             if pts is not None:
                 say("  refined below the hint")
-                _parabolic(evaluate, pts, rel=stop_rel)
+                _refine(evaluate, pts, best, costly, say, rel=stop_rel)
                 return best, runner
         say("  the hint is not feasible for this class: full scan")
     vals, gave_up = _scan(evaluate, grid, give_up, say)
@@ -224,8 +268,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     extra = [(g, v) for g, v in evaluate.cache.items() if g not in on_grid and math.isfinite(v)]
     # refined by the solver that certified: the unscaled one where the primary failed at every point it tried
     unscaled = best.record is not None and best.record.name == RETRY.get(runner.primary)
-    _parabolic(lambda x: evaluate(x, unscaled_only=unscaled), sorted([(float(g), v) for g, v in zip(grid, vals)] + extra),
-               rel=stop_rel)
+    _refine(lambda x: evaluate(x, unscaled_only=unscaled), sorted([(float(g), v) for g, v in zip(grid, vals)] + extra),
+            best, costly, say, rel=stop_rel)
     return best, runner
 
 

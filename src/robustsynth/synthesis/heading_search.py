@@ -6,6 +6,7 @@ the bounds tried, the linearized set's ranges and what each remedy gave (:func:`
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import replace
 from typing import Any, Callable
 
@@ -14,7 +15,7 @@ import numpy as np
 from ..config import SynthesisConfig
 from ..errors import InfeasibleError, SolverFailure
 from .alpha_search import ALPHA_RANGE, COSTLY_STOP_REL, _motor_pruner, _run_invariance
-from .phase1 import Active, prove_no_set
+from .phase1 import PARALLEL, Active, prove_no_set, screen, settles
 from .runner import _Best, _Runner, _wider_turns
 from .solve import RETRY
 
@@ -153,7 +154,8 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                                 f"near infeasibility{retries}). " + _nonlinear_infeasible(model, common, tried, tried_at, auto))
         from .remedies import try_remedies
 
-        tries = try_remedies(model, lambda m: _first_try(m, given, motor), say)
+        tries = try_remedies(model, lambda m, end: _first_try(m, given, motor, hint=hint, active=active, say=say, deadline=end),
+                             say)
         raise InfeasibleError(_nonlinear_infeasible(model, common, tried, tried_at, auto)
                               + (". Tried (" + "; ".join(tries) + ")" if tries else ""))
     return best, runner
@@ -164,10 +166,12 @@ def _kinematic(s: SynthesisConfig) -> SynthesisConfig:
     return s.model_copy(update={"solver": KINEMATIC_PRIMARY.get(s.solver, s.solver)})
 
 
-def _start(model: Any, s: SynthesisConfig, motor: bool, say: Callable[[str], None]
+def _start(model: Any, s: SynthesisConfig, motor: bool, say: Callable[[str], None], hint: float | None = None
            ) -> tuple[_Best, _Runner, dict[float, float | None]]:
     """The linearized common certificate where a nonlinear search starts (its alpha and heading), the runner of
-    its scan, and its least motor bounds per alpha where proven."""
+    its scan, and its least motor bounds per alpha where proven.  With ``hint`` (a remedy's quick try: the main
+    search's alpha) a walk from it instead of the scan over the whole range, refined while a step gains COSTLY_GAIN
+    (on the issue-51 robot 4-5 solves instead of 14)."""
     lin = model.linearized()
     if model.icr and model.covering_vertices:
         # the icr model's linearized certificate with the covering channels (and the arcs') costs as much as the
@@ -177,7 +181,8 @@ def _start(model: Any, s: SynthesisConfig, motor: bool, say: Callable[[str], Non
     sc = s.model_copy(update={"lyapunov": "common", "kinematics": "linearized"})
     say(f"the linearized common certificate, where the search starts ({len(lin.vertices)} vertices)")
     least: dict[float, float | None] = {}  # alpha -> the linearized LMIs' least motor bound, where proven
-    common, crunner = _run_invariance(lin, sc, [], motor, say, prune=_motor_pruner(lin, sc, least, say=say) if motor else None)
+    common, crunner = _run_invariance(lin, sc, [], motor, say, prune=_motor_pruner(lin, sc, least, say=say) if motor else None,
+                                      alpha_hint=hint, gain_rule=True if hint is not None else None)
     return common, crunner, least
 
 
@@ -190,23 +195,44 @@ def _auto_bounds(common: _Best) -> tuple[float, ...]:
     return tuple(b for b in HEADING_GRID if b >= start) or HEADING_GRID[-1:]
 
 
-def _first_try(model: Any, s: SynthesisConfig, motor: bool) -> dict[str, Any] | None:
-    """A quick search of the nonlinear certificate (remedies): the linearized start, then one solve at its best
-    alpha for each heading bound auto would try, upwards; the certified figures of the first that certifies (a
-    bound the full search reaches or improves on), or None."""
-    common, _, _ = _start(model, s, motor, lambda _m: None)
+def _first_try(model: Any, s: SynthesisConfig, motor: bool, hint: float | None = None, active: Active | None = None,
+               say: Callable[[str], None] = lambda _m: None, deadline: float = math.inf
+               ) -> tuple[dict[str, Any] | None, tuple[float, ...]]:
+    """A quick search of the nonlinear certificate (remedies): the linearized start (a walk from ``hint``, the main
+    search's alpha: a few solves near it, not the scan), then one solve at its best alpha for each heading bound auto
+    would try, upwards: the certified figures of the first that certifies (a bound the full search reaches or improves
+    on), or None, and the heading bounds left untried because ``deadline`` (time.perf_counter) had passed (checked
+    before each bound but the first).  Where the main search needed phase-1 problems (``active``: the vertices that
+    bound them, of a model with as many vertices as this one's), each such solve is first screened by a phase-1 problem
+    at that alpha on those vertices, two bounds at a time (:func:`.phase1.screen`, a fraction of the solve's cost on the
+    issue-51 robot: 10 of 108 vertices); where its t* <= -T_PROVEN the LMIs there have no set within 1 m, and the solve
+    is spared."""
+    common, _, _ = _start(model, s, motor, say, hint=hint)
     if common.cert is None:
-        return None
+        return None, ()
     s = _kinematic(s).model_copy(update={"heading_bound": "auto"})
+    alpha = float(common.cert["alpha"])
+    models = []
     for tb in _auto_bounds(common):
         try:
-            b, _ = _run_invariance(model.with_heading_bound(tb, within_period=s.lyapunov == "common"), s, [], motor,
-                                   alpha_hint=float(common.cert["alpha"]), retry=False, probe_only=True)
+            models.append((tb, model.with_heading_bound(tb, within_period=s.lyapunov == "common")))
         except InfeasibleError:  # below the slip's own turn within a period
             continue
-        if b.cert is not None:
-            return dict(b.check.figures)
-    return None
+    usable = active is not None and bool(active.indices) and all(len(m.vertices) == active.vertices for _, m in models)
+    step = PARALLEL if usable else 1
+    for k in range(0, len(models), step):
+        if k and time.perf_counter() > deadline:
+            return None, tuple(tb for tb, _ in models[k:])
+        chunk = models[k : k + step]
+        ts = screen([m for _, m in chunk], s, motor, alpha, active) if usable else [None] * len(chunk)
+        for (tb, m), t in zip(chunk, ts):
+            if settles(t):
+                say(f"  {tb:g} rad: phase-1 at alpha {alpha:.4g} on {len(active.indices)} vertices, t* = {t:.3g}: no solve")
+                continue
+            b, _ = _run_invariance(m, s, [], motor, say, alpha_hint=alpha, retry=False, probe_only=True)
+            if b.cert is not None:
+                return dict(b.check.figures), ()
+    return None, ()
 
 
 def _heading_room(best: _Best) -> float:

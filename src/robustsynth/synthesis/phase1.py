@@ -28,7 +28,7 @@ from ..model.vertices import TANGENTS
 from .lmis import build_invariance
 from .solve import solve, solve_all
 
-__all__ = ["Phase1", "Active", "prove_no_set", "settles", "PHASE1_BOX", "T_PROVEN", "INTERVALS"]
+__all__ = ["Phase1", "Active", "prove_no_set", "screen", "settles", "PHASE1_BOX", "T_PROVEN", "INTERVALS"]
 
 # X_00, X_11 <= PHASE1_BOX [m^2]: the set {xi' X^-1 xi <= 1} keeps |e_x|, |e_y| <= 1 m (the other states are bounded
 # by the heading and motor rows already); a set larger than that is of no use on a path of metre-scale segments
@@ -86,6 +86,7 @@ class Active:
     relaxation, so a t* < 0 on them is a proof, and a problem on a few vertices is solved in a fraction of the time."""
 
     indices: tuple[int, ...] = ()
+    vertices: int = 0  # how many vertices the models had whose indices these are (a model of another count: none apply)
 
 
 # the vertices kept in the active set: on the d_hi = 3 user robot of issue 51 (32 end vertices, alpha in [0.069, 0.133])
@@ -129,6 +130,7 @@ def prove_no_set(model: Any, s: Any, motor: bool, alpha_range: tuple[float, floa
     w = np.array([s.weights.e_x, s.weights.e_y, s.weights.e_theta])
     active = active if active is not None else Active()
     n_all = len(model.vertices)
+    active.vertices = n_all
     ends = _exact_end_vertices(model)
     copies: dict[tuple[int, ...], list[Any]] = {}  # per vertex subset, its compiled copies (one per interval at once)
     result = Phase1(float(lo), float(hi))
@@ -181,6 +183,25 @@ def prove_no_set(model: Any, s: Any, motor: bool, alpha_range: tuple[float, floa
     settle([(float(a), float(b)) for a, b in zip(edges[:-1], edges[1:])], 1)
     result.seconds = time.perf_counter() - t0
     return result
+
+
+def screen(models: list[Any], s: Any, motor: bool, alpha: float, active: Active) -> list[float | None]:
+    """The phase-1 problem at the single alpha ``alpha`` (the interval [alpha, alpha]) of each of ``models`` (one per
+    heading bound, each with ``active.vertices`` vertices in the order of those that ranked them), on the vertices of
+    ``active`` only, PARALLEL at a time: t* per model (None where the solver failed).  A subset of the vertices is a
+    relaxation, so a t* <= -T_PROVEN says that the model's LMIs at ``alpha`` have no set with |e_x|, |e_y| <=
+    sqrt(PHASE1_BOX): a solve of them there would certify nothing of use (the remedies' quick tries then spare it,
+    :func:`~.heading_search._first_try`).  ``active`` is updated from the duals, as by :func:`prove_no_set`."""
+    w = np.array([s.weights.e_x, s.weights.e_y, s.weights.e_theta])
+    out: list[float | None] = []
+    for k in range(0, len(models), PARALLEL):
+        idx = active.indices
+        lps = [build_invariance(replace(m, vertices=tuple(m.vertices[i] for i in idx)), s.multiplier, s.margin, w, motor,
+                                s.lyapunov, symmetry=False, phase1=PHASE1_BOX) for m in models[k : k + PARALLEL]]
+        ts = _t_stars(lps, [(alpha, alpha)] * len(lps), s.solver)
+        _rank(active, idx, lps, ts)
+        out += [t for t, _ in ts]
+    return out
 
 
 def _rank(active: Active, idx: tuple[int, ...], lps: list[Any], ts: list[tuple[float | None, str]]) -> None:

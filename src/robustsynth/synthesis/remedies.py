@@ -3,8 +3,9 @@
 When the nonlinear-kinematics search ends without a certificate (exit 3), the remedies its message names are
 tried on copies of the config, cheapest first, within a time budget: a slip box half as wide about its centre, a
 bound on the slip's rate, half the reference speed, turns of twice the radius.  Each try is one quick search
-(``first_try``, from :mod:`robustsynth.synthesis.heading_search`: the linearized start, then one solve at its best alpha
-for each of the first two heading bounds auto would try), so a figure it gives is one that ``synthesize`` with
+(``first_try``, from :mod:`robustsynth.synthesis.heading_search`: the linearized start as a walk from the main search's
+alpha, then one solve at its best alpha for each heading bound auto would try, each screened first by a phase-1
+problem on a few vertices where the main search needed those), so a figure it gives is one that ``synthesize`` with
 that change reaches or improves on, and "none at the first try" proves nothing: it says only that this one try
 found no set.  This module does not import the search (it is handed ``first_try``): the search calls it.
 """
@@ -51,11 +52,14 @@ def _merged(base: dict[str, Any], change: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def try_remedies(model: Any, first_try: Callable[[Any], dict[str, Any] | None], say: Callable[[str], None],
-                 budget_s: float = REMEDY_BUDGET_S) -> list[str]:
+def try_remedies(model: Any, first_try: Callable[[Any, float], tuple[dict[str, Any] | None, tuple[float, ...]]],
+                 say: Callable[[str], None], budget_s: float = REMEDY_BUDGET_S) -> list[str]:
     """One line per remedy of :func:`candidates`: the certified |e_y| the quick search found for the robot with it
-    (``first_try(model)``: the certified figures, or None), "none at the first try", why it could not be tried (the
-    config refuses the change, the model cannot be built), or "not tried" once ``budget_s`` is spent."""
+    (``first_try(model, deadline)``: the certified figures or None, and the heading bounds it left untried at the
+    deadline), "none at the first try", why it could not be tried (the config refuses the change, the model cannot be
+    built), or "not tried" once ``budget_s`` is spent.  Each try's deadline is its share of what is left of the budget
+    (what is left over the remedies still to try): a try that is slow, or a machine that is busy, leaves the later
+    remedies their turn; a try checks it before each heading bound but its first."""
     from ..config import config_to_dict, load_config
     from ..errors import RobustSynthError
     from ..model import build_model
@@ -64,18 +68,23 @@ def try_remedies(model: Any, first_try: Callable[[Any], dict[str, Any] | None], 
     base = config_to_dict(cfg)
     lines: list[str] = []
     t0 = time.perf_counter()
-    for what, change in candidates(cfg):
-        if time.perf_counter() - t0 > budget_s:
+    todo = candidates(cfg)
+    for k, (what, change) in enumerate(todo):
+        left = budget_s - (time.perf_counter() - t0)
+        if left <= 0:
             lines.append(f"{what}: not tried (the tries' {budget_s:.0f} s were spent)")
             continue
         say(f"remedy: {what}, a quick search")
         try:
-            figures = first_try(build_model(load_config(_merged(base, change))))
+            figures, untried = first_try(build_model(load_config(_merged(base, change))),
+                                         time.perf_counter() + left / (len(todo) - k))
         except RobustSynthError as exc:  # the change itself is refused (a config error), or found infeasible at once
             lines.append(f"{what}: refused ({exc})")
             continue
         if figures is None:
-            lines.append(f"{what}: none at the first try")
+            lines.append(f"{what}: none at the first try" + (
+                f" (heading bounds {', '.join(f'{b:g}' for b in untried)} rad not tried: its share of the {budget_s:.0f} s "
+                "was spent)" if untried else ""))
         else:
             ub = figures["ultimate_bound"]
             lines.append(f"{what}: proven for the robot, |e_y| <= {100 * ub['e_y']:.2f} cm at the first try "

@@ -1,8 +1,8 @@
 """One compiled LMI problem solved point by point (:class:`_Runner`): every returned point's certificate
 (:func:`_cert_common`) is re-checked by :func:`robustsynth.certificate.check_certificate` before it counts,
 within-period vertices that fail are added to the LMIs (constraint generation), and the attempts, counts
-and times are kept (:class:`_Split`).  Also a problem's size and its estimated solve time, and the words
-the searches' lines and exit messages share."""
+and times are kept (:class:`_Split`).  Also a problem's size (its estimated solve time: :mod:`.cost`), and the
+words the searches' lines and exit messages share."""
 
 from __future__ import annotations
 
@@ -296,22 +296,6 @@ def lmi_count(lp: LMIProblem) -> int:
 
 def lmi_rows(lp: LMIProblem) -> int:
     return max(_lmi_sizes(lp), default=0)
-
-
-# Clarabel's time per iteration grows with the dense blocks its PSD cones put in the KKT system, sum over
-# the LMIs of (r(r+1)/2)^2 for r rows: measured 2.6 s per iteration at 1.23e8 (108 vertices of 45 and 22 rows,
-# d_hi = 3) and 0.81 s at 4.5e7 (40 such vertices), one core busy beside it; ~30 iterations per solve
-SECONDS_PER_KKT_ENTRY = 2e-8
-
-
-ITERATIONS_PER_SOLVE = 30
-
-
-def solve_estimate(lp: LMIProblem) -> float:
-    """A rough time [s] of one Clarabel solve of ``lp`` on a machine like the one the constants were measured on,
-    from its size alone (shown before the first solve: issue 51)."""
-    kkt = sum((r * (r + 1) // 2) ** 2 for r in _lmi_sizes(lp))
-    return SECONDS_PER_KKT_ENTRY * kkt * ITERATIONS_PER_SOLVE
 
 
 def _duration(sec: float) -> str:
