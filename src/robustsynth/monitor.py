@@ -39,7 +39,8 @@ stays within ``noise_sigmas`` standard deviations.
 
 import math
 
-__all__ = ["Monitor", "slip_estimate_bound", "OK", "DELAY", "LOSSES", "SET", "HEADING", "MOTOR", "SLIP", "RATE", "CAUSES", "describe"]
+__all__ = ["Monitor", "slip_estimate_bound", "OK", "DELAY", "LOSSES", "SET", "HEADING", "MOTOR", "SLIP", "RATE", "CAUSES",
+           "describe"]
 
 OK = 0
 DELAY = 1
@@ -135,7 +136,7 @@ def slip_estimate_bound(description):
 
 class Monitor:
     """The monitor of one controller description's certificate (``description["monitor"]``, written by
-    :func:`robustsynth.artifacts.gains.monitor_description`).  One instance per robot; :meth:`step` once per
+    ``robustsynth.artifacts.gains.monitor_description``).  One instance per robot; :meth:`step` once per
     sampling instant, in order."""
 
     def __init__(self, description):
@@ -358,19 +359,20 @@ class Monitor:
     def slip_estimate(self):
         """The tracks' traction now (at the last pose's instant t_k), as far as the poses and the commands that acted
         show it (docs/theory.md §17): a set-membership estimate, sure to contain the true value when the slip stays
-        in its box, moves as ``slip.max_rate`` r allows (|mu(t) - mu(t')| <= r (|t - t'| + Ts): a rate bound, or jumps
-        of at most r Ts no two closer than Ts) and the pose noise stays within its bound.  Each window of the
-        last 1, 2, 4, 8, ... judged periods and the longest bounds ``s = (mu_r + mu_l) / 2`` and ``d = mu_r - mu_l`` by a slab
-        (forward: ``s Vc + d (D/4) Wc``; heading, tracks model only: ``s Wc + d Vc / D``), widened by the noise's,
-        the model's and the rate's allowances; their intersection with the box is a convex polygon in (s, d), whose
-        extremes give mu_r and mu_l.
+        in its box, moves as ``slip.max_rate`` r allows (``|mu(t) - mu(t')| <= r (|t - t'| + Ts)``: a rate bound,
+        or jumps of at most r Ts no two closer than Ts) and the pose noise stays within its bound.  Each window of
+        the last 1, 2, 4, 8, ... judged periods and the longest bounds ``s = (mu_r + mu_l) / 2`` and
+        ``d = mu_r - mu_l`` by a slab (forward: ``s Vc + d (D/4) Wc``; heading, tracks model only:
+        ``s Wc + d Vc / D``), widened by the noise's, the model's and the rate's allowances; their intersection with
+        the box is a convex polygon in (s, d), whose extremes give mu_r and mu_l.
 
         Returns None when the description has no slip ranges (made before); else ``{"t", "windows" (periods
         used), "consistent" (False: no traction in the box explains the window, as the SLIP check says), "ranges"
-        {name: (lo, hi)} (mu_r, mu_l, their mean ``traction`` s and their ``difference`` d; icr: yaw, icr_offset), "estimate" {name: centre}, "bound" {name: half-width}, "observed" {name: narrower than
-        the box}}``.  Without ``slip.max_rate`` the traction now is anywhere in the box (windows 0).  The icr
-        model's yaw factor and x_icr have no rate bound: they stay their box, and so does the traction
-        difference they hide (the heading window bounds yaw x d)."""
+        {name: (lo, hi)} (mu_r, mu_l, their mean ``traction`` s and their ``difference`` d; icr: yaw, icr_offset),
+        "estimate" {name: centre}, "bound" {name: half-width}, "observed" {name: narrower than the box}}``.
+        Without ``slip.max_rate`` the traction now is anywhere in the box (windows 0).  The icr model's yaw factor
+        and x_icr have no rate bound: they stay their box, and so does the traction difference they hide (the
+        heading window bounds yaw x d)."""
         if self.slip_ranges is None:
             return None
         ranges = [tuple(rg) for rg in self.slip_ranges]
