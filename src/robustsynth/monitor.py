@@ -39,7 +39,6 @@ stays within ``noise_sigmas`` standard deviations.
 
 import math
 
-# one line: the Python export leaves it out line by line (runtime/export.py python_module)
 __all__ = ["Monitor", "slip_estimate_bound", "OK", "DELAY", "LOSSES", "SET", "HEADING", "MOTOR", "SLIP", "RATE", "CAUSES", "describe"]
 
 OK = 0

@@ -338,3 +338,12 @@ def test_run_exports_a_gain_whose_verification_passed_and_skips_one_that_failed(
     # a gains.mat beside the gains.json run verified is the same gain
     d, _ = export_controller(tmp_path / "pass" / "gains.mat", "json", tmp_path / "m")
     assert d["proof"]["verification"]["status"] == "passed"
+
+
+def test_the_python_export_leaves_out_the_monitors_docstring_import_and_all_wherever_their_lines_end() -> None:
+    """rs_controller.py takes the monitor's source without its docstring, ``import math`` and ``__all__``, each
+    statement whole (a wrapped ``__all__`` once left its second line behind: an IndentationError in the export)."""
+    from robustsynth.runtime.export import _monitor_body
+
+    src = '"""doc\nstring"""\n\nimport math\n\n__all__ = ["a",\n           "b"]\n\nA = 1\n'
+    assert _monitor_body(src).split() == ["A", "=", "1"]

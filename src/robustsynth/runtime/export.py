@@ -282,6 +282,21 @@ int main(int argc, char **argv)
 """
 
 
+def _monitor_body(src: str) -> str:
+    """The monitor module's source without its docstring, its ``import math`` and its ``__all__`` (each statement
+    whole, wherever its lines end: found by ``ast``), for rs_controller.py, where the law's header has them."""
+    import ast
+
+    drop: set[int] = set()
+    body = ast.parse(src).body
+    for k, node in enumerate(body):
+        doc = k == 0 and isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant)
+        names = [t.id for t in getattr(node, "targets", []) if isinstance(t, ast.Name)]
+        if doc or isinstance(node, ast.Import) or "__all__" in names:
+            drop.update(range(node.lineno, (node.end_lineno or node.lineno) + 1))
+    return "\n".join(ln for k, ln in enumerate(src.splitlines(), 1) if k not in drop)
+
+
 def python_module(d: dict[str, Any]) -> bytes:
     """rs_controller.py: :mod:`.law` verbatim, then :mod:`.monitor` (without its docstring, its ``import math``
     and its ``__all__``; its helpers are named apart from the law's), then ``DESCRIPTION`` and ``Controller()``
@@ -293,8 +308,7 @@ def python_module(d: dict[str, Any]) -> bytes:
            '``m = Monitor()`` and ``status, (V, omega) = m.step(t, x, y, theta, c.state, (V, omega), seq, reports)``\n' \
            '(robustsynth.monitor: the certificate\'s assumptions watched every period)."""\n\n'
     body = src.split('"""', 2)[2].lstrip("\n")  # the law without its module docstring
-    mon = pkg.joinpath("monitor.py").read_text(encoding="utf-8").split('"""', 2)[2]
-    mon = "\n".join(ln for ln in mon.splitlines() if ln != "import math" and not ln.startswith("__all__ = "))
+    mon = _monitor_body(pkg.joinpath("monitor.py").read_text(encoding="utf-8"))
     tail = (
         "\n\n# ---------------------------------------------------------------- the runtime monitor (robustsynth.monitor)\n"
         + mon.strip("\n") + "\n"
