@@ -83,11 +83,12 @@ def _mon_range(mid, rad, c, a):
 def _mon_clip(poly, a, b, c):
     """The part of the convex polygon ``poly`` (vertices in order) where ``a x + b y <= c`` (Sutherland-Hodgman,
     one edge): a convex polygon again, empty where none of it is."""
+    f = [a * P[0] + b * P[1] - c for P in poly]  # each vertex's side, once
+    if all(v <= 0.0 for v in f):
+        return poly  # wholly inside: unchanged
     out = []
     for i in range(len(poly)):
-        P, Q = poly[i - 1], poly[i]
-        fp = a * P[0] + b * P[1] - c
-        fq = a * Q[0] + b * Q[1] - c
+        P, Q, fp, fq = poly[i - 1], poly[i], f[i - 1], f[i]
         if (fp <= 0.0) != (fq <= 0.0):  # the edge crosses the line
             t = fp / (fp - fq)
             out.append((P[0] + t * (Q[0] - P[0]), P[1] + t * (Q[1] - P[1])))

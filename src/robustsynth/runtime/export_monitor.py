@@ -636,14 +636,22 @@ def _c_estimate() -> str:
     """rs_monitor_slip_estimate (Monitor.slip_estimate and _estimate_windows, the same operations in the same order):
     the box as a polygon in (s, d), clipped by every window's forward (and, tracks model, heading) slab; clip_ is
     _mon_clip."""
-    return """/* the part of the convex polygon in[0 .. n-1] where a x + b y <= c (Python's _mon_clip), into out; its size */
+    return """#define RS_MON_POLY (8 + 4 * RS_MON_WINDOW) /* the box's 4 vertices, at most one more per half-plane */
+
+/* the part of the convex polygon in[0 .. n-1] where a x + b y <= c (Python's _mon_clip), into out; its size
+   (-1: wholly inside, out untouched: the polygon is in[] as it was) */
 static int clip_(double (*in)[2], int n, double (*out)[2], double a, double b, double c)
 {
-    int i, k = 0;
+    double f[RS_MON_POLY];
+    int i, k = 0, inside = 1;
+    for (i = 0; i < n; ++i) { /* each vertex's side, once */
+        f[i] = a * in[i][0] + b * in[i][1] - c;
+        inside = inside && f[i] <= 0.0;
+    }
+    if (inside) return -1;
     for (i = 0; i < n; ++i) {
         const double *P = in[i == 0 ? n - 1 : i - 1], *Q = in[i];
-        double fp = a * P[0] + b * P[1] - c;
-        double fq = a * Q[0] + b * Q[1] - c;
+        double fp = f[i == 0 ? n - 1 : i - 1], fq = f[i];
         if ((fp <= 0.0) != (fq <= 0.0)) { /* the edge crosses the line */
             double t = fp / (fp - fq);
             out[k][0] = P[0] + t * (Q[0] - P[0]);
@@ -655,11 +663,20 @@ static int clip_(double (*in)[2], int n, double (*out)[2], double a, double b, d
     return k;
 }
 
-#define RS_MON_POLY (8 + 4 * RS_MON_WINDOW) /* the box's 4 vertices, at most one more per half-plane */
+
+/* the polygon (*cur)[0 .. n-1] cut by a x + b y <= c: clipped into *spare, then the two swap; its size */
+static int cut_(double (**cur)[2], double (**spare)[2], int n, double a, double b, double c)
+{
+    double (*t)[2];
+    int k = clip_(*cur, n, *spare, a, b, c);
+    if (k < 0) return n; /* wholly inside: unchanged */
+    t = *cur; *cur = *spare; *spare = t;
+    return k;
+}
 
 int rs_monitor_slip_estimate(const rs_monitor_t *m, double lo[6], double hi[6], int *windows)
 {
-    double A[RS_MON_POLY][2], B[RS_MON_POLY][2], r[4], l[4], box_lo[4], box_hi[4];
+    double A[RS_MON_POLY][2], B[RS_MON_POLY][2], (*P)[2] = A, (*Q)[2] = B, r[4], l[4], box_lo[4], box_hi[4];
     double S = 0.0, TH = 0.0, Vc = 0.0, Wc = 0.0, Va = 0.0, Wa = 0.0, travel = 0.0, turned = 0.0, turns = 0.0;
     double MV = 0.0, MW = 0.0, q = D_ / 4.0;
     int n = 4, i, j, np = m->n_periods;
@@ -685,12 +702,12 @@ int rs_monitor_slip_estimate(const rs_monitor_t *m, double lo[6], double hi[6], 
             e = planar_(turns, travel) + rv + 2.0 * q * rw;
             /* the windows of 1, 2, 4, 8, ... periods and the longest judged one */
             if (((j + 1) & j) == 0 || j + 1 == np || m->period[(m->period_first + np - 2 - j) % RS_MON_WINDOW][7] != 0.0) {
-                n = clip_(A, n, B, Vc, q * Wc, S + e);
-                n = clip_(B, n, A, -Vc, -(q * Wc), e - S);
+                n = cut_(&P, &Q, n, Vc, q * Wc, S + e);
+                n = cut_(&P, &Q, n, -Vc, -(q * Wc), e - S);
                 if (TRACKS_MODEL) {
                     double a = Wc, b = Vc / D_, err = 2.0 * HEAD_NOISE + MODEL_TOL * turned + rw + 2.0 * rv / D_;
-                    n = clip_(A, n, B, a, b, TH + err);
-                    n = clip_(B, n, A, -a, -b, err - TH);
+                    n = cut_(&P, &Q, n, a, b, TH + err);
+                    n = cut_(&P, &Q, n, -a, -b, err - TH);
                 }
             }
             *windows = j + 1;
@@ -698,15 +715,15 @@ int rs_monitor_slip_estimate(const rs_monitor_t *m, double lo[6], double hi[6], 
         }
     }
     if (n == 0) return 0;
-    lo[0] = hi[0] = A[0][0] + A[0][1] / 2.0;
-    lo[1] = hi[1] = A[0][0] - A[0][1] / 2.0;
-    lo[2] = hi[2] = A[0][0];
-    lo[3] = hi[3] = A[0][1];
+    lo[0] = hi[0] = P[0][0] + P[0][1] / 2.0;
+    lo[1] = hi[1] = P[0][0] - P[0][1] / 2.0;
+    lo[2] = hi[2] = P[0][0];
+    lo[3] = hi[3] = P[0][1];
     for (i = 1; i < n; ++i) {
-        lo[0] = min_(lo[0], A[i][0] + A[i][1] / 2.0); hi[0] = max_(hi[0], A[i][0] + A[i][1] / 2.0);
-        lo[1] = min_(lo[1], A[i][0] - A[i][1] / 2.0); hi[1] = max_(hi[1], A[i][0] - A[i][1] / 2.0);
-        lo[2] = min_(lo[2], A[i][0]); hi[2] = max_(hi[2], A[i][0]);
-        lo[3] = min_(lo[3], A[i][1]); hi[3] = max_(hi[3], A[i][1]);
+        lo[0] = min_(lo[0], P[i][0] + P[i][1] / 2.0); hi[0] = max_(hi[0], P[i][0] + P[i][1] / 2.0);
+        lo[1] = min_(lo[1], P[i][0] - P[i][1] / 2.0); hi[1] = max_(hi[1], P[i][0] - P[i][1] / 2.0);
+        lo[2] = min_(lo[2], P[i][0]); hi[2] = max_(hi[2], P[i][0]);
+        lo[3] = min_(lo[3], P[i][1]); hi[3] = max_(hi[3], P[i][1]);
     }
     box_lo[0] = SLIP_LO[0]; box_hi[0] = SLIP_HI[0]; box_lo[1] = SLIP_LO[1]; box_hi[1] = SLIP_HI[1];
     box_lo[2] = (SLIP_LO[0] + SLIP_LO[1]) / 2.0; box_hi[2] = (SLIP_HI[0] + SLIP_HI[1]) / 2.0;
