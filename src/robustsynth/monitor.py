@@ -400,6 +400,12 @@ class Monitor:
                 "bound": {k: (hi - lo) / 2.0 for k, (lo, hi) in out.items()},
                 "observed": {k: hi - lo < (box[k][1] - box[k][0]) * (1.0 - 1e-9) for k, (lo, hi) in out.items()}}
 
+    @property
+    def estimate_names(self):
+        """The parameters :meth:`slip_estimate` gives ranges of, in the order the C estimate and the ROS 2 topic use:
+        mu_r, mu_l, their mean and difference, and on the icr model its yaw factor and x_icr."""
+        return ("mu_r", "mu_l", "traction", "difference") + (("yaw", "icr_offset") if self.slip_model == "icr" else ())
+
     def _estimate_windows(self, poly):
         """``poly`` clipped by the slabs of every window of the last 1 ... len(periods) judged periods (newest
         first; :meth:`slip_estimate`).  Returns the polygon and the number of periods used."""

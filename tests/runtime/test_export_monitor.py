@@ -89,8 +89,7 @@ def _estimate(mon: Monitor):
     e = mon.slip_estimate()
     if e is None:
         return None
-    names = ("mu_r", "mu_l", "traction", "difference", "yaw", "icr_offset")[:2 + len(mon.slip_ranges)]
-    return [int(e["consistent"]), e["windows"]] + [v for k in names for v in e["ranges"].get(k, (0.0, 0.0))]
+    return [int(e["consistent"]), e["windows"]] + [v for k in mon.estimate_names for v in e["ranges"].get(k, (0.0, 0.0))]
 
 
 @pytest.mark.parametrize("name", CONFIGS)

@@ -81,11 +81,14 @@ def estimate_summary(estimates: list[Any]) -> dict[str, Any]:
     return out
 
 
-def monitor_logs(logs: list[Any], description: dict[str, Any], estimate: bool = False) -> dict[str, Any]:
+def monitor_logs(logs: list[Any], description: dict[str, Any], estimate: bool | None = None) -> dict[str, Any]:
     """:func:`monitor_log` of each log, and the totals: runs with an alarm, alarm periods per cause, the first
     alarm of each cause (log and period), and each log's first alarm (``first_per_log``: period and causes, or None).
     ``estimate``: also the slip estimates of every period, summed up in ``slip_estimate`` (:func:`estimate_summary`)
-    and, per run, its last one (``last_estimate``)."""
+    and, per run, its last one (``last_estimate``); None: where the description has slip.max_rate (without, the
+    estimate is the box)."""
+    if estimate is None:
+        estimate = description["monitor"].get("max_rate") is not None
     runs = [monitor_log(lg, description, estimate=estimate) for lg in logs]
     summary = {}
     if estimate:
@@ -118,7 +121,7 @@ def monitor_summary(logs: list[Any], gains: dict[str, Any], config: Any) -> dict
         return None
     if not desc.get("monitor"):
         return None
-    res = monitor_logs(logs, desc, estimate=desc["monitor"].get("max_rate") is not None)
+    res = monitor_logs(logs, desc)
     keys = ("logs", "runs_with_alarms", "alarm_periods", "fallback_engaged", "first", "first_per_log", "slip_estimate")
     return {**{k: res[k] for k in keys if k in res}, "detects": desc["monitor"]["detects"]}
 
@@ -143,7 +146,7 @@ def monitor_files(log_paths: list[Any], gains_path: Any, config: Any = None, out
     if not description.get("monitor"):
         raise InputError(f"{gains_path}: certificate: no certified set (P, ellipsoid_level) to monitor against")
     logs = [read_log(p) for p in log_paths]
-    out = monitor_logs(logs, description, estimate=description["monitor"].get("max_rate") is not None)
+    out = monitor_logs(logs, description)
     out.update({"gains": str(gains_path), "gains_id": gains.get("gains_id"), "config": cfg.name,
                 "monitor": description["monitor"]})
     if outdir is not None:

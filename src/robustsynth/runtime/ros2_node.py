@@ -74,9 +74,8 @@ class Loop:
         if self.monitor.max_rate is None or self.monitor.slip_ranges is None:
             return None
         e = self.monitor.slip_estimate()
-        names = ("mu_r", "mu_l", "traction", "difference", "yaw", "icr_offset")[:2 + len(self.monitor.slip_ranges)]
         return [1.0 if e["consistent"] else 0.0, float(e["windows"])] + [
-            float(v) for k in names for v in e["ranges"].get(k, (math.nan, math.nan))]
+            float(v) for k in self.monitor.estimate_names for v in e["ranges"].get(k, (math.nan, math.nan))]
 
 
 def main(args=None):  # pragma: no cover - needs ROS 2 (rclpy), which the tests do not install
