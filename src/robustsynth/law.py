@@ -38,7 +38,7 @@ for the icr slip model the command that makes the slip box's centre turn at w_k)
 import math
 from bisect import bisect_right
 
-__all__ = ["PathTable", "Law", "Controller", "segment_at", "turn_shape", "tangent_length", "frame_error", "wrap_angle",
+__all__ = ["PathTable", "Law", "Controller", "Compensator", "compensate", "segment_at", "turn_shape", "tangent_length", "frame_error", "wrap_angle",
            "SEGMENT_EPS", "sample_at", "advance", "reference_at", "yaw_rate"]
 
 SEGMENT_EPS = 1e-12  # [s] an instant within this of a waypoint time belongs to the new segment
@@ -292,6 +292,89 @@ def frame_error(path, seg, t, x, y, theta):
     dy = y - path.y0[seg]
     return (c * dx + s * dy - path.speed * (t - path.t_start[seg]), -s * dx + c * dy,
             wrap_angle(theta - path.heading[seg]))
+
+
+def compensate(v_hat, omega_hat, mu_r, mu_l, half_D):
+    """The command whose tracks turn at the law's track speeds divided by the tractions ``mu_r``, ``mu_l`` it expects
+    (the slip-compensated law, docs/theory.md §18): a track with traction mu then moves at mu / mu_hat times the
+    law's speed.  ``half_D`` is half the track distance.  Floats or numpy arrays (the same operations in order)."""
+    vr = (v_hat + omega_hat * half_D) / mu_r
+    vl = (v_hat - omega_hat * half_D) / mu_l
+    return (vr + vl) * 0.5, (vr - vl) / (half_D + half_D)
+
+
+class Compensator:
+    """The slip-compensated law's own part (docs/theory.md §18), beside a monitor of the same description: each
+    period, after the monitor's check at t_k, :meth:`update` takes its slip estimate
+    (``robustsynth.monitor.Monitor.slip_estimate``) and :meth:`command` divides the law's command's track speeds by
+    the estimated tractions (the estimate's centres, inside the box; the box's centre before the first estimate,
+    the last consistent one's after an inconsistent period).
+
+    ``holds``: the condition the certificate assumes is sure to hold for the command about to be sent (given the
+    estimate's own assumptions): the estimate consistent and, for each track, its half-width plus ``lag`` (what
+    slip.max_rate lets the traction move while the command acts) at most ``error``.  ``covered``: it held for this
+    command and the d_hi before it, every command that can act until the next sampling instant.  ``margin``: error
+    less the worse track's half-width + lag (None without an estimate)."""
+
+    def __init__(self, description):
+        c = description.get("compensation")
+        if not c:
+            raise ValueError("this controller description has no slip compensation")
+        self.error, self.lag = float(c["error"]), float(c["lag"])
+        self.half_D = float(description["track_distance"]) / 2.0
+        self.d_hi = int(description["d_hi"])  # a command acts within this many periods after its own
+        (r_lo, r_hi), (l_lo, l_hi) = c["box"][0], c["box"][1]
+        self.centre = ((float(r_lo) + float(r_hi)) / 2.0, (float(l_lo) + float(l_hi)) / 2.0)
+        self.reset()
+
+    def reset(self):
+        """The box's centre as the estimate, the condition not (yet) known to hold."""
+        self.mu = self.centre
+        self.holds = False
+        self.margin = None
+        self.wait = self.d_hi + 1
+
+    def update(self, estimate):
+        """Take the monitor's slip estimate of this period; returns :attr:`covered`: whether the condition held for
+        every command that can act until the next sampling instant (this one and the d_hi before it), i.e. whether the
+        certificate's claims apply to the next state.  :attr:`holds`: the condition for this period's command."""
+        if estimate is None or not estimate["consistent"] or not estimate["windows"]:
+            self.holds, self.margin = False, None
+        else:
+            centre, half = estimate["estimate"], estimate["bound"]
+            self.mu = (centre["mu_r"], centre["mu_l"])
+            self.margin = self.error - (max(half["mu_r"], half["mu_l"]) + self.lag)
+            self.holds = self.margin >= 0.0
+        # periods until every command that can act was compensated under the condition
+        self.wait = max(self.wait - 1, 0) if self.holds else self.d_hi + 1
+        return self.covered
+
+    @property
+    def covered(self):
+        """The condition held for this period's command and the d_hi before it (the certificate's claims apply to the
+        state at the next sampling instant, when they applied to this one)."""
+        return self.wait == 0
+
+    def command(self, command):
+        """The compensated command (V_hat, omega_hat) for the law's ``command``."""
+        return compensate(command[0], command[1], self.mu[0], self.mu[1], self.half_D)
+
+    def step(self, controller, monitor, t, x, y, theta, seq, reports=()):
+        """One period of the compensated law for one robot, with its :class:`Controller` and its monitor
+        (``robustsynth.monitor.Monitor`` of the same description): the law's command for the pose measured at
+        t_k, the monitor's check of it (its MOTOR check is the certificate's limit on this uncompensated command),
+        the slip estimate taken (where the condition is not sure to have held for every command that can act until
+        the next instant, the monitor's set checks are suspended until the state is seen inside again: the theorem
+        claims nothing of the next state), the command compensated (or the fallback's, once engaged) and registered as sent
+        with sequence number ``seq``.  Returns (status, command to send); :attr:`holds` says whether the
+        certificate's condition is sure to hold for it."""
+        command = controller.step(t, x, y, theta)
+        status = monitor.check(t, x, y, theta, controller.state, command, reports)
+        if not self.update(monitor.slip_estimate()):
+            monitor.suspend()  # the set's claims do not cover the next state
+        out = monitor.fallback_command(self.command(command))
+        monitor.sent(seq, t, out)
+        return status, out
 
 
 def _dot(row, xi):

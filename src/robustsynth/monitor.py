@@ -162,6 +162,10 @@ class Monitor:
         # a path without turns: the error jumps at each waypoint (its segments' start times re-arm the set check)
         self.segment_starts = [float(v) for v in m["segment_starts"]]
         self.rho_limit = m.get("rho_limit")
+        # the motors' own limit, beyond which a command that acted did not become motion as commanded (the slip
+        # check and estimate leave such periods out); a compensated law's MOTOR check is the certificate's lower
+        # limit on the uncompensated command (docs/theory.md §18), its motors still turn up to this
+        self.saturation_limit = m.get("saturation_limit", self.rho_limit)
         self.window = int(m["window"])
         self.components = [(float(lo), float(hi)) for lo, hi in m["components"]]  # s, d, ys, yd, xs, xd
         self.comp_mid = [(lo + hi) / 2.0 for lo, hi in self.components]  # their centres and radii
@@ -220,7 +224,8 @@ class Monitor:
                 status |= DELAY
                 amounts["delay"] = max(amounts.get("delay", 0.0), excess)
             self.last_applied = max(self.last_applied, applied)
-            self.schedule.append((applied, v, w, self.rho_limit is not None and self._rho(v, w) > self.rho_limit))
+            self.schedule.append((applied, v, w, self.saturation_limit is not None
+                                  and self._rho(v, w) > self.saturation_limit))
             self.schedule.sort(key=lambda e: e[0])
             if not late:
                 self.lost_run = 0
@@ -483,6 +488,12 @@ class Monitor:
         else:
             self.alarm_run = 0
         return status
+
+    def suspend(self):
+        """The certificate's claims on the set do not apply to the command about to be sent (a slip-compensated law
+        whose estimate is not sure to be within its error, docs/theory.md §18): the SET, HEADING and MOTOR checks wait
+        until the state is seen inside the set again, as after a waypoint."""
+        self.inside = False
 
     def fallback_command(self, command):
         """The command to send: ``command`` (the law's), or once the fallback is engaged: stop (0, 0), hold (the

@@ -153,7 +153,7 @@ def synthesis_stage(model: Model, outdir: str | Path, compare: bool = True,
     from .synthesis.diagnose import is_large
 
     outdir = make_dir(outdir)
-    cleared = clear_foreign(outdir, model.config)
+    cleared = clear_foreign(outdir, model.user_config)
     try:
         result = synthesize(model, on_step=on_step, **overrides)
     except RobustSynthError as exc:
@@ -339,7 +339,7 @@ def _observed_slip(model: Model, logs: list) -> dict[str, Any]:
     from .errors import InputError
     from .identification import identify
 
-    cfg = model.config
+    cfg = model.user_config
     if cfg.slip.model == "icr":  # closed-loop episodes turn little: the icr fit needs excitation (and a noise model)
         return {"estimated": None, "reason": "slip.model icr: the closed-loop episodes say little about the yaw factor "
                 "and x_icr; run validate --excite and identify --model icr on its logs"}

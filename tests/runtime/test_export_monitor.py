@@ -28,7 +28,9 @@ pytestmark = pytest.mark.skipif(CC is None, reason="no C compiler")
 CONFIGS = ("default", "icr-physics", "nonlinear-proof")  # arcs and icr; a polyline and icr; a polyline and tracks
 # every committed robot gain with a certified set (make test-slow), 10 000 periods or more each
 ALL = tuple(sorted(p.parent.name for p in (ROOT / "results" / "baselines").glob("*/gains.json")
-                   if "ellipsoid_level" in p.read_text() and "\"kind\": \"lti\"" not in p.read_text()))
+                   if "ellipsoid_level" in p.read_text() and "\"kind\": \"lti\"" not in p.read_text()
+                   # the slip-compensated law has no C99 form yet (tests/runtime/test_export.py: refused)
+                   and "\"compensation\": {" not in p.read_text()))
 LONG = 10_000  # periods replayed per gain in the slow run
 
 

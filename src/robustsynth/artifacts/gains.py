@@ -98,7 +98,7 @@ def gains_dict(model: Any, result: Any) -> dict[str, Any]:
     out = {
         "schema_version": SCHEMA_VERSION,
         "robustsynth_version": __version__,
-        "config": config_to_dict(model.config),
+        "config": config_to_dict(model.user_config),
         "K": result.K,
         "state_names": list(model.state_names),
         "input_names": list(model.input_names),
@@ -109,6 +109,8 @@ def gains_dict(model: Any, result: Any) -> dict[str, Any]:
         "solver": {k: result.solver[k] for k in ("name", "version", "status", "iterations", "solve_time_s", "fallback_used")},
         "notes": list(result.notes),
     }
+    if model.compensation is not None:  # the slip-compensated law: its certificate is on the ratio box (theory §18)
+        out["compensation"] = model.compensation.to_dict()
     over = _overrides(model.config, result)
     if over:  # made with settings other than the config's: "synthesis.<key>" -> the value used
         out["synthesis_overrides"] = {f"synthesis.{k}": v for k, v in over.items()}
@@ -380,6 +382,10 @@ def controller_description(gains: dict[str, Any], config: Any | None = None) -> 
             raise InputError(f"reference.turn_radius: {r_cfg!r} in the config, but the gain was certified for "
                              + ("straight segments only (null)" if r_gain is None else f"arcs of {r_gain!r} m and wider "
                                 "(a path that jumps at its waypoints is not what it was verified on)"))
+        if (base.slip.compensation is None) != (cfg.slip.compensation is None):
+            raise InputError("slip.compensation: " + ("none in the config, but the gain was certified for the "
+                             "slip-compensated law" if cfg.slip.compensation is None else "set in the config, but the "
+                             "gain was certified without it") + " (the law would not be the one verified)")
         # eased turns: a shorter ramp steps the yaw rate by more than the certificate covers
         ramp_gain, ramp_cfg = base.reference.turn_ramp, cfg.reference.turn_ramp
         if r_gain is not None and ramp_gain is not None and (ramp_cfg or 0.0) < ramp_gain:
@@ -419,7 +425,31 @@ def controller_description(gains: dict[str, Any], config: Any | None = None) -> 
         "max_motor_speed": rob.max_motor_speed,
         "certified": gains.get("certified"),
         "monitor": monitor_description(gains, cfg),
+        "compensation": _compensation_description(gains, cfg),
     }
+
+
+def _compensation_description(gains: dict[str, Any], config: Any) -> dict[str, Any] | None:
+    """The slip-compensated law's part of a controller description (law.Compensator; docs/theory.md §18): the
+    estimate error its certificate assumes (the gain's), what slip.max_rate lets the traction move while a command
+    acts (``lag``, from ``config``) and the true slip box the estimate is clamped to.  None: no compensation."""
+    if config.slip.compensation is None:
+        return None
+    from ..model.compensation import compensation_of
+
+    comp = compensation_of(config)
+    certified = (gains.get("compensation") or {}).get("error")
+    return {"error": float(certified if certified is not None else comp.error), "lag": float(comp.bound["lag"]),
+            "box": [[float(config.slip.right.min), float(config.slip.right.max)],
+                    [float(config.slip.left.min), float(config.slip.left.max)]]}
+
+
+def _certificate_motor_limit(config: Any) -> float | None:
+    if config.slip.compensation is None:
+        return config.robot.max_motor_speed
+    from ..model.compensation import compensation_of
+
+    return compensation_of(config).max_motor_speed
 
 
 def monitor_description(gains: dict[str, Any], config: Any) -> dict[str, Any] | None:
@@ -459,7 +489,10 @@ def monitor_description(gains: dict[str, Any], config: Any) -> dict[str, Any] | 
         "segment_starts": [] if config.reference.turn_radius is not None else
         [float(v) for v in PathTable(config.reference.path, config.reference.speed).t_start],
         "set_entry": float(max(np.sqrt(level) - shift, 0.0) ** 2),
-        "rho_limit": config.robot.max_motor_speed,
+        # a compensated law: the MOTOR check is the certificate's limit on the uncompensated command (rho_max lo),
+        # while the motors saturate at rho_max (docs/theory.md §18)
+        "rho_limit": _certificate_motor_limit(config),
+        "saturation_limit": config.robot.max_motor_speed,
         "window": mon.window, "components": comp.tolist(), "position_noise": float(a), "heading_noise": float(b),
         "model_tol": mon.model_tol, "fallback": mon.fallback, "persistence": mon.persistence,
         "slow_factor": mon.slow_factor,

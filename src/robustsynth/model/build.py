@@ -10,6 +10,7 @@ import numpy as np
 
 from ..config import Config
 from ..errors import ConfigError
+from .compensation import certificate_config, compensation_of
 from .kinematics import J_inverse, J_matrix
 from .lifting import delay_indices, instant_ranges, lift
 from .linearize import Gamma, Gamma_D, Phi, continuous_matrices
@@ -106,6 +107,9 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
     from ..config import refuse_lti
 
     refuse_lti(config, "build_model")
+    comp = compensation_of(config)
+    if comp is not None:  # the compensated law: certified on the ratio box (model/compensation.py)
+        return replace(build_model(certificate_config(config, comp), min_lifting), compensation=comp)
     nominal = _nominal_model(config, min_lifting)
     if nominal.kind == "paper":
         delays = _Delays("norm-bounded")

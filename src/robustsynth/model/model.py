@@ -175,6 +175,15 @@ class Model:
     delay_uncertain: tuple = ()
     delay_cover_h: Any = field(default=None, repr=False)
     delay_combos: tuple = field(default=(), repr=False)
+    # the slip-compensated law (model/compensation.py, docs/theory.md §18): ``config`` is then the certificate's
+    # (the ratio box), and this holds the user's config, the estimate error and the ratio box; None: uncompensated
+    compensation: Any = None
+
+    @property
+    def user_config(self) -> Config:
+        """The config as the user wrote it: ``config`` itself, or for a compensated law the one with the true slip
+        box (``config`` is then the certificate's, docs/theory.md §18)."""
+        return self.config if self.compensation is None else self.compensation.config
 
     @property
     def kinematics(self) -> str:

@@ -82,7 +82,29 @@ def robot_certified(gains: Mapping[str, Any]) -> str:
         parts.append(f"l2 gain {c['hinf_gain']:.4g}")
     if gains.get("certificate", {}).get("kinematics") == "nonlinear":
         parts.append(f"for the nonlinear robot (|e_theta(t)| <= {gains['certificate']['heading_bound']:g} rad)")
-    return " ".join(parts[:1]) + " " + ", ".join(parts[1:])
+    line = " ".join(parts[:1]) + " " + ", ".join(parts[1:])
+    comp = gains.get("compensation")
+    if comp:  # the slip-compensated law: a conditional claim (docs/theory.md §18)
+        line += (f"; slip-compensated law, while each track's traction is within {comp['error']:.4g} of the estimate "
+                 f"(ratio box [{comp['ratio_right'][0]:.4f}, {comp['ratio_right'][1]:.4f}], motors at "
+                 f"{comp['certificate_max_motor_speed']:.3g} rad/s before compensation)")
+    return line
+
+
+def compensated_line(rec: Mapping[str, Any] | None) -> str | None:
+    """verify's record of the slip-compensated law on the true robot (verification/compensated.py), one line."""
+    if not rec or rec.get("skipped"):
+        return None
+    first = rec["condition_first_period"]
+    ratios = ", ".join(f"{k} {v:.3f}" for k, v in rec["ratio_to_certified"].items())
+    box = ", ".join(f"{k} [{lo:g}, {hi:g}]" for k, (lo, hi) in zip(("mu_r", "mu_l"), rec["true_box"]))
+    return (f"slip compensation, estimator in the loop ({rec['runs']} runs, true slip {box} moving at "
+            f"{rec['max_rate']:g} /s): the condition (half-width + lag <= {rec['error']:.4g}) held in "
+            f"{100 * rec['condition_held_share']:.1f} % of the periods (first at period {first['median']:g}, median); "
+            f"where it held the robot left its set on {rec['steps_leaving_the_set']} of {rec['steps_judged']} steps "
+            f"(max V/level {rec['max_V_over_level_judged']:.3f}), observed / certified {ratios}; where it did not "
+            f"(mostly the estimator's first periods) it reached V/level {rec['max_V_over_level_all']:.2f}, |e_x| "
+            f"{100 * rec['max_all']['e_x']:.2f} cm, |e_y| {100 * rec['max_all']['e_y']:.2f} cm")
 
 
 def _diagnosis(diagnosis: Sequence[Any] | None) -> list[str]:
@@ -165,6 +187,9 @@ def robot_checks(result: Any, cfg: Any) -> list[str]:
     leaves = robot_leaves(mc, cfg)
     if leaves:
         lines.append(leaves)
+    comp = compensated_line(mc.get("compensated"))
+    if comp:
+        lines.append(comp)
     turns = mc.get("turns") or []
     bad = [t for t in turns if not t["certified"]]
     if turns and all(t.get("note", "").startswith("along an arc") for t in turns):  # reference.turn_radius

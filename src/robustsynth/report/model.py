@@ -63,7 +63,7 @@ def model_dict(model: Model, coverage: dict[str, Any]) -> dict[str, Any]:
     return {
         "schema_version": SCHEMA_VERSION,
         "robustsynth_version": __version__,
-        "config": config_to_dict(model.config),
+        "config": config_to_dict(model.user_config),
         "dimensions": {"n_e": model.n_e, "n_u": model.n_u, "n_s": model.n_s, "d_lo": model.d_lo, "d_hi": model.d_hi},
         "state_names": list(model.state_names),
         "input_names": list(model.input_names),

@@ -24,7 +24,7 @@ def verification_dict(model: Any, res: Any, gains_file: str, gid: str) -> dict[s
         "passed": res.passed,
         "gains_file": gains_file,
         "gains_id": gid,
-        "config": config_to_dict(model.config),
+        "config": config_to_dict(model.user_config),
         "certified": res.certificate.figures if res.certificate.passed else None,
         "checks": list(res.checks),
         "frozen": fr,
@@ -144,8 +144,41 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
         out.append(_boundary_text(mc["boundary_probe"]))
     out += [_dropouts_text(mc.get("dropouts")), _beyond_cap_text(mc.get("beyond_cap"), cfg),
             _steady_state_text(mc.get("steady_state")), _whole_runs_text(mc, cfg), _exceeds_text(mc),
-            monitor_markdown(mc.get("monitor"))]
+            monitor_markdown(mc.get("monitor")), compensated_markdown(mc.get("compensated"))]
     return "".join(out)
+
+
+def compensated_markdown(rec: dict[str, Any] | None) -> str:
+    """The slip-compensated law on the true robot (verification/compensated.py, docs/theory.md §18)."""
+    if not rec:
+        return ""
+    if rec.get("skipped"):
+        return f"\n## The slip-compensated law on the true slip\n\nNot run: {rec['skipped']}.\n"
+    box = ", ".join(f"{k} in [{lo:g}, {hi:g}]" for k, (lo, hi) in zip(("mu_r", "mu_l"), rec["true_box"]))
+    first = rec["condition_first_period"]
+    rows = [[k, fmt(100 * rec["max_on_set"][k] if k != "e_theta" else rec["max_on_set"][k]),
+             fmt(rec["ratio_to_certified"][k], 3),
+             fmt(100 * rec["max_all"][k] if k != "e_theta" else rec["max_all"][k])] for k in ("e_x", "e_y", "e_theta")]
+    return ("\n## The slip-compensated law on the true slip\n\n"
+            "The runs above are the robot under the certificate's condition: their slip is the ratio mu / mu_hat, in "
+            f"[{rec['ratio_box'][0][0]:.4f}, {rec['ratio_box'][0][1]:.4f}] per track. These "
+            f"{rec['runs']} runs (seed {rec['seed']}, {rec['steps']} steps) close the loop on the true slip ({box}, "
+            f"moving at {rec['max_rate']:g} /s, each track changing at its own time within the period) with each run's "
+            "monitor estimating it and the law dividing each track's command by the estimate (docs/theory.md §18). "
+            f"They start {rec['start']}.\n\n"
+            f"The condition (each track's half-width + lag {rec['lag']:.4g} <= error {rec['error']:.4g}) held in "
+            f"{100 * rec['condition_held_share']:.1f} % of the periods; it first held at period {first['median']:g} "
+            f"(median; latest {first['max']}; runs in which it never held: {first['runs_never']}); median margin "
+            f"{fmt(rec['margin_median'])}. Steps judged (the state in the set at t_k and the condition held for every "
+            f"command that can act in the period): {rec['steps_judged']}; the robot left its set on "
+            f"{rec['steps_leaving_the_set']} of them (largest V/level after a judged step "
+            f"{rec['max_V_over_level_judged']:.3f}). Periods in which the condition held but a command met a traction "
+            f"farther than the error from its estimate: {rec['estimate_unsound_steps']}.\n\n"
+            + table(["tracking error", "max on the covered samples (cm; rad)", "observed / certified",
+                     "max over every sample, warm-up included (cm; rad)"], rows)
+            + f"\nLargest V/level over every sample: {rec['max_V_over_level_all']:.3f} (where the condition did not "
+            "hold the theorem claims nothing). Monitor alarm periods over these runs: "
+            + ", ".join(f"{k} {v}" for k, v in rec["monitor_alarm_periods"].items()) + ".\n")
 
 
 def _runs_text(cfg: Any, mc: dict[str, Any]) -> str:
@@ -474,6 +507,10 @@ def summary_dict(model: Any, gains: dict[str, Any] | None, vd: dict[str, Any] | 
         mc = vd["monte_carlo"]
         out["monte_carlo"] = {"runs": mc["runs"], "seed": mc["seed"],
                               "max": {k: v["max"] for k, v in mc["maxima"].items()}}
+        comp = mc.get("compensated")
+        if comp and not comp.get("skipped"):  # the slip-compensated law on the true slip (docs/theory.md §18)
+            out["compensated"] = {k: comp[k] for k in ("error", "condition_held_share", "steps_judged",
+                                                       "steps_leaving_the_set", "max_on_set")}
     return out
 
 

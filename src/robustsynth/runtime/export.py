@@ -306,7 +306,11 @@ def python_module(d: dict[str, Any]) -> bytes:
     head = f'"""rs_controller: the {certified_word(d)} networked-robot controller, {_header_comment(d, "python", "")}\n\n' \
            'Usage: ``c = Controller(); V, omega = c.step(t, x, y, theta)`` once per sampling instant; beside it\n' \
            '``m = Monitor()`` and ``status, (V, omega) = m.step(t, x, y, theta, c.state, (V, omega), seq, reports)``\n' \
-           '(robustsynth.monitor: the certificate\'s assumptions watched every period)."""\n\n'
+           '(robustsynth.monitor: the certificate\'s assumptions watched every period).' + (
+               '\n\nThe slip-compensated law (docs/theory.md §18): ``k = Compensator()``, then each period\n'
+               '``status, (V, omega) = k.step(c, m, t, x, y, theta, seq, reports)`` in place of ``c.step`` and ``m.step``;\n'
+               '``k.holds`` says whether the certificate\'s condition is sure to hold for the command.'
+               if d.get("compensation") else "") + '"""\n\n'
     body = src.split('"""', 2)[2].lstrip("\n")  # the law without its module docstring
     mon = _monitor_body(pkg.joinpath("monitor.py").read_text(encoding="utf-8"))
     tail = (
@@ -322,6 +326,11 @@ def python_module(d: dict[str, Any]) -> bytes:
         "class Monitor(_BaseMonitor):  # noqa: F811 - bound to DESCRIPTION\n"
         "    def __init__(self, description=None):\n"
         "        super().__init__(DESCRIPTION if description is None else description)\n"
+        + ("\n\n_BaseCompensator = Compensator\n\n\n"
+           "class Compensator(_BaseCompensator):  # noqa: F811 - bound to DESCRIPTION\n"
+           "    def __init__(self, description=None):\n"
+           "        super().__init__(DESCRIPTION if description is None else description)\n"
+           if d.get("compensation") else "")
     )
     return (head + body + tail).encode()
 
@@ -416,6 +425,11 @@ def json_description(d: dict[str, Any]) -> bytes:
 
 def export_files(d: dict[str, Any], target: str) -> dict[str, bytes]:
     """The files of one target (name -> content)."""
+    if d.get("compensation") and target in ("c", "ros2"):
+        from ..errors import InputError
+
+        raise InputError(f"--to {target}: the slip-compensated law (slip.compensation) is exported to python and json "
+                         "only (its C99 and ROS 2 forms are not built yet)")
     if target == "c":
         return c_files(d)
     if target == "python":

@@ -7,7 +7,10 @@ the path's frame (:class:`robustsynth.law.Law`), with the logged commands, less 
 stored corrections (what the robot was really sent).  The reports reach the monitor as they would on the robot:
 a command's applied time at the first sampling instant at or after it; a lost command is never reported, so the
 monitor counts it lost once tau_max has passed.  The commands in flight before the log's first row are unknown:
-the stored corrections start at zero and the slip check starts with the first command the log shows acting.
+the stored corrections start at zero and the slip check starts with the first command the log shows acting.  A
+slip-compensated law's log (docs/theory.md §18) is replayed as :meth:`robustsynth.law.Compensator.step` runs it: the
+law's memory is its own (the sent commands are divided by the estimate), the monitor checks the law's command, and
+each period records whether the certificate's condition was sure to hold (``condition_held``).
 """
 
 from __future__ import annotations
@@ -15,7 +18,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from ..law import Controller
+from ..law import Compensator, Controller
 from ..monitor import CAUSES, Monitor, describe
 
 __all__ = ["estimate_summary", "monitor_log", "monitor_logs", "monitor_summary", "monitor_files"]
@@ -35,7 +38,8 @@ def monitor_log(log: Any, description: dict[str, Any], estimate: bool = False) -
     corrections: list[tuple[float, float]] = []  # the logged commands less u^D and the feedforward, newest last
     pending = sorted((float(log.applied[k]), k) for k in range(len(log)) if math.isfinite(float(log.applied[k])))
     nxt = 0
-    statuses, alarms, engaged, estimates = [], [], None, []
+    statuses, alarms, engaged, estimates, held = [], [], None, [], []
+    comp = Compensator(description) if description.get("compensation") else None
     for k in range(len(log)):
         t = float(log.t[k])
         reports = []
@@ -43,18 +47,27 @@ def monitor_log(log: Any, description: dict[str, Any], estimate: bool = False) -
             applied, j = pending[nxt]
             reports.append((int(log.seq[j]), applied))
             nxt += 1
-        past = [c for pair in reversed(corrections[-d_hi:]) for c in pair]
-        law.past = past + [0.0] * (2 * d_hi - len(past))
-        ctl.step(t, float(log.x[k]), float(log.y[k]), float(log.theta[k]))
+        if comp is None:  # the law's memory holds what was sent (a log of another run of this law: the same)
+            past = [c for pair in reversed(corrections[-d_hi:]) for c in pair]
+            law.past = past + [0.0] * (2 * d_hi - len(past))
+        law_command = ctl.step(t, float(log.x[k]), float(log.y[k]), float(log.theta[k]))
         rr, rl = float(log.rho_r[k]), float(log.rho_l[k])
         command = (R / 2.0 * (rr + rl), R / D * (rr - rl))  # u_hat = J rho
         w = law.feedforward(t)
         corrections.append((command[0] - V - w * ctl.ff_V, command[1] - w * ctl.ff_omega))
-        status = mon.check(t, float(log.x[k]), float(log.y[k]), float(log.theta[k]), ctl.state, command, reports)
+        # a compensated law: the monitor checks the law's own command (the sent one is divided by the estimate) and
+        # the law's memory is its own, as Compensator.step runs them (docs/theory.md §18)
+        status = mon.check(t, float(log.x[k]), float(log.y[k]), float(log.theta[k]), ctl.state,
+                           command if comp is None else law_command, reports)
+        est = mon.slip_estimate() if estimate or comp is not None else None
+        if comp is not None:
+            if not comp.update(est):
+                mon.suspend()  # as Compensator.step: the set's claims do not cover the next state
+            held.append(comp.holds)
         mon.sent(int(log.seq[k]), t, command)  # what the robot was sent (the fallback only says when it would engage)
         statuses.append(status)
         if estimate:
-            estimates.append(mon.slip_estimate())
+            estimates.append(est)
         if status:
             alarms.append({"period": k, "t": t, "causes": describe(status), "by": dict(mon.amounts)})
         if mon.engaged and engaged is None:
@@ -64,6 +77,8 @@ def monitor_log(log: Any, description: dict[str, Any], estimate: bool = False) -
            "alarm_periods": counts, "fallback_engaged_at": engaged, "fallback": description["monitor"]["fallback"]}
     if estimate:
         out["estimates"] = estimates
+    if comp is not None:  # the periods in which the compensated law's condition was sure to hold
+        out["condition_held"] = held
     return out
 
 

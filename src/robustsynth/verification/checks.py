@@ -89,7 +89,7 @@ def _provenance(model: Any, gains: dict[str, Any]) -> str:
                 out[key] = v
         return out
 
-    a, b = flat(config_to_dict(made)), flat(config_to_dict(model.config))
+    a, b = flat(config_to_dict(made)), flat(config_to_dict(model.user_config))
     # the path (reference.path, once verification.path) and the verification and physics settings make no gain
     keys = [k for k in sorted(set(a) | set(b)) if k not in ("name", "reference.path")
             and not k.startswith(("verification.", "physics.")) and a.get(k) != b.get(k)]
@@ -199,6 +199,11 @@ def verify(model, gains: Any, runs: int | None = None, seed: int | None = None,
     lchecks, lifted, traces = _lifted(model, K, cert, gains)
     nchecks, mc, sim, ext, scen, v_ratio, mask = _nonlinear(model, K, cert, gains, runs, seed, progress)
     checks += fchecks + lchecks + nchecks
+    if model.compensation is not None:  # the runs above keep the certificate's condition; these close the loop
+        from .compensated import compensated_checks  # on the true slip with the estimator (docs/theory.md §18)
+
+        cchecks, mc["compensated"] = compensated_checks(model, K, cert, gains, runs, seed)
+        checks += cchecks
     passed = all(c["passed"] for c in checks)
     mc["certificate_source"] = source
     return VerificationResult(passed, tuple(checks), cert, mc, lifted, frozen, sim, ext, scen, traces, K, dict(gains),

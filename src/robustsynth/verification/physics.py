@@ -280,6 +280,11 @@ def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed:
         from ..errors import InputError
 
         raise InputError(f"--engine: {engine!r} is not one of {', '.join(ENGINES)}")
+    if model.compensation is not None:
+        from ..errors import InputError
+
+        raise InputError("slip.compensation: validate runs the uncompensated law; the slip-compensated one is judged "
+                         "by verify (the estimator in the loop on the true slip), not yet on the physics robot")
     if inject is not None:
         inject.check(model, engine)
     if workers == 1:

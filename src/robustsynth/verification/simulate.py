@@ -32,6 +32,9 @@ __all__ = [
     "ADVERSARY_OBJECTIVES",
     "FREE_YAW",
     "run_logs",
+    "applied_times",
+    "simulate_compensated",
+    "CompensatedRuns",
 ]
 
 
@@ -110,6 +113,105 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
     since_switch = t - path.t_start[seg]
     settled = (t >= transient) & (since_switch >= transient)
     return SimResult(t, Q, E, XI, DU, rho, seg, settled)
+
+
+@dataclass(frozen=True)
+class CompensatedRuns:
+    """:func:`simulate_compensated`'s runs: the closed loop (``sim``: ``du`` the law's corrections, ``rho`` the
+    compensated motor speeds sent) and per run and period the estimate each command was compensated with
+    (``mu_hat``), the command sent (``sent``: (V_hat, omega_hat), compensated), whether the certificate's condition
+    was sure to hold for it (``holds``), its margin (error less half-width + lag; NaN without an estimate) and the
+    monitor's status word (``status``)."""
+
+    sim: SimResult
+    sent: np.ndarray  # (N, steps, 2)
+    mu_hat: np.ndarray  # (N, steps, 2)
+    holds: np.ndarray  # (N, steps) bool
+    margin: np.ndarray  # (N, steps)
+    status: np.ndarray  # (N, steps) int
+
+
+def applied_times(model, scen: Scenario) -> np.ndarray:
+    """(N, steps): the instant each command sent at t_k (k >= 0) started acting, NaN when lost.  That instant is the
+    simulator's (``s_tilde_sequence``): a command that arrives before an older one waits for it, so it acts from
+    max(t_k + tau_k, the older commands' arrivals)."""
+    d_hi = model.d_hi
+    n = d_hi + scen.steps
+    sent = (np.arange(n) - d_hi) * model.Ts  # every packet from the d_hi sent before t_0 on
+    arrival = sent + scen.taus[:, :n]
+    acts_from = np.maximum.accumulate(np.where(np.isfinite(arrival), arrival, -np.inf), axis=1)[:, d_hi:]
+    return np.where(np.isfinite(arrival[:, d_hi:]), acts_from, np.nan)
+
+
+def simulate_compensated(model, K: np.ndarray, path: PathGeometry, scen: Scenario, description: dict,
+                         progress: Callable[[int, int], None] | None = None) -> CompensatedRuns:
+    """The slip-compensated law in closed loop (docs/theory.md §18): :func:`simulate` with, per run, the deployed
+    monitor (:class:`~robustsynth.monitor.Monitor`) and :class:`~robustsynth.law.Compensator` of ``description``
+    in the loop.  Each period, per run, the monitor checks the pose, the law's state and command and the reports of
+    the commands applied by t_k (``applied_times``); the compensator takes its slip estimate; the command sent is the
+    law's divided track by track by the estimate (:func:`~robustsynth.law.compensate`, vectorized: the same
+    operations as the runtime's floats), and the monitor is told it was sent.  The robot is ``model``'s with the
+    scenario's true slip.  The fallback is not engaged (as in ``verify``'s runs: the law is what is judged)."""
+    from ..law import Compensator, compensate
+    from ..monitor import Monitor
+
+    K = np.asarray(K, dtype=float)
+    Ts, V = model.Ts, model.V
+    N, steps = scen.runs, scen.steps
+    robot = KinematicRobot.of(model)
+    S = model.s_tilde(scen.taus)
+    uD, g = np.array([V, 0.0]), model.turn_feedforward
+    U = robot.memory(scen.du0, N)
+    q = scen.q0.copy()
+    t = np.arange(steps + 1) * Ts
+    seg = np.array([path.segment(tk) for tk in t])
+    Q, E = np.empty((N, steps + 1, 3)), np.empty((N, steps + 1, 3))
+    XI, DU, UC = np.empty((N, steps, model.n_s)), np.empty((N, steps, 2)), np.empty((N, steps, 2))
+    MUH, HOLDS = np.empty((N, steps, 2)), np.zeros((N, steps), dtype=bool)
+    MARGIN, STATUS = np.full((N, steps), np.nan), np.zeros((N, steps), dtype=int)
+    Q[:, 0] = q
+    mons = [Monitor(description) for _ in range(N)]
+    comps = [Compensator(description) for _ in range(N)]
+    half_D = comps[0].half_D
+    applied = applied_times(model, scen)
+    order = [sorted((float(applied[n, j]), j) for j in range(steps) if np.isfinite(applied[n, j])) for n in range(N)]
+    nxt = [0] * N
+    law = control_law(model, K, path, scen)
+    for k in range(steps):
+        check_interrupt()
+        E[:, k] = frame_error(path, seg[k], q, t[k])
+        meas = q + scen.noise[:, k]
+        dv, dw = law.correction(t[k], meas[:, 0], meas[:, 1], meas[:, 2])
+        DU[:, k] = np.stack([dv, dw], axis=1)
+        u = uD + DU[:, k] + law.feedforward(t[k]) * g  # the law's command, as Controller.step forms it
+        XI[:, k] = _xi(law)
+        tk = float(t[k])
+        for n in range(N):
+            reports, o = [], order[n]
+            while nxt[n] < len(o) and o[nxt[n]][0] <= tk + 1e-12:
+                reports.append((o[nxt[n]][1], o[nxt[n]][0]))
+                nxt[n] += 1
+            STATUS[n, k] = mons[n].check(tk, float(meas[n, 0]), float(meas[n, 1]), float(meas[n, 2]),
+                                         XI[n, k].tolist(), (float(u[n, 0]), float(u[n, 1])), reports)
+            c = comps[n]
+            if not c.update(mons[n].slip_estimate()):
+                mons[n].suspend()  # as Compensator.step: the set's claims do not cover the next state
+            HOLDS[n, k] = c.holds
+            MUH[n, k] = c.mu
+            if c.margin is not None:
+                MARGIN[n, k] = c.margin
+        UC[:, k] = np.stack(compensate(u[:, 0], u[:, 1], MUH[:, k, 0], MUH[:, k, 1], half_D), axis=1)
+        for n in range(N):
+            mons[n].sent(k, tk, (float(UC[n, k, 0]), float(UC[n, k, 1])))
+        U = robot.send(U, UC[:, k])
+        mu_k, change = scen.slip_in_period(k)
+        q = robot.period(q, U, S[:, k], mu_k, switch=change)
+        Q[:, k + 1] = q
+        if progress is not None and (k % 50 == 0 or k == steps - 1):
+            progress(k + 1, steps)
+    E[:, steps] = frame_error(path, seg[steps], q, t[steps])
+    sim = SimResult(t, Q, E, XI, DU, UC @ robot.J_inv.T, seg, np.ones(steps + 1, dtype=bool))
+    return CompensatedRuns(sim, UC, MUH, HOLDS, MARGIN, STATUS)
 
 
 ADVERSARY_OBJECTIVES = ("V", "e_x", "e_y", "e_theta", "motor_speed")
@@ -486,16 +588,10 @@ def run_logs(model, sim: SimResult, scen: Scenario, name: str = "run") -> list:
     simulated robot never overtook, and check-log and identify misread them."""
     from ..artifacts.logs import RobotLog
 
-    N, steps, d_hi = scen.runs, scen.steps, model.d_hi
+    N, steps = scen.runs, scen.steps
     t = sim.t[:steps]
     meas = sim.q[:, :steps] + scen.noise[:, :steps]
-    # every packet from the d_hi sent before t_0 on: sent at (i - d_hi) Ts, arriving tau_i later (inf: lost)
-    sent = (np.arange(d_hi + steps) - d_hi) * model.Ts
-    arrival = sent + scen.taus[:, : d_hi + steps]
-    acts_from = np.maximum.accumulate(np.where(np.isfinite(arrival), arrival, -np.inf), axis=1)[:, d_hi:]
-    logs = []
-    for n in range(N):
-        applied = np.where(np.isfinite(arrival[n, d_hi:]), acts_from[n], np.nan)
-        logs.append(RobotLog(f"{name}_{n:03d}.csv", t.copy(), meas[n, :, 0], meas[n, :, 1], meas[n, :, 2],
-                             np.arange(steps, dtype=float), sim.rho[n, :, 0], sim.rho[n, :, 1], t.copy(), applied))
-    return logs
+    applied = applied_times(model, scen)
+    return [RobotLog(f"{name}_{n:03d}.csv", t.copy(), meas[n, :, 0], meas[n, :, 1], meas[n, :, 2],
+                     np.arange(steps, dtype=float), sim.rho[n, :, 0], sim.rho[n, :, 1], t.copy(), applied[n])
+            for n in range(N)]
