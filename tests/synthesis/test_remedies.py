@@ -37,6 +37,25 @@ def test_each_remedy_changes_what_it_says_and_nothing_else() -> None:
         assert {k for k in base if base[k] != d[k]} == set(keys)
 
 
+def test_a_tracks_box_with_a_rate_bound_is_offered_the_compensated_law_first() -> None:
+    """tracks-box with slip.max_rate: the slip-compensated law (docs/theory.md §18) is the first remedy, its config
+    loads and builds the certificate on the ratio box; a config that compensates already, or an icr one, is not
+    offered it, and a compensated model's remedies change the user's config (its true box), not the ratio box."""
+    from robustsynth.model import build_model
+
+    cfg = _changed(load_config(ROOT / "configs" / "tracks-box.yaml"), {"slip": {"max_rate": 0.02}})
+    got = candidates(cfg)
+    assert got[0][0].startswith("slip.compensation") and got[0][1] == {"slip": {"compensation": {"error": "auto"}}}
+    comp = _changed(cfg, got[0][1])
+    assert build_model(comp).compensation is not None
+    assert not any(k.startswith("slip.compensation") for k, _ in candidates(comp))
+    assert not any(k.startswith("slip.compensation") for k, _ in candidates(load_config(ROOT / "configs" / "default.yaml")))
+    harsh = build_model(load_config(ROOT / "configs" / "harsh-compensated.yaml"))
+    half = dict(candidates(harsh.user_config))
+    box = next(v for k, v in half.items() if k.startswith("slip half"))["slip"]["right"]
+    assert abs(box["min"] - 0.71) <= EXACT and abs(box["max"] - 0.93) <= EXACT  # [0.6, 1.04] halved, not the ratio box
+
+
 def test_the_icr_box_halves_every_parameter_and_a_turning_path_gets_wider_turns() -> None:
     """The default (icr box, 8 m turns): all four parameters' ranges halved about their centres, turns of 16 m
     (which its path's short segment refuses: the remedy's line then says why); a config that already bounds the

@@ -341,15 +341,16 @@ def monitor_cmd(obj: _Ctx, logs: tuple[Path, ...], gains: Path, config: Path | N
                    "box (--excite: the simulator's slip profiles, a new slip every period or few).")
 @click.option("-o", "--outdir", type=DIR, default=None, help="Output directory (default results/<name>/validation).")
 @NO_FIGURE_OPT
-@click.option("--inject", type=click.Choice(["delay", "losses", "friction", "push", "command"]), default=None,
+@click.option("--inject", type=click.Choice(["delay", "losses", "friction", "patch", "push", "command"]), default=None,
               help="Break one of the certificate's assumptions in every episode, to see the runtime monitor flag it: "
                    "delay (a command SIZE s beyond tau_max), losses (SIZE commands beyond the cap in a row), friction "
                    "(a mud patch: ground of friction SIZE that drags the robot back), push (sideways, SIZE x its "
-                   "weight for a period), command (SIZE x the motor limit).")
+                   "weight for a period), command (SIZE x the motor limit); or change the ground: patch (friction "
+                   "SIZE for 100 periods, then back).")
 @click.option("--inject-period", type=click.IntRange(min=1), default=150, show_default=True,
               help="The period the injection starts at.")
 @click.option("--inject-size", type=float, default=None,
-              help="The injection's size [default: delay 0.07 s, losses 1, friction 0.3, push 3, command 2].")
+              help="The injection's size [default: delay 0.07 s, losses 1, friction 0.3, patch 0.4, push 3, command 2].")
 @click.pass_obj
 @_guard
 def validate_cmd(obj: _Ctx, config: Path, gains: Path | None, excite: bool, episodes: int, seed: int, workers: int,

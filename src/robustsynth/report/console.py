@@ -91,6 +91,22 @@ def robot_certified(gains: Mapping[str, Any]) -> str:
     return line
 
 
+def jump_line(j: Mapping[str, Any] | None) -> str | None:
+    """The slip-jump experiment of the compensated law (verification/compensated.jump_recovery), one line."""
+    if not j:
+        return None
+    rec, back, lost = j["recovery_periods"], j["back_in_the_set_periods"], j["condition_lost_after"]
+
+    def n(d: Mapping[str, Any]) -> str:
+        return "never" if d["median"] is None else f"{d['median']:g} (max {d['max']}" + (
+            f", never in {d['runs_never']} runs)" if d["runs_never"] else ")")
+
+    return (f"a slip jump (not certified: the certificate assumes the rate bound; {j['runs']} runs, each track jumping by "
+            f">= {j['jump_size_min']:.2f}): the condition failed {n(lost)} periods after it, held again after {n(rec)}, "
+            f"the state back in its set after {n(back)}; in between V/level up to {j['max_V_over_level_in_recovery']:.1f}, "
+            f"|e_x| {100 * j['max_in_recovery']['e_x']:.2f} cm, |e_y| {100 * j['max_in_recovery']['e_y']:.2f} cm")
+
+
 def compensated_line(rec: Mapping[str, Any] | None) -> str | None:
     """verify's record of the slip-compensated law on the true robot (verification/compensated.py), one line."""
     if not rec or rec.get("skipped"):
@@ -190,6 +206,9 @@ def robot_checks(result: Any, cfg: Any) -> list[str]:
     comp = compensated_line(mc.get("compensated"))
     if comp:
         lines.append(comp)
+        jump = jump_line((mc.get("compensated") or {}).get("jump"))
+        if jump:
+            lines.append(jump)
     turns = mc.get("turns") or []
     bad = [t for t in turns if not t["certified"]]
     if turns and all(t.get("note", "").startswith("along an arc") for t in turns):  # reference.turn_radius
@@ -423,7 +442,21 @@ def validation_summary(vd: Mapping[str, Any], episodes: int, out: Path, injected
     (``injected``: the description of the violation injected, if any), the verdict."""
     arcs = vd.get("straight_rule", "").startswith("between the arcs")
     return (_certificate_lines(vd) + _error_lines(vd, arcs) + _slip_lines(vd, arcs) + _monitor_lines(vd, injected)
+            + _compensated_validation_lines(vd.get("compensated"))
             + [f"validation {'passed' if vd['passed'] else 'FAILED'}: {episodes} episodes; wrote {out / 'validation.json'}"])
+
+
+def _compensated_validation_lines(rec: Mapping[str, Any] | None) -> list[str]:
+    """validate of a slip-compensated law (docs/theory.md §18): the estimate in the loop, the condition, the set."""
+    if not rec:
+        return []
+    est = rec.get("estimate_median")
+    return [f"slip compensation: the estimate (median {est[0]:.3f}, {est[1]:.3f}) divided the commands; its condition "
+            f"held in {100 * rec['condition_held_share']:.1f} % of the periods; {rec['samples_judged']} samples in the set "
+            f"under it, {rec['samples_judged_outside_the_set']} of them outside (max V/level "
+            f"{rec['max_V_over_level_judged']:.3f}; {rec['max_V_over_level_all']:.2f} over every sample); "
+            f"{rec['episodes_not_back_at_the_end']} episodes did not end in the set under it"
+            if est is not None else "slip compensation: its condition never held (no sample judged)"]
 
 
 # -- export, sweep, identify -----------------------------------------------------------------------------------------

@@ -178,7 +178,26 @@ def compensated_markdown(rec: dict[str, Any] | None) -> str:
                      "max over every sample, warm-up included (cm; rad)"], rows)
             + f"\nLargest V/level over every sample: {rec['max_V_over_level_all']:.3f} (where the condition did not "
             "hold the theorem claims nothing). Monitor alarm periods over these runs: "
-            + ", ".join(f"{k} {v}" for k, v in rec["monitor_alarm_periods"].items()) + ".\n")
+            + ", ".join(f"{k} {v}" for k, v in rec["monitor_alarm_periods"].items()) + ".\n"
+            + _jump_markdown(rec.get("jump")))
+
+
+def _jump_markdown(j: dict[str, Any] | None) -> str:
+    if not j:
+        return ""
+
+    def n(d: dict[str, Any]) -> str:
+        return "never" if d["median"] is None else f"{d['median']:g} (median; largest {d['max']}; never in {d['runs_never']} runs)"
+
+    return ("\n**A slip jump** (measured, not certified: the certificate assumes the rate bound only). "
+            f"{j['runs']} runs with each track's traction constant, jumping at period {j['jump_period']} by at least "
+            f"{j['jump_size_min']:.3f} (to the box's far half) and constant again: the condition failed {n(j['condition_lost_after'])} "
+            f"periods after the jump, held again for every command that can act after {n(j['recovery_periods'])}, and "
+            f"the state was back in the set under it after {n(j['back_in_the_set_periods'])}. Periods in which the "
+            f"condition was claimed while a command met a traction farther than the error (before the monitor could "
+            f"see the jump): {j['periods_claimed_wrongly']}. Until back in the set: V/level up to "
+            f"{j['max_V_over_level_in_recovery']:.2f}, |e_x| {100 * j['max_in_recovery']['e_x']:.2f} cm, |e_y| "
+            f"{100 * j['max_in_recovery']['e_y']:.2f} cm, |e_theta| {j['max_in_recovery']['e_theta']:.3f} rad.\n")
 
 
 def _runs_text(cfg: Any, mc: dict[str, Any]) -> str:

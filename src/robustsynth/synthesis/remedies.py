@@ -1,7 +1,8 @@
 """Where no proof for the robot exists: each remedy tried, with the figure it gives (issue 49).
 
 When the nonlinear-kinematics search ends without a certificate (exit 3), the remedies its message names are
-tried on copies of the config, cheapest first, within a time budget: a slip box half as wide about its centre, a
+tried on copies of the config, cheapest first, within a time budget: the slip-compensated law (tracks model with a
+rate bound), a slip box half as wide about its centre, a
 bound on the slip's rate, half the reference speed, turns of twice the radius.  Each try is one quick search
 (``first_try``, from :mod:`robustsynth.synthesis.heading_search`: the linearized start as a walk from the main search's
 alpha, then one solve at its best alpha for each heading bound auto would try, each screened first by a phase-1
@@ -23,8 +24,9 @@ RATE_PERIODS = 10  # the tried slip rate crosses the slip box in this many perio
 
 def candidates(cfg: Any) -> list[tuple[str, dict[str, Any]]]:
     """The remedies that apply to ``cfg``, as (what it is, in words, the config's changed keys as a nested
-    mapping): the slip box half as wide about its centre; where slip may jump, a rate that crosses the box in
-    RATE_PERIODS periods; half the reference speed; turns of twice the radius (a turning reference)."""
+    mapping): on the tracks model with a rate bound, the slip-compensated law; the slip box half as wide about its
+    centre; where slip may jump, a rate that crosses the box in RATE_PERIODS periods; half the reference speed;
+    turns of twice the radius (a turning reference)."""
     slip = cfg.slip
     keys = ["right", "left"] + (["yaw", "icr_offset"] if slip.model == "icr" else [])
     half: dict[str, Any] = {}
@@ -33,7 +35,12 @@ def candidates(cfg: Any) -> list[tuple[str, dict[str, Any]]]:
         c, w = (r.min + r.max) / 2.0, (r.max - r.min) / 4.0
         half[k] = {"min": c - w, "max": c + w}
     box = ", ".join(f"{k} [{half[k]['min']:.4g}, {half[k]['max']:.4g}]" for k in keys)
-    out = [(f"slip half as wide ({box})", {"slip": half})]
+    out = []
+    if slip.model == "tracks" and slip.max_rate is not None and slip.compensation is None:
+        # the law divides each track's command by the monitor's estimate: the certificate covers its error only
+        out.append(("slip.compensation (the law divides each track's command by the estimated traction; a proof "
+                    "conditional on the estimate, docs/theory.md §18)", {"slip": {"compensation": {"error": "auto"}}}))
+    out.append((f"slip half as wide ({box})", {"slip": half}))
     if slip.max_rate is None:
         width = max(slip.right.max - slip.right.min, slip.left.max - slip.left.min)
         rate = width / (RATE_PERIODS * cfg.network.sampling_time)
@@ -64,7 +71,7 @@ def try_remedies(model: Any, first_try: Callable[[Any, float], tuple[dict[str, A
     from ..errors import RobustSynthError
     from ..model import build_model
 
-    cfg = model.config
+    cfg = model.user_config  # a compensated law's remedies change the user's config, not its certificate's
     base = config_to_dict(cfg)
     lines: list[str] = []
     t0 = time.perf_counter()

@@ -25,6 +25,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ..law import Law
+from ..monitor import CAUSES
 from ..plants.path import frame_error, path_of, pose_from_error
 
 __all__ = ["validate_physics", "excite", "excitation_slip", "excitation_steps", "physics_config", "PERTURBATION",
@@ -43,10 +44,14 @@ INJECTIONS = {
     "losses": ("network.dropouts.max_consecutive + SIZE commands in a row are lost from the period on", 1.0),
     "friction": ("the robot drives onto a mud patch: ground of friction SIZE (from physics.friction) that drags it back "
                  "with MUD_DRAG /s x its mass x its forward speed", 0.3),
+    "patch": ("the robot drives onto ground of friction SIZE (from physics.friction) for PATCH_PERIODS periods, then "
+              "back onto physics.friction; no drag (issue 55: slip that changes with the ground, which the box may "
+              "or may not cover: the validation says)", 0.4),
     "push": ("a sideways push of SIZE times the robot's weight on its chassis (to its left) for one period", 3.0),
     "command": ("the command sent at the period asks a motor for SIZE times robot.max_motor_speed", 2.0),
 }
 MUD_DRAG = 8.0  # the mud patch's drag per unit of mass and forward speed [1/s] (more than friction 0.3 holds at V^D)
+PATCH_PERIODS = 100  # how long the friction patch lasts [periods]
 
 
 class Injection:
@@ -70,13 +75,14 @@ class Injection:
         """InputError unless this injection can happen in ``engine``'s episodes of ``model``'s path."""
         from ..errors import InputError
 
-        if engine != "physics" and self.kind in ("friction", "push"):
+        if engine != "physics" and self.kind in ("friction", "patch", "push"):
             raise InputError(f"--inject {self.kind}: only on the physics robot (--engine physics)")
         if self.period >= _steps(model):
             raise InputError(f"--inject-period: {self.period} is beyond the episode's {_steps(model)} periods")
 
     def describe(self) -> str:
-        text = INJECTIONS[self.kind][0].replace("SIZE", f"{self.size:g}").replace("MUD_DRAG", f"{self.drag:g}")
+        text = (INJECTIONS[self.kind][0].replace("SIZE", f"{self.size:g}").replace("MUD_DRAG", f"{self.drag:g}")
+                .replace("PATCH_PERIODS", str(PATCH_PERIODS)))
         if self.kind == "friction" and self.drag == 0.0:
             text = f"the robot drives onto ground of friction {self.size:g} (from physics.friction), no drag"
         return f"{self.kind} from period {self.period}: {text}"
@@ -101,9 +107,12 @@ class Injection:
         V = u[:, :1]
         return np.concatenate([V, (rho - V / R) * 2.0 * R / D], axis=1)  # the right track at rho
 
-    def forces(self, robot: Any, q: np.ndarray, k: int) -> None:
-        """The ground and the forces on the physics robot for period k (poses ``q``, (N, 3))."""
-        if self.kind == "friction" and k >= self.period:
+    def forces(self, robot: Any, q: np.ndarray, k: int, ground: float = 1.0) -> None:
+        """The ground and the forces on the physics robot for period k (poses ``q``, (N, 3)); ``ground``: the friction
+        it drives on outside a patch (physics.friction)."""
+        if self.kind == "patch" and k in (self.period, self.period + PATCH_PERIODS):
+            robot.set_friction(self.size if k == self.period else ground)
+        elif self.kind == "friction" and k >= self.period:
             if k == self.period:
                 robot.set_friction(self.size)
             v = robot.body_velocity()[:, 0]  # forward speed at the period's start (the drag held over the period)
@@ -204,6 +213,11 @@ def _run_episodes(model: Any, gains: dict[str, Any], first: int, count: int, see
     path = path_of(cfg)
     steps = _steps(model)
     N = count
+    plant = model  # the robot driven: for a compensated law its true slip box, not the certificate's ratio box
+    if model.compensation is not None:
+        from .compensated import true_robot
+
+        plant = true_robot(model.user_config)
     offsets = np.zeros((N, 3))
     taus, mus = [], []
     for i in range(N):
@@ -211,12 +225,13 @@ def _run_episodes(model: Any, gains: dict[str, Any], first: int, count: int, see
         if first + i > 0:
             offsets[i] = rng.uniform(-1.0, 1.0, 3) * np.array(PERTURBATION)
         taus.append(random_delays(model, rng, 1, steps)[0])
-        mus.append([rng.uniform(lo, hi) for lo, hi in model.slip_ranges])  # every slip parameter (icr: 4)
+        mus.append([rng.uniform(lo, hi) for lo, hi in plant.slip_ranges])  # every slip parameter (icr: 4)
     taus = np.array(taus)  # (N, d_hi + steps): the d_hi packets before t_0 first
     if inject is not None:
         taus = inject.taus(model, taus)
     q0 = pose_from_error(path, offsets)
-    robot = PhysicsRobot(physics_config(cfg)[0], N) if engine == "physics" else _KinematicEngine(model, np.array(mus))
+    robot = PhysicsRobot(physics_config(cfg)[0], N) if engine == "physics" else _KinematicEngine(plant, np.array(mus))
+    loop = _estimator_loop(model, gains, taus, steps)
     robot.reset(q0, V)
     S = model.s_tilde(taus)  # (N, steps, d_hi)
     law = Law(K.tolist(), Ts, bool(model.n_z), path.table)
@@ -229,6 +244,7 @@ def _run_episodes(model: Any, gains: dict[str, Any], first: int, count: int, see
     Q = np.zeros((N, steps, 3))
     RHO = np.zeros((N, steps, 2))
     sat = np.zeros((N, steps), dtype=bool)
+    XI = np.zeros((N, steps, model.n_s))
     for k in range(steps):
         t = k * Ts
         q = robot.pose()
@@ -238,9 +254,12 @@ def _run_episodes(model: Any, gains: dict[str, Any], first: int, count: int, see
         dv, dw = law.correction(t, q[:, 0], q[:, 1], q[:, 2])
         u = uD + np.stack([np.asarray(dv, dtype=float) * np.ones(N), np.asarray(dw, dtype=float) * np.ones(N)], axis=1)
         u = u + law.feedforward(t) * model.turn_feedforward  # the turning feedforward, as the simulator sends it
+        if loop is not None:  # the slip-compensated law: the monitor's estimate divides each track's command
+            XI[:, k] = np.stack(law.xi, axis=1)
+            u = loop.command(k, t, q, XI[:, k], u)
         if inject is not None:
             u = inject.command(model, u, k)
-            inject.forces(robot, q, k)
+            inject.forces(robot, q, k, cfg.physics.friction)
         # J^-1 u row by row (not a matmul, whose summation order may depend on how many episodes a worker has)
         RHO[:, k] = u[:, :1] * J_inv[:, 0] + u[:, 1:] * J_inv[:, 1]
         U = np.concatenate([u[:, None], U[:, :-1]], axis=1)
@@ -248,7 +267,50 @@ def _run_episodes(model: Any, gains: dict[str, Any], first: int, count: int, see
         sat[:, k] = np.any(peak >= TORQUE_SATURATED * limit, axis=1)
         if progress is not None:
             progress(k + 1, steps)
-    return {"offsets": offsets, "taus": taus, "E": E, "Q": Q, "RHO": RHO, "sat": sat}
+    out = {"offsets": offsets, "taus": taus, "E": E, "Q": Q, "RHO": RHO, "sat": sat}
+    if loop is not None:
+        out.update(XI=XI, holds=loop.holds, mu_hat=loop.mu_hat, margin=loop.margin, status=loop.status)
+    return out
+
+
+def _compensated_samples(model: Any, gains: dict[str, Any], comp: dict[str, np.ndarray], straight: np.ndarray
+                         ) -> tuple[np.ndarray, dict[str, Any]]:
+    """The samples a compensated law's certificate speaks of (docs/theory.md §18), as ``verify`` judges them: sample
+    k + 1 where the state at t_k was in the set and the condition held for the commands of periods k - d_hi .. k
+    (the turns included: the certificate covers them).  Returns that mask (N, steps) and the record: how often the
+    condition held, the median estimate, the samples judged, those that left the set and the episodes that did not
+    end in the set under the condition (the set attracts: one that does not come back fails, as in verify)."""
+    from ..certificate import lyapunov_of
+    from .compensated import covered_steps
+
+    level = (gains.get("certificate") or {}).get("ellipsoid_level")
+    holds = comp["holds"]
+    v = lyapunov_of(model, gains["certificate"]).V_max(comp["XI"]) / float(level)  # the largest over its matrices
+    covered = covered_steps(holds, model.d_hi)
+    judged = np.zeros_like(straight)
+    judged[:, 1:] = covered[:, :-1] & (v[:, :-1] <= 1.0)
+    mu = comp["mu_hat"][holds]
+    rec = {"condition_held_share": float(holds.mean()), "samples_judged": int(judged.sum()),
+           "samples_judged_outside_the_set": int(np.sum(judged & (v > 1.0 + 1e-9))),
+           # an episode that leaves its set (or the condition) must come back: judged and inside at its end
+           "episodes_not_back_at_the_end": int(np.sum(~(judged[:, -1] & (v[:, -1] <= 1.0)))),
+           "max_V_over_level_judged": float(np.max(np.where(judged, v, 0.0))),
+           "max_V_over_level_all": float(np.max(v)),
+           "estimate_median": [float(np.median(mu[:, 0])), float(np.median(mu[:, 1]))] if mu.size else None,
+           "estimate_range": [[float(mu[:, i].min()), float(mu[:, i].max())] for i in range(2)] if mu.size else None,
+           "monitor_alarm_periods": {name: int(np.sum((comp["status"] & bit) != 0)) for name, bit in CAUSES}}
+    return judged, rec
+
+
+def _estimator_loop(model: Any, gains: dict[str, Any], taus: np.ndarray, steps: int) -> Any:
+    """For a slip-compensated law (docs/theory.md §18), the per-episode monitors and compensators of the deployed
+    controller (:class:`~robustsynth.verification.simulate.EstimatorLoop`); None otherwise."""
+    if model.compensation is None:
+        return None
+    from ..artifacts.gains import controller_description
+    from .simulate import EstimatorLoop, applied_times
+
+    return EstimatorLoop(controller_description(gains, model.user_config), applied_times(model, taus, steps))
 
 
 def _steps(model: Any) -> int:
@@ -280,11 +342,6 @@ def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed:
         from ..errors import InputError
 
         raise InputError(f"--engine: {engine!r} is not one of {', '.join(ENGINES)}")
-    if model.compensation is not None:
-        from ..errors import InputError
-
-        raise InputError("slip.compensation: validate runs the uncompensated law; the slip-compensated one is judged "
-                         "by verify (the estimator in the loop on the true slip), not yet on the physics robot")
     if inject is not None:
         inject.check(model, engine)
     if workers == 1:
@@ -297,6 +354,8 @@ def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed:
         with ProcessPoolExecutor(max_workers=workers) as pool:
             parts = list(pool.map(_chunk, jobs))
     offsets, taus, E, Q, RHO, sat = (np.concatenate([p[k] for p in parts]) for k in ("offsets", "taus", "E", "Q", "RHO", "sat"))
+    comp = None if model.compensation is None else {
+        k: np.concatenate([p[k] for p in parts]) for k in ("XI", "holds", "mu_hat", "margin", "status")}
     rho_max = cfg.robot.max_motor_speed
     # straight segments: from `transient` after each waypoint (and after a perturbed start) on
     tk = np.arange(steps) * Ts
@@ -313,6 +372,9 @@ def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed:
         turning = np.convolve(w != 0.0, np.ones(d_hi + 2), mode="full")[:steps] > 0
         straight[:, turning] = False
     straight[1:, tk < tr] = False
+    comp_rec = None
+    if comp is not None:  # the compensated law's claims: the samples in the set under the condition (theory §18)
+        straight, comp_rec = _compensated_samples(model, gains, comp, straight)
     ub = dict(cert.get("ultimate_bound") or {})
     if through_turns:
         for k, v in (cert.get("ultimate_bound_between_samples") or {}).items():
@@ -350,6 +412,7 @@ def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed:
         "torque_saturated_s": max(ep["torque_saturated_s"] for ep in per_episode),
         "per_episode": per_episode,
         "injected": None if inject is None else inject.describe(),
+        "compensated": comp_rec,
     }
     logs = []
     for n in range(N):
@@ -359,11 +422,14 @@ def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed:
         logs.append(RobotLog(f"episode_{n:03d}.csv", tk.copy(), Q[n, :, 0], Q[n, :, 1], Q[n, :, 2],
                              np.arange(steps, dtype=float), RHO[n, :, 0], RHO[n, :, 1], tk.copy(), applied))
     out["passed"] = bool(all(ep["passed"] for ep in per_episode))
+    if comp_rec is not None:  # and the set kept wherever the compensated law's condition held, in some samples at least
+        out["passed"] = (out["passed"] and comp_rec["samples_judged_outside_the_set"] == 0
+                         and comp_rec["episodes_not_back_at_the_end"] == 0)
     # the runtime monitor over the episodes (recorded, not in the verdict): an alarm inside the certificate's
     # assumptions is its false alarm, or slip the box does not hold
     from ..runtime.replay import monitor_summary
 
-    out["monitor"] = monitor_summary(logs, gains, cfg)
+    out["monitor"] = monitor_summary(logs, gains, model.user_config)
     return {"validation": out, "logs": logs, "straight": straight, "t": tk, "e": E, "q": Q}
 
 

@@ -35,6 +35,7 @@ __all__ = [
     "applied_times",
     "simulate_compensated",
     "CompensatedRuns",
+    "EstimatorLoop",
 ]
 
 
@@ -131,30 +132,71 @@ class CompensatedRuns:
     status: np.ndarray  # (N, steps) int
 
 
-def applied_times(model, scen: Scenario) -> np.ndarray:
-    """(N, steps): the instant each command sent at t_k (k >= 0) started acting, NaN when lost.  That instant is the
-    simulator's (``s_tilde_sequence``): a command that arrives before an older one waits for it, so it acts from
+def applied_times(model, taus: np.ndarray, steps: int) -> np.ndarray:
+    """(N, steps): the instant each command sent at t_k (k >= 0) started acting, NaN when lost, for packets with the
+    delays ``taus`` (N, d_hi + steps; the d_hi sent before t_0 first).  That instant is the simulator's
+    (``s_tilde_sequence``): a command that arrives before an older one waits for it, so it acts from
     max(t_k + tau_k, the older commands' arrivals)."""
     d_hi = model.d_hi
-    n = d_hi + scen.steps
-    sent = (np.arange(n) - d_hi) * model.Ts  # every packet from the d_hi sent before t_0 on
-    arrival = sent + scen.taus[:, :n]
+    n = d_hi + steps
+    sent = (np.arange(n) - d_hi) * model.Ts
+    arrival = sent + np.asarray(taus)[:, :n]
     acts_from = np.maximum.accumulate(np.where(np.isfinite(arrival), arrival, -np.inf), axis=1)[:, d_hi:]
     return np.where(np.isfinite(arrival[:, d_hi:]), acts_from, np.nan)
+
+
+class EstimatorLoop:
+    """The slip-compensated law's runtime part for N robots at once (docs/theory.md §18): per robot the deployed
+    :class:`~robustsynth.monitor.Monitor` and :class:`~robustsynth.law.Compensator` of ``description``, fed each
+    period as :meth:`~robustsynth.law.Compensator.step` feeds them (the fallback left out: the law is what is
+    judged), the command divided by the estimate vectorized (:func:`~robustsynth.law.compensate`, the runtime's
+    operations).  ``applied``: (N, steps) the instant each command started acting (:func:`applied_times`), reported
+    at the first sampling instant at or after it.  Records per robot and period the estimate used (``mu_hat``), the
+    command sent, the condition (``holds``), its margin and the monitor's status word."""
+
+    def __init__(self, description: dict, applied: np.ndarray) -> None:
+        from ..law import Compensator
+        from ..monitor import Monitor
+
+        N, steps = applied.shape
+        self.mons = [Monitor(description) for _ in range(N)]
+        self.comps = [Compensator(description) for _ in range(N)]
+        self.order = [sorted((float(applied[n, j]), j) for j in range(steps) if np.isfinite(applied[n, j]))
+                      for n in range(N)]
+        self.next = [0] * N
+        self.mu_hat, self.sent = np.empty((N, steps, 2)), np.empty((N, steps, 2))
+        self.holds, self.margin = np.zeros((N, steps), dtype=bool), np.full((N, steps), np.nan)
+        self.status = np.zeros((N, steps), dtype=int)
+
+    def command(self, k: int, t: float, meas: np.ndarray, xi: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """The commands (N, 2) to send at period k for the law's ``u`` (N, 2), the poses measured ``meas`` (N, 3) and
+        the lifted states ``xi`` (N, n_s) the law used."""
+        from ..law import compensate
+
+        for n, (mon, c) in enumerate(zip(self.mons, self.comps)):
+            reports, o = [], self.order[n]
+            while self.next[n] < len(o) and o[self.next[n]][0] <= t + 1e-12:
+                reports.append((o[self.next[n]][1], o[self.next[n]][0]))
+                self.next[n] += 1
+            self.status[n, k] = mon.check(t, float(meas[n, 0]), float(meas[n, 1]), float(meas[n, 2]), xi[n].tolist(),
+                                          (float(u[n, 0]), float(u[n, 1])), reports)
+            if not c.update(mon.slip_estimate()):
+                mon.suspend()  # as Compensator.step: the set's claims do not cover the next state
+            self.holds[n, k], self.mu_hat[n, k] = c.holds, c.mu
+            if c.margin is not None:
+                self.margin[n, k] = c.margin
+        self.sent[:, k] = np.stack(compensate(u[:, 0], u[:, 1], self.mu_hat[:, k, 0], self.mu_hat[:, k, 1],
+                                              self.comps[0].half_D), axis=1)
+        for n, mon in enumerate(self.mons):
+            mon.sent(k, t, (float(self.sent[n, k, 0]), float(self.sent[n, k, 1])))
+        return self.sent[:, k]
 
 
 def simulate_compensated(model, K: np.ndarray, path: PathGeometry, scen: Scenario, description: dict,
                          progress: Callable[[int, int], None] | None = None) -> CompensatedRuns:
     """The slip-compensated law in closed loop (docs/theory.md §18): :func:`simulate` with, per run, the deployed
-    monitor (:class:`~robustsynth.monitor.Monitor`) and :class:`~robustsynth.law.Compensator` of ``description``
-    in the loop.  Each period, per run, the monitor checks the pose, the law's state and command and the reports of
-    the commands applied by t_k (``applied_times``); the compensator takes its slip estimate; the command sent is the
-    law's divided track by track by the estimate (:func:`~robustsynth.law.compensate`, vectorized: the same
-    operations as the runtime's floats), and the monitor is told it was sent.  The robot is ``model``'s with the
-    scenario's true slip.  The fallback is not engaged (as in ``verify``'s runs: the law is what is judged)."""
-    from ..law import Compensator, compensate
-    from ..monitor import Monitor
-
+    monitor and compensator of ``description`` in the loop (:class:`EstimatorLoop`).  The robot is ``model``'s with
+    the scenario's true slip.  The fallback is not engaged (as in ``verify``'s runs: the law is what is judged)."""
     K = np.asarray(K, dtype=float)
     Ts, V = model.Ts, model.V
     N, steps = scen.runs, scen.steps
@@ -166,16 +208,9 @@ def simulate_compensated(model, K: np.ndarray, path: PathGeometry, scen: Scenari
     t = np.arange(steps + 1) * Ts
     seg = np.array([path.segment(tk) for tk in t])
     Q, E = np.empty((N, steps + 1, 3)), np.empty((N, steps + 1, 3))
-    XI, DU, UC = np.empty((N, steps, model.n_s)), np.empty((N, steps, 2)), np.empty((N, steps, 2))
-    MUH, HOLDS = np.empty((N, steps, 2)), np.zeros((N, steps), dtype=bool)
-    MARGIN, STATUS = np.full((N, steps), np.nan), np.zeros((N, steps), dtype=int)
+    XI, DU = np.empty((N, steps, model.n_s)), np.empty((N, steps, 2))
     Q[:, 0] = q
-    mons = [Monitor(description) for _ in range(N)]
-    comps = [Compensator(description) for _ in range(N)]
-    half_D = comps[0].half_D
-    applied = applied_times(model, scen)
-    order = [sorted((float(applied[n, j]), j) for j in range(steps) if np.isfinite(applied[n, j])) for n in range(N)]
-    nxt = [0] * N
+    loop = EstimatorLoop(description, applied_times(model, scen.taus, steps))
     law = control_law(model, K, path, scen)
     for k in range(steps):
         check_interrupt()
@@ -185,33 +220,15 @@ def simulate_compensated(model, K: np.ndarray, path: PathGeometry, scen: Scenari
         DU[:, k] = np.stack([dv, dw], axis=1)
         u = uD + DU[:, k] + law.feedforward(t[k]) * g  # the law's command, as Controller.step forms it
         XI[:, k] = _xi(law)
-        tk = float(t[k])
-        for n in range(N):
-            reports, o = [], order[n]
-            while nxt[n] < len(o) and o[nxt[n]][0] <= tk + 1e-12:
-                reports.append((o[nxt[n]][1], o[nxt[n]][0]))
-                nxt[n] += 1
-            STATUS[n, k] = mons[n].check(tk, float(meas[n, 0]), float(meas[n, 1]), float(meas[n, 2]),
-                                         XI[n, k].tolist(), (float(u[n, 0]), float(u[n, 1])), reports)
-            c = comps[n]
-            if not c.update(mons[n].slip_estimate()):
-                mons[n].suspend()  # as Compensator.step: the set's claims do not cover the next state
-            HOLDS[n, k] = c.holds
-            MUH[n, k] = c.mu
-            if c.margin is not None:
-                MARGIN[n, k] = c.margin
-        UC[:, k] = np.stack(compensate(u[:, 0], u[:, 1], MUH[:, k, 0], MUH[:, k, 1], half_D), axis=1)
-        for n in range(N):
-            mons[n].sent(k, tk, (float(UC[n, k, 0]), float(UC[n, k, 1])))
-        U = robot.send(U, UC[:, k])
+        U = robot.send(U, loop.command(k, float(t[k]), meas, XI[:, k], u))
         mu_k, change = scen.slip_in_period(k)
         q = robot.period(q, U, S[:, k], mu_k, switch=change)
         Q[:, k + 1] = q
         if progress is not None and (k % 50 == 0 or k == steps - 1):
             progress(k + 1, steps)
     E[:, steps] = frame_error(path, seg[steps], q, t[steps])
-    sim = SimResult(t, Q, E, XI, DU, UC @ robot.J_inv.T, seg, np.ones(steps + 1, dtype=bool))
-    return CompensatedRuns(sim, UC, MUH, HOLDS, MARGIN, STATUS)
+    sim = SimResult(t, Q, E, XI, DU, loop.sent @ robot.J_inv.T, seg, np.ones(steps + 1, dtype=bool))
+    return CompensatedRuns(sim, loop.sent, loop.mu_hat, loop.holds, loop.margin, loop.status)
 
 
 ADVERSARY_OBJECTIVES = ("V", "e_x", "e_y", "e_theta", "motor_speed")
@@ -591,7 +608,7 @@ def run_logs(model, sim: SimResult, scen: Scenario, name: str = "run") -> list:
     N, steps = scen.runs, scen.steps
     t = sim.t[:steps]
     meas = sim.q[:, :steps] + scen.noise[:, :steps]
-    applied = applied_times(model, scen)
+    applied = applied_times(model, scen.taus, steps)
     return [RobotLog(f"{name}_{n:03d}.csv", t.copy(), meas[n, :, 0], meas[n, :, 1], meas[n, :, 2],
                      np.arange(steps, dtype=float), sim.rho[n, :, 0], sim.rho[n, :, 1], t.copy(), applied[n])
             for n in range(N)]
