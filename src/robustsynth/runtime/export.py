@@ -74,7 +74,7 @@ def _c_header(d: dict[str, Any], ctl: Controller) -> str:
 
    Call rs_step once per sampling instant t_k = k * RS_TS with t the time since the start of the
    path [s] and (x, y, theta) the measured pose in the world frame [m, m, rad]; send (V, omega)
-   [m/s, rad/s].  rs_init resets the memory (past commands, integrators) and the path. */
+   [m/s, rad/s].  rs_init resets the memory (past commands, integrators) and the path.{_c_compensated_note(d)} */
 #ifndef RS_CONTROLLER_H
 #define RS_CONTROLLER_H
 
@@ -100,6 +100,15 @@ void rs_motor_speeds(double V, double omega, double *rho_r, double *rho_l);
 
 #endif /* RS_CONTROLLER_H */
 """
+
+
+def _c_compensated_note(d: dict[str, Any]) -> str:
+    """rs_controller.h's word on the slip-compensated law (none for another law): its command is not sent as it is."""
+    if not d.get("compensation"):
+        return ""
+    return ("\n\n   The slip-compensated law (docs/theory.md section 18): do not send (V, omega) as it is; pass it with c.xi\n"
+            "   to rs_compensator_step (rs_monitor.h), which checks it, divides each track's speed by the monitor's\n"
+            "   slip estimate and returns the command to send.")
 
 
 def _c_source(d: dict[str, Any], ctl: Controller) -> str:
