@@ -22,8 +22,7 @@ from robustsynth.plants.path import make_path
 ROOT = Path(__file__).resolve().parents[2]
 GAINS = sorted(p for p in (ROOT / "results" / "baselines").glob("*/gains.json")
                if json.loads(p.read_text()).get("kind") != "lti")  # the robot's (a linear plant's: test_export_lti)
-# the slip-compensated law (docs/theory.md §18) has no C99 form yet: its gains are refused (tested below)
-C_GAINS = [p for p in GAINS if json.loads(p.read_text()).get("compensation") is None]
+# the slip-compensated law's (docs/theory.md §18): its C99 and ROS 2 forms carry the compensator
 COMPENSATED = [p for p in GAINS if json.loads(p.read_text()).get("compensation") is not None]
 EXPORT_TOL = 1e-12  # generated controller vs Controller.step (issue 11)
 STEPS = 10_000  # random steps per gain (issue 11: >= 10 000, including segment switches)
@@ -65,18 +64,35 @@ def _crosses_waypoints(ctl: Controller, rows) -> bool:
     return len({ctl.path.t_start.index(max(s for s in ctl.path.t_start if s <= r[0] + 1e-12)) for r in rows if r}) > 1
 
 
-@pytest.mark.parametrize("gains", COMPENSATED, ids=lambda p: p.parent.name)
-@pytest.mark.parametrize("target", ["c", "ros2"])
-def test_the_compensated_law_is_refused_where_its_form_is_not_built(gains: Path, target: str, tmp_path: Path) -> None:
-    from robustsynth.errors import InputError
-
-    with pytest.raises(InputError, match=f"^--to {target}: the slip-compensated law") as exc:
-        export_controller(gains, target, tmp_path / "out", allow_unverified=True)
-    assert "\n" not in str(exc.value) and not (tmp_path / "out").exists()
+def test_the_compensated_law_exports_to_c_and_ros2_with_its_compensator(tmp_path: Path) -> None:
+    """The committed compensated gain exports to C99 and ROS 2 (once refused): rs_monitor.h declares the compensated
+    step (tests/runtime/test_export_monitor.py compares it with Compensator.step) and rs_controller.h says to send
+    through it, the ROS 2 parameters carry the compensation, flat and without null; an uncompensated gain's files have
+    none of it."""
+    assert [p.parent.name for p in COMPENSATED] == ["harsh-compensated"]
+    plain = ROOT / "results" / "baselines" / "default" / "gains.json"
+    for gains, compensated in ((COMPENSATED[0], True), (plain, False)):
+        out = tmp_path / gains.parent.name
+        export_controller(gains, "c", out / "c", allow_unverified=True)
+        export_controller(gains, "ros2", out / "ros2", allow_unverified=True)
+        h = (out / "c" / "rs_monitor.h").read_text()
+        assert ("int rs_compensator_step(" in h and "void rs_monitor_suspend(" in h) == compensated
+        assert ("rs_compensator_step" in (out / "c" / "rs_controller.h").read_text()) == compensated
+        assert ("SATURATION_LIMIT" in (out / "c" / "rs_monitor.c").read_text()) == compensated
+        p = yaml.safe_load((out / "ros2" / "rs_controller.ros2.yaml").read_text())["robustsynth_controller"]["ros__parameters"]
+        assert all(v is not None for v in p.values()) and not any(isinstance(v, list) and not v for v in p.values())
+        if not compensated:
+            assert not any(k.startswith("compensation") or "saturation" in k for k in p)
+            continue
+        d = json.loads(gains.read_text())
+        assert p["has_compensation"] and p["compensation_error"] == d["compensation"]["error"]
+        assert p["compensation_box"] == [0.6, 1.0, 0.6, 1.0] and p["compensation_lag"] > 0.0
+        assert p["monitor_has_saturation_limit"] and p["monitor_saturation_limit"] == 12.0
+        assert p["monitor_rho_limit"] == pytest.approx(12.0 * 0.6, rel=1e-15)
 
 
 @pytest.mark.skipif(CC is None, reason="no C compiler (cc, gcc or clang) on this machine")
-@pytest.mark.parametrize("gains", C_GAINS, ids=lambda p: p.parent.name)
+@pytest.mark.parametrize("gains", GAINS, ids=lambda p: p.parent.name)
 def test_c_export_compiles_strictly_and_reproduces_the_commands(gains: Path, tmp_path: Path) -> None:
     _, files = export_controller(gains, "c", tmp_path, allow_unverified=True)  # the code, whatever the verdict
     # the law and, for a gain with a certified set, its runtime monitor (tests/runtime/test_export_monitor.py)

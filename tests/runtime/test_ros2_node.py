@@ -134,3 +134,53 @@ def test_the_loop_publishes_the_monitors_slip_estimate_only_with_a_rate() -> Non
         e = loop.monitor.slip_estimate()
         assert msg == [1.0, float(e["windows"]), *e["ranges"]["mu_r"], *e["ranges"]["mu_l"], *e["ranges"]["traction"],
                        *e["ranges"]["difference"]] and e["windows"] > 0
+
+
+def test_the_nodes_loop_runs_the_compensated_law_as_compensator_step(tmp_path: Path) -> None:
+    """The committed slip-compensated gain (docs/theory.md §18), exported to ROS 2: the node's loop, with the exported
+    Compensator, fed a closed-loop run's poses and the base's reports on a clock starting at T0, sends exactly what
+    ``Compensator.step`` sends for the same inputs and publishes on ``compensation`` its condition, margin and the
+    tractions divided by, period by period (==); the condition fails in the first periods (the estimator's warm-up),
+    then holds.  An uncompensated loop publishes nothing there."""
+    from robustsynth.law import Compensator, Controller
+    from robustsynth.monitor import Monitor
+    from robustsynth.verification.compensated import true_robot
+    from robustsynth.verification.simulate import applied_times, simulate_compensated
+
+    name = "harsh-compensated"
+    out = tmp_path / "ros2"
+    export_controller(ROOT / "results" / "baselines" / name / "gains.json", "ros2", out)
+    params = yaml.safe_load((out / "rs_controller.ros2.yaml").read_text())["robustsynth_controller"]["ros__parameters"]
+    assert params["has_compensation"] and all(v is not None for v in params.values())
+    ctl_mod = _load(out / "rs_controller.py", "rs_controller_compensated")
+    node = _load(out / "rs_node.py", "rs_node_compensated")
+    cfg = load_config(ROOT / "configs" / f"{name}.yaml")
+    gains = load_gains(ROOT / "results" / "baselines" / name / "gains.json")
+    desc = controller_description(gains, cfg)
+    robot, path = true_robot(cfg), path_of(cfg)
+    scen = draw_scenario(robot, 1, 2, int(path.duration / robot.Ts), path, within_period=True)
+    res = simulate_compensated(robot, np.asarray(gains["K"]), path, scen, desc)
+    applied = applied_times(robot, scen)[0]
+    loop = node.Loop(ctl_mod.Controller(), ctl_mod.Monitor(), ctl_mod.Compensator())
+    ctl, mon, comp = Controller(desc), Monitor(desc), Compensator(desc)
+    pending = sorted((float(applied[j]), j) for j in range(scen.steps) if math.isfinite(float(applied[j])))
+    start, nxt, held = T0 + LATE, 0, []
+    for k in range(scen.steps):
+        t = k * robot.Ts
+        reports = []
+        while nxt < len(pending) and pending[nxt][0] <= t + 1e-12:
+            loop.applied(pending[nxt][1], start + pending[nxt][0])
+            reports.append((pending[nxt][1], (start + pending[nxt][0]) - start))  # the node's clock, as it reads it
+            nxt += 1
+        x, y, th = (float(v) for v in res.sim.q[0, k] + scen.noise[0, k])
+        V, omega, seq, status = loop.tick(start + t, x, y, th)
+        want_status, want = comp.step(ctl, mon, t, x, y, th, k, reports)
+        assert (seq, status, (V, omega)) == (k, want_status, want), k
+        msg = loop.compensation_message()
+        assert msg[:2] == [float(comp.holds), float(comp.covered)] and tuple(msg[3:]) == comp.mu, k
+        assert math.isnan(msg[2]) if comp.margin is None else msg[2] == comp.margin, k
+        held.append(comp.holds)
+    assert not held[0] and sum(held) > 0.9 * len(held)
+    plain = node.Loop(ctl_mod.Controller(), ctl_mod.Monitor())  # no compensator: the ordinary law, nothing published
+    plain.tick(start, 0.0, 0.0, 0.0)
+    assert plain.compensation_message() is None

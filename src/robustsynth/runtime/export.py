@@ -74,7 +74,7 @@ def _c_header(d: dict[str, Any], ctl: Controller) -> str:
 
    Call rs_step once per sampling instant t_k = k * RS_TS with t the time since the start of the
    path [s] and (x, y, theta) the measured pose in the world frame [m, m, rad]; send (V, omega)
-   [m/s, rad/s].  rs_init resets the memory (past commands, integrators) and the path. */
+   [m/s, rad/s].  rs_init resets the memory (past commands, integrators) and the path.{_c_compensated_note(d)} */
 #ifndef RS_CONTROLLER_H
 #define RS_CONTROLLER_H
 
@@ -100,6 +100,15 @@ void rs_motor_speeds(double V, double omega, double *rho_r, double *rho_l);
 
 #endif /* RS_CONTROLLER_H */
 """
+
+
+def _c_compensated_note(d: dict[str, Any]) -> str:
+    """rs_controller.h's word on the slip-compensated law (none for another law): its command is not sent as it is."""
+    if not d.get("compensation"):
+        return ""
+    return ("\n\n   The slip-compensated law (docs/theory.md section 18): do not send (V, omega) as it is; pass it with c.xi\n"
+            "   to rs_compensator_step (rs_monitor.h), which checks it, divides each track's speed by the monitor's\n"
+            "   slip estimate and returns the command to send.")
 
 
 def _c_source(d: dict[str, Any], ctl: Controller) -> str:
@@ -370,6 +379,7 @@ def ros2_parameters(d: dict[str, Any]) -> bytes:
         "has_motor_limit": rho is not None,
         "max_motor_speed": float(rho) if rho is not None else 0.0,
         **_monitor_parameters(d),
+        **_compensation_parameters(d),
     }
     head = (f"# ROS 2 parameters of the robustsynth controller node, {_header_comment(d, 'ros2', '# ')}\n"
             "# K is row-major, K_rows x K_cols, on the lifted state named in state_names.\n"
@@ -409,6 +419,24 @@ def _monitor_parameters(d: dict[str, Any]) -> dict[str, Any]:
     }
 
 
+def _compensation_parameters(d: dict[str, Any]) -> dict[str, Any]:
+    """The slip-compensated law's part (law.Compensator, docs/theory.md §18) as flat ROS 2 parameters: its estimate
+    error, lag and true box (``compensation_box``: mu_r lo, hi, mu_l lo, hi), and the motors' own limit
+    (``monitor_saturation_limit``) beside the MOTOR check's ``monitor_rho_limit``, the certificate's.  None of them
+    for another law (its parameters stay as they were)."""
+    c = d.get("compensation")
+    if not c:
+        return {}
+    sat = (d.get("monitor") or {}).get("saturation_limit")
+    return {
+        "has_compensation": True,
+        "compensation_error": float(c["error"]), "compensation_lag": float(c["lag"]),
+        "compensation_box": [float(v) for pair in c["box"] for v in pair],
+        **({"monitor_has_saturation_limit": sat is not None, "monitor_saturation_limit": float(sat) if sat is not None
+            else 0.0} if d.get("monitor") else {}),
+    }
+
+
 def _reference_table(d: dict[str, Any]) -> dict[str, list[float]]:
     from ..law import PathTable
 
@@ -425,11 +453,6 @@ def json_description(d: dict[str, Any]) -> bytes:
 
 def export_files(d: dict[str, Any], target: str) -> dict[str, bytes]:
     """The files of one target (name -> content)."""
-    if d.get("compensation") and target in ("c", "ros2"):
-        from ..errors import InputError
-
-        raise InputError(f"--to {target}: the slip-compensated law (slip.compensation) is exported to python and json "
-                         "only (its C99 and ROS 2 forms are not built yet)")
     if target == "c":
         return c_files(d)
     if target == "python":

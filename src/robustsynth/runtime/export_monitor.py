@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from ..law import Compensator
 from ..monitor import _EST_ROUND, CAUSES, Monitor
 from .export_lti import _c_array as _arr, _f  # C double literals that read back exactly
 
@@ -35,11 +36,20 @@ static double {name}(double a)
 
 
 def c_monitor_files(d: dict[str, Any]) -> dict[str, bytes]:
-    """rs_monitor.h, rs_monitor.c and rs_monitor_harness.c of the description ``d`` (with its ``monitor``)."""
+    """rs_monitor.h, rs_monitor.c and rs_monitor_harness.c of the description ``d`` (with its ``monitor``); for the
+    slip-compensated law (``d["compensation"]``, docs/theory.md §18) they carry its compensator too (rs_compensator_*,
+    the same operations as :class:`robustsynth.law.Compensator`), and a description without one gives the files it
+    gave before the compensator was built, byte for byte."""
     m = Monitor(d)  # validates the description and computes what the Python class derives (the segments' starts)
+    k = Compensator(d) if d.get("compensation") else None
     h = _monitor_h(m)
     c = _monitor_c(m)
-    return {"rs_monitor.h": h.encode(), "rs_monitor.c": c.encode(), "rs_monitor_harness.c": _monitor_harness().encode()}
+    harness = _monitor_harness()
+    if k is not None:
+        h = h.replace("\n#endif /* RS_MONITOR_H */\n", "\n" + _compensator_h() + "\n#endif /* RS_MONITOR_H */\n")
+        c = c + "\n" + _c_compensator(k)
+        harness = _compensated_harness(harness)
+    return {"rs_monitor.h": h.encode(), "rs_monitor.c": c.encode(), "rs_monitor_harness.c": harness.encode()}
 
 
 def _monitor_h(m: Monitor) -> str:
@@ -113,8 +123,15 @@ def _monitor_c(m: Monitor) -> str:
     """rs_monitor.c: its sections in the file's order, each a C function or a few (the constants, the helpers,
     the queues of commands, reports_, V_, commanded_, rate_, slip_, the public functions)."""
     lyapunov = _c_lyapunov(m)  # its terms' literals first: a non-finite one is the error raised before a constant's
-    return "\n".join((_c_constants(m), _c_helpers(), _c_queues(), _c_reports(), lyapunov, _c_commanded(), _c_rate(),
-                      _c_slip(), _c_public(), _c_estimate()))
+    return "\n".join((_c_constants(m), _c_helpers(), _c_queues(_saturation_differs(m)), _c_reports(), lyapunov,
+                      _c_commanded(), _c_rate(), _c_slip(), _c_public(), _c_estimate()))
+
+
+def _saturation_differs(m: Monitor) -> bool:
+    """Whether the motors' own limit (``saturation_limit``: beyond it a command that acted is left out of the slip
+    check and estimate) is not the MOTOR check's ``rho_limit``: a compensated law's (docs/theory.md §18).  Only then
+    does rs_monitor.c carry it as a constant of its own (every other description's file stays as it was)."""
+    return m.saturation_limit != m.rho_limit
 
 
 def _c_constants(m: Monitor) -> str:
@@ -144,7 +161,7 @@ static const int HAS_HEADING = {0 if m.heading_limit is None else 1};
 static const double HEADING_LIMIT = {_f(m.heading_limit if m.heading_limit is not None else 0.0)};
 static const int HAS_RHO = {0 if m.rho_limit is None else 1};
 static const double RHO_LIMIT = {_f(m.rho_limit if m.rho_limit is not None else 0.0)};
-static const double COMP_MID[6] = {comp_mid}; /* the slip box's twist components: centres and radii */
+{_c_saturation(m) if _saturation_differs(m) else ''}static const double COMP_MID[6] = {comp_mid}; /* the slip box's twist components: centres and radii */
 static const double COMP_RAD[6] = {comp_rad};
 static const double POS_NOISE = {_f(m.pos_noise)};
 static const double HEAD_NOISE = {_f(m.head_noise)};
@@ -162,6 +179,16 @@ static const double SLOW_FACTOR = {_f(m.slow_factor)};
 static const double SEGMENT_STARTS[N_SEG > 0 ? N_SEG : 1] = {seg};
 static const double PI_ = {_f(math.pi)};
 static const double TWO_PI_ = {_f(2.0 * math.pi)};
+"""
+
+
+def _c_saturation(m: Monitor) -> str:
+    """The motors' own limit where it is not RHO_LIMIT (the schedule's "beyond" flag: Monitor.saturation_limit)."""
+    lim = m.saturation_limit
+    return f"""/* the motors' own limit: a command beyond it that acted did not become motion as commanded (the slip check and
+   estimate leave its periods out); RHO_LIMIT above is the MOTOR check's, the certificate's (docs/theory.md section 18) */
+static const int HAS_SATURATION = {0 if lim is None else 1};
+static const double SATURATION_LIMIT = {_f(lim if lim is not None else 0.0)};
 """
 
 
@@ -202,10 +229,12 @@ static double rho_(double v, double w)
 """
 
 
-def _c_queues() -> str:
+def _c_queues(saturation: bool = False) -> str:
     """rs_monitor_init, and the bookkeeping of the commands: find_ / remove_ in the arrays of commands in
-    flight or overdue, and the applied schedule (SCH_* macros, drop_first_, schedule_: a stable insertion by time)."""
-    return """void rs_monitor_init(rs_monitor_t *m)
+    flight or overdue, and the applied schedule (SCH_* macros, drop_first_, schedule_: a stable insertion by time).
+    ``saturation``: the schedule's "beyond the motor limit" flag compares with SATURATION_LIMIT (else RHO_LIMIT,
+    the same number)."""
+    text = """void rs_monitor_init(rs_monitor_t *m)
 {
     int i;
     m->n_pend = m->n_over = m->n_sched = m->n_poses = m->n_periods = m->pose_first = m->period_first = 0;
@@ -265,6 +294,10 @@ static void schedule_(rs_monitor_t *m, double applied, double v, double w) /* a 
     ++m->n_sched;
 }
 """
+    if saturation:
+        text = text.replace("SCH_B(i) = HAS_RHO && rho_(v, w) > RHO_LIMIT;",
+                            "SCH_B(i) = HAS_SATURATION && rho_(v, w) > SATURATION_LIMIT; /* the motors' own limit */")
+    return text
 
 
 def _c_reports() -> str:
@@ -736,3 +769,179 @@ int rs_monitor_slip_estimate(const rs_monitor_t *m, double lo[6], double hi[6], 
     return 1;
 }
 """
+
+
+def _compensator_h() -> str:
+    """rs_monitor.h's part for the slip-compensated law: rs_monitor_suspend, the compensator's state
+    (rs_compensator_t: law.Compensator's mu, holds, margin, wait) and the prototypes of rs_compensator_init, _update,
+    _covered, _command, _step and rs_compensate."""
+    return """/* the slip-compensated law (robustsynth.law.Compensator, docs/theory.md section 18; the same operations in the same
+   order: bit-identical to the Python class).  Each period, after rs_step, in place of rs_monitor_step:
+     status = rs_compensator_step(&k, &m, t, x, y, theta, c.xi, V, omega, seq, n, seqs, applied, &V_out, &omega_out);
+   the monitor checks the law's own command (V, omega: its MOTOR check is the certificate's limit on it), the
+   compensator takes the monitor's slip estimate, and (V_out, omega_out) is the law's command with each track's speed
+   divided by the estimated traction (or the fallback's once engaged).  k.holds: the certificate's condition is sure
+   to hold for that command; where it has not held for it and the RS_COMP_D_HI before it (rs_compensator_covered 0)
+   the monitor's set checks are suspended until the state is seen inside again. */
+#define RS_MON_COMPENSATED 1
+
+typedef struct {
+    double mu[2];   /* the tractions the commands are divided by: mu_r, mu_l (the box's centre before an estimate) */
+    int holds;      /* the condition (each track's half-width + lag <= error) sure to hold for this period's command */
+    int has_margin; /* 0: no estimate from a window this period (Python's margin None) */
+    double margin;  /* error less the worse track's half-width + lag (0.0 where has_margin is 0) */
+    int wait;       /* periods until every command that can act was compensated under the condition (0: covered) */
+} rs_compensator_t;
+
+/* the set's claims do not cover the next state: SET, HEADING and MOTOR wait until it is seen inside again */
+void rs_monitor_suspend(rs_monitor_t *m);
+void rs_compensator_init(rs_compensator_t *k);
+/* takes the monitor's slip estimate of this period (rs_monitor_slip_estimate); returns rs_compensator_covered */
+int rs_compensator_update(rs_compensator_t *k, const rs_monitor_t *m);
+int rs_compensator_covered(const rs_compensator_t *k);
+/* the command whose tracks turn at (V, omega)'s track speeds divided by mu_r, mu_l (half_D: half the track distance) */
+void rs_compensate(double V, double omega, double mu_r, double mu_l, double half_D, double *V_out, double *omega_out);
+void rs_compensator_command(const rs_compensator_t *k, double V, double omega, double *V_out, double *omega_out);
+int rs_compensator_step(rs_compensator_t *k, rs_monitor_t *m, double t, double x, double y, double theta,
+                        const double *xi, double V, double omega, long seq, int n_reports, const long *seqs,
+                        const double *applied, double *V_out, double *omega_out);
+"""
+
+
+def _c_compensator(k: Compensator) -> str:
+    """rs_monitor.c's part for the slip-compensated law: its constants (law.Compensator's error, lag, half_D, d_hi and
+    the box's centre, as the Python class computes them), rs_monitor_suspend (Monitor.suspend), the compensator
+    (Compensator.reset, update, covered, command), rs_compensate (law.compensate) and rs_compensator_step
+    (Compensator.step after the law's command): the same operations in the same order."""
+    return f"""/* ---------------------------------------------- the slip-compensated law (robustsynth.law.Compensator) */
+static const double COMPENSATION_ERROR = {_f(k.error)}; /* the estimate error the certificate assumes */
+static const double COMPENSATION_LAG = {_f(k.lag)}; /* what slip.max_rate lets the traction move while a command acts */
+static const double COMPENSATION_HALF_D = {_f(k.half_D)}; /* half the track distance [m] */
+static const double COMPENSATION_CENTRE[2] = {_arr(k.centre)}; /* the slip box's centre: mu_r, mu_l */
+static const int COMPENSATION_D_HI = {k.d_hi}; /* a command acts within this many periods after its own */
+
+void rs_monitor_suspend(rs_monitor_t *m)
+{{
+    m->inside = 0;
+}}
+
+void rs_compensator_init(rs_compensator_t *k)
+{{
+    k->mu[0] = COMPENSATION_CENTRE[0];
+    k->mu[1] = COMPENSATION_CENTRE[1];
+    k->holds = 0;
+    k->has_margin = 0;
+    k->margin = 0.0;
+    k->wait = COMPENSATION_D_HI + 1;
+}}
+
+int rs_compensator_covered(const rs_compensator_t *k)
+{{
+    return k->wait == 0;
+}}
+
+int rs_compensator_update(rs_compensator_t *k, const rs_monitor_t *m)
+{{
+    double lo[6], hi[6];
+    int windows, ok = rs_monitor_slip_estimate(m, lo, hi, &windows);
+    if (ok != 1 || windows == 0) {{ /* no box, inconsistent, or no window: the last estimate stays */
+        k->holds = 0;
+        k->has_margin = 0;
+        k->margin = 0.0;
+    }} else {{
+        double half_r = (hi[0] - lo[0]) / 2.0, half_l = (hi[1] - lo[1]) / 2.0;
+        k->mu[0] = (lo[0] + hi[0]) / 2.0;
+        k->mu[1] = (lo[1] + hi[1]) / 2.0;
+        k->margin = COMPENSATION_ERROR - (max_(half_r, half_l) + COMPENSATION_LAG);
+        k->has_margin = 1;
+        k->holds = k->margin >= 0.0;
+    }}
+    /* periods until every command that can act was compensated under the condition */
+    k->wait = k->holds ? (k->wait - 1 > 0 ? k->wait - 1 : 0) : COMPENSATION_D_HI + 1;
+    return rs_compensator_covered(k);
+}}
+
+void rs_compensate(double V, double omega, double mu_r, double mu_l, double half_D, double *V_out, double *omega_out)
+{{
+    double vr = (V + omega * half_D) / mu_r;
+    double vl = (V - omega * half_D) / mu_l;
+    *V_out = (vr + vl) * 0.5;
+    *omega_out = (vr - vl) / (half_D + half_D);
+}}
+
+void rs_compensator_command(const rs_compensator_t *k, double V, double omega, double *V_out, double *omega_out)
+{{
+    rs_compensate(V, omega, k->mu[0], k->mu[1], COMPENSATION_HALF_D, V_out, omega_out);
+}}
+
+int rs_compensator_step(rs_compensator_t *k, rs_monitor_t *m, double t, double x, double y, double theta,
+                        const double *xi, double V, double omega, long seq, int n_reports, const long *seqs,
+                        const double *applied, double *V_out, double *omega_out)
+{{
+    double Vc, wc;
+    int status = rs_monitor_check(m, t, x, y, theta, xi, V, omega, n_reports, seqs, applied);
+    if (!rs_compensator_update(k, m)) rs_monitor_suspend(m); /* the set's claims do not cover the next state */
+    rs_compensator_command(k, V, omega, &Vc, &wc);
+    rs_monitor_fallback(m, Vc, wc, V_out, omega_out);
+    rs_monitor_sent(m, seq, t, *V_out, *omega_out);
+    return status;
+}}
+"""
+
+
+def _compensated_harness(harness: str) -> str:
+    """rs_monitor_harness.c with the compensated law's modes: ``--compensated`` replays the periods through
+    rs_compensator_step and prints after the estimate ``C holds covered wait has_margin margin mu_r mu_l``;
+    ``--bench N C`` times N of its steps (each with its slip estimate)."""
+    edits = (
+        ("""   rs_monitor_harness --bench N [E]   mean time of N calls of rs_monitor_step [ns] (E: each followed by one of
+                                      rs_monitor_slip_estimate) */""",
+         """   rs_monitor_harness --bench N [E]   mean time of N calls of rs_monitor_step [ns] (E: each followed by one of
+                                      rs_monitor_slip_estimate)
+   rs_monitor_harness --compensated   the same lines (V omega: the law's command) through rs_compensator_step, each
+                                      output line ending "C holds covered wait has_margin margin mu_r mu_l"
+   rs_monitor_harness --bench N C     mean time of N calls of rs_compensator_step [ns] (its estimate included) */"""),
+        ("""    rs_monitor_t m;
+""", """    rs_monitor_t m;
+    rs_compensator_t comp;
+    int compensated = argc == 2 && strcmp(argv[1], "--compensated") == 0;
+"""),
+        ("""    rs_monitor_init(&m);
+    if (argc""", """    rs_monitor_init(&m);
+    rs_compensator_init(&comp);
+    if (argc"""),
+        ("""        int estimate = argc == 4 && strcmp(argv[3], "E") == 0;
+""", """        int estimate = argc == 4 && strcmp(argv[3], "E") == 0, comp_step = argc == 4 && strcmp(argv[3], "C") == 0;
+"""),
+        ("""            if (kk == 0) rs_monitor_init(&m);
+""", """            if (kk == 0) { rs_monitor_init(&m); rs_compensator_init(&comp); }
+"""),
+        ("""            status = rs_monitor_step(&m, (double)kk * 0.1, 0.05 * (double)kk, 0.0, 0.0, xi, 0.5, 0.0, kk, kk > 0 ? 1 : 0,
+                                     seqs, applied, &Vo, &wo);
+""", """            if (comp_step)
+                status = rs_compensator_step(&comp, &m, (double)kk * 0.1, 0.05 * (double)kk, 0.0, 0.0, xi, 0.5, 0.0, kk,
+                                             kk > 0 ? 1 : 0, seqs, applied, &Vo, &wo);
+            else
+                status = rs_monitor_step(&m, (double)kk * 0.1, 0.05 * (double)kk, 0.0, 0.0, xi, 0.5, 0.0, kk,
+                                         kk > 0 ? 1 : 0, seqs, applied, &Vo, &wo);
+"""),
+        ("""        status = rs_monitor_step(&m, t, x, y, th, xi, V, w, seq, n, seqs, applied, &Vo, &wo);
+""", """        if (compensated)
+            status = rs_compensator_step(&comp, &m, t, x, y, th, xi, V, w, seq, n, seqs, applied, &Vo, &wo);
+        else
+            status = rs_monitor_step(&m, t, x, y, th, xi, V, w, seq, n, seqs, applied, &Vo, &wo);
+"""),
+        ("""#endif
+        printf("\\n");
+""", """#endif
+        if (compensated)
+            printf(" C %d %d %d %d %.17g %.17g %.17g", comp.holds, rs_compensator_covered(&comp), comp.wait,
+                   comp.has_margin, comp.margin, comp.mu[0], comp.mu[1]);
+        printf("\\n");
+"""),
+    )
+    for old, new in edits:
+        if harness.count(old) != 1:
+            raise AssertionError(f"rs_monitor_harness.c: the compensated mode's anchor is not there once: {old[:60]!r}")
+        harness = harness.replace(old, new)
+    return harness

@@ -16,10 +16,18 @@ Wiring (topics relative to the node's namespace)::
                                                         mu_r lo, hi, mu_l lo, hi, (mu_r + mu_l)/2 lo, hi, mu_r - mu_l
                                                         lo, hi (, yaw lo, hi, x_icr lo, hi)]: the monitor's slip
                                                         estimate (docs/theory.md §17)
+    compensation  std_msgs/Float64MultiArray       out: the slip-compensated law only (docs/theory.md §18), each period
+                                                        [holds (1/0), covered (1/0), margin, mu_r, mu_l]: whether the
+                                                        certificate's condition is sure to hold for the command sent,
+                                                        whether it held for every command that can act until the next
+                                                        instant, its margin (error less the worse track's half-width +
+                                                        lag; NaN without an estimate) and the tractions divided by
 
 A timer calls :meth:`Loop.tick` every ``sampling_time`` seconds: t_k = k Ts from the first tick (the path's start),
 the law's command, the monitor's check with the reports received since the last tick, and the command to send
-(the law's, or the fallback's once the monitor engaged it).  The base must stamp ``applied_time`` on the node's clock
+(the law's, or the fallback's once the monitor engaged it).  For the slip-compensated law (a description with
+``compensation``) each tick is ``Compensator.step`` instead: the monitor checks the law's command, and the command
+sent is the law's divided track by track by the monitor's slip estimate (or the fallback's).  The base must stamp ``applied_time`` on the node's clock
 (the same clock the timer runs on; use_sim_time for a simulator) — the delay check compares it with t_k.
 
 The node refuses to start when the parameters' ``gains_id`` is not rs_controller.py's (a parameter file of another
@@ -39,11 +47,11 @@ def yaw_of(qx, qy, qz, qw):
 
 
 class Loop:
-    """One controller and its monitor, period by period: :meth:`applied` as the base's reports come in,
-    :meth:`tick` once per sampling instant with the latest pose."""
+    """One controller and its monitor (and, for the slip-compensated law, its ``Compensator``), period by period:
+    :meth:`applied` as the base's reports come in, :meth:`tick` once per sampling instant with the latest pose."""
 
-    def __init__(self, controller, monitor):
-        self.controller, self.monitor = controller, monitor
+    def __init__(self, controller, monitor, compensator=None):
+        self.controller, self.monitor, self.compensator = controller, monitor, compensator
         self.Ts = float(controller.Ts)
         self.k = 0
         self.t0 = None
@@ -60,10 +68,13 @@ class Loop:
         if self.t0 is None:
             self.t0 = float(now)
         t = self.k * self.Ts  # the period's instant on the path's time (the timer's, not the callback's jitter)
-        command = self.controller.step(t, x, y, theta)
         reports = [(seq, None if a is None else a - self.t0) for seq, a in self.reports]
         self.reports = []
-        status, (V, omega) = self.monitor.step(t, x, y, theta, self.controller.state, command, self.k, reports)
+        if self.compensator is not None:  # the law's command checked, then divided by the slip estimate
+            status, (V, omega) = self.compensator.step(self.controller, self.monitor, t, x, y, theta, self.k, reports)
+        else:
+            command = self.controller.step(t, x, y, theta)
+            status, (V, omega) = self.monitor.step(t, x, y, theta, self.controller.state, command, self.k, reports)
         seq = self.k
         self.k += 1
         return V, omega, seq, status
@@ -76,6 +87,16 @@ class Loop:
         e = self.monitor.slip_estimate()
         return [1.0 if e["consistent"] else 0.0, float(e["windows"])] + [
             float(v) for k in self.monitor.estimate_names for v in e["ranges"].get(k, (math.nan, math.nan))]
+
+
+    def compensation_message(self):
+        """The compensation topic's data for the last tick, [holds, covered, margin (NaN without an estimate), mu_r,
+        mu_l], or None without a compensator (nothing published)."""
+        c = self.compensator
+        if c is None:
+            return None
+        return [1.0 if c.holds else 0.0, 1.0 if c.covered else 0.0, math.nan if c.margin is None else float(c.margin),
+                float(c.mu[0]), float(c.mu[1])]
 
 
 def main(args=None):  # pragma: no cover - needs ROS 2 (rclpy), which the tests do not install
@@ -96,7 +117,9 @@ def main(args=None):  # pragma: no cover - needs ROS 2 (rclpy), which the tests 
             got = self.declare_parameter("gains_id", want).value
             if got != want:
                 raise SystemExit(f"rs_node: the parameters are of gain {got!r}, rs_controller.py of {want!r}")
-            self.loop = Loop(rs_controller.Controller(), rs_controller.Monitor())
+            compensated = bool(rs_controller.DESCRIPTION.get("compensation"))  # the slip-compensated law
+            self.loop = Loop(rs_controller.Controller(), rs_controller.Monitor(),
+                             rs_controller.Compensator() if compensated else None)
             self.pose = None
             self.create_subscription(Odometry, "odom", self.on_odom, 10)
             self.create_subscription(Float64MultiArray, "cmd_applied", self.on_applied, 50)
@@ -104,6 +127,7 @@ def main(args=None):  # pragma: no cover - needs ROS 2 (rclpy), which the tests 
             self.seq = self.create_publisher(Int64, "cmd_seq", 10)
             self.status = self.create_publisher(Int32, "monitor_status", 10)
             self.estimate = self.create_publisher(Float64MultiArray, "slip_estimate", 10)
+            self.compensation = self.create_publisher(Float64MultiArray, "compensation", 10) if compensated else None
             self.create_timer(self.loop.Ts, self.on_tick)
 
         def on_odom(self, msg):
@@ -127,6 +151,9 @@ def main(args=None):  # pragma: no cover - needs ROS 2 (rclpy), which the tests 
             est = self.loop.slip_estimate_message()
             if est is not None:
                 self.estimate.publish(Float64MultiArray(data=est))
+            cond = self.loop.compensation_message()
+            if cond is not None:
+                self.compensation.publish(Float64MultiArray(data=cond))
             if status:
                 self.get_logger().warn(f"period {seq}: monitor status {status} {self.loop.monitor.amounts}")
 
