@@ -86,7 +86,9 @@ def test_the_compensated_law_exports_to_c_and_ros2_with_its_compensator(tmp_path
             continue
         d = json.loads(gains.read_text())
         assert p["has_compensation"] and p["compensation_error"] == d["compensation"]["error"]
-        assert p["compensation_box"] == [0.6, 1.0, 0.6, 1.0] and p["compensation_lag"] > 0.0
+        box = d["config"]["slip"]
+        assert p["compensation_box"] == [box["right"]["min"], box["right"]["max"], box["left"]["min"], box["left"]["max"]]
+        assert p["compensation_lag"] > 0.0
         assert p["monitor_has_saturation_limit"] and p["monitor_saturation_limit"] == 12.0
         assert p["monitor_rho_limit"] == pytest.approx(12.0 * 0.6, rel=1e-15)
 

@@ -231,7 +231,7 @@ def _compensated_periods(runs: int, seed: int = 3, error: float | None = None):
     tau[1, robot.d_hi + 90] = np.inf
     scen = replace(scen, taus=tau)
     res = simulate_compensated(robot, np.asarray(gains["K"]), path, scen, d)
-    applied = applied_times(robot, scen)
+    applied = applied_times(robot, scen.taus, scen.steps)
     lines, expected, rhos = [], [], []
     for n in range(runs):
         ctl, mon, comp = _Recording(Controller(d)), Monitor(d), Compensator(d)

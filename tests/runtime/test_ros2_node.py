@@ -160,7 +160,7 @@ def test_the_nodes_loop_runs_the_compensated_law_as_compensator_step(tmp_path: P
     robot, path = true_robot(cfg), path_of(cfg)
     scen = draw_scenario(robot, 1, 2, int(path.duration / robot.Ts), path, within_period=True)
     res = simulate_compensated(robot, np.asarray(gains["K"]), path, scen, desc)
-    applied = applied_times(robot, scen)[0]
+    applied = applied_times(robot, scen.taus, scen.steps)[0]
     loop = node.Loop(ctl_mod.Controller(), ctl_mod.Monitor(), ctl_mod.Compensator())
     ctl, mon, comp = Controller(desc), Monitor(desc), Compensator(desc)
     pending = sorted((float(applied[j]), j) for j in range(scen.steps) if math.isfinite(float(applied[j])))
