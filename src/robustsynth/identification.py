@@ -506,6 +506,7 @@ def check_log(logs: Sequence[RobotLog], cfg: Any, max_motor_speed: float | None 
     out.append({"assumption": "network.dropouts.max_consecutive", "range": [0, cap], "samples": len(logs),
                 "outside": sum(1 for x, _ in bursts if x > cap), "fraction_outside": sum(1 for x, _ in bursts if x > cap)
                 / max(len(logs), 1), "worst": b, "where": bp if b > cap else "", "unit": "commands in a row"})
+    out += _compensation_rows(logs, cfg)
     if getattr(cfg.slip, "model", "tracks") == "icr":
         return out + _check_icr(logs, cfg, max_motor_speed, pose_noise)
     est = estimate_slip(logs, cfg.robot.gear_radius, cfg.robot.track_distance, max_motor_speed)
@@ -521,6 +522,30 @@ def check_log(logs: Sequence[RobotLog], cfg: Any, max_motor_speed: float | None 
                     "fraction_outside": bad.size / max(m.size, 1), "worst": float(m[k]) if k >= 0 else None,
                     "where": f"{where_i[k][0]}, row {where_i[k][1]}" if k >= 0 and bad.size else "", "unit": "—"})
     return out
+
+
+def _compensation_rows(logs: Sequence[RobotLog], cfg: Any) -> list[dict[str, Any]]:
+    """check-log's row for a slip-compensated law's logs (their mu_hat_r, mu_hat_l, condition columns; docs/theory.md
+    §18): the periods its controller found the certificate's condition not sure to hold after it first held (before,
+    the estimator has no window yet: the theorem starts there), the first of them, and the logs in which it never
+    held (each counted once) — ``slip.compensation`` in ``cfg`` or not: the logs say what their controller did."""
+    with_est = [lg for lg in logs if lg.estimate is not None]
+    if not with_est:
+        return []
+    cond, periods = [], 0
+    for lg in with_est:
+        held = lg.estimate[:, 2] == 1.0
+        start = int(np.argmax(held)) if held.any() else len(lg)  # the estimator's first windows: not counted
+        cond.append((lg, start + np.flatnonzero(~held[start:])))
+        periods += len(lg) - start
+    outside = sum(int(bad.size) for _, bad in cond)
+    first = next(((lg, bad) for lg, bad in cond if bad.size), None)
+    never = sum(1 for lg in with_est if not np.any(lg.estimate[:, 2] == 1.0))
+    return [{"assumption": "slip.compensation (the estimate within its error)", "range": [1, 1], "samples": periods,
+             "outside": outside + never, "fraction_outside": (outside + never) / max(periods + never, 1), "worst": None,
+             "where": f"{first[0].path}, row {int(first[1][0]) + 2}" if first else "",
+             "unit": "periods the condition did not hold, after it first held in each log" + (
+                 f"; in {never} logs it never held" if never else "")}]
 
 
 def _check_icr(logs: Sequence[RobotLog], cfg: Any, max_motor_speed: float | None,

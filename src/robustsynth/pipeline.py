@@ -329,7 +329,8 @@ def _pieces(logs: list, keep: Any) -> list:
         for a, b in zip(edges[::2], edges[1::2]):
             if b - a >= 3:
                 out.append(dataclasses.replace(log, path=f"{log.path}[{a}:{b}]", **{
-                    f: getattr(log, f)[a:b] for f in ("t", "x", "y", "theta", "seq", "rho_r", "rho_l", "sent", "applied")}))
+                    f: getattr(log, f)[a:b] for f in ("t", "x", "y", "theta", "seq", "rho_r", "rho_l", "sent", "applied")},
+                    estimate=None if log.estimate is None else log.estimate[a:b]))
     return out
 
 
@@ -356,9 +357,12 @@ def _observed_slip(model: Model, logs: list) -> dict[str, Any]:
 
 def write_run_logs(model: Model, result: Any, logdir: str | Path) -> list[Path]:
     """The verification's Monte Carlo runs as robot logs (one CSV per run, the format `identify` and
-    `check-log` read) in ``logdir``."""
+    `check-log` read) in ``logdir``; for a slip-compensated law, its runs with the estimator in the loop on the true
+    slip (with the estimate's columns)."""
     from .verification.simulate import run_logs
 
+    if result.compensated is not None:  # a slip-compensated law: the runs of the law as deployed, on the true slip
+        return _write_logs(result.compensated.logs(), logdir)
     return _write_logs(run_logs(model, result.sim, result.scenario), logdir)
 
 

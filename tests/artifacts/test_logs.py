@@ -100,3 +100,29 @@ def test_a_log_cut_short_is_refused_naming_its_row(tmp_path) -> None:
     whole = tmp_path / "whole.csv"
     whole.write_text(text)
     assert len(read_log(whole)) == len(read_log(ROOT / "docs" / "sample-log.csv"))
+
+
+def test_a_compensated_laws_estimate_columns_round_trip_and_come_together(tmp_path) -> None:
+    """mu_hat_r, mu_hat_l, condition (a slip-compensated law's log, docs/theory.md §18): written and read back to the
+    same numbers; a log without them reads as before (None); one of them alone, or a condition other than 0 or 1, is
+    refused with one line naming the row and column."""
+    import dataclasses
+
+    from robustsynth.artifacts.logs import ESTIMATE_COLUMNS
+
+    log = _log()
+    est = np.stack([np.linspace(0.8, 0.9, 6), np.full(6, 0.7 + 1e-13), (np.arange(6) > 1).astype(float)], axis=1)
+    write_log(tmp_path / "c.csv", dataclasses.replace(log, estimate=est))
+    back = read_log(tmp_path / "c.csv")
+    assert back.estimate is not None and np.array_equal(back.estimate, est)
+    write_log(tmp_path / "plain.csv", log)
+    assert read_log(tmp_path / "plain.csv").estimate is None
+    rows = [r + ["0.8", "0.8", "1"] for r in _good_rows()]
+    (tmp_path / "part.csv").write_text(_text([r[:-1] for r in rows], LOG_COLUMNS + ESTIMATE_COLUMNS[:2]))
+    with pytest.raises(InputError, match=r"part\.csv: row 1: column 'condition' is missing") as exc:
+        read_log(tmp_path / "part.csv")
+    assert "\n" not in str(exc.value)
+    rows[2][-1] = "0.5"
+    (tmp_path / "cond.csv").write_text(_text(rows, LOG_COLUMNS + ESTIMATE_COLUMNS))
+    with pytest.raises(InputError, match=r"cond\.csv: row 4, column 'condition': 0\.5 \(0 or 1\)"):
+        read_log(tmp_path / "cond.csv")

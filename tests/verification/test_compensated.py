@@ -18,6 +18,7 @@ from robustsynth.model import build_model
 ROOT = Path(__file__).resolve().parents[2]
 CONFIG = ROOT / "configs" / "harsh-compensated.yaml"
 GAINS = ROOT / "results" / "baselines" / "harsh-compensated" / "gains.json"
+IDENT_TOL = 0.01  # identify's box against the runs' true slip range (measured: within 0.004 on the 4 runs below)
 
 
 @pytest.fixture(scope="module")
@@ -75,7 +76,7 @@ def test_the_committed_certificate_holds_wherever_its_condition_does(setup) -> N
 
     cfg, model, gains, K, cert, desc, path = setup
     assert cert.passed
-    checks, rec = compensated_checks(model, K, cert, gains, 20, 0)
+    checks, rec, runs = compensated_checks(model, K, cert, gains, 20, 0)
     assert checks and all(c["passed"] for c in checks), [c for c in checks if not c["passed"]]
     assert rec["condition_held_share"] > 0.9 and rec["steps_judged"] > 0.9 * 20 * rec["steps"]
     assert rec["condition_first_period"]["max"] <= 5
@@ -108,3 +109,39 @@ def test_a_slip_faster_than_the_monitor_assumes_fails_the_checks(setup) -> None:
     failed = {c["name"] for c in checks if not c["passed"]}
     assert "compensated: the estimate holds the true traction whenever its condition holds" in failed
     assert rec["estimate_unsound_steps"] > 0
+
+
+def test_the_runs_logs_carry_the_estimate_and_replay_check_log_and_identify_read_it(setup, tmp_path) -> None:
+    """verify --log of a compensated law writes its runs on the true slip with the estimate's columns: the monitor's
+    replay of each log finds the logged estimate and condition its own in every period (the log holds motor speeds,
+    so the traction agrees to ESTIMATE_TOL), a log whose estimate was moved by 1e-6 does not; check-log counts the
+    periods the condition did not hold after it first held; identify, reading the commands that acted (compensated),
+    finds the range of the runs' true traction."""
+    import dataclasses
+
+    from robustsynth.artifacts.logs import read_log, write_log
+    from robustsynth.identification import check_log, identify
+    from robustsynth.runtime.replay import monitor_logs
+    from robustsynth.verification.compensated import compensated_checks
+
+    cfg, model, gains, K, cert, desc, path = setup
+    _, _, runs = compensated_checks(model, K, cert, gains, 4, 0)
+    logs = runs.logs()
+    for lg in logs:
+        write_log(tmp_path / lg.path, lg)
+    back = [read_log(tmp_path / lg.path) for lg in logs]
+    assert all(b.estimate is not None and np.array_equal(b.estimate, lg.estimate) for b, lg in zip(back, logs))
+    rep = monitor_logs(back, desc)["compensation"]
+    assert rep["logs_with_the_estimate"] == 4 and rep["periods_the_logged_estimate_differs"] == 0
+    assert rep["condition_held_share"] == pytest.approx(float(runs.holds.mean()), abs=1e-12)
+    moved = dataclasses.replace(back[0], estimate=back[0].estimate + np.array([1e-6, 0.0, 0.0]))
+    assert monitor_logs([moved], desc)["compensation"]["periods_the_logged_estimate_differs"] > 0
+    row = next(r for r in check_log(back, cfg) if r["assumption"].startswith("slip.compensation"))
+    after_first = sum(len(lg) - int(np.argmax(lg.estimate[:, 2] == 1.0)) for lg in back)
+    assert row["samples"] == after_first and row["outside"] == int(sum(
+        np.sum(lg.estimate[int(np.argmax(lg.estimate[:, 2] == 1.0)):, 2] == 0.0) for lg in back))
+    ident = identify(back, cfg.robot.gear_radius, cfg.robot.track_distance, max_motor_speed=cfg.robot.max_motor_speed)
+    for i, side in enumerate(("right", "left")):
+        lo, hi = ident.box[side]
+        true = runs.scen.mu[..., i]
+        assert abs(lo - true.min()) <= IDENT_TOL and abs(hi - true.max()) <= IDENT_TOL, (side, lo, hi, true.min(), true.max())

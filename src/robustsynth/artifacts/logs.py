@@ -15,6 +15,10 @@ rho_l      rad/s   commanded left track speed
 sent       s       when the command left the controller
 applied    s       when it started acting on the robot (empty or NaN: lost, it never acted)
 enc_r/l    rad/s   optional: measured track speeds (read, not used yet)
+mu_hat_r/l —       optional, a slip-compensated law (docs/theory.md §18): the estimated tractions the command
+                   of t_k was divided by
+condition  —       optional, with mu_hat_r/l: 1 where the certificate's condition was sure to hold for that
+                   command (the estimate's half-width + lag within its error), else 0
 =========  ======  ================================================================================
 
 The file ends with a line break (one that ends within a row was cut short, and is refused).  Errors name the file,
@@ -34,10 +38,11 @@ import numpy as np
 from ..errors import InputError
 from .files import atomic_write
 
-__all__ = ["RobotLog", "read_log", "write_log", "log_text", "LOG_COLUMNS"]
+__all__ = ["RobotLog", "read_log", "write_log", "log_text", "LOG_COLUMNS", "ESTIMATE_COLUMNS"]
 
 LOG_COLUMNS = ("t", "x", "y", "theta", "seq", "rho_r", "rho_l", "sent", "applied")
 OPTIONAL_COLUMNS = ("enc_r", "enc_l")
+ESTIMATE_COLUMNS = ("mu_hat_r", "mu_hat_l", "condition")  # a slip-compensated law's (written and read together)
 _MAX_STEP_S = 10.0  # a median time step above this is taken for milliseconds (or another unit)
 
 
@@ -55,6 +60,8 @@ class RobotLog:
     rho_l: np.ndarray
     sent: np.ndarray
     applied: np.ndarray  # NaN: lost
+    # a slip-compensated law: per row the estimate the command was divided by and the condition (n, 3); None: none
+    estimate: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.t.size)
@@ -104,13 +111,21 @@ def read_log(path: str | Path) -> RobotLog:
         raise InputError(f"{p}: row 1: column {missing[0]!r} is missing (a log needs {', '.join(LOG_COLUMNS)})")
     if len(rows) < 3:
         raise InputError(f"{p}: {len(rows) - 1} data rows; a log needs at least 2 sampling instants")
-    idx = {c: header.index(c) for c in LOG_COLUMNS}
-    cols: dict[str, list[float]] = {c: [] for c in LOG_COLUMNS}
+    given = [c for c in ESTIMATE_COLUMNS if c in header]
+    if given and len(given) < len(ESTIMATE_COLUMNS):
+        gone = next(c for c in ESTIMATE_COLUMNS if c not in header)
+        raise InputError(f"{p}: row 1: column {gone!r} is missing (the estimate's columns come together: "
+                         f"{', '.join(ESTIMATE_COLUMNS)})")
+    read = LOG_COLUMNS + (ESTIMATE_COLUMNS if given else ())
+    idx = {c: header.index(c) for c in read}
+    cols: dict[str, list[float]] = {c: [] for c in read}
     for r, raw in enumerate(rows[1:], start=2):
         if len(raw) < len(header):
             raise InputError(f"{p}: row {r}: {len(raw)} fields, the header has {len(header)}")
-        for c in LOG_COLUMNS:
+        for c in read:
             cols[c].append(_cell(p, r, c, raw[idx[c]], allow_empty=(c == "applied")))
+            if c == "condition" and cols[c][-1] not in (0.0, 1.0):
+                raise InputError(f"{p}: row {r}, column 'condition': {cols[c][-1]:g} (0 or 1)")
     a = {c: np.array(v, dtype=float) for c, v in cols.items()}
     dt = np.diff(a["t"])
     bad = np.flatnonzero(dt <= 0)
@@ -138,19 +153,21 @@ def read_log(path: str | Path) -> RobotLog:
         raise InputError(f"{p}: row {r}, column 'seq': {a['seq'][jumps[0] + 1]:g} after {a['seq'][jumps[0]]:g}; "
                          "one command per sampling instant, numbered consecutively (a lost one has an empty 'applied')")
     return RobotLog(str(p), a["t"], a["x"], a["y"], a["theta"], a["seq"], a["rho_r"], a["rho_l"], a["sent"],
-                    a["applied"])
+                    a["applied"], np.stack([a[c] for c in ESTIMATE_COLUMNS], axis=1) if given else None)
 
 
 def log_text(log: RobotLog) -> str:
     """The CSV text of a log (17 significant digits: reading it back gives the same numbers)."""
     out = io.StringIO()
     w = csv.writer(out, lineterminator="\n")
-    w.writerow(LOG_COLUMNS)
+    cols = LOG_COLUMNS + (ESTIMATE_COLUMNS if log.estimate is not None else ())
+    w.writerow(cols)
     for k in range(len(log)):
         vals = [log.t[k], log.x[k], log.y[k], log.theta[k], log.seq[k], log.rho_r[k], log.rho_l[k], log.sent[k],
-                log.applied[k]]
-        w.writerow(["" if (c == "applied" and not math.isfinite(v)) else (str(int(v)) if c == "seq" else repr(float(v)))
-                    for c, v in zip(LOG_COLUMNS, vals)])
+                log.applied[k]] + ([] if log.estimate is None else list(log.estimate[k]))
+        w.writerow(["" if (c == "applied" and not math.isfinite(v)) else (str(int(v)) if c in ("seq", "condition")
+                                                                            else repr(float(v)))
+                    for c, v in zip(cols, vals)])
     return out.getvalue()
 
 

@@ -322,6 +322,17 @@ def check_log_summary(rows: Sequence[Mapping[str, Any]], tolerance: float) -> li
     return lines
 
 
+def compensation_replay_line(c: Mapping[str, Any]) -> str:
+    """A slip-compensated law's condition over replayed logs (runtime.replay.monitor_logs), one line."""
+    logged = c["logs_with_the_estimate"]
+    return (f"slip compensation: the condition held in {100.0 * c['condition_held_share']:.1f} % of {c['periods']} "
+            "periods" + (f"; the logged estimate and condition are the replay's in every period of {logged} logs"
+                         if logged and not c["periods_the_logged_estimate_differs"] else
+                         f"; the logged estimate or condition differs from the replay's in "
+                         f"{c['periods_the_logged_estimate_differs']} periods (not this gain's compensated law?)"
+                         if logged else " (the logs carry no estimate columns)"))
+
+
 def slip_estimate_line(est: Mapping[str, Any]) -> str:
     """One line of the slip estimates over logs (runtime.replay.estimate_summary)."""
     parts = [f"{name} within +-{p['median_half']:.3f} (median; largest {p['max_half']:.3f}), narrower than the box in "
@@ -344,6 +355,8 @@ def monitor_summary(res: Mapping[str, Any], outdir: Path | None) -> list[str]:
     counts = ", ".join(f"{n} {res['alarm_periods'][n]}" for n, _ in CAUSES if res["alarm_periods"][n])
     if res.get("slip_estimate"):
         lines.append(slip_estimate_line(res["slip_estimate"]))
+    if res.get("compensation"):
+        lines.append(compensation_replay_line(res["compensation"]))
     lines.append(f"monitor: {res['runs_with_alarms']} of {res['logs']} logs with alarms"
                  + (f" (periods: {counts})" if counts else "")
                  + (f"; wrote {outdir / 'monitor.json'}" if outdir is not None else ""))
@@ -429,6 +442,8 @@ def _monitor_lines(vd: Mapping[str, Any], injected: str | None) -> list[str]:
                      + (f" (periods: {counts})" if counts else ""))
         if mon.get("slip_estimate"):
             lines.append("  " + slip_estimate_line(mon["slip_estimate"]))
+        if mon.get("compensation"):
+            lines.append("  " + compensation_replay_line(mon["compensation"]))
     if injected is not None:
         firsts = (mon or {}).get("first_per_log") or []
         seen = "; ".join(f"episode {i}: " + (f"period {f['period']} ({f['causes']})" if f else "not flagged")

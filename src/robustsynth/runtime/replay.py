@@ -10,7 +10,10 @@ monitor counts it lost once tau_max has passed.  The commands in flight before t
 the stored corrections start at zero and the slip check starts with the first command the log shows acting.  A
 slip-compensated law's log (docs/theory.md §18) is replayed as :meth:`robustsynth.law.Compensator.step` runs it: the
 law's memory is its own (the sent commands are divided by the estimate), the monitor checks the law's command, and
-each period records whether the certificate's condition was sure to hold (``condition_held``).
+each period records whether the certificate's condition was sure to hold (``condition_held``); where the log has
+the estimate's columns (mu_hat_r, mu_hat_l, condition), the periods they differ from the replay's are listed
+(``estimate_differs``: the controller that wrote the log is not this gain's compensated law, or its inputs are not
+the log's).
 """
 
 from __future__ import annotations
@@ -20,6 +23,11 @@ from typing import Any
 
 from ..law import Compensator, Controller
 from ..monitor import CAUSES, Monitor, describe
+
+# the replay's estimate against a log's own: the log holds motor speeds, from which the replay recomputes the commands
+# (V, omega) the monitor integrates, so its estimate differs from the controller's in the last bits (measured on
+# verify's compensated run logs: at most 6e-16); a traction that differs by more is another controller's
+ESTIMATE_TOL = 1e-9
 
 __all__ = ["estimate_summary", "monitor_log", "monitor_logs", "monitor_summary", "monitor_files"]
 
@@ -38,7 +46,7 @@ def monitor_log(log: Any, description: dict[str, Any], estimate: bool = False) -
     corrections: list[tuple[float, float]] = []  # the logged commands less u^D and the feedforward, newest last
     pending = sorted((float(log.applied[k]), k) for k in range(len(log)) if math.isfinite(float(log.applied[k])))
     nxt = 0
-    statuses, alarms, engaged, estimates, held = [], [], None, [], []
+    statuses, alarms, engaged, estimates, held, differs = [], [], None, [], [], []
     comp = Compensator(description) if description.get("compensation") else None
     for k in range(len(log)):
         t = float(log.t[k])
@@ -64,6 +72,10 @@ def monitor_log(log: Any, description: dict[str, Any], estimate: bool = False) -
             if not comp.update(est):
                 mon.suspend()  # as Compensator.step: the set's claims do not cover the next state
             held.append(comp.holds)
+            if log.estimate is not None and (max(abs(float(log.estimate[k, 0]) - comp.mu[0]),
+                                                 abs(float(log.estimate[k, 1]) - comp.mu[1])) > ESTIMATE_TOL
+                                             or bool(log.estimate[k, 2]) != comp.holds):
+                differs.append(k)  # the controller that wrote the log estimated otherwise than this replay
         mon.sent(int(log.seq[k]), t, command)  # what the robot was sent (the fallback only says when it would engage)
         statuses.append(status)
         if estimate:
@@ -79,6 +91,8 @@ def monitor_log(log: Any, description: dict[str, Any], estimate: bool = False) -
         out["estimates"] = estimates
     if comp is not None:  # the periods in which the compensated law's condition was sure to hold
         out["condition_held"] = held
+        # with the log's own estimate columns: the periods whose logged estimate or condition is not the replay's
+        out["estimate_differs"] = None if log.estimate is None else differs
     return out
 
 
@@ -101,7 +115,8 @@ def monitor_logs(logs: list[Any], description: dict[str, Any], estimate: bool | 
     alarm of each cause (log and period), and each log's first alarm (``first_per_log``: period and causes, or None).
     ``estimate``: also the slip estimates of every period, summed up in ``slip_estimate`` (:func:`estimate_summary`)
     and, per run, its last one (``last_estimate``); None: where the description has slip.max_rate (without, the
-    estimate is the box)."""
+    estimate is the box).  A slip-compensated law's (``compensation``): the share of periods its condition held and,
+    over the logs with the estimate's columns, the periods whose logged estimate or condition is not the replay's."""
     if estimate is None:
         estimate = description["monitor"].get("max_rate") is not None
     runs = [monitor_log(lg, description, estimate=estimate) for lg in logs]
@@ -110,6 +125,12 @@ def monitor_logs(logs: list[Any], description: dict[str, Any], estimate: bool | 
         summary["slip_estimate"] = estimate_summary([e for r in runs for e in r["estimates"]])
         for r in runs:
             r["last_estimate"] = r.pop("estimates")[-1] if r["estimates"] else None
+    if description.get("compensation"):  # the compensated law's condition over the logs (docs/theory.md §18)
+        held = [h for r in runs for h in r["condition_held"]]
+        differs = [r["estimate_differs"] for r in runs if r["estimate_differs"] is not None]
+        summary["compensation"] = {
+            "condition_held_share": sum(held) / max(len(held), 1), "periods": len(held),
+            "logs_with_the_estimate": len(differs), "periods_the_logged_estimate_differs": sum(len(d) for d in differs)}
     first: dict[str, Any] = {}
     for r in runs:
         for a in r["alarms"]:
@@ -137,7 +158,8 @@ def monitor_summary(logs: list[Any], gains: dict[str, Any], config: Any) -> dict
     if not desc.get("monitor"):
         return None
     res = monitor_logs(logs, desc)
-    keys = ("logs", "runs_with_alarms", "alarm_periods", "fallback_engaged", "first", "first_per_log", "slip_estimate")
+    keys = ("logs", "runs_with_alarms", "alarm_periods", "fallback_engaged", "first", "first_per_log", "slip_estimate",
+            "compensation")
     return {**{k: res[k] for k in keys if k in res}, "detects": desc["monitor"]["detects"]}
 
 

@@ -56,6 +56,8 @@ class VerificationResult:
     gains: dict[str, Any] = field(default_factory=dict, repr=False)
     nonlinear_V_over_level: np.ndarray | None = field(default=None, repr=False)
     mask: np.ndarray | None = field(default=None, repr=False)  # (N, steps): steps the verdict covers
+    # a slip-compensated law: its runs with the estimator in the loop on the true slip (verification/compensated.py)
+    compensated: Any = field(default=None, repr=False)
 
     @property
     def failed_checks(self) -> list[str]:
@@ -199,12 +201,13 @@ def verify(model, gains: Any, runs: int | None = None, seed: int | None = None,
     lchecks, lifted, traces = _lifted(model, K, cert, gains)
     nchecks, mc, sim, ext, scen, v_ratio, mask = _nonlinear(model, K, cert, gains, runs, seed, progress)
     checks += fchecks + lchecks + nchecks
+    comp_runs = None
     if model.compensation is not None:  # the runs above keep the certificate's condition; these close the loop
         from .compensated import compensated_checks  # on the true slip with the estimator (docs/theory.md §18)
 
-        cchecks, mc["compensated"] = compensated_checks(model, K, cert, gains, runs, seed)
+        cchecks, mc["compensated"], comp_runs = compensated_checks(model, K, cert, gains, runs, seed)
         checks += cchecks
     passed = all(c["passed"] for c in checks)
     mc["certificate_source"] = source
     return VerificationResult(passed, tuple(checks), cert, mc, lifted, frozen, sim, ext, scen, traces, K, dict(gains),
-                              v_ratio, mask)
+                              v_ratio, mask, comp_runs)

@@ -56,9 +56,10 @@ def _true_error(mu: np.ndarray, mu_hat: np.ndarray, d_hi: int, m_lost: int) -> n
 
 
 def compensated_checks(model, K: np.ndarray, cert: CertificateCheck, gains: dict, runs: int, seed: int,
-                       progress: Callable[[int, int], None] | None = None) -> tuple[list[dict], dict[str, Any]]:
-    """The checks of the compensated law on the true robot, and their record (``verify``'s ``monte_carlo
-    ["compensated"]``).  ``model`` is the certificate's (built from a config with ``slip.compensation``)."""
+                       progress: Callable[[int, int], None] | None = None) -> tuple[list[dict], dict[str, Any], Any]:
+    """The checks of the compensated law on the true robot, their record (``verify``'s ``monte_carlo
+    ["compensated"]``) and the runs (:class:`~robustsynth.verification.simulate.CompensatedRuns`, for their logs).
+    ``model`` is the certificate's (built from a config with ``slip.compensation``)."""
     from ..artifacts.gains import controller_description
 
     user = model.user_config
@@ -71,7 +72,7 @@ def compensated_checks(model, K: np.ndarray, cert: CertificateCheck, gains: dict
     checks, rec = judge(model, cert, gains, desc, scen, res, seed)
     if "skipped" not in rec:
         rec["jump"] = jump_recovery(model, robot, K, path, desc, gains, cert, min(runs, JUMP_RUNS), seed)
-    return checks, rec
+    return checks, rec, res
 
 
 JUMP_RUNS = 20  # runs of the slip-jump experiment (not in the verdict: nothing is claimed of a jump)

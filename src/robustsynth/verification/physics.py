@@ -419,8 +419,9 @@ def validate_physics(model: Any, gains: dict[str, Any], episodes: int = 4, seed:
         # the instant each command was delivered: t_k + tau_k (lost: NaN)
         tau = taus[n, d_hi : d_hi + steps]
         applied = np.where(np.isfinite(tau), tk + tau, np.nan)
+        est = None if comp is None else np.concatenate([comp["mu_hat"][n], comp["holds"][n][:, None].astype(float)], axis=1)
         logs.append(RobotLog(f"episode_{n:03d}.csv", tk.copy(), Q[n, :, 0], Q[n, :, 1], Q[n, :, 2],
-                             np.arange(steps, dtype=float), RHO[n, :, 0], RHO[n, :, 1], tk.copy(), applied))
+                             np.arange(steps, dtype=float), RHO[n, :, 0], RHO[n, :, 1], tk.copy(), applied, est))
     out["passed"] = bool(all(ep["passed"] for ep in per_episode))
     if comp_rec is not None:  # and the set kept wherever the compensated law's condition held, in some samples at least
         out["passed"] = (out["passed"] and comp_rec["samples_judged_outside_the_set"] == 0

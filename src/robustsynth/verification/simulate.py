@@ -130,6 +130,13 @@ class CompensatedRuns:
     holds: np.ndarray  # (N, steps) bool
     margin: np.ndarray  # (N, steps)
     status: np.ndarray  # (N, steps) int
+    model: object = None  # the robot driven (its true slip), and the scenario (for the logs)
+    scen: object = None
+
+    def logs(self, name: str = "run") -> list:
+        """The runs as robot logs (:func:`run_logs`) with the estimate's columns: mu_hat_r, mu_hat_l, condition."""
+        est = np.concatenate([self.mu_hat, self.holds[..., None].astype(float)], axis=2)
+        return run_logs(self.model, self.sim, self.scen, name, estimate=est)
 
 
 def applied_times(model, taus: np.ndarray, steps: int) -> np.ndarray:
@@ -228,7 +235,7 @@ def simulate_compensated(model, K: np.ndarray, path: PathGeometry, scen: Scenari
             progress(k + 1, steps)
     E[:, steps] = frame_error(path, seg[steps], q, t[steps])
     sim = SimResult(t, Q, E, XI, DU, loop.sent @ robot.J_inv.T, seg, np.ones(steps + 1, dtype=bool))
-    return CompensatedRuns(sim, loop.sent, loop.mu_hat, loop.holds, loop.margin, loop.status)
+    return CompensatedRuns(sim, loop.sent, loop.mu_hat, loop.holds, loop.margin, loop.status, model, scen)
 
 
 ADVERSARY_OBJECTIVES = ("V", "e_x", "e_y", "e_theta", "motor_speed")
@@ -595,14 +602,15 @@ def adversary_start(model, K: np.ndarray, mu0: np.ndarray, steps: int, starts: n
     return path, scen
 
 
-def run_logs(model, sim: SimResult, scen: Scenario, name: str = "run") -> list:
+def run_logs(model, sim: SimResult, scen: Scenario, name: str = "run", estimate: np.ndarray | None = None) -> list:
     """The Monte Carlo runs as robot logs (:mod:`robustsynth.artifacts.logs`): per run and sampling
     instant the measured pose (with the scenario's sensor noise), the command sent then (as motor
     speeds), its send time t_k and the instant it started acting (empty when lost).  That instant is
     the simulator's (``s_tilde_sequence``): a command that arrives before an older one waits for it, so
     it acts from max(t_k + tau_k, the older commands' arrivals).  Writing the raw arrival t_k + tau_k
     instead (as before a review) made the logs of delays wider than a period show commands the
-    simulated robot never overtook, and check-log and identify misread them."""
+    simulated robot never overtook, and check-log and identify misread them.  ``estimate`` (N, steps, 3): a
+    slip-compensated law's estimate and condition per row (the logs' optional columns)."""
     from ..artifacts.logs import RobotLog
 
     N, steps = scen.runs, scen.steps
@@ -610,5 +618,6 @@ def run_logs(model, sim: SimResult, scen: Scenario, name: str = "run") -> list:
     meas = sim.q[:, :steps] + scen.noise[:, :steps]
     applied = applied_times(model, scen.taus, steps)
     return [RobotLog(f"{name}_{n:03d}.csv", t.copy(), meas[n, :, 0], meas[n, :, 1], meas[n, :, 2],
-                     np.arange(steps, dtype=float), sim.rho[n, :, 0], sim.rho[n, :, 1], t.copy(), applied[n])
+                     np.arange(steps, dtype=float), sim.rho[n, :, 0], sim.rho[n, :, 1], t.copy(), applied[n],
+                     None if estimate is None else estimate[n])
             for n in range(N)]
