@@ -174,15 +174,21 @@ def test_the_c_monitor_reads_no_uninitialised_memory(name: str, max_rate: float 
     """valgrind's memcheck over the harness (every run, violations included): a read of an uninitialised or freed
     value is an error (an empty schedule once read its entry -1: bit-identical by luck until a long run)."""
     files, lines, _ = _periods(name, max_rate=max_rate)
+    for block, r in _under_valgrind(files, lines, tmp_path):
+        assert r.returncode == 0, r.stderr[:2000]
+
+
+def _under_valgrind(files: dict, lines: list[str], tmp_path: Path, *args: str) -> list:
+    """The harness built at -O0 -g from ``files`` and run under valgrind's memcheck once per run of ``lines`` (the
+    blocks between 'reset' lines), with ``args``: (block, completed process) per run."""
     for k, v in files.items():
         (tmp_path / k).write_bytes(v)
     exe = tmp_path / "rs_monitor_harness"
     subprocess.run([CC, "-std=c99", "-O0", "-g", "-o", str(exe), str(tmp_path / "rs_monitor_harness.c"),
                     str(tmp_path / "rs_monitor.c"), "-lm"], check=True)
-    for block in "\n".join(lines).split("reset\n")[1:]:
-        r = subprocess.run(["valgrind", "-q", "--error-exitcode=9", str(exe)], input=block + "\n", capture_output=True,
-                           text=True)
-        assert r.returncode == 0, r.stderr[:2000]
+    return [(block, subprocess.run(["valgrind", "-q", "--error-exitcode=9", str(exe), *args], input=block + "\n",
+                                   capture_output=True, text=True))
+            for block in "\n".join(lines).split("reset\n")[1:]]
 
 
 # ------------------------------------------------------------------ the slip-compensated law (docs/theory.md §18)
@@ -378,12 +384,5 @@ def test_the_compensated_comparison_fails_for_a_c_step_off_by_an_ulp_an_operatio
 def test_the_c_compensated_step_reads_no_uninitialised_memory(tmp_path: Path) -> None:
     """valgrind's memcheck over the --compensated harness (3 runs: warm-up, violations, the fallback)."""
     files, lines, _, _, _ = _compensated_periods(runs=3)
-    for k, v in files.items():
-        (tmp_path / k).write_bytes(v)
-    exe = tmp_path / "rs_monitor_harness"
-    subprocess.run([CC, "-std=c99", "-O0", "-g", "-o", str(exe), str(tmp_path / "rs_monitor_harness.c"),
-                    str(tmp_path / "rs_monitor.c"), "-lm"], check=True)
-    for block in "\n".join(lines).split("reset\n")[1:]:
-        r = subprocess.run(["valgrind", "-q", "--error-exitcode=9", str(exe), "--compensated"], input=block + "\n",
-                           capture_output=True, text=True)
+    for block, r in _under_valgrind(files, lines, tmp_path, "--compensated"):
         assert r.returncode == 0 and r.stdout.count("\n") == len(block.splitlines()), r.stderr[:2000]

@@ -76,6 +76,13 @@ def _xi(law: Law) -> np.ndarray:
 def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient: float = 0.0,
              progress: Callable[[int, int], None] | None = None) -> SimResult:
     """Vectorized closed-loop simulation of ``scen`` (all runs at once)."""
+    return _closed_loop(model, K, path, scen, transient, progress)
+
+
+def _closed_loop(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient: float = 0.0,
+                 progress: Callable[[int, int], None] | None = None, loop: "EstimatorLoop | None" = None) -> SimResult:
+    """:func:`simulate`, and with ``loop`` the slip-compensated law's (:func:`simulate_compensated`): the law's
+    command of each period passes through ``loop.command`` before it is sent."""
     K = np.asarray(K, dtype=float)
     Ts, V = model.Ts, model.V
     N, steps = scen.runs, scen.steps
@@ -102,15 +109,16 @@ def simulate(model, K: np.ndarray, path: PathGeometry, scen: Scenario, transient
         dv, dw = law.correction(t[k], meas[:, 0], meas[:, 1], meas[:, 2])  # also z_{k+1} = z_k + Ts (e_x, e_y)_k
         du = np.stack([dv, dw], axis=1)
         FF[k] = law.feedforward(t[k])  # a turning reference's yaw rate w_k (0 on a polyline)
-        U = robot.send(U, uD + du + FF[k] * g)
+        u = uD + du + FF[k] * g  # the law's command, as Controller.step forms it
         XI[:, k], DU[:, k] = _xi(law), du
+        U = robot.send(U, u if loop is None else loop.command(k, float(t[k]), meas, XI[:, k], u))
         mu_k, change = scen.slip_in_period(k)
         q = robot.period(q, U, S[:, k], mu_k, switch=change)
         Q[:, k + 1] = q
         if progress is not None and (k % 50 == 0 or k == steps - 1):
             progress(k + 1, steps)
     E[:, steps] = frame_error(path, seg[steps], q, t[steps])
-    rho = (uD + DU + FF[:, None] * g) @ J_inv.T
+    rho = (uD + DU + FF[:, None] * g) @ J_inv.T if loop is None else loop.sent @ J_inv.T
     since_switch = t - path.t_start[seg]
     settled = (t >= transient) & (since_switch >= transient)
     return SimResult(t, Q, E, XI, DU, rho, seg, settled)
@@ -204,37 +212,8 @@ def simulate_compensated(model, K: np.ndarray, path: PathGeometry, scen: Scenari
     """The slip-compensated law in closed loop (docs/theory.md §18): :func:`simulate` with, per run, the deployed
     monitor and compensator of ``description`` in the loop (:class:`EstimatorLoop`).  The robot is ``model``'s with
     the scenario's true slip.  The fallback is not engaged (as in ``verify``'s runs: the law is what is judged)."""
-    K = np.asarray(K, dtype=float)
-    Ts, V = model.Ts, model.V
-    N, steps = scen.runs, scen.steps
-    robot = KinematicRobot.of(model)
-    S = model.s_tilde(scen.taus)
-    uD, g = np.array([V, 0.0]), model.turn_feedforward
-    U = robot.memory(scen.du0, N)
-    q = scen.q0.copy()
-    t = np.arange(steps + 1) * Ts
-    seg = np.array([path.segment(tk) for tk in t])
-    Q, E = np.empty((N, steps + 1, 3)), np.empty((N, steps + 1, 3))
-    XI, DU = np.empty((N, steps, model.n_s)), np.empty((N, steps, 2))
-    Q[:, 0] = q
-    loop = EstimatorLoop(description, applied_times(model, scen.taus, steps))
-    law = control_law(model, K, path, scen)
-    for k in range(steps):
-        check_interrupt()
-        E[:, k] = frame_error(path, seg[k], q, t[k])
-        meas = q + scen.noise[:, k]
-        dv, dw = law.correction(t[k], meas[:, 0], meas[:, 1], meas[:, 2])
-        DU[:, k] = np.stack([dv, dw], axis=1)
-        u = uD + DU[:, k] + law.feedforward(t[k]) * g  # the law's command, as Controller.step forms it
-        XI[:, k] = _xi(law)
-        U = robot.send(U, loop.command(k, float(t[k]), meas, XI[:, k], u))
-        mu_k, change = scen.slip_in_period(k)
-        q = robot.period(q, U, S[:, k], mu_k, switch=change)
-        Q[:, k + 1] = q
-        if progress is not None and (k % 50 == 0 or k == steps - 1):
-            progress(k + 1, steps)
-    E[:, steps] = frame_error(path, seg[steps], q, t[steps])
-    sim = SimResult(t, Q, E, XI, DU, loop.sent @ robot.J_inv.T, seg, np.ones(steps + 1, dtype=bool))
+    loop = EstimatorLoop(description, applied_times(model, scen.taus, scen.steps))
+    sim = _closed_loop(model, K, path, scen, 0.0, progress, loop)
     return CompensatedRuns(sim, loop.sent, loop.mu_hat, loop.holds, loop.margin, loop.status, model, scen)
 
 
