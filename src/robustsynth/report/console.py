@@ -428,7 +428,8 @@ def _slip_lines(vd: Mapping[str, Any], arcs: bool) -> list[str]:
     if whole:
         lines.append(f"  with the turns: right [{whole['right'][0]:.3f}, {whole['right'][1]:.3f}], left "
                      f"[{whole['left'][0]:.3f}, {whole['left'][1]:.3f}]"
-                     + (" (with the arcs)" if arcs else " (the turns are not certified)"))
+                     + (" (with the arcs)" if arcs else " (through the turns the certificate covers)"
+                        if vd.get("through_turns") else " (the turns are not certified)"))
     return lines
 
 
