@@ -619,6 +619,10 @@ def _robot_proven(gains: dict[str, Any], cfg: Any) -> dict[str, Any]:
         what = "certified for the linearization only (certificate kinematics: linearized; not proven for the nonlinear robot)"
     if cert.get("model") == "paper":
         what += ", on the paper's model (synthesis.model: paper: slip left out of the commands)"
+    comp = gains.get("compensation")
+    if comp:  # the slip-compensated law: a conditional claim (docs/theory.md §18)
+        what += (f", with the slip-compensated law, while each track's estimated traction is within {comp['error']:.4g} "
+                 "of the true one (the monitor's condition, checked every period)")
     return {"certificate": kin, "heading_bound": hb, "slip": slip, "proven": f"{what}; {slip}"}
 
 
