@@ -44,12 +44,13 @@ def covered_steps(holds: np.ndarray, d_hi: int) -> np.ndarray:
     return ok
 
 
-def _true_error(mu: np.ndarray, mu_hat: np.ndarray, d_hi: int, m_lost: int) -> np.ndarray:
-    """(N, steps): the largest |mu_i - mu_hat_i| a command compensated at t_k can meet, over the slips of periods
-    k - 1 .. k + d_hi + m_lost + 1 (within period k the slip moves from period k - 1's to period k's)."""
+def _true_error(mu: np.ndarray, mu_hat: np.ndarray, d_hi: int) -> np.ndarray:
+    """(N, steps): the largest |mu_i - mu_hat_i| a command compensated at t_k can meet.  It acts within periods
+    k .. k + d_hi (d_hi covers tau_max + m_lost Ts: model/build.py), and within period p the slip moves from
+    ``mu[p - 1]`` to ``mu[p]`` (Scenario.slip_in_period): the slips of periods k - 1 .. k + d_hi."""
     N, steps, _ = mu.shape
     out = np.zeros((N, steps))
-    for j in range(-1, d_hi + m_lost + 2):
+    for j in range(-1, d_hi + 1):
         idx = np.clip(np.arange(steps) + j, 0, steps - 1)
         out = np.maximum(out, np.max(np.abs(mu[:, idx] - mu_hat), axis=2))
     return out
@@ -107,7 +108,7 @@ def jump_recovery(model, robot, K: np.ndarray, path: Any, desc: dict, gains: dic
     covered = covered_steps(res.holds, model.d_hi)
     level = float(cert.figures["ellipsoid_level"])
     v = lyapunov_of(model, gains["certificate"]).V_max(res.sim.true_xi()) / level
-    true_err = _true_error(scen.mu, res.mu_hat, model.d_hi, model.dropouts)
+    true_err = _true_error(scen.mu, res.mu_hat, model.d_hi)
     error = float(desc["compensation"]["error"])
     seen, back, inside_again, wrong = [], [], [], 0
     for n in range(runs):
@@ -179,7 +180,7 @@ def judge(model, cert: CertificateCheck, gains: dict, desc: dict, scen: Any, res
     ub = cert.figures["ultimate_bound"]
     e = np.abs(res.sim.e[:, :-1])
     on_set = covered & inside  # samples the theorem covers: in the set under the condition
-    true_err = _true_error(scen.mu, res.mu_hat, model.d_hi, model.dropouts)
+    true_err = _true_error(scen.mu, res.mu_hat, model.d_hi)
     first = [int(np.argmax(res.holds[n])) if res.holds[n].any() else None for n in range(runs)]
     held = [f for f in first if f is not None]
     names = ("e_x", "e_y", "e_theta")
