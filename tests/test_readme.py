@@ -166,6 +166,10 @@ NOT_RUN = {
                                          "runs this recipe",
     ("docs/howto/runtime-monitor.md", 0): "validate --inject push exits 1 (the push takes the robot beyond its bounds); "
                                           "tests/verification/test_validate_physics.py runs every injection",
+    ("docs/howto/slip-compensation.md", 0): "run configs/harsh-compensated.yaml takes about 3 minutes (a robot proof's "
+                                            "heading search): the regression re-checks its committed gain, "
+                                            "tests/verification/test_compensated.py and test_validate_physics.py run "
+                                            "its verification and validation, benchmarks/bench_compensated.py the whole",
 }
 
 
