@@ -333,6 +333,7 @@ class Compensator:
         self.holds = False
         self.margin = None
         self.wait = self.d_hi + 1
+        self.estimate = None  # the monitor's last slip estimate taken (:meth:`take`)
 
     def update(self, estimate):
         """Take the monitor's slip estimate of this period; returns :attr:`covered`: whether the condition held for
@@ -355,6 +356,15 @@ class Compensator:
         state at the next sampling instant, when they applied to this one)."""
         return self.wait == 0
 
+    def take(self, monitor):
+        """This period's slip estimate taken from ``monitor`` (after its check at t_k; :meth:`update`), and where the
+        condition does not cover the next state the monitor's set checks suspended (``Monitor.suspend``: the theorem
+        claims nothing of that state).  Returns the estimate (also kept as :attr:`estimate`)."""
+        self.estimate = monitor.slip_estimate()
+        if not self.update(self.estimate):
+            monitor.suspend()
+        return self.estimate
+
     def command(self, command):
         """The compensated command (V_hat, omega_hat) for the law's ``command``."""
         return compensate(command[0], command[1], self.mu[0], self.mu[1], self.half_D)
@@ -370,8 +380,7 @@ class Compensator:
         certificate's condition is sure to hold for it."""
         command = controller.step(t, x, y, theta)
         status = monitor.check(t, x, y, theta, controller.state, command, reports)
-        if not self.update(monitor.slip_estimate()):
-            monitor.suspend()  # the set's claims do not cover the next state
+        self.take(monitor)
         out = monitor.fallback_command(self.command(command))
         monitor.sent(seq, t, out)
         return status, out

@@ -67,10 +67,8 @@ def monitor_log(log: Any, description: dict[str, Any], estimate: bool = False) -
         # the law's memory is its own, as Compensator.step runs them (docs/theory.md §18)
         status = mon.check(t, float(log.x[k]), float(log.y[k]), float(log.theta[k]), ctl.state,
                            command if comp is None else law_command, reports)
-        est = mon.slip_estimate() if estimate or comp is not None else None
         if comp is not None:
-            if not comp.update(est):
-                mon.suspend()  # as Compensator.step: the set's claims do not cover the next state
+            est = comp.take(mon)  # as Compensator.step
             held.append(comp.holds)
             if log.estimate is not None and (max(abs(float(log.estimate[k, 0]) - comp.mu[0]),
                                                  abs(float(log.estimate[k, 1]) - comp.mu[1])) > ESTIMATE_TOL
@@ -79,7 +77,7 @@ def monitor_log(log: Any, description: dict[str, Any], estimate: bool = False) -
         mon.sent(int(log.seq[k]), t, command)  # what the robot was sent (the fallback only says when it would engage)
         statuses.append(status)
         if estimate:
-            estimates.append(est)
+            estimates.append(est if comp is not None else mon.slip_estimate())
         if status:
             alarms.append({"period": k, "t": t, "causes": describe(status), "by": dict(mon.amounts)})
         if mon.engaged and engaged is None:

@@ -84,7 +84,8 @@ class Loop:
         slip.max_rate (the traction now is then anywhere in its box: nothing to publish)."""
         if self.monitor.max_rate is None or self.monitor.slip_ranges is None:
             return None
-        e = self.monitor.slip_estimate()
+        # the compensated law's step took this period's estimate already (Compensator.take): not computed twice
+        e = self.compensator.estimate if self.compensator is not None else self.monitor.slip_estimate()
         return [1.0 if e["consistent"] else 0.0, float(e["windows"])] + [
             float(v) for k in self.monitor.estimate_names for v in e["ranges"].get(k, (math.nan, math.nan))]
 

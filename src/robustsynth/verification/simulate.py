@@ -195,8 +195,7 @@ class EstimatorLoop:
                 self.next[n] += 1
             self.status[n, k] = mon.check(t, float(meas[n, 0]), float(meas[n, 1]), float(meas[n, 2]), xi[n].tolist(),
                                           (float(u[n, 0]), float(u[n, 1])), reports)
-            if not c.update(mon.slip_estimate()):
-                mon.suspend()  # as Compensator.step: the set's claims do not cover the next state
+            c.take(mon)  # as Compensator.step
             self.holds[n, k], self.mu_hat[n, k] = c.holds, c.mu
             if c.margin is not None:
                 self.margin[n, k] = c.margin
