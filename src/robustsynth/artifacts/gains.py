@@ -462,7 +462,7 @@ def monitor_description(gains: dict[str, Any], config: Any) -> dict[str, Any] | 
     import numpy as np
 
     from ..law import PathTable
-    from ..model.slip import icr_components, slip_parameter_ranges
+    from ..model.slip import icr_components
 
     cert = gains.get("certificate") or {}
     if cert.get("P") is None or cert.get("ellipsoid_level") is None:
@@ -470,17 +470,20 @@ def monitor_description(gains: dict[str, Any], config: Any) -> dict[str, Any] | 
     P = np.asarray(cert["P"], dtype=float)
     Ps = [P] if P.ndim == 2 else list(P)
     level = float(cert["ellipsoid_level"])
-    mon, net, noise = config.monitor, config.network, config.verification.noise
-    a, b = mon.noise_sigmas * noise.position, mon.noise_sigmas * noise.heading
+    from ..model.compensation import estimate_description
+
+    mon, net = config.monitor, config.network
+    est = estimate_description(config)["monitor"]  # the noise bounds, window, delay and slip box the estimate reads
+    a, b = est["position_noise"], est["heading_noise"]
     # the measured error is the true one plus n, |n| <= (a, a, b) on e_x, e_y, e_theta: sqrt V moves by at most
     # sqrt(n' P n) <= sqrt(sum_ij |P_ij| n_i n_j) (the commands in xi are the controller's own, exact)
     n = np.array([a, a, b])
     shift = max(float(np.sqrt(n @ np.abs(Pm[:3, :3]) @ n)) for Pm in Ps)
-    ranges = slip_parameter_ranges(config.slip)
+    ranges = tuple(tuple(r) for r in est["slip_ranges"])
     comp = icr_components(ranges if len(ranges) == 4 else ranges + ((1.0, 1.0), (0.0, 0.0)))
     nonlinear = cert.get("kinematics") == "nonlinear" and cert.get("heading_bound") is not None
     return {
-        "tau_min": float(net.delay.min), "tau_max": float(net.delay.max), "max_lost": int(net.dropouts.max_consecutive),
+        "tau_min": float(net.delay.min), "tau_max": est["tau_max"], "max_lost": est["max_lost"],
         "clock_tol": mon.clock_tol,
         "P": [Pm.tolist() for Pm in Ps], "level": level,
         "set_threshold": float((np.sqrt(level) + shift) ** 2 * (1.0 + 1e-12)),
@@ -493,8 +496,8 @@ def monitor_description(gains: dict[str, Any], config: Any) -> dict[str, Any] | 
         # while the motors saturate at rho_max (docs/theory.md §18)
         "rho_limit": _certificate_motor_limit(config),
         "saturation_limit": config.robot.max_motor_speed,
-        "window": mon.window, "components": comp.tolist(), "position_noise": float(a), "heading_noise": float(b),
-        "model_tol": mon.model_tol, "fallback": mon.fallback, "persistence": mon.persistence,
+        "window": est["window"], "components": comp.tolist(), "position_noise": a, "heading_noise": b,
+        "model_tol": est["model_tol"], "fallback": mon.fallback, "persistence": mon.persistence,
         "slow_factor": mon.slow_factor,
         # what is sure to be flagged: a departure to V/level above set_ratio (the noise can hide 2 shifts of sqrt V),
         # a traction this far outside the box's forward range over a window driven straight at V^D (the slip check's
@@ -509,9 +512,9 @@ def monitor_description(gains: dict[str, Any], config: Any) -> dict[str, Any] | 
                         np.sqrt(2.0) * a * 2.0 + (mon.window // 2) * net.sampling_time * config.reference.speed
                         * (b + mon.model_tol)) / ((mon.window // 2) * net.sampling_time * config.reference.speed))}
                        if config.slip.max_rate is not None else {})},
-        "max_rate": config.slip.max_rate,
+        "max_rate": est["max_rate"],
         # the slip estimate's box (monitor.Monitor.slip_estimate): the model and its parameters' ranges
-        "slip_model": getattr(config.slip, "model", "tracks"), "slip_ranges": [list(r) for r in ranges],
+        "slip_model": est["slip_model"], "slip_ranges": est["slip_ranges"],
     }
 
 
