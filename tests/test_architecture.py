@@ -17,6 +17,7 @@ PKG = "robustsynth"
 LAYERS: list[tuple[str, ...]] = [
     ("robustsynth", "robustsynth.errors", "robustsynth.law", "robustsynth.monitor", "robustsynth.verified"),  # the face, errors, the pure law and its monitor, verified arithmetic
     ("robustsynth.config",),
+    ("robustsynth.core",),  # what every plant shares: the network and its delay / loss sequences
     ("robustsynth.model",),
     ("robustsynth.certificate", "robustsynth.certificate_lmis", "robustsynth.certificate_bounds",
      "robustsynth.certificate_turns", "robustsynth.certificate_lti"),  # the numpy re-check of LMI certificates: the proof checker

@@ -12,6 +12,7 @@ default_config         robustsynth.config            embedded default with dotte
 Config                 robustsynth.config            the scenario (robot, network, slip, ...)
 build_model            robustsynth.model             Config -> lifted norm-bounded Model
 Model                  robustsynth.model             eqs. 25, 31-33 with its Delta structure
+Network                robustsynth.core.network      the link: delay range, loss cap, every sequence
 synthesize             robustsynth.synthesis         Model -> certified gain (LMIs)
 check_certificate      robustsynth.certificate       numpy-only re-check of an LMI certificate
 verify                 robustsynth.verification      gain -> checks, Monte Carlo on the robot
@@ -44,6 +45,7 @@ _EXPORTS = {
     "Config": "robustsynth.config",
     "build_model": "robustsynth.model",
     "Model": "robustsynth.model",
+    "Network": "robustsynth.core.network",
     "synthesize": "robustsynth.synthesis",
     "SynthesisResult": "robustsynth.synthesis",
     "check_certificate": "robustsynth.certificate",

@@ -31,7 +31,7 @@ import numpy as np
 
 from .artifacts.logs import RobotLog
 from .errors import InputError
-from .model.network import longest_burst
+from .core.network import longest_burst
 from .identification_icr import S_WEIGHT
 from .plants.kinematic import arc_step, wrap_angle
 

@@ -25,9 +25,9 @@ from typing import Any, Callable
 import numpy as np
 
 from .config import Config, config_with
+from .core.network import max_cyclic_run
 from .errors import InputError, check_interrupt
 from .model import gain_lifting, pad_gain
-from .model.network import longest_burst
 
 __all__ = ["Margin", "MarginReport", "margin", "find_instability", "witness_delays", "pad_gain", "EXHIBIT_TOL"]
 
@@ -141,32 +141,6 @@ class MarginReport:
 # ------------------------------------------------------------------------ exhibited instability
 
 
-def _max_cyclic_run(lost: np.ndarray) -> np.ndarray:
-    """Longest run of True per row, counted around the period (rows are periodic)."""
-    return np.minimum(longest_burst(np.concatenate([lost, lost], axis=1)), lost.shape[1])
-
-
-def _delay_sequences(grid: np.ndarray, p: int, max_lost: int) -> np.ndarray:
-    """Periodic packet-delay sequences (n, p): every combination of the grid and, on a lossy link,
-    lost packets (``inf``), with at most ``max_lost`` in a row around the period and one received."""
-    alphabet = np.append(grid, np.inf) if max_lost else grid
-    seqs = np.array(list(itertools.product(alphabet, repeat=p)))
-    if max_lost:
-        lost = np.isinf(seqs)
-        seqs = seqs[(_max_cyclic_run(lost) <= max_lost) & ~np.all(lost, axis=1)]
-    return seqs
-
-
-def _bursts(grid: np.ndarray, max_lost: int) -> list[np.ndarray]:
-    """Longer periods a loss margin needs: a burst of ``max_lost`` losses, then one or two packets."""
-    if max_lost < SEARCH_PERIOD:
-        return []
-    burst = np.full(max_lost, np.inf)
-    one = np.array([np.append(burst, g) for g in grid])
-    two = np.array([np.append(burst, [a, b]) for a in grid for b in grid])
-    return [one, two]
-
-
 def find_instability(model: Any, K: np.ndarray, n_delays: int = SEARCH_DELAYS, max_period: int = SEARCH_PERIOD,
                      tol: float = EXHIBIT_TOL) -> dict[str, Any] | None:
     """Search periodic delay/slip sequences of the lifted closed loop (model's exact map) for one
@@ -175,12 +149,13 @@ def find_instability(model: Any, K: np.ndarray, n_delays: int = SEARCH_DELAYS, m
     in a row; bursts of that length are searched even when longer than ``max_period``); slips at the
     corners (held constant when ``slip.max_rate`` forbids jumps).  Returns the worst witness
     (``delays`` with null for a lost packet, ``lost``, ``slip``, ``period``, ``spectral_radius``) or None."""
-    dl = model.config.network.delay
-    grid = np.unique(np.linspace(dl.min, dl.max, n_delays))
+    net = model.network
+    grid = np.unique(net.grid(n_delays))
     corners = np.asarray(model.corners)
-    d_hi, m = model.d_hi, model.dropouts
+    d_hi, m = model.d_hi, net.max_lost
     best: dict[str, Any] | None = None
-    families = [_delay_sequences(grid, p, m) for p in range(1, max_period + 1)] + _bursts(grid, m)
+    families = [net.periodic(grid, p) for p in range(1, max_period + 1)]
+    families += net.bursts(grid) if m >= SEARCH_PERIOD else []  # longer than the periods enumerated
     for dseq in families:
         check_interrupt()
         if dseq.size == 0:
@@ -422,7 +397,7 @@ def _dropout_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[
         if w is not None:
             witness = w
             lost = np.asarray(w["lost"], dtype=bool)
-            exhibited = int(_max_cyclic_run(lost[None, :])[0])  # admissible for any cap >= this
+            exhibited = int(max_cyclic_run(lost[None, :])[0])  # admissible for any cap >= this
             break
     say("dropouts: certificates")
     certified: int | None = None

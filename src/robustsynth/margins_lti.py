@@ -19,12 +19,12 @@ the exhibited figures against an independent computation.
 
 from __future__ import annotations
 
-import itertools
 import time
 from typing import Any, Callable
 
 import numpy as np
 
+from .core.network import Network
 from .errors import check_interrupt
 from .margins import _bisect
 from .model.lti import lti_depth
@@ -71,27 +71,6 @@ def spectral_radius(plant: dict, Ts: float, dseq: np.ndarray, m_lost: int = 0) -
     return periodic_spectral_radius(plant["A"], plant["B"], plant["K"], Ts, dseq, m_lost)
 
 
-def _sequences(grid: np.ndarray, p: int, m_lost: int) -> np.ndarray:
-    """The periodic sequences of p packets on ``grid`` (and lost, inf, with m_lost > 0), one per class of
-    rotations: a rotated period is a cyclic shift of the same products, with the same spectrum."""
-    alphabet = np.append(grid, np.inf) if m_lost else grid
-    idx = np.array(list(itertools.product(range(alphabet.size), repeat=p)), dtype=np.int64).reshape(-1, p)
-    weights = alphabet.size ** np.arange(p - 1, -1, -1, dtype=np.int64)
-    code = idx @ weights
-    canonical = np.all([code <= np.roll(idx, r, axis=1) @ weights for r in range(1, p)], axis=0) if p > 1 else \
-        np.ones(len(idx), dtype=bool)
-    seqs = alphabet[idx[canonical]]
-    if m_lost:
-        lost = np.isinf(seqs)
-        run = np.zeros(len(seqs), dtype=int)
-        cur = np.zeros(len(seqs), dtype=int)
-        for k in range(2 * p):  # around the period
-            cur = np.where(lost[:, k % p], cur + 1, 0)
-            run = np.maximum(run, cur)
-        seqs = seqs[(np.minimum(run, p) <= m_lost) & ~np.all(lost, axis=1)]
-    return seqs
-
-
 def find_lti_instability(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int = 0,
                          switching: bool = False) -> dict | None:
     """The worst destabilizing periodic sequence with delays in [tau_min, tau_max] and at most m_lost
@@ -99,13 +78,14 @@ def find_lti_instability(plant: dict, Ts: float, tau_min: float, tau_max: float,
     and one received packet) on a coarser grid; with ``switching`` (and no losses) also the
     SWITCH_FAMILIES."""
     best = None
-    families = [np.linspace(tau_min, tau_max, CONSTANT_DELAYS)[:, None]]
-    grid = np.unique(np.linspace(tau_min, tau_max, SEARCH_DELAYS))
-    families += [_sequences(grid, p, m_lost) for p in range(1, SEARCH_PERIOD + 1)]
-    coarse = np.unique(np.linspace(tau_min, tau_max, 3))
-    families += [_sequences(coarse, p, m_lost) for p in range(SEARCH_PERIOD + 1, m_lost + 2)]
+    net = Network(Ts, tau_min, tau_max, m_lost)
+    families = [net.grid(CONSTANT_DELAYS)[:, None]]
+    # one sequence per class of rotations (a rotated period has the same spectrum)
+    families += [net.periodic(np.unique(net.grid(SEARCH_DELAYS)), p, canonical=True) for p in range(1, SEARCH_PERIOD + 1)]
+    coarse = np.unique(net.grid(3))
+    families += [net.periodic(coarse, p, canonical=True) for p in range(SEARCH_PERIOD + 1, m_lost + 2)]
     if switching and m_lost == 0:
-        families += [_sequences(np.unique(np.linspace(tau_min, tau_max, g)), p, 0) for p, g in SWITCH_FAMILIES]
+        families += [net.periodic(np.unique(net.grid(g)), p, canonical=True) for p, g in SWITCH_FAMILIES]
     for dseq in families:
         check_interrupt()
         if dseq.size == 0:

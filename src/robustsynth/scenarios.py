@@ -4,8 +4,10 @@ starts of their runs.
 Used by both judges of a gain: the lifted linear model (:mod:`robustsynth.verification.lifted`) and
 the robot in closed loop (:mod:`robustsynth.verification.simulate`).  A :class:`Scenario` is
 everything random about N runs, drawn up front, so that any implementation can replay it;
-:func:`slip_profiles` and :func:`random_delays` are the random sequences; :func:`delay_candidates`,
-:func:`slip_candidates` and :func:`loss_allowed` are the choices an adversary has each period."""
+:func:`slip_profiles` and :func:`random_delays` are the random sequences (the delays and losses from
+the one network model, :class:`robustsynth.core.network.Network`, on the config's loss channel);
+:func:`slip_candidates` is the slip an adversary may pick each period (its delays:
+``model.network.candidates`` and ``loss_allowed``)."""
 
 from __future__ import annotations
 
@@ -14,7 +16,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .model.network import gilbert_elliott, with_losses
 from .model.slip import slip_changes
 from .plants.path import PathGeometry, pose_from_error
 
@@ -26,9 +27,6 @@ __all__ = [
     "steady_state_start",
     "split_state",
     "random_delays",
-    "alternating_delays",
-    "delay_candidates",
-    "loss_allowed",
     "slip_vertices",
     "slip_candidates",
     "rate_limited_slip",
@@ -162,23 +160,13 @@ def draw_scenario(model, runs: int, seed: int, steps: int, path: PathGeometry, d
     cfg = model.config
     vc = cfg.verification
     rng = np.random.default_rng(seed)
-    dl = cfg.network.delay
+    net = model.network
     n_pk = steps + model.d_hi
-    if delays == "random":
-        taus = rng.uniform(dl.min, dl.max, size=(runs, n_pk))
-    elif delays == "alternating":
-        taus = np.where((np.arange(n_pk)[None, :] + np.arange(runs)[:, None]) % 2 == 0, dl.min, dl.max) * np.ones((runs, 1))
-    elif delays in ("constant-min", "constant-max"):
-        taus = np.full((runs, n_pk), dl.min if delays == "constant-min" else dl.max)
-    else:
-        raise ValueError(f"unknown delay pattern {delays!r}")
-    m = cfg.network.dropouts.max_consecutive
-    if m and losses:  # bursty losses from their own stream: the other draws do not depend on them
-        ch = vc.dropouts
-        lost = gilbert_elliott(np.random.default_rng([seed, 1]), (runs, n_pk), ch.probability, ch.mean_burst,
-                               None if losses == "uncapped" else m)
-        lost[:, : model.d_hi] = False  # commands sent before t_0 arrived (the run starts in their steady state)
-        taus = with_losses(taus, lost)
+    taus = net.uniform(rng, (runs, n_pk)) if delays == "random" else net.pattern(delays, (runs, n_pk))
+    if losses:  # bursty losses from their own stream: the other draws do not depend on them
+        # commands sent before t_0 arrived (the run starts in their steady state)
+        taus = net.lose(taus, np.random.default_rng([seed, 1]), vc.dropouts.probability, vc.dropouts.mean_burst,
+                        capped=losses != "uncapped", arrived=model.d_hi)
     lo = np.array([r[0] for r in model.slip_ranges])
     hi = np.array([r[1] for r in model.slip_ranges])
     if slip == "none":
@@ -227,38 +215,8 @@ def split_state(model, xi: np.ndarray):
 def random_delays(model, rng: np.random.Generator, N: int, steps: int) -> np.ndarray:
     """Uniform iid delays; with ``network.dropouts`` also bursts of lost packets (``inf``) from the
     configured channel, capped at ``max_consecutive``."""
-    dl = model.config.network.delay
-    taus = rng.uniform(dl.min, dl.max, size=(N, steps + model.d_hi))
-    if model.dropouts:
-        ch = model.config.verification.dropouts
-        lost = gilbert_elliott(rng, taus.shape, ch.probability, ch.mean_burst, model.dropouts)
-        lost[:, : model.d_hi] = False
-        taus = with_losses(taus, lost)
-    return taus
-
-
-def delay_candidates(model, n_tau: int) -> np.ndarray:
-    """The newest packet's delays an adversary may pick: an ``n_tau`` grid of [tau_min, tau_max],
-    and ``inf`` (lost) when the link may lose packets."""
-    dl = model.config.network.delay
-    grid = np.linspace(dl.min, dl.max, n_tau)
-    return np.append(grid, np.inf) if model.dropouts else grid
-
-
-def loss_allowed(model, hist: np.ndarray) -> np.ndarray:
-    """(N,) whether the next packet may be lost: fewer than ``max_consecutive`` losses end ``hist``."""
-    m = model.dropouts
-    if not m:
-        return np.zeros(hist.shape[0], dtype=bool)
-    tail = hist[:, -m:] if hist.shape[1] >= m else hist
-    return ~np.all(np.isinf(tail), axis=1) | (tail.shape[1] < m)
-
-
-def alternating_delays(model, N: int, steps: int, period: int = 1) -> np.ndarray:
-    """min/max switching with a given period (in packets), phase shifted across runs."""
-    dl = model.config.network.delay
-    i = np.arange(steps + model.d_hi)[None, :] + np.arange(N)[:, None]
-    return np.where((i // period) % 2 == 0, dl.min, dl.max)
+    net, ch = model.network, model.config.verification.dropouts
+    return net.lose(net.uniform(rng, (N, steps + model.d_hi)), rng, ch.probability, ch.mean_burst, arrived=model.d_hi)
 
 
 def slip_vertices(model) -> np.ndarray:

@@ -133,7 +133,7 @@ def test_lossy_link_matches_integration(case) -> None:
     """Random delays and bursty losses (at most m in a row): a lost command never acts, the actuator
     holds the last one received; the lifted model with the effective delays matches an integration
     that knows nothing of effective delays (its packets simply never arrive)."""
-    from robustsynth.model.network import gilbert_elliott, longest_burst, with_losses
+    from robustsynth.core.network import gilbert_elliott, longest_burst, with_losses
 
     tmin, tmax, m = case
     cfg = make_config(**{"network.delay.min": tmin, "network.delay.max": tmax, "network.dropouts.max_consecutive": m})
@@ -160,7 +160,7 @@ def test_lossy_link_matches_integration(case) -> None:
 
 def test_loss_channel_statistics() -> None:
     """Gilbert-Elliott: long-run loss fraction and mean burst length as configured, bursts capped."""
-    from robustsynth.model.network import gilbert_elliott, longest_burst
+    from robustsynth.core.network import gilbert_elliott, longest_burst
 
     STAT_TOL = 0.03  # relative, on 400 x 2000 packets
     rng = np.random.default_rng(0)

@@ -12,7 +12,7 @@ from robustsynth.errors import InputError
 from robustsynth.model import build_model
 from robustsynth.synthesis import synthesize
 from robustsynth.certificate import Lyapunov, check_certificate, lyapunov_of
-from robustsynth.scenarios import alternating_delays, random_delays, slip_vertices
+from robustsynth.scenarios import random_delays, slip_vertices
 from robustsynth.verification.lifted import closed_loop_run
 
 from ..conftest import make_config
@@ -100,7 +100,7 @@ def test_piecewise_quadratic_V_decreases_without_the_delays(model, solved):
         ex = V[:, 1:] - (1 - cert["alpha"]) * V[:, :-1] - np.sum(cert["beta"])
         return float(np.max(ex / np.maximum(V[:, :-1], level)))
 
-    for taus in (random_delays(model, rng, N, steps), alternating_delays(model, N, steps)):
+    for taus in (random_delays(model, rng, N, steps), model.network.pattern("alternating", (N, steps + model.d_hi))):
         mu = corners[rng.integers(0, corners.shape[0], size=(N, steps + 1))]
         xi0 = rng.normal(scale=0.05, size=(N, model.n_s))
         xi = closed_loop_run(model, K, taus, mu[:, :steps], xi0)
@@ -158,7 +158,7 @@ def test_path_certificate_and_V_with_the_previous_delay(path_solved, solved):
     N, steps = 200, 60
     corners = slip_vertices(pm)
     worst, worst_wrong = -np.inf, -np.inf
-    for taus in (random_delays(pm, rng, N, steps), alternating_delays(pm, N, steps)):
+    for taus in (random_delays(pm, rng, N, steps), pm.network.pattern("alternating", (N, steps + pm.d_hi))):
         mu = corners[rng.integers(0, corners.shape[0], size=(N, steps + 1))]
         xi = closed_loop_run(pm, K, taus, mu[:, :steps], rng.normal(scale=0.05, size=(N, pm.n_s)))
         dw = pm.delay_weights(pm.s_tilde(taus))  # (N, steps, n_d): period k's weights

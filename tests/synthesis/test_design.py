@@ -14,7 +14,7 @@ from robustsynth.errors import InfeasibleError
 from robustsynth.model import build_model
 from robustsynth.synthesis import synthesize
 from robustsynth.certificate import check_certificate, lyapunov_of
-from robustsynth.scenarios import alternating_delays, random_delays, rate_limited_slip, slip_vertices
+from robustsynth.scenarios import random_delays, rate_limited_slip, slip_vertices
 from robustsynth.verification.lifted import (
     closed_loop_run,
     frozen_instant_grid,
@@ -123,7 +123,9 @@ def _stays_inside(m, res, seed: int = 11) -> None:
     z = rng.normal(size=(N, m.n_s))
     xi0 = z * np.sqrt(level / lyap.V(z, mu[:, 0]))[:, None] * rng.uniform(0.2, 1.0, size=(N, 1))
     xi0[: N // 4] *= 1.0 / np.sqrt(lyap.V(xi0[: N // 4], mu[: N // 4, 0]) / level)[:, None]  # on the boundary
-    for taus in (random_delays(m, rng, N, steps), alternating_delays(m, N, steps), alternating_delays(m, N, steps, 3)):
+    shape = (N, steps + m.d_hi)
+    alternating = [m.network.pattern("alternating", shape, period=p) for p in (1, 3)]
+    for taus in (random_delays(m, rng, N, steps), *alternating):
         xi = closed_loop_run(m, res.K, taus, mu, xi0)
         assert np.max(lyap.V(xi[:, :-1], mu)) <= level * (1 + LEVEL_TOL)
         if lyap.any_next_slip:

@@ -377,7 +377,7 @@ def test_saturation_clips_motor_speeds_and_changes_the_turns(setups) -> None:
 
 
 def test_lossy_scenarios_lose_packets_in_capped_bursts(setups) -> None:
-    from robustsynth.model.network import longest_burst
+    from robustsynth.core.network import longest_burst
 
     m, _ = setups["lossy"]
     path = make_path(m.config.reference.path, m.V)

@@ -303,21 +303,13 @@ def coverage_check(model: Model, n_sequences: int = 1000, steps: int = 20, seed:
     constant term are rebuilt from the vertices with explicit hull weights (>= 0, summing to 1) and
     Delta (|Delta_ii| <= 1).  Returns the sample count, the extremes of the coordinates and the
     largest residual."""
-    cfg = model.config
-    dl = cfg.network.delay
+    net = model.network
     rng = np.random.default_rng(seed)
-    taus = rng.uniform(dl.min, dl.max, size=(n_sequences, steps + model.d_hi))
-    # extremes: alternate min/max, and constant min / max
-    taus[0, :] = dl.min
-    taus[1, :] = dl.max
-    taus[2, ::2] = dl.min
-    taus[2, 1::2] = dl.max
-    if model.dropouts:  # random bursts of up to m lost commands (inf) on all but the extremes
-        from .network import gilbert_elliott, with_losses
-
-        lost = gilbert_elliott(rng, taus.shape, 0.3, max(1.0, model.dropouts), model.dropouts)
-        lost[:3] = False
-        taus = with_losses(taus, lost)
+    taus = net.uniform(rng, (n_sequences, steps + model.d_hi))
+    extremes = np.vstack([net.pattern(kind, (1, taus.shape[1]), shifted=False)
+                          for kind in ("constant-min", "constant-max", "alternating")])
+    taus = net.lose(taus, rng, 0.3, max(1.0, net.max_lost))  # bursts of up to m lost commands (inf) ...
+    taus[:3] = extremes  # ... on all but the extremes
     s = model.s_tilde(taus).reshape(-1, model.d_hi)
     if model.delay_description == "lossy-polytopic":  # only the instants a lossy link produces
         corners = model.reachable_instants(5)

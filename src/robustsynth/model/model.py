@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from ..config import Config
+from ..core.network import Network
 from .lifting import lifted_exact, s_tilde_sequence
 from .slip import (SLIP_PARAMETERS, corner_weights, lateral_row, next_corner_weights, nominal_slip, slip_matrix,
                    slip_parameter_ranges)
@@ -460,6 +461,11 @@ class Model:
     def delta(self, s_tilde: np.ndarray) -> np.ndarray:
         """diag(Delta) that reproduces the exact delay matrices in the norm-bounded embedding (eqs. 31-33)."""
         return delta_for(self.instants, self.Ts, s_tilde)
+
+    @property
+    def network(self) -> Network:
+        """The link the commands cross (the config's ``network:``): every delay and loss sequence."""
+        return Network.from_config(self.config)
 
     def s_tilde(self, taus: np.ndarray) -> np.ndarray:
         """Switching instants for packet delays ``taus[..., i]`` of packets sent at t_{i-d_hi}."""

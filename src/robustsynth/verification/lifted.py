@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import check_interrupt
-from ..scenarios import delay_candidates, loss_allowed, slip_candidates
+from ..scenarios import slip_candidates
 
 __all__ = [
     "closed_loop_run",
@@ -112,7 +112,7 @@ def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 
     period, w_{k-1} or a step of max_step either way within +-max_yaw_rate (0 before the start); returns (xi,
     taus, mu, w) with w (N, steps + d_hi) as :func:`arc_closed_loop_run` takes it."""
     dl = model.config.network.delay
-    tau_grid = delay_candidates(model, n_tau)
+    tau_grid = model.network.candidates(n_tau)
     n_tau = tau_grid.size
     N = xi0.shape[0]
     d_hi, n_u = model.d_hi, model.n_u
@@ -161,7 +161,7 @@ def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 
         else:
             V = V_fn(nxt, mus)  # (N, n_tau, n_m, n_y)
         if model.dropouts:  # losing the newest packet only while the burst is below the cap
-            V = np.where(np.isinf(tau_grid)[None, :, None, None] & ~loss_allowed(model, hist)[:, None, None, None], -np.inf, V)
+            V = np.where(np.isinf(tau_grid)[None, :, None, None] & ~model.network.loss_allowed(hist)[:, None, None, None], -np.inf, V)
         flat = V.reshape(N, -1).argmax(axis=1)
         ti, di, yi = np.unravel_index(flat, (n_tau, n_m, n_y))
         xi[:, k + 1] = nxt[np.arange(N), ti, di, yi]

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..certificate import CertificateCheck, lyapunov_of
-from ..scenarios import alternating_delays, random_delays, rate_limited_slip, slip_vertices
+from ..scenarios import random_delays, rate_limited_slip, slip_vertices
 from .lifted import (arc_closed_loop_run, closed_loop_run, frozen_instant_grid, frozen_spectral_radius,
                      greedy_worst_case, random_yaw_rates, yaw_windows)
 from .verdict import LEVEL_TOL, SPECTRAL_TOL, _check
@@ -73,7 +73,7 @@ def _lifted(model, K, cert: CertificateCheck, gains: dict) -> tuple[list[dict], 
         xi_out = xi_in * 5.0
         patterns = {
             "random": random_delays(model, rng, N, steps),
-            "alternating": alternating_delays(model, N, steps),
+            "alternating": model.network.pattern("alternating", (N, steps + model.d_hi)),
         }
         worst_ratio, worst_dec = 0.0, -np.inf
         w = model.disturbance_coordinates(mu[:, :steps])  # c(mu) = sum lambda_i E_i w
@@ -106,7 +106,8 @@ def _lifted(model, K, cert: CertificateCheck, gains: dict) -> tuple[list[dict], 
         # the homogeneous part: the deviation from the steady state of a constant slip (paper: mu = 1)
         mu_h = np.ones_like(mu) if model.kind == "paper" else mu
         worst = -np.inf
-        for name, taus in (("random", random_delays(model, rng, N, steps)), ("alternating", alternating_delays(model, N, steps))):
+        alternating = model.network.pattern("alternating", (N, steps + model.d_hi))
+        for name, taus in (("random", random_delays(model, rng, N, steps)), ("alternating", alternating)):
             xi = closed_loop_run(model, K, taus, mu_h[:, :steps], z, affine=False)
             V = lyap.V(xi, mu_h, _previous_delays(model, lyap, taus=taus))
             traces[f"{name}/homogeneous"] = V

@@ -21,6 +21,8 @@ from typing import Any
 
 import numpy as np
 
+from ..core.network import Network
+
 __all__ = ["verify_lti", "CONSTANT_DELAYS", "TOL"]
 
 CONSTANT_DELAYS = 201
@@ -40,29 +42,6 @@ def _boundary_states(P: np.ndarray, rows: np.ndarray, count: int, rng: np.random
     best = [(Q @ r) / np.sqrt(r @ Q @ r) for r in rows if r @ Q @ r > 0]
     extra = np.array(best + [-b for b in best]).reshape(-1, n_s)
     return np.vstack([xi, extra])
-
-
-def _families(tau_min: float, tau_max: float, m_lost: int, runs: int, length: int, rng: np.random.Generator
-              ) -> dict[str, np.ndarray]:
-    """Packet delays (runs, length) per family (inf: lost, at most m_lost in a row)."""
-    lo, hi = tau_min, tau_max
-    fam = {"random": lo + (hi - lo) * rng.random((runs, length)),
-           "constant-min": np.full((runs, length), lo), "constant-max": np.full((runs, length), hi),
-           "alternating": np.where(np.arange(length) % 2 == 0, lo, hi) * np.ones((runs, 1)),
-           "random-ends": np.where(rng.random((runs, length)) < 0.5, lo, hi)}
-    if m_lost:
-        lossy = lo + (hi - lo) * rng.random((runs, length))
-        lost = rng.random((runs, length)) < 0.4
-        run = np.zeros(runs, dtype=int)
-        for k in range(length):  # cap the bursts
-            run = np.where(lost[:, k], run + 1, 0)
-            over = run > m_lost
-            lost[over, k] = False
-            run[over] = 0
-        fam["random-losses"] = np.where(lost, np.inf, lossy)
-        burst = np.where(np.arange(length) % (m_lost + 1) < m_lost, np.inf, hi) * np.ones((runs, 1))
-        fam["longest-bursts"] = burst
-    return fam
 
 
 def _reproof(plant: dict, K: np.ndarray, P: np.ndarray, multipliers: Any, pieces: int, figures: dict, Ts: float,
@@ -266,12 +245,12 @@ class _BoundaryRuns:
 
 def _fixed_sequences(boundary: _BoundaryRuns, plant: dict, K: np.ndarray, Ts: float, tau_min: float, tau_max: float,
                      m_lost: int, d: int, periods: int, rng: np.random.Generator) -> None:
-    """The runs along delay sequences fixed in advance (:func:`_families`), ``periods`` each, with the
+    """The runs along delay sequences fixed in advance (:meth:`robustsynth.core.network.Network.families`), ``periods`` each, with the
     disturbance in a random direction (the random family) or the worst one (the others)."""
     from ..model.lifting import s_tilde_sequence
     from ..model.lti import exact_closed_loop
 
-    for name, seq in _families(tau_min, tau_max, m_lost, boundary.R, periods + d + m_lost + 1, rng).items():
+    for name, seq in Network(Ts, tau_min, tau_max, m_lost).families(rng, boundary.R, periods + d + m_lost + 1).items():
         s = s_tilde_sequence(seq, Ts, d)[:, :periods]
         M = exact_closed_loop(plant["A"], plant["B"], K, Ts, s)  # (R, periods, n_s, n_s)
         xi = boundary.x0.copy()
@@ -333,7 +312,7 @@ def _l2_gain_check(plant: dict, K: np.ndarray, Ts: float, tau_min: float, tau_ma
     q = D.shape[1]
     N = HINF_PERIODS
     worst, where = 0.0, ""
-    for name, seq in _families(tau_min, tau_max, m_lost, HINF_RUNS, N + d + m_lost + 1, rng).items():
+    for name, seq in Network(Ts, tau_min, tau_max, m_lost).families(rng, HINF_RUNS, N + d + m_lost + 1).items():
         M = exact_closed_loop(A, B, K, Ts, s_tilde_sequence(seq, Ts, d)[:, :N])
         for r in range(HINF_RUNS):
             T = np.zeros((N * p, N * q))

@@ -60,7 +60,7 @@ def _transients(model, sim: SimResult, mask: np.ndarray) -> dict[str, Any]:
     }
     if rho_max is not None:
         above = rho > rho_max
-        from ..model.network import longest_burst
+        from ..core.network import longest_burst
 
         out["steps_above_limit_fraction"] = float(np.mean(above))
         out["longest_above_limit_s"] = float(np.max(longest_burst(above), initial=0)) * model.Ts
@@ -137,7 +137,7 @@ def _between_samples_ratio(probe: dict, figures: dict) -> tuple[float, str] | No
 
 
 def _loss_stats(model, scen, adv) -> dict[str, Any]:
-    from ..model.network import longest_burst
+    from ..core.network import longest_burst
 
     ch = model.config.verification.dropouts
     lost = np.isinf(scen.taus[:, model.d_hi:])
@@ -156,7 +156,7 @@ def _beyond_cap(model, K, gains: dict, cert: CertificateCheck, ub, runs: int, se
     is simulated on a lifting long enough to hold the command in force through the longest burst
     (the same control law, see :func:`robustsynth.model.pad_gain`)."""
     from ..model import build_model, lifted_slice, pad_gain
-    from ..model.network import longest_burst
+    from ..core.network import longest_burst
 
     vc = model.config.verification
     path = path_of(model.config)

@@ -19,7 +19,7 @@ from ..errors import check_interrupt
 from ..plants.kinematic import KinematicRobot
 from ..plants.path import PathGeometry, arc_frame_error, frame_error, make_path, path_from_yaw_rates, pose_from_error
 from ..law import Law, tangent_length, turn_shape
-from ..scenarios import Scenario, delay_candidates, loss_allowed, slip_candidates, split_state, track_changes
+from ..scenarios import Scenario, slip_candidates, split_state, track_changes
 
 __all__ = [
     "SimResult",
@@ -319,7 +319,7 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
     Ts, V = model.Ts, model.V
     robot = KinematicRobot.of(model)
     J_inv = robot.J_inv
-    taus = delay_candidates(model, n_tau)  # with a lossy link also inf: the newest packet is lost
+    taus = model.network.candidates(n_tau)  # with a lossy link also inf: the newest packet is lost
     n_tau = taus.size
     path, scen = adversary_start(model, K, mu0, steps, starts, course)
     N = scen.runs
@@ -404,7 +404,7 @@ def _scores(model, v: np.ndarray, e_next: np.ndarray, rho: np.ndarray, taus: np.
     scores = {"V": v, "e_x": np.abs(e_next[..., 0]), "e_y": np.abs(e_next[..., 1]),
               "e_theta": np.abs(e_next[..., 2]), "motor_speed": rho}
     if model.dropouts:  # a loss only while the burst is below the cap
-        bad = np.isinf(taus)[None, None, None, :, None] & ~loss_allowed(model, hist)[:, None, None, None, None]
+        bad = np.isinf(taus)[None, None, None, :, None] & ~model.network.loss_allowed(hist)[:, None, None, None, None]
         scores = {o: np.where(bad, -np.inf, x) for o, x in scores.items()}
     return {o: x.reshape(-1) for o, x in scores.items()}
 

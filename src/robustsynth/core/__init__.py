@@ -1,0 +1,1 @@
+"""What every plant shares: the network the commands cross (:mod:`robustsynth.core.network`)."""
