@@ -82,8 +82,8 @@ def _lti_gains() -> dict:
 
 
 def _lti_checks(passed: bool) -> dict:
-    return {"checks": [{"name": "invariance (boundary)", "ok": True, "value": 0.98, "limit": 1.0, "detail": ""},
-                       {"name": "outputs", "ok": passed, "value": 1.2, "limit": 1.0, "detail": "angle beyond"}],
+    return {"checks": [{"name": "invariance (boundary)", "passed": True, "value": 0.98, "threshold": 1.0, "detail": ""},
+                       {"name": "outputs", "passed": passed, "value": 1.2, "threshold": 1.0, "detail": "angle beyond"}],
             "starts": 8, "families": [1, 2], "passed": passed, "files": ["v.json", "v.md"]}
 
 
@@ -151,7 +151,7 @@ def test_verify(monkeypatch, tmp_path) -> None:
     _patch(monkeypatch, "robustsynth.pipeline_lti", lti_verification_stage=lambda *a, **k: _lti_checks(False))
     assert _invoke(["verify", LTI, "-o", str(o)]) == (1, (
         "verification FAILED: 2 checks, 8 starts on the set's boundary x 2 delay families; invariance 0.98, outputs 1.2\n"
-        "wrote v.json, v.md\n"), "FAILED: outputs (value 1.2, limit 1): angle beyond\n")
+        "wrote v.json, v.md\n"), "FAILED: outputs (value 1.2, threshold 1): angle beyond\n")
 
 
 def _run_result(passed: bool, cfg) -> NS:

@@ -29,6 +29,7 @@ def run_config(config_path: Path, outdir: Path) -> dict[str, Any]:
     from .config import is_lti, load_config
     from .errors import RobustSynthError
     from .pipeline import run
+    from .results import failed_names
 
     cfg = load_config(config_path)
     if is_lti(cfg) and cfg.controller is None:  # a linear plant without a gain: synthesize and verify one
@@ -44,7 +45,7 @@ def run_config(config_path: Path, outdir: Path) -> dict[str, Any]:
             ver = res["verification"]
             summary = {"name": cfg.name, "status": "lti-certified", "objective": res["synthesis"]["gains"]["objective"],
                        "verification_passed": ver["passed"],
-                       "failed_checks": [ch["name"] for ch in ver["checks"] if not ch["ok"]],
+                       "failed_checks": failed_names(ver["checks"]),
                        "certified": {"decay_rate": c["decay"], "hinf_gain": c.get("hinf_gain"),
                                      "ultimate_bound": {o["name"]: o["bound"] for o in c.get("outputs") or ()
                                                         if o.get("bound") is not None}},

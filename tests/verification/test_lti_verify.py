@@ -61,7 +61,7 @@ def test_verify_catches_an_understated_bound_and_refuses_nan(design) -> None:
     figs = dict(r.figures, outputs=[dict(o, bound=0.9 * o["bound"]) for o in r.figures["outputs"]])
     v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, figs, runs=24, periods=30, multipliers=r.eps)
     assert not v["passed"]
-    assert [c["ok"] for c in v["checks"] if c["name"].startswith("outputs")] == [False]
+    assert [c["passed"] for c in v["checks"] if c["name"].startswith("outputs")] == [False]
     P = r.P.copy()
     P[0, 0] = np.nan
     with pytest.raises(InputError, match="must be finite"):
@@ -74,7 +74,7 @@ def test_verify_catches_delays_beyond_the_certificate() -> None:
     pl = lti_plant_from(ZBP_A, ZBP_B, E=ZBP_E, w_max=0.5, u_max=[20.0])
     r = synthesize_lti(pl, 0.5, 0.0, 0.1, 0, "ultimate-bound")
     v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, r.figures, runs=24, periods=60, multipliers=r.eps)
-    bad = {c["name"].split(" (")[0] for c in v["checks"] if not c["ok"]}
+    bad = {c["name"].split(" (")[0] for c in v["checks"] if not c["passed"]}
     assert not v["passed"] and {"the set is invariant", "frozen-delay spectral radius"} <= bad
 
 
@@ -83,7 +83,7 @@ def test_verify_catches_a_plant_the_certificate_was_not_made_for(design) -> None
     _, r = design
     other = lti_plant_from(np.array([[0.0, 1.0], [0.0, 0.3]]), ZBP_B, E=ZBP_E, w_max=0.5, u_max=[20.0])
     v = verify_lti(other, r.K, r.P, 0.5, 0.0, 0.5, 0, r.figures, runs=24, periods=60, multipliers=r.eps)
-    bad = {c["name"].split(" (")[0] for c in v["checks"] if not c["ok"]}
+    bad = {c["name"].split(" (")[0] for c in v["checks"] if not c["passed"]}
     assert bad == {"the certificate re-proven in numpy for this config", "the set is invariant"}
 
 
@@ -93,10 +93,10 @@ def test_verify_without_the_multipliers_proves_nothing_and_fails(design) -> None
     pl, r = design
     v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, r.figures, runs=8, periods=20)
     first = v["checks"][0]
-    assert not v["passed"] and not first["ok"] and "multipliers" in first["detail"]
-    assert all(c["ok"] for c in v["checks"][1:])  # the simulations alone would have passed
+    assert not v["passed"] and not first["passed"] and "multipliers" in first["detail"]
+    assert all(c["passed"] for c in v["checks"][1:])  # the simulations alone would have passed
     slower = verify_lti(pl, r.K, r.P, 0.8, 0.0, 0.5, 0, r.figures, runs=8, periods=20, multipliers=r.eps)
-    assert not slower["checks"][0]["ok"]  # a network the certificate does not cover (Ts 0.8 s): not re-proven
+    assert not slower["checks"][0]["passed"]  # a network the certificate does not cover (Ts 0.8 s): not re-proven
 
 
 def _run(*args: str) -> subprocess.CompletedProcess:
@@ -151,7 +151,7 @@ def test_verify_hinf_passes_and_catches_an_understated_gain() -> None:
     v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, r.figures, multipliers=r.eps)
     assert v["passed"] and 0.3 < v["checks"][-1]["value"] < 1.0
     v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, dict(r.figures, hinf_gain=0.25 * r.figures["hinf_gain"]), multipliers=r.eps)
-    assert not v["passed"] and not v["checks"][-1]["ok"]
+    assert not v["passed"] and not v["checks"][-1]["passed"]
 
 
 def test_the_gains_file_is_re_proven(design) -> None:
@@ -252,7 +252,7 @@ def test_a_gain_of_ones_own_gets_a_certificate_searched(tmp_path) -> None:
     r = CliRunner().invoke(main, ["verify", str(src), "--gains", str(g), "-o", str(tmp_path / "ok"), "--no-plots"])
     assert r.exit_code == 0, r.output
     v = json.loads((tmp_path / "ok" / "verification.json").read_text())
-    assert v["passed"] and v["certificate_searched"]["pieces"] == 6 and v["checks"][0]["ok"]
+    assert v["passed"] and v["certificate_searched"]["pieces"] == 6 and v["checks"][0]["passed"]
     assert "came without a certificate" in (tmp_path / "ok" / "verification.md").read_text()
     far = tmp_path / "far.yaml"
     far.write_text(src.read_text().replace("max: 0.5}", "max: 0.95}"))

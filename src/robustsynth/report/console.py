@@ -230,8 +230,8 @@ def verification_summary(out: Path, stage: Any) -> list[str]:
 
 def lti_checks(data: Mapping[str, Any]) -> list[str]:
     """A linear plant's verification: each failed check (stderr), the verdict with every check's value."""
-    lines: list[str] = [Err(f"FAILED: {c['name']} (value {c['value']:.6g}, limit {c['limit']:g}): {c['detail']}")
-                        for c in data["checks"] if not c["ok"]]
+    lines: list[str] = [Err(f"FAILED: {c['name']} (value {c['value']:.6g}, threshold {c['threshold']:g}): {c['detail']}")
+                        for c in data["checks"] if not c["passed"]]
     worst = ", ".join(f"{c['name'].split(' (')[0]} {c['value']:.4g}" for c in data["checks"])
     where = (f"{data['starts']} starts on the set's boundary x {len(data['families'])} delay families" if data["starts"]
              else "delay sequences from rest")

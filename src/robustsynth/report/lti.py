@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 
 from .markdown import fmt
+from .verification import checks_table
 
 __all__ = ["lti_synthesis_markdown", "lti_verification_markdown", "lti_margin_markdown"]
 
@@ -66,9 +67,7 @@ def lti_verification_markdown(data: dict[str, Any]) -> str:
           (f"The gain came without a certificate: one was searched ({data['certificate_searched']['kind']}, "
            f"decay {data['certificate_searched']['decay']:.7g} per period, {data['certificate_searched']['pieces']} "
            "pieces) and proven in numpy; the checks below are against it.\n\n" if data.get("certificate_searched") else ""),
-          "| check | value | limit | ok | detail |\n|---|---|---|---|---|\n"]
-    md += [f"| {c['name']} | {c['value']:.6g} | {c['limit']:g} | {'yes' if c['ok'] else 'NO'} | {c['detail']} |\n"
-           for c in data["checks"]]
+          checks_table(data["checks"])]
     if data["families"]:
         first = next(iter(data["families"].values()))
         md.append("\n| family | " + " | ".join(first.keys()) + " |\n")

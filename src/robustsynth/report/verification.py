@@ -8,6 +8,7 @@ from typing import Any
 from ..config import config_to_dict
 from .. import __version__
 from ..artifacts.files import SCHEMA_VERSION
+from ..results import failed_names
 from ..certificate_turns import TURN_REENTRY
 from .markdown import conditions_text, fmt, table
 
@@ -117,8 +118,13 @@ def checks_markdown(res: Any) -> str:
             d = conditions_text(cert_checks) + ", " + d[len(prefix):]
         return d
 
+    return checks_table(res.checks, detail)
+
+
+def checks_table(checks: Any, detail: Any = lambda c: str(c["detail"])) -> str:
+    """The Markdown table of a verdict's checks (:class:`robustsynth.results.Check` form), any plant's."""
     rows = [[c["name"], "pass" if c["passed"] else "**FAIL**", _val(c["value"]), _val(c["threshold"]), detail(c)]
-            for c in res.checks]
+            for c in checks]
     return table(["check", "result", "value", "threshold", "detail"], rows)
 
 
@@ -522,7 +528,7 @@ def summary_dict(model: Any, gains: dict[str, Any] | None, vd: dict[str, Any] | 
         out["certified"] = gains["certified"]
     if vd is not None:
         out["verification_passed"] = vd["passed"]
-        out["failed_checks"] = [c["name"] for c in vd["checks"] if not c["passed"]]
+        out["failed_checks"] = failed_names(vd["checks"])
         mc = vd["monte_carlo"]
         out["monte_carlo"] = {"runs": mc["runs"], "seed": mc["seed"],
                               "max": {k: v["max"] for k, v in mc["maxima"].items()}}

@@ -21,6 +21,7 @@ from typing import Any, Callable, Iterator
 from .. import __version__
 from ..config import config_to_dict, config_with
 from ..errors import ConfigError, InfeasibleError, InputError, Interrupted, SolverFailure, check_interrupt
+from ..results import failed_names
 from .spec import SweepSpec
 
 __all__ = ["SweepResult", "sweep", "run_point", "point_key"]
@@ -120,7 +121,7 @@ def _run_lti_point(payload: dict[str, Any], out: dict[str, Any], t0: float) -> d
                                net.dropouts.max_consecutive, f, runs=runs, multipliers=design.eps,
                                pieces=cfg.synthesis.pieces)
                 out["verification"] = {"passed": bool(v["passed"]), "max": {},
-                                       "failed_checks": [c["name"] for c in v["checks"] if not c["ok"]]}
+                                       "failed_checks": failed_names(v["checks"])}
     except Interrupted:
         raise
     except (ConfigError, InputError) as exc:

@@ -31,6 +31,7 @@ import numpy as np
 from ..artifacts.gains import as_gains
 from ..certificate import CertificateCheck, check_certificate
 from ..errors import InfeasibleError, InputError
+from ..results import failed_names
 from ..model.slip import check_physical_feasibility
 from .lifted_checks import _frozen, _lifted
 from .nonlinear_checks import _nonlinear
@@ -61,7 +62,7 @@ class VerificationResult:
 
     @property
     def failed_checks(self) -> list[str]:
-        return [c["name"] for c in self.checks if not c["passed"]]
+        return failed_names(self.checks)
 
 
 def _V(xi: np.ndarray, P: np.ndarray) -> np.ndarray:

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from ..core.network import Network
+from ..results import Check, all_passed
 
 __all__ = ["verify_lti", "CONSTANT_DELAYS", "TOL"]
 
@@ -51,13 +52,12 @@ def _reproof(plant: dict, K: np.ndarray, P: np.ndarray, multipliers: Any, pieces
 
     name = "the certificate re-proven in numpy for this config"
     if multipliers is None:
-        return {"name": name, "value": 0.0, "limit": 1.0, "ok": False,
-                "detail": "not re-proven: the certificate's multipliers were not given (multipliers=design.eps)"}
+        return Check(name, False, 0.0, 1.0,
+                     "not re-proven: the certificate's multipliers were not given (multipliers=design.eps)").to_dict()
     gains = {"K": K, "certificate": {"P": P, "multipliers": multipliers, "alpha": figures.get("alpha"), "pieces": pieces},
              "certified": figures}
     proof = recheck_lti(plant, gains, Ts, tau_min, tau_max, m_lost)
-    return {"name": name, "value": float(proof["ok"]), "limit": 1.0, "ok": bool(proof["ok"]),
-            "detail": proof["reason"] or "verified arithmetic"}
+    return Check(name, bool(proof["ok"]), float(proof["ok"]), 1.0, proof["reason"] or "verified arithmetic").to_dict()
 
 
 def verify_lti(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, tau_min: float, tau_max: float, m_lost: int,
@@ -102,14 +102,14 @@ def verify_lti(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, tau_min: fl
     traces: dict[str, Any] = {"frozen": frozen, "V": {}}
     if figures.get("hinf_gain") is not None:
         checks.append(_l2_gain_check(plant, K, Ts, tau_min, tau_max, m_lost, d, float(figures["hinf_gain"]), rng))
-        return {"passed": all(c["ok"] for c in checks), "checks": checks, "families": {}, "starts": 0,
+        return {"passed": all_passed(checks), "checks": checks, "families": {}, "starts": 0,
                 "periods": HINF_PERIODS, "lifting": d, "traces": traces}
     boundary = _BoundaryRuns(plant, K, P, Ts, figures, runs, rng, traces)
     _fixed_sequences(boundary, plant, K, Ts, tau_min, tau_max, m_lost, d, periods, rng)
     _greedy_adversary(boundary, plant, K, Ts, tau_min, tau_max, d, periods)
     checks += boundary.checks()
     traces["alpha"], traces["set"] = boundary.alpha, bool(boundary.dist)
-    return {"passed": all(c["ok"] for c in checks), "checks": checks, "families": boundary.families,
+    return {"passed": all_passed(checks), "checks": checks, "families": boundary.families,
             "starts": boundary.R, "periods": periods, "lifting": d, "traces": traces}
 
 
@@ -146,8 +146,8 @@ def _frozen_check(plant: dict, K: np.ndarray, Ts: float, tau_min: float, tau_max
     rho = periodic_spectral_radius(plant["A"], plant["B"], K, Ts, taus, m_lost)
     trace = {"delay": taus[:, 0].tolist(), "spectral_radius": rho.tolist()}
     i = int(np.argmax(rho))
-    return ({"name": "frozen-delay spectral radius", "value": float(rho[i]), "limit": 1.0,
-             "ok": bool(rho[i] < 1.0), "detail": f"worst at constant delay {taus[i, 0]:.6g} s"}, trace)
+    return (Check("frozen-delay spectral radius", bool(rho[i] < 1.0), float(rho[i]), 1.0,
+                  f"worst at constant delay {taus[i, 0]:.6g} s").to_dict(), trace)
 
 
 class _BoundaryRuns:
@@ -226,21 +226,20 @@ class _BoundaryRuns:
         shrinking at the certified rate (without), the outputs and the inputs within their bounds."""
         worst, out = self.worst, []
         if self.dist:
-            out.append({"name": "the set is invariant (max V from its boundary)", "value": worst["V"],
-                        "limit": 1.0, "ok": worst["V"] <= 1.0 + TOL,
-                        "detail": f"{self.R} starts x {len(self.families)} families"})
+            out.append(Check("the set is invariant (max V from its boundary)", worst["V"] <= 1.0 + TOL, worst["V"], 1.0,
+                             f"{self.R} starts x {len(self.families)} families"))
         else:
-            out.append({"name": "V shrinks at the certified rate (max V_k / (alpha^k V_0))", "value": worst["decay"],
-                        "limit": 1.0, "ok": worst["decay"] <= 1.0 + TOL, "detail": f"alpha = {self.alpha:.6g}"})
+            out.append(Check("V shrinks at the certified rate (max V_k / (alpha^k V_0))", worst["decay"] <= 1.0 + TOL,
+                             worst["decay"], 1.0, f"alpha = {self.alpha:.6g}"))
         if self.out_bounds is not None:
-            out.append({"name": "outputs within their certified bounds (max |y| / bound)", "value": worst["outputs"],
-                        "limit": 1.0, "ok": worst["outputs"] <= 1.0 + TOL,
-                        "detail": f"inside the set; at the maximizing starts, then {worst['outputs_later']:.4g} after a period"})
+            out.append(Check("outputs within their certified bounds (max |y| / bound)", worst["outputs"] <= 1.0 + TOL,
+                             worst["outputs"], 1.0,
+                             f"inside the set; at the maximizing starts, then {worst['outputs_later']:.4g} after a period"))
         if self.u_max is not None:
-            out.append({"name": "inputs within their limits on the set (max |u| / limit)", "value": worst["inputs"],
-                        "limit": 1.0, "ok": worst["inputs"] <= 1.0 + TOL,
-                        "detail": f"inside the set; at the maximizing starts, then {worst['inputs_later']:.4g} after a period"})
-        return out
+            out.append(Check("inputs within their limits on the set (max |u| / limit)", worst["inputs"] <= 1.0 + TOL,
+                             worst["inputs"], 1.0,
+                             f"inside the set; at the maximizing starts, then {worst['inputs_later']:.4g} after a period"))
+        return [c.to_dict() for c in out]
 
 
 def _fixed_sequences(boundary: _BoundaryRuns, plant: dict, K: np.ndarray, Ts: float, tau_min: float, tau_max: float,
@@ -324,6 +323,5 @@ def _l2_gain_check(plant: dict, K: np.ndarray, Ts: float, tau_min: float, tau_ma
             g = float(np.linalg.norm(T, 2)) if np.all(np.isfinite(T)) else np.inf
             if g > worst:
                 worst, where = g, name
-    return {"name": "l2 gain of the exact loop (max over delay sequences / certified)", "value": worst / gamma,
-            "limit": 1.0, "ok": worst <= gamma * (1.0 + TOL),
-            "detail": f"worst {worst:.6g} ({where}) vs certified {gamma:.6g}; {N} periods from rest"}
+    return Check("l2 gain of the exact loop (max over delay sequences / certified)", worst <= gamma * (1.0 + TOL),
+                 worst / gamma, 1.0, f"worst {worst:.6g} ({where}) vs certified {gamma:.6g}; {N} periods from rest").to_dict()

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from ..results import Check
+
 __all__ = ["SPECTRAL_TOL", "LEVEL_TOL", "DIVERGENCE_LIMIT"]
 
 SPECTRAL_TOL = 1e-6  # frozen spectral radius may exceed the certified rate by round-off only
@@ -12,4 +14,5 @@ DIVERGENCE_LIMIT = 1.0  # m: |e_y| beyond this after the transients is divergenc
 
 
 def _check(name: str, passed: bool, value: Any, threshold: Any, detail: str) -> dict[str, Any]:
-    return {"name": name, "passed": bool(passed), "value": value, "threshold": threshold, "detail": detail}
+    """One check of the verdict in the form every plant's checks share (:class:`robustsynth.results.Check`)."""
+    return Check(name, bool(passed), value, threshold, detail).to_dict()
