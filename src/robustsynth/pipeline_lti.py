@@ -100,7 +100,7 @@ def lti_synthesis_stage(config: Any, outdir: str | Path, config_path: str | Path
     """Synthesize and prove a gain (:func:`robustsynth.synthesis.lti.synthesize_lti`), and find its delay margin
     (:func:`robustsynth.margins_lti.delay_margin`: certified / exhibited, seconds beside the synthesis); write
     gains.json (last, with the margin as ``delay_margin``), gains.mat and synthesis.md.  No certified gain: the
-    old gain files are removed and InfeasibleError (exit 3) or SolverFailure (exit 4) is raised."""
+    old gain files are set aside and synthesize_lti's InfeasibleError (exit 3) or SolverFailure (exit 4) raised."""
     from .artifacts.files import set_aside
     from .artifacts.gains import lti_gains_dict, lti_gains_mat_vars
     from .errors import InfeasibleError, SolverFailure
@@ -109,21 +109,20 @@ def lti_synthesis_stage(config: Any, outdir: str | Path, config_path: str | Path
 
     plant = lti_plant_of(config, config_path)
     say = on_step or (lambda s: None)
-    design = synthesize_lti_config(config, plant, objective, solver, say)
-    margin = None
-    if design.certified:  # how far its delay bound goes: certified / exhibited, as `robustsynth margin` finds them
-        from .margins_lti import delay_margin
-
-        margin = delay_margin(config, dict(plant, K=np.asarray(design.K, dtype=float)), say)
-    out = make_dir(outdir)
-    cleared = clear_foreign(out, config)
-    if not design.certified:
+    try:
+        design = synthesize_lti_config(config, plant, objective, solver, say)
+    except (InfeasibleError, SolverFailure):
+        out = make_dir(outdir)
+        clear_foreign(out, config)
         set_aside(out, SYNTHESIS_FILES + VERIFICATION_FILES + RUN_FILES + FIGURES,
                   f"synthesize found no certified gain for '{config.name}' as configured now; these are of the gain before")
-        why = design.message or design.status
-        if design.status == "infeasible":
-            raise InfeasibleError(f"no certified gain for {config.name}: {why}")
-        raise SolverFailure(f"no certified gain for {config.name} ({design.status}): {why}")
+        raise
+    from .margins_lti import delay_margin
+
+    # how far its delay bound goes: certified / exhibited, as `robustsynth margin` finds them
+    margin = delay_margin(config, dict(plant, K=np.asarray(design.K, dtype=float)), say)
+    out = make_dir(outdir)
+    cleared = clear_foreign(out, config)
     over = {}  # review, stop 47: nothing in the file said that --objective / --solver were used
     if objective is not None and objective != config.objective:
         over["synthesis.objective"] = objective

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from robustsynth.certificate_lti import check_lti_certificate, check_lti_scaled, lti_within
+from robustsynth.errors import InfeasibleError
 from robustsynth.model.lifting import instant_ranges
 from robustsynth.model.lti import disturbance_bound, exact_closed_loop, lti_plant_from, over_approximation
 from robustsynth.synthesis.lti import _midpoints, synthesize_lti, vertex_combinations
@@ -151,11 +152,12 @@ def test_the_primal_check_refuses_a_tampered_gain(zbp_bound) -> None:
 
 
 def test_no_gain_for_an_unstabilizable_plant() -> None:
-    """An unstable mode the input cannot reach: infeasible, no gain."""
+    """An unstable mode the input cannot reach: infeasible (exit 3), raised as the robot's synthesis raises it."""
     A = np.array([[0.5, 0.0], [0.0, -1.0]])
     B = np.array([[0.0], [1.0]])
-    r = synthesize_lti(lti_plant_from(A, B), 0.1, 0.0, 0.05, 0, "stability")
-    assert not r.certified and r.status == "infeasible" and r.K is None
+    with pytest.raises(InfeasibleError, match="^no certified gain: ") as exc:
+        synthesize_lti(lti_plant_from(A, B), 0.1, 0.0, 0.05, 0, "stability")
+    assert exc.value.exit_code == 3
 
 
 def test_hinf_dissipation_on_exact_loops_and_a_tampered_gamma() -> None:
@@ -220,13 +222,14 @@ def test_the_objective_is_checked_and_auto_follows_the_disturbance() -> None:
 
 
 def test_an_uncontrollable_plants_refusal_says_so() -> None:
-    r = synthesize_lti(lti_plant_from(np.diag([0.0, 0.1]), np.array([[0.1], [0.0]])), 0.1, 0.0, 0.05, 0, "stability")
-    assert not r.certified and "not controllable" in r.message
+    with pytest.raises(InfeasibleError, match="not controllable"):
+        synthesize_lti(lti_plant_from(np.diag([0.0, 0.1]), np.array([[0.1], [0.0]])), 0.1, 0.0, 0.05, 0, "stability")
 
 
 def test_a_too_fast_decay_is_told_to_come_closer_to_one() -> None:
     """decay is the factor sqrt(V) shrinks by per period: a smaller one asks more (the hint said the
     opposite), and a stability design's input limits never make it infeasible (not blamed)."""
-    r = synthesize_lti(lti_plant_from(np.array([[0.5]]), np.array([[1.0]]), u_max=[0.5]), 0.1, 0.0, 0.1, 0,
+    with pytest.raises(InfeasibleError, match="closer to 1") as exc:
+        synthesize_lti(lti_plant_from(np.array([[0.5]]), np.array([[1.0]]), u_max=[0.5]), 0.1, 0.0, 0.1, 0,
                        "stability", decay=0.05)
-    assert not r.certified and "closer to 1" in r.message and "input limits" not in r.message
+    assert "input limits" not in str(exc.value)

@@ -103,27 +103,27 @@ def _run_lti_point(payload: dict[str, Any], out: dict[str, Any], t0: float) -> d
         plant = lti_plant(cfg)
         net = cfg.network
         design = synthesize_lti_config(cfg, plant, threads=payload.get("solve_threads"))
-        if not design.certified:
-            out.update(status="infeasible" if design.status == "infeasible" else "solver-failure",
-                       message=design.message or design.status)
-        else:
-            f = design.figures
-            bounds = [o["bound"] / s for o, s in zip(f.get("outputs") or (), plant["scale"]) if o.get("bound") is not None]
-            gd = lti_gains_dict(cfg, plant, design)
-            out.update(status="certified", gains=to_jsonable(gd), gains_id=gains_id(to_jsonable(gd)),
-                       figures={"decay_rate": f["decay"], "hinf_gain": f.get("hinf_gain"),
-                                "output_bound": max(bounds) if bounds else None})
-            runs = payload.get("verify_runs")
-            if runs:
-                from ..verification.lti import verify_lti
+        f = design.figures
+        bounds = [o["bound"] / s for o, s in zip(f.get("outputs") or (), plant["scale"]) if o.get("bound") is not None]
+        gd = lti_gains_dict(cfg, plant, design)
+        out.update(status="certified", gains=to_jsonable(gd), gains_id=gains_id(to_jsonable(gd)),
+                   figures={"decay_rate": f["decay"], "hinf_gain": f.get("hinf_gain"),
+                            "output_bound": max(bounds) if bounds else None})
+        runs = payload.get("verify_runs")
+        if runs:
+            from ..verification.lti import verify_lti
 
-                v = verify_lti(plant, design.K, design.P, net.sampling_time, net.delay.min, net.delay.max,
-                               net.dropouts.max_consecutive, f, runs=runs, multipliers=design.eps,
-                               pieces=cfg.synthesis.pieces)
-                out["verification"] = {"passed": bool(v["passed"]), "max": {},
-                                       "failed_checks": failed_names(v["checks"])}
+            v = verify_lti(plant, design.K, design.P, net.sampling_time, net.delay.min, net.delay.max,
+                           net.dropouts.max_consecutive, f, runs=runs, multipliers=design.eps,
+                           pieces=cfg.synthesis.pieces)
+            out["verification"] = {"passed": bool(v["passed"]), "max": {},
+                                   "failed_checks": failed_names(v["checks"])}
     except Interrupted:
         raise
+    except InfeasibleError as exc:
+        out.update(status="infeasible", message=str(exc))
+    except SolverFailure as exc:
+        out.update(status="solver-failure", message=str(exc))
     except (ConfigError, InputError) as exc:
         out.update(status="invalid", message=str(exc))
     out["time_s"] = time.perf_counter() - t0

@@ -210,7 +210,7 @@ def _analysis_problem(n_v: int, n_p: int, k: int, q: int, n_c: int, n_s: int, ow
 class LtiDesign:
     """A synthesized gain u_k = K xi_k and what its certificate proves (``figures``); certified only when
     :func:`robustsynth.certificate_lti.check_lti_certificate` and :func:`~robustsynth.certificate_lti.lti_within`
-    proved it in numpy."""
+    proved it in numpy.  :func:`synthesize_lti` returns only certified designs (it raises otherwise)."""
 
     certified: bool
     status: str  # certified | infeasible | rejected | failed
@@ -435,6 +435,13 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
     -------
     LtiDesign
         The gain, its certificate and the figures proven in numpy.
+
+    Raises
+    ------
+    InfeasibleError
+        The LMIs have no solution (the message says what may bind).
+    SolverFailure
+        The solver failed, or no point it returned was proven in numpy.
     """
     from ..errors import InputError
     from ..model.lti import lti_depth
@@ -448,15 +455,29 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
     V, C = _vertices_of(plant, Ts, tau_min, tau_hi, d, pieces)
     nv = len(V.Av)
     if objective == "hinf":
-        return _synthesize_hinf(plant, V, C, Ts, tau_min, tau_hi, pieces, solver, say, t0)
+        return _proven(_synthesize_hinf(plant, V, C, Ts, tau_min, tau_hi, pieces, solver, say, t0))
     search = _LineSearch(plant, V, C, Ts, tau_min, tau_hi, pieces, objective == "ultimate-bound", decay, alpha_points,
                          threads, solver, say)
     best = search.run()
     solves = search.held.get("solves", 0)
     dt = time.perf_counter() - t0
     if best is None:
-        return _uncertified(plant, objective, search, decay, d, nv, solves, dt)
-    return _certified_design(plant, objective, search, best, d, nv, solves, dt)
+        return _proven(_uncertified(plant, objective, search, decay, d, nv, solves, dt))
+    return _proven(_certified_design(plant, objective, search, best, d, nv, solves, dt))
+
+
+def _proven(design: LtiDesign) -> LtiDesign:
+    """The design if its certificate was proven; else the failure raised as the robot's synthesis raises
+    it: InfeasibleError (exit 3) where the LMIs have no solution, SolverFailure (exit 4) where the solver
+    failed or its point was not proven in numpy."""
+    from ..errors import InfeasibleError, SolverFailure
+
+    if design.certified:
+        return design
+    why = design.message or design.status
+    if design.status == "infeasible":
+        raise InfeasibleError(f"no certified gain: {why}")
+    raise SolverFailure(f"no certified gain ({design.status}): {why}")
 
 
 def _resolved_objective(plant: dict, objective: str) -> str:
