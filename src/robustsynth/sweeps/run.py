@@ -46,38 +46,15 @@ def run_point(payload: dict[str, Any]) -> dict[str, Any]:
     """Synthesize (and verify) one point; plain data in, plain data out (runs on any worker).
 
     Returns {key, status, figures, verification, gains, gains_id, message, time_s}.  Only an
-    interrupt escapes; every other outcome is a status."""
-    from ..config import Config
-    from ..model import build_model
+    interrupt escapes; every other outcome is a status (a failed synthesis raises, of either plant)."""
     from ..artifacts.files import to_jsonable
-    from ..artifacts.gains import gains_dict, gains_id
-    from ..synthesis import synthesize
+    from ..config import is_lti
 
     t0 = time.perf_counter()
     out: dict[str, Any] = {"key": payload["key"], "status": "", "figures": None, "verification": None,
                            "gains": None, "gains_id": "", "message": ""}
-    from ..config import is_lti
-
-    if is_lti(payload["config"]):
-        return _run_lti_point(payload, out, t0)
     try:
-        cfg = Config.model_validate(payload["config"])
-        model = build_model(cfg)
-        res = synthesize(model)
-        gd = gains_dict(model, res)
-        out.update(status="certified", figures=res.certified, gains=to_jsonable(gd), gains_id=gains_id(gd),
-                   message="; ".join(res.notes))
-        runs = payload.get("verify_runs")
-        if runs:
-            from ..verification import verify
-
-            v = verify(model, gd, runs=runs)
-            mx = v.monte_carlo.get("maxima", {})
-            out["verification"] = {
-                "passed": bool(v.passed),
-                "max": {k: (mx.get(k) or {}).get("max") for k in ("e_x", "e_y", "e_theta", "motor_speed")},
-                "failed_checks": v.failed_checks,
-            }
+        (_lti_point if is_lti(payload["config"]) else _robot_point)(payload, out)
     except Interrupted:
         raise
     except InfeasibleError as exc:
@@ -90,7 +67,34 @@ def run_point(payload: dict[str, Any]) -> dict[str, Any]:
     return to_jsonable(out)
 
 
-def _run_lti_point(payload: dict[str, Any], out: dict[str, Any], t0: float) -> dict[str, Any]:
+def _robot_point(payload: dict[str, Any], out: dict[str, Any]) -> None:
+    """run_point for the tracked robot: synthesize (and verify)."""
+    from ..artifacts.files import to_jsonable
+    from ..artifacts.gains import gains_dict, gains_id
+    from ..config import Config
+    from ..model import build_model
+    from ..synthesis import synthesize
+
+    cfg = Config.model_validate(payload["config"])
+    model = build_model(cfg)
+    res = synthesize(model)
+    gd = gains_dict(model, res)
+    out.update(status="certified", figures=res.certified, gains=to_jsonable(gd), gains_id=gains_id(gd),
+               message="; ".join(res.notes))
+    runs = payload.get("verify_runs")
+    if runs:
+        from ..verification import verify
+
+        v = verify(model, gd, runs=runs)
+        mx = v.monte_carlo.get("maxima", {})
+        out["verification"] = {
+            "passed": bool(v.passed),
+            "max": {k: (mx.get(k) or {}).get("max") for k in ("e_x", "e_y", "e_theta", "motor_speed")},
+            "failed_checks": v.failed_checks,
+        }
+
+
+def _lti_point(payload: dict[str, Any], out: dict[str, Any]) -> None:
     """run_point for a linear plant (plant: kind: lti): synthesize_lti (and verify_lti)."""
     from ..artifacts.files import to_jsonable
     from ..artifacts.gains import gains_id, lti_gains_dict
@@ -98,36 +102,24 @@ def _run_lti_point(payload: dict[str, Any], out: dict[str, Any], t0: float) -> d
     from ..model.lti import lti_plant
     from ..synthesis.lti import synthesize_lti_config
 
-    try:
-        cfg = config_from_dict(payload["config"])
-        plant = lti_plant(cfg)
-        net = cfg.network
-        design = synthesize_lti_config(cfg, plant, threads=payload.get("solve_threads"))
-        f = design.figures
-        bounds = [o["bound"] / s for o, s in zip(f.get("outputs") or (), plant["scale"]) if o.get("bound") is not None]
-        gd = lti_gains_dict(cfg, plant, design)
-        out.update(status="certified", gains=to_jsonable(gd), gains_id=gains_id(to_jsonable(gd)),
-                   figures={"decay_rate": f["decay"], "hinf_gain": f.get("hinf_gain"),
-                            "output_bound": max(bounds) if bounds else None})
-        runs = payload.get("verify_runs")
-        if runs:
-            from ..verification.lti import verify_lti
+    cfg = config_from_dict(payload["config"])
+    plant = lti_plant(cfg)
+    net = cfg.network
+    design = synthesize_lti_config(cfg, plant, threads=payload.get("solve_threads"))
+    f = design.figures
+    bounds = [o["bound"] / s for o, s in zip(f.get("outputs") or (), plant["scale"]) if o.get("bound") is not None]
+    gd = lti_gains_dict(cfg, plant, design)
+    out.update(status="certified", gains=to_jsonable(gd), gains_id=gains_id(to_jsonable(gd)),
+               figures={"decay_rate": f["decay"], "hinf_gain": f.get("hinf_gain"),
+                        "output_bound": max(bounds) if bounds else None})
+    runs = payload.get("verify_runs")
+    if runs:
+        from ..verification.lti import verify_lti
 
-            v = verify_lti(plant, design.K, design.P, net.sampling_time, net.delay.min, net.delay.max,
-                           net.dropouts.max_consecutive, f, runs=runs, multipliers=design.eps,
-                           pieces=cfg.synthesis.pieces)
-            out["verification"] = {"passed": bool(v["passed"]), "max": {},
-                                   "failed_checks": failed_names(v["checks"])}
-    except Interrupted:
-        raise
-    except InfeasibleError as exc:
-        out.update(status="infeasible", message=str(exc))
-    except SolverFailure as exc:
-        out.update(status="solver-failure", message=str(exc))
-    except (ConfigError, InputError) as exc:
-        out.update(status="invalid", message=str(exc))
-    out["time_s"] = time.perf_counter() - t0
-    return to_jsonable(out)
+        v = verify_lti(plant, design.K, design.P, net.sampling_time, net.delay.min, net.delay.max,
+                       net.dropouts.max_consecutive, f, runs=runs, multipliers=design.eps,
+                       pieces=cfg.synthesis.pieces)
+        out["verification"] = {"passed": bool(v["passed"]), "max": {}, "failed_checks": failed_names(v["checks"])}
 
 
 @dataclass(frozen=True)
