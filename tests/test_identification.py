@@ -93,7 +93,7 @@ def test_logs_of_delays_longer_than_a_period_say_when_each_command_acted() -> No
     instants, measured from each t_k, are the simulator's switching instants; no command is overtaken;
     check-log accepts the config the runs were drawn from.  (The raw arrivals had made check-log count
     18 % overtaken and slip estimates up to 1.28 on delay-multi-period's own runs: review.)"""
-    from robustsynth.model.lifting import s_tilde_sequence
+    from robustsynth.core.network import s_tilde_sequence
 
     from .conftest import committed_gain
 

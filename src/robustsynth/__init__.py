@@ -13,6 +13,9 @@ Config                 robustsynth.config            the scenario (robot, networ
 build_model            robustsynth.model             Config -> lifted norm-bounded Model
 Model                  robustsynth.model             eqs. 25, 31-33 with its Delta structure
 Network                robustsynth.core.network      the link: delay range, loss cap, every sequence
+Plant                  robustsynth.core.plant        what the core asks of a plant (a protocol)
+check_plant            robustsynth.core.conformance  the conformance suite every plant passes
+LinearPlant            robustsynth.plants.linear     any linear plant over the network, as a Plant
 synthesize             robustsynth.synthesis         Model -> certified gain (LMIs)
 check_certificate      robustsynth.certificate       numpy-only re-check of an LMI certificate
 verify                 robustsynth.verification      gain -> checks, Monte Carlo on the robot
@@ -46,6 +49,9 @@ _EXPORTS = {
     "build_model": "robustsynth.model",
     "Model": "robustsynth.model",
     "Network": "robustsynth.core.network",
+    "Plant": "robustsynth.core.plant",
+    "check_plant": "robustsynth.core.conformance",
+    "LinearPlant": "robustsynth.plants.linear",
     "synthesize": "robustsynth.synthesis",
     "SynthesisResult": "robustsynth.synthesis",
     "check_certificate": "robustsynth.certificate",

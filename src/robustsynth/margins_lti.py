@@ -109,7 +109,7 @@ def check_witness(plant: dict, Ts: float, witness: dict, m_lost: int = 0) -> dic
     arithmetic."""
     from scipy.linalg import eig
 
-    from .model.lifting import s_tilde_sequence
+    from .core.network import s_tilde_sequence
     from .model.lti import exact_closed_loop, pad_lti_gain
 
     A, B, K = plant["A"], plant["B"], plant["K"]

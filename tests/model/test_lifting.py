@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from robustsynth.model import build_model
-from robustsynth.model.lifting import delay_indices, s_tilde_sequence
+from robustsynth.core.network import s_tilde_sequence
+from robustsynth.model.lifting import delay_indices
 from robustsynth.model.linearize import van_loan
 
 from ..conftest import make_config

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from robustsynth.config import load_config
-from robustsynth.model.lifting import delay_indices, s_tilde_sequence
+from robustsynth.core.network import s_tilde_sequence
+from robustsynth.model.lifting import delay_indices
 from robustsynth.model.lti import coverage_check, exact_closed_loop, gamma, lti_plant, over_approximation, pad_lti_gain
 
 ZBP_A = np.array([[0.0, 1.0], [0.0, -0.1]])

@@ -2,7 +2,8 @@
 
 One model for every plant: the sampling period, the delay range [tau_min, tau_max] and the cap on
 commands lost in a row.  A packet's delay is a number in that range, or ``inf`` when it is lost
-(:func:`robustsynth.model.lifting.effective_delays` reads it so).  Every sequence a check, a margin
+(:func:`effective_delays` reads it so); :func:`s_tilde_sequence` turns delays into the switching
+instants of each period, what the lifted maps take.  Every sequence a check, a margin
 search or an adversary plays comes from here:
 
 - :meth:`Network.uniform`, :meth:`Network.pattern`, :meth:`Network.lose`: the Monte Carlo draws and
@@ -25,7 +26,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Network", "gilbert_elliott", "with_losses", "longest_burst", "cap_runs", "max_cyclic_run"]
+__all__ = ["Network", "gilbert_elliott", "with_losses", "longest_burst", "cap_runs", "max_cyclic_run", "effective_delays",
+           "s_tilde_sequence"]
 
 PATTERNS = ("constant-min", "constant-max", "alternating")
 
@@ -202,3 +204,39 @@ def max_cyclic_run(lost: np.ndarray) -> np.ndarray:
     """Longest run of losses per row counted around the period (rows are periodic), at most the period."""
     lost = np.atleast_2d(lost)
     return np.minimum(longest_burst(np.concatenate([lost, lost], axis=1)), lost.shape[1])
+
+
+def effective_delays(taus: np.ndarray, Ts: float) -> np.ndarray:
+    """Lost packets (delay ``inf``) as delays: a lost command is superseded at the instant its
+    successor arrives, so it takes the successor's arrival, ``tau_i = tau_{i+1} + Ts`` (chained
+    through a burst), and acts for zero time.  Lost packets with no received successor in the
+    array stay ``inf`` (they never act within it).  With at most m losses in a row the effective
+    delay lies in [tau_min, tau_max + m Ts] (docs/theory.md, packet loss)."""
+    taus = np.array(taus, dtype=float)
+    lost = np.isinf(taus)
+    if not lost.any():
+        return taus
+    for i in range(taus.shape[-1] - 2, -1, -1):
+        taus[..., i] = np.where(lost[..., i], taus[..., i + 1] + Ts, taus[..., i])
+    return taus
+
+
+def s_tilde_sequence(taus: np.ndarray, Ts: float, d_hi: int) -> np.ndarray:
+    """Switching instants ``s~[..., k, j]`` (j = 0..d_hi-1) from packet delays.
+
+    ``taus[..., i]`` is the delay of the packet sent at ``t_{i - d_hi}``: the first ``d_hi`` entries
+    are the packets sent before ``t_0``, so the result has ``taus.shape[-1] - d_hi`` steps.
+    In-order delivery: ``s~_{j-1} = max(s_{j-1}, s~_j)``, ``s~_{d_hi} = 0``.  A lost packet has
+    delay ``inf`` (see :func:`effective_delays`).
+    """
+    taus = effective_delays(taus, Ts)
+    K = taus.shape[-1] - d_hi
+    if K < 0:
+        raise ValueError(f"need at least d_hi = {d_hi} delays of packets sent before t_0")
+    s = np.zeros(taus.shape[:-1] + (K, d_hi + 1))
+    for j in range(d_hi):
+        # packet k - j is taus[..., k - j + d_hi]
+        s[..., j] = np.clip(taus[..., d_hi - j : d_hi - j + K] - j * Ts, 0.0, Ts)
+    for j in range(d_hi - 1, -1, -1):
+        s[..., j] = np.maximum(s[..., j], s[..., j + 1])
+    return s[..., :d_hi]

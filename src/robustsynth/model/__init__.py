@@ -3,14 +3,15 @@
 :func:`build_model` (:mod:`.build`) turns a :class:`~robustsynth.config.Config` into a frozen
 :class:`Model` (:mod:`.model`, where the interface every kind hands synthesis and verification is
 described); the other modules are its mathematics: kinematics, linearization, lifting under
-time-varying delay, slip, vertices, the norm-bounded embedding and the network's losses.
+time-varying delay, slip, vertices and the norm-bounded embedding (the network and its losses:
+:mod:`robustsynth.core.network`).
 """
 
 from __future__ import annotations
 
-from .build import build_model, coverage_check
-from .model import (ERROR_NAMES, INPUT_NAMES, MAX_POLYTOPIC_INSTANTS, MODEL_KINDS, SLIP_NAMES, Model, gain_lifting,
-                    lifted_slice, pad_gain, state_names)
+from .build import build_model
+from .model import (ERROR_NAMES, INPUT_NAMES, MAX_POLYTOPIC_INSTANTS, MODEL_KINDS, SLIP_NAMES, Model, coverage_check,
+                    gain_lifting, lifted_slice, pad_gain, state_names)
 from .uncertainty import SlipBox, UncertainInstant
 from .vertices import Vertex
 

@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-__all__ = ["delay_indices", "instant_ranges", "effective_delays", "s_tilde_sequence", "lift", "lifted_exact"]
+__all__ = ["delay_indices", "instant_ranges", "lift", "lifted_exact"]
 
 _INT_TOL = 1e-9
 
@@ -41,42 +41,6 @@ def instant_ranges(tau_min: float, tau_max: float, Ts: float, d_hi: int) -> np.n
     lo = np.clip(tau_min - j * Ts, 0.0, Ts)
     hi = np.clip(tau_max - j * Ts, 0.0, Ts)
     return np.stack([lo, hi], axis=1)
-
-
-def effective_delays(taus: np.ndarray, Ts: float) -> np.ndarray:
-    """Lost packets (delay ``inf``) as delays: a lost command is superseded at the instant its
-    successor arrives, so it takes the successor's arrival, ``tau_i = tau_{i+1} + Ts`` (chained
-    through a burst), and acts for zero time.  Lost packets with no received successor in the
-    array stay ``inf`` (they never act within it).  With at most m losses in a row the effective
-    delay lies in [tau_min, tau_max + m Ts] (docs/theory.md, packet loss)."""
-    taus = np.array(taus, dtype=float)
-    lost = np.isinf(taus)
-    if not lost.any():
-        return taus
-    for i in range(taus.shape[-1] - 2, -1, -1):
-        taus[..., i] = np.where(lost[..., i], taus[..., i + 1] + Ts, taus[..., i])
-    return taus
-
-
-def s_tilde_sequence(taus: np.ndarray, Ts: float, d_hi: int) -> np.ndarray:
-    """Switching instants ``s~[..., k, j]`` (j = 0..d_hi-1) from packet delays.
-
-    ``taus[..., i]`` is the delay of the packet sent at ``t_{i - d_hi}``: the first ``d_hi`` entries
-    are the packets sent before ``t_0``, so the result has ``taus.shape[-1] - d_hi`` steps.
-    In-order delivery: ``s~_{j-1} = max(s_{j-1}, s~_j)``, ``s~_{d_hi} = 0``.  A lost packet has
-    delay ``inf`` (see :func:`effective_delays`).
-    """
-    taus = effective_delays(taus, Ts)
-    K = taus.shape[-1] - d_hi
-    if K < 0:
-        raise ValueError(f"need at least d_hi = {d_hi} delays of packets sent before t_0")
-    s = np.zeros(taus.shape[:-1] + (K, d_hi + 1))
-    for j in range(d_hi):
-        # packet k - j is taus[..., k - j + d_hi]
-        s[..., j] = np.clip(taus[..., d_hi - j : d_hi - j + K] - j * Ts, 0.0, Ts)
-    for j in range(d_hi - 1, -1, -1):
-        s[..., j] = np.maximum(s[..., j], s[..., j + 1])
-    return s[..., :d_hi]
 
 
 def lift(Phi: np.ndarray, Gammas: np.ndarray, Gamma_Ts: np.ndarray, Gamma_D: np.ndarray):

@@ -10,7 +10,7 @@ within a period the commands act from the switching instants ``s~_j`` on (in-ord
 which :func:`.lifting.lift` assembles into ``xi_{k+1} = A~ xi_k + B~ u_k`` for any A (the robot's
 ``Gamma`` is the special case A^2 = 0).  A lost command acts for zero time: it takes its
 successor's arrival, so with at most m losses in a row every instant lies in the ranges of the
-delays [tau_min, tau_max + m Ts] (:func:`.lifting.effective_delays`).
+delays [tau_min, tau_max + m Ts] (:func:`robustsynth.core.network.effective_delays`).
 
 **Over-approximation** (a secant on a grid, with bounded remainders; in the spirit of Hetel et al.
 2006 / Cloosterman et al. 2009; docs/theory.md §14): split the range of ``theta_j = Ts - s~_j`` into
@@ -33,7 +33,7 @@ import numpy as np
 
 from .lifting import instant_ranges, lift
 
-__all__ = ["gamma", "exact_closed_loop", "Piecewise", "over_approximation", "coverage_check", "lti_plant", "pad_lti_gain",
+__all__ = ["gamma", "exact_lifted", "exact_closed_loop", "Piecewise", "over_approximation", "coverage_check", "lti_plant", "pad_lti_gain",
            "check_lti_gain", "disturbance_bound", "lti_depth", "lifted_rows", "periodic_spectral_radius", "vertex_combinations", "lti_plant_from", "REMAINDER_INFLATION",
            "piece_grid", "in_order_vertices", "vertex_count", "kept_directions", "YOUNG_DELTA",
            "channel_groups"]
@@ -70,12 +70,18 @@ def _phi(A: np.ndarray, theta: np.ndarray | float) -> np.ndarray:
     return expm(A * u[:, None, None])[inv].reshape(theta.shape + A.shape)
 
 
-def exact_closed_loop(A: np.ndarray, B: np.ndarray, K: np.ndarray, Ts: float, s_tilde: np.ndarray) -> np.ndarray:
-    """The exactly lifted closed loop ``A~(s~) + B~(s~) K`` for switching instants ``s_tilde[..., j]``
-    (j = 0..d_hi-1), shape (..., n_s, n_s) with n_s = n + d_hi m; K is (m, n_s)."""
+def exact_lifted(A: np.ndarray, B: np.ndarray, Ts: float, s_tilde: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The exactly lifted open loop ``(A~(s~), B~(s~))`` for switching instants ``s_tilde[..., j]``
+    (j = 0..d_hi-1), shapes (..., n_s, n_s) and (..., n_s, m) with n_s = n + d_hi m."""
     s_tilde = np.asarray(s_tilde, dtype=float)
     Gs = gamma(A, B, Ts - s_tilde)
     At, Bt, _ = lift(_phi(A, Ts), Gs, gamma(A, B, Ts), np.zeros((A.shape[0], 1)))
+    return At, Bt
+
+
+def exact_closed_loop(A: np.ndarray, B: np.ndarray, K: np.ndarray, Ts: float, s_tilde: np.ndarray) -> np.ndarray:
+    """The exactly lifted closed loop ``A~(s~) + B~(s~) K`` (:func:`exact_lifted`); K is (m, n_s)."""
+    At, Bt = exact_lifted(A, B, Ts, s_tilde)
     return At + Bt @ K
 
 
@@ -405,7 +411,7 @@ def periodic_spectral_radius(A: np.ndarray, B: np.ndarray, K: np.ndarray, Ts: fl
                              m_lost: int = 0) -> np.ndarray:
     """rho(product over one period)^(1/p) of the exactly lifted closed loop for periodic packet
     delays ``dseq`` (n, p) (inf: lost), per row."""
-    from .lifting import s_tilde_sequence
+    from ..core.network import s_tilde_sequence
 
     n, m = B.shape
     dseq = np.atleast_2d(np.asarray(dseq, dtype=float))

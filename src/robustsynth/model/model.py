@@ -25,7 +25,8 @@ import numpy as np
 
 from ..config import Config
 from ..core.network import Network
-from .lifting import lifted_exact, s_tilde_sequence
+from ..core.network import s_tilde_sequence
+from .lifting import lifted_exact
 from .slip import (SLIP_PARAMETERS, corner_weights, lateral_row, next_corner_weights, nominal_slip, slip_matrix,
                    slip_parameter_ranges)
 from .uncertainty import SlipBox, UncertainInstant, delta_for
@@ -35,7 +36,7 @@ from .vertices import (Vertex, add_lateral, apply_slip, augment_integral, icr_co
 
 __all__ = ["Model", "Mirror", "state_names", "gain_lifting", "pad_gain", "lifted_slice", "INPUT_NAMES", "ERROR_NAMES",
            "SLIP_NAMES", "INTEGRATOR_NAMES", "MODEL_KINDS", "MAX_POLYTOPIC_INSTANTS", "WIDTH_TOL",
-           "DEFAULT_HEADING_BOUND"]
+           "DEFAULT_HEADING_BOUND", "coverage_check"]
 
 INPUT_NAMES = ("dV", "omega")
 ERROR_NAMES = ("e_x", "e_y", "e_theta")
@@ -462,10 +463,48 @@ class Model:
         """diag(Delta) that reproduces the exact delay matrices in the norm-bounded embedding (eqs. 31-33)."""
         return delta_for(self.instants, self.Ts, s_tilde)
 
+    # ------------------------------------------------------------------ the Plant protocol (core/plant.py)
     @property
     def network(self) -> Network:
         """The link the commands cross (the config's ``network:``): every delay and loss sequence."""
         return Network.from_config(self.config)
+
+    @property
+    def n_x(self) -> int:
+        """The plant's own states: the tracking error (e_x, e_y, e_theta)."""
+        return self.n_e
+
+    def lifted(self, s_tilde: np.ndarray, theta: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`exact` under the protocol's name (theta: the slip)."""
+        return self.exact(s_tilde, theta)
+
+    def continuous(self, theta: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(A_c, B_c) of the linearized error whose period :meth:`exact`'s error rows are: the command reaches
+        the robot as M(mu) u (slip-aware kind), plus the icr model's lateral velocity on e_y."""
+        if self.kind != "slip-aware" or theta is None:
+            return np.asarray(self.A_c), np.asarray(self.B_c)
+        D = self.config.robot.track_distance
+        B = np.asarray(self.B_c) @ slip_matrix(theta, D)
+        if self.icr:
+            B = B.copy()
+            B[1] += lateral_row(theta, D)
+        return np.asarray(self.A_c), B
+
+    def parameter_corners(self) -> np.ndarray:
+        """The slip box's corners (n_c, 2), or (n_c, 4) with the icr parameters."""
+        return np.asarray(self.corners)
+
+    def coverage(self, samples: int = 1000, seed: int = 0) -> dict:
+        """``coverage_check`` (below) on ``samples`` delay histories."""
+        return coverage_check(self, n_sequences=samples, seed=seed)
+
+    def to_dict(self) -> dict:
+        """What a report records of the robot closed over its network (plain JSON)."""
+        net = self.network
+        return {"kind": "tracked-robot", "model": self.kind, "n_x": self.n_e, "n_u": self.n_u, "d_hi": self.d_hi,
+                "n_s": self.n_s, "sampling_time": net.sampling_time, "delay": [net.delay_min, net.delay_max],
+                "max_lost": net.max_lost, "slip_corners": np.asarray(self.corners).tolist(),
+                "vertices": len(self.vertices), "delay_description": self.delay_description}
 
     def s_tilde(self, taus: np.ndarray) -> np.ndarray:
         """Switching instants for packet delays ``taus[..., i]`` of packets sent at t_{i-d_hi}."""
@@ -730,3 +769,48 @@ def lifted_slice(model: Model, longer: Model) -> np.ndarray:
     head = np.arange(3 + 2 * model.d_hi)
     tail = np.arange(longer.n_s - model.n_z, longer.n_s)
     return np.concatenate([head, tail])
+
+
+def coverage_check(model: Model, n_sequences: int = 1000, steps: int = 20, seed: int = 0) -> dict:
+    """Coverage of the vertex description on random admissible (slip, delay history) samples, the
+    delay extremes and the slip corners: the exact lifted matrices of the model's kind and its
+    constant term are rebuilt from the vertices with explicit hull weights (>= 0, summing to 1) and
+    Delta (|Delta_ii| <= 1).  Returns the sample count, the extremes of the coordinates and the
+    largest residual."""
+    net = model.network
+    rng = np.random.default_rng(seed)
+    taus = net.uniform(rng, (n_sequences, steps + model.d_hi))
+    extremes = np.vstack([net.pattern(kind, (1, taus.shape[1]), shifted=False)
+                          for kind in ("constant-min", "constant-max", "alternating")])
+    taus = net.lose(taus, rng, 0.3, max(1.0, net.max_lost))  # bursts of up to m lost commands (inf) ...
+    taus[:3] = extremes  # ... on all but the extremes
+    s = model.s_tilde(taus).reshape(-1, model.d_hi)
+    if model.delay_description == "lossy-polytopic":  # only the instants a lossy link produces
+        corners = model.reachable_instants(5)
+    else:
+        corners = np.array(np.meshgrid(*[r for r in model.instant_ranges], indexing="ij")).reshape(model.d_hi, -1).T
+        if model.delay_cover != "product":  # the corners delivery in order can produce (s~_0 >= s~_1 >= ...)
+            corners = corners[np.all(np.diff(corners, axis=1) <= 0.0, axis=1)]
+    s = np.vstack([s, corners])
+    ranges = model.slip_ranges
+    mu = np.stack([rng.uniform(lo, hi, s.shape[0]) for lo, hi in ranges], axis=1)
+    mu[: model.corners.shape[0]] = model.corners  # every slip corner at least once
+    mu[-1] = [hi for _, hi in ranges]
+    A_ex, B_ex = model.exact(s, mu)
+    c_ex = model.constant(mu)
+    lam, dlt = model.hull_coordinates(s, mu)
+    A_h, B_h, c_h = model.from_hull(lam, dlt, model.disturbance_coordinates(mu))
+    res = max(float(np.max(np.abs(A_ex - A_h), initial=0.0)), float(np.max(np.abs(B_ex - B_h), initial=0.0)),
+              float(np.max(np.abs(c_ex - c_h), initial=0.0)))
+    max_delta = float(np.max(np.abs(dlt), initial=0.0))
+    min_weight = float(np.min(lam))
+    sum_err = float(np.max(np.abs(lam.sum(axis=-1) - 1.0)))
+    return {
+        "samples": int(s.shape[0]),
+        "vertices": len(model.vertices),
+        "max_abs_delta": max_delta,
+        "min_weight": min_weight,
+        "max_weight_sum_error": sum_err,
+        "max_residual": res,
+        "passed": bool(max_delta <= 1.0 + 1e-12 and min_weight >= -1e-12 and sum_err <= 1e-12 and res <= 1e-12),
+    }

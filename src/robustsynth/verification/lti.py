@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core.network import Network
+from ..core.network import Network, s_tilde_sequence
 from ..results import Check, all_passed
 
 __all__ = ["verify_lti", "CONSTANT_DELAYS", "TOL"]
@@ -246,7 +246,6 @@ def _fixed_sequences(boundary: _BoundaryRuns, plant: dict, K: np.ndarray, Ts: fl
                      m_lost: int, d: int, periods: int, rng: np.random.Generator) -> None:
     """The runs along delay sequences fixed in advance (:meth:`robustsynth.core.network.Network.families`), ``periods`` each, with the
     disturbance in a random direction (the random family) or the worst one (the others)."""
-    from ..model.lifting import s_tilde_sequence
     from ..model.lti import exact_closed_loop
 
     for name, seq in Network(Ts, tau_min, tau_max, m_lost).families(rng, boundary.R, periods + d + m_lost + 1).items():
@@ -266,7 +265,6 @@ def _greedy_adversary(boundary: _BoundaryRuns, plant: dict, K: np.ndarray, Ts: f
     """The greedy adversary, up to 60 periods: each packet's delay chosen from a grid of GREEDY_GRID to
     maximize the next V, the disturbance in its worst direction (losses are left to the families: a lost
     packet's effect depends on its successor's delay, not chosen yet)."""
-    from ..model.lifting import s_tilde_sequence
     from ..model.lti import exact_closed_loop
 
     A, B, R = plant["A"], plant["B"], boundary.R
@@ -298,7 +296,6 @@ def _l2_gain_check(plant: dict, K: np.ndarray, Ts: float, tau_min: float, tau_ma
     disturbance held over each period (w_k) to z_k = C x_k, from rest: the largest singular value
     of the map (w_0..w_{N-1}) -> (z_1..z_N), which must be <= gamma (the certificate covers any w(t)
     with sup over period k of ||w|| in place of |w_k|)."""
-    from ..model.lifting import s_tilde_sequence
     from ..model.lti import exact_closed_loop, gamma as gamma_fn, lifted_rows
 
     A, B = plant["A"], plant["B"]
