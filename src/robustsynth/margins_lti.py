@@ -24,7 +24,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .core.network import Network
+from .core.network import Network, max_cyclic_run
 from .errors import check_interrupt
 from .margins import _bisect
 from .model.lti import lti_depth
@@ -390,9 +390,7 @@ def lti_margins(cfg, plant: dict, say: Callable[[str], None] = lambda s: None) -
         with _one_blas_thread():
             w = find_lti_instability(plant, Ts, t_lo, t_hi, m)
         if w is not None:  # the witness's own longest run of losses (around its period) is what it exhibits
-            lost = [x is None for x in w["delays"]] * 2
-            run = max((len(r) for r in "".join("1" if x else "0" for x in lost).split("0")), default=0)
-            m_ex, m_w = min(run, len(w["delays"])), w
+            m_ex, m_w = int(max_cyclic_run(np.array([[x is None for x in w["delays"]]]))[0]), w
             break
     for m in range(0, (m_ex if m_ex is not None else MAX_LOSSES + 1)):  # coarse pieces first: the first proof counts
         if any(_certify(plant, Ts, t_lo, t_hi, m, N).certified for N in [*(N for N in PIECE_STAGES if N < pieces), pieces]):

@@ -23,8 +23,7 @@ def _frozen(model, K, cert_rate: float | None) -> tuple[list[dict], dict]:
     s = frozen_instant_grid(model, n)
     rho = frozen_spectral_radius(model, K, s)
     # constant delays tau: the physically frozen sweep used in the figure
-    dl = model.config.network.delay
-    taus = np.linspace(dl.min, dl.max, max(n, 2))
+    taus = model.network.grid(max(n, 2))
     s_tau = model.s_tilde(np.repeat(taus[:, None], model.d_hi + 1, axis=1))[:, 0, :]
     rho_tau = frozen_spectral_radius(model, K, s_tau)
     worst = float(np.max(rho))

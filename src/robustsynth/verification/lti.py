@@ -142,7 +142,7 @@ def _frozen_check(plant: dict, K: np.ndarray, Ts: float, tau_min: float, tau_max
     constant delays in [tau_min, tau_max] (with the losses) is below 1; and its trace (delay, radius)."""
     from ..model.lti import periodic_spectral_radius
 
-    taus = np.linspace(tau_min, tau_max, CONSTANT_DELAYS)[:, None]
+    taus = Network(Ts, tau_min, tau_max, m_lost).grid(CONSTANT_DELAYS)[:, None]
     rho = periodic_spectral_radius(plant["A"], plant["B"], K, Ts, taus, m_lost)
     trace = {"delay": taus[:, 0].tolist(), "spectral_radius": rho.tolist()}
     i = int(np.argmax(rho))
@@ -268,7 +268,7 @@ def _greedy_adversary(boundary: _BoundaryRuns, plant: dict, K: np.ndarray, Ts: f
     from ..model.lti import exact_closed_loop
 
     A, B, R = plant["A"], plant["B"], boundary.R
-    grid = np.unique(np.linspace(tau_min, tau_max, GREEDY_GRID))
+    grid = np.unique(Network(Ts, tau_min, tau_max).grid(GREEDY_GRID))
     past = np.full((R, d), tau_max)  # the packets sent before t_0
     xi = boundary.x0.copy()
     xs, Vs = [xi], [boundary.V(xi)]
