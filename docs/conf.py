@@ -54,9 +54,9 @@ nitpick_ignore = [
     ("py:attr", "arcs.Turns.merged"),
     ("py:func", "auto_threads"),
     ("py:func", "delay_margin"),
-    ("py:func", "robustsynth.certificate_lti.recheck_lti"),
-    ("py:func", "robustsynth.certificate_lti.check_lti_certificate"),
-    ("py:func", "robustsynth.certificate_lti.lti_within"),
+    ("py:func", "robustsynth.certificate.lti.recheck_lti"),
+    ("py:func", "robustsynth.certificate.lti.check_lti_certificate"),
+    ("py:func", "robustsynth.certificate.lti.lti_within"),
     ("py:mod", "nonlinear"),
     # numpydoc's words for duck types in a Parameters section
     ("py:class", "callable"),

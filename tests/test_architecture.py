@@ -20,8 +20,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("robustsynth.config",),
     ("robustsynth.core",),  # what every plant shares: the network and its delay / loss sequences
     ("robustsynth.model",),
-    ("robustsynth.certificate", "robustsynth.certificate_lmis", "robustsynth.certificate_bounds",
-     "robustsynth.certificate_turns", "robustsynth.certificate_lti"),  # the numpy re-check of LMI certificates: the proof checker
+    ("robustsynth.certificate",),  # the numpy re-check of LMI certificates: the proof checker
     ("robustsynth.artifacts",),  # output files, the gains file's format
     ("robustsynth.runtime",),  # the controller on the robot, its exports
     ("robustsynth.plants",),  # what the controller acts on

@@ -17,8 +17,8 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from robustsynth.certificate import check_certificate, lyapunov_of
-from robustsynth.certificate_bounds import set_max
-from robustsynth.certificate_turns import TURN_REENTRY, turn_bounds
+from robustsynth.certificate.bounds import set_max
+from robustsynth.certificate.turns import TURN_REENTRY, turn_bounds
 from robustsynth.law import PathTable
 from robustsynth.law import frame_error as law_frame_error
 from robustsynth.model import build_model
@@ -174,7 +174,7 @@ def test_a_matrix_read_within_the_symmetry_tolerance_is_proven_as_its_symmetric_
     """A file's Q may be asymmetric up to SYMMETRY_TOL (relative); the re-check then proves the LMIs of
     its symmetric part in every block, also A X + B Y (review, stop 47: those blocks used the raw Q, so
     the matrix proven was the LMI of no symmetric X), and the Lyapunov function is that part's."""
-    from robustsynth.certificate import SYMMETRY_TOL, _lyapunov_parts
+    from robustsynth.certificate.check import SYMMETRY_TOL, _lyapunov_parts
 
     model, K, cert = committed_gain("tracks-box")
     Q = np.asarray(cert["Q"], dtype=float)

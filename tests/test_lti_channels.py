@@ -1,7 +1,7 @@
 """Issue 53: instants of a linear plant whose ranges are equal share one remainder channel
 (``model.lti.channel_groups``).  Their remainders w_j enter the plant's rows as one sum W; the numpy check
 bounds W by the parallel sum H of the instants' multipliers D_j, the least ``sum_j w_j' D_j w_j`` takes over
-the splits of W (``certificate_lti.lti_vertex_blocks``, rounded down by ``_parallel_sum_down``), and the solver
+the splits of W (``certificate.lti.lti_vertex_blocks``, rounded down by ``_parallel_sum_down``), and the solver
 gives a group's instants equal multipliers (``synthesis.lti.analyze_lti``, diagonal -a / g: linear).
 
 Tested: the rounding never above the exact parallel sum (hypothesis, exact rationals); the grouped block
@@ -18,7 +18,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from robustsynth.certificate_lti import LTI_PROOF_MARGIN, _parallel_sum_down, check_lti_certificate, lti_vertex_blocks
+from robustsynth.certificate.lti import LTI_PROOF_MARGIN, _parallel_sum_down, check_lti_certificate, lti_vertex_blocks
 from robustsynth.model.lifting import instant_ranges
 from robustsynth.model.lti import (channel_groups, exact_closed_loop, kept_directions, lti_depth, over_approximation,
                                    pad_lti_gain, periodic_spectral_radius, vertex_combinations)

@@ -109,7 +109,7 @@ def test_benchmark_h05_frozen_delay_beyond_one_period_by_hand() -> None:
 
 
 def test_the_numpy_check_rejects_a_broken_certificate() -> None:
-    from robustsynth.certificate_lti import check_lti_certificate
+    from robustsynth.certificate.lti import check_lti_certificate
     from robustsynth.model.lti import over_approximation, pad_lti_gain
     from robustsynth.synthesis.lti import analyze_lti, vertex_combinations
 

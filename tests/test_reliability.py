@@ -134,7 +134,7 @@ def test_every_committed_gain_rechecks() -> None:
     for gp in gains:
         g = json.loads(gp.read_text())
         if g.get("kind") == "lti":  # a linear plant's gain: its own numpy proof
-            from robustsynth.certificate_lti import recheck_lti
+            from robustsynth.certificate.lti import recheck_lti
             from robustsynth.model.lti import lti_plant
 
             cfg = load_config(configs[g["config"]["name"]])

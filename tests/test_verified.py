@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from robustsynth.certificate import check_certificate
-from robustsynth.certificate_lmis import lmi_invariance
+from robustsynth.certificate.lmis import lmi_invariance
 from robustsynth.verified import (UNIT_ROUNDOFF, assembly_radius, assembly_radius_batch, is_pd, is_pd_batch,
                                   proves_at_least, proves_at_least_batch, round_up, round_up_array, rump_shift,
                                   rump_shift_batch)

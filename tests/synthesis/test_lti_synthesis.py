@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from robustsynth.certificate_lti import check_lti_certificate, check_lti_scaled, lti_within
+from robustsynth.certificate.lti import check_lti_certificate, check_lti_scaled, lti_within
 from robustsynth.errors import InfeasibleError
 from robustsynth.model.lifting import instant_ranges
 from robustsynth.model.lti import disturbance_bound, exact_closed_loop, lti_plant_from, over_approximation

@@ -156,7 +156,7 @@ def test_verify_hinf_passes_and_catches_an_understated_gain() -> None:
 
 def test_the_gains_file_is_re_proven(design) -> None:
     """recheck_lti proves a design from its own numbers, and refuses a changed gain or a lowered bound."""
-    from robustsynth.certificate_lti import recheck_lti
+    from robustsynth.certificate.lti import recheck_lti
 
     pl, r = design
     gd = {"K": r.K.tolist(), "certified": r.figures,

@@ -300,7 +300,7 @@ def kept_directions(pw: Piecewise) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """(per instant the directions that are channels of the analysis LMIs, per instant and piece the dropped
     ones' bound rho_D with ``||U_D' R|| <= rho_D``): directions whose bound is at most DROP_REL times the
     largest of all (rounding-level: a remainder along fewer directions than n, or an instant on a point)
-    are no channel; :func:`robustsynth.certificate_lti.lti_vertex_blocks` covers them by Young's inequality.
+    are no channel; :func:`robustsynth.certificate.lti.lti_vertex_blocks` covers them by Young's inequality.
     Halving the channels divides the solver's work per vertex by about four."""
     top = max(float(np.max(r)) for r in pw.rho_dir)
     kept, dropped = [], []
@@ -316,7 +316,7 @@ def channel_groups(pw: Piecewise, kept: list[np.ndarray]) -> list[list[int]]:
     instants whose kept directions and ``dirs`` are bit for bit the same (instants on equal ranges:
     :func:`over_approximation` computes their pieces once).  Their remainders enter the plant's rows as one
     sum ``E U W``, W = sum_j w_j, so the LMIs need one channel per group (docs/theory.md §14; the numpy check,
-    :func:`robustsynth.certificate_lti.lti_vertex_blocks`, bounds W by the parallel sum of the instants'
+    :func:`robustsynth.certificate.lti.lti_vertex_blocks`, bounds W by the parallel sum of the instants'
     multipliers, which holds for any split of W).  Equality of the channel matrices is all the soundness needs."""
     groups: list[list[int]] = []
     for j in range(pw.d_hi):

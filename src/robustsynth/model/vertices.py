@@ -468,7 +468,7 @@ def varying_slip_vertices(Phi: np.ndarray, A_c: np.ndarray, B_c: np.ndarray, Ts:
     for L, W in zip(L_all, W_all):
         live = (np.abs(L) > tol * Ts) | (np.abs(W) > tol * Ts * Ts)
         if np.count_nonzero(live) > 2:
-            # the heading within the period (certificate_bounds.heading_within_period) takes one slip corner for
+            # the heading within the period (certificate.bounds.heading_within_period) takes one slip corner for
             # the commands before a switching instant: exact with at most two command intervals
             return None
         counts.append(len(interval_pts) ** int(np.count_nonzero(live)))

@@ -9,7 +9,7 @@ from ..config import config_to_dict
 from .. import __version__
 from ..artifacts.files import SCHEMA_VERSION
 from ..results import failed_names
-from ..certificate_turns import TURN_REENTRY
+from ..certificate.turns import TURN_REENTRY
 from .markdown import conditions_text, fmt, table
 
 __all__ = ["verification_dict", "verification_markdown", "report_markdown", "summary_dict"]
@@ -445,7 +445,7 @@ NO_HEADING_BOUND = "no bound (>= pi)"
 
 
 def turn_bound_cells(turn: dict[str, Any], cfg: Any) -> tuple[str, str, str]:
-    """The cells of a waypoint turn's bounds (certificate_turns.turn_bounds: peak |e_y| [cm], peak |e_theta| [rad],
+    """The cells of a waypoint turn's bounds (certificate.turns.turn_bounds: peak |e_y| [cm], peak |e_theta| [rad],
     peak |rho| [rad/s]), with a bound that says nothing printed as "no bound" and why, not as a number
     (issue 50: |e_theta| 6.51 rad, |e_y| 61.3 cm, |rho| 150 rad/s read as certified figures):
 

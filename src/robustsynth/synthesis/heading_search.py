@@ -293,7 +293,7 @@ def _nonlinear_infeasible(model: Any, common: _Best, tried: list, tried_at: dict
     msg = f"synthesis.kinematics: nonlinear: found no invariant set for the nonlinear robot with |e_theta(t)| within {what}"
     if common.cert is not None and common.check is not None:
         from ..certificate import lyapunov_of
-        from ..certificate_bounds import sup_on_set
+        from ..certificate.bounds import sup_on_set
         from ..model.slip import slip_matrix
 
         f = common.check.figures

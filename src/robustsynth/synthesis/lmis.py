@@ -281,7 +281,7 @@ def heading_constraints(model: Any, lv: _Lyap) -> list[Any]:
     vertex's heading rows r xi + d du + g (``KinematicChannels``) and each Lyapunov matrix,
     ``[[(theta_bar - |g| - sum|F_h|)^2, r X + d Y], [., left]] >= 0``; the kinematic channels assume it.
     ``F_h``: a turning model's yaw-rate columns of the rows (model/arcs.heading_yaw_columns, docs/theory.md
-    §10), whose box coordinates add ``sum|F_h|`` as :func:`~robustsynth.certificate_bounds.heading_within_period` does."""
+    §10), whose box coordinates add ``sum|F_h|`` as :func:`~robustsynth.certificate.bounds.heading_within_period` does."""
     from ..errors import InfeasibleError
 
     theta_bar = float(model.heading_bound)

@@ -12,7 +12,7 @@ S-procedure multipliers ``eps_j >= 0``,
 (the synthesis' form; :func:`analyze_lti` adds a multiplier per direction of the remainder, and gives
 instants on equal ranges one channel: their remainders enter as one sum).
 
-A point is accepted only after :func:`robustsynth.certificate_lti.check_lti_certificate` proved it in
+A point is accepted only after :func:`robustsynth.certificate.lti.check_lti_certificate` proved it in
 verified arithmetic.
 """
 
@@ -66,7 +66,7 @@ def _vertex_matrices(pw, verts: tuple) -> np.ndarray:
 def channel_layout(pw, merge: bool = True) -> tuple:
     """The analysis LMIs' remainder channels: (kept directions and the dropped ones' bounds per instant
     (:func:`robustsynth.model.lti.kept_directions`), the instants with dropped directions, the decay's factor
-    for them (Young's inequality, as in :func:`robustsynth.certificate_lti.lti_vertex_blocks`), the groups of
+    for them (Young's inequality, as in :func:`robustsynth.certificate.lti.lti_vertex_blocks`), the groups of
     instants sharing a channel (:func:`robustsynth.model.lti.channel_groups`; ``merge=False``: one per
     instant), each group's kept directions, and the channels E~ (n_s, their total width))."""
     n = pw.E.shape[1]
@@ -93,7 +93,7 @@ def analyze_lti(pw, decay: float = DECAY, solver: str = "clarabel", merge: bool 
     linear (docs/theory.md §14).  Every vertex's block is linear in the unknowns y = (P's upper triangle,
     multipliers): its coefficient matrices are computed in numpy, and enter as parameters of a problem
     compiled once per structure."""
-    from ..certificate_lti import check_lti_certificate
+    from ..certificate.lti import check_lti_certificate
     from .solve import solve
 
     verts = vertex_combinations(pw)
@@ -209,7 +209,7 @@ def _analysis_problem(n_v: int, n_p: int, k: int, q: int, n_c: int, n_s: int, ow
 @dataclass(frozen=True)
 class LtiDesign:
     """A synthesized gain u_k = K xi_k and what its certificate proves (``figures``); certified only when
-    :func:`robustsynth.certificate_lti.check_lti_certificate` and :func:`~robustsynth.certificate_lti.lti_within`
+    :func:`robustsynth.certificate.lti.check_lti_certificate` and :func:`~robustsynth.certificate.lti.lti_within`
     proved it in numpy.  :func:`synthesize_lti` returns only certified designs (it raises otherwise)."""
 
     certified: bool
@@ -374,8 +374,8 @@ def _prove(plant: dict, V: _Vertices, Ts: float, tau_min: float, tau_hi: float, 
            Y: np.ndarray, eps: np.ndarray, alpha: float, c_dist: float | None, C_out: np.ndarray | None = None
            ) -> tuple[dict, np.ndarray, np.ndarray, np.ndarray]:
     """The gain K = Y Q^-1 and its certificate P = Q^-1, eta = 1/eps, re-checked in the primal form on
-    the over-approximation built for K itself (:func:`robustsynth.certificate_lti.check_lti_certificate`)."""
-    from ..certificate_lti import check_lti_scaled
+    the over-approximation built for K itself (:func:`robustsynth.certificate.lti.check_lti_certificate`)."""
+    from ..certificate.lti import check_lti_scaled
     from ..model.lti import over_approximation
 
     Q = (Q + Q.T) / 2.0
@@ -591,7 +591,7 @@ def _certified_design(plant: dict, objective: str, search: _LineSearch, a: float
     LMIs' xi, unit = delta / beta): the output bounds on the set (ultimate-bound) or the ball at rest inside
     it (stability with input limits), the input limits on it; rejected where a proof fails or the set's
     matrix is not finite in the plant's units."""
-    from ..certificate_lti import lti_within
+    from ..certificate.lti import lti_within
     from ..verified import assembly_radius, proves_at_least, round_up
 
     n, m = plant["B"].shape

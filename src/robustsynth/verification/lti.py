@@ -48,7 +48,7 @@ def _boundary_states(P: np.ndarray, rows: np.ndarray, count: int, rng: np.random
 def _reproof(plant: dict, K: np.ndarray, P: np.ndarray, multipliers: Any, pieces: int, figures: dict, Ts: float,
              tau_min: float, tau_max: float, m_lost: int) -> dict[str, Any]:
     """The check "the certificate re-proven in numpy for this config" (failed without multipliers)."""
-    from ..certificate_lti import recheck_lti
+    from ..certificate.lti import recheck_lti
 
     name = "the certificate re-proven in numpy for this config"
     if multipliers is None:
@@ -67,7 +67,7 @@ def verify_lti(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, tau_min: fl
 
     The first check re-proves the certificate (P, ``multipliers``, ``figures["alpha"]`` and ``pieces``:
     an :class:`~robustsynth.synthesis.lti.LtiDesign`'s ``eps`` and the synthesis' pieces, or a gains
-    file's ``certificate``) in numpy for *this* plant and network (:func:`robustsynth.certificate_lti.recheck_lti`).
+    file's ``certificate``) in numpy for *this* plant and network (:func:`robustsynth.certificate.lti.recheck_lti`).
     Without the multipliers it cannot, and the verdict is failed: simulations alone prove nothing.
 
     Parameters

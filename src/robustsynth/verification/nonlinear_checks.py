@@ -12,7 +12,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ..certificate import CertificateCheck, lyapunov_of
-from ..certificate_turns import turn_bounds
+from ..certificate.turns import turn_bounds
 from ..plants.path import path_of
 from ..runtime.replay import monitor_summary
 from ..scenarios import draw_scenario, slip_vertices, steady_state_start

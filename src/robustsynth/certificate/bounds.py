@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from .verified import gamma, round_up
+from ..verified import gamma, round_up
 
 __all__ = ["heading_within_period", "set_max", "sup_on_set", "between_samples"]
 
@@ -103,7 +103,7 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
     V omega(t) is bounded pointwise, whatever the slip does.  On the exact arcs (a nonlinear
     certificate) e_y' = V sin e_theta + a sin e_theta: the first part has a bounded f'', the second
     (a jumps with the slip) is bounded by its range; e_x' likewise."""
-    from .model.slip import lateral_row
+    from ..model.slip import lateral_row
 
     n_s, n_e, n_u, d_hi = model.n_s, model.n_e, model.n_u, model.d_hi
     Ts, V = model.Ts, model.V
@@ -157,7 +157,7 @@ def _lateral_on_set(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], 
     """The largest |v_y| of the icr slip model on the set, over every slip corner (v_y is multi-affine in the
     parameters: its extremes over the box, and over any average of slips, are at the corners) and every
     command in flight, with a turning reference's feedforward (0, w), |w| <= ``yaw_rate``."""
-    from .model.slip import lateral_row
+    from ..model.slip import lateral_row
 
     uD = np.array([model.V, 0.0])
     D = model.config.robot.track_distance
@@ -174,7 +174,7 @@ def _forward_oscillation(model: Any, cmds: list[np.ndarray], mats: list[np.ndarr
     """The largest difference of the forward speed a = v - V^D between any two instants of a period on the
     set, slip changing at any time: between any two slip corners and any two commands in flight (``cmds``),
     with a turning reference's feedforward (0, w), |w| <= ``yaw_rate``, in each."""
-    from .model.slip import slip_matrix
+    from ..model.slip import slip_matrix
 
     uD = np.array([model.V, 0.0])
     g = model.turn_feedforward  # the feedforward command per rad/s of yaw rate ((0, 1): M[0, 1])
@@ -195,7 +195,7 @@ def _speeds_on_set(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], l
     each command from xi), on the forward speed |v|, the turn rate |omega|, the jump |dv| between
     consecutive commands and the forward-speed deviation |a| = |v - V^D|; with a turning reference's
     feedforward (0, w), |w| <= ``yaw_rate`` and steps <= ``yaw_step``, in every command."""
-    from .model.slip import slip_matrix
+    from ..model.slip import slip_matrix
 
     uD = np.array([model.V, 0.0])
     g = model.turn_feedforward  # the feedforward command per rad/s of yaw rate ((0, 1): M[., 1])

@@ -8,9 +8,10 @@ The certified figures (decay rate, ellipsoid bounds in m and rad, motor-speed bo
 l2 gain) are computed here from the same values, so every number written as certified has
 passed this check; they are rounded outwards.
 
-The rooms beside it: the LMIs at a vertex (:mod:`robustsynth.certificate_lmis`), the figures on the
-set and between the samples (:mod:`robustsynth.certificate_bounds`), the bounds through waypoint turns
-(:mod:`robustsynth.certificate_turns`) and a linear plant's certificate (:mod:`robustsynth.certificate_lti`).
+The rooms beside it: the LMIs at a vertex (:mod:`.lmis`), the model a certificate is written on
+(:mod:`.rebuild`), the figures on the set and between the samples (:mod:`.bounds`), the Lyapunov
+function the judges evaluate (:mod:`.lyapunov`), the bounds through waypoint turns (:mod:`.turns`)
+and a linear plant's certificate (:mod:`.lti`).
 """
 
 from __future__ import annotations
@@ -20,10 +21,11 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .certificate_bounds import between_samples, heading_within_period, set_max
-from .certificate_lmis import _AbsVertex, _stacks, _sym, lmi_hinf, lmi_invariance, lmi_stability, multiplier_structure_error
-from .verified import (assembly_radius, assembly_radius_batch, gamma, proves_at_least, proves_at_least_batch, round_up,
-                       rump_shift, rump_shift_batch)
+from ..verified import (assembly_radius, assembly_radius_batch, gamma, proves_at_least, proves_at_least_batch, round_up,
+                        rump_shift, rump_shift_batch)
+from .bounds import between_samples, heading_within_period, set_max
+from .lmis import _AbsVertex, _stacks, _sym, lmi_hinf, lmi_invariance, lmi_stability, multiplier_structure_error
+from .rebuild import model_of_certificate
 
 __all__ = [
     "CHECK_FRACTION",
@@ -32,8 +34,6 @@ __all__ = [
     "CertificateCheck",
     "check_certificate",
     "recheck_gains",
-    "Lyapunov",
-    "lyapunov_of",
 ]
 
 # A certificate passes when every LMI satisfies  lambda_min >= CHECK_FRACTION * margin,
@@ -214,7 +214,7 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
                      "(synthesis.model)")
     if K.shape != (n_u, n_s):
         return _fail(f"K has shape {K.shape}, expected {(n_u, n_s)}")
-    model = _model_of(model, cert, objective)
+    model = model_of_certificate(model, cert, objective)
     if isinstance(model, str):
         return _fail(model)
     parts = _lyapunov_parts(model, cert, n_s)
@@ -257,68 +257,6 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
     if failed is not None:
         return failed
     return _verdict(checks, figures, within)
-
-
-def _model_of(model: Any, cert: Mapping[str, Any], objective: str) -> Any:
-    """The model the certificate's LMIs are written on (its kinematics, heading bound and turning
-    reference, where the config's model allows them), or why there is none (a string)."""
-    kin = cert.get("kinematics", "linearized")
-    if objective in ("stability", "hinf") and kin == "linearized":
-        # these LMIs are written on the linearization (synthesis.lmis.build_stability / build_hinf),
-        # also when the config asks for nonlinear kinematics (robust stability of a fixed K: margins)
-        model = model.linearized()
-    if kin != model.kinematics:
-        return (f"the certificate is for {kin} kinematics, the config asks for {model.kinematics} "
-                "(synthesis.kinematics)")
-    if kin == "nonlinear":  # the kinematic channels of the certificate's own heading bound
-        hb = cert.get("heading_bound")
-        if isinstance(hb, bool) or not isinstance(hb, (int, float)) or not 0.0 < float(hb) <= 1.0:
-            return f"certificate.heading_bound: nonlinear kinematics need a number in (0, 1] rad (got {hb!r})"
-        hb = float(hb)
-        within = bool(cert.get("within_period_channels", False))  # for slip changing within a period (§9)
-        if within and not model.covering:
-            return ("the certificate's kinematic channels are for slip changing within a period, which this "
-                    f"config's model does not cover ({model.varying_reason})")
-        if hb != model.heading_bound or within != bool(model.covering_vertices):
-            model = model.with_heading_bound(hb, within_period=within)
-    return _model_of_turns(model, cert)
-
-
-def _model_of_turns(model: Any, cert: Mapping[str, Any]) -> Any:
-    """The model with the vertices of the certificate's own turning reference (model/arcs.py), or why
-    it cannot carry them (a string)."""
-    turns, have = cert.get("turns"), getattr(model, "turns", None)
-    if turns is None:
-        return "the certificate is for straight segments, the model for a turning reference" if have is not None else model
-    want = (float(turns["max_yaw_rate"]), float(turns["max_step"]))
-    if have is not None and not (want[0] >= have.max_yaw_rate and want[1] >= have.max_step):
-        return (f"the certificate covers reference yaw rates up to {want[0]:.4g} rad/s (steps {want[1]:.4g}), "
-                f"the model asks for {have.max_yaw_rate:.4g} (steps {have.max_step:.4g}): "
-                "reference.turn_radius is smaller than the one the gain was certified for")
-    if have is None:
-        return (f"the certificate is for a reference turning along arcs (yaw rates up to {want[0]:.4g} rad/s), "
-                "the config's path jumps at its waypoints (reference.turn_radius is null): set "
-                "reference.turn_radius to the gain's radius or wider")
-    # the turning vertices of the certificate's own yaw rates, for slip changing within a period where its
-    # channels are (within_period_channels; a certificate made before they existed assumes it constant)
-    within = bool(cert.get("within_period_channels", False))
-    if within and not model.covering:
-        return ("the certificate's channels are for slip changing within a period, which this config's "
-                f"model does not cover ({model.varying_reason})")
-    from .errors import InputError
-
-    try:
-        if (have.max_yaw_rate, have.max_step) != want or within != bool(model.covering_vertices):
-            model = model.with_turns(*want, within_period=within)
-        size = _multiplier_size(cert)
-        if not within and size not in (None, model.vertices[0].n_q ** 2):
-            # made before the arc channels were merged (docs/theory.md §10): their own layout, if it fits
-            legacy = model.with_turns(*want, within_period=False, merged=False)
-            if size == legacy.vertices[0].n_q ** 2:
-                model = legacy
-    except InputError as exc:
-        return f"the certificate is for a turning reference, which this model cannot carry: {exc}"
-    return model
 
 
 def _multipliers(model: Any, mult: Mapping[str, Any]) -> list[np.ndarray] | str:
@@ -599,91 +537,3 @@ def _failed_reason(checks: list[dict[str, Any]]) -> str:
         return (f"{c['name']} fails: smallest eigenvalue {c['margin_found']:.3g}, required >= {-c['threshold']:.3g}"
                 + (f" (at {c['worst']})" if c.get("worst") else ""))
     return f"{c['name']} fails: {c.get('value')} against {c.get('threshold')}"
-
-
-def _multiplier_size(cert: Mapping[str, Any]) -> int | None:
-    """The number of entries of the certificate's first multiplier, or None when it has none readable."""
-    try:
-        return int(np.asarray(cert["multipliers"]["M"][0], dtype=float).size)
-    except (KeyError, IndexError, TypeError, ValueError):
-        return None
-
-
-@dataclass(frozen=True)
-class Lyapunov:
-    """V(xi, mu) of a certificate: ``xi' S(mu)^-1 xi`` with S(mu) = Q (common) or the convex
-    combination sum_m lambda_m(mu) S_m of the slip-corner matrices (slip-dependent), lambda the
-    model's corner weights; delay-dependent: ``max_d xi' S(mu, d)^-1 xi`` over the delay vertices d,
-    S(mu, d) = sum_m lambda_m(mu) S_(m, d) -- a piecewise-quadratic function that needs no delay;
-    path-dependent: ``max_b xi' S(mu, prev, b)^-1 xi`` with ``prev`` the previous period's delay
-    weights (``Model.delay_weights``), the largest over the previous delay vertices where it is not
-    known (NaN) -- an upper bound (``Model.lyapunov_conditions``).  ``V_max`` is the largest value
-    over every matrix (an upper bound for any mu and delays)."""
-
-    model: Any
-    S: tuple[np.ndarray, ...]
-    P: tuple[np.ndarray, ...]
-    slip_step: float | None = None  # a rate-bounded certificate: the slip moves at most this per period
-    delay_vertices: int = 1  # delay-dependent: S_(m, d) at index m * n_d + d; path-dependent: S_(m, a, b)
-    path: bool = False  # at (m * n_d + a) * n_d + b, a the previous period's delay vertex
-
-    @property
-    def any_next_slip(self) -> bool:
-        """True when the LMIs hold for every next slip and delay (common Q, or slip may jump and the
-        matrices do not depend on a past delay): then from one step on the state lies in the set of
-        every slip, and ``V_max`` <= level."""
-        return len(self.S) == 1 or (self.slip_step is None and not self.path)
-
-    def V(self, xi: np.ndarray, mu: np.ndarray | None = None, prev: np.ndarray | None = None) -> np.ndarray:
-        """``prev`` (..., n_d): the previous period's delay weights (path-dependent only; None or NaN
-        rows: unknown, the largest value over the previous delay vertices)."""
-        xi = np.asarray(xi, dtype=float)
-        if len(self.S) == 1 or mu is None:
-            return self.V_max(xi)
-        lam = self.model.corner_weights(np.asarray(mu, dtype=float))
-        n_d = self.delay_vertices
-        n = self.S[0].shape[0]
-        if not self.path:
-            return self._max_over_d(xi, lam, np.array(self.S).reshape((-1, n_d, n, n)))
-        allS = np.array(self.S).reshape((-1, n_d, n_d, n, n))  # (n_c, a, b, n, n)
-        batch = xi.shape[:-1]
-        lam = np.broadcast_to(lam, batch + lam.shape[-1:])
-        prev = np.full(batch + (n_d,), np.nan) if prev is None else np.broadcast_to(np.asarray(prev, dtype=float), batch + (n_d,))
-        known = np.all(np.isfinite(prev), axis=-1)
-        out = np.empty(batch)
-        if np.any(known):  # S(mu, prev, b) for the known previous weights
-            out[known] = self._max_over_d(xi[known], lam[known], np.einsum("ka,mabij->kmbij", prev[known], allS))
-        if not np.all(known):  # the largest over the previous delay vertex a
-            u = ~known
-            out[u] = np.max([self._max_over_d(xi[u], lam[u], allS[:, a]) for a in range(n_d)], axis=0)
-        return out
-
-    @staticmethod
-    def _max_over_d(xi, lam, mats):
-        """max_d xi' (sum_m lam_m mats[..., m, d])^-1 xi; ``mats`` (n_c, n_d, n, n) or per sample."""
-        out = None
-        for d in range(mats.shape[-3]):
-            S = np.einsum("...m,...mij->...ij", lam, mats[..., d, :, :])
-            sol = np.linalg.solve(S, xi[..., None])[..., 0]
-            val = np.einsum("...i,...i->...", xi, sol)
-            out = val if out is None else np.maximum(out, val)
-        return out
-
-    def V_max(self, xi: np.ndarray) -> np.ndarray:
-        xi = np.asarray(xi, dtype=float)
-        vals = [np.sum((xi @ P) * xi, axis=-1) for P in self.P]
-        return np.max(vals, axis=0)
-
-
-def lyapunov_of(model: Any, cert: Mapping[str, Any]) -> Lyapunov:
-    """The Lyapunov function of a (checked) certificate."""
-    step = None
-    kind = cert.get("lyapunov", "common")
-    n_d = 1
-    if kind in ("slip-dependent", "delay-dependent", "path-dependent"):
-        S = tuple(_sym(np.asarray(x, dtype=float)) for x in cert["S"])
-        step = None if cert.get("slip_step") is None else float(cert["slip_step"])
-        n_d = model.delay_vertex_count if kind != "slip-dependent" else 1
-    else:
-        S = (_sym(np.asarray(cert["Q"], dtype=float)),)
-    return Lyapunov(model, S, tuple(np.linalg.inv(x) for x in S), step, n_d, kind == "path-dependent")

@@ -9,7 +9,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .verified import (assembly_radius, assembly_radius_batch, proves_at_least, proves_at_least_batch,
+from ..verified import (assembly_radius, assembly_radius_batch, proves_at_least, proves_at_least_batch,
                        round_down_array, round_up)
 
 __all__ = ["lti_multipliers", "lti_vertex_blocks", "LTI_PROOF_MARGIN", "check_lti_certificate", "check_lti_scaled",
@@ -56,7 +56,7 @@ def lti_vertex_blocks(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, ver
     n_s, n = pw.E.shape
     lam, directional = lti_multipliers(pw, eps, len(combos))
     if directional:  # the rounding-level directions are no channel: Young's inequality covers them
-        from .model.lti import YOUNG_DELTA, channel_groups, kept_directions
+        from ..model.lti import YOUNG_DELTA, channel_groups, kept_directions
 
         kept, dropped = kept_directions(pw)
         groups = channel_groups(pw, kept) if merge else [[j] for j in range(d) if len(kept[j])]
@@ -203,7 +203,7 @@ def recheck_lti(plant: dict, gains: Mapping[str, Any], Ts: float, tau_min: float
     against this plant and network: the vertex blocks of the over-approximation built for K (with
     the disturbance or the l2 gain's terms) and every output bound and input limit on the set.
     Returns {"ok", "reason"}."""
-    from .model.lti import disturbance_bound, lifted_rows, lti_depth, over_approximation, vertex_combinations
+    from ..model.lti import disturbance_bound, lifted_rows, lti_depth, over_approximation, vertex_combinations
 
     try:
         K = np.asarray(gains["K"], dtype=float)

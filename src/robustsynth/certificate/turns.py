@@ -8,8 +8,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .certificate import lyapunov_of
-from .verified import round_up
+from ..verified import round_up
+from .lyapunov import lyapunov_of
 
 __all__ = ["turn_bounds", "TURN_REENTRY", "TURN_LINEARIZATION_HEADING"]
 
@@ -116,7 +116,7 @@ def _arc_turns(model: Any, figures: Mapping[str, Any]) -> list[dict[str, Any]]:
     turns at |w_k| <= V^D / r, which the certificate's vertices cover (model/arcs.py), so the certified
     set and its bounds hold through the turn: peak = the set's bounds for all t (``ultimate_bound_between_samples``,
     e_theta within the period), where the certificate states them (else at the samples), no re-entry."""
-    from .law import PathTable
+    from ..law import PathTable
 
     cfg = model.config
     r = float(cfg.reference.turn_radius)
