@@ -10,8 +10,9 @@ time-varying delay, slip, vertices and the norm-bounded embedding (the network a
 from __future__ import annotations
 
 from .build import build_model
-from .model import (ERROR_NAMES, INPUT_NAMES, MAX_POLYTOPIC_INSTANTS, MODEL_KINDS, SLIP_NAMES, Model, coverage_check,
-                    gain_lifting, lifted_slice, pad_gain, state_names)
+from .coverage import coverage_check
+from .model import (ERROR_NAMES, INPUT_NAMES, MAX_POLYTOPIC_INSTANTS, MODEL_KINDS, SLIP_NAMES, Model, gain_lifting,
+                    lifted_slice, pad_gain, state_names)
 from .uncertainty import SlipBox, UncertainInstant
 from .vertices import Vertex
 
