@@ -260,3 +260,20 @@ def test_a_gain_of_ones_own_gets_a_certificate_searched(tmp_path) -> None:
     r = CliRunner().invoke(main, ["verify", str(far), "--gains", str(g), "-o", str(tmp_path / "no"), "--no-plots"])
     assert r.exit_code == 3 and "no certificate found for this gain" in r.output
     assert not (tmp_path / "no").exists()
+
+
+@pytest.mark.parametrize("m_lost", [0, 2])
+def test_the_frozen_check_is_the_plant_generic_radius_and_the_periodic_product(m_lost) -> None:
+    """The linear plant's frozen check goes through the robot's plant-generic frozen radius
+    (verification.lifted.frozen_spectral_radius on a LinearPlant); the periodic product of
+    model.lti.periodic_spectral_radius at period 1 is an independent computation of the same radii."""
+    from robustsynth.model.lti import pad_lti_gain, periodic_spectral_radius
+    from robustsynth.verification.lti import CONSTANT_DELAYS, _frozen_check
+
+    pl = lti_plant_from([[0.0, 1.0], [1.5, -0.2]], [[0.0], [1.0]])
+    K = pad_lti_gain(np.array([[-4.0, -2.5]]), 2, 1, 1)
+    check, trace = _frozen_check(pl, K, 0.1, 0.01, 0.09, m_lost)
+    taus = np.linspace(0.01, 0.09, CONSTANT_DELAYS)[:, None]
+    assert trace["delay"] == taus[:, 0].tolist()
+    assert trace["spectral_radius"] == periodic_spectral_radius(pl["A"], pl["B"], K, 0.1, taus, m_lost).tolist()
+    assert check["passed"] == (max(trace["spectral_radius"]) < 1.0) and check["threshold"] == 1.0

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.plant import Plant
 from ..errors import check_interrupt
 from ..scenarios import slip_candidates
 
@@ -197,8 +198,10 @@ def frozen_instant_grid(model, n: int) -> np.ndarray:
     return grid[mono]
 
 
-def frozen_spectral_radius(model, K: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """Spectral radius of A~(s~, mu) + B~(s~, mu) K for each frozen instant vector (row of ``s``),
-    the largest over the slip corners (for the paper's kind the slip does not enter A~, B~)."""
-    A, B = model.exact(s[:, None, :], np.asarray(model.corners)[None, :, :])
+def frozen_spectral_radius(plant: Plant, K: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Spectral radius of A~(s~, theta) + B~(s~, theta) K for each frozen instant vector (row of ``s``),
+    the largest over the plant's parameter corners (the robot's slip; a linear plant has none), for any
+    :class:`~robustsynth.core.plant.Plant`."""
+    corners = np.asarray(plant.parameter_corners(), dtype=float)
+    A, B = plant.lifted(s[:, None, :], None if corners.shape[-1] == 0 else corners[None, :, :])
     return np.max(np.abs(np.linalg.eigvals(A + B @ K)), axis=(-1, -2))

@@ -139,15 +139,22 @@ def _checked_certificate(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, t
 def _frozen_check(plant: dict, K: np.ndarray, Ts: float, tau_min: float, tau_max: float, m_lost: int
                   ) -> tuple[dict[str, Any], dict[str, list]]:
     """The check "frozen-delay spectral radius": the exact closed loop's spectral radius at CONSTANT_DELAYS
-    constant delays in [tau_min, tau_max] (with the losses) is below 1; and its trace (delay, radius)."""
-    from ..model.lti import periodic_spectral_radius
+    constant delays in [tau_min, tau_max] (with the losses) is below 1; and its trace (delay, radius).
+    The radius is the robot's frozen check's (:func:`~robustsynth.verification.lifted.frozen_spectral_radius`,
+    on the plant as a :class:`~robustsynth.plants.linear.LinearPlant`)."""
+    from ..model.lti import pad_lti_gain
+    from ..plants.linear import LinearPlant
+    from .lifted import frozen_spectral_radius
 
-    taus = Network(Ts, tau_min, tau_max, m_lost).grid(CONSTANT_DELAYS)[:, None]
-    rho = periodic_spectral_radius(plant["A"], plant["B"], K, Ts, taus, m_lost)
-    trace = {"delay": taus[:, 0].tolist(), "spectral_radius": rho.tolist()}
+    lin = LinearPlant(plant, Network(Ts, tau_min, tau_max, m_lost))
+    d = max(lin.d_hi, (K.shape[1] - lin.n_x) // lin.n_u)  # a gain may keep more commands than the delays need
+    taus = lin.network.grid(CONSTANT_DELAYS)
+    s = s_tilde_sequence(np.repeat(taus[:, None], d + 1, axis=1), Ts, d)[:, 0]
+    rho = frozen_spectral_radius(lin, pad_lti_gain(K, lin.n_x, lin.n_u, d), s)
+    trace = {"delay": taus.tolist(), "spectral_radius": rho.tolist()}
     i = int(np.argmax(rho))
     return (Check("frozen-delay spectral radius", bool(rho[i] < 1.0), float(rho[i]), 1.0,
-                  f"worst at constant delay {taus[i, 0]:.6g} s").to_dict(), trace)
+                  f"worst at constant delay {taus[i]:.6g} s").to_dict(), trace)
 
 
 class _BoundaryRuns:
