@@ -19,9 +19,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from robustsynth.certificate.lti import LTI_PROOF_MARGIN, _parallel_sum_down, check_lti_certificate, lti_vertex_blocks
+from robustsynth.margins_lti import spectral_radius
 from robustsynth.model.lifting import instant_ranges
-from robustsynth.model.lti import (channel_groups, exact_closed_loop, kept_directions, lti_depth, over_approximation,
-                                   pad_lti_gain, periodic_spectral_radius, vertex_combinations)
+from robustsynth.model.lti import (channel_groups, exact_closed_loop, kept_directions, lti_depth, lti_plant_from,
+                                   over_approximation, pad_lti_gain, vertex_combinations)
 from robustsynth.synthesis.lti import DECAY, analyze_lti
 from robustsynth.verified import UNIT_ROUNDOFF, round_down_array, round_up_array
 
@@ -81,7 +82,7 @@ def _plant_pw(plant: tuple, fraction: float = FRACTION, pieces: int = 1):
     of the exact lifted loop: independent of the margin search)."""
     A, B, K, Ts = plant
     grid = np.linspace(0.0, 20 * Ts, 801)
-    first = float(grid[np.argmax(periodic_spectral_radius(A, B, K, Ts, grid[:, None]) > 1.0)])
+    first = float(grid[np.argmax(spectral_radius(lti_plant_from(A, B, K=K), Ts, grid[:, None]) > 1.0)])
     tau = fraction * first
     d = lti_depth(tau, 0, Ts)
     n, m = B.shape

@@ -149,10 +149,12 @@ def find_instability(model: Any, K: np.ndarray, n_delays: int = SEARCH_DELAYS, m
     in a row; bursts of that length are searched even when longer than ``max_period``); slips at the
     corners (held constant when ``slip.max_rate`` forbids jumps).  Returns the worst witness
     (``delays`` with null for a lost packet, ``lost``, ``slip``, ``period``, ``spectral_radius``) or None."""
+    from .verification.lifted import periodic_spectral_radius
+
     net = model.network
     grid = np.unique(net.grid(n_delays))
     corners = np.asarray(model.corners)
-    d_hi, m = model.d_hi, net.max_lost
+    m = net.max_lost
     best: dict[str, Any] | None = None
     families = [net.periodic(grid, p) for p in range(1, max_period + 1)]
     families += net.bursts(grid) if m >= SEARCH_PERIOD else []  # longer than the periods enumerated
@@ -166,15 +168,7 @@ def find_instability(model: Any, K: np.ndarray, n_delays: int = SEARCH_DELAYS, m
         else:
             idx = np.array(list(itertools.product(range(len(corners)), repeat=p)))
             sseq = corners[idx]  # (n_c^p, p, 2)
-        # periodic packets i = -d_hi .. p + m: the later ones let a lost packet meet its successor
-        cols = np.arange(-d_hi, p + m + 1) % p
-        s = model.s_tilde(dseq[:, cols])[:, :p]  # (n_seq, p, d_hi)
-        A, B = model.exact(s[:, None], sseq[None])  # (n_seq, n_slipseq, p, n_s, n_s)
-        Acl = A + B @ K
-        prod = Acl[..., 0, :, :]
-        for k in range(1, p):
-            prod = Acl[..., k, :, :] @ prod
-        rho = np.max(np.abs(np.linalg.eigvals(prod)), axis=-1) ** (1.0 / p)
+        rho = periodic_spectral_radius(model, K, dseq, sseq)  # (n_seq, n_slipseq)
         i, j = np.unravel_index(int(np.argmax(rho)), rho.shape)
         r = float(rho[i, j])
         if r > 1.0 + tol and (best is None or r > best["spectral_radius"]):

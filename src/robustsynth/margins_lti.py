@@ -65,10 +65,20 @@ def _one_blas_thread() -> Any:
 
 def spectral_radius(plant: dict, Ts: float, dseq: np.ndarray, m_lost: int = 0) -> np.ndarray:
     """rho(product over one period)^(1/p) of the exactly lifted closed loop for periodic packet
-    delays ``dseq`` (n, p) (inf: lost), per row (:func:`robustsynth.model.lti.periodic_spectral_radius`)."""
-    from .model.lti import periodic_spectral_radius
+    delays ``dseq`` (n, p) (inf: lost), per row: the robot's instability search's radius
+    (:func:`robustsynth.verification.lifted.periodic_spectral_radius`) on the plant as a
+    :class:`~robustsynth.plants.linear.LinearPlant`, lifted as deep as the longest delay and the gain need."""
+    from .model.lti import pad_lti_gain
+    from .plants.linear import LinearPlant
+    from .verification.lifted import periodic_spectral_radius
 
-    return periodic_spectral_radius(plant["A"], plant["B"], plant["K"], Ts, dseq, m_lost)
+    dseq = np.atleast_2d(np.asarray(dseq, dtype=float))
+    finite = dseq[np.isfinite(dseq)]
+    K = plant["K"]
+    n, m = plant["B"].shape
+    d = max(lti_depth(float(finite.max()) if finite.size else 0.0, m_lost, Ts), (K.shape[1] - n) // m)
+    lin = LinearPlant(plant, Network(Ts, 0.0, float(finite.max()) if finite.size else 0.0, m_lost))
+    return periodic_spectral_radius(lin, pad_lti_gain(K, n, m, d), dseq)[:, 0]
 
 
 def find_lti_instability(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int = 0,

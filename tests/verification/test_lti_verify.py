@@ -16,6 +16,8 @@ from robustsynth.model.lti import lti_plant_from
 from robustsynth.synthesis.lti import synthesize_lti
 from robustsynth.verification.lti import verify_lti
 
+RADIUS_RTOL = 1e-12  # batched against one-at-a-time products: the same matrices, rounded in another order
+
 ROOT = Path(__file__).resolve().parents[2]
 ZBP_A = np.array([[0.0, 1.0], [0.0, -0.1]])
 ZBP_B = np.array([[0.0], [0.1]])
@@ -262,18 +264,54 @@ def test_a_gain_of_ones_own_gets_a_certificate_searched(tmp_path) -> None:
     assert not (tmp_path / "no").exists()
 
 
+def _periodic_radius_reference(A, B, K, Ts, dseq, m_lost):
+    """rho(prod)^(1/p) per periodic sequence, one sequence and one period at a time (exact_closed_loop)."""
+    from robustsynth.core.network import s_tilde_sequence
+    from robustsynth.model.lti import exact_closed_loop
+
+    n, m = B.shape
+    d = (K.shape[1] - n) // m
+    out = []
+    for seq in np.atleast_2d(dseq):
+        p = seq.size
+        s = s_tilde_sequence(seq[np.arange(-d, p + m_lost + 1) % p][None], Ts, d)[0, :p]
+        prod = np.eye(K.shape[1])
+        for k in range(p):
+            prod = exact_closed_loop(A, B, K, Ts, s[k]) @ prod
+        out.append(float(np.max(np.abs(np.linalg.eigvals(prod)))) ** (1.0 / p))
+    return np.array(out)
+
+
 @pytest.mark.parametrize("m_lost", [0, 2])
-def test_the_frozen_check_is_the_plant_generic_radius_and_the_periodic_product(m_lost) -> None:
+def test_the_frozen_check_is_the_plant_generic_radius(m_lost) -> None:
     """The linear plant's frozen check goes through the robot's plant-generic frozen radius
-    (verification.lifted.frozen_spectral_radius on a LinearPlant); the periodic product of
-    model.lti.periodic_spectral_radius at period 1 is an independent computation of the same radii."""
-    from robustsynth.model.lti import pad_lti_gain, periodic_spectral_radius
+    (verification.lifted.frozen_spectral_radius on a LinearPlant), against a per-sequence reference."""
+    from robustsynth.model.lti import pad_lti_gain
     from robustsynth.verification.lti import CONSTANT_DELAYS, _frozen_check
 
     pl = lti_plant_from([[0.0, 1.0], [1.5, -0.2]], [[0.0], [1.0]])
-    K = pad_lti_gain(np.array([[-4.0, -2.5]]), 2, 1, 1)
+    K = pad_lti_gain(np.array([[-4.0, -2.5]]), 2, 1, 1 + m_lost)
     check, trace = _frozen_check(pl, K, 0.1, 0.01, 0.09, m_lost)
     taus = np.linspace(0.01, 0.09, CONSTANT_DELAYS)[:, None]
     assert trace["delay"] == taus[:, 0].tolist()
-    assert trace["spectral_radius"] == periodic_spectral_radius(pl["A"], pl["B"], K, 0.1, taus, m_lost).tolist()
+    ref = _periodic_radius_reference(pl["A"], pl["B"], K, 0.1, taus, m_lost)
+    assert np.allclose(trace["spectral_radius"], ref, rtol=RADIUS_RTOL, atol=0)
     assert check["passed"] == (max(trace["spectral_radius"]) < 1.0) and check["threshold"] == 1.0
+
+
+@pytest.mark.parametrize("m_lost", [0, 1, 2])
+def test_the_periodic_radius_of_any_plant_against_a_per_sequence_reference(m_lost) -> None:
+    """verification.lifted.periodic_spectral_radius on a LinearPlant (what the linear margins search) =
+    the product built one sequence and one period at a time, on periodic sequences with losses."""
+    from robustsynth.core.network import Network
+    from robustsynth.margins_lti import spectral_radius
+    from robustsynth.model.lti import pad_lti_gain
+
+    net = Network(0.1, 0.01, 0.09, m_lost)
+    K = pad_lti_gain(np.array([[-4.0, -2.5]]), 2, 1, 1 + m_lost)
+    pl = lti_plant_from([[0.0, 1.0], [1.5, -0.2]], [[0.0], [1.0]], K=K)
+    for p in (1, 2, 3):
+        rows = net.periodic(net.grid(3), p)[::3]  # with lost packets (inf) where the link loses them
+        got = spectral_radius(pl, 0.1, rows, m_lost)
+        ref = _periodic_radius_reference(pl["A"], pl["B"], K, 0.1, rows, m_lost)
+        assert got.shape == (len(rows),) and np.allclose(got, ref, rtol=RADIUS_RTOL, atol=0)

@@ -34,7 +34,7 @@ import numpy as np
 from .lifting import instant_ranges, lift
 
 __all__ = ["gamma", "exact_lifted", "exact_closed_loop", "Piecewise", "over_approximation", "coverage_check", "lti_plant", "pad_lti_gain",
-           "check_lti_gain", "disturbance_bound", "lti_depth", "lifted_rows", "periodic_spectral_radius", "vertex_combinations", "lti_plant_from", "REMAINDER_INFLATION",
+           "check_lti_gain", "disturbance_bound", "lti_depth", "lifted_rows", "vertex_combinations", "lti_plant_from", "REMAINDER_INFLATION",
            "piece_grid", "in_order_vertices", "vertex_count", "kept_directions", "YOUNG_DELTA",
            "channel_groups"]
 
@@ -405,27 +405,6 @@ def coverage_check(A: np.ndarray, B: np.ndarray, K: np.ndarray, Ts: float, tau_m
         recon += pw.E @ G @ pw.F[j]
     return {"samples": float(samples), "remainder_ratio": worst, "direction_ratio": worst_dir,
             "reconstruction": float(np.max(np.abs(recon - exact)))}
-
-
-def periodic_spectral_radius(A: np.ndarray, B: np.ndarray, K: np.ndarray, Ts: float, dseq: np.ndarray,
-                             m_lost: int = 0) -> np.ndarray:
-    """rho(product over one period)^(1/p) of the exactly lifted closed loop for periodic packet
-    delays ``dseq`` (n, p) (inf: lost), per row."""
-    from ..core.network import s_tilde_sequence
-
-    n, m = B.shape
-    dseq = np.atleast_2d(np.asarray(dseq, dtype=float))
-    p = dseq.shape[1]
-    finite = dseq[np.isfinite(dseq)]
-    d = max(lti_depth(float(finite.max()) if finite.size else 0.0, m_lost, Ts), (K.shape[1] - n) // m)
-    Kp = pad_lti_gain(K, n, m, d)
-    cols = np.arange(-d, p + m_lost + 1) % p  # the packets before, and after a burst its successor
-    s = s_tilde_sequence(dseq[:, cols], Ts, d)[:, :p]
-    M = exact_closed_loop(A, B, Kp, Ts, s)  # (n_seq, p, n_s, n_s)
-    prod = M[:, 0]
-    for k in range(1, p):
-        prod = M[:, k] @ prod
-    return np.max(np.abs(np.linalg.eigvals(prod)), axis=-1) ** (1.0 / p)
 
 
 def lti_plant(cfg, base_dir: str | None = None) -> dict:

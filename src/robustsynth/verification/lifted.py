@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.network import s_tilde_sequence
 from ..core.plant import Plant
 from ..errors import check_interrupt
 from ..scenarios import slip_candidates
@@ -17,6 +18,7 @@ __all__ = [
     "yaw_windows",
     "greedy_worst_case",
     "frozen_spectral_radius",
+    "periodic_spectral_radius",
     "frozen_instant_grid",
 ]
 
@@ -196,6 +198,28 @@ def frozen_instant_grid(model, n: int) -> np.ndarray:
     grid = np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(axes), -1).T
     mono = np.all(np.diff(grid, axis=1) <= 1e-15, axis=1)
     return grid[mono]
+
+
+def periodic_spectral_radius(plant: Plant, K: np.ndarray, dseq: np.ndarray, thetas: np.ndarray | None = None
+                             ) -> np.ndarray:
+    """rho(product over one period)^(1/p) of the lifted closed loop A~ + B~ K of any
+    :class:`~robustsynth.core.plant.Plant` for periodic packet delays ``dseq`` (n, p) (``inf``: lost,
+    at most the network's cap in a row) and, per period, the parameters ``thetas`` (n_t, p, n_theta)
+    (None: a plant without one); shape (n, n_t) (n_t = 1 without).  The commands K keeps set the
+    lifting's depth (a gain may keep more than the plant's d_hi); the packets before the period and, after
+    a burst, its successor are the periodic sequence's own."""
+    dseq = np.atleast_2d(np.asarray(dseq, dtype=float))
+    p = dseq.shape[1]
+    net = plant.network
+    d = (K.shape[-1] - (plant.n_s - plant.d_hi * plant.n_u)) // plant.n_u
+    cols = np.arange(-d, p + net.max_lost + 1) % p
+    s = s_tilde_sequence(dseq[:, cols], net.sampling_time, d)[:, :p]  # (n, p, d)
+    A, B = plant.lifted(s[:, None], None if thetas is None else np.asarray(thetas, dtype=float)[None])
+    Acl = A + B @ K  # (n, n_t, p, n_s, n_s)
+    prod = Acl[..., 0, :, :]
+    for k in range(1, p):
+        prod = Acl[..., k, :, :] @ prod
+    return np.max(np.abs(np.linalg.eigvals(prod)), axis=-1) ** (1.0 / p)
 
 
 def frozen_spectral_radius(plant: Plant, K: np.ndarray, s: np.ndarray) -> np.ndarray:
