@@ -9,7 +9,7 @@ multipliers.  Which form of that bound should the analysis LMIs take?
   what synthesis.lti.analyze_lti solves.
 
 For each, the largest delay bound certified at fixed pieces (bisection to 1e-5 s; every verdict is the package's
-numpy check, certificate_lti.check_lti_certificate, which accepts any multipliers) and the solve times (the package's
+numpy check, certificate.lti.check_lti_certificate, which accepts any multipliers) and the solve times (the package's
 solve, parameters and Clarabel, for per-instant and equal; Clarabel alone on a problem compiled beforehand for
 exact: not comparable to the digit).  Found: exact and per-instant certify the same bound to 3e-5 s, as they
 must (the two blocks are negative definite together); equal is within 3e-5 s of them (servo and fast-current, 1 and 2 pieces)
@@ -31,7 +31,7 @@ import warnings
 import cvxpy as cp
 import numpy as np
 
-from robustsynth.certificate_lti import check_lti_certificate
+from robustsynth.certificate.lti import check_lti_certificate
 from robustsynth.config import load_config
 from robustsynth.model.lti import YOUNG_DELTA, lti_depth, lti_plant, over_approximation, pad_lti_gain, vertex_combinations
 from robustsynth.synthesis.lti import DECAY, STRICT, _vertex_matrices, analyze_lti, channel_layout

@@ -74,10 +74,11 @@ def spectral_radius(plant: dict, Ts: float, dseq: np.ndarray, m_lost: int = 0) -
 
     dseq = np.atleast_2d(np.asarray(dseq, dtype=float))
     finite = dseq[np.isfinite(dseq)]
+    top = float(finite.max()) if finite.size else 0.0
     K = plant["K"]
     n, m = plant["B"].shape
-    d = max(lti_depth(float(finite.max()) if finite.size else 0.0, m_lost, Ts), (K.shape[1] - n) // m)
-    lin = LinearPlant(plant, Network(Ts, 0.0, float(finite.max()) if finite.size else 0.0, m_lost))
+    lin = LinearPlant(plant, Network(Ts, 0.0, top, m_lost))  # a link as long as the longest delay searched
+    d = max(lin.d_hi, (K.shape[1] - n) // m)
     return periodic_spectral_radius(lin, pad_lti_gain(K, n, m, d), dseq)[:, 0]
 
 

@@ -4,6 +4,7 @@ cap on commands lost in a row, each generator checked against a plain per-sequen
 from __future__ import annotations
 
 import itertools
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,6 +14,7 @@ from hypothesis import strategies as st
 from robustsynth.config import load_config
 from robustsynth.core.network import Network, cap_runs, gilbert_elliott, longest_burst, max_cyclic_run
 
+CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 STAT_TOL = 0.02  # |observed - expected| of a loss fraction over 4e5 packets (its std is about 1e-3)
 
 
@@ -44,6 +46,9 @@ def test_from_config_reads_the_network_of_either_plant() -> None:
         robot.network.sampling_time, robot.network.delay.min, robot.network.delay.max,
         robot.network.dropouts.max_consecutive)
     assert Network.from_config(robot.network) == net
+    linear = load_config(CONFIGS / "dc-motor.yaml")
+    assert Network.from_config(linear) == Network(linear.network.sampling_time, linear.network.delay.min,
+                                                  linear.network.delay.max, linear.network.dropouts.max_consecutive)
 
 
 @settings(max_examples=60, deadline=None)

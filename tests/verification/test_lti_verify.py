@@ -265,7 +265,9 @@ def test_a_gain_of_ones_own_gets_a_certificate_searched(tmp_path) -> None:
 
 
 def _periodic_radius_reference(A, B, K, Ts, dseq, m_lost):
-    """rho(prod)^(1/p) per periodic sequence, one sequence and one period at a time (exact_closed_loop)."""
+    """rho(prod)^(1/p) per periodic sequence, built without the periodic window of the function under
+    test: the period tiled over many periods, the switching instants of the whole tiled sequence, and the
+    product of exact_closed_loop over one period in the middle (whose newest packet is the period's first)."""
     from robustsynth.core.network import s_tilde_sequence
     from robustsynth.model.lti import exact_closed_loop
 
@@ -274,23 +276,25 @@ def _periodic_radius_reference(A, B, K, Ts, dseq, m_lost):
     out = []
     for seq in np.atleast_2d(dseq):
         p = seq.size
-        s = s_tilde_sequence(seq[np.arange(-d, p + m_lost + 1) % p][None], Ts, d)[0, :p]
+        k0 = (-d) % p + p  # step k's newest packet is tiled[k + d] = seq[(k + d) % p]
+        R = (k0 + p + d + m_lost + 2) // p + 2
+        s = s_tilde_sequence(np.tile(seq, R)[None], Ts, d)[0]
         prod = np.eye(K.shape[1])
-        for k in range(p):
+        for k in range(k0, k0 + p):
             prod = exact_closed_loop(A, B, K, Ts, s[k]) @ prod
         out.append(float(np.max(np.abs(np.linalg.eigvals(prod)))) ** (1.0 / p))
     return np.array(out)
 
 
-@pytest.mark.parametrize("m_lost", [0, 2])
-def test_the_frozen_check_is_the_plant_generic_radius(m_lost) -> None:
+@pytest.mark.parametrize("m_lost,extra", [(0, 0), (2, 0), (0, 2)])
+def test_the_frozen_check_is_the_plant_generic_radius(m_lost, extra) -> None:
     """The linear plant's frozen check goes through the robot's plant-generic frozen radius
     (verification.lifted.frozen_spectral_radius on a LinearPlant), against a per-sequence reference."""
     from robustsynth.model.lti import pad_lti_gain
     from robustsynth.verification.lti import CONSTANT_DELAYS, _frozen_check
 
     pl = lti_plant_from([[0.0, 1.0], [1.5, -0.2]], [[0.0], [1.0]])
-    K = pad_lti_gain(np.array([[-4.0, -2.5]]), 2, 1, 1 + m_lost)
+    K = pad_lti_gain(np.array([[-4.0, -2.5]]), 2, 1, 1 + m_lost + extra)  # extra: a gain that keeps more commands
     check, trace = _frozen_check(pl, K, 0.1, 0.01, 0.09, m_lost)
     taus = np.linspace(0.01, 0.09, CONSTANT_DELAYS)[:, None]
     assert trace["delay"] == taus[:, 0].tolist()
@@ -311,7 +315,7 @@ def test_the_periodic_radius_of_any_plant_against_a_per_sequence_reference(m_los
     K = pad_lti_gain(np.array([[-4.0, -2.5]]), 2, 1, 1 + m_lost)
     pl = lti_plant_from([[0.0, 1.0], [1.5, -0.2]], [[0.0], [1.0]], K=K)
     for p in (1, 2, 3):
-        rows = net.periodic(net.grid(3), p)[::3]  # with lost packets (inf) where the link loses them
+        rows = net.periodic(net.grid(3), p)  # every one, bursts of the cap at the period's end too
         got = spectral_radius(pl, 0.1, rows, m_lost)
         ref = _periodic_radius_reference(pl["A"], pl["B"], K, 0.1, rows, m_lost)
         assert got.shape == (len(rows),) and np.allclose(got, ref, rtol=RADIUS_RTOL, atol=0)

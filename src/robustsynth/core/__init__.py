@@ -1,1 +1,3 @@
-"""What every plant shares: the network the commands cross (:mod:`robustsynth.core.network`)."""
+"""What every plant shares: the network the commands cross and every delay / loss sequence on it
+(:mod:`.network`), what the core asks of a plant (:mod:`.plant`: the ``Plant`` protocol) and the
+conformance suite every plant passes (:mod:`.conformance`: ``check_plant``)."""

@@ -70,4 +70,5 @@ class Plant(Protocol):
         ``{"samples", "passed", ...}``."""
 
     def to_dict(self) -> dict[str, Any]:
-        """The plant as plain JSON data (what a gains file or a report records of it)."""
+        """The plant as plain JSON data with its ``kind`` (what a record of the plant holds; the conformance
+        suite holds it to a JSON round trip)."""

@@ -24,8 +24,7 @@ from typing import Any
 import numpy as np
 
 from ..config import Config
-from ..core.network import Network
-from ..core.network import s_tilde_sequence
+from ..core.network import Network, s_tilde_sequence
 from .lifting import lifted_exact
 from .slip import (SLIP_PARAMETERS, corner_weights, lateral_row, next_corner_weights, nominal_slip, slip_matrix,
                    slip_parameter_ranges)

@@ -8,8 +8,8 @@ from typing import Any
 from ..config import config_to_dict
 from .. import __version__
 from ..artifacts.files import SCHEMA_VERSION
-from ..results import failed_names
 from ..certificate.turns import TURN_REENTRY
+from ..results import failed_names
 from .markdown import conditions_text, fmt, table
 
 __all__ = ["verification_dict", "verification_markdown", "report_markdown", "summary_dict"]
@@ -571,7 +571,7 @@ def report_markdown(model: Any, gains: dict[str, Any], vd: dict[str, Any], figur
     out.append(table(["quantity", f"certified ({model.kind} model)",
                       f"nonlinear robot, max on certified steps ({mc['runs']} Monte Carlo + 4 extreme runs"
                       + (" + the adversarial search" if mc.get("adversarial") else "") + ")", "ratio"], rows))
-    failed = [ch["name"] for ch in vd["checks"] if not ch["passed"]]
+    failed = failed_names(vd["checks"])
     if failed:
         out.append("\nFailed checks: " + "; ".join(failed) + ".\n")
     out.append(transients_markdown(mc))

@@ -392,7 +392,7 @@ def _prove(plant: dict, V: _Vertices, Ts: float, tau_min: float, tau_hi: float, 
 
 def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int, objective: str,
                    decay: float = 0.98, pieces: int = 2, alpha_points: int = 6, solver: str = "clarabel",
-                   say=lambda s: None, threads: int | None = None) -> LtiDesign:
+                   say=lambda s: None, threads: int | None = None, name: str | None = None) -> LtiDesign:
     """A gain u_k = K xi_k on the lifted state with a common quadratic certificate for every delay in
     [tau_min, tau_max] and up to m_lost losses in a row (docs/theory.md §15):
 
@@ -430,6 +430,8 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
         Receives progress lines.
     threads : int or None
         Solves run at once (above).
+    name : str or None
+        The plant's name, for the messages of a failure.
 
     Returns
     -------
@@ -455,18 +457,18 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
     V, C = _vertices_of(plant, Ts, tau_min, tau_hi, d, pieces)
     nv = len(V.Av)
     if objective == "hinf":
-        return _proven(_synthesize_hinf(plant, V, C, Ts, tau_min, tau_hi, pieces, solver, say, t0))
+        return _proven(_synthesize_hinf(plant, V, C, Ts, tau_min, tau_hi, pieces, solver, say, t0), name)
     search = _LineSearch(plant, V, C, Ts, tau_min, tau_hi, pieces, objective == "ultimate-bound", decay, alpha_points,
                          threads, solver, say)
     best = search.run()
     solves = search.held.get("solves", 0)
     dt = time.perf_counter() - t0
     if best is None:
-        return _proven(_uncertified(plant, objective, search, decay, d, nv, solves, dt))
-    return _proven(_certified_design(plant, objective, search, best, d, nv, solves, dt))
+        return _proven(_uncertified(plant, objective, search, decay, d, nv, solves, dt), name)
+    return _proven(_certified_design(plant, objective, search, best, d, nv, solves, dt), name)
 
 
-def _proven(design: LtiDesign) -> LtiDesign:
+def _proven(design: LtiDesign, name: str | None = None) -> LtiDesign:
     """The design if its certificate was proven; else the failure raised as the robot's synthesis raises
     it: InfeasibleError (exit 3) where the LMIs have no solution, SolverFailure (exit 4) where the solver
     failed or its point was not proven in numpy."""
@@ -475,9 +477,10 @@ def _proven(design: LtiDesign) -> LtiDesign:
     if design.certified:
         return design
     why = design.message or design.status
+    what = "no certified gain" + (f" for {name}" if name else "")
     if design.status == "infeasible":
-        raise InfeasibleError(f"no certified gain: {why}")
-    raise SolverFailure(f"no certified gain ({design.status}): {why}")
+        raise InfeasibleError(f"{what}: {why}")
+    raise SolverFailure(f"{what} ({design.status}): {why}")
 
 
 def _resolved_objective(plant: dict, objective: str) -> str:
@@ -639,7 +642,7 @@ def synthesize_lti_config(cfg, plant: dict, objective: str | None = None, solver
     return synthesize_lti(plant, net.sampling_time, net.delay.min, net.delay.max, net.dropouts.max_consecutive,
                           objective or cfg.objective, decay=syn.decay, pieces=syn.pieces,
                           alpha_points=syn.alpha_points, solver=solver or syn.solver, say=say,
-                          threads=threads)
+                          threads=threads, name=cfg.name)
 
 
 def _synthesize_hinf(plant: dict, V: _Vertices, C: np.ndarray, Ts: float, tau_min: float, tau_hi: float, pieces: int,

@@ -31,8 +31,8 @@ import numpy as np
 from ..artifacts.gains import as_gains
 from ..certificate import CertificateCheck, check_certificate
 from ..errors import InfeasibleError, InputError
-from ..results import failed_names
 from ..model.slip import check_physical_feasibility
+from ..results import failed_names
 from .lifted_checks import _frozen, _lifted
 from .nonlinear_checks import _nonlinear
 from .simulate import SimResult

@@ -1,6 +1,8 @@
 """Vectorized simulation of the lifted linear model (eq. 25) in closed loop, ``du_k = K xi_k``,
-under the sequences of :mod:`robustsynth.scenarios` (random, extreme switching), a greedy
-worst-case search, and frozen delays."""
+under the delay sequences of :mod:`robustsynth.core.network` (random, extreme switching), a greedy
+worst-case search, and frozen delays; and the spectral radii of the lifted closed loop of any
+:class:`~robustsynth.core.plant.Plant` at frozen instants and over periodic delay sequences, which
+the robot's and the linear plant's checks and instability searches share."""
 
 from __future__ import annotations
 
@@ -114,13 +116,13 @@ def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 
     (:func:`~robustsynth.model.arcs.linearized_arc_period`), the search also picks the reference's yaw rate each
     period, w_{k-1} or a step of max_step either way within +-max_yaw_rate (0 before the start); returns (xi,
     taus, mu, w) with w (N, steps + d_hi) as :func:`arc_closed_loop_run` takes it."""
-    dl = model.config.network.delay
-    tau_grid = model.network.candidates(n_tau)
+    net = model.network
+    tau_grid = net.candidates(n_tau)
     n_tau = tau_grid.size
     N = xi0.shape[0]
     d_hi, n_u = model.d_hi, model.n_u
     K = np.asarray(K, dtype=float)
-    hist = np.full((N, d_hi), (dl.min + dl.max) / 2.0)  # delays of the last d_hi packets (inf: lost)
+    hist = np.full((N, d_hi), (net.delay_min + net.delay_max) / 2.0)  # delays of the last d_hi packets (inf: lost)
     xi = np.empty((N, steps + 1, model.n_s))
     xi[:, 0] = xi0
     taus_out = np.empty((N, steps + d_hi))
@@ -212,6 +214,8 @@ def periodic_spectral_radius(plant: Plant, K: np.ndarray, dseq: np.ndarray, thet
     p = dseq.shape[1]
     net = plant.network
     d = (K.shape[-1] - (plant.n_s - plant.d_hi * plant.n_u)) // plant.n_u
+    if d < plant.d_hi:
+        raise ValueError(f"K keeps {d} commands, the plant's network needs {plant.d_hi} (pad the gain)")
     cols = np.arange(-d, p + net.max_lost + 1) % p
     s = s_tilde_sequence(dseq[:, cols], net.sampling_time, d)[:, :p]  # (n, p, d)
     A, B = plant.lifted(s[:, None], None if thetas is None else np.asarray(thetas, dtype=float)[None])
