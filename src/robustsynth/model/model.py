@@ -151,7 +151,6 @@ class Model:
 
     n_e: int = 3
     n_u: int = 2
-    dropouts: int = 0  # at most this many consecutive commands lost (network.dropouts.max_consecutive)
     # the kinematic channels of every vertex (model/nonlinear.py; delay vertices only, else empty) and
     # the linearized vertices they augment; heading_bound is set when ``vertices`` carry them
     channels: tuple = field(default=(), repr=False)
@@ -467,6 +466,11 @@ class Model:
     def network(self) -> Network:
         """The link the commands cross (the config's ``network:``): every delay and loss sequence."""
         return Network.from_config(self.config)
+
+    @property
+    def dropouts(self) -> int:
+        """At most this many consecutive commands lost (the network's cap)."""
+        return self.network.max_lost
 
     @property
     def n_x(self) -> int:
