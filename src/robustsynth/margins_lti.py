@@ -68,18 +68,14 @@ def spectral_radius(plant: dict, Ts: float, dseq: np.ndarray, m_lost: int = 0) -
     delays ``dseq`` (n, p) (inf: lost), per row: the robot's instability search's radius
     (:func:`robustsynth.verification.lifted.periodic_spectral_radius`) on the plant as a
     :class:`~robustsynth.plants.linear.LinearPlant`, lifted as deep as the longest delay and the gain need."""
-    from .model.lti import pad_lti_gain
     from .plants.linear import LinearPlant
     from .verification.lifted import periodic_spectral_radius
 
     dseq = np.atleast_2d(np.asarray(dseq, dtype=float))
     finite = dseq[np.isfinite(dseq)]
     top = float(finite.max()) if finite.size else 0.0
-    K = plant["K"]
-    n, m = plant["B"].shape
     lin = LinearPlant(plant, Network(Ts, 0.0, top, m_lost))  # a link as long as the longest delay searched
-    d = max(lin.d_hi, (K.shape[1] - n) // m)
-    return periodic_spectral_radius(lin, pad_lti_gain(K, n, m, d), dseq)[:, 0]
+    return periodic_spectral_radius(lin, lin.padded_gain(plant["K"]), dseq)[:, 0]
 
 
 def find_lti_instability(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int = 0,

@@ -71,16 +71,15 @@ def lti_gain(config: Any, plant: dict[str, Any], gains_path: str | Path | None,
 def lti_model_stage(config: Any, outdir: str | Path, config_path: str | Path | None = None) -> dict[str, Any]:
     """The lifted model and its guaranteed over-approximation (open loop, K = 0), with the coverage test
     on 10 000 random instants; writes model.json."""
-    from .model.lti import coverage_check, lti_depth, over_approximation
+    from .core.network import Network
+    from .plants.linear import LinearPlant
 
     plant = lti_plant_of(config, config_path)
-    Ts, lo, hi, ml = _net(config)
-    d = lti_depth(hi, ml, Ts)
-    n, m = plant["B"].shape
-    K0 = np.zeros((m, n + d * m))
     pieces = config.synthesis.pieces
-    pw = over_approximation(plant["A"], plant["B"], K0, Ts, lo, hi + ml * Ts, d, pieces)
-    cov = coverage_check(plant["A"], plant["B"], K0, Ts, lo, hi + ml * Ts, d, pw)
+    lin = LinearPlant(plant, Network.from_config(config), pieces, config.name)
+    n, m, d = lin.n_x, lin.n_u, lin.d_hi
+    pw = lin.description()
+    cov = lin.coverage_figures(pw)
     data = {"kind": "lti", "config": config.name, "n": n, "m": m, "lifting": d, "lifted_states": n + d * m,
             "controllable": plant["controllable"], "pieces": pieces,
             "instants": [{"theta": th.tolist(), "width": w.tolist(), "remainder_bound": r.tolist(),

@@ -16,7 +16,8 @@ from typing import Any
 import numpy as np
 
 from ..core.network import Network
-from ..model.lti import coverage_check, exact_lifted, lti_depth, lti_plant, lti_plant_from, over_approximation
+from ..model.lti import (coverage_check, exact_lifted, lti_depth, lti_plant, lti_plant_from, over_approximation,
+                         pad_lti_gain)
 
 __all__ = ["LinearPlant", "COVERAGE_RECONSTRUCTION_TOL"]
 
@@ -68,6 +69,12 @@ class LinearPlant:
     def n_s(self) -> int:
         return self.n_x + self.d_hi * self.n_u
 
+    def padded_gain(self, K: np.ndarray) -> np.ndarray:
+        """K on a lifting as deep as the network needs, or as its own if deeper (zeros for the commands it
+        does not use)."""
+        d = max(self.d_hi, (K.shape[1] - self.n_x) // self.n_u)
+        return pad_lti_gain(K, self.n_x, self.n_u, d)
+
     def lifted(self, s_tilde: np.ndarray, theta: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The exact lifted open loop (no uncertain parameter: ``theta`` is ignored)."""
         return exact_lifted(self.A, self.B, self.network.sampling_time, s_tilde)
@@ -78,14 +85,28 @@ class LinearPlant:
     def parameter_corners(self) -> np.ndarray:
         return np.zeros((1, 0))
 
+    def _open_loop(self) -> tuple[np.ndarray, float, float, float]:
+        """K = 0 on the lifted state, Ts, and the instants' delay range with the losses (tau_max + m Ts)."""
+        net = self.network
+        return (np.zeros((self.n_u, self.n_s)), net.sampling_time, net.delay_min,
+                net.delay_max + net.max_lost * net.sampling_time)
+
+    def description(self) -> Any:
+        """The open loop's guaranteed over-approximation (``robustsynth.model.lti.over_approximation``
+        at K = 0, ``pieces`` per instant's range)."""
+        K0, Ts, lo, hi = self._open_loop()
+        return over_approximation(self.A, self.B, K0, Ts, lo, hi, self.d_hi, self.pieces)
+
+    def coverage_figures(self, pw: Any, samples: int = 10_000, seed: int = 0) -> dict[str, float]:
+        """The description ``pw`` against the exact map at ``samples`` random in-order instants
+        (``robustsynth.model.lti.coverage_check``: the worst remainder / bound, and the decomposition's residual)."""
+        K0, Ts, lo, hi = self._open_loop()
+        return coverage_check(self.A, self.B, K0, Ts, lo, hi, self.d_hi, pw, samples=samples, seed=seed)
+
     def coverage(self, samples: int = 10_000, seed: int = 0) -> dict[str, Any]:
         """The open loop's over-approximation against the exact map at ``samples`` in-order instants: every
         remainder within its bound (full block and directions) and the decomposition rebuilt exactly."""
-        net, d = self.network, self.d_hi
-        Ts, lo, hi = net.sampling_time, net.delay_min, net.delay_max + net.max_lost * net.sampling_time
-        K0 = np.zeros((self.n_u, self.n_s))
-        pw = over_approximation(self.A, self.B, K0, Ts, lo, hi, d, self.pieces)
-        cov = coverage_check(self.A, self.B, K0, Ts, lo, hi, d, pw, samples=samples, seed=seed)
+        cov = self.coverage_figures(self.description(), samples, seed)
         ok = (cov["remainder_ratio"] <= 1.0 and cov["direction_ratio"] <= 1.0
               and cov["reconstruction"] <= COVERAGE_RECONSTRUCTION_TOL)
         return dict(cov, passed=bool(ok))

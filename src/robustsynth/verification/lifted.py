@@ -165,8 +165,8 @@ def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 
             V = V_fn(nxt, mus, prev=np.broadcast_to(dw[:, :, None, None], nxt.shape[:-1] + dw.shape[-1:]))
         else:
             V = V_fn(nxt, mus)  # (N, n_tau, n_m, n_y)
-        if model.dropouts:  # losing the newest packet only while the burst is below the cap
-            V = np.where(np.isinf(tau_grid)[None, :, None, None] & ~model.network.loss_allowed(hist)[:, None, None, None], -np.inf, V)
+        if net.max_lost:  # losing the newest packet only while the burst is below the cap
+            V = np.where(np.isinf(tau_grid)[None, :, None, None] & ~net.loss_allowed(hist)[:, None, None, None], -np.inf, V)
         flat = V.reshape(N, -1).argmax(axis=1)
         ti, di, yi = np.unravel_index(flat, (n_tau, n_m, n_y))
         xi[:, k + 1] = nxt[np.arange(N), ti, di, yi]

@@ -142,15 +142,15 @@ def _frozen_check(plant: dict, K: np.ndarray, Ts: float, tau_min: float, tau_max
     constant delays in [tau_min, tau_max] (with the losses) is below 1; and its trace (delay, radius).
     The radius is the robot's frozen check's (:func:`~robustsynth.verification.lifted.frozen_spectral_radius`,
     on the plant as a :class:`~robustsynth.plants.linear.LinearPlant`)."""
-    from ..model.lti import pad_lti_gain
     from ..plants.linear import LinearPlant
     from .lifted import frozen_spectral_radius
 
     lin = LinearPlant(plant, Network(Ts, tau_min, tau_max, m_lost))
-    d = max(lin.d_hi, (K.shape[1] - lin.n_x) // lin.n_u)  # a gain may keep more commands than the delays need
+    Kp = lin.padded_gain(K)  # a gain may keep more commands than the delays need
+    d = (Kp.shape[1] - lin.n_x) // lin.n_u
     taus = lin.network.grid(CONSTANT_DELAYS)
     s = s_tilde_sequence(np.repeat(taus[:, None], d + 1, axis=1), Ts, d)[:, 0]
-    rho = frozen_spectral_radius(lin, pad_lti_gain(K, lin.n_x, lin.n_u, d), s)
+    rho = frozen_spectral_radius(lin, Kp, s)
     trace = {"delay": taus.tolist(), "spectral_radius": rho.tolist()}
     i = int(np.argmax(rho))
     return (Check("frozen-delay spectral radius", bool(rho[i] < 1.0), float(rho[i]), 1.0,

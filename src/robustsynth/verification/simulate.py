@@ -403,8 +403,9 @@ def _scores(model, v: np.ndarray, e_next: np.ndarray, rho: np.ndarray, taus: np.
     """Each objective's score of every candidate, flat; -inf for a loss where the burst is at the cap."""
     scores = {"V": v, "e_x": np.abs(e_next[..., 0]), "e_y": np.abs(e_next[..., 1]),
               "e_theta": np.abs(e_next[..., 2]), "motor_speed": rho}
-    if model.dropouts:  # a loss only while the burst is below the cap
-        bad = np.isinf(taus)[None, None, None, :, None] & ~model.network.loss_allowed(hist)[:, None, None, None, None]
+    net = model.network
+    if net.max_lost:  # a loss only while the burst is below the cap
+        bad = np.isinf(taus)[None, None, None, :, None] & ~net.loss_allowed(hist)[:, None, None, None, None]
         scores = {o: np.where(bad, -np.inf, x) for o, x in scores.items()}
     return {o: x.reshape(-1) for o, x in scores.items()}
 
