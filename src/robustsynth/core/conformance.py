@@ -127,15 +127,14 @@ def check_plant(plant: Plant, samples: int = 6, seed: int = 0) -> list[dict[str,
                      f"{len(s)} instants x {want[1]} parameter corners, DOP853"))
 
     # the commands' shift register
-    E = np.zeros((n_s - n_x, n_s))
-    E_B = np.zeros((n_s - n_x, n_u))
-    if d:
-        E_B[:n_u] = np.eye(n_u)
-        for j in range(1, d):
-            E[j * n_u : (j + 1) * n_u, n_x + (j - 1) * n_u : n_x + j * n_u] = np.eye(n_u)
+    E = np.zeros((d * n_u, n_s))  # the rows of the stored commands: u_k into slot 1, slot j into j + 1
+    E_B = np.zeros((d * n_u, n_u))
+    E_B[:n_u] = np.eye(n_u)[: d * n_u]
+    for j in range(1, d):
+        E[j * n_u : (j + 1) * n_u, n_x + (j - 1) * n_u : n_x + j * n_u] = np.eye(n_u)
     rows = slice(n_x, n_x + d * n_u)
-    gap = max(float(np.max(np.abs(A[..., rows, :] - E[: d * n_u]), initial=0.0)),
-              float(np.max(np.abs(B[..., rows, :] - E_B[: d * n_u]), initial=0.0)))
+    gap = max(float(np.max(np.abs(A[..., rows, :] - E), initial=0.0)),
+              float(np.max(np.abs(B[..., rows, :] - E_B), initial=0.0)))
     out.append(Check("the commands' shift register", gap == 0.0, gap, 0.0, f"{d} stored commands of {n_u}"))
 
     # the network's depth

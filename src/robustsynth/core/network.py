@@ -90,6 +90,7 @@ class Network:
         (independent losses of probability ``loss_fraction``, runs cut at the cap) and ``longest-bursts``
         (``max_lost`` lost, one received at delay_max, repeated)."""
         lo, hi, m = self.delay_min, self.delay_max, self.max_lost
+        # lo + (hi - lo) rng.random, not rng.uniform (:meth:`uniform`): the draws these families always made
         fam = {"random": lo + (hi - lo) * rng.random((runs, length)),
                "constant-min": self.pattern("constant-min", (runs, length)),
                "constant-max": self.pattern("constant-max", (runs, length)),
