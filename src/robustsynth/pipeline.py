@@ -13,6 +13,7 @@ from typing import Any, Callable
 from .artifacts.files import remove_files, set_aside
 from .config import Config
 from .model import Model, build_model, coverage_check
+from .objectives import objective
 
 __all__ = [
     "ModelStage",
@@ -164,7 +165,7 @@ def synthesis_stage(model: Model, outdir: str | Path, compare: bool = True,
         raise
     gd = gains_dict(model, result)
     diagnosis = None
-    if result.objective == "ultimate-bound" and (diagnose or (diagnose is None and is_large(model.config, result.certified))):
+    if objective(result.objective).figure == "ultimate_bound" and (diagnose or (diagnose is None and is_large(model.config, result.certified))):
         if on_step is not None:
             on_step("where is the design stuck? one synthesis per relaxed constraint")
         diagnosis = run_diagnosis(model.config, result.certified, motor=bool(result.certificate.get("motor_limits_enforced")),

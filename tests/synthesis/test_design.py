@@ -335,12 +335,12 @@ ALPHA_SEARCH_REL = 5e-3  # issue 26: the faster search stays within 0.5 % of the
 def test_the_search_from_the_common_alpha_matches_the_full_scan(monkeypatch) -> None:
     """A richer class starts its alpha search at the common certificate's alpha: fewer solves, and
     the certified |e_y| within ALPHA_SEARCH_REL of the full scan's (which the test runs too)."""
-    from robustsynth.synthesis import design
+    from robustsynth.synthesis.objectives import ultimate_bound
 
     m = build_model(make_config(**{"synthesis.lyapunov": "slip-dependent"}))
     hinted = synthesize(m)
-    real = design._run_invariance
-    monkeypatch.setattr(design, "_run_invariance", lambda *a, alpha_hint=None, **k: real(*a, **k))
+    real = ultimate_bound._run_invariance
+    monkeypatch.setattr(ultimate_bound, "_run_invariance", lambda *a, alpha_hint=None, **k: real(*a, **k))
     full = synthesize(m)
     e_h, e_f = (r.certified["ultimate_bound"]["e_y"] for r in (hinted, full))
     assert abs(e_h - e_f) <= ALPHA_SEARCH_REL * e_f

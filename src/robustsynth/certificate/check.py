@@ -8,7 +8,9 @@ The certified figures (decay rate, ellipsoid bounds in m and rad, motor-speed bo
 l2 gain) are computed here from the same values, so every number written as certified has
 passed this check; they are rounded outwards.
 
-The rooms beside it: the LMIs at a vertex (:mod:`.lmis`), the model a certificate is written on
+What each objective proves is a module of :mod:`.objectives` (its ``rows``, named by the objective's descriptor
+in :mod:`robustsynth.objectives`); this module rebuilds what they share and gives the verdict.  The rooms beside
+it: the LMIs at a vertex (:mod:`.lmis`), the model a certificate is written on
 (:mod:`.rebuild`), the figures on the set and between the samples (:mod:`.bounds`), the Lyapunov
 function the judges evaluate (:mod:`.lyapunov`), the bounds through waypoint turns (:mod:`.turns`)
 and a linear plant's certificate (:mod:`.lti`).
@@ -21,10 +23,9 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..verified import (assembly_radius, assembly_radius_batch, gamma, proves_at_least, proves_at_least_batch, round_up,
-                        rump_shift, rump_shift_batch)
-from .bounds import between_samples, heading_within_period, set_max
-from .lmis import _AbsVertex, _stacks, _sym, lmi_hinf, lmi_invariance, lmi_stability, multiplier_structure_error
+from ..verified import (assembly_radius, assembly_radius_batch, proves_at_least, proves_at_least_batch, rump_shift,
+                        rump_shift_batch)
+from .lmis import _AbsVertex, _stacks, _sym, multiplier_structure_error
 from .rebuild import model_of_certificate
 
 __all__ = [
@@ -206,6 +207,9 @@ def _lyapunov_parts(model: Any, cert: Mapping[str, Any], n_s: int):
 
 def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateCheck:
     objective = cert["objective"]
+    rows = _rows_of(objective)
+    if rows is None:
+        return _fail(f"unknown objective {objective!r}")
     K = _arr(K, "K")
     n_s, n_u = model.n_s, model.n_u
     made_for = cert.get("model", "paper")
@@ -246,14 +250,7 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
     figures: dict[str, Any] = {"robust_stability": False, "decay_rate": None, "ultimate_bound": None,
                                "motor_speed_bound": None, "hinf_gain": None}
     within = "covered" if varying else f"assumed constant: {varying_reason}"
-    if objective == "stability":
-        failed = _stability(cert, family, X, checks, figures)
-    elif objective == "ultimate-bound":
-        failed = _ultimate_bound(cert, family, K, X, lyap, mats, checks, figures)
-    elif objective == "hinf":
-        failed = _hinf(cert, family, X, lyap, checks, figures)
-    else:
-        return _fail(f"unknown objective {objective!r}")
+    failed = rows(cert, family, K, X, lyap, mats, checks, figures)
     if failed is not None:
         return failed
     return _verdict(checks, figures, within)
@@ -390,114 +387,14 @@ class _Family:
         return item
 
 
-def _stability(cert: Mapping[str, Any], family: _Family, X: np.ndarray, checks: list, figures: dict
-               ) -> CertificateCheck | None:
-    """The decay LMIs (6a) and the decay rate; a failure, or None."""
-    aX = np.abs(X)
-    r2 = float(cert["r2"])
-    if not 0 < r2 < 1:
-        return _fail("r2 must be in (0, 1)", checks, figures)
-    checks.extend(family.items("decay LMI (6a)", lambda v, M, lf, rt, y, mag: lmi_stability(
-        v, aX if mag else X, lf, rt, y, M, r2, mag)))
-    figures["decay_rate"] = round_up(np.sqrt(r2), 2)
-    return None
+def _rows_of(name: Any) -> Any:
+    """The ``rows`` of the objective ``name``'s certificate (its descriptor's ``check`` module), or None."""
+    import importlib
 
+    from ..objectives import OBJECTIVES
 
-def _ultimate_bound(cert: Mapping[str, Any], family: _Family, K: np.ndarray, X: np.ndarray, lyap: str,
-                    mats: list[np.ndarray], checks: list, figures: dict) -> CertificateCheck | None:
-    """The invariance LMIs (6b) and the figures on the invariant set; a failure, or None."""
-    model, aX = family.model, np.abs(X)
-    alpha = float(cert["alpha"])
-    beta = _arr(cert["beta"], "beta").reshape(-1)
-    if beta.shape != (model.n_w,):
-        return _fail(f"beta has {beta.size} entries, expected {model.n_w}", checks, figures)
-    if not 0 < alpha < 1:
-        return _fail("alpha must be in (0, 1)", checks, figures)
-    if np.any(beta <= 0):
-        return _fail("beta must be > 0", checks, figures)
-    checks.extend(family.items("invariance LMI (6b)", lambda v, M, lf, rt, y, mag: lmi_invariance(
-        v, aX if mag else X, lf, rt, y, M, np.abs(beta) if mag else beta, alpha, mag)))
-    # the figures are claimed as bounds: rounded outwards (any level >= sum beta / alpha is invariant)
-    level = round_up(float(np.sum(beta) / alpha), beta.size + 1)  # {xi' P xi <= level}: invariant, attracting
-    figures["decay_rate"] = round_up(np.sqrt(1.0 - alpha), 2)
-    figures["ellipsoid_level"] = level
-    _set_figures(model, K, lyap, mats, level, bool(family.varying), figures)
-    checks.extend(_set_checks(model, cert, figures))
-    return None
-
-
-def _set_figures(model: Any, K: np.ndarray, lyap: str, mats: list[np.ndarray], level: float, varying: bool,
-                 figures: dict) -> None:
-    """The bounds on the set {V <= level}: the errors at the samples, the motor speeds, |e_theta(t)| and
-    the errors between the samples (into ``figures``)."""
-    n_u, n_s = K.shape
-    # per bounded figure the largest value the set allows over every slip (and previous delay), the
-    # smallest over the delay vertices V takes its maximum over (set_max; docs/theory.md §6i)
-    inner = model.delay_vertex_count if lyap in ("delay-dependent", "path-dependent") else 1
-    diags = np.array([np.diag(Sm) for Sm in mats])
-    figures["ultimate_bound"] = {
-        name: round_up(np.sqrt(level * set_max(diags[:, k], inner)), 2)
-        for k, name in enumerate(("e_x", "e_y", "e_theta"))
-    }
-    J_inv = np.asarray(model.J_inv)
-    # c S c' with c = J^-1 K, bounded above with its rounding: + gamma |c| |S| |c|'
-    g = gamma(2 * n_s + 2 * n_u + 4)
-    aJK = np.abs(J_inv) @ np.abs(K)
-    devs = np.array([np.einsum("ij,jk,ik->i", J_inv, K @ Sm @ K.T, J_inv)
-                     + g * (1 + g) * np.einsum("ij,jk,ik->i", aJK, np.abs(Sm), aJK) for Sm in mats])
-    dev = max(set_max(devs[:, i], inner) for i in range(devs.shape[1]))
-    figures["motor_speed_bound"] = round_up(model.feedforward_motor_speed + np.sqrt(max(round_up(level * dev), 0.0)), 3)
-    # |e_theta(t)| on the set and the errors between samples (docs/theory.md §9; on arcs against the
-    # turning reference, §10)
-    if model.channels:
-        figures["heading_within_period"] = heading_within_period(model, K, mats, level, inner)
-    figures["ultimate_bound_between_samples"] = between_samples(
-        model, K, mats, level, figures["ultimate_bound"], figures.get("heading_within_period"), inner,
-        within_period=varying)
-
-
-def _set_checks(model: Any, cert: Mapping[str, Any], figures: dict) -> list[dict[str, Any]]:
-    """The conditions on the set's figures: |e_theta(t)| within a nonlinear certificate's heading bound,
-    the motor speeds within their limit where the certificate enforces it."""
-    checks = []
-    if model.heading_bound is not None:
-        figures["heading_bound"] = model.heading_bound
-        checks.append({
-            "name": "|e_theta(t)| within every period on the set <= heading bound [rad]",
-            "max_eig": None,
-            "threshold": float(model.heading_bound),
-            "margin_found": None,
-            "value": figures["heading_within_period"],
-            "passed": bool(figures["heading_within_period"] <= model.heading_bound),
-        })
-    rho_max = model.config.robot.max_motor_speed
-    if rho_max is not None and cert.get("motor_limits_enforced", False):
-        checks.append({
-            "name": "motor speed on the invariant set (6c) [rad/s]",
-            "max_eig": None,
-            "threshold": float(rho_max),
-            "margin_found": None,
-            "value": figures["motor_speed_bound"],
-            "passed": bool(figures["motor_speed_bound"] <= rho_max),
-        })
-    return checks
-
-
-def _hinf(cert: Mapping[str, Any], family: _Family, X: np.ndarray, lyap: str, checks: list, figures: dict
-          ) -> CertificateCheck | None:
-    """The bounded-real LMIs (6d) and the l2 gain; a failure, or None."""
-    if lyap != "common":
-        return _fail("hinf certificates use a common Lyapunov matrix")
-    model, aX = family.model, np.abs(X)
-    g = float(cert["gamma2"])
-    w = model.config.synthesis.weights
-    Cz = np.zeros((3, X.shape[0]))
-    Cz[:3, :3] = np.diag([w.e_x, w.e_y, w.e_theta])
-    Bd = np.asarray(model.B_d)
-    checks.extend(family.items("bounded-real LMI (6d)", lambda v, M, lf, rt, y, mag: lmi_hinf(
-        v, np.abs(Bd) if mag else Bd, np.abs(Cz) if mag else Cz, aX if mag else X, y, M, g, mag)))
-    figures["hinf_gain"] = round_up(np.sqrt(g), 2)
-    return None
+    obj = OBJECTIVES.get(name) if isinstance(name, str) else None
+    return importlib.import_module(obj.check).rows if obj is not None and obj.check is not None else None
 
 
 def _verdict(checks: list[dict[str, Any]], figures: dict[str, Any], within: str) -> CertificateCheck:

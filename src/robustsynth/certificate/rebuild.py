@@ -14,8 +14,10 @@ __all__ = ["model_of_certificate"]
 def model_of_certificate(model: Any, cert: Mapping[str, Any], objective: str) -> Any:
     """The model the certificate's LMIs are written on (its kinematics, heading bound and turning
     reference, where the config's model allows them), or why there is none (a string)."""
+    from ..objectives import objective as descriptor
+
     kin = cert.get("kinematics", "linearized")
-    if objective in ("stability", "hinf") and kin == "linearized":
+    if not descriptor(objective).nonlinear_kinematics and kin == "linearized":
         # these LMIs are written on the linearization (synthesis.lmis.build_stability / build_hinf),
         # also when the config asks for nonlinear kinematics (robust stability of a fixed K: margins)
         model = model.linearized()

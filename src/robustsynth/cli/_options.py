@@ -8,7 +8,24 @@ from typing import Any
 
 import click
 
+from ..objectives import names as objective_names
 from ._console import _Ctx
+
+
+class _Objectives(click.Choice):
+    """``--objective``: the registry's objectives, read when the option is parsed (:mod:`robustsynth.objectives`:
+    one registered after the CLI was built is offered too)."""
+
+    def __init__(self) -> None:
+        super().__init__(objective_names())
+
+    @property
+    def choices(self):  # noqa: D102
+        return objective_names()
+
+    @choices.setter
+    def choices(self, _value) -> None:
+        pass
 
 
 FILE = click.Path(dir_okay=False, path_type=Path)
@@ -66,7 +83,7 @@ def _verbosity(fn):
 
 
 SYNTH_OPTS = [
-    click.option("--objective", type=click.Choice(["ultimate-bound", "stability", "hinf"]), default=None,
+    click.option("--objective", type=_Objectives(), default=None,
                  help="Override synthesis.objective."),
     click.option("--solver", type=click.Choice(["clarabel", "scs"]), default=None, help="Override synthesis.solver."),
     click.option("--multiplier", type=click.Choice(["structured", "full"]), default=None,

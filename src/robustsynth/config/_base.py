@@ -3,9 +3,13 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, field_validator
+from pydantic_core import PydanticCustomError
+
+from ..objectives import choices_text, names
 
 _MODEL = ConfigDict(extra="forbid", frozen=True, strict=True, allow_inf_nan=False)
 
@@ -17,6 +21,30 @@ MAX_D_HI = 20  # longest delay, in sampling periods (the lifted state grows with
 # starting with _FIELD "name: ..." (from a model validator) is reported at that field's path.
 _SIBLING = "@sibling:"
 _FIELD = "@field:"
+
+
+@dataclass(frozen=True)
+class Registered:
+    """A field's values: the objectives registered for ``plant`` (:mod:`robustsynth.objectives`), read when a
+    config is validated (an objective registered later is accepted), after the ``extra`` ones."""
+
+    plant: str
+    extra: tuple[str, ...] = ()
+
+    def choices(self) -> tuple[str, ...]:
+        return self.extra + names(self.plant)
+
+    def __call__(self, value: str) -> str:
+        allowed = self.choices()
+        if value not in allowed:  # said as a Literal's error is
+            raise PydanticCustomError("literal_error", "Input should be {expected}", {"expected": choices_text(allowed)})
+        return value
+
+
+_ROBOT_OBJECTIVES = Registered("tracked-robot")
+_LINEAR_OBJECTIVES = Registered("lti", ("auto",))
+RobotObjective = Annotated[str, AfterValidator(_ROBOT_OBJECTIVES), _ROBOT_OBJECTIVES]
+LinearObjective = Annotated[str, AfterValidator(_LINEAR_OBJECTIVES), _LINEAR_OBJECTIVES]
 
 
 def _range_check(lo: float | None, hi: float, lo_name: str = "min") -> None:

@@ -9,7 +9,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, field_validator, model_validator
 
-from ._base import _FIELD, MAX_D_HI, _Named, _Node
+from ..objectives import objective
+from ._base import _FIELD, MAX_D_HI, LinearObjective, _Named, _Node
 from .network import NetworkConfig
 
 
@@ -147,7 +148,7 @@ ROBOT_ONLY_SYNTHESIS = ("model", "lyapunov", "integral_action", "delay_descripti
 class LtiSynthesisConfig(_Node):
     """``robustsynth synthesize`` on a linear plant: a gain u_k = K xi_k on the lifted state (docs/theory.md §15)."""
 
-    objective: Literal["auto", "stability", "ultimate-bound", "hinf"] = Field(
+    objective: LinearObjective = Field(
         default="auto", description="stability: robust decay (with input_limits: the largest ball of states at rest "
         "from which the inputs stay within them); ultimate-bound: the smallest invariant set under the disturbance "
         "(needs plant.disturbance); hinf: the smallest l2 gain from the disturbance to the outputs (needs "
@@ -203,8 +204,9 @@ class LtiConfig(_Named):
 
     @model_validator(mode="after")
     def _needs(self) -> "LtiConfig":
-        if self.synthesis.objective in ("ultimate-bound", "hinf") and self.plant.disturbance is None:
-            raise ValueError(f"{_FIELD}synthesis.objective: {self.synthesis.objective} needs plant.disturbance (E and "
+        obj = self.synthesis.objective
+        if obj != "auto" and objective(obj).needs_disturbance and self.plant.disturbance is None:
+            raise ValueError(f"{_FIELD}synthesis.objective: {obj} needs plant.disturbance (E and "
                              "its bound)")
         return self
 

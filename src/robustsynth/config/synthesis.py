@@ -7,7 +7,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, field_validator, model_validator
 
-from ._base import _FIELD, _Node
+from ..objectives import OBJECTIVES, objective
+from ._base import _FIELD, RobotObjective, _Node
 
 
 class ErrorWeights(_Node):
@@ -28,7 +29,7 @@ class SynthesisConfig(_Node):
         description="slip-aware: exact in slip (it multiplies the command), the certificate the robot obeys; "
         "paper: the seed paper's linearization at mu = 1 (reproduction and comparison)",
     )
-    objective: Literal["ultimate-bound", "stability", "hinf"] = Field(
+    objective: RobotObjective = Field(
         default="ultimate-bound", description="what the LMIs optimize (docs/theory/concepts.md, Synthesis)"
     )
     lyapunov: Literal["common", "slip-dependent", "delay-dependent", "path-dependent"] = Field(
@@ -101,16 +102,19 @@ class SynthesisConfig(_Node):
     def _consistent(self) -> "SynthesisConfig":
         if self.lyapunov != "common" and self.model == "paper":
             raise ValueError(f"{_FIELD}lyapunov: {self.lyapunov} needs synthesis.model: slip-aware (the paper's model has no slip corners)")
-        if self.lyapunov != "common" and self.objective == "hinf":
-            raise ValueError(f"{_FIELD}lyapunov: {self.lyapunov} is available for ultimate-bound and stability, not hinf")
+        if self.lyapunov != "common" and objective(self.objective).common_lyapunov_only:
+            raise ValueError(f"{_FIELD}lyapunov: {self.lyapunov} is available for "
+                             f"{' and '.join(o.name for o in OBJECTIVES.values() if not o.common_lyapunov_only)}, "
+                             f"not {self.objective}")
         if self.lyapunov in ("delay-dependent", "path-dependent") and self.delay_description == "norm-bounded":
             raise ValueError(f"{_FIELD}lyapunov: {self.lyapunov} needs delay vertices (delay_description polytopic, "
                              "lossy-polytopic or auto), not norm-bounded")
         if self.kinematics == "nonlinear":
             if self.model != "slip-aware":
                 raise ValueError(f"{_FIELD}kinematics: nonlinear needs synthesis.model: slip-aware")
-            if self.objective != "ultimate-bound":
-                raise ValueError(f"{_FIELD}kinematics: nonlinear is available for objective ultimate-bound "
+            if not objective(self.objective).nonlinear_kinematics:
+                raise ValueError(f"{_FIELD}kinematics: nonlinear is available for objective "
+                                 f"{' or '.join(o.name for o in OBJECTIVES.values() if o.nonlinear_kinematics)} "
                                  f"(an invariant set), not {self.objective}")
             if self.delay_description == "norm-bounded":
                 raise ValueError(f"{_FIELD}kinematics: nonlinear needs delay vertices (delay_description "

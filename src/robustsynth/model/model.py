@@ -303,9 +303,11 @@ class Model:
         """The vertices that cover slip changing at any time within a period for a certificate of kind
         ``lyapunov`` and ``objective`` (docs/theory.md §11), and ``""``; or ``()`` and the reason such a
         certificate on this model assumes slip constant within each period."""
-        if objective == "hinf":
-            return (), ("the H-infinity gain is stated for the slip input B_d w, which does not describe slip "
-                        "changing within a period")
+        from ..objectives import objective as descriptor
+
+        why = descriptor(objective).within_period
+        if why is not None:
+            return (), why
         if self.turns is not None and not self.covering_vertices and lyapunov == "common":
             return (), (self.varying_reason or "the turning reference's vertices were built for slip constant "
                         "within a period")

@@ -11,6 +11,8 @@ from typing import Any
 
 import numpy as np
 
+from ..objectives import objective
+
 __all__ = ["write_figures", "FIGURES", "FIGURE_CAPTIONS"]
 
 FIGURES = {
@@ -263,7 +265,7 @@ def fig_lyapunov(res, model) -> Any:
         ax.plot([], [], color="0.3", lw=0.8, ls=":", label="dotted: median")
     if cert.passed:
         c = res.gains["certificate"]
-        if c["objective"] == "ultimate-bound":
+        if objective(c["objective"]).guarantee == "set":
             level = cert.figures["ellipsoid_level"]
             alpha = float(c["alpha"])
             k = np.arange(max(v.shape[1] for v in traces.values()))

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..artifacts.gains import LAW
+from ..objectives import objective
 from .markdown import conditions_text, fmt, matrix_table, table
 
 __all__ = ["synthesis_markdown", "diagnosis_markdown", "certificate_check_markdown"]
@@ -20,21 +21,6 @@ MULTIPLIER_TEXT = {  # synthesis.runner.multiplier_used
     "diagonal": ("one scalar per channel of independent factors: the kinematic channels of docs/theory.md §9, the arc "
                  "channels of §10; synthesis.multiplier applies to norm-bounded delays only"),
     "none": "the delay vertices have no Delta; synthesis.multiplier applies to norm-bounded delays only",
-}
-OBJECTIVE_TEXT = {
-    "ultimate-bound": (
-        "smallest ellipsoid `xi' P xi <= level` that is invariant and attracting for every admissible delay "
-        "sequence and every slip in its box (docs/theory.md §6b), minimizing the weighted squared bounds on "
-        "e_x, e_y, e_theta; line search over alpha"
-    ),
-    "stability": (
-        "robust quadratic stability for all |Delta_k| <= 1 (the paper's stated goal) with the best decay rate r, "
-        "`V(xi[k+1]) <= r^2 V(xi[k])` without slip (docs/theory.md §6a); bisection on r"
-    ),
-    "hinf": (
-        "smallest l2 gain gamma from the slip deviation d to the weighted error z = diag(w) e, for every "
-        "admissible delay sequence (docs/theory.md §6d)"
-    ),
 }
 
 
@@ -60,7 +46,7 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
     figs = result.certified
     c = gd["certificate"]
     out = [f"# Synthesis for `{cfg.name}`\n\n"]
-    out.append(f"**Objective `{result.objective}`**: {OBJECTIVE_TEXT[result.objective]}.\n\n")
+    out.append(f"**Objective `{result.objective}`**: {objective(result.objective).text}.\n\n")
     out.append(f"Written with `gains.json` whose `gains_id` is `{gd['gains_id']}`.\n\n")
     out.append(
         f"Control law `{LAW}` on the lifted state ({', '.join(model.state_names)}); applied command "

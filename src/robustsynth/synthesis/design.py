@@ -1,4 +1,5 @@
-"""One function per objective; :func:`synthesize` dispatches and assembles the result.
+""":func:`synthesize`: validates the settings, hands the search to the objective's design (a module of
+:mod:`.objectives`, named by its descriptor in :mod:`robustsynth.objectives`) and assembles the result.
 
 The rooms beside it: the solves of one problem and their re-check (:mod:`.runner`), the alpha line search
 (:mod:`.alpha_search`) and the heading-bound search of the kinematic channels (:mod:`.heading_search`)."""
@@ -14,13 +15,11 @@ import numpy as np
 
 from ..certificate import CertificateCheck
 from ..config import SynthesisConfig
-from ..errors import InfeasibleError, InputError, SolverFailure
+from ..errors import InputError, SolverFailure
 from ..model.slip import check_physical_feasibility
-from .alpha_search import _motor_pruner, _run_invariance
-from .heading_search import _run_nonlinear
-from .lmis import build_hinf, build_stability
-from .runner import (_SPLIT, _attempts, _Best, _build, _cert_common, _delay_text, _Runner, _Split, _weights, _wider_turns,
-                     multiplier_used)
+from ..objectives import OBJECTIVES, objective
+from .objectives import design_of
+from .runner import _SPLIT, _Split, multiplier_used
 from .solve import solver_version
 
 __all__ = ["SynthesisResult", "synthesize"]
@@ -56,68 +55,6 @@ class SynthesisResult:
         gd = gains_dict(model, self)
         return commit_files(outdir, {"gains.mat": mat_bytes(gains_mat_vars(gd)), "gains.json": json_bytes(gd)},
                             primary="gains.json")
-
-
-def _run_stability(model: Any, s: SynthesisConfig, search: list, say: Callable[[str], None]) -> tuple[_Best, _Runner]:
-    lp = _build(build_stability, model, s.multiplier, s.margin, s.lyapunov, symmetry=s.symmetry == "auto")
-    full = lambda mdl: build_stability(mdl, s.multiplier, s.margin, s.lyapunov, symmetry=False)  # noqa: E731
-    best = _Best()
-
-    def make_cert(vals: dict) -> dict:
-        c = _cert_common(model, vals, s.multiplier, s.margin, "stability")
-        c["r2"] = float(lp.params["r2"].value)
-        return c
-
-    runner = _Runner(model, lp, s.solver, make_cert, full=full)
-
-    def feasible(r: float, fallback: bool = False) -> bool:
-        # bisection points use the primary solver only (a failure counts as 'not certified', which
-        # is conservative); the first point, r ~ 1, is retried with the fallback when it fails
-        lp.params["r2"].value = r * r
-        out, cert, K, chk = runner.run(fallback=fallback, again=fallback)  # (fallback: r ~ 1 again, after it failed)
-        search.append({"r": r, "status": out.kind})
-        say(f"  decay rate r = {r:.6f}: {'certified' if out.kind == 'ok' else out.kind} ({_attempts(out)})")
-        if out.kind == "ok":
-            best.value, best.cert, best.K, best.check, best.record = r, cert, K, chk, out.record
-            return True
-        return False
-
-    hi = 1.0 - 1e-6
-    if not feasible(hi) and not (runner.last_kind == "failed" and feasible(hi, fallback=True)):
-        if runner.last_kind == "failed":
-            raise SolverFailure(f"stability: the solvers failed ({runner.records[-1].status})")
-        raise InfeasibleError(
-            f"stability: no gain robustly stabilizes the robot for {_delay_text(model)}: "
-            f"narrow network.delay{_wider_turns(model)} or lower reference.speed"
-        )
-    lo = 0.0
-    while hi - lo > s.bisection_tol:
-        mid = (lo + hi) / 2.0
-        if feasible(mid):
-            hi = mid
-        else:
-            lo = mid
-    return best, runner
-
-
-def _run_hinf(model: Any, s: SynthesisConfig, search: list, say: Callable[[str], None]) -> tuple[_Best, _Runner]:
-    lp = _build(build_hinf, model, s.multiplier, s.margin, _weights(s))
-    best = _Best()
-
-    def make_cert(vals: dict) -> dict:
-        c = _cert_common(model, vals, s.multiplier, s.margin, "hinf")
-        # certify a gamma^2 a hair above the optimum so the numpy check keeps its headroom
-        c["gamma2"] = float(vals["gamma2"]) * (1.0 + 1e-6) + s.margin
-        return c
-
-    runner = _Runner(model, lp, s.solver, make_cert,
-                     full=lambda mdl: build_hinf(mdl, s.multiplier, s.margin, _weights(s)))
-    out, cert, K, chk = runner.run()
-    search.append({"status": out.kind})
-    say(f"  hinf: {'certified' if out.kind == 'ok' else out.kind} ({_attempts(out)})")
-    if out.kind == "ok":
-        best.value, best.cert, best.K, best.check, best.record = cert["gamma2"], cert, K, chk, out.record
-    return best, runner
 
 
 CLI_OVERRIDES = ("objective", "solver", "multiplier")  # the settings `robustsynth synthesize` overrides by option
@@ -214,47 +151,20 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
     search: list[dict[str, Any]] = []
     notes: list[str] = []
     cfg = model.config
-    if s.lyapunov != "common" and (model.kind != "slip-aware" or s.objective == "hinf"):
+    obj = objective(s.objective)
+    if s.lyapunov != "common" and (model.kind != "slip-aware" or obj.common_lyapunov_only):
         raise InputError(f"synthesis.lyapunov: {s.lyapunov} needs synthesis.model: slip-aware and the "
-                         "ultimate-bound or stability objective")
+                         f"{' or '.join(o.name for o in OBJECTIVES.values() if not o.common_lyapunov_only)} objective")
     if s.lyapunov in ("delay-dependent", "path-dependent") and not 1 < model.delay_vertex_count <= MAX_DELAY_VERTICES:
         raise InputError(f"synthesis.lyapunov: {s.lyapunov} needs 2 to {MAX_DELAY_VERTICES} delay vertices per slip "
                          f"corner; this model has {model.delay_vertex_count} ({model.delay_description} delays, "
                          f"d_hi = {model.d_hi}): use slip-dependent")
-    if s.objective == "hinf" and getattr(model, "turns", None) is not None:
-        raise InputError("synthesis.objective: hinf bounds the slip input only; a turning reference "
-                         "(reference.turn_radius) needs ultimate-bound or stability")
+    if obj.turns is not None and getattr(model, "turns", None) is not None:
+        raise InputError(f"synthesis.objective: {obj.turns}; a turning reference (reference.turn_radius) needs "
+                         f"{' or '.join(o.name for o in OBJECTIVES.values() if o.turns is None)}")
     check_physical_feasibility(cfg)  # physics first: no LMI can beat a motor that is too slow
-    if s.objective == "stability":
-        say(f"{s.objective}: bisection on the decay rate ({model.kind} model, {len(model.vertices)} vertices)")
-        best, runner = _run_stability(model, s, search, say)
-    elif s.objective == "hinf":
-        say(f"{s.objective}: one solve ({model.kind} model, {len(model.vertices)} vertices)")
-        best, runner = _run_hinf(model, s, search, say)
-        if best.cert is None:
-            _raise_no_solution(runner, "hinf", f"hinf: no gain gives a finite l2 gain for {_delay_text(model)}: "
-                               "narrow network.delay or lower reference.speed")
-    else:
-        if all(not np.any(np.asarray(v.E)) for v in model.vertices):
-            raise InputError(
-                "slip: every slip range has zero width and centre 1, so the ultimate bound is 0; "
-                "use synthesis.objective: stability"
-            )
-        rho_max = cfg.robot.max_motor_speed
-        motor = bool(s.motor_limits and rho_max is not None)
-        if motor and rho_max <= model.feedforward_motor_speed:
-            turning = getattr(model, "turns", None) is not None
-            raise InfeasibleError(
-                f"ultimate-bound: robot.max_motor_speed = {rho_max:g} rad/s is below "
-                f"{'V^D/R + max_yaw_rate D/(2R)' if turning else 'V^D/R'} = {model.feedforward_motor_speed:.4g} rad/s "
-                f"needed to follow the path: raise robot.max_motor_speed{_wider_turns(model)} or lower reference.speed"
-            )
-        if model.heading_bound is not None:
-            best, runner = _run_nonlinear(model, s, search, motor, say)
-        else:
-            best, runner = _run_linearized(model, s, search, motor, say)
-        if not motor and rho_max is not None and s.motor_limits is False:
-            notes.append("motor limits not enforced (synthesis.motor_limits: false)")
+    best, runner, found = design_of(s.objective).robot(model, s, search, say)
+    notes += found
     rec = best.record
     if best.check is not None:
         notes += validity_notes(model, best.check.figures, best.cert or {})
@@ -294,55 +204,6 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
     )
 
 
-def _run_linearized(model: Any, s: SynthesisConfig, search: list, motor: bool,
-                    say: Callable[[str], None]) -> tuple[_Best, _Runner]:
-    """The ultimate-bound search on the linearized kinematics (docs/theory.md §6b); raises when no
-    gain is certified."""
-    cfg = model.config
-    rho_max = cfg.robot.max_motor_speed
-    hint = None
-    if s.lyapunov != "common":
-        # the common certificate is cheap (one Lyapunov matrix) and its best alpha lies near the
-        # richer classes' (measured: within a grid step on every class of the default robot)
-        sc = s.model_copy(update={"lyapunov": "common"})
-        say(f"the common certificate first: its best alpha starts the {s.lyapunov} search ({len(model.vertices)} vertices)")
-        common, _ = _run_invariance(model, sc, [], motor, say, prune=_motor_pruner(model, sc, say=say) if motor else None)
-        hint = float(common.cert["alpha"]) if common.cert is not None else None
-    how = (f"walk of alpha from the common certificate's {hint:.4g}" if hint is not None
-           else f"scan of alpha over {s.alpha_points} points")
-    say(f"{s.objective}: {how}, then parabolic steps ({model.kind} model, {len(model.vertices)} vertices, "
-        f"motor limits {'on' if motor else 'off'})")
-    least: dict[float, float | None] = {}  # alpha -> the least motor bound, where proven (else None)
-    best, runner = _run_invariance(model, s, search, motor, say, alpha_hint=hint,
-                                   prune=_motor_pruner(model, s, least, say) if motor else None)
-    if best.cert is None:
-        if runner.failures and runner.failures == len(search):
-            raise SolverFailure("ultimate-bound: every solve failed, also retried (unscaled) and with the fallback solver")
-        if motor:
-            probe, _ = _run_invariance(model, s.model_copy(update={"alpha_points": 5}), [], False)
-            if probe.cert is not None:
-                known = [r for r in least.values() if r is not None]
-                need = ""
-                if known and rho_max < min(known) < math.inf:  # a figure at or below the limit would say nothing
-                    need = (f"; these LMIs need at least {min(known):.4g} rad/s"
-                            + (" at every alpha of the scan" if len(known) == len(least) else
-                               f" at the {len(known)} of the scan's {len(least)} alphas where that was solved"))
-                raise InfeasibleError(
-                    f"ultimate-bound: no gain keeps |rho| <= {rho_max:g} rad/s for {_delay_text(model)}"
-                    + (f" (the feedforward alone takes {model.feedforward_motor_speed:.3g} rad/s of it, the turning "
-                       "reference's included)" if getattr(model, "turns", None) is not None else "")
-                    + f"{need}: raise robot.max_motor_speed{_wider_turns(model)} or lower reference.speed"
-                )
-        raise InfeasibleError(
-            f"ultimate-bound: no gain makes an ellipsoid invariant for {_delay_text(model)} and slip in "
-            f"[{cfg.slip.right.min:g}, {cfg.slip.right.max:g}] x [{cfg.slip.left.min:g}, {cfg.slip.left.max:g}]"
-            + (f" (yaw [{cfg.slip.yaw.min:g}, {cfg.slip.yaw.max:g}], x_icr [{cfg.slip.icr_offset.min:g}, "
-               f"{cfg.slip.icr_offset.max:g}] m)" if cfg.slip.model == "icr" else "") + ": "
-            f"narrow network.delay or slip{_wider_turns(model)}, or lower reference.speed"
-        )
-    return best, runner
-
-
 LINEARIZATION_HEADING = 0.5  # [rad]: beyond it sin e_theta differs from e_theta by more than 4 %
 
 
@@ -364,9 +225,3 @@ def validity_notes(model: Any, figures: dict[str, Any], cert: dict[str, Any]) ->
         out.append(f"a certified position bound ({100 * big:.3g} cm) exceeds half the shortest path segment "
                    f"({seg / 2:.3g} m): the robot may be nearer another segment than its own")
     return out
-
-
-def _raise_no_solution(runner: _Runner, objective: str, infeasible_msg: str) -> None:
-    if runner.failures:
-        raise SolverFailure(f"{objective}: the solvers failed, also with the fallback ({runner.records[-1].status})")
-    raise InfeasibleError(infeasible_msg)

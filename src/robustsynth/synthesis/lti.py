@@ -21,12 +21,14 @@ from __future__ import annotations
 import threading
 import time
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from ..model.lti import YOUNG_DELTA, channel_groups, kept_directions, vertex_combinations
 
-__all__ = ["LtiAnalysis", "analyze_lti", "vertex_combinations", "LtiDesign", "synthesize_lti", "synthesize_lti_config",
+__all__ = ["LtiAnalysis", "analyze_lti", "vertex_combinations", "LtiDesign", "LinearJob", "line_search_design",
+           "synthesize_lti", "synthesize_lti_config",
            "auto_threads", "DECAY", "STRICT"]
 
 DECAY = 1.0 - 1e-6  # V shrinks by at least this factor per period: asymptotic stability with a margin
@@ -448,24 +450,62 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
     from ..errors import InputError
     from ..model.lti import lti_depth
 
+    from ..objectives import objective as descriptor
+    from .objectives import design_of
+
     objective = _resolved_objective(plant, objective)
     d = lti_depth(tau_max, m_lost, Ts)
     tau_hi = tau_max + m_lost * Ts
-    if objective in ("ultimate-bound", "hinf") and plant.get("E") is None:
+    if descriptor(objective).needs_disturbance and plant.get("E") is None:
         raise InputError(f"synthesis.objective: {objective} needs plant.disturbance (E and its bound)")
     t0 = time.perf_counter()
     V, C = _vertices_of(plant, Ts, tau_min, tau_hi, d, pieces)
-    nv = len(V.Av)
-    if objective == "hinf":
-        return _proven(_synthesize_hinf(plant, V, C, Ts, tau_min, tau_hi, pieces, solver, say, t0), name)
-    search = _LineSearch(plant, V, C, Ts, tau_min, tau_hi, pieces, objective == "ultimate-bound", decay, alpha_points,
-                         threads, solver, say)
+    job = LinearJob(plant, V, C, Ts, tau_min, tau_hi, pieces, d, len(V.Av), objective, decay, alpha_points, threads,
+                    solver, say, t0)
+    return _proven(design_of(objective).linear(job), name)
+
+
+@dataclass(frozen=True)
+class LinearJob:
+    """What an objective's design for a linear plant starts from (``linear(job)`` of a module of
+    :mod:`robustsynth.synthesis.objectives`): the plant's arrays, its lifted vertices and outputs, the network's
+    bounds, the lifting's depth, the settings, and when the synthesis started (``t0``, for its duration)."""
+
+    plant: dict
+    V: "_Vertices"
+    C: np.ndarray
+    Ts: float
+    tau_min: float
+    tau_hi: float
+    pieces: int
+    d: int
+    nv: int
+    objective: str
+    decay: float
+    alpha_points: int
+    threads: int | None
+    solver: str
+    say: Any
+    t0: float
+
+    def per_period_gain(self) -> float:
+        """g = int_0^Ts ||e^{A r} E|| dr: a disturbance of sup-norm 1 over a period moves the state by at most g."""
+        from ..model.lti import disturbance_bound
+
+        return disturbance_bound(self.plant["A"], self.plant["E"], 1.0, self.Ts)
+
+
+def line_search_design(job: LinearJob, dist: bool) -> LtiDesign:
+    """The line search over alpha (:class:`_LineSearch`) for ``job``: with the disturbance (``dist``: the
+    invariant set, ultimate-bound) or without it (the decay, stability); the design at the best proven alpha."""
+    search = _LineSearch(job.plant, job.V, job.C, job.Ts, job.tau_min, job.tau_hi, job.pieces, dist, job.decay,
+                         job.alpha_points, job.threads, job.solver, job.say)
     best = search.run()
     solves = search.held.get("solves", 0)
-    dt = time.perf_counter() - t0
+    dt = time.perf_counter() - job.t0
     if best is None:
-        return _proven(_uncertified(plant, objective, search, decay, d, nv, solves, dt), name)
-    return _proven(_certified_design(plant, objective, search, best, d, nv, solves, dt), name)
+        return _uncertified(job.plant, job.objective, search, job.decay, job.d, job.nv, solves, dt)
+    return _certified_design(job.plant, job.objective, search, best, job.d, job.nv, solves, dt)
 
 
 def _proven(design: LtiDesign, name: str | None = None) -> LtiDesign:
@@ -490,8 +530,10 @@ def _resolved_objective(plant: dict, objective: str) -> str:
 
     if objective == "auto":
         objective = "ultimate-bound" if plant.get("E") is not None else "stability"
-    if objective not in ("stability", "ultimate-bound", "hinf"):
-        raise InputError(f"synthesis.objective: {objective!r} is not one of auto, stability, ultimate-bound, hinf")
+    from ..objectives import names
+
+    if objective not in names("lti"):
+        raise InputError(f"synthesis.objective: {objective!r} is not one of auto, {', '.join(names('lti'))}")
     return objective
 
 
@@ -643,49 +685,6 @@ def synthesize_lti_config(cfg, plant: dict, objective: str | None = None, solver
                           objective or cfg.objective, decay=syn.decay, pieces=syn.pieces,
                           alpha_points=syn.alpha_points, solver=solver or syn.solver, say=say,
                           threads=threads, name=cfg.name)
-
-
-def _synthesize_hinf(plant: dict, V: _Vertices, C: np.ndarray, Ts: float, tau_min: float, tau_hi: float, pieces: int,
-                     solver: str, say, t0: float) -> LtiDesign:
-    """``hinf``: the smallest gamma with ``V+ - V + |C x|^2 <= gamma^2 |d|^2 / g^2`` for every admissible
-    step, g = int_0^Ts ||e^{A r} E|| dr (so |d_k| <= g sup_{period k} ||w||): summed from x = 0,
-    ``sum_k |C x_k|^2 <= gamma^2 sum_k sup_{period k} ||w(t)||^2`` for any disturbance and delay sequence
-    (docs/theory.md §15).  One solve: maximize mu = g^2 / gamma^2, linear in the LMIs."""
-    import cvxpy as cp
-
-    from ..model.lti import disturbance_bound
-    from ..verified import round_up
-    from .solve import solve
-
-    m, n_s, d, nv = V.m, V.n_s, V.d, len(V.Av)
-    g = disturbance_bound(plant["A"], plant["E"], 1.0, Ts)
-    mu = cp.Variable(nonneg=True)  # g^2 / gamma^2
-    q, y, eps, _, _, basis, cons = _vertex_lmis(V, True, mu, 1.0, C)
-    prob = cp.Problem(cp.Maximize(mu), cons)
-    held: dict = {}
-
-    def accept() -> bool:
-        if q.value is None or y.value is None or eps.value is None or mu.value is None or float(mu.value) <= 0:
-            return False
-        gamma = g / float(np.sqrt(float(mu.value))) * (1.0 + 1e-6)  # rounded up: room for the proof
-        Qv = np.einsum("i,iab->ab", np.asarray(q.value, dtype=float), basis)
-        chk, K, P, eta = _prove(plant, V, Ts, tau_min, tau_hi, pieces, Qv, np.asarray(y.value).reshape(m, n_s),
-                                np.maximum(np.asarray(eps.value), 0.0), 1.0, gamma**2 / g**2, C)
-        held["last"] = (chk, K, P, eta, gamma)
-        return bool(chk["ok"])
-
-    out = solve(prob, solver, accept, fallback=False)  # as analyze_lti
-    dt = time.perf_counter() - t0
-    if out.kind != "ok":
-        last = held.get("last")
-        status = "infeasible" if out.kind == "infeasible" else ("rejected" if last is not None else "failed")
-        return LtiDesign(False, status, "hinf", None, None, None, None, {}, last[0] if last else {}, d, nv,
-                         len(out.attempts), dt, f"no proven l2 gain ({out.record.status})")
-    chk, K, P, eta, gamma = held["last"]
-    say(f"hinf: l2 gain {gamma:.6g} (proven)")
-    figures = {"alpha": 1.0, "decay": 1.0, "hinf_gain": round_up(gamma, 2), "per_period_gain": g,
-               "outputs": [{"name": nm, "unit": un} for nm, un in zip(plant["outputs"], plant["output_units"])]}
-    return LtiDesign(True, "certified", "hinf", K, P, eta, 1.0, figures, chk, d, nv, len(out.attempts), dt)
 
 
 def auto_threads() -> int:

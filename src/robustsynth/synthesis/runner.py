@@ -304,3 +304,12 @@ def _duration(sec: float) -> str:
 
 def _attempts(out: Any) -> str:
     return ", ".join(f"{a.name} {a.status} {a.solve_time_s:.2f} s" for a in out.attempts)
+
+
+def _raise_no_solution(runner: _Runner, objective: str, infeasible_msg: str) -> None:
+    """SolverFailure when the solvers failed (also with the fallback), else InfeasibleError(``infeasible_msg``)."""
+    from ..errors import InfeasibleError, SolverFailure
+
+    if runner.failures:
+        raise SolverFailure(f"{objective}: the solvers failed, also with the fallback ({runner.records[-1].status})")
+    raise InfeasibleError(infeasible_msg)

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..certificate import CertificateCheck, lyapunov_of
+from ..objectives import objective
 from ..scenarios import random_delays, rate_limited_slip, slip_vertices
 from .lifted import (arc_closed_loop_run, closed_loop_run, frozen_instant_grid, frozen_spectral_radius,
                      greedy_worst_case, random_yaw_rates, yaw_windows)
@@ -55,7 +56,7 @@ def _lifted(model, K, cert: CertificateCheck, gains: dict) -> tuple[list[dict], 
                 {"growth": grow}, {})
     c = gains["certificate"]
     lyap = lyapunov_of(model, c)
-    objective = c["objective"]
+    guarantee = objective(c["objective"]).guarantee
     traces: dict[str, np.ndarray] = {}
     summary: dict[str, Any] = {"runs": N, "steps": steps}
     checks = []
@@ -63,7 +64,7 @@ def _lifted(model, K, cert: CertificateCheck, gains: dict) -> tuple[list[dict], 
     mu = corners[rng.integers(0, n_c, size=(N, steps + 1))] if lyap.slip_step is None else \
         rate_limited_slip(model, rng, N, steps + 1)
     z = rng.normal(size=(N, model.n_s))
-    if objective == "ultimate-bound":
+    if guarantee == "set":
         level = float(cert.figures["ellipsoid_level"])
         alpha = float(c["alpha"])
         beta = np.asarray(c["beta"], dtype=float)
@@ -119,7 +120,7 @@ def _lifted(model, K, cert: CertificateCheck, gains: dict) -> tuple[list[dict], 
             traces["arcs/homogeneous"] = V
             summary["arcs"] = {"max_V_ratio": float(np.max(V[:, 1:] / V[:, :-1]))}
             worst = max(worst, summary["arcs"]["max_V_ratio"])
-        thr = r2 if objective == "stability" else 1.0
+        thr = r2 if guarantee == "decay" else 1.0
         checks.append(_check("lifted model: V(xi+) <= r^2 V(xi) for the deviation from steady state", worst <= thr * (1 + LEVEL_TOL),
                              worst, thr, "largest V ratio per step; random and alternating delays, slip corners"
                              + ("; and along arcs, random delays: the homogeneous part of the kinematics linearized about "

@@ -1,0 +1,134 @@
+"""The synthesis objectives: what each one proves and what it needs, as data (issue 52, item 5).
+
+An objective is one :class:`Objective` in :data:`OBJECTIVES` (``register`` adds one) and its code on the two
+floors that act on it: the design (``design``, a module of :mod:`robustsynth.synthesis.objectives`, the only
+floor that imports the solver) and the certificate's rows (``check``, a module of
+:mod:`robustsynth.certificate.objectives`, the proof checker, which must not import the solver).  Everything
+else (the config's validation, the CLI's choices, the reports, the judges, the diagnosis) reads the
+descriptor: what kind of guarantee the objective gives, the figure it optimizes, what it cannot cover and why.
+docs/architecture.md, "How to add an objective", is the list a new one follows.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+__all__ = ["Objective", "OBJECTIVES", "register", "unregister", "objective", "names", "choices_text", "PLANTS"]
+
+PLANTS = ("tracked-robot", "lti")  # the plant kinds an objective may serve
+
+
+@dataclass(frozen=True)
+class Objective:
+    """What an objective proves and needs.
+
+    Attributes
+    ----------
+    name : str
+        The value of ``synthesis.objective`` and of ``--objective``.
+    guarantee : {"set", "decay", "gain"}
+        What its certificate proves and the judges check: an invariant, attracting set (its bounds, its
+        level), a decay rate of the disturbance-free state, or an l2 gain.
+    figure : str
+        The certified figure it optimizes (a key of a gains file's ``certified``).
+    text : str
+        What it optimizes, in a sentence (the synthesis report's).
+    design : str
+        The module of its design (``robot`` and ``linear`` functions; see
+        :mod:`robustsynth.synthesis.objectives`).
+    check : str or None
+        The module of its certificate's rows on the robot's vertices (``rows``; see
+        :mod:`robustsynth.certificate.objectives`); None for an objective of the linear plant only.
+    plants : tuple of str
+        The plant kinds it serves (:data:`PLANTS`).
+    needs_disturbance : bool
+        A linear plant's objective that needs ``plant.disturbance``.
+    common_lyapunov_only : bool
+        Only one common Lyapunov matrix (``synthesis.lyapunov: common``).
+    nonlinear_kinematics : bool
+        Its certificate may be written on the nonlinear kinematics (``synthesis.kinematics: nonlinear``);
+        otherwise its LMIs are the linearization's, also when the model is built for the nonlinear ones.
+    turns : str or None
+        Why it cannot certify a turning reference (``reference.turn_radius``); None when it can.
+    within_period : str or None
+        Why its certificate cannot cover slip changing within a period; None when it can.
+    """
+
+    name: str
+    guarantee: Literal["set", "decay", "gain"]
+    figure: str
+    text: str
+    design: str
+    check: str | None = None
+    plants: tuple[str, ...] = PLANTS
+    needs_disturbance: bool = False
+    common_lyapunov_only: bool = False
+    nonlinear_kinematics: bool = False
+    turns: str | None = None
+    within_period: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.guarantee not in ("set", "decay", "gain"):
+            raise ValueError(f"objective {self.name}: guarantee {self.guarantee!r} is not set, decay or gain")
+        if not set(self.plants) <= set(PLANTS):
+            raise ValueError(f"objective {self.name}: plants {self.plants} beyond {PLANTS}")
+        if "tracked-robot" in self.plants and self.check is None:
+            raise ValueError(f"objective {self.name}: an objective of the tracked robot needs its certificate's rows "
+                             "(check)")
+
+
+OBJECTIVES: dict[str, Objective] = {o.name: o for o in (
+    Objective(
+        "ultimate-bound", "set", "ultimate_bound",
+        "smallest ellipsoid `xi' P xi <= level` that is invariant and attracting for every admissible delay "
+        "sequence and every slip in its box (docs/theory.md §6b), minimizing the weighted squared bounds on "
+        "e_x, e_y, e_theta; line search over alpha",
+        design="robustsynth.synthesis.objectives.ultimate_bound", check="robustsynth.certificate.objectives.ultimate_bound",
+        needs_disturbance=True, nonlinear_kinematics=True),
+    Objective(
+        "stability", "decay", "decay_rate",
+        "robust quadratic stability for all |Delta_k| <= 1 (the paper's stated goal) with the best decay rate r, "
+        "`V(xi[k+1]) <= r^2 V(xi[k])` without slip (docs/theory.md §6a); bisection on r",
+        design="robustsynth.synthesis.objectives.stability", check="robustsynth.certificate.objectives.stability"),
+    Objective(
+        "hinf", "gain", "hinf_gain",
+        "smallest l2 gain gamma from the slip deviation d to the weighted error z = diag(w) e, for every "
+        "admissible delay sequence (docs/theory.md §6d)",
+        design="robustsynth.synthesis.objectives.hinf", check="robustsynth.certificate.objectives.hinf",
+        needs_disturbance=True, common_lyapunov_only=True, turns="hinf bounds the slip input only",
+        within_period="the H-infinity gain is stated for the slip input B_d w, which does not describe slip "
+                      "changing within a period"),
+)}
+
+
+def register(obj: Objective) -> Objective:
+    """Add ``obj`` to :data:`OBJECTIVES` (its one registry line); ValueError when the name is taken."""
+    if obj.name in OBJECTIVES or obj.name == "auto":
+        raise ValueError(f"objective {obj.name}: the name is taken")
+    OBJECTIVES[obj.name] = obj
+    return obj
+
+
+def unregister(name: str) -> None:
+    """Remove an objective added by :func:`register` (a test's toy)."""
+    OBJECTIVES.pop(name, None)
+
+
+def names(plant: str | None = None) -> tuple[str, ...]:
+    """The objectives' names in the registry's order (those serving ``plant`` when given)."""
+    return tuple(n for n, o in OBJECTIVES.items() if plant is None or plant in o.plants)
+
+
+def choices_text(given: tuple[str, ...]) -> str:
+    """``'a', 'b' or 'c'``: the names as a validation message lists them."""
+    quoted = [f"'{n}'" for n in given]
+    return quoted[0] if len(quoted) == 1 else ", ".join(quoted[:-1]) + " or " + quoted[-1]
+
+
+def objective(name: str) -> Objective:
+    """The descriptor of ``name``; KeyError naming the registered ones when there is none."""
+    try:
+        return OBJECTIVES[name]
+    except KeyError:
+        raise KeyError(f"objective {name!r} is not one of {', '.join(OBJECTIVES)}") from None
