@@ -1,9 +1,9 @@
 """The synthesis objectives: what each one proves and what it needs, as data (issue 52, item 5).
 
-An objective is one :class:`Objective` in :data:`OBJECTIVES` (``register`` adds one) and its code on the two
-floors that act on it: the design (``design``, a module of :mod:`robustsynth.synthesis.objectives`, the only
+An objective is one :class:`Objective` in ``OBJECTIVES`` (:func:`register` adds one) and its code on the two
+floors that act on it: the design (``design``, a module of ``robustsynth.synthesis.objectives``, the only
 floor that imports the solver) and the certificate's rows (``check``, a module of
-:mod:`robustsynth.certificate.objectives`, the proof checker, which must not import the solver).  Everything
+``robustsynth.certificate.objectives``, the proof checker, which must not import the solver).  Everything
 else (the config's validation, the CLI's choices, the reports, the judges, the diagnosis) reads the
 descriptor: what kind of guarantee the objective gives, the figure it optimizes, what it cannot cover and why.
 docs/architecture.md, "How to add an objective", is the list a new one follows.
@@ -27,21 +27,21 @@ class Objective:
     ----------
     name : str
         The value of ``synthesis.objective`` and of ``--objective``.
-    guarantee : {"set", "decay", "gain"}
-        What its certificate proves and the judges check: an invariant, attracting set (its bounds, its
-        level), a decay rate of the disturbance-free state, or an l2 gain.
+    guarantee : str
+        What its certificate proves and the judges check: ``set``, an invariant, attracting set (its bounds,
+        its level); ``decay``, a decay rate of the disturbance-free state; ``gain``, an l2 gain.
     figure : str
         The certified figure it optimizes (a key of a gains file's ``certified``).
     text : str
         What it optimizes, in a sentence (the synthesis report's).
     design : str
         The module of its design (``robot`` and ``linear`` functions; see
-        :mod:`robustsynth.synthesis.objectives`).
+        ``robustsynth.synthesis.objectives``).
     check : str or None
         The module of its certificate's rows on the robot's vertices (``rows``; see
-        :mod:`robustsynth.certificate.objectives`); None for an objective of the linear plant only.
+        ``robustsynth.certificate.objectives``); None for an objective of the linear plant only.
     plants : tuple of str
-        The plant kinds it serves (:data:`PLANTS`).
+        The plant kinds it serves (``PLANTS``).
     needs_disturbance : bool
         A linear plant's objective that needs ``plant.disturbance``.
     common_lyapunov_only : bool
@@ -103,7 +103,23 @@ OBJECTIVES: dict[str, Objective] = {o.name: o for o in (
 
 
 def register(obj: Objective) -> Objective:
-    """Add ``obj`` to :data:`OBJECTIVES` (its one registry line); ValueError when the name is taken."""
+    """Add an objective to the registry (``OBJECTIVES``: its one registry line).
+
+    Parameters
+    ----------
+    obj : Objective
+        Its descriptor.
+
+    Returns
+    -------
+    Objective
+        ``obj``.
+
+    Raises
+    ------
+    ValueError
+        The name is taken (``auto`` included: a linear plant's config reads it).
+    """
     if obj.name in OBJECTIVES or obj.name == "auto":
         raise ValueError(f"objective {obj.name}: the name is taken")
     OBJECTIVES[obj.name] = obj
@@ -111,23 +127,67 @@ def register(obj: Objective) -> Objective:
 
 
 def unregister(name: str) -> None:
-    """Remove an objective added by :func:`register` (a test's toy)."""
+    """Remove an objective added by :func:`register` (a test's toy); nothing when there is none.
+
+    Parameters
+    ----------
+    name : str
+        Its name.
+    """
     OBJECTIVES.pop(name, None)
 
 
 def names(plant: str | None = None) -> tuple[str, ...]:
-    """The objectives' names in the registry's order (those serving ``plant`` when given)."""
+    """The objectives' names in the registry's order.
+
+    Parameters
+    ----------
+    plant : str or None
+        Only those serving this plant kind (``tracked-robot`` or ``lti``).
+
+    Returns
+    -------
+    tuple of str
+        The names.
+    """
     return tuple(n for n, o in OBJECTIVES.items() if plant is None or plant in o.plants)
 
 
 def choices_text(given: tuple[str, ...]) -> str:
-    """``'a', 'b' or 'c'``: the names as a validation message lists them."""
+    """The names as a validation message lists them.
+
+    Parameters
+    ----------
+    given : tuple of str
+        The names.
+
+    Returns
+    -------
+    str
+        ``'a', 'b' or 'c'``.
+    """
     quoted = [f"'{n}'" for n in given]
     return quoted[0] if len(quoted) == 1 else ", ".join(quoted[:-1]) + " or " + quoted[-1]
 
 
 def objective(name: str) -> Objective:
-    """The descriptor of ``name``; KeyError naming the registered ones when there is none."""
+    """The descriptor of an objective.
+
+    Parameters
+    ----------
+    name : str
+        Its name.
+
+    Returns
+    -------
+    Objective
+        Its descriptor.
+
+    Raises
+    ------
+    KeyError
+        No objective has that name (the message names the registered ones).
+    """
     try:
         return OBJECTIVES[name]
     except KeyError:

@@ -1,0 +1,121 @@
+"""robustsynth.objectives: the registry every floor reads, and a toy objective added as docs/architecture.md's
+"How to add an objective" says (tests/objectives/toy_decay.py: one module and its registry line), run through
+the config, the CLI, the synthesis, the certificate's check and the reports of both plants."""
+
+from __future__ import annotations
+
+import importlib
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from robustsynth import objectives
+from robustsynth.errors import ConfigError
+
+from ..conftest import BASE_CONFIG, make_config
+from . import toy_decay
+
+ROOT = Path(__file__).resolve().parents[2]
+RATE_TOL = 1e-9  # a proven decay rate is rounded outwards, never below what was asked
+SPECTRAL_TOL = 1e-9  # frozen closed loops of a gain proven to decay at r: spectral radius <= r
+
+
+def _constant_delay_radii(plant, K: np.ndarray, thetas) -> np.ndarray:
+    """The closed loop's spectral radius at 9 constant delays across the network's range (and every slip corner):
+    an independent judge of a decay rate (a gain proven to decay at r has every frozen loop's radius <= r)."""
+    from robustsynth.verification.lifted import periodic_spectral_radius
+
+    net = plant.network
+    return periodic_spectral_radius(plant, K, np.linspace(net.delay_min, net.delay_max, 9)[:, None], thetas)
+
+
+@pytest.fixture
+def toy():
+    objectives.register(toy_decay.TOY)
+    yield toy_decay
+    objectives.unregister(toy_decay.NAME)
+
+
+@pytest.mark.parametrize("name", objectives.names())
+def test_every_objective_has_its_design_and_its_rows_on_their_floors(name: str) -> None:
+    obj = objectives.objective(name)
+    assert obj.design.startswith("robustsynth.synthesis.objectives.")  # the solver's floor
+    design = importlib.import_module(obj.design)
+    for plant, fn in (("tracked-robot", "robot"), ("lti", "linear")):
+        assert callable(getattr(design, fn, None)) == (plant in obj.plants), (name, fn)
+    assert obj.check.startswith("robustsynth.certificate.objectives.")  # the checker's floor: no solver there
+    assert callable(importlib.import_module(obj.check).rows)
+
+
+def test_a_name_is_registered_once_and_a_descriptor_is_checked() -> None:
+    with pytest.raises(ValueError, match="taken"):
+        objectives.register(objectives.objective("hinf"))
+    with pytest.raises(ValueError, match="taken"):
+        objectives.register(objectives.Objective("auto", "decay", "decay_rate", "", design="x", check="y"))
+    with pytest.raises(ValueError, match="guarantee"):
+        objectives.Objective("x", "bound", "decay_rate", "", design="x", check="y")
+    with pytest.raises(ValueError, match="certificate's rows"):
+        objectives.Objective("x", "decay", "decay_rate", "", design="x")
+    with pytest.raises(KeyError, match="ultimate-bound, stability, hinf"):
+        objectives.objective("h-inf")
+
+
+def test_the_config_and_the_cli_offer_what_is_registered(toy) -> None:
+    from click.testing import CliRunner
+
+    from robustsynth.cli import main
+
+    assert make_config(**{"synthesis.objective": toy.NAME}).synthesis.objective == toy.NAME
+    with pytest.raises(ConfigError, match="synthesis.objective: Input should be 'ultimate-bound', 'stability', "
+                                          f"'hinf' or '{toy.NAME}'"):
+        make_config(**{"synthesis.objective": "h-inf"})
+    help_text = CliRunner().invoke(main, ["synthesize", "--help"]).output
+    assert f"{toy.NAME}]" in help_text.replace("\n", "").replace(" ", "")
+
+
+def test_a_toy_objective_runs_through_the_robot_synthesis_check_and_report(toy, tmp_path) -> None:
+    """The toy's gain is proven by the checker (its rows named by the registry), decays at its rate on every
+    frozen delay (an independent judge: the closed loop's spectral radius), and is refused once its rate is
+    claimed lower than proven; the CLI writes it, the report says what it optimizes."""
+    from click.testing import CliRunner
+
+    from robustsynth import build_model, synthesize
+    from robustsynth.artifacts.gains import gains_dict
+    from robustsynth.certificate import check_certificate, recheck_gains
+    from robustsynth.cli import main
+
+    model = build_model(make_config(**{"synthesis.objective": toy.NAME}))
+    res = synthesize(model)
+    assert res.objective == toy.NAME and res.check.passed
+    assert toy.RATE - RATE_TOL <= res.certified["decay_rate"] <= toy.RATE * (1 + 1e-6)
+    assert recheck_gains(model, gains_dict(model, res)).passed
+    radii = _constant_delay_radii(model, res.K, np.asarray(model.parameter_corners())[:, None, :])
+    assert np.max(radii) <= toy.RATE + SPECTRAL_TOL
+    # a stronger claim than the gain meets is refused by the same rows: frozen, the loop decays at max(radii)
+    claim = dict(res.certificate, r2=(0.5 * np.min(radii)) ** 2)
+    assert not check_certificate(model, res.K, claim).passed
+
+    out = tmp_path / "out"
+    run = CliRunner().invoke(main, ["synthesize", str(BASE_CONFIG), "--objective", toy.NAME, "-o", str(out)])
+    assert run.exit_code == 0, run.output
+    gains = json.loads((out / "gains.json").read_text())
+    assert gains["objective"] == toy.NAME and gains["certified"]["decay_rate"] >= toy.RATE - RATE_TOL
+    assert toy.TOY.text in (out / "synthesis.md").read_text()
+
+
+def test_a_toy_objective_runs_through_the_linear_plant(toy) -> None:
+    from robustsynth.config import load_config
+    from robustsynth.core.network import Network
+    from robustsynth.model.lti import lti_plant
+    from robustsynth.plants.linear import LinearPlant
+    from robustsynth.synthesis.lti import synthesize_lti_config
+
+    cfg = load_config(ROOT / "configs" / "dc-motor.yaml")
+    plant = lti_plant(cfg, str(ROOT / "configs"))
+    design = synthesize_lti_config(cfg, plant, objective=toy.NAME)
+    assert design.certified and design.objective == toy.NAME
+    assert design.figures["decay"] >= toy.RATE - RATE_TOL
+    lin = LinearPlant(plant, Network.from_config(cfg), cfg.synthesis.pieces, cfg.name)
+    assert np.max(_constant_delay_radii(lin, design.K, None)) <= toy.RATE + SPECTRAL_TOL
