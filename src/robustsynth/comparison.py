@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from .objectives import OBJECTIVES
+
 __all__ = ["other_kind", "other_config", "compare_models"]
 
 
@@ -65,7 +67,8 @@ def compare_models(model: Any, gains: dict[str, Any], vd: dict[str, Any] | None 
     from .synthesis import synthesize
     from .verification import verify
 
-    if gains.get("objective") != "ultimate-bound":
+    obj = OBJECTIVES.get(gains.get("objective"))
+    if obj is None or obj.figure != "ultimate_bound":  # the comparison is of the ultimate bounds
         return None
     cfg = model.config
     if cfg.slip.model == "icr":  # the paper's model has no yaw factor or lateral slip (the config refuses it)

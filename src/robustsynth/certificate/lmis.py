@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["lmi_stability", "lmi_invariance", "lmi_hinf", "multiplier_structure_error"]
+__all__ = ["lmi_stability", "lmi_invariance", "multiplier_structure_error"]
 
 
 def _T(X: np.ndarray) -> np.ndarray:
@@ -71,30 +71,6 @@ def lmi_invariance(v, X, left, right, Y, M, beta, alpha, mag: bool = False):
         rows[1].append(_T(F))
         rows[2].append(np.zeros((n_s, n_q)))
         rows.append([CX, F, np.zeros((n_q, n_s)), M])
-    return _sym(_block(rows))
-
-
-def lmi_hinf(v, Bd, Cz, Q, Y, M, gamma2, mag: bool = False):
-    """Bounded-real LMI at vertex v (docs/theory.md §6d):
-    [[Q, 0, (AQ+BY)', (Cz Q)', (C_qQ+D_qY)'], [0, g I, Bd', 0, 0],
-     [AQ+BY, Bd, Q - B_p M B_p', 0, 0], [Cz Q, 0, 0, I, 0], [C_qQ+D_qY, 0, 0, 0, M]] >= 0."""
-    AQ = v.A @ Q + v.B @ Y
-    CzQ = Cz @ Q
-    n_s, n_q, n_d, n_z = Q.shape[0], v.B_p.shape[-1], Bd.shape[1], Cz.shape[0]
-    Z = np.zeros
-    rows = [
-        [Q, Z((n_s, n_d)), _T(AQ), CzQ.T],
-        [Z((n_d, n_s)), gamma2 * np.eye(n_d), Bd.T, Z((n_d, n_z))],
-        [AQ, Bd, _minus(Q, v.B_p @ M @ v.B_p.T, mag) if n_q else Q, Z((n_s, n_z))],
-        [CzQ, Z((n_z, n_d)), Z((n_z, n_s)), np.eye(n_z)],
-    ]
-    if n_q:
-        CQ = v.C_q @ Q + v.D_q @ Y
-        rows[0].append(CQ.T)
-        rows[1].append(Z((n_d, n_q)))
-        rows[2].append(Z((n_s, n_q)))
-        rows[3].append(Z((n_z, n_q)))
-        rows.append([CQ, Z((n_q, n_d)), Z((n_q, n_s)), Z((n_q, n_z)), M])
     return _sym(_block(rows))
 
 

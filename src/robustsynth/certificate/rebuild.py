@@ -18,7 +18,7 @@ def model_of_certificate(model: Any, cert: Mapping[str, Any], objective: str) ->
 
     kin = cert.get("kinematics", "linearized")
     if not descriptor(objective).nonlinear_kinematics and kin == "linearized":
-        # these LMIs are written on the linearization (synthesis.lmis.build_stability / build_hinf),
+        # these LMIs are written on the linearization (synthesis.lmis.build_stability, the hinf design's build_hinf),
         # also when the config asks for nonlinear kinematics (robust stability of a fixed K: margins)
         model = model.linearized()
     if kin != model.kinematics:

@@ -31,7 +31,7 @@ from typing import Any
 import cvxpy as cp
 import numpy as np
 
-__all__ = ["LMIProblem", "build_stability", "build_invariance", "build_hinf", "multiplier", "motor_constraints",
+__all__ = ["LMIProblem", "build_stability", "build_invariance", "multiplier", "motor_constraints",
            "heading_constraints"]
 
 
@@ -510,41 +510,3 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
     prob = cp.Problem(cp.Minimize(objective), cons)
     return LMIProblem(prob, M=Ms, params={"alpha": alpha, "one_minus_alpha": one_minus}, extra=extra,
                       **lv.problem_kwargs())
-
-
-def build_hinf(model: Any, kind: str, margin: float, weights: np.ndarray) -> LMIProblem:
-    """l2 gain gamma from the slip deviation d to z = diag(weights) e (docs/theory.md §6d), common Q over
-    the vertices; minimizes gamma^2."""
-    model = model.linearized()
-    lv = _Lyap(model, "common")
-    Q = lv.Q
-    n_s = model.n_s
-    Bd = np.asarray(model.B_d)
-    n_d = Bd.shape[1]
-    Cz = np.zeros((3, n_s))
-    Cz[:, :3] = np.diag(weights)
-    n_z = 3
-    g = cp.Variable(nonneg=True, name="gamma2")
-    CzQ = Cz @ Q
-    Z = np.zeros
-    Ms, cons = _multipliers(model, kind, margin)
-    for v, M in zip(model.vertices, Ms):
-        AX, CX = _vertex_parts(v, lv)
-        Bp = np.asarray(v.B_p)
-        rows = [
-            [Q, Z((n_s, n_d)), AX.T, CzQ.T],
-            [Z((n_d, n_s)), g * np.eye(n_d), Bd.T, Z((n_d, n_z))],
-            [AX, Bd, Q - (Bp @ M @ Bp.T if v.n_q else 0), Z((n_s, n_z))],
-            [CzQ, Z((n_z, n_d)), Z((n_z, n_s)), np.eye(n_z)],
-        ]
-        if v.n_q:
-            rows[0].append(CX.T)
-            rows[1].append(Z((n_d, v.n_q)))
-            rows[2].append(Z((n_s, v.n_q)))
-            rows[3].append(Z((n_z, v.n_q)))
-            rows.append([CX, Z((v.n_q, n_d)), Z((v.n_q, n_s)), Z((v.n_q, n_z)), M])
-        L = cp.bmat(rows)
-        cons.append(_sym(L) >> margin * np.eye(L.shape[0]))
-    cons += lv.scale(margin)
-    prob = cp.Problem(cp.Minimize(g), cons)
-    return LMIProblem(prob, M=Ms, extra={"gamma2": g}, **lv.problem_kwargs())

@@ -9,10 +9,12 @@ from typing import Any, Callable
 import numpy as np
 
 from ...config import SynthesisConfig
-from ..lmis import build_hinf
+import cvxpy as cp
+
+from ..lmis import LMIProblem, _Lyap, _multipliers, _sym, _vertex_parts
 from ..runner import _attempts, _Best, _build, _cert_common, _delay_text, _raise_no_solution, _Runner, _weights
 
-__all__ = ["robot", "linear"]
+__all__ = ["robot", "linear", "build_hinf"]
 
 
 def robot(model: Any, s: SynthesisConfig, search: list, say: Callable[[str], None]) -> tuple[_Best, _Runner, list[str]]:
@@ -51,8 +53,6 @@ def linear(job: Any) -> Any:
     step, g = int_0^Ts ||e^{A r} E|| dr (so |d_k| <= g sup_{period k} ||w||): summed from x = 0,
     ``sum_k |C x_k|^2 <= gamma^2 sum_k sup_{period k} ||w(t)||^2`` for any disturbance and delay sequence
     (docs/theory.md §15).  One solve: maximize mu = g^2 / gamma^2, linear in the LMIs."""
-    import cvxpy as cp
-
     from ...verified import round_up
     from ..lti import LtiDesign, _prove, _vertex_lmis
     from ..solve import solve
@@ -89,3 +89,39 @@ def linear(job: Any) -> Any:
     return LtiDesign(True, "certified", "hinf", K, P, eta, 1.0, figures, chk, d, nv, len(out.attempts), dt)
 
 
+def build_hinf(model: Any, kind: str, margin: float, weights: np.ndarray) -> LMIProblem:
+    """l2 gain gamma from the slip deviation d to z = diag(weights) e (docs/theory.md §6d), common Q over
+    the vertices; minimizes gamma^2."""
+    model = model.linearized()
+    lv = _Lyap(model, "common")
+    Q = lv.Q
+    n_s = model.n_s
+    Bd = np.asarray(model.B_d)
+    n_d = Bd.shape[1]
+    Cz = np.zeros((3, n_s))
+    Cz[:, :3] = np.diag(weights)
+    n_z = 3
+    g = cp.Variable(nonneg=True, name="gamma2")
+    CzQ = Cz @ Q
+    Z = np.zeros
+    Ms, cons = _multipliers(model, kind, margin)
+    for v, M in zip(model.vertices, Ms):
+        AX, CX = _vertex_parts(v, lv)
+        Bp = np.asarray(v.B_p)
+        rows = [
+            [Q, Z((n_s, n_d)), AX.T, CzQ.T],
+            [Z((n_d, n_s)), g * np.eye(n_d), Bd.T, Z((n_d, n_z))],
+            [AX, Bd, Q - (Bp @ M @ Bp.T if v.n_q else 0), Z((n_s, n_z))],
+            [CzQ, Z((n_z, n_d)), Z((n_z, n_s)), np.eye(n_z)],
+        ]
+        if v.n_q:
+            rows[0].append(CX.T)
+            rows[1].append(Z((n_d, v.n_q)))
+            rows[2].append(Z((n_s, v.n_q)))
+            rows[3].append(Z((n_z, v.n_q)))
+            rows.append([CX, Z((v.n_q, n_d)), Z((v.n_q, n_s)), Z((v.n_q, n_z)), M])
+        L = cp.bmat(rows)
+        cons.append(_sym(L) >> margin * np.eye(L.shape[0]))
+    cons += lv.scale(margin)
+    prob = cp.Problem(cp.Minimize(g), cons)
+    return LMIProblem(prob, M=Ms, extra={"gamma2": g}, **lv.problem_kwargs())
