@@ -16,9 +16,9 @@ Network                robustsynth.core.network      the link: delay range, loss
 Plant                  robustsynth.core.plant        what the core asks of a plant (a protocol)
 check_plant            robustsynth.core.conformance  the conformance suite every plant passes
 LinearPlant            robustsynth.plants.linear     any linear plant over the network, as a Plant
-synthesize             robustsynth.synthesis         Model -> certified gain (LMIs)
+synthesize             robustsynth.synthesis         any plant (Model, LinearPlant) -> certified gain
 check_certificate      robustsynth.certificate       numpy-only re-check of an LMI certificate
-verify                 robustsynth.verification      gain -> checks, Monte Carlo on the robot
+verify                 robustsynth.verification      any plant's gain -> its checks (Monte Carlo, ...)
 load_gains             robustsynth.artifacts.gains   gains.json / .mat -> mapping (one-line errors)
 run                    robustsynth.pipeline          build-model -> synthesize -> verify
 margin                 robustsynth.margins           delay / slip margins of a given gain

@@ -233,3 +233,28 @@ def test_a_too_fast_decay_is_told_to_come_closer_to_one() -> None:
         synthesize_lti(lti_plant_from(np.array([[0.5]]), np.array([[1.0]]), u_max=[0.5]), 0.1, 0.0, 0.1, 0,
                        "stability", decay=0.05)
     assert "input limits" not in str(exc.value)
+
+
+def test_synthesize_and_verify_take_a_linear_plant(zbp_bound) -> None:
+    """robustsynth.synthesize and robustsynth.verify on a LinearPlant: the same gain as synthesize_lti's (the same
+    objective's design, so the same solves: equal to the last digit), verified as verify_lti verifies it; a
+    setting that shapes the plant, a bad override and a robot's gain are one-line refusals."""
+    import robustsynth
+    from robustsynth.errors import InputError
+    from robustsynth.verification.lti import verify_lti
+
+    pl, ref = zbp_bound
+    plant = robustsynth.LinearPlant(pl, robustsynth.Network(0.5, 0.0, 0.5, 0), 2, "zbp")
+    design = robustsynth.synthesize(plant, objective="ultimate-bound")
+    assert design.certified and np.array_equal(design.K, ref.K) and design.figures == ref.figures
+    data = robustsynth.verify(plant, design, runs=8)
+    direct = verify_lti(pl, ref.K, ref.P, 0.5, 0.0, 0.5, 0, ref.figures, runs=8, seed=0, multipliers=ref.eps, pieces=2)
+    assert data["passed"] and [(c["name"], c["passed"], c["value"]) for c in data["checks"]] == \
+        [(c["name"], c["passed"], c["value"]) for c in direct["checks"]]
+    with pytest.raises(InputError, match=r"^synthesis.objective: H2 \(overridden: --objective\): synthesis.objective: "
+                                         "Input should be 'auto', 'ultimate-bound', 'stability' or 'hinf'"):
+        robustsynth.synthesize(plant, objective="H2")
+    with pytest.raises(InputError, match="synthesis.pieces: 3 differs from the 2"):
+        robustsynth.synthesize(plant, pieces=3)
+    with pytest.raises(InputError, match="a linear plant's gain is the LtiDesign"):
+        robustsynth.verify(plant, ref.K)

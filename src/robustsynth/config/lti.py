@@ -165,6 +165,12 @@ class LtiSynthesisConfig(_Node):
     solver: Literal["clarabel", "scs"] = Field(default="clarabel", description="first solver tried")
 
 
+class LtiSynthesisSection(_Node):
+    """A linear plant's ``synthesis`` section alone (``synthesize()``'s overrides, named by ``synthesis.<key>``)."""
+
+    synthesis: LtiSynthesisConfig
+
+
 class LtiConfig(_Named):
     """A linear plant closed over the network: a given gain's margins (``robustsynth margin``), or a gain
     of its own (``robustsynth synthesize``)."""

@@ -71,12 +71,17 @@ def synthesize(model: Any, settings: SynthesisConfig | None = None, *, on_step: 
     fail or no returned point passes the certificate check.  ``on_step`` receives one line per
     solve (the alpha scan, the decay-rate bisection): what was tried, by which solver, how long.
 
+    Any plant: a :class:`~robustsynth.plants.linear.LinearPlant` is designed for as
+    :func:`~robustsynth.synthesis.lti.synthesize_lti` designs (its objective's ``linear`` design), with a
+    linear plant's settings (``LtiSynthesisConfig``, its defaults when None) and returns its
+    :class:`~robustsynth.synthesis.lti.LtiDesign`.
+
     Parameters
     ----------
-    model : Model
-        The model to design for (:func:`~robustsynth.model.build_model`).
-    settings : SynthesisConfig or None
-        The synthesis settings (default: the model's config's).
+    model : Model or LinearPlant
+        The plant to design for (:func:`~robustsynth.model.build_model`, or a linear plant).
+    settings : SynthesisConfig, LtiSynthesisConfig or None
+        The synthesis settings (default: the model's config's; a linear plant's defaults).
     on_step : callable or None
         Receives one line per solve.
     **overrides : Any
@@ -84,8 +89,9 @@ def synthesize(model: Any, settings: SynthesisConfig | None = None, *, on_step: 
 
     Returns
     -------
-    SynthesisResult
-        The gain ``K``, its certificate and the figures the numpy re-check proves (``certified``).
+    SynthesisResult or LtiDesign
+        The gain ``K``, its certificate and the figures the numpy re-check proves (``certified``; a linear
+        plant's: ``figures``).
 
     Raises
     ------
@@ -94,11 +100,55 @@ def synthesize(model: Any, settings: SynthesisConfig | None = None, *, on_step: 
     SolverFailure
         No solve concluded, or none passed the certificate check (exit 4).
     """
+    from ..plants.linear import LinearPlant
+
+    if isinstance(model, LinearPlant):
+        return _synthesize_linear(model, settings, on_step, overrides)
     token = _SPLIT.set(_Split())
     try:
         return _synthesize(model, settings, on_step, overrides)
     finally:
         _SPLIT.reset(token)
+
+
+def _validated(settings: Any, overrides: dict[str, Any], validate: Callable[[dict], Any]) -> Any:
+    """``settings`` with the ``overrides`` given (not None) replaced, validated as strictly as the config file and
+    the CLI (``validate``: a dict -> the settings, raising pydantic's ValidationError): an unknown key or value is an
+    InputError naming the override (the command line's option, or synthesize()'s keyword) and the setting."""
+    given = {k: v for k, v in overrides.items() if v is not None}
+    if not given:
+        return settings
+    from pydantic import ValidationError
+
+    from ..config import _format_validation_error
+
+    data = settings.model_dump()
+    data.update(given)
+    try:
+        return validate(data)
+    except ValidationError as exc:
+        said = ", ".join(f"synthesis.{k}: {v} (overridden{': --' + k if k in CLI_OVERRIDES else ''})"
+                         for k, v in given.items())
+        raise InputError(f"{said}: {_format_validation_error(exc)}") from None
+
+
+def _synthesize_linear(plant: Any, settings: Any, on_step: Callable[[str], None] | None,
+                       overrides: dict[str, Any]) -> Any:
+    """:func:`synthesize` for a linear plant: its settings (defaults when None) with the overrides, the plant's
+    network and vertex description (``pieces`` is the plant's: a setting that differs shapes another plant)."""
+    from ..config import LtiSynthesisConfig, LtiSynthesisSection
+    from .lti import synthesize_lti
+
+    s = _validated(settings if settings is not None else LtiSynthesisConfig(), overrides,
+                   lambda data: LtiSynthesisSection.model_validate({"synthesis": data}).synthesis)
+    if s.pieces != plant.pieces:
+        raise InputError(f"synthesis.pieces: {s.pieces} differs from the {plant.pieces} the plant's vertex description "
+                         "was built with; it shapes the plant, not only the solve: build the LinearPlant with it")
+    net = plant.network
+    return synthesize_lti(plant.arrays, net.sampling_time, net.delay_min, net.delay_max, net.max_lost, s.objective,
+                          decay=s.decay, pieces=plant.pieces, alpha_points=s.alpha_points, solver=s.solver,
+                          say=on_step if on_step is not None else (lambda _m: None),
+                          threads=None if s.threads == "auto" else s.threads, name=plant.name)
 
 
 def _timings(total: float, solve: float) -> dict[str, float]:
@@ -123,22 +173,10 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
         raise InputError(f"synthesize: takes a model (robustsynth.build_model(config)), got {type(model).__name__}")
     say = on_step if on_step is not None else (lambda _m: None)
     s = settings if settings is not None else model.config.synthesis
-    if overrides:
-        # validated as strictly as the config file and the CLI: an unknown key or value is an error
-        from pydantic import ValidationError
+    if overrides:  # inside a section, so that every problem is named by its synthesis.<key> path
+        from ..config import SynthesisSection
 
-        from ..config import SynthesisSection, _format_validation_error
-
-        given = {k: v for k, v in overrides.items() if v is not None}
-        data = s.model_dump()
-        data.update(given)
-        try:  # inside a section, so that every problem is named by its synthesis.<key> path
-            s = SynthesisSection.model_validate({"synthesis": data}).synthesis
-        except ValidationError as exc:
-            # name the override (the command line's option, or synthesize()'s keyword) and the setting it replaced
-            said = ", ".join(f"synthesis.{k}: {v} (overridden{': --' + k if k in CLI_OVERRIDES else ''})"
-                             for k, v in given.items())
-            raise InputError(f"{said}: {_format_validation_error(exc)}") from None
+        s = _validated(s, overrides, lambda data: SynthesisSection.model_validate({"synthesis": data}).synthesis)
     built = model.config.synthesis  # the settings the model's structure comes from: an override cannot change it
     fixed = [k for k in MODEL_SETTINGS if getattr(s, k) != getattr(built, k)
              and not (k == "delay_description" and s.delay_description == model.delay_description)]  # auto's own

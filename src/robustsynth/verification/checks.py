@@ -102,29 +102,63 @@ def _provenance(model: Any, gains: dict[str, Any]) -> str:
     return f"the gain was made for config {made.name!r}, which differs from this one in: {shown}"
 
 
+def _verify_linear(plant: Any, gains: Any, runs: int | None, seed: int | None) -> dict[str, Any]:
+    """:func:`verify` for a linear plant: the gain, its certificate (P, the multipliers, the pieces they were made
+    with) and its figures, from a design or a gains mapping; InputError for anything else or a malformed one."""
+    from collections.abc import Mapping
+
+    from ..synthesis.lti import LtiDesign
+    from .lti import verify_lti
+
+    if isinstance(gains, LtiDesign):
+        K, P, eps, figures, pieces = gains.K, gains.P, gains.eps, gains.figures, plant.pieces
+    elif isinstance(gains, Mapping) and gains.get("kind") == "lti":
+        try:
+            cert = gains["certificate"]
+            K, P, eps = (np.asarray(x, dtype=float) for x in (gains["K"], cert["P"], cert["multipliers"]))
+            figures, pieces = dict(gains["certified"]), int(cert["pieces"])
+        except (TypeError, ValueError, KeyError) as exc:
+            raise InputError(f"verify: the linear plant's gains are malformed ({exc})") from None
+    else:
+        raise InputError("verify: a linear plant's gain is the LtiDesign robustsynth.synthesize(plant) returns, or its "
+                         f"gains mapping (kind: lti); got {type(gains).__name__}")
+    net = plant.network
+    return verify_lti(plant.arrays, K, P, net.sampling_time, net.delay_min, net.delay_max, net.max_lost, figures,
+                      runs=64 if runs is None else runs, seed=0 if seed is None else seed, multipliers=eps, pieces=pieces)
+
+
 def verify(model, gains: Any, runs: int | None = None, seed: int | None = None,
-           progress: Callable[[int, int], None] | None = None) -> VerificationResult:
+           progress: Callable[[int, int], None] | None = None) -> VerificationResult | dict[str, Any]:
     """Run every check of ``gains`` against ``model``: a gains.json mapping (:func:`~robustsynth.artifacts.gains.load_gains`),
     the result of :func:`~robustsynth.synthesis.synthesize`, or a bare matrix K.
 
+    Any plant: for a :class:`~robustsynth.plants.linear.LinearPlant` the gain is the
+    :class:`~robustsynth.synthesis.lti.LtiDesign` that ``synthesize(plant)`` returns (or a linear plant's gains
+    mapping, ``kind: lti``), and the checks are :func:`~robustsynth.verification.lti.verify_lti`'s on the exactly
+    lifted loop (its mapping: ``passed``, ``checks``, ``families``).
+
     Parameters
     ----------
-    model : Model
-        The model of the config to verify against.
-    gains : Mapping, SynthesisResult, numpy.ndarray or str
-        The gain: a gains mapping or file, a synthesis result, or a bare K.
+    model : Model or LinearPlant
+        The model of the config to verify against, or a linear plant.
+    gains : Mapping, SynthesisResult, LtiDesign, numpy.ndarray or str
+        The gain: a gains mapping or file, a synthesis result, or a bare K (the robot's).
     runs : int or None
-        Monte Carlo runs (default ``verification.runs``).
+        Monte Carlo runs (default ``verification.runs``; a linear plant's delay sequences per family: 64).
     seed : int or None
-        Their random seed (default ``verification.seed``).
+        Their random seed (default ``verification.seed``; a linear plant's: 0).
     progress : callable or None
-        Called with (runs done, runs in all).
+        Called with (runs done, runs in all) (the robot's).
 
     Returns
     -------
-    VerificationResult
+    VerificationResult or dict
         ``passed``, every check with its value and threshold, and the simulations behind them.
     """
+    from ..plants.linear import LinearPlant
+
+    if isinstance(model, LinearPlant):
+        return _verify_linear(model, gains, runs, seed)
     gains = as_gains(model, gains)
     vc = model.config.verification
     runs = vc.runs if runs is None else runs
