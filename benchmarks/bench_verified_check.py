@@ -20,12 +20,15 @@ REPEAT = 20
 def main() -> dict[str, float]:
     import numpy as np
 
-    import robustsynth.certificate as C
+    import robustsynth.certificate.check as C
     from robustsynth import build_model, load_config, synthesize
     from robustsynth.artifacts.gains import load_gains
+    from robustsynth.certificate.objectives import hinf, stability, ultimate_bound
 
     spent = {"t": 0.0}
-    real_proof, builders = C._proof, {n: getattr(C, n) for n in ("lmi_stability", "lmi_invariance", "lmi_hinf")}
+    # the proof and the LMIs' magnitudes, where the checker and each objective's rows call them
+    homes = {"lmi_stability": stability, "lmi_invariance": ultimate_bound, "lmi_hinf": hinf}
+    real_proof, builders = C._proof, {n: getattr(mod, n) for n, mod in homes.items()}
 
     def timed(fn, only_mag=False):
         def wrap(*a, **k):
@@ -41,7 +44,7 @@ def main() -> dict[str, float]:
 
     C._proof = timed(real_proof)
     for n, fn in builders.items():
-        setattr(C, n, timed(fn, only_mag=True))
+        setattr(homes[n], n, timed(fn, only_mag=True))
     out: dict[str, float] = {}
     try:
         for name in ("default", "delay-multi-period", "lossy-link"):
@@ -71,7 +74,7 @@ def main() -> dict[str, float]:
     finally:
         C._proof = real_proof
         for n, fn in builders.items():
-            setattr(C, n, fn)
+            setattr(homes[n], n, fn)
     return out
 
 

@@ -103,6 +103,16 @@ def test_every_config_key_is_in_the_reference(site: Path, plant: str, model: str
     assert not stale, f"reference rows that are no key of the schema: {stale}"
 
 
+
+def test_the_objective_rows_list_the_registrys_objectives(site: Path) -> None:
+    """synthesis.objective is validated against the objectives' registry, not a Literal: its row still lists the
+    values (docs/_ext/configref.py reads them from the field's ``Registered``), for each plant kind."""
+    from robustsynth.objectives import names
+
+    text = html.unescape(re.sub(r"<[^>]+>", "", (site / "reference" / "config.html").read_text(encoding="utf-8")))
+    for values in (names("tracked-robot"), ("auto",) + names("lti")):
+        assert " | ".join(values) in text, values
+
 # ------------------------------------------------------------------ the CLI, against click
 
 def test_every_cli_command_and_option_is_in_the_reference(site: Path) -> None:

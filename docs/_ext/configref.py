@@ -97,7 +97,9 @@ def config_keys(model: type[BaseModel], prefix: str = "") -> list[dict[str, str]
     for name, field in model.model_fields.items():
         path = f"{prefix}{name}"
         ranges = _constraints(field.metadata)
-        kind = _type(field.annotation, ranges)
+        registered = [m for m in field.metadata if callable(getattr(m, "choices", None))]  # config._base.Registered
+        kind = (" | ".join(f"``{a}``" for a in registered[0].choices()) if registered
+                else _type(field.annotation, ranges))
         sub = _node_class(field.annotation)
         desc = field.description or ((sub.__doc__ or "").strip().split("\n\n")[0] if sub else "")
         unit = UNIT.search(field.description or "")

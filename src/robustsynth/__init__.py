@@ -28,8 +28,8 @@ Controller             robustsynth.runtime           the deployed control law (o
 to_statespace          robustsynth.interop           closed loop as a python-control StateSpace
 lti_config             robustsynth.interop           python-control StateSpace -> plant: kind: lti config
 lti_plant              robustsynth.model.lti         lti config -> the plant's arrays (A, B, E, C, limits)
-synthesize_lti         robustsynth.synthesis.lti     any linear plant -> certified gain u_k = K xi_k
-verify_lti             robustsynth.verification.lti  its claims on the exactly lifted loop
+synthesize_lti         robustsynth.synthesis.lti     (deprecated: synthesize(LinearPlant))
+verify_lti             robustsynth.verification.lti  (deprecated: verify(LinearPlant, design))
 lti_margins            robustsynth.margins_lti       delay / loss margins of a linear plant's gain
 =====================  ============================  ==========================================
 """
@@ -75,7 +75,20 @@ _EXPORTS = {
 __all__ = [*_EXPORTS, "__version__"]
 
 
+# names that remain one release beside what replaced them (issue 52), with the warning they give
+_DEPRECATED = {
+    "synthesize_lti": "robustsynth.synthesize_lti is deprecated: use robustsynth.synthesize(LinearPlant(...)), which "
+                      "runs the same design (robustsynth.synthesis.lti.synthesize_lti stays)",
+    "verify_lti": "robustsynth.verify_lti is deprecated: use robustsynth.verify(LinearPlant(...), design), which runs "
+                  "the same checks (robustsynth.verification.lti.verify_lti stays)",
+}
+
+
 def __getattr__(name: str) -> Any:
+    if name in _DEPRECATED:
+        import warnings
+
+        warnings.warn(_DEPRECATED[name], DeprecationWarning, stacklevel=2)
     if name in _EXPORTS:
         return getattr(import_module(_EXPORTS[name]), name)
     raise AttributeError(f"module 'robustsynth' has no attribute {name!r}")

@@ -12,9 +12,10 @@ docs/architecture.md, "How to add an objective", is the list a new one follows.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import Callable, Literal
 
-__all__ = ["Objective", "OBJECTIVES", "register", "unregister", "objective", "names", "choices_text", "PLANTS"]
+__all__ = ["Objective", "OBJECTIVES", "register", "unregister", "objective", "names", "choices_text", "listed",
+           "PLANTS", "BUILT_IN"]
 
 PLANTS = ("tracked-robot", "lti")  # the plant kinds an objective may serve
 
@@ -29,9 +30,13 @@ class Objective:
         The value of ``synthesis.objective`` and of ``--objective``.
     guarantee : str
         What its certificate proves and the judges check: ``set``, an invariant, attracting set (its bounds,
-        its level); ``decay``, a decay rate of the disturbance-free state; ``gain``, an l2 gain.
+        its level: the robot's certificate then carries ``alpha`` and ``beta``, ``V+ <= (1 - alpha) V +
+        sum beta_i w_i^2``, and its check the figure ``ellipsoid_level``, which the lifted judge and the
+        figures read); ``decay``, a decay rate of the disturbance-free state (the certificate's ``r2``, read by
+        the lifted judge); ``gain``, an l2 gain.
     figure : str
-        The certified figure it optimizes (a key of a gains file's ``certified``).
+        The certified figure it optimizes (a key of the tracked robot's gains file's ``certified``; a linear
+        plant's gains file names its figures its own way: ``decay``, ``outputs``, ``hinf_gain``).
     text : str
         What it optimizes, in a sentence (the synthesis report's).
     design : str
@@ -102,6 +107,9 @@ OBJECTIVES: dict[str, Objective] = {o.name: o for o in (
 )}
 
 
+BUILT_IN = tuple(OBJECTIVES)  # the registry's own: unregister refuses them
+
+
 def register(obj: Objective) -> Objective:
     """Add an objective to the registry (``OBJECTIVES``: its one registry line).
 
@@ -133,7 +141,14 @@ def unregister(name: str) -> None:
     ----------
     name : str
         Its name.
+
+    Raises
+    ------
+    ValueError
+        ``name`` is one of the registry's own (``BUILT_IN``).
     """
+    if name in BUILT_IN:
+        raise ValueError(f"objective {name}: built in, not removable")
     OBJECTIVES.pop(name, None)
 
 
@@ -168,6 +183,27 @@ def choices_text(given: tuple[str, ...]) -> str:
     """
     quoted = [f"'{n}'" for n in given]
     return quoted[0] if len(quoted) == 1 else ", ".join(quoted[:-1]) + " or " + quoted[-1]
+
+
+def listed(where: Callable[[Objective], bool], plant: str = "tracked-robot", conj: str = "or") -> str:
+    """The names of ``plant``'s objectives for which ``where`` holds, as a message lists them.
+
+    Parameters
+    ----------
+    where : callable
+        Objective -> bool.
+    plant : str
+        The plant kind.
+    conj : str
+        The word before the last name (``or``, ``and``).
+
+    Returns
+    -------
+    str
+        ``a``, ``a or b``, ``a, b or c``.
+    """
+    found = [o.name for o in OBJECTIVES.values() if plant in o.plants and where(o)]
+    return found[0] if len(found) == 1 else ", ".join(found[:-1]) + f" {conj} " + found[-1] if found else "none"
 
 
 def objective(name: str) -> Objective:

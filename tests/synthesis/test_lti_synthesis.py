@@ -258,3 +258,29 @@ def test_synthesize_and_verify_take_a_linear_plant(zbp_bound) -> None:
         robustsynth.synthesize(plant, pieces=3)
     with pytest.raises(InputError, match="a linear plant's gain is the LtiDesign"):
         robustsynth.verify(plant, ref.K)
+
+
+def test_the_old_top_level_names_warn_and_are_the_same_functions() -> None:
+    import robustsynth
+    from robustsynth.synthesis import lti
+    from robustsynth.verification import lti as vlti
+
+    with pytest.warns(DeprecationWarning, match=r"robustsynth.synthesize\(LinearPlant"):
+        assert robustsynth.synthesize_lti is lti.synthesize_lti
+    with pytest.warns(DeprecationWarning, match=r"robustsynth.verify\(LinearPlant"):
+        assert robustsynth.verify_lti is vlti.verify_lti
+
+
+def test_a_linear_plants_own_settings_are_the_default() -> None:
+    """synthesize(plant) without settings: the config's the plant came from, else the defaults at the plant's own
+    pieces (a plant of 3 pieces is not refused for the default's 2); a robot's settings are one line."""
+    import robustsynth
+    from robustsynth.config import SynthesisConfig
+    from robustsynth.errors import InputError
+
+    pl = lti_plant_from(ZBP_A, ZBP_B)
+    plant = robustsynth.LinearPlant(pl, robustsynth.Network(0.5, 0.0, 0.5, 0), 3, "zbp")
+    design = robustsynth.synthesize(plant, threads=1)
+    assert design.certified and design.objective == "stability"
+    with pytest.raises(InputError, match="a linear plant's settings are an LtiSynthesisConfig"):
+        robustsynth.synthesize(plant, SynthesisConfig())

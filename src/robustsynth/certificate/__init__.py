@@ -3,6 +3,8 @@ proven positive definite in verified arithmetic (docs/theory.md §6, §7).
 
 - :mod:`.check`: the checker of the tracked robot's certificates (``check_certificate``,
   ``recheck_gains``) and its result (``CertificateCheck``);
+- ``objectives/``: what each objective's certificate proves (a module per objective, its ``rows``; named by the
+  objective's descriptor in :mod:`robustsynth.objectives`);
 - :mod:`.lmis`: the LMIs at a vertex or a stack of vertices, and their magnitudes;
 - :mod:`.rebuild`: the model a certificate's LMIs are written on;
 - :mod:`.lyapunov`: the Lyapunov function of a checked certificate (``Lyapunov``, ``lyapunov_of``);

@@ -394,7 +394,13 @@ def _rows_of(name: Any) -> Any:
     from ..objectives import OBJECTIVES
 
     obj = OBJECTIVES.get(name) if isinstance(name, str) else None
-    return importlib.import_module(obj.check).rows if obj is not None and obj.check is not None else None
+    if obj is None or obj.check is None:
+        return None
+    try:
+        rows = importlib.import_module(obj.check).rows
+    except (ImportError, AttributeError) as exc:  # a defect of the registry: one line, not a traceback
+        raise RuntimeError(f"objective {name}: its certificate's rows ({obj.check}.rows) are missing ({exc})") from None
+    return rows
 
 
 def _verdict(checks: list[dict[str, Any]], figures: dict[str, Any], within: str) -> CertificateCheck:

@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Annotated, Any
 
-from pydantic import AfterValidator, BaseModel, ConfigDict, Field, field_validator
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, field_validator
 from pydantic_core import PydanticCustomError
 
 from ..objectives import choices_text, names
@@ -34,17 +34,23 @@ class Registered:
     def choices(self) -> tuple[str, ...]:
         return self.extra + names(self.plant)
 
-    def __call__(self, value: str) -> str:
+    def __call__(self, value: Any) -> Any:
+        """Before the type's validation: any value that is not one of the choices (a string or not) is refused as
+        a Literal refuses it, naming them."""
         allowed = self.choices()
-        if value not in allowed:  # said as a Literal's error is
+        if not isinstance(value, str) or value not in allowed:
             raise PydanticCustomError("literal_error", "Input should be {expected}", {"expected": choices_text(allowed)})
         return value
+
+    def __get_pydantic_json_schema__(self, core_schema: Any, handler: Any) -> dict[str, Any]:
+        """The schema's ``enum``: the choices when the schema is made (a Literal's schema has them too)."""
+        return dict(handler(core_schema), enum=list(self.choices()))
 
 
 _ROBOT_OBJECTIVES = Registered("tracked-robot")
 _LINEAR_OBJECTIVES = Registered("lti", ("auto",))
-RobotObjective = Annotated[str, AfterValidator(_ROBOT_OBJECTIVES), _ROBOT_OBJECTIVES]
-LinearObjective = Annotated[str, AfterValidator(_LINEAR_OBJECTIVES), _LINEAR_OBJECTIVES]
+RobotObjective = Annotated[str, BeforeValidator(_ROBOT_OBJECTIVES), _ROBOT_OBJECTIVES]
+LinearObjective = Annotated[str, BeforeValidator(_LINEAR_OBJECTIVES), _LINEAR_OBJECTIVES]
 
 
 def _range_check(lo: float | None, hi: float, lo_name: str = "min") -> None:

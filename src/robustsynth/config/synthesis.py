@@ -7,7 +7,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, field_validator, model_validator
 
-from ..objectives import OBJECTIVES, objective
+from ..objectives import listed, objective
 from ._base import _FIELD, RobotObjective, _Node
 
 
@@ -104,8 +104,7 @@ class SynthesisConfig(_Node):
             raise ValueError(f"{_FIELD}lyapunov: {self.lyapunov} needs synthesis.model: slip-aware (the paper's model has no slip corners)")
         if self.lyapunov != "common" and objective(self.objective).common_lyapunov_only:
             raise ValueError(f"{_FIELD}lyapunov: {self.lyapunov} is available for "
-                             f"{' and '.join(o.name for o in OBJECTIVES.values() if not o.common_lyapunov_only)}, "
-                             f"not {self.objective}")
+                             f"{listed(lambda o: not o.common_lyapunov_only, conj='and')}, not {self.objective}")
         if self.lyapunov in ("delay-dependent", "path-dependent") and self.delay_description == "norm-bounded":
             raise ValueError(f"{_FIELD}lyapunov: {self.lyapunov} needs delay vertices (delay_description polytopic, "
                              "lossy-polytopic or auto), not norm-bounded")
@@ -114,8 +113,7 @@ class SynthesisConfig(_Node):
                 raise ValueError(f"{_FIELD}kinematics: nonlinear needs synthesis.model: slip-aware")
             if not objective(self.objective).nonlinear_kinematics:
                 raise ValueError(f"{_FIELD}kinematics: nonlinear is available for objective "
-                                 f"{' or '.join(o.name for o in OBJECTIVES.values() if o.nonlinear_kinematics)} "
-                                 f"(an invariant set), not {self.objective}")
+                                 f"{listed(lambda o: o.nonlinear_kinematics)} (an invariant set), not {self.objective}")
             if self.delay_description == "norm-bounded":
                 raise ValueError(f"{_FIELD}kinematics: nonlinear needs delay vertices (delay_description "
                                  "polytopic, lossy-polytopic or auto), not norm-bounded")

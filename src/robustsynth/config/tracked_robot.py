@@ -10,7 +10,7 @@ from typing import Any
 
 from pydantic import Field, model_validator
 
-from ..objectives import OBJECTIVES, objective
+from ..objectives import listed, objective
 from ._base import _FIELD, _Named
 from .network import NetworkConfig
 from .robot import ReferenceConfig, RobotConfig
@@ -79,8 +79,8 @@ class Config(_Named):
         for bad, why in ((syn.model == "paper", "synthesis.model: slip-aware"),
                          (syn.delay_description == "norm-bounded", "delay vertices (synthesis.delay_description: auto, "
                           "polytopic or lossy-polytopic)"),
-                         (objective(syn.objective).turns is not None, "synthesis.objective "
-                          + " or ".join(o.name for o in OBJECTIVES.values() if o.turns is None))):
+                         (objective(syn.objective).turns is not None,
+                          f"synthesis.objective {listed(lambda o: o.turns is None)}")):
             if bad:
                 raise ValueError(f"{_FIELD}reference.turn_radius: the turning certificate needs {why}")
         per_period = self.reference.speed / r * self.network.sampling_time

@@ -27,17 +27,20 @@ COVERAGE_RECONSTRUCTION_TOL = 1e-10  # |closed loop rebuilt from the decompositi
 @dataclass(frozen=True, eq=False)
 class LinearPlant:
     """A linear plant closed over ``network``: ``arrays`` as :func:`~robustsynth.model.lti.lti_plant` gives
-    them, ``pieces`` per switching instant's range in its vertex description."""
+    them, ``pieces`` per switching instant's range in its vertex description; ``settings``: the synthesis
+    settings of the config it came from (``LtiSynthesisConfig``; None: a plant built from its matrices), what
+    ``robustsynth.synthesize(plant)`` uses unless given others."""
 
     arrays: dict
     network: Network
     pieces: int = 2
     name: str = "lti"
+    settings: Any = None
 
     @classmethod
     def from_config(cls, cfg: Any, base_dir: str | None = None) -> LinearPlant:
         """The plant of a ``plant: kind: lti`` config (``plant.file`` read relative to ``base_dir``)."""
-        return cls(lti_plant(cfg, base_dir), Network.from_config(cfg), cfg.synthesis.pieces, cfg.name)
+        return cls(lti_plant(cfg, base_dir), Network.from_config(cfg), cfg.synthesis.pieces, cfg.name, cfg.synthesis)
 
     @classmethod
     def from_arrays(cls, A: Any, B: Any, network: Network, pieces: int = 2, name: str = "lti", **kw: Any) -> LinearPlant:

@@ -387,8 +387,8 @@ def _certificate_lines(vd: Mapping[str, Any]) -> list[str]:
     if not vc["passed"]:
         lines.append(f"no certified bounds: {vc['detail']}")
     elif not vc.get("error_bounds"):  # a stability or H-infinity certificate (review: "passed" with nothing judged)
-        lines.append("the certificate states no error bounds (its objective is not ultimate-bound): the errors below "
-                     "are not judged, only the slip")
+        lines.append("the certificate states no error bounds (its objective proves no invariant set): the errors "
+                     "below are not judged, only the slip")
     if vc.get("model") == "paper":
         lines.append("the certificate is for the paper's model (synthesis.model: paper), whose slip is not this "
                      "robot's: its bounds are the paper model's claims (verify judges them on the robot)")

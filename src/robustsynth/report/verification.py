@@ -9,7 +9,7 @@ from ..config import config_to_dict
 from .. import __version__
 from ..artifacts.files import SCHEMA_VERSION
 from ..certificate.turns import TURN_REENTRY
-from ..objectives import OBJECTIVES
+from ..objectives import listed, objective
 from ..results import failed_names
 from .markdown import conditions_text, fmt, table
 
@@ -74,8 +74,8 @@ def robot_leaves(mc: dict[str, Any], cfg: Any) -> str:
         hint = ("; synthesis.kinematics: nonlinear, which proves the set for the robot, needs synthesis.model: "
                 "slip-aware: docs/theory.md §9")
     else:
-        nonlinear = [o.name for o in OBJECTIVES.values() if o.nonlinear_kinematics]
-        needs = [w for w, cond in ((f"objective {' or '.join(nonlinear)}", syn.objective not in nonlinear),
+        needs = [w for w, cond in ((f"objective {listed(lambda o: o.nonlinear_kinematics)}",
+                                    not objective(syn.objective).nonlinear_kinematics),
                                    ("delay vertices (delay_description auto, polytopic or lossy-polytopic)",
                                     syn.delay_description == "norm-bounded")) if cond]
         hint = ("; synthesis.kinematics: nonlinear"

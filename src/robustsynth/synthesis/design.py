@@ -17,7 +17,7 @@ from ..certificate import CertificateCheck
 from ..config import SynthesisConfig
 from ..errors import InputError, SolverFailure
 from ..model.slip import check_physical_feasibility
-from ..objectives import OBJECTIVES, objective
+from ..objectives import listed, objective
 from .objectives import design_of
 from .runner import _SPLIT, _Split, multiplier_used
 from .solve import solver_version
@@ -134,13 +134,18 @@ def _validated(settings: Any, overrides: dict[str, Any], validate: Callable[[dic
 
 def _synthesize_linear(plant: Any, settings: Any, on_step: Callable[[str], None] | None,
                        overrides: dict[str, Any]) -> Any:
-    """:func:`synthesize` for a linear plant: its settings (defaults when None) with the overrides, the plant's
-    network and vertex description (``pieces`` is the plant's: a setting that differs shapes another plant)."""
+    """:func:`synthesize` for a linear plant: its settings (given; else the config's it came from; else the defaults
+    with the plant's pieces) with the overrides, the plant's network and vertex description (``pieces`` is the
+    plant's: a setting that differs shapes another plant)."""
     from ..config import LtiSynthesisConfig, LtiSynthesisSection
     from .lti import synthesize_lti
 
-    s = _validated(settings if settings is not None else LtiSynthesisConfig(), overrides,
-                   lambda data: LtiSynthesisSection.model_validate({"synthesis": data}).synthesis)
+    if settings is None:
+        settings = plant.settings if plant.settings is not None else LtiSynthesisConfig(pieces=plant.pieces)
+    if not isinstance(settings, LtiSynthesisConfig):
+        raise InputError(f"synthesize: a linear plant's settings are an LtiSynthesisConfig (a plant: kind: lti config's "
+                         f"synthesis section), got {type(settings).__name__}")
+    s = _validated(settings, overrides, lambda data: LtiSynthesisSection.model_validate({"synthesis": data}).synthesis)
     if s.pieces != plant.pieces:
         raise InputError(f"synthesis.pieces: {s.pieces} differs from the {plant.pieces} the plant's vertex description "
                          "was built with; it shapes the plant, not only the solve: build the LinearPlant with it")
@@ -192,16 +197,16 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
     obj = objective(s.objective)
     if s.lyapunov != "common" and (model.kind != "slip-aware" or obj.common_lyapunov_only):
         raise InputError(f"synthesis.lyapunov: {s.lyapunov} needs synthesis.model: slip-aware and the "
-                         f"{' or '.join(o.name for o in OBJECTIVES.values() if not o.common_lyapunov_only)} objective")
+                         f"{listed(lambda o: not o.common_lyapunov_only)} objective")
     if s.lyapunov in ("delay-dependent", "path-dependent") and not 1 < model.delay_vertex_count <= MAX_DELAY_VERTICES:
         raise InputError(f"synthesis.lyapunov: {s.lyapunov} needs 2 to {MAX_DELAY_VERTICES} delay vertices per slip "
                          f"corner; this model has {model.delay_vertex_count} ({model.delay_description} delays, "
                          f"d_hi = {model.d_hi}): use slip-dependent")
     if obj.turns is not None and getattr(model, "turns", None) is not None:
         raise InputError(f"synthesis.objective: {obj.turns}; a turning reference (reference.turn_radius) needs "
-                         f"{' or '.join(o.name for o in OBJECTIVES.values() if o.turns is None)}")
+                         f"{listed(lambda o: o.turns is None)}")
     check_physical_feasibility(cfg)  # physics first: no LMI can beat a motor that is too slow
-    best, runner, found = design_of(s.objective).robot(model, s, search, say)
+    best, runner, found = design_of(s.objective, "tracked-robot").robot(model, s, search, say)
     notes += found
     rec = best.record
     if best.check is not None:

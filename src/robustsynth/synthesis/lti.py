@@ -462,7 +462,7 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
     V, C = _vertices_of(plant, Ts, tau_min, tau_hi, d, pieces)
     job = LinearJob(plant, V, C, Ts, tau_min, tau_hi, pieces, d, len(V.Av), objective, decay, alpha_points, threads,
                     solver, say, t0)
-    return _proven(design_of(objective).linear(job), name)
+    return _proven(design_of(objective, "lti").linear(job), name)
 
 
 @dataclass(frozen=True)

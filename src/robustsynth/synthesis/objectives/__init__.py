@@ -19,8 +19,18 @@ from types import ModuleType
 __all__ = ["design_of"]
 
 
-def design_of(name: str) -> ModuleType:
-    """The design module of the objective ``name`` (its descriptor's ``design``)."""
+def design_of(name: str, plant: str | None = None) -> ModuleType:
+    """The design module of the objective ``name`` (its descriptor's ``design``); with ``plant``, one that has
+    that plant kind's design.  A descriptor whose module or function is missing is one line (RuntimeError: a
+    defect of the registry, not of the user's input), not a traceback from deep in a run."""
     from ...objectives import objective
 
-    return importlib.import_module(objective(name).design)
+    obj = objective(name)
+    try:
+        module = importlib.import_module(obj.design)
+    except ImportError as exc:
+        raise RuntimeError(f"objective {name}: its design module {obj.design} cannot be imported ({exc})") from None
+    fn = {"tracked-robot": "robot", "lti": "linear"}.get(plant or "")
+    if fn is not None and not callable(getattr(module, fn, None)):
+        raise RuntimeError(f"objective {name}: its design module {obj.design} has no {fn}() for the {plant} plant")
+    return module

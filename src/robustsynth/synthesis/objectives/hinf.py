@@ -6,11 +6,10 @@ from __future__ import annotations
 import time
 from typing import Any, Callable
 
+import cvxpy as cp
 import numpy as np
 
 from ...config import SynthesisConfig
-import cvxpy as cp
-
 from ..lmis import LMIProblem, _Lyap, _multipliers, _sym, _vertex_parts
 from ..runner import _attempts, _Best, _build, _cert_common, _delay_text, _raise_no_solution, _Runner, _weights
 
@@ -45,7 +44,6 @@ def _run(model: Any, s: SynthesisConfig, search: list, say: Callable[[str], None
     if out.kind == "ok":
         best.value, best.cert, best.K, best.check, best.record = cert["gamma2"], cert, K, chk, out.record
     return best, runner
-
 
 
 def linear(job: Any) -> Any:
