@@ -286,7 +286,7 @@ def test_validate(monkeypatch, tmp_path) -> None:
     vd["physics"] = vd["monitor"] = None
     _patch(monkeypatch, "robustsynth.pipeline", validation_stage=lambda *a, **k: vd)
     assert _invoke(["validate", DEFAULT, "--gains", "g.json", "-o", str(o), "--episodes", "2"]) == (0, (
-        "the certificate states no error bounds (its objective is not ultimate-bound): the errors below are not "
+        "the certificate states no error bounds (its objective proves no invariant set): the errors below are not "
         "judged, only the slip\n"
         "the whole path, turns included (against the bounds for all t): |e_x| 1.2 cm (certified 2, ratio 0.60), "
         "|e_y| 3.4 cm (certified 4, ratio 0.85), |e_theta| 0.05 rad\n"

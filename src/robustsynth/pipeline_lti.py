@@ -99,17 +99,20 @@ def lti_synthesis_stage(config: Any, outdir: str | Path, config_path: str | Path
     """Synthesize and prove a gain (:func:`robustsynth.synthesis.lti.synthesize_lti`), and find its delay margin
     (:func:`robustsynth.margins_lti.delay_margin`: certified / exhibited, seconds beside the synthesis); write
     gains.json (last, with the margin as ``delay_margin``), gains.mat and synthesis.md.  No certified gain: the
-    old gain files are set aside and synthesize_lti's InfeasibleError (exit 3) or SolverFailure (exit 4) raised."""
+    old gain files are set aside and synthesize's InfeasibleError (exit 3) or SolverFailure (exit 4) raised."""
     from .artifacts.files import set_aside
     from .artifacts.gains import lti_gains_dict, lti_gains_mat_vars
     from .errors import InfeasibleError, SolverFailure
+    from .core.network import Network
+    from .plants.linear import LinearPlant
     from .report.lti import lti_synthesis_markdown
-    from .synthesis.lti import synthesize_lti_config
+    from .synthesis import synthesize
 
     plant = lti_plant_of(config, config_path)
     say = on_step or (lambda s: None)
     try:
-        design = synthesize_lti_config(config, plant, objective, solver, say)
+        design = synthesize(LinearPlant(plant, Network.from_config(config), config.synthesis.pieces, config.name,
+                                        config.synthesis), objective=objective, solver=solver, on_step=say)
     except (InfeasibleError, SolverFailure):
         out = make_dir(outdir)
         clear_foreign(out, config)

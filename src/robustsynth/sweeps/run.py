@@ -95,17 +95,17 @@ def _robot_point(payload: dict[str, Any], out: dict[str, Any]) -> None:
 
 
 def _lti_point(payload: dict[str, Any], out: dict[str, Any]) -> None:
-    """run_point for a linear plant (plant: kind: lti): synthesize_lti (and verify_lti)."""
+    """run_point for a linear plant (plant: kind: lti): synthesize (and verify_lti)."""
     from ..artifacts.files import to_jsonable
     from ..artifacts.gains import gains_id, lti_gains_dict
     from ..config import config_from_dict
-    from ..model.lti import lti_plant
-    from ..synthesis.lti import synthesize_lti_config
+    from ..plants.linear import LinearPlant
+    from ..synthesis import synthesize
 
     cfg = config_from_dict(payload["config"])
-    plant = lti_plant(cfg)
-    net = cfg.network
-    design = synthesize_lti_config(cfg, plant, threads=payload.get("solve_threads"))
+    lin = LinearPlant.from_config(cfg)
+    plant, net = lin.arrays, cfg.network
+    design = synthesize(lin, threads=payload.get("solve_threads"))
     f = design.figures
     bounds = [o["bound"] / s for o, s in zip(f.get("outputs") or (), plant["scale"]) if o.get("bound") is not None]
     gd = lti_gains_dict(cfg, plant, design)

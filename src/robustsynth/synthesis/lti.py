@@ -28,8 +28,7 @@ import numpy as np
 from ..model.lti import YOUNG_DELTA, channel_groups, kept_directions, vertex_combinations
 
 __all__ = ["LtiAnalysis", "analyze_lti", "vertex_combinations", "LtiDesign", "LinearJob", "line_search_design",
-           "synthesize_lti", "synthesize_lti_config",
-           "auto_threads", "DECAY", "STRICT"]
+           "synthesize_lti", "auto_threads", "DECAY", "STRICT"]
 
 DECAY = 1.0 - 1e-6  # V shrinks by at least this factor per period: asymptotic stability with a margin
 STRICT = 1e-7  # the LMIs' strictness (P >= I fixes the scale)
@@ -672,19 +671,6 @@ def _certified_design(plant: dict, objective: str, search: _LineSearch, a: float
                       "rescale the units")
     return LtiDesign(True, "certified", objective, K, P / (unit * unit), eta / (unit * unit), a, figures, chk, d, nv,
                      solves, dt)
-
-
-def synthesize_lti_config(cfg, plant: dict, objective: str | None = None, solver: str | None = None,
-                          say=lambda s: None, threads: int | None = None) -> LtiDesign:
-    """:func:`synthesize_lti` with an lti config's network and synthesis settings (the objective, the
-    solver and the threads may be overridden: a sweep that runs a point per core passes 1)."""
-    net, syn = cfg.network, cfg.synthesis
-    if threads is None and syn.threads != "auto":
-        threads = syn.threads
-    return synthesize_lti(plant, net.sampling_time, net.delay.min, net.delay.max, net.dropouts.max_consecutive,
-                          objective or cfg.objective, decay=syn.decay, pieces=syn.pieces,
-                          alpha_points=syn.alpha_points, solver=solver or syn.solver, say=say,
-                          threads=threads, name=cfg.name)
 
 
 def auto_threads() -> int:
