@@ -147,15 +147,11 @@ CONCRETE_PLANTS = ("robustsynth.model", "robustsynth.plants")  # the tracked rob
 # shrink: a new module there takes plants through core.plant.Plant, and a module that no longer
 # imports one must leave the list (both are tested).
 STILL_CONCRETE = {
-    "robustsynth.certificate.bounds": "the robot's figures between samples use its slip matrix",
     "robustsynth.certificate.lti": "the linear plant's own checker (a twin of certificate.check)",
-    "robustsynth.synthesis.design": "the robot's synthesis reads its slip matrix",
     "robustsynth.synthesis.diagnose": "rebuilds the robot's model with one constraint relaxed",
-    "robustsynth.synthesis.heading_search": "the robot's heading bound and its slip",
     "robustsynth.synthesis.lti": "the linear plant's own synthesis (a twin of synthesis.design)",
     "robustsynth.synthesis.phase1": "the robot's vertices",
     "robustsynth.synthesis.remedies": "rebuilds the robot's model for each remedy",
-    "robustsynth.verification.checks": "the robot's verdict reads its slip matrix",
     "robustsynth.verification.compensated": "the robot's slip-compensated law on its path",
     "robustsynth.verification.lifted": "the robot's arc turns (the lifted map itself goes through Plant)",
     "robustsynth.verification.lti": "the linear plant's own verification (a twin of verification.checks)",

@@ -13,7 +13,9 @@ Each round runs one subprocess per tree (``PYTHONPATH=TREE/src``, one BLAS threa
 - ``find_instability`` on the default config's committed gain at delay.max 0.1 s (the whole search,
   no witness) and 0.3 s (a witness at period 1);
 - ``lti_margins`` of configs/zbp.yaml (periodic sequences per rotation class, the periodic radius);
-- ``draw_scenario`` of configs/lossy-link.yaml, 200 runs x 300 steps, 20 seeds (the network's draws).
+- ``draw_scenario`` of configs/lossy-link.yaml, 200 runs x 300 steps, 20 seeds (the network's draws);
+- ``synthesize`` of configs/paper-model.yaml (the robot's design, through its objective's module) and
+  ``synthesize_lti`` of configs/dc-motor.yaml (the linear plant's), with the figures they certify.
 
 It prints, per path, the medians over the rounds and new / old, and whether the figures each path
 computes (the witness's radius, the exhibited delay margin) are identical.
@@ -69,6 +71,16 @@ res["lti_margins_zbp_exhibited"] = r["delay_max"]["exhibited"]
 lm = build_model(load_config(tree / "configs/lossy-link.yaml"))
 path = make_path(lm.config.reference.path, lm.V)
 res["draw_scenario_x20_s"], _ = timed(lambda: [draw_scenario(lm, 200, s, 300, path) for s in range(20)])
+from robustsynth.synthesis import synthesize
+from robustsynth.synthesis.lti import synthesize_lti
+pm = build_model(load_config(tree / "configs/paper-model.yaml"))
+res["synthesize_paper_model_s"], sr = timed(lambda: synthesize(pm))
+res["synthesize_paper_model_e_y"] = sr.certified["ultimate_bound"]["e_y"]
+dc = load_config(tree / "configs/dc-motor.yaml")
+dp, n = lti_plant(dc, str(tree / "configs")), dc.network
+res["synthesize_dc_motor_s"], ld = timed(lambda: synthesize_lti(dp, n.sampling_time, n.delay.min, n.delay.max,
+                                                               n.dropouts.max_consecutive, dc.objective))
+res["synthesize_dc_motor_K"] = np.asarray(ld.K).tolist()
 print(json.dumps(res))
 """
 

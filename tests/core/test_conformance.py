@@ -66,6 +66,7 @@ class Heater:
 
     n_x = 1
     n_u = 1
+    plant_kind = "heater"
 
     @property
     def d_hi(self) -> int:
@@ -174,10 +175,11 @@ def test_a_shift_register_out_of_order_fails() -> None:
 
 
 @pytest.mark.parametrize("bad", [{"kind": "heater", "a": np.ones(2)}, {"kind": "heater", "a": float("nan")},
-                                 {"kind": "", "a": 1.0}])
+                                 {"kind": "", "a": 1.0}, {"kind": "boiler", "a": 1.0}])
 def test_a_to_dict_that_is_not_plain_json_fails(bad) -> None:
+    """Not JSON, not equal after a round trip, no kind, or a kind that is not the plant's plant_kind."""
     heater = Heater(0.8, 0.5, 2.0, Network(0.2, 0.05, 0.35, 1))
-    assert _failed(check_plant(_Wrapped(heater, to_dict=lambda: bad))) == ["to_dict is plain JSON that reads back equal"]
+    assert _failed(check_plant(_Wrapped(heater, to_dict=lambda: bad))) == ["to_dict is plain JSON that reads back equal, of kind plant_kind"]
 
 
 def test_the_closed_loop_is_the_open_loop_plus_the_gain() -> None:

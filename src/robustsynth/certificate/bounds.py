@@ -103,8 +103,6 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
     V omega(t) is bounded pointwise, whatever the slip does.  On the exact arcs (a nonlinear
     certificate) e_y' = V sin e_theta + a sin e_theta: the first part has a bounded f'', the second
     (a jumps with the slip) is bounded by its range; e_x' likewise."""
-    from ..model.slip import lateral_row
-
     n_s, n_e, n_u, d_hi = model.n_s, model.n_e, model.n_u, model.d_hi
     Ts, V = model.Ts, model.V
     cmds = [np.asarray(K, dtype=float)]
@@ -144,8 +142,7 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
         ey += Ts / 4 * 2.0 * vy
         ex += Ts / 4 * 2.0 * vy * float(np.sin(h))
     elif model.icr:  # e_y' also holds the lateral velocity v_y = row(p) u: its jumps at the switching instants
-        D = model.config.robot.track_distance
-        dvy = max(sup_on_set(np.array([lateral_row(mu, D) @ (cmds[j] - cmds[j + 1]) for j in range(d_hi)]), mats,
+        dvy = max(sup_on_set(np.array([model.lateral_row(mu) @ (cmds[j] - cmds[j + 1]) for j in range(d_hi)]), mats,
                              level, inner) for mu in np.asarray(model.corners))
         ey += Ts / 4 * d_hi * dvy
     return {"e_x": round_up(sampled["e_x"] + ex, 12), "e_y": round_up(sampled["e_y"] + ey, 12),
@@ -157,13 +154,10 @@ def _lateral_on_set(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], 
     """The largest |v_y| of the icr slip model on the set, over every slip corner (v_y is multi-affine in the
     parameters: its extremes over the box, and over any average of slips, are at the corners) and every
     command in flight, with a turning reference's feedforward (0, w), |w| <= ``yaw_rate``."""
-    from ..model.slip import lateral_row
-
     uD = np.array([model.V, 0.0])
-    D = model.config.robot.track_distance
     out = 0.0
     for mu in np.asarray(model.corners):
-        row = lateral_row(mu, D)
+        row = model.lateral_row(mu)
         out = max(out, abs(float(row @ uD)) + abs(float(row @ model.turn_feedforward)) * yaw_rate
                   + sup_on_set(np.array([row @ c for c in cmds]), mats, level, inner))
     return out
@@ -174,11 +168,9 @@ def _forward_oscillation(model: Any, cmds: list[np.ndarray], mats: list[np.ndarr
     """The largest difference of the forward speed a = v - V^D between any two instants of a period on the
     set, slip changing at any time: between any two slip corners and any two commands in flight (``cmds``),
     with a turning reference's feedforward (0, w), |w| <= ``yaw_rate``, in each."""
-    from ..model.slip import slip_matrix
-
     uD = np.array([model.V, 0.0])
     g = model.turn_feedforward  # the feedforward command per rad/s of yaw rate ((0, 1): M[0, 1])
-    Ms = [slip_matrix(mu, model.config.robot.track_distance) for mu in np.asarray(model.corners)]
+    Ms = [model.slip_matrix(mu) for mu in np.asarray(model.corners)]
     osc = 0.0
     for Ma in Ms:
         for Mb in Ms:
@@ -195,13 +187,11 @@ def _speeds_on_set(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], l
     each command from xi), on the forward speed |v|, the turn rate |omega|, the jump |dv| between
     consecutive commands and the forward-speed deviation |a| = |v - V^D|; with a turning reference's
     feedforward (0, w), |w| <= ``yaw_rate`` and steps <= ``yaw_step``, in every command."""
-    from ..model.slip import slip_matrix
-
     uD = np.array([model.V, 0.0])
     g = model.turn_feedforward  # the feedforward command per rad/s of yaw rate ((0, 1): M[., 1])
     vbar = wbar = dvbar = abar = 0.0
     for mu in np.asarray(model.corners):
-        M = slip_matrix(mu, model.config.robot.track_distance)
+        M = model.slip_matrix(mu)
         forward = sup_on_set(np.array([M[0] @ c for c in cmds]), mats, level, inner)
         ff_v = abs(float(M[0] @ g)) * yaw_rate  # the feedforward's share of v (asymmetric slip)
         vbar = max(vbar, abs(float(M[0] @ uD)) + ff_v + forward)

@@ -15,7 +15,8 @@ Each check is a ``robustsynth.results.Check``:
 - **the network's depth**: the lifted state keeps every command that can still act
   (tau_max + m Ts <= d_hi Ts);
 - **coverage**: the plant's vertex description contains its exact map on random samples;
-- **to_dict**: plain JSON that reads back equal.
+- **to_dict**: plain JSON that reads back equal, whose ``kind`` is the plant's ``plant_kind`` (what the library
+  dispatches on: ``robustsynth.synthesize``, ``robustsynth.verify``, the objectives a plant kind serves).
 """
 
 from __future__ import annotations
@@ -62,6 +63,9 @@ def _instants(plant: Plant, rng: np.random.Generator, samples: int) -> np.ndarra
     taus = net.lose(net.uniform(rng, (samples, d + steps)), rng, 0.3, max(1.0, net.max_lost), arrived=d)
     ends = np.vstack([net.pattern(k, (1, d + steps)) for k in ("constant-min", "constant-max")])
     return s_tilde_sequence(np.vstack([taus, ends]), net.sampling_time, d)[:, -1]
+
+
+TO_DICT = "to_dict is plain JSON that reads back equal, of kind plant_kind"
 
 
 def check_plant(plant: Plant, samples: int = 6, seed: int = 0) -> list[dict[str, Any]]:
@@ -152,8 +156,10 @@ def check_plant(plant: Plant, samples: int = 6, seed: int = 0) -> list[dict[str,
     try:
         text = json.dumps(d0, allow_nan=False, sort_keys=True)
     except (TypeError, ValueError) as exc:  # arrays, NaN, objects: not plain JSON
-        out.append(Check("to_dict is plain JSON that reads back equal", False, None, None, f"not JSON: {exc}"))
+        out.append(Check(TO_DICT, False, None, None, f"not JSON: {exc}"))
     else:
-        ok = json.loads(text) == d0 and bool(d0.get("kind"))
-        out.append(Check("to_dict is plain JSON that reads back equal", ok, len(text), None, f"kind {d0.get('kind')!r}"))
+        kind = getattr(plant, "plant_kind", None)
+        ok = json.loads(text) == d0 and bool(d0.get("kind")) and d0.get("kind") == kind
+        out.append(Check(TO_DICT, ok, len(text), None,
+                         f"kind {d0.get('kind')!r}, plant_kind {kind!r}"))
     return [c.to_dict() for c in out]

@@ -31,8 +31,13 @@ __all__ = ["Plant"]
 
 @runtime_checkable
 class Plant(Protocol):
-    """A plant closed over a network: its lifted map and what it is exact for (``to_dict()["kind"]`` names
-    the plant: "tracked-robot", "lti", ...)."""
+    """A plant closed over a network: its lifted map and what it is exact for (``plant_kind``, also
+    ``to_dict()["kind"]``, names the plant: "tracked-robot", "lti", ...)."""
+
+    @property
+    def plant_kind(self) -> str:
+        """Which plant this is: what the library dispatches on (``robustsynth.synthesize``, ``robustsynth.verify``,
+        the objectives that serve it, the commands' jobs)."""
 
     @property
     def network(self) -> Network:

@@ -26,8 +26,8 @@ import numpy as np
 from ..config import Config
 from ..core.network import Network, s_tilde_sequence
 from .lifting import lifted_exact
-from .slip import (SLIP_PARAMETERS, corner_weights, lateral_row, next_corner_weights, nominal_slip, slip_matrix,
-                   slip_parameter_ranges)
+from .slip import (SLIP_PARAMETERS, check_physical_feasibility, corner_weights, lateral_row, next_corner_weights,
+                   nominal_slip, slip_matrix, slip_parameter_ranges)
 from .uncertainty import SlipBox, UncertainInstant, delta_for
 from .vertices import (Vertex, add_lateral, apply_slip, augment_integral, icr_constant, interval_coordinates,
                        interval_slip_averages, loss_hull_coordinates, loss_instant_grid, piecewise_twist_averages,
@@ -498,6 +498,22 @@ class Model:
     def parameter_corners(self) -> np.ndarray:
         """The slip box's corners (n_c, 2), or (n_c, 4) with the icr parameters."""
         return np.asarray(self.corners)
+
+    plant_kind = "tracked-robot"  # core.plant.Plant: which plant this is (commands.JOBS, objectives.PLANTS)
+
+    def slip_matrix(self, mu: np.ndarray) -> np.ndarray:
+        """The commands-to-twist matrix at slip ``mu`` (``robustsynth.model.slip.slip_matrix`` on this robot's
+        track distance): what a room that is not the model's asks the robot for, rather than importing it."""
+        return slip_matrix(mu, self.config.robot.track_distance)
+
+    def lateral_row(self, mu: np.ndarray) -> np.ndarray:
+        """The icr model's lateral velocity row at slip ``mu`` (``robustsynth.model.slip.lateral_row``)."""
+        return lateral_row(mu, self.config.robot.track_distance)
+
+    def check_physical_feasibility(self) -> None:
+        """InfeasibleError when the motors cannot follow the path at all (``robustsynth.model.slip``'s check of
+        the config): no LMI can beat a motor that is too slow."""
+        check_physical_feasibility(self.config)
 
     def coverage(self, samples: int = 1000, seed: int = 0) -> dict:
         """``robustsynth.model.coverage_check`` on ``samples`` delay histories."""

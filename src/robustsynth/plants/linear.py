@@ -37,6 +37,8 @@ class LinearPlant:
     name: str = "lti"
     settings: Any = None
 
+    plant_kind = "lti"  # core.plant.Plant: which plant this is (commands.JOBS, objectives.PLANTS)
+
     @classmethod
     def from_config(cls, cfg: Any, base_dir: str | None = None) -> LinearPlant:
         """The plant of a ``plant: kind: lti`` config (``plant.file`` read relative to ``base_dir``)."""

@@ -16,7 +16,6 @@ import numpy as np
 from ..certificate import CertificateCheck
 from ..config import SynthesisConfig
 from ..errors import InputError, SolverFailure
-from ..model.slip import check_physical_feasibility
 from ..objectives import listed, objective
 from .objectives import design_of
 from .runner import _SPLIT, _Split, multiplier_used
@@ -100,9 +99,7 @@ def synthesize(model: Any, settings: SynthesisConfig | None = None, *, on_step: 
     SolverFailure
         No solve concluded, or none passed the certificate check (exit 4).
     """
-    from ..plants.linear import LinearPlant
-
-    if isinstance(model, LinearPlant):
+    if getattr(model, "plant_kind", None) == "lti":  # a LinearPlant
         return _synthesize_linear(model, settings, on_step, overrides)
     token = _SPLIT.set(_Split())
     try:
@@ -193,7 +190,6 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
     t0 = time.perf_counter()
     search: list[dict[str, Any]] = []
     notes: list[str] = []
-    cfg = model.config
     obj = objective(s.objective)
     if s.lyapunov != "common" and (model.kind != "slip-aware" or obj.common_lyapunov_only):
         raise InputError(f"synthesis.lyapunov: {s.lyapunov} needs synthesis.model: slip-aware and the "
@@ -205,7 +201,7 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
     if obj.turns is not None and getattr(model, "turns", None) is not None:
         raise InputError(f"synthesis.objective: {obj.turns}; a turning reference (reference.turn_radius) needs "
                          f"{listed(lambda o: o.turns is None)}")
-    check_physical_feasibility(cfg)  # physics first: no LMI can beat a motor that is too slow
+    model.check_physical_feasibility()  # physics first: no LMI can beat a motor that is too slow
     best, runner, found = design_of(s.objective, "tracked-robot").robot(model, s, search, say)
     notes += found
     rec = best.record

@@ -294,15 +294,13 @@ def _nonlinear_infeasible(model: Any, common: _Best, tried: list, tried_at: dict
     if common.cert is not None and common.check is not None:
         from ..certificate import lyapunov_of
         from ..certificate.bounds import sup_on_set
-        from ..model.slip import slip_matrix
-
         f = common.check.figures
         S = list(lyapunov_of(model.linearized(), common.cert).S)
         K = np.asarray(common.K)
         uD = np.array([model.V, 0.0])
         speed = 0.0  # the largest forward-speed deviation a on the set, at every slip corner
         for mu in model.corners:
-            M = slip_matrix(mu, model.config.robot.track_distance)
+            M = model.slip_matrix(mu)
             speed = max(speed, abs(float(M[0] @ uD) - model.V) + sup_on_set(np.array([M[0] @ K]), S, float(f["ellipsoid_level"])))
         msg += (f". The search's start, a linearized certificate with one Lyapunov matrix (|e_y| <= "
                 f"{100 * f['ultimate_bound']['e_y']:.2f} cm; not the gain `synthesize` gives with synthesis.kinematics: "

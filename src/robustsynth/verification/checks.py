@@ -31,7 +31,6 @@ import numpy as np
 from ..artifacts.gains import as_gains
 from ..certificate import CertificateCheck, check_certificate
 from ..errors import InfeasibleError, InputError
-from ..model.slip import check_physical_feasibility
 from ..results import failed_names
 from .lifted_checks import _frozen, _lifted
 from .nonlinear_checks import _nonlinear
@@ -155,9 +154,7 @@ def verify(model, gains: Any, runs: int | None = None, seed: int | None = None,
     VerificationResult or dict
         ``passed``, every check with its value and threshold, and the simulations behind them.
     """
-    from ..plants.linear import LinearPlant
-
-    if isinstance(model, LinearPlant):
+    if getattr(model, "plant_kind", None) == "lti":  # a LinearPlant
         return _verify_linear(model, gains, runs, seed)
     gains = as_gains(model, gains)
     vc = model.config.verification
@@ -227,7 +224,7 @@ def verify(model, gains: Any, runs: int | None = None, seed: int | None = None,
                              "claims more than the re-check proves: " + ", ".join(mism) if mism else
                              "every certified figure reproduced, or claimed weaker than the re-check proves (rel 1e-6)"))
     try:  # a config no controller can follow (a motor too slow for its slip) is named as such
-        check_physical_feasibility(model.config)
+        model.check_physical_feasibility()
     except InfeasibleError as exc:
         checks.append(_check("physics: the config's slip can be compensated within the motor limit", False, None, None,
                              str(exc)))
