@@ -510,6 +510,14 @@ class Model:
         """The icr model's lateral velocity row at slip ``mu`` (``robustsynth.model.slip.lateral_row``)."""
         return lateral_row(mu, self.config.robot.track_distance)
 
+    def linearized_arc_period(self, xi: np.ndarray, du: np.ndarray, S: np.ndarray, mu: np.ndarray, w: np.ndarray,
+                              homogeneous: bool = False) -> np.ndarray:
+        """One period of the kinematics linearized about the reference's arc (``robustsynth.model.arcs.
+        linearized_arc_period`` on this model): the error at t_{k+1}, (..., 3)."""
+        from .arcs import linearized_arc_period
+
+        return linearized_arc_period(self, xi, du, S, mu, w, homogeneous=homogeneous)
+
     def check_physical_feasibility(self) -> None:
         """InfeasibleError when the motors cannot follow the path at all (``robustsynth.model.slip``'s check of
         the config): no LMI can beat a motor that is too slow."""

@@ -54,6 +54,12 @@ class Vertex:
     group: int = -1  # vertices of one group (>= 0) share their S-procedure multiplier
 
     @property
+    def tangent(self) -> bool:
+        """A vertex of the tangent cuts of a delay's exponential (its label says ``tangents``; phase 1 leaves
+        them out)."""
+        return TANGENTS in self.label
+
+    @property
     def n_q(self) -> int:
         return self.B_p.shape[1]
 

@@ -24,7 +24,6 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..model.vertices import TANGENTS
 from .lmis import build_invariance
 from .solve import solve, solve_all
 
@@ -72,7 +71,7 @@ class Phase1:
 def _exact_end_vertices(model: Any) -> tuple[int, ...] | None:
     """The indices of the vertices whose uncertain instants all sit at an end of their range, or None when that is
     every vertex (or none)."""
-    keep = tuple(i for i, v in enumerate(model.vertices) if TANGENTS not in v.label)
+    keep = tuple(i for i, v in enumerate(model.vertices) if not v.tangent)
     if not keep or len(keep) == len(model.vertices):
         return None
     return keep

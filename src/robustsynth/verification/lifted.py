@@ -51,8 +51,6 @@ def arc_closed_loop_run(model, K: np.ndarray, taus: np.ndarray, mu: np.ndarray, 
     rates w_{-d_hi}, ..., w_{steps-1} (the commands in memory at the start carry the first d_hi).  Returns
     (N, steps + 1, n_s).  ``affine=False``: the homogeneous part only (the map less its value at xi = 0 for the
     same delays, slip and yaw rates: the difference of two runs under one history)."""
-    from ..model.arcs import linearized_arc_period
-
     S = model.s_tilde(taus)  # (N, steps, d_hi)
     N, steps = S.shape[:2]
     n_e, d_hi = model.n_e, model.d_hi
@@ -64,7 +62,7 @@ def arc_closed_loop_run(model, K: np.ndarray, taus: np.ndarray, mu: np.ndarray, 
         check_interrupt()
         x = xi[:, k]
         du = x @ K.T
-        xi[:, k + 1, :n_e] = linearized_arc_period(model, x, du, S[:, k], mu[:, k], yaw[:, k], homogeneous=not affine)
+        xi[:, k + 1, :n_e] = model.linearized_arc_period(x, du, S[:, k], mu[:, k], yaw[:, k], homogeneous=not affine)
         xi[:, k + 1, n_e:] = _memory_after(model, x, du)
     return xi
 
@@ -131,8 +129,6 @@ def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 
     mu_out = np.empty((N, steps, n_p))
     mu_prev = np.tile(model.nominal_slip, (N, 1)) if mu0 is None else np.array(mu0, dtype=float)
     w_out = np.zeros((N, steps + d_hi))  # the reference's yaw rates, w_{-d_hi}, ..., w_{steps-1}
-    if yaw:
-        from ..model.arcs import linearized_arc_period
     for k in range(steps):
         check_interrupt()
         x = xi[:, k]
@@ -149,10 +145,10 @@ def greedy_worst_case(model, K, V_fn, xi0: np.ndarray, steps: int, n_tau: int = 
             yaws = np.concatenate([np.broadcast_to(W[:, None, None, :, None], shape + (1,)),
                                    np.broadcast_to(memory[:, None, None, None, :], shape + (d_hi,))], axis=-1)
             du = x @ K.T
-            e = linearized_arc_period(model, np.broadcast_to(x[:, None, None, None], shape + x.shape[1:]),
-                                      np.broadcast_to(du[:, None, None, None], shape + (n_u,)),
-                                      np.broadcast_to(s[:, :, None, None], shape + (d_hi,)),
-                                      np.broadcast_to(mu_cands[:, None, :, None], shape + (n_p,)), yaws)
+            e = model.linearized_arc_period(np.broadcast_to(x[:, None, None, None], shape + x.shape[1:]),
+                                            np.broadcast_to(du[:, None, None, None], shape + (n_u,)),
+                                            np.broadcast_to(s[:, :, None, None], shape + (d_hi,)),
+                                            np.broadcast_to(mu_cands[:, None, :, None], shape + (n_p,)), yaws)
             rest = _memory_after(model, x, du)
             nxt = np.concatenate([e, np.broadcast_to(rest[:, None, None, None], shape + rest.shape[1:])], axis=-1)
         else:
