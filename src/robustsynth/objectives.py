@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import Callable, Literal
 
 __all__ = ["Objective", "OBJECTIVES", "register", "unregister", "objective", "names", "choices_text", "listed",
-           "PLANTS", "BUILT_IN"]
+           "certified_keys", "labelled_figures", "ROBOT_FIGURES_SHOWN", "PLANTS", "BUILT_IN"]
 
 PLANTS = ("tracked-robot", "lti")  # the plant kinds an objective may serve
 
@@ -58,6 +58,12 @@ class Objective:
         Why it cannot certify a turning reference (``reference.turn_radius``); None when it can.
     within_period : str or None
         Why its certificate cannot cover slip changing within a period; None when it can.
+    figures : tuple of str
+        The keys of the robot's ``certified`` figures its certificate writes (``figure`` among them); the
+        gains file's ``certified`` holds every registered objective's (:func:`certified_keys`).
+    label : str
+        Its ``figure`` in words, where reports and the console show a figure they have no line of their own for
+        (a scalar figure of a new objective: ``label value``).
     """
 
     name: str
@@ -72,6 +78,8 @@ class Objective:
     nonlinear_kinematics: bool = False
     turns: str | None = None
     within_period: str | None = None
+    figures: tuple[str, ...] = ()
+    label: str = ""
 
     def __post_init__(self) -> None:
         if self.guarantee not in ("set", "decay", "gain"):
@@ -81,6 +89,8 @@ class Objective:
         if "tracked-robot" in self.plants and self.check is None:
             raise ValueError(f"objective {self.name}: an objective of the tracked robot needs its certificate's rows "
                              "(check)")
+        if self.figures and self.figure not in self.figures:
+            raise ValueError(f"objective {self.name}: its figure {self.figure} is not among the figures it writes")
 
 
 OBJECTIVES: dict[str, Objective] = {o.name: o for o in (
@@ -90,12 +100,14 @@ OBJECTIVES: dict[str, Objective] = {o.name: o for o in (
         "sequence and every slip in its box (docs/theory.md §6b), minimizing the weighted squared bounds on "
         "e_x, e_y, e_theta; line search over alpha",
         design="robustsynth.synthesis.objectives.ultimate_bound", check="robustsynth.certificate.objectives.ultimate_bound",
-        needs_disturbance=True, nonlinear_kinematics=True),
+        needs_disturbance=True, nonlinear_kinematics=True, figures=("decay_rate", "ultimate_bound", "motor_speed_bound"),
+        label="ultimate bound"),
     Objective(
         "stability", "decay", "decay_rate",
         "robust quadratic stability for all |Delta_k| <= 1 (the paper's stated goal) with the best decay rate r, "
         "`V(xi[k+1]) <= r^2 V(xi[k])` without slip (docs/theory.md §6a); bisection on r",
-        design="robustsynth.synthesis.objectives.stability", check="robustsynth.certificate.objectives.stability"),
+        design="robustsynth.synthesis.objectives.stability", check="robustsynth.certificate.objectives.stability",
+        figures=("decay_rate",), label="decay rate"),
     Objective(
         "hinf", "gain", "hinf_gain",
         "smallest l2 gain gamma from the slip deviation d to the weighted error z = diag(w) e, for every "
@@ -103,7 +115,7 @@ OBJECTIVES: dict[str, Objective] = {o.name: o for o in (
         design="robustsynth.synthesis.objectives.hinf", check="robustsynth.certificate.objectives.hinf",
         needs_disturbance=True, common_lyapunov_only=True, turns="hinf bounds the slip input only",
         within_period="the H-infinity gain is stated for the slip input B_d w, which does not describe slip "
-                      "changing within a period"),
+                      "changing within a period", figures=("hinf_gain",), label="l2 gain slip -> weighted error"),
 )}
 
 
@@ -204,6 +216,40 @@ def listed(where: Callable[[Objective], bool], plant: str = "tracked-robot", con
     """
     found = [o.name for o in OBJECTIVES.values() if plant in o.plants and where(o)]
     return found[0] if len(found) == 1 else ", ".join(found[:-1]) + f" {conj} " + found[-1] if found else "none"
+
+
+def certified_keys() -> tuple[str, ...]:
+    """The keys of the robot's ``certified`` figures, in order: ``robust_stability``, then the figures every
+    registered objective writes, each once, in the registry's order.
+
+    Returns
+    -------
+    tuple of str
+        The keys (the built-in objectives': robust_stability, decay_rate, ultimate_bound, motor_speed_bound,
+        hinf_gain).
+    """
+    return tuple(dict.fromkeys(("robust_stability",) + tuple(k for o in OBJECTIVES.values() for k in o.figures)))
+
+
+# the robot's figures that reports and the console show in lines of their own (the set's and the decay's)
+ROBOT_FIGURES_SHOWN = ("robust_stability", "decay_rate", "ultimate_bound", "motor_speed_bound")
+
+
+def labelled_figures(shown: tuple[str, ...]) -> list[tuple[str, str]]:
+    """The scalar figures a report or the console has no line of its own for: (key, label) of each registered
+    objective's ``figure`` not in ``shown``.
+
+    Parameters
+    ----------
+    shown : tuple of str
+        The figures the caller shows its own way.
+
+    Returns
+    -------
+    list of tuple
+        (key, label) in the registry's order.
+    """
+    return list(dict.fromkeys((o.figure, o.label) for o in OBJECTIVES.values() if o.figure not in shown))
 
 
 def objective(name: str) -> Objective:

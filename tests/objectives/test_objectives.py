@@ -113,7 +113,12 @@ def test_a_toy_objective_runs_through_the_robot_synthesis_check_and_report(toy, 
     res = synthesize(model)
     assert res.objective == toy.NAME and res.check.passed
     assert toy.RATE - RATE_TOL <= res.certified["decay_rate"] <= toy.RATE * (1 + RATE_ROUNDING)
-    assert recheck_gains(model, gains_dict(model, res)).passed
+    gd = gains_dict(model, res)
+    assert recheck_gains(model, gd).passed
+    # its own figure, written by its rows only: V halves within it at the proven rate, not one period sooner
+    half = gd["certified"]["toy_half_life"]
+    r = res.certified["decay_rate"]
+    assert r ** (2 * half) <= 0.5 < r ** (2 * (half - 1))
     radii = _constant_delay_radii(model, res.K, np.asarray(model.parameter_corners())[:, None, :])
     assert np.max(radii) <= toy.RATE + SPECTRAL_TOL
     # a stronger claim than the gain meets is refused by the same rows: frozen, the loop decays at max(radii)
@@ -127,7 +132,10 @@ def test_a_toy_objective_runs_through_the_robot_synthesis_check_and_report(toy, 
     assert run.exit_code == 0, run.output
     gains = json.loads((out / "gains.json").read_text())
     assert gains["objective"] == toy.NAME and gains["certified"]["decay_rate"] >= toy.RATE - RATE_TOL
-    assert toy.TOY.text in (out / "synthesis.md").read_text()
+    assert gains["certified"]["toy_half_life"] == half
+    assert f"periods for V to halve {half:.4g}" in run.output  # the console's line of certified figures
+    md = (out / "synthesis.md").read_text()
+    assert toy.TOY.text in md and f"| periods for V to halve | {half} |" in md
 
 
 def test_a_toy_objective_runs_through_the_linear_plant(toy) -> None:

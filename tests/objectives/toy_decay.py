@@ -1,8 +1,9 @@
 """A toy objective, added as docs/architecture.md's "How to add an objective" says (the test beside it registers
 it): ``toy-decay`` proves one fixed decay rate ``RATE`` (no search: one solve of the decay LMIs at r = RATE).
 
-Its design is this module (``robot`` and ``linear``); its certificate is the decay LMIs' (6a), whose rows
-:mod:`robustsynth.certificate.objectives.stability` already proves, so its registry line names that module."""
+Its design is this module (``robot`` and ``linear``); its certificate's rows are tests/objectives/toy_rows.py (on
+the checker's side: no solver imported there), the decay LMIs' (6a) rows that ``stability`` proves and a figure of
+its own, ``toy_half_life``, the periods in which V halves."""
 
 from __future__ import annotations
 
@@ -17,8 +18,9 @@ NAME = "toy-decay"
 RATE = 0.99  # the decay rate it proves, per period
 
 # the registry line
-TOY = Objective(NAME, "decay", "decay_rate", f"the decay rate {RATE} of the disturbance-free state, one solve",
-                design=__name__, check="robustsynth.certificate.objectives.stability")
+TOY = Objective(NAME, "decay", "toy_half_life", f"the decay rate {RATE} of the disturbance-free state, one solve",
+                design=__name__, check="tests.objectives.toy_rows", figures=("decay_rate", "toy_half_life"),
+                label="periods for V to halve")
 
 
 def robot(model: Any, s: Any, search: list, say: Callable[[str], None]) -> tuple[_Best, _Runner, list[str]]:

@@ -22,13 +22,14 @@ import numpy as np
 
 from .. import __version__
 from ..errors import InputError
+from ..objectives import certified_keys
 from .files import SCHEMA_VERSION
 
 __all__ = ["written_by_robustsynth", "gains_dict", "gains_id", "certified_figures", "gains_mat_vars", "load_gains", "as_gains", "stored_config", "controller_description",
            "LAW", "CERTIFIED_KEYS", "DESCRIPTION_FORMAT", "MAX_GAINS_BYTES", "SCHEMA_VERSION"]
 
 LAW = "du_k = K xi_k"
-CERTIFIED_KEYS = ("robust_stability", "decay_rate", "ultimate_bound", "motor_speed_bound", "hinf_gain")
+CERTIFIED_KEYS = certified_keys()  # the built-in objectives' (one registered later adds its own: certified_keys())
 DESCRIPTION_FORMAT = "robustsynth-controller/1"
 MAX_GAINS_BYTES = 8 << 20
 
@@ -36,7 +37,7 @@ MAX_GAINS_BYTES = 8 << 20
 def certified_figures(figs: dict[str, Any]) -> dict[str, Any]:
     """A gains file's "certified" mapping from a certificate check's figures: CERTIFIED_KEYS, and |e_theta(t)|
     between samples, the nonlinear proof's bound and whether slip may change within a period where given."""
-    certified = {k: figs.get(k) for k in CERTIFIED_KEYS}
+    certified = {k: figs.get(k) for k in certified_keys()}
     for k in ("heading_within_period", "heading_bound", "ultimate_bound_between_samples", "slip_within_period"):
         if figs.get(k) is not None:
             certified[k] = figs[k]

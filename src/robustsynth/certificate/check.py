@@ -25,6 +25,7 @@ import numpy as np
 
 from ..verified import (assembly_radius, assembly_radius_batch, proves_at_least, proves_at_least_batch, rump_shift,
                         rump_shift_batch)
+from ..objectives import certified_keys
 from .lmis import _AbsVertex, _stacks, _sym, multiplier_structure_error
 from .rebuild import model_of_certificate
 
@@ -247,8 +248,8 @@ def _check(model: Any, K: np.ndarray, cert: Mapping[str, Any]) -> CertificateChe
         return _fail("the within-period vertices' channels have no multiplier (no vertex of their group)", checks)
     family = _Family(model, Ms, conds, K @ X, np.abs(K) @ np.abs(X),  # Y's magnitude: Y = K X is computed, not given
                      threshold, X.shape[0] * (K.shape[0] + 1) + len(mats), varying, group_multipliers)
-    figures: dict[str, Any] = {"robust_stability": False, "decay_rate": None, "ultimate_bound": None,
-                               "motor_speed_bound": None, "hinf_gain": None}
+    figures: dict[str, Any] = dict.fromkeys(certified_keys(), None)  # each objective's figures, None until proven
+    figures["robust_stability"] = False
     within = "covered" if varying else f"assumed constant: {varying_reason}"
     failed = rows(cert, family, K, X, lyap, mats, checks, figures)
     if failed is not None:
