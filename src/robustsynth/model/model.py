@@ -501,9 +501,9 @@ class Model:
 
     plant_kind = "tracked-robot"  # core.plant.Plant: which plant this is (commands.JOBS, objectives.PLANTS)
 
+    # the robot's own mathematics, for the rooms that take the plant rather than import its modules
     def slip_matrix(self, mu: np.ndarray) -> np.ndarray:
-        """The commands-to-twist matrix at slip ``mu`` (``robustsynth.model.slip.slip_matrix`` on this robot's
-        track distance): what a room that is not the model's asks the robot for, rather than importing it."""
+        """The commands-to-twist matrix at slip ``mu`` (``robustsynth.model.slip.slip_matrix``)."""
         return slip_matrix(mu, self.config.robot.track_distance)
 
     def lateral_row(self, mu: np.ndarray) -> np.ndarray:
@@ -512,15 +512,13 @@ class Model:
 
     def linearized_arc_period(self, xi: np.ndarray, du: np.ndarray, S: np.ndarray, mu: np.ndarray, w: np.ndarray,
                               homogeneous: bool = False) -> np.ndarray:
-        """One period of the kinematics linearized about the reference's arc (``robustsynth.model.arcs.
-        linearized_arc_period`` on this model): the error at t_{k+1}, (..., 3)."""
+        """One period along the reference's arc (``robustsynth.model.arcs.linearized_arc_period``), (..., 3)."""
         from .arcs import linearized_arc_period
 
         return linearized_arc_period(self, xi, du, S, mu, w, homogeneous=homogeneous)
 
     def check_physical_feasibility(self) -> None:
-        """InfeasibleError when the motors cannot follow the path at all (``robustsynth.model.slip``'s check of
-        the config): no LMI can beat a motor that is too slow."""
+        """InfeasibleError when the motors cannot follow the path at all (``robustsynth.model.slip``)."""
         check_physical_feasibility(self.config)
 
     def coverage(self, samples: int = 1000, seed: int = 0) -> dict:
