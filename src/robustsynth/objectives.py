@@ -60,7 +60,7 @@ class Objective:
         Why its certificate cannot cover slip changing within a period; None when it can.
     figures : tuple of str
         The keys of the robot's ``certified`` figures its certificate writes (``figure`` among them); the
-        gains file's ``certified`` holds every registered objective's (:func:`certified_keys`).
+        gains file's ``certified`` holds every registered objective's (``certified_keys()``).
     label : str
         Its ``figure`` in words, where reports and the console show a figure they have no line of their own for
         (a scalar figure of a new objective: ``label value``).
