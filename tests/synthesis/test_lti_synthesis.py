@@ -284,3 +284,20 @@ def test_a_linear_plants_own_settings_are_the_default() -> None:
     assert design.certified and design.objective == "stability"
     with pytest.raises(InputError, match="a linear plant's settings are an LtiSynthesisConfig"):
         robustsynth.synthesize(plant, SynthesisConfig())
+
+
+def test_the_robots_calls_on_a_linear_config_point_to_the_plant_and_the_route_works() -> None:
+    """build_model and synthesize refuse a linear plant's config in one line that names what to call instead;
+    what it names (LinearPlant.from_config, then robustsynth.synthesize) certifies a gain."""
+    from pathlib import Path
+
+    import robustsynth
+    from robustsynth.errors import InputError
+
+    root = Path(__file__).resolve().parents[2]
+    cfg = robustsynth.load_config(root / "configs" / "dc-motor.yaml")
+    for call in (robustsynth.build_model, robustsynth.synthesize):
+        with pytest.raises(InputError, match=r"linear plant's \(plant: kind: lti\): its plant is "
+                                             r"robustsynth.LinearPlant.from_config\(config\)"):
+            call(cfg)
+    assert robustsynth.synthesize(robustsynth.LinearPlant.from_config(cfg, str(root / "configs"))).certified

@@ -15,8 +15,9 @@ def refuse_lti(obj: Any, where: str) -> None:
     """InputError when ``obj`` (a config, or a model made from one) is a linear plant's: the robot's
     calls have no meaning for it, and would fail on a missing section."""
     if isinstance(obj, LtiConfig) or isinstance(getattr(obj, "config", None), LtiConfig):
-        raise InputError(f"{where}: the config is a linear plant's (plant: kind: lti): use robustsynth.lti_plant, "
-                         "synthesize_lti, verify_lti and lti_margins (or the CLI, which picks them)")
+        raise InputError(f"{where}: the config is a linear plant's (plant: kind: lti): its plant is "
+                         "robustsynth.LinearPlant.from_config(config), which robustsynth.synthesize and robustsynth.verify "
+                         "take; its margins are robustsynth.lti_margins (or the CLI, which picks them)")
 
 
 def is_lti(data: Any) -> bool:
