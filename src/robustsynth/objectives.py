@@ -18,6 +18,8 @@ __all__ = ["Objective", "OBJECTIVES", "register", "unregister", "objective", "na
            "certified_keys", "labelled_figures", "ROBOT_FIGURES_SHOWN", "PLANTS", "BUILT_IN"]
 
 PLANTS = ("tracked-robot", "lti")  # the plant kinds an objective may serve
+# the robot's figures that reports and the console show in lines of their own (the set's and the decay's)
+ROBOT_FIGURES_SHOWN = ("robust_stability", "decay_rate", "ultimate_bound", "motor_speed_bound")
 
 
 @dataclass(frozen=True)
@@ -60,10 +62,11 @@ class Objective:
         Why its certificate cannot cover slip changing within a period; None when it can.
     figures : tuple of str
         The keys of the robot's ``certified`` figures its certificate writes (``figure`` among them); the
-        gains file's ``certified`` holds every registered objective's (``certified_keys()``).
+        gains file's ``certified`` holds every robot objective's (``certified_keys()``).  Each is an upper
+        bound (a file claiming a smaller value than the re-check proves fails ``verify``).
     label : str
         Its ``figure`` in words, where reports and the console show a figure they have no line of their own for
-        (a scalar figure of a new objective: ``label value``).
+        (a scalar figure of a new objective: ``label value``); required for such a figure.
     """
 
     name: str
@@ -91,6 +94,8 @@ class Objective:
                              "(check)")
         if self.figures and self.figure not in self.figures:
             raise ValueError(f"objective {self.name}: its figure {self.figure} is not among the figures it writes")
+        if "tracked-robot" in self.plants and self.figure not in ROBOT_FIGURES_SHOWN and not self.label:
+            raise ValueError(f"objective {self.name}: its figure {self.figure} needs a label (how reports name it)")
 
 
 OBJECTIVES: dict[str, Objective] = {o.name: o for o in (
@@ -228,11 +233,8 @@ def certified_keys() -> tuple[str, ...]:
         The keys (the built-in objectives': robust_stability, decay_rate, ultimate_bound, motor_speed_bound,
         hinf_gain).
     """
-    return tuple(dict.fromkeys(("robust_stability",) + tuple(k for o in OBJECTIVES.values() for k in o.figures)))
-
-
-# the robot's figures that reports and the console show in lines of their own (the set's and the decay's)
-ROBOT_FIGURES_SHOWN = ("robust_stability", "decay_rate", "ultimate_bound", "motor_speed_bound")
+    return tuple(dict.fromkeys(("robust_stability",) + tuple(k for o in OBJECTIVES.values()
+                                                             if "tracked-robot" in o.plants for k in o.figures)))
 
 
 def labelled_figures(shown: tuple[str, ...]) -> list[tuple[str, str]]:
@@ -249,7 +251,11 @@ def labelled_figures(shown: tuple[str, ...]) -> list[tuple[str, str]]:
     list of tuple
         (key, label) in the registry's order.
     """
-    return list(dict.fromkeys((o.figure, o.label) for o in OBJECTIVES.values() if o.figure not in shown))
+    out: dict[str, str] = {}
+    for o in OBJECTIVES.values():
+        if "tracked-robot" in o.plants and o.figure not in shown:
+            out.setdefault(o.figure, o.label)
+    return list(out.items())
 
 
 def objective(name: str) -> Objective:

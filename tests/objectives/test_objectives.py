@@ -81,6 +81,17 @@ def test_a_name_is_registered_once_and_a_descriptor_is_checked() -> None:
         objectives.Objective("x", "bound", "decay_rate", "", design="x", check="y")
     with pytest.raises(ValueError, match="certificate's rows"):
         objectives.Objective("x", "decay", "decay_rate", "", design="x")
+    with pytest.raises(ValueError, match="needs a label"):
+        objectives.Objective("x", "gain", "x_gain", "", design="x", check="y", figures=("x_gain",))
+    # an objective of the linear plant only adds nothing to the robot's figures
+    objectives.register(objectives.Objective("lin-only", "gain", "lin_gain", "", design="x", plants=("lti",),
+                                             figures=("lin_gain",), label="a linear gain"))
+    try:
+        assert "lin_gain" not in objectives.certified_keys()
+        assert objectives.labelled_figures(objectives.ROBOT_FIGURES_SHOWN) == [("hinf_gain", objectives.objective(
+            "hinf").label)]
+    finally:
+        objectives.unregister("lin-only")
     with pytest.raises(KeyError, match="ultimate-bound, stability, hinf"):
         objectives.objective("h-inf")
 
@@ -108,6 +119,7 @@ def test_a_toy_objective_runs_through_the_robot_synthesis_check_and_report(toy, 
     from robustsynth.artifacts.gains import gains_dict
     from robustsynth.certificate import check_certificate, recheck_gains
     from robustsynth.cli import main
+    from robustsynth.verification.checks import claimed_beyond
 
     model = build_model(make_config(**{"synthesis.objective": toy.NAME}))
     res = synthesize(model)
@@ -119,6 +131,9 @@ def test_a_toy_objective_runs_through_the_robot_synthesis_check_and_report(toy, 
     half = gd["certified"]["toy_half_life"]
     r = res.certified["decay_rate"]
     assert r ** (2 * half) <= 0.5 < r ** (2 * (half - 1))
+    # verify's comparison of a file's figures with the re-check reads the toy's figure: a shorter one is refused
+    assert claimed_beyond(dict(gd["certified"], toy_half_life=half - 1), res.certified) == ["toy_half_life"]
+    assert claimed_beyond(gd["certified"], res.certified) == []
     radii = _constant_delay_radii(model, res.K, np.asarray(model.parameter_corners())[:, None, :])
     assert np.max(radii) <= toy.RATE + SPECTRAL_TOL
     # a stronger claim than the gain meets is refused by the same rows: frozen, the loop decays at max(radii)

@@ -296,7 +296,7 @@ def test_the_robots_calls_on_a_linear_config_point_to_the_plant_and_the_route_wo
 
     root = Path(__file__).resolve().parents[2]
     cfg = robustsynth.load_config(root / "configs" / "dc-motor.yaml")
-    for call in (robustsynth.build_model, robustsynth.synthesize):
+    for call in (robustsynth.build_model, robustsynth.synthesize, lambda c: robustsynth.verify(c, np.zeros((2, 5)))):
         with pytest.raises(InputError, match=r"linear plant's \(plant: kind: lti\): its plant is "
                                              r"robustsynth.LinearPlant.from_config\(config\)"):
             call(cfg)

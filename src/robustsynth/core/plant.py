@@ -36,8 +36,8 @@ class Plant(Protocol):
 
     @property
     def plant_kind(self) -> str:
-        """Which plant this is: what the library dispatches on (``robustsynth.synthesize``, ``robustsynth.verify``,
-        the objectives that serve it, the commands' jobs)."""
+        """Which plant this is: what ``robustsynth.synthesize`` and ``robustsynth.verify`` dispatch on, named as
+        the objectives name the plants they serve (``robustsynth.objectives.PLANTS``) and the commands their jobs."""
 
     @property
     def network(self) -> Network:

@@ -499,7 +499,7 @@ class Model:
         """The slip box's corners (n_c, 2), or (n_c, 4) with the icr parameters."""
         return np.asarray(self.corners)
 
-    plant_kind = "tracked-robot"  # core.plant.Plant: which plant this is (commands.JOBS, objectives.PLANTS)
+    plant_kind = "tracked-robot"  # core.plant.Plant: which plant this is (the names of objectives.PLANTS)
 
     # the robot's own mathematics, for the rooms that take the plant rather than import its modules
     def slip_matrix(self, mu: np.ndarray) -> np.ndarray:

@@ -37,7 +37,7 @@ class LinearPlant:
     name: str = "lti"
     settings: Any = None
 
-    plant_kind = "lti"  # core.plant.Plant: which plant this is (commands.JOBS, objectives.PLANTS)
+    plant_kind = "lti"  # core.plant.Plant: which plant this is (the names of objectives.PLANTS)
 
     @classmethod
     def from_config(cls, cfg: Any, base_dir: str | None = None) -> LinearPlant:

@@ -31,6 +31,7 @@ import numpy as np
 from ..artifacts.gains import as_gains
 from ..certificate import CertificateCheck, check_certificate
 from ..errors import InfeasibleError, InputError
+from ..objectives import ROBOT_FIGURES_SHOWN, labelled_figures
 from ..results import failed_names
 from .lifted_checks import _frozen, _lifted
 from .nonlinear_checks import _nonlinear
@@ -126,6 +127,26 @@ def _verify_linear(plant: Any, gains: Any, runs: int | None, seed: int | None) -
                       runs=64 if runs is None else runs, seed=0 if seed is None else seed, multipliers=eps, pieces=pieces)
 
 
+def claimed_beyond(claimed: dict[str, Any], figures: dict[str, Any]) -> list[str]:
+    """The figures a gains file claims stronger than the re-check proves (``figures``): every figure is an upper
+    bound (a decay rate, a bound, a gain, an objective's own figure), so a file may claim the re-checked value or
+    a weaker one (e.g. a delay-dependent gain written before the bounds on the intersection of docs/theory.md §6i),
+    never a smaller one (rel 1e-6); and slip covered within a period only where the re-check covers it."""
+    def stronger(c: Any, f: float) -> bool:
+        return not float(c) >= float(f) * (1.0 - 1e-6)
+
+    scalars = ("decay_rate", "motor_speed_bound") + tuple(k for k, _ in labelled_figures(ROBOT_FIGURES_SHOWN))
+    mism = [k for k in scalars
+            if claimed.get(k) is not None and figures.get(k) is not None and stronger(claimed[k], figures[k])]
+    if claimed.get("slip_within_period") == "covered" and figures.get("slip_within_period") != "covered":
+        mism.append("slip_within_period")  # claims slip may change within a period; the re-check does not cover it
+    for key in ("ultimate_bound", "ultimate_bound_between_samples"):
+        ubc, ubf = claimed.get(key), figures.get(key)
+        if ubc and ubf:
+            mism += [f"{key}.{k}" for k in ubf if ubf[k] is not None and ubc.get(k) is not None and stronger(ubc[k], ubf[k])]
+    return mism
+
+
 def verify(model, gains: Any, runs: int | None = None, seed: int | None = None,
            progress: Callable[[int, int], None] | None = None) -> VerificationResult | dict[str, Any]:
     """Run every check of ``gains`` against ``model``: a gains.json mapping (:func:`~robustsynth.artifacts.gains.load_gains`),
@@ -156,6 +177,9 @@ def verify(model, gains: Any, runs: int | None = None, seed: int | None = None,
     """
     if getattr(model, "plant_kind", None) == "lti":  # a LinearPlant
         return _verify_linear(model, gains, runs, seed)
+    from ..config import refuse_lti
+
+    refuse_lti(model, "verify")
     gains = as_gains(model, gains)
     vc = model.config.verification
     runs = vc.runs if runs is None else runs
@@ -205,21 +229,7 @@ def verify(model, gains: Any, runs: int | None = None, seed: int | None = None,
                         f"decay rate {cert.figures.get('decay_rate', float('nan')):.4g}, no error bounds"))]
     claimed = gains.get("certified") or {}
     if cert.passed and isinstance(claimed, dict):
-        # every figure is an upper bound (a decay rate, a bound, a gain): a file may claim the re-checked
-        # value or a weaker one (e.g. a delay-dependent gain written before the bounds on the intersection
-        # of docs/theory.md §6i), never a stronger one
-        def _stronger(c: Any, f: float) -> bool:
-            return not float(c) >= float(f) * (1.0 - 1e-6)
-
-        mism = [k for k in ("decay_rate", "motor_speed_bound", "hinf_gain")
-                if claimed.get(k) is not None and cert.figures.get(k) is not None and _stronger(claimed[k], cert.figures[k])]
-        if claimed.get("slip_within_period") == "covered" and cert.figures.get("slip_within_period") != "covered":
-            mism.append("slip_within_period")  # claims slip may change within a period; the re-check does not cover it
-        for key in ("ultimate_bound", "ultimate_bound_between_samples"):
-            ubc, ubf = claimed.get(key), cert.figures.get(key)
-            if ubc and ubf:
-                mism += [f"{key}.{k}" for k in ubf if ubf[k] is not None and ubc.get(k) is not None
-                         and _stronger(ubc[k], ubf[k])]
+        mism = claimed_beyond(claimed, cert.figures)
         checks.append(_check("certificate: figures in the file match the re-check", not mism, None, None,
                              "claims more than the re-check proves: " + ", ".join(mism) if mism else
                              "every certified figure reproduced, or claimed weaker than the re-check proves (rel 1e-6)"))
