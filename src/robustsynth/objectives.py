@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import Callable, Literal
 
 __all__ = ["Objective", "OBJECTIVES", "register", "unregister", "objective", "names", "choices_text", "listed",
-           "certified_keys", "labelled_figures", "ROBOT_FIGURES_SHOWN", "PLANTS", "BUILT_IN"]
+           "certified_keys", "scalar_figures", "labelled_figures", "ROBOT_FIGURES_SHOWN", "PLANTS", "BUILT_IN"]
 
 PLANTS = ("tracked-robot", "lti")  # the plant kinds an objective may serve
 # the robot's figures that reports and the console show in lines of their own (the set's and the decay's)
@@ -198,8 +198,14 @@ def choices_text(given: tuple[str, ...]) -> str:
     str
         ``'a', 'b' or 'c'``.
     """
-    quoted = [f"'{n}'" for n in given]
-    return quoted[0] if len(quoted) == 1 else ", ".join(quoted[:-1]) + " or " + quoted[-1]
+    return _joined([f"'{n}'" for n in given], "or")
+
+
+def _joined(words: list[str], conj: str) -> str:
+    """``a``, ``a or b``, ``a, b or c`` (``conj`` before the last word); ``none`` for no words."""
+    if not words:
+        return "none"
+    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + f" {conj} " + words[-1]
 
 
 def listed(where: Callable[[Objective], bool], plant: str = "tracked-robot", conj: str = "or") -> str:
@@ -219,8 +225,7 @@ def listed(where: Callable[[Objective], bool], plant: str = "tracked-robot", con
     str
         ``a``, ``a or b``, ``a, b or c``.
     """
-    found = [o.name for o in OBJECTIVES.values() if plant in o.plants and where(o)]
-    return found[0] if len(found) == 1 else ", ".join(found[:-1]) + f" {conj} " + found[-1] if found else "none"
+    return _joined([o.name for o in OBJECTIVES.values() if plant in o.plants and where(o)], conj)
 
 
 def certified_keys() -> tuple[str, ...]:
@@ -237,14 +242,27 @@ def certified_keys() -> tuple[str, ...]:
                                                              if "tracked-robot" in o.plants for k in o.figures)))
 
 
-def labelled_figures(shown: tuple[str, ...]) -> list[tuple[str, str]]:
+def scalar_figures() -> tuple[str, ...]:
+    """The robot's certified figures that are one number each (not ``robust_stability``, a verdict, nor
+    ``ultimate_bound``, a bound per error), in :func:`certified_keys`' order: what a comparison of two files'
+    figures compares number against number.
+
+    Returns
+    -------
+    tuple of str
+        The keys (the built-in objectives': decay_rate, motor_speed_bound, hinf_gain).
+    """
+    return tuple(k for k in certified_keys() if k not in ("robust_stability", "ultimate_bound"))
+
+
+def labelled_figures(shown: tuple[str, ...] = ROBOT_FIGURES_SHOWN) -> list[tuple[str, str]]:
     """The scalar figures a report or the console has no line of its own for: (key, label) of each registered
     objective's ``figure`` not in ``shown``.
 
     Parameters
     ----------
     shown : tuple of str
-        The figures the caller shows its own way.
+        The figures the caller shows its own way (default: the lines reports and the console have).
 
     Returns
     -------

@@ -17,7 +17,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from .objectives import ROBOT_FIGURES_SHOWN, labelled_figures
+from .objectives import scalar_figures
 
 __all__ = ["run_config", "compare", "write_baselines", "CERTIFIED_REL", "MONTE_CARLO_REL"]
 
@@ -97,7 +97,7 @@ def compare(expected: dict[str, Any], got: dict[str, Any]) -> list[str]:
     for key in ("robust_stability",):
         if ec.get(key) != gc.get(key):
             diffs.append(f"certified.{key}: expected {ec.get(key)!r}, got {gc.get(key)!r}")
-    for key in ("decay_rate", "motor_speed_bound") + tuple(k for k, _ in labelled_figures(ROBOT_FIGURES_SHOWN)):
+    for key in scalar_figures():
         if not _close(ec.get(key), gc.get(key), CERTIFIED_REL):
             diffs.append(f"certified.{key}: expected {ec.get(key)}, got {gc.get(key)} (rel {CERTIFIED_REL:g})")
     eu, gu = ec.get("ultimate_bound") or {}, gc.get("ultimate_bound") or {}

@@ -26,16 +26,15 @@ from ..objectives import certified_keys
 from .files import SCHEMA_VERSION
 
 __all__ = ["written_by_robustsynth", "gains_dict", "gains_id", "certified_figures", "gains_mat_vars", "load_gains", "as_gains", "stored_config", "controller_description",
-           "LAW", "CERTIFIED_KEYS", "DESCRIPTION_FORMAT", "MAX_GAINS_BYTES", "SCHEMA_VERSION"]
+           "LAW", "DESCRIPTION_FORMAT", "MAX_GAINS_BYTES", "SCHEMA_VERSION"]
 
 LAW = "du_k = K xi_k"
-CERTIFIED_KEYS = certified_keys()  # the built-in objectives' (one registered later adds its own: certified_keys())
 DESCRIPTION_FORMAT = "robustsynth-controller/1"
 MAX_GAINS_BYTES = 8 << 20
 
 
 def certified_figures(figs: dict[str, Any]) -> dict[str, Any]:
-    """A gains file's "certified" mapping from a certificate check's figures: CERTIFIED_KEYS, and |e_theta(t)|
+    """A gains file's "certified" mapping from a certificate check's figures: ``objectives.certified_keys()``, and |e_theta(t)|
     between samples, the nonlinear proof's bound and whether slip may change within a period where given."""
     certified = {k: figs.get(k) for k in certified_keys()}
     for k in ("heading_within_period", "heading_bound", "ultimate_bound_between_samples", "slip_within_period"):

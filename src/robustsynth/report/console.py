@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
 from ..monitor import CAUSES
-from ..objectives import ROBOT_FIGURES_SHOWN, labelled_figures
+from ..objectives import labelled_figures
 from .markdown import fmt
 
 __all__ = ["Err", "wrote", "cleared", "model_summary", "lti_model_summary", "synthesis_summary",
@@ -79,7 +79,7 @@ def robot_certified(gains: Mapping[str, Any]) -> str:
                      f"|e_theta| <= {ub['e_theta']:.4f} rad")
     if c.get("motor_speed_bound") is not None:
         parts.append(f"|rho| <= {c['motor_speed_bound']:.3f} rad/s")
-    for key, label in labelled_figures(ROBOT_FIGURES_SHOWN):  # an objective's own figure (hinf's l2 gain, ...)
+    for key, label in labelled_figures():  # an objective's own figure (hinf's l2 gain, ...)
         if c.get(key) is not None:
             parts.append(f"{label} {c[key]:.4g}")
     if gains.get("certificate", {}).get("kinematics") == "nonlinear":

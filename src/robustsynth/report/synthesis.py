@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..artifacts.gains import LAW
-from ..objectives import ROBOT_FIGURES_SHOWN, labelled_figures, objective
+from ..objectives import labelled_figures, objective
 from .markdown import conditions_text, fmt, matrix_table, table
 
 __all__ = ["synthesis_markdown", "diagnosis_markdown", "certificate_check_markdown"]
@@ -88,7 +88,7 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
         ["bound on |e_y(t)| for all t (between samples too)", fmt((figs.get("ultimate_bound_between_samples") or {}).get("e_y")), "m"],
         ["bound on |e_theta(t)| for all t (between samples too)", fmt(figs.get("heading_within_period")), "rad"],
         ["bound on |rho_r|, |rho_l| on the ellipsoid", fmt(figs.get("motor_speed_bound")), "rad/s"],
-    ] + [[label, fmt(figs.get(key)), "—"] for key, label in labelled_figures(ROBOT_FIGURES_SHOWN)]
+    ] + [[label, fmt(figs.get(key)), "—"] for key, label in labelled_figures()]
     out.append(table(["quantity", "value", "unit"], rows))
     if ub:
         out.append(

@@ -9,7 +9,7 @@ from ..config import config_to_dict
 from .. import __version__
 from ..artifacts.files import SCHEMA_VERSION
 from ..certificate.turns import TURN_REENTRY
-from ..objectives import ROBOT_FIGURES_SHOWN, labelled_figures, listed, objective
+from ..objectives import labelled_figures, listed, objective
 from ..results import failed_names
 from .markdown import conditions_text, fmt, table
 
@@ -568,7 +568,7 @@ def report_markdown(model: Any, gains: dict[str, Any], vd: dict[str, Any], figur
     if c.get("motor_speed_bound") is not None:
         rows.append(["|rho| [rad/s]", fmt(c["motor_speed_bound"]), fmt(worst("motor_speed")),
                      fmt(mc["ratio_to_certified"].get("motor_speed"), 3)])
-    rows += [[label, fmt(c[key]), "—", "—"] for key, label in labelled_figures(ROBOT_FIGURES_SHOWN)
+    rows += [[label, fmt(c[key]), "—", "—"] for key, label in labelled_figures()
              if c.get(key) is not None]  # an objective's own figure (hinf's l2 gain, ...)
     out.append(table(["quantity", f"certified ({model.kind} model)",
                       f"nonlinear robot, max on certified steps ({mc['runs']} Monte Carlo + 4 extreme runs"

@@ -202,7 +202,7 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
         raise InputError(f"synthesis.objective: {obj.turns}; a turning reference (reference.turn_radius) needs "
                          f"{listed(lambda o: o.turns is None)}")
     model.check_physical_feasibility()  # physics first: no LMI can beat a motor that is too slow
-    best, runner, found = design_of(s.objective, "tracked-robot").robot(model, s, search, say)
+    best, runner, found = design_of(s.objective, "tracked-robot")(model, s, search, say)
     notes += found
     rec = best.record
     if best.check is not None:

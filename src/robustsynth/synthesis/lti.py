@@ -459,9 +459,8 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
         raise InputError(f"synthesis.objective: {objective} needs plant.disturbance (E and its bound)")
     t0 = time.perf_counter()
     V, C = _vertices_of(plant, Ts, tau_min, tau_hi, d, pieces)
-    job = LinearJob(plant, V, C, Ts, tau_min, tau_hi, pieces, d, len(V.Av), objective, decay, alpha_points, threads,
-                    solver, say, t0)
-    return _proven(design_of(objective, "lti").linear(job), name)
+    job = LinearJob(plant, V, C, Ts, tau_min, tau_hi, pieces, objective, decay, alpha_points, threads, solver, say, t0)
+    return _proven(design_of(objective, "lti")(job), name)
 
 
 @dataclass(frozen=True)
@@ -477,8 +476,6 @@ class LinearJob:
     tau_min: float
     tau_hi: float
     pieces: int
-    d: int
-    nv: int
     objective: str
     decay: float
     alpha_points: int
@@ -486,6 +483,16 @@ class LinearJob:
     solver: str
     say: Any
     t0: float
+
+    @property
+    def d(self) -> int:
+        """The lifting's depth (the vertices')."""
+        return self.V.d
+
+    @property
+    def nv(self) -> int:
+        """The over-approximation's vertices."""
+        return len(self.V.Av)
 
     def per_period_gain(self) -> float:
         """g = int_0^Ts ||e^{A r} E|| dr: a disturbance of sup-norm 1 over a period moves the state by at most g."""

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..certificate import CertificateCheck, check_certificate, varying_failures
 from ..config import SynthesisConfig
+from ..errors import InfeasibleError, SolverFailure
 from .lmis import LMIProblem
 from .solve import Outcome, Rejected, SolveRecord, solve
 
@@ -308,8 +309,6 @@ def _attempts(out: Any) -> str:
 
 def _raise_no_solution(runner: _Runner, objective: str, infeasible_msg: str) -> None:
     """SolverFailure when the solvers failed (also with the fallback), else InfeasibleError(``infeasible_msg``)."""
-    from ..errors import InfeasibleError, SolverFailure
-
     if runner.failures:
         raise SolverFailure(f"{objective}: the solvers failed, also with the fallback ({runner.records[-1].status})")
     raise InfeasibleError(infeasible_msg)

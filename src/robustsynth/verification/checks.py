@@ -31,7 +31,7 @@ import numpy as np
 from ..artifacts.gains import as_gains
 from ..certificate import CertificateCheck, check_certificate
 from ..errors import InfeasibleError, InputError
-from ..objectives import ROBOT_FIGURES_SHOWN, labelled_figures
+from ..objectives import scalar_figures
 from ..results import failed_names
 from .lifted_checks import _frozen, _lifted
 from .nonlinear_checks import _nonlinear
@@ -135,8 +135,7 @@ def claimed_beyond(claimed: dict[str, Any], figures: dict[str, Any]) -> list[str
     def stronger(c: Any, f: float) -> bool:
         return not float(c) >= float(f) * (1.0 - 1e-6)
 
-    scalars = ("decay_rate", "motor_speed_bound") + tuple(k for k, _ in labelled_figures(ROBOT_FIGURES_SHOWN))
-    mism = [k for k in scalars
+    mism = [k for k in scalar_figures()
             if claimed.get(k) is not None and figures.get(k) is not None and stronger(claimed[k], figures[k])]
     if claimed.get("slip_within_period") == "covered" and figures.get("slip_within_period") != "covered":
         mism.append("slip_within_period")  # claims slip may change within a period; the re-check does not cover it

@@ -14,15 +14,15 @@ A design module has two functions, one per plant kind the objective serves:
 from __future__ import annotations
 
 import importlib
-from types import ModuleType
+from typing import Any, Callable
 
 __all__ = ["design_of"]
 
 
-def design_of(name: str, plant: str | None = None) -> ModuleType:
-    """The design module of the objective ``name`` (its descriptor's ``design``); with ``plant``, one that has
-    that plant kind's design.  A descriptor whose module or function is missing is one line (RuntimeError: a
-    defect of the registry, not of the user's input), not a traceback from deep in a run."""
+def design_of(name: str, plant: str) -> Callable[..., Any]:
+    """The objective ``name``'s design for the plant kind ``plant``: ``robot`` or ``linear`` of its descriptor's
+    ``design`` module.  A descriptor whose module or function is missing is one line (RuntimeError: a defect of the
+    registry, not of the user's input), not a traceback from deep in a run."""
     from ...objectives import objective
 
     obj = objective(name)
@@ -30,7 +30,8 @@ def design_of(name: str, plant: str | None = None) -> ModuleType:
         module = importlib.import_module(obj.design)
     except ImportError as exc:
         raise RuntimeError(f"objective {name}: its design module {obj.design} cannot be imported ({exc})") from None
-    fn = {"tracked-robot": "robot", "lti": "linear"}.get(plant or "")
-    if fn is not None and not callable(getattr(module, fn, None)):
+    fn = {"tracked-robot": "robot", "lti": "linear"}[plant]
+    design = getattr(module, fn, None)
+    if not callable(design):
         raise RuntimeError(f"objective {name}: its design module {obj.design} has no {fn}() for the {plant} plant")
-    return module
+    return design

@@ -56,7 +56,7 @@ def linear(job: Any) -> Any:
     from ..solve import solve
 
     plant, V, C, Ts, say = job.plant, job.V, job.C, job.Ts, job.say
-    m, n_s, d, nv = V.m, V.n_s, V.d, len(V.Av)
+    m, n_s, d, nv = V.m, V.n_s, job.d, job.nv
     g = job.per_period_gain()
     mu = cp.Variable(nonneg=True)  # g^2 / gamma^2
     q, y, eps, _, _, basis, cons = _vertex_lmis(V, True, mu, 1.0, C)
