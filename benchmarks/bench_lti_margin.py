@@ -21,7 +21,7 @@ CONFIGS = ("configs/zbp", "configs/zbp-h1", "tests/data/dc-servo", "tests/data/f
 
 def main() -> dict[str, float]:
     from robustsynth.config import load_config
-    from robustsynth.margins_lti import lti_margins
+    from robustsynth.margins.linear import lti_margins
     from robustsynth.model.lti import lti_plant
 
     root = Path(__file__).resolve().parents[1]

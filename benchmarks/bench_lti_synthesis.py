@@ -35,7 +35,7 @@ def three_masses() -> dict:
 
 def main() -> dict[str, float]:
     from robustsynth.config import load_config
-    from robustsynth.margins_lti import lti_margins
+    from robustsynth.margins.linear import lti_margins
     from robustsynth.model.lti import lti_plant
     from robustsynth.synthesis.lti import auto_threads, synthesize_lti
     from robustsynth.verification.lti import verify_lti

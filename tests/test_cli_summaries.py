@@ -5,6 +5,7 @@ the text it printed when the formatting moved out of cli.py (issue 52).  Seconds
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from types import SimpleNamespace as NS
 
@@ -191,25 +192,26 @@ def test_run(monkeypatch, tmp_path) -> None:
 
 
 def test_margin(monkeypatch, tmp_path) -> None:
-    st = NS(report=NS(margins=[NS(line=lambda: "tau_max: one"), NS(line=lambda: "slip: two")]),
-            data={"meta": {"gains_kinematics": "nonlinear"}}, files=(Path("margin.json"),))
+    """One summary for every plant's margins (issue 52): a line per margin (at least, the gap, how far a search
+    went that found nothing), the report's notes, the files; its warnings on stderr; with --json, only those."""
+    from robustsynth.margins import Margin, MarginReport
+
+    delay = Margin("delay_max", "s", "max", 0.05, 0.06, 0.08, None, (0.01, 0.3))
+    losses = Margin("dropouts", "packets", "max", 0, 3, None, None, (0, 3), at_least=True, families="bursts")
+    rep = MarginReport((delay, losses), {"config": "x"}, ("note: one",), ("warning: two",))
+    st = NS(report=rep, data=rep.to_dict(), files=(Path("margin.json"),))
     _patch(monkeypatch, "robustsynth.pipeline", margin_stage=lambda *a, **k: st)
-    assert _invoke(["margin", DEFAULT, "-o", str(tmp_path)]) == (0, (
-        "tau_max: one\nslip: two\n"
-        "note: the margins are robust stability of the linearization; the gain's certificate for the nonlinear robot "
-        "(synthesis.kinematics: nonlinear) holds for the configured delay and slip ranges only\n"
-        "wrote margin.json\n"), "")
+    lines = ("delay_max: configured 0.05 s, certified 0.06 s, exhibited 0.08 s (the certificate may miss 25.0 % of the "
+             "exhibited margin)\ndropouts: configured 0 packets, certified at least 3 packets, exhibited none (no "
+             "instability found in [0, 3] among bursts)\nnote: one\nwrote margin.json\n")
+    for config in (DEFAULT, LTI):
+        assert _invoke(["margin", config, "-o", str(tmp_path)]) == (0, lines, "warning: two\n")
+        code, out, err = _invoke(["margin", config, "-o", str(tmp_path), "--json"])
+        assert (code, err, json.loads(out)) == (0, "warning: two\n", rep.to_dict())
     gains = ROOT / "results" / "baselines"
     assert _invoke(["margin", "--gains", str(gains / "nonlinear-proof" / "gains.json"), "-o", str(tmp_path)])[1] == (
         f"config: the one stored in {gains / 'nonlinear-proof' / 'gains.json'} ('nonlinear-proof'); pass CONFIG to take "
-        "the gain's margins on another\ntau_max: one\nslip: two\n" + "".join(
-            f"{line}\n" for line in _invoke(["margin", DEFAULT, "-o", str(tmp_path)])[1].splitlines()[2:]))
-    assert _invoke(["margin", "--gains", str(gains / "default" / "gains.json"), "-o", str(tmp_path)])[1].startswith("tau")
-    mg = {"configured": None, "certified": 2, "exhibited": None, "witness": None, "unit": "packets"}
-    data = {"plant": {"controllable": True}, "margins": {"losses_max": mg}, "files": ["margin.json"]}
-    _patch(monkeypatch, "robustsynth.pipeline_lti", lti_margin_stage=lambda *a, **k: data)
-    assert _invoke(["margin", LTI, "-o", str(tmp_path)]) == (0, (
-        "losses_max: configured none, certified 2, exhibited none [packets]\nwrote margin.json\n"), "")
+        "the gain's margins on another\n" + lines)
 
 
 def test_check_log_and_monitor(monkeypatch, tmp_path) -> None:

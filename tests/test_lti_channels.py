@@ -19,7 +19,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from robustsynth.certificate.lti import LTI_PROOF_MARGIN, _parallel_sum_down, check_lti_certificate, lti_vertex_blocks
-from robustsynth.margins_lti import spectral_radius
+from robustsynth.margins.linear import spectral_radius
 from robustsynth.model.lifting import instant_ranges
 from robustsynth.model.lti import (channel_groups, exact_closed_loop, kept_directions, lti_depth, lti_plant_from,
                                    over_approximation, pad_lti_gain, vertex_combinations)
@@ -239,10 +239,10 @@ def test_a_grouped_certificate_makes_V_shrink_on_exactly_lifted_loops(grouped) -
 @pytest.mark.parametrize("plant,fractions,m_lost", [(SERVO, (0.1, 0.35, 0.6, 0.9), 0), (CURRENT, (0.2, 0.5, 0.9), 0),
                                                     (CURRENT, (0.3,), 2)])
 def test_the_budgets_block_size_is_the_grouped_lmis_or_more(plant, fractions, m_lost) -> None:
-    """margins_lti.block_size, which sets the pieces before anything is built, is never below the size of the
+    """margins.linear.block_size, which sets the pieces before anything is built, is never below the size of the
     grouped LMIs' blocks (the lifted state and every group's kept directions), and counts fewer channels than
     one per instant once the delays span several periods."""
-    from robustsynth.margins_lti import block_size
+    from robustsynth.margins.linear import block_size
 
     A, B, K, Ts = plant
     n, m = B.shape

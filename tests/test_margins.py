@@ -162,7 +162,7 @@ def test_icr_margins_per_slip_parameter() -> None:
     grows on the lifted loop at the exhibited value, as its spectral radius says."""
     from robustsynth.artifacts.gains import load_gains
     from robustsynth.config import load_config
-    from robustsynth.margins import _icr_margin
+    from robustsynth.margins.robot import _icr_margin
 
     root = Path(__file__).resolve().parents[1]
     cfg = load_config(root / "configs" / "icr-physics.yaml")
@@ -243,3 +243,25 @@ def test_a_count_margin_says_its_gap_in_packets_never_a_share(certified, exhibit
     # a continuous margin keeps its share
     s = Margin("delay_max", "s", "max", 0.08, 0.12, 0.15, None, None)
     assert s.gap == pytest.approx(0.2) and s.gap_packets is None and "20.0 %" in s.line()
+
+
+def test_margin_stage_says_what_a_nonlinear_certificate_s_margins_are(monkeypatch, tmp_path) -> None:
+    """The margin stage, any plant: margin.json is the report's to_dict with the gain's source; a gain whose own
+    certificate is for the nonlinear robot gets the note that the margins are of its linearization (the report's
+    notes, which the CLI prints); margin.md has the table.  The search itself is replaced: this is the stage's part."""
+    import json
+
+    from robustsynth import margins, pipeline
+    from robustsynth.config import load_config
+    from robustsynth.margins import Margin, MarginReport
+
+    rep = MarginReport((Margin("delay_max", "s", "max", 0.05, 0.06, 0.08, None, (0.01, 0.3)),), {"reading": "R."})
+    monkeypatch.setattr(margins, "margin", lambda *a, **k: rep)
+    root = Path(__file__).resolve().parents[1]
+    gains = root / "results" / "baselines" / "nonlinear-proof" / "gains.json"
+    st = pipeline.margin_stage(load_config(root / "configs" / "nonlinear-proof.yaml"), tmp_path, gains)
+    assert st.report.notes[-1].startswith("note: the margins are robust stability of the linearization")
+    data = json.loads((tmp_path / "margin.json").read_text())
+    assert data == st.data and data["meta"]["gains_kinematics"] == "nonlinear" and data["meta"]["gains"] == str(gains)
+    md = (tmp_path / "margin.md").read_text()
+    assert md.startswith("# Margins of a gain") and "| delay_max (s) | 0.05 | 0.06 | 0.08 | 0.750 | - |" in md

@@ -17,7 +17,7 @@ import pytest
 from scipy.linalg import expm
 
 from robustsynth.config import load_config
-from robustsynth.margins_lti import lti_margins
+from robustsynth.margins.linear import lti_margins
 from robustsynth.model.lti import lti_plant
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -95,7 +95,7 @@ def test_no_random_switching_sequence_below_the_certified_bound_is_unstable(h1) 
 def test_benchmark_h05_frozen_delay_beyond_one_period_by_hand() -> None:
     """h = 0.5: the delay margin lies beyond one period (0.92 s); the constant delay that robustsynth
     exhibits is where the hand-built two-period closed loop loses stability."""
-    from robustsynth.margins_lti import spectral_radius
+    from robustsynth.margins.linear import spectral_radius
 
     base = json.loads((ROOT / "results" / "baselines" / "zbp" / "summary.json").read_text())
     ex = base["margins"]["delay_max"]["exhibited"]
@@ -130,7 +130,7 @@ def test_cli_margin_on_a_linear_plant_and_the_commands_it_lacks(tmp_path) -> Non
     r = run("margin", str(ROOT / "configs" / "zbp-h1.yaml"), "-o", str(tmp_path), "--json")
     assert r.returncode == 0, r.stderr
     data = json.loads(r.stdout)
-    assert data["margins"]["delay_max"]["exhibited"] == pytest.approx(0.685, abs=5e-3)
+    assert data["delay_max"]["exhibited"] == pytest.approx(0.685, abs=5e-3)
     assert (tmp_path / "margin.json").exists() and "certified / exhibited" in (tmp_path / "margin.md").read_text()
     r = run("margin", str(ROOT / "configs" / "zbp-h1.yaml"), "-o", str(tmp_path), "--lyapunov", "common")
     assert r.returncode == 2 and "--lyapunov" in r.stderr and len(r.stderr.strip().splitlines()) == 1
@@ -172,7 +172,7 @@ def test_a_certificate_holds_on_sampled_exact_loops_of_a_harder_plant() -> None:
 def test_no_certificate_at_the_exhibited_bound(h1) -> None:
     """Independently of the bisection (which stops at the exhibited value): the LMIs fail just above
     the exhibited delay bound, where a destabilizing sequence exists."""
-    from robustsynth.margins_lti import _certify
+    from robustsynth.margins.linear import _certify
 
     cfg, mg = h1
     ex = mg["delay_max"]["exhibited"]
@@ -204,7 +204,7 @@ def test_the_compiled_analysis_problem_holds_no_stale_answer() -> None:
     certifiable gain, one that a constant delay in the range destabilizes and again the certifiable one, on
     the same delay range (one structure: the in-order vertices depend on the range, not on the gain), give
     True, False, True, each proven on its own."""
-    from robustsynth.margins_lti import spectral_radius
+    from robustsynth.margins.linear import spectral_radius
     from robustsynth.model.lti import over_approximation, vertex_combinations
     from robustsynth.synthesis.lti import analyze_lti
 
@@ -242,17 +242,17 @@ def test_margin_of_the_gain_synthesize_wrote_and_a_margin_at_the_search_end(tmp_
     assert r.exit_code == 0, r.output
     data = json.loads((out / "margin.json").read_text())
     gd = json.loads((out / "gains.json").read_text())
-    assert data["gains"] == str(out / "gains.json")
-    assert data["gain"] == gd["K"]
-    dm = data["margins"]["delay_max"]
+    assert data["meta"]["gains"] == str(out / "gains.json")
+    assert data["meta"]["gain"] == gd["K"]
+    dm = data["delay_max"]
     assert dm["exhibited"] is None and dm["certified"] >= 0.9 - 1e-3 and "at least" in dm["note"]
-    assert "delay_max: configured 0.5, certified at least 0.9" in r.output
-    # synthesize recorded the same delay margin for its gain (one function, margins_lti.delay_margin)
+    assert "delay_max: configured 0.5 s, certified at least 0.9 s" in r.output
+    # synthesize recorded the same delay margin for its gain (one function, margins.linear.delay_margin)
     assert {k: gd["delay_margin"][k] for k in ("certified", "exhibited", "at_least", "note")} == \
         {k: dm[k] for k in ("certified", "exhibited", "at_least", "note")}
-    lo = data["margins"]["dropouts"]
-    assert lo["exhibited"] is None and lo["certified"] == lo["searched_up_to"] == 3 and "at least" in lo["note"]
-    assert "dropouts: configured 0, certified at least 3, exhibited none" in r.output
+    lo = data["dropouts"]
+    assert lo["exhibited"] is None and lo["certified"] == lo["searched"][1] == 3 and "at least" in lo["note"]
+    assert "dropouts: configured 0 packets, certified at least 3 packets, exhibited none" in r.output
     assert "None" not in r.output
 
 
@@ -265,7 +265,7 @@ def test_synthesize_reports_and_records_certified_over_exhibited_for_its_gain(tm
 
     from robustsynth.artifacts.gains import gains_id
     from robustsynth.cli import main
-    from robustsynth.margins_lti import spectral_radius
+    from robustsynth.margins.linear import spectral_radius
 
     cfg = ROOT / "configs" / "zbp.yaml"
     out = tmp_path / "o"
@@ -291,7 +291,8 @@ def test_a_gain_made_for_another_plant_or_the_robot_is_refused(tmp_path) -> None
     a linear plant's gains file names its n and m, and margin / verify refuse another plant's (a review found
     margin answering for dc-motor's gain on the benchmark); the robot's gains are refused by name."""
     from robustsynth.errors import InputError
-    from robustsynth.pipeline_lti import lti_gain, lti_plant_of
+    from robustsynth.artifacts.gains import lti_gain
+    from robustsynth.pipeline_lti import lti_plant_of
 
     root = Path(__file__).resolve().parents[1]
     cfg = load_config(root / "configs" / "zbp.yaml")
@@ -409,7 +410,7 @@ def test_servo_instability_is_found_far_beyond_the_configured_delay(servo) -> No
 
 def test_hand_built_servo_loop_matches_the_library_lifting() -> None:
     """The hand-built frozen loop above is what the library lifts (so the comparison above is not vacuous)."""
-    from robustsynth.margins_lti import spectral_radius
+    from robustsynth.margins.linear import spectral_radius
 
     pl = {"A": SERVO_A, "B": SERVO_B, "K": SERVO_K}
     for tau in (0.0, 0.013, 0.06, 0.1999, 0.2031):
@@ -420,7 +421,7 @@ def test_the_witness_check_recomputes_the_exact_product_and_rejects_a_stable_seq
     """check_witness rebuilds the periodic product from the exact lifted matrices: on the benchmark's
     switching witness it agrees with the hand-built product (rel 1e-9) and confirms it; the same
     sequence 5 % shorter is stable, and the check says not ok."""
-    from robustsynth.margins_lti import check_witness
+    from robustsynth.margins.linear import check_witness
 
     cfg, mg = h1
     pl = lti_plant(cfg)
@@ -464,8 +465,39 @@ def test_the_cap_is_reported_when_nothing_destabilizes(tmp_path) -> None:
                    "network: {sampling_time: 0.1, delay: {min: 0.0, max: 0.1}}\nmargin: {pieces: 2}\n")
     r = CliRunner().invoke(main, ["margin", str(cfg), "-o", str(tmp_path / "o")])
     assert r.exit_code == 0, r.output
-    dm = json.loads((tmp_path / "o" / "margin.json").read_text())["margins"]["delay_max"]
-    assert dm["exhibited"] is None and dm["witness"] is None and dm["ratio"] is None
-    assert dm["searched_up_to"] == pytest.approx(2.0) and dm["searched_periods"] == pytest.approx(20.0)
+    dm = json.loads((tmp_path / "o" / "margin.json").read_text())["delay_max"]
+    assert dm["exhibited"] is None and dm["witness"] is None and dm["gap"] is None
+    assert dm["searched"][1] == pytest.approx(2.0) and dm["searched_periods"] == pytest.approx(20.0)
+    assert "20 Ts" in dm["note"]
     line = next(x for x in r.output.splitlines() if x.startswith("delay_max:"))
-    assert "no instability found up to 2 s" in line and "20 Ts" in line and "switching sequences" in line
+    assert "no instability found in [0, 2]" in line and "switching sequences" in line
+
+
+def test_margin_takes_a_linear_plant_and_returns_the_one_report(h1) -> None:
+    """Issue 52: ``robustsynth.margin`` takes a LinearPlant and returns the MarginReport the robot's margins come in:
+    the figures and witnesses of the records (``lti_margins``, computed separately by the fixture), every key a robot
+    margin writes, no slip margin; the robot's --lyapunov refused; the old top-level name warns."""
+    import warnings
+
+    import robustsynth
+    from robustsynth.errors import InputError
+    from robustsynth.margins import Margin
+
+    cfg, rec = h1
+    plant = robustsynth.LinearPlant.from_config(cfg)
+    rep = robustsynth.margin(plant)
+    assert rep.names == ("delay_max", "dropouts") and rep.slip_min is None and rep.slip_parameters == ()
+    for name in rep.names:
+        m, r = rep[name], rec[name]
+        assert (m.configured, m.certified, m.exhibited, m.at_least, m.witness) == \
+            (r["configured"], r["certified"], r["exhibited"], r["at_least"], r["witness"])
+    assert rep.dropouts.unit == "packets" and rep.dropouts.gap_packets == 0
+    robot_keys = set(Margin("slip_min", "", "min", 0.9, 0.8, 0.5, None, (0.05, 1.0)).to_dict())
+    assert all(robot_keys <= set(m.to_dict()) for m in rep.margins)
+    assert rep.to_dict()["meta"]["plant"]["kind"] == "lti" and rep.warnings == ()
+    with pytest.raises(InputError, match="^lyapunov: a linear plant's certificate"):
+        robustsynth.margin(plant, lyapunov="common")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert robustsynth.lti_margins is lti_margins
+    assert [w.category for w in caught] == [DeprecationWarning]

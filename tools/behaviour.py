@@ -43,9 +43,9 @@ run of 78f88d4 whose name suggests a time and checking each against the time.per
   gains.json   solver.solve_time_s              robot gains: summed wall time of the synthesis' solver calls
   gains.json   solver.time_s                    linear-plant gains (dc-motor): wall time of the solves
   gains.json   delay_margin.search_s            linear-plant gains: wall time of the delay-margin search
-  gains.json   delay_margin.certificate_s       ... and of its certificate (margins_lti.py, rounded to ms)
+  gains.json   delay_margin.certificate_s       ... and of its certificate (margins/linear.py, rounded to ms)
   gains.mat    lti_gains_json.<same three>      the .mat carries the linear-plant gains.json as a string
-  margin.json  margins.<m>.search_s / .certificate_s / .time_s   lti-margins configs (zbp, zbp-h1)
+  margin.json  [margins.]<m>.search_s / .certificate_s / .time_s   lti-margins configs (zbp, zbp-h1; margins. before 2026-12-05)
 Not excluded although the name looks like a time (simulated or configured times, deterministic):
   sampling_time, physics.timestep, monitor.clock_tol, window_s, transient_s, duration_s (simulated horizon),
   t_switch_s, segment_duration_s, time_to_reenter_s, max_time_to_reenter_s, longest_above_limit_s,
@@ -87,9 +87,9 @@ EXCLUDED_PATHS: list[tuple[str, str]] = [
     (r"gains\.(json:|mat:lti_gains_json\.)solver\.time_s",
      "linear-plant gain: wall time of its solves (synthesis/lti.py perf_counter; artifacts/gains.py)"),
     (r"gains\.(json:|mat:lti_gains_json\.)delay_margin\.(search_s|certificate_s)",
-     "linear-plant gain: wall time of the delay-margin search / its certificate (margins_lti.py perf_counter)"),
-    (r"margin\.json:margins\.[^.\[]+\.(search_s|certificate_s|time_s)",
-     "lti-margins configs: wall time of each margin's search / certificate (margins_lti.py perf_counter)"),
+     "linear-plant gain: wall time of the delay-margin search / its certificate (margins/linear.py perf_counter)"),
+    (r"margin\.json:(margins\.)?[^.\[]+\.(search_s|certificate_s|time_s)",
+     "lti-margins configs: wall time of each margin's search / certificate (margins/linear.py perf_counter)"),
 ]
 
 # Non-JSON text: (regex, why).  On a line where the regex matches, only its group "t" (the wall-clock number) is

@@ -21,7 +21,7 @@ check_certificate      robustsynth.certificate       numpy-only re-check of an L
 verify                 robustsynth.verification      any plant's gain -> its checks (Monte Carlo, ...)
 load_gains             robustsynth.artifacts.gains   gains.json / .mat -> mapping (one-line errors)
 run                    robustsynth.pipeline          build-model -> synthesize -> verify
-margin                 robustsynth.margins           delay / slip margins of a given gain
+margin                 robustsynth.margins           any plant's gain -> its margins (delay, losses, slip)
 sweep                  robustsynth.sweeps            synthesize (and verify) over a grid of keys
 load_sweep             robustsynth.sweeps            sweep YAML file -> SweepSpec
 Controller             robustsynth.runtime           the deployed control law (one robot, no numpy)
@@ -30,7 +30,7 @@ lti_config             robustsynth.interop           python-control StateSpace -
 lti_plant              robustsynth.model.lti         lti config -> the plant's arrays (A, B, E, C, limits)
 synthesize_lti         robustsynth.synthesis.lti     (deprecated: synthesize(LinearPlant))
 verify_lti             robustsynth.verification.lti  (deprecated: verify(LinearPlant, design))
-lti_margins            robustsynth.margins_lti       delay / loss margins of a linear plant's gain
+lti_margins            robustsynth.margins.linear    (deprecated: margin(LinearPlant))
 =====================  ============================  ==========================================
 """
 
@@ -69,7 +69,7 @@ _EXPORTS = {
     "lti_plant": "robustsynth.model.lti",
     "synthesize_lti": "robustsynth.synthesis.lti",
     "verify_lti": "robustsynth.verification.lti",
-    "lti_margins": "robustsynth.margins_lti",
+    "lti_margins": "robustsynth.margins.linear",
 }
 
 __all__ = [*_EXPORTS, "__version__"]
@@ -81,6 +81,8 @@ _DEPRECATED = {
                       "runs the same design (robustsynth.synthesis.lti.synthesize_lti stays)",
     "verify_lti": "robustsynth.verify_lti is deprecated: use robustsynth.verify(LinearPlant(...), design), which runs "
                   "the same checks (robustsynth.verification.lti.verify_lti stays)",
+    "lti_margins": "robustsynth.lti_margins is deprecated: use robustsynth.margin(LinearPlant(...), K), which returns "
+                   "the same margins as a MarginReport (robustsynth.margins.linear.lti_margins stays)",
 }
 
 

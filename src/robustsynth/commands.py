@@ -151,13 +151,7 @@ class RobotJobs(Jobs):
         return Outcome(EXIT_OK if passed else EXIT_VERIFICATION_FAILED, res)
 
     def margin(self, cfg, out, con, config_path, *, gains, lyapunov, as_json):
-        from .pipeline import margin_stage
-        from .report import console
-
-        st = margin_stage(cfg, out, gains, lyapunov, on_step=con.stages())
-        if not as_json:
-            con.show(console.margin_summary(st))
-        return Outcome(data=st.data)
+        return _margin(cfg, out, con, config_path, gains, lyapunov, as_json)
 
 
     def excite(self, cfg, out, con, config_path, *, episodes, seed, engine):
@@ -262,13 +256,19 @@ class LinearJobs(Jobs):
         return Outcome(EXIT_OK if passed else EXIT_VERIFICATION_FAILED, res)
 
     def margin(self, cfg, out, con, config_path, *, gains, lyapunov, as_json):
-        from .pipeline_lti import lti_margin_stage
-        from .report import console
-
         _refuse(lyapunov=(lyapunov, "a linear plant's certificate is one common quadratic function"))
-        data = lti_margin_stage(cfg, out, config_path, on_step=con.stages(), gains_path=gains)
-        con.show(console.lti_margin_summary(data, as_json))
-        return Outcome(data=data)
+        return _margin(cfg, out, con, config_path, gains, lyapunov, as_json)
+
+
+def _margin(cfg: Any, out: Path, con: Console, config_path: Path | None, gains: Path | None, lyapunov: str | None,
+            as_json: bool) -> Outcome:
+    """margin, any plant: the stage, then its lines (under --json only its warnings: stdout is the JSON)."""
+    from .pipeline import margin_stage
+    from .report import console
+
+    st = margin_stage(cfg, out, gains, lyapunov, on_step=con.stages(), config_path=config_path)
+    con.show(console.margin_summary(st, as_json))
+    return Outcome(data=st.data)
 
 
 JOBS: dict[str, Jobs] = {j.kind: j for j in (RobotJobs(), LinearJobs())}

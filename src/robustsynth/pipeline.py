@@ -549,22 +549,55 @@ class MarginStage:
     files: tuple[Path, ...]
 
 
-def margin_stage(config: Config, outdir: str | Path, gains_path: str | Path | None = None,
-                 lyapunov: str | None = None, on_step: Callable[[str], None] | None = None) -> MarginStage:
-    """Delay and slip margins of a gains file (default ``outdir/gains.json``); write margin.json."""
-    from .margins import margin
+def margin_stage(config: Any, outdir: str | Path, gains_path: str | Path | None = None,
+                 lyapunov: str | None = None, on_step: Callable[[str], None] | None = None,
+                 config_path: str | Path | None = None) -> MarginStage:
+    """The margins of a gain on the config's plant (:func:`robustsynth.margins.margin`): the gain of a gains
+    file, by default ``outdir/gains.json`` (a linear plant's config's ``controller.gain`` comes before that
+    default); writes margin.json (:meth:`~robustsynth.margins.MarginReport.to_dict` with the gain's source) and
+    margin.md.  ``config_path``: where a linear plant's ``plant.file`` is read from."""
+    from dataclasses import replace
+
     from .artifacts.files import commit_files, json_bytes, make_dir
-    from .artifacts.gains import gains_id, load_gains
+    from .artifacts.gains import gains_id
+    from .margins import margin
+    from .report.markdown import margin_markdown
 
     outdir = make_dir(outdir)
-    gp = Path(gains_path) if gains_path is not None else outdir / "gains.json"
-    gains = load_gains(gp)
+    plant, K, gp, gains = _margin_gain(config, outdir, gains_path, config_path)
+    rep = margin(plant, K, lyapunov=lyapunov, on_step=on_step)
+    meta = {"gains": None if gp is None else str(gp), "gains_id": None if gains is None else gains_id(gains),
+            "config": config.name}
+    if getattr(plant, "plant_kind", "tracked-robot") == "tracked-robot":
+        cert = gains.get("certificate")  # the kinematics the gain's own certificate is for (None: no certificate)
+        meta["gains_kinematics"] = cert.get("kinematics", "linearized") if cert else None
+        if meta["gains_kinematics"] == "nonlinear":
+            rep = replace(rep, notes=rep.notes + (
+                "note: the margins are robust stability of the linearization; the gain's certificate for the nonlinear "
+                "robot (synthesis.kinematics: nonlinear) holds for the configured delay and slip ranges only",))
+    rep = replace(rep, meta={**rep.meta, **meta})
+    data = rep.to_dict()
+    written = commit_files(outdir, {"margin.json": json_bytes(data), "margin.md": margin_markdown(data).encode("utf-8")},
+                           primary="margin.json")
+    return MarginStage(rep, data, tuple(written))
+
+
+def _margin_gain(config: Any, outdir: Path, gains_path: str | Path | None, config_path: str | Path | None
+                 ) -> tuple[Any, Any, Path | None, dict[str, Any] | None]:
+    """(the plant margin() takes, the gain, the gains file it came from, its mapping): the robot's config and its
+    gains file's K; a linear plant (:class:`~robustsynth.plants.linear.LinearPlant`) and its gain
+    (:func:`robustsynth.artifacts.gains.lti_gain`: a gains file, else controller.gain, else outdir/gains.json)."""
     import numpy as np
 
-    rep = margin(config, np.asarray(gains["K"], dtype=float), lyapunov=lyapunov, on_step=on_step)
-    data = rep.to_dict()
-    cert = gains.get("certificate")  # the kinematics the gain's own certificate is for (None: no certificate)
-    data["meta"].update(gains=str(gp), gains_id=gains_id(gains), config=config.name,
-                        gains_kinematics=cert.get("kinematics", "linearized") if cert else None)
-    written = commit_files(outdir, {"margin.json": json_bytes(data)}, primary="margin.json")
-    return MarginStage(rep, data, tuple(written))
+    from .artifacts.gains import load_gains, lti_gain
+    from .config import is_lti
+
+    if is_lti(config):
+        from .plants.linear import LinearPlant
+
+        plant = LinearPlant.from_config(config, str(Path(config_path).parent) if config_path is not None else None)
+        K, source, gd = lti_gain(config, plant.arrays, gains_path, outdir / "gains.json")
+        return plant, K, source, gd
+    gp = Path(gains_path) if gains_path is not None else outdir / "gains.json"
+    gains = load_gains(gp)
+    return config, np.asarray(gains["K"], dtype=float), gp, gains

@@ -9,10 +9,10 @@ from typing import Any, Callable
 import numpy as np
 
 from .artifacts.files import commit_files, json_bytes, make_dir, mat_bytes
+from .artifacts.gains import same_plant
 from .pipeline import clear_foreign
 
-__all__ = ["lti_plant_of", "lti_model_stage", "lti_synthesis_stage", "lti_verification_stage", "lti_run",
-           "lti_margin_stage", "lti_gain"]
+__all__ = ["lti_plant_of", "lti_model_stage", "lti_synthesis_stage", "lti_verification_stage", "lti_run"]
 
 SYNTHESIS_FILES = ("gains.json", "gains.mat", "synthesis.md")
 FIGURES = ("verification.png", "verification.pdf", "verification.svg")  # verify --format
@@ -30,43 +30,6 @@ def _net(config: Any) -> tuple[float, float, float, int]:
     net = config.network
     return net.sampling_time, net.delay.min, net.delay.max, net.dropouts.max_consecutive
 
-
-def same_plant(gd: dict[str, Any], n: int, m: int, where: str | Path) -> None:
-    """InputError unless a gains file is for a plant of n states and m inputs: a linear plant's file says so
-    in ``lifting`` (a K alone is only checked for its shape: 1 x 4 reads as d = 2 on a 2-state plant and as
-    d = 1 on a 3-state one, which a review found margin accepting); the robot's gains are refused."""
-    from .errors import InputError
-
-    if gd.get("kind") != "lti" and gd.get("certificate") is not None:
-        raise InputError(f"{where}: the tracked robot's gains, not a linear plant's (kind: lti)")
-    lift = gd.get("lifting")
-    if isinstance(lift, dict) and (int(lift.get("n", n)), int(lift.get("m", m))) != (n, m):
-        raise InputError(f"{where}: made for a plant of n = {lift.get('n')} states and m = {lift.get('m')} inputs; "
-                         f"this config's has n = {n}, m = {m}")
-
-
-def lti_gain(config: Any, plant: dict[str, Any], gains_path: str | Path | None,
-             default: Path | None = None) -> tuple[np.ndarray, Path | None, dict[str, Any] | None]:
-    """The gain to analyze and where it came from (the gains file and its mapping, or None twice): a gains
-    file's K, else the config's controller.gain, else ``default`` (the output directory's gains.json)
-    when it exists."""
-    from .artifacts.gains import load_gains
-    from .errors import InputError
-    from .model.lti import check_lti_gain
-
-    n, m = plant["B"].shape
-    if gains_path is None and plant["K"] is None and default is not None and default.is_file():
-        gains_path = default
-    if gains_path is not None:
-        gd = load_gains(gains_path)
-        K = np.asarray(gd["K"], dtype=float)
-        same_plant(gd, n, m, gains_path)
-        check_lti_gain(K, n, m, f"{gains_path}: K")
-        return K, Path(gains_path), gd
-    if plant["K"] is None:
-        raise InputError("controller.gain: required for a linear plant's margin (or pass --gains, or synthesize "
-                         "into the output directory first)")
-    return plant["K"], None, None
 
 def lti_model_stage(config: Any, outdir: str | Path, config_path: str | Path | None = None) -> dict[str, Any]:
     """The lifted model and its guaranteed over-approximation (open loop, K = 0), with the coverage test
@@ -97,7 +60,7 @@ def lti_synthesis_stage(config: Any, outdir: str | Path, config_path: str | Path
                         on_step: Callable[[str], None] | None = None, objective: str | None = None,
                         solver: str | None = None) -> dict[str, Any]:
     """Synthesize and prove a gain (:func:`robustsynth.synthesis.lti.synthesize_lti`), and find its delay margin
-    (:func:`robustsynth.margins_lti.delay_margin`: certified / exhibited, seconds beside the synthesis); write
+    (:func:`robustsynth.margins.linear.delay_margin`: certified / exhibited, seconds beside the synthesis); write
     gains.json (last, with the margin as ``delay_margin``), gains.mat and synthesis.md.  No certified gain: the
     old gain files are set aside and synthesize's InfeasibleError (exit 3) or SolverFailure (exit 4) raised."""
     from .artifacts.files import set_aside
@@ -119,10 +82,11 @@ def lti_synthesis_stage(config: Any, outdir: str | Path, config_path: str | Path
         set_aside(out, SYNTHESIS_FILES + VERIFICATION_FILES + RUN_FILES + FIGURES,
                   f"synthesize found no certified gain for '{config.name}' as configured now; these are of the gain before")
         raise
-    from .margins_lti import delay_margin
+    from .margins.linear import delay_margin
 
     # how far its delay bound goes: certified / exhibited, as `robustsynth margin` finds them
-    margin = delay_margin(config, dict(plant, K=np.asarray(design.K, dtype=float)), say)
+    margin = delay_margin(Network.from_config(config), config.margin, dict(plant, K=np.asarray(design.K, dtype=float)),
+                          say)
     out = make_dir(outdir)
     cleared = clear_foreign(out, config)
     over = {}  # review, stop 47: nothing in the file said that --objective / --solver were used
@@ -205,12 +169,12 @@ def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Pa
 
 def _searched_certificate(config: Any, plant: dict[str, Any], K: np.ndarray, gp: Path):
     """A certificate for a gain that came without one (a hand-tuned K): the analysis LMIs of
-    ``robustsynth margin`` (:func:`robustsynth.margins_lti.lti_certificate`: a common quadratic function,
+    ``robustsynth margin`` (:func:`robustsynth.margins.linear.lti_certificate`: a common quadratic function,
     V shrinking by DECAY per period for every delay and loss pattern, margin.pieces), proven in numpy.
     Returns (K padded to the lifting, P, the multipliers, pieces, figures); InfeasibleError (exit 3) when
     there is none."""
     from .errors import InfeasibleError
-    from .margins_lti import lti_certificate
+    from .margins.linear import lti_certificate
     from .synthesis.lti import DECAY
 
     Ts, lo, hi, ml = _net(config)
@@ -236,29 +200,3 @@ def lti_run(config: Any, outdir: str | Path, config_path: str | Path | None = No
     written = commit_files(out, {"report.md": report.encode("utf-8"), "summary.json": json_bytes(summary)},
                            primary="summary.json")
     return {"synthesis": syn, "verification": ver, "files": syn["files"] + ver["files"] + [str(p) for p in written]}
-
-
-def lti_margin_stage(config: Any, outdir: str | Path, config_path: str | Path | None = None,
-                     on_step: Callable[[str], None] | None = None, gains_path: str | Path | None = None
-                     ) -> dict[str, Any]:
-    """``robustsynth margin`` on a linear plant: the delay and loss margins of a gains file's gain, else the
-    config's controller.gain, else OUTDIR/gains.json's (:mod:`.margins_lti`); writes margin.json and margin.md."""
-    from .artifacts.gains import gains_id
-    from .margins_lti import lti_margins
-    from .report.lti import lti_margin_markdown
-
-    plant = lti_plant_of(config, config_path)
-    K, source, gd = lti_gain(config, plant, gains_path, Path(outdir) / "gains.json")
-    plant = dict(plant, K=K)
-    data = {"plant": {"kind": "lti", "n": int(plant["A"].shape[0]), "m": int(plant["B"].shape[1]),
-                      "states": plant["states"], "units": plant["units"], "controllable": plant["controllable"]},
-            "gain": K.tolist(), "gains": None if source is None else str(source),
-            "gains_id": None if gd is None else gains_id(gd), "config": config.name,
-            "network": {"sampling_time": config.network.sampling_time, "delay": [config.network.delay.min,
-                        config.network.delay.max], "max_consecutive": config.network.dropouts.max_consecutive},
-            "margins": lti_margins(config, plant, on_step or (lambda s: None))}
-    out = make_dir(outdir)
-    commit_files(out, {"margin.json": json_bytes(data), "margin.md": lti_margin_markdown(data).encode("utf-8")},
-                 primary="margin.json")
-    data["files"] = [str(out / "margin.json"), str(out / "margin.md")]
-    return data

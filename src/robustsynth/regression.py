@@ -58,12 +58,12 @@ def run_config(config_path: Path, outdir: Path) -> dict[str, Any]:
         return summary
     if is_lti(cfg):  # a linear plant with a gain: its margins (certified and exhibited) are the summary
         from .artifacts.files import atomic_write, json_bytes
-        from .pipeline_lti import lti_margin_stage
+        from .pipeline import margin_stage
 
-        data = lti_margin_stage(cfg, outdir, config_path)
+        rep = margin_stage(cfg, outdir, config_path=config_path).report
         summary = {"name": cfg.name, "status": "lti-margins",
-                   "margins": {k: {f: v[f] for f in ("configured", "certified", "exhibited")}
-                               for k, v in data["margins"].items()}}
+                   "margins": {m.name: {"configured": m.configured, "certified": m.certified,
+                                        "exhibited": m.exhibited} for m in rep.margins}}
         atomic_write(outdir / "summary.json", json_bytes(summary))
         return summary
     try:

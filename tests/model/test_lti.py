@@ -162,7 +162,7 @@ def test_the_robots_calls_refuse_a_linear_plants_config() -> None:
 
     cfg = _zbp_cfg()
     for call in (lambda: build_model(cfg), lambda: synthesize(cfg), lambda: margin(cfg, ZBP_K)):
-        with pytest.raises(InputError, match=r"linear plant's .*LinearPlant.from_config\(config\).*lti_margins"):
+        with pytest.raises(InputError, match=r"linear plant's .*LinearPlant.from_config\(config\).*robustsynth.margin take"):
             call()
 
 

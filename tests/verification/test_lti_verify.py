@@ -125,7 +125,7 @@ def test_cli_chain_on_a_linear_plant(tmp_path) -> None:
     assert np.allclose(loadmat(out / "gains.mat")["K"], gd["K"])
     r = _run("margin", str(cfg), "--gains", str(out / "gains.json"), "--json")
     assert r.returncode == 0, r.stderr
-    m = json.loads(r.stdout)["margins"]["delay_max"]
+    m = json.loads(r.stdout)["delay_max"]
     assert m["certified"] >= 0.5 and (m["exhibited"] is None or m["certified"] <= m["exhibited"])
     # a robot's gains file is refused with one line
     r = _run("verify", str(cfg), "--gains", str(ROOT / "results" / "baselines" / "tracks-box" / "gains.json"), "-o",
@@ -308,7 +308,7 @@ def test_the_periodic_radius_of_any_plant_against_a_per_sequence_reference(m_los
     """verification.lifted.periodic_spectral_radius on a LinearPlant (what the linear margins search) =
     the product built one sequence and one period at a time, on periodic sequences with losses."""
     from robustsynth.core.network import Network
-    from robustsynth.margins_lti import spectral_radius
+    from robustsynth.margins.linear import spectral_radius
     from robustsynth.model.lti import pad_lti_gain
 
     net = Network(0.1, 0.01, 0.09, m_lost)

@@ -26,7 +26,7 @@ from ..objectives import certified_keys
 from .files import SCHEMA_VERSION
 
 __all__ = ["written_by_robustsynth", "gains_dict", "gains_id", "certified_figures", "gains_mat_vars", "load_gains", "as_gains", "stored_config", "controller_description",
-           "LAW", "DESCRIPTION_FORMAT", "MAX_GAINS_BYTES", "SCHEMA_VERSION"]
+           "same_plant", "lti_gain", "LAW", "DESCRIPTION_FORMAT", "MAX_GAINS_BYTES", "SCHEMA_VERSION"]
 
 LAW = "du_k = K xi_k"
 DESCRIPTION_FORMAT = "robustsynth-controller/1"
@@ -527,7 +527,8 @@ def lti_gains_dict(config: Any, plant: dict[str, Any], design: Any, overrides: d
     lifted state xi = [x; u_{k-1}; ...; u_{k-d}], the certified set {xi' P xi <= 1} and its figures.
     ``overrides``: the settings it was made with that differ from the config's (key path -> value), recorded
     as ``synthesis_overrides`` (as for the robot); ``delay_margin``: the gain's delay margin
-    (:func:`robustsynth.margins_lti.delay_margin`, margin.json's ``delay_max``), not part of its ``gains_id``."""
+    (:func:`robustsynth.margins.linear.delay_margin`; margin.json's ``delay_max`` is the same search as a
+    Margin), not part of its ``gains_id``."""
     from ..config import config_to_dict
 
     n, m = plant["B"].shape
@@ -608,3 +609,37 @@ def written_by_robustsynth(path: Path) -> tuple[str, dict[str, Any]] | None:
     if has("robustsynth_version") or has("schema_version"):
         return "file robustsynth wrote", data
     return None
+
+
+def same_plant(gd: dict[str, Any], n: int, m: int, where: str | Path) -> None:
+    """InputError unless a gains file is for a plant of n states and m inputs: a linear plant's file says so
+    in ``lifting`` (a K alone is only checked for its shape: 1 x 4 reads as d = 2 on a 2-state plant and as
+    d = 1 on a 3-state one, which a review found margin accepting); the robot's gains are refused."""
+    if gd.get("kind") != "lti" and gd.get("certificate") is not None:
+        raise InputError(f"{where}: the tracked robot's gains, not a linear plant's (kind: lti)")
+    lift = gd.get("lifting")
+    if isinstance(lift, dict) and (int(lift.get("n", n)), int(lift.get("m", m))) != (n, m):
+        raise InputError(f"{where}: made for a plant of n = {lift.get('n')} states and m = {lift.get('m')} inputs; "
+                         f"this config's has n = {n}, m = {m}")
+
+
+def lti_gain(config: Any, plant: dict[str, Any], gains_path: str | Path | None,
+             default: Path | None = None) -> tuple[np.ndarray, Path | None, dict[str, Any] | None]:
+    """The gain to analyze and where it came from (the gains file and its mapping, or None twice): a gains
+    file's K, else the config's controller.gain, else ``default`` (the output directory's gains.json)
+    when it exists."""
+    from ..model.lti import check_lti_gain
+
+    n, m = plant["B"].shape
+    if gains_path is None and plant["K"] is None and default is not None and default.is_file():
+        gains_path = default
+    if gains_path is not None:
+        gd = load_gains(gains_path)
+        K = np.asarray(gd["K"], dtype=float)
+        same_plant(gd, n, m, gains_path)
+        check_lti_gain(K, n, m, f"{gains_path}: K")
+        return K, Path(gains_path), gd
+    if plant["K"] is None:
+        raise InputError("controller.gain: required for a linear plant's margin (or pass --gains, or synthesize "
+                         "into the output directory first)")
+    return plant["K"], None, None

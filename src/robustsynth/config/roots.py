@@ -16,8 +16,8 @@ def refuse_lti(obj: Any, where: str) -> None:
     calls have no meaning for it, and would fail on a missing section."""
     if isinstance(obj, LtiConfig) or isinstance(getattr(obj, "config", None), LtiConfig):
         raise InputError(f"{where}: the config is a linear plant's (plant: kind: lti): its plant is "
-                         "robustsynth.LinearPlant.from_config(config), which robustsynth.synthesize and robustsynth.verify "
-                         "take; its margins are robustsynth.lti_margins (or the CLI, which picks them)")
+                         "robustsynth.LinearPlant.from_config(config), which robustsynth.synthesize, robustsynth.verify "
+                         "and robustsynth.margin take (the CLI picks it)")
 
 
 def is_lti(data: Any) -> bool:

@@ -29,20 +29,23 @@ class LinearPlant:
     """A linear plant closed over ``network``: ``arrays`` as :func:`~robustsynth.model.lti.lti_plant` gives
     them, ``pieces`` per switching instant's range in its vertex description; ``settings``: the synthesis
     settings of the config it came from (``LtiSynthesisConfig``; None: a plant built from its matrices), what
-    ``robustsynth.synthesize(plant)`` uses unless given others."""
+    ``robustsynth.synthesize(plant)`` uses unless given others; ``margin_settings``: its ``margin:`` settings
+    (``LtiMarginConfig``), what ``robustsynth.margin(plant)`` uses unless given others."""
 
     arrays: dict
     network: Network
     pieces: int = 2
     name: str = "lti"
     settings: Any = None
+    margin_settings: Any = None
 
     plant_kind = "lti"  # core.plant.Plant: which plant this is (the names of objectives.PLANTS)
 
     @classmethod
     def from_config(cls, cfg: Any, base_dir: str | None = None) -> LinearPlant:
         """The plant of a ``plant: kind: lti`` config (``plant.file`` read relative to ``base_dir``)."""
-        return cls(lti_plant(cfg, base_dir), Network.from_config(cfg), cfg.synthesis.pieces, cfg.name, cfg.synthesis)
+        return cls(lti_plant(cfg, base_dir), Network.from_config(cfg), cfg.synthesis.pieces, cfg.name, cfg.synthesis,
+                   cfg.margin)
 
     @classmethod
     def from_arrays(cls, A: Any, B: Any, network: Network, pieces: int = 2, name: str = "lti", **kw: Any) -> LinearPlant:

@@ -16,7 +16,7 @@ from .markdown import fmt
 __all__ = ["Err", "wrote", "cleared", "model_summary", "lti_model_summary", "synthesis_summary",
            "lti_synthesis_summary", "lti_gain_lines", "robot_certified", "verification_summary",
            "lti_verification_summary", "robot_checks", "lti_checks", "run_summary", "logs_line", "lti_run_summary",
-           "physics_line", "run_export_lines", "margin_summary", "lti_margin_summary", "lti_margin",
+           "physics_line", "run_export_lines", "margin_summary", "lti_margin",
            "check_log_summary", "violated", "monitor_summary", "excitation_summary", "validation_summary",
            "export_summary", "sweep_summary", "identified_line"]
 
@@ -161,8 +161,8 @@ def _lti_certified(gd: Mapping[str, Any]) -> str:
 
 
 def lti_margin(name: str, mg: Mapping[str, Any]) -> str:
-    """One margin of a linear plant's gain (margins_lti): configured, certified, exhibited, the witness, the note
-    (certified / exhibited and how far the search went)."""
+    """The delay-margin record synthesize keeps in a linear plant's gains.json (margins.linear.delay_margin):
+    configured, certified, exhibited, the witness, the note (certified / exhibited and how far the search went)."""
 
     def num(v: Any) -> str:
         return "none" if v is None else fmt(v)
@@ -281,20 +281,11 @@ def run_export_lines(target: str, gains: Path, exported: tuple[Mapping[str, Any]
 
 # -- margin ----------------------------------------------------------------------------------------------------------
 
-def margin_summary(stage: Any) -> list[str]:
-    """The robot's margins (a pipeline.MarginStage), one line each."""
-    lines = [m.line() for m in stage.report.margins]
-    if stage.data["meta"].get("gains_kinematics") == "nonlinear":
-        lines.append("note: the margins are robust stability of the linearization; the gain's certificate for the "
-                     "nonlinear robot (synthesis.kinematics: nonlinear) holds for the configured delay and slip ranges only")
-    return lines + [wrote(stage.files)]
-
-
-def lti_margin_summary(data: Mapping[str, Any], as_json: bool) -> list[str]:
-    lines = _uncontrollable(data["plant"]["controllable"])
-    if as_json:
-        return lines
-    return lines + [lti_margin(name, mg) for name, mg in data["margins"].items()] + [wrote(data["files"])]
+def margin_summary(stage: Any, as_json: bool = False) -> list[str]:
+    """A gain's margins, any plant (a pipeline.MarginStage): its warnings (stderr), then, unless the JSON is what
+    is printed, a line per margin, its notes and the files written."""
+    warnings = [Err(w) for w in stage.report.warnings]
+    return warnings if as_json else warnings + stage.report.lines() + [wrote(stage.files)]
 
 
 # -- check-log, monitor ----------------------------------------------------------------------------------------------

@@ -6,10 +6,15 @@ from typing import Any
 
 import numpy as np
 
-from .markdown import fmt
+from .markdown import margin_table
 from .verification import checks_table
 
-__all__ = ["lti_synthesis_markdown", "lti_verification_markdown", "lti_margin_markdown"]
+__all__ = ["lti_synthesis_markdown", "lti_verification_markdown", "LINEAR_READING"]
+
+# what a linear plant's certified and exhibited margins are (margin.md, and the synthesis report's delay margin)
+LINEAR_READING = ("Certified: a common quadratic Lyapunov function of the guaranteed over-approximation (docs/theory.md "
+                  "§14), proven in numpy. Exhibited: a destabilizing periodic delay/loss sequence of the exactly lifted "
+                  "closed loop.")
 
 
 def _mat(M: Any, digits: int = 6) -> str:
@@ -54,7 +59,7 @@ def lti_synthesis_markdown(gd: dict[str, Any]) -> str:
     if gd.get("delay_margin"):
         md.append("\n**Delay margin** of this gain (robust stability, V shrinking by a common quadratic function, as "
                   "`robustsynth margin` finds it):\n\n")
-        md += _margin_table({"delay_max": gd["delay_margin"]})
+        md += margin_table({"delay_max": gd["delay_margin"]}, LINEAR_READING)
     return "".join(md)
 
 
@@ -74,31 +79,3 @@ def lti_verification_markdown(data: dict[str, Any]) -> str:
         md.append("|---|" + "---|" * len(first) + "\n")
         md += [f"| {name} | " + " | ".join(f"{v:.6g}" for v in f.values()) + " |\n" for name, f in data["families"].items()]
     return "".join(md)
-
-
-def _margin_table(margins: dict[str, Any]) -> list[str]:
-    """The margins' table (configured, certified, exhibited, their ratio, the witness) and their notes."""
-    md = ["| margin | configured | certified | exhibited | certified / exhibited | witness |\n|---|---|---|---|---|---|\n"]
-    for name, mg in margins.items():
-        ratio = (f"{mg['certified'] / mg['exhibited']:.3f}" if mg["certified"] is not None and mg["exhibited"]
-                 else "-")
-        w = mg["witness"]
-        delays = ", ".join("lost" if x is None else fmt(x) for x in w["delays"]) if w else ""
-        wtxt = (f"period {w['period']}: delays [{delays}], spectral radius {w['spectral_radius']:.6f}" if w else "-")
-        at_least = "≥ " if mg.get("at_least") else ""
-        md.append(f"| {name} ({mg['unit']}) | {fmt(mg['configured'])} | {at_least}{fmt(mg['certified'])} | "
-                  f"{fmt(mg['exhibited'])} | {ratio} | {wtxt} |\n")
-    notes = [f"- {name}: {mg['note']}\n" for name, mg in margins.items() if mg.get("note")]
-    if notes:
-        md.append("\n" + "".join(notes))
-    md.append("\nCertified: a common quadratic Lyapunov function of the guaranteed over-approximation (docs/theory.md "
-              "§14), proven in numpy. Exhibited: a destabilizing periodic delay/loss sequence of the exactly lifted "
-              "closed loop.\n")
-    return md
-
-
-def lti_margin_markdown(data: dict[str, Any]) -> str:
-    md = ["# Margins of a linear plant's gain\n\n",
-          f"Config {data['config']}: n = {data['plant']['n']}, m = {data['plant']['m']}, "
-          f"Ts = {data['network']['sampling_time']:g} s, gain {data['gain']}.\n\n"]
-    return "".join(md + _margin_table(data["margins"]))

@@ -7,7 +7,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-__all__ = ["fmt", "table", "matrix_table", "condition_counts", "conditions_text"]
+__all__ = ["fmt", "table", "matrix_table", "condition_counts", "conditions_text", "margin_table", "margin_markdown"]
 
 
 def fmt(x: float | None, digits: int = 4) -> str:
@@ -75,3 +75,37 @@ def conditions_text(checks: Sequence[Mapping[str, Any]], rows_of: str = "synthes
     if scalars:
         out += f" and {scalars} scalar bound{'s' if scalars != 1 else ''}"
     return out + f" (the {rows} row{'s' if rows != 1 else ''} of {rows_of})"
+
+
+def margin_table(margins: Mapping[str, Mapping[str, Any]], reading: str) -> list[str]:
+    """The margins' table (configured, certified, exhibited, their ratio, the witness), their notes and ``reading``
+    (what certified and exhibited mean for the plant), from margin.json's entries (``Margin.to_dict``) or a linear
+    gain's ``delay_margin`` record: the keys configured, certified, exhibited, unit, at_least, witness, note."""
+    md = ["| margin | configured | certified | exhibited | certified / exhibited | witness |\n|---|---|---|---|---|---|\n"]
+    for name, mg in margins.items():
+        ratio = (f"{mg['certified'] / mg['exhibited']:.3f}" if mg["certified"] is not None and mg["exhibited"]
+                 else "-")
+        w = mg["witness"]
+        delays = ", ".join("lost" if x is None else fmt(x) for x in w["delays"]) if w else ""
+        wtxt = (f"period {w['period']}: delays [{delays}], spectral radius {w['spectral_radius']:.6f}" if w else "-")
+        at_least = "≥ " if mg.get("at_least") else ""
+        unit = f" ({mg['unit']})" if mg.get("unit") else ""
+        md.append(f"| {name}{unit} | {fmt(mg['configured'])} | {at_least}{fmt(mg['certified'])} | "
+                  f"{fmt(mg['exhibited'])} | {ratio} | {wtxt} |\n")
+    notes = [f"- {name}: {mg['note']}\n" for name, mg in margins.items() if mg.get("note")]
+    if notes:
+        md.append("\n" + "".join(notes))
+    md.append(f"\n{reading}\n")
+    return md
+
+
+def margin_markdown(data: Mapping[str, Any]) -> str:
+    """margin.md: a gain's margins (margin.json, ``MarginReport.to_dict`` with the stage's meta), any plant."""
+    meta = data["meta"]
+    net = meta.get("network")
+    md = [f"# Margins of a gain\n\nConfig {meta.get('config')}"
+          + (f", gains {meta['gains']}" if meta.get("gains") else "")
+          + (f": Ts = {net['sampling_time']:g} s, delays [{net['delay'][0]:g}, {net['delay'][1]:g}] s, "
+             + (f"up to {net['max_consecutive']} commands lost in a row" if net["max_consecutive"] else "no command lost")
+             if net else "") + ".\n\n"]
+    return "".join(md + margin_table({k: v for k, v in data.items() if k != "meta"}, meta.get("reading", "")))

@@ -1,4 +1,4 @@
-"""Robustness margins of a given gain: how far can the delay bound and the slip range be pushed?
+"""The tracked robot's margins of a given gain: how far can the delay bound and the slip range be pushed?
 
 For each margin two numbers bracket the truth:
 
@@ -19,17 +19,17 @@ from __future__ import annotations
 import itertools
 import math
 import time
-from dataclasses import asdict, dataclass, field
 from typing import Any, Callable
 
 import numpy as np
 
-from .config import Config, config_with
-from .core.network import max_cyclic_run
-from .errors import InputError, check_interrupt
-from .model import gain_lifting, pad_gain
+from ..config import Config, config_with
+from ..core.network import max_cyclic_run
+from ..errors import InputError, check_interrupt
+from ..model import gain_lifting, pad_gain
+from .common import Margin, MarginReport, bisect
 
-__all__ = ["Margin", "MarginReport", "margin", "find_instability", "witness_delays", "pad_gain", "EXHIBIT_TOL"]
+__all__ = ["robot_margin", "find_instability", "witness_delays", "EXHIBIT_TOL"]
 
 EXHIBIT_TOL = 1e-6  # a period product with spectral radius^(1/p) > 1 + this is an exhibited instability
 SLIP_FLOOR = 0.05  # smallest slip coefficient searched (M(mu) is singular at 0)
@@ -37,105 +37,14 @@ SLIP_TOL = 0.005  # bisection tolerance on mu_min
 DELAY_TOL_PERIODS = 0.01  # bisection tolerance on tau_max, in sampling periods
 SEARCH_DELAYS = 5  # delay values per period in the switching search (tau_min .. tau_max)
 SEARCH_PERIOD = 3  # longest period of the switching sequences searched
+# what the robot's certified and exhibited margins are (margin.md)
+READING = ("Certified: a robust-stability certificate of the lifted slip-aware model (the robot's linearization; the "
+           "analysis LMIs with K fixed), proven in numpy. Exhibited: a destabilizing periodic delay/loss/slip sequence "
+           "of the lifted closed loop.")
 MAX_SLIP_SEQUENCES = 64  # switching slip sequences per period length at most, else held (the tracks model: 4^3)
 ICR_STEP = 0.05  # grid step of the icr parameters' instability walk (yaw factor; x_icr in m)
 ICR_TOL = 0.005  # bisection tolerance of the icr parameters' margins
 DROPOUT_SEARCH = 6  # the loss margin is searched up to this many losses beyond the configured cap
-
-
-@dataclass(frozen=True)
-class Margin:
-    """One margin: the configured value, the certified and exhibited ends, the witness."""
-
-    name: str
-    unit: str
-    direction: str  # 'max' (larger is better: delay) or 'min' (smaller is better: slip)
-    configured: float | None
-    certified: float | None
-    exhibited: float | None
-    witness: dict[str, Any] | None
-    searched: tuple[float, float] | None
-    note: str = ""
-    evaluations: tuple[dict[str, Any], ...] = ()
-
-    @property
-    def integer(self) -> bool:
-        """A count (lost packets): its ends are whole numbers, and its gap is said in them."""
-        return self.unit == "packets"
-
-    @property
-    def gap(self) -> float | None:
-        """|exhibited - certified| / exhibited: the share of the true margin the certificate may miss.
-        None for a count (packets): a share of a few packets says nothing (issue 50: "may miss 75.0 %"
-        of 4 packets); :attr:`gap_packets` gives that gap in packets."""
-        if self.integer or self.certified is None or self.exhibited is None or self.exhibited == 0:
-            return None
-        return abs(self.exhibited - self.certified) / abs(self.exhibited)
-
-    @property
-    def gap_packets(self) -> int | None:
-        """For a count: how many packets the certificate may miss.  The truth is a whole number in
-        [certified, exhibited - 1] (exhibited destabilizes), so this is exhibited - 1 - certified, 0
-        where the certificate is exact."""
-        if not self.integer or self.certified is None or self.exhibited is None:
-            return None
-        return max(0, int(round(self.exhibited)) - 1 - int(round(self.certified)))
-
-    def to_dict(self) -> dict[str, Any]:
-        d = {k: v for k, v in asdict(self).items() if k not in {"name", "evaluations"}}
-        d["searched"] = list(self.searched) if self.searched is not None else None
-        d["gap"] = self.gap
-        if self.integer:
-            d["gap_packets"] = self.gap_packets
-        d["evaluations"] = list(self.evaluations)
-        return d
-
-    def line(self) -> str:
-        def f(x: float | None) -> str:
-            return "none" if x is None else f"{x:.4g}"
-
-        def u(x: float | None) -> str:  # no unit after "none" (review: "certified none s")
-            if x is None or not self.unit:
-                return f(x)
-            if self.integer:  # "1 packet", "2 packets" (issue 50: "exhibited 1 packets")
-                return _packets(x)
-            return f"{f(x)} {self.unit}"
-
-        text = f"{self.name}: configured {u(self.configured)}, certified {u(self.certified)}, exhibited {u(self.exhibited)}"
-        if self.gap is not None:  # the share of the exhibited margin the certificate may miss
-            text += f" (the certificate may miss {100 * self.gap:.1f} % of the exhibited margin)"
-        elif self.gap_packets is not None:  # a count: the gap in packets, never a share
-            text += (" (the certificate misses no packet of the exhibited margin)" if self.gap_packets == 0 else
-                     f" (the certificate may miss up to {_packets(self.gap_packets)} of the exhibited margin)")
-        if self.exhibited is None and self.searched is not None:
-            text += f" (no instability found in [{self.searched[0]:.4g}, {self.searched[1]:.4g}])"
-        if self.note and self.certified is None and self.exhibited is None and self.searched is None:
-            text += f" ({self.note})"
-        return text
-
-
-def _packets(n: float) -> str:
-    """A whole number of packets, singular or plural."""
-    k = int(round(n))
-    return f"{k} packet" + ("" if k == 1 else "s")
-
-
-@dataclass(frozen=True)
-class MarginReport:
-    delay_max: Margin
-    slip_min: Margin
-    dropouts: Margin
-    meta: dict[str, Any] = field(default_factory=dict)
-    slip_parameters: tuple[Margin, ...] = ()  # slip.model icr: yaw_min, icr_offset_max
-
-    @property
-    def margins(self) -> tuple[Margin, ...]:
-        return (self.delay_max, self.slip_min, *self.slip_parameters, self.dropouts)
-
-    def to_dict(self) -> dict[str, Any]:
-        out = {m.name: m.to_dict() for m in self.margins}
-        out["meta"] = dict(self.meta)
-        return out
 
 
 # ------------------------------------------------------------------------ exhibited instability
@@ -149,7 +58,7 @@ def find_instability(model: Any, K: np.ndarray, n_delays: int = SEARCH_DELAYS, m
     in a row; bursts of that length are searched even when longer than ``max_period``); slips at the
     corners (held constant when ``slip.max_rate`` forbids jumps).  Returns the worst witness
     (``delays`` with null for a lost packet, ``lost``, ``slip``, ``period``, ``spectral_radius``) or None."""
-    from .verification.lifted import periodic_spectral_radius
+    from ..verification.lifted import periodic_spectral_radius
 
     net = model.network
     grid = np.unique(net.grid(n_delays))
@@ -188,19 +97,6 @@ def witness_delays(witness: dict[str, Any]) -> np.ndarray:
 # ------------------------------------------------------------------------------------ the search
 
 
-Evaluator = Callable[[float], bool]
-
-
-def _bisect(ok: Evaluator, good: float, bad: float, tol: float) -> float:
-    """Largest step towards ``bad`` where ``ok`` holds, knowing ok(good) and not ok(bad)."""
-    while abs(bad - good) > tol:
-        mid = (good + bad) / 2.0
-        if ok(mid):
-            good = mid
-        else:
-            bad = mid
-    return good
-
 
 class _Search:
     """One margin's evaluations of a gain on configs differing in one quantity."""
@@ -212,14 +108,14 @@ class _Search:
         self.evaluations: list[dict[str, Any]] = []
 
     def model(self, x: float):
-        from .model import build_model
+        from ..model import build_model
 
         cfg = config_with(self.config, {"synthesis.model": "slip-aware", **self.set_value(x)})
         model = build_model(cfg, min_lifting=self.lifting)
         return model, pad_gain(self.K, model)
 
     def certified(self, x: float) -> bool:
-        from .synthesis.analysis import analyze_stability
+        from ..synthesis.analysis import analyze_stability
 
         check_interrupt()
         model, K = self.model(x)
@@ -263,7 +159,7 @@ def _first_instability(search: "_Search", grid: np.ndarray, tol: float) -> dict[
 
 def _delay_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[str], None]) -> Margin:
     dl, Ts = config.network.delay, config.network.sampling_time
-    from .config import MAX_D_HI
+    from ..config import MAX_D_HI
 
     # the lifting holds tau_max + m Ts <= MAX_D_HI Ts (m lost commands in a row)
     top = (MAX_D_HI - config.network.dropouts.max_consecutive) * Ts
@@ -285,9 +181,9 @@ def _delay_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[s
         if hi <= lo or search.certified(hi):
             certified = hi if hi > lo else lo
         else:
-            certified = _bisect(search.certified, lo, hi, tol)
+            certified = bisect(search.certified, lo, hi, tol)
     elif dl.max > dl.min and search.certified(dl.min):
-        certified = _bisect(search.certified, dl.min, dl.max, tol)
+        certified = bisect(search.certified, dl.min, dl.max, tol)
     else:
         certified = None
     note = ("certified: largest tau_max [s] with a robust-stability certificate (tau_min as configured); "
@@ -309,9 +205,9 @@ def _certified_end(search: "_Search", configured: float, far: float, start: floa
             return configured
         if search.certified(far):
             return far
-        return _bisect(search.certified, configured, far, tol)
+        return bisect(search.certified, configured, far, tol)
     if beyond(configured, start) and search.certified(start):
-        return _bisect(search.certified, start, configured, tol)
+        return bisect(search.certified, start, configured, tol)
     return None
 
 
@@ -377,7 +273,7 @@ def _icr_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[str
 def _dropout_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[str], None]) -> Margin:
     """Largest certified number of consecutive lost commands, and the smallest at which periodic
     loss/delay/slip sequences exhibit an instability (both searched up to the lifting's limit)."""
-    from .config import MAX_D_HI
+    from ..config import MAX_D_HI
 
     Ts = config.network.sampling_time
     configured = config.network.dropouts.max_consecutive
@@ -409,36 +305,9 @@ def _dropout_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[
                   tuple(search.evaluations))
 
 
-def margin(config: Config, K: np.ndarray, *, lyapunov: str | None = None,
-           on_step: Callable[[str], None] | None = None) -> MarginReport:
-    """Delay and slip margins of the gain ``K`` (du_k = K xi_k) on the robot of ``config``.
-
-    ``lyapunov``: the certificates tried at each point: 'common', 'slip-dependent',
-    'delay-dependent' or 'path-dependent' (one matrix per slip corner only where a point's delays
-    have no vertices), or
-    'auto' (common, then slip-dependent where common fails: tighter, and several times slower);
-    default ``config.synthesis.lyapunov``.
-
-    Parameters
-    ----------
-    config : Config
-        The scenario whose delay and slip ranges are the starting point.
-    K : numpy.ndarray
-        The gain.
-    lyapunov : str or None
-        The certificate class (above).
-    on_step : callable or None
-        Receives one line per step of the searches.
-
-    Returns
-    -------
-    MarginReport
-        Each margin's configured, certified and exhibited values, with the destabilizing witness.
-    """
-    from .config import refuse_lti
-
-    refuse_lti(config, "margin")
-    say = on_step or (lambda _msg: None)
+def robot_margin(config: Config, K: np.ndarray, lyapunov: str | None, say: Callable[[str], None]) -> MarginReport:
+    """The tracked robot's margins (:func:`robustsynth.margins.margin` on its config): delay_max, slip_min (and
+    the icr model's yaw_min, icr_offset_max), dropouts."""
     lyapunov = lyapunov or config.synthesis.lyapunov
     if lyapunov not in ("common", "slip-dependent", "delay-dependent", "path-dependent", "auto"):
         raise InputError(f"lyapunov: must be common, slip-dependent, delay-dependent, path-dependent or auto "
@@ -458,8 +327,9 @@ def margin(config: Config, K: np.ndarray, *, lyapunov: str | None = None,
     # certified: robust stability of the lifted model, i.e. of the robot's linearization, whatever kinematics the
     # gain's own certificate has (synthesis.analysis); exhibited: the lifted model's instability
     meta = {"model": "slip-aware", "kinematics": "linearized", "lyapunov": lyapunov, "exhibit_tol": EXHIBIT_TOL,
+            "reading": READING,
             "search": {"delays_per_period": SEARCH_DELAYS, "longest_period": SEARCH_PERIOD,
                        "slip": "corners, held constant" if config.slip.max_rate is not None else "corners, switching"},
             "time_s": {"delay_max": round(t1 - t0, 3), "slip_min": round(t2 - t1, 3), "dropouts": round(t3 - t2, 3),
                        **({"slip_parameters": round(t4 - t3, 3)} if extra else {}), "total": round(t4 - t0, 3)}}
-    return MarginReport(d, s, drop, meta, extra)
+    return MarginReport((d, s, *extra, drop), meta)

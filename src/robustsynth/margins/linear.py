@@ -24,12 +24,12 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .core.network import Network, max_cyclic_run
-from .errors import check_interrupt
-from .margins import _bisect
-from .model.lti import lti_depth
+from ..core.network import Network, max_cyclic_run
+from ..errors import InputError, check_interrupt
+from ..model.lti import lti_depth
+from .common import Margin, MarginReport, bisect
 
-__all__ = ["lti_margins", "delay_margin", "find_lti_instability", "spectral_radius", "check_witness", "SEARCH_DELAYS", "SEARCH_PERIOD",
+__all__ = ["linear_margin", "as_margin", "lti_margins", "delay_margin", "loss_margin", "find_lti_instability", "spectral_radius", "check_witness", "SEARCH_DELAYS", "SEARCH_PERIOD",
            "SWITCH_FAMILIES", "EXHIBIT_CAP"]
 
 SEARCH_DELAYS = 9  # grid points of [tau_min, tau_max] in the switching search
@@ -68,8 +68,8 @@ def spectral_radius(plant: dict, Ts: float, dseq: np.ndarray, m_lost: int = 0) -
     delays ``dseq`` (n, p) (inf: lost), per row: the robot's instability search's radius
     (:func:`robustsynth.verification.lifted.periodic_spectral_radius`) on the plant as a
     :class:`~robustsynth.plants.linear.LinearPlant`, lifted as deep as the longest delay and the gain need."""
-    from .plants.linear import LinearPlant
-    from .verification.lifted import periodic_spectral_radius
+    from ..plants.linear import LinearPlant
+    from ..verification.lifted import periodic_spectral_radius
 
     dseq = np.atleast_2d(np.asarray(dseq, dtype=float))
     finite = dseq[np.isfinite(dseq)]
@@ -116,8 +116,8 @@ def check_witness(plant: dict, Ts: float, witness: dict, m_lost: int = 0) -> dic
     arithmetic."""
     from scipy.linalg import eig
 
-    from .core.network import s_tilde_sequence
-    from .model.lti import exact_closed_loop, pad_lti_gain
+    from ..core.network import s_tilde_sequence
+    from ..model.lti import exact_closed_loop, pad_lti_gain
 
     A, B, K = plant["A"], plant["B"], plant["K"]
     n, m = B.shape
@@ -154,7 +154,7 @@ def block_size(n: int, m: int, d: int, tau_min: float, tau_hi: float, Ts: float)
     and n channels per distinct range of the instants (instants on equal ranges share theirs,
     :func:`robustsynth.model.lti.channel_groups`; an instant on a point has a rounding-level remainder, no
     channel, :func:`robustsynth.model.lti.kept_directions`, unless every remainder is at that level)."""
-    from .model.lti import piece_grid
+    from ..model.lti import piece_grid
 
     ranges = {(th.tobytes(), w.tobytes()) for th, w in zip(*piece_grid(tau_min, tau_hi, Ts, d, 1)) if np.any(w > 0)}
     return n + d * m + n * max(len(ranges), 1)
@@ -166,7 +166,7 @@ def budget_pieces(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost
     the vertices (:func:`robustsynth.model.lti.vertex_count`) exceed MAX_VERTICES or what MAX_COEFFICIENTS
     or MAX_SCALING allow for blocks of :func:`block_size` (one piece is kept, vertices above the budget then
     say it is beyond it)."""
-    from .model.lti import vertex_count
+    from ..model.lti import vertex_count
 
     n, m = plant["B"].shape
     d = max(lti_depth(tau_max, m_lost, Ts), (plant["K"].shape[1] - n) // m)
@@ -185,8 +185,8 @@ def lti_certificate(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lo
     """(the analysis of ``plant["K"]``'s certificate at delays [tau_min, tau_max] with m_lost losses in a
     row, K padded to the lifting, the pieces used): the pieces within the budget (:func:`budget_pieces`); a
     problem beyond it even with one piece is not attempted (certified False, status 'budget')."""
-    from .model.lti import over_approximation, pad_lti_gain
-    from .synthesis.lti import analyze_lti
+    from ..model.lti import over_approximation, pad_lti_gain
+    from ..synthesis.lti import analyze_lti
 
     n, m = plant["B"].shape
     d, pieces, vertices, budget = budget_pieces(plant, Ts, tau_min, tau_max, m_lost, pieces)
@@ -196,8 +196,6 @@ def lti_certificate(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lo
     try:
         pw = over_approximation(plant["A"], plant["B"], K, Ts, tau_min, tau_max + m_lost * Ts, d, pieces)
     except ValueError as exc:
-        from .errors import InputError
-
         raise InputError(f"plant: {exc} (delays up to {tau_max + m_lost * Ts:g} s)") from None
     return analyze_lti(pw), K, pieces
 
@@ -239,7 +237,7 @@ def _last_good(good: Callable[[float], bool], lo: float, hi: float, tol: float) 
         return None
     if good(hi):
         return hi
-    return _bisect(good, lo, hi, tol)
+    return bisect(good, lo, hi, tol)
 
 
 def _exhibited_delay(plant: dict, Ts: float, t_lo: float, far: float, m_lost: int, tol: float) -> tuple[float | None, Any]:
@@ -273,7 +271,7 @@ def _gallop(good: Callable[[float], bool], lo: float, hi: float, step: float, to
         else:
             bad = x
             break
-    return _bisect(good, lo, bad, tol)
+    return bisect(good, lo, bad, tol)
 
 
 def _certified_delay(plant: dict, Ts: float, t_lo: float, top: float, m_lost: int, pieces: int, tol: float
@@ -308,24 +306,24 @@ def _certified_delay(plant: dict, Ts: float, t_lo: float, top: float, m_lost: in
     return lo, solves
 
 
-def delay_margin(cfg, plant: dict, say: Callable[[str], None] = lambda s: None) -> dict[str, Any]:
-    """The delay margin (delay.max) of the gain ``plant["K"]``: certified (bisection of the analysis LMIs) and
-    exhibited (the instability search), their ratio, the witness, how far it searched and the time; the
-    ``delay_max`` entry of :func:`lti_margins`, which ``synthesize`` records for its own gain too."""
-    net = cfg.network
-    Ts, t_lo, t_hi, m0 = net.sampling_time, net.delay.min, net.delay.max, net.dropouts.max_consecutive
-    pieces, tol = cfg.margin.pieces, cfg.margin.tolerance
-    from .config import MAX_D_HI
+def delay_margin(network: Network, settings: Any, plant: dict, say: Callable[[str], None] = lambda s: None
+                 ) -> dict[str, Any]:
+    """The delay margin (delay.max) of the gain ``plant["K"]`` on ``network``: certified (bisection of the analysis
+    LMIs, ``settings.pieces`` and ``settings.tolerance``) and exhibited (the instability search, up to
+    ``settings.delay_far``), their ratio, the witness, how far it searched and the time.  The record that
+    ``synthesize`` keeps in a linear plant's gains.json (``delay_margin``); :func:`linear_margin` reads the
+    same record as a :class:`~robustsynth.margins.Margin`."""
+    Ts, t_lo, t_hi, m0 = network.sampling_time, network.delay_min, network.delay_max, network.max_lost
+    pieces, tol = settings.pieces, settings.tolerance
+    from ..config import MAX_D_HI
 
-    if cfg.margin.delay_far is not None and cfg.margin.delay_far <= t_hi:
-        from .errors import InputError
-
+    if settings.delay_far is not None and settings.delay_far <= t_hi:
         # the margin is how much more delay the gain takes: a search ending at or below the configured delay
         # reported "certified at least 0.1 s" against 0.5 s configured (review)
-        raise InputError(f"margin.delay_far: {cfg.margin.delay_far:g} s does not reach beyond network.delay.max = "
+        raise InputError(f"margin.delay_far: {settings.delay_far:g} s does not reach beyond network.delay.max = "
                          f"{t_hi:g} s, where the margin search starts to matter; raise it or leave it out (default "
                          f"{max(t_lo + 4 * Ts, t_hi + Ts):g} s)")
-    given = cfg.margin.delay_far
+    given = settings.delay_far
     # the certificate's bisection ends at the exhibited bound, else where it always did (delay_far, else
     # max(tau_min + 4 Ts, tau_max + Ts)); the instability search goes on to delay_far, else EXHIBIT_CAP periods
     far = given if given is not None else max(t_lo + 4 * Ts, t_hi + Ts)
@@ -368,28 +366,13 @@ def delay_margin(cfg, plant: dict, say: Callable[[str], None] = lambda s: None) 
     return out
 
 
-def lti_margins(cfg, plant: dict, say: Callable[[str], None] = lambda s: None) -> dict[str, Any]:
-    """The delay margin (delay.max, :func:`delay_margin`) and the loss margin (dropouts.max_consecutive) of the
-    configured gain: certified and exhibited, with the witness and the evaluations' count and time.
-
-    Parameters
-    ----------
-    cfg : LtiConfig
-        A linear plant's config with its gain (``controller.gain``).
-    plant : dict
-        The plant's arrays (:func:`~robustsynth.model.lti.lti_plant`).
-    say : callable
-        Receives progress lines.
-
-    Returns
-    -------
-    dict
-        ``delay_max`` and ``dropouts``: configured, certified, exhibited, witness.
-    """
-    net = cfg.network
-    Ts, t_lo, t_hi, m0 = net.sampling_time, net.delay.min, net.delay.max, net.dropouts.max_consecutive
-    pieces = cfg.margin.pieces
-    out: dict[str, Any] = {"delay_max": delay_margin(cfg, plant, say)}
+def loss_margin(network: Network, settings: Any, plant: dict, say: Callable[[str], None] = lambda s: None
+                ) -> dict[str, Any]:
+    """The loss margin (dropouts.max_consecutive) of the gain ``plant["K"]`` on ``network``: the shortest burst of
+    lost commands a periodic sequence destabilizes with (exhibited), the longest run with a certificate
+    (certified, up to MAX_LOSSES), the witness and the time."""
+    Ts, t_lo, t_hi, m0 = network.sampling_time, network.delay_min, network.delay_max, network.max_lost
+    pieces = settings.pieces
     t0 = time.perf_counter()
     say("dropouts: instability and certificate search")
     m_ex, m_w, m_cert = None, None, None
@@ -404,11 +387,74 @@ def lti_margins(cfg, plant: dict, say: Callable[[str], None] = lambda s: None) -
             m_cert = m
         else:
             break
-    out["dropouts"] = {"configured": m0, "certified": m_cert, "exhibited": m_ex, "witness": m_w,
-                       "searched_up_to": MAX_LOSSES, "unit": "commands in a row",
-                       "time_s": round(time.perf_counter() - t0, 3)}
-    out["dropouts"]["at_least"] = m_ex is None and m_cert == MAX_LOSSES
+    out = {"configured": m0, "certified": m_cert, "exhibited": m_ex, "witness": m_w, "searched_up_to": MAX_LOSSES,
+           "unit": "commands in a row", "time_s": round(time.perf_counter() - t0, 3)}
+    out["at_least"] = m_ex is None and m_cert == MAX_LOSSES
     if m_ex is None:
-        out["dropouts"]["note"] = (f"no instability found up to {MAX_LOSSES} lost in a row" + (
-            "; certified up to the search's end: the margin is at least this" if out["dropouts"]["at_least"] else ""))
+        out["note"] = (f"no instability found up to {MAX_LOSSES} lost in a row" + (
+            "; certified up to the search's end: the margin is at least this" if out["at_least"] else ""))
     return out
+
+
+def lti_margins(cfg: Any, plant: dict, say: Callable[[str], None] = lambda s: None) -> dict[str, Any]:
+    """The records of a linear plant's delay and loss margins (deprecated at the top level: use
+    ``robustsynth.margin(LinearPlant.from_config(cfg), K)``, which returns the same margins as the one
+    ``MarginReport`` of every plant).
+
+    Parameters
+    ----------
+    cfg : LtiConfig
+        A linear plant's config: its network and ``margin:`` settings.
+    plant : dict
+        The plant's arrays with the gain ``K`` (:func:`~robustsynth.model.lti.lti_plant`).
+    say : callable
+        Receives progress lines.
+
+    Returns
+    -------
+    dict
+        ``delay_max`` and ``dropouts``: the records of ``delay_margin`` and ``loss_margin`` (configured,
+        certified, exhibited, witness, how far each search went, the times).
+    """
+    net = Network.from_config(cfg)
+    return {"delay_max": delay_margin(net, cfg.margin, plant, say), "dropouts": loss_margin(net, cfg.margin, plant, say)}
+
+
+def as_margin(name: str, record: dict[str, Any], delay_min: float = 0.0) -> Margin:
+    """A record of :func:`delay_margin` (``delay_max``) or :func:`loss_margin` (``dropouts``) as a
+    :class:`~robustsynth.margins.Margin`: the common keys, the search's own figures in ``details``."""
+    if name == "delay_max":
+        searched = (delay_min, record["searched_up_to"])
+        details = {"families": record["searched"], "searched_periods": record["searched_periods"],
+                   "certificate_searched_up_to": record["certificate_searched_up_to"], "solves": record["solves"],
+                   "search_s": record["search_s"], "certificate_s": record["certificate_s"]}
+        unit = "s"
+    else:
+        searched, details, unit = (0, record["searched_up_to"]), {"time_s": record["time_s"]}, "packets"
+    return Margin(name, unit, "max", record["configured"], record["certified"], record["exhibited"], record["witness"],
+                  searched, record.get("note", ""), (), bool(record["at_least"]), details,
+                  details.get("families", f"periodic delay/loss sequences, up to {record['searched_up_to']} lost in a row"))
+
+
+def linear_margin(plant: Any, K: Any, settings: Any, say: Callable[[str], None]) -> MarginReport:
+    """A linear plant's margins (:func:`robustsynth.margins.margin` on a
+    :class:`~robustsynth.plants.linear.LinearPlant`): delay_max and dropouts of the gain ``K`` on the plant's
+    network, with ``settings`` (``LtiMarginConfig``: pieces, tolerance, delay_far)."""
+    from ..model.lti import check_lti_gain
+    from ..report.lti import LINEAR_READING
+
+    arrays = dict(plant.arrays, K=np.asarray(K, dtype=float))
+    n, m = plant.B.shape
+    check_lti_gain(arrays["K"], n, m, "K")
+    net = plant.network
+    margins = (as_margin("delay_max", delay_margin(net, settings, arrays, say), net.delay_min),
+               as_margin("dropouts", loss_margin(net, settings, arrays, say)))
+    meta = {"plant": {"kind": "lti", "n": int(n), "m": int(m), "states": plant.arrays["states"],
+                      "units": plant.arrays["units"], "controllable": plant.arrays["controllable"]},
+            "gain": arrays["K"].tolist(),
+            "network": {"sampling_time": net.sampling_time, "delay": [net.delay_min, net.delay_max],
+                        "max_consecutive": net.max_lost},
+            "lyapunov": "common", "pieces": int(settings.pieces), "exhibit_tol": EXHIBIT_TOL, "reading": LINEAR_READING}
+    warnings = () if plant.arrays["controllable"] else (
+        "warning: plant: (A, B) is not controllable; a stabilizing gain may not exist",)
+    return MarginReport(margins, meta, (), warnings)
