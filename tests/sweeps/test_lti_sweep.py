@@ -23,7 +23,10 @@ def test_lti_sweep_rows_match_direct_synthesis(tmp_path) -> None:
                        "  plant.disturbance.bound: [0.005, 0.02]\n")
     assert spec.figure == "output_bound"
     res = sweep(spec, tmp_path, verify_runs=4, workers=1)
-    assert [r["status"] for r in res.rows] == ["certified", "infeasible", "certified", "infeasible"]
+    # the larger disturbance: Clarabel's statuses are inaccurate ones and errors, SCS's points fail the numpy proof;
+    # nothing shows that no gain exists, so the point is a solver failure, not infeasible
+    assert [r["status"] for r in res.rows] == ["certified", "solver-failure", "certified", "solver-failure"]
+    assert all("also with the fallback solver" in r["message"] for r in res.rows[1::2])
     for row, pt in zip(res.rows, spec.points()):
         if row["status"] != "certified":
             continue

@@ -573,46 +573,77 @@ class _LineSearch:
 
     def run(self) -> float | None:
         """The grid, then (ultimate-bound) the refinement around the best alpha, two solves a round on
-        either side of it: the best proven alpha, or None."""
+        either side of it: the best proven alpha, or None (after :meth:`fallback` at the alphas that failed)."""
         self.attempts([float(a) for a in self.grid])
         best = _best(self.held, self.dist)
+        if best is None:
+            self.fallback()
+            best = _best(self.held, self.dist)
         if self.dist and best is not None:
             for _ in range(REFINE_ROUNDS):
                 self.attempts(_midpoints(self.held["tried"], best))
                 best = _best(self.held, self.dist)
         return best
 
+    def _arm(self, pt: _LinePoint, a: float):
+        """Point ``pt`` set to alpha ``a`` (the disturbance's scale, the input limits); its acceptor, which proves
+        the solver's values in numpy (:func:`_prove`)."""
+        b = self.beta(a)
+        c_dist = (1.0 - a) / b**2 if self.dist else None
+        # the limits with a relative back-off, so that the numpy proof on P = Q^-1 has room for rounding
+        u2 = (((1.0 - INPUT_BACKOFF) * np.asarray(self.u_max, dtype=float) * b / self.delta) ** 2
+              if self.u_max is not None else None)
+        pt.set(a, 1.0 / c_dist if self.dist else 0.0, u2)
+        return pt.acceptor(lambda Qv, Yv, ev, a=a, c=c_dist: _prove(
+            self.plant, self.V, self.Ts, self.tau_min, self.tau_hi, self.pieces, Qv, Yv, ev, a, c))
+
     def attempts(self, alphas: list[float]) -> None:
-        """Solve at each alpha, ``n_threads`` at once, each point's solution proven in numpy (:func:`_prove`)
-        before it is accepted; what they gave into ``held``."""
+        """Solve at each alpha, ``n_threads`` at once, each point's solution proven in numpy before it is
+        accepted; what they gave into ``held``."""
         from .solve import solve_all
 
-        dist, u_max, delta, held, points = self.dist, self.u_max, self.delta, self.held, self.points
+        points = self.points
         for i0 in range(0, len(alphas), self.n_threads):
             chunk = alphas[i0 : i0 + self.n_threads]
             while len(points) < len(chunk):
-                points.append(_LinePoint(self.V, self.C, dist, self.scale, self.n, u_max is not None))
-            accepts = []
-            for pt, a in zip(points, chunk):
-                b = self.beta(a)
-                c_dist = (1.0 - a) / b**2 if dist else None
-                # the limits with a relative back-off, so that the numpy proof on P = Q^-1 has room for rounding
-                u2 = (((1.0 - INPUT_BACKOFF) * np.asarray(u_max, dtype=float) * b / delta) ** 2 if u_max is not None
-                      else None)
-                pt.set(a, 1.0 / c_dist if dist else 0.0, u2)
-                accepts.append(pt.acceptor(lambda Qv, Yv, ev, a=a, c=c_dist: _prove(
-                    self.plant, self.V, self.Ts, self.tau_min, self.tau_hi, self.pieces, Qv, Yv, ev, a, c)))
+                points.append(_LinePoint(self.V, self.C, self.dist, self.scale, self.n, self.u_max is not None))
+            accepts = [self._arm(pt, a) for pt, a in zip(points, chunk)]
             for pt, a, out in zip(points, chunk, solve_all([pt.prob for pt in points[: len(chunk)]], self.solver,
                                                             accepts)):
-                held["solves"] = held.get("solves", 0) + 1
-                held["tried"].append(float(a))
-                held["last"] = pt.proof or None  # the last solve's proof, if its point reached one
-                if out.kind != "ok":
-                    self.say(f"alpha {a:.4f}: {out.kind}")
-                    continue
-                val = float(np.sqrt(max(float(pt.t.value), 0.0))) * (delta / self.beta(a) if dist else 1.0)
-                self.say(f"alpha {a:.4f}: {'largest bound / scale' if dist else 'ball at rest'} {val:.6g} (proven)")
-                held.setdefault("ok", {})[a] = (val,) + pt.proof
+                self._record(pt, a, out)
+
+    def fallback(self) -> None:
+        """No alpha proven: each alpha whose solve failed is solved again as the robot's solves are (the primary
+        solver unscaled, then the other solver), so that "infeasible" is only said on a solver's word (a failed
+        solve shows neither a gain nor that none exists).  Only here: a search that proves a gain runs no more
+        solves than it did."""
+        from .solve import solve
+
+        pt = self.points[0]
+        for a in self.held.pop("failed", []):
+            self.held["kinds"]["failed"] -= 1
+            self.say(f"alpha {a:.4f}: the fallback solver")
+            self._record(pt, a, solve(pt.prob, self.solver, self._arm(pt, a), fallback=True, skip_first=True),
+                         again=True)
+
+    def _record(self, pt: _LinePoint, a: float, out: Any, again: bool = False) -> None:
+        """What the solve at alpha ``a`` gave, into ``held`` (``again``: a second solve at an alpha tried before)."""
+        from collections import Counter
+
+        held, dist = self.held, self.dist
+        held["solves"] = held.get("solves", 0) + 1
+        if not again:
+            held["tried"].append(float(a))
+        held["last"] = pt.proof or None  # the last solve's proof, if its point reached one
+        held.setdefault("kinds", Counter())[out.kind] += 1
+        if out.kind != "ok":
+            self.say(f"alpha {a:.4f}: {out.kind}" + (f" ({out.record.status})" if out.kind == "failed" else ""))
+            if out.kind == "failed" and not again:
+                held.setdefault("failed", []).append(float(a))
+            return
+        val = float(np.sqrt(max(float(pt.t.value), 0.0))) * (self.delta / self.beta(a) if dist else 1.0)
+        self.say(f"alpha {a:.4f}: {'largest bound / scale' if dist else 'ball at rest'} {val:.6g} (proven)")
+        held.setdefault("ok", {})[a] = (val,) + pt.proof
 
 
 def _uncertified(plant: dict, objective: str, search: _LineSearch, decay: float, d: int, nv: int, solves: int,
@@ -621,8 +652,16 @@ def _uncertified(plant: dict, objective: str, search: _LineSearch, decay: float,
     infeasible, with what may bind (an uncontrollable plant, the input limits, the decay or the delay range)."""
     dist, held = search.dist, search.held
     last = held.get("last")
-    status = "rejected" if last is not None and not last[0]["ok"] else "infeasible"
+    kinds = held.get("kinds", {})
+    # infeasible only where the solvers said so at every alpha: a solve that failed (also with the fallback)
+    # proves nothing either way (SolverFailure, exit 4)
+    status = ("rejected" if last is not None and not last[0]["ok"] else "failed" if kinds.get("failed") else
+              "infeasible")
     why = "no alpha of the line search gave a proven certificate" if dist else f"no certificate with decay {decay:g} per period"
+    if kinds.get("failed"):
+        why += (f" (at {kinds['failed']} of {len(held['tried'])} alphas the solves failed, also with the fallback solver: "
+                "an error, an inaccurate status or a point the numpy proof rejected, which shows neither a gain nor "
+                "that none exists" + (f"; {kinds['infeasible']} infeasible" if kinds.get("infeasible") else "") + ")")
     hints = []
     if not plant.get("controllable", True):
         hints.append("the plant is not controllable (rank [B, AB, ...] < n): its uncontrollable modes must decay "
