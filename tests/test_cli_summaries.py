@@ -212,6 +212,9 @@ def test_margin(monkeypatch, tmp_path) -> None:
     assert _invoke(["margin", "--gains", str(gains / "nonlinear-proof" / "gains.json"), "-o", str(tmp_path)])[1] == (
         f"config: the one stored in {gains / 'nonlinear-proof' / 'gains.json'} ('nonlinear-proof'); pass CONFIG to take "
         "the gain's margins on another\n" + lines)
+    code, out, err = _invoke(["margin", "--gains", str(gains / "nonlinear-proof" / "gains.json"), "-o", str(tmp_path),
+                              "--json"])  # stdout is the JSON alone: the config's line goes to stderr
+    assert json.loads(out) == rep.to_dict() and err.startswith("config: the one stored in ") and code == 0
 
 
 def test_check_log_and_monitor(monkeypatch, tmp_path) -> None:

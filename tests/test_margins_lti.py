@@ -475,8 +475,9 @@ def test_the_cap_is_reported_when_nothing_destabilizes(tmp_path) -> None:
 
 def test_margin_takes_a_linear_plant_and_returns_the_one_report(h1) -> None:
     """Issue 52: ``robustsynth.margin`` takes a LinearPlant and returns the MarginReport the robot's margins come in:
-    the figures and witnesses of the records (``lti_margins``, computed separately by the fixture), every key a robot
-    margin writes, no slip margin; the robot's --lyapunov refused; the old top-level name warns."""
+    the figures and witnesses of the records (``lti_margins``, computed separately by the fixture), the loss margin
+    counted in packets (its gap too), no slip margin; the robot's --lyapunov and a K of strings refused in one line;
+    the old top-level name warns."""
     import warnings
 
     import robustsynth
@@ -492,11 +493,13 @@ def test_margin_takes_a_linear_plant_and_returns_the_one_report(h1) -> None:
         assert (m.configured, m.certified, m.exhibited, m.at_least, m.witness) == \
             (r["configured"], r["certified"], r["exhibited"], r["at_least"], r["witness"])
     assert rep.dropouts.unit == "packets" and rep.dropouts.gap_packets == 0
-    robot_keys = set(Margin("slip_min", "", "min", 0.9, 0.8, 0.5, None, (0.05, 1.0)).to_dict())
-    assert all(robot_keys <= set(m.to_dict()) for m in rep.margins)
+    assert all(isinstance(m, Margin) and {"configured", "certified", "exhibited", "witness", "searched", "at_least", "gap",
+                                          "gap_packets" if m.integer else "gap"} <= set(m.to_dict()) for m in rep.margins)
     assert rep.to_dict()["meta"]["plant"]["kind"] == "lti" and rep.warnings == ()
     with pytest.raises(InputError, match="^lyapunov: a linear plant's certificate"):
         robustsynth.margin(plant, lyapunov="common")
+    with pytest.raises(InputError, match="^K: must be a matrix of numbers"):
+        robustsynth.margin(plant, [["a", "b"]])
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         assert robustsynth.lti_margins is lti_margins

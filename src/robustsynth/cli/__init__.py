@@ -54,8 +54,9 @@ def _outdir(cfg: Any, outdir: Path | None, gains: Path | None = None) -> Path:
     return _NEW_DIRS.note(outdir if outdir is not None else gains.parent if gains is not None else default_outdir(cfg))
 
 
-def _gains_config(obj: _Ctx, config: Path | None, gains: Path | None, said: str) -> Any:
-    """CONFIG, else the config stored in --gains when it is another than the default one, ``said`` in one line."""
+def _gains_config(obj: _Ctx, config: Path | None, gains: Path | None, said: str, stderr: bool = False) -> Any:
+    """CONFIG, else the config stored in --gains when it is another than the default one, ``said`` in one line
+    (on stderr with ``stderr``: where stdout is JSON)."""
     from ..artifacts.inputs import gains_own_config, needs_its_config
 
     needs_its_config(config, gains, click.get_current_context().info_name)
@@ -64,7 +65,11 @@ def _gains_config(obj: _Ctx, config: Path | None, gains: Path | None, said: str)
         return cfg
     stored = gains_own_config(cfg, gains)
     if stored is not cfg:
-        obj.say(f"config: the one stored in {gains} ({stored.name!r}){said}")
+        line = f"config: the one stored in {gains} ({stored.name!r}){said}"
+        if not stderr:
+            obj.say(line)
+        elif not obj.quiet:
+            click.echo(line, err=True)
     return stored
 
 
@@ -209,7 +214,7 @@ def margin_cmd(obj: _Ctx, config: Path | None, gains: Path | None, outdir: Path 
     nearest value at which an instability is exhibited (periodic delay/slip sequences of the lifted
     closed loop), with the destabilizing sequence.  Writes OUTDIR/margin.json.
     """
-    cfg = _gains_config(obj, config, gains, "; pass CONFIG to take the gain's margins on another")  # review
+    cfg = _gains_config(obj, config, gains, "; pass CONFIG to take the gain's margins on another", stderr=as_json)
     res = _jobs(cfg).margin(cfg, _outdir(cfg, outdir, gains), obj, config, gains=gains, lyapunov=lyapunov,
                             as_json=as_json)
     if as_json:

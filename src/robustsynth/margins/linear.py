@@ -443,7 +443,10 @@ def linear_margin(plant: Any, K: Any, settings: Any, say: Callable[[str], None])
     from ..model.lti import check_lti_gain
     from ..report.lti import LINEAR_READING
 
-    arrays = dict(plant.arrays, K=np.asarray(K, dtype=float))
+    try:
+        arrays = dict(plant.arrays, K=np.asarray(K, dtype=float))
+    except (TypeError, ValueError):
+        raise InputError("K: must be a matrix of numbers") from None
     n, m = plant.B.shape
     check_lti_gain(arrays["K"], n, m, "K")
     net = plant.network

@@ -84,7 +84,7 @@ def margin_table(margins: Mapping[str, Mapping[str, Any]], reading: str) -> list
     md = ["| margin | configured | certified | exhibited | certified / exhibited | witness |\n|---|---|---|---|---|---|\n"]
     for name, mg in margins.items():
         ratio = (f"{mg['certified'] / mg['exhibited']:.3f}" if mg["certified"] is not None and mg["exhibited"]
-                 else "-")
+                 and mg.get("unit") != "packets" else "-")  # a ratio of a few packets says nothing (Margin.gap)
         w = mg["witness"]
         delays = ", ".join("lost" if x is None else fmt(x) for x in w["delays"]) if w else ""
         wtxt = (f"period {w['period']}: delays [{delays}], spectral radius {w['spectral_radius']:.6f}" if w else "-")

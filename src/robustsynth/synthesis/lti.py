@@ -547,7 +547,9 @@ class _LineSearch:
     """The line search over alpha (ultimate-bound: a grid of 1 - alpha from ALPHA_FAR, then REFINE_ROUNDS
     rounds around the best; stability: the one alpha decay^2), ``n_threads`` solves at once, each on a
     :class:`_LinePoint` of its own (cvxpy's parameters are per problem).  ``held``: "tried" (the alphas in
-    order), "solves", "last" (the last solve's proof, if its point reached one) and "ok"[alpha] = (the bound
+    order), "solves", "last" (the last solve's proof, if its point reached one), "kinds" (how many alphas ended
+    ok, infeasible or failed), "failed" (the alphas whose first solve failed, until :meth:`fallback` solves them
+    again) and "ok"[alpha] = (the bound
     in the plant's units, min over scale, or the rest ball; then the proof's check, K, P, eta, Q) for every
     proven alpha."""
 
@@ -619,8 +621,11 @@ class _LineSearch:
         solves than it did."""
         from .solve import solve
 
+        failed = self.held.pop("failed", [])
+        if not failed:
+            return
         pt = self.points[0]
-        for a in self.held.pop("failed", []):
+        for a in failed:
             self.held["kinds"]["failed"] -= 1
             self.say(f"alpha {a:.4f}: the fallback solver")
             self._record(pt, a, solve(pt.prob, self.solver, self._arm(pt, a), fallback=True, skip_first=True),
@@ -634,10 +639,15 @@ class _LineSearch:
         held["solves"] = held.get("solves", 0) + 1
         if not again:
             held["tried"].append(float(a))
-        held["last"] = pt.proof or None  # the last solve's proof, if its point reached one
+        # the last solve's proof, if its point reached one (none where the solve ended infeasible: a point an
+        # earlier solver of the chain gave and the proof rejected is not what the search ended on)
+        held["last"] = (pt.proof or None) if out.kind != "infeasible" else None
         held.setdefault("kinds", Counter())[out.kind] += 1
         if out.kind != "ok":
-            self.say(f"alpha {a:.4f}: {out.kind}" + (f" ({out.record.status})" if out.kind == "failed" else ""))
+            rejected = out.kind == "failed" and bool(pt.proof) and not pt.proof[0]["ok"]
+            self.say(f"alpha {a:.4f}: {out.kind}" + (f" ({out.record.status}" + ("; the numpy proof rejected its point"
+                                                                           if rejected else "") + ")"
+                                                    if out.kind == "failed" else ""))
             if out.kind == "failed" and not again:
                 held.setdefault("failed", []).append(float(a))
             return
