@@ -26,8 +26,9 @@ ROBOT_CERTIFIED = ("certified (ultimate-bound): decay rate 0.9123, |e_x| <= 1.23
                    "|e_theta| <= 0.0789 rad, |rho| <= 10.500 rad/s")
 LTI_GAIN = ("certified (ultimate-bound, d = 2): V+ <= 0.9500 V + 0.0500 (invariant, attracting set), |angle| <= 0.123 "
             "rad, from rest within |x| <= 1.5, inputs within |voltage| <= 12\n"
-            "robust stability of this gain, delay_max: configured 0.01, certified at least 0.0123, exhibited 0.02 "
-            "(witness: period 3, delays [0.01, lost, 0.02], spectral radius 1.000123) [s]; searched to 0.05\n")
+            "robust stability of this gain, delay_max: configured 0.01 s, certified at least 0.0123 s, exhibited 0.02 s "
+            "(the certificate may miss 38.5 % of the exhibited margin) (witness: period 3, delays [0.01, lost, 0.02], "
+            "spectral radius 1.000123)\n")
 
 
 def _invoke(args: list[str]) -> tuple[int, str, str]:
@@ -77,8 +78,11 @@ def _lti_gains() -> dict:
             "certified": {"disturbance_step_bound": 0.1, "alpha": 0.95, "rest_radius": 1.5,
                           "outputs": [{"name": "angle", "bound": 0.123, "unit": "rad"}, {"name": "speed", "bound": None}],
                           "inputs": [{"name": "voltage", "limit": 12.0}]},
+            "network": {"delay": [0.0, 0.01]},
             "delay_margin": {"configured": 0.01, "certified": 0.0123, "exhibited": 0.02, "at_least": True,
-                             "unit": "s", "note": "searched to 0.05",
+                             "unit": "s", "note": "searched to 0.05", "searched_up_to": 0.05, "searched": "sequences",
+                             "searched_periods": 2.5, "certificate_searched_up_to": 0.02, "solves": 3, "search_s": 0.1,
+                             "certificate_s": 0.2,
                              "witness": {"period": 3, "delays": [0.01, None, 0.02], "spectral_radius": 1.0001234}}}
 
 

@@ -42,7 +42,10 @@ import robustsynth
 assert os.path.realpath(robustsynth.__file__).startswith(src + os.sep), robustsynth.__file__
 from robustsynth.config import config_with, load_config
 from robustsynth.margins import find_instability
-from robustsynth.margins.linear import lti_margins
+try:
+    from robustsynth.margins.linear import lti_margins
+except ImportError:  # a tree before margins/ was a package
+    from robustsynth.margins_lti import lti_margins
 from robustsynth.model import build_model, pad_gain
 from robustsynth.model.lti import lti_plant
 from robustsynth.plants.path import make_path

@@ -1,17 +1,18 @@
 """The shapes every plant's results share (issue 52: one result schema).
 
 A verdict is a list of :class:`Check`: one claim, the value the tool measured, the threshold it is
-held to, and whether it holds.  The robot's ``verify`` and the linear plant's ``verify_lti`` write
+held to, and whether it holds.  A gain's margins are a :class:`MarginReport` of :class:`Margin`, each
+with ``to_dict()`` (margin.json) and the line the CLI prints.  The robot's ``verify`` and the linear plant's ``verify_lti`` write
 their checks in this one form (``to_dict``), so reports, sweeps, the regression and the console read
 one key set: ``name``, ``passed``, ``value``, ``threshold``, ``detail``."""
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
-__all__ = ["Check", "all_passed", "failed_names"]
+__all__ = ["Check", "all_passed", "failed_names", "Margin", "MarginReport"]
 
 
 @dataclass(frozen=True)
@@ -38,3 +39,169 @@ def all_passed(checks: Iterable[Mapping[str, Any]]) -> bool:
 def failed_names(checks: Iterable[Mapping[str, Any]]) -> list[str]:
     """The names of the checks that failed, in order."""
     return [c["name"] for c in checks if not c["passed"]]
+
+
+@dataclass(frozen=True)
+class Margin:
+    """One margin: the configured value, the certified and exhibited ends, the witness.
+
+    ``searched``: the range the instability search covered (its end is where "no instability found" stops);
+    ``at_least``: the certificate held up to the end of its own search and nothing destabilized before it,
+    so the true margin is at least ``certified``; ``details``: the plant's own figures of the search (how far,
+    how long, how many solves), written into ``to_dict()`` beside the common keys; ``families``: the sequences
+    the instability search tried (the line says them where it found none)."""
+
+    name: str
+    unit: str
+    direction: str  # 'max' (larger is better: delay) or 'min' (smaller is better: slip)
+    configured: float | None
+    certified: float | None
+    exhibited: float | None
+    witness: dict[str, Any] | None
+    searched: tuple[float, float] | None
+    note: str = ""
+    evaluations: tuple[dict[str, Any], ...] = ()
+    at_least: bool = False
+    details: Mapping[str, Any] = field(default_factory=dict)
+    families: str = ""  # what the instability search tried, said where it found nothing
+
+    @property
+    def integer(self) -> bool:
+        """A count (lost packets): its ends are whole numbers, and its gap is said in them."""
+        return self.unit == "packets"
+
+    @property
+    def gap(self) -> float | None:
+        """|exhibited - certified| / exhibited: the share of the true margin the certificate may miss.
+        None for a count (packets): a share of a few packets says nothing (issue 50: "may miss 75.0 %"
+        of 4 packets); :attr:`gap_packets` gives that gap in packets."""
+        if self.integer or self.certified is None or self.exhibited is None or self.exhibited == 0:
+            return None
+        return abs(self.exhibited - self.certified) / abs(self.exhibited)
+
+    @property
+    def gap_packets(self) -> int | None:
+        """For a count: how many packets the certificate may miss.  The truth is a whole number in
+        [certified, exhibited - 1] (exhibited destabilizes), so this is exhibited - 1 - certified, 0
+        where the certificate is exact."""
+        if not self.integer or self.certified is None or self.exhibited is None:
+            return None
+        return max(0, int(round(self.exhibited)) - 1 - int(round(self.certified)))
+
+    @classmethod
+    def from_record(cls, name: str, record: Mapping[str, Any], delay_min: float = 0.0) -> Margin:
+        """A linear plant's margin record (``robustsynth.margins.linear``'s ``delay_margin``, also gains.json's
+        ``delay_margin``, or ``loss_margin``) as a Margin: the common keys, the search's own figures in
+        ``details`` (``delay_min``: where the delay search started)."""
+        if name == "delay_max":
+            searched: tuple[float, float] = (delay_min, record["searched_up_to"])
+            details = {"families": record["searched"], "searched_periods": record["searched_periods"],
+                       "certificate_searched_up_to": record["certificate_searched_up_to"], "solves": record["solves"],
+                       "search_s": record["search_s"], "certificate_s": record["certificate_s"]}
+            unit = "s"
+        else:
+            searched, details, unit = (0, record["searched_up_to"]), {"time_s": record["time_s"]}, "packets"
+        return cls(name, unit, "max", record["configured"], record["certified"], record["exhibited"], record["witness"],
+                   searched, record.get("note", ""), (), bool(record["at_least"]), details,
+                   details.get("families", f"periodic delay/loss sequences, up to {record['searched_up_to']} lost in "
+                                           "a row"))
+
+    def to_dict(self) -> dict[str, Any]:
+        d = {k: v for k, v in asdict(self).items() if k not in {"name", "evaluations", "details", "families"}}
+        d["searched"] = list(self.searched) if self.searched is not None else None
+        d["gap"] = self.gap
+        if self.integer:
+            d["gap_packets"] = self.gap_packets
+        d["evaluations"] = list(self.evaluations)
+        d.update(self.details)
+        return d
+
+    def line(self) -> str:
+        def f(x: float | None) -> str:
+            return "none" if x is None else f"{x:.4g}"
+
+        def u(x: float | None) -> str:  # no unit after "none" (review: "certified none s")
+            if x is None or not self.unit:
+                return f(x)
+            if self.integer:  # "1 packet", "2 packets" (issue 50: "exhibited 1 packets")
+                return _packets(x)
+            return f"{f(x)} {self.unit}"
+
+        text = (f"{self.name}: configured {u(self.configured)}, certified {'at least ' if self.at_least else ''}"
+                f"{u(self.certified)}, exhibited {u(self.exhibited)}")
+        if self.gap is not None:  # the share of the exhibited margin the certificate may miss
+            text += f" (the certificate may miss {100 * self.gap:.1f} % of the exhibited margin)"
+        elif self.gap_packets is not None:  # a count: the gap in packets, never a share
+            text += (" (the certificate misses no packet of the exhibited margin)" if self.gap_packets == 0 else
+                     f" (the certificate may miss up to {_packets(self.gap_packets)} of the exhibited margin)")
+        if self.exhibited is None and self.searched is not None:
+            text += (f" (no instability found in [{self.searched[0]:.4g}, {self.searched[1]:.4g}]"
+                     + (f" among {self.families}" if self.families else "") + ")")
+        if self.witness and "delays" in self.witness:  # the destabilizing sequence, as the report shows it
+            delays = ", ".join("lost" if x is None else f"{x:.6g}" for x in self.witness["delays"])
+            text += (f" (witness: period {self.witness['period']}, delays [{delays}], spectral radius "
+                     f"{self.witness['spectral_radius']:.6f})")
+        if self.note and self.certified is None and self.exhibited is None and self.searched is None:
+            text += f" ({self.note})"
+        return text
+
+
+def _packets(n: float) -> str:
+    """A whole number of packets, singular or plural."""
+    k = int(round(n))
+    return f"{k} packet" + ("" if k == 1 else "s")
+
+
+@dataclass(frozen=True)
+class MarginReport:
+    """A gain's margins, in the order they are shown, with what they were measured on (``meta``);
+    ``notes``: lines shown after the margins (what they do not cover); ``warnings``: lines for stderr
+    (what may make them meaningless, e.g. an uncontrollable plant)."""
+
+    margins: tuple[Margin, ...]
+    meta: dict[str, Any] = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+    warnings: tuple[str, ...] = ()
+
+    def __getitem__(self, name: str) -> Margin:
+        for m in self.margins:
+            if m.name == name:
+                return m
+        raise KeyError(name)
+
+    def get(self, name: str) -> Margin | None:
+        """The margin called ``name``, None if the plant has none of that name (a linear plant: no slip_min)."""
+        try:
+            return self[name]
+        except KeyError:
+            return None
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(m.name for m in self.margins)
+
+    @property
+    def delay_max(self) -> Margin:
+        return self["delay_max"]
+
+    @property
+    def dropouts(self) -> Margin:
+        return self["dropouts"]
+
+    @property
+    def slip_min(self) -> Margin | None:
+        return self.get("slip_min")
+
+    @property
+    def slip_parameters(self) -> tuple[Margin, ...]:
+        """The icr model's other slip parameters' margins (yaw_min, icr_offset_max); () for any other."""
+        return tuple(m for m in self.margins if m.name in ("yaw_min", "icr_offset_max"))
+
+    def to_dict(self) -> dict[str, Any]:
+        out = {m.name: m.to_dict() for m in self.margins}
+        out["meta"] = dict(self.meta)
+        return out
+
+    def lines(self) -> list[str]:
+        """What the CLI prints: one line per margin, then the notes (the warnings go to stderr)."""
+        return [m.line() for m in self.margins] + list(self.notes)

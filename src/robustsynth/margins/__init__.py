@@ -12,7 +12,7 @@ For each margin two numbers bracket the truth:
 The truth lies between them; the gap is how conservative the certificate is (or how weak the search).
 :func:`margin` takes the tracked robot's config (:mod:`.robot`: delay_max, slip_min, the icr model's
 slip parameters, dropouts) or a :class:`~robustsynth.plants.linear.LinearPlant` (:mod:`.linear`:
-delay_max, dropouts) and returns one :class:`MarginReport` either way (:mod:`.common`).
+delay_max, dropouts) and returns one :class:`MarginReport` either way (:mod:`robustsynth.results`).
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ..model import pad_gain
-from .common import Margin, MarginReport
+from ..results import Margin, MarginReport
 from .linear import lti_margins
 from .robot import EXHIBIT_TOL, find_instability, witness_delays
 

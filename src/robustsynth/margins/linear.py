@@ -27,9 +27,10 @@ import numpy as np
 from ..core.network import Network, max_cyclic_run
 from ..errors import InputError, check_interrupt
 from ..model.lti import lti_depth
-from .common import Margin, MarginReport, bisect
+from ..results import Margin, MarginReport
+from .common import bisect
 
-__all__ = ["linear_margin", "as_margin", "lti_margins", "delay_margin", "loss_margin", "find_lti_instability", "spectral_radius", "check_witness", "SEARCH_DELAYS", "SEARCH_PERIOD",
+__all__ = ["linear_margin", "lti_margins", "delay_margin", "loss_margin", "find_lti_instability", "spectral_radius", "check_witness", "SEARCH_DELAYS", "SEARCH_PERIOD",
            "SWITCH_FAMILIES", "EXHIBIT_CAP"]
 
 SEARCH_DELAYS = 9  # grid points of [tau_min, tau_max] in the switching search
@@ -399,7 +400,7 @@ def loss_margin(network: Network, settings: Any, plant: dict, say: Callable[[str
 def lti_margins(cfg: Any, plant: dict, say: Callable[[str], None] = lambda s: None) -> dict[str, Any]:
     """The records of a linear plant's delay and loss margins (deprecated at the top level: use
     ``robustsynth.margin(LinearPlant.from_config(cfg), K)``, which returns the same margins as the one
-    ``MarginReport`` of every plant).
+    ``MarginReport`` of every plant; ``Margin.from_record`` reads each record as a margin).
 
     Parameters
     ----------
@@ -420,22 +421,6 @@ def lti_margins(cfg: Any, plant: dict, say: Callable[[str], None] = lambda s: No
     return {"delay_max": delay_margin(net, cfg.margin, plant, say), "dropouts": loss_margin(net, cfg.margin, plant, say)}
 
 
-def as_margin(name: str, record: dict[str, Any], delay_min: float = 0.0) -> Margin:
-    """A record of :func:`delay_margin` (``delay_max``) or :func:`loss_margin` (``dropouts``) as a
-    :class:`~robustsynth.margins.Margin`: the common keys, the search's own figures in ``details``."""
-    if name == "delay_max":
-        searched = (delay_min, record["searched_up_to"])
-        details = {"families": record["searched"], "searched_periods": record["searched_periods"],
-                   "certificate_searched_up_to": record["certificate_searched_up_to"], "solves": record["solves"],
-                   "search_s": record["search_s"], "certificate_s": record["certificate_s"]}
-        unit = "s"
-    else:
-        searched, details, unit = (0, record["searched_up_to"]), {"time_s": record["time_s"]}, "packets"
-    return Margin(name, unit, "max", record["configured"], record["certified"], record["exhibited"], record["witness"],
-                  searched, record.get("note", ""), (), bool(record["at_least"]), details,
-                  details.get("families", f"periodic delay/loss sequences, up to {record['searched_up_to']} lost in a row"))
-
-
 def linear_margin(plant: Any, K: Any, settings: Any, say: Callable[[str], None]) -> MarginReport:
     """A linear plant's margins (:func:`robustsynth.margins.margin` on a
     :class:`~robustsynth.plants.linear.LinearPlant`): delay_max and dropouts of the gain ``K`` on the plant's
@@ -450,8 +435,8 @@ def linear_margin(plant: Any, K: Any, settings: Any, say: Callable[[str], None])
     n, m = plant.B.shape
     check_lti_gain(arrays["K"], n, m, "K")
     net = plant.network
-    margins = (as_margin("delay_max", delay_margin(net, settings, arrays, say), net.delay_min),
-               as_margin("dropouts", loss_margin(net, settings, arrays, say)))
+    margins = (Margin.from_record("delay_max", delay_margin(net, settings, arrays, say), net.delay_min),
+               Margin.from_record("dropouts", loss_margin(net, settings, arrays, say)))
     meta = {"plant": {"kind": "lti", "n": int(n), "m": int(m), "states": plant.arrays["states"],
                       "units": plant.arrays["units"], "controllable": plant.arrays["controllable"]},
             "gain": arrays["K"].tolist(),

@@ -27,7 +27,8 @@ from ..config import Config, config_with
 from ..core.network import max_cyclic_run
 from ..errors import InputError, check_interrupt
 from ..model import gain_lifting, pad_gain
-from .common import Margin, MarginReport, bisect
+from ..results import Margin, MarginReport
+from .common import bisect
 
 __all__ = ["robot_margin", "find_instability", "witness_delays", "EXHIBIT_TOL"]
 

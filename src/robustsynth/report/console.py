@@ -11,12 +11,12 @@ from typing import Any, Iterable, Mapping, Sequence
 
 from ..monitor import CAUSES
 from ..objectives import labelled_figures
-from .markdown import fmt
+from ..results import Margin
 
 __all__ = ["Err", "wrote", "cleared", "model_summary", "lti_model_summary", "synthesis_summary",
            "lti_synthesis_summary", "lti_gain_lines", "robot_certified", "verification_summary",
            "lti_verification_summary", "robot_checks", "lti_checks", "run_summary", "logs_line", "lti_run_summary",
-           "physics_line", "run_export_lines", "margin_summary", "lti_margin",
+           "physics_line", "run_export_lines", "margin_summary",
            "check_log_summary", "violated", "monitor_summary", "excitation_summary", "validation_summary",
            "export_summary", "sweep_summary", "identified_line"]
 
@@ -160,25 +160,10 @@ def _lti_certified(gd: Mapping[str, Any]) -> str:
     return f"certified ({gd['objective']}, d = {gd['lifting']['d']}): " + ", ".join(parts)
 
 
-def lti_margin(name: str, mg: Mapping[str, Any]) -> str:
-    """The delay-margin record synthesize keeps in a linear plant's gains.json (margins.linear.delay_margin):
-    configured, certified, exhibited, the witness, the note (certified / exhibited and how far the search went)."""
-
-    def num(v: Any) -> str:
-        return "none" if v is None else fmt(v)
-
-    w = mg["witness"]
-    at_least = "at least " if mg.get("at_least") else ""
-    delays = ", ".join("lost" if x is None else fmt(x) for x in w["delays"]) if w else ""
-    return (f"{name}: configured {num(mg['configured'])}, certified {at_least}{num(mg['certified'])}, exhibited "
-            f"{num(mg['exhibited'])}" + (f" (witness: period {w['period']}, delays [{delays}], spectral radius "
-                                         f"{w['spectral_radius']:.6f})" if w else "")
-            + f" [{mg['unit']}]" + (f"; {mg['note']}" if mg.get("note") else ""))
-
-
 def lti_gain_lines(gd: Mapping[str, Any]) -> list[str]:
     """A linear plant's certified gain: its figures and its delay margin."""
-    return [_lti_certified(gd), "robust stability of this gain, " + lti_margin("delay_max", gd["delay_margin"])]
+    margin = Margin.from_record("delay_max", gd["delay_margin"], gd["network"]["delay"][0])  # as `margin` prints it
+    return [_lti_certified(gd), "robust stability of this gain, " + margin.line()]
 
 
 def lti_synthesis_summary(out: Path, res: Mapping[str, Any]) -> list[str]:
