@@ -547,9 +547,8 @@ class _LineSearch:
     """The line search over alpha (ultimate-bound: a grid of 1 - alpha from ALPHA_FAR, then REFINE_ROUNDS
     rounds around the best; stability: the one alpha decay^2), ``n_threads`` solves at once, each on a
     :class:`_LinePoint` of its own (cvxpy's parameters are per problem).  ``held``: "tried" (the alphas in
-    order), "solves", "last" (the last solve's proof, if its point reached one), "kinds" (how many alphas ended
-    ok, infeasible or failed), "failed" (the alphas whose first solve failed, until :meth:`fallback` solves them
-    again) and "ok"[alpha] = (the bound
+    order), "solves", "last" (the last solve's proof, if its point reached one), "kinds" (alphas ended ok, infeasible,
+    failed), "failed" (alphas whose first solve failed, for :meth:`fallback`) and "ok"[alpha] = (the bound
     in the plant's units, min over scale, or the rest ball; then the proof's check, K, P, eta, Q) for every
     proven alpha."""
 
@@ -588,8 +587,7 @@ class _LineSearch:
         return best
 
     def _arm(self, pt: _LinePoint, a: float):
-        """Point ``pt`` set to alpha ``a`` (the disturbance's scale, the input limits); its acceptor, which proves
-        the solver's values in numpy (:func:`_prove`)."""
+        """``pt`` set to alpha ``a``; its acceptor, which proves the solver's values in numpy (:func:`_prove`)."""
         b = self.beta(a)
         c_dist = (1.0 - a) / b**2 if self.dist else None
         # the limits with a relative back-off, so that the numpy proof on P = Q^-1 has room for rounding
@@ -600,8 +598,7 @@ class _LineSearch:
             self.plant, self.V, self.Ts, self.tau_min, self.tau_hi, self.pieces, Qv, Yv, ev, a, c))
 
     def attempts(self, alphas: list[float]) -> None:
-        """Solve at each alpha, ``n_threads`` at once, each point's solution proven in numpy before it is
-        accepted; what they gave into ``held``."""
+        """Solve at each alpha, ``n_threads`` at once; what they gave (each point proven in numpy) into ``held``."""
         from .solve import solve_all
 
         points = self.points
@@ -610,23 +607,17 @@ class _LineSearch:
             while len(points) < len(chunk):
                 points.append(_LinePoint(self.V, self.C, self.dist, self.scale, self.n, self.u_max is not None))
             accepts = [self._arm(pt, a) for pt, a in zip(points, chunk)]
-            for pt, a, out in zip(points, chunk, solve_all([pt.prob for pt in points[: len(chunk)]], self.solver,
-                                                            accepts)):
+            for pt, a, out in zip(points, chunk, solve_all([p.prob for p in points[: len(chunk)]], self.solver, accepts)):
                 self._record(pt, a, out)
 
     def fallback(self) -> None:
-        """No alpha proven: each alpha whose solve failed is solved again as the robot's solves are (the primary
-        solver unscaled, then the other solver), so that "infeasible" is only said on a solver's word (a failed
-        solve shows neither a gain nor that none exists).  Only here: a search that proves a gain runs no more
-        solves than it did."""
+        """No alpha proven: each one whose solve failed is solved again as the robot's are (the primary unscaled,
+        then the other solver), so that "infeasible" is said only on a solver's word.  A search that proves a
+        gain runs no more solves than it did."""
         from .solve import solve
 
-        failed = self.held.pop("failed", [])
-        if not failed:
-            return
-        pt = self.points[0]
-        for a in failed:
-            self.held["kinds"]["failed"] -= 1
+        for a in self.held.pop("failed", []):  # a failed alpha was solved on a point: there is one
+            pt, self.held["kinds"]["failed"] = self.points[0], self.held["kinds"]["failed"] - 1
             self.say(f"alpha {a:.4f}: the fallback solver")
             self._record(pt, a, solve(pt.prob, self.solver, self._arm(pt, a), fallback=True, skip_first=True),
                          again=True)
@@ -639,15 +630,12 @@ class _LineSearch:
         held["solves"] = held.get("solves", 0) + 1
         if not again:
             held["tried"].append(float(a))
-        # the last solve's proof, if its point reached one (none where the solve ended infeasible: a point an
-        # earlier solver of the chain gave and the proof rejected is not what the search ended on)
+        # the last solve's proof, if its point reached one (not a point a solver rejected before one said infeasible)
         held["last"] = (pt.proof or None) if out.kind != "infeasible" else None
         held.setdefault("kinds", Counter())[out.kind] += 1
         if out.kind != "ok":
-            rejected = out.kind == "failed" and bool(pt.proof) and not pt.proof[0]["ok"]
-            self.say(f"alpha {a:.4f}: {out.kind}" + (f" ({out.record.status}" + ("; the numpy proof rejected its point"
-                                                                           if rejected else "") + ")"
-                                                    if out.kind == "failed" else ""))
+            why = "; the numpy proof rejected its point" if pt.proof and not pt.proof[0]["ok"] else ""
+            self.say(f"alpha {a:.4f}: {out.kind}" + (f" ({out.record.status}{why})" if out.kind == "failed" else ""))
             if out.kind == "failed" and not again:
                 held.setdefault("failed", []).append(float(a))
             return
@@ -658,13 +646,11 @@ class _LineSearch:
 
 def _uncertified(plant: dict, objective: str, search: _LineSearch, decay: float, d: int, nv: int, solves: int,
                  dt: float) -> LtiDesign:
-    """The design when no alpha gave a proven certificate: rejected where the last solve's proof failed, else
-    infeasible, with what may bind (an uncontrollable plant, the input limits, the decay or the delay range)."""
+    """The design when no alpha gave a proven certificate: rejected where the last solve's proof failed, failed where
+    a solve failed, else infeasible; with what may bind (uncontrollable modes, input limits, the decay, the delays)."""
     dist, held = search.dist, search.held
     last = held.get("last")
-    kinds = held.get("kinds", {})
-    # infeasible only where the solvers said so at every alpha: a solve that failed (also with the fallback)
-    # proves nothing either way (SolverFailure, exit 4)
+    kinds = held.get("kinds", {})  # a solve that failed, also with the fallback, proves nothing either way (exit 4)
     status = ("rejected" if last is not None and not last[0]["ok"] else "failed" if kinds.get("failed") else
               "infeasible")
     why = "no alpha of the line search gave a proven certificate" if dist else f"no certificate with decay {decay:g} per period"
