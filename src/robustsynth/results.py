@@ -12,7 +12,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-__all__ = ["Check", "all_passed", "failed_names", "Margin", "MarginReport"]
+__all__ = ["Check", "all_passed", "failed_names", "Verdict", "Margin", "MarginReport"]
 
 
 @dataclass(frozen=True)
@@ -29,6 +29,26 @@ class Check:
     def to_dict(self) -> dict[str, Any]:
         return {"name": self.name, "passed": bool(self.passed), "value": self.value, "threshold": self.threshold,
                 "detail": self.detail}
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """A gain's verification on a plant: whether every check passed and the checks (``Check.to_dict()``'s keys),
+    with the plant's own record of how they were run (``details``: a linear plant's delay families, starts,
+    periods, traces).  The robot's ``VerificationResult`` answers ``passed``, ``checks`` and ``failed_checks``
+    alike."""
+
+    passed: bool
+    checks: tuple[dict[str, Any], ...]
+    details: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def failed_checks(self) -> list[str]:
+        return failed_names(self.checks)
+
+    def to_dict(self) -> dict[str, Any]:
+        """``passed``, ``checks`` and the details, as verification.json holds them."""
+        return {"passed": bool(self.passed), "checks": list(self.checks), **self.details}
 
 
 def all_passed(checks: Iterable[Mapping[str, Any]]) -> bool:

@@ -254,8 +254,10 @@ def test_synthesize_and_verify_take_a_linear_plant(zbp_bound) -> None:
     assert design.certified and np.array_equal(design.K, ref.K) and design.figures == ref.figures
     data = robustsynth.verify(plant, design, runs=8)
     direct = verify_lti(pl, ref.K, ref.P, 0.5, 0.0, 0.5, 0, ref.figures, runs=8, seed=0, multipliers=ref.eps, pieces=2)
-    assert data["passed"] and [(c["name"], c["passed"], c["value"]) for c in data["checks"]] == \
+    # a Verdict: passed, checks and failed_checks as the robot's VerificationResult has them; to_dict is verify_lti's
+    assert data.passed and data.failed_checks == [] and [(c["name"], c["passed"], c["value"]) for c in data.checks] == \
         [(c["name"], c["passed"], c["value"]) for c in direct["checks"]]
+    assert set(data.to_dict()) == set(direct) and data.to_dict()["families"] == direct["families"]
     with pytest.raises(InputError, match=r"^synthesis.objective: H2 \(overridden: --objective\): synthesis.objective: "
                                          "Input should be 'auto', 'ultimate-bound', 'stability' or 'hinf'"):
         robustsynth.synthesize(plant, objective="H2")

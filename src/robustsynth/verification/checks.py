@@ -32,7 +32,7 @@ from ..artifacts.gains import as_gains
 from ..certificate import CertificateCheck, check_certificate
 from ..errors import InfeasibleError, InputError
 from ..objectives import scalar_figures
-from ..results import failed_names
+from ..results import Verdict, failed_names
 from .lifted_checks import _frozen, _lifted
 from .nonlinear_checks import _nonlinear
 from .simulate import SimResult
@@ -102,7 +102,7 @@ def _provenance(model: Any, gains: dict[str, Any]) -> str:
     return f"the gain was made for config {made.name!r}, which differs from this one in: {shown}"
 
 
-def _verify_linear(plant: Any, gains: Any, runs: int | None, seed: int | None) -> dict[str, Any]:
+def _verify_linear(plant: Any, gains: Any, runs: int | None, seed: int | None) -> Verdict:
     """:func:`verify` for a linear plant: the gain, its certificate (P, the multipliers, the pieces they were made
     with) and its figures, from a design or a gains mapping; InputError for anything else or a malformed one."""
     from collections.abc import Mapping
@@ -123,8 +123,10 @@ def _verify_linear(plant: Any, gains: Any, runs: int | None, seed: int | None) -
         raise InputError("verify: a linear plant's gain is the LtiDesign robustsynth.synthesize(plant) returns, or its "
                          f"gains mapping (kind: lti); got {type(gains).__name__}")
     net = plant.network
-    return verify_lti(plant.arrays, K, P, net.sampling_time, net.delay_min, net.delay_max, net.max_lost, figures,
+    data = verify_lti(plant.arrays, K, P, net.sampling_time, net.delay_min, net.delay_max, net.max_lost, figures,
                       runs=64 if runs is None else runs, seed=0 if seed is None else seed, multipliers=eps, pieces=pieces)
+    return Verdict(bool(data["passed"]), tuple(data["checks"]),
+                   {k: v for k, v in data.items() if k not in ("passed", "checks")})
 
 
 def claimed_beyond(claimed: dict[str, Any], figures: dict[str, Any]) -> list[str]:
@@ -147,14 +149,15 @@ def claimed_beyond(claimed: dict[str, Any], figures: dict[str, Any]) -> list[str
 
 
 def verify(model, gains: Any, runs: int | None = None, seed: int | None = None,
-           progress: Callable[[int, int], None] | None = None) -> VerificationResult | dict[str, Any]:
+           progress: Callable[[int, int], None] | None = None) -> VerificationResult | Verdict:
     """Run every check of ``gains`` against ``model``: a gains.json mapping (:func:`~robustsynth.artifacts.gains.load_gains`),
     the result of :func:`~robustsynth.synthesis.synthesize`, or a bare matrix K.
 
     Any plant: for a :class:`~robustsynth.plants.linear.LinearPlant` the gain is the
     :class:`~robustsynth.synthesis.lti.LtiDesign` that ``synthesize(plant)`` returns (or a linear plant's gains
     mapping, ``kind: lti``), and the checks are :func:`~robustsynth.verification.lti.verify_lti`'s on the exactly
-    lifted loop (its mapping: ``passed``, ``checks``, ``families``).
+    lifted loop, returned as a :class:`~robustsynth.results.Verdict` (``passed``, ``checks``, ``failed_checks``
+    as the robot's result has them; ``to_dict()``: verify_lti's mapping).
 
     Parameters
     ----------
@@ -171,8 +174,9 @@ def verify(model, gains: Any, runs: int | None = None, seed: int | None = None,
 
     Returns
     -------
-    VerificationResult or dict
-        ``passed``, every check with its value and threshold, and the simulations behind them.
+    VerificationResult or Verdict
+        ``passed``, every check with its value and threshold (``failed_checks``: the names of those that
+        failed), and the simulations behind them (a linear plant's: ``Verdict.details``).
     """
     if getattr(model, "plant_kind", None) == "lti":  # a LinearPlant
         return _verify_linear(model, gains, runs, seed)
