@@ -387,7 +387,7 @@ def test_a_stored_config_with_the_path_at_its_old_place_is_the_same_config() -> 
     from pathlib import Path
 
     from robustsynth.config import config_from_dict, config_to_dict
-    from robustsynth.pipeline import _same_config
+    from robustsynth.artifacts.results_dir import _same_config
 
     root = Path(__file__).resolve().parents[1]
     fast = json.loads((root / "results" / "baselines" / "fast" / "gains.json").read_text())["config"]

@@ -20,7 +20,7 @@ synthesize             robustsynth.synthesis         any plant (Model, LinearPla
 check_certificate      robustsynth.certificate       numpy-only re-check of an LMI certificate
 verify                 robustsynth.verification      any plant's gain -> its checks (Monte Carlo, ...)
 load_gains             robustsynth.artifacts.gains   gains.json / .mat -> mapping (one-line errors)
-run                    robustsynth.pipeline          build-model -> synthesize -> verify
+run                    robustsynth.pipeline          any plant's config: synthesize -> verify -> report
 margin                 robustsynth.margins           any plant's gain -> its margins (delay, losses, slip)
 sweep                  robustsynth.sweeps            synthesize (and verify) over a grid of keys
 load_sweep             robustsynth.sweeps            sweep YAML file -> SweepSpec

@@ -5,12 +5,12 @@ Each stage is a function from frozen inputs to a frozen result; no printing, no 
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
 from .artifacts.files import remove_files, set_aside
+from .artifacts.results_dir import RUN_FILES, SYNTHESIS_FILES, VERIFICATION_FILES, clear_foreign, figure_files
 from .config import Config
 from .model import Model, build_model, coverage_check
 from .objectives import objective
@@ -30,80 +30,13 @@ __all__ = [
     "margin_stage",
 ]
 
-MODEL_FILES = ("model.json", "model.md")
-SYNTHESIS_FILES = ("gains.json", "gains.mat", "synthesis.md")
-VERIFICATION_FILES = ("verification.json", "verification.md")
-RUN_FILES = ("report.md", "summary.json")
-
-
 def default_outdir(config: Config) -> Path:
     return Path("results") / config.name
 
 
-def clear_foreign(outdir: str | Path, config: Config) -> list[str]:
-    """Set aside the files another config left in ``outdir``: when its model.json, gains.json or
-    summary.json was written for a different config, every file of every stage moves to
-    ``outdir/stale/<time>/`` (a foreign model beside an old gain and report would read as one run;
-    deleting them had cost a user 14 files, issue 50).  Returns the moved files' new paths."""
-    from .config import config_to_dict
-
-    outdir = Path(outdir)
-    mine = config_to_dict(config)
-    foreign = False
-    for name in ("model.json", "gains.json", "summary.json"):
-        try:
-            data = json.loads((outdir / name).read_text(encoding="utf-8"))
-        except (OSError, ValueError):
-            continue
-        ref = data.get("config") if isinstance(data, dict) else None
-        if not isinstance(data, dict):
-            foreign = True
-        elif name == "summary.json" and "name" in data:  # the robot's summary names its config
-            foreign = data["name"] != config.name
-        elif isinstance(ref, str):  # a linear plant's model.json and summary.json name theirs
-            foreign = ref != config.name
-        else:
-            foreign = not _same_config(ref, mine)
-        if foreign:
-            break
-    if not foreign:
-        return []
-    # a linear plant's stages write margin.md and verification figures beside them
-    names = list(MODEL_FILES + SYNTHESIS_FILES + VERIFICATION_FILES + RUN_FILES
-                 + ("margin.json", "margin.md", "verification.png", "verification.pdf", "verification.svg"))
-    if (outdir / "figures").is_dir():
-        names += [f"figures/{p.name}" for p in sorted((outdir / "figures").iterdir()) if p.is_file()]
-    return list(set_aside(outdir, names, f"they were written for another config than '{config.name}' "
-                                         "(a stage of that config wrote into this directory)"))
-
-
-def figure_files(outdir: str | Path) -> tuple[str, ...]:
-    """The verification figures in ``outdir/figures/`` (relative names)."""
-    fig = Path(outdir) / "figures"
-    if not fig.is_dir():
-        return ()
-    return tuple(f"figures/{p.name}" for p in sorted(fig.iterdir()) if p.is_file() and p.suffix in (".png", ".pdf", ".svg"))
-
-
-def _same_config(stored: Any, mine: dict[str, Any]) -> bool:
-    """Whether a stored config dict is this config.  The stored one is read through the config
-    model first: a file written before a key existed (``reference.turn_radius``) holds the same
-    config as one with the key at its default."""
-    from .config import ConfigError, config_from_dict, config_to_dict
-
-    if stored == mine:
-        return True
-    if not isinstance(stored, dict):
-        return False
-    try:
-        return config_to_dict(config_from_dict(stored)) == mine
-    except (ConfigError, TypeError, ValueError):
-        return False
-
-
 @dataclass(frozen=True)
 class ModelStage:
-    model: Model
+    model: Any  # the robot's Model; a linear plant's run: its LinearPlant (no model stage: coverage {}, no files)
     coverage: dict[str, Any]
     files: tuple[Path, ...]
     cleared: tuple[str, ...] = ()  # files of another config removed from the output directory
@@ -128,8 +61,8 @@ def model_stage(config: Config, outdir: str | Path) -> ModelStage:
 
 @dataclass(frozen=True)
 class SynthesisStage:
-    model: Model
-    result: Any  # robustsynth.synthesis.SynthesisResult
+    model: Any  # the robot's Model, or a LinearPlant
+    result: Any  # robustsynth.synthesis.SynthesisResult (a linear plant's: LtiDesign)
     gains: dict[str, Any]
     files: tuple[Path, ...]
     comparison: dict[str, Any] | None = None
@@ -190,8 +123,8 @@ ProgressFn = Callable[[int, int], None]
 
 @dataclass(frozen=True)
 class VerificationStage:
-    model: Model
-    result: Any  # robustsynth.verification.VerificationResult
+    model: Any  # the robot's Model, or a LinearPlant
+    result: Any  # robustsynth.verification.VerificationResult (a linear plant's: results.Verdict)
     data: dict[str, Any]
     figures: dict[str, Path]
     files: tuple[Path, ...]
@@ -461,11 +394,14 @@ def run(
     diagnose: bool | None = None,
     **synthesis_overrides: Any,
 ) -> RunResult:
-    """build-model -> synthesize -> verify, then report.md and summary.json.
+    """build-model -> synthesize -> verify, then report.md and summary.json; any plant's config.
 
     When synthesis finds no gain, summary.json records the status ('infeasible' or
     'solver-failure') and the error is raised again.  ``synthesis_overrides`` (objective, solver,
-    multiplier) replace the config's synthesis settings.
+    multiplier) replace the config's synthesis settings.  A linear plant's config (``plant: kind: lti``) runs
+    its synthesize and verify (``robustsynth.pipeline_lti.lti_run``: no model stage, no comparison; the
+    robot's ``diagnose``, ``multiplier`` and ``progress`` refused) into the same :class:`RunResult`, its
+    verification's result a :class:`~robustsynth.results.Verdict`.
 
     Parameters
     ----------
@@ -505,6 +441,11 @@ def run(
     from .errors import check_interrupt
 
     outdir = Path(outdir) if outdir is not None else default_outdir(config)
+    from .config import is_lti
+
+    if is_lti(config):
+        return _linear_run(config, outdir, runs, seed, fmt, plots, progress, on_stage, on_step, diagnose,
+                           synthesis_overrides)
 
     def say(stage: str) -> None:
         check_interrupt()
@@ -540,6 +481,31 @@ def run(
     }
     written = commit_files(outdir, files, primary="summary.json")
     return RunResult(ms, ss, vs, tuple(ms.files + ss.files + vs.files + tuple(written)))
+
+
+def _linear_run(config: Any, outdir: Path, runs: int | None, seed: int | None, fmt: str, plots: bool,
+                progress: Any, on_stage: Callable[[str], None] | None, on_step: Callable[[str], None] | None,
+                diagnose: bool | None, overrides: dict[str, Any]) -> RunResult:
+    """:func:`run` on a linear plant's config: lti_run's synthesis and verification as a RunResult."""
+    from .errors import InputError
+    from .pipeline_lti import lti_run
+    from .plants.linear import LinearPlant
+    from .results import Verdict
+
+    robot = {"diagnose": diagnose or None, "progress": progress, **{k: v for k, v in overrides.items()
+                                                                    if k not in ("objective", "solver")}}
+    for name, value in robot.items():
+        if value is not None:
+            raise InputError(f"{name}: a tracked robot's option of run, not a linear plant's")
+    res = lti_run(config, outdir, None, on_step, overrides.get("objective"), overrides.get("solver"), runs, seed,
+                  plots, fmt, on_stage)
+    plant, syn, ver = LinearPlant.from_config(config), res["synthesis"], res["verification"]
+    verdict = Verdict(bool(ver["passed"]), tuple(ver["checks"]), {k: v for k, v in ver.items() if k not in ("passed", "checks")})
+    return RunResult(ModelStage(plant, {}, ()),
+                     SynthesisStage(plant, syn["design"], syn["gains"], tuple(Path(p) for p in syn["files"]),
+                                    cleared=tuple(syn["cleared"])),
+                     VerificationStage(plant, verdict, ver, {}, tuple(Path(p) for p in ver["files"])),
+                     tuple(Path(p) for p in res["files"]))
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,7 @@ import numpy as np
 
 from .artifacts.files import commit_files, json_bytes, make_dir, mat_bytes
 from .artifacts.gains import same_plant
-from .pipeline import clear_foreign
+from .artifacts.results_dir import clear_foreign
 
 __all__ = ["lti_plant_of", "lti_model_stage", "lti_synthesis_stage", "lti_verification_stage", "lti_run"]
 
@@ -187,12 +187,16 @@ def _searched_certificate(config: Any, plant: dict[str, Any], K: np.ndarray, gp:
 
 def lti_run(config: Any, outdir: str | Path, config_path: str | Path | None = None,
             on_step: Callable[[str], None] | None = None, objective: str | None = None, solver: str | None = None,
-            runs: int | None = None, seed: int | None = None, plots: bool = True) -> dict[str, Any]:
-    """synthesize, then verify; report.md and summary.json."""
+            runs: int | None = None, seed: int | None = None, plots: bool = True, fmt: str = "png",
+            on_stage: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """synthesize, then verify (``on_stage``: called with each one's name as it starts); report.md and summary.json."""
     from .report.lti import lti_synthesis_markdown, lti_verification_markdown
 
+    stage = on_stage or (lambda _name: None)
+    stage("synthesize")
     syn = lti_synthesis_stage(config, outdir, config_path, on_step, objective, solver)
-    ver = lti_verification_stage(config, outdir, None, config_path, runs, seed, plots)
+    stage("verify")
+    ver = lti_verification_stage(config, outdir, None, config_path, runs, seed, plots, fmt)
     out = Path(outdir)
     report = lti_synthesis_markdown(syn["gains"]) + "\n" + lti_verification_markdown(ver)
     summary = {"config": config.name, "kind": "lti", "certified": syn["gains"]["certified"],

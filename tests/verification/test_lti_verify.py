@@ -319,3 +319,24 @@ def test_the_periodic_radius_of_any_plant_against_a_per_sequence_reference(m_los
         got = spectral_radius(pl, 0.1, rows, m_lost)
         ref = _periodic_radius_reference(pl["A"], pl["B"], K, 0.1, rows, m_lost)
         assert got.shape == (len(rows),) and np.allclose(got, ref, rtol=RADIUS_RTOL, atol=0)
+
+
+def test_run_takes_a_linear_plants_config(tmp_path) -> None:
+    """Issue 52: ``robustsynth.run`` on a linear plant's config runs its synthesize and verify into the RunResult the
+    robot's run returns: its stages announced, the verdict (a Verdict: passed, failed_checks), the gain it wrote and
+    the summary that says the same; the robot's options refused in one line before any work."""
+    import robustsynth
+    from robustsynth.errors import InputError
+
+    cfg = robustsynth.load_config(ROOT / "configs" / "dc-motor.yaml")
+    stages: list[str] = []
+    res = robustsynth.run(cfg, tmp_path / "a", runs=8, plots=False, on_stage=stages.append)
+    assert stages == ["synthesize", "verify"] and res.passed is True and res.verification.result.failed_checks == []
+    gd = json.loads((tmp_path / "a" / "gains.json").read_text())
+    assert gd == res.synthesis.gains and gd["kind"] == "lti" and np.array_equal(res.synthesis.result.K, gd["K"])
+    assert json.loads((tmp_path / "a" / "summary.json").read_text())["verification"]["passed"] is True
+    assert {"gains.json", "verification.json", "report.md", "summary.json"} <= {p.name for p in res.files}
+    for bad, match in (({"multiplier": "full"}, "^multiplier: a tracked robot's option"), ({"diagnose": True}, "^diagnose")):
+        with pytest.raises(InputError, match=match):
+            robustsynth.run(cfg, tmp_path / "b", **bad)
+    assert not (tmp_path / "b").exists()

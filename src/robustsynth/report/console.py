@@ -30,7 +30,7 @@ def wrote(files: Iterable[Any]) -> str:
 
 
 def cleared(out: Path, names: Sequence[str]) -> list[str]:
-    """The files of another config a stage set aside (pipeline.clear_foreign: moved, not deleted)."""
+    """The files of another config a stage set aside (artifacts.results_dir.clear_foreign: moved, not deleted)."""
     if not names:
         return []
     where = Path(names[0]).parts[:2]
