@@ -188,8 +188,8 @@ def test_run(monkeypatch, tmp_path) -> None:
     assert code == 1 and out.splitlines()[-2:] == [
         f"export skipped: verification failed, so the gain is not exported as a controller (robustsynth export "
         f"{o / 'gains.json'} --to python --allow-unverified exports it marked UNVERIFIED)", f"report: {o / 'report.md'}"]
-    res = {"synthesis": {"cleared": [], "gains": _lti_gains()}, "verification": _lti_checks(True)}
-    _patch(monkeypatch, "robustsynth.pipeline_lti", lti_run=lambda *a, **k: res)
+    res = NS(synthesis=NS(cleared=(), gains=_lti_gains()), verification=NS(data=_lti_checks(True)), passed=True)
+    _patch(monkeypatch, "robustsynth.pipeline", run=lambda *a, **k: res)  # one run for every plant
     assert _invoke(["run", LTI, "-o", str(o)]) == (0, LTI_GAIN + (
         "verification passed: 2 checks, 8 starts on the set's boundary x 2 delay families; invariance 0.98, outputs 1.2\n"
         f"report: {o / 'report.md'}\n"), "")

@@ -241,7 +241,7 @@ class LinearJobs(Jobs):
 
     def run(self, cfg, out, con, config_path, *, objective, solver, multiplier, diagnose, runs, seed, fmt, plots,
             physics, export_to):
-        from .pipeline_lti import lti_run
+        from .pipeline import run
         from .report import console
         from .runtime.export_lti import LTI_TARGETS
 
@@ -249,11 +249,11 @@ class LinearJobs(Jobs):
         _refuse(physics=(physics or None, "the MuJoCo robot validates the tracked robot's gain, not a linear plant's"),
                 export=(export_to if export_to not in LTI_TARGETS else None,
                         f"{export_to} is for the robot; a linear plant's gain exports to {', '.join(LTI_TARGETS)}"))
-        res = lti_run(cfg, out, config_path, con.stages(), objective, solver, runs, seed, plots=plots)
+        res = run(cfg, out, runs, seed, fmt, plots, on_step=con.stages(), config_path=config_path, objective=objective,
+                  solver=solver)
         con.show(console.lti_run_summary(out, res))
-        passed = res["verification"]["passed"]
-        _export_verified(out, con, export_to, passed)
-        return Outcome(EXIT_OK if passed else EXIT_VERIFICATION_FAILED, res)
+        _export_verified(out, con, export_to, res.passed)
+        return Outcome(EXIT_OK if res.passed else EXIT_VERIFICATION_FAILED, res)
 
     def margin(self, cfg, out, con, config_path, *, gains, lyapunov, as_json):
         _refuse(lyapunov=(lyapunov, "a linear plant's certificate is one common quadratic function"))

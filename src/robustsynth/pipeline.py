@@ -392,6 +392,7 @@ def run(
     compare: bool = True,
     on_step: Callable[[str], None] | None = None,
     diagnose: bool | None = None,
+    config_path: str | Path | None = None,
     **synthesis_overrides: Any,
 ) -> RunResult:
     """build-model -> synthesize -> verify, then report.md and summary.json; any plant's config.
@@ -426,6 +427,8 @@ def run(
     diagnose : bool or None
         Re-solve with each constraint relaxed (None: when the certified |e_y| exceeds half the track
         distance).
+    config_path : str, Path or None
+        The config's file: a linear plant's ``plant.file`` is read beside it (default: the working directory).
     **synthesis_overrides : Any
         ``objective``, ``solver``, ``multiplier``.
 
@@ -444,7 +447,7 @@ def run(
     from .config import is_lti
 
     if is_lti(config):
-        return _linear_run(config, outdir, runs, seed, fmt, plots, progress, on_stage, on_step, diagnose,
+        return _linear_run(config, outdir, runs, seed, fmt, plots, progress, on_stage, on_step, diagnose, config_path,
                            synthesis_overrides)
 
     def say(stage: str) -> None:
@@ -485,7 +488,7 @@ def run(
 
 def _linear_run(config: Any, outdir: Path, runs: int | None, seed: int | None, fmt: str, plots: bool,
                 progress: Any, on_stage: Callable[[str], None] | None, on_step: Callable[[str], None] | None,
-                diagnose: bool | None, overrides: dict[str, Any]) -> RunResult:
+                diagnose: bool | None, config_path: str | Path | None, overrides: dict[str, Any]) -> RunResult:
     """:func:`run` on a linear plant's config: lti_run's synthesis and verification as a RunResult."""
     from .errors import InputError
     from .pipeline_lti import lti_run
@@ -497,9 +500,10 @@ def _linear_run(config: Any, outdir: Path, runs: int | None, seed: int | None, f
     for name, value in robot.items():
         if value is not None:
             raise InputError(f"{name}: a tracked robot's option of run, not a linear plant's")
-    res = lti_run(config, outdir, None, on_step, overrides.get("objective"), overrides.get("solver"), runs, seed,
+    res = lti_run(config, outdir, config_path, on_step, overrides.get("objective"), overrides.get("solver"), runs, seed,
                   plots, fmt, on_stage)
-    plant, syn, ver = LinearPlant.from_config(config), res["synthesis"], res["verification"]
+    base = str(Path(config_path).parent) if config_path is not None else None
+    plant, syn, ver = LinearPlant.from_config(config, base), res["synthesis"], res["verification"]
     verdict = Verdict(bool(ver["passed"]), tuple(ver["checks"]), {k: v for k, v in ver.items() if k not in ("passed", "checks")})
     return RunResult(ModelStage(plant, {}, ()),
                      SynthesisStage(plant, syn["design"], syn["gains"], tuple(Path(p) for p in syn["files"]),

@@ -323,14 +323,16 @@ def test_the_periodic_radius_of_any_plant_against_a_per_sequence_reference(m_los
 
 def test_run_takes_a_linear_plants_config(tmp_path) -> None:
     """Issue 52: ``robustsynth.run`` on a linear plant's config runs its synthesize and verify into the RunResult the
-    robot's run returns: its stages announced, the verdict (a Verdict: passed, failed_checks), the gain it wrote and
-    the summary that says the same; the robot's options refused in one line before any work."""
+    robot's run returns: its stages announced, the figure's format, the verdict (a Verdict: passed, failed_checks),
+    the gain it wrote and the summary that says the same; the robot's options refused in one line before any work."""
     import robustsynth
     from robustsynth.errors import InputError
 
     cfg = robustsynth.load_config(ROOT / "configs" / "dc-motor.yaml")
     stages: list[str] = []
-    res = robustsynth.run(cfg, tmp_path / "a", runs=8, plots=False, on_stage=stages.append)
+    res = robustsynth.run(cfg, tmp_path / "a", runs=8, fmt="svg", on_stage=stages.append)
+    # the figure in the format asked for (the CLI's run on a linear plant wrote png whatever --format said)
+    assert (tmp_path / "a" / "verification.svg").exists() and not (tmp_path / "a" / "verification.png").exists()
     assert stages == ["synthesize", "verify"] and res.passed is True and res.verification.result.failed_checks == []
     gd = json.loads((tmp_path / "a" / "gains.json").read_text())
     assert gd == res.synthesis.gains and gd["kind"] == "lti" and np.array_equal(res.synthesis.result.K, gd["K"])

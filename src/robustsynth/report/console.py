@@ -241,10 +241,10 @@ def logs_line(logs: Sequence[Any], logdir: Path) -> str:
     return f"wrote {len(logs)} run logs to {logdir}/"
 
 
-def lti_run_summary(out: Path, res: Mapping[str, Any]) -> list[str]:
-    """`run` on a linear plant (pipeline_lti.lti_run): the gain, its verification, the report."""
-    return (cleared(out, tuple(res["synthesis"]["cleared"])) + lti_gain_lines(res["synthesis"]["gains"])
-            + lti_checks(res["verification"]) + [f"report: {out / 'report.md'}"])
+def lti_run_summary(out: Path, res: Any) -> list[str]:
+    """`run` on a linear plant (a pipeline.RunResult): the gain, its verification, the report."""
+    return (cleared(out, tuple(res.synthesis.cleared)) + lti_gain_lines(res.synthesis.gains)
+            + lti_checks(res.verification.data) + [f"report: {out / 'report.md'}"])
 
 
 def physics_line(vd: Mapping[str, Any], episodes: int) -> str:
