@@ -31,29 +31,26 @@ def run_config(config_path: Path, outdir: Path) -> dict[str, Any]:
     from .config import is_lti, load_config
     from .errors import RobustSynthError
     from .pipeline import run
-    from .results import failed_names
 
     cfg = load_config(config_path)
     if is_lti(cfg) and cfg.controller is None:  # a linear plant without a gain: synthesize and verify one
         from .artifacts.files import atomic_write, json_bytes
-        from .pipeline_lti import lti_run
 
         try:
-            res = lti_run(cfg, outdir, config_path, plots=False)
+            res = run(cfg, outdir, plots=False, config_path=config_path)  # the same run as the robot's
         except RobustSynthError as exc:
             summary = {"name": cfg.name, "status": "lti-not-certified", "exit_code": exc.exit_code}
         else:
-            c = res["synthesis"]["gains"]["certified"]
-            ver = res["verification"]
-            summary = {"name": cfg.name, "status": "lti-certified", "objective": res["synthesis"]["gains"]["objective"],
-                       "verification_passed": ver["passed"],
-                       "failed_checks": failed_names(ver["checks"]),
+            gd, ver = res.synthesis.gains, res.verification.result
+            c = gd["certified"]
+            summary = {"name": cfg.name, "status": "lti-certified", "objective": gd["objective"],
+                       "verification_passed": ver.passed,
+                       "failed_checks": ver.failed_checks,
                        "certified": {"decay_rate": c["decay"], "hinf_gain": c.get("hinf_gain"),
                                      "ultimate_bound": {o["name"]: o["bound"] for o in c.get("outputs") or ()
                                                         if o.get("bound") is not None}},
                        # the synthesized gain's delay margin (synthesize reports it), compared as the margins are
-                       "margins": {"delay_max": {f: res["synthesis"]["gains"]["delay_margin"][f]
-                                                 for f in ("configured", "certified", "exhibited")}}}
+                       "margins": {"delay_max": {f: gd["delay_margin"][f] for f in ("configured", "certified", "exhibited")}}}
         atomic_write(outdir / "summary.json", json_bytes(summary))
         return summary
     if is_lti(cfg):  # a linear plant with a gain: its margins (certified and exhibited) are the summary
