@@ -492,7 +492,6 @@ def _linear_run(config: Any, outdir: Path, runs: int | None, seed: int | None, f
     """:func:`run` on a linear plant's config: lti_run's synthesis and verification as a RunResult."""
     from .errors import InputError
     from .pipeline_lti import lti_run
-    from .plants.linear import LinearPlant
     from .results import Verdict
 
     robot = {"diagnose": diagnose or None, "progress": progress, **{k: v for k, v in overrides.items()
@@ -502,13 +501,12 @@ def _linear_run(config: Any, outdir: Path, runs: int | None, seed: int | None, f
             raise InputError(f"{name}: a tracked robot's option of run, not a linear plant's")
     res = lti_run(config, outdir, config_path, on_step, overrides.get("objective"), overrides.get("solver"), runs, seed,
                   plots, fmt, on_stage)
-    base = str(Path(config_path).parent) if config_path is not None else None
-    plant, syn, ver = LinearPlant.from_config(config, base), res["synthesis"], res["verification"]
-    verdict = Verdict(bool(ver["passed"]), tuple(ver["checks"]), {k: v for k, v in ver.items() if k not in ("passed", "checks")})
+    syn, ver = res["synthesis"], res["verification"]
+    plant = syn["plant"]  # the plant synthesize ran on (its file is not read again)
     return RunResult(ModelStage(plant, {}, ()),
                      SynthesisStage(plant, syn["design"], syn["gains"], tuple(Path(p) for p in syn["files"]),
                                     cleared=tuple(syn["cleared"])),
-                     VerificationStage(plant, verdict, ver, {}, tuple(Path(p) for p in ver["files"])),
+                     VerificationStage(plant, Verdict.from_dict(ver), ver, {}, tuple(Path(p) for p in ver["files"])),
                      tuple(Path(p) for p in res["files"]))
 
 

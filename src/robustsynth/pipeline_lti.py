@@ -74,8 +74,9 @@ def lti_synthesis_stage(config: Any, outdir: str | Path, config_path: str | Path
     plant = lti_plant_of(config, config_path)
     say = on_step or (lambda s: None)
     try:
-        design = synthesize(LinearPlant(plant, Network.from_config(config), config.synthesis.pieces, config.name,
-                                        config.synthesis), objective=objective, solver=solver, on_step=say)
+        linear = LinearPlant(plant, Network.from_config(config), config.synthesis.pieces, config.name, config.synthesis,
+                             config.margin)
+        design = synthesize(linear, objective=objective, solver=solver, on_step=say)
     except (InfeasibleError, SolverFailure):
         out = make_dir(outdir)
         clear_foreign(out, config)
@@ -85,8 +86,7 @@ def lti_synthesis_stage(config: Any, outdir: str | Path, config_path: str | Path
     from .margins.linear import delay_margin
 
     # how far its delay bound goes: certified / exhibited, as `robustsynth margin` finds them
-    margin = delay_margin(Network.from_config(config), config.margin, dict(plant, K=np.asarray(design.K, dtype=float)),
-                          say)
+    margin = delay_margin(linear.network, linear.margin_settings, dict(plant, K=np.asarray(design.K, dtype=float)), say)
     out = make_dir(outdir)
     cleared = clear_foreign(out, config)
     over = {}  # review, stop 47: nothing in the file said that --objective / --solver were used
@@ -99,7 +99,7 @@ def lti_synthesis_stage(config: Any, outdir: str | Path, config_path: str | Path
              "gains.json": json_bytes(gd)}
     written = commit_files(out, files, primary="gains.json", invalidate=VERIFICATION_FILES + RUN_FILES + FIGURES,
                            reason="they verified and reported the gain that synthesize replaced")
-    return {"gains": gd, "design": design, "files": [str(p) for p in written], "cleared": cleared}
+    return {"gains": gd, "design": design, "plant": linear, "files": [str(p) for p in written], "cleared": cleared}
 
 
 def lti_verification_stage(config: Any, outdir: str | Path, gains_path: str | Path | None = None,

@@ -46,6 +46,13 @@ class Verdict:
     def failed_checks(self) -> list[str]:
         return failed_names(self.checks)
 
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> Verdict:
+        """A verification's mapping (``passed``, ``checks`` and the rest: a linear plant's ``verify_lti``) as a
+        Verdict; ``to_dict()`` gives it back."""
+        return cls(bool(data["passed"]), tuple(data["checks"]),
+                   {k: v for k, v in data.items() if k not in ("passed", "checks")})
+
     def to_dict(self) -> dict[str, Any]:
         """``passed``, ``checks`` and the details, as verification.json holds them."""
         return {"passed": bool(self.passed), "checks": list(self.checks), **self.details}

@@ -425,7 +425,7 @@ def linear_margin(plant: Any, K: Any, settings: Any, say: Callable[[str], None])
     """A linear plant's margins (:func:`robustsynth.margins.margin` on a
     :class:`~robustsynth.plants.linear.LinearPlant`): delay_max and dropouts of the gain ``K`` on the plant's
     network, with ``settings`` (``LtiMarginConfig``: pieces, tolerance, delay_far)."""
-    from ..model.lti import check_lti_gain
+    from ..model.lti import UNCONTROLLABLE_WARNING, check_lti_gain
     from ..report.lti import LINEAR_READING
 
     try:
@@ -443,6 +443,5 @@ def linear_margin(plant: Any, K: Any, settings: Any, say: Callable[[str], None])
             "network": {"sampling_time": net.sampling_time, "delay": [net.delay_min, net.delay_max],
                         "max_consecutive": net.max_lost},
             "lyapunov": "common", "pieces": int(settings.pieces), "exhibit_tol": EXHIBIT_TOL, "reading": LINEAR_READING}
-    warnings = () if plant.arrays["controllable"] else (
-        "warning: plant: (A, B) is not controllable; a stabilizing gain may not exist",)
+    warnings = () if plant.arrays["controllable"] else (UNCONTROLLABLE_WARNING,)
     return MarginReport(margins, meta, (), warnings)

@@ -34,10 +34,12 @@ import numpy as np
 from .lifting import instant_ranges, lift
 
 __all__ = ["gamma", "exact_lifted", "exact_closed_loop", "Piecewise", "over_approximation", "coverage_check", "lti_plant", "pad_lti_gain",
-           "check_lti_gain", "disturbance_bound", "lti_depth", "lifted_rows", "vertex_combinations", "lti_plant_from", "REMAINDER_INFLATION",
+           "check_lti_gain", "UNCONTROLLABLE_WARNING", "disturbance_bound", "lti_depth", "lifted_rows", "vertex_combinations", "lti_plant_from", "REMAINDER_INFLATION",
            "piece_grid", "in_order_vertices", "vertex_count", "kept_directions", "YOUNG_DELTA",
            "channel_groups"]
 
+# what the console and a margin report say of a plant whose (A, B) is not controllable
+UNCONTROLLABLE_WARNING = "warning: plant: (A, B) is not controllable; a stabilizing gain may not exist"
 REMAINDER_INFLATION = 1e-9  # relative: the remainder bound's own rounding (norms by SVD, expm)
 ROUNDING_FLOOR = 64 * float(np.finfo(float).eps)  # the remainder bound never below this relative rounding
 

@@ -40,7 +40,9 @@ def cleared(out: Path, names: Sequence[str]) -> list[str]:
 
 
 def _uncontrollable(controllable: bool) -> list[str]:
-    return [] if controllable else [Err("warning: plant: (A, B) is not controllable; a stabilizing gain may not exist")]
+    from ..model.lti import UNCONTROLLABLE_WARNING
+
+    return [] if controllable else [Err(UNCONTROLLABLE_WARNING)]
 
 
 # -- build-model ---------------------------------------------------------------------------------------------------

@@ -546,9 +546,9 @@ def _resolved_objective(plant: dict, objective: str) -> str:
 class _LineSearch:
     """The line search over alpha (ultimate-bound: a grid of 1 - alpha from ALPHA_FAR, then REFINE_ROUNDS
     rounds around the best; stability: the one alpha decay^2), ``n_threads`` solves at once, each on a
-    :class:`_LinePoint` of its own (cvxpy's parameters are per problem).  ``held``: "tried" (the alphas in
-    order), "solves", "last" (the last solve's proof, if its point reached one), "kinds" (alphas ended ok, infeasible,
-    failed), "failed" (alphas whose first solve failed, for :meth:`fallback`) and "ok"[alpha] = (the bound
+    :class:`_LinePoint` of its own (cvxpy's parameters are per problem).  ``held``: "ended" (each alpha tried, in
+    order, and how its last solve ended: ok, infeasible or failed), "solves", "last" (the last solve's proof, if its
+    point reached one) and "ok"[alpha] = (the bound
     in the plant's units, min over scale, or the rest ball; then the proof's check, K, P, eta, Q) for every
     proven alpha."""
 
@@ -566,7 +566,7 @@ class _LineSearch:
         self.grid = 1.0 - np.geomspace(ALPHA_FAR, 0.002, alpha_points) if dist else np.array([decay**2])
         self.n_threads = max(1, int(threads)) if threads is not None else auto_threads()
         self.points: list[_LinePoint] = []
-        self.held: dict = {"tried": []}
+        self.held: dict = {"ended": {}}
 
     def beta(self, a: float) -> float:
         """1 - sqrt(alpha), which keeps Q of order one (1 without the disturbance)."""
@@ -582,7 +582,7 @@ class _LineSearch:
             best = _best(self.held, self.dist)
         if self.dist and best is not None:
             for _ in range(REFINE_ROUNDS):
-                self.attempts(_midpoints(self.held["tried"], best))
+                self.attempts(_midpoints(list(self.held["ended"]), best))
                 best = _best(self.held, self.dist)
         return best
 
@@ -616,28 +616,21 @@ class _LineSearch:
         gain runs no more solves than it did."""
         from .solve import solve
 
-        for a in self.held.pop("failed", []):  # a failed alpha was solved on a point: there is one
-            pt, self.held["kinds"]["failed"] = self.points[0], self.held["kinds"]["failed"] - 1
+        for a in [a for a, kind in self.held["ended"].items() if kind == "failed"]:
+            pt = self.points[0]  # a failed alpha was solved on a point: there is one
             self.say(f"alpha {a:.4f}: the fallback solver")
-            self._record(pt, a, solve(pt.prob, self.solver, self._arm(pt, a), fallback=True, skip_first=True),
-                         again=True)
+            self._record(pt, a, solve(pt.prob, self.solver, self._arm(pt, a), fallback=True, skip_first=True))
 
-    def _record(self, pt: _LinePoint, a: float, out: Any, again: bool = False) -> None:
-        """What the solve at alpha ``a`` gave, into ``held`` (``again``: a second solve at an alpha tried before)."""
-        from collections import Counter
-
+    def _record(self, pt: _LinePoint, a: float, out: Any) -> None:
+        """What the solve at alpha ``a`` gave, into ``held`` (a second solve at an alpha replaces how it ended)."""
         held, dist = self.held, self.dist
         held["solves"] = held.get("solves", 0) + 1
-        if not again:
-            held["tried"].append(float(a))
+        held["ended"][float(a)] = out.kind
         # the last solve's proof, if its point reached one (not a point a solver rejected before one said infeasible)
         held["last"] = (pt.proof or None) if out.kind != "infeasible" else None
-        held.setdefault("kinds", Counter())[out.kind] += 1
         if out.kind != "ok":
             why = "; the numpy proof rejected its point" if pt.proof and not pt.proof[0]["ok"] else ""
             self.say(f"alpha {a:.4f}: {out.kind}" + (f" ({out.record.status}{why})" if out.kind == "failed" else ""))
-            if out.kind == "failed" and not again:
-                held.setdefault("failed", []).append(float(a))
             return
         val = float(np.sqrt(max(float(pt.t.value), 0.0))) * (self.delta / self.beta(a) if dist else 1.0)
         self.say(f"alpha {a:.4f}: {'largest bound / scale' if dist else 'ball at rest'} {val:.6g} (proven)")
@@ -648,14 +641,16 @@ def _uncertified(plant: dict, objective: str, search: _LineSearch, decay: float,
                  dt: float) -> LtiDesign:
     """The design when no alpha gave a proven certificate: rejected where the last solve's proof failed, failed where
     a solve failed, else infeasible; with what may bind (uncontrollable modes, input limits, the decay, the delays)."""
+    from collections import Counter
+
     dist, held = search.dist, search.held
     last = held.get("last")
-    kinds = held.get("kinds", {})  # a solve that failed, also with the fallback, proves nothing either way (exit 4)
+    kinds = Counter(held["ended"].values())  # a solve that failed, also with the fallback, proves nothing (exit 4)
     status = ("rejected" if last is not None and not last[0]["ok"] else "failed" if kinds.get("failed") else
               "infeasible")
     why = "no alpha of the line search gave a proven certificate" if dist else f"no certificate with decay {decay:g} per period"
     if kinds.get("failed"):
-        why += (f" (at {kinds['failed']} of {len(held['tried'])} alphas the solves failed, also with the fallback solver: "
+        why += (f" (at {kinds['failed']} of {len(held['ended'])} alphas the solves failed, also with the fallback solver: "
                 "an error, an inaccurate status or a point the numpy proof rejected, which shows neither a gain nor "
                 "that none exists" + (f"; {kinds['infeasible']} infeasible" if kinds.get("infeasible") else "") + ")")
     hints = []

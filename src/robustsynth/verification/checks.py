@@ -125,8 +125,7 @@ def _verify_linear(plant: Any, gains: Any, runs: int | None, seed: int | None) -
     net = plant.network
     data = verify_lti(plant.arrays, K, P, net.sampling_time, net.delay_min, net.delay_max, net.max_lost, figures,
                       runs=64 if runs is None else runs, seed=0 if seed is None else seed, multipliers=eps, pieces=pieces)
-    return Verdict(bool(data["passed"]), tuple(data["checks"]),
-                   {k: v for k, v in data.items() if k not in ("passed", "checks")})
+    return Verdict.from_dict(data)
 
 
 def claimed_beyond(claimed: dict[str, Any], figures: dict[str, Any]) -> list[str]:
