@@ -49,12 +49,12 @@ def main() -> dict[str, float]:
         t0 = time.perf_counter()
         r = synthesize_lti(pl, 0.1, 0.0, 0.2, 0, obj, decay=0.99, threads=threads)
         dt = time.perf_counter() - t0
-        v = verify_lti(pl, r.K, r.P, 0.1, 0.0, 0.2, 0, r.figures, runs=32, periods=100, multipliers=r.eps)
-        figs = (", ".join(f"|{o['name']}| <= {o['bound']:.4g}" for o in r.figures["outputs"]) if obj == "ultimate-bound"
-                else f"decay {r.figures['decay']:.4f}, ball at rest {r.figures['rest_radius']:.4g}")
+        v = verify_lti(pl, r.K, r.P, 0.1, 0.0, 0.2, 0, r.certified, runs=32, periods=100, multipliers=r.certificate["multipliers"])
+        figs = (", ".join(f"|{o['name']}| <= {o['bound']:.4g}" for o in r.certified["outputs"]) if obj == "ultimate-bound"
+                else f"decay {r.certified['decay']:.4f}, ball at rest {r.certified['rest_radius']:.4g}")
         worst = ", ".join(f"{c['name'].split(' (')[0]} {c['value']:.3f}" for c in v["checks"])
         label = f"auto ({auto_threads()})" if threads is None else str(threads)
-        print(f"| {obj} | {label} | {dt:.1f} s | {r.solves} | {r.vertices} | {figs} | {worst} |")
+        print(f"| {obj} | {label} | {dt:.1f} s | {r.solver['solves']} | {r.certificate['vertices']} | {figs} | {worst} |")
         out[f"six_state_{obj}_threads_{'auto' if threads is None else threads}_s"] = dt
         gains.setdefault(obj, []).append(r.K)
     same = all(np.array_equal(k, gains["ultimate-bound"][0]) for k in gains["ultimate-bound"])

@@ -62,7 +62,7 @@ def model_stage(config: Config, outdir: str | Path) -> ModelStage:
 @dataclass(frozen=True)
 class SynthesisStage:
     model: Any  # the robot's Model, or a LinearPlant
-    result: Any  # robustsynth.synthesis.SynthesisResult (a linear plant's: LtiDesign)
+    result: Any  # robustsynth.synthesis.SynthesisResult
     gains: dict[str, Any]
     files: tuple[Path, ...]
     comparison: dict[str, Any] | None = None

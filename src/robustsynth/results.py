@@ -12,7 +12,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-__all__ = ["Check", "all_passed", "failed_names", "Verdict", "Margin", "MarginReport"]
+__all__ = ["Check", "all_passed", "failed_names", "Verdict", "CertificateCheck", "Margin", "MarginReport"]
 
 
 @dataclass(frozen=True)
@@ -56,6 +56,29 @@ class Verdict:
     def to_dict(self) -> dict[str, Any]:
         """``passed``, ``checks`` and the details, as verification.json holds them."""
         return {"passed": bool(self.passed), "checks": list(self.checks), **self.details}
+
+
+@dataclass(frozen=True)
+class CertificateCheck:
+    """A certificate re-checked in numpy, any plant: ``passed`` when every family of conditions was proven,
+    ``checks`` one item per family (``name``, ``max_eig``, ``threshold``, ``margin_found``, ``passed``,
+    ``verified``, ...: the largest eigenvalue of -L against its threshold), ``figures`` what it proves
+    (decay rate, bounds, gains, in the plant's units), ``reason`` why it failed."""
+
+    passed: bool
+    checks: tuple[dict[str, Any], ...]
+    figures: dict[str, Any] = field(default_factory=dict)
+    reason: str = ""
+
+    @property
+    def min_eig_margin(self) -> float:
+        """Smallest margin lambda_min(L) over the LMIs (the margin actually found)."""
+        vals = [c["margin_found"] for c in self.checks if c.get("margin_found") is not None]
+        return float(min(vals)) if vals else float("nan")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"passed": bool(self.passed), "checks": [dict(c) for c in self.checks], "figures": dict(self.figures),
+                "reason": self.reason}
 
 
 def all_passed(checks: Iterable[Mapping[str, Any]]) -> bool:

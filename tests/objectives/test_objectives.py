@@ -167,8 +167,8 @@ def test_a_toy_objective_runs_through_the_linear_plant(toy) -> None:
     cfg = load_config(data)
     lin = LinearPlant.from_config(cfg, str(ROOT / "configs"))
     design = robustsynth.synthesize(lin)
-    assert design.certified and design.objective == toy.NAME
-    assert toy.RATE - RATE_TOL <= design.figures["decay"] <= toy.RATE * (1 + RATE_ROUNDING)
+    assert design.check.passed and design.plant_kind == "lti" and design.objective == toy.NAME
+    assert toy.RATE - RATE_TOL <= design.certified["decay"] <= toy.RATE * (1 + RATE_ROUNDING)
     data["synthesis"]["objective"] = "h-inf"
     with pytest.raises(ConfigError, match="synthesis.objective: Input should be 'auto', 'ultimate-bound', "
                                           f"'stability', 'hinf' or '{toy.NAME}'"):

@@ -33,7 +33,7 @@ def test_lti_sweep_rows_match_direct_synthesis(tmp_path) -> None:
         cfg = config_with(spec.base, pt)
         plant = lti_plant(cfg)
         d = synthesize_lti(plant, 0.05, 0.005, pt["network.delay.max"], 0, "ultimate-bound")
-        direct = max(o["bound"] / s for o, s in zip(d.figures["outputs"], plant["scale"]))
+        direct = max(o["bound"] / s for o, s in zip(d.certified["outputs"], plant["scale"]))
         assert row["output_bound"] == pytest.approx(direct, rel=1e-9)
         assert row["verified"] is True and row["e_y_m"] is None
     assert (tmp_path / "sweep.csv").exists() and (tmp_path / "sweep.png").exists()

@@ -479,3 +479,53 @@ def test_the_cliques_of_sparse_patterns() -> None:
     two[:5, :5] = True
     two[4:, 4:] = True
     assert clique_sizes(two) == (5, 5)
+
+
+def test_every_plants_synthesis_returns_one_result_schema(ub_result) -> None:
+    """Issue 52: the robot's and a linear plant's synthesize return the same type, with the same fields and the same
+    to_dict keys (JSON-able), a CertificateCheck in the robot's form (each LMI family's max_eig against its
+    threshold, proven in verified arithmetic; a figure's value against its limit), the figures as ``certified`` and the set's matrix as ``P``; the old linear name
+    warns and is that type; a linear result does not write itself as a robot's gains file."""
+    import json
+    import warnings
+
+    import robustsynth
+    from robustsynth.errors import InputError
+    from robustsynth.model.lti import lti_plant_from
+    from robustsynth.results import CertificateCheck
+
+    plant = robustsynth.LinearPlant(lti_plant_from(np.array([[0.0, 1.0], [0.0, 0.0]]), np.array([[0.0], [1.0]])),
+                                    robustsynth.Network(0.1, 0.0, 0.05, 0), 2, "double-integrator")
+    lin = synthesize(plant, threads=1)
+    assert type(lin) is type(ub_result) and (lin.plant_kind, ub_result.plant_kind) == ("lti", "tracked-robot")
+    for res in (lin, ub_result):
+        assert isinstance(res.check, CertificateCheck) and res.check.passed and res.check.reason == ""
+        assert res.certified == res.check.figures and np.array_equal(res.P, np.asarray(res.certificate["P"]))
+        for item in res.check.checks:  # an LMI family proven in verified arithmetic, or a figure within its limit
+            assert item["passed"] and (item["verified"] and item["max_eig"] <= item["threshold"]
+                                       if item["max_eig"] is not None else item["value"] <= item["threshold"])
+        assert json.loads(json.dumps(res.to_dict())).keys() == ub_result.to_dict().keys()
+    assert lin.check.min_eig_margin > 0 and lin.search and all(s["status"] in ("ok", "infeasible", "failed")
+                                                              for s in lin.search)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        from robustsynth.synthesis.lti import LtiDesign
+    assert LtiDesign is type(lin) and any(issubclass(w.category, DeprecationWarning) for w in caught)
+    with pytest.raises(InputError, match="writes the tracked robot's gains; this is a lti plant's"):
+        lin.save(None, ".")
+
+
+def test_a_linear_proof_record_that_failed_is_a_failed_certificate_check() -> None:
+    """lti_check reads check_lti_certificate's record: a block that failed is a failed family naming it, and a
+    malformed certificate (no block checked) fails with its reason; figures are kept as given."""
+    from robustsynth.certificate.lti import LTI_PROOF_MARGIN, lti_check
+
+    bad = lti_check({"ok": False, "failing": 3, "vertices": 8, "min_eig": -0.5}, {"decay": 0.9})
+    assert not bad.passed and bad.reason == "vertex block 3 not proven" and bad.checks[0]["worst"] == "vertex block 3"
+    assert bad.checks[0]["max_eig"] == 0.5 and bad.checks[0]["threshold"] == -LTI_PROOF_MARGIN
+    assert bad.figures == {"decay": 0.9}
+    malformed = lti_check({"ok": False, "failing": -1, "vertices": 0, "min_eig": float("nan")}, {})
+    assert not malformed.passed and "malformed" in malformed.reason and not malformed.checks[0]["passed"]
+    # floating point passes but the verified test did not: not passed, said as rounding
+    rounding = lti_check({"ok": False, "failing": 0, "vertices": 1, "min_eig": 1.0}, {})
+    assert not rounding.passed and rounding.checks[0]["status"] == "not proven (rounding)"

@@ -31,6 +31,12 @@ def _instants(rng, Ts, lo, hi, d, count):
     return np.maximum.accumulate(s[:, ::-1], axis=1)[:, ::-1]  # in order: s~_0 >= s~_1 >= ...
 
 
+def _d(r, pl: dict) -> int:
+    """The commands the gain's lifted state keeps (its columns beyond the plant's states, per input)."""
+    n, m = pl["B"].shape
+    return (r.K.shape[1] - n) // m
+
+
 @pytest.fixture(scope="module")
 def zbp_bound():
     pl = lti_plant_from(ZBP_A, ZBP_B, E=ZBP_E, w_max=0.5, u_max=[20.0])
@@ -51,12 +57,12 @@ def test_stability_design_shrinks_V_on_exact_loops() -> None:
     pl = lti_plant_from(UNST_A, UNST_B)
     Ts, lo, hi = 0.2, 0.0, 0.35
     r = synthesize_lti(pl, Ts, lo, hi, 0, "stability", decay=0.97)
-    assert r.certified and r.d_hi == 2 and r.K.shape == (2, 3 + 2 * 2)
-    s = _instants(np.random.default_rng(3), Ts, lo, hi, r.d_hi, 5000)
+    assert r.check.passed and r.plant_kind == "lti" and r.K.shape == (2, 3 + 2 * 2)  # d_hi = 2 commands kept
+    s = _instants(np.random.default_rng(3), Ts, lo, hi, 2, 5000)
     M = exact_closed_loop(UNST_A, UNST_B, r.K, Ts, s)
     worst = max(float(eigh(Mi.T @ r.P @ Mi, r.P, eigvals_only=True)[-1]) for Mi in M)
-    assert worst <= r.alpha * (1 + EXACT_TOL)
-    assert r.alpha == pytest.approx(0.97**2)
+    assert worst <= r.certificate["alpha"] * (1 + EXACT_TOL)
+    assert r.certificate["alpha"] == pytest.approx(0.97**2)
 
 
 @pytest.mark.parametrize("case", ["zbp_bound", "unstable_lossy"])
@@ -65,13 +71,13 @@ def test_the_set_is_invariant_under_the_worst_disturbance(case, request) -> None
     included) with the lifted disturbance at its bound delta in the direction that increases V most
     to first order (the gradient of V along the plant's rows): V stays <= 1."""
     pl, r = request.getfixturevalue(case)
-    assert r.certified
+    assert r.check.passed
     Ts, lo, hi, ml = (0.5, 0.0, 0.5, 0) if case == "zbp_bound" else (0.2, 0.05, 0.15, 1)
     rng = np.random.default_rng(5)
-    delta = r.figures["disturbance_step_bound"]
+    delta = r.certified["disturbance_step_bound"]
     n = pl["A"].shape[0]
     n_s = r.P.shape[0]
-    s = _instants(rng, Ts, lo, hi + ml * Ts, r.d_hi, 3000)
+    s = _instants(rng, Ts, lo, hi + ml * Ts, _d(r, pl), 3000)
     M = exact_closed_loop(pl["A"], pl["B"], r.K, Ts, s)
     L = np.linalg.cholesky(r.P)
     z = rng.standard_normal((3000, n_s))
@@ -107,7 +113,7 @@ def test_output_and_input_claims_follow_from_P(zbp_bound) -> None:
     Q = np.linalg.inv(r.P)
     n_s = r.P.shape[0]
     C = np.hstack([pl["C"], np.zeros((2, n_s - 2))])
-    for c, o in zip(C, r.figures["outputs"]):
+    for c, o in zip(C, r.certified["outputs"]):
         assert np.sqrt(c @ Q @ c) <= o["bound"]
         assert np.sqrt(c @ Q @ c) >= 0.999 * o["bound"]  # the figure is the set's own extent, not padded
     assert np.sqrt(r.K[0] @ Q @ r.K[0]) <= 20.0
@@ -118,7 +124,7 @@ def test_linearity_scales_the_bounds_with_the_disturbance() -> None:
     the same problem in the normalized units)."""
     a = synthesize_lti(lti_plant_from(ZBP_A, ZBP_B, E=ZBP_E, w_max=0.05), 0.5, 0.0, 0.5, 0, "ultimate-bound")
     b = synthesize_lti(lti_plant_from(ZBP_A, ZBP_B, E=ZBP_E, w_max=0.5), 0.5, 0.0, 0.5, 0, "ultimate-bound")
-    for oa, ob in zip(a.figures["outputs"], b.figures["outputs"]):
+    for oa, ob in zip(a.certified["outputs"], b.certified["outputs"]):
         assert ob["bound"] == pytest.approx(10 * oa["bound"], rel=1e-9)
     assert np.allclose(a.K, b.K)
 
@@ -130,25 +136,25 @@ def test_tighter_input_limits_cost_bound(zbp_bound) -> None:
     peak = float(np.sqrt(loose.K[0] @ Q @ loose.K[0]))
     tight = synthesize_lti(lti_plant_from(ZBP_A, ZBP_B, E=ZBP_E, w_max=0.5, u_max=[0.5 * peak]), 0.5, 0.0, 0.5, 0,
                            "ultimate-bound")
-    assert tight.certified
+    assert tight.check.passed
     Qt = np.linalg.inv(tight.P)
     assert np.sqrt(tight.K[0] @ Qt @ tight.K[0]) <= 0.5 * peak * (1 + 1e-9)
-    assert max(o["bound"] for o in tight.figures["outputs"]) > max(o["bound"] for o in loose.figures["outputs"])
+    assert max(o["bound"] for o in tight.certified["outputs"]) > max(o["bound"] for o in loose.certified["outputs"])
 
 
 def test_the_primal_check_refuses_a_tampered_gain(zbp_bound) -> None:
     """The certificate proves the gain it was found with, not a neighbour: K scaled by 1.5 fails with
     the same P and multipliers; the original passes."""
     pl, r = zbp_bound
-    pw = over_approximation(pl["A"], pl["B"], r.K, 0.5, 0.0, 0.5, r.d_hi, 2)
+    pw = over_approximation(pl["A"], pl["B"], r.K, 0.5, 0.0, 0.5, _d(r, pl), 2)
     verts = vertex_combinations(pw)
     s = 1.0 / float(np.min(np.linalg.eigvalsh(r.P)))
-    c = (1.0 - r.alpha) * r.figures["disturbance_step_bound"] ** -2 * s
-    assert check_lti_certificate(pw, s * r.P, s * r.eps, np.sqrt(r.alpha), verts, c)["ok"]
-    bad = over_approximation(pl["A"], pl["B"], 1.5 * r.K, 0.5, 0.0, 0.5, r.d_hi, 2)
-    assert not check_lti_certificate(bad, s * r.P, s * r.eps, np.sqrt(r.alpha), verts, c)["ok"]
-    assert not check_lti_certificate(pw, s * r.P, s * r.eps, np.sqrt(r.alpha) * 0.9, verts, c)["ok"]
-    assert not lti_within(r.P, np.array([[1.0, 0, 0]]), np.array([0.5 * r.figures["outputs"][0]["bound"]])).any()
+    c = (1.0 - r.certificate["alpha"]) * r.certified["disturbance_step_bound"] ** -2 * s
+    assert check_lti_certificate(pw, s * r.P, s * r.certificate["multipliers"], np.sqrt(r.certificate["alpha"]), verts, c)["ok"]
+    bad = over_approximation(pl["A"], pl["B"], 1.5 * r.K, 0.5, 0.0, 0.5, _d(r, pl), 2)
+    assert not check_lti_certificate(bad, s * r.P, s * r.certificate["multipliers"], np.sqrt(r.certificate["alpha"]), verts, c)["ok"]
+    assert not check_lti_certificate(pw, s * r.P, s * r.certificate["multipliers"], np.sqrt(r.certificate["alpha"]) * 0.9, verts, c)["ok"]
+    assert not lti_within(r.P, np.array([[1.0, 0, 0]]), np.array([0.5 * r.certified["outputs"][0]["bound"]])).any()
 
 
 def test_no_gain_for_an_unstabilizable_plant() -> None:
@@ -166,10 +172,10 @@ def test_hinf_dissipation_on_exact_loops_and_a_tampered_gamma() -> None:
     pl = lti_plant_from(UNST_A, UNST_B, E=UNST_E, w_max=0.2, C=[[1.0, 0.0, 0.0]])
     Ts, lo, hi, ml = 0.2, 0.05, 0.15, 1
     r = synthesize_lti(pl, Ts, lo, hi, ml, "hinf")
-    assert r.certified
-    gam, g = r.figures["hinf_gain"], r.figures["per_period_gain"]
+    assert r.check.passed
+    gam, g = r.certified["hinf_gain"], r.certified["per_period_gain"]
     rng = np.random.default_rng(7)
-    s = _instants(rng, Ts, lo, hi + ml * Ts, r.d_hi, 3000)
+    s = _instants(rng, Ts, lo, hi + ml * Ts, _d(r, pl), 3000)
     M = exact_closed_loop(pl["A"], pl["B"], r.K, Ts, s)
     n_s = r.P.shape[0]
     xi = rng.standard_normal((3000, n_s))
@@ -180,12 +186,12 @@ def test_hinf_dissipation_on_exact_loops_and_a_tampered_gamma() -> None:
     lhs = V(nxt) - V(xi) + xi[:, 0] ** 2
     rhs = gam**2 * np.sum(dd**2, axis=1) / g**2
     assert np.all(lhs <= rhs + EXACT_TOL * (np.abs(lhs) + rhs))
-    pw = over_approximation(pl["A"], pl["B"], r.K, Ts, lo, hi + ml * Ts, r.d_hi, 2)
+    pw = over_approximation(pl["A"], pl["B"], r.K, Ts, lo, hi + ml * Ts, _d(r, pl), 2)
     verts = vertex_combinations(pw)
     C = np.zeros((1, n_s))
     C[0, 0] = 1.0
-    assert check_lti_scaled(pw, r.P, r.eps, 1.0, verts, gam**2 / g**2, C)["ok"]  # P of any scale (lambda_min 2e-4)
-    assert not check_lti_scaled(pw, r.P, r.eps, 1.0, verts, (gam / 2) ** 2 / g**2, C)["ok"]
+    assert check_lti_scaled(pw, r.P, r.certificate["multipliers"], 1.0, verts, gam**2 / g**2, C)["ok"]  # P of any scale (lambda_min 2e-4)
+    assert not check_lti_scaled(pw, r.P, r.certificate["multipliers"], 1.0, verts, (gam / 2) ** 2 / g**2, C)["ok"]
 
 
 def test_the_gain_does_not_depend_on_how_many_solves_run_at_once(zbp_bound) -> None:
@@ -195,10 +201,10 @@ def test_the_gain_does_not_depend_on_how_many_solves_run_at_once(zbp_bound) -> N
     one = synthesize_lti(pl, 0.5, 0.0, 0.5, 0, "ultimate-bound", threads=1)
     three = synthesize_lti(pl, 0.5, 0.0, 0.5, 0, "ultimate-bound", threads=3)
     for r in (one, three):
-        assert r.certified and r.solves == one.solves
+        assert r.check.passed and r.solver["solves"] == one.solver["solves"] and r.search == one.search
         np.testing.assert_array_equal(r.K, one.K)
         np.testing.assert_array_equal(r.P, one.P)
-        assert r.alpha == one.alpha and r.figures == one.figures
+        assert r.certificate["alpha"] == one.certificate["alpha"] and r.certified == one.certified
     np.testing.assert_array_equal(ref.K, one.K)  # the fixture ran with the machine's default
 
 
@@ -251,9 +257,10 @@ def test_synthesize_and_verify_take_a_linear_plant(zbp_bound) -> None:
     pl, ref = zbp_bound
     plant = robustsynth.LinearPlant(pl, robustsynth.Network(0.5, 0.0, 0.5, 0), 2, "zbp")
     design = robustsynth.synthesize(plant, objective="ultimate-bound")
-    assert design.certified and np.array_equal(design.K, ref.K) and design.figures == ref.figures
+    assert design.check.passed and np.array_equal(design.K, ref.K) and design.certified == ref.certified
     data = robustsynth.verify(plant, design, runs=8)
-    direct = verify_lti(pl, ref.K, ref.P, 0.5, 0.0, 0.5, 0, ref.figures, runs=8, seed=0, multipliers=ref.eps, pieces=2)
+    direct = verify_lti(pl, ref.K, ref.P, 0.5, 0.0, 0.5, 0, ref.certified, runs=8, seed=0,
+                        multipliers=ref.certificate["multipliers"], pieces=2)
     # a Verdict: passed, checks and failed_checks as the robot's VerificationResult has them; to_dict is verify_lti's
     assert data.passed and data.failed_checks == [] and [(c["name"], c["passed"], c["value"]) for c in data.checks] == \
         [(c["name"], c["passed"], c["value"]) for c in direct["checks"]]
@@ -263,7 +270,7 @@ def test_synthesize_and_verify_take_a_linear_plant(zbp_bound) -> None:
         robustsynth.synthesize(plant, objective="H2")
     with pytest.raises(InputError, match="synthesis.pieces: 3 differs from the 2"):
         robustsynth.synthesize(plant, pieces=3)
-    with pytest.raises(InputError, match="a linear plant's gain is the LtiDesign"):
+    with pytest.raises(InputError, match="a linear plant's gain is the SynthesisResult"):
         robustsynth.verify(plant, ref.K)
 
 
@@ -288,7 +295,7 @@ def test_a_linear_plants_own_settings_are_the_default() -> None:
     pl = lti_plant_from(ZBP_A, ZBP_B)
     plant = robustsynth.LinearPlant(pl, robustsynth.Network(0.5, 0.0, 0.5, 0), 3, "zbp")
     design = robustsynth.synthesize(plant, threads=1)
-    assert design.certified and design.objective == "stability"
+    assert design.check.passed and design.objective == "stability"
     with pytest.raises(InputError, match="a linear plant's settings are an LtiSynthesisConfig"):
         robustsynth.synthesize(plant, SynthesisConfig())
 
@@ -307,4 +314,4 @@ def test_the_robots_calls_on_a_linear_config_point_to_the_plant_and_the_route_wo
         with pytest.raises(InputError, match=r"linear plant's \(plant: kind: lti\): its plant is "
                                              r"robustsynth.LinearPlant.from_config\(config\)"):
             call(cfg)
-    assert robustsynth.synthesize(robustsynth.LinearPlant.from_config(cfg, str(root / "configs"))).certified
+    assert robustsynth.synthesize(robustsynth.LinearPlant.from_config(cfg, str(root / "configs"))).check.passed

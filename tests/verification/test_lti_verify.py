@@ -47,7 +47,7 @@ def design():
 
 def test_verify_passes_a_certified_design_with_room(design) -> None:
     pl, r = design
-    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, r.figures, runs=24, periods=60, multipliers=r.eps)
+    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, r.certified, runs=24, periods=60, multipliers=r.certificate["multipliers"])
     assert v["passed"], v["checks"]
     by = {c["name"].split(" (")[0]: c["value"] for c in v["checks"]}
     assert by["the set is invariant"] < 1.0 and by["frozen-delay spectral radius"] < 1.0
@@ -60,14 +60,14 @@ def test_verify_catches_an_understated_bound_and_refuses_nan(design) -> None:
     from robustsynth.errors import InputError
 
     pl, r = design
-    figs = dict(r.figures, outputs=[dict(o, bound=0.9 * o["bound"]) for o in r.figures["outputs"]])
-    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, figs, runs=24, periods=30, multipliers=r.eps)
+    figs = dict(r.certified, outputs=[dict(o, bound=0.9 * o["bound"]) for o in r.certified["outputs"]])
+    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, figs, runs=24, periods=30, multipliers=r.certificate["multipliers"])
     assert not v["passed"]
     assert [c["passed"] for c in v["checks"] if c["name"].startswith("outputs")] == [False]
     P = r.P.copy()
     P[0, 0] = np.nan
     with pytest.raises(InputError, match="must be finite"):
-        verify_lti(pl, r.K, P, 0.5, 0.0, 0.5, 0, r.figures, runs=4, periods=5, multipliers=r.eps)
+        verify_lti(pl, r.K, P, 0.5, 0.0, 0.5, 0, r.certified, runs=4, periods=5, multipliers=r.certificate["multipliers"])
 
 
 def test_verify_catches_delays_beyond_the_certificate() -> None:
@@ -75,7 +75,7 @@ def test_verify_catches_delays_beyond_the_certificate() -> None:
     frozen delays destabilize it and the set is left."""
     pl = lti_plant_from(ZBP_A, ZBP_B, E=ZBP_E, w_max=0.5, u_max=[20.0])
     r = synthesize_lti(pl, 0.5, 0.0, 0.1, 0, "ultimate-bound")
-    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, r.figures, runs=24, periods=60, multipliers=r.eps)
+    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, r.certified, runs=24, periods=60, multipliers=r.certificate["multipliers"])
     bad = {c["name"].split(" (")[0] for c in v["checks"] if not c["passed"]}
     assert not v["passed"] and {"the set is invariant", "frozen-delay spectral radius"} <= bad
 
@@ -84,7 +84,7 @@ def test_verify_catches_a_plant_the_certificate_was_not_made_for(design) -> None
     """The gain on a plant with negative friction (still stabilized): the set is no longer invariant."""
     _, r = design
     other = lti_plant_from(np.array([[0.0, 1.0], [0.0, 0.3]]), ZBP_B, E=ZBP_E, w_max=0.5, u_max=[20.0])
-    v = verify_lti(other, r.K, r.P, 0.5, 0.0, 0.5, 0, r.figures, runs=24, periods=60, multipliers=r.eps)
+    v = verify_lti(other, r.K, r.P, 0.5, 0.0, 0.5, 0, r.certified, runs=24, periods=60, multipliers=r.certificate["multipliers"])
     bad = {c["name"].split(" (")[0] for c in v["checks"] if not c["passed"]}
     assert bad == {"the certificate re-proven in numpy for this config", "the set is invariant"}
 
@@ -93,11 +93,11 @@ def test_verify_without_the_multipliers_proves_nothing_and_fails(design) -> None
     """The library call re-proves the certificate first, as `robustsynth verify` does; without the
     multipliers it cannot, and simulations that pass do not make the verdict pass."""
     pl, r = design
-    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, r.figures, runs=8, periods=20)
+    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, r.certified, runs=8, periods=20)
     first = v["checks"][0]
     assert not v["passed"] and not first["passed"] and "multipliers" in first["detail"]
     assert all(c["passed"] for c in v["checks"][1:])  # the simulations alone would have passed
-    slower = verify_lti(pl, r.K, r.P, 0.8, 0.0, 0.5, 0, r.figures, runs=8, periods=20, multipliers=r.eps)
+    slower = verify_lti(pl, r.K, r.P, 0.8, 0.0, 0.5, 0, r.certified, runs=8, periods=20, multipliers=r.certificate["multipliers"])
     assert not slower["checks"][0]["passed"]  # a network the certificate does not cover (Ts 0.8 s): not re-proven
 
 
@@ -150,9 +150,9 @@ def test_cli_chain_on_a_linear_plant(tmp_path) -> None:
 def test_verify_hinf_passes_and_catches_an_understated_gain() -> None:
     pl = lti_plant_from(ZBP_A, ZBP_B, E=ZBP_E, w_max=0.5, C=[[1.0, 0.0]])
     r = synthesize_lti(pl, 0.5, 0.0, 0.5, 0, "hinf")
-    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, r.figures, multipliers=r.eps)
+    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, r.certified, multipliers=r.certificate["multipliers"])
     assert v["passed"] and 0.3 < v["checks"][-1]["value"] < 1.0
-    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, dict(r.figures, hinf_gain=0.25 * r.figures["hinf_gain"]), multipliers=r.eps)
+    v = verify_lti(pl, r.K, r.P, 0.5, 0.0, 0.5, 0, dict(r.certified, hinf_gain=0.25 * r.certified["hinf_gain"]), multipliers=r.certificate["multipliers"])
     assert not v["passed"] and not v["checks"][-1]["passed"]
 
 
@@ -161,11 +161,11 @@ def test_the_gains_file_is_re_proven(design) -> None:
     from robustsynth.certificate.lti import recheck_lti
 
     pl, r = design
-    gd = {"K": r.K.tolist(), "certified": r.figures,
-          "certificate": {"P": r.P.tolist(), "multipliers": r.eps.tolist(), "alpha": r.alpha, "pieces": 2}}
+    gd = {"K": r.K.tolist(), "certified": r.certified,
+          "certificate": {"P": r.P.tolist(), "multipliers": r.certificate["multipliers"].tolist(), "alpha": r.certificate["alpha"], "pieces": 2}}
     assert recheck_lti(pl, gd, 0.5, 0.0, 0.5, 0)["ok"]
     assert not recheck_lti(pl, dict(gd, K=(1.2 * r.K).tolist()), 0.5, 0.0, 0.5, 0)["ok"]
-    low = dict(r.figures, outputs=[dict(o, bound=0.99 * o["bound"]) for o in r.figures["outputs"]])
+    low = dict(r.certified, outputs=[dict(o, bound=0.99 * o["bound"]) for o in r.certified["outputs"]])
     assert "output bound" in recheck_lti(pl, dict(gd, certified=low), 0.5, 0.0, 0.5, 0)["reason"]
     assert not recheck_lti(pl, gd, 0.5, 0.0, 0.5, 1)["ok"]  # a loss it was not certified for
 

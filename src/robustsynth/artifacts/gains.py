@@ -533,18 +533,19 @@ def lti_gains_dict(config: Any, plant: dict[str, Any], design: Any, overrides: d
 
     n, m = plant["B"].shape
     net = config.network
+    cert = design.certificate
     out = {
         "kind": "lti",
         "K": design.K,
         "law": "u_k = K xi_k, xi_k = [x_k; u_{k-1}; ...; u_{k-d}]",
-        "lifting": {"n": n, "m": m, "d": design.d_hi, "states": plant["states"], "units": plant["units"]},
+        "lifting": {"n": n, "m": m, "d": (np.shape(design.K)[1] - n) // m, "states": plant["states"],
+                    "units": plant["units"]},
         "objective": design.objective,
-        "certified": design.figures,
-        "certificate": {"P": design.P, "alpha": design.alpha, "multipliers": design.eps, "vertices": design.vertices,
-                        "pieces": config.synthesis.pieces, "check": design.check},
+        "certified": design.certified,
+        "certificate": {k: cert[k] for k in ("P", "alpha", "multipliers", "vertices", "pieces", "check")},
         "network": {"sampling_time": net.sampling_time, "delay": [net.delay.min, net.delay.max],
                     "max_consecutive": net.dropouts.max_consecutive},
-        "solver": {"solves": design.solves, "time_s": design.solve_time_s},
+        "solver": {"solves": design.solver["solves"], "time_s": design.solver["time_s"]},
         "config": config_to_dict(config),
     }
     if overrides:

@@ -18,11 +18,12 @@ and a linear plant's certificate (:mod:`.lti`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Mapping
 
 import numpy as np
 
+from ..results import CertificateCheck
 from ..verified import (assembly_radius, assembly_radius_batch, proves_at_least, proves_at_least_batch, rump_shift,
                         rump_shift_batch)
 from ..objectives import certified_keys
@@ -44,20 +45,6 @@ CHECK_FRACTION = 0.5
 # the key of the within-period family's item that lists its failing vertices (indices into Model.varying)
 VARYING_FAILURES = "failing_vertices"
 SYMMETRY_TOL = 1e-9  # relative asymmetry allowed in Q and M read from a file
-
-
-@dataclass(frozen=True)
-class CertificateCheck:
-    passed: bool
-    checks: tuple[dict[str, Any], ...]
-    figures: dict[str, Any] = field(default_factory=dict)
-    reason: str = ""
-
-    @property
-    def min_eig_margin(self) -> float:
-        """Smallest margin lambda_min(L) over the LMIs (the margin actually found)."""
-        vals = [c["margin_found"] for c in self.checks if c.get("margin_found") is not None]
-        return float(min(vals)) if vals else float("nan")
 
 
 def _arr(x: Any, name: str) -> np.ndarray:

@@ -9,11 +9,12 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from ..results import CertificateCheck
 from ..verified import (assembly_radius, assembly_radius_batch, proves_at_least, proves_at_least_batch,
                        round_down_array, round_up)
 
 __all__ = ["lti_multipliers", "lti_vertex_blocks", "LTI_PROOF_MARGIN", "check_lti_certificate", "check_lti_scaled",
-           "lti_within", "recheck_lti"]
+           "lti_within", "recheck_lti", "lti_check"]
 
 
 def lti_multipliers(pw: Any, eps: np.ndarray, n_c: int) -> tuple[np.ndarray, bool] | None:
@@ -244,3 +245,19 @@ def recheck_lti(plant: dict, gains: Mapping[str, Any], Ts: float, tau_min: float
     if figs.get("inputs") and not lti_within(P, K, np.array([u["limit"] for u in figs["inputs"]])).all():
         return {"ok": False, "reason": "an input limit is not proven on the set"}
     return {"ok": True, "reason": ""}
+
+
+def lti_check(record: Mapping[str, Any], figures: Mapping[str, Any]) -> CertificateCheck:
+    """:func:`check_lti_certificate`'s record ({"ok", "failing", "vertices", "min_eig"}) as the certificate check
+    every plant's result holds: one family, the vertex blocks proven >= LTI_PROOF_MARGIN I in verified arithmetic
+    (the smallest eigenvalue over the blocks is its margin found), with the figures the design proved beside it
+    (the output bounds, the rest ball and the input limits are proven on the set before a design is certified)."""
+    from .check import _item
+
+    ok, failing = bool(record.get("ok")), record.get("failing")
+    item = _item(f"V+ <= alpha V (+ 1 - alpha) at the {int(record.get('vertices') or 0)} vertex blocks of the "
+                 "over-approximation", float(record.get("min_eig", float("nan"))), LTI_PROOF_MARGIN,
+                 f"vertex block {failing}" if failing is not None and failing >= 0 else "", verified=ok)
+    reason = "" if ok else (f"vertex block {failing} not proven" if failing is not None and failing >= 0
+                            else "the certificate is malformed or P is not positive definite")
+    return CertificateCheck(ok and item["passed"], (item,), dict(figures), reason)

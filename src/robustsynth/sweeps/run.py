@@ -21,7 +21,6 @@ from typing import Any, Callable, Iterator
 from .. import __version__
 from ..config import config_to_dict, config_with
 from ..errors import ConfigError, InfeasibleError, InputError, Interrupted, SolverFailure, check_interrupt
-from ..results import failed_names
 from .spec import SweepSpec
 
 __all__ = ["SweepResult", "sweep", "run_point", "point_key"]
@@ -104,9 +103,9 @@ def _lti_point(payload: dict[str, Any], out: dict[str, Any]) -> None:
 
     cfg = config_from_dict(payload["config"])
     lin = LinearPlant.from_config(cfg)
-    plant, net = lin.arrays, cfg.network
+    plant = lin.arrays
     design = synthesize(lin, threads=payload.get("solve_threads"))
-    f = design.figures
+    f = design.certified
     bounds = [o["bound"] / s for o, s in zip(f.get("outputs") or (), plant["scale"]) if o.get("bound") is not None]
     gd = lti_gains_dict(cfg, plant, design)
     out.update(status="certified", gains=to_jsonable(gd), gains_id=gains_id(to_jsonable(gd)),
@@ -114,12 +113,10 @@ def _lti_point(payload: dict[str, Any], out: dict[str, Any]) -> None:
                         "output_bound": max(bounds) if bounds else None})
     runs = payload.get("verify_runs")
     if runs:
-        from ..verification.lti import verify_lti
+        from ..verification import verify
 
-        v = verify_lti(plant, design.K, design.P, net.sampling_time, net.delay.min, net.delay.max,
-                       net.dropouts.max_consecutive, f, runs=runs, multipliers=design.eps,
-                       pieces=cfg.synthesis.pieces)
-        out["verification"] = {"passed": bool(v["passed"]), "max": {}, "failed_checks": failed_names(v["checks"])}
+        v = verify(lin, design, runs=runs)
+        out["verification"] = {"passed": bool(v.passed), "max": {}, "failed_checks": v.failed_checks}
 
 
 @dataclass(frozen=True)

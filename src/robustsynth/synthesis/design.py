@@ -8,52 +8,22 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import replace
 from typing import Any, Callable
 
 import numpy as np
 
-from ..certificate import CertificateCheck
 from ..config import SynthesisConfig
 from ..errors import InputError, SolverFailure
 from ..objectives import listed, objective
 from .objectives import design_of
+from .result import SynthesisResult
 from .runner import _SPLIT, _Split, multiplier_used
 from .solve import solver_version
 
 __all__ = ["SynthesisResult", "synthesize"]
 
 MAX_DELAY_VERTICES = 9  # delay-dependent Lyapunov matrices: conditions grow with the square of this
-
-
-@dataclass(frozen=True)
-class SynthesisResult:
-    """A certified gain with its certificate, the figures it proves, and how it was found."""
-
-    K: np.ndarray
-    objective: str
-    multiplier: str
-    certificate: dict[str, Any]
-    check: CertificateCheck
-    solver: dict[str, Any]
-    search: tuple[dict[str, Any], ...]
-    timings: dict[str, float] = field(default_factory=dict)
-    notes: tuple[str, ...] = ()
-    settings: Any = None  # the SynthesisConfig it was made with (the config's, with any overrides applied)
-
-    @property
-    def certified(self) -> dict[str, Any]:
-        return dict(self.check.figures)
-
-    def save(self, model: Any, outdir: Any) -> list[Any]:
-        """Write gains.json and gains.mat of this result for ``model`` into ``outdir`` (atomically,
-        gains.json last): what ``robustsynth synthesize`` writes, without the report."""
-        from ..artifacts.files import commit_files, json_bytes, mat_bytes
-        from ..artifacts.gains import gains_dict, gains_mat_vars
-
-        gd = gains_dict(model, self)
-        return commit_files(outdir, {"gains.mat": mat_bytes(gains_mat_vars(gd)), "gains.json": json_bytes(gd)},
-                            primary="gains.json")
 
 
 CLI_OVERRIDES = ("objective", "solver", "multiplier")  # the settings `robustsynth synthesize` overrides by option
@@ -72,8 +42,7 @@ def synthesize(model: Any, settings: SynthesisConfig | None = None, *, on_step: 
 
     Any plant: a :class:`~robustsynth.plants.linear.LinearPlant` is designed for as
     :func:`~robustsynth.synthesis.lti.synthesize_lti` designs (its objective's ``linear`` design), with a
-    linear plant's settings (``LtiSynthesisConfig``, its defaults when None) and returns its
-    :class:`~robustsynth.synthesis.lti.LtiDesign`.
+    linear plant's settings (``LtiSynthesisConfig``, its defaults when None); its result has ``plant_kind`` "lti".
 
     Parameters
     ----------
@@ -88,9 +57,8 @@ def synthesize(model: Any, settings: SynthesisConfig | None = None, *, on_step: 
 
     Returns
     -------
-    SynthesisResult or LtiDesign
-        The gain ``K``, its certificate and the figures the numpy re-check proves (``certified``; a linear
-        plant's: ``figures``).
+    SynthesisResult
+        The gain ``K``, its certificate and the figures the numpy re-check proves (``certified``), any plant.
 
     Raises
     ------
@@ -147,10 +115,11 @@ def _synthesize_linear(plant: Any, settings: Any, on_step: Callable[[str], None]
         raise InputError(f"synthesis.pieces: {s.pieces} differs from the {plant.pieces} the plant's vertex description "
                          "was built with; it shapes the plant, not only the solve: build the LinearPlant with it")
     net = plant.network
-    return synthesize_lti(plant.arrays, net.sampling_time, net.delay_min, net.delay_max, net.max_lost, s.objective,
-                          decay=s.decay, pieces=plant.pieces, alpha_points=s.alpha_points, solver=s.solver,
-                          say=on_step if on_step is not None else (lambda _m: None),
-                          threads=None if s.threads == "auto" else s.threads, name=plant.name)
+    result = synthesize_lti(plant.arrays, net.sampling_time, net.delay_min, net.delay_max, net.max_lost, s.objective,
+                            decay=s.decay, pieces=plant.pieces, alpha_points=s.alpha_points, solver=s.solver,
+                            say=on_step if on_step is not None else (lambda _m: None),
+                            threads=None if s.threads == "auto" else s.threads, name=plant.name)
+    return replace(result, settings=s)
 
 
 def _timings(total: float, solve: float) -> dict[str, float]:

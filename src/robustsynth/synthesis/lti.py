@@ -20,14 +20,15 @@ from __future__ import annotations
 
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from ..model.lti import YOUNG_DELTA, channel_groups, kept_directions, vertex_combinations
+from .result import SynthesisResult
 
-__all__ = ["LtiAnalysis", "analyze_lti", "vertex_combinations", "LtiDesign", "LinearJob", "line_search_design",
+__all__ = ["LtiAnalysis", "analyze_lti", "vertex_combinations", "LinearJob", "line_search_design",
            "synthesize_lti", "auto_threads", "DECAY", "STRICT"]
 
 DECAY = 1.0 - 1e-6  # V shrinks by at least this factor per period: asymptotic stability with a margin
@@ -208,10 +209,12 @@ def _analysis_problem(n_v: int, n_p: int, k: int, q: int, n_c: int, n_s: int, ow
 
 
 @dataclass(frozen=True)
-class LtiDesign:
-    """A synthesized gain u_k = K xi_k and what its certificate proves (``figures``); certified only when
-    :func:`robustsynth.certificate.lti.check_lti_certificate` and :func:`~robustsynth.certificate.lti.lti_within`
-    proved it in numpy.  :func:`synthesize_lti` returns only certified designs (it raises otherwise)."""
+class _Candidate:
+    """What one objective's design for a linear plant ended with: a gain u_k = K xi_k and what its certificate
+    proves (``figures``), certified only when :func:`robustsynth.certificate.lti.check_lti_certificate` and
+    :func:`~robustsynth.certificate.lti.lti_within` proved it in numpy; or how it failed (``status``,
+    ``message``).  :func:`synthesize_lti` turns a certified one into the
+    :class:`~robustsynth.synthesis.SynthesisResult` every plant's synthesis returns, and raises for the rest."""
 
     certified: bool
     status: str  # certified | infeasible | rejected | failed
@@ -221,12 +224,13 @@ class LtiDesign:
     eps: np.ndarray | None
     alpha: float | None  # V+ <= alpha V (+ (1 - alpha) with the disturbance)
     figures: dict
-    check: dict
+    check: dict  # check_lti_certificate's record: ok, failing, vertices, min_eig
     d_hi: int
     vertices: int
     solves: int
     solve_time_s: float
     message: str = ""
+    search: tuple = ()  # each alpha tried and how its last solve ended
 
 
 class _Vertices:
@@ -393,7 +397,7 @@ def _prove(plant: dict, V: _Vertices, Ts: float, tau_min: float, tau_hi: float, 
 
 def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int, objective: str,
                    decay: float = 0.98, pieces: int = 2, alpha_points: int = 6, solver: str = "clarabel",
-                   say=lambda s: None, threads: int | None = None, name: str | None = None) -> LtiDesign:
+                   say=lambda s: None, threads: int | None = None, name: str | None = None) -> SynthesisResult:
     """A gain u_k = K xi_k on the lifted state with a common quadratic certificate for every delay in
     [tau_min, tau_max] and up to m_lost losses in a row (docs/theory.md §15):
 
@@ -436,8 +440,9 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
 
     Returns
     -------
-    LtiDesign
-        The gain, its certificate and the figures proven in numpy.
+    SynthesisResult
+        The gain (``plant_kind`` "lti"), its certificate (P, alpha, the multipliers, the vertices, the pieces and
+        the numpy proof's record) and the figures proven in numpy (``certified``).
 
     Raises
     ------
@@ -460,7 +465,7 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
     t0 = time.perf_counter()
     V, C = _vertices_of(plant, Ts, tau_min, tau_hi, d, pieces)
     job = LinearJob(plant, V, C, Ts, tau_min, tau_hi, pieces, objective, decay, alpha_points, threads, solver, say, t0)
-    return _proven(design_of(objective, "lti")(job), name)
+    return _proven(design_of(objective, "lti")(job), name, pieces, solver)
 
 
 @dataclass(frozen=True)
@@ -501,7 +506,7 @@ class LinearJob:
         return disturbance_bound(self.plant["A"], self.plant["E"], 1.0, self.Ts)
 
 
-def line_search_design(job: LinearJob, dist: bool) -> LtiDesign:
+def line_search_design(job: LinearJob, dist: bool) -> _Candidate:
     """The line search over alpha (:class:`_LineSearch`) for ``job``: with the disturbance (``dist``: the
     invariant set, ultimate-bound) or without it (the decay, stability); the design at the best proven alpha."""
     search = _LineSearch(job.plant, job.V, job.C, job.Ts, job.tau_min, job.tau_hi, job.pieces, dist, job.decay,
@@ -510,23 +515,43 @@ def line_search_design(job: LinearJob, dist: bool) -> LtiDesign:
     solves = search.held.get("solves", 0)
     dt = time.perf_counter() - job.t0
     if best is None:
-        return _uncertified(job.plant, job.objective, search, job.decay, job.d, job.nv, solves, dt)
-    return _certified_design(job.plant, job.objective, search, best, job.d, job.nv, solves, dt)
+        design = _uncertified(job.plant, job.objective, search, job.decay, job.d, job.nv, solves, dt)
+    else:
+        design = _certified_design(job.plant, job.objective, search, best, job.d, job.nv, solves, dt)
+    tried = tuple({"alpha": a, "status": kind} for a, kind in search.held["ended"].items())
+    return replace(design, search=tried)
 
 
-def _proven(design: LtiDesign, name: str | None = None) -> LtiDesign:
-    """The design if its certificate was proven; else the failure raised as the robot's synthesis raises
-    it: InfeasibleError (exit 3) where the LMIs have no solution, SolverFailure (exit 4) where the solver
-    failed or its point was not proven in numpy."""
+def _proven(design: _Candidate, name: str | None, pieces: int, solver: str) -> SynthesisResult:
+    """The design as the result every plant's synthesis returns if its certificate was proven; else the failure
+    raised as the robot's synthesis raises it: InfeasibleError (exit 3) where the LMIs have no solution,
+    SolverFailure (exit 4) where the solver failed or its point was not proven in numpy."""
+    from ..certificate.lti import lti_check
     from ..errors import InfeasibleError, SolverFailure
 
-    if design.certified:
-        return design
-    why = design.message or design.status
-    what = "no certified gain" + (f" for {name}" if name else "")
-    if design.status == "infeasible":
-        raise InfeasibleError(f"{what}: {why}")
-    raise SolverFailure(f"{what} ({design.status}): {why}")
+    if not design.certified:
+        why = design.message or design.status
+        what = "no certified gain" + (f" for {name}" if name else "")
+        if design.status == "infeasible":
+            raise InfeasibleError(f"{what}: {why}")
+        raise SolverFailure(f"{what} ({design.status}): {why}")
+    certificate = {"P": design.P, "alpha": design.alpha, "multipliers": design.eps, "vertices": design.vertices,
+                   "pieces": pieces, "check": design.check}
+    return SynthesisResult(K=design.K, objective=design.objective, multiplier="per-channel", certificate=certificate,
+                           check=lti_check(design.check, design.figures),
+                           solver={"name": solver, "solves": design.solves, "time_s": design.solve_time_s},
+                           search=design.search, timings={"total_s": design.solve_time_s}, plant_kind="lti")
+
+
+def __getattr__(name: str) -> Any:
+    if name == "LtiDesign":  # deprecated one release: a linear plant's synthesis returns the robot's result type
+        import warnings
+
+        warnings.warn("robustsynth.synthesis.lti.LtiDesign is deprecated: synthesize returns a SynthesisResult for "
+                      "every plant (robustsynth.SynthesisResult; its certified figures are .certified, the "
+                      "multipliers .certificate['multipliers'])", DeprecationWarning, stacklevel=2)
+        return SynthesisResult
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _resolved_objective(plant: dict, objective: str) -> str:
@@ -638,7 +663,7 @@ class _LineSearch:
 
 
 def _uncertified(plant: dict, objective: str, search: _LineSearch, decay: float, d: int, nv: int, solves: int,
-                 dt: float) -> LtiDesign:
+                 dt: float) -> _Candidate:
     """The design when no alpha gave a proven certificate: rejected where the last solve's proof failed, failed where
     a solve failed, else infeasible; with what may bind (uncontrollable modes, input limits, the decay, the delays)."""
     from collections import Counter
@@ -662,12 +687,12 @@ def _uncertified(plant: dict, objective: str, search: _LineSearch, decay: float,
     if not dist:
         hints.append("try a decay closer to 1 (synthesis.decay asks sqrt(V) to shrink by it per period) or a "
                      "shorter delay range")
-    return LtiDesign(False, status, objective, None, None, None, None, {}, last[0] if last else {}, d, nv,
+    return _Candidate(False, status, objective, None, None, None, None, {}, last[0] if last else {}, d, nv,
                      solves, dt, why + ("; " + "; ".join(hints) if hints else ""))
 
 
 def _certified_design(plant: dict, objective: str, search: _LineSearch, a: float, d: int, nv: int, solves: int,
-                      dt: float) -> LtiDesign:
+                      dt: float) -> _Candidate:
     """The design at the best alpha ``a``, its figures proven in numpy in the plant's units (xi = unit * the
     LMIs' xi, unit = delta / beta): the output bounds on the set (ultimate-bound) or the ball at rest inside
     it (stability with input limits), the input limits on it; rejected where a proof fails or the set's
@@ -681,8 +706,8 @@ def _certified_design(plant: dict, objective: str, search: _LineSearch, a: float
     unit = delta / search.beta(a)  # xi = unit * (the LMIs' xi)
     figures: dict = {"alpha": a, "decay": round_up(float(np.sqrt(a)), 2)}
 
-    def refuse(why: str) -> LtiDesign:
-        return LtiDesign(False, "rejected", objective, K, None, None, a, {}, chk, d, nv, solves, dt, why)
+    def refuse(why: str) -> _Candidate:
+        return _Candidate(False, "rejected", objective, K, None, None, a, {}, chk, d, nv, solves, dt, why)
 
     if dist:
         figures["disturbance_step_bound"] = delta
@@ -706,7 +731,7 @@ def _certified_design(plant: dict, objective: str, search: _LineSearch, a: float
     if not (np.all(np.isfinite(P / (unit * unit))) and np.all(np.isfinite(eta / (unit * unit))) and unit > 0):
         return refuse(f"the set's matrix is not finite in the plant's units (disturbance step bound {delta:.3g}): "
                       "rescale the units")
-    return LtiDesign(True, "certified", objective, K, P / (unit * unit), eta / (unit * unit), a, figures, chk, d, nv,
+    return _Candidate(True, "certified", objective, K, P / (unit * unit), eta / (unit * unit), a, figures, chk, d, nv,
                      solves, dt)
 
 

@@ -107,11 +107,11 @@ def _verify_linear(plant: Any, gains: Any, runs: int | None, seed: int | None) -
     with) and its figures, from a design or a gains mapping; InputError for anything else or a malformed one."""
     from collections.abc import Mapping
 
-    from ..synthesis.lti import LtiDesign
     from .lti import verify_lti
 
-    if isinstance(gains, LtiDesign):
-        K, P, eps, figures, pieces = gains.K, gains.P, gains.eps, gains.figures, plant.pieces
+    if getattr(gains, "plant_kind", None) == "lti":  # the SynthesisResult synthesize(plant) returns
+        cert = gains.certificate
+        K, P, eps, figures, pieces = gains.K, gains.P, cert["multipliers"], gains.certified, int(cert["pieces"])
     elif isinstance(gains, Mapping) and gains.get("kind") == "lti":
         try:
             cert = gains["certificate"]
@@ -120,8 +120,8 @@ def _verify_linear(plant: Any, gains: Any, runs: int | None, seed: int | None) -
         except (TypeError, ValueError, KeyError) as exc:
             raise InputError(f"verify: the linear plant's gains are malformed ({exc})") from None
     else:
-        raise InputError("verify: a linear plant's gain is the LtiDesign robustsynth.synthesize(plant) returns, or its "
-                         f"gains mapping (kind: lti); got {type(gains).__name__}")
+        raise InputError("verify: a linear plant's gain is the SynthesisResult robustsynth.synthesize(plant) returns, "
+                         f"or its gains mapping (kind: lti); got {type(gains).__name__}")
     net = plant.network
     data = verify_lti(plant.arrays, K, P, net.sampling_time, net.delay_min, net.delay_max, net.max_lost, figures,
                       runs=64 if runs is None else runs, seed=0 if seed is None else seed, multipliers=eps, pieces=pieces)
@@ -153,7 +153,7 @@ def verify(model, gains: Any, runs: int | None = None, seed: int | None = None,
     the result of :func:`~robustsynth.synthesis.synthesize`, or a bare matrix K.
 
     Any plant: for a :class:`~robustsynth.plants.linear.LinearPlant` the gain is the
-    :class:`~robustsynth.synthesis.lti.LtiDesign` that ``synthesize(plant)`` returns (or a linear plant's gains
+    :class:`~robustsynth.synthesis.SynthesisResult` that ``synthesize(plant)`` returns (or a linear plant's gains
     mapping, ``kind: lti``), and the checks are :func:`~robustsynth.verification.lti.verify_lti`'s on the exactly
     lifted loop, returned as a :class:`~robustsynth.results.Verdict` (``passed``, ``checks``, ``failed_checks``
     as the robot's result has them; ``to_dict()``: verify_lti's mapping).
@@ -162,7 +162,7 @@ def verify(model, gains: Any, runs: int | None = None, seed: int | None = None,
     ----------
     model : Model or LinearPlant
         The model of the config to verify against, or a linear plant.
-    gains : Mapping, SynthesisResult, LtiDesign, numpy.ndarray or str
+    gains : Mapping, SynthesisResult, numpy.ndarray or str
         The gain: a gains mapping or file, a synthesis result, or a bare K (the robot's).
     runs : int or None
         Monte Carlo runs (default ``verification.runs``; a linear plant's delay sequences per family: 64).

@@ -66,8 +66,7 @@ def verify_lti(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, tau_min: fl
     """The checks of the module docstring; returns {"passed", "checks": [...], "families": {...}}.
 
     The first check re-proves the certificate (P, ``multipliers``, ``figures["alpha"]`` and ``pieces``:
-    an :class:`~robustsynth.synthesis.lti.LtiDesign`'s ``eps`` and the synthesis' pieces, or a gains
-    file's ``certificate``) in numpy for *this* plant and network (:func:`robustsynth.certificate.lti.recheck_lti`).
+    a linear plant's :class:`~robustsynth.synthesis.SynthesisResult`'s ``certificate``, or a gains file's) in numpy for *this* plant and network (:func:`robustsynth.certificate.lti.recheck_lti`).
     Without the multipliers it cannot, and the verdict is failed: simulations alone prove nothing.
 
     Parameters

@@ -7,8 +7,9 @@ A design module has two functions, one per plant kind the objective serves:
   collects one record per solve, ``say`` a line per step; ``best`` (a ``runner._Best``) holds the proven point,
   ``notes`` what the result should say.  It raises :class:`~robustsynth.errors.InfeasibleError` or
   :class:`~robustsynth.errors.SolverFailure` when no point is proven.
-- ``linear(job) -> LtiDesign``: the design for a linear plant (:class:`robustsynth.synthesis.lti.LinearJob`),
-  certified or not (:func:`robustsynth.synthesis.lti.synthesize_lti` raises for the latter).
+- ``linear(job) -> candidate``: the design for a linear plant (:class:`robustsynth.synthesis.lti.LinearJob`),
+  certified or not (``synthesis.lti._Candidate``); :func:`robustsynth.synthesis.lti.synthesize_lti` makes a
+  certified one the :class:`~robustsynth.synthesis.SynthesisResult` and raises for the rest.
 """
 
 from __future__ import annotations

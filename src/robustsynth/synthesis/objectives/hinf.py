@@ -52,7 +52,7 @@ def linear(job: Any) -> Any:
     ``sum_k |C x_k|^2 <= gamma^2 sum_k sup_{period k} ||w(t)||^2`` for any disturbance and delay sequence
     (docs/theory.md §15).  One solve: maximize mu = g^2 / gamma^2, linear in the LMIs."""
     from ...verified import round_up
-    from ..lti import LtiDesign, _prove, _vertex_lmis
+    from ..lti import _Candidate, _prove, _vertex_lmis
     from ..solve import solve
 
     plant, V, C, Ts, say = job.plant, job.V, job.C, job.Ts, job.say
@@ -78,13 +78,14 @@ def linear(job: Any) -> Any:
     if out.kind != "ok":
         last = held.get("last")
         status = "infeasible" if out.kind == "infeasible" else ("rejected" if last is not None else "failed")
-        return LtiDesign(False, status, "hinf", None, None, None, None, {}, last[0] if last else {}, d, nv,
-                         len(out.attempts), dt, f"no proven l2 gain ({out.record.status})")
+        return _Candidate(False, status, "hinf", None, None, None, None, {}, last[0] if last else {}, d, nv,
+                          len(out.attempts), dt, f"no proven l2 gain ({out.record.status})", ({"status": out.kind},))
     chk, K, P, eta, gamma = held["last"]
     say(f"hinf: l2 gain {gamma:.6g} (proven)")
     figures = {"alpha": 1.0, "decay": 1.0, "hinf_gain": round_up(gamma, 2), "per_period_gain": g,
                "outputs": [{"name": nm, "unit": un} for nm, un in zip(plant["outputs"], plant["output_units"])]}
-    return LtiDesign(True, "certified", "hinf", K, P, eta, 1.0, figures, chk, d, nv, len(out.attempts), dt)
+    return _Candidate(True, "certified", "hinf", K, P, eta, 1.0, figures, chk, d, nv, len(out.attempts), dt,
+                      search=({"status": out.kind},))
 
 
 def build_hinf(model: Any, kind: str, margin: float, weights: np.ndarray) -> LMIProblem:
