@@ -510,3 +510,12 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
     prob = cp.Problem(cp.Minimize(objective), cons)
     return LMIProblem(prob, M=Ms, params={"alpha": alpha, "one_minus_alpha": one_minus}, extra=extra,
                       **lv.problem_kwargs())
+
+
+def _sym_basis(n: int) -> np.ndarray:
+    """The symmetric n x n matrices S_i with ones at (a, b) and (b, a), one per upper-triangle entry."""
+    iu = np.triu_indices(n)
+    basis = np.zeros((iu[0].size, n, n))
+    basis[np.arange(iu[0].size), iu[0], iu[1]] = 1.0
+    basis[np.arange(iu[0].size), iu[1], iu[0]] = 1.0
+    return basis

@@ -26,7 +26,9 @@ from typing import Any
 import numpy as np
 
 from ..model.lti import YOUNG_DELTA, channel_groups, kept_directions, vertex_combinations
+from .lmis import _sym_basis
 from .result import SynthesisResult
+from .solve import auto_threads
 
 __all__ = ["LtiAnalysis", "analyze_lti", "vertex_combinations", "LinearJob", "line_search_design",
            "synthesize_lti", "auto_threads", "DECAY", "STRICT"]
@@ -35,7 +37,6 @@ DECAY = 1.0 - 1e-6  # V shrinks by at least this factor per period: asymptotic s
 STRICT = 1e-7  # the LMIs' strictness (P >= I fixes the scale)
 ALPHA_FAR = 0.9  # ultimate-bound: the line search's grid of 1 - alpha starts here
 REFINE_ROUNDS = 2  # then rounds of two solves around the best alpha (halving the bracket in log(1 - alpha))
-MAX_THREADS = 4  # auto_threads' cap
 INPUT_BACKOFF = 1e-6  # synthesis: the input limits are posed this much (relative) tighter than proven
 
 
@@ -48,15 +49,6 @@ class LtiAnalysis:
     vertices: int
     solve_time_s: float
     check: dict
-
-
-def _sym_basis(n: int) -> np.ndarray:
-    """The symmetric n x n matrices S_i with ones at (a, b) and (b, a), one per upper-triangle entry."""
-    iu = np.triu_indices(n)
-    basis = np.zeros((iu[0].size, n, n))
-    basis[np.arange(iu[0].size), iu[0], iu[1]] = 1.0
-    basis[np.arange(iu[0].size), iu[1], iu[0]] = 1.0
-    return basis
 
 
 def _vertex_matrices(pw, verts: tuple) -> np.ndarray:
@@ -210,11 +202,9 @@ def _analysis_problem(n_v: int, n_p: int, k: int, q: int, n_c: int, n_s: int, ow
 
 @dataclass(frozen=True)
 class _Candidate:
-    """What one objective's design for a linear plant ended with: a gain u_k = K xi_k and what its certificate
-    proves (``figures``), certified only when :func:`robustsynth.certificate.lti.check_lti_certificate` and
-    :func:`~robustsynth.certificate.lti.lti_within` proved it in numpy; or how it failed (``status``,
-    ``message``).  :func:`synthesize_lti` turns a certified one into the
-    :class:`~robustsynth.synthesis.SynthesisResult` every plant's synthesis returns, and raises for the rest."""
+    """What an objective's linear design ended with: a gain u_k = K xi_k and its proven ``figures`` (certified only
+    when ``check_lti_certificate`` and ``lti_within`` proved it in numpy), or how it failed (``status``, ``message``);
+    :func:`synthesize_lti` makes a certified one a SynthesisResult and raises for the rest."""
 
     certified: bool
     status: str  # certified | infeasible | rejected | failed
@@ -546,7 +536,6 @@ def _proven(design: _Candidate, name: str | None, pieces: int, solver: str) -> S
 def __getattr__(name: str) -> Any:
     if name == "LtiDesign":  # deprecated one release: a linear plant's synthesis returns the robot's result type
         import warnings
-
         warnings.warn("robustsynth.synthesis.lti.LtiDesign is deprecated: synthesize returns a SynthesisResult for "
                       "every plant (robustsynth.SynthesisResult; its certified figures are .certified, the "
                       "multipliers .certificate['multipliers'])", DeprecationWarning, stacklevel=2)
@@ -733,18 +722,6 @@ def _certified_design(plant: dict, objective: str, search: _LineSearch, a: float
                       "rescale the units")
     return _Candidate(True, "certified", objective, K, P / (unit * unit), eta / (unit * unit), a, figures, chk, d, nv,
                      solves, dt)
-
-
-def auto_threads() -> int:
-    """The solves the line search runs at once by default: the CPUs this process may use, at most
-    ``MAX_THREADS``."""
-    import os
-
-    try:
-        n = len(os.sched_getaffinity(0))
-    except (AttributeError, OSError):
-        n = os.cpu_count() or 1
-    return max(1, min(MAX_THREADS, n))
 
 
 class _LinePoint:

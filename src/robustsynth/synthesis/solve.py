@@ -14,7 +14,9 @@ import cvxpy as cp
 from ..errors import check_interrupt, pending_interrupt
 from . import solver_process
 
-__all__ = ["SolveRecord", "Outcome", "solve", "solve_all", "SOLVER_OPTIONS", "solver_options", "solver_version"]
+MAX_THREADS = 4  # auto_threads' cap
+
+__all__ = ["SolveRecord", "Outcome", "solve", "solve_all", "auto_threads", "SOLVER_OPTIONS", "solver_options", "solver_version"]
 
 SOLVER_OPTIONS: dict[str, dict[str, Any]] = {
     "clarabel": {
@@ -385,6 +387,18 @@ def _decide(rec: SolveRecord, accept: Callable[[], bool], attempts: list[SolveRe
             return Outcome("ok", rec, attempts)
         rec.error = rec.error or "returned point failed the numpy certificate check"
     return None
+
+
+def auto_threads() -> int:
+    """How many solves :func:`solve_all` runs at once by default (a linear plant's line search): the CPUs this
+    process may use, at most ``MAX_THREADS``."""
+    import os
+
+    try:
+        n = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        n = os.cpu_count() or 1
+    return max(1, min(MAX_THREADS, n))
 
 
 def solve_all(problems: list[cp.Problem], primary: str, accepts: list[Callable[[], bool]]) -> list[Outcome]:
