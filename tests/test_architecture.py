@@ -31,7 +31,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("robustsynth.report", "robustsynth.interop"),
     ("robustsynth.comparison", "robustsynth.margins", "robustsynth.sweeps", "robustsynth.identification",
      "robustsynth.identification_icr"),
-    ("robustsynth.pipeline", "robustsynth.pipeline_lti", "robustsynth.regression"),
+    ("robustsynth.pipeline", "robustsynth.regression"),
     ("robustsynth.commands",),  # each command's job per plant kind (the CLI's one library call)
     ("robustsynth.cli", "robustsynth.__main__"),
 ]

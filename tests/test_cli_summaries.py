@@ -102,9 +102,9 @@ def test_build_model(monkeypatch, tmp_path) -> None:
         "(nothing deleted): gains.json, report.md\n"
         "model 'default': d_lo=0 d_hi=1 n_s=5 uncertain instants=3 coverage=FAILED (max|Delta|=0.1235, residual=1.2e-09)\n"
         "wrote a/model.json, a/model.md\n"), "")
-    data = {"cleared": [], "n": 2, "m": 1, "lifting": 2, "lifted_states": 4, "pieces": 3, "controllable": False,
-            "coverage": {"remainder_ratio": 0.5, "samples": 100.0, "reconstruction": 3e-12}, "files": ["m.json"]}
-    _patch(monkeypatch, "robustsynth.pipeline_lti", lti_model_stage=lambda cfg, out, path: data)
+    lin = NS(cleared=(), files=["m.json"], model=NS(n_x=2, n_u=1, d_hi=2, n_s=4, pieces=3, arrays={"controllable": False}),
+             coverage={"remainder_ratio": 0.5, "samples": 100.0, "reconstruction": 3e-12})
+    _patch(monkeypatch, "robustsynth.pipeline", model_stage=lambda cfg, out, path: lin)
     code, out, err = _invoke(["build-model", LTI, "-o", str(tmp_path / "l")])
     assert (code, out.split(": ", 1)[1]) == (0, (
         "n=2 m=1 d_hi=2 n_s=4 pieces=3 coverage=ok (worst remainder / bound 0.500 on 100 instants, residual 3.0e-12)\n"
@@ -123,8 +123,8 @@ def test_synthesize(monkeypatch, tmp_path) -> None:
         "where the design is stuck (one re-synthesis per relaxed constraint; see synthesis.md):\n"
         "  motor limit x2: |e_y| <= 3.12 cm (-31 %)\n  slip range halved: infeasible\n"
         "wrote g.json, s.md\n"), "")
-    res = {"cleared": [], "gains": _lti_gains(), "files": ["g.json"]}
-    _patch(monkeypatch, "robustsynth.pipeline_lti", lti_synthesis_stage=lambda *a, **k: res)
+    res = NS(cleared=(), gains=_lti_gains(), files=["g.json"])
+    _patch(monkeypatch, "robustsynth.pipeline", synthesis_stage=lambda *a, **k: res, plant_of=lambda cfg, path: None)
     assert _invoke(["synthesize", LTI, "-o", str(tmp_path)]) == (0, LTI_GAIN + "wrote g.json\n", "")
 
 
@@ -153,7 +153,9 @@ def test_verify(monkeypatch, tmp_path) -> None:
         "verification passed: 4 checks, 20 Monte Carlo runs; worst/certified: e_x 0.412, e_y 0.733\n"
         "waypoint turns: 2 of 2 certified (arcs the certificate covers; the Monte Carlo maxima include them)\n"
         f"wrote {o / 'verification.json'}, {o / 'verification.md'}\n"), "")
-    _patch(monkeypatch, "robustsynth.pipeline_lti", lti_verification_stage=lambda *a, **k: _lti_checks(False))
+    lin = _lti_checks(False)
+    _patch(monkeypatch, "robustsynth.pipeline", plant_of=lambda cfg, path: None,
+           verification_stage=lambda *a, **k: NS(result=NS(passed=lin["passed"]), data=lin, files=lin["files"]))
     assert _invoke(["verify", LTI, "-o", str(o)]) == (1, (
         "verification FAILED: 2 checks, 8 starts on the set's boundary x 2 delay families; invariance 0.98, outputs 1.2\n"
         "wrote v.json, v.md\n"), "FAILED: outputs (value 1.2, threshold 1): angle beyond\n")
@@ -188,7 +190,7 @@ def test_run(monkeypatch, tmp_path) -> None:
     assert code == 1 and out.splitlines()[-2:] == [
         f"export skipped: verification failed, so the gain is not exported as a controller (robustsynth export "
         f"{o / 'gains.json'} --to python --allow-unverified exports it marked UNVERIFIED)", f"report: {o / 'report.md'}"]
-    res = NS(synthesis=NS(cleared=(), gains=_lti_gains()), verification=NS(data=_lti_checks(True)), passed=True)
+    res = NS(model=NS(cleared=()), synthesis=NS(cleared=(), gains=_lti_gains()), verification=NS(data=_lti_checks(True)), passed=True)
     _patch(monkeypatch, "robustsynth.pipeline", run=lambda *a, **k: res)  # one run for every plant
     assert _invoke(["run", LTI, "-o", str(o)]) == (0, LTI_GAIN + (
         "verification passed: 2 checks, 8 starts on the set's boundary x 2 delay families; invariance 0.98, outputs 1.2\n"

@@ -294,11 +294,11 @@ def test_a_gain_made_for_another_plant_or_the_robot_is_refused(tmp_path) -> None
     margin answering for dc-motor's gain on the benchmark); the robot's gains are refused by name."""
     from robustsynth.errors import InputError
     from robustsynth.artifacts.gains import lti_gain
-    from robustsynth.pipeline_lti import lti_plant_of
+    from robustsynth.pipeline import plant_of
 
     root = Path(__file__).resolve().parents[1]
     cfg = load_config(root / "configs" / "zbp.yaml")
-    plant = lti_plant_of(cfg, root / "configs" / "zbp.yaml")
+    plant = plant_of(cfg, root / "configs" / "zbp.yaml").arrays
     other = tmp_path / "other.json"
     other.write_text(json.dumps({"kind": "lti", "K": [[0.1, 0.2, 0.3, 0.4]], "lifting": {"n": 3, "m": 1, "d": 1}}))
     with pytest.raises(InputError, match="made for a plant of n = 3 states and m = 1 inputs; this config's has n = 2"):

@@ -215,29 +215,29 @@ class LinearJobs(Jobs):
         _refuse(multiplier=(multiplier, why), diagnose=(diagnose, why))
 
     def model(self, cfg, out, con, config_path):
-        from .pipeline_lti import lti_model_stage
+        from .pipeline import model_stage
         from .report import console
 
-        con.show(console.lti_model_summary(cfg.name, out, lti_model_stage(cfg, out, config_path)))
+        con.show(console.lti_model_summary(cfg.name, out, model_stage(cfg, out, config_path)))
         return Outcome()
 
     def synthesize(self, cfg, out, con, config_path, *, objective, solver, multiplier, diagnose):
-        from .pipeline_lti import lti_synthesis_stage
+        from .pipeline import plant_of, synthesis_stage
         from .report import console
 
         self._robot_synthesis_options(multiplier, diagnose)
-        res = lti_synthesis_stage(cfg, out, config_path, con.stages(), objective, solver)
-        con.show(console.lti_synthesis_summary(out, res))
-        return Outcome(data=res)
+        stage = synthesis_stage(plant_of(cfg, config_path), out, on_step=con.stages(), objective=objective, solver=solver)
+        con.show(console.lti_synthesis_summary(out, stage))
+        return Outcome(data=stage)
 
     def verify(self, cfg, out, con, config_path, *, gains, runs, seed, fmt, plots, logdir):
-        from .pipeline_lti import lti_verification_stage
+        from .pipeline import plant_of, verification_stage
         from .report import console
 
         _refuse(log=(logdir, "robot logs are for the tracked robot, not a linear plant"))
-        data = lti_verification_stage(cfg, out, gains, config_path, runs, seed, plots=plots, fmt=fmt)
-        con.show(console.lti_verification_summary(data))
-        return Outcome(EXIT_OK if data["passed"] else EXIT_VERIFICATION_FAILED, data)
+        stage = verification_stage(plant_of(cfg, config_path), out, gains, runs, seed, fmt=fmt, plots=plots)
+        con.show(console.lti_verification_summary(stage))
+        return Outcome(EXIT_OK if stage.result.passed else EXIT_VERIFICATION_FAILED, stage)
 
     def run(self, cfg, out, con, config_path, *, objective, solver, multiplier, diagnose, runs, seed, fmt, plots,
             physics, export_to):

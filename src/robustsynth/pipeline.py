@@ -34,29 +34,43 @@ def default_outdir(config: Config) -> Path:
     return Path("results") / config.name
 
 
+def plant_of(config: Any, config_path: str | Path | None = None) -> Any:
+    """The plant a config describes, as the stages take it: the tracked robot's :class:`~robustsynth.model.Model`
+    (:func:`~robustsynth.model.build_model`), or a linear plant's :class:`~robustsynth.plants.linear.LinearPlant`
+    (``plant: kind: lti``; its ``plant.file`` read beside ``config_path``, default the working directory)."""
+    if _kind(config) == "lti":
+        from .plants.linear import LinearPlant
+
+        return LinearPlant.from_config(config, str(Path(config_path).parent) if config_path is not None else None)
+    return build_model(config)
+
+
+def _kind(config: Any) -> str:
+    """The plant kind a config describes (``plant_kind`` of the plant it builds)."""
+    from .config import is_lti
+
+    return "lti" if is_lti(config) else "tracked-robot"
+
+
 @dataclass(frozen=True)
 class ModelStage:
-    model: Any  # the robot's Model; a linear plant's run: its LinearPlant (no model stage: coverage {}, no files)
+    model: Any  # the plant: the robot's Model, or a LinearPlant
     coverage: dict[str, Any]
     files: tuple[Path, ...]
     cleared: tuple[str, ...] = ()  # files of another config removed from the output directory
 
 
-def model_stage(config: Config, outdir: str | Path) -> ModelStage:
-    """Build the model, check the embedding's coverage, write model.json and model.md."""
-    from .artifacts.files import commit_files, json_bytes, make_dir
-    from .report.model import model_dict, model_markdown
+def model_stage(config: Any, outdir: str | Path, config_path: str | Path | None = None) -> ModelStage:
+    """Build the config's plant (:func:`plant_of`), check its vertex description's coverage, write model.json (and
+    the robot's model.md)."""
+    from .artifacts.files import commit_files, make_dir
 
     make_dir(outdir)  # an output place that cannot be made fails before any work
-    model = build_model(config)
+    plant = plant_of(config, config_path)
     cleared = clear_foreign(outdir, config)
-    cov = coverage_check(model)
-    files = {
-        "model.md": model_markdown(model, cov).encode("utf-8"),
-        "model.json": json_bytes(model_dict(model, cov)),
-    }
+    cov, files = _records(plant).model(plant)
     written = commit_files(outdir, files, primary="model.json")
-    return ModelStage(model, cov, tuple(written), tuple(cleared))
+    return ModelStage(plant, cov, tuple(written), tuple(cleared))
 
 
 @dataclass(frozen=True)
@@ -70,49 +84,33 @@ class SynthesisStage:
     diagnosis: list[Any] | None = None  # synthesis.diagnose.Relaxation, most effective first
 
 
-def synthesis_stage(model: Model, outdir: str | Path, compare: bool = True,
+def synthesis_stage(model: Any, outdir: str | Path, compare: bool = True,
                     on_step: Callable[[str], None] | None = None, diagnose: bool | None = None,
                     **overrides: Any) -> SynthesisStage:
-    """Synthesize and certify a gain; write gains.json (last), gains.mat, synthesis.md (with the
-    paper-vs-slip-aware comparison unless ``compare`` is False).
+    """Synthesize and certify a gain for any plant (``model``: the robot's Model or a LinearPlant); write
+    gains.json (last), gains.mat, synthesis.md (the robot's: with the paper-vs-slip-aware comparison unless
+    ``compare`` is False, and the diagnosis; a linear plant's: with the gain's delay margin).
 
     Files that depend on the gain (verification, report) are removed first.  When no certified
     gain is found, the old gain files are removed too, so nothing stale looks current."""
     from .errors import Interrupted, OutputError, RobustSynthError
-    from .artifacts.files import commit_files, json_bytes, make_dir, mat_bytes
-    from .artifacts.gains import gains_dict, gains_mat_vars
-    from .report.synthesis import synthesis_markdown
+    from .artifacts.files import commit_files, make_dir
     from .synthesis import synthesize
-    from .synthesis.diagnose import diagnose as run_diagnosis
-    from .synthesis.diagnose import is_large
 
+    records = _records(model)
+    records.refuse(diagnose=diagnose, **overrides)
     outdir = make_dir(outdir)
-    cleared = clear_foreign(outdir, model.user_config)
+    config = model.user_config
+    cleared = clear_foreign(outdir, config)
     try:
         result = synthesize(model, on_step=on_step, **overrides)
     except RobustSynthError as exc:
         if outdir.is_dir() and not isinstance(exc, (Interrupted, OutputError)):
             set_aside(outdir, SYNTHESIS_FILES + VERIFICATION_FILES + RUN_FILES + figure_files(outdir),
-                      f"synthesize found no certified gain for '{model.config.name}' as configured now (exit "
+                      f"synthesize found no certified gain for '{config.name}' as configured now (exit "
                       f"{getattr(exc, 'exit_code', '?')}); these are of the gain before")
         raise
-    gd = gains_dict(model, result)
-    diagnosis = None
-    if objective(result.objective).figure == "ultimate_bound" and (diagnose or (diagnose is None and is_large(model.config, result.certified))):
-        if on_step is not None:
-            on_step("where is the design stuck? one synthesis per relaxed constraint")
-        diagnosis = run_diagnosis(model.config, result.certified, motor=bool(result.certificate.get("motor_limits_enforced")),
-                                  on_step=on_step, **{k: v for k, v in overrides.items() if v is not None})
-    cmp = None
-    if compare:
-        from .comparison import compare_models
-
-        cmp = compare_models(model, gd)
-    files = {
-        "gains.mat": mat_bytes(gains_mat_vars(gd)),
-        "synthesis.md": synthesis_markdown(model, result, gd, cmp, diagnosis).encode("utf-8"),
-        "gains.json": json_bytes(gd),
-    }
+    gd, files, cmp, diagnosis = records.synthesis(model, result, compare, diagnose, on_step, overrides)
     written = commit_files(outdir, files, primary="gains.json", invalidate=VERIFICATION_FILES + RUN_FILES + figure_files(outdir),
                            reason="they verified and reported the gain that synthesize replaced")
     return SynthesisStage(model, result, gd, tuple(written), cmp, tuple(cleared), diagnosis)
@@ -131,7 +129,7 @@ class VerificationStage:
 
 
 def verification_stage(
-    model: Model,
+    model: Any,
     outdir: str | Path,
     gains_path: str | Path | None = None,
     runs: int | None = None,
@@ -140,37 +138,27 @@ def verification_stage(
     plots: bool = True,
     progress: ProgressFn | None = None,
 ) -> VerificationStage:
-    """Verify a gains file (default ``outdir/gains.json``); write figures, verification.md and
-    verification.json (last).  The run's report and summary are removed first."""
+    """Verify a gains file (default ``outdir/gains.json``) on any plant (``model``: the robot's Model or a
+    LinearPlant); write figures, verification.md and verification.json (last).  The run's report and summary are
+    removed first; the output directory is made once the inputs are checked (a refusal leaves none behind)."""
     from .artifacts.files import commit_files, json_bytes, make_dir
-    from .artifacts.gains import gains_id, load_gains
-    from .report.verification import verification_dict, verification_markdown
-    from .verification import verify
+    from .artifacts.gains import load_gains
 
-    outdir = make_dir(outdir)
-    gp = Path(gains_path) if gains_path is not None else outdir / "gains.json"
+    records = _records(model)
+    gp = Path(gains_path) if gains_path is not None else Path(outdir) / "gains.json"
     gains = load_gains(gp)
-    res = verify(model, gains, runs=runs, seed=seed, progress=progress)
+    res, searched = records.verify(model, gains, gp, runs, seed, progress)
+    outdir = make_dir(outdir)
     remove_files(outdir, ("verification.json",))
     set_aside(outdir, RUN_FILES, "they reported the verification that verify replaced")
-    figures: dict[str, Path] = {}
-    if plots:
-        from .report.plots import write_figures
-
-        figures = write_figures(res, model, outdir, fmt)
-    # figures/ is this stage's: an earlier verification's figures (another gain, format, or before --no-plots)
-    # would read as this one's (review)
-    kept = {f"figures/{p.name}" for p in figures.values()}
-    set_aside(outdir, tuple(n for n in figure_files(outdir) if n not in kept),
-              "they were figures of an earlier verification (another gain, format, or before --no-plots)")
+    figures: dict[str, Path] = records.figures(res, model, outdir, fmt) if plots else {}
+    # an earlier verification's figures (another gain, format, or before --no-plots) would read as this one's (review)
     rel = {k: str(v.relative_to(outdir)) for k, v in figures.items()}
-    try:  # a path relative to OUTDIR keeps verification.json identical across output directories
-        shown = str(gp.resolve().relative_to(outdir.resolve()))
-    except ValueError:
-        shown = str(gp)
-    vd = verification_dict(model, res, shown, gains_id(gains))
+    set_aside(outdir, tuple(n for n in figure_files(outdir) if n not in rel.values()),
+              "they were figures of an earlier verification (another gain, format, or before --no-plots)")
+    vd = records.verification_record(model, res, gp, outdir, gains, searched)
     files = {
-        "verification.md": verification_markdown(model, res, vd, rel).encode("utf-8"),
+        "verification.md": records.verification_markdown(model, res, vd, rel).encode("utf-8"),
         "verification.json": json_bytes(vd),
     }
     written = commit_files(outdir, files, primary="verification.json", invalidate=RUN_FILES)
@@ -399,9 +387,8 @@ def run(
 
     When synthesis finds no gain, summary.json records the status ('infeasible' or
     'solver-failure') and the error is raised again.  ``synthesis_overrides`` (objective, solver,
-    multiplier) replace the config's synthesis settings.  A linear plant's config (``plant: kind: lti``) runs
-    its synthesize and verify (``robustsynth.pipeline_lti.lti_run``: no model stage, no comparison; the
-    robot's ``diagnose``, ``multiplier`` and ``progress`` refused) into the same :class:`RunResult`, its
+    multiplier) replace the config's synthesis settings.  A linear plant's config (``plant: kind: lti``) runs the
+    same stages (no comparison; the robot's ``diagnose``, ``multiplier`` and ``progress`` refused), its
     verification's result a :class:`~robustsynth.results.Verdict`.
 
     Parameters
@@ -437,26 +424,20 @@ def run(
     RunResult
         The model, synthesis and verification stages and the files written; ``passed`` is the verdict.
     """
-    from .errors import InfeasibleError, Interrupted, OutputError, RobustSynthError
+    from .errors import InfeasibleError, Interrupted, OutputError, RobustSynthError, check_interrupt
     from .artifacts.files import atomic_write, commit_files, json_bytes
-    from .report.verification import report_markdown, summary_dict
-
-    from .errors import check_interrupt
 
     outdir = Path(outdir) if outdir is not None else default_outdir(config)
-    from .config import is_lti
-
-    if is_lti(config):
-        return _linear_run(config, outdir, runs, seed, fmt, plots, progress, on_stage, on_step, diagnose, config_path,
-                           synthesis_overrides)
 
     def say(stage: str) -> None:
         check_interrupt()
         if on_stage is not None:
             on_stage(stage)
 
+    records = _RECORDS[_kind(config)]
+    records.refuse(diagnose=diagnose, progress=progress, **synthesis_overrides)  # before any work
     say("build-model")
-    ms = model_stage(config, outdir)
+    ms = model_stage(config, outdir, config_path)
     say("synthesize")
     try:
         ss = synthesis_stage(ms.model, outdir, compare=compare, on_step=on_step, diagnose=diagnose, **synthesis_overrides)
@@ -464,50 +445,257 @@ def run(
         if isinstance(exc, (Interrupted, OutputError)):
             raise
         status = "infeasible" if isinstance(exc, InfeasibleError) else "solver-failure"
-        summary = summary_dict(ms.model, None, None, status)
-        summary["message"] = str(exc)
-        atomic_write(outdir / "summary.json", json_bytes(summary))
+        atomic_write(outdir / "summary.json", json_bytes(records.failed_summary(ms.model, status, str(exc))))
         raise
     say("verify")
     vs = verification_stage(ms.model, outdir, runs=runs, seed=seed, fmt=fmt, plots=plots, progress=progress)
-    rel = {k: str(v.relative_to(outdir)) for k, v in vs.figures.items()}
-    cmp = None
-    if compare and ss.comparison:
-        from .comparison import compare_models
-
-        say("compare")
-        other = next((r.get("gains") for r in ss.comparison["rows"] if r["model"] != ms.model.kind), None)
-        cmp = compare_models(ms.model, ss.gains, vs.data, runs, seed, other_gains=other)
-    files = {
-        "report.md": report_markdown(ms.model, ss.gains, vs.data, rel, cmp).encode("utf-8"),
-        "summary.json": json_bytes(summary_dict(ms.model, ss.gains, vs.data, "certified")),
-    }
+    files = records.run_files(ms, ss, vs, outdir, runs, seed, compare, say)
     written = commit_files(outdir, files, primary="summary.json")
     return RunResult(ms, ss, vs, tuple(ms.files + ss.files + vs.files + tuple(written)))
 
 
-def _linear_run(config: Any, outdir: Path, runs: int | None, seed: int | None, fmt: str, plots: bool,
-                progress: Any, on_stage: Callable[[str], None] | None, on_step: Callable[[str], None] | None,
-                diagnose: bool | None, config_path: str | Path | None, overrides: dict[str, Any]) -> RunResult:
-    """:func:`run` on a linear plant's config: lti_run's synthesis and verification as a RunResult."""
-    from .errors import InputError
-    from .pipeline_lti import lti_run
-    from .results import Verdict
+class _RobotRecords:
+    """What the tracked robot's stages write: model.json and model.md, the gains with the paper-model comparison and
+    the diagnosis, the verification's figures and records, the run's report with the comparison of both models."""
 
-    robot = {"diagnose": diagnose or None, "progress": progress, **{k: v for k, v in overrides.items()
-                                                                    if k not in ("objective", "solver")}}
-    for name, value in robot.items():
-        if value is not None:
-            raise InputError(f"{name}: a tracked robot's option of run, not a linear plant's")
-    res = lti_run(config, outdir, config_path, on_step, overrides.get("objective"), overrides.get("solver"), runs, seed,
-                  plots, fmt, on_stage)
-    syn, ver = res["synthesis"], res["verification"]
-    plant = syn["plant"]  # the plant synthesize ran on (its file is not read again)
-    return RunResult(ModelStage(plant, {}, ()),
-                     SynthesisStage(plant, syn["design"], syn["gains"], tuple(Path(p) for p in syn["files"]),
-                                    cleared=tuple(syn["cleared"])),
-                     VerificationStage(plant, Verdict.from_dict(ver), ver, {}, tuple(Path(p) for p in ver["files"])),
-                     tuple(Path(p) for p in res["files"]))
+    @staticmethod
+    def refuse(**_options: Any) -> None:
+        """Every stage option is the robot's."""
+
+    @staticmethod
+    def model(model: Model) -> tuple[dict[str, Any], dict[str, bytes]]:
+        from .artifacts.files import json_bytes
+        from .report.model import model_dict, model_markdown
+
+        cov = coverage_check(model)
+        return cov, {"model.md": model_markdown(model, cov).encode("utf-8"), "model.json": json_bytes(model_dict(model, cov))}
+
+    @staticmethod
+    def synthesis(model: Model, result: Any, compare: bool, diagnose: bool | None, on_step: Callable[[str], None] | None,
+                  overrides: dict[str, Any]) -> tuple[dict[str, Any], dict[str, bytes], Any, Any]:
+        from .artifacts.files import json_bytes, mat_bytes
+        from .artifacts.gains import gains_dict, gains_mat_vars
+        from .report.synthesis import synthesis_markdown
+        from .synthesis.diagnose import diagnose as run_diagnosis
+        from .synthesis.diagnose import is_large
+
+        gd = gains_dict(model, result)
+        diagnosis = None
+        if objective(result.objective).figure == "ultimate_bound" and (diagnose or (diagnose is None and is_large(model.config, result.certified))):
+            if on_step is not None:
+                on_step("where is the design stuck? one synthesis per relaxed constraint")
+            diagnosis = run_diagnosis(model.config, result.certified, motor=bool(result.certificate.get("motor_limits_enforced")),
+                                      on_step=on_step, **{k: v for k, v in overrides.items() if v is not None})
+        cmp = None
+        if compare:
+            from .comparison import compare_models
+
+            cmp = compare_models(model, gd)
+        files = {
+            "gains.mat": mat_bytes(gains_mat_vars(gd)),
+            "synthesis.md": synthesis_markdown(model, result, gd, cmp, diagnosis).encode("utf-8"),
+            "gains.json": json_bytes(gd),
+        }
+        return gd, files, cmp, diagnosis
+
+    @staticmethod
+    def verify(model: Model, gains: dict[str, Any], gp: Path, runs: int | None, seed: int | None,
+               progress: ProgressFn | None) -> tuple[Any, None]:
+        from .verification import verify
+
+        return verify(model, gains, runs=runs, seed=seed, progress=progress), None
+
+    @staticmethod
+    def figures(res: Any, model: Model, outdir: Path, fmt: str) -> dict[str, Path]:
+        from .report.plots import write_figures
+
+        return write_figures(res, model, outdir, fmt)
+
+    @staticmethod
+    def verification_record(model: Model, res: Any, gp: Path, outdir: Path, gains: dict[str, Any], _searched: None
+                            ) -> dict[str, Any]:
+        from .artifacts.gains import gains_id
+        from .report.verification import verification_dict
+
+        try:  # a path relative to OUTDIR keeps verification.json identical across output directories
+            shown = str(gp.resolve().relative_to(outdir.resolve()))
+        except ValueError:
+            shown = str(gp)
+        return verification_dict(model, res, shown, gains_id(gains))
+
+    @staticmethod
+    def verification_markdown(model: Model, res: Any, vd: dict[str, Any], rel: dict[str, str]) -> str:
+        from .report.verification import verification_markdown
+
+        return verification_markdown(model, res, vd, rel)
+
+    @staticmethod
+    def failed_summary(model: Model, status: str, message: str) -> dict[str, Any]:
+        from .report.verification import summary_dict
+
+        return dict(summary_dict(model, None, None, status), message=message)
+
+    @staticmethod
+    def run_files(ms: ModelStage, ss: SynthesisStage, vs: VerificationStage, outdir: Path, runs: int | None,
+                  seed: int | None, compare: bool, say: Callable[[str], None]) -> dict[str, bytes]:
+        from .artifacts.files import json_bytes
+        from .report.verification import report_markdown, summary_dict
+
+        rel = {k: str(v.relative_to(outdir)) for k, v in vs.figures.items()}
+        cmp = None
+        if compare and ss.comparison:
+            from .comparison import compare_models
+
+            say("compare")
+            other = next((r.get("gains") for r in ss.comparison["rows"] if r["model"] != ms.model.kind), None)
+            cmp = compare_models(ms.model, ss.gains, vs.data, runs, seed, other_gains=other)
+        return {"report.md": report_markdown(ms.model, ss.gains, vs.data, rel, cmp).encode("utf-8"),
+                "summary.json": json_bytes(summary_dict(ms.model, ss.gains, vs.data, "certified"))}
+
+
+class _LinearRecords:
+    """What a linear plant's stages write (docs/theory.md §14-15): model.json with the over-approximation and its
+    coverage, the gains with their delay margin, the verification of the exactly lifted loop and its figure, the
+    run's report (the synthesis' and the verification's) and summary."""
+
+    @staticmethod
+    def refuse(diagnose: bool | None = None, progress: Any = None, **overrides: Any) -> None:
+        """InputError for an option of the tracked robot's (``diagnose``, ``progress``, a synthesis setting other
+        than ``objective`` and ``solver``)."""
+        from .errors import InputError
+
+        robot = {"diagnose": diagnose or None, "progress": progress,
+                 **{k: v for k, v in overrides.items() if k not in ("objective", "solver")}}
+        for name, value in robot.items():
+            if value is not None:
+                raise InputError(f"{name}: a tracked robot's option of run, not a linear plant's")
+
+    @staticmethod
+    def model(plant: Any) -> tuple[dict[str, Any], dict[str, bytes]]:
+        """The lifted model and its guaranteed over-approximation (open loop, K = 0), with the coverage test on
+        10 000 random instants."""
+        from .artifacts.files import json_bytes
+
+        pw = plant.description()
+        cov = plant.coverage_figures(pw)
+        data = {"kind": "lti", "config": plant.name, "n": plant.n_x, "m": plant.n_u, "lifting": plant.d_hi,
+                "lifted_states": plant.n_s, "controllable": plant.arrays["controllable"], "pieces": plant.pieces,
+                "instants": [{"theta": th.tolist(), "width": w.tolist(), "remainder_bound": r.tolist(),
+                              "directions": U.tolist(), "direction_bounds": rd.tolist()}
+                             for th, w, r, U, rd in zip(pw.theta, pw.width, pw.rho, pw.dirs, pw.rho_dir)],
+                "coverage": cov, "A": plant.A, "B": plant.B}
+        return cov, {"model.json": json_bytes(data)}
+
+    @staticmethod
+    def synthesis(plant: Any, result: Any, compare: bool, diagnose: bool | None, on_step: Callable[[str], None] | None,
+                  overrides: dict[str, Any]) -> tuple[dict[str, Any], dict[str, bytes], None, None]:
+        """The gain's files, with its delay margin (:func:`robustsynth.margins.linear.delay_margin`: certified /
+        exhibited, seconds beside the synthesis) in gains.json and synthesis.md."""
+        import numpy as np
+
+        from .artifacts.files import json_bytes, mat_bytes
+        from .artifacts.gains import lti_gains_dict, lti_gains_mat_vars
+        from .margins.linear import delay_margin
+        from .report.lti import lti_synthesis_markdown
+
+        config = plant.config
+        margin = delay_margin(plant.network, plant.margin_settings, dict(plant.arrays, K=np.asarray(result.K, dtype=float)),
+                              on_step or (lambda _s: None))
+        over = {}  # review, stop 47: nothing in the file said that --objective / --solver were used
+        if overrides.get("objective") is not None and overrides["objective"] != config.objective:
+            over["synthesis.objective"] = overrides["objective"]
+        if overrides.get("solver") is not None and overrides["solver"] != config.synthesis.solver:
+            over["synthesis.solver"] = overrides["solver"]
+        gd = lti_gains_dict(config, plant.arrays, result, over, margin)
+        return gd, {"gains.mat": mat_bytes(lti_gains_mat_vars(gd)),
+                    "synthesis.md": lti_synthesis_markdown(gd).encode("utf-8"), "gains.json": json_bytes(gd)}, None, None
+
+    @staticmethod
+    def verify(plant: Any, gains: dict[str, Any], gp: Path, runs: int | None, seed: int | None,
+               progress: ProgressFn | None) -> tuple[Any, dict[str, Any] | None]:
+        """The certified gain's claims on the exactly lifted loop (:func:`robustsynth.verify`); a gain that came
+        without a certificate (K only) gets one searched first (:func:`_searched_certificate`)."""
+        from .verification import verify
+
+        _LinearRecords.refuse(progress=progress)
+        if gains.get("certificate") is None and gains.get("kind") is None:
+            certified, searched = _searched_certificate(plant, gains, gp)
+            return verify(plant, certified, runs=runs, seed=seed), searched
+        return verify(plant, gp, runs=runs, seed=seed), None
+
+    @staticmethod
+    def figures(res: Any, plant: Any, outdir: Path, fmt: str) -> dict[str, Path]:
+        from .report.plots import lti_verification_figure
+
+        return {"verification": lti_verification_figure(res.to_dict(), outdir / f"verification.{fmt}")}
+
+    @staticmethod
+    def verification_record(plant: Any, res: Any, gp: Path, outdir: Path, gains: dict[str, Any],
+                            searched: dict[str, Any] | None) -> dict[str, Any]:
+        from .artifacts.gains import gains_id
+
+        return dict(res.to_dict(), gains=str(gp), gains_id=gains_id(gains), certificate_searched=searched)
+
+    @staticmethod
+    def verification_markdown(plant: Any, res: Any, vd: dict[str, Any], rel: dict[str, str]) -> str:
+        from .report.lti import lti_verification_markdown
+
+        return lti_verification_markdown(vd)
+
+    @staticmethod
+    def failed_summary(plant: Any, status: str, message: str) -> dict[str, Any]:
+        return {"config": plant.name, "kind": "lti", "status": status, "message": message}
+
+    @staticmethod
+    def run_files(ms: ModelStage, ss: SynthesisStage, vs: VerificationStage, outdir: Path, runs: int | None,
+                  seed: int | None, compare: bool, say: Callable[[str], None]) -> dict[str, bytes]:
+        from .artifacts.files import json_bytes
+        from .report.lti import lti_synthesis_markdown, lti_verification_markdown
+
+        summary = {"config": ms.model.name, "kind": "lti", "certified": ss.gains["certified"],
+                   "verification": {"passed": vs.data["passed"], "checks": vs.data["checks"]}}
+        return {"report.md": (lti_synthesis_markdown(ss.gains) + "\n" + lti_verification_markdown(vs.data)).encode("utf-8"),
+                "summary.json": json_bytes(summary)}
+
+
+def _searched_certificate(plant: Any, gains: dict[str, Any], gp: Path) -> tuple[dict[str, Any], dict[str, Any]]:
+    """A certificate for a linear plant's gain that came without one (a hand-tuned K): the analysis LMIs of
+    ``robustsynth margin`` (:func:`robustsynth.margins.linear.lti_certificate`: a common quadratic function, V
+    shrinking by DECAY per period for every delay and loss pattern, margin.pieces), proven in numpy.  Returns the
+    gains mapping with it (K padded to the lifting) and what was searched; InfeasibleError (exit 3) when there is
+    none."""
+    import numpy as np
+
+    from .artifacts.gains import same_plant
+    from .errors import InfeasibleError, InputError
+    from .margins.linear import lti_certificate
+    from .model.lti import check_lti_gain
+    from .synthesis.lti import DECAY
+
+    same_plant(gains, plant.n_x, plant.n_u, gp)
+    try:
+        K = np.asarray(gains["K"], dtype=float)
+    except (TypeError, ValueError, KeyError) as exc:
+        raise InputError(f"{gp}: K: missing or not a matrix of numbers ({exc})") from None
+    check_lti_gain(K, plant.n_x, plant.n_u, f"{gp}: K")
+    net = plant.network
+    an, K, pieces = lti_certificate(dict(plant.arrays, K=K), net.sampling_time, net.delay_min, net.delay_max,
+                                    net.max_lost, int(plant.margin_settings.pieces))
+    if not an.certified:
+        raise InfeasibleError(f"{gp}: no certificate found for this gain on this network (a common quadratic "
+                              f"Lyapunov function, {pieces} pieces per switching instant: {an.status}); "
+                              "`robustsynth margin` shows how far the gain is from one")
+    certified = {"kind": "lti", "K": K, "certified": {"alpha": DECAY**2, "decay": DECAY},
+                 "certificate": {"P": an.P, "multipliers": an.eps, "pieces": pieces}}
+    return certified, {"kind": "common quadratic Lyapunov function, every delay and loss pattern", "pieces": pieces,
+                       "decay": DECAY}
+
+
+_RECORDS = {"tracked-robot": _RobotRecords, "lti": _LinearRecords}  # plant_kind -> what its stages write
+
+
+def _records(plant: Any) -> Any:
+    return _RECORDS[plant.plant_kind]
 
 
 @dataclass(frozen=True)

@@ -108,7 +108,7 @@ def test_the_written_mat_reads_as_its_gains_file_and_a_mismatched_config_is_refu
     from scipy.io import loadmat, savemat
 
     from robustsynth.artifacts.gains import load_gains
-    from robustsynth.pipeline_lti import lti_synthesis_stage
+    from robustsynth.pipeline import plant_of, synthesis_stage
 
     from pathlib import Path
 
@@ -118,7 +118,7 @@ def test_the_written_mat_reads_as_its_gains_file_and_a_mismatched_config_is_refu
     cfg_path = configs / "dc-motor.yaml"
 
     out = tmp_path / "g"
-    lti_synthesis_stage(load_config(cfg_path), out, cfg_path)
+    synthesis_stage(plant_of(load_config(cfg_path), cfg_path), out)
     assert load_gains(out / "gains.mat") == load_gains(out / "gains.json")
     d, _ = export_controller(out / "gains.mat", "python", tmp_path / "e", allow_unverified=True)  # synthesized only
     assert d["K"] == json.loads((out / "gains.json").read_text())["K"]
@@ -150,7 +150,7 @@ def test_the_written_mat_reads_as_its_gains_file_and_a_mismatched_config_is_refu
 
 def test_a_linear_plants_gain_is_exported_only_as_verified(tmp_path) -> None:
     """The rule of the robot's export for a linear plant's gain (issue 50): with the verification.json that
-    `robustsynth verify` (pipeline_lti) wrote beside it and passed, exported and said so in the files; without one,
+    `robustsynth verify` (pipeline.verification_stage) wrote beside it and passed, exported and said so in the files; without one,
     exit 2 (run verify first); a failed one, exit 1; --allow-unverified exports it marked UNVERIFIED."""
     from pathlib import Path
 
@@ -160,16 +160,17 @@ def test_a_linear_plants_gain_is_exported_only_as_verified(tmp_path) -> None:
     from robustsynth.cli import main
     from robustsynth.config import load_config
     from robustsynth.errors import VerificationFailed
-    from robustsynth.pipeline_lti import lti_synthesis_stage, lti_verification_stage
+    from robustsynth.pipeline import plant_of, synthesis_stage, verification_stage
 
     cfg_path = Path(__file__).resolve().parents[2] / "configs" / "dc-motor.yaml"
     out = tmp_path / "g"
-    lti_synthesis_stage(load_config(cfg_path), out, cfg_path)
+    plant = plant_of(load_config(cfg_path), cfg_path)
+    synthesis_stage(plant, out)
     with pytest.raises(InputError, match="no verification of this gain .* run `robustsynth verify --gains"):
         export_controller(out / "gains.json", "c", tmp_path / "none")
     r = CliRunner().invoke(main, ["export", str(out / "gains.json"), "--to", "python", "-o", str(tmp_path / "none")])
     assert r.exit_code == 2 and "robustsynth verify" in r.stderr and not (tmp_path / "none").exists()
-    assert lti_verification_stage(load_config(cfg_path), out, None, cfg_path, runs=8, plots=False)["passed"]
+    assert verification_stage(plant, out, None, runs=8, plots=False).result.passed
     r = CliRunner().invoke(main, ["export", str(out / "gains.json"), "--to", "c", "-o", str(tmp_path / "c")])
     assert r.exit_code == 0, r.output
     assert "proven: certified for the linear plant (plant: kind: lti)" in r.stdout
@@ -179,7 +180,7 @@ def test_a_linear_plants_gain_is_exported_only_as_verified(tmp_path) -> None:
         assert "with delays in [0.005, 0.04] s and no packet losses" in text and "UNVERIFIED" not in text
     d, _ = export_controller(out / "gains.mat", "json", tmp_path / "j")  # the .mat is the same gain
     assert d["proof"]["verification"]["status"] == "passed"
-    # a failed verification of this gain (its fields as pipeline_lti writes them)
+    # a failed verification of this gain (its fields as the verification stage writes them)
     v = json.loads((out / "verification.json").read_text())
     assert v["gains_id"] == gains_id(load_gains(out / "gains.json"))
     (out / "verification.json").write_text(json.dumps(dict(v, passed=False)))

@@ -198,11 +198,11 @@ def test_verify_refuses_a_config_that_is_not_the_gains_plant(tmp_path) -> None:
 
     from robustsynth.cli import main
     from robustsynth.config import load_config
-    from robustsynth.pipeline_lti import lti_synthesis_stage
+    from robustsynth.pipeline import plant_of, synthesis_stage
 
     src = Path(__file__).resolve().parents[2] / "configs" / "dc-motor.yaml"
     g = tmp_path / "g"
-    lti_synthesis_stage(load_config(src), g, src)
+    synthesis_stage(plant_of(load_config(src), src), g)
     d = yaml.safe_load(src.read_text())
     nodist = dict(d, plant={k: v for k, v in d["plant"].items() if k != "disturbance"})
     one = dict(d, plant=dict(d["plant"], outputs={k: v[:1] for k, v in d["plant"]["outputs"].items()}))
@@ -225,11 +225,11 @@ def test_verify_writes_its_figure_format_and_leaves_no_stale_one(tmp_path) -> No
 
     from robustsynth.cli import main
     from robustsynth.config import load_config
-    from robustsynth.pipeline_lti import lti_synthesis_stage
+    from robustsynth.pipeline import plant_of, synthesis_stage
 
     src = Path(__file__).resolve().parents[2] / "configs" / "dc-motor.yaml"
     out = tmp_path / "g"
-    lti_synthesis_stage(load_config(src), out, src)
+    synthesis_stage(plant_of(load_config(src), src), out)
     r = CliRunner().invoke(main, ["verify", str(src), "-o", str(out), "--format", "pdf"])
     assert r.exit_code == 0 and (out / "verification.pdf").is_file() and not (out / "verification.png").exists()
     gid = json.loads((out / "gains.json").read_text())["gains_id"]  # the verification names the gain it checked
@@ -322,9 +322,10 @@ def test_the_periodic_radius_of_any_plant_against_a_per_sequence_reference(m_los
 
 
 def test_run_takes_a_linear_plants_config(tmp_path) -> None:
-    """Issue 52: ``robustsynth.run`` on a linear plant's config runs its synthesize and verify into the RunResult the
-    robot's run returns: its stages announced, the figure's format, the verdict (a Verdict: passed, failed_checks),
-    the gain it wrote and the summary that says the same; the robot's options refused in one line before any work."""
+    """Issue 52: ``robustsynth.run`` on a linear plant's config runs the robot's stages (build-model, synthesize,
+    verify) into the RunResult the robot's run returns: its stages announced, the model with its coverage, the
+    figure's format, the verdict (a Verdict: passed, failed_checks), the gain it wrote and the summary that says the
+    same; the robot's options refused in one line before any work."""
     import robustsynth
     from robustsynth.errors import InputError
 
@@ -333,7 +334,9 @@ def test_run_takes_a_linear_plants_config(tmp_path) -> None:
     res = robustsynth.run(cfg, tmp_path / "a", runs=8, fmt="svg", on_stage=stages.append)
     # the figure in the format asked for (the CLI's run on a linear plant wrote png whatever --format said)
     assert (tmp_path / "a" / "verification.svg").exists() and not (tmp_path / "a" / "verification.png").exists()
-    assert stages == ["synthesize", "verify"] and res.passed is True and res.verification.result.failed_checks == []
+    assert stages == ["build-model", "synthesize", "verify"] and res.passed is True
+    assert res.verification.result.failed_checks == [] and res.model.coverage["remainder_ratio"] <= 1.0
+    assert res.model.model is res.synthesis.model and json.loads((tmp_path / "a" / "model.json").read_text())["kind"] == "lti"
     gd = json.loads((tmp_path / "a" / "gains.json").read_text())
     assert gd == res.synthesis.gains and gd["kind"] == "lti" and np.array_equal(res.synthesis.result.K, gd["K"])
     assert json.loads((tmp_path / "a" / "summary.json").read_text())["verification"]["passed"] is True

@@ -45,21 +45,25 @@ def clear_foreign(outdir: str | Path, config: Any) -> list[str]:
             break
     if not foreign:
         return []
-    # a linear plant's stages write margin.md and verification figures beside them
-    names = list(MODEL_FILES + SYNTHESIS_FILES + VERIFICATION_FILES + RUN_FILES
-                 + ("margin.json", "margin.md", "verification.png", "verification.pdf", "verification.svg"))
+    names = list(MODEL_FILES + SYNTHESIS_FILES + VERIFICATION_FILES + RUN_FILES + ("margin.json", "margin.md")
+                 + LINEAR_FIGURES)
     if (outdir / "figures").is_dir():
         names += [f"figures/{p.name}" for p in sorted((outdir / "figures").iterdir()) if p.is_file()]
     return list(set_aside(outdir, names, f"they were written for another config than '{config.name}' "
                                          "(a stage of that config wrote into this directory)"))
 
 
+LINEAR_FIGURES = ("verification.png", "verification.pdf", "verification.svg")  # a linear plant's, beside its files
+
+
 def figure_files(outdir: str | Path) -> tuple[str, ...]:
-    """The verification figures in ``outdir/figures/`` (relative names)."""
-    fig = Path(outdir) / "figures"
-    if not fig.is_dir():
-        return ()
-    return tuple(f"figures/{p.name}" for p in sorted(fig.iterdir()) if p.is_file() and p.suffix in (".png", ".pdf", ".svg"))
+    """The verification figures in ``outdir`` (relative names): the robot's in ``figures/``, a linear plant's
+    verification.<format> beside the other files."""
+    out = Path(outdir)
+    fig = out / "figures"
+    robot = tuple(f"figures/{p.name}" for p in sorted(fig.iterdir()) if p.is_file() and p.suffix in (".png", ".pdf", ".svg")) \
+        if fig.is_dir() else ()
+    return robot + tuple(name for name in LINEAR_FIGURES if (out / name).is_file())
 
 
 def _same_config(stored: Any, mine: dict[str, Any]) -> bool:

@@ -30,7 +30,8 @@ class LinearPlant:
     them, ``pieces`` per switching instant's range in its vertex description; ``settings``: the synthesis
     settings of the config it came from (``LtiSynthesisConfig``; None: a plant built from its matrices), what
     ``robustsynth.synthesize(plant)`` uses unless given others; ``margin_settings``: its ``margin:`` settings
-    (``LtiMarginConfig``), what ``robustsynth.margin(plant)`` uses unless given others."""
+    (``LtiMarginConfig``), what ``robustsynth.margin(plant)`` uses unless given others; ``config``: the config it
+    came from, what the pipeline's stages record in their files (``user_config``, as the robot's model has it)."""
 
     arrays: dict
     network: Network
@@ -38,6 +39,7 @@ class LinearPlant:
     name: str = "lti"
     settings: Any = None
     margin_settings: Any = None
+    config: Any = None  # the config it came from (LtiConfig; None: a plant built from its matrices)
 
     plant_kind = "lti"  # core.plant.Plant: which plant this is (the names of objectives.PLANTS)
 
@@ -45,12 +47,17 @@ class LinearPlant:
     def from_config(cls, cfg: Any, base_dir: str | None = None) -> LinearPlant:
         """The plant of a ``plant: kind: lti`` config (``plant.file`` read relative to ``base_dir``)."""
         return cls(lti_plant(cfg, base_dir), Network.from_config(cfg), cfg.synthesis.pieces, cfg.name, cfg.synthesis,
-                   cfg.margin)
+                   cfg.margin, cfg)
 
     @classmethod
     def from_arrays(cls, A: Any, B: Any, network: Network, pieces: int = 2, name: str = "lti", **kw: Any) -> LinearPlant:
         """From the matrices (and ``robustsynth.model.lti.lti_plant_from``'s keywords)."""
         return cls(lti_plant_from(A, B, **kw), network, pieces, name)
+
+    @property
+    def user_config(self) -> Any:
+        """The config it came from (None: built from its matrices)."""
+        return self.config
 
     @property
     def A(self) -> np.ndarray:

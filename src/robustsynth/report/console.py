@@ -57,14 +57,14 @@ def model_summary(name: str, out: Path, stage: Any) -> list[str]:
         wrote(stage.files)]
 
 
-def lti_model_summary(name: str, out: Path, data: Mapping[str, Any]) -> list[str]:
-    cov = data["coverage"]
-    return cleared(out, tuple(data["cleared"])) + [
-        f"model '{name}' (linear plant): n={data['n']} m={data['m']} d_hi={data['lifting']} "
-        f"n_s={data['lifted_states']} pieces={data['pieces']} "
+def lti_model_summary(name: str, out: Path, stage: Any) -> list[str]:
+    """A linear plant's lifted model (a pipeline.ModelStage): its sizes and the coverage check."""
+    p, cov = stage.model, stage.coverage
+    return cleared(out, stage.cleared) + [
+        f"model '{name}' (linear plant): n={p.n_x} m={p.n_u} d_hi={p.d_hi} n_s={p.n_s} pieces={p.pieces} "
         f"coverage={'ok' if cov['remainder_ratio'] <= 1 else 'FAILED'} "
         f"(worst remainder / bound {cov['remainder_ratio']:.3f} on {int(cov['samples'])} instants, residual "
-        f"{cov['reconstruction']:.1e})"] + _uncontrollable(data["controllable"]) + [wrote(data["files"])]
+        f"{cov['reconstruction']:.1e})"] + _uncontrollable(p.arrays["controllable"]) + [wrote(stage.files)]
 
 
 # -- synthesize ----------------------------------------------------------------------------------------------------
@@ -168,8 +168,9 @@ def lti_gain_lines(gd: Mapping[str, Any]) -> list[str]:
     return [_lti_certified(gd), "robust stability of this gain, " + margin.line()]
 
 
-def lti_synthesis_summary(out: Path, res: Mapping[str, Any]) -> list[str]:
-    return cleared(out, tuple(res["cleared"])) + lti_gain_lines(res["gains"]) + [wrote(res["files"])]
+def lti_synthesis_summary(out: Path, stage: Any) -> list[str]:
+    """A linear plant's synthesis (a pipeline.SynthesisStage): the certified figures and the delay margin."""
+    return cleared(out, stage.cleared) + lti_gain_lines(stage.gains) + [wrote(stage.files)]
 
 
 # -- verify, run -----------------------------------------------------------------------------------------------------
@@ -228,8 +229,9 @@ def lti_checks(data: Mapping[str, Any]) -> list[str]:
     return lines
 
 
-def lti_verification_summary(data: Mapping[str, Any]) -> list[str]:
-    return lti_checks(data) + [wrote(data["files"])]
+def lti_verification_summary(stage: Any) -> list[str]:
+    """A linear plant's verification (a pipeline.VerificationStage) and the files it wrote."""
+    return lti_checks(stage.data) + [wrote(stage.files)]
 
 
 def run_summary(out: Path, res: Any) -> list[str]:
@@ -245,7 +247,7 @@ def logs_line(logs: Sequence[Any], logdir: Path) -> str:
 
 def lti_run_summary(out: Path, res: Any) -> list[str]:
     """`run` on a linear plant (a pipeline.RunResult): the gain, its verification, the report."""
-    return (cleared(out, tuple(res.synthesis.cleared)) + lti_gain_lines(res.synthesis.gains)
+    return (cleared(out, res.model.cleared) + lti_gain_lines(res.synthesis.gains)
             + lti_checks(res.verification.data) + [f"report: {out / 'report.md'}"])
 
 

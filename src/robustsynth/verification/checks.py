@@ -104,24 +104,17 @@ def _provenance(model: Any, gains: dict[str, Any]) -> str:
 
 def _verify_linear(plant: Any, gains: Any, runs: int | None, seed: int | None) -> Verdict:
     """:func:`verify` for a linear plant: the gain, its certificate (P, the multipliers, the pieces they were made
-    with) and its figures, from a design or a gains mapping; InputError for anything else or a malformed one."""
-    from collections.abc import Mapping
+    with) and its figures (:func:`robustsynth.verification.lti.certified_gain`: a design, a gains mapping or a gains
+    file), checked on the exactly lifted loop."""
+    from pathlib import Path
 
-    from .lti import verify_lti
+    from ..artifacts.gains import load_gains
+    from .lti import certified_gain, verify_lti
 
-    if getattr(gains, "plant_kind", None) == "lti":  # the SynthesisResult synthesize(plant) returns
-        cert = gains.certificate
-        K, P, eps, figures, pieces = gains.K, gains.P, cert["multipliers"], gains.certified, int(cert["pieces"])
-    elif isinstance(gains, Mapping) and gains.get("kind") == "lti":
-        try:
-            cert = gains["certificate"]
-            K, P, eps = (np.asarray(x, dtype=float) for x in (gains["K"], cert["P"], cert["multipliers"]))
-            figures, pieces = dict(gains["certified"]), int(cert["pieces"])
-        except (TypeError, ValueError, KeyError) as exc:
-            raise InputError(f"verify: the linear plant's gains are malformed ({exc})") from None
-    else:
-        raise InputError("verify: a linear plant's gain is the SynthesisResult robustsynth.synthesize(plant) returns, "
-                         f"or its gains mapping (kind: lti); got {type(gains).__name__}")
+    where = "gains"
+    if isinstance(gains, (str, Path)):
+        where, gains = str(gains), load_gains(gains)
+    K, P, eps, figures, pieces = certified_gain(plant, gains, where)
     net = plant.network
     data = verify_lti(plant.arrays, K, P, net.sampling_time, net.delay_min, net.delay_max, net.max_lost, figures,
                       runs=64 if runs is None else runs, seed=0 if seed is None else seed, multipliers=eps, pieces=pieces)

@@ -24,7 +24,7 @@ import numpy as np
 from ..core.network import Network, s_tilde_sequence
 from ..results import Check, all_passed
 
-__all__ = ["verify_lti", "CONSTANT_DELAYS", "TOL"]
+__all__ = ["verify_lti", "certified_gain", "CONSTANT_DELAYS", "TOL"]
 
 CONSTANT_DELAYS = 201
 TOL = 1e-9  # relative: the simulation's own rounding
@@ -328,3 +328,54 @@ def _l2_gain_check(plant: dict, K: np.ndarray, Ts: float, tau_min: float, tau_ma
                 worst, where = g, name
     return Check("l2 gain of the exact loop (max over delay sequences / certified)", worst <= gamma * (1.0 + TOL),
                  worst / gamma, 1.0, f"worst {worst:.6g} ({where}) vs certified {gamma:.6g}; {N} periods from rest").to_dict()
+
+
+def certified_gain(plant: Any, gains: Any, where: str = "gains") -> tuple[np.ndarray, np.ndarray, Any, dict, int]:
+    """(K, P, the multipliers, the figures, the pieces) of a linear plant's certified gain, from the
+    :class:`~robustsynth.synthesis.SynthesisResult` ``robustsynth.synthesize(plant)`` returns or from its gains
+    mapping (``kind: lti``).  One InputError line naming ``where`` for anything else: the robot's gains, a gain made
+    for a plant of other sizes, a K of the wrong shape, a malformed certificate, a certificate for a disturbance or
+    outputs the plant does not have, or a gain without its certificate (``robustsynth verify CONFIG --gains FILE``
+    searches one for it)."""
+    from collections.abc import Mapping
+
+    from ..artifacts.gains import same_plant
+    from ..errors import InputError
+    from ..model.lti import check_lti_gain
+
+    arrays, n, m = plant.arrays, plant.n_x, plant.n_u
+    if getattr(gains, "plant_kind", None) == "lti":
+        cert = gains.certificate
+        return gains.K, gains.P, cert["multipliers"], gains.certified, int(cert["pieces"])
+    if not isinstance(gains, Mapping):
+        raise InputError(f"verify: a linear plant's gain is the SynthesisResult robustsynth.synthesize(plant) returns, "
+                         f"or its gains mapping (kind: lti); got {type(gains).__name__}")
+    cert = gains.get("certificate")
+    if gains.get("kind") != "lti" and (gains.get("kind") is not None or cert is not None):
+        raise InputError(f"{where}: not a linear plant's gains file (kind: lti, with certificate.P; its certificate is "
+                         "another kind's): run `robustsynth synthesize` on this config, or give a gains file with K only")
+    same_plant(dict(gains), n, m, where)
+    try:
+        K = np.asarray(gains["K"], dtype=float)
+    except (TypeError, ValueError, KeyError) as exc:
+        raise InputError(f"{where}: K: missing or not a matrix of numbers ({exc})") from None
+    check_lti_gain(K, n, m, f"{where}: K")
+    if cert is None:
+        raise InputError(f"{where}: a gain without its certificate: `robustsynth verify CONFIG --gains FILE` searches "
+                         "one for it (robustsynth.verify takes a certified gain)")
+    try:
+        P = np.asarray(cert["P"], dtype=float)
+        figures = dict(gains["certified"])
+        float(figures["alpha"])
+        eps, pieces = np.asarray(cert["multipliers"], dtype=float), int(cert["pieces"])
+    except (TypeError, ValueError, KeyError) as exc:
+        raise InputError(f"{where}: certificate: malformed ({exc})") from None
+    if (figures.get("disturbance_step_bound") is not None or figures.get("hinf_gain") is not None) \
+            and arrays.get("E") is None:
+        raise InputError("plant.disturbance: the gain's certificate is for a disturbance input (ultimate-bound or "
+                         "hinf); this config has none")
+    outs = [o.get("name") for o in figures.get("outputs") or ()]
+    if outs and outs != list(arrays["outputs"]):
+        raise InputError(f"plant.outputs: {list(arrays['outputs'])} differ from the outputs the gain was certified "
+                         f"for ({outs})")
+    return K, P, eps, figures, pieces
