@@ -141,7 +141,7 @@ def test_every_committed_gain_rechecks() -> None:
             net = cfg.network
             chk = recheck_lti(lti_plant(cfg), g, net.sampling_time, net.delay.min, net.delay.max,
                               net.dropouts.max_consecutive)
-            assert chk["ok"], (gp, chk["reason"])
+            assert chk.passed, (gp, chk.reason)
             continue
         model = build_model(load_config(configs[g["config"]["name"]]))
         chk = check_certificate(model, np.asarray(g["K"]), g["certificate"])

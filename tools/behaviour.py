@@ -98,7 +98,7 @@ TIMING_LINE: list[tuple[str, str]] = [
     (r"\d+ solves in all, (?P<t>[0-9.]+) s solving;",
      "synthesis.md of robot configs, the solver line (report/synthesis.py: solver solve_time_s)"),
     (r"\d+ solves, (?P<t>[0-9.]+) s\.$",
-     "synthesis.md and report.md of linear-plant gains, end of the **Proof.** line (report/lti.py: solver time_s)"),
+     "synthesis.md and report.md of linear-plant gains, end of the **Proof.** line (report/synthesis.py lti_synthesis_markdown: solver time_s)"),
 ]
 
 CHILD = r"""

@@ -596,7 +596,7 @@ class _LinearRecords:
         from .artifacts.files import json_bytes, mat_bytes
         from .artifacts.gains import lti_gains_dict, lti_gains_mat_vars
         from .margins.linear import delay_margin
-        from .report.lti import lti_synthesis_markdown
+        from .report.synthesis import lti_synthesis_markdown
 
         config = plant.config
         margin = delay_margin(plant.network, plant.margin_settings, dict(plant.arrays, K=np.asarray(result.K, dtype=float)),
@@ -638,7 +638,7 @@ class _LinearRecords:
 
     @staticmethod
     def verification_markdown(plant: Any, res: Any, vd: dict[str, Any], rel: dict[str, str]) -> str:
-        from .report.lti import lti_verification_markdown
+        from .report.verification import lti_verification_markdown
 
         return lti_verification_markdown(vd)
 
@@ -650,7 +650,8 @@ class _LinearRecords:
     def run_files(ms: ModelStage, ss: SynthesisStage, vs: VerificationStage, outdir: Path, runs: int | None,
                   seed: int | None, compare: bool, say: Callable[[str], None]) -> dict[str, bytes]:
         from .artifacts.files import json_bytes
-        from .report.lti import lti_synthesis_markdown, lti_verification_markdown
+        from .report.synthesis import lti_synthesis_markdown
+        from .report.verification import lti_verification_markdown
 
         summary = {"config": ms.model.name, "kind": "lti", "certified": ss.gains["certified"],
                    "verification": {"passed": vs.data["passed"], "checks": vs.data["checks"]}}

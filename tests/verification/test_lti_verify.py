@@ -163,11 +163,12 @@ def test_the_gains_file_is_re_proven(design) -> None:
     pl, r = design
     gd = {"K": r.K.tolist(), "certified": r.certified,
           "certificate": {"P": r.P.tolist(), "multipliers": r.certificate["multipliers"].tolist(), "alpha": r.certificate["alpha"], "pieces": 2}}
-    assert recheck_lti(pl, gd, 0.5, 0.0, 0.5, 0)["ok"]
-    assert not recheck_lti(pl, dict(gd, K=(1.2 * r.K).tolist()), 0.5, 0.0, 0.5, 0)["ok"]
+    assert recheck_lti(pl, gd, 0.5, 0.0, 0.5, 0).passed
+    changed = recheck_lti(pl, dict(gd, K=(1.2 * r.K).tolist()), 0.5, 0.0, 0.5, 0)
+    assert not changed.passed and changed.reason.startswith("vertex block") and not changed.checks[0]["passed"]
     low = dict(r.certified, outputs=[dict(o, bound=0.99 * o["bound"]) for o in r.certified["outputs"]])
-    assert "output bound" in recheck_lti(pl, dict(gd, certified=low), 0.5, 0.0, 0.5, 0)["reason"]
-    assert not recheck_lti(pl, gd, 0.5, 0.0, 0.5, 1)["ok"]  # a loss it was not certified for
+    assert "output bound" in recheck_lti(pl, dict(gd, certified=low), 0.5, 0.0, 0.5, 0).reason
+    assert not recheck_lti(pl, gd, 0.5, 0.0, 0.5, 1).passed  # a loss it was not certified for
 
 
 def test_a_linear_plants_gains_without_its_config_is_named_as_such(tmp_path) -> None:

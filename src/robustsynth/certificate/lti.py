@@ -199,11 +199,12 @@ def lti_within(P: np.ndarray, rows: np.ndarray, bounds: np.ndarray) -> np.ndarra
 
 
 def recheck_lti(plant: dict, gains: Mapping[str, Any], Ts: float, tau_min: float, tau_max: float,
-                m_lost: int) -> dict[str, Any]:
+                m_lost: int) -> CertificateCheck:
     """A linear plant's gains file re-proven from its own numbers (K, P, multipliers, alpha, figures)
     against this plant and network: the vertex blocks of the over-approximation built for K (with
     the disturbance or the l2 gain's terms) and every output bound and input limit on the set.
-    Returns {"ok", "reason"}."""
+    Returns the CertificateCheck every plant's certificate check is: failed with the reason where the file is
+    malformed or for another lifting, where a vertex block or a figure is not proven."""
     from ..model.lti import disturbance_bound, lifted_rows, lti_depth, over_approximation, vertex_combinations
 
     try:
@@ -214,17 +215,17 @@ def recheck_lti(plant: dict, gains: Mapping[str, Any], Ts: float, tau_min: float
         alpha = float(cert["alpha"])
         pieces = int(cert["pieces"])
     except (KeyError, TypeError, ValueError) as exc:
-        return {"ok": False, "reason": f"malformed certificate ({exc})"}
+        return CertificateCheck(False, (), {}, f"malformed certificate ({exc})")
     A, B = plant["A"], plant["B"]
     n, m = B.shape
     d = (K.shape[1] - n) // m
     if d < lti_depth(tau_max, m_lost, Ts) or P.shape != (K.shape[1],) * 2:
-        return {"ok": False, "reason": f"the gain keeps {d} commands; delays up to {tau_max + m_lost * Ts:g} s need "
-                                       f"{lti_depth(tau_max, m_lost, Ts)}"}
+        return CertificateCheck(False, (), {}, f"the gain keeps {d} commands; delays up to {tau_max + m_lost * Ts:g} s "
+                                                f"need {lti_depth(tau_max, m_lost, Ts)}")
     if not (np.all(np.isfinite(P)) and np.all(np.isfinite(K)) and np.all(np.isfinite(eps))):
-        return {"ok": False, "reason": "non-finite entries"}
+        return CertificateCheck(False, (), {}, "non-finite entries")
     if not float(np.min(np.linalg.eigvalsh((P + P.T) / 2.0))) > 0:
-        return {"ok": False, "reason": "P is not positive definite"}
+        return CertificateCheck(False, (), {}, "P is not positive definite")
     C = lifted_rows(plant["C"], K.shape[1])
     dist = out = None
     if figs.get("hinf_gain") is not None:
@@ -235,16 +236,17 @@ def recheck_lti(plant: dict, gains: Mapping[str, Any], Ts: float, tau_min: float
     verts = vertex_combinations(pw)
     if lti_multipliers(pw, eps, len(verts[0])) is None:
         n_c, n = len(verts[0]), B.shape[0]
-        return {"ok": False, "reason": f"multipliers {eps.shape}, the vertices need ({n_c}, {d}) or ({n_c}, {d}, {1 + n})"}
-    chk = check_lti_scaled(pw, P, eps, float(np.sqrt(alpha)), verts, dist, out)
-    if not chk["ok"]:
-        return {"ok": False, "reason": f"vertex block {chk['failing']} not proven (min eigenvalue {chk['min_eig']:.3g})"}
+        return CertificateCheck(False, (), {}, f"multipliers {eps.shape}, the vertices need ({n_c}, {d}) or ({n_c}, {d}, "
+                                                f"{1 + n})")
+    chk = lti_check(check_lti_scaled(pw, P, eps, float(np.sqrt(alpha)), verts, dist, out), figs)
+    if not chk.passed:
+        return CertificateCheck(False, chk.checks, {}, f"{chk.reason} (min eigenvalue {chk.checks[0]['margin_found']:.3g})")
     outs = [o for o in figs.get("outputs") or () if o.get("bound") is not None]
     if outs and not lti_within(P, C, np.array([o["bound"] for o in outs])).all():
-        return {"ok": False, "reason": "an output bound is not proven on the set"}
+        return CertificateCheck(False, (), {}, "an output bound is not proven on the set")
     if figs.get("inputs") and not lti_within(P, K, np.array([u["limit"] for u in figs["inputs"]])).all():
-        return {"ok": False, "reason": "an input limit is not proven on the set"}
-    return {"ok": True, "reason": ""}
+        return CertificateCheck(False, (), {}, "an input limit is not proven on the set")
+    return chk
 
 
 def lti_check(record: Mapping[str, Any], figures: Mapping[str, Any]) -> CertificateCheck:

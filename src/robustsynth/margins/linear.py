@@ -426,7 +426,7 @@ def linear_margin(plant: Any, K: Any, settings: Any, say: Callable[[str], None])
     :class:`~robustsynth.plants.linear.LinearPlant`): delay_max and dropouts of the gain ``K`` on the plant's
     network, with ``settings`` (``LtiMarginConfig``: pieces, tolerance, delay_far)."""
     from ..model.lti import UNCONTROLLABLE_WARNING, check_lti_gain
-    from ..report.lti import LINEAR_READING
+    from ..report.markdown import LINEAR_READING
 
     try:
         arrays = dict(plant.arrays, K=np.asarray(K, dtype=float))

@@ -7,7 +7,8 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-__all__ = ["fmt", "table", "matrix_table", "condition_counts", "conditions_text", "margin_table", "margin_markdown"]
+__all__ = ["fmt", "table", "matrix_table", "condition_counts", "conditions_text", "margin_table", "margin_markdown",
+           "LINEAR_READING"]
 
 
 def fmt(x: float | None, digits: int = 4) -> str:
@@ -109,3 +110,9 @@ def margin_markdown(data: Mapping[str, Any]) -> str:
              + (f"up to {net['max_consecutive']} commands lost in a row" if net["max_consecutive"] else "no command lost")
              if net else "") + ".\n\n"]
     return "".join(md + margin_table({k: v for k, v in data.items() if k != "meta"}, meta.get("reading", "")))
+
+
+# what a linear plant's certified and exhibited margins are (margin.md, and the synthesis report's delay margin)
+LINEAR_READING = ("Certified: a common quadratic Lyapunov function of the guaranteed over-approximation (docs/theory.md "
+                  "§14), proven in numpy. Exhibited: a destabilizing periodic delay/loss sequence of the exactly lifted "
+                  "closed loop.")

@@ -13,7 +13,7 @@ from ..objectives import labelled_figures, listed, objective
 from ..results import failed_names
 from .markdown import conditions_text, fmt, table
 
-__all__ = ["verification_dict", "verification_markdown", "report_markdown", "summary_dict"]
+__all__ = ["verification_dict", "verification_markdown", "report_markdown", "summary_dict", "lti_verification_markdown"]
 
 
 def verification_dict(model: Any, res: Any, gains_file: str, gid: str) -> dict[str, Any]:
@@ -643,3 +643,22 @@ def _arcs_text(arcs: dict) -> str:
         out += (f"With the slip jumping within the period (not covered, reported) it reaches "
                 f"{arcs['mid_period_max_V_over_level_nonlinear']:.4f}. ")
     return out
+
+
+def lti_verification_markdown(data: dict[str, Any]) -> str:
+    """verification.md of a linear plant's gain (``plant: kind: lti``), from its verification record."""
+    md = [f"# Verification: {'passed' if data['passed'] else 'FAILED'}\n\n",
+          (f"{data['starts']} starts on the boundary of the certified set, {data['periods']} periods of the exactly "
+           f"lifted loop (lifting d = {data['lifting']}) per family (docs/theory.md §15).\n\n" if data["starts"] else
+           f"The l2 gain from rest over {data['periods']} periods of the exactly lifted loop (lifting d = "
+           f"{data['lifting']}) for each delay sequence (docs/theory.md §15).\n\n"),
+          (f"The gain came without a certificate: one was searched ({data['certificate_searched']['kind']}, "
+           f"decay {data['certificate_searched']['decay']:.7g} per period, {data['certificate_searched']['pieces']} "
+           "pieces) and proven in numpy; the checks below are against it.\n\n" if data.get("certificate_searched") else ""),
+          checks_table(data["checks"])]
+    if data["families"]:
+        first = next(iter(data["families"].values()))
+        md.append("\n| family | " + " | ".join(first.keys()) + " |\n")
+        md.append("|---|" + "---|" * len(first) + "\n")
+        md += [f"| {name} | " + " | ".join(f"{v:.6g}" for v in f.values()) + " |\n" for name, f in data["families"].items()]
+    return "".join(md)

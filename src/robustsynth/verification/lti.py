@@ -53,11 +53,12 @@ def _reproof(plant: dict, K: np.ndarray, P: np.ndarray, multipliers: Any, pieces
     name = "the certificate re-proven in numpy for this config"
     if multipliers is None:
         return Check(name, False, 0.0, 1.0,
-                     "not re-proven: the certificate's multipliers were not given (multipliers=design.eps)").to_dict()
+                     "not re-proven: the certificate's multipliers were not given "
+                     "(multipliers=design.certificate['multipliers'])").to_dict()
     gains = {"K": K, "certificate": {"P": P, "multipliers": multipliers, "alpha": figures.get("alpha"), "pieces": pieces},
              "certified": figures}
     proof = recheck_lti(plant, gains, Ts, tau_min, tau_max, m_lost)
-    return Check(name, bool(proof["ok"]), float(proof["ok"]), 1.0, proof["reason"] or "verified arithmetic").to_dict()
+    return Check(name, proof.passed, float(proof.passed), 1.0, proof.reason or "verified arithmetic").to_dict()
 
 
 def verify_lti(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, tau_min: float, tau_max: float, m_lost: int,
