@@ -184,7 +184,7 @@ def test_grouped_and_per_instant_blocks_are_negative_definite_together(grouped) 
     verdicts = set()
     for i in range(60):
         s = rng.uniform(0.0, 2.0)
-        eps = res.eps * np.exp(s * rng.normal(size=res.eps.shape)) + 1e-3 * (res.eps == 0)
+        eps = res.certificate["multipliers"] * np.exp(s * rng.normal(size=res.certificate["multipliers"].shape)) + 1e-3 * (res.certificate["multipliers"] == 0)
         P = res.P * (1.0 + 0.02 * s * rng.normal())
         Xg = lti_vertex_blocks(pw, P, eps, DECAY, verts, merge=True)[0]
         Xu = lti_vertex_blocks(pw, P, eps, DECAY, verts, merge=False)[0]
@@ -211,8 +211,8 @@ def test_the_grouped_solver_gives_a_groups_instants_equal_multipliers_and_the_ol
     kept, groups, _ = _layouts(pw)
     for g in groups:
         for j in g[1:]:
-            assert np.array_equal(res.eps[:, j, [0, *(1 + kept[j])]], res.eps[:, g[0], [0, *(1 + kept[g[0]])]])
-    assert check_lti_certificate(pw, res.P, res.eps, DECAY, vertex_combinations(pw), merge=False)["ok"]
+            assert np.array_equal(res.certificate["multipliers"][:, j, [0, *(1 + kept[j])]], res.certificate["multipliers"][:, g[0], [0, *(1 + kept[g[0]])]])
+    assert check_lti_certificate(pw, res.P, res.certificate["multipliers"], DECAY, vertex_combinations(pw), merge=False)["ok"]
 
 
 def test_a_grouped_certificate_makes_V_shrink_on_exactly_lifted_loops(grouped) -> None:

@@ -115,12 +115,12 @@ def test_the_numpy_check_rejects_a_broken_certificate() -> None:
 
     pw = over_approximation(A, B, pad_lti_gain(K, 2, 1, 1), 1.0, 0.0, 0.5, 1, 4)
     res = analyze_lti(pw)
-    assert res.certified and res.check["ok"]
+    assert res.certified and res.check.passed
     verts = vertex_combinations(pw)
     P = res.P.copy()
     P[0, 0] *= 0.5  # no longer a Lyapunov function
-    assert not check_lti_certificate(pw, P, res.eps, 1.0 - 1e-6, verts)["ok"]
-    assert not check_lti_certificate(pw, res.P, -res.eps - 1.0, 1.0 - 1e-6, verts)["ok"]
+    assert not check_lti_certificate(pw, P, res.certificate["multipliers"], 1.0 - 1e-6, verts)["ok"]
+    assert not check_lti_certificate(pw, res.P, -res.certificate["multipliers"] - 1.0, 1.0 - 1e-6, verts)["ok"]
     far = over_approximation(A, B, pad_lti_gain(K, 2, 1, 1), 1.0, 0.0, 0.9, 1, 4)  # beyond the exhibited 0.685
     assert not analyze_lti(far).certified
 

@@ -687,7 +687,7 @@ def _searched_certificate(plant: Any, gains: dict[str, Any], gp: Path) -> tuple[
                               f"Lyapunov function, {pieces} pieces per switching instant: {an.status}); "
                               "`robustsynth margin` shows how far the gain is from one")
     certified = {"kind": "lti", "K": K, "certified": {"alpha": DECAY**2, "decay": DECAY},
-                 "certificate": {"P": an.P, "multipliers": an.eps, "pieces": pieces}}
+                 "certificate": {"P": an.P, "multipliers": an.certificate["multipliers"], "pieces": pieces}}
     return certified, {"kind": "common quadratic Lyapunov function, every delay and loss pattern", "pieces": pieces,
                        "decay": DECAY}
 

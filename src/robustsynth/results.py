@@ -12,7 +12,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-__all__ = ["Check", "all_passed", "failed_names", "Verdict", "CertificateCheck", "Margin", "MarginReport"]
+__all__ = ["Check", "all_passed", "failed_names", "Verdict", "CertificateCheck", "AnalysisResult", "Margin", "MarginReport"]
 
 
 @dataclass(frozen=True)
@@ -79,6 +79,28 @@ class CertificateCheck:
     def to_dict(self) -> dict[str, Any]:
         return {"passed": bool(self.passed), "checks": [dict(c) for c in self.checks], "figures": dict(self.figures),
                 "reason": self.reason}
+
+
+@dataclass(frozen=True)
+class AnalysisResult:
+    """A given gain's certificate searched, any plant (``robustsynth.synthesis.analysis.analyze_stability`` for the
+    robot, ``robustsynth.synthesis.lti.analyze_lti`` for a linear plant): ``certified`` when a certificate was found
+    and passed its numpy re-check (``check``, ``certificate``: P, the multipliers, ...); ``status`` 'certified',
+    'infeasible' (no Lyapunov function of the kinds tried), 'rejected' (the re-check refused the solver's point) or
+    'failed' (the solvers)."""
+
+    certified: bool
+    status: str
+    lyapunov: str | None = None
+    certificate: dict[str, Any] | None = None
+    check: CertificateCheck | None = None
+    solve_time_s: float = 0.0
+    attempts: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def P(self) -> Any:
+        """The certified set's matrix (None without a certificate)."""
+        return None if self.certificate is None else self.certificate.get("P")
 
 
 def all_passed(checks: Iterable[Mapping[str, Any]]) -> bool:

@@ -511,6 +511,10 @@ def test_every_plants_synthesis_returns_one_result_schema(ub_result) -> None:
         warnings.simplefilter("always")
         from robustsynth.synthesis.lti import LtiDesign
     assert LtiDesign is type(lin) and any(issubclass(w.category, DeprecationWarning) for w in caught)
+    with pytest.warns(DeprecationWarning, match="LtiAnalysis is deprecated: it is AnalysisResult"):
+        from robustsynth.synthesis.lti import LtiAnalysis
+    from robustsynth.results import AnalysisResult
+    assert LtiAnalysis is AnalysisResult
     with pytest.raises(InputError, match="writes the tracked robot's gains; this is a lti plant's"):
         lin.save(None, ".")
 

@@ -9,12 +9,12 @@ from the values, with the gain as given.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from ..certificate import CertificateCheck, check_certificate, varying_failures
+from ..results import AnalysisResult
 from .runner import CUTS_PER_ROUND, MAX_CUT_ROUNDS, _cert_common, _Cuts
 from .lmis import ANALYSIS_KAPPA, ANALYSIS_KAPPA_WIDE, build_stability
 from .solve import solve
@@ -22,20 +22,6 @@ from .solve import solve
 __all__ = ["AnalysisResult", "analyze_stability", "STABILITY_R"]
 
 STABILITY_R = 1.0 - 1e-6  # 'robustly stable' = a certified decay rate r <= this (as in synthesis)
-
-
-@dataclass(frozen=True)
-class AnalysisResult:
-    """``certified``: a checked certificate exists (``check``/``certificate``); ``status`` is
-    'certified', 'infeasible' (no Lyapunov function of the kinds tried) or 'failed' (solvers)."""
-
-    certified: bool
-    status: str
-    lyapunov: str | None = None
-    certificate: dict[str, Any] | None = None
-    check: CertificateCheck | None = None
-    solve_time_s: float = 0.0
-    attempts: tuple[str, ...] = field(default_factory=tuple)
 
 
 def _one(model: Any, K: np.ndarray, lyapunov: str, multiplier: str, margin: float, solver: str,

@@ -26,11 +26,12 @@ from typing import Any
 import numpy as np
 
 from ..model.lti import YOUNG_DELTA, channel_groups, kept_directions, vertex_combinations
+from ..results import AnalysisResult
 from .lmis import _sym_basis
 from .result import SynthesisResult
 from .solve import auto_threads
 
-__all__ = ["LtiAnalysis", "analyze_lti", "vertex_combinations", "LinearJob", "line_search_design",
+__all__ = ["analyze_lti", "vertex_combinations", "LinearJob", "line_search_design",
            "synthesize_lti", "auto_threads", "DECAY", "STRICT"]
 
 DECAY = 1.0 - 1e-6  # V shrinks by at least this factor per period: asymptotic stability with a margin
@@ -38,17 +39,6 @@ STRICT = 1e-7  # the LMIs' strictness (P >= I fixes the scale)
 ALPHA_FAR = 0.9  # ultimate-bound: the line search's grid of 1 - alpha starts here
 REFINE_ROUNDS = 2  # then rounds of two solves around the best alpha (halving the bracket in log(1 - alpha))
 INPUT_BACKOFF = 1e-6  # synthesis: the input limits are posed this much (relative) tighter than proven
-
-
-@dataclass(frozen=True)
-class LtiAnalysis:
-    certified: bool
-    status: str  # certified | infeasible | rejected (the numpy check failed) | failed
-    P: np.ndarray | None
-    eps: np.ndarray | None
-    vertices: int
-    solve_time_s: float
-    check: dict
 
 
 def _vertex_matrices(pw, verts: tuple) -> np.ndarray:
@@ -73,7 +63,7 @@ def channel_layout(pw, merge: bool = True) -> tuple:
     return kept, dropped, n_drop, shrink, groups, dirs, Et
 
 
-def analyze_lti(pw, decay: float = DECAY, solver: str = "clarabel", merge: bool = True) -> LtiAnalysis:
+def analyze_lti(pw, decay: float = DECAY, solver: str = "clarabel", merge: bool = True) -> AnalysisResult:
     """Search P and the multipliers for the LMIs of the module docstring; the verdict is the numpy check's.
 
     Per instant j the remainder enters through the channels E U_j (U_j = ``pw.dirs[j]``) with two kinds of
@@ -87,7 +77,7 @@ def analyze_lti(pw, decay: float = DECAY, solver: str = "clarabel", merge: bool 
     linear (docs/theory.md §14).  Every vertex's block is linear in the unknowns y = (P's upper triangle,
     multipliers): its coefficient matrices are computed in numpy, and enter as parameters of a problem
     compiled once per structure."""
-    from ..certificate.lti import check_lti_certificate
+    from ..certificate.lti import check_lti_certificate, lti_check
     from .solve import solve
 
     verts = vertex_combinations(pw)
@@ -159,10 +149,12 @@ def analyze_lti(pw, decay: float = DECAY, solver: str = "clarabel", merge: bool 
         out = solve(prob, solver, accept, fallback=False)
         dt = time.perf_counter() - t0
         vertices = len(Ms)
+        check = lti_check(held["check"], {"decay": decay}) if "check" in held else None
         if out.kind == "ok":
-            return LtiAnalysis(True, "certified", P_value(), eps_value(), vertices, dt, held["check"])
+            return AnalysisResult(True, "certified", "common", {"P": P_value(), "multipliers": eps_value(),
+                                                                "vertices": vertices}, check, dt)
         status = "infeasible" if out.kind == "infeasible" else ("rejected" if "check" in held else "failed")
-        return LtiAnalysis(False, status, None, None, vertices, dt, held.get("check", {}))
+        return AnalysisResult(False, status, "common", None, check, dt)
 
 
 _PROBLEMS: dict = {}  # the analysis LMIs per structure, compiled once by cvxpy (its parameters: the coefficients)
@@ -533,13 +525,16 @@ def _proven(design: _Candidate, name: str | None, pieces: int, solver: str) -> S
                            search=design.search, timings={"total_s": design.solve_time_s}, plant_kind="lti")
 
 
+_DEPRECATED = {"LtiDesign": SynthesisResult, "LtiAnalysis": AnalysisResult}  # one release: every plant's types
+
+
 def __getattr__(name: str) -> Any:
-    if name == "LtiDesign":  # deprecated one release: a linear plant's synthesis returns the robot's result type
+    if name in _DEPRECATED:
         import warnings
-        warnings.warn("robustsynth.synthesis.lti.LtiDesign is deprecated: synthesize returns a SynthesisResult for "
-                      "every plant (robustsynth.SynthesisResult; its certified figures are .certified, the "
-                      "multipliers .certificate['multipliers'])", DeprecationWarning, stacklevel=2)
-        return SynthesisResult
+        warnings.warn(f"robustsynth.synthesis.lti.{name} is deprecated: it is {_DEPRECATED[name].__name__}, every "
+                      "plant's type (the figures are .certified, the multipliers .certificate['multipliers'])",
+                      DeprecationWarning, stacklevel=2)
+        return _DEPRECATED[name]
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
