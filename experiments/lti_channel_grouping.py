@@ -1,4 +1,4 @@
-"""Issue 53: instants on equal ranges share one remainder channel (model.lti.channel_groups); their remainders
+"""Issue 53: instants on equal ranges share one remainder channel (core.delays.channel_groups); their remainders
 w_j enter as one sum W, and every split of W costs at least W' H W, H the parallel sum of the instants'
 multipliers.  Which form of that bound should the analysis LMIs take?
 
@@ -33,7 +33,8 @@ import numpy as np
 
 from robustsynth.certificate.lti import check_lti_certificate
 from robustsynth.config import load_config
-from robustsynth.model.lti import YOUNG_DELTA, lti_depth, lti_plant, over_approximation, pad_lti_gain, vertex_combinations
+from robustsynth.core.delays import YOUNG_DELTA, lti_depth, over_approximation, pad_lti_gain, vertex_combinations
+from robustsynth.model.lti import lti_plant
 from robustsynth.synthesis.lti import DECAY, STRICT, _vertex_matrices, analyze_lti, channel_layout
 
 TOL = 1e-5  # s: the bisection's end

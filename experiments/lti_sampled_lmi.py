@@ -13,8 +13,8 @@ import sys
 import cvxpy as cp
 import numpy as np
 
-from robustsynth.model.lifting import instant_ranges
-from robustsynth.model.lti import exact_closed_loop, lti_depth, pad_lti_gain
+from robustsynth.core.lifting import instant_ranges
+from robustsynth.core.delays import exact_closed_loop, lti_depth, pad_lti_gain
 
 A = np.array([[0.0, 1.0], [0.0, -72.5]])
 B = np.array([[0.0], [75.3]])

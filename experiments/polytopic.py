@@ -18,7 +18,7 @@ import numpy as np
 
 from _common import config, motor_lmis, solve_optimal
 from robustsynth.model import build_model
-from robustsynth.model.lifting import lift
+from robustsynth.core.lifting import lift
 from robustsynth.model.linearize import Gamma, Gamma_D, Phi
 from robustsynth.synthesis import synthesize
 

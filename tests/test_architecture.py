@@ -147,12 +147,9 @@ CONCRETE_PLANTS = ("robustsynth.model", "robustsynth.plants")  # the tracked rob
 # shrink: a new module there takes plants through core.plant.Plant, and a module that no longer
 # imports one must leave the list (both are tested).
 STILL_CONCRETE = {
-    "robustsynth.certificate.lti": "the linear plant's own checker (a twin of certificate.check)",
     "robustsynth.synthesis.diagnose": "rebuilds the robot's model with one constraint relaxed",
-    "robustsynth.synthesis.lti": "the linear plant's own synthesis (a twin of synthesis.design)",
     "robustsynth.synthesis.remedies": "rebuilds the robot's model for each remedy",
     "robustsynth.verification.compensated": "the robot's slip-compensated law on its path",
-    "robustsynth.verification.lti": "the linear plant's own verification (a twin of verification.checks)",
     "robustsynth.verification.nonlinear_checks": "the nonlinear robot on its path",
     "robustsynth.verification.physics": "the MuJoCo robot",
     "robustsynth.verification.probe": "the robot's boundary probe on its path",

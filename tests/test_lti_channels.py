@@ -1,5 +1,5 @@
 """Issue 53: instants of a linear plant whose ranges are equal share one remainder channel
-(``model.lti.channel_groups``).  Their remainders w_j enter the plant's rows as one sum W; the numpy check
+(``core.delays.channel_groups``).  Their remainders w_j enter the plant's rows as one sum W; the numpy check
 bounds W by the parallel sum H of the instants' multipliers D_j, the least ``sum_j w_j' D_j w_j`` takes over
 the splits of W (``certificate.lti.lti_vertex_blocks``, rounded down by ``_parallel_sum_down``), and the solver
 gives a group's instants equal multipliers (``synthesis.lti.analyze_lti``, diagonal -a / g: linear).
@@ -20,9 +20,9 @@ from hypothesis import strategies as st
 
 from robustsynth.certificate.lti import LTI_PROOF_MARGIN, _parallel_sum_down, check_lti_certificate, lti_vertex_blocks
 from robustsynth.margins.linear import spectral_radius
-from robustsynth.model.lifting import instant_ranges
-from robustsynth.model.lti import (channel_groups, exact_closed_loop, kept_directions, lti_depth, lti_plant_from,
-                                   over_approximation, pad_lti_gain, vertex_combinations)
+from robustsynth.core.lifting import instant_ranges
+from robustsynth.core.delays import channel_groups, exact_closed_loop, kept_directions, lti_depth, over_approximation, pad_lti_gain, vertex_combinations
+from robustsynth.model.lti import lti_plant_from
 from robustsynth.synthesis.lti import DECAY, analyze_lti
 from robustsynth.verified import UNIT_ROUNDOFF, round_down_array, round_up_array
 

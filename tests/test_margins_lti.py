@@ -110,7 +110,7 @@ def test_benchmark_h05_frozen_delay_beyond_one_period_by_hand() -> None:
 
 def test_the_numpy_check_rejects_a_broken_certificate() -> None:
     from robustsynth.certificate.lti import check_lti_certificate
-    from robustsynth.model.lti import over_approximation, pad_lti_gain
+    from robustsynth.core.delays import over_approximation, pad_lti_gain
     from robustsynth.synthesis.lti import analyze_lti, vertex_combinations
 
     pw = over_approximation(A, B, pad_lti_gain(K, 2, 1, 1), 1.0, 0.0, 0.5, 1, 4)
@@ -146,8 +146,8 @@ def test_a_certificate_holds_on_sampled_exact_loops_of_a_harder_plant() -> None:
     eigenvalues, a gain on the lifted state, delays in [1.2, 2.6] periods and one loss in a row.  The
     certified P must make V shrink (by decay^2) on 5000 exactly lifted closed loops at random
     admissible instants (and at the extremes)."""
-    from robustsynth.model.lifting import delay_indices, instant_ranges
-    from robustsynth.model.lti import exact_closed_loop, over_approximation, pad_lti_gain
+    from robustsynth.core.lifting import delay_indices, instant_ranges
+    from robustsynth.core.delays import exact_closed_loop, over_approximation, pad_lti_gain
     from robustsynth.synthesis.lti import DECAY, analyze_lti
 
     Ah = np.array([[0.1, 1.0, 0.0], [-1.0, 0.1, 0.0], [0.0, 0.0, -0.5]])
@@ -205,7 +205,7 @@ def test_the_compiled_analysis_problem_holds_no_stale_answer() -> None:
     the same delay range (one structure: the in-order vertices depend on the range, not on the gain), give
     True, False, True, each proven on its own."""
     from robustsynth.margins.linear import spectral_radius
-    from robustsynth.model.lti import over_approximation, vertex_combinations
+    from robustsynth.core.delays import over_approximation, vertex_combinations
     from robustsynth.synthesis.lti import analyze_lti
 
     A = np.array([[0.0, 1.0], [0.0, -0.1]])

@@ -670,7 +670,7 @@ def _searched_certificate(plant: Any, gains: dict[str, Any], gp: Path) -> tuple[
     from .artifacts.gains import same_plant
     from .errors import InfeasibleError, InputError
     from .margins.linear import lti_certificate
-    from .model.lti import check_lti_gain
+    from .core.delays import check_lti_gain
     from .synthesis.lti import DECAY
 
     same_plant(gains, plant.n_x, plant.n_u, gp)

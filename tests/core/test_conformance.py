@@ -15,7 +15,7 @@ from robustsynth.core.conformance import ODE_TOL, check_plant
 from robustsynth.core.network import Network
 from robustsynth.core.plant import Plant
 from robustsynth.model import build_model
-from robustsynth.model.lti import exact_closed_loop, exact_lifted
+from robustsynth.core.delays import exact_closed_loop, exact_lifted
 from robustsynth.plants.linear import LinearPlant
 
 CONFIGS = Path(__file__).resolve().parents[2] / "configs"

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from robustsynth.config import load_config
 from robustsynth.model import build_model, coverage_check
 from robustsynth.core.network import s_tilde_sequence
-from robustsynth.model.lifting import instant_ranges
+from robustsynth.core.lifting import instant_ranges
 from robustsynth.model.vertices import (HIGH, LOW, MID, delay_cover_ranges, in_order_combinations, in_order_weights,
                                         triangle, triangle_coordinates)
 

@@ -8,7 +8,7 @@ import pytest
 
 from robustsynth.model import build_model
 from robustsynth.core.network import s_tilde_sequence
-from robustsynth.model.lifting import delay_indices
+from robustsynth.core.lifting import delay_indices
 from robustsynth.model.linearize import van_loan
 
 from ..conftest import make_config

@@ -8,8 +8,9 @@ import pytest
 
 from robustsynth.config import load_config
 from robustsynth.core.network import s_tilde_sequence
-from robustsynth.model.lifting import delay_indices
-from robustsynth.model.lti import coverage_check, exact_closed_loop, gamma, lti_plant, over_approximation, pad_lti_gain
+from robustsynth.core.lifting import delay_indices
+from robustsynth.core.delays import coverage_check, exact_closed_loop, gamma, over_approximation, pad_lti_gain
+from robustsynth.model.lti import lti_plant
 
 ZBP_A = np.array([[0.0, 1.0], [0.0, -0.1]])
 ZBP_B = np.array([[0.0], [0.1]])
@@ -184,7 +185,7 @@ def test_directional_bounds_cover_fast_and_oscillatory_plants(A, B, K, Ts, tau_m
     every direction's; the bounds are not vacuous (ratio > 0.5: the sampled sup plus what lies between
     samples); the servo's remainder lies along one direction, the other at rounding level, so the
     analysis drops it (kept_directions)."""
-    from robustsynth.model.lti import kept_directions
+    from robustsynth.core.delays import kept_directions
 
     n, m = B.shape
     d = delay_indices(0.0, tau_max, Ts)[1]
@@ -204,7 +205,7 @@ def test_directional_bounds_cover_fast_and_oscillatory_plants(A, B, K, Ts, tau_m
 def test_the_interval_bound_holds_between_samples() -> None:
     """_interval_sup on f(t) = sin(w t) (|f''| <= w^2, |f'| <= w) sampled coarsely: never below the true
     sup on a fine grid, and the chord form wins for smooth f, the Lipschitz form for a steep one."""
-    from robustsynth.model.lti import _interval_sup
+    from robustsynth.core.delays import _interval_sup
 
     for w in (1.0, 10.0, 200.0):
         t = np.linspace(0.0, 1.0, 9)
@@ -230,8 +231,8 @@ def test_in_order_vertices_hold_every_in_order_instant(seed) -> None:
     """Every vertex lies in its piece box and in order; every random in-order point of the instants' ranges
     lies in the convex hull of the vertices of the combination its pieces make (an LP, independent of the
     run enumeration); the count is below the box's 2^d per combination."""
-    from robustsynth.model.lifting import instant_ranges
-    from robustsynth.model.lti import in_order_vertices, piece_grid
+    from robustsynth.core.lifting import instant_ranges
+    from robustsynth.core.delays import in_order_vertices, piece_grid
 
     rng = np.random.default_rng(seed)
     Ts = 1.0

@@ -9,8 +9,9 @@ import pytest
 
 from robustsynth.certificate.lti import check_lti_certificate, check_lti_scaled, lti_within
 from robustsynth.errors import InfeasibleError
-from robustsynth.model.lifting import instant_ranges
-from robustsynth.model.lti import disturbance_bound, exact_closed_loop, lti_plant_from, over_approximation
+from robustsynth.core.lifting import instant_ranges
+from robustsynth.core.delays import disturbance_bound, exact_closed_loop, over_approximation
+from robustsynth.model.lti import lti_plant_from
 from robustsynth.synthesis.lti import _midpoints, synthesize_lti, vertex_combinations
 
 ZBP_A = np.array([[0.0, 1.0], [0.0, -0.1]])

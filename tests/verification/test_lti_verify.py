@@ -270,7 +270,7 @@ def _periodic_radius_reference(A, B, K, Ts, dseq, m_lost):
     test: the period tiled over many periods, the switching instants of the whole tiled sequence, and the
     product of exact_closed_loop over one period in the middle (whose newest packet is the period's first)."""
     from robustsynth.core.network import s_tilde_sequence
-    from robustsynth.model.lti import exact_closed_loop
+    from robustsynth.core.delays import exact_closed_loop
 
     n, m = B.shape
     d = (K.shape[1] - n) // m
@@ -291,7 +291,7 @@ def _periodic_radius_reference(A, B, K, Ts, dseq, m_lost):
 def test_the_frozen_check_is_the_plant_generic_radius(m_lost, extra) -> None:
     """The linear plant's frozen check goes through the robot's plant-generic frozen radius
     (verification.lifted.frozen_spectral_radius on a LinearPlant), against a per-sequence reference."""
-    from robustsynth.model.lti import pad_lti_gain
+    from robustsynth.core.delays import pad_lti_gain
     from robustsynth.verification.lti import CONSTANT_DELAYS, _frozen_check
 
     pl = lti_plant_from([[0.0, 1.0], [1.5, -0.2]], [[0.0], [1.0]])
@@ -310,7 +310,7 @@ def test_the_periodic_radius_of_any_plant_against_a_per_sequence_reference(m_los
     the product built one sequence and one period at a time, on periodic sequences with losses."""
     from robustsynth.core.network import Network
     from robustsynth.margins.linear import spectral_radius
-    from robustsynth.model.lti import pad_lti_gain
+    from robustsynth.core.delays import pad_lti_gain
 
     net = Network(0.1, 0.01, 0.09, m_lost)
     K = pad_lti_gain(np.array([[-4.0, -2.5]]), 2, 1, 1 + m_lost)

@@ -629,7 +629,7 @@ def lti_gain(config: Any, plant: dict[str, Any], gains_path: str | Path | None,
     """The gain to analyze and where it came from (the gains file and its mapping, or None twice): a gains
     file's K, else the config's controller.gain, else ``default`` (the output directory's gains.json)
     when it exists."""
-    from ..model.lti import check_lti_gain
+    from ..core.delays import check_lti_gain
 
     n, m = plant["B"].shape
     if gains_path is None and plant["K"] is None and default is not None and default.is_file():

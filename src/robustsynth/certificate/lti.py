@@ -38,11 +38,11 @@ def lti_vertex_blocks(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, ver
     floats, with their magnitudes (the same formula on absolute values) and the number of terms per
     entry: ``-[[M' P M - decay^2 P + sum_j (eps_j0 rho_j^2 + sum_l eps_jl rho_jl^2) F_j' F_j, M' P E~],
     [E~' P M, E~' P E~ - diag_j(eps_j0 I + diag_l eps_jl)]]`` for every vertex of ``verts`` = (combos
-    (n_c, d), owner (n_v,), fractions (n_v, d)) (:func:`robustsynth.model.lti.vertex_combinations`);
-    E~ = [E U_0, ..., E U_d-1] over the kept directions (:func:`robustsynth.model.lti.kept_directions`; the
+    (n_c, d), owner (n_v,), fractions (n_v, d)) (:func:`robustsynth.core.delays.vertex_combinations`);
+    E~ = [E U_0, ..., E U_d-1] over the kept directions (:func:`robustsynth.core.delays.kept_directions`; the
     dropped ones by Young's inequality: decay^2 / (1 + YOUNG_DELTA) and a term pbar n_drop / YOUNG_DELTA
     rho_D^2 F' F, pbar a bound on lambda_max(P)); E alone for the full-block multipliers (n_c, d).
-    Instants with equal channels share one (:func:`robustsynth.model.lti.channel_groups`; ``merge=False``:
+    Instants with equal channels share one (:func:`robustsynth.core.delays.channel_groups`; ``merge=False``:
     one per instant): their remainders enter as one sum W = sum_j w_j, and the shared channel's diagonal is
     the parallel sum of their multipliers ``(sum_j (eps_j0 + eps_jl)^-1)^-1`` per direction, rounded down
     (:func:`_parallel_sum_down`), the least that ``sum_j w_j' D_j w_j`` takes over the splits of W: sound for
@@ -57,7 +57,7 @@ def lti_vertex_blocks(pw: Any, P: np.ndarray, eps: np.ndarray, decay: float, ver
     n_s, n = pw.E.shape
     lam, directional = lti_multipliers(pw, eps, len(combos))
     if directional:  # the rounding-level directions are no channel: Young's inequality covers them
-        from ..model.lti import YOUNG_DELTA, channel_groups, kept_directions
+        from ..core.delays import YOUNG_DELTA, channel_groups, kept_directions
 
         kept, dropped = kept_directions(pw)
         groups = channel_groups(pw, kept) if merge else [[j] for j in range(d) if len(kept[j])]
@@ -205,7 +205,7 @@ def recheck_lti(plant: dict, gains: Mapping[str, Any], Ts: float, tau_min: float
     the disturbance or the l2 gain's terms) and every output bound and input limit on the set.
     Returns the CertificateCheck every plant's certificate check is: failed with the reason where the file is
     malformed or for another lifting, where a vertex block or a figure is not proven."""
-    from ..model.lti import disturbance_bound, lifted_rows, lti_depth, over_approximation, vertex_combinations
+    from ..core.delays import disturbance_bound, lifted_rows, lti_depth, over_approximation, vertex_combinations
 
     try:
         K = np.asarray(gains["K"], dtype=float)

@@ -26,7 +26,7 @@ import numpy as np
 
 from ..core.network import Network, max_cyclic_run
 from ..errors import InputError, check_interrupt
-from ..model.lti import lti_depth
+from ..core.delays import lti_depth
 from ..results import Margin, MarginReport
 from .common import bisect
 
@@ -110,7 +110,7 @@ def find_lti_instability(plant: dict, Ts: float, tau_min: float, tau_max: float,
 
 def check_witness(plant: dict, Ts: float, witness: dict, m_lost: int = 0) -> dict:
     """Re-check a witness on the exact lifted matrices, independently of the batched search: the periodic
-    product of :func:`robustsynth.model.lti.exact_closed_loop` at the witness's own switching instants,
+    product of :func:`robustsynth.core.delays.exact_closed_loop` at the witness's own switching instants,
     its spectral radius^(1/p), and a first-order bound on that eigenvalue's rounding error, the
     eigenvalue's condition number times WITNESS_SAFETY n_s eps prod_k ||M_k||.  ``ok``: the radius,
     less that bound, exceeds 1 + EXHIBIT_TOL (the stated margin).  A first-order bound, not verified
@@ -118,7 +118,7 @@ def check_witness(plant: dict, Ts: float, witness: dict, m_lost: int = 0) -> dic
     from scipy.linalg import eig
 
     from ..core.network import s_tilde_sequence
-    from ..model.lti import exact_closed_loop, pad_lti_gain
+    from ..core.delays import exact_closed_loop, pad_lti_gain
 
     A, B, K = plant["A"], plant["B"], plant["K"]
     n, m = B.shape
@@ -153,9 +153,9 @@ def _certify(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int
 def block_size(n: int, m: int, d: int, tau_min: float, tau_hi: float, Ts: float) -> int:
     """The analysis LMIs' vertex block size, estimated before the over-approximation is built: the lifted state
     and n channels per distinct range of the instants (instants on equal ranges share theirs,
-    :func:`robustsynth.model.lti.channel_groups`; an instant on a point has a rounding-level remainder, no
-    channel, :func:`robustsynth.model.lti.kept_directions`, unless every remainder is at that level)."""
-    from ..model.lti import piece_grid
+    :func:`robustsynth.core.delays.channel_groups`; an instant on a point has a rounding-level remainder, no
+    channel, :func:`robustsynth.core.delays.kept_directions`, unless every remainder is at that level)."""
+    from ..core.delays import piece_grid
 
     ranges = {(th.tobytes(), w.tobytes()) for th, w in zip(*piece_grid(tau_min, tau_hi, Ts, d, 1)) if np.any(w > 0)}
     return n + d * m + n * max(len(ranges), 1)
@@ -164,10 +164,10 @@ def block_size(n: int, m: int, d: int, tau_min: float, tau_hi: float, Ts: float)
 def budget_pieces(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lost: int, pieces: int
                   ) -> tuple[int, int, int, int]:
     """(d_hi, the pieces per instant within the budget, their vertices, the budget): ``pieces`` reduced while
-    the vertices (:func:`robustsynth.model.lti.vertex_count`) exceed MAX_VERTICES or what MAX_COEFFICIENTS
+    the vertices (:func:`robustsynth.core.delays.vertex_count`) exceed MAX_VERTICES or what MAX_COEFFICIENTS
     or MAX_SCALING allow for blocks of :func:`block_size` (one piece is kept, vertices above the budget then
     say it is beyond it)."""
-    from ..model.lti import vertex_count
+    from ..core.delays import vertex_count
 
     n, m = plant["B"].shape
     d = max(lti_depth(tau_max, m_lost, Ts), (plant["K"].shape[1] - n) // m)
@@ -186,7 +186,7 @@ def lti_certificate(plant: dict, Ts: float, tau_min: float, tau_max: float, m_lo
     """(the analysis of ``plant["K"]``'s certificate at delays [tau_min, tau_max] with m_lost losses in a
     row, K padded to the lifting, the pieces used): the pieces within the budget (:func:`budget_pieces`); a
     problem beyond it even with one piece is not attempted (certified False, status 'budget')."""
-    from ..model.lti import over_approximation, pad_lti_gain
+    from ..core.delays import over_approximation, pad_lti_gain
     from ..synthesis.lti import analyze_lti
 
     n, m = plant["B"].shape
@@ -425,7 +425,8 @@ def linear_margin(plant: Any, K: Any, settings: Any, say: Callable[[str], None])
     """A linear plant's margins (:func:`robustsynth.margins.margin` on a
     :class:`~robustsynth.plants.linear.LinearPlant`): delay_max and dropouts of the gain ``K`` on the plant's
     network, with ``settings`` (``LtiMarginConfig``: pieces, tolerance, delay_far)."""
-    from ..model.lti import UNCONTROLLABLE_WARNING, check_lti_gain
+    from ..core.delays import check_lti_gain
+    from ..model.lti import UNCONTROLLABLE_WARNING
     from ..report.markdown import LINEAR_READING
 
     try:

@@ -11,7 +11,7 @@ from ..config import Config
 from ..errors import ConfigError
 from .compensation import certificate_config, compensation_of
 from .kinematics import J_inverse, J_matrix
-from .lifting import delay_indices, instant_ranges, lift
+from ..core.lifting import delay_indices, instant_ranges, lift
 from .linearize import Gamma, Gamma_D, Phi, continuous_matrices
 from .slip import lateral_row, slip_corners, slip_matrix, slip_parameter_ranges
 from .uncertainty import embed, slip_box

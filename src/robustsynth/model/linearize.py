@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["continuous_matrices", "Phi", "Gamma", "Gamma_D", "van_loan"]
+__all__ = ["continuous_matrices", "Phi", "Gamma", "Gamma_D", "van_loan", "lifted_exact"]
 
 
 def continuous_matrices(V: float, D: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -46,3 +46,12 @@ def van_loan(A: np.ndarray, B: np.ndarray, h: float) -> tuple[np.ndarray, np.nda
     M[:n, n:] = B
     E = expm(M * h)
     return E[:n, :n], E[:n, n:]
+
+
+def lifted_exact(A: np.ndarray, B: np.ndarray, B_D: np.ndarray, Ts: float, s_tilde: np.ndarray):
+    """The robot's exact (A~(s~), B~(s~), B~_d) (:func:`robustsynth.core.lifting.lift`) for switching instants ``s_tilde[..., j]``, j = 0..d_hi-1."""
+    from ..core.lifting import lift
+
+    s_tilde = np.asarray(s_tilde, dtype=float)
+    Gammas = Gamma(A, B, Ts - s_tilde)
+    return lift(Phi(A, Ts), Gammas, Gamma(A, B, Ts), Gamma_D(A, B_D, Ts))

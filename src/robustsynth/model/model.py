@@ -25,7 +25,7 @@ import numpy as np
 
 from ..config import Config
 from ..core.network import Network, s_tilde_sequence
-from .lifting import lifted_exact
+from .linearize import lifted_exact
 from .slip import (SLIP_PARAMETERS, check_physical_feasibility, corner_weights, lateral_row, next_corner_weights,
                    nominal_slip, slip_matrix, slip_parameter_ranges)
 from .uncertainty import SlipBox, UncertainInstant, delta_for

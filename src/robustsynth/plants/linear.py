@@ -5,7 +5,7 @@
 disturbance E and its bound, the outputs C, the input limits, the names) with its
 :class:`~robustsynth.core.network.Network`.  Its lifted map is exact (matrix exponentials of the
 augmented matrix); its vertex description is the guaranteed over-approximation of the open loop
-(:func:`robustsynth.model.lti.over_approximation` at K = 0, ``pieces`` per instant's range).
+(:func:`robustsynth.core.delays.over_approximation` at K = 0, ``pieces`` per instant's range).
 """
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 
 from ..core.network import Network
-from ..model.lti import (coverage_check, exact_lifted, lti_depth, lti_plant, lti_plant_from, over_approximation,
-                         pad_lti_gain)
+from ..core.delays import coverage_check, exact_lifted, lti_depth, over_approximation, pad_lti_gain
+from ..model.lti import lti_plant, lti_plant_from
 
 __all__ = ["LinearPlant", "COVERAGE_RECONSTRUCTION_TOL"]
 
@@ -107,14 +107,14 @@ class LinearPlant:
                 net.delay_max + net.max_lost * net.sampling_time)
 
     def description(self) -> Any:
-        """The open loop's guaranteed over-approximation (``robustsynth.model.lti.over_approximation``
+        """The open loop's guaranteed over-approximation (``robustsynth.core.delays.over_approximation``
         at K = 0, ``pieces`` per instant's range)."""
         K0, Ts, lo, hi = self._open_loop()
         return over_approximation(self.A, self.B, K0, Ts, lo, hi, self.d_hi, self.pieces)
 
     def coverage_figures(self, pw: Any, samples: int = 10_000, seed: int = 0) -> dict[str, float]:
         """The description ``pw`` against the exact map at ``samples`` random in-order instants
-        (``robustsynth.model.lti.coverage_check``: the worst remainder / bound, and the decomposition's residual)."""
+        (``robustsynth.core.delays.coverage_check``: the worst remainder / bound, and the decomposition's residual)."""
         K0, Ts, lo, hi = self._open_loop()
         return coverage_check(self.A, self.B, K0, Ts, lo, hi, self.d_hi, pw, samples=samples, seed=seed)
 

@@ -470,7 +470,7 @@ def _same_lti_plant(gains: dict[str, Any], cfg: Any, config_path: str | Path) ->
     sampling time and lifting (the exported law has no config of its own to disagree with)."""
     from ..config import is_lti
     from ..errors import InputError
-    from ..model.lti import lti_depth
+    from ..core.delays import lti_depth
 
     if not is_lti(cfg):
         raise InputError(f"--config: {config_path} is the tracked robot's; the gains are a linear plant's")

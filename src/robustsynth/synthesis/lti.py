@@ -1,7 +1,7 @@
 """Robust stability of a given gain on any linear plant over the network (``plant: kind: lti``,
 docs/theory.md §14): one quadratic Lyapunov function for every admissible delay sequence.
 
-With the over-approximation of :func:`robustsynth.model.lti.over_approximation` the closed loop is
+With the over-approximation of :func:`robustsynth.core.delays.over_approximation` the closed loop is
 ``xi+ = M(t) xi + sum_j E w_j``, M affine in the instants' positions t and ``|w_j| <= rho_j |F_j xi|``.
 ``V = xi' P xi`` decreases by the factor ``decay^2`` for every such step when, at every vertex of the
 in-order instants' polytope (V(M(t) xi + E w) is convex in t, so the vertices suffice) and with
@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from ..model.lti import YOUNG_DELTA, channel_groups, kept_directions, vertex_combinations
+from ..core.delays import YOUNG_DELTA, channel_groups, kept_directions, vertex_combinations
 from ..results import AnalysisResult
 from .lmis import _sym_basis
 from .result import SynthesisResult
@@ -49,9 +49,9 @@ def _vertex_matrices(pw, verts: tuple) -> np.ndarray:
 
 def channel_layout(pw, merge: bool = True) -> tuple:
     """The analysis LMIs' remainder channels: (kept directions and the dropped ones' bounds per instant
-    (:func:`robustsynth.model.lti.kept_directions`), the instants with dropped directions, the decay's factor
+    (:func:`robustsynth.core.delays.kept_directions`), the instants with dropped directions, the decay's factor
     for them (Young's inequality, as in :func:`robustsynth.certificate.lti.lti_vertex_blocks`), the groups of
-    instants sharing a channel (:func:`robustsynth.model.lti.channel_groups`; ``merge=False``: one per
+    instants sharing a channel (:func:`robustsynth.core.delays.channel_groups`; ``merge=False``: one per
     instant), each group's kept directions, and the channels E~ (n_s, their total width))."""
     n = pw.E.shape[1]
     kept, dropped = kept_directions(pw)
@@ -70,7 +70,7 @@ def analyze_lti(pw, decay: float = DECAY, solver: str = "clarabel", merge: bool 
     multiplier: one on the full block (|w_j| <= rho_j |F_j xi|) and one per direction (|w_jl| <= rho_jl |F_j
     xi|); the LMIs hold when the sum of the S-procedure terms does, so either kind alone, or both, may
     carry the proof (a remainder along one direction: the directional ones are far tighter; an isotropic
-    one: the full block).  Instants with equal channels (:func:`robustsynth.model.lti.channel_groups`: equal
+    one: the full block).  Instants with equal channels (:func:`robustsynth.core.delays.channel_groups`: equal
     ranges) share one channel and one set of multipliers per combination (``merge=False``: a channel and
     multipliers per instant): their remainders enter as one sum W, and with a multiplier a on each of the
     group's g instants every split of W costs at least a |W|^2 / g, so the channel's diagonal is -a / g,
@@ -220,7 +220,7 @@ class _Vertices:
     rows ``F_j = Fa_j (+ K for j = 0)`` (docs/theory.md §15)."""
 
     def __init__(self, plant: dict, Ts: float, tau_min: float, tau_hi: float, d: int, pieces: int) -> None:
-        from ..model.lti import over_approximation
+        from ..core.delays import over_approximation
 
         A, B = plant["A"], plant["B"]
         n, m = B.shape
@@ -292,7 +292,7 @@ def _vertices_of(plant: dict, Ts: float, tau_min: float, tau_hi: float, d: int, 
         V = _Vertices(plant, Ts, tau_min, tau_hi, d, pieces)
     except ValueError as exc:
         raise InputError(f"plant: {exc} (delays up to {tau_hi:g} s)") from None
-    from ..model.lti import lifted_rows
+    from ..core.delays import lifted_rows
 
     return V, lifted_rows(plant["C"], V.n_s)
 
@@ -363,7 +363,7 @@ def _prove(plant: dict, V: _Vertices, Ts: float, tau_min: float, tau_hi: float, 
     """The gain K = Y Q^-1 and its certificate P = Q^-1, eta = 1/eps, re-checked in the primal form on
     the over-approximation built for K itself (:func:`robustsynth.certificate.lti.check_lti_certificate`)."""
     from ..certificate.lti import check_lti_scaled
-    from ..model.lti import over_approximation
+    from ..core.delays import over_approximation
 
     Q = (Q + Q.T) / 2.0
     K = np.linalg.solve(Q, Y.T).T
@@ -434,7 +434,7 @@ def synthesize_lti(plant: dict, Ts: float, tau_min: float, tau_max: float, m_los
         The solver failed, or no point it returned was proven in numpy.
     """
     from ..errors import InputError
-    from ..model.lti import lti_depth
+    from ..core.delays import lti_depth
 
     from ..objectives import objective as descriptor
     from .objectives import design_of
@@ -483,7 +483,7 @@ class LinearJob:
 
     def per_period_gain(self) -> float:
         """g = int_0^Ts ||e^{A r} E|| dr: a disturbance of sup-norm 1 over a period moves the state by at most g."""
-        from ..model.lti import disturbance_bound
+        from ..core.delays import disturbance_bound
 
         return disturbance_bound(self.plant["A"], self.plant["E"], 1.0, self.Ts)
 
@@ -563,7 +563,7 @@ class _LineSearch:
 
     def __init__(self, plant: dict, V: _Vertices, C: np.ndarray, Ts: float, tau_min: float, tau_hi: float, pieces: int,
                  dist: bool, decay: float, alpha_points: int, threads: int | None, solver: str, say) -> None:
-        from ..model.lti import disturbance_bound
+        from ..core.delays import disturbance_bound
 
         self.plant, self.V, self.C, self.Ts, self.tau_min, self.tau_hi, self.pieces = plant, V, C, Ts, tau_min, tau_hi, pieces
         self.dist, self.solver, self.say = dist, solver, say

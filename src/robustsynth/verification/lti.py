@@ -119,7 +119,7 @@ def _checked_certificate(plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, t
     matrix symmetrized, and the lifting d; InputError where P does not fit the lifted state, K or P is not
     finite, or P is not positive definite (the certified set must be an ellipsoid)."""
     from ..errors import InputError
-    from ..model.lti import lti_depth, pad_lti_gain
+    from ..core.delays import lti_depth, pad_lti_gain
 
     n, m = plant["B"].shape
     d = max(lti_depth(tau_max, m_lost, Ts), (K.shape[1] - n) // m)
@@ -141,20 +141,35 @@ def _frozen_check(plant: dict, K: np.ndarray, Ts: float, tau_min: float, tau_max
     """The check "frozen-delay spectral radius": the exact closed loop's spectral radius at CONSTANT_DELAYS
     constant delays in [tau_min, tau_max] (with the losses) is below 1; and its trace (delay, radius).
     The radius is the robot's frozen check's (:func:`~robustsynth.verification.lifted.frozen_spectral_radius`,
-    on the plant as a :class:`~robustsynth.plants.linear.LinearPlant`)."""
-    from ..plants.linear import LinearPlant
+    on the plant's exact lifted map)."""
+    from ..core.delays import lti_depth, pad_lti_gain
     from .lifted import frozen_spectral_radius
 
-    lin = LinearPlant(plant, Network(Ts, tau_min, tau_max, m_lost))
-    Kp = lin.padded_gain(K)  # a gain may keep more commands than the delays need
-    d = (Kp.shape[1] - lin.n_x) // lin.n_u
-    taus = lin.network.grid(CONSTANT_DELAYS)
+    n, m = plant["B"].shape
+    d = max(lti_depth(tau_max, m_lost, Ts), (K.shape[1] - n) // m)  # a gain may keep more commands than the delays need
+    Kp = pad_lti_gain(K, n, m, d)
+    taus = Network(Ts, tau_min, tau_max, m_lost).grid(CONSTANT_DELAYS)
     s = s_tilde_sequence(np.repeat(taus[:, None], d + 1, axis=1), Ts, d)[:, 0]
-    rho = frozen_spectral_radius(lin, Kp, s)
+    rho = frozen_spectral_radius(_ExactLoop(plant["A"], plant["B"], Ts), Kp, s)
     trace = {"delay": taus.tolist(), "spectral_radius": rho.tolist()}
     i = int(np.argmax(rho))
     return (Check("frozen-delay spectral radius", bool(rho[i] < 1.0), float(rho[i]), 1.0,
                   f"worst at constant delay {taus[i]:.6g} s").to_dict(), trace)
+
+
+class _ExactLoop:
+    """A linear plant's exact lifted map, as the Plant protocol's judges read it (no uncertain parameter)."""
+
+    def __init__(self, A: np.ndarray, B: np.ndarray, Ts: float) -> None:
+        self.A, self.B, self.Ts = A, B, Ts
+
+    def parameter_corners(self) -> np.ndarray:
+        return np.zeros((1, 0))
+
+    def lifted(self, s_tilde: np.ndarray, theta: Any = None) -> tuple[np.ndarray, np.ndarray]:
+        from ..core.delays import exact_lifted
+
+        return exact_lifted(self.A, self.B, self.Ts, s_tilde)
 
 
 class _BoundaryRuns:
@@ -164,7 +179,7 @@ class _BoundaryRuns:
 
     def __init__(self, plant: dict, K: np.ndarray, P: np.ndarray, Ts: float, figures: dict, runs: int,
                  rng: np.random.Generator, traces: dict[str, Any]) -> None:
-        from ..model.lti import gamma, lifted_rows
+        from ..core.delays import gamma, lifted_rows
 
         self.P, self.K, self.rng, self.traces = P, K, rng, traces
         self.n = plant["B"].shape[0]
@@ -253,7 +268,7 @@ def _fixed_sequences(boundary: _BoundaryRuns, plant: dict, K: np.ndarray, Ts: fl
                      m_lost: int, d: int, periods: int, rng: np.random.Generator) -> None:
     """The runs along delay sequences fixed in advance (:meth:`robustsynth.core.network.Network.families`), ``periods`` each, with the
     disturbance in a random direction (the random family) or the worst one (the others)."""
-    from ..model.lti import exact_closed_loop
+    from ..core.delays import exact_closed_loop
 
     for name, seq in Network(Ts, tau_min, tau_max, m_lost).families(rng, boundary.R, periods + d + m_lost + 1).items():
         s = s_tilde_sequence(seq, Ts, d)[:, :periods]
@@ -272,7 +287,7 @@ def _greedy_adversary(boundary: _BoundaryRuns, plant: dict, K: np.ndarray, Ts: f
     """The greedy adversary, up to 60 periods: each packet's delay chosen from a grid of GREEDY_GRID to
     maximize the next V, the disturbance in its worst direction (losses are left to the families: a lost
     packet's effect depends on its successor's delay, not chosen yet)."""
-    from ..model.lti import exact_closed_loop
+    from ..core.delays import exact_closed_loop
 
     A, B, R = plant["A"], plant["B"], boundary.R
     grid = np.unique(Network(Ts, tau_min, tau_max).grid(GREEDY_GRID))
@@ -303,7 +318,7 @@ def _l2_gain_check(plant: dict, K: np.ndarray, Ts: float, tau_min: float, tau_ma
     disturbance held over each period (w_k) to z_k = C x_k, from rest: the largest singular value
     of the map (w_0..w_{N-1}) -> (z_1..z_N), which must be <= gamma (the certificate covers any w(t)
     with sup over period k of ||w|| in place of |w_k|)."""
-    from ..model.lti import exact_closed_loop, gamma as gamma_fn, lifted_rows
+    from ..core.delays import exact_closed_loop, gamma as gamma_fn, lifted_rows
 
     A, B = plant["A"], plant["B"]
     n = A.shape[0]
@@ -342,7 +357,7 @@ def certified_gain(plant: Any, gains: Any, where: str = "gains") -> tuple[np.nda
 
     from ..artifacts.gains import same_plant
     from ..errors import InputError
-    from ..model.lti import check_lti_gain
+    from ..core.delays import check_lti_gain
 
     arrays, n, m = plant.arrays, plant.n_x, plant.n_u
     if getattr(gains, "plant_kind", None) == "lti":

@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-__all__ = ["delay_indices", "instant_ranges", "lift", "lifted_exact"]
+__all__ = ["delay_indices", "instant_ranges", "lift"]
 
 _INT_TOL = 1e-9
 
@@ -66,12 +66,3 @@ def lift(Phi: np.ndarray, Gammas: np.ndarray, Gamma_Ts: np.ndarray, Gamma_D: np.
     Bd = np.zeros((n_s, Gamma_D.shape[1]))
     Bd[:n_e] = Gamma_D
     return A, B, np.broadcast_to(Bd, batch + Bd.shape).copy()
-
-
-def lifted_exact(A: np.ndarray, B: np.ndarray, B_D: np.ndarray, Ts: float, s_tilde: np.ndarray):
-    """Exact (A~(s~), B~(s~), B~_d) for switching instants ``s_tilde[..., j]``, j = 0..d_hi-1."""
-    from .linearize import Gamma, Gamma_D, Phi
-
-    s_tilde = np.asarray(s_tilde, dtype=float)
-    Gammas = Gamma(A, B, Ts - s_tilde)
-    return lift(Phi(A, Ts), Gammas, Gamma(A, B, Ts), Gamma_D(A, B_D, Ts))
