@@ -481,11 +481,15 @@ def test_the_cliques_of_sparse_patterns() -> None:
     assert clique_sizes(two) == (5, 5)
 
 
+def _robot_model():
+    return build_model(make_config())
+
+
 def test_every_plants_synthesis_returns_one_result_schema(ub_result) -> None:
     """Issue 52: the robot's and a linear plant's synthesize return the same type, with the same fields and the same
     to_dict keys (JSON-able), a CertificateCheck in the robot's form (each LMI family's max_eig against its
-    threshold, proven in verified arithmetic; a figure's value against its limit), the figures as ``certified`` and the set's matrix as ``P``; the old linear name
-    warns and is that type; a linear result does not write itself as a robot's gains file."""
+    threshold, proven in verified arithmetic; a figure's value against its limit), the figures as ``certified`` and
+    the set's matrix as ``P``; the old linear names warn and is that type; a result is saved only for its own kind of plant, and a linear one only with its config."""
     import json
     import warnings
 
@@ -515,8 +519,10 @@ def test_every_plants_synthesis_returns_one_result_schema(ub_result) -> None:
         from robustsynth.synthesis.lti import LtiAnalysis
     from robustsynth.results import AnalysisResult
     assert LtiAnalysis is AnalysisResult
-    with pytest.raises(InputError, match="writes the tracked robot's gains; this is a lti plant's"):
-        lin.save(None, ".")
+    with pytest.raises(InputError, match="has no config to record"):
+        lin.save(plant, ".")
+    with pytest.raises(InputError, match="this is a lti plant's gain; the model given is a tracked-robot's"):
+        lin.save(_robot_model(), ".")
 
 
 def test_a_linear_proof_record_that_failed_is_a_failed_certificate_check() -> None:
@@ -533,3 +539,22 @@ def test_a_linear_proof_record_that_failed_is_a_failed_certificate_check() -> No
     # floating point passes but the verified test did not: not passed, said as rounding
     rounding = lti_check({"ok": False, "failing": 0, "vertices": 1, "min_eig": 1.0}, {})
     assert not rounding.passed and rounding.checks[0]["status"] == "not proven (rounding)"
+
+
+def test_a_linear_result_saves_itself_and_verify_takes_the_path(tmp_path) -> None:
+    """SynthesisResult.save for a linear plant from its config: the gains file synthesize writes (its config, K, the
+    certificate; without the delay margin the command adds), which robustsynth.verify reads back by path and passes."""
+    from pathlib import Path
+
+    import robustsynth
+    from robustsynth.artifacts.gains import load_gains
+
+    root = Path(__file__).resolve().parents[2]
+    plant = robustsynth.LinearPlant.from_config(robustsynth.load_config(root / "configs" / "dc-motor.yaml"),
+                                                str(root / "configs"))
+    res = synthesize(plant)
+    assert {p.name for p in res.save(plant, tmp_path)} == {"gains.json", "gains.mat"}
+    gd = load_gains(tmp_path / "gains.json")
+    assert gd["kind"] == "lti" and np.array_equal(np.asarray(gd["K"]), res.K) and "delay_margin" not in gd
+    assert load_gains(tmp_path / "gains.mat") == gd
+    assert robustsynth.verify(plant, tmp_path / "gains.json", runs=4).passed

@@ -54,16 +54,24 @@ class SynthesisResult:
                             "timings": self.timings, "notes": list(self.notes)})
 
     def save(self, model: Any, outdir: Any) -> list[Any]:
-        """Write gains.json and gains.mat of this result for ``model`` into ``outdir`` (atomically,
-        gains.json last): what ``robustsynth synthesize`` writes, without the report (the tracked robot's; a linear
-        plant's gain is written by ``robustsynth synthesize``, whose file records its config)."""
+        """Write gains.json and gains.mat of this result for ``model`` (the plant it was synthesized for) into
+        ``outdir`` (atomically, gains.json last): what ``robustsynth synthesize`` writes, without the report (and,
+        for a linear plant, without the delay margin the command adds beside it).  A linear plant records its
+        config: one built from its matrices has none (InputError)."""
         from ..artifacts.files import commit_files, json_bytes, mat_bytes
-        from ..artifacts.gains import gains_dict, gains_mat_vars
+        from ..artifacts.gains import gains_dict, gains_mat_vars, lti_gains_dict, lti_gains_mat_vars
         from ..errors import InputError
 
-        if self.plant_kind != "tracked-robot":
-            raise InputError(f"SynthesisResult.save: writes the tracked robot's gains; this is a {self.plant_kind} "
-                             "plant's (robustsynth synthesize CONFIG writes its gains.json)")
-        gd = gains_dict(model, self)
-        return commit_files(outdir, {"gains.mat": mat_bytes(gains_mat_vars(gd)), "gains.json": json_bytes(gd)},
-                            primary="gains.json")
+        if getattr(model, "plant_kind", "tracked-robot") != self.plant_kind:
+            raise InputError(f"SynthesisResult.save: this is a {self.plant_kind} plant's gain; the model given is a "
+                             f"{getattr(model, 'plant_kind', type(model).__name__)}'s")
+        if self.plant_kind == "lti":
+            if model.config is None:
+                raise InputError("SynthesisResult.save: a linear plant built from its matrices has no config to record "
+                                 "in gains.json: build it with LinearPlant.from_config")
+            gd = lti_gains_dict(model.config, model.arrays, self)
+            mat = lti_gains_mat_vars(gd)
+        else:
+            gd = gains_dict(model, self)
+            mat = gains_mat_vars(gd)
+        return commit_files(outdir, {"gains.mat": mat_bytes(mat), "gains.json": json_bytes(gd)}, primary="gains.json")
