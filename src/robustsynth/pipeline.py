@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
-from .artifacts.files import remove_files, set_aside
+from .artifacts.files import SCHEMA_VERSION, remove_files, set_aside
 from .artifacts.results_dir import RUN_FILES, SYNTHESIS_FILES, VERIFICATION_FILES, clear_foreign, figure_files
 from .config import Config
 from .model import Model, build_model, coverage_check
@@ -574,11 +574,11 @@ class _LinearRecords:
     def model(plant: Any) -> tuple[dict[str, Any], dict[str, bytes]]:
         """The lifted model and its guaranteed over-approximation (open loop, K = 0), with the coverage test on
         10 000 random instants."""
-        from .artifacts.files import json_bytes
+        from .artifacts.files import json_bytes, record_header
 
         pw = plant.description()
         cov = plant.coverage_figures(pw)
-        data = {"kind": "lti", "config": plant.name, "n": plant.n_x, "m": plant.n_u, "lifting": plant.d_hi,
+        data = {**record_header(), "kind": "lti", "config": plant.name, "n": plant.n_x, "m": plant.n_u, "lifting": plant.d_hi,
                 "lifted_states": plant.n_s, "controllable": plant.arrays["controllable"], "pieces": plant.pieces,
                 "instants": [{"theta": th.tolist(), "width": w.tolist(), "remainder_bound": r.tolist(),
                               "directions": U.tolist(), "direction_bounds": rd.tolist()}
@@ -632,9 +632,11 @@ class _LinearRecords:
     @staticmethod
     def verification_record(plant: Any, res: Any, gp: Path, outdir: Path, gains: dict[str, Any],
                             searched: dict[str, Any] | None) -> dict[str, Any]:
+        from .artifacts.files import record_header
         from .artifacts.gains import gains_id
 
-        return dict(res.to_dict(), gains=str(gp), gains_id=gains_id(gains), certificate_searched=searched)
+        return {**record_header(), **res.to_dict(), "gains": str(gp), "gains_id": gains_id(gains),
+                "certificate_searched": searched}
 
     @staticmethod
     def verification_markdown(plant: Any, res: Any, vd: dict[str, Any], rel: dict[str, str]) -> str:
@@ -644,7 +646,7 @@ class _LinearRecords:
 
     @staticmethod
     def failed_summary(plant: Any, status: str, message: str) -> dict[str, Any]:
-        return {"config": plant.name, "kind": "lti", "status": status, "message": message}
+        return {"schema_version": SCHEMA_VERSION, "config": plant.name, "kind": "lti", "status": status, "message": message}
 
     @staticmethod
     def run_files(ms: ModelStage, ss: SynthesisStage, vs: VerificationStage, outdir: Path, runs: int | None,
@@ -653,8 +655,8 @@ class _LinearRecords:
         from .report.synthesis import lti_synthesis_markdown
         from .report.verification import lti_verification_markdown
 
-        summary = {"config": ms.model.name, "kind": "lti", "certified": ss.gains["certified"],
-                   "verification": {"passed": vs.data["passed"], "checks": vs.data["checks"]}}
+        summary = {"schema_version": SCHEMA_VERSION, "config": ms.model.name, "kind": "lti",
+                   "certified": ss.gains["certified"], "verification": {"passed": vs.data["passed"], "checks": vs.data["checks"]}}
         return {"report.md": (lti_synthesis_markdown(ss.gains) + "\n" + lti_verification_markdown(vs.data)).encode("utf-8"),
                 "summary.json": json_bytes(summary)}
 

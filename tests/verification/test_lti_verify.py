@@ -341,6 +341,13 @@ def test_run_takes_a_linear_plants_config(tmp_path) -> None:
     gd = json.loads((tmp_path / "a" / "gains.json").read_text())
     assert gd == res.synthesis.gains and gd["kind"] == "lti" and np.array_equal(res.synthesis.result.K, gd["K"])
     assert json.loads((tmp_path / "a" / "summary.json").read_text())["verification"]["passed"] is True
+    from robustsynth import __version__
+    from robustsynth.artifacts.files import SCHEMA_VERSION
+
+    for name in ("model.json", "gains.json", "verification.json"):  # every record says which schema and version wrote it
+        data = json.loads((tmp_path / "a" / name).read_text())
+        assert (data["schema_version"], data["robustsynth_version"]) == (SCHEMA_VERSION, __version__), name
+    assert json.loads((tmp_path / "a" / "summary.json").read_text())["schema_version"] == SCHEMA_VERSION
     assert {"gains.json", "verification.json", "report.md", "summary.json"} <= {p.name for p in res.files}
     for bad, match in (({"multiplier": "full"}, "^multiplier: a tracked robot's option"), ({"diagnose": True}, "^diagnose")):
         with pytest.raises(InputError, match=match):

@@ -23,9 +23,16 @@ import numpy as np
 
 from ..errors import OutputError
 
-__all__ = ["make_dir", "check_writable_dir", "writable_dir", "output_error", "atomic_write", "remove_files", "set_aside", "STALE_DIR", "to_jsonable", "json_bytes", "mat_bytes", "commit_files", "sha256", "SCHEMA_VERSION"]
+__all__ = ["make_dir", "check_writable_dir", "writable_dir", "output_error", "atomic_write", "remove_files", "set_aside", "STALE_DIR", "to_jsonable", "json_bytes", "mat_bytes", "commit_files", "sha256", "SCHEMA_VERSION", "record_header"]
 
 SCHEMA_VERSION = 1
+
+
+def record_header() -> dict[str, Any]:
+    """What every JSON record robustsynth writes begins with, any plant: the schema and the version that wrote it."""
+    from .. import __version__
+
+    return {"schema_version": SCHEMA_VERSION, "robustsynth_version": __version__}
 
 
 def _umask() -> int:

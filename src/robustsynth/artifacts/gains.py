@@ -533,8 +533,11 @@ def lti_gains_dict(config: Any, plant: dict[str, Any], design: Any, overrides: d
 
     n, m = plant["B"].shape
     net = config.network
+    from .files import record_header
+
     cert = design.certificate
     out = {
+        **record_header(),
         "kind": "lti",
         "K": design.K,
         "law": "u_k = K xi_k, xi_k = [x_k; u_{k-1}; ...; u_{k-d}]",
