@@ -48,6 +48,12 @@ def test_every_plant_goes_through_the_same_stages(tmp_path, name, kind) -> None:
     assert vd["gains_id"] == gd["gains_id"] and vd["passed"] is bool(vs.result.passed) and vs.result.checks
     for record in (_json(out / "model.json"), gd, vd):  # every record says which schema and version wrote it
         assert (record["schema_version"], record["robustsynth_version"]) == (SCHEMA_VERSION, __version__)
+    # every plant's verdict answers alike: passed, checks, failed_checks, details, to_dict (plain data)
+    res = vs.result
+    assert res.failed_checks == [c["name"] for c in res.checks if not c["passed"]] and isinstance(res.details, dict)
+    d = json.loads(json.dumps(res.to_dict()))
+    assert d["passed"] is bool(res.passed) and [c["name"] for c in d["checks"]] == [c["name"] for c in res.checks]
+    assert set(res.details) <= set(d)
     # a new gain makes the verification of the old one stale: set aside, never left beside it
     synthesis_stage(plant, out, compare=False, diagnose=None if kind == "lti" else False)
     assert not (out / "verification.json").exists() and list((out / "stale").rglob("verification.json"))

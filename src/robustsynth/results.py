@@ -35,8 +35,8 @@ class Check:
 class Verdict:
     """A gain's verification on a plant: whether every check passed and the checks (``Check.to_dict()``'s keys),
     with the plant's own record of how they were run (``details``: a linear plant's delay families, starts,
-    periods, traces).  The robot's ``VerificationResult`` answers ``passed``, ``checks`` and ``failed_checks``
-    alike."""
+    periods, traces).  The robot's ``VerificationResult`` answers ``passed``, ``checks``, ``failed_checks``,
+    ``details`` and ``to_dict()`` alike."""
 
     passed: bool
     checks: tuple[dict[str, Any], ...]

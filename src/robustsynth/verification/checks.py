@@ -43,6 +43,11 @@ __all__ = ["VerificationResult", "verify"]
 
 @dataclass(frozen=True)
 class VerificationResult:
+    """The tracked robot's verdict: ``passed``, ``checks`` and ``failed_checks`` as every plant's
+    :class:`~robustsynth.results.Verdict` has them, ``details`` (the certificate's re-check, the Monte Carlo, lifted
+    and frozen-delay records) and ``to_dict()`` (the verdict with its details, plain data); the simulations behind
+    it for the figures and the logs."""
+
     passed: bool
     checks: tuple[dict[str, Any], ...]
     certificate: CertificateCheck
@@ -63,6 +68,20 @@ class VerificationResult:
     @property
     def failed_checks(self) -> list[str]:
         return failed_names(self.checks)
+
+    @property
+    def details(self) -> dict[str, Any]:
+        """How the checks were run: the certificate's numpy re-check and the Monte Carlo, lifted-model and
+        frozen-delay records (a linear plant's Verdict has its delay families, starts and traces here)."""
+        return {"certificate": self.certificate.to_dict(), "monte_carlo": self.monte_carlo, "lifted": self.lifted,
+                "frozen": self.frozen}
+
+    def to_dict(self) -> dict[str, Any]:
+        """``passed``, ``checks`` and the details as plain data, as a Verdict's ``to_dict`` (verification.json adds
+        the config, the gain's id and the figures' summaries)."""
+        from ..artifacts.files import to_jsonable
+
+        return to_jsonable({"passed": bool(self.passed), "checks": list(self.checks), **self.details})
 
 
 def _V(xi: np.ndarray, P: np.ndarray) -> np.ndarray:
