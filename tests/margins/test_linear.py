@@ -20,7 +20,7 @@ from robustsynth.config import load_config
 from robustsynth.margins.linear import lti_margins
 from robustsynth.model.lti import lti_plant
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 A = np.array([[0.0, 1.0], [0.0, -0.1]])
 B = np.array([[0.0], [0.1]])
 K = -np.array([[3.75, 11.5]])
@@ -296,7 +296,7 @@ def test_a_gain_made_for_another_plant_or_the_robot_is_refused(tmp_path) -> None
     from robustsynth.artifacts.gains import lti_gain
     from robustsynth.pipeline import plant_of
 
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     cfg = load_config(root / "configs" / "zbp.yaml")
     plant = plant_of(cfg, root / "configs" / "zbp.yaml").arrays
     other = tmp_path / "other.json"

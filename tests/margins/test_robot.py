@@ -18,7 +18,7 @@ from robustsynth.synthesis import synthesize
 from robustsynth.synthesis.analysis import analyze_stability
 from robustsynth.verification.lifted import closed_loop_run
 
-from .conftest import BASE_CONFIG, make_config
+from ..conftest import BASE_CONFIG, make_config
 
 GROWTH_RTOL = 0.01  # simulated per-step growth rate vs spectral radius^(1/p) of the period product
 PERIODS = 200  # periods simulated for the growth rate
@@ -164,7 +164,7 @@ def test_icr_margins_per_slip_parameter() -> None:
     from robustsynth.config import load_config
     from robustsynth.margins.robot import _icr_margin
 
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     cfg = load_config(root / "configs" / "icr-physics.yaml")
     K = np.asarray(load_gains(root / "results" / "baselines" / "icr-physics" / "gains.json")["K"], dtype=float)
     x = _icr_margin(cfg, K, "common", lambda _m: None, "icr_offset_max")
@@ -192,7 +192,7 @@ def test_margin_without_config_takes_the_gains_own_config() -> None:
     from robustsynth.artifacts.inputs import gains_own_config
     from robustsynth.config import load_config
 
-    root = Path(__file__).resolve().parents[1] / "results" / "baselines"
+    root = Path(__file__).resolve().parents[2] / "results" / "baselines"
     default = load_config(None)
     cfg = gains_own_config(default, root / "nonlinear-proof" / "gains.json")
     assert cfg.name == "nonlinear-proof" and cfg.slip.right.min == 0.8
@@ -204,7 +204,7 @@ def test_margin_without_config_refuses_an_invalid_stored_config(tmp_path) -> Non
     one line naming it, exit 2, and no margin.json."""
     from pathlib import Path
 
-    g = json.loads((Path(__file__).resolve().parents[1] / "results" / "baselines" / "nonlinear-proof" / "gains.json").read_text())
+    g = json.loads((Path(__file__).resolve().parents[2] / "results" / "baselines" / "nonlinear-proof" / "gains.json").read_text())
     g["config"]["robot"]["wheel_inertia"] = 0.01
     (tmp_path / "gains.json").write_text(json.dumps(g))
     r = CliRunner().invoke(main, ["margin", "--gains", str(tmp_path / "gains.json"), "-o", str(tmp_path / "o")])
@@ -257,7 +257,7 @@ def test_margin_stage_says_what_a_nonlinear_certificate_s_margins_are(monkeypatc
 
     rep = MarginReport((Margin("delay_max", "s", "max", 0.05, 0.06, 0.08, None, (0.01, 0.3)),), {"reading": "R."})
     monkeypatch.setattr(margins, "margin", lambda *a, **k: rep)
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     gains = root / "results" / "baselines" / "nonlinear-proof" / "gains.json"
     st = pipeline.margin_stage(load_config(root / "configs" / "nonlinear-proof.yaml"), tmp_path, gains)
     assert st.report.notes[-1].startswith("note: the margins are robust stability of the linearization")
