@@ -44,7 +44,8 @@ def test_every_plant_goes_through_the_same_stages(tmp_path, name, kind) -> None:
     assert isinstance(vs, VerificationStage) and vs.figures == {}
     assert [p.name for p in vs.files] == ["verification.md", "verification.json"]
     vd = _json(out / "verification.json")
-    # the record says what the result says (paper-model's verdict fails: the robot leaves its linearized set, issue 49)
+    # the record says what the result says (paper-model's verdict fails: the nonlinear robot leaves the paper model's
+    # certified set, the subject of issue 49)
     assert vd["gains_id"] == gd["gains_id"] and vd["passed"] is bool(vs.result.passed) and vs.result.checks
     for record in (_json(out / "model.json"), gd, vd):  # every record says which schema and version wrote it
         assert (record["schema_version"], record["robustsynth_version"]) == (SCHEMA_VERSION, __version__)
