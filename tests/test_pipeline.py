@@ -79,3 +79,17 @@ def test_plant_of_builds_the_plant_a_config_describes() -> None:
     lin = plant_of(load_config(CONFIGS / "dc-motor.yaml"), CONFIGS / "dc-motor.yaml")
     assert isinstance(lin, LinearPlant) and lin.config.name == "dc-motor" and lin.user_config is lin.config
     assert isinstance(plant_of(load_config(CONFIGS / "paper-model.yaml")), Model)
+
+
+def test_a_robot_option_on_a_linear_plant_is_refused_before_any_work(tmp_path) -> None:
+    from robustsynth.errors import InputError
+
+    path = CONFIGS / "dc-motor.yaml"
+    plant = plant_of(load_config(path), path)
+    for options in ({"diagnose": True}, {"multiplier": "full"}):
+        with pytest.raises(InputError, match=rf"^{next(iter(options))}: a tracked robot's option"):
+            synthesis_stage(plant, tmp_path / "x", **options)
+    with pytest.raises(InputError, match=r"^progress: a tracked robot's option"):
+        verification_stage(plant, tmp_path / "x", CONFIGS.parent / "results" / "baselines" / "dc-motor" / "gains.json",
+                           progress=lambda done, total: None)
+    assert not (tmp_path / "x").exists()

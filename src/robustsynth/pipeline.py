@@ -568,7 +568,7 @@ class _LinearRecords:
                  **{k: v for k, v in overrides.items() if k not in ("objective", "solver")}}
         for name, value in robot.items():
             if value is not None:
-                raise InputError(f"{name}: a tracked robot's option of run, not a linear plant's")
+                raise InputError(f"{name}: a tracked robot's option (of run, synthesize and verify), not a linear plant's")
 
     @staticmethod
     def model(plant: Any) -> tuple[dict[str, Any], dict[str, bytes]]:
