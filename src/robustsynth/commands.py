@@ -276,9 +276,9 @@ JOBS: dict[str, Jobs] = {j.kind: j for j in (RobotJobs(), LinearJobs())}
 
 def kind_of(cfg: Any) -> str:
     """The plant kind of a loaded config: ``lti`` for ``plant: kind: lti``, else the tracked robot."""
-    from .config import is_lti
+    from .config import plant_kind_of
 
-    return "lti" if is_lti(cfg) else "tracked-robot"
+    return plant_kind_of(cfg)
 
 
 def jobs_for(cfg: Any) -> Jobs:

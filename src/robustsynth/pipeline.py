@@ -11,7 +11,7 @@ from typing import Any, Callable
 
 from .artifacts.files import SCHEMA_VERSION, remove_files, set_aside
 from .artifacts.results_dir import RUN_FILES, SYNTHESIS_FILES, VERIFICATION_FILES, clear_foreign, figure_files
-from .config import Config
+from .config import Config, plant_kind_of
 from .model import Model, build_model, coverage_check
 from .objectives import objective
 
@@ -38,18 +38,11 @@ def plant_of(config: Any, config_path: str | Path | None = None) -> Any:
     """The plant a config describes, as the stages take it: the tracked robot's :class:`~robustsynth.model.Model`
     (:func:`~robustsynth.model.build_model`), or a linear plant's :class:`~robustsynth.plants.linear.LinearPlant`
     (``plant: kind: lti``; its ``plant.file`` read beside ``config_path``, default the working directory)."""
-    if _kind(config) == "lti":
+    if plant_kind_of(config) == "lti":
         from .plants.linear import LinearPlant
 
         return LinearPlant.from_config(config, str(Path(config_path).parent) if config_path is not None else None)
     return build_model(config)
-
-
-def _kind(config: Any) -> str:
-    """The plant kind a config describes (``plant_kind`` of the plant it builds)."""
-    from .config import is_lti
-
-    return "lti" if is_lti(config) else "tracked-robot"
 
 
 @dataclass(frozen=True)
@@ -434,7 +427,7 @@ def run(
         if on_stage is not None:
             on_stage(stage)
 
-    records = _RECORDS[_kind(config)]
+    records = _RECORDS[plant_kind_of(config)]
     records.refuse(diagnose=diagnose, progress=progress, **synthesis_overrides)  # before any work
     say("build-model")
     ms = model_stage(config, outdir, config_path)
@@ -613,15 +606,16 @@ class _LinearRecords:
     @staticmethod
     def verify(plant: Any, gains: dict[str, Any], gp: Path, runs: int | None, seed: int | None,
                progress: ProgressFn | None) -> tuple[Any, dict[str, Any] | None]:
-        """The certified gain's claims on the exactly lifted loop (:func:`robustsynth.verify`); a gain that came
-        without a certificate (K only) gets one searched first (:func:`_searched_certificate`)."""
-        from .verification import verify
+        """The certified gain's claims on the exactly lifted loop (:func:`robustsynth.verification.lti.verify_plant`,
+        the gains file's problems naming it); a gain that came without a certificate (K only) gets one searched
+        first (:func:`_searched_certificate`)."""
+        from .verification.lti import verify_plant
 
         _LinearRecords.refuse(progress=progress)
+        searched = None
         if gains.get("certificate") is None and gains.get("kind") is None:
-            certified, searched = _searched_certificate(plant, gains, gp)
-            return verify(plant, certified, runs=runs, seed=seed), searched
-        return verify(plant, gp, runs=runs, seed=seed), None
+            gains, searched = _searched_certificate(plant, gains, gp)
+        return verify_plant(plant, gains, runs, seed, where=str(gp)), searched
 
     @staticmethod
     def figures(res: Any, plant: Any, outdir: Path, fmt: str) -> dict[str, Path]:
@@ -667,20 +661,12 @@ def _searched_certificate(plant: Any, gains: dict[str, Any], gp: Path) -> tuple[
     shrinking by DECAY per period for every delay and loss pattern, margin.pieces), proven in numpy.  Returns the
     gains mapping with it (K padded to the lifting) and what was searched; InfeasibleError (exit 3) when there is
     none."""
-    import numpy as np
-
-    from .artifacts.gains import same_plant
-    from .errors import InfeasibleError, InputError
+    from .errors import InfeasibleError
     from .margins.linear import lti_certificate
-    from .core.delays import check_lti_gain
     from .synthesis.lti import DECAY
+    from .verification.lti import checked_gain
 
-    same_plant(gains, plant.n_x, plant.n_u, gp)
-    try:
-        K = np.asarray(gains["K"], dtype=float)
-    except (TypeError, ValueError, KeyError) as exc:
-        raise InputError(f"{gp}: K: missing or not a matrix of numbers ({exc})") from None
-    check_lti_gain(K, plant.n_x, plant.n_u, f"{gp}: K")
+    K = checked_gain(plant, gains, str(gp))
     net = plant.network
     an, K, pieces = lti_certificate(dict(plant.arrays, K=K), net.sampling_time, net.delay_min, net.delay_max,
                                     net.max_lost, int(plant.margin_settings.pieces))
@@ -749,12 +735,9 @@ def _margin_gain(config: Any, outdir: Path, gains_path: str | Path | None, confi
     import numpy as np
 
     from .artifacts.gains import load_gains, lti_gain
-    from .config import is_lti
 
-    if is_lti(config):
-        from .plants.linear import LinearPlant
-
-        plant = LinearPlant.from_config(config, str(Path(config_path).parent) if config_path is not None else None)
+    if plant_kind_of(config) == "lti":
+        plant = plant_of(config, config_path)
         K, source, gd = lti_gain(config, plant.arrays, gains_path, outdir / "gains.json")
         return plant, K, source, gd
     gp = Path(gains_path) if gains_path is not None else outdir / "gains.json"

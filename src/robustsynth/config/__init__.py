@@ -31,7 +31,7 @@ from .tracked_robot import MAX_MOTION_PER_PERIOD, Config
 from .lti import (ROBOT_ONLY_SECTIONS, ROBOT_ONLY_SYNTHESIS, ControllerConfig, LtiConfig, LtiDisturbance,
                   LtiMarginConfig, LtiOutputs, LtiPlantConfig, LtiSynthesisConfig, LtiSynthesisSection, _matrix)
 from .messages import _fields_at, _format_validation_error, _loc, _one_problem, _union_parts
-from .roots import _validate, config_schema, config_to_dict, is_lti, refuse_lti
+from .roots import _validate, config_schema, config_to_dict, is_lti, plant_kind_of, refuse_lti
 from .overrides import RENAMED_KEYS, _new_key, check_config_key, config_with, mapping_with
 from .loading import (MAX_CONFIG_BYTES, _StrictLoader, config_from_dict, default_config, default_config_text,
                       load_config, named_default_config_text, parse_config, read_config_text)

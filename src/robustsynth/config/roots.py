@@ -28,6 +28,12 @@ def is_lti(data: Any) -> bool:
     return isinstance(plant, Mapping) and plant.get("kind") == "lti"
 
 
+def plant_kind_of(config: Any) -> str:
+    """The plant kind a config describes, as its plant names itself (``plant_kind``): "lti" for ``plant: kind:
+    lti``, else "tracked-robot"."""
+    return "lti" if is_lti(config) else "tracked-robot"
+
+
 def _validate(data: dict[str, Any]) -> "Config | LtiConfig":
     if is_lti(data):
         return LtiConfig.model_validate(data)

@@ -122,22 +122,16 @@ def _provenance(model: Any, gains: dict[str, Any]) -> str:
 
 
 def _verify_linear(plant: Any, gains: Any, runs: int | None, seed: int | None) -> Verdict:
-    """:func:`verify` for a linear plant: the gain, its certificate (P, the multipliers, the pieces they were made
-    with) and its figures (:func:`robustsynth.verification.lti.certified_gain`: a design, a gains mapping or a gains
-    file), checked on the exactly lifted loop."""
+    """:func:`verify` for a linear plant: a design, a gains mapping or a gains file (read here, named in its
+    problems), verified by :func:`robustsynth.verification.lti.verify_plant`."""
     from pathlib import Path
 
     from ..artifacts.gains import load_gains
-    from .lti import certified_gain, verify_lti
+    from .lti import verify_plant
 
-    where = "gains"
     if isinstance(gains, (str, Path)):
-        where, gains = str(gains), load_gains(gains)
-    K, P, eps, figures, pieces = certified_gain(plant, gains, where)
-    net = plant.network
-    data = verify_lti(plant.arrays, K, P, net.sampling_time, net.delay_min, net.delay_max, net.max_lost, figures,
-                      runs=64 if runs is None else runs, seed=0 if seed is None else seed, multipliers=eps, pieces=pieces)
-    return Verdict.from_dict(data)
+        return verify_plant(plant, load_gains(gains), runs, seed, where=str(gains))
+    return verify_plant(plant, gains, runs, seed)
 
 
 def claimed_beyond(claimed: dict[str, Any], figures: dict[str, Any]) -> list[str]:

@@ -22,9 +22,9 @@ from typing import Any
 import numpy as np
 
 from ..core.network import Network, s_tilde_sequence
-from ..results import Check, all_passed
+from ..results import Check, Verdict, all_passed
 
-__all__ = ["verify_lti", "certified_gain", "CONSTANT_DELAYS", "TOL"]
+__all__ = ["verify_lti", "verify_plant", "certified_gain", "checked_gain", "CONSTANT_DELAYS", "TOL"]
 
 CONSTANT_DELAYS = 201
 TOL = 1e-9  # relative: the simulation's own rounding
@@ -346,36 +346,45 @@ def _l2_gain_check(plant: dict, K: np.ndarray, Ts: float, tau_min: float, tau_ma
                  worst / gamma, 1.0, f"worst {worst:.6g} ({where}) vs certified {gamma:.6g}; {N} periods from rest").to_dict()
 
 
+def checked_gain(plant: Any, gains: Any, where: str = "gains") -> np.ndarray:
+    """K of a linear plant's gains mapping (``kind: lti``, or a K of one's own with no certificate), checked for
+    ``plant``: one InputError line naming ``where`` for the robot's gains, a gain made for a plant of other sizes,
+    or a K that is not an m x n or m x (n + d m) matrix of numbers."""
+    from ..artifacts.gains import same_plant
+    from ..core.delays import check_lti_gain
+    from ..errors import InputError
+
+    if gains.get("kind") != "lti" and (gains.get("kind") is not None or gains.get("certificate") is not None):
+        raise InputError(f"{where}: not a linear plant's gains file (kind: lti, with certificate.P; its certificate is "
+                         "another kind's): run `robustsynth synthesize` on this config, or give a gains file with K only")
+    same_plant(dict(gains), plant.n_x, plant.n_u, where)
+    try:
+        K = np.asarray(gains["K"], dtype=float)
+    except (TypeError, ValueError, KeyError) as exc:
+        raise InputError(f"{where}: K: missing or not a matrix of numbers ({exc})") from None
+    check_lti_gain(K, plant.n_x, plant.n_u, f"{where}: K")
+    return K
+
+
 def certified_gain(plant: Any, gains: Any, where: str = "gains") -> tuple[np.ndarray, np.ndarray, Any, dict, int]:
     """(K, P, the multipliers, the figures, the pieces) of a linear plant's certified gain, from the
     :class:`~robustsynth.synthesis.SynthesisResult` ``robustsynth.synthesize(plant)`` returns or from its gains
-    mapping (``kind: lti``).  One InputError line naming ``where`` for anything else: the robot's gains, a gain made
-    for a plant of other sizes, a K of the wrong shape, a malformed certificate, a certificate for a disturbance or
-    outputs the plant does not have, or a gain without its certificate (``robustsynth verify CONFIG --gains FILE``
-    searches one for it)."""
+    mapping (``kind: lti``, :func:`checked_gain`).  One InputError line naming ``where`` for anything else: a
+    malformed certificate, a certificate for a disturbance or outputs the plant does not have, or a gain without
+    its certificate (``robustsynth verify CONFIG --gains FILE`` searches one for it)."""
     from collections.abc import Mapping
 
-    from ..artifacts.gains import same_plant
     from ..errors import InputError
-    from ..core.delays import check_lti_gain
 
-    arrays, n, m = plant.arrays, plant.n_x, plant.n_u
+    arrays = plant.arrays
     if getattr(gains, "plant_kind", None) == "lti":
         cert = gains.certificate
         return gains.K, gains.P, cert["multipliers"], gains.certified, int(cert["pieces"])
     if not isinstance(gains, Mapping):
         raise InputError(f"verify: a linear plant's gain is the SynthesisResult robustsynth.synthesize(plant) returns, "
                          f"or its gains mapping (kind: lti); got {type(gains).__name__}")
+    K = checked_gain(plant, gains, where)
     cert = gains.get("certificate")
-    if gains.get("kind") != "lti" and (gains.get("kind") is not None or cert is not None):
-        raise InputError(f"{where}: not a linear plant's gains file (kind: lti, with certificate.P; its certificate is "
-                         "another kind's): run `robustsynth synthesize` on this config, or give a gains file with K only")
-    same_plant(dict(gains), n, m, where)
-    try:
-        K = np.asarray(gains["K"], dtype=float)
-    except (TypeError, ValueError, KeyError) as exc:
-        raise InputError(f"{where}: K: missing or not a matrix of numbers ({exc})") from None
-    check_lti_gain(K, n, m, f"{where}: K")
     if cert is None:
         raise InputError(f"{where}: a gain without its certificate: `robustsynth verify CONFIG --gains FILE` searches "
                          "one for it (robustsynth.verify takes a certified gain)")
@@ -395,3 +404,15 @@ def certified_gain(plant: Any, gains: Any, where: str = "gains") -> tuple[np.nda
         raise InputError(f"plant.outputs: {list(arrays['outputs'])} differ from the outputs the gain was certified "
                          f"for ({outs})")
     return K, P, eps, figures, pieces
+
+
+def verify_plant(plant: Any, gains: Any, runs: int | None = None, seed: int | None = None, where: str = "gains"
+                 ) -> Verdict:
+    """``robustsynth.verify`` on a LinearPlant: the certified gain (:func:`certified_gain`, its problems naming
+    ``where``) checked on the exactly lifted loop (:func:`verify_lti`; ``runs`` per family, default 64; ``seed``
+    default 0)."""
+    K, P, eps, figures, pieces = certified_gain(plant, gains, where)
+    net = plant.network
+    return Verdict.from_dict(verify_lti(plant.arrays, K, P, net.sampling_time, net.delay_min, net.delay_max,
+                                        net.max_lost, figures, runs=64 if runs is None else runs,
+                                        seed=0 if seed is None else seed, multipliers=eps, pieces=pieces))
