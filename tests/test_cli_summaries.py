@@ -13,6 +13,7 @@ import pytest
 from click.testing import CliRunner
 
 from robustsynth.cli import main
+from robustsynth.results import Verdict
 
 ROOT = Path(__file__).resolve().parents[1]
 LTI = str(ROOT / "tests" / "data" / "dc-servo.yaml")
@@ -65,12 +66,15 @@ def _mc(turns: list | None = None) -> dict:
     return {"runs": 20, "ratio_to_certified": {"e_x": 0.412, "e_y": 0.733}, "turns": turns or []}
 
 
-def _robot_result(passed: bool, turns: list | None = None) -> NS:
+def _robot_result(passed: bool, turns: list | None = None, cfg=None):
+    from robustsynth.results import CertificateCheck
+    from robustsynth.verification import VerificationResult
+
     checks = [{"name": "certificate", "passed": True},
               {"name": "monte carlo e_y", "passed": passed, "value": 0.05, "threshold": 0.04, "detail": "too far"},
               {"name": "frozen", "passed": passed, "detail": "unstable at tau 0.03"},
               {"name": "lifted", "passed": passed}]
-    return NS(checks=checks, monte_carlo=_mc(turns), passed=passed)
+    return VerificationResult(passed, tuple(checks), CertificateCheck(True, ()), _mc(turns), {}, {}, config=cfg)
 
 
 def _lti_gains() -> dict:
@@ -96,7 +100,7 @@ def test_build_model(monkeypatch, tmp_path) -> None:
     st = NS(cleared=("old/other/gains.json", "old/other/report.md"), files=(Path("a/model.json"), Path("a/model.md")),
             model=NS(d_lo=0, d_hi=1, n_s=5, instants=[1, 2, 3]),
             coverage={"passed": False, "max_abs_delta": 0.12345, "max_residual": 1.2e-9})
-    _patch(monkeypatch, "robustsynth.pipeline", model_stage=lambda cfg, out: st)
+    _patch(monkeypatch, "robustsynth.pipeline", model_stage=lambda cfg, out, path: st)
     assert _invoke(["build-model", DEFAULT, "-o", str(tmp_path / "o")]) == (0, (
         f"set aside 2 file(s) another config had left in {tmp_path / 'o'}, under {tmp_path / 'o' / 'old/other'}/ "
         "(nothing deleted): gains.json, report.md\n"
@@ -115,15 +119,14 @@ def test_build_model(monkeypatch, tmp_path) -> None:
 
 def test_synthesize(monkeypatch, tmp_path) -> None:
     st = NS(cleared=(), gains=_robot_gains(nonlinear=True), diagnosis=_diagnosis(), files=(Path("g.json"), Path("s.md")))
-    _patch(monkeypatch, "robustsynth.model", build_model=lambda cfg: None)
-    _patch(monkeypatch, "robustsynth.pipeline", synthesis_stage=lambda *a, **k: st)
+    _patch(monkeypatch, "robustsynth.pipeline", synthesis_stage=lambda *a, **k: st, plant_of=lambda cfg, path: None)
     assert _invoke(["synthesize", DEFAULT, "-o", str(tmp_path)]) == (0, (
         ROBOT_CERTIFIED + ", for the nonlinear robot (|e_theta(t)| <= 0.5 rad)\n"
         "note: first note\nnote: second note\n"
         "where the design is stuck (one re-synthesis per relaxed constraint; see synthesis.md):\n"
         "  motor limit x2: |e_y| <= 3.12 cm (-31 %)\n  slip range halved: infeasible\n"
         "wrote g.json, s.md\n"), "")
-    res = NS(cleared=(), gains=_lti_gains(), files=["g.json"])
+    res = NS(cleared=(), gains=_lti_gains(), files=["g.json"], diagnosis=None)
     _patch(monkeypatch, "robustsynth.pipeline", synthesis_stage=lambda *a, **k: res, plant_of=lambda cfg, path: None)
     assert _invoke(["synthesize", LTI, "-o", str(tmp_path)]) == (0, LTI_GAIN + "wrote g.json\n", "")
 
@@ -133,9 +136,8 @@ def test_verify(monkeypatch, tmp_path) -> None:
 
     cfg = load_config(DEFAULT)
     turns = [{"certified": True, "waypoint": 1}, {"certified": False, "waypoint": 2, "reason": "too sharp"}]
-    st = NS(result=_robot_result(False, turns), model=NS(config=cfg), figures={"a": 1, "b": 2})
-    _patch(monkeypatch, "robustsynth.model", build_model=lambda cfg: None)
-    _patch(monkeypatch, "robustsynth.pipeline", verification_stage=lambda *a, **k: st,
+    st = NS(result=_robot_result(False, turns, cfg), model=NS(config=cfg), figures={"a": 1, "b": 2})
+    _patch(monkeypatch, "robustsynth.pipeline", verification_stage=lambda *a, **k: st, plant_of=lambda cfg, path: None,
            write_run_logs=lambda model, result, logdir: [1, 2, 3])
     o = tmp_path / "v"
     assert _invoke(["verify", DEFAULT, "-o", str(o), "--log", str(tmp_path / "logs")]) == (1, (
@@ -147,24 +149,25 @@ def test_verify(monkeypatch, tmp_path) -> None:
         "FAILED: monte carlo e_y (value 0.05, threshold 0.04): too far\nFAILED: frozen: unstable at tau 0.03\n"
         "FAILED: lifted\n"))
     arcs = [{"certified": True, "note": "along an arc of radius 1"}] * 2
-    st = NS(result=_robot_result(True, arcs), model=NS(config=cfg), figures={})
+    st = NS(result=_robot_result(True, arcs, cfg), model=NS(config=cfg), figures={})
     _patch(monkeypatch, "robustsynth.pipeline", verification_stage=lambda *a, **k: st)
     assert _invoke(["verify", DEFAULT, "-o", str(o)]) == (0, (
         "verification passed: 4 checks, 20 Monte Carlo runs; worst/certified: e_x 0.412, e_y 0.733\n"
         "waypoint turns: 2 of 2 certified (arcs the certificate covers; the Monte Carlo maxima include them)\n"
         f"wrote {o / 'verification.json'}, {o / 'verification.md'}\n"), "")
-    lin = _lti_checks(False)
-    _patch(monkeypatch, "robustsynth.pipeline", plant_of=lambda cfg, path: None,
-           verification_stage=lambda *a, **k: NS(result=NS(passed=lin["passed"]), data=lin, files=lin["files"]))
+    lin = Verdict.from_dict(_lti_checks(False))
+    _patch(monkeypatch, "robustsynth.pipeline", plant_of=lambda cfg, path: None,  # one summary for every plant
+           verification_stage=lambda *a, **k: NS(result=lin, data=lin.to_dict(), figures={"verification": 1}))
     assert _invoke(["verify", LTI, "-o", str(o)]) == (1, (
         "verification FAILED: 2 checks, 8 starts on the set's boundary x 2 delay families; invariance 0.98, outputs 1.2\n"
-        "wrote v.json, v.md\n"), "FAILED: outputs (value 1.2, threshold 1): angle beyond\n")
+        f"wrote {o / 'verification.json'}, {o / 'verification.md'} and 1 figure\n"),
+        "FAILED: outputs (value 1.2, threshold 1): angle beyond\n")
 
 
 def _run_result(passed: bool, cfg) -> NS:
     return NS(model=NS(cleared=()), passed=passed,
               synthesis=NS(gains=_robot_gains(), diagnosis=None),
-              verification=NS(result=_robot_result(passed), model=NS(config=cfg)))
+              verification=NS(result=_robot_result(passed, cfg=cfg), model=NS(config=cfg)))
 
 
 def test_run(monkeypatch, tmp_path) -> None:
@@ -190,7 +193,8 @@ def test_run(monkeypatch, tmp_path) -> None:
     assert code == 1 and out.splitlines()[-2:] == [
         f"export skipped: verification failed, so the gain is not exported as a controller (robustsynth export "
         f"{o / 'gains.json'} --to python --allow-unverified exports it marked UNVERIFIED)", f"report: {o / 'report.md'}"]
-    res = NS(model=NS(cleared=()), synthesis=NS(cleared=(), gains=_lti_gains()), verification=NS(data=_lti_checks(True)), passed=True)
+    res = NS(model=NS(cleared=()), synthesis=NS(cleared=(), gains=_lti_gains(), diagnosis=None),
+             verification=NS(result=Verdict.from_dict(_lti_checks(True))), passed=True)
     _patch(monkeypatch, "robustsynth.pipeline", run=lambda *a, **k: res)  # one run for every plant
     assert _invoke(["run", LTI, "-o", str(o)]) == (0, LTI_GAIN + (
         "verification passed: 2 checks, 8 starts on the set's boundary x 2 delay families; invariance 0.98, outputs 1.2\n"

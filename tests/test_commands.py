@@ -18,13 +18,16 @@ ROOT = Path(__file__).resolve().parents[1]
 DC_MOTOR = ROOT / "configs" / "dc-motor.yaml"
 
 
-def test_every_plant_kind_offers_the_core_commands_and_implements_them() -> None:
+def test_every_plant_kind_offers_the_core_commands_through_one_implementation() -> None:
+    """A plant kind is data and refusals: the core jobs are the base's for every kind (one implementation; a kind
+    may only wrap one to refuse its options), each kind says how its model is described."""
     core = {"build-model", "synthesize", "verify", "run", "margin", "export", "sweep"}
     assert set(JOBS) == {"tracked-robot", "lti"}
     for kind, jobs in JOBS.items():
         assert jobs.kind == kind and core <= jobs.commands
-        for name in ("model", "synthesize", "verify", "run", "margin"):  # each job its own, not the base's
-            assert getattr(type(jobs), name) is not getattr(Jobs, name), (kind, name)
+        for name in ("model", "synthesize", "verify", "run"):
+            assert getattr(type(jobs), name) is getattr(Jobs, name), (kind, name)
+        assert type(jobs).model_summary is not Jobs.model_summary
     assert jobs_for(load_config(None)).kind == "tracked-robot"
     assert jobs_for(load_config(DC_MOTOR)).kind == "lti"
 
@@ -70,6 +73,7 @@ def test_run_on_a_linear_plant_exports_its_verified_controller(tmp_path) -> None
     r = CliRunner().invoke(main, ["run", str(DC_MOTOR), "-o", str(out), "--no-plots", "--export", "c"])
     assert r.exit_code == 0, r.output
     lines = r.output.strip().splitlines()
-    assert lines[-1].startswith("exported (c; proven: certified for the linear plant") and "verification: passed" in lines[-1]
+    assert lines[-1] == f"report: {out / 'report.md'}"  # last, as for the robot
+    assert lines[-2].startswith("exported (c; proven: certified for the linear plant") and "verification: passed" in lines[-2]
     assert sorted(p.name for p in (out / "export").iterdir()) == ["rs_lti.c", "rs_lti.h"]
     assert "double" in (out / "export" / "rs_lti.c").read_text()

@@ -14,7 +14,8 @@ from robustsynth.artifacts.files import SCHEMA_VERSION, json_bytes
 from robustsynth.config import load_config
 from robustsynth.pipeline import (ModelStage, SynthesisStage, VerificationStage, model_stage, plant_of, synthesis_stage,
                                   verification_stage)
-from robustsynth.results import CertificateCheck
+from robustsynth.artifacts.certified import certified_lines
+from robustsynth.results import CertificateCheck, Err
 from robustsynth.synthesis import SynthesisResult
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
@@ -40,8 +41,18 @@ def test_every_plant_goes_through_the_same_stages(tmp_path, name, kind) -> None:
     assert [p.name for p in ss.files] == ["gains.mat", "synthesis.md", "gains.json"]
     gd = _json(out / "gains.json")
     assert gd == json.loads(json_bytes(ss.gains)) and gd["K"] == ss.result.K.tolist()  # the file is the stage's record
+    # the lines the CLI prints come from the results themselves (issue 52, item 2)
+    assert ss.result.lines(plant) == certified_lines(ss.gains)[:1] + [f"note: {n}" for n in gd.get("notes", [])]
+    assert ss.result.check.lines()[0].startswith(f"certificate check passed: {len(ss.result.check.checks)} famil")
+    assert ss.result.check.lines()[0].endswith(f"smallest margin found {ss.result.check.min_eig_margin:.3g}")
     vs = verification_stage(plant, out, runs=4, plots=False)
     assert isinstance(vs, VerificationStage) and vs.figures == {}
+    said = vs.result.lines()
+    assert [line for line in said if isinstance(line, Err)] == [
+        line for line in said if line.startswith("FAILED: ")] and len([l for l in said if isinstance(l, Err)]) == len(
+        vs.result.failed_checks)
+    assert any(line.startswith(f"verification {'passed' if vs.result.passed else 'FAILED'}: {len(vs.result.checks)} "
+                               "checks, ") for line in said)
     assert [p.name for p in vs.files] == ["verification.md", "verification.json"]
     vd = _json(out / "verification.json")
     # the record says what the result says (paper-model's verdict fails: the nonlinear robot leaves the paper model's

@@ -10,7 +10,6 @@ result's data.  Options of another plant kind are refused before any work, by na
 
 from __future__ import annotations
 
-from abc import ABC, abstractmethod
 from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
@@ -52,92 +51,84 @@ def _refuse(**options: Any) -> None:
             raise InputError(f"--{name.replace('_', '-')}: {why}")
 
 
-class Jobs(ABC):
-    """A plant kind's commands.  ``commands``: the ones it offers (the CLI refuses the others by name)."""
+class Jobs:
+    """A plant kind's commands, one implementation for every kind: ``commands`` the ones it offers (the CLI refuses
+    the others by name), ``model_summary`` how its model is described, and the hooks that refuse another kind's
+    options (:meth:`refuse_synthesis`, :meth:`refuse_verify`, :meth:`refuse_run`) before any work."""
 
     kind = ""
     noun = ""  # what the plant is called in a message: "a linear plant"
     commands: frozenset[str] = frozenset()
+    progress = True  # whether its verification reports the runs done (a progress bar)
 
-    @abstractmethod
+    @staticmethod
+    def model_summary(name: str, out: Path, stage: Any) -> list[str]:
+        raise NotImplementedError
+
+    def refuse_synthesis(self, multiplier: str | None, diagnose: bool | None) -> None:
+        """The synthesis options this kind does not take (one line, exit 2)."""
+
+    def refuse_verify(self, logdir: Path | None) -> None:
+        """The verification options this kind does not take."""
+
+    def refuse_run(self, physics: int, export_to: str | None) -> None:
+        """The run options this kind does not take."""
+
     def model(self, cfg: Any, out: Path, con: Console, config_path: Path | None) -> Outcome:
         """build-model: the model files and their summary."""
+        from .pipeline import model_stage
 
-    @abstractmethod
+        con.show(self.model_summary(cfg.name, out, model_stage(cfg, out, config_path)))
+        return Outcome()
+
     def synthesize(self, cfg: Any, out: Path, con: Console, config_path: Path | None, *, objective: str | None,
                    solver: str | None, multiplier: str | None, diagnose: bool | None) -> Outcome:
         """synthesize: the certified gain (``multiplier``, ``diagnose``: the robot's options)."""
-
-    @abstractmethod
-    def verify(self, cfg: Any, out: Path, con: Console, config_path: Path | None, *, gains: Path | None,
-               runs: int | None, seed: int | None, fmt: str, plots: bool, logdir: Path | None) -> Outcome:
-        """verify: the gain's checks; exit 1 when one fails (``logdir``: the robot's run logs)."""
-
-    @abstractmethod
-    def run(self, cfg: Any, out: Path, con: Console, config_path: Path | None, *, objective: str | None,
-            solver: str | None, multiplier: str | None, diagnose: bool | None, runs: int | None, seed: int | None,
-            fmt: str, plots: bool, physics: int, export_to: str | None) -> Outcome:
-        """run: synthesize and verify (``physics``: then the MuJoCo robot; ``export_to``: then the controller)."""
-
-    @abstractmethod
-    def margin(self, cfg: Any, out: Path, con: Console, config_path: Path | None, *, gains: Path | None,
-               lyapunov: str | None, as_json: bool) -> Outcome:
-        """margin: how far the delay (and slip) bounds can be pushed for the gain (``data``: margin.json)."""
-
-
-class RobotJobs(Jobs):
-    """The tracked robot: every command."""
-
-    kind = "tracked-robot"
-    noun = "the tracked robot"
-    commands = frozenset({"build-model", "synthesize", "verify", "run", "margin", "identify", "check-log", "monitor",
-                          "validate", "export", "sweep"})
-
-    def model(self, cfg, out, con, config_path):
-        from .pipeline import model_stage
+        from .pipeline import plant_of, synthesis_stage
         from .report import console
 
-        con.show(console.model_summary(cfg.name, out, model_stage(cfg, out)))
-        return Outcome()
-
-    def synthesize(self, cfg, out, con, config_path, *, objective, solver, multiplier, diagnose):
-        from .model import build_model
-        from .pipeline import synthesis_stage
-        from .report import console
-
+        self.refuse_synthesis(multiplier, diagnose)
         con.detail(f"building the model of '{cfg.name}'")
-        st = synthesis_stage(build_model(cfg), out, on_step=con.stages(), diagnose=diagnose, objective=objective,
-                             solver=solver, multiplier=multiplier)
+        st = synthesis_stage(plant_of(cfg, config_path), out, on_step=con.stages(), diagnose=diagnose,
+                             objective=objective, solver=solver, multiplier=multiplier)
         con.show(console.synthesis_summary(out, st))
         return Outcome(data=st)
 
-    def verify(self, cfg, out, con, config_path, *, gains, runs, seed, fmt, plots, logdir):
+    def verify(self, cfg: Any, out: Path, con: Console, config_path: Path | None, *, gains: Path | None,
+               runs: int | None, seed: int | None, fmt: str, plots: bool, logdir: Path | None) -> Outcome:
+        """verify: the gain's checks; exit 1 when one fails (``logdir``: the robot's run logs)."""
         from .artifacts.files import writable_dir
-        from .model import build_model
-        from .pipeline import verification_stage, write_run_logs
+        from .pipeline import plant_of, verification_stage, write_run_logs
         from .report import console
         from .report.progress import progress_bar
 
+        self.refuse_verify(logdir)
+        plant = plant_of(cfg, config_path)
         # the log place is proven writable before the work (a review found exit 2 at the end), and removed
         # again if the work fails before any log is in it
         with writable_dir(logdir) if logdir is not None else nullcontext():
-            with progress_bar(con.quiet) as cb:
-                st = verification_stage(build_model(cfg), out, gains, runs, seed, fmt, plots, cb)
+            with progress_bar(con.quiet) if self.progress else nullcontext() as cb:
+                st = verification_stage(plant, out, gains, runs, seed, fmt, plots, cb)
             con.show(console.verification_summary(out, st))
             if logdir is not None:
                 con.say(console.logs_line(write_run_logs(st.model, st.result, logdir), logdir))
         return Outcome(EXIT_OK if st.result.passed else EXIT_VERIFICATION_FAILED, st)
 
-    def run(self, cfg, out, con, config_path, *, objective, solver, multiplier, diagnose, runs, seed, fmt, plots,
-            physics, export_to):
+    def run(self, cfg: Any, out: Path, con: Console, config_path: Path | None, *, objective: str | None,
+            solver: str | None, multiplier: str | None, diagnose: bool | None, runs: int | None, seed: int | None,
+            fmt: str, plots: bool, physics: int, export_to: str | None) -> Outcome:
+        """run: synthesize and verify (``physics``: then the MuJoCo robot; ``export_to``: then the controller)."""
         from .pipeline import run, validation_stage
         from .report import console
         from .report.progress import Heartbeat, progress_bar
 
+        self.refuse_synthesis(multiplier, diagnose)
+        self.refuse_run(physics, export_to)
         stage = con.stages()  # the stages and each step of the synthesis (a heartbeat between them, on a terminal)
-        with progress_bar(con.quiet, stage if isinstance(stage, Heartbeat) else None) as cb:
+        with (progress_bar(con.quiet, stage if isinstance(stage, Heartbeat) else None) if self.progress
+              else nullcontext()) as cb:
             res = run(cfg, out, runs, seed, fmt, plots, cb, on_stage=lambda s: stage(f"[{s}]"), on_step=stage,
-                      diagnose=diagnose, objective=objective, solver=solver, multiplier=multiplier)
+                      diagnose=diagnose, config_path=config_path, objective=objective, solver=solver, multiplier=multiplier)
         con.show(console.run_summary(out, res))
         passed = res.passed
         if physics:
@@ -150,9 +141,25 @@ class RobotJobs(Jobs):
         con.say(f"report: {out / 'report.md'}")
         return Outcome(EXIT_OK if passed else EXIT_VERIFICATION_FAILED, res)
 
-    def margin(self, cfg, out, con, config_path, *, gains, lyapunov, as_json):
+    def margin(self, cfg: Any, out: Path, con: Console, config_path: Path | None, *, gains: Path | None,
+               lyapunov: str | None, as_json: bool) -> Outcome:
+        """margin: how far the delay (and slip) bounds can be pushed for the gain (``data``: margin.json)."""
         return _margin(cfg, out, con, config_path, gains, lyapunov, as_json)
 
+
+class RobotJobs(Jobs):
+    """The tracked robot: every command."""
+
+    kind = "tracked-robot"
+    noun = "the tracked robot"
+    commands = frozenset({"build-model", "synthesize", "verify", "run", "margin", "identify", "check-log", "monitor",
+                          "validate", "export", "sweep"})
+
+    @staticmethod
+    def model_summary(name: str, out: Path, stage: Any) -> list[str]:
+        from .report.console import model_summary
+
+        return model_summary(name, out, stage)
 
     def excite(self, cfg, out, con, config_path, *, episodes, seed, engine):
         """``validate --excite``: open-loop excitation episodes written as robot logs for ``identify``."""
@@ -208,52 +215,27 @@ class LinearJobs(Jobs):
     kind = "lti"
     noun = "a linear plant"
     commands = frozenset({"build-model", "synthesize", "verify", "run", "margin", "sweep", "export"})
+    progress = False
 
     @staticmethod
-    def _robot_synthesis_options(multiplier: str | None, diagnose: bool | None) -> None:
+    def model_summary(name: str, out: Path, stage: Any) -> list[str]:
+        from .report.console import lti_model_summary
+
+        return lti_model_summary(name, out, stage)
+
+    def refuse_synthesis(self, multiplier: str | None, diagnose: bool | None) -> None:
         why = "a robot synthesis option, not available for a linear plant"
         _refuse(multiplier=(multiplier, why), diagnose=(diagnose, why))
 
-    def model(self, cfg, out, con, config_path):
-        from .pipeline import model_stage
-        from .report import console
-
-        con.show(console.lti_model_summary(cfg.name, out, model_stage(cfg, out, config_path)))
-        return Outcome()
-
-    def synthesize(self, cfg, out, con, config_path, *, objective, solver, multiplier, diagnose):
-        from .pipeline import plant_of, synthesis_stage
-        from .report import console
-
-        self._robot_synthesis_options(multiplier, diagnose)
-        stage = synthesis_stage(plant_of(cfg, config_path), out, on_step=con.stages(), objective=objective, solver=solver)
-        con.show(console.lti_synthesis_summary(out, stage))
-        return Outcome(data=stage)
-
-    def verify(self, cfg, out, con, config_path, *, gains, runs, seed, fmt, plots, logdir):
-        from .pipeline import plant_of, verification_stage
-        from .report import console
-
+    def refuse_verify(self, logdir: Path | None) -> None:
         _refuse(log=(logdir, "robot logs are for the tracked robot, not a linear plant"))
-        stage = verification_stage(plant_of(cfg, config_path), out, gains, runs, seed, fmt=fmt, plots=plots)
-        con.show(console.lti_verification_summary(stage))
-        return Outcome(EXIT_OK if stage.result.passed else EXIT_VERIFICATION_FAILED, stage)
 
-    def run(self, cfg, out, con, config_path, *, objective, solver, multiplier, diagnose, runs, seed, fmt, plots,
-            physics, export_to):
-        from .pipeline import run
-        from .report import console
+    def refuse_run(self, physics: int, export_to: str | None) -> None:
         from .runtime.export_lti import LTI_TARGETS
 
-        self._robot_synthesis_options(multiplier, diagnose)
         _refuse(physics=(physics or None, "the MuJoCo robot validates the tracked robot's gain, not a linear plant's"),
                 export=(export_to if export_to not in LTI_TARGETS else None,
                         f"{export_to} is for the robot; a linear plant's gain exports to {', '.join(LTI_TARGETS)}"))
-        res = run(cfg, out, runs, seed, fmt, plots, on_step=con.stages(), config_path=config_path, objective=objective,
-                  solver=solver)
-        con.show(console.lti_run_summary(out, res))
-        _export_verified(out, con, export_to, res.passed)
-        return Outcome(EXIT_OK if res.passed else EXIT_VERIFICATION_FAILED, res)
 
     def margin(self, cfg, out, con, config_path, *, gains, lyapunov, as_json):
         _refuse(lyapunov=(lyapunov, "a linear plant's certificate is one common quadratic function"))

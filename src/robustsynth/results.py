@@ -12,7 +12,13 @@ from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-__all__ = ["Check", "all_passed", "failed_names", "Verdict", "CertificateCheck", "AnalysisResult", "Margin", "MarginReport"]
+__all__ = ["Err", "Check", "all_passed", "failed_names", "failed_lines", "Verdict", "CertificateCheck", "AnalysisResult",
+           "Margin", "MarginReport"]
+
+
+class Err(str):
+    """A line for stderr (a warning, a failed check): the CLI shows it also under --quiet; every other line of a
+    result's ``lines()`` goes to stdout."""
 
 
 @dataclass(frozen=True)
@@ -57,6 +63,18 @@ class Verdict:
         """``passed``, ``checks`` and the details, as verification.json holds them."""
         return {"passed": bool(self.passed), "checks": list(self.checks), **self.details}
 
+    def lines(self) -> list[str]:
+        """What the CLI prints: each failed check (an :class:`Err`), then the verdict with every check's value and
+        what it was run on (a linear plant's starts on the set's boundary and delay families)."""
+        worst = ", ".join(f"{c['name'].split(' (')[0]} {c['value']:.4g}" for c in self.checks)
+        starts, families = self.details.get("starts"), self.details.get("families") or ()
+        where = (f"{starts} starts on the set's boundary x {len(families)} delay families" if starts
+                 else "delay sequences from rest")
+        failed = [Err(f"FAILED: {c['name']} (value {c['value']:.6g}, threshold {c['threshold']:g}): {c['detail']}")
+                  for c in self.checks if not c["passed"]]
+        return failed + [
+            f"verification {'passed' if self.passed else 'FAILED'}: {len(self.checks)} checks, {where}; {worst}"]
+
 
 @dataclass(frozen=True)
 class CertificateCheck:
@@ -80,6 +98,14 @@ class CertificateCheck:
         return {"passed": bool(self.passed), "checks": [dict(c) for c in self.checks], "figures": dict(self.figures),
                 "reason": self.reason}
 
+    def lines(self) -> list[str]:
+        """One line: proven (how many families, the smallest margin found) or not, and why (an :class:`Err`)."""
+        if not self.passed:
+            return [Err(f"certificate check FAILED: {self.reason or ', '.join(failed_names(self.checks))}")]
+        n = len(self.checks)
+        return [f"certificate check passed: {n} {'family' if n == 1 else 'families'} of conditions proven in numpy, "
+                f"smallest margin found {self.min_eig_margin:.3g}"]
+
 
 @dataclass(frozen=True)
 class AnalysisResult:
@@ -102,6 +128,13 @@ class AnalysisResult:
         """The certified set's matrix (None without a certificate)."""
         return None if self.certificate is None else self.certificate.get("P")
 
+    def lines(self) -> list[str]:
+        """One line: the status, the Lyapunov function kinds tried and the solve time, then the check's line."""
+        tried = f" (tried: {', '.join(self.attempts)})" if self.attempts else ""
+        head = (f"certificate found ({self.lyapunov} Lyapunov function)" if self.certified
+                else f"no certificate: {self.status}") + f"{tried}, {self.solve_time_s:.2f} s of solves"
+        return [head] + (self.check.lines() if self.check is not None else [])
+
 
 def all_passed(checks: Iterable[Mapping[str, Any]]) -> bool:
     """Whether every check (as written by :meth:`Check.to_dict`) passed."""
@@ -111,6 +144,18 @@ def all_passed(checks: Iterable[Mapping[str, Any]]) -> bool:
 def failed_names(checks: Iterable[Mapping[str, Any]]) -> list[str]:
     """The names of the checks that failed, in order."""
     return [c["name"] for c in checks if not c["passed"]]
+
+
+def failed_lines(checks: Iterable[Mapping[str, Any]]) -> list[str]:
+    """One :class:`Err` per failed check: its name, value against threshold (where both are numbers) and detail."""
+    lines: list[str] = []
+    for c in checks:
+        if c["passed"]:
+            continue
+        v, t = c.get("value"), c.get("threshold")
+        what = f" (value {v:.4g}, threshold {t:.4g})" if isinstance(v, (int, float)) and isinstance(t, (int, float)) else ""
+        lines.append(Err(f"FAILED: {c['name']}{what}" + (f": {c['detail']}" if c.get("detail") else "")))
+    return lines
 
 
 @dataclass(frozen=True)

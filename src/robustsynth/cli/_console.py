@@ -36,7 +36,7 @@ class _Ctx:
 
     def show(self, lines: list[str]) -> None:
         """A command's summary (report.console): an Err line on stderr (also under --quiet), the others on stdout."""
-        from ..report.console import Err
+        from ..results import Err
 
         for line in lines:
             if isinstance(line, Err):

@@ -9,20 +9,14 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
+from ..artifacts.certified import certified_lines
 from ..monitor import CAUSES
-from ..objectives import labelled_figures
-from ..results import Margin
+from ..results import Err
 
-__all__ = ["Err", "wrote", "cleared", "model_summary", "lti_model_summary", "synthesis_summary",
-           "lti_synthesis_summary", "lti_gain_lines", "robot_certified", "verification_summary",
-           "lti_verification_summary", "robot_checks", "lti_checks", "run_summary", "logs_line", "lti_run_summary",
-           "physics_line", "run_export_lines", "margin_summary",
-           "check_log_summary", "violated", "monitor_summary", "excitation_summary", "validation_summary",
-           "export_summary", "sweep_summary", "identified_line"]
-
-
-class Err(str):
-    """A line for stderr."""
+__all__ = ["Err", "wrote", "cleared", "model_summary", "lti_model_summary", "synthesis_summary", "verification_summary",
+           "run_summary", "logs_line", "physics_line", "run_export_lines", "margin_summary", "check_log_summary",
+           "violated", "monitor_summary", "excitation_summary", "validation_summary", "export_summary", "sweep_summary",
+           "identified_line"]
 
 
 def wrote(files: Iterable[Any]) -> str:
@@ -69,64 +63,6 @@ def lti_model_summary(name: str, out: Path, stage: Any) -> list[str]:
 
 # -- synthesize ----------------------------------------------------------------------------------------------------
 
-def robot_certified(gains: Mapping[str, Any]) -> str:
-    """The robot's certified figures, one line."""
-    c = gains["certified"]
-    parts = [f"certified ({gains['objective']}):"]
-    if c.get("decay_rate") is not None:
-        parts.append(f"decay rate {c['decay_rate']:.4f}")
-    ub = c.get("ultimate_bound")
-    if ub:
-        parts.append(f"|e_x| <= {ub['e_x'] * 100:.2f} cm, |e_y| <= {ub['e_y'] * 100:.2f} cm, "
-                     f"|e_theta| <= {ub['e_theta']:.4f} rad")
-    if c.get("motor_speed_bound") is not None:
-        parts.append(f"|rho| <= {c['motor_speed_bound']:.3f} rad/s")
-    for key, label in labelled_figures():  # an objective's own figure (hinf's l2 gain, ...)
-        if c.get(key) is not None:
-            parts.append(f"{label} {c[key]:.4g}")
-    if gains.get("certificate", {}).get("kinematics") == "nonlinear":
-        parts.append(f"for the nonlinear robot (|e_theta(t)| <= {gains['certificate']['heading_bound']:g} rad)")
-    line = " ".join(parts[:1]) + " " + ", ".join(parts[1:])
-    comp = gains.get("compensation")
-    if comp:  # the slip-compensated law: a conditional claim (docs/theory.md §18)
-        line += (f"; slip-compensated law, while each track's traction is within {comp['error']:.4g} of the estimate "
-                 f"(ratio box [{comp['ratio_right'][0]:.4f}, {comp['ratio_right'][1]:.4f}], motors at "
-                 f"{comp['certificate_max_motor_speed']:.3g} rad/s before compensation)")
-    return line
-
-
-def jump_line(j: Mapping[str, Any] | None) -> str | None:
-    """The slip-jump experiment of the compensated law (verification/compensated.jump_recovery), one line."""
-    if not j:
-        return None
-    rec, back, lost = j["recovery_periods"], j["back_in_the_set_periods"], j["condition_lost_after"]
-
-    def n(d: Mapping[str, Any]) -> str:
-        return "never" if d["median"] is None else f"{d['median']:g} (max {d['max']}" + (
-            f", never in {d['runs_never']} runs)" if d["runs_never"] else ")")
-
-    return (f"a slip jump (not certified: the certificate assumes the rate bound; {j['runs']} runs, each track jumping by "
-            f">= {j['jump_size_min']:.2f}): the condition failed {n(lost)} periods after it, held again after {n(rec)}, "
-            f"the state back in its set after {n(back)}; in between V/level up to {j['max_V_over_level_in_recovery']:.1f}, "
-            f"|e_x| {100 * j['max_in_recovery']['e_x']:.2f} cm, |e_y| {100 * j['max_in_recovery']['e_y']:.2f} cm")
-
-
-def compensated_line(rec: Mapping[str, Any] | None) -> str | None:
-    """verify's record of the slip-compensated law on the true robot (verification/compensated.py), one line."""
-    if not rec or rec.get("skipped"):
-        return None
-    first = rec["condition_first_period"]
-    ratios = ", ".join(f"{k} {v:.3f}" for k, v in rec["ratio_to_certified"].items())
-    box = ", ".join(f"{k} [{lo:g}, {hi:g}]" for k, (lo, hi) in zip(("mu_r", "mu_l"), rec["true_box"]))
-    return (f"slip compensation, estimator in the loop ({rec['runs']} runs, true slip {box} moving at "
-            f"{rec['max_rate']:g} /s): the condition (half-width + lag <= {rec['error']:.4g}) held in "
-            f"{100 * rec['condition_held_share']:.1f} % of the periods (first at period {first['median']:g}, median); "
-            f"where it held the robot left its set on {rec['steps_leaving_the_set']} of {rec['steps_judged']} steps "
-            f"(max V/level {rec['max_V_over_level_judged']:.3f}), observed / certified {ratios}; where it did not "
-            f"(mostly the estimator's first periods) it reached V/level {rec['max_V_over_level_all']:.2f}, |e_x| "
-            f"{100 * rec['max_all']['e_x']:.2f} cm, |e_y| {100 * rec['max_all']['e_y']:.2f} cm")
-
-
 def _diagnosis(diagnosis: Sequence[Any] | None) -> list[str]:
     """Where the design is stuck, one line per relaxed constraint, the most effective first."""
     if not diagnosis:
@@ -137,118 +73,31 @@ def _diagnosis(diagnosis: Sequence[Any] | None) -> list[str]:
 
 
 def synthesis_summary(out: Path, stage: Any) -> list[str]:
-    """The robot's synthesis (a pipeline.SynthesisStage): the certified figures, the notes, the diagnosis."""
-    return (cleared(out, stage.cleared) + [robot_certified(stage.gains)]
+    """A synthesis, any plant (a pipeline.SynthesisStage): the certified figures (a linear plant's with its delay
+    margin), the notes, the diagnosis (the robot's), the files."""
+    return (cleared(out, stage.cleared) + certified_lines(stage.gains)
             + [f"note: {note}" for note in stage.gains.get("notes") or ()] + _diagnosis(stage.diagnosis)
             + [wrote(stage.files)])
 
 
-def _lti_certified(gd: Mapping[str, Any]) -> str:
-    c = gd["certified"]
-    if c.get("hinf_gain") is not None:
-        parts = [f"l2 gain {c['hinf_gain']:.4g} from the disturbance (per-period peak) to "
-                 + ", ".join(o["name"] for o in c["outputs"])]
-    elif c.get("disturbance_step_bound") is not None:
-        parts = [f"V+ <= {c['alpha']:.4f} V + {1 - c['alpha']:.4f} (invariant, attracting set)"]
-    else:
-        parts = [f"decay {c['decay']:.4f} per period"]
-    for o in c.get("outputs") or ():
-        if o.get("bound") is not None:
-            parts.append(f"|{o['name']}| <= {o['bound']:.4g} {o['unit']}")
-    if c.get("rest_radius") is not None:
-        parts.append(f"from rest within |x| <= {c['rest_radius']:.4g}")
-    if c.get("inputs"):
-        parts.append("inputs within " + ", ".join(f"|{u['name']}| <= {u['limit']:g}" for u in c["inputs"]))
-    return f"certified ({gd['objective']}, d = {gd['lifting']['d']}): " + ", ".join(parts)
-
-
-def lti_gain_lines(gd: Mapping[str, Any]) -> list[str]:
-    """A linear plant's certified gain: its figures and its delay margin."""
-    margin = Margin.from_record("delay_max", gd["delay_margin"], gd["network"]["delay"][0])  # as `margin` prints it
-    return [_lti_certified(gd), "robust stability of this gain, " + margin.line()]
-
-
-def lti_synthesis_summary(out: Path, stage: Any) -> list[str]:
-    """A linear plant's synthesis (a pipeline.SynthesisStage): the certified figures and the delay margin."""
-    return cleared(out, stage.cleared) + lti_gain_lines(stage.gains) + [wrote(stage.files)]
-
-
 # -- verify, run -----------------------------------------------------------------------------------------------------
 
-def robot_checks(result: Any, cfg: Any) -> list[str]:
-    """The robot's verification (a VerificationResult): each failed check (stderr), the verdict with the worst
-    Monte Carlo ratios, where the robot leaves the certified set, the waypoint turns."""
-    from .verification import robot_leaves
-
-    lines: list[str] = []
-    for c in result.checks:
-        if not c["passed"]:
-            what = f" (value {c['value']:.4g}, threshold {c['threshold']:.4g})" if isinstance(c.get("value"), (int, float)) \
-                and isinstance(c.get("threshold"), (int, float)) else ""
-            lines.append(Err(f"FAILED: {c['name']}{what}" + (f": {c['detail']}" if c.get("detail") else "")))
-    mc = result.monte_carlo
-    ratios = ", ".join(f"{k} {v:.3f}" for k, v in mc["ratio_to_certified"].items())
-    lines.append(f"verification {'passed' if result.passed else 'FAILED'}: {len(result.checks)} checks, "
-                 f"{mc['runs']} Monte Carlo runs" + (f"; worst/certified: {ratios}" if ratios else ""))
-    leaves = robot_leaves(mc, cfg)
-    if leaves:
-        lines.append(leaves)
-    comp = compensated_line(mc.get("compensated"))
-    if comp:
-        lines.append(comp)
-        jump = jump_line((mc.get("compensated") or {}).get("jump"))
-        if jump:
-            lines.append(jump)
-    turns = mc.get("turns") or []
-    bad = [t for t in turns if not t["certified"]]
-    if turns and all(t.get("note", "").startswith("along an arc") for t in turns):  # reference.turn_radius
-        lines.append(f"waypoint turns: {len(turns)} of {len(turns)} certified (arcs the certificate covers; the Monte "
-                     "Carlo maxima include them)")
-    elif turns:
-        lines.append(f"waypoint turns (not in the verdict): {len(turns) - len(bad)} of {len(turns)} certified"
-                     + (f"; waypoint {bad[0]['waypoint']}: {bad[0]['reason']} (reference.turn_radius rounds the corners "
-                        "into arcs the certificate can cover: docs/theory.md §10)" if bad else ""))
-    return lines
-
-
 def verification_summary(out: Path, stage: Any) -> list[str]:
-    """The robot's verification (a pipeline.VerificationStage) and the files it wrote."""
-    return robot_checks(stage.result, stage.model.config) + [
-        f"wrote {out / 'verification.json'}, {out / 'verification.md'}"
-        + (f" and {len(stage.figures)} figures" if stage.figures else "")]
-
-
-def lti_checks(data: Mapping[str, Any]) -> list[str]:
-    """A linear plant's verification: each failed check (stderr), the verdict with every check's value."""
-    lines: list[str] = [Err(f"FAILED: {c['name']} (value {c['value']:.6g}, threshold {c['threshold']:g}): {c['detail']}")
-                        for c in data["checks"] if not c["passed"]]
-    worst = ", ".join(f"{c['name'].split(' (')[0]} {c['value']:.4g}" for c in data["checks"])
-    where = (f"{data['starts']} starts on the set's boundary x {len(data['families'])} delay families" if data["starts"]
-             else "delay sequences from rest")
-    lines.append(f"verification {'passed' if data['passed'] else 'FAILED'}: {len(data['checks'])} checks, {where}; {worst}")
-    return lines
-
-
-def lti_verification_summary(stage: Any) -> list[str]:
-    """A linear plant's verification (a pipeline.VerificationStage) and the files it wrote."""
-    return lti_checks(stage.data) + [wrote(stage.files)]
+    """A verification, any plant (a pipeline.VerificationStage): the verdict's lines and the files it wrote."""
+    n = len(stage.figures)
+    return stage.result.lines() + [f"wrote {out / 'verification.json'}, {out / 'verification.md'}"
+                                   + (f" and {n} figure{'s' if n > 1 else ''}" if n else "")]
 
 
 def run_summary(out: Path, res: Any) -> list[str]:
-    """`run` (a pipeline.RunResult): the certified figures, the diagnosis, the verification."""
-    return (cleared(out, res.model.cleared) + [robot_certified(res.synthesis.gains)] + _diagnosis(res.synthesis.diagnosis)
-            + robot_checks(res.verification.result, res.verification.model.config))
+    """`run`, any plant (a pipeline.RunResult): the certified figures, the diagnosis, the verdict."""
+    return (cleared(out, res.model.cleared) + certified_lines(res.synthesis.gains) + _diagnosis(res.synthesis.diagnosis)
+            + res.verification.result.lines())
 
 
 def logs_line(logs: Sequence[Any], logdir: Path) -> str:
     """verify --log: the run logs written."""
     return f"wrote {len(logs)} run logs to {logdir}/"
-
-
-def lti_run_summary(out: Path, res: Any) -> list[str]:
-    """`run` on a linear plant (a pipeline.RunResult): the gain, its verification, the report."""
-    return (cleared(out, res.model.cleared) + lti_gain_lines(res.synthesis.gains)
-            + lti_checks(res.verification.data) + [f"report: {out / 'report.md'}"])
 
 
 def physics_line(vd: Mapping[str, Any], episodes: int) -> str:

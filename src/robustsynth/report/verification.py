@@ -9,7 +9,8 @@ from ..config import config_to_dict
 from .. import __version__
 from ..artifacts.files import SCHEMA_VERSION
 from ..certificate.turns import TURN_REENTRY
-from ..objectives import labelled_figures, listed, objective
+from ..objectives import labelled_figures
+from ..verification.lines import robot_leaves
 from ..results import failed_names
 from .markdown import conditions_text, fmt, table
 
@@ -43,46 +44,6 @@ def _val(v: Any) -> str:
     if isinstance(v, (int, float)):
         return fmt(v, 5)
     return str(v)
-
-
-def robot_leaves(mc: dict[str, Any], cfg: Any) -> str:
-    """One sentence when the robot leaves the certified set from its boundary (the probe, on arcs too, or the
-    adversary from the boundary above 1: the verdict fails on it), else '': whom it blames and what to do.
-    The blame follows the exact lifted map on the same states: at most 1, the linearization (a certificate made
-    with synthesis.kinematics: linearized); above, the certificate's model itself (the paper's, which leaves slip
-    out of the commands).  It points to nonlinear kinematics only where the config can have them."""
-    from ..verification.verdict import LEVEL_TOL
-
-    bp = mc.get("boundary_probe") or {}
-    if not bp:
-        return ""
-    robot = max([bp.get("max_V_over_level_nonlinear", 0.0), (bp.get("arcs") or {}).get("max_V_over_level_nonlinear", 0.0),
-                 (bp.get("adversary") or {}).get("max_V_over_level", 0.0)])
-    if robot <= 1.0 + LEVEL_TOL:
-        return ""
-    exact = bp.get("max_V_over_level_linear", 0.0)  # on straight segments (the probe runs no exact map on arcs)
-    syn = cfg.synthesis
-    if exact > 1.0 + LEVEL_TOL:  # above round-off: the model itself is left
-        return (f"the certificate's model is not the robot's: from the boundary of its set the exact lifted map reaches "
-                f"V/level {exact:.3f} and the nonlinear robot {robot:.3f}, so the verdict fails"
-                + ("; the paper's model leaves slip out of the commands, synthesis.model: slip-aware keeps it"
-                   if syn.model == "paper" else "") + " (docs/theory.md §7)")
-    if syn.kinematics == "nonlinear":
-        return (f"the robot leaves a set proven for it (V/level {robot:.3f}): the proof or its checker has a defect, or an "
-                "assumption it states does not hold here; please report it with the files of this run")
-    if syn.model != "slip-aware":
-        hint = ("; synthesis.kinematics: nonlinear, which proves the set for the robot, needs synthesis.model: "
-                "slip-aware: docs/theory.md §9")
-    else:
-        needs = [w for w, cond in ((f"objective {listed(lambda o: o.nonlinear_kinematics)}",
-                                    not objective(syn.objective).nonlinear_kinematics),
-                                   ("delay vertices (delay_description auto, polytopic or lossy-polytopic)",
-                                    syn.delay_description == "norm-bounded")) if cond]
-        hint = ("; synthesis.kinematics: nonlinear"
-                + (f" ({', '.join(needs)})" if needs else "")
-                + " proves the set for the robot, where one exists: docs/theory.md §9")
-    return (f"the proof is for the robot's linearization: from the boundary of its set the nonlinear robot reaches "
-            f"V/level {robot:.3f}, so the verdict fails{hint}")
 
 
 def verification_markdown(model: Any, res: Any, vd: dict[str, Any], figures: dict[str, str] | None = None) -> str:

@@ -53,6 +53,24 @@ class SynthesisResult:
                             "check": self.check.to_dict(), "solver": self.solver, "search": list(self.search),
                             "timings": self.timings, "notes": list(self.notes)})
 
+    def lines(self, model: Any) -> list[str]:
+        """What the CLI prints of this result on ``model`` (the plant it was synthesized for): the certified figures in
+        the plant's units (the robot's cm and rad, with the nonlinear proof's heading bound and the compensated law's
+        condition; a linear plant's outputs, with its lifting), then the notes.  ``synthesize`` adds a linear gain's
+        delay margin, which it computes beside the result."""
+        from ..artifacts.certified import certified_lines
+        from ..artifacts.gains import certified_figures
+
+        if self.plant_kind == "lti":
+            record = {"objective": self.objective, "certified": self.certified,
+                      "lifting": {"d": (np.shape(self.K)[1] - model.n_x) // model.n_u}}
+        else:
+            compensation = getattr(model, "compensation", None)
+            record = {"objective": self.objective, "certified": certified_figures(self.certified),
+                      "certificate": self.certificate,
+                      **({"compensation": compensation.to_dict()} if compensation is not None else {})}
+        return certified_lines(record) + [f"note: {note}" for note in self.notes]
+
     def save(self, model: Any, outdir: Any) -> list[Any]:
         """Write gains.json and gains.mat of this result for ``model`` (the plant it was synthesized for) into
         ``outdir`` (atomically, gains.json last): what ``robustsynth synthesize`` writes, without the report (and,

@@ -64,6 +64,7 @@ class VerificationResult:
     mask: np.ndarray | None = field(default=None, repr=False)  # (N, steps): steps the verdict covers
     # a slip-compensated law: its runs with the estimator in the loop on the true slip (verification/compensated.py)
     compensated: Any = field(default=None, repr=False)
+    config: Any = field(default=None, repr=False)  # the config it was verified against (the model's)
 
     @property
     def failed_checks(self) -> list[str]:
@@ -82,6 +83,13 @@ class VerificationResult:
         from ..artifacts.files import to_jsonable
 
         return to_jsonable({"passed": bool(self.passed), "checks": list(self.checks), **self.details})
+
+    def lines(self) -> list[str]:
+        """What the CLI prints: each failed check (an Err, for stderr), the verdict with the worst Monte Carlo ratios,
+        where the robot leaves its certified set and whom that blames, the compensated law's runs, the turns."""
+        from .lines import verdict_lines
+
+        return verdict_lines(self, self.config)
 
 
 def _V(xi: np.ndarray, P: np.ndarray) -> np.ndarray:
@@ -260,4 +268,4 @@ def verify(model, gains: Any, runs: int | None = None, seed: int | None = None,
     passed = all(c["passed"] for c in checks)
     mc["certificate_source"] = source
     return VerificationResult(passed, tuple(checks), cert, mc, lifted, frozen, sim, ext, scen, traces, K, dict(gains),
-                              v_ratio, mask, comp_runs)
+                              v_ratio, mask, comp_runs, model.config)
