@@ -231,7 +231,7 @@ class LinearJobs(Jobs):
         _refuse(log=(logdir, "robot logs are for the tracked robot, not a linear plant"))
 
     def refuse_run(self, physics: int, export_to: str | None) -> None:
-        from .runtime.export_lti import LTI_TARGETS
+        from .runtime.linear_law import LTI_TARGETS
 
         _refuse(physics=(physics or None, "the MuJoCo robot validates the tracked robot's gain, not a linear plant's"),
                 export=(export_to if export_to not in LTI_TARGETS else None,

@@ -38,11 +38,7 @@ def plant_of(config: Any, config_path: str | Path | None = None) -> Any:
     """The plant a config describes, as the stages take it: the tracked robot's :class:`~robustsynth.model.Model`
     (:func:`~robustsynth.model.build_model`), or a linear plant's :class:`~robustsynth.plants.linear.LinearPlant`
     (``plant: kind: lti``; its ``plant.file`` read beside ``config_path``, default the working directory)."""
-    if plant_kind_of(config) == "lti":
-        from .plants.linear import LinearPlant
-
-        return LinearPlant.from_config(config, str(Path(config_path).parent) if config_path is not None else None)
-    return build_model(config)
+    return _RECORDS[plant_kind_of(config)].plant(config, config_path)
 
 
 @dataclass(frozen=True)
@@ -456,6 +452,33 @@ class _RobotRecords:
         """Every stage option is the robot's."""
 
     @staticmethod
+    def plant(config: Any, config_path: str | Path | None) -> Model:
+        return build_model(config)
+
+    @staticmethod
+    def margin_gain(config: Any, outdir: Path, gains_path: str | Path | None, config_path: str | Path | None
+                    ) -> tuple[Any, Any, Path | None, dict[str, Any] | None]:
+        """The config (margin() builds the robot's model per delay and slip range) and its gains file's K."""
+        import numpy as np
+
+        from .artifacts.gains import load_gains
+
+        gp = Path(gains_path) if gains_path is not None else outdir / "gains.json"
+        gains = load_gains(gp)
+        return config, np.asarray(gains["K"], dtype=float), gp, gains
+
+    @staticmethod
+    def margin_meta(rep: Any, gains: dict[str, Any]) -> tuple[dict[str, Any], tuple[str, ...]]:
+        """The kinematics the gain's own certificate is for (None: no certificate), and what the margins do not say
+        of a certificate for the nonlinear robot."""
+        cert = gains.get("certificate")
+        kin = cert.get("kinematics", "linearized") if cert else None
+        notes = (("note: the margins are robust stability of the linearization; the gain's certificate for the "
+                  "nonlinear robot (synthesis.kinematics: nonlinear) holds for the configured delay and slip ranges "
+                  "only",) if kin == "nonlinear" else ())
+        return {"gains_kinematics": kin}, notes
+
+    @staticmethod
     def model(model: Model) -> tuple[dict[str, Any], dict[str, bytes]]:
         from .artifacts.files import json_bytes
         from .report.model import model_dict, model_markdown
@@ -562,6 +585,27 @@ class _LinearRecords:
         for name, value in robot.items():
             if value is not None:
                 raise InputError(f"{name}: a tracked robot's option (of run, synthesize and verify), not a linear plant's")
+
+    @staticmethod
+    def plant(config: Any, config_path: str | Path | None) -> Any:
+        from .plants.linear import LinearPlant
+
+        return LinearPlant.from_config(config, str(Path(config_path).parent) if config_path is not None else None)
+
+    @staticmethod
+    def margin_gain(config: Any, outdir: Path, gains_path: str | Path | None, config_path: str | Path | None
+                    ) -> tuple[Any, Any, Path | None, dict[str, Any] | None]:
+        """The plant and its gain (:func:`robustsynth.artifacts.gains.lti_gain`: a gains file, else
+        controller.gain, else outdir/gains.json)."""
+        from .artifacts.gains import lti_gain
+
+        plant = _LinearRecords.plant(config, config_path)
+        K, source, gd = lti_gain(config, plant.arrays, gains_path, outdir / "gains.json")
+        return plant, K, source, gd
+
+    @staticmethod
+    def margin_meta(rep: Any, gains: dict[str, Any] | None) -> tuple[dict[str, Any], tuple[str, ...]]:
+        return {}, ()
 
     @staticmethod
     def model(plant: Any) -> tuple[dict[str, Any], dict[str, bytes]]:
@@ -709,37 +753,14 @@ def margin_stage(config: Any, outdir: str | Path, gains_path: str | Path | None 
     from .report.markdown import margin_markdown
 
     outdir = make_dir(outdir)
-    plant, K, gp, gains = _margin_gain(config, outdir, gains_path, config_path)
+    records = _RECORDS[plant_kind_of(config)]
+    plant, K, gp, gains = records.margin_gain(config, outdir, gains_path, config_path)
     rep = margin(plant, K, lyapunov=lyapunov, on_step=on_step)
     meta = {"gains": None if gp is None else str(gp), "gains_id": None if gains is None else gains_id(gains),
             "config": config.name}
-    if getattr(plant, "plant_kind", "tracked-robot") == "tracked-robot":
-        cert = gains.get("certificate")  # the kinematics the gain's own certificate is for (None: no certificate)
-        meta["gains_kinematics"] = cert.get("kinematics", "linearized") if cert else None
-        if meta["gains_kinematics"] == "nonlinear":
-            rep = replace(rep, notes=rep.notes + (
-                "note: the margins are robust stability of the linearization; the gain's certificate for the nonlinear "
-                "robot (synthesis.kinematics: nonlinear) holds for the configured delay and slip ranges only",))
-    rep = replace(rep, meta={**rep.meta, **meta})
+    more, notes = records.margin_meta(rep, gains)
+    rep = replace(rep, notes=rep.notes + notes, meta={**rep.meta, **meta, **more})
     data = rep.to_dict()
     written = commit_files(outdir, {"margin.json": json_bytes(data), "margin.md": margin_markdown(data).encode("utf-8")},
                            primary="margin.json")
     return MarginStage(rep, data, tuple(written))
-
-
-def _margin_gain(config: Any, outdir: Path, gains_path: str | Path | None, config_path: str | Path | None
-                 ) -> tuple[Any, Any, Path | None, dict[str, Any] | None]:
-    """(the plant margin() takes, the gain, the gains file it came from, its mapping): the robot's config and its
-    gains file's K; a linear plant (:class:`~robustsynth.plants.linear.LinearPlant`) and its gain
-    (:func:`robustsynth.artifacts.gains.lti_gain`: a gains file, else controller.gain, else outdir/gains.json)."""
-    import numpy as np
-
-    from .artifacts.gains import load_gains, lti_gain
-
-    if plant_kind_of(config) == "lti":
-        plant = plant_of(config, config_path)
-        K, source, gd = lti_gain(config, plant.arrays, gains_path, outdir / "gains.json")
-        return plant, K, source, gd
-    gp = Path(gains_path) if gains_path is not None else outdir / "gains.json"
-    gains = load_gains(gp)
-    return config, np.asarray(gains["K"], dtype=float), gp, gains

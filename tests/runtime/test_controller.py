@@ -20,7 +20,7 @@ from robustsynth.plants.path import make_path
 
 ROOT = Path(__file__).resolve().parents[2]
 GAINS = sorted(p for p in (ROOT / "results" / "baselines").glob("*/gains.json")
-               if json.loads(p.read_text()).get("kind") != "lti")  # the robot's (a linear plant's: test_export_lti)
+               if json.loads(p.read_text()).get("kind") != "lti")  # the robot's (a linear plant's: test_linear_law)
 EXACT = 0.0  # two runs of the same law on the same inputs agree bit for bit
 MAP_TOL = 1e-12  # motor mapping vs kinematics.motor_speeds (numpy)
 

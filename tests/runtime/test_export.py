@@ -21,7 +21,7 @@ from robustsynth.plants.path import make_path
 
 ROOT = Path(__file__).resolve().parents[2]
 GAINS = sorted(p for p in (ROOT / "results" / "baselines").glob("*/gains.json")
-               if json.loads(p.read_text()).get("kind") != "lti")  # the robot's (a linear plant's: test_export_lti)
+               if json.loads(p.read_text()).get("kind") != "lti")  # the robot's (a linear plant's: test_linear_law)
 # the slip-compensated law's (docs/theory.md §18): its C99 and ROS 2 forms carry the compensator
 COMPENSATED = [p for p in GAINS if json.loads(p.read_text()).get("compensation") is not None]
 EXPORT_TOL = 1e-12  # generated controller vs Controller.step (issue 11)
@@ -378,3 +378,25 @@ def test_the_python_export_leaves_out_the_monitors_docstring_import_and_all_wher
 
     src = '"""doc\nstring"""\n\nimport math\n\n__all__ = ["a",\n           "b"]\n\nA = 1\n'
     assert _monitor_body(src).split() == ["A", "=", "1"]
+
+
+def test_every_plant_kind_exports_through_one_flow() -> None:
+    """export_controller asks a plant kind's exporter, never branches on the kind itself (issue 52): each exporter
+    offers the same calls, the robot's every target, a linear plant's refuses the robot's own by name."""
+    from robustsynth.errors import InputError
+    from robustsynth.runtime.export import TARGETS, _exporter
+    from robustsynth.runtime.linear_law import LTI_TARGETS
+
+    robot, linear = _exporter({"K": [[0.0]]}), _exporter({"kind": "lti"})
+    assert (robot.kind, linear.kind) == ("tracked-robot", "lti")
+    for plant in (robot, linear):
+        for call in ("refuse_target", "prepare", "check_config", "description", "proven", "files"):
+            assert callable(getattr(plant, call)), (plant.kind, call)
+        assert set(plant.targets) <= set(TARGETS)
+    for target in TARGETS:
+        robot.refuse_target(target)
+        if target in LTI_TARGETS:
+            linear.refuse_target(target)
+        else:
+            with pytest.raises(InputError, match=rf"^--to: {target} is for the robot; a linear plant's gain exports to "):
+                linear.refuse_target(target)

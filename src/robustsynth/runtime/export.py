@@ -16,7 +16,7 @@ from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
-from .export_lti import _c_array, _f, certified_word, proof_lines  # _f: a C double literal that reads back exactly
+from .codegen import _c_array, _f, certified_word, proof_lines  # _f: a C double literal that reads back exactly
 
 if TYPE_CHECKING:
     from ..law import Controller, PathTable
@@ -465,27 +465,6 @@ def export_files(d: dict[str, Any], target: str) -> dict[str, bytes]:
     raise ValueError(f"unknown export target {target!r} (one of {', '.join(TARGETS)})")
 
 
-def _same_lti_plant(gains: dict[str, Any], cfg: Any, config_path: str | Path) -> None:
-    """--config with a linear plant's gains: the config must be a linear plant's with the gains' sizes,
-    sampling time and lifting (the exported law has no config of its own to disagree with)."""
-    from ..config import is_lti
-    from ..errors import InputError
-    from ..core.delays import lti_depth
-
-    if not is_lti(cfg):
-        raise InputError(f"--config: {config_path} is the tracked robot's; the gains are a linear plant's")
-    lift, net = gains["lifting"], cfg.network
-    d = lti_depth(net.delay.max, net.dropouts.max_consecutive, net.sampling_time)
-    if cfg.plant.A is not None and cfg.plant.B is not None:
-        n, m = len(cfg.plant.A), len(cfg.plant.B[0])
-        if (n, m) != (int(lift["n"]), int(lift["m"])):
-            raise InputError(f"--config: {config_path} has n = {n} states and m = {m} inputs; the gains were made for "
-                             f"n = {lift['n']}, m = {lift['m']}")
-    if float(net.sampling_time) != float(gains["network"]["sampling_time"]) or d != int(lift["d"]):
-        raise InputError(f"--config: {config_path} samples at {net.sampling_time:g} s and lifts {d} commands; the gains "
-                         f"were made for {gains['network']['sampling_time']:g} s and {lift['d']}")
-
-
 def _rechecked(gains: dict[str, Any]) -> dict[str, Any]:
     """A robot gains mapping with a certificate but without its figures (a gains.mat keeps the certificate,
     not the figures; a JSON changed after synthesis had them dropped): the certificate re-checked on the config
@@ -644,6 +623,57 @@ def _refuse_unverified(gains_path: Path, ver: dict[str, Any], allow_unverified: 
                      f"--verification): run `robustsynth verify --gains {gains_path}` first, {anyway}")
 
 
+class _RobotExporter:
+    """The tracked robot's gain as an exported controller (every target; its description is the law's with the path
+    and the monitor, :func:`robustsynth.artifacts.gains.controller_description`)."""
+
+    kind = "tracked-robot"
+    targets = TARGETS
+
+    @staticmethod
+    def refuse_target(target: str) -> None:
+        """Every target is the robot's."""
+
+    @staticmethod
+    def prepare(gains: dict[str, Any]) -> dict[str, Any]:
+        """A certificate without its figures is re-checked (:func:`_rechecked`)."""
+        if not gains.get("certified") and isinstance(gains.get("certificate"), dict):
+            return _rechecked(gains)
+        return gains
+
+    @staticmethod
+    def check_config(gains: dict[str, Any], cfg: Any, config_path: Any) -> None:
+        from ..config import is_lti
+        from ..errors import InputError
+
+        if is_lti(cfg):  # the robot's law needs the robot's sections (a review found a traceback here)
+            raise InputError(f"--config: {config_path} is a linear plant's; these gains are the tracked robot's "
+                             "(a linear plant's gains.json says kind: lti)")
+
+    @staticmethod
+    def description(gains: dict[str, Any], cfg: Any) -> dict[str, Any]:
+        from ..artifacts.gains import controller_description
+
+        return controller_description(gains, cfg)
+
+    @staticmethod
+    def proven(gains: dict[str, Any], cfg: Any) -> dict[str, Any]:
+        from ..config import load_config
+
+        return _robot_proven(gains, cfg if cfg is not None else load_config(None))
+
+    files = staticmethod(export_files)
+
+
+def _exporter(gains: dict[str, Any]) -> Any:
+    """The plant kind's exporter of a gains mapping (a linear plant's says ``kind: lti``)."""
+    if gains.get("kind") == "lti":
+        from .linear_law import LinearExporter
+
+        return LinearExporter
+    return _RobotExporter
+
+
 def export_controller(gains_path: str | Path, target: str, outdir: str | Path,
                       config_path: str | Path | None = None, *, verification_path: str | Path | None = None,
                       allow_unverified: bool = False) -> tuple[dict[str, Any], list[Path]]:
@@ -656,10 +686,10 @@ def export_controller(gains_path: str | Path, target: str, outdir: str | Path,
     raises VerificationFailed (exit 1), a missing one or one of another gain InputError (exit 2), unless
     ``allow_unverified``: then the files are exported, marked UNVERIFIED.  The description's ``proof`` and the
     files' header comments state what the gain is proven for (certificate kind, slip model) and its verification."""
+    from ..artifacts.files import commit_files
+    from ..artifacts.gains import gains_id, load_gains
     from ..config import load_config
     from ..errors import InputError
-    from ..artifacts.files import commit_files
-    from ..artifacts.gains import controller_description, gains_id, load_gains
 
     if target not in TARGETS:
         raise InputError(f"--to: must be one of {', '.join(TARGETS)} (got {target!r})")
@@ -671,32 +701,16 @@ def export_controller(gains_path: str | Path, target: str, outdir: str | Path,
         # K, the certificate or the config changed after synthesis wrote the file: what it says is certified
         # is not this gain's (a review found an edited K exported as "the certified controller")
         gains = {k: v for k, v in gains.items() if k not in ("certified", "gains_id")}
-    if gains.get("kind") != "lti" and not gains.get("certified") and isinstance(gains.get("certificate"), dict):
-        gains = _rechecked(gains)
-    if gains.get("kind") == "lti":  # a linear plant's generic law
-        from .export_lti import lti_export_files, lti_proven
-
-        if config_path is not None:
-            _same_lti_plant(gains, load_config(config_path), config_path)
-        lti_export_files(gains, target)  # the gain's checks (target, shapes) before its verification's
-        ver = verification_record(gains_path, as_read, verification_path)
-        _refuse_unverified(gains_path, ver, allow_unverified)
-        proof = {"certificate": "lti" if gains.get("certified") else None, "proven": lti_proven(gains),
-                 "verified": _verified_text(ver), "verification": ver}
-        d, files = lti_export_files(gains, target, proof)
-        return d, commit_files(outdir, files, primary=next(iter(files)))
+    plant = _exporter(gains)
+    plant.refuse_target(target)
+    gains = plant.prepare(gains)
     cfg = load_config(config_path) if config_path is not None else None
     if cfg is not None:
-        from ..config import is_lti
-
-        if is_lti(cfg):  # the robot's law needs the robot's sections (a review found a traceback here)
-            raise InputError(f"--config: {config_path} is a linear plant's; these gains are the tracked robot's "
-                             "(a linear plant's gains.json says kind: lti)")
-    d = controller_description(gains, cfg)
-    export_files(d, target)  # the description's checks (the law's) before the verification's
+        plant.check_config(gains, cfg, config_path)
+    d = plant.description(gains, cfg)
+    plant.files(d, target)  # the description's checks (the law's) before the verification's
     ver = verification_record(gains_path, as_read, verification_path)
     _refuse_unverified(gains_path, ver, allow_unverified)
-    proven = _robot_proven(gains, cfg if cfg is not None else load_config(None))
-    d = dict(d, proof={**proven, "verified": _verified_text(ver), "verification": ver})
-    files = export_files(d, target)
+    d = dict(d, proof={**plant.proven(gains, cfg), "verified": _verified_text(ver), "verification": ver})
+    files = plant.files(d, target)
     return d, commit_files(outdir, files, primary=next(iter(files)))

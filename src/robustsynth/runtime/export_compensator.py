@@ -7,7 +7,7 @@ a description with ``compensation``."""
 from __future__ import annotations
 
 from ..law import Compensator
-from .export_lti import _c_array as _arr, _f  # C double literals that read back exactly
+from .codegen import _c_array as _arr, _f  # C double literals that read back exactly
 
 __all__: list[str] = []
 

@@ -11,7 +11,7 @@ from typing import Any
 from ..law import Compensator
 from ..monitor import _EST_ROUND, CAUSES, Monitor
 from .export_compensator import _c_compensator, _compensated_harness, _compensator_h
-from .export_lti import _c_array as _arr, _f  # C double literals that read back exactly
+from .codegen import _c_array as _arr, _f  # C double literals that read back exactly
 
 __all__ = ["c_monitor_files", "c_wrap", "MONITOR_CAPACITY"]
 

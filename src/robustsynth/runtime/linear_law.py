@@ -8,26 +8,13 @@ the same floats; the tests compile the C code and compare both with numpy's K @ 
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
-__all__ = ["lti_export_files", "lti_proven", "LTI_TARGETS"]
+from .codegen import _c_array, _f, certified_word, proof_lines
+
+__all__ = ["LinearExporter", "lti_proven", "LTI_TARGETS"]
 
 LTI_TARGETS = ("c", "python", "json")
-
-
-def _f(v: float) -> str:
-    """A C double literal that reads back as exactly ``v`` (17 significant digits by repr)."""
-    v = float(v)
-    if not math.isfinite(v):
-        raise ValueError(f"non-finite constant {v!r}")
-    s = repr(v)
-    return s if any(ch in s for ch in ".eE") else s + ".0"
-
-
-def _c_array(values) -> str:
-    """A C array initializer of the doubles ``values`` (:func:`_f` each)."""
-    return "{" + ", ".join(_f(v) for v in values) + "}"
 
 
 def _description(gd: dict[str, Any]) -> dict[str, Any]:
@@ -36,38 +23,6 @@ def _description(gd: dict[str, Any]) -> dict[str, Any]:
             "n": int(lift["n"]), "m": int(lift["m"]), "d": int(lift["d"]), "states": lift.get("states"),
             "sampling_time": gd["network"]["sampling_time"], "certified": gd.get("certified"),
             "gains_id": gd.get("gains_id")}
-
-
-def certified_word(d: dict[str, Any]) -> str:
-    """How a generated file names its controller: certified only when the gains file carries its certificate's
-    figures (a bare K, or a file changed after synthesis, does not); UNVERIFIED first when the description's
-    proof (``export_controller``) says this gain's verification failed or is missing (issue 50: a baseline whose
-    verification failed was exported as "the certified controller")."""
-    word = "certified" if d.get("certified") else "UNCERTIFIED (no certificate that holds for this gain)"
-    proof = d.get("proof")
-    if isinstance(proof, dict) and (proof.get("verification") or {}).get("status") != "passed":
-        return f"UNVERIFIED ({UNVERIFIED_WHY.get(proof['verification'].get('status'), 'not verified')}), {word}"
-    return word
-
-
-UNVERIFIED_WHY = {"failed": "its verification FAILED", "missing": "no verification of this gain",
-                  "other-gain": "its verification record is of another gain"}
-
-
-def comment_safe(text: str) -> str:
-    """Text that can stand in a C comment, a Python docstring and a YAML comment line (a path could end any of
-    them)."""
-    out = str(text).replace("*/", "* /").replace('"""', "'''").replace("\\", "/")
-    return " ".join(out.splitlines())
-
-
-def proof_lines(d: dict[str, Any]) -> list[str]:
-    """The header lines that say what the gain is proven for and whether this gain was verified (none when the
-    description carries no proof)."""
-    proof = d.get("proof")
-    if not isinstance(proof, dict):
-        return []
-    return [comment_safe(f"Proven: {proof['proven']}."), comment_safe(f"Verification: {proof['verified']}.")]
 
 
 def _lifted(d: int) -> str:
@@ -176,28 +131,74 @@ def lti_proven(gd: dict[str, Any]) -> str:
             "(not the tracked robot)")
 
 
-def lti_export_files(gd: dict[str, Any], target: str,
-                     proof: dict[str, Any] | None = None) -> tuple[dict[str, Any], dict[str, bytes]]:
-    """(description, files) of a linear plant's gains mapping for ``target`` (c, python or json); ``proof``
-    (``export_controller``): what the gain is proven for and whether it was verified, stated in the files."""
-    import json
-
+def _same_plant(gains: dict[str, Any], cfg: Any, config_path: Any) -> None:
+    """--config with a linear plant's gains: the config must be a linear plant's with the gains' sizes,
+    sampling time and lifting (the exported law has no config of its own to disagree with)."""
+    from ..config import is_lti
+    from ..core.delays import lti_depth
     from ..errors import InputError
 
-    if target not in LTI_TARGETS:
-        raise InputError(f"--to: {target} is for the robot; a linear plant's gain exports to {', '.join(LTI_TARGETS)}")
-    try:
-        d = _description(gd)
-        K = [[float(v) for v in row] for row in d["K"]]
-    except (KeyError, TypeError, ValueError) as exc:
-        raise InputError(f"gains: not a complete linear plant's gains file ({exc})") from None
-    if len(K) != d["m"] or any(len(r) != d["n"] + d["d"] * d["m"] for r in K):
-        raise InputError(f"K: must be {d['m']} x {d['n'] + d['d'] * d['m']} (m x (n + d m)) for this lifting")
-    d["K"] = K
-    if proof is not None:
-        d["proof"] = proof
-    if target == "c":
-        return d, _c_files(d)
-    if target == "python":
-        return d, {"rs_lti.py": _python_module(d)}
-    return d, {"rs_lti.json": (json.dumps(d, indent=2, allow_nan=False) + "\n").encode()}
+    if not is_lti(cfg):
+        raise InputError(f"--config: {config_path} is the tracked robot's; the gains are a linear plant's")
+    lift, net = gains["lifting"], cfg.network
+    d = lti_depth(net.delay.max, net.dropouts.max_consecutive, net.sampling_time)
+    if cfg.plant.A is not None and cfg.plant.B is not None:
+        n, m = len(cfg.plant.A), len(cfg.plant.B[0])
+        if (n, m) != (int(lift["n"]), int(lift["m"])):
+            raise InputError(f"--config: {config_path} has n = {n} states and m = {m} inputs; the gains were made for "
+                             f"n = {lift['n']}, m = {lift['m']}")
+    if float(net.sampling_time) != float(gains["network"]["sampling_time"]) or d != int(lift["d"]):
+        raise InputError(f"--config: {config_path} samples at {net.sampling_time:g} s and lifts {d} commands; the gains "
+                         f"were made for {gains['network']['sampling_time']:g} s and {lift['d']}")
+
+
+class LinearExporter:
+    """A linear plant's gain (``kind: lti``) as an exported controller: what ``runtime.export.export_controller``
+    asks of a plant kind (the targets it offers, the config it agrees with, its description, what its certificate
+    proves, its files)."""
+
+    kind = "lti"
+    targets = LTI_TARGETS
+
+    @staticmethod
+    def refuse_target(target: str) -> None:
+        from ..errors import InputError
+
+        if target not in LTI_TARGETS:
+            raise InputError(f"--to: {target} is for the robot; a linear plant's gain exports to {', '.join(LTI_TARGETS)}")
+
+    @staticmethod
+    def prepare(gains: dict[str, Any]) -> dict[str, Any]:
+        return gains
+
+    check_config = staticmethod(_same_plant)
+
+    @staticmethod
+    def description(gains: dict[str, Any], cfg: Any) -> dict[str, Any]:
+        """The law's constants from the gains mapping, its shapes checked (InputError naming the key)."""
+        from ..errors import InputError
+
+        try:
+            d = _description(gains)
+            K = [[float(v) for v in row] for row in d["K"]]
+        except (KeyError, TypeError, ValueError) as exc:
+            raise InputError(f"gains: not a complete linear plant's gains file ({exc})") from None
+        if len(K) != d["m"] or any(len(r) != d["n"] + d["d"] * d["m"] for r in K):
+            raise InputError(f"K: must be {d['m']} x {d['n'] + d['d'] * d['m']} (m x (n + d m)) for this lifting")
+        d["K"] = K
+        return d
+
+    @staticmethod
+    def proven(gains: dict[str, Any], cfg: Any) -> dict[str, Any]:
+        return {"certificate": "lti" if gains.get("certified") else None, "proven": lti_proven(gains)}
+
+    @staticmethod
+    def files(d: dict[str, Any], target: str) -> dict[str, bytes]:
+        """The files of one target (name -> content)."""
+        import json
+
+        if target == "c":
+            return _c_files(d)
+        if target == "python":
+            return {"rs_lti.py": _python_module(d)}
+        return {"rs_lti.json": (json.dumps(d, indent=2, allow_nan=False) + "\n").encode()}

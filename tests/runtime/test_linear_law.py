@@ -65,7 +65,7 @@ def test_python_module_matches_the_lifted_law(tmp_path) -> None:
 
 def test_the_lifted_state_is_written_as_it_is() -> None:
     """A review found "[x_k; u_(k-1); ...; u_(k-1)]" in the docstring of a d = 1 export."""
-    from robustsynth.runtime.export_lti import _lifted
+    from robustsynth.runtime.linear_law import _lifted
 
     assert [_lifted(d) for d in (1, 2, 4)] == ["[x_k; u_(k-1)]", "[x_k; u_(k-1); u_(k-2)]", "[x_k; u_(k-1); ...; u_(k-4)]"]
 
