@@ -28,7 +28,7 @@ from ..core.network import Network, max_cyclic_run
 from ..errors import InputError, check_interrupt
 from ..core.delays import lti_depth
 from ..results import Margin, MarginReport
-from .common import bisect
+from .common import bisect, first_bad
 
 __all__ = ["linear_margin", "lti_margins", "delay_margin", "loss_margin", "find_lti_instability", "spectral_radius", "check_witness", "SEARCH_DELAYS", "SEARCH_PERIOD",
            "SWITCH_FAMILIES", "EXHIBIT_CAP"]
@@ -211,27 +211,6 @@ class _NotAttempted:
         self.vertices = vertices
 
 
-def _first_bad(bad: Callable[[float], Any], lo: float, far: float, tol: float) -> tuple[float | None, Any]:
-    """Scan (lo, far] outwards for the first value where ``bad`` returns something, then bisect to tol."""
-    prev, hit, what = lo, None, None
-    for x in np.linspace(lo, far, SCAN + 1)[1:]:
-        w = bad(float(x))
-        if w is not None:
-            hit, what = float(x), w
-            break
-        prev = float(x)
-    if hit is None:
-        return None, None
-    while hit - prev > tol:
-        mid = 0.5 * (prev + hit)
-        w = bad(mid)
-        if w is not None:
-            hit, what = mid, w
-        else:
-            prev = mid
-    return hit, what
-
-
 def _last_good(good: Callable[[float], bool], lo: float, hi: float, tol: float) -> float | None:
     """Largest value in [lo, hi] where ``good`` holds (bisection; ``good`` assumed monotone)."""
     if not good(lo):
@@ -258,7 +237,7 @@ def _exhibited_delay(plant: dict, Ts: float, t_lo: float, far: float, m_lost: in
         check = check_witness(plant, Ts, w, m_lost)
         return dict(w, check=check) if check["ok"] else None
 
-    return _first_bad(bad, t_lo, top, tol)
+    return first_bad(bad, np.linspace(t_lo, top, SCAN + 1)[1:], tol, clean=t_lo)
 
 
 def _gallop(good: Callable[[float], bool], lo: float, hi: float, step: float, tol: float) -> float:

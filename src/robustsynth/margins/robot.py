@@ -28,7 +28,7 @@ from ..core.network import max_cyclic_run
 from ..errors import InputError, check_interrupt
 from ..model import gain_lifting, pad_gain
 from ..results import Margin, MarginReport
-from .common import bisect
+from .common import bisect, first_bad
 
 __all__ = ["robot_margin", "find_instability", "witness_delays", "EXHIBIT_TOL"]
 
@@ -136,28 +136,6 @@ class _Search:
         return w
 
 
-def _first_instability(search: "_Search", grid: np.ndarray, tol: float) -> dict[str, Any] | None:
-    """Walk ``grid`` (from the configured side outwards) until the search exhibits an instability,
-    then bisect between the last clean value and that one to ``tol``; the witness found last."""
-    witness, prev, bad = None, None, None
-    for x in grid:
-        witness = search.unstable(float(x))
-        if witness is not None:
-            bad = float(x)
-            break
-        prev = float(x)
-    if witness is None or prev is None:
-        return witness
-    while abs(bad - prev) > tol:
-        mid = (prev + bad) / 2.0
-        w = search.unstable(mid)
-        if w is not None:
-            witness, bad = w, mid
-        else:
-            prev = mid
-    return witness
-
-
 def _delay_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[str], None]) -> Margin:
     dl, Ts = config.network.delay, config.network.sampling_time
     from ..config import MAX_D_HI
@@ -170,7 +148,7 @@ def _delay_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[s
     # exhibited: scan tau_max up from tau_min in tenths of a period, then bisect the first bracket
     step = Ts / 10.0
     grid = np.arange(dl.min, top + 1e-12, step)
-    witness = _first_instability(search, grid, tol / 4)
+    witness = first_bad(search.unstable, grid, tol / 4)[1]
     exhibited = None
     if witness is not None:
         exhibited = float(np.max(witness_delays(witness)[~np.isinf(witness_delays(witness))]))  # admissible for tau_max >= this
@@ -219,7 +197,7 @@ def _slip_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[st
     search = _Search(config, K, lambda x: {"slip.right.min": float(x), "slip.left.min": float(x)}, lyapunov, say)
     say("slip_min: instability search")
     grid = np.arange(mu_hi, SLIP_FLOOR - 1e-12, -0.05)
-    witness = _first_instability(search, grid, SLIP_TOL / 4)
+    witness = first_bad(search.unstable, grid, SLIP_TOL / 4)[1]
     exhibited = None
     if witness is not None:
         exhibited = min(min(s[:2]) for s in witness["slip"])  # admissible for any mu_min <= this
@@ -252,7 +230,7 @@ def _icr_margin(config: Config, K: np.ndarray, lyapunov: str, say: Callable[[str
     say(f"{name}: instability search")
     step = -ICR_STEP if direction == "min" else ICR_STEP
     grid = np.arange(configured, end + step / 2 if direction == "max" else end - 1e-12, step)
-    witness = _first_instability(search, grid, ICR_TOL / 4)
+    witness = first_bad(search.unstable, grid, ICR_TOL / 4)[1]
     exhibited = None
     if witness is not None:
         vals = [c[index] for c in witness["slip"]]
