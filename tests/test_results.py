@@ -49,3 +49,16 @@ def test_an_analysis_says_its_status_then_its_check() -> None:
                              "found 0.001"]
     none = AnalysisResult(False, "infeasible", attempts=("common", "parameter-dependent"))
     assert none.lines() == ["no certificate: infeasible (tried: common, parameter-dependent), 0.00 s of solves"]
+
+
+def test_an_analysis_is_plain_data() -> None:
+    import json
+
+    import numpy as np
+
+    check = CertificateCheck(True, ({"name": "decrease", "passed": True, "margin_found": np.float64(1e-3)},))
+    found = AnalysisResult(True, "certified", "common", {"P": np.eye(2), "multipliers": (np.ones(1),)}, check, 0.5)
+    d = json.loads(json.dumps(found.to_dict()))
+    assert d["certificate"]["P"] == [[1.0, 0.0], [0.0, 1.0]] and d["check"] == json.loads(json.dumps(check.to_dict(),
+                                                                                                   default=float))
+    assert (d["status"], d["certified"], d["attempts"]) == ("certified", True, [])

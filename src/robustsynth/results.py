@@ -128,12 +128,30 @@ class AnalysisResult:
         """The certified set's matrix (None without a certificate)."""
         return None if self.certificate is None else self.certificate.get("P")
 
+    def to_dict(self) -> dict[str, Any]:
+        """The search's outcome as plain data (arrays as lists): status, the certificate and its check."""
+        return _plain({"certified": bool(self.certified), "status": self.status, "lyapunov": self.lyapunov,
+                            "certificate": self.certificate,
+                            "check": None if self.check is None else self.check.to_dict(),
+                            "solve_time_s": self.solve_time_s, "attempts": list(self.attempts)})
+
     def lines(self) -> list[str]:
         """One line: the status, the Lyapunov function kinds tried and the solve time, then the check's line."""
         tried = f" (tried: {', '.join(self.attempts)})" if self.attempts else ""
         head = (f"certificate found ({self.lyapunov} Lyapunov function)" if self.certified
                 else f"no certificate: {self.status}") + f"{tried}, {self.solve_time_s:.2f} s of solves"
         return [head] + (self.check.lines() if self.check is not None else [])
+
+
+def _plain(obj: Any) -> Any:
+    """``obj`` with its arrays and numpy scalars as lists and Python numbers (mappings and sequences walked)."""
+    if isinstance(obj, Mapping):
+        return {str(k): _plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_plain(v) for v in obj]
+    if hasattr(obj, "tolist"):  # a numpy array or scalar
+        return _plain(obj.tolist())
+    return obj
 
 
 def all_passed(checks: Iterable[Mapping[str, Any]]) -> bool:

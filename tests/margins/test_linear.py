@@ -116,6 +116,9 @@ def test_the_numpy_check_rejects_a_broken_certificate() -> None:
     pw = over_approximation(A, B, pad_lti_gain(K, 2, 1, 1), 1.0, 0.0, 0.5, 1, 4)
     res = analyze_lti(pw)
     assert res.certified and res.check.passed
+    said = json.loads(json.dumps(res.to_dict()))  # plain data, and its lines say it was found and proven
+    assert np.array_equal(np.asarray(said["certificate"]["P"]), res.P) and said["check"]["passed"]
+    assert res.lines()[0].startswith("certificate found") and res.lines()[1].startswith("certificate check passed")
     verts = vertex_combinations(pw)
     P = res.P.copy()
     P[0, 0] *= 0.5  # no longer a Lyapunov function
