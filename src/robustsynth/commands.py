@@ -2,7 +2,8 @@
 the lines they print, so that the CLI only parses options, calls one job and prints (issue 52: no plant branches
 in the CLI).
 
-A plant kind registers one :class:`Jobs` in :data:`JOBS` (its commands and its five jobs); :func:`jobs_for` picks it
+A plant kind registers one :class:`Jobs` in :data:`JOBS` (the commands it offers, how its model is described, the
+options it refuses; the five jobs are the base's, one implementation for every kind); :func:`jobs_for` picks it
 from the config, :func:`require` refuses a command the kind does not offer (one line, exit 2).  A job takes a
 :class:`Console` (where lines go, how progress shows) and returns an :class:`Outcome`: the exit code and the
 result's data.  Options of another plant kind are refused before any work, by name.
@@ -10,6 +11,7 @@ result's data.  Options of another plant kind are refused before any work, by na
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
@@ -51,7 +53,7 @@ def _refuse(**options: Any) -> None:
             raise InputError(f"--{name.replace('_', '-')}: {why}")
 
 
-class Jobs:
+class Jobs(ABC):
     """A plant kind's commands, one implementation for every kind: ``commands`` the ones it offers (the CLI refuses
     the others by name), ``model_summary`` how its model is described, and the hooks that refuse another kind's
     options (:meth:`refuse_synthesis`, :meth:`refuse_verify`, :meth:`refuse_run`) before any work."""
@@ -62,8 +64,9 @@ class Jobs:
     progress = True  # whether its verification reports the runs done (a progress bar)
 
     @staticmethod
+    @abstractmethod
     def model_summary(name: str, out: Path, stage: Any) -> list[str]:
-        raise NotImplementedError
+        """The lines that describe the kind's model (build-model)."""
 
     def refuse_synthesis(self, multiplier: str | None, diagnose: bool | None) -> None:
         """The synthesis options this kind does not take (one line, exit 2)."""
@@ -103,10 +106,10 @@ class Jobs:
         from .report.progress import progress_bar
 
         self.refuse_verify(logdir)
-        plant = plant_of(cfg, config_path)
         # the log place is proven writable before the work (a review found exit 2 at the end), and removed
         # again if the work fails before any log is in it
         with writable_dir(logdir) if logdir is not None else nullcontext():
+            plant = plant_of(cfg, config_path)
             with progress_bar(con.quiet) if self.progress else nullcontext() as cb:
                 st = verification_stage(plant, out, gains, runs, seed, fmt, plots, cb)
             con.show(console.verification_summary(out, st))

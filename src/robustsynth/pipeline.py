@@ -468,7 +468,7 @@ class _RobotRecords:
         return config, np.asarray(gains["K"], dtype=float), gp, gains
 
     @staticmethod
-    def margin_meta(rep: Any, gains: dict[str, Any]) -> tuple[dict[str, Any], tuple[str, ...]]:
+    def margin_meta(gains: dict[str, Any]) -> tuple[dict[str, Any], tuple[str, ...]]:
         """The kinematics the gain's own certificate is for (None: no certificate), and what the margins do not say
         of a certificate for the nonlinear robot."""
         cert = gains.get("certificate")
@@ -604,7 +604,7 @@ class _LinearRecords:
         return plant, K, source, gd
 
     @staticmethod
-    def margin_meta(rep: Any, gains: dict[str, Any] | None) -> tuple[dict[str, Any], tuple[str, ...]]:
+    def margin_meta(gains: dict[str, Any] | None) -> tuple[dict[str, Any], tuple[str, ...]]:
         return {}, ()
 
     @staticmethod
@@ -758,7 +758,7 @@ def margin_stage(config: Any, outdir: str | Path, gains_path: str | Path | None 
     rep = margin(plant, K, lyapunov=lyapunov, on_step=on_step)
     meta = {"gains": None if gp is None else str(gp), "gains_id": None if gains is None else gains_id(gains),
             "config": config.name}
-    more, notes = records.margin_meta(rep, gains)
+    more, notes = records.margin_meta(gains)
     rep = replace(rep, notes=rep.notes + notes, meta={**rep.meta, **meta, **more})
     data = rep.to_dict()
     written = commit_files(outdir, {"margin.json": json_bytes(data), "margin.md": margin_markdown(data).encode("utf-8")},

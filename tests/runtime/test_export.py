@@ -381,11 +381,23 @@ def test_the_python_export_leaves_out_the_monitors_docstring_import_and_all_wher
 
 
 def test_every_plant_kind_exports_through_one_flow() -> None:
-    """export_controller asks a plant kind's exporter, never branches on the kind itself (issue 52): each exporter
-    offers the same calls, the robot's every target, a linear plant's refuses the robot's own by name."""
+    """export_controller asks a plant kind's exporter and names no kind itself (issue 52): its body holds no plant
+    kind's name, no ``kind`` and no linear or robot helper; each exporter offers the same calls, the robot's every
+    target, a linear plant's refuses the robot's own by name."""
+    import inspect
+    import textwrap
+
     from robustsynth.errors import InputError
+    from robustsynth.runtime import export
     from robustsynth.runtime.export import TARGETS, _exporter
     from robustsynth.runtime.linear_law import LTI_TARGETS
+
+    body = ast.parse(textwrap.dedent(inspect.getsource(export.export_controller)))
+    strings = {n.value for n in ast.walk(body) if isinstance(n, ast.Constant) and isinstance(n.value, str)}
+    names = {n.id for n in ast.walk(body) if isinstance(n, ast.Name)} | {
+        n.attr for n in ast.walk(body) if isinstance(n, ast.Attribute)}
+    assert not {"lti", "tracked-robot", "kind"} & strings and "kind" not in names
+    assert not [n for n in names if "lti" in n.lower() or "robot" in n.lower()], names
 
     robot, linear = _exporter({"K": [[0.0]]}), _exporter({"kind": "lti"})
     assert (robot.kind, linear.kind) == ("tracked-robot", "lti")

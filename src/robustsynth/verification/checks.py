@@ -84,12 +84,13 @@ class VerificationResult:
 
         return to_jsonable({"passed": bool(self.passed), "checks": list(self.checks), **self.details})
 
-    def lines(self) -> list[str]:
+    def lines(self, config: Any = None) -> list[str]:
         """What the CLI prints: each failed check (an Err, for stderr), the verdict with the worst Monte Carlo ratios,
-        where the robot leaves its certified set and whom that blames, the compensated law's runs, the turns."""
+        where the robot leaves its certified set and whom that blames (from the synthesis settings of ``config``,
+        default the config it was verified against), the compensated law's runs, the turns."""
         from .lines import verdict_lines
 
-        return verdict_lines(self, self.config)
+        return verdict_lines(self, config if config is not None else self.config)
 
 
 def _V(xi: np.ndarray, P: np.ndarray) -> np.ndarray:
