@@ -12,7 +12,9 @@ from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-__all__ = ["Err", "Check", "all_passed", "failed_names", "failed_lines", "Verdict", "CertificateCheck", "AnalysisResult",
+import numpy as np
+
+__all__ = ["Err", "Check", "all_passed", "failed_names", "failed_lines", "to_jsonable", "Verdict", "CertificateCheck", "AnalysisResult",
            "Margin", "MarginReport"]
 
 
@@ -130,7 +132,7 @@ class AnalysisResult:
 
     def to_dict(self) -> dict[str, Any]:
         """The search's outcome as plain data (arrays as lists): status, the certificate and its check."""
-        return _plain({"certified": bool(self.certified), "status": self.status, "lyapunov": self.lyapunov,
+        return to_jsonable({"certified": bool(self.certified), "status": self.status, "lyapunov": self.lyapunov,
                             "certificate": self.certificate,
                             "check": None if self.check is None else self.check.to_dict(),
                             "solve_time_s": self.solve_time_s, "attempts": list(self.attempts)})
@@ -143,14 +145,23 @@ class AnalysisResult:
         return [head] + (self.check.lines() if self.check is not None else [])
 
 
-def _plain(obj: Any) -> Any:
-    """``obj`` with its arrays and numpy scalars as lists and Python numbers (mappings and sequences walked)."""
+def to_jsonable(obj: Any) -> Any:
+    """numpy arrays -> lists of rows, numpy scalars -> Python numbers, tuples -> lists, non-finite floats -> None
+    (what every result's ``to_dict`` and the files hold)."""
+    if isinstance(obj, np.ndarray):
+        return to_jsonable(obj.tolist())
+    if isinstance(obj, (np.floating,)):
+        return float(obj)
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (np.bool_,)):
+        return bool(obj)
     if isinstance(obj, Mapping):
-        return {str(k): _plain(v) for k, v in obj.items()}
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_plain(v) for v in obj]
-    if hasattr(obj, "tolist"):  # a numpy array or scalar
-        return _plain(obj.tolist())
+        return [to_jsonable(v) for v in obj]
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return None
     return obj
 
 

@@ -19,9 +19,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Iterator, Mapping
 
-import numpy as np
-
 from ..errors import OutputError
+from ..results import to_jsonable
 
 __all__ = ["make_dir", "check_writable_dir", "writable_dir", "output_error", "atomic_write", "remove_files", "set_aside", "STALE_DIR", "to_jsonable", "json_bytes", "mat_bytes", "commit_files", "sha256", "SCHEMA_VERSION", "record_header"]
 
@@ -114,25 +113,6 @@ def atomic_write(path: str | Path, data: bytes) -> None:
         if isinstance(exc, OSError) and not isinstance(exc, OutputError):
             raise output_error(path, exc) from None
         raise
-
-
-def to_jsonable(obj: Any) -> Any:
-    """numpy arrays -> lists of rows, numpy scalars -> Python numbers, tuples -> lists."""
-    if isinstance(obj, np.ndarray):
-        return to_jsonable(obj.tolist())
-    if isinstance(obj, (np.floating,)):
-        return float(obj)
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
-    if isinstance(obj, (np.bool_,)):
-        return bool(obj)
-    if isinstance(obj, Mapping):
-        return {str(k): to_jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [to_jsonable(v) for v in obj]
-    if isinstance(obj, float) and not np.isfinite(obj):
-        return None
-    return obj
 
 
 def json_bytes(obj: Any) -> bytes:
