@@ -234,11 +234,11 @@ class LinearJobs(Jobs):
         _refuse(log=(logdir, "robot logs are for the tracked robot, not a linear plant"))
 
     def refuse_run(self, physics: int, export_to: str | None) -> None:
-        from .runtime.linear_law import LTI_TARGETS
+        from .runtime.linear_law import foreign_target
 
+        why = foreign_target(export_to)  # the export command's refusal, said of run's option
         _refuse(physics=(physics or None, "the MuJoCo robot validates the tracked robot's gain, not a linear plant's"),
-                export=(export_to if export_to not in LTI_TARGETS else None,
-                        f"{export_to} is for the robot; a linear plant's gain exports to {', '.join(LTI_TARGETS)}"))
+                export=(export_to if why else None, why))
 
     def margin(self, cfg, out, con, config_path, *, gains, lyapunov, as_json):
         _refuse(lyapunov=(lyapunov, "a linear plant's certificate is one common quadratic function"))

@@ -12,9 +12,16 @@ from typing import Any
 
 from .codegen import _c_array, _f, certified_word, proof_lines
 
-__all__ = ["LinearExporter", "lti_proven", "LTI_TARGETS"]
+__all__ = ["LinearExporter", "lti_proven", "LTI_TARGETS", "foreign_target"]
 
 LTI_TARGETS = ("c", "python", "json")
+
+
+def foreign_target(target: str | None) -> str | None:
+    """Why a linear plant's gain does not export to ``target`` (None: it does, or no target), for the option's line."""
+    if target is None or target in LTI_TARGETS:
+        return None
+    return f"{target} is for the robot; a linear plant's gain exports to {', '.join(LTI_TARGETS)}"
 
 
 def _description(gd: dict[str, Any]) -> dict[str, Any]:
@@ -164,8 +171,9 @@ class LinearExporter:
     def refuse_target(target: str) -> None:
         from ..errors import InputError
 
-        if target not in LTI_TARGETS:
-            raise InputError(f"--to: {target} is for the robot; a linear plant's gain exports to {', '.join(LTI_TARGETS)}")
+        why = foreign_target(target)
+        if why is not None:
+            raise InputError(f"--to: {why}")
 
     @staticmethod
     def prepare(gains: dict[str, Any]) -> dict[str, Any]:
