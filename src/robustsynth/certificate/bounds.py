@@ -92,7 +92,8 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
     [0, Ts/4] and integrates to at most Ts^2/8).  On the exact arcs ``e_y' = v sin e_theta`` and
     ``e_x' = v cos e_theta - V`` (``f'' = +-v omega cos/sin``, jumps ``|dv|`` times sin / cos at the d_hi
     switching instants); on the linearization ``e_y' = V e_theta`` (``f'' = V omega``, no jumps) and
-    ``e_x' = a`` (only jumps); with the icr slip model e_y' also holds v_y, whose jumps add to e_y's.
+    ``e_x' = a`` (only jumps); with the icr slip model e_y' also holds v_y, whose jumps add to e_y's (where
+    it may jump at any time, its oscillation over the period: :func:`_lateral_oscillation`).
     v, omega and the jumps dv of the commands in flight are bounded on the set at every slip corner
     (multi-affine in the slip).  e_theta(t): :func:`heading_within_period`.
 
@@ -137,9 +138,12 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
         # the lateral velocity v_y = row(p) u (docs/theory.md §12): e_y' gets v_y cos e_theta, e_x' -v_y sin e_theta;
         # slip changing within the period (or a heading that turns it) makes it jump at any time, so each part is
         # bounded by its range: |f - chord| <= Ts/4 (sup f' - inf f') <= Ts/4 2 vy_bar (times sin for e_x)
+        # (for e_y its oscillation plus what cos e_theta takes off its size: |v1 c1 - v2 c2| <= |v1 - v2| + |v2| (1 -
+        # cos); the sign of v_y is the command's, so where x_icr = 0 is in the box that is about half of 2 vy_bar)
         vy = _lateral_on_set(model, cmds, mats, level, inner)
+        vy_osc = min(_lateral_oscillation(model, cmds, mats, level, inner), 2.0 * vy)
         h = min(float(heading if heading is not None else 0.0), np.pi / 2)
-        ey += Ts / 4 * 2.0 * vy
+        ey += Ts / 4 * (vy_osc + vy * 2.0 * float(np.sin(h / 2.0)) ** 2)
         ex += Ts / 4 * 2.0 * vy * float(np.sin(h))
     elif model.icr:  # e_y' also holds the lateral velocity v_y = row(p) u: its jumps at the switching instants
         dvy = max(sup_on_set(np.array([model.lateral_row(mu) @ (cmds[j] - cmds[j + 1]) for j in range(d_hi)]), mats,
@@ -168,16 +172,35 @@ def _forward_oscillation(model: Any, cmds: list[np.ndarray], mats: list[np.ndarr
     """The largest difference of the forward speed a = v - V^D between any two instants of a period on the
     set, slip changing at any time: between any two slip corners and any two commands in flight (``cmds``),
     with a turning reference's feedforward (0, w), |w| <= ``yaw_rate``, in each."""
+    return _oscillation(model, [model.slip_matrix(mu)[0] for mu in np.asarray(model.corners)], cmds, mats, level,
+                        inner, yaw_rate)
+
+
+def _lateral_oscillation(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], level: float, inner: int,
+                         yaw_rate: float = 0.0) -> float:
+    """The largest difference of the icr model's lateral velocity v_y = row(p) u between any two instants of a
+    period on the set, slip changing at any time (docs/theory.md §12): as :func:`_forward_oscillation`, with
+    the lateral rows.  At most twice :func:`_lateral_on_set`, and about once where the box holds x_icr = 0 (a
+    corner whose v_y is 0 against one whose v_y is largest): v_y keeps its sign for a fixed command."""
+    return _oscillation(model, [model.lateral_row(mu) for mu in np.asarray(model.corners)], cmds, mats, level,
+                        inner, yaw_rate)
+
+
+def _oscillation(model: Any, rows: list[np.ndarray], cmds: list[np.ndarray], mats: list[np.ndarray], level: float,
+                 inner: int, yaw_rate: float) -> float:
+    """The largest |r_a u_a - r_b u_b| on the set over every pair of rows (``rows``: a speed's row at each slip
+    corner; the speed is multi-affine in the slip, so its extremes over the box, and the extremes of a difference
+    of two such, are at corner pairs) and every pair of commands in flight u = u^D + w g + c xi (``cmds``: the
+    c), each with its own feedforward w, |w| <= ``yaw_rate``."""
     uD = np.array([model.V, 0.0])
     g = model.turn_feedforward  # the feedforward command per rad/s of yaw rate ((0, 1): M[0, 1])
-    Ms = [model.slip_matrix(mu) for mu in np.asarray(model.corners)]
     osc = 0.0
-    for Ma in Ms:
-        for Mb in Ms:
-            const = abs(float((Ma[0] - Mb[0]) @ uD)) + (abs(float(Ma[0] @ g)) + abs(float(Mb[0] @ g))) * yaw_rate
+    for ra in rows:
+        for rb in rows:
+            const = abs(float((ra - rb) @ uD)) + (abs(float(ra @ g)) + abs(float(rb @ g))) * yaw_rate
             for ca in cmds:
-                rows = np.array([Ma[0] @ ca - Mb[0] @ cb for cb in cmds])
-                osc = max(osc, const + sup_on_set(rows, mats, level, inner))
+                diffs = np.array([ra @ ca - rb @ cb for cb in cmds])
+                osc = max(osc, const + sup_on_set(diffs, mats, level, inner))
     return osc
 
 
@@ -244,7 +267,9 @@ def _between_samples_on_arcs(model: Any, cmds: list[np.ndarray], mats: list[np.n
         Px = Bx + sp * By + Ts * Ts / 8 * (vbar * wbar * s + V * w_r * sp) + Ts / 4 * d_hi * dvbar
     if model.icr:  # the lateral velocity: (p_y - p_ry)' gets v_y cos theta, (p_x - p_rx)' -v_y sin theta, each
         # bounded by its range (it jumps wherever the slip or a command does): Ts/4 2 vy_bar (times sin theta_hat)
+        # (for y its oscillation plus vy_bar (1 - cos theta_hat), as on straight segments)
         vy = _lateral_on_set(model, cmds, mats, level, inner, w_r)
-        Py += Ts / 4 * 2.0 * vy
+        vy_osc = min(_lateral_oscillation(model, cmds, mats, level, inner, w_r), 2.0 * vy)
+        Py += Ts / 4 * (vy_osc + vy * one_minus_cos)
         Px += Ts / 4 * 2.0 * vy * s
     return {"e_x": round_up(Px + sp * Py, 16), "e_y": round_up(Py + sp * Px, 16), "e_theta": heading}
