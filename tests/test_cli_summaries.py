@@ -25,6 +25,9 @@ TRACKS = str(ROOT / "configs" / "tracks-box.yaml")
 # the certified figures of _robot_gains() and the gain of _lti_gains(), as synthesize and run print them
 ROBOT_CERTIFIED = ("certified (ultimate-bound): decay rate 0.9123, |e_x| <= 1.23 cm, |e_y| <= 4.56 cm, "
                    "|e_theta| <= 0.0789 rad, |rho| <= 10.500 rad/s")
+ROBOT_CERTIFIED_ALL_T = ("certified (ultimate-bound): decay rate 0.9123, |e_x| <= 1.23 cm, |e_y| <= 4.56 cm, "
+                         "|e_theta| <= 0.0789 rad at the samples (for all t: |e_x| <= 1.35 cm, |e_y| <= 4.71 cm), "
+                         "|rho| <= 10.500 rad/s")
 LTI_GAIN = ("certified (ultimate-bound, d = 2): V+ <= 0.9500 V + 0.0500 (invariant, attracting set), |angle| <= 0.123 "
             "rad, from rest within |x| <= 1.5, inputs within |voltage| <= 12\n"
             "robust stability of this gain, delay_max: configured 0.01 s, certified at least 0.0123 s, exhibited 0.02 s "
@@ -52,8 +55,9 @@ def _robot_gains(nonlinear: bool = False) -> dict:
          "certified": {"decay_rate": 0.91234, "ultimate_bound": {"e_x": 0.0123, "e_y": 0.0456, "e_theta": 0.0789},
                        "motor_speed_bound": 10.5, "hinf_gain": None},
          "notes": ["first note", "second note"]}
-    if nonlinear:
+    if nonlinear:  # with the bounds for all t (between the samples) that a robot proof writes
         g["certificate"] = {"kinematics": "nonlinear", "heading_bound": 0.5}
+        g["certified"]["ultimate_bound_between_samples"] = {"e_x": 0.0135, "e_y": 0.0471, "e_theta": 0.0789}
     return g
 
 
@@ -121,7 +125,7 @@ def test_synthesize(monkeypatch, tmp_path) -> None:
     st = NS(cleared=(), gains=_robot_gains(nonlinear=True), diagnosis=_diagnosis(), files=(Path("g.json"), Path("s.md")))
     _patch(monkeypatch, "robustsynth.pipeline", synthesis_stage=lambda *a, **k: st, plant_of=lambda cfg, path: None)
     assert _invoke(["synthesize", DEFAULT, "-o", str(tmp_path)]) == (0, (
-        ROBOT_CERTIFIED + ", for the nonlinear robot (|e_theta(t)| <= 0.5 rad)\n"
+        ROBOT_CERTIFIED_ALL_T + ", for the nonlinear robot (|e_theta(t)| <= 0.5 rad)\n"
         "note: first note\nnote: second note\n"
         "where the design is stuck (one re-synthesis per relaxed constraint; see synthesis.md):\n"
         "  motor limit x2: |e_y| <= 3.12 cm (-31 %)\n  slip range halved: infeasible\n"

@@ -25,8 +25,13 @@ def robot_certified(gains: Mapping[str, Any]) -> str:
         parts.append(f"decay rate {c['decay_rate']:.4f}")
     ub = c.get("ultimate_bound")
     if ub:
-        parts.append(f"|e_x| <= {ub['e_x'] * 100:.2f} cm, |e_y| <= {ub['e_y'] * 100:.2f} cm, "
-                     f"|e_theta| <= {ub['e_theta']:.4f} rad")
+        part = (f"|e_x| <= {ub['e_x'] * 100:.2f} cm, |e_y| <= {ub['e_y'] * 100:.2f} cm, "
+                f"|e_theta| <= {ub['e_theta']:.4f} rad")
+        every_t = c.get("ultimate_bound_between_samples")
+        if every_t:  # the samples' figures, then those for every instant (between the samples too, through the turns)
+            part += (f" at the samples (for all t: |e_x| <= {every_t['e_x'] * 100:.2f} cm, "
+                     f"|e_y| <= {every_t['e_y'] * 100:.2f} cm)")
+        parts.append(part)
     if c.get("motor_speed_bound") is not None:
         parts.append(f"|rho| <= {c['motor_speed_bound']:.3f} rad/s")
     for key, label in labelled_figures():  # an objective's own figure (hinf's l2 gain, ...)
