@@ -123,6 +123,33 @@ def test_asked_first_the_phase1_problems_spare_every_solve_or_are_asked_once() -
             assert runner.solves > 0 and best.cert is not None  # (the committed certificate's class: it certifies)
 
 
+def test_an_infeasible_hint_where_solves_are_costly_asks_the_phase1_problems_before_the_scan() -> None:
+    """Where each solve is costly (``gain_rule``: as where one is estimated at COSTLY_SOLVE_S or more; the icr default
+    at d_hi 2 takes 15-90 s a solve) and the hint's solve ends infeasible, the phase-1 problems are asked before the
+    descent and the scan: proven, that one solve is all (the search of the heading bound ends there); not proven,
+    the search descends and scans as without them, and finds the certificate below the hint."""
+    from robustsynth.synthesis.alpha_search import _run_invariance
+
+    m, s = _nonlinear_proof()
+    model = m.with_heading_bound(0.2, within_period=True)
+    for t in (-1e-3, 1e-3):
+        asked: list[int] = []
+
+        def prove(t=t) -> Phase1:
+            asked.append(1)
+            return Phase1(0.005, 0.95, [(0.005, 0.95, t, 8, "optimal")])
+
+        lines: list[str] = []
+        best, runner = _run_invariance(model, s, [], True, say=lines.append, alpha_hint=0.9, retry=False, prove=prove,
+                                       gain_rule=True)
+        assert len(asked) == 1 and lines[1].startswith("  alpha = 0.9: infeasible"), lines[:3]
+        assert "infeasible at the hint, and each solve is costly" in lines[2]
+        if t < 0:
+            assert best.cert is None and runner.solves == 1 and not runner.phase1_alone
+        else:
+            assert runner.solves > 1 and best.cert is not None
+
+
 def test_the_synthesis_report_lists_the_phase1_intervals_among_the_alphas() -> None:
     """synthesis.md's search table holds the phase-1 intervals beside the solved alphas, in alpha order, each with
     its t* (a KeyError on them once broke `synthesize` of configs/nonlinear-proof.yaml after the search)."""

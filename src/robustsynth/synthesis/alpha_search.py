@@ -194,7 +194,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     ``prove``: phase-1 problems over the whole alpha range (:func:`.phase1.prove_no_set`), asked where the solver
     failed: at the hint (before the full scan, which it then spares when they settle the range) or in a scan that
     certified nothing (before the retries of its failed points); where they settle it, the failed points count as
-    infeasible.  ``prove_first``:
+    infeasible.  Also where the hint's walk ended infeasible and each solve is costly (COSTLY_SOLVE_S): before the
+    descent and the scan, which they then spare.  ``prove_first``:
     asked before any solve (a related problem's solves all failed: the hint's would most likely fail too).
     ``gain_rule``: the refinement stops at a step that gains less than COSTLY_GAIN (:func:`_refine`): by default where a
     solve is estimated at COSTLY_SOLVE_S or more; True: always (a remedy's quick try)."""
@@ -240,6 +241,9 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         if prove is not None and runner.phase1 is None and runner.last_kind == "failed" and \
                 _settled_by_phase1(runner, prove, search, say):
             return best, runner
+        if prove is not None and runner.phase1 is None and runner.last_kind == "infeasible" and costly and \
+                _settled_by_phase1(runner, prove, search, say, infeasible=True):
+            return best, runner  # (the walk, the descent and the scan would each cost a costly solve per point)
         if runner.last_kind == "infeasible":  # the feasible interval lies off the hint: below it first
             pts = _descend(evaluate, grid, math.log(alpha_hint), give_up)
             if pts is not None:
@@ -298,11 +302,15 @@ def _descend(evaluate: "_Evaluator", grid: np.ndarray, hint: float, give_up: int
 
 
 def _settled_by_phase1(runner: _Runner, prove: Callable[[], Phase1], search: list, say: Callable[[str], None],
-                       first: bool = False) -> bool:
+                       first: bool = False, infeasible: bool = False) -> bool:
     """Ask the phase-1 problems (``prove``); where they settle the alpha range, the runner's failed points count
-    as infeasible (so an exit says 3, with the evidence, not 4).  Whether they did."""
+    as infeasible (so an exit says 3, with the evidence, not 4).  Whether they did.  ``infeasible``: asked because
+    the hint's walk ended infeasible where each solve is costly (a few phase-1 problems, most on the vertices that
+    bind, instead of a solve per alpha of the descent and the scan)."""
     say("  the solver failed at the last heading bound: phase-1 problems over the alpha range first (docs/theory.md §6j)"
-        if first else "  the solver failed here: phase-1 problems over the alpha range (docs/theory.md §6j)")
+        if first else "  infeasible at the hint, and each solve is costly: phase-1 problems over the alpha range "
+        "before the scan (docs/theory.md §6j)" if infeasible else
+        "  the solver failed here: phase-1 problems over the alpha range (docs/theory.md §6j)")
     proof = prove()
     runner.phase1 = proof
     say(f"  {proof.summary()}")
