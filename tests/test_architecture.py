@@ -147,8 +147,6 @@ CONCRETE_PLANTS = ("robustsynth.model", "robustsynth.plants")  # the tracked rob
 # shrink: a new module there takes plants through core.plant.Plant, and a module that no longer
 # imports one must leave the list (both are tested).
 STILL_CONCRETE = {
-    "robustsynth.synthesis.diagnose": "rebuilds the robot's model with one constraint relaxed",
-    "robustsynth.synthesis.remedies": "rebuilds the robot's model for each remedy",
     "robustsynth.verification.compensated": "the robot's slip-compensated law on its path",
     "robustsynth.verification.nonlinear_checks": "the nonlinear robot on its path",
     "robustsynth.verification.physics": "the MuJoCo robot",

@@ -500,7 +500,7 @@ class _RobotRecords:
         if objective(result.objective).figure == "ultimate_bound" and (diagnose or (diagnose is None and is_large(model.config, result.certified))):
             if on_step is not None:
                 on_step("where is the design stuck? one synthesis per relaxed constraint")
-            diagnosis = run_diagnosis(model.config, result.certified, motor=bool(result.certificate.get("motor_limits_enforced")),
+            diagnosis = run_diagnosis(model, result.certified, motor=bool(result.certificate.get("motor_limits_enforced")),
                                       on_step=on_step, **{k: v for k, v in overrides.items() if v is not None})
         cmp = None
         if compare:

@@ -56,6 +56,23 @@ def test_vertex_counts() -> None:
     assert len(build_model(make_config(**{"slip.left.min": 1.0})).vertices) == 2 * 3  # a fixed track has 1 value
 
 
+def test_a_model_rebuilt_from_another_config_is_that_configs_model() -> None:
+    """``Model.rebuilt`` (what the plant-generic diagnosis and remedies build another scenario with): the model of
+    the new config, as build_model gives it, also after ``replace`` (the nonlinear and compensated models are
+    replacements of the built one); a Model not made by build_model says it cannot be rebuilt."""
+    from dataclasses import replace
+
+    from robustsynth.config import config_with
+
+    m = build_model(make_config())
+    cfg = config_with(m.config, {"network.delay.max": 0.25, "synthesis.delay_description": "polytopic"})
+    for src in (m, replace(m, vertices=m.vertices[:1])):
+        r = src.rebuilt(cfg)
+        assert r.config == cfg and r.d_hi == build_model(cfg).d_hi == 3 and len(r.vertices) == 4 * 27
+    with pytest.raises(ValueError, match="cannot be rebuilt"):
+        replace(m, builder=None).rebuilt(cfg)
+
+
 def test_triangle_coordinates_reproduce_the_parabola() -> None:
     h = np.linspace(0.02, 0.09, 101)
     w = triangle_coordinates(h, 0.02, 0.09)

@@ -20,8 +20,9 @@ RELAX_TOL = 0.02  # a relaxed problem's bound may exceed the original by the alp
 @pytest.fixture(scope="module")
 def default_diagnosis():
     cfg = load_config(BASE_CONFIG)
-    res = synthesize(build_model(cfg))
-    return cfg, res, diagnose(cfg, res.certified)
+    model = build_model(cfg)
+    res = synthesize(model)
+    return cfg, res, diagnose(model, res.certified)
 
 
 @pytest.mark.slow

@@ -164,7 +164,7 @@ def _nominal_model(config: Config, min_lifting: int | None) -> Model:
               "J_inv": J_inverse(R, D)}
     slip = slip_box((config.slip.right.min, config.slip.right.max), (config.slip.left.min, config.slip.left.max))
     return Model(config=config, kind=config.synthesis.model, d_lo=d_lo, d_hi=d_hi, Ts=Ts, V=V, instants=instants,
-                 slip=slip, vertices=(), delay_description="norm-bounded", integral=integral,
+                 slip=slip, vertices=(), delay_description="norm-bounded", integral=integral, builder=build_model,
                  **{k: frozen_array(v) for k, v in arrays.items()})
 
 

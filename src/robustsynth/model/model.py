@@ -178,12 +178,23 @@ class Model:
     # the slip-compensated law (model/compensation.py, docs/theory.md §18): ``config`` is then the certificate's
     # (the ratio box), and this holds the user's config, the estimate error and the ratio box; None: uncompensated
     compensation: Any = None
+    # how this plant is built from a config (:func:`~robustsynth.model.build.build_model`, which sets it): what
+    # :meth:`rebuilt` calls, so that the plant-generic rooms build another scenario of it without importing the model
+    builder: Any = field(default=None, repr=False, compare=False)
 
     @property
     def user_config(self) -> Config:
         """The config as the user wrote it: ``config`` itself, or for a compensated law the one with the true slip
         box (``config`` is then the certificate's, docs/theory.md §18)."""
         return self.config if self.compensation is None else self.compensation.config
+
+    def rebuilt(self, config: Config) -> "Model":
+        """The same plant built again from ``config``: another scenario of it (a relaxed constraint, a remedy).  The
+        plant-generic rooms change a plant's scenario through this (synthesis.diagnose, synthesis.remedies), so they
+        need not know how a tracked robot's model is built."""
+        if self.builder is None:
+            raise ValueError("this model was not made by build_model, so it cannot be rebuilt from a config")
+        return self.builder(config)
 
     @property
     def kinematics(self) -> str:

@@ -62,14 +62,15 @@ def _candidates(config: Config, motor: bool) -> list[tuple[str, str, dict[str, A
     return out
 
 
-def diagnose(config: Config, certified: dict[str, Any], *, motor: bool = True,
+def diagnose(model: Any, certified: dict[str, Any], *, motor: bool = True,
              on_step: Callable[[str], None] | None = None, **settings: Any) -> list[Relaxation]:
-    """One synthesis per candidate relaxation of ``config`` (whose design certified ``certified``);
-    sorted with the most effective first."""
+    """One synthesis per candidate relaxation of the plant's config (``model.rebuilt``; the design of ``model``
+    certified ``certified``); sorted with the most effective first."""
     import time
 
-    from ..model import build_model
     from .design import synthesize
+
+    config = model.config
 
     say = on_step if on_step is not None else (lambda _m: None)
     base = (certified.get("ultimate_bound") or {}).get("e_y")
@@ -77,7 +78,7 @@ def diagnose(config: Config, certified: dict[str, Any], *, motor: bool = True,
     for name, label, over in _candidates(config, motor):
         t0 = time.perf_counter()
         try:
-            res = synthesize(build_model(config_with(config, over)), **settings)
+            res = synthesize(model.rebuilt(config_with(config, over)), **settings)
             e_y = float(res.certified["ultimate_bound"]["e_y"]) if res.certified.get("ultimate_bound") else None
             status = "certified"
         except Interrupted:

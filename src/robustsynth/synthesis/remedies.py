@@ -69,7 +69,6 @@ def try_remedies(model: Any, first_try: Callable[[Any, float], tuple[dict[str, A
     remedies their turn; a try checks it before each heading bound but its first."""
     from ..config import config_to_dict, load_config
     from ..errors import RobustSynthError
-    from ..model import build_model
 
     cfg = model.user_config  # a compensated law's remedies change the user's config, not its certificate's
     base = config_to_dict(cfg)
@@ -83,7 +82,7 @@ def try_remedies(model: Any, first_try: Callable[[Any, float], tuple[dict[str, A
             continue
         say(f"remedy: {what}, a quick search")
         try:
-            figures, untried = first_try(build_model(load_config(_merged(base, change))),
+            figures, untried = first_try(model.rebuilt(load_config(_merged(base, change))),
                                          time.perf_counter() + left / (len(todo) - k))
         except RobustSynthError as exc:  # the change itself is refused (a config error), or found infeasible at once
             lines.append(f"{what}: refused ({exc})")
