@@ -100,21 +100,30 @@ def test_a_proof_turns_the_failed_points_into_infeasible_ones() -> None:
             assert runner.failed_at == {0.05: True, 0.1: False, 0.2: True} and runner.failures == 2
 
 
+def _proofs_at(heading: float):
+    """configs/nonlinear-proof.yaml's model at ``heading`` with its settings, and two stand-in phase-1 answers over
+    the whole range, one proven (t* -1e-3) and one not (+1e-3): (t*, prove, the list each call of prove appends to)."""
+    m, s = _nonlinear_proof()
+    cases = []
+    for t in (-1e-3, 1e-3):
+        asked: list[int] = []
+
+        def prove(t=t, asked=asked) -> Phase1:
+            asked.append(1)
+            return Phase1(0.005, 0.95, [(0.005, 0.95, t, 8, "optimal")])
+
+        cases.append((t, prove, asked))
+    return m.with_heading_bound(heading, within_period=True), s, cases
+
+
 def test_asked_first_the_phase1_problems_spare_every_solve_or_are_asked_once() -> None:
     """After a heading bound that only phase-1 problems settled, the next bound asks them before any solve
     (``prove_first``): proven, no solve is made and the next bound will ask first too; not proven, the hinted
     search runs as without them, and they are not asked a second time where its solves fail."""
     from robustsynth.synthesis.alpha_search import _run_invariance
 
-    m, s = _nonlinear_proof()
-    model = m.with_heading_bound(0.2, within_period=True)
-    for t in (-1e-3, 1e-3):
-        asked: list[int] = []
-
-        def prove(t=t) -> Phase1:
-            asked.append(1)
-            return Phase1(0.005, 0.95, [(0.005, 0.95, t, 8, "optimal")])
-
+    model, s, cases = _proofs_at(0.2)
+    for t, prove, asked in cases:
         best, runner = _run_invariance(model, s, [], True, alpha_hint=0.2, retry=False, prove=prove, prove_first=True)
         assert len(asked) == 1
         if t < 0:
@@ -130,15 +139,8 @@ def test_an_infeasible_hint_where_solves_are_costly_asks_the_phase1_problems_bef
     the search descends and scans as without them, and finds the certificate below the hint."""
     from robustsynth.synthesis.alpha_search import _run_invariance
 
-    m, s = _nonlinear_proof()
-    model = m.with_heading_bound(0.2, within_period=True)
-    for t in (-1e-3, 1e-3):
-        asked: list[int] = []
-
-        def prove(t=t) -> Phase1:
-            asked.append(1)
-            return Phase1(0.005, 0.95, [(0.005, 0.95, t, 8, "optimal")])
-
+    model, s, cases = _proofs_at(0.2)
+    for t, prove, asked in cases:
         lines: list[str] = []
         best, runner = _run_invariance(model, s, [], True, say=lines.append, alpha_hint=0.9, retry=False, prove=prove,
                                        gain_rule=True)
