@@ -140,10 +140,9 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
         # bounded by its range: |f - chord| <= Ts/4 (sup f' - inf f') <= Ts/4 2 vy_bar (times sin for e_x)
         # (for e_y its oscillation plus what cos e_theta takes off its size: |v1 c1 - v2 c2| <= |v1 - v2| + |v2| (1 -
         # cos); the sign of v_y is the command's, so where x_icr = 0 is in the box that is about half of 2 vy_bar)
-        vy = _lateral_on_set(model, cmds, mats, level, inner)
-        vy_osc = min(_lateral_oscillation(model, cmds, mats, level, inner), 2.0 * vy)
         h = min(float(heading if heading is not None else 0.0), np.pi / 2)
-        ey += Ts / 4 * (vy_osc + vy * 2.0 * float(np.sin(h / 2.0)) ** 2)
+        vy, range_y = _lateral_ranges(model, cmds, mats, level, inner, 0.0, 2.0 * float(np.sin(h / 2.0)) ** 2)
+        ey += Ts / 4 * range_y
         ex += Ts / 4 * 2.0 * vy * float(np.sin(h))
     elif model.icr:  # e_y' also holds the lateral velocity v_y = row(p) u: its jumps at the switching instants
         dvy = max(sup_on_set(np.array([model.lateral_row(mu) @ (cmds[j] - cmds[j + 1]) for j in range(d_hi)]), mats,
@@ -174,6 +173,15 @@ def _forward_oscillation(model: Any, cmds: list[np.ndarray], mats: list[np.ndarr
     with a turning reference's feedforward (0, w), |w| <= ``yaw_rate``, in each."""
     return _oscillation(model, [model.slip_matrix(mu)[0] for mu in np.asarray(model.corners)], cmds, mats, level,
                         inner, yaw_rate)
+
+
+def _lateral_ranges(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], level: float, inner: int,
+                    yaw_rate: float, one_minus_cos: float) -> tuple[float, float]:
+    """The largest |v_y| on the set (:func:`_lateral_on_set`) and the range of ``v_y cos theta`` over a period, with
+    ``1 - cos theta <= one_minus_cos``: ``|v1 c1 - v2 c2| <= |v1 - v2| + |v2| (1 - cos)``, the first v_y's oscillation
+    (:func:`_lateral_oscillation`, never taken above twice the largest |v_y|)."""
+    vy = _lateral_on_set(model, cmds, mats, level, inner, yaw_rate)
+    return vy, min(_lateral_oscillation(model, cmds, mats, level, inner, yaw_rate), 2.0 * vy) + vy * one_minus_cos
 
 
 def _lateral_oscillation(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], level: float, inner: int,
@@ -268,8 +276,7 @@ def _between_samples_on_arcs(model: Any, cmds: list[np.ndarray], mats: list[np.n
     if model.icr:  # the lateral velocity: (p_y - p_ry)' gets v_y cos theta, (p_x - p_rx)' -v_y sin theta, each
         # bounded by its range (it jumps wherever the slip or a command does): Ts/4 2 vy_bar (times sin theta_hat)
         # (for y its oscillation plus vy_bar (1 - cos theta_hat), as on straight segments)
-        vy = _lateral_on_set(model, cmds, mats, level, inner, w_r)
-        vy_osc = min(_lateral_oscillation(model, cmds, mats, level, inner, w_r), 2.0 * vy)
-        Py += Ts / 4 * (vy_osc + vy * one_minus_cos)
+        vy, range_y = _lateral_ranges(model, cmds, mats, level, inner, w_r, one_minus_cos)
+        Py += Ts / 4 * range_y
         Px += Ts / 4 * 2.0 * vy * s
     return {"e_x": round_up(Px + sp * Py, 16), "e_y": round_up(Py + sp * Px, 16), "e_theta": heading}

@@ -221,7 +221,7 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         say(f"  {lmi_count(lp)} LMIs (the largest {lmi_rows(lp)} rows) per alpha; each point is one solve"
             + (f" (about {_duration(est)} each, estimated from its size)" if est >= 1.0 else "") + ", a failed one is retried")
     grid = np.linspace(math.log(ALPHA_RANGE[0]), math.log(ALPHA_RANGE[1]), s.alpha_points)
-    if prove is not None and prove_first and _settled_by_phase1(runner, prove, search, say, first=True):
+    if prove is not None and prove_first and _settled_by_phase1(runner, prove, search, say, why="failed before"):
         return best, runner
     if probe_only and alpha_hint is not None:  # one solve at the hint (is this class worth a search?)
         evaluate(math.log(alpha_hint))
@@ -242,7 +242,7 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                 _settled_by_phase1(runner, prove, search, say):
             return best, runner
         if prove is not None and runner.phase1 is None and runner.last_kind == "infeasible" and costly and \
-                _settled_by_phase1(runner, prove, search, say, infeasible=True):
+                _settled_by_phase1(runner, prove, search, say, why="infeasible"):
             return best, runner  # (the walk, the descent and the scan would each cost a costly solve per point)
         if runner.last_kind == "infeasible":  # the feasible interval lies off the hint: below it first
             pts = _descend(evaluate, grid, math.log(alpha_hint), give_up)
@@ -301,16 +301,22 @@ def _descend(evaluate: "_Evaluator", grid: np.ndarray, hint: float, give_up: int
     return sorted(pts) if any(math.isfinite(f) for _, f in pts) else None
 
 
+_WHY_PHASE1 = {  # why the phase-1 problems are asked, as the progress line says it
+    "failed": "the solver failed here: phase-1 problems over the alpha range",
+    "failed before": "the solver failed at the last heading bound: phase-1 problems over the alpha range first",
+    "infeasible": "infeasible at the hint, and each solve is costly: phase-1 problems over the alpha range before the "
+                  "scan",
+}
+
+
 def _settled_by_phase1(runner: _Runner, prove: Callable[[], Phase1], search: list, say: Callable[[str], None],
-                       first: bool = False, infeasible: bool = False) -> bool:
+                       why: str = "failed") -> bool:
     """Ask the phase-1 problems (``prove``); where they settle the alpha range, the runner's failed points count
-    as infeasible (so an exit says 3, with the evidence, not 4).  Whether they did.  ``infeasible``: asked because
-    the hint's walk ended infeasible where each solve is costly (a few phase-1 problems, most on the vertices that
-    bind, instead of a solve per alpha of the descent and the scan)."""
-    say("  the solver failed at the last heading bound: phase-1 problems over the alpha range first (docs/theory.md §6j)"
-        if first else "  infeasible at the hint, and each solve is costly: phase-1 problems over the alpha range "
-        "before the scan (docs/theory.md §6j)" if infeasible else
-        "  the solver failed here: phase-1 problems over the alpha range (docs/theory.md §6j)")
+    as infeasible (so an exit says 3, with the evidence, not 4).  Whether they did.  ``why`` (_WHY_PHASE1): the
+    solver failed here, or at the last heading bound (asked first), or the hint's walk ended infeasible where each
+    solve is costly (a few phase-1 problems, most on the vertices that bind, instead of a solve per alpha of the
+    descent and the scan)."""
+    say(f"  {_WHY_PHASE1[why]} (docs/theory.md §6j)")
     proof = prove()
     runner.phase1 = proof
     say(f"  {proof.summary()}")
