@@ -71,7 +71,6 @@ def diagnose(model: Any, certified: dict[str, Any], *, motor: bool = True,
     from .design import synthesize
 
     config = model.config
-
     say = on_step if on_step is not None else (lambda _m: None)
     base = (certified.get("ultimate_bound") or {}).get("e_y")
     out: list[Relaxation] = []
