@@ -26,6 +26,7 @@ import numpy as np
 from ..config import Config
 from ..core.network import Network, s_tilde_sequence
 from .linearize import lifted_exact
+from .mirror import Mirror, find_mirror
 from .slip import (SLIP_PARAMETERS, check_physical_feasibility, corner_weights, lateral_row, next_corner_weights,
                    nominal_slip, slip_matrix, slip_parameter_ranges)
 from .uncertainty import SlipBox, UncertainInstant, delta_for
@@ -70,46 +71,6 @@ def frozen_vertex(v: Vertex) -> Vertex:
     """The vertex with read-only copies of its matrices."""
     mats = ("A", "B", "E", "B_p", "C_q", "D_q", "F_q")
     return replace(v, **{k: frozen_array(getattr(v, k)) for k in mats if getattr(v, k) is not None})
-
-
-@dataclass(frozen=True)
-class Mirror:
-    """The left/right mirror symmetry of a model (:meth:`robustsynth.model.Model.mirror`): the reflection's signs on the
-    lifted state (``t``) and on the command (``tu``), and the permutations it induces on the vertices
-    and on a certificate's Lyapunov matrices (involutions)."""
-
-    t: np.ndarray
-    tu: np.ndarray
-    vertex: tuple[int, ...]
-    lyapunov: tuple[int, ...]
-    q_signs: tuple[np.ndarray, ...] = ()  # per vertex: the signs S_i of its uncertainty channels
-
-
-def _channel_signs(v: Vertex, w: Vertex, t: np.ndarray, tu: np.ndarray, s_w: np.ndarray, close) -> np.ndarray | None:
-    """The sign of each uncertainty channel k with which vertex ``w`` is the mirror image of ``v``
-    (``Model.mirror``), or None when some channel maps with neither sign.  A channel's input p (the
-    column of B_p) and output q (the rows of C_q, D_q, F_q) must map with the same sign when Delta
-    has blocks (d1 I2, d2: its multiplier then maps as S M S); with ``diagonal`` Delta (independent
-    scalars in [-1, 1], a diagonal multiplier) they may differ: the mirror then takes delta_k to
-    -delta_k, which is as admissible, and the multiplier is unchanged."""
-    Bp, Cq, Dq, F = (np.asarray(x, dtype=float) for x in (v.B_p, v.C_q, v.D_q, v.F))
-    images = (t[:, None] * Bp, (Cq * t).T, (Dq * tu).T, (F * s_w).T)  # channel k: column k of each
-    targets = (np.asarray(w.B_p, dtype=float), np.asarray(w.C_q, dtype=float).T, np.asarray(w.D_q, dtype=float).T,
-               np.asarray(w.F, dtype=float).T)
-    out = np.ones(v.n_q)
-    for k in range(v.n_q):
-        if v.diagonal:  # input and output signs independent
-            parts = [(images[:1], targets[:1]), (images[1:], targets[1:])]
-        else:
-            parts = [(images, targets)]
-        signs = []
-        for ims, tgs in parts:
-            ok = [all(close(tg[:, k], s * im[:, k]) for im, tg in zip(ims, tgs)) for s in (1.0, -1.0)]
-            if not any(ok):
-                return None
-            signs.append(1.0 if ok[0] else -1.0)
-        out[k] = signs[-1]  # the output's sign: the multiplier maps as S M S
-    return out
 
 
 @dataclass(frozen=True)
@@ -617,43 +578,8 @@ class Model:
         the tracks instead (no sign per channel): None.  (The mirrored channel problems were once left out as
         numerically fragile under the scaled Clarabel; the channels' searches now start unscaled, where the
         default robot's mirrored problems all concluded, 1.4 s a solve against 4.4 s for the full ones.)"""
-        corners = np.asarray(self.corners, dtype=float)
-        swap = []
-        order = [1, 0] + list(range(2, corners.shape[1]))  # the tracks swap; the yaw factor and x_icr stay
-        for c in corners:
-            hit = np.flatnonzero(np.all(np.abs(corners - c[order]) <= 1e-12, axis=1))
-            if hit.size != 1:
-                return None
-            swap.append(int(hit[0]))
-        t = np.array([-1.0 if n.startswith(("e_y", "e_theta", "omega", "int_e_y")) else 1.0 for n in self.state_names])
-        tu = np.array([1.0 if n == "dV" else -1.0 for n in INPUT_NAMES])
-        n_d = self.delay_vertex_count
-        sigma = [swap[int(v.corner)] * n_d + i % n_d for i, v in enumerate(self.vertices)]
-        close = lambda a, b: np.allclose(a, b, rtol=1e-10, atol=1e-12)  # noqa: E731
-        q_signs = []
-        for i, v in enumerate(self.vertices):
-            w = self.vertices[sigma[i]]
-            tE = t[:, None] * np.asarray(v.E)
-            s_w = []
-            for k in range(tE.shape[1]):
-                s_w.append(1.0 if close(w.E[:, k], tE[:, k]) else -1.0 if close(w.E[:, k], -tE[:, k]) else 0.0)
-            if int(w.corner) != swap[int(v.corner)] or w.n_q != v.n_q or w.diagonal != v.diagonal or 0.0 in s_w or not (
-                    close(w.A, t[:, None] * np.asarray(v.A) * t) and close(w.B, t[:, None] * np.asarray(v.B) * tu)):
-                return None
-            signs = _channel_signs(v, w, t, tu, np.array(s_w), close)
-            if signs is None:
-                return None
-            q_signs.append(signs)
-        n_c = corners.shape[0]
-        if kind == "common":
-            lyap = [0]
-        elif kind == "slip-dependent":
-            lyap = swap
-        elif kind == "delay-dependent":
-            lyap = [swap[j // n_d] * n_d + j % n_d for j in range(n_c * n_d)]
-        else:
-            lyap = [swap[j // (n_d * n_d)] * n_d * n_d + j % (n_d * n_d) for j in range(n_c * n_d * n_d)]
-        return Mirror(t=t, tu=tu, vertex=tuple(sigma), lyapunov=tuple(lyap), q_signs=tuple(q_signs))
+        return find_mirror(np.asarray(self.corners, dtype=float), self.state_names, INPUT_NAMES, self.delay_vertex_count,
+                           self.vertices, kind)
 
     def lyapunov_conditions(self, kind: str, slip_step: float | None) -> list[list[tuple[int, list[tuple[float, int]], str]]]:
         """Per vertex i, the pairs (left, right, label) of one-period conditions a certificate of ``kind``
