@@ -1,4 +1,5 @@
-"""The LMI builders' exact reductions (synthesis/lmis.py): heading rows implied by others left out."""
+"""The LMI builders' exact reductions (synthesis/lmis.py): heading rows implied by others left out, and many
+heading rows as linear rows on a lifted matrix."""
 
 from __future__ import annotations
 
@@ -111,3 +112,45 @@ def test_the_rows_kept_are_the_extreme_points_qhull_finds(seed: int, dim: int) -
     if inside and float(np.min(slack / -hull.equations[:, -1:])) < 1e-4:
         return  # a point too near the boundary for either method's tolerance: not this test's case
     assert implied_rows_left_out(list(V), list(room)) == vertices
+
+
+HEADING_AGREE = 1e-6  # relative: two interior-point optima of one feasible set (the solver's tolerance is 1e-9)
+
+
+def test_the_heading_rows_lifted_to_linear_rows_allow_exactly_what_their_lmis_allow(monkeypatch) -> None:
+    """The heading rows as an LMI each (``[[room^2, z R], [R' z', Q]] >= 0``) and as linear rows on one lifted matrix
+    (``[[Z, R], [R', Q]] >= 0``, ``z Z z' <= room^2``) describe one set of (Q, Y): the largest value of random linear
+    objectives over it agrees, and the lifted optimum satisfies every row's own inequality in numpy."""
+    import cvxpy as cp
+    from pathlib import Path
+
+    from robustsynth.synthesis import lmis
+
+    cfg = load_config(Path(__file__).resolve().parents[2] / "configs" / "default.yaml")
+    m = build_model(cfg).with_heading_bound(0.15)
+    rng = np.random.default_rng(1)
+    rows = np.array([np.concatenate([c, d]) for ch in m.heading_channels for c, d in zip(ch.C_h, ch.D_h)])
+    rooms = np.array([0.15 - float(o) for ch in m.heading_channels for o in ch.heading_offsets])
+    for _ in range(3):
+        C = rng.normal(size=(m.n_s, m.n_s))
+        C = C @ C.T
+        D = rng.normal(size=(m.n_u, m.n_s))
+        best = {}
+        for lift in (10**9, 0):
+            monkeypatch.setattr(lmis, "LIFT_ROWS", lift)
+            lmis._KEPT.clear()
+            lv = lmis._Lyap(m, "common")
+            heading = lmis.heading_constraints(m, lv)
+            psd = sum(isinstance(c, cp.constraints.PSD) for c in heading)
+            assert psd == (1 if lift == 0 else len(heading))  # lifted: one LMI, the rows linear
+            cons = heading + [lv.Q << np.eye(m.n_s), cp.abs(lv.Y) <= 1.0]
+            prob = cp.Problem(cp.Maximize(cp.trace(C @ lv.Q) + cp.sum(cp.multiply(D, lv.Y))), cons)
+            prob.solve(solver=cp.CLARABEL)
+            assert prob.status == "optimal"
+            best[lift] = prob.value
+            if lift == 0:
+                Q, Y = lv.Q.value, lv.Y.value
+                R = np.vstack([Q, Y])
+                extent = np.einsum("ia,ab,ib->i", rows, R @ np.linalg.solve(Q, R.T), rows)
+                assert np.all(extent <= rooms**2 * (1.0 + HEADING_AGREE))
+        assert abs(best[0] - best[10**9]) <= HEADING_AGREE * max(1.0, abs(best[0]))

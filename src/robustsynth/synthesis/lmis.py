@@ -281,7 +281,9 @@ def heading_constraints(model: Any, lv: _Lyap) -> list[Any]:
     vertex's heading rows r xi + d du + g (``KinematicChannels``) and each Lyapunov matrix,
     ``[[(theta_bar - |g| - sum|F_h|)^2, r X + d Y], [., left]] >= 0``; the kinematic channels assume it.
     ``F_h``: a turning model's yaw-rate columns of the rows (model/arcs.heading_yaw_columns, docs/theory.md
-    §10), whose box coordinates add ``sum|F_h|`` as :func:`~robustsynth.certificate.bounds.heading_within_period` does."""
+    §10), whose box coordinates add ``sum|F_h|`` as :func:`~robustsynth.certificate.bounds.heading_within_period` does.
+    Up to LIFT_ROWS distinct rows, those the others imply are left out (:func:`implied_rows_left_out`); beyond, every
+    row is a linear row on a lifted matrix (:func:`_lifted_heading_rows`).  Both exact."""
     from ..errors import InfeasibleError
 
     theta_bar = float(model.heading_bound)
@@ -304,6 +306,8 @@ def heading_constraints(model: Any, lv: _Lyap) -> list[Any]:
     cons = []
     V = np.array([np.concatenate([c, d]) for c, d, _ in rows])
     rooms = np.array([r for _, _, r in rows])
+    if len(rows) > LIFT_ROWS:  # linear rows cost less than the LPs that would leave some out
+        return _lifted_heading_rows(model, lv, V, rooms)
     # the rows are the model's, not the vertex subset's: phase-1 builds several copies on one model (one pruning)
     key = (V.tobytes(), rooms.tobytes(), V.shape)
     if key not in _KEPT:
@@ -319,14 +323,43 @@ def heading_constraints(model: Any, lv: _Lyap) -> list[Any]:
     return cons
 
 
+def _lifted_heading_rows(model: Any, lv: _Lyap, V: np.ndarray, rooms: np.ndarray) -> list[Any]:
+    """The heading rows ``z_i = [c_i, d_i]`` as *linear* rows on one lifted matrix per Lyapunov matrix j:
+    ``[[Z_j, R], [R', left_j]] >= 0`` with ``R = [X; Y]``, and ``z_i Z_j z_i' <= room_i^2``.  Exact, not a relaxation:
+    the LMI says ``Z_j >= R left_j^-1 R'``, so each linear row implies the row's own LMI
+    ``[[room_i^2, z_i R], [R' z_i', left_j]] >= 0`` (``z_i R left_j^-1 R' z_i' <= room_i^2``), and ``Z_j = R left_j^-1 R'``
+    satisfies every row that the LMIs allow.  One LMI of size 2 n_s + n_u per matrix and a linear row per heading
+    row, instead of one LMI of size 1 + n_s per row and matrix: the rows of a long delay's covering channels
+    (60 281 on the icr default at d_hi = 3, their corner combinations over four command intervals) cost what linear
+    rows cost."""
+    n_z = model.n_s + model.n_u
+    R = cp.vstack([lv.X, lv.Y])
+    # z Z z' = sum_ab z_a z_b Z_ab: the rows' coefficients on vec(Z) (column-major, as cp.vec)
+    coef = np.einsum("ia,ib->iba", V, V).reshape(len(V), n_z * n_z)
+    cons = []
+    for j in range(len(lv.mats)):
+        Z = cp.Variable((n_z, n_z), symmetric=True, name=f"Zh{j}")
+        cons.append(_sym(cp.bmat([[Z, R], [R.T, lv.left(j)]])) >> 0)
+        cons.append(coef @ cp.vec(Z, order="F") <= rooms**2 * (1.0 - 1e-6))
+    return cons
+
+
 # a row counts as implied only where its combination of the others is this much inside its room and reproduces it
 # to this relative residual (the LP's own tolerances are ~1e-7; the certificate checker bounds every row anyway)
 IMPLIED_ROOM, IMPLIED_RESIDUAL = 1e-6, 1e-9
 # the rows beyond which none is left out (the LPs cost ~n h, h the rows kept): the default robot at d_hi = 2 has 2 601
-# heading rows at 0.1 rad (5.7 s, 205 kept; every solve of its problem ~10x faster with them left out: 28 s against
-# 309 s at 0.2 rad); at d_hi = 3 it has 60 281 (its covering channels' corner combinations over four intervals), where
-# the LPs took over 5 minutes without ending: kept whole, as building them all takes 22 s
+# heading rows at 0.1 rad (5.7 s, 205 kept; every solve of its problem ~10x faster with them left out as LMIs: 28 s
+# against 309 s at 0.2 rad); at d_hi = 3 it has 60 281 (its covering channels' corner combinations over four
+# intervals), where the LPs took over 5 minutes without ending.  heading_constraints asks for at most LIFT_ROWS rows
+# (beyond, every row is a linear row on a lifted matrix), so this cap guards only other callers
 IMPLIED_MAX_ROWS = 5000
+# the heading rows beyond which they are posed as linear rows on one lifted matrix per Lyapunov matrix
+# (:func:`_lifted_heading_rows`), all of them, instead of an LMI per row kept: measured on the default robot at
+# d_hi = 2 (2 601 rows, 0.2 rad, alpha 0.042), a problem built in 1.5 s instead of 7.8 s (the LPs) and solved in 23 s
+# instead of 30 s; at d_hi = 3 (60 281 rows) built in 6.6 s.  The committed configs have at most a few hundred rows
+# (default: 217), where the two forms solve alike (16-18 s the default's synthesis either way, its figures equal to
+# 1e-8 m), and keep the LMI per row
+LIFT_ROWS = 1000
 _KEPT: dict[tuple[bytes, bytes, tuple[int, ...]], list[int]] = {}  # the last row set's kept rows (heading_constraints)
 
 
