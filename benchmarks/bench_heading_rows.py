@@ -52,10 +52,11 @@ def main(argv: list[str] | None = None) -> list[dict]:
     argv = sys.argv[1:] if argv is None else argv
     solve_all = "--solve-all" in argv
     rows_out = []
+    base = load_config(ROOT / "configs" / "default.yaml")
     for tau_max, bound, alpha in CASES:
-        raw = load_config(ROOT / "configs" / "default.yaml").model_dump()
+        raw = base.model_dump()
         raw["network"]["delay"]["max"] = tau_max
-        cfg = type(load_config(ROOT / "configs" / "default.yaml")).model_validate(raw)
+        cfg = type(base).model_validate(raw)
         s = _kinematic(cfg.synthesis)
         model = build_model(cfg).with_heading_bound(bound)
         distinct = {np.concatenate([c, d, [o]]).tobytes() for ch in model.heading_channels

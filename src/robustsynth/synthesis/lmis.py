@@ -354,11 +354,11 @@ IMPLIED_ROOM, IMPLIED_RESIDUAL = 1e-6, 1e-9
 # (beyond, every row is a linear row on a lifted matrix), so this cap guards only other callers
 IMPLIED_MAX_ROWS = 5000
 # the heading rows beyond which they are posed as linear rows on one lifted matrix per Lyapunov matrix
-# (:func:`_lifted_heading_rows`), all of them, instead of an LMI per row kept: measured on the default robot at
-# d_hi = 2 (2 601 rows, 0.2 rad, alpha 0.042), a problem built in 1.5 s instead of 7.8 s (the LPs) and solved in 23 s
-# instead of 30 s; at d_hi = 3 (60 281 rows) built in 6.6 s.  The committed configs have at most a few hundred rows
-# (default: 217), where the two forms solve alike (16-18 s the default's synthesis either way, its figures equal to
-# 1e-8 m), and keep the LMI per row
+# (:func:`_lifted_heading_rows`), all of them, instead of an LMI per row kept (benchmarks/bench_heading_rows.py, side
+# by side): the default robot at d_hi = 2 (2 601 rows, 0.2 rad, alpha 0.042) builds its problem in 2.2 s instead of
+# 8.7 s (the LPs) and solves it in 21.5 s instead of 24.1 s; at d_hi = 3 (60 281 rows) it builds in 5.4 s instead of
+# 36 s.  The committed configs have at most a few hundred rows (default: 217), where the default's synthesis takes
+# 16-18 s either way with its figures equal to 1e-8 m, and keep the LMI per row
 LIFT_ROWS = 1000
 _KEPT: dict[tuple[bytes, bytes, tuple[int, ...]], list[int]] = {}  # the last row set's kept rows (heading_constraints)
 
