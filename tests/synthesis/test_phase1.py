@@ -100,6 +100,26 @@ def test_a_proof_turns_the_failed_points_into_infeasible_ones() -> None:
             assert runner.failed_at == {0.05: True, 0.1: False, 0.2: True} and runner.failures == 2
 
 
+def test_a_runner_that_released_its_compiled_problem_solves_it_again_to_the_same_bits() -> None:
+    """Before the phase-1 problems, the search's runner drops its problems' compiled data (issue 51: memory); a
+    solve after that compiles them again and gives what the first solve gave, bit for bit (Clarabel from scratch is
+    deterministic), and nothing of the runner's records is lost."""
+    from robustsynth.synthesis.solve import SOLVER_OPTIONS
+
+    from .conftest import invariance_runner
+
+    model, _ = _nonlinear_proof()
+    assert SOLVER_OPTIONS["clarabel"]["warm_start"] is False  # else the second solve could start from the first
+    lp, runner = invariance_runner(model, "common", 0.1)
+    first, _, K1, chk1 = runner.run(fallback=False)
+    assert first.kind == "ok" and chk1.passed
+    assert lp.problem._cache.param_prog is not None  # compiled (the test sees the release)
+    runner.release_compiled()
+    assert lp.problem._cache.param_prog is None and runner.solves == 1
+    again, _, K2, chk2 = runner.run(fallback=False)
+    assert again.kind == "ok" and chk2.passed and np.array_equal(K1, K2) and runner.solves == 2
+
+
 def _proofs_at(heading: float):
     """configs/nonlinear-proof.yaml's model at ``heading`` with its settings, and two stand-in phase-1 answers over
     the whole range, one proven (t* -1e-3) and one not (+1e-3): (t*, prove, the list each call of prove appends to)."""

@@ -17,6 +17,7 @@ from .phase1 import Phase1, settles
 from .cost import solve_estimate
 from .runner import _attempts, _Best, _build, _cert_common, _duration, _Runner, _weights, lmi_count, lmi_rows
 from .solve import RETRY, Outcome, solve
+from .solver_process import trim_heap
 
 
 ALPHA_RANGE = (0.005, 0.95)  # line search range of alpha (log-spaced grid, then parabolic steps)
@@ -317,7 +318,9 @@ def _settled_by_phase1(runner: _Runner, prove: Callable[[], Phase1], search: lis
     solve is costly (a few phase-1 problems, most on the vertices that bind, instead of a solve per alpha of the
     descent and the scan)."""
     say(f"  {_WHY_PHASE1[why]} (docs/theory.md §6j)")
+    runner.release_compiled()  # the phase-1 problems take their own memory; this problem is compiled again if need be
     proof = prove()
+    trim_heap()  # and what theirs held, once they are gone
     runner.phase1 = proof
     say(f"  {proof.summary()}")
     for a, b, t, n, status in proof.intervals:
