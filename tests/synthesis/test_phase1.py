@@ -16,13 +16,15 @@ from robustsynth.model import build_model
 from robustsynth.synthesis.alpha_search import _settled_by_phase1
 from robustsynth.synthesis.heading_search import _kinematic
 from robustsynth.synthesis.runner import _Runner
-from robustsynth.synthesis.lmis import build_invariance
-from robustsynth.synthesis.phase1 import ACTIVE, PHASE1_BOX, T_PROVEN, Active, Phase1, prove_no_set
+from robustsynth.synthesis import lmis
+from robustsynth.synthesis.lmis import build_invariance, heading_row_key
+from robustsynth.synthesis.phase1 import ACTIVE, ACTIVE_ROWS, PHASE1_BOX, T_PROVEN, Active, Phase1, prove_no_set
 from robustsynth.synthesis.solve import solve
 
 from ..conftest import committed_gain
 
 ROOT = Path(__file__).resolve().parents[2]
+T_TOL = 1e-7  # t* of two solves compared: Clarabel's tolerances are 1e-9 on the gap and residuals, 'inaccurate' 5e-5 rel.
 
 
 def _nonlinear_proof(**overrides):
@@ -65,6 +67,60 @@ def test_the_vertices_that_bind_are_carried_to_the_next_problems() -> None:
     again = prove_no_set(model, s, True, (0.0055, 0.0085), intervals=1, active=active)
     assert again.proven, again.summary()
     assert again.intervals[0][3] == len(active.indices) < n_first
+
+
+def _row_keys(model) -> list[bytes]:
+    """The model's distinct heading rows' keys, in the order heading_constraints poses them."""
+    keys: list[bytes] = []
+    for ch in model.heading_channels:
+        for c, d, off in zip(ch.C_h, ch.D_h, ch.heading_offsets):
+            if (k := heading_row_key(c, d, off)) not in keys:
+                keys.append(k)
+    return keys
+
+
+def test_fewer_heading_rows_are_a_relaxation_and_only_for_phase1(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Posed as linear rows (beyond LIFT_ROWS: here forced), a phase-1 problem on a subset of the heading rows has a
+    maximum t* at least the one on every row (a relaxation: a proof on it is one), poses exactly those rows, and
+    the certificate's LMIs refuse a subset (they must hold every row)."""
+    monkeypatch.setattr(lmis, "LIFT_ROWS", 0)
+    m, s = _nonlinear_proof(**{"synthesis.integral_action": True})
+    model = m.with_heading_bound(0.2, within_period=True)
+    keys = _row_keys(model)
+    some = frozenset(keys[::4])
+    w = np.array([1.0, 1.0, 1.0])
+    t = {}
+    for name, rows in (("all", None), ("some", some)):
+        lp = build_invariance(model, s.multiplier, s.margin, w, True, s.lyapunov, symmetry=False, phase1=PHASE1_BOX,
+                              heading_rows=rows)
+        assert set(lp.extra["heading_keys"]) == (set(keys) if rows is None else some)
+        lp.params["one_minus_alpha"].value, lp.params["alpha"].value = 1.0 - 0.005, 0.0096
+        out = solve(lp.problem, s.solver, lambda: True, fallback=False, retry=True)
+        assert out.kind == "ok"
+        t[name] = float(lp.extra["t"].value)
+    assert t["all"] <= -T_PROVEN  # (the interval test_a_proven_interval_has_no_certifiable_alpha_inside proves)
+    assert t["some"] >= t["all"] - T_TOL, t
+    with pytest.raises(ValueError, match="phase-1"):
+        build_invariance(model, s.multiplier, s.margin, w, True, s.lyapunov, heading_rows=some)
+
+
+def test_the_heading_rows_that_bind_are_carried_to_the_next_problems(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Posed as linear rows, the duals of a proof also name the heading rows that bind (at most ACTIVE_ROWS, fewer
+    than all); the next interval is tried first on the active vertices with those rows alone, and settles there
+    (configs/delay-dlo1.yaml with the nonlinear kinematics at 0.3 rad, as for the vertices)."""
+    monkeypatch.setattr(lmis, "LIFT_ROWS", 0)
+    cfg = mapping_with(yaml.safe_load((ROOT / "configs" / "delay-dlo1.yaml").read_text()),
+                       **{"synthesis.kinematics": "nonlinear"})
+    model, s = build_model(cfg).with_heading_bound(0.3, within_period=True), _kinematic(cfg.synthesis)
+    active = Active()
+    assert prove_no_set(model, s, True, (0.005, 0.0096), intervals=1, active=active).proven
+    assert active.rows is not None and 0 < len(active.rows) <= min(ACTIVE_ROWS, len(_row_keys(model)) - 1)
+    said: list[str] = []
+    again = prove_no_set(model, s, True, (0.0055, 0.0085), intervals=1, active=active, say=said.append)
+    assert again.proven, again.summary()
+    first = said[0]  # the first try: the active vertices, the active rows only, and it settled the interval
+    assert f"({len(active.indices)} vertices, " in first and " heading rows)" in first, said
+    assert len(said) == 1, said
 
 
 def test_a_proven_interval_has_no_certifiable_alpha_inside() -> None:

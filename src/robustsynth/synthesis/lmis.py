@@ -32,7 +32,7 @@ import cvxpy as cp
 import numpy as np
 
 __all__ = ["LMIProblem", "build_stability", "build_invariance", "multiplier", "motor_constraints",
-           "heading_constraints"]
+           "heading_constraints", "heading_row_key"]
 
 
 @dataclass
@@ -276,23 +276,30 @@ def motor_constraints(model: Any, Q: Any, Y: Any, rows: Any = None, u2: Any = No
     return cons
 
 
-def heading_constraints(model: Any, lv: _Lyap) -> list[Any]:
+def heading_constraints(model: Any, lv: _Lyap, only: frozenset[bytes] | None = None,
+                        extra: dict[str, Any] | None = None) -> list[Any]:
     """|e_theta(t)| <= theta_bar within every period on the set {V <= 1} (docs/theory.md §9): for each
     vertex's heading rows r xi + d du + g (``KinematicChannels``) and each Lyapunov matrix,
     ``[[(theta_bar - |g| - sum|F_h|)^2, r X + d Y], [., left]] >= 0``; the kinematic channels assume it.
     ``F_h``: a turning model's yaw-rate columns of the rows (model/arcs.heading_yaw_columns, docs/theory.md
     §10), whose box coordinates add ``sum|F_h|`` as :func:`~robustsynth.certificate.bounds.heading_within_period` does.
     Up to LIFT_ROWS distinct rows, those the others imply are left out (:func:`implied_rows_left_out`); beyond, every
-    row is a linear row on a lifted matrix (:func:`_lifted_heading_rows`).  Both exact."""
+    row is a linear row on a lifted matrix (:func:`_lifted_heading_rows`).  Both exact.
+
+    ``only`` (phase-1 problems only: a relaxation, not the certificate's LMIs): in the lifted form, just the rows whose
+    key (:func:`heading_row_key`) is in it, all of them where it names none of this model's.  ``extra`` receives, in the
+    lifted form, ``heading_keys`` (the rows posed, in order) and ``heading_rows`` (their linear constraints, one per
+    Lyapunov matrix: their duals rank the rows, :mod:`.phase1`)."""
     from ..errors import InfeasibleError
 
     theta_bar = float(model.heading_bound)
     rows: list[tuple[np.ndarray, np.ndarray, float]] = []
+    keys: list[bytes] = []
     seen: set[bytes] = set()
     for ch in model.heading_channels:
         turning = getattr(ch, "F_h", None) is not None
         for c, d, off in zip(ch.C_h, ch.D_h, ch.heading_offsets):
-            key = np.concatenate([c, d, [off]]).tobytes()
+            key = heading_row_key(c, d, off)
             if key in seen:
                 continue
             seen.add(key)
@@ -303,11 +310,17 @@ def heading_constraints(model: Any, lv: _Lyap) -> list[Any]:
                     f"one period ({float(off):.3g} rad" + (", the turning reference's yaw rates included" if turning else "")
                     + "): no set can keep |e_theta(t)| below it")
             rows.append((np.asarray(c, dtype=float), np.asarray(d, dtype=float), room))
+            keys.append(key)
     cons = []
     V = np.array([np.concatenate([c, d]) for c, d, _ in rows])
     rooms = np.array([r for _, _, r in rows])
     if len(rows) > LIFT_ROWS:  # linear rows cost less than the LPs that would leave some out
-        return _lifted_heading_rows(model, lv, V, rooms)
+        pick = [i for i, k in enumerate(keys) if only is not None and k in only] or list(range(len(rows)))
+        cons = _lifted_heading_rows(model, lv, V[pick], rooms[pick])
+        if extra is not None:
+            extra["heading_keys"] = [keys[i] for i in pick]
+            extra["heading_rows"] = cons[1::2]
+        return cons
     # the rows are the model's, not the vertex subset's: phase-1 builds several copies on one model (one pruning)
     key = (V.tobytes(), rooms.tobytes(), V.shape)
     if key not in _KEPT:
@@ -321,6 +334,12 @@ def heading_constraints(model: Any, lv: _Lyap) -> list[Any]:
                            [cp.reshape(row, (model.n_s, 1), order="C"), lv.left(j)]])
             cons.append(_sym(blk) >> 0)
     return cons
+
+
+def heading_row_key(c: np.ndarray, d: np.ndarray, offset: float) -> bytes:
+    """A heading row's identity across models of one robot (its coefficients and its offset, not its room): the key
+    :func:`heading_constraints` takes in ``only`` and returns in ``heading_keys``."""
+    return np.concatenate([c, d, [offset]]).tobytes()
 
 
 def _lifted_heading_rows(model: Any, lv: _Lyap, V: np.ndarray, rooms: np.ndarray) -> list[Any]:
@@ -503,7 +522,7 @@ def build_stability(model: Any, kind: str, margin: float, lyapunov: str = "commo
 
 def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, motor: bool,
                      lyapunov: str = "common", symmetry: bool = True, least_motor: bool = False,
-                     phase1: float | None = None) -> LMIProblem:
+                     phase1: float | None = None, heading_rows: frozenset[bytes] | None = None) -> LMIProblem:
     """Invariant, attracting ellipsoid under every admissible delay and slip (docs/theory.md §6b);
     parameter alpha.  Minimizes sum_i weights_i * (bound on state i)^2 / level over e_x, e_y, e_theta.
     ``symmetry``: use the model's mirror symmetry when it has one (the same optimum, fewer LMIs).
@@ -516,7 +535,10 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
     so a maximum t* < 0 says that none exists whose set keeps |e_x|, |e_y| <= sqrt(kappa).  Its parameters may differ from (alpha, 1 - alpha):
     ``one_minus_alpha`` = 1 - alpha_lo and ``alpha`` = alpha_hi make it a relaxation of every alpha in
     [alpha_lo, alpha_hi] ((1 - alpha) X and sum beta <= alpha loosen as alpha falls and rises): t* < 0 then holds for
-    the whole interval (docs/theory.md §6j)."""
+    the whole interval (docs/theory.md §6j).  ``heading_rows`` (phase-1 only): pose just those heading rows
+    (:func:`heading_constraints`' ``only``), a further relaxation; ``extra`` then says which rows were posed."""
+    if heading_rows is not None and phase1 is None:
+        raise ValueError("heading_rows leaves heading rows out: a relaxation, for phase-1 problems only")
     lv = _Lyap(model, lyapunov, mirror=model.mirror(lyapunov) if symmetry else None)
     n_s, n_w = model.n_s, model.n_w
     alpha = cp.Parameter(nonneg=True, name="alpha", value=0.1)
@@ -546,13 +568,13 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
             cons.append(_sym(L) >> floor * np.eye(L.shape[0]))
             vertex_lmis[-1].append(cons[-1])
     cons += [cp.sum(beta) <= alpha] + lv.scale(floor)
-    extra = {"beta": beta}
     u2 = cp.Variable(nonneg=True, name="u2") if least_motor else None
     if motor or least_motor:
         for j in lv.own:
             cons += motor_constraints(model, lv.left(j), lv.Y, rows=lv.motor_rows(model, j), u2=u2)
+    extra: dict[str, Any] = {"beta": beta}
     if model.heading_bound is not None:
-        cons += heading_constraints(model, lv)
+        cons += heading_constraints(model, lv, only=heading_rows, extra=extra if t is not None else None)
     if t is not None:
         cons += [lv.mats[j][i, i] <= float(phase1) for j in lv.own for i in (0, 1)]
         extra["t"] = t
