@@ -262,9 +262,10 @@ def _child_main(parent: int) -> None:
         except BaseException as exc:  # noqa: BLE001 - every failure goes back to the parent
             first = (str(exc).splitlines() or [type(exc).__name__])[0][:200]
             reply = ("panic" if type(exc).__name__ == "PanicException" else "error", first)
+        del req  # an idle child keeps no problem's data,
+        trim_heap()  # nor the memory that held it: before the reply, so that the parent goes on with the child small
         _send(out, reply)
-        del req, reply  # an idle child keeps no problem's data,
-        trim_heap()  # nor the memory that held it
+        del reply
 
 
 if __name__ == "__main__":
