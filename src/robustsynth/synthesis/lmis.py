@@ -315,7 +315,8 @@ def heading_constraints(model: Any, lv: _Lyap, only: frozenset[bytes] | None = N
     V = np.array([np.concatenate([c, d]) for c, d, _ in rows])
     rooms = np.array([r for _, _, r in rows])
     if len(rows) > LIFT_ROWS:  # linear rows cost less than the LPs that would leave some out
-        pick = [i for i, k in enumerate(keys) if only is not None and k in only] or list(range(len(rows)))
+        pick = [i for i, k in enumerate(keys) if k in only] if only else []
+        pick = pick or list(range(len(rows)))
         cons = _lifted_heading_rows(model, lv, V[pick], rooms[pick])
         if extra is not None:
             extra["heading_keys"] = [keys[i] for i in pick]

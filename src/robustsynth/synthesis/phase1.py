@@ -234,17 +234,23 @@ def _rank(active: Active, idx: tuple[int, ...], lps: list[Any], ts: list[tuple[f
     for lp, (t, _) in zip(lps, ts):
         if t is None:
             continue
-        w = [sum(float(np.trace(c.dual_value)) for c in cons if c.dual_value is not None) for cons in lp.extra["vertex_lmis"]]
-        top = max(w, default=0.0)
-        for pos, x in enumerate(w):
-            if top > 0 and x >= DUAL_FLOOR * top:
-                weight[idx[pos]] = max(weight.get(idx[pos], 0.0), x / top)
+        _binding(weight, idx, [sum(float(np.trace(c.dual_value)) for c in cons if c.dual_value is not None)
+                               for cons in lp.extra["vertex_lmis"]])
     _rank_rows(active, lps, ts)
     if not weight:
         return
     keep = sorted(weight, key=lambda i: -weight[i])[:ACTIVE]
     old = [i for i in active.indices if i not in keep]
     active.indices = tuple(sorted(keep + old[: max(0, ACTIVE - len(keep))]))
+
+
+def _binding(weight: dict[Any, float], names: Any, w: list[float]) -> None:
+    """Into ``weight``: each of ``names`` whose dual weight in ``w`` is at least DUAL_FLOOR of the largest, with its
+    fraction of the largest (the larger where a name is there already)."""
+    top = max(w, default=0.0)
+    for name, x in zip(names, w):
+        if top > 0 and x >= DUAL_FLOOR * top:
+            weight[name] = max(weight.get(name, 0.0), x / top)
 
 
 def _rank_rows(active: Active, lps: list[Any], ts: list[tuple[float | None, str]]) -> None:
@@ -259,11 +265,7 @@ def _rank_rows(active: Active, lps: list[Any], ts: list[tuple[float | None, str]
         duals = [np.asarray(c.dual_value, dtype=float).ravel() for c in cons if c.dual_value is not None]
         if not duals:
             continue
-        w = np.sum(duals, axis=0)
-        top = float(np.max(w, initial=0.0))
-        for key, x in zip(keys, w):
-            if top > 0 and x >= DUAL_FLOOR * top:
-                weight[key] = max(weight.get(key, 0.0), float(x) / top)
+        _binding(weight, keys, [float(x) for x in np.sum(duals, axis=0)])
     if not weight:
         return
     keep = sorted(weight, key=lambda k: -weight[k])[:ACTIVE_ROWS]
