@@ -18,7 +18,8 @@ from robustsynth.synthesis.heading_search import _kinematic
 from robustsynth.synthesis.runner import _Runner
 from robustsynth.synthesis import lmis
 from robustsynth.synthesis.lmis import build_invariance, heading_row_key
-from robustsynth.synthesis.phase1 import ACTIVE, ACTIVE_ROWS, PHASE1_BOX, T_PROVEN, Active, Phase1, prove_no_set
+from robustsynth.synthesis.phase1 import (ACTIVE, ACTIVE_ROWS, PHASE1_BOX, T_PROVEN, Active, Phase1, _exact_end_vertices,
+                                          prove_no_set, seed)
 from robustsynth.synthesis.solve import solve
 
 from ..conftest import committed_gain
@@ -67,6 +68,39 @@ def test_the_vertices_that_bind_are_carried_to_the_next_problems() -> None:
     again = prove_no_set(model, s, True, (0.0055, 0.0085), intervals=1, active=active)
     assert again.proven, again.summary()
     assert again.intervals[0][3] == len(active.indices) < n_first
+
+
+def test_the_vertices_that_bind_the_linearized_start_seed_the_first_proof() -> None:
+    """Before any phase-1 problem has ranked the vertices, the first starts on those that bind the linearized
+    certificate where the search starts (its duals; the nonlinear model has the same vertices in the same order).
+    configs/delay-dlo1.yaml at 0.3 rad: unseeded, the first interval needs its 16 end vertices (the test above); seeded
+    from the linearized problem's duals at an alpha inside it, fewer settle it.  The linearized problem is posed
+    mirror-invariant: a vertex without LMIs of its own stands for its mirror image, which takes its dual weight."""
+    cfg = mapping_with(yaml.safe_load((ROOT / "configs" / "delay-dlo1.yaml").read_text()),
+                       **{"synthesis.kinematics": "nonlinear"})
+    base, s = build_model(cfg), _kinematic(cfg.synthesis)
+    lin = base.linearized()
+    w = np.array([s.weights.e_x, s.weights.e_y, s.weights.e_theta])
+    lp = build_invariance(lin, s.multiplier, s.margin, w, True, "common")
+    assert lp.mirrored and len(lp.vertex_lmis) == len(lin.vertices)
+    assert any(not cons for cons in lp.vertex_lmis)  # mirrored: some vertices have none of their own
+    lp.params["alpha"].value, lp.params["one_minus_alpha"].value = 0.007, 0.993
+    assert solve(lp.problem, s.solver, lambda: True, fallback=False).kind == "ok"
+    active = Active()
+    assert seed(active, lin, lp)
+    assert 0 < len(active.seed) <= ACTIVE and active.vertices == len(lin.vertices)
+    mirror = lin.mirror("common")
+    own = {i for i, cons in enumerate(lp.vertex_lmis) if cons}
+    assert set(active.seed) - own, "a mirror image of a vertex that binds is seeded too"
+    assert all(i in own or mirror.vertex[i] in own for i in active.seed)
+    model = base.with_heading_bound(0.3, within_period=True)
+    first = prove_no_set(model, s, True, (0.005, 0.0096), intervals=1, active=active)
+    assert first.proven, first.summary()
+    assert first.intervals[0][3] == len(active.seed) < len(_exact_end_vertices(model)) == 16
+    # a model of another vertex count ignores the seed
+    other = Active(seed=active.seed, vertices=len(lin.vertices) + 1)
+    again = prove_no_set(model, s, True, (0.005, 0.0096), intervals=1, active=other)
+    assert again.intervals[0][3] == 16
 
 
 def _row_keys(model) -> list[bytes]:
@@ -206,6 +240,35 @@ def test_asked_first_the_phase1_problems_spare_every_solve_or_are_asked_once() -
             assert best.cert is None and runner.solves == 0 and runner.phase1_alone
         else:
             assert runner.solves > 0 and best.cert is not None  # (the committed certificate's class: it certifies)
+
+
+def test_where_one_solve_would_cost_a_minute_the_phase1_problems_go_first(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Where one solve is estimated at PROVE_FIRST_S or more (the icr default at d_hi 3: about 2 min, where it ended in
+    solver_error after 124 s), the phase-1 problems are asked before any solve, as after a bound the solver failed on:
+    proven, no solve is made; not proven, the search runs as without them and certifies.  Below it (every committed
+    config), not before a solve."""
+    from robustsynth.synthesis import alpha_search
+    from robustsynth.synthesis.alpha_search import _run_invariance
+    from robustsynth.synthesis.cost import solve_estimate
+
+    model, s, cases = _proofs_at(0.2)
+    est = solve_estimate(build_invariance(model, s.multiplier, s.margin, np.ones(3), True, s.lyapunov,
+                                          symmetry=s.symmetry == "auto"))
+    assert est < alpha_search.PROVE_FIRST_S  # this problem is a cheap one: the threshold is lowered below its estimate
+    monkeypatch.setattr(alpha_search, "PROVE_FIRST_S", est / 2)
+    for t, prove, asked in cases:
+        lines: list[str] = []
+        best, runner = _run_invariance(model, s, [], True, say=lines.append, alpha_hint=0.2, retry=False, prove=prove)
+        assert len(asked) == 1 and "phase-1 problems over the alpha range first" in lines[1], lines[:3]
+        if t < 0:
+            assert best.cert is None and runner.solves == 0
+        else:
+            assert runner.solves > 0 and best.cert is not None
+    monkeypatch.setattr(alpha_search, "PROVE_FIRST_S", est * 2)
+    _, _, again = _proofs_at(0.2)
+    t, prove, asked = again[0]
+    best, runner = _run_invariance(model, s, [], True, alpha_hint=0.2, retry=False, prove=prove)
+    assert not asked and best.cert is not None  # certified at the hint: no phase-1 problem asked
 
 
 def test_an_infeasible_hint_where_solves_are_costly_asks_the_phase1_problems_before_the_scan() -> None:

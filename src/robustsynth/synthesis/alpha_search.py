@@ -124,6 +124,12 @@ COSTLY_SOLVE_S = 3.0  # [s] estimated, one solve
 
 
 COSTLY_GAIN = 1e-2  # the least relative gain of the objective per refinement step of a costly problem
+# Where one solve is estimated at PROVE_FIRST_S or more (cost.solve_estimate), the phase-1 problems go before it: a
+# few problems on the vertices that bind (seeded by the linearized start, docs/theory/06-lmis.md §6j) cost less than
+# that one solve, and on the large problems where they settle the range the solve would most likely have failed.
+# On the icr default with tau in [0.02, 0.29] s (d_hi 3, estimated about 2 min) the first heading bound's solve ended
+# in solver_error after 124 s, then its phase-1 problems settled it in 50 s.  No problem of configs/ comes near.
+PROVE_FIRST_S = 60.0  # [s] estimated, one solve
 
 
 class _Enough(Exception):
@@ -197,7 +203,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     certified nothing (before the retries of its failed points); where they settle it, the failed points count as
     infeasible.  Also where the hint's walk ended infeasible and each solve is costly (COSTLY_SOLVE_S): before the
     descent and the scan, which they then spare.  ``prove_first``:
-    asked before any solve (a related problem's solves all failed: the hint's would most likely fail too).
+    asked before any solve (a related problem's solves all failed: the hint's would most likely fail too); so they
+    are too where one solve is estimated at PROVE_FIRST_S or more.
     ``gain_rule``: the refinement stops at a step that gains less than COSTLY_GAIN (:func:`_refine`): by default where a
     solve is estimated at COSTLY_SOLVE_S or more; True: always (a remedy's quick try)."""
     lp = _build(build_invariance, model, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,
@@ -222,7 +229,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         say(f"  {lmi_count(lp)} LMIs (the largest {lmi_rows(lp)} rows) per alpha; each point is one solve"
             + (f" (about {_duration(est)} each, estimated from its size)" if est >= 1.0 else "") + ", a failed one is retried")
     grid = np.linspace(math.log(ALPHA_RANGE[0]), math.log(ALPHA_RANGE[1]), s.alpha_points)
-    if prove is not None and prove_first and _settled_by_phase1(runner, prove, search, say, why="failed before"):
+    if prove is not None and (prove_first or (est >= PROVE_FIRST_S and not probe_only)) and \
+            _settled_by_phase1(runner, prove, search, say, why="failed before" if prove_first else "costly"):
         return best, runner
     if probe_only and alpha_hint is not None:  # one solve at the hint (is this class worth a search?)
         evaluate(math.log(alpha_hint))
@@ -304,9 +312,11 @@ def _descend(evaluate: "_Evaluator", grid: np.ndarray, hint: float, give_up: int
 
 _WHY_PHASE1 = {  # why the phase-1 problems are asked, as the progress line says it
     "failed": "the solver failed here: phase-1 problems over the alpha range",
-    "failed before": "the solver failed at the last heading bound: phase-1 problems over the alpha range first",
+    "failed before": "phase-1 problems alone settled the last heading bound (no solve of it concluded): phase-1 "
+                     "problems over the alpha range first",
     "infeasible": "infeasible at the hint, and each solve is costly: phase-1 problems over the alpha range before the "
                   "scan",
+    "costly": f"each solve is estimated at {PROVE_FIRST_S:g} s or more: phase-1 problems over the alpha range first",
 }
 
 

@@ -15,7 +15,7 @@ import numpy as np
 from ..config import SynthesisConfig
 from ..errors import InfeasibleError, SolverFailure
 from .alpha_search import ALPHA_RANGE, COSTLY_STOP_REL, _motor_pruner, _run_invariance
-from .phase1 import PARALLEL, Active, prove_no_set, screen, settles
+from .phase1 import PARALLEL, Active, prove_no_set, screen, seed, settles
 from .runner import _Best, _Runner, _wider_turns
 from .solve import RETRY
 
@@ -73,6 +73,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
     r_last: _Runner | None = None  # the previous bound's runner
     tried_at: dict[float, tuple[int, int]] = {}  # heading bound -> (alphas solved, of which the solver failed)
     active = Active()  # the vertices that bound the last phase-1 problems, tried first at the next (the same order)
+    _seed(active, crunner)  # the first, where none has yet: those that bind the linearized start
     for j, tb in enumerate(bounds):
         # the channels for slip changing within a period only where the certificate is proven at the
         # within-period vertices: a common Lyapunov matrix (Model.slip_variation)
@@ -159,6 +160,13 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
         raise InfeasibleError(_nonlinear_infeasible(model, common, tried, tried_at, auto)
                               + (". Tried (" + "; ".join(tries) + ")" if tries else ""))
     return best, runner
+
+
+def _seed(active: Active, runner: _Runner) -> None:
+    """Seed ``active`` (:func:`.phase1.seed`) from the duals of the last solve of the linearized start's ``runner``."""
+    for lp in (runner.active, runner.lp):
+        if lp is not None and lp.problem.status in ("optimal", "optimal_inaccurate") and seed(active, runner.model, lp):
+            return
 
 
 def _kinematic(s: SynthesisConfig) -> SynthesisConfig:

@@ -47,6 +47,9 @@ class LMIProblem:
     params: dict[str, cp.Parameter] = field(default_factory=dict)
     extra: dict[str, cp.Variable] = field(default_factory=dict)
     mirrored: bool = False  # posed mirror-invariant (docs/theory.md §6h)
+    # per vertex of the model its invariance LMIs (none for a vertex its mirror image's stand for): their duals say
+    # which vertices bind (:mod:`.phase1`)
+    vertex_lmis: list[list[Any]] = field(default_factory=list)
 
     def values(self) -> dict[str, Any]:
         """Symmetrized values of the certificate's variables (numpy)."""
@@ -581,7 +584,7 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
         extra["t"] = t
         extra["vertex_lmis"] = vertex_lmis
         return LMIProblem(cp.Problem(cp.Maximize(t), cons), M=Ms, params={"alpha": alpha, "one_minus_alpha": one_minus},
-                          extra=extra, **lv.problem_kwargs())
+                          extra=extra, vertex_lmis=vertex_lmis, **lv.problem_kwargs())
     if least_motor:
         objective = u2
         extra["u2"] = u2
@@ -594,7 +597,7 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
         objective = sum(terms)
     prob = cp.Problem(cp.Minimize(objective), cons)
     return LMIProblem(prob, M=Ms, params={"alpha": alpha, "one_minus_alpha": one_minus}, extra=extra,
-                      **lv.problem_kwargs())
+                      vertex_lmis=vertex_lmis, **lv.problem_kwargs())
 
 
 def _sym_basis(n: int) -> np.ndarray:
