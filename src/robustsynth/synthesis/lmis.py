@@ -582,7 +582,6 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
     if t is not None:
         cons += [lv.mats[j][i, i] <= float(phase1) for j in lv.own for i in (0, 1)]
         extra["t"] = t
-        extra["vertex_lmis"] = vertex_lmis
         return LMIProblem(cp.Problem(cp.Maximize(t), cons), M=Ms, params={"alpha": alpha, "one_minus_alpha": one_minus},
                           extra=extra, vertex_lmis=vertex_lmis, **lv.problem_kwargs())
     if least_motor:

@@ -42,9 +42,9 @@ HALVINGS = 2
 # An interval the active vertices leave unsettled is halved before it is tried on the base (the end vertices), which
 # only the intervals halved HALVINGS times meet: two problems on 10 vertices cost a fraction of one on the base, and
 # the narrower relaxation is what settles most.  The default robot at d_hi = 2 (icr box, delay max 0.19 s; the active
-# set seeded by the linearized start, measured side by side): 0.2 rad settled in 94 s instead of 169 s, 0.3 rad in
-# 88 s instead of 154 s (15 and 14 phase-1 problems against 14 and 13; the base's 64-vertex problems took ~45 s each)
-HALVE_FIRST = True
+# set seeded by the linearized start, measured side by side against the base before each halving): 0.2 rad settled
+# in 94 s instead of 169 s, 0.3 rad in 88 s instead of 154 s (15 and 14 phase-1 problems against 14 and 13; the
+# base's 64-vertex problems took ~45 s each)
 PARALLEL = 2  # intervals solved at once, each on its own copy of the problem (this machine's two cores)
 
 
@@ -194,9 +194,9 @@ def prove_no_set(model: Any, s: Any, motor: bool, alpha_range: tuple[float, floa
             last: dict[tuple[float, float], tuple[float | None, str, int] | None] = {iv: None for iv in chunk}
             first = [active.indices] if active.indices and len(active.indices) < len(base) else []
             # the active vertices with only the active heading rows first, then with every row, then the base: only
-            # where the interval is halved no more, or where no vertex is active yet (HALVE_FIRST)
+            # where the interval is halved no more, or where no vertex is active yet (see HALVINGS)
             tries = [(first[0], active.row_set())] if first and active.rows is not None else []
-            wider = [base] if depth == 0 or not first or not HALVE_FIRST else []
+            wider = [base] if depth == 0 or not first else []
             for idx, rows in tries + [(idx, None) for idx in first + wider]:
                 todo = [iv for iv in chunk if last[iv] is None or not settles(last[iv][0])]
                 for iv, (t, status) in zip(todo, run(idx, todo, rows) if todo else []):
@@ -250,7 +250,7 @@ def seed(active: Active, model: Any, lp: Any) -> bool:
     on the default robot at d_hi = 2 (0.1 rad, alpha in [0.005, 0.0096]) the 10 vertices that bind the linearized
     certificate gave t* -1.64e-3 in 7.1 s where the 64 end vertices gave -1.72e-3 in ~48 s.  Whether it seeded."""
     n = len(model.vertices)
-    w = [sum(float(np.trace(c.dual_value)) for c in cons if c.dual_value is not None) for cons in lp.vertex_lmis]
+    w = _vertex_weights(lp)
     if len(w) != n or not any(x > 0 for x in w):
         return False
     if lp.mirrored:
@@ -272,14 +272,18 @@ def _rank(active: Active, idx: tuple[int, ...], lps: list[Any], ts: list[tuple[f
     for lp, (t, _) in zip(lps, ts):
         if t is None:
             continue
-        _binding(weight, idx, [sum(float(np.trace(c.dual_value)) for c in cons if c.dual_value is not None)
-                               for cons in lp.extra["vertex_lmis"]])
+        _binding(weight, idx, _vertex_weights(lp))
     _rank_rows(active, lps, ts)
     if not weight:
         return
     keep = sorted(weight, key=lambda i: -weight[i])[:ACTIVE]
     old = [i for i in active.indices if i not in keep]
     active.indices = tuple(sorted(keep + old[: max(0, ACTIVE - len(keep))]))
+
+
+def _vertex_weights(lp: Any) -> list[float]:
+    """Per vertex of ``lp`` (solved) the dual weight of its LMIs: the traces of their dual matrices (0: none)."""
+    return [sum(float(np.trace(c.dual_value)) for c in cons if c.dual_value is not None) for cons in lp.vertex_lmis]
 
 
 def _binding(weight: dict[Any, float], names: Any, w: list[float]) -> None:
