@@ -8,6 +8,7 @@ one key set: ``name``, ``passed``, ``value``, ``threshold``, ``detail``."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any
@@ -147,8 +148,21 @@ class AnalysisResult:
 
 def to_jsonable(obj: Any) -> Any:
     """numpy arrays -> lists of rows, numpy scalars -> Python numbers, tuples -> lists, non-finite floats -> None
-    (what every result's ``to_dict`` and the files hold)."""
+    (what every result's ``to_dict`` and the files hold).  The plain types first, and a numeric array with no
+    non-finite entry or a list's finite floats taken as they are: a gains.json of 1.4 MB (the default robot's
+    certificate) went through this in 0.3 s, one call per number."""
+    t = type(obj)
+    if t is float:
+        return obj if math.isfinite(obj) else None
+    if t is str or t is int or t is bool or obj is None:
+        return obj
+    if t is list or t is tuple:  # a finite float is kept as it is (v - v is 0.0 only for one)
+        return [v if type(v) is float and v - v == 0.0 else to_jsonable(v) for v in obj]
+    if t is dict:
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
     if isinstance(obj, np.ndarray):
+        if obj.dtype in _PLAIN_DTYPES and (obj.dtype.kind != "f" or bool(np.isfinite(obj).all())):
+            return obj.tolist()  # Python ints, bools or finite floats already
         return to_jsonable(obj.tolist())
     if isinstance(obj, (np.floating,)):
         return float(obj)
@@ -163,6 +177,9 @@ def to_jsonable(obj: Any) -> Any:
     if isinstance(obj, float) and not np.isfinite(obj):
         return None
     return obj
+
+
+_PLAIN_DTYPES = tuple(np.dtype(x) for x in ("float64", "float32", "int64", "int32", "bool"))
 
 
 def all_passed(checks: Iterable[Mapping[str, Any]]) -> bool:

@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from robustsynth.artifacts.files import atomic_write, commit_files, json_bytes, to_jsonable
 from robustsynth.report.markdown import table
@@ -54,3 +56,42 @@ def test_json_is_deterministic_and_maps_nan_to_null() -> None:
 
 def test_markdown_table_escapes_pipes() -> None:
     assert "\\|e_y\\|" in table(["q"], [["|e_y|"]])
+
+
+def _reference_jsonable(obj):
+    """to_jsonable as it was written before its fast paths: one call per element."""
+    if isinstance(obj, np.ndarray):
+        return _reference_jsonable(obj.tolist())
+    if isinstance(obj, np.floating):
+        return float(obj)
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    if isinstance(obj, dict):
+        return {str(k): _reference_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_reference_jsonable(v) for v in obj]
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return None
+    return obj
+
+
+_floats = st.floats(allow_nan=True, allow_infinity=True, width=64)
+_leaves = st.one_of(_floats, st.integers(-10, 10), st.booleans(), st.none(), st.text(max_size=3),
+                    _floats.map(np.float64), st.integers(-5, 5).map(np.int64), st.booleans().map(np.bool_),
+                    st.lists(_floats, max_size=4).map(np.array),
+                    st.lists(st.integers(-5, 5), max_size=4).map(lambda x: np.array(x, dtype=np.int64)),
+                    st.lists(st.booleans(), max_size=3).map(np.array),
+                    st.lists(st.floats(width=32), max_size=4).map(lambda x: np.array(x, dtype=np.float32)))
+_trees = st.recursive(_leaves, lambda kids: st.one_of(st.lists(kids, max_size=4), st.tuples(kids, kids),
+                                                      st.dictionaries(st.integers(0, 5) | st.text(max_size=2), kids,
+                                                                      max_size=3)), max_leaves=20)
+
+
+@settings(max_examples=300, deadline=None)
+@given(_trees)
+def test_fast_paths_give_what_one_call_per_element_gives(obj) -> None:
+    """The plain types, finite arrays and lists of finite floats taken as they are: the same values, of the same
+    Python types, as the per-element reference (NaN compared by its repr)."""
+    assert repr(to_jsonable(obj)) == repr(_reference_jsonable(obj))

@@ -12,7 +12,7 @@ import pytest
 from robustsynth.model import build_model
 from robustsynth.synthesis.lmis import _Lyap, build_stability
 
-from ..conftest import make_config
+from ..conftest import ROOT, make_config
 from .conftest import invariance_at, invariance_runner
 
 ALPHA = 0.22  # near the best alpha of the default robot
@@ -139,3 +139,57 @@ def test_an_infeasible_alpha_is_infeasible_not_a_solver_failure():
     assert out.kind == "infeasible"
     first = out.attempts[0].status
     assert runner.full_retries == (0 if first == "infeasible" else 1)
+
+
+def _reference_signs(v, w, t, tu, s_w):
+    """_channel_signs as it was written before it compared every channel at once: np.allclose per column."""
+    close = lambda a, b: np.allclose(a, b, rtol=1e-10, atol=1e-12)  # noqa: E731
+    Bp, Cq, Dq, F = (np.asarray(x, dtype=float) for x in (v.B_p, v.C_q, v.D_q, v.F))
+    images = (t[:, None] * Bp, (Cq * t).T, (Dq * tu).T, (F * s_w).T)
+    targets = (np.asarray(w.B_p, dtype=float), np.asarray(w.C_q, dtype=float).T, np.asarray(w.D_q, dtype=float).T,
+               np.asarray(w.F, dtype=float).T)
+    out = np.ones(v.n_q)
+    for k in range(v.n_q):
+        parts = [(images[:1], targets[:1]), (images[1:], targets[1:])] if v.diagonal else [(images, targets)]
+        signs = []
+        for ims, tgs in parts:
+            ok = [all(close(tg[:, k], s * im[:, k]) for im, tg in zip(ims, tgs)) for s in (1.0, -1.0)]
+            if not any(ok):
+                return None
+            signs.append(1.0 if ok[0] else -1.0)
+        out[k] = signs[-1]
+    return out
+
+
+@pytest.mark.parametrize("config", ["norm-bounded", "default"])
+def test_every_channel_at_once_gives_the_per_channel_signs(config):
+    """The channels' signs compared column by column (np.allclose, the reference) and all at once: the same, on
+    every vertex and its mirror image and on random pairs of vertices, of a model with channel blocks and of the
+    default's with diagonal kinematic channels (None where a channel maps with neither sign)."""
+    from robustsynth.config import load_config
+    from robustsynth.model.mirror import _channel_signs
+
+    if config == "default":
+        model = build_model(load_config(ROOT / "configs" / "default.yaml")).with_heading_bound(0.1, within_period=True)
+    else:
+        model = build_model(make_config(**{"synthesis.delay_description": "norm-bounded"}))
+    mirror = model.mirror("common")
+    assert mirror is not None and any(v.n_q for v in model.vertices)
+    rng = np.random.default_rng(0)
+    pairs = [(i, mirror.vertex[i]) for i in range(len(model.vertices))]
+    pairs += [tuple(int(x) for x in rng.integers(len(model.vertices), size=2)) for _ in range(20)]
+    agreed = {"signs": 0, "none": 0}
+    for i, j in pairs:
+        v, w = model.vertices[i], model.vertices[j]
+        if w.n_q != v.n_q or w.diagonal != v.diagonal:
+            continue
+        tE = mirror.t[:, None] * np.asarray(v.E)
+        s_w = np.where(np.all(np.abs(np.asarray(w.E) + tE) <= 1e-12, axis=0), -1.0, 1.0)  # as find_mirror's, near enough
+        got, want = _channel_signs(v, w, mirror.t, mirror.tu, s_w), _reference_signs(v, w, mirror.t, mirror.tu, s_w)
+        assert (got is None) == (want is None)
+        if got is None:
+            agreed["none"] += 1
+        else:
+            np.testing.assert_array_equal(got, want)
+            agreed["signs"] += 1
+    assert agreed["signs"] >= len(model.vertices) and agreed["none"] > 0

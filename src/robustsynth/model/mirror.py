@@ -26,31 +26,32 @@ class Mirror:
     q_signs: tuple[np.ndarray, ...] = ()  # per vertex: the signs S_i of its uncertainty channels
 
 
-def _channel_signs(v: Vertex, w: Vertex, t: np.ndarray, tu: np.ndarray, s_w: np.ndarray, close) -> np.ndarray | None:
+def _channel_signs(v: Vertex, w: Vertex, t: np.ndarray, tu: np.ndarray, s_w: np.ndarray) -> np.ndarray | None:
     """The sign of each uncertainty channel k with which vertex ``w`` is the mirror image of ``v``
     (``Model.mirror``), or None when some channel maps with neither sign.  A channel's input p (the
     column of B_p) and output q (the rows of C_q, D_q, F_q) must map with the same sign when Delta
     has blocks (d1 I2, d2: its multiplier then maps as S M S); with ``diagonal`` Delta (independent
     scalars in [-1, 1], a diagonal multiplier) they may differ: the mirror then takes delta_k to
-    -delta_k, which is as admissible, and the multiplier is unchanged."""
+    -delta_k, which is as admissible, and the multiplier is unchanged.  Every channel at once: column k of
+    each matrix is compared as ``np.allclose`` compares it (:func:`_close_columns`)."""
     Bp, Cq, Dq, F = (np.asarray(x, dtype=float) for x in (v.B_p, v.C_q, v.D_q, v.F))
     images = (t[:, None] * Bp, (Cq * t).T, (Dq * tu).T, (F * s_w).T)  # channel k: column k of each
     targets = (np.asarray(w.B_p, dtype=float), np.asarray(w.C_q, dtype=float).T, np.asarray(w.D_q, dtype=float).T,
                np.asarray(w.F, dtype=float).T)
+    parts = [(images[:1], targets[:1]), (images[1:], targets[1:])] if v.diagonal else [(images, targets)]
     out = np.ones(v.n_q)
-    for k in range(v.n_q):
-        if v.diagonal:  # input and output signs independent
-            parts = [(images[:1], targets[:1]), (images[1:], targets[1:])]
-        else:
-            parts = [(images, targets)]
-        signs = []
-        for ims, tgs in parts:
-            ok = [all(close(tg[:, k], s * im[:, k]) for im, tg in zip(ims, tgs)) for s in (1.0, -1.0)]
-            if not any(ok):
-                return None
-            signs.append(1.0 if ok[0] else -1.0)
-        out[k] = signs[-1]  # the output's sign: the multiplier maps as S M S
+    for ims, tgs in parts:  # the output's part last: its sign is the channel's (the multiplier maps as S M S)
+        plus, minus = (np.logical_and.reduce([_close_columns(tg, s * im) for im, tg in zip(ims, tgs)])
+                       for s in (1.0, -1.0))
+        if not np.all(plus | minus):
+            return None
+        out = np.where(plus, 1.0, -1.0)
     return out
+
+
+def _close_columns(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Per column, ``np.allclose(a[:, k], b[:, k])`` at the mirror's tolerances (rtol 1e-10, atol 1e-12)."""
+    return np.isclose(a, b, rtol=1e-10, atol=1e-12).all(axis=0)
 
 
 def find_mirror(corners: np.ndarray, state_names: Sequence[str], input_names: Sequence[str], n_d: int,
@@ -72,14 +73,12 @@ def find_mirror(corners: np.ndarray, state_names: Sequence[str], input_names: Se
     q_signs = []
     for i, v in enumerate(vertices):
         w = vertices[sigma[i]]
-        tE = t[:, None] * np.asarray(v.E)
-        s_w = []
-        for k in range(tE.shape[1]):
-            s_w.append(1.0 if close(w.E[:, k], tE[:, k]) else -1.0 if close(w.E[:, k], -tE[:, k]) else 0.0)
+        tE, wE = t[:, None] * np.asarray(v.E, dtype=float), np.asarray(w.E, dtype=float)
+        s_w = np.where(_close_columns(wE, tE), 1.0, np.where(_close_columns(wE, -tE), -1.0, 0.0))
         if int(w.corner) != swap[int(v.corner)] or w.n_q != v.n_q or w.diagonal != v.diagonal or 0.0 in s_w or not (
                 close(w.A, t[:, None] * np.asarray(v.A) * t) and close(w.B, t[:, None] * np.asarray(v.B) * tu)):
             return None
-        signs = _channel_signs(v, w, t, tu, np.array(s_w), close)
+        signs = _channel_signs(v, w, t, tu, s_w)
         if signs is None:
             return None
         q_signs.append(signs)
