@@ -96,3 +96,57 @@ def test_a_costly_refinement_stops_at_the_first_step_that_gains_little(x_star):
     evaluate, calls = _recorder(f)
     _parabolic(evaluate, pts)
     assert len(calls) == len(cheap) - 1
+
+
+@pytest.mark.parametrize("curvature,x_star", [(0.8, -0.9), (0.8, 0.55), (0.8, -0.23), (0.14, 1.0), (0.02, -0.6)])
+def test_a_walk_ends_where_its_steps_and_their_parabola_gain_little(curvature, x_star):
+    """The walk from a hint (alpha_search._walk) on valleys of several widths, from 0 in steps of 0.1: without
+    ``flat`` it goes on while the objective falls and brackets the minimum; with ``flat`` it evaluates a prefix of
+    those points, and where it ends early (True: no refinement after it), the last step gained less than that fraction
+    and the minimum lies less than that fraction below it (a parabola is exact on these).  The shallow valley
+    (0.14, 1.0) is one where a rule on the step's gain alone would stop 3.8 % short: its first steps gain 0.85 % and
+    0.77 %, the parabola predicts 2.9 % more."""
+    from robustsynth.synthesis.alpha_search import WALK_FLAT, _walk
+
+    f = lambda x: 3.0 + curvature * (x - x_star) ** 2  # noqa: E731
+    step = 0.1
+    plain, flat_end = _walk(f, 0.0, step, -3.0, 3.0)
+    assert not flat_end
+    best = min(plain, key=lambda p: p[1])
+    assert abs(best[0] - x_star) <= step / 2 + 1e-9  # bracketed: the best point is the grid point nearest x*
+    evaluate, calls = _recorder(f)
+    pts, flat_end = _walk(evaluate, 0.0, step, -3.0, 3.0, flat=WALK_FLAT)
+    assert sorted(pts) == sorted((x, f(x)) for x in calls)
+    assert set(x for x, _ in pts) <= set(x for x, _ in plain)
+    if flat_end:
+        assert len(calls) < len(plain)
+        before = min(f(x) for x in calls[:-1])
+        assert 0.0 < (before - f(calls[-1])) / before < WALK_FLAT
+        assert (f(calls[-1]) - 3.0) / f(calls[-1]) < WALK_FLAT
+    else:
+        assert sorted(pts) == sorted(plain)
+
+
+def test_the_flat_rule_ends_the_walks_of_the_committed_valleys_where_the_next_point_was_worse():
+    """The objective values the default robot's and turns' walks met (0.1 rad; docs: WALK_FLAT): the rule ends each
+    at the best point the whole walk found, one solve sooner; nonlinear-proof's walk is unchanged."""
+    from robustsynth.synthesis.alpha_search import WALK_FLAT, _walk
+
+    walks = {  # alpha -> objective, as measured
+        "default": {0.1486: 6.15055e-4, 0.1632: 6.26974e-4, 0.13531: 6.1273e-4, 0.12321: 6.18202e-4},
+        "turns": {0.21232: 3.33834e-3, 0.23318: math.inf, 0.19333: 3.02299e-3, 0.17604: 2.91402e-3,
+                  0.16029: 2.89453e-3, 0.14596: 2.93987e-3},
+        "nonlinear-proof": {0.21845: 1.06915e-3, 0.2399: 1.11808e-3, 0.19891: 1.0541e-3, 0.18112: 1.05665e-3},
+    }
+    for name, table in walks.items():
+        x0 = math.log(next(iter(table)))
+        step = math.log(list(table)[1]) - x0
+
+        def f(x, table=table):
+            (a,) = [a for a in table if abs(math.log(a) - x) < 1e-3]
+            return table[a]
+
+        plain, _ = _walk(f, x0, step, -6.0, 0.0)
+        pts, flat_end = _walk(f, x0, step, -6.0, 0.0, flat=WALK_FLAT)
+        assert min(v for _, v in pts) == min(v for _, v in plain)
+        assert (len(pts), flat_end) == ((len(plain), False) if name == "nonlinear-proof" else (len(plain) - 1, True))
