@@ -304,3 +304,43 @@ def test_auto_tightens_a_heading_bound_the_set_leaves_room_in_and_skips_larger_o
     ey = f["ultimate_bound"]["e_y"]
     assert larger.check is None or larger.check.figures["ultimate_bound"]["e_y"] > ey
     assert HEADING_SLACK < 1.0
+
+
+def test_the_linearized_start_is_let_go_before_the_channels_problems(monkeypatch):
+    """Memory (issue 51): once its duals have seeded the phase-1 vertices, the linearized start's runner and its
+    problem are gone (no reference left, so neither their expression trees nor their compiled data) before the first
+    heading bound's problem is built.  The test config's robot with slip [0.8, 1] and nonlinear kinematics, stopped
+    there."""
+    import gc
+    import weakref
+
+    from robustsynth.synthesis import heading_search as hs
+
+    refs: list[weakref.ref] = []
+    alive: list[bool] = []
+    real_start, real_run = hs._start, hs._run_invariance
+
+    def start(*args, **kwargs):
+        common, crunner, least = real_start(*args, **kwargs)
+        refs.extend([weakref.ref(crunner), weakref.ref(crunner.lp.problem)])
+        return common, crunner, least
+
+    class Stop(Exception):
+        pass
+
+    def run(*args, **kwargs):
+        if not refs:  # the linearized start's own search
+            return real_run(*args, **kwargs)
+        gc.collect()
+        alive.extend(r() is not None for r in refs)
+        raise Stop
+
+    monkeypatch.setattr(hs, "_start", start)
+    monkeypatch.setattr(hs, "_run_invariance", run)
+    model = build_model(make_config(**{"synthesis.kinematics": "nonlinear", "slip.right.min": 0.8,
+                                       "slip.left.min": 0.8}))
+    from robustsynth.synthesis import synthesize
+
+    with pytest.raises(Stop):
+        synthesize(model)
+    assert alive == [False, False]

@@ -74,6 +74,10 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
     tried_at: dict[float, tuple[int, int]] = {}  # heading bound -> (alphas solved, of which the solver failed)
     active = Active()  # the vertices that bound the last phase-1 problems, tried first at the next (the same order)
     _seed(active, crunner)  # the first, where none has yet: those that bind the linearized start
+    # the linearized start's problems are done with: their compiled data goes back to the system before the channels'
+    # problems take theirs, and the problems with the runner (at d_hi = 3, 432 vertices: START_RELEASED)
+    crunner.release_compiled()
+    del crunner
     for j, tb in enumerate(bounds):
         # the channels for slip changing within a period only where the certificate is proven at the
         # within-period vertices: a common Lyapunov matrix (Model.slip_variation)
