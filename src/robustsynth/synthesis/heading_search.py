@@ -75,7 +75,8 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
     active = Active()  # the vertices that bound the last phase-1 problems, tried first at the next (the same order)
     _seed(active, crunner)  # the first, where none has yet: those that bind the linearized start
     # the linearized start's problems are done with: their compiled data goes back to the system before the channels'
-    # problems take theirs, and the problems with the runner (at d_hi = 3, 432 vertices: START_RELEASED)
+    # problems take theirs, and the problems with the runner (the icr default at d_hi = 3, 432 vertices: the main
+    # search's peak 1.76 -> 1.67 GB, the main process between its phase-1 problems ~0.7 -> 0.6 GB)
     crunner.release_compiled()
     del crunner
     for j, tb in enumerate(bounds):
@@ -159,6 +160,9 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                                 f"near infeasibility{retries}). " + _nonlinear_infeasible(model, common, tried, tried_at, auto))
         from .remedies import try_remedies
 
+        # the bounds' runners are done with too: each holds its problem (~100 MB of expressions at d_hi = 3), which the
+        # remedies' own problems would otherwise sit beside
+        runner = r = r_last = None  # noqa: F841
         tries = try_remedies(model, lambda m, end: _first_try(m, given, motor, hint=hint, active=active, say=say, deadline=end),
                              say)
         raise InfeasibleError(_nonlinear_infeasible(model, common, tried, tried_at, auto)
