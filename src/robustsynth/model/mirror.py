@@ -69,7 +69,7 @@ def find_mirror(corners: np.ndarray, state_names: Sequence[str], input_names: Se
     t = np.array([-1.0 if n.startswith(("e_y", "e_theta", "omega", "int_e_y")) else 1.0 for n in state_names])
     tu = np.array([1.0 if n == "dV" else -1.0 for n in input_names])
     sigma = [swap[int(v.corner)] * n_d + i % n_d for i, v in enumerate(vertices)]
-    close = lambda a, b: np.allclose(a, b, rtol=1e-10, atol=1e-12)  # noqa: E731
+    close = lambda a, b: bool(_close_columns(a, b).all())  # noqa: E731  (np.allclose of two matrices)
     q_signs = []
     for i, v in enumerate(vertices):
         w = vertices[sigma[i]]

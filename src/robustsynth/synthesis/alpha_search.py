@@ -177,7 +177,7 @@ def _walk(evaluate: Callable[[float], float], x0: float, step: float, lo: float,
         return pts, False
     for direction in (1.0, -1.0):
         x, f = pts[0]
-        line = [p for p in pts if abs(p[0] - (x0 - direction * step)) < 1e-12 * max(1.0, step)] + [pts[0]]
+        line = pts[1::-1] if direction < 0 else pts[:1]  # on the way down, x0's upper neighbour (pts[1]) first
         while True:
             xn = x + direction * step
             if xn < lo - 1e-12 or xn > hi + 1e-12:
