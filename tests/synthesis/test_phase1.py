@@ -16,7 +16,7 @@ from robustsynth.model import build_model
 from robustsynth.synthesis.alpha_search import _settled_by_phase1
 from robustsynth.synthesis.heading_search import _kinematic
 from robustsynth.synthesis.runner import _Runner
-from robustsynth.synthesis import lmis
+from robustsynth.synthesis import lmis, phase1
 from robustsynth.synthesis.lmis import build_invariance, heading_row_key
 from robustsynth.synthesis.phase1 import (ACTIVE, ACTIVE_ROWS, PHASE1_BOX, T_PROVEN, Active, Phase1, _exact_end_vertices,
                                           prove_no_set, seed)
@@ -25,6 +25,7 @@ from robustsynth.synthesis.solve import solve
 from ..conftest import committed_gain
 
 ROOT = Path(__file__).resolve().parents[2]
+REL = 1e-9  # closed forms against their evaluation in floating point (a handful of roundings of O(1) values)
 T_TOL = 1e-7  # t* of two solves compared: Clarabel's tolerances are 1e-9 on the gap and residuals, 'inaccurate' 5e-5 rel.
 
 
@@ -330,3 +331,83 @@ def test_below_an_infeasible_hint_the_search_descends_and_finds_the_full_scans_b
     BOUND_REL = 2e-3  # both refinements stop within 0.1 % of the bound along alpha
     e1, e2 = (b.check.figures["ultimate_bound"]["e_y"] for b in (b1, b2))
     assert e1 <= e2 * (1 + BOUND_REL), (e1, e2)
+
+
+def test_the_rows_nearest_their_bound_on_the_start_s_set_seed_the_first_problems(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Before any problem has ranked the heading rows, seed_rows picks the ACTIVE_ROWS rows that the set of a gain
+    reaches farthest against their room: a row r xi + d du reaches sqrt(z Q z') with z = r + d K on {xi' Q^-1 xi <= 1},
+    cross-checked here against the largest |z xi| over points of that set's boundary (xi = L u, Q = L L', u on the unit
+    sphere).  Only where the rows are posed as linear rows (beyond LIFT_ROWS: here forced), never over rows of the model
+    ranked already, and again where the rows held are another model's.  On configs/nonlinear-proof.yaml at 0.2 rad (its
+    committed gain's set) the few rows nearest their bound settle the interval that every row settles, and the same
+    number of the farthest rows does not: the ranking is what makes the first problems' subset a proof."""
+    monkeypatch.setattr(lmis, "LIFT_ROWS", 0)
+    monkeypatch.setattr(phase1, "ACTIVE_ROWS", 4)
+    m, K, cert = committed_gain("nonlinear-proof")
+    _, s = _nonlinear_proof()
+    model = m.with_heading_bound(0.2, within_period=True)
+    Q = np.asarray(cert["Q"], dtype=float)
+    rows, keys = lmis.heading_rows(model)
+    assert keys == _row_keys(model) and len(rows) > 2 * phase1.ACTIVE_ROWS
+    # the reach, closed form, against the set's boundary: 20 000 random points of it never exceed it, and each row's
+    # maximizer xi* = L u*, u* = L' z' / |L' z'| (on the boundary) attains it
+    L = np.linalg.cholesky(Q)
+    u = np.random.default_rng(0).normal(size=(20000, model.n_s))
+    xi = (u / np.linalg.norm(u, axis=1, keepdims=True)) @ L.T
+    Z = np.array([c + d @ K for c, d, _ in rows])
+    reach = np.sqrt(np.einsum("ia,ab,ib->i", Z, Q, Z))
+    assert np.all(np.abs(xi @ Z.T).max(axis=0) <= reach * (1 + REL))
+    top = Z @ L
+    best = (top / np.linalg.norm(top, axis=1, keepdims=True)) @ L.T  # (rows, n_s): each row's maximizer
+    assert np.allclose(np.einsum("ia,ab,ib->i", best, np.linalg.inv(Q), best), 1.0, rtol=REL)
+    assert np.allclose(np.einsum("ia,ia->i", best, Z), reach, rtol=REL)
+    ratio = reach / np.array([room for _, _, room in rows])
+    active = Active()
+    assert phase1.seed_rows(active, model, Q, K)
+    assert list(active.rows) == [keys[i] for i in np.argsort(-ratio, kind="stable")[:4]]
+    assert not phase1.seed_rows(active, model, Q, K)  # ranked already: kept
+    other = Active(rows=(b"another model's row",))
+    assert phase1.seed_rows(other, model, Q, K) and other.rows == active.rows
+    monkeypatch.setattr(lmis, "LIFT_ROWS", len(rows))  # posed as LMIs (the rows others imply left out): no subset
+    assert not phase1.seed_rows(Active(), model, Q, K)
+    monkeypatch.setattr(lmis, "LIFT_ROWS", 0)
+    # the nearest rows settle the interval every row settles (test_fewer_heading_rows_..., t* -T_PROVEN or below);
+    # the farthest do not
+    w = np.array([1.0, 1.0, 1.0])
+    far = frozenset(keys[i] for i in np.argsort(ratio, kind="stable")[:4])
+    t = {}
+    for name, subset in (("nearest", frozenset(active.rows)), ("farthest", far)):
+        lp = build_invariance(model, s.multiplier, s.margin, w, True, s.lyapunov, symmetry=False, phase1=PHASE1_BOX,
+                              heading_rows=subset)
+        lp.params["one_minus_alpha"].value, lp.params["alpha"].value = 1.0 - 0.005, 0.0096
+        assert solve(lp.problem, s.solver, lambda: True, fallback=False, retry=True).kind == "ok"
+        t[name] = float(lp.extra["t"].value)
+    assert t["nearest"] <= -T_PROVEN < t["farthest"], t
+
+
+def test_a_remedy_s_screen_poses_the_rows_its_own_start_ranks(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A remedy's quick try screens each heading bound by a phase-1 problem on the main search's active vertices; the
+    rows the main search ranked are its own model's (keys naming none of the remedy's rows: posed, they would select
+    none, and every row would be posed: 60 281 on the icr default at d_hi = 3), so the screen poses the ACTIVE_ROWS rows
+    seeded from the remedy's own start instead (configs/nonlinear-proof.yaml, rows posed as linear rows: forced)."""
+    from robustsynth.synthesis import heading_search
+
+    monkeypatch.setattr(lmis, "LIFT_ROWS", 0)
+    monkeypatch.setattr(phase1, "ACTIVE_ROWS", 4)
+    cfg = mapping_with(yaml.safe_load((ROOT / "configs" / "nonlinear-proof.yaml").read_text()))
+    model = build_model(cfg)
+    posed: list[tuple[frozenset[bytes] | None, frozenset[bytes]]] = []
+    build = phase1.build_invariance
+
+    def recording(m, *args, heading_rows=None, **kwargs):
+        posed.append((heading_rows, frozenset(lmis.heading_rows(m)[1])))
+        return build(m, *args, heading_rows=heading_rows, **kwargs)
+
+    monkeypatch.setattr(phase1, "build_invariance", recording)
+    _, _, cert = committed_gain("nonlinear-proof")
+    n = len(model.with_heading_bound(0.2, within_period=True).vertices)
+    active = Active(indices=tuple(range(0, n, 2))[:ACTIVE], vertices=n, rows=(b"another model's row",))
+    heading_search._first_try(model, cfg.synthesis, True, hint=float(cert["alpha"]), active=active)
+    assert posed, "the screen ran"
+    for rows, keys in posed:
+        assert rows is not None and len(rows) == 4 and rows <= keys

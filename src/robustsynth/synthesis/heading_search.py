@@ -15,7 +15,7 @@ import numpy as np
 from ..config import SynthesisConfig
 from ..errors import InfeasibleError, SolverFailure
 from .alpha_search import ALPHA_RANGE, COSTLY_STOP_REL, _motor_pruner, _run_invariance
-from .phase1 import PARALLEL, Active, prove_no_set, screen, seed, settles
+from .phase1 import PARALLEL, Active, prove_no_set, screen, seed, seed_rows, settles
 from .runner import _Best, _Runner, _wider_turns
 from .solve import RETRY
 
@@ -70,7 +70,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
     auto = s.heading_bound == "auto"
     bounds = _auto_bounds(common) if auto else (float(s.heading_bound),)
     best, runner, tried, below = _Best(), None, [], None
-    r_last: _Runner | None = None  # the previous bound's runner
+    phase1_alone = False  # whether phase-1 problems alone settled the previous bound (the next asks them first)
     tried_at: dict[float, tuple[int, int]] = {}  # heading bound -> (alphas solved, of which the solver failed)
     active = Active()  # the vertices that bound the last phase-1 problems, tried first at the next (the same order)
     _seed(active, crunner)  # the first, where none has yet: those that bind the linearized start
@@ -93,12 +93,15 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                if start is not None else f"scan over {s.alpha_points} points")
             + f" ({len(m.vertices)} vertices, {m.vertices[0].n_q} kinematic channels each)")
         try:
+            if common.cert is not None and common.cert.get("lyapunov") == "common":
+                # the first phase-1 problems pose the rows nearest their bound on the start's set, not every row
+                seed_rows(active, m, common.cert["Q"], common.K)
             b, r = _run_invariance(m, s, search, motor, say, alpha_hint=start, retry="cheap" if auto else True,
                                    give_up=NONLINEAR_GIVE_UP,
                                    prune=_motor_pruner(m, s, say=say) if motor else None, stop_rel=COSTLY_STOP_REL,
                                    bar=best.value if best.cert is not None else None,
                                    prove=lambda m=m: prove_no_set(m, s, motor, ALPHA_RANGE, say, active=active),
-                                   prove_first=r_last is not None and r_last.phase1_alone)
+                                   prove_first=phase1_alone)
             if best.cert is not None and (b.cert is None or b.value >= best.value):
                 tried.append((tb, "not better at the best alpha"))
                 break
@@ -113,9 +116,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
         tried.append((tb, "certified" if b.cert is not None else "infeasible (phase-1)" if settled else
                       ("solver failed" if solver_failed else "infeasible")))
         tried_at[tb] = (len(r.failed_at), sum(r.failed_at.values()))
-        r_last = r  # where the phase-1 problems alone settled this bound, the next asks them first
-        if runner is None:
-            runner = r
+        phase1_alone = r.phase1_alone  # where the phase-1 problems alone settled this bound, the next asks them first
         if b.cert is not None and b.value < best.value:
             best, runner = b, r
         elif best.cert is not None:  # past the best bound: larger headings cost more
@@ -160,9 +161,10 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                                 f"near infeasibility{retries}). " + _nonlinear_infeasible(model, common, tried, tried_at, auto))
         from .remedies import try_remedies
 
-        # the bounds' runners are done with too: each holds its problem (~100 MB of expressions at d_hi = 3), which the
-        # remedies' own problems would otherwise sit beside
-        runner = r = r_last = None  # noqa: F841
+        # the last bound's runner is done with too: it holds its problem (~100 MB of expressions at d_hi = 3), which the
+        # remedies' own problems would otherwise sit beside (no other bound's is kept: a runner is kept as ``runner``
+        # only with its certificate, and none certified here)
+        r = m = None  # noqa: F841
         tries = try_remedies(model, lambda m, end: _first_try(m, given, motor, hint=hint, active=active, say=say, deadline=end),
                              say)
         raise InfeasibleError(_nonlinear_infeasible(model, common, tried, tried_at, auto)
@@ -235,6 +237,9 @@ def _first_try(model: Any, s: SynthesisConfig, motor: bool, hint: float | None =
         except InfeasibleError:  # below the slip's own turn within a period
             continue
     usable = active is not None and bool(active.indices) and all(len(m.vertices) == active.vertices for _, m in models)
+    if usable and models and common.cert.get("lyapunov") == "common":
+        # the rows the main search ranked are its model's: this one's, from its own start's set
+        seed_rows(active, models[0][1], common.cert["Q"], common.K)
     step = PARALLEL if usable else 1
     for k in range(0, len(models), step):
         if k and time.perf_counter() > deadline:

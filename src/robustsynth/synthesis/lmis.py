@@ -32,7 +32,7 @@ import cvxpy as cp
 import numpy as np
 
 __all__ = ["LMIProblem", "build_stability", "build_invariance", "multiplier", "motor_constraints",
-           "heading_constraints", "heading_row_key"]
+           "heading_constraints", "heading_row_key", "heading_rows"]
 
 
 @dataclass
@@ -293,27 +293,7 @@ def heading_constraints(model: Any, lv: _Lyap, only: frozenset[bytes] | None = N
     key (:func:`heading_row_key`) is in it, all of them where it names none of this model's.  ``extra`` receives, in the
     lifted form, ``heading_keys`` (the rows posed, in order) and ``heading_rows`` (their linear constraints, one per
     Lyapunov matrix: their duals rank the rows, :mod:`.phase1`)."""
-    from ..errors import InfeasibleError
-
-    theta_bar = float(model.heading_bound)
-    rows: list[tuple[np.ndarray, np.ndarray, float]] = []
-    keys: list[bytes] = []
-    seen: set[bytes] = set()
-    for ch in model.heading_channels:
-        turning = getattr(ch, "F_h", None) is not None
-        for c, d, off in zip(ch.C_h, ch.D_h, ch.heading_offsets):
-            key = heading_row_key(c, d, off)
-            if key in seen:
-                continue
-            seen.add(key)
-            room = theta_bar - float(off)
-            if room <= 0:
-                raise InfeasibleError(
-                    f"synthesis.heading_bound: {theta_bar:g} rad is smaller than the turn the slip alone causes within "
-                    f"one period ({float(off):.3g} rad" + (", the turning reference's yaw rates included" if turning else "")
-                    + "): no set can keep |e_theta(t)| below it")
-            rows.append((np.asarray(c, dtype=float), np.asarray(d, dtype=float), room))
-            keys.append(key)
+    rows, keys = heading_rows(model)
     cons = []
     V = np.array([np.concatenate([c, d]) for c, d, _ in rows])
     rooms = np.array([r for _, _, r in rows])
@@ -338,6 +318,35 @@ def heading_constraints(model: Any, lv: _Lyap, only: frozenset[bytes] | None = N
                            [cp.reshape(row, (model.n_s, 1), order="C"), lv.left(j)]])
             cons.append(_sym(blk) >> 0)
     return cons
+
+
+def heading_rows(model: Any) -> tuple[list[tuple[np.ndarray, np.ndarray, float]], list[bytes]]:
+    """The distinct heading rows of ``model`` (one with a heading bound), in the order :func:`heading_constraints`
+    poses them: (state coefficients c, command coefficients d, room theta_bar - offset) each, and their keys
+    (:func:`heading_row_key`).  Raises InfeasibleError where a row has no room (the slip's own turn within a period
+    reaches the bound)."""
+    from ..errors import InfeasibleError
+
+    theta_bar = float(model.heading_bound)
+    rows: list[tuple[np.ndarray, np.ndarray, float]] = []
+    keys: list[bytes] = []
+    seen: set[bytes] = set()
+    for ch in model.heading_channels:
+        turning = getattr(ch, "F_h", None) is not None
+        for c, d, off in zip(ch.C_h, ch.D_h, ch.heading_offsets):
+            key = heading_row_key(c, d, off)
+            if key in seen:
+                continue
+            seen.add(key)
+            room = theta_bar - float(off)
+            if room <= 0:
+                raise InfeasibleError(
+                    f"synthesis.heading_bound: {theta_bar:g} rad is smaller than the turn the slip alone causes within "
+                    f"one period ({float(off):.3g} rad" + (", the turning reference's yaw rates included" if turning else "")
+                    + "): no set can keep |e_theta(t)| below it")
+            rows.append((np.asarray(c, dtype=float), np.asarray(d, dtype=float), room))
+            keys.append(key)
+    return rows, keys
 
 
 def heading_row_key(c: np.ndarray, d: np.ndarray, offset: float) -> bytes:
