@@ -344,3 +344,48 @@ def test_the_linearized_start_is_let_go_before_the_channels_problems(monkeypatch
     with pytest.raises(Stop):
         synthesize(model)
     assert alive == [False, False]
+
+
+def test_a_costly_start_walks_from_the_scan_on_its_end_vertices(monkeypatch) -> None:
+    """Where the linearized start's solves are costly (estimated at COSTLY_SOLVE_S or more: forced here), it scans the
+    same LMIs on the vertices with every delay instant at an end of its range (a subset: a relaxation, a fraction of the
+    cost) and starts every vertex's problem from that scan's best alpha, instead of scanning it: one solve where it
+    certifies the subset's bound there (a relaxation's bound is a floor at every alpha: none does better), else a walk.
+    configs/delay-dlo1.yaml with nonlinear kinematics (36 vertices, 16 at the ends): the start certifies, in fewer solves
+    of the whole than its scan, within the walk's stop rule (COSTLY_GAIN per step) of the scanned bound; the subset's
+    bound at an alpha is at most the whole's there (fewer LMIs to hold)."""
+    from robustsynth.config import mapping_with
+    from robustsynth.synthesis import alpha_search, heading_search as hs
+    import yaml
+
+    cfg = mapping_with(yaml.safe_load((ROOT / "configs" / "delay-dlo1.yaml").read_text()),
+                       **{"synthesis.kinematics": "nonlinear"})
+    model, s = build_model(cfg), cfg.synthesis
+    runs = {}
+    for name, costly in (("scan", 1e9), ("walk", 0.0)):
+        monkeypatch.setattr(alpha_search, "COSTLY_SOLVE_S", costly)
+        lines: list[str] = []
+        best, runner, _ = hs._start(model, s, True, lines.append)
+        runs[name] = (best, [ln for ln in lines if ln.startswith("  alpha = ")], lines)
+    (scan, scan_solves, _), (walk, walk_solves, lines) = runs["scan"], runs["walk"]
+    assert any("the scan on the 16 vertices" in ln for ln in lines), lines
+    assert any(ln.startswith("    alpha = ") for ln in lines)  # the subset's scan, said one level in
+    assert scan.cert is not None and walk.cert is not None
+    assert len(walk_solves) < len(scan_solves), (walk_solves, scan_solves)
+    if any("no alpha does better" in ln for ln in lines):
+        assert len(walk_solves) == 1
+    assert walk.value <= scan.value * (1 + 2 * alpha_search.COSTLY_GAIN)
+    # the subset is a relaxation: at the whole's best alpha, its own bound is no larger
+    ends = hs._exact_end_vertices(model.linearized())
+    assert ends is not None and len(ends) == 16
+    monkeypatch.setattr(alpha_search, "COSTLY_SOLVE_S", 1e9)
+    from dataclasses import replace
+
+    lin = model.linearized()
+    sc = s.model_copy(update={"lyapunov": "common", "kinematics": "linearized"})
+    a = float(scan.cert["alpha"])
+    relaxed, _ = alpha_search._run_invariance(replace(lin, vertices=tuple(lin.vertices[i] for i in ends)), sc, [], True,
+                                              alpha_hint=a, probe_only=True)
+    whole, _ = alpha_search._run_invariance(lin, sc, [], True, alpha_hint=a, probe_only=True)
+    assert relaxed.cert is not None and whole.cert is not None
+    assert relaxed.value <= whole.value * (1 + 1e-6)

@@ -411,3 +411,23 @@ def test_a_remedy_s_screen_poses_the_rows_its_own_start_ranks(monkeypatch: pytes
     assert posed, "the screen ran"
     for rows, keys in posed:
         assert rows is not None and len(rows) == 4 and rows <= keys
+
+
+def test_far_from_any_set_the_next_bound_cuts_the_range_into_fewer_intervals() -> None:
+    """Phase1.next_layout: a proof whose intervals all settled at once on the active vertices with t* <= -COARSEN_T has
+    the next bound cut the range into half as many (at least PARALLEL); settled unhalved nearer 0, or on more vertices,
+    as many; halved or unsettled, twice as many (at most INTERVALS).  halvings_for keeps the finest interval as fine."""
+    far, near = -2 * phase1.COARSEN_T, -phase1.COARSEN_T / 2
+
+    def proof(ts, n=ACTIVE):
+        return Phase1(0.005, 0.95, [(0.0, 1.0, t, n, "optimal") for t in ts])
+
+    assert proof([far] * 8).next_layout(8, ACTIVE) == 4
+    assert proof([far] * 2).next_layout(2, ACTIVE) == phase1.PARALLEL == 2
+    assert proof([far] * 7 + [near]).next_layout(8, ACTIVE) == 8
+    assert proof([far] * 4, n=ACTIVE + 6).next_layout(4, ACTIVE) == 4  # settled on the end vertices: not coarser
+    assert proof([far] * 5).next_layout(4, ACTIVE) == 8  # one of the four halved
+    assert proof([far] * 3 + [None]).next_layout(4, ACTIVE) == 8  # unsettled
+    assert proof([near] * 9).next_layout(8, ACTIVE) == phase1.INTERVALS == 8
+    for n in (8, 4, 2, 1):
+        assert n * 2 ** phase1.halvings_for(n) == phase1.INTERVALS * 2 ** phase1.HALVINGS

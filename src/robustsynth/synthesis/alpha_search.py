@@ -203,7 +203,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     prune: Callable[[list[float]], set[float]] | None = None,
                     stop_rel: float = HINT_STOP_REL, bar: float | None = None,
                     prove: Callable[[], Phase1] | None = None, prove_first: bool = False,
-                    gain_rule: bool | None = None) -> tuple[_Best, _Runner]:
+                    gain_rule: bool | None = None,
+                    cheaper_hint: Callable[[], tuple[float, float] | None] | None = None) -> tuple[_Best, _Runner]:
     """The alpha line search of the invariance LMIs.  Without a hint: a log grid of alpha_points
     scanned upwards, then parabolic steps around its best point.  With ``alpha_hint`` (the best alpha
     of a cheaper certificate class): walk from the hint in quarter grid steps while the bound falls,
@@ -224,7 +225,11 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     asked before any solve (a related problem's solves all failed: the hint's would most likely fail too); so they
     are too where one solve is estimated at PROVE_FIRST_S or more.
     ``gain_rule``: the refinement stops at a step that gains less than COSTLY_GAIN (:func:`_refine`): by default where a
-    solve is estimated at COSTLY_SOLVE_S or more; True: always (a remedy's quick try)."""
+    solve is estimated at COSTLY_SOLVE_S or more; True: always (a remedy's quick try).  ``cheaper_hint``: without a
+    hint, where a solve is estimated at COSTLY_SOLVE_S or more, the best alpha and objective of a relaxation of these
+    LMIs (a subset of the vertices, scanned: cheaper), to walk from instead of the scan (None: the scan).  A relaxation's
+    objective is at most this problem's at every alpha, so where the solve at its best alpha reaches its best objective
+    (within COSTLY_STOP_REL) no alpha does better here, to that search's own tolerance: the search ends there."""
     lp = _build(build_invariance, model, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,
                 symmetry=s.symmetry == "auto")
     full = lambda mdl: build_invariance(mdl, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,  # noqa: E731
@@ -247,6 +252,13 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         say(f"  {lmi_count(lp)} LMIs (the largest {lmi_rows(lp)} rows) per alpha; each point is one solve"
             + (f" (about {_duration(est)} each, estimated from its size)" if est >= 1.0 else "") + ", a failed one is retried")
     grid = np.linspace(math.log(ALPHA_RANGE[0]), math.log(ALPHA_RANGE[1]), s.alpha_points)
+    if alpha_hint is None and cheaper_hint is not None and est >= COSTLY_SOLVE_S and not probe_only:
+        relaxed = cheaper_hint()
+        if relaxed is not None:
+            alpha_hint, floor = relaxed
+            if evaluate(math.log(alpha_hint)) <= floor * (1.0 + COSTLY_STOP_REL):
+                say("  its best alpha certifies the relaxation's bound here too: no alpha does better")
+                return best, runner
     if prove is not None and (prove_first or (est >= PROVE_FIRST_S and not probe_only)) and \
             _settled_by_phase1(runner, prove, search, say, why="failed before" if prove_first else "costly"):
         return best, runner

@@ -15,7 +15,8 @@ import numpy as np
 from ..config import SynthesisConfig
 from ..errors import InfeasibleError, SolverFailure
 from .alpha_search import ALPHA_RANGE, COSTLY_STOP_REL, _motor_pruner, _run_invariance
-from .phase1 import PARALLEL, Active, prove_no_set, screen, seed, seed_rows, settles
+from .phase1 import (INTERVALS, PARALLEL, Active, _exact_end_vertices, halvings_for, prove_no_set, screen, seed,
+                     seed_rows, settles)
 from .runner import _Best, _Runner, _wider_turns
 from .solve import RETRY
 
@@ -71,6 +72,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
     bounds = _auto_bounds(common) if auto else (float(s.heading_bound),)
     best, runner, tried, below = _Best(), None, [], None
     phase1_alone = False  # whether phase-1 problems alone settled the previous bound (the next asks them first)
+    layout = INTERVALS  # how many intervals the next bound's phase-1 problems cut the alpha range into (Phase1.next_layout)
     tried_at: dict[float, tuple[int, int]] = {}  # heading bound -> (alphas solved, of which the solver failed)
     active = Active()  # the vertices that bound the last phase-1 problems, tried first at the next (the same order)
     _seed(active, crunner)  # the first, where none has yet: those that bind the linearized start
@@ -100,7 +102,8 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                                    give_up=NONLINEAR_GIVE_UP,
                                    prune=_motor_pruner(m, s, say=say) if motor else None, stop_rel=COSTLY_STOP_REL,
                                    bar=best.value if best.cert is not None else None,
-                                   prove=lambda m=m: prove_no_set(m, s, motor, ALPHA_RANGE, say, active=active),
+                                   prove=lambda m=m, n=layout: prove_no_set(m, s, motor, ALPHA_RANGE, say, active=active,
+                                                                             intervals=n, halvings=halvings_for(n)),
                                    prove_first=phase1_alone)
             if best.cert is not None and (b.cert is None or b.value >= best.value):
                 tried.append((tb, "not better at the best alpha"))
@@ -117,6 +120,8 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                       ("solver failed" if solver_failed else "infeasible")))
         tried_at[tb] = (len(r.failed_at), sum(r.failed_at.values()))
         phase1_alone = r.phase1_alone  # where the phase-1 problems alone settled this bound, the next asks them first
+        if r.phase1 is not None:
+            layout = r.phase1.next_layout(layout, len(active.indices))
         if b.cert is not None and b.value < best.value:
             best, runner = b, r
         elif best.cert is not None:  # past the best bound: larger headings cost more
@@ -200,8 +205,27 @@ def _start(model: Any, s: SynthesisConfig, motor: bool, say: Callable[[str], Non
     say(f"the linearized common certificate, where the search starts ({len(lin.vertices)} vertices)")
     least: dict[float, float | None] = {}  # alpha -> the linearized LMIs' least motor bound, where proven
     common, crunner = _run_invariance(lin, sc, [], motor, say, prune=_motor_pruner(lin, sc, least, say=say) if motor else None,
-                                      alpha_hint=hint, gain_rule=True if hint is not None else None)
+                                      alpha_hint=hint, gain_rule=True if hint is not None else None,
+                                      cheaper_hint=lambda: _end_vertices_hint(lin, sc, motor, say))
     return common, crunner, least
+
+
+def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable[[str], None]
+                       ) -> tuple[float, float] | None:
+    """Where the linearized start's solves are costly (a long delay's vertices: 432 at d_hi = 3, ~6.5 s a solve), the
+    best alpha and objective of the same LMIs on the vertices with every uncertain instant at an end of its range (a
+    relaxation, about a third of them): its scan costs a fraction of the whole's, and the whole starts from it (one
+    solve where it certifies the same bound there, else a walk; not a scan of twelve).  None where there is no such
+    subset, or it certified nothing (the whole is then scanned)."""
+    ends = _exact_end_vertices(lin)
+    if ends is None:
+        return None
+    sub = replace(lin, vertices=tuple(lin.vertices[i] for i in ends))
+    say(f"  each solve is costly: the scan on the {len(ends)} vertices with every delay instant at an end of its range "
+        "first, then a solve of all at its best alpha (a walk from there where that does not certify its bound)")
+    best, runner = _run_invariance(sub, sc, [], motor, lambda m: say("  " + m))
+    runner.release_compiled()
+    return (float(best.cert["alpha"]), best.value) if best.cert is not None else None
 
 
 def _auto_bounds(common: _Best) -> tuple[float, ...]:

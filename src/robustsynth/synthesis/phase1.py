@@ -32,7 +32,7 @@ from .solve import solve, solve_all
 from .solver_process import trim_heap
 
 __all__ = ["Phase1", "Active", "prove_no_set", "screen", "seed", "seed_rows", "settles", "PHASE1_BOX", "T_PROVEN",
-           "INTERVALS"]
+           "INTERVALS", "HALVINGS", "halvings_for"]
 
 # X_00, X_11 <= PHASE1_BOX [m^2]: the set {xi' X^-1 xi <= 1} keeps |e_x|, |e_y| <= 1 m (the other states are bounded
 # by the heading and motor rows already); a set larger than that is of no use on a path of metre-scale segments
@@ -50,6 +50,18 @@ HALVINGS = 2
 # in 94 s instead of 169 s, 0.3 rad in 88 s instead of 154 s (15 and 14 phase-1 problems against 14 and 13; the
 # base's 64-vertex problems took ~45 s each)
 PARALLEL = 2  # intervals solved at once, each on its own copy of the problem (this machine's two cores)
+# a bound whose intervals all settled at once on the active vertices, every t* at or below -COARSEN_T, has the next
+# bound's range cut into half as many intervals (at least PARALLEL; each with one halving more, so the finest is as
+# fine): a wider interval's relaxation is looser, and far from any set it settles all the same.  The icr default at
+# d_hi = 3 (every bound's t* -1.4e-5 to -8.4e-5): 0.5 and 0.7 rad settled on 2 intervals in 6 s each against 20 s on 8,
+# the seven bounds in 91 s against 140 s; at d_hi = 2, bounds nearer a set (t* -5.7e-7 at 0.2 rad) go back to 8
+COARSEN_T = 2e-5
+
+
+def halvings_for(intervals: int) -> int:
+    """The halvings that leave the finest interval of a range cut into ``intervals`` as fine as INTERVALS with HALVINGS
+    of them."""
+    return HALVINGS + max(0, round(math.log2(INTERVALS / intervals)))
 
 
 def settles(t: float | None) -> bool:
@@ -70,6 +82,16 @@ class Phase1:
     @property
     def proven(self) -> bool:
         return bool(self.intervals) and all(settles(t) for _, _, t, _, _ in self.intervals)
+
+    def next_layout(self, intervals: int, active: int) -> int:
+        """How many intervals the next heading bound's range is cut into, after this proof over ``intervals`` of them
+        (``active``: how many vertices the active set holds): half as many (at least PARALLEL) where every one settled
+        at once on the active vertices with t* <= -COARSEN_T; as many where all settled unhalved; else twice as many
+        (at most INTERVALS)."""
+        unhalved = self.proven and len(self.intervals) == intervals
+        if unhalved and all(t <= -COARSEN_T and n <= active for _, _, t, n, _ in self.intervals):
+            return max(PARALLEL, intervals // 2)
+        return intervals if unhalved else min(INTERVALS, 2 * intervals)
 
     def summary(self) -> str:
         if not self.proven:
@@ -146,11 +168,11 @@ def _t_stars(lps: list[Any], intervals: list[tuple[float, float]], solver: str) 
 
 def prove_no_set(model: Any, s: Any, motor: bool, alpha_range: tuple[float, float],
                  say: Callable[[str], None] = lambda _m: None, intervals: int = INTERVALS,
-                 active: Active | None = None) -> Phase1:
+                 active: Active | None = None, halvings: int = HALVINGS) -> Phase1:
     """Phase-1 problems of the invariance LMIs of ``model`` (settings ``s``: multiplier, weights, Lyapunov kind,
     solver) over ``intervals`` log-spaced intervals of ``alpha_range``, PARALLEL at a time.  Each interval is tried on
     the vertices of ``active`` first (those that bound the last problems, :class:`Active`; updated here), then on the
-    vertices with their instants at the ends of their ranges; an interval those leave unsettled is halved (HALVINGS
+    vertices with their instants at the ends of their ranges; an interval those leave unsettled is halved (``halvings``
     times over), and a half still unsettled solved again with every vertex.  Stops at the first interval left
     unsettled (no proof can come out any more)."""
     t0 = time.perf_counter()
@@ -198,10 +220,14 @@ def prove_no_set(model: Any, s: Any, motor: bool, alpha_range: tuple[float, floa
             last: dict[tuple[float, float], tuple[float | None, str, int] | None] = {iv: None for iv in chunk}
             first = [active.indices] if active.indices and len(active.indices) < len(base) else []
             # the active vertices with only the active heading rows first, then with every row, then the base: only
-            # where the interval is halved no more, or where no vertex is active yet (see HALVINGS)
+            # where the interval is halved no more, or where no vertex is active yet (see HALVINGS).  Every row on the
+            # active vertices only there too, where the active rows go first: in 52 such retries of an unsettled
+            # interval (the default robot at d_hi = 2 and 3) none settled it, every t* the same, while each one on
+            # every row costs what a few on the active rows do (at d_hi = 3 ~20 s and ~400 MB a copy)
             tries = [(first[0], active.row_set())] if first and active.rows is not None else []
+            every = first if depth == 0 or not tries else []
             wider = [base] if depth == 0 or not first else []
-            for idx, rows in tries + [(idx, None) for idx in first + wider]:
+            for idx, rows in tries + [(idx, None) for idx in every + wider]:
                 todo = [iv for iv in chunk if last[iv] is None or not settles(last[iv][0])]
                 for iv, (t, status) in zip(todo, run(idx, todo, rows) if todo else []):
                     last[iv] = (t, status, len(idx))
@@ -221,7 +247,7 @@ def prove_no_set(model: Any, s: Any, motor: bool, alpha_range: tuple[float, floa
                     return False
         return True
 
-    settle([(float(a), float(b)) for a, b in zip(edges[:-1], edges[1:])], HALVINGS)
+    settle([(float(a), float(b)) for a, b in zip(edges[:-1], edges[1:])], halvings)
     # the copies and their compiled data go back to the system now, not when the collector next finds their cycles: on
     # the icr default at d_hi = 3 the first bound's left 470 MB in the process (240 MB in cycles, 230 MB in the heap)
     copies.clear()
