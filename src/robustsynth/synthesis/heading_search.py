@@ -95,7 +95,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                if start is not None else f"scan over {s.alpha_points} points")
             + f" ({len(m.vertices)} vertices, {m.vertices[0].n_q} kinematic channels each)")
         try:
-            if common.cert is not None and common.cert.get("lyapunov") == "common":
+            if active.rows is None and common.cert is not None:  # (the start's certificate: one Lyapunov matrix Q)
                 # the first phase-1 problems pose the rows nearest their bound on the start's set, not every row
                 seed_rows(active, m, common.cert["Q"], common.K)
             b, r = _run_invariance(m, s, search, motor, say, alpha_hint=start, retry="cheap" if auto else True,
@@ -261,7 +261,7 @@ def _first_try(model: Any, s: SynthesisConfig, motor: bool, hint: float | None =
         except InfeasibleError:  # below the slip's own turn within a period
             continue
     usable = active is not None and bool(active.indices) and all(len(m.vertices) == active.vertices for _, m in models)
-    if usable and models and common.cert.get("lyapunov") == "common":
+    if usable and models:
         # the rows the main search ranked are its model's: this one's, from its own start's set
         seed_rows(active, models[0][1], common.cert["Q"], common.K)
     step = PARALLEL if usable else 1
