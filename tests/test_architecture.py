@@ -169,3 +169,36 @@ def test_generic_rooms_import_no_concrete_plant_beyond_the_list() -> None:
 def test_the_list_of_concrete_imports_is_not_stale() -> None:
     gone = [m for m in STILL_CONCRETE if m not in MODULES or not _concrete_imports(m)]
     assert not gone, f"these no longer import a concrete plant: remove them from STILL_CONCRETE: {gone}"
+
+
+# -------------------------------------------------------------------------- sizes (issue 52)
+
+MAX_MODULE_LINES = 800  # a module past this mixes concerns: split it by concern
+MAX_FUNCTION_LINES = 120  # a function past this is several steps: name them
+MAX_CLI_LINES = 500  # the CLI is options -> one library call -> a printed summary
+
+
+def _too_long_functions(path: Path) -> list[str]:
+    return [f"{_module_name(path)}.{n.name} ({n.end_lineno - n.lineno + 1} lines)"
+            for n in ast.walk(ast.parse(path.read_text(encoding="utf-8")))
+            if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef)) and n.end_lineno - n.lineno + 1 > MAX_FUNCTION_LINES]
+
+
+def test_no_module_function_or_cli_past_its_size() -> None:
+    paths = sorted((SRC / PKG).rglob("*.py"))
+    long_modules = [f"{_module_name(p)} ({n} lines)" for p in paths
+                    if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_MODULE_LINES]
+    long_functions = [f for p in paths for f in _too_long_functions(p)]
+    cli = len((SRC / PKG / "cli" / "__init__.py").read_text(encoding="utf-8").splitlines())
+    assert not long_modules, f"modules over {MAX_MODULE_LINES} lines: {long_modules}"
+    assert not long_functions, f"functions over {MAX_FUNCTION_LINES} lines: {long_functions}"
+    assert cli <= MAX_CLI_LINES, f"the CLI's commands module has {cli} lines (at most {MAX_CLI_LINES})"
+
+
+def test_the_size_rule_sees_a_long_function(tmp_path, monkeypatch) -> None:
+    """The rule can fail: a synthetic module with a function one line past the limit is found."""
+    fake = tmp_path / "src" / PKG / "fake.py"
+    fake.parent.mkdir(parents=True)
+    monkeypatch.setattr(__import__(__name__, fromlist=["SRC"]), "SRC", tmp_path / "src")
+    fake.write_text("def f():\n" + "    x = 1\n" * MAX_FUNCTION_LINES)
+    assert _too_long_functions(fake) == [f"{PKG}.fake.f ({MAX_FUNCTION_LINES + 1} lines)"]

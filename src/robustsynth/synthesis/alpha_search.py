@@ -267,33 +267,9 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         return best, runner
     if bar is not None and alpha_hint is not None and not evaluate(math.log(alpha_hint)) < bar:
         return best, runner  # not better at the hint: no search (the walk below would start with this solve)
-    if alpha_hint is not None:
-        lo, hi = float(grid[0]), float(grid[-1])
-        # quarter grid steps: the richer classes' best alpha lies within a step or two of the common
-        # certificate's (measured on the default robot: 0.219 -> 0.218 / 0.228 / 0.231), and a tight
-        # bracket makes the parabola exact enough to stop after one or two solves
-        pts, flat = _walk(evaluate, min(max(math.log(alpha_hint), lo), hi), WALK_STEP * float(grid[1] - grid[0]), lo,
-                          hi, rel=0.0 if stop_rel == HINT_STOP_REL else stop_rel,
-                          flat=WALK_FLAT if stop_rel == COSTLY_STOP_REL else 0.0)
-        if best.cert is not None:
-            if flat:
-                say(f"  flat here: the last step gained less than {100 * WALK_FLAT:g} % of the objective")
-            else:
-                _refine(evaluate, pts, best, costly, say, predict=True, rel=stop_rel)
-            return best, runner
-        if prove is not None and runner.phase1 is None and runner.last_kind == "failed" and \
-                _settled_by_phase1(runner, prove, search, say):
-            return best, runner
-        if prove is not None and runner.phase1 is None and runner.last_kind == "infeasible" and costly and \
-                _settled_by_phase1(runner, prove, search, say, why="infeasible"):
-            return best, runner  # (the walk, the descent and the scan would each cost a costly solve per point)
-        if runner.last_kind == "infeasible":  # the feasible interval lies off the hint: below it first
-            pts = _descend(evaluate, grid, math.log(alpha_hint), give_up)
-            if pts is not None:
-                say("  refined below the hint")
-                _refine(evaluate, pts, best, costly, say, rel=stop_rel)
-                return best, runner
-        say("  the hint is not feasible for this class: full scan")
+    if alpha_hint is not None and _from_hint(evaluate, runner, best, grid, alpha_hint, stop_rel, costly, give_up,
+                                             prove, search, say):
+        return best, runner
     vals, gave_up = _scan(evaluate, grid, give_up, say)
     if best.cert is None and prove is not None and runner.phase1 is None and any(runner.failed_at.values()) and \
             _settled_by_phase1(runner, prove, search, say):
@@ -318,6 +294,40 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     _refine(lambda x: evaluate(x, unscaled_only=unscaled), sorted([(float(g), v) for g, v in zip(grid, vals)] + extra),
             best, costly, say, rel=stop_rel)
     return best, runner
+
+
+def _from_hint(evaluate: "_Evaluator", runner: _Runner, best: _Best, grid: np.ndarray, alpha_hint: float,
+               stop_rel: float, costly: bool, give_up: int | None, prove: Callable[[], Phase1] | None, search: list,
+               say: Callable[[str], None]) -> bool:
+    """_run_invariance's walk from a hint: True where it ended the search (a certificate refined, or the range settled
+    by phase-1 problems), False where the hint is not feasible for this class and the full scan follows."""
+    lo, hi = float(grid[0]), float(grid[-1])
+    # quarter grid steps: the richer classes' best alpha lies within a step or two of the common
+    # certificate's (measured on the default robot: 0.219 -> 0.218 / 0.228 / 0.231), and a tight
+    # bracket makes the parabola exact enough to stop after one or two solves
+    pts, flat = _walk(evaluate, min(max(math.log(alpha_hint), lo), hi), WALK_STEP * float(grid[1] - grid[0]), lo,
+                      hi, rel=0.0 if stop_rel == HINT_STOP_REL else stop_rel,
+                      flat=WALK_FLAT if stop_rel == COSTLY_STOP_REL else 0.0)
+    if best.cert is not None:
+        if flat:
+            say(f"  flat here: the last step gained less than {100 * WALK_FLAT:g} % of the objective")
+        else:
+            _refine(evaluate, pts, best, costly, say, predict=True, rel=stop_rel)
+        return True
+    if prove is not None and runner.phase1 is None and runner.last_kind == "failed" and \
+            _settled_by_phase1(runner, prove, search, say):
+        return True
+    if prove is not None and runner.phase1 is None and runner.last_kind == "infeasible" and costly and \
+            _settled_by_phase1(runner, prove, search, say, why="infeasible"):
+        return True  # (the walk, the descent and the scan would each cost a costly solve per point)
+    if runner.last_kind == "infeasible":  # the feasible interval lies off the hint: below it first
+        pts = _descend(evaluate, grid, math.log(alpha_hint), give_up)
+        if pts is not None:
+            say("  refined below the hint")
+            _refine(evaluate, pts, best, costly, say, rel=stop_rel)
+            return True
+    say("  the hint is not feasible for this class: full scan")
+    return False
 
 
 def _descend(evaluate: "_Evaluator", grid: np.ndarray, hint: float, give_up: int | None

@@ -51,6 +51,58 @@ KINEMATIC_PRIMARY = {"clarabel": "clarabel-unscaled"}
 NONLINEAR_GIVE_UP = 5
 
 
+def _tighten(model: Any, s: SynthesisConfig, search: list, motor: bool, say: Callable[[str], None], best: _Best,
+             runner: _Runner, tried: list) -> tuple[_Best, _Runner]:
+    """heading_bound auto, past a certificate: a smaller bound just above the set's own heading within a period, one
+    solve at the best alpha each (at most HEADING_TIGHTEN), kept while it certifies a smaller figure."""
+    for _ in range(HEADING_TIGHTEN):
+        tb0, h = float(best.check.figures["heading_bound"]), _heading_room(best)
+        tb = math.ceil(HEADING_ROOM * h * 1e3) / 1e3
+        if not tb < 0.9 * tb0:
+            break
+        say(f"{s.objective}, nonlinear kinematics with |e_theta(t)| <= {tb:g} rad (the set's heading within a period "
+            f"at {tb0:g} rad was {h:.3g}): one solve at the best alpha")
+        try:
+            pb, pr = _run_invariance(model.with_heading_bound(tb, within_period=s.lyapunov == "common"), s, search,
+                                     motor, say, alpha_hint=float(best.cert["alpha"]), retry=False, probe_only=True)
+        except InfeasibleError as exc:  # below the slip's own turn within a period
+            say(f"  {exc}")
+            break
+        tried.append((tb, "certified" if pb.cert is not None else "not certified at the best alpha"))
+        if pb.cert is None or pb.value >= best.value:
+            break
+        best, runner = pb, pr
+    return best, runner
+
+
+def _no_proof(model: Any, given: SynthesisConfig, s: SynthesisConfig, motor: bool, say: Callable[[str], None],
+              common: _Best, tried: list, tried_at: dict, auto: bool, below: str | None, hint: float | None,
+              active: Active) -> None:
+    """No heading bound gave a certificate: raise.  The last bound's runner is done with before this is called (it
+    holds its problem, ~100 MB of expressions at d_hi = 3, which the remedies' own problems would otherwise sit
+    beside; no other bound's is kept: a runner is kept only with its certificate, and none certified here)."""
+    # exit 4 where no solve of any heading bound concluded (every one failed), exit 3 where one did (a solver's
+    # infeasibility, or a bound below the slip's own turn): the same rule for one bound and for auto's several
+    if not auto and below is not None:  # the configured bound itself is the cause
+        raise InfeasibleError(f"{below}; raise synthesis.heading_bound above it, or set it to auto")
+    if tried and all(why == "solver failed" for _, why in tried):
+        retries = ""
+        if auto:
+            retries = (f"; the solves ran on {s.solver}; heading_bound: auto retries its failed points with "
+                       f"{RETRY.get(s.solver)} only, a single synthesis.heading_bound also with the fallback solver"
+                       if s.solver in RETRY else
+                       "; heading_bound: auto retries nothing, a single synthesis.heading_bound retries with the "
+                       "fallback solver")
+        raise SolverFailure("ultimate-bound (nonlinear kinematics): every solve failed (numerical trouble, usually "
+                            f"near infeasibility{retries}). " + _nonlinear_infeasible(model, common, tried, tried_at, auto))
+    from .remedies import try_remedies
+
+    tries = try_remedies(model, lambda m, end: _first_try(m, given, motor, hint=hint, active=active, say=say, deadline=end),
+                         say)
+    raise InfeasibleError(_nonlinear_infeasible(model, common, tried, tried_at, auto)
+                          + (". Tried (" + "; ".join(tries) + ")" if tries else ""))
+
+
 def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                    say: Callable[[str], None]) -> tuple[_Best, _Runner]:
     """The ultimate-bound search with the kinematic channels (docs/theory.md §9): for the configured
@@ -132,48 +184,10 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                 "the channels")
             break
     if auto and best.cert is not None:  # a smaller bound, just above the set's own heading
-        for _ in range(HEADING_TIGHTEN):
-            tb0, h = float(best.check.figures["heading_bound"]), _heading_room(best)
-            tb = math.ceil(HEADING_ROOM * h * 1e3) / 1e3
-            if not tb < 0.9 * tb0:
-                break
-            say(f"{s.objective}, nonlinear kinematics with |e_theta(t)| <= {tb:g} rad (the set's heading within a period "
-                f"at {tb0:g} rad was {h:.3g}): one solve at the best alpha")
-            try:
-                pb, pr = _run_invariance(model.with_heading_bound(tb, within_period=s.lyapunov == "common"), s, search,
-                                         motor, say, alpha_hint=float(best.cert["alpha"]), retry=False, probe_only=True)
-            except InfeasibleError as exc:  # below the slip's own turn within a period
-                say(f"  {exc}")
-                break
-            tried.append((tb, "certified" if pb.cert is not None else "not certified at the best alpha"))
-            if pb.cert is None or pb.value >= best.value:
-                break
-            best, runner = pb, pr
+        best, runner = _tighten(model, s, search, motor, say, best, runner, tried)
     if best.cert is None:
-        # exit 4 where no solve of any heading bound concluded (every one failed), exit 3 where one did (a solver's
-        # infeasibility, or a bound below the slip's own turn): the same rule for one bound and for auto's several
-        if not auto and below is not None:  # the configured bound itself is the cause
-            raise InfeasibleError(f"{below}; raise synthesis.heading_bound above it, or set it to auto")
-        if tried and all(why == "solver failed" for _, why in tried):
-            retries = ""
-            if auto:
-                retries = (f"; the solves ran on {s.solver}; heading_bound: auto retries its failed points with "
-                           f"{RETRY.get(s.solver)} only, a single synthesis.heading_bound also with the fallback solver"
-                           if s.solver in RETRY else
-                           "; heading_bound: auto retries nothing, a single synthesis.heading_bound retries with the "
-                           "fallback solver")
-            raise SolverFailure("ultimate-bound (nonlinear kinematics): every solve failed (numerical trouble, usually "
-                                f"near infeasibility{retries}). " + _nonlinear_infeasible(model, common, tried, tried_at, auto))
-        from .remedies import try_remedies
-
-        # the last bound's runner is done with too: it holds its problem (~100 MB of expressions at d_hi = 3), which the
-        # remedies' own problems would otherwise sit beside (no other bound's is kept: a runner is kept as ``runner``
-        # only with its certificate, and none certified here)
-        r = m = None  # noqa: F841
-        tries = try_remedies(model, lambda m, end: _first_try(m, given, motor, hint=hint, active=active, say=say, deadline=end),
-                             say)
-        raise InfeasibleError(_nonlinear_infeasible(model, common, tried, tried_at, auto)
-                              + (". Tried (" + "; ".join(tries) + ")" if tries else ""))
+        r = m = None  # noqa: F841  (the last bound's runner and model released before the remedies: _no_proof)
+        _no_proof(model, given, s, motor, say, common, tried, tried_at, auto, below, hint, active)
     return best, runner
 
 
