@@ -114,10 +114,11 @@ def _row_keys(model) -> list[bytes]:
     return keys
 
 
-def test_fewer_heading_rows_are_a_relaxation_and_only_for_phase1(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_fewer_heading_rows_are_a_relaxation(monkeypatch: pytest.MonkeyPatch) -> None:
     """Posed as linear rows (beyond LIFT_ROWS: here forced), a phase-1 problem on a subset of the heading rows has a
-    maximum t* at least the one on every row (a relaxation: a proof on it is one), poses exactly those rows, and
-    the certificate's LMIs refuse a subset (they must hold every row)."""
+    maximum t* at least the one on every row (a relaxation: a proof on it is one) and poses exactly those rows (the
+    certificate's LMIs on a subset are a relaxation too, whose solution is taken only where it holds every row:
+    test_row_generation_...)."""
     monkeypatch.setattr(lmis, "LIFT_ROWS", 0)
     m, s = _nonlinear_proof(**{"synthesis.integral_action": True})
     model = m.with_heading_bound(0.2, within_period=True)
@@ -135,8 +136,6 @@ def test_fewer_heading_rows_are_a_relaxation_and_only_for_phase1(monkeypatch: py
         t[name] = float(lp.extra["t"].value)
     assert t["all"] <= -T_PROVEN  # (the interval test_a_proven_interval_has_no_certifiable_alpha_inside proves)
     assert t["some"] >= t["all"] - T_TOL, t
-    with pytest.raises(ValueError, match="phase-1"):
-        build_invariance(model, s.multiplier, s.margin, w, True, s.lyapunov, heading_rows=some)
 
 
 def test_the_heading_rows_that_bind_are_carried_to_the_next_problems(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -431,3 +430,111 @@ def test_far_from_any_set_the_next_bound_cuts_the_range_into_fewer_intervals() -
     assert proof([near] * 9).next_layout(8, ACTIVE) == phase1.INTERVALS == 8
     for n in (8, 4, 2, 1):
         assert n * 2 ** phase1.halvings_for(n) == phase1.INTERVALS * 2 ** phase1.HALVINGS
+
+
+def test_the_row_table_is_the_row_by_row_enumeration() -> None:
+    """lmis.heading_row_table (numpy, one pass) holds the rows heading_constraints poses, in its order, with the keys
+    and coefficients of the row-by-row enumeration (_row_keys); ``indices`` finds exactly the rows of the keys it is
+    given and none for a key of another width or of no row; rooms are theta_bar - offset and a bound below an offset
+    is refused (configs/nonlinear-proof.yaml with integral action at 0.2 rad, configs/turns.yaml at 0.3 rad)."""
+    from robustsynth.errors import InfeasibleError
+
+    for name, tb, extra in (("nonlinear-proof", 0.2, {"synthesis.integral_action": True}), ("turns", 0.3, {})):
+        cfg = mapping_with(yaml.safe_load((ROOT / "configs" / f"{name}.yaml").read_text()),
+                           **{"synthesis.kinematics": "nonlinear", **extra})
+        model = build_model(cfg).with_heading_bound(tb, within_period=True)
+        table = lmis.heading_row_table(model)
+        keys = _row_keys(model)
+        assert table.keys() == keys and len(table) == len(keys)
+        rows, _ = lmis.heading_rows(model)
+        for (c, d, room), v, off in zip(rows, table.V, table.offsets):
+            assert np.array_equal(np.concatenate([c, d]), v) and room == tb - off
+        some = keys[1::3]
+        assert list(table.indices(some + [b"no row" * 8, keys[0][:-8]])) == list(range(1, len(keys), 3))
+        assert len(table.indices([])) == 0
+        with pytest.raises(InfeasibleError, match="smaller than the turn"):
+            table.rooms(model.with_heading_bound(float(table.offsets.max()) / 2, within_period=True))
+
+
+def _farthest(model, Q, K, n: int) -> frozenset[bytes]:
+    """The ``n`` heading rows farthest from their bound on the set of (Q, K): a subset whose problems break others."""
+    table = lmis.heading_row_table(model)
+    IK = np.vstack([np.eye(model.n_s), K])
+    ratio = lmis.row_ratios(table, table.rooms(model), [IK @ Q @ IK.T])
+    return frozenset(table.keys(np.argsort(ratio, kind="stable")[:n]))
+
+
+def test_row_generation_names_exactly_the_rows_whose_lmi_the_solution_breaks(monkeypatch: pytest.MonkeyPatch) -> None:
+    """rows_broken, on a certificate's LMIs solved with a few heading rows (the farthest from their bound: rows posed
+    as linear rows, forced), names the rows not posed whose own LMI [[room^2 (1 - 1e-6), z R], [R' z', Q]] >= 0 the
+    solution breaks: each is checked here by that LMI's least eigenvalue (numpy), an independent test of the closed
+    form sqrt(z W z') / room it ranks by; the worst first, at most ROW_BATCH; none where every row was posed
+    (configs/nonlinear-proof.yaml at 0.15 rad, where rows bind, alpha 0.2)."""
+    monkeypatch.setattr(lmis, "LIFT_ROWS", 0)
+    m, K, cert = committed_gain("nonlinear-proof")
+    _, s = _nonlinear_proof()
+    model = m.with_heading_bound(0.15, within_period=True)
+    table = lmis.heading_row_table(model)
+    rooms = table.rooms(model)
+    posed = _farthest(model, np.asarray(cert["Q"], dtype=float), K, 4)
+    lp = build_invariance(model, s.multiplier, s.margin, np.array([1.0, 1.0, 1.0]), True, s.lyapunov, symmetry=False,
+                          heading_rows=posed)
+    lp.params["alpha"].value, lp.params["one_minus_alpha"].value = GEN_ALPHA, 1.0 - GEN_ALPHA
+    assert solve(lp.problem, s.solver, lambda: True, fallback=False, retry=True).kind == "ok"
+    monkeypatch.setattr(lmis, "ROW_BATCH", 10**6)
+    named = lmis.rows_broken(model, lp, posed)
+    Q, Y = np.asarray(lp.Q.value), np.asarray(lp.Y.value)
+    R = np.vstack([Q, Y])
+    held = set(table.indices(posed).tolist())
+    least = np.array([np.linalg.eigvalsh(np.block([[np.array([[rooms[i] ** 2 * (1 - 1e-6)]]), (table.V[i] @ R)[None]],
+                                                   [(table.V[i] @ R)[:, None], Q]]))[0] for i in range(len(table))])
+    EIG_REL = 1e-9  # an LMI's least eigenvalue against its size: rounding of a handful of products
+    scale = rooms**2 + np.linalg.norm(Q, 2)
+    breaks = {i for i in range(len(table)) if i not in held and least[i] < -EIG_REL * scale[i]}
+    holds = {i for i in range(len(table)) if i not in held and least[i] > EIG_REL * scale[i]}
+    idx = set(table.indices(named).tolist())
+    assert breaks and breaks <= idx and not (idx & holds), (len(breaks), len(idx), len(holds))
+    ratio = lmis.row_ratios(table, rooms, lmis.heading_weights(lp))
+    order = [float(ratio[table.indices([k])[0]]) for k in named]
+    assert order == sorted(order, reverse=True)  # the worst first
+    monkeypatch.setattr(lmis, "ROW_BATCH", 2)
+    assert lmis.rows_broken(model, lp, posed) == named[:2]
+    assert lmis.rows_broken(model, lp, None) is None  # every row posed: nothing to generate
+    assert lmis.rows_broken(model, lp, frozenset([b"another model's row"])) is None  # (so were they here)
+
+
+GEN_ALPHA = 0.2  # configs/nonlinear-proof.yaml at 0.15 rad: certified with every row, and 4 rows leave 3 broken
+
+
+def test_row_generation_ends_where_every_row_holds(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The search's runner started on the 4 farthest heading rows adds the rows its solutions break until one holds
+    every row: the certificate is the one the problem with every row gives (the same bound to the search's tolerance,
+    and it passes the re-check on the whole set), and its rows grew; phase-1 problems do the same (prove_no_set's
+    every-row tries): t* over an interval with a certificate inside is the one of every row, never a false proof
+    (configs/nonlinear-proof.yaml at 0.16 rad, where rows bind, alpha 0.11; rows posed as linear rows, forced)."""
+    from robustsynth.synthesis.alpha_search import _run_invariance
+
+    monkeypatch.setattr(lmis, "LIFT_ROWS", 0)
+    monkeypatch.setattr(lmis, "GENERATE_ROWS", 0)
+    m, K, cert = committed_gain("nonlinear-proof")
+    _, s = _nonlinear_proof()
+    model = m.with_heading_bound(0.16, within_period=True)
+    posed = _farthest(model, np.asarray(cert["Q"], dtype=float), K, 4)
+    a = 0.11  # certified with every row there, and 4 rows leave one broken
+    got = {}
+    for name, rows in (("few", posed), ("all", None)):
+        b, r = _run_invariance(model, s, [], True, alpha_hint=a, retry=False, probe_only=True, rows=rows)
+        assert b.cert is not None and b.check.passed
+        got[name] = (b.check.figures["ultimate_bound"]["e_y"], r)
+    assert len(got["few"][1].rows) > len(posed)
+    BOUND_REL = 1e-3  # two problems with one optimum (the rows that bind), each solved to Clarabel's tolerances
+    assert got["few"][0] == pytest.approx(got["all"][0], rel=BOUND_REL)
+    said: list[str] = []
+    few = Active(rows=tuple(posed))
+    gen = prove_no_set(model, s, True, (a / 1.1, a * 1.1), intervals=1, active=few, halvings=0, say=said.append)
+    every = prove_no_set(model, s, True, (a / 1.1, a * 1.1), intervals=1, active=Active(), halvings=0)
+    assert not gen.proven and not every.proven
+    assert any("break the solution" in line for line in said), said
+    (*_, t_gen, _, _), = gen.intervals
+    (*_, t_all, _, _), = every.intervals
+    assert t_gen == pytest.approx(t_all, abs=T_TOL), (t_gen, t_all)

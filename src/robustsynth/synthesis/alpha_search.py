@@ -204,7 +204,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     stop_rel: float = HINT_STOP_REL, bar: float | None = None,
                     prove: Callable[[], Phase1] | None = None, prove_first: bool = False,
                     gain_rule: bool | None = None,
-                    cheaper_hint: Callable[[], tuple[float, float] | None] | None = None) -> tuple[_Best, _Runner]:
+                    cheaper_hint: Callable[[], tuple[float, float] | None] | None = None,
+                    rows: frozenset[bytes] | None = None) -> tuple[_Best, _Runner]:
     """The alpha line search of the invariance LMIs.  Without a hint: a log grid of alpha_points
     scanned upwards, then parabolic steps around its best point.  With ``alpha_hint`` (the best alpha
     of a cheaper certificate class): walk from the hint in quarter grid steps while the bound falls,
@@ -229,11 +230,12 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     hint, where a solve is estimated at COSTLY_SOLVE_S or more, the best alpha and objective of a relaxation of these
     LMIs (a subset of the vertices, scanned: cheaper), to walk from instead of the scan (None: the scan).  A relaxation's
     objective is at most this problem's at every alpha, so where the solve at its best alpha reaches its best objective
-    (within COSTLY_STOP_REL) no alpha does better here, to that search's own tolerance: the search ends there."""
+    (within COSTLY_STOP_REL) no alpha does better here, to that search's own tolerance: the search ends there.
+    ``rows``: the heading rows the problem starts with (keys; None: every row), grown by row generation (_Runner)."""
     lp = _build(build_invariance, model, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,
-                symmetry=s.symmetry == "auto")
-    full = lambda mdl: build_invariance(mdl, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,  # noqa: E731
-                                        symmetry=False)
+                symmetry=s.symmetry == "auto", heading_rows=rows)
+    full = lambda mdl, rows=None: build_invariance(mdl, s.multiplier, s.margin, _weights(s), motor,  # noqa: E731
+                                                   s.lyapunov, symmetry=False, heading_rows=rows)
     w = _weights(s)
     best = _Best()
 
@@ -244,7 +246,7 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         c["motor_limits_enforced"] = motor
         return c
 
-    runner = _Runner(model, lp, s.solver, make_cert, full=full)
+    runner = _Runner(model, lp, s.solver, make_cert, full=full, rows=rows)
     evaluate = _Evaluator(lp, runner, best, w, search, say)
     est = 0.0 if probe_only else solve_estimate(lp)
     costly = est >= COSTLY_SOLVE_S if gain_rule is None else gain_rule

@@ -15,6 +15,7 @@ import numpy as np
 from ..config import SynthesisConfig
 from ..errors import InfeasibleError, SolverFailure
 from .alpha_search import ALPHA_RANGE, COSTLY_STOP_REL, _motor_pruner, _run_invariance
+from .lmis import generates_rows, heading_row_table
 from .phase1 import (INTERVALS, PARALLEL, Active, _exact_end_vertices, halvings_for, prove_no_set, screen, seed,
                      seed_rows, settles)
 from .runner import _Best, _Runner, _wider_turns
@@ -49,6 +50,15 @@ KINEMATIC_PRIMARY = {"clarabel": "clarabel-unscaled"}
 # grid's lowest alphas are the hardest: a band of 3 failures there below a feasible minimum was seen in a
 # constructed case; 5 is a third of the default grid)
 NONLINEAR_GIVE_UP = 5
+
+
+def _posed_rows(active: Active | None, model: Any) -> frozenset[bytes] | None:
+    """The heading rows a main problem of ``model`` starts with (row generation, :class:`~.runner._Runner`): the
+    active rows where the rows are many (:func:`.lmis.generates_rows`) and the active rows name some of them; else
+    every row (None)."""
+    if active is None or active.rows is None or not generates_rows(model):
+        return None
+    return active.row_set() if len(heading_row_table(model).indices(active.rows)) else None
 
 
 def _tighten(model: Any, s: SynthesisConfig, search: list, motor: bool, say: Callable[[str], None], best: _Best,
@@ -151,6 +161,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                 # the first phase-1 problems pose the rows nearest their bound on the start's set, not every row
                 seed_rows(active, m, common.cert["Q"], common.K)
             b, r = _run_invariance(m, s, search, motor, say, alpha_hint=start, retry="cheap" if auto else True,
+                                   rows=_posed_rows(active, m),
                                    give_up=NONLINEAR_GIVE_UP,
                                    prune=_motor_pruner(m, s, say=say) if motor else None, stop_rel=COSTLY_STOP_REL,
                                    bar=best.value if best.cert is not None else None,
@@ -288,7 +299,8 @@ def _first_try(model: Any, s: SynthesisConfig, motor: bool, hint: float | None =
             if settles(t):
                 say(f"  {tb:g} rad: phase-1 at alpha {alpha:.4g} on {len(active.indices)} vertices, t* = {t:.3g}: no solve")
                 continue
-            b, _ = _run_invariance(m, s, [], motor, say, alpha_hint=alpha, retry=False, probe_only=True)
+            b, _ = _run_invariance(m, s, [], motor, say, alpha_hint=alpha, retry=False, probe_only=True,
+                                   rows=_posed_rows(active, m))
             if b.cert is not None:
                 return dict(b.check.figures), ()
     return None, ()

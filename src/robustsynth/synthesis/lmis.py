@@ -25,6 +25,7 @@ between solves, so line search and bisection reuse one compiled problem (DPP).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -32,7 +33,7 @@ import cvxpy as cp
 import numpy as np
 
 __all__ = ["LMIProblem", "build_stability", "build_invariance", "multiplier", "motor_constraints",
-           "heading_constraints", "heading_row_key", "heading_rows"]
+           "heading_constraints", "heading_row_key", "heading_rows", "heading_row_table", "rows_broken"]
 
 
 @dataclass
@@ -289,20 +290,20 @@ def heading_constraints(model: Any, lv: _Lyap, only: frozenset[bytes] | None = N
     Up to LIFT_ROWS distinct rows, those the others imply are left out (:func:`implied_rows_left_out`); beyond, every
     row is a linear row on a lifted matrix (:func:`_lifted_heading_rows`).  Both exact.
 
-    ``only`` (phase-1 problems only: a relaxation, not the certificate's LMIs): in the lifted form, just the rows whose
+    ``only`` (a relaxation, not the certificate's LMIs: row generation, :func:`rows_broken`): in the lifted form, just the rows whose
     key (:func:`heading_row_key`) is in it, all of them where it names none of this model's.  ``extra`` receives, in the
     lifted form, ``heading_keys`` (the rows posed, in order) and ``heading_rows`` (their linear constraints, one per
     Lyapunov matrix: their duals rank the rows, :mod:`.phase1`)."""
-    rows, keys = heading_rows(model)
+    table = heading_row_table(model)
+    rooms = table.rooms(model)
+    V = table.V
     cons = []
-    V = np.array([np.concatenate([c, d]) for c, d, _ in rows])
-    rooms = np.array([r for _, _, r in rows])
-    if len(rows) > LIFT_ROWS:  # linear rows cost less than the LPs that would leave some out
-        pick = [i for i, k in enumerate(keys) if k in only] if only else []
-        pick = pick or list(range(len(rows)))
+    if len(table) > LIFT_ROWS:  # linear rows cost less than the LPs that would leave some out
+        pick = table.indices(only) if only else np.zeros(0, dtype=int)
+        pick = pick if len(pick) else np.arange(len(table))
         cons = _lifted_heading_rows(model, lv, V[pick], rooms[pick])
         if extra is not None:
-            extra["heading_keys"] = [keys[i] for i in pick]
+            extra["heading_keys"] = table.keys(pick)
             extra["heading_rows"] = cons[1::2]
         return cons
     # the rows are the model's, not the vertex subset's: phase-1 builds several copies on one model (one pruning)
@@ -310,8 +311,9 @@ def heading_constraints(model: Any, lv: _Lyap, only: frozenset[bytes] | None = N
     if key not in _KEPT:
         _KEPT.clear()  # the last model's only: a search builds its problems one heading bound after another
         _KEPT[key] = implied_rows_left_out(list(V), list(rooms))
+    n_s = model.n_s
     for i in _KEPT[key]:
-        c, d, room = rows[i]
+        c, d, room = V[i, :n_s], V[i, n_s:], float(rooms[i])
         row = c @ lv.X + d @ lv.Y
         for j in range(len(lv.mats)):
             blk = cp.bmat([[np.array([[room**2 * (1.0 - 1e-6)]]), cp.reshape(row, (1, model.n_s), order="C")],
@@ -320,33 +322,182 @@ def heading_constraints(model: Any, lv: _Lyap, only: frozenset[bytes] | None = N
     return cons
 
 
+class HeadingRowTable:
+    """The distinct heading rows of a model's heading channels, in the order :func:`heading_constraints` poses them
+    (each at its first occurrence, channel by channel), as arrays: ``V`` (rows, n_s + n_u) the coefficients
+    ``[c, d]``, ``offsets`` their constant parts' reach (``KinematicChannels.heading_offsets``), and ``raw`` (rows,
+    n_s + n_u + 1) whose rows' bytes are the rows' keys (:func:`heading_row_key`).  Built with numpy, not row by row:
+    the default robot at d_hi = 5 has 2.2 million rows, whose enumeration as Python tuples took 6 s and ~1 GB."""
+
+    def __init__(self, channels: tuple) -> None:
+        raw = np.concatenate([np.column_stack([np.asarray(ch.C_h, dtype=float), np.asarray(ch.D_h, dtype=float),
+                                               np.asarray(ch.heading_offsets, dtype=float)]) for ch in channels])
+        raw = np.ascontiguousarray(raw)
+        _, first = np.unique(raw.view(np.dtype((np.void, raw.dtype.itemsize * raw.shape[1]))).ravel(),
+                             return_index=True)
+        self.raw = raw[np.sort(first)]
+        self.V, self.offsets = self.raw[:, :-1], self.raw[:, -1]
+        self._hash: tuple[np.ndarray, np.ndarray] | None = None
+
+    def __len__(self) -> int:
+        return len(self.raw)
+
+    def keys(self, idx: Any = None) -> list[bytes]:
+        rows = self.raw if idx is None else self.raw[np.asarray(idx, dtype=int)]
+        return [r.tobytes() for r in rows]
+
+    def _hashes(self, raw: np.ndarray) -> np.ndarray:
+        mult = np.arange(1, 2 * raw.shape[1], 2, dtype=np.uint64) * np.uint64(0x9E3779B97F4A7C15)
+        return raw.view(np.uint64) @ mult  # (wrapping: a hash of the rows' bits)
+
+    def indices(self, keys: Any) -> np.ndarray:
+        """The rows (sorted indices) whose key is one of ``keys`` (keys of other widths, or of no row here, name
+        none)."""
+        w = self.raw.shape[1] * self.raw.dtype.itemsize
+        keys = [k for k in keys if len(k) == w]
+        if not keys or not len(self.raw):
+            return np.zeros(0, dtype=int)
+        if self._hash is None:
+            h = self._hashes(self.raw)
+            order = np.argsort(h, kind="stable")
+            self._hash = (h[order], order)
+        sorted_h, order = self._hash
+        want = np.frombuffer(b"".join(keys), dtype=self.raw.dtype).reshape(len(keys), self.raw.shape[1])
+        hk = self._hashes(want)
+        lo, hi = np.searchsorted(sorted_h, hk, "left"), np.searchsorted(sorted_h, hk, "right")
+        found = set()
+        bits = self.raw.view(np.uint64)
+        for k, a, b in zip(want.view(np.uint64), lo, hi):
+            for i in order[a:b]:
+                if np.array_equal(bits[i], k):
+                    found.add(int(i))
+        return np.array(sorted(found), dtype=int)
+
+    def rooms(self, model: Any) -> np.ndarray:
+        """theta_bar - offset per row.  Raises InfeasibleError where a row has no room (the slip's own turn within a
+        period reaches the bound)."""
+        from ..errors import InfeasibleError
+
+        theta_bar = float(model.heading_bound)
+        rooms = theta_bar - self.offsets
+        bad = np.flatnonzero(rooms <= 0)
+        if len(bad):
+            turning = any(getattr(ch, "F_h", None) is not None for ch in model.heading_channels)
+            raise InfeasibleError(
+                f"synthesis.heading_bound: {theta_bar:g} rad is smaller than the turn the slip alone causes within "
+                f"one period ({float(self.offsets[bad[0]]):.3g} rad" + (", the turning reference's yaw rates included"
+                                                                         if turning else "")
+                + "): no set can keep |e_theta(t)| below it")
+        return rooms
+
+
+_TABLE: dict[int, tuple[tuple, HeadingRowTable]] = {}  # the last channels' table (its tuple held: the id stays theirs)
+
+
+def heading_row_table(model: Any) -> HeadingRowTable:
+    """The :class:`HeadingRowTable` of ``model``'s heading channels, kept for the last channels asked (a search asks
+    it of one model's heading bounds and vertex subsets, which share their channels)."""
+    channels = model.heading_channels
+    got = _TABLE.get(id(channels))
+    if got is None or got[0] is not channels:
+        _TABLE.clear()
+        got = _TABLE[id(channels)] = (channels, HeadingRowTable(channels))
+    return got[1]
+
+
 def heading_rows(model: Any) -> tuple[list[tuple[np.ndarray, np.ndarray, float]], list[bytes]]:
     """The distinct heading rows of ``model`` (one with a heading bound), in the order :func:`heading_constraints`
     poses them: (state coefficients c, command coefficients d, room theta_bar - offset) each, and their keys
     (:func:`heading_row_key`).  Raises InfeasibleError where a row has no room (the slip's own turn within a period
-    reaches the bound)."""
-    from ..errors import InfeasibleError
+    reaches the bound).  (Row by row: :func:`heading_row_table` holds them as arrays.)"""
+    table = heading_row_table(model)
+    rooms = table.rooms(model)
+    n_s = model.n_s
+    rows = [(v[:n_s].copy(), v[n_s:].copy(), float(r)) for v, r in zip(table.V, rooms)]
+    return rows, table.keys()
 
-    theta_bar = float(model.heading_bound)
-    rows: list[tuple[np.ndarray, np.ndarray, float]] = []
-    keys: list[bytes] = []
-    seen: set[bytes] = set()
-    for ch in model.heading_channels:
-        turning = getattr(ch, "F_h", None) is not None
-        for c, d, off in zip(ch.C_h, ch.D_h, ch.heading_offsets):
-            key = heading_row_key(c, d, off)
-            if key in seen:
-                continue
-            seen.add(key)
-            room = theta_bar - float(off)
-            if room <= 0:
-                raise InfeasibleError(
-                    f"synthesis.heading_bound: {theta_bar:g} rad is smaller than the turn the slip alone causes within "
-                    f"one period ({float(off):.3g} rad" + (", the turning reference's yaw rates included" if turning else "")
-                    + "): no set can keep |e_theta(t)| below it")
-            rows.append((np.asarray(c, dtype=float), np.asarray(d, dtype=float), room))
-            keys.append(key)
-    return rows, keys
+
+def heading_weights(lp: LMIProblem) -> list[np.ndarray] | None:
+    """Per Lyapunov matrix j of a solved problem, ``W_j = R left_j^-1 R'`` at its values (``R = [X; Y]``, X = Q or G,
+    left_j = Q or G + G' - S_j): heading row z = [c, d] holds on the set where ``z W_j z' <= room^2`` for every j, the
+    condition its LMI ``[[room^2, z R], [R' z', left_j]] >= 0`` states.  None where the values are missing or a left_j
+    is singular."""
+    val = lambda x: None if x is None else np.asarray(x.value if hasattr(x, "value") else x, dtype=float)  # noqa: E731
+    Y = val(lp.Y)
+    try:
+        if lp.lyapunov == "common":
+            Q = val(lp.Q)
+            if Q is None or Y is None or Q.shape == ():
+                return None
+            Q = (Q + Q.T) / 2.0
+            IK = np.vstack([np.eye(Q.shape[0]), np.linalg.solve(Q.T, Y.T).T])  # [I; K], K = Y Q^-1
+            return [IK @ Q @ IK.T]
+        G = val(lp.G)
+        if G is None or Y is None or G.shape == ():
+            return None
+        R = np.vstack([G, Y])
+        out = []
+        for S in lp.S:
+            Sv = val(S)
+            if Sv is None or Sv.shape == ():
+                return None
+            out.append(R @ np.linalg.solve(G + G.T - Sv, R.T))
+        return out
+    except np.linalg.LinAlgError:
+        return None
+
+
+ROW_CHUNK = 1 << 17  # rows per block of row_ratios: its temporaries stay near 20 MB whatever the rows (2.2 M at d_hi 5)
+# a row counts as broken where it would break its posed form (room^2 (1 - 1e-6), _lifted_heading_rows) at the values
+ROW_BROKEN = math.sqrt(1.0 - 1e-6)
+ROW_BATCH = 500  # the broken rows added per round of row generation (the worst first)
+# the heading rows beyond which the problems start on a subset and generate the rest (rows_broken); below, every row is
+# posed at once.  On the default robot at d_hi = 2 (2 601 rows) a remedy's probe solved with every row in 24 s, and
+# in 22 s + 71 s by generation from 500 rows; at d_hi = 3 (60 281 rows) a problem with every row takes ~20 s and
+# ~400 MB to build, at d_hi = 5 (2.2 million) ~4 GB: there the rows are what a problem holds
+GENERATE_ROWS = 20_000
+
+
+def row_ratios(table: HeadingRowTable, rooms: np.ndarray, W: list[np.ndarray]) -> np.ndarray:
+    """Per row of ``table``, ``max_j sqrt(z W_j z') / room``: at most 1 where the row holds (:func:`heading_weights`)."""
+    out = np.zeros(len(table))
+    for a in range(0, len(table), ROW_CHUNK):
+        V = table.V[a:a + ROW_CHUNK]
+        for Wj in W:
+            r = np.sqrt(np.maximum(np.einsum("ia,ab,ib->i", V, Wj, V), 0.0)) / rooms[a:a + ROW_CHUNK]
+            np.maximum(out[a:a + ROW_CHUNK], r, out=out[a:a + ROW_CHUNK])
+    return out
+
+
+def generates_rows(model: Any) -> bool:
+    """Whether problems of ``model`` start on a subset of its heading rows and generate the rest: more than
+    GENERATE_ROWS rows (posed as linear rows)."""
+    return model.heading_bound is not None and len(heading_row_table(model)) > max(GENERATE_ROWS, LIFT_ROWS)
+
+
+def rows_broken(model: Any, lp: LMIProblem, posed: frozenset[bytes] | None) -> list[bytes] | None:
+    """Row generation for a problem built with ``heading_rows=posed`` (a subset of ``model``'s rows in the lifted form):
+    the keys of the rows not posed that its solution breaks, the worst first, at most ROW_BATCH (empty: the solution
+    holds every row, so it is one of the problem with every row).  None where nothing can be said (every row was
+    posed, the rows are not lifted, or the values are missing): the caller then treats the solution as it is."""
+    if posed is None or model.heading_bound is None:
+        return None
+    table = heading_row_table(model)
+    if len(table) <= LIFT_ROWS:
+        return None
+    W = heading_weights(lp)
+    if W is None:
+        return None
+    held = table.indices(posed)
+    if not len(held):
+        return None  # heading_constraints posed every row (``posed`` names none of this model's)
+    ratio = row_ratios(table, table.rooms(model), W)
+    ratio[held] = 0.0  # posed: the solver's (their own tolerance is the certificate checker's)
+    bad = np.flatnonzero(ratio > ROW_BROKEN)
+    if not len(bad):
+        return []
+    worst = bad[np.argsort(-ratio[bad], kind="stable")[:ROW_BATCH]]
+    return table.keys(worst)
 
 
 def heading_row_key(c: np.ndarray, d: np.ndarray, offset: float) -> bytes:
@@ -548,10 +699,9 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
     so a maximum t* < 0 says that none exists whose set keeps |e_x|, |e_y| <= sqrt(kappa).  Its parameters may differ from (alpha, 1 - alpha):
     ``one_minus_alpha`` = 1 - alpha_lo and ``alpha`` = alpha_hi make it a relaxation of every alpha in
     [alpha_lo, alpha_hi] ((1 - alpha) X and sum beta <= alpha loosen as alpha falls and rises): t* < 0 then holds for
-    the whole interval (docs/theory.md §6j).  ``heading_rows`` (phase-1 only): pose just those heading rows
-    (:func:`heading_constraints`' ``only``), a further relaxation; ``extra`` then says which rows were posed."""
-    if heading_rows is not None and phase1 is None:
-        raise ValueError("heading_rows leaves heading rows out: a relaxation, for phase-1 problems only")
+    the whole interval (docs/theory.md §6j).  ``heading_rows``: pose just those heading rows (:func:`heading_constraints`'
+    ``only``), a relaxation: its solution is a certificate only where every row holds at its values (row generation,
+    :func:`rows_broken`); a phase-1 problem's ``extra`` then says which rows were posed."""
     lv = _Lyap(model, lyapunov, mirror=model.mirror(lyapunov) if symmetry else None)
     n_s, n_w = model.n_s, model.n_w
     alpha = cp.Parameter(nonneg=True, name="alpha", value=0.1)

@@ -27,7 +27,7 @@ from typing import Any, Callable
 import numpy as np
 
 from . import lmis
-from .lmis import build_invariance, heading_rows
+from .lmis import build_invariance
 from .solve import solve, solve_all
 from .solver_process import trim_heap
 
@@ -144,6 +144,9 @@ DUAL_FLOOR = 1e-3  # a vertex whose dual weight is below this fraction of the la
 # two rows bind there, and the phase-1 search at 0.1, 0.15 and 0.2 rad took 203, 31 and 27 s against 281, 105 and
 # 89 s with every row, every t* the same to 1e-10 (measured side by side, the active set carried across the bounds)
 ACTIVE_ROWS = 500
+# rounds of row generation before a problem is posed with every heading row at once (prove_no_set's run_all_rows)
+ROW_ROUNDS = 8
+EVERY = frozenset({b"every heading row"})  # settle's marker: the interval with every heading row (run_all_rows)
 
 
 def _accept(lp: Any) -> Callable[[], bool]:
@@ -194,6 +197,9 @@ def prove_no_set(model: Any, s: Any, motor: bool, alpha_range: tuple[float, floa
         return build_invariance(m, s.multiplier, s.margin, w, motor, s.lyapunov, symmetry=False, phase1=PHASE1_BOX,
                                 heading_rows=rows)
 
+    # the last run's problems, by interval (their values are that solve's until their copies are solved again)
+    latest: dict[str, Any] = {"key": None, "by": {}}
+
     def run(idx: tuple[int, ...], ivs: list[tuple[float, float]],
             rows: frozenset[bytes] | None = None) -> list[tuple[float | None, str]]:
         have = copies.setdefault((idx, rows), [])
@@ -206,7 +212,51 @@ def prove_no_set(model: Any, s: Any, motor: bool, alpha_range: tuple[float, floa
                 + (f", {posed} heading rows" if rows is not None else "") + "): "
                 + ("the solver failed" if t is None else f"t* = {t:.3g}") + f" ({status})")
         _rank(active, idx, have[: len(ivs)], ts)
+        latest.update(key=(idx, rows), by=dict(zip(ivs, zip(have, ts))))
         return ts
+
+    def run_all_rows(idx: tuple[int, ...], ivs: list[tuple[float, float]]) -> list[tuple[float | None, str]]:
+        """t* of ``ivs`` on the vertices ``idx`` with every heading row: by row generation where the rows are many
+        (:func:`lmis.generates_rows`; the active rows first, or the last run's solutions where it posed them on these vertices; an interval left
+        unsettled whose solution breaks rows not posed is solved again with the worst of them added,
+        :func:`lmis.rows_broken`, until its solution holds every row, whose t* is then the one of every row), every row
+        posed at once where they are few, or where generation cannot conclude."""
+        rows = active.row_set() if lmis.generates_rows(model) else None
+        if rows is None:
+            return run(idx, ivs)
+        known = latest["by"] if latest["key"] == (idx, rows) else {}
+        fresh = [iv for iv in ivs if iv not in known]
+        if fresh:
+            run(idx, fresh, rows)
+        out = {iv: (known.get(iv) or latest["by"][iv])[1] for iv in ivs}
+        lps = {iv: (known.get(iv) or latest["by"][iv])[0] for iv in ivs}
+        todo = list(ivs)
+        for _ in range(ROW_ROUNDS):
+            new: set[bytes] = set()
+            again, every = [], []
+            for iv in todo:
+                t, _ = out[iv]
+                if t is not None and settles(t):
+                    continue
+                broken = lmis.rows_broken(model, lps[iv], rows) if t is not None else None
+                if broken is None:
+                    every.append(iv)
+                elif broken:
+                    new.update(broken)
+                    again.append(iv)
+            if every:
+                out.update(zip(every, run(idx, every)))
+            if not again:
+                return [out[iv] for iv in ivs]
+            rows = rows | new
+            say(f"  {len(new)} heading rows not posed break the solution: posed too")
+            out.update(zip(again, run(idx, again, rows)))
+            lps.update({iv: latest["by"][iv][0] for iv in again})
+            todo = again
+        left = [iv for iv in todo if not settles(out[iv][0])]  # the rounds did not conclude: every row at once
+        if left:
+            out.update(zip(left, run(idx, left)))
+        return [out[iv] for iv in ivs]
 
     everyone = tuple(range(n_all))
     base = ends if ends is not None else everyone  # the vertices an interval is settled on before the halving
@@ -227,9 +277,10 @@ def prove_no_set(model: Any, s: Any, motor: bool, alpha_range: tuple[float, floa
             tries = [(first[0], active.row_set())] if first and active.rows is not None else []
             every = first if depth == 0 or not tries else []
             wider = [base] if depth == 0 or not first else []
-            for idx, rows in tries + [(idx, None) for idx in every + wider]:
+            for idx, rows in tries + [(idx, EVERY) for idx in every + wider]:
                 todo = [iv for iv in chunk if last[iv] is None or not settles(last[iv][0])]
-                for iv, (t, status) in zip(todo, run(idx, todo, rows) if todo else []):
+                got = (run_all_rows(idx, todo) if rows is EVERY else run(idx, todo, rows)) if todo else []
+                for iv, (t, status) in zip(todo, got):
                     last[iv] = (t, status, len(idx))
             for iv in chunk:
                 t, status, n = last[iv]
@@ -240,7 +291,7 @@ def prove_no_set(model: Any, s: Any, motor: bool, alpha_range: tuple[float, floa
                         return False
                     continue
                 if not settles(t) and base != everyone:
-                    (t, status), = run(everyone, [iv])
+                    (t, status), = run_all_rows(everyone, [iv])
                     n = n_all
                 result.intervals.append((iv[0], iv[1], t, n, status))
                 if not settles(t):
@@ -309,16 +360,16 @@ def seed_rows(active: Active, model: Any, Q: np.ndarray, K: np.ndarray) -> bool:
     (60 281 on the icr default at d_hi = 3), and so do a remedy's (another slip box: rows of other keys, none ranked).
     A subset of the rows is a relaxation, as the ranked ones are: where it settles nothing, the same interval is solved
     with every row (:func:`prove_no_set`).  Whether it seeded."""
-    rows, keys = heading_rows(model)
+    table = lmis.heading_row_table(model)
     Q, K = np.asarray(Q, dtype=float), np.asarray(K, dtype=float)
-    if len(rows) <= lmis.LIFT_ROWS or Q.shape != (model.n_s, model.n_s) or K.shape != (model.n_u, model.n_s):
+    if len(table) <= lmis.LIFT_ROWS or Q.shape != (model.n_s, model.n_s) or K.shape != (model.n_u, model.n_s):
         return False
-    if active.rows is not None and not set(active.rows).isdisjoint(keys):
+    if active.rows is not None and len(table.indices(active.rows)):
         return False  # ranked by the problems' duals already
-    Z = np.array([c for c, _, _ in rows]) + np.array([d for _, d, _ in rows]) @ K  # (rows, n_s): r + d K
-    reach = np.sqrt(np.maximum(np.einsum("ia,ab,ib->i", Z, Q, Z), 0.0)) / np.array([room for _, _, room in rows])
+    IK = np.vstack([np.eye(model.n_s), K])  # a row r xi + d du reaches sqrt((r + d K) Q (r + d K)') on the set
+    reach = lmis.row_ratios(table, table.rooms(model), [IK @ Q @ IK.T])
     order = np.argsort(-reach, kind="stable")[:ACTIVE_ROWS]
-    active.rows = tuple(keys[i] for i in order)
+    active.rows = tuple(table.keys(order))
     return True
 
 

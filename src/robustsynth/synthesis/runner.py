@@ -17,7 +17,7 @@ import numpy as np
 from ..certificate import CertificateCheck, check_certificate, varying_failures
 from ..config import SynthesisConfig
 from ..errors import InfeasibleError, SolverFailure
-from .lmis import LMIProblem
+from .lmis import LMIProblem, rows_broken
 from .solve import Outcome, Rejected, SolveRecord, solve
 from .solver_process import trim_heap
 
@@ -71,7 +71,17 @@ class _Cuts(Rejected):
         self.indices = indices
 
 
+class _RowCuts(Rejected):
+    """A solved point of a problem posed on a subset of the heading rows breaks rows not posed (``keys``, the worst
+    first: :func:`.lmis.rows_broken`)."""
+
+    def __init__(self, keys: list[bytes]) -> None:
+        super().__init__(f"{len(keys)} heading rows not posed break it")
+        self.keys = keys
+
+
 MAX_CUT_ROUNDS = 6  # constraint generation: rounds of within-period vertices added to the LMIs
+MAX_ROW_ROUNDS = 8  # row generation: rounds of heading rows added to the LMIs
 
 
 CUTS_PER_ROUND = 8  # the worst failing within-period vertices added per round
@@ -92,11 +102,18 @@ class _Runner:
     hold the model's own vertices; the re-check proves the certificate at every within-period vertex
     too, and when a point fails only there, the worst of those vertices are added to the LMIs
     (``Model.with_cuts``, built by ``full``) and the point is solved again, up to MAX_CUT_ROUNDS times.
-    The search goes on with the grown problem (``self.active``); its parameters are set on ``lp``."""
+    The search goes on with the grown problem (``self.active``); its parameters are set on ``lp``.
+
+    Heading rows the same way (row generation, issue 51): ``rows`` (keys, :func:`.lmis.heading_row_key`) are the rows
+    ``lp`` was built with, a subset of the model's many (2.2 million on the default robot at d_hi = 5); where a solved
+    point breaks rows not posed, the worst are added (``full(model, rows)``) and the point solved again, up to
+    MAX_ROW_ROUNDS times.  A point is accepted only where its solution holds every row (and then passes the
+    certificate's re-check, which bounds the heading on the whole set by itself)."""
 
     def __init__(self, model: Any, lp: LMIProblem, primary: str, make_cert: Callable[[dict], dict],
-                 full: Callable[[Any], LMIProblem] | None = None):
+                 full: Callable[..., LMIProblem] | None = None, rows: frozenset[bytes] | None = None):
         self.model, self.lp, self.primary, self.make_cert = model, lp, primary, make_cert
+        self.rows = rows
         self._builder = full
         self._full: LMIProblem | None = None
         self.active = lp  # lp, or the problem with the within-period vertices added so far
@@ -138,13 +155,25 @@ class _Runner:
         rest of a scan whose primary solves all failed and whose retries concluded)."""
         retry = (fallback if retry is None else retry) or unscaled_only
         spent: list[SolveRecord] = []
-        rounds = 0
+        rounds = row_rounds = 0
         while True:
             skip = unscaled_only or (again and any(p is self.active for p in self._failed_first.get(self._key(), ())))
             try:
                 out, res = self._run_mirrored(fallback, retry, skip, force=unscaled_only)
                 out = replace(out, attempts=spent + out.attempts)
                 break
+            except _RowCuts as c:
+                spent += c.attempts
+                unscaled_only = False
+                if row_rounds >= MAX_ROW_ROUNDS or self._builder is None:
+                    last = replace(spent[-1], status=f"{spent[-1].status}; heading rows not posed still break it "
+                                                     f"after {row_rounds} rounds of row generation")
+                    out, res = Outcome("failed", last, spent[:-1] + [last]), (None, None, None)
+                    break
+                row_rounds += 1
+                self.rows = self.rows | frozenset(c.keys)
+                self.active = self._build_active()
+                self._full = None
             except _Cuts as c:
                 spent += c.attempts
                 unscaled_only = False  # the grown problem (constraint generation) from its first solver
@@ -159,7 +188,7 @@ class _Runner:
                     break
                 rounds += 1
                 self.cuts += new
-                self.active = _build(self._builder, self.model.with_cuts(self.cuts))
+                self.active = self._build_active()
                 self._full = None
         self.last_kind = out.kind
         if out.kind == "failed":
@@ -168,6 +197,11 @@ class _Runner:
         if alpha is not None:
             self.failed_at[float(alpha.value)] = out.kind == "failed"
         return (out, *res)
+
+    def _build_active(self) -> LMIProblem:
+        """The problem with the within-period vertices and the heading rows added so far (the full builder's)."""
+        model = self.model.with_cuts(self.cuts) if self.cuts else self.model
+        return _build(self._builder, model, rows=self.rows) if self.rows is not None else _build(self._builder, model)
 
     def _key(self) -> tuple:
         return tuple((name, float(p.value)) for name, p in sorted(self.lp.params.items()))
@@ -184,7 +218,8 @@ class _Runner:
             out, res = self._run_on(self.active, False, False)
         if out.kind == "failed":
             if self._full is None:
-                self._full = _build(self._builder, self.model)
+                self._full = (_build(self._builder, self.model, rows=self.rows) if self.rows is not None else
+                              _build(self._builder, self.model))
             self._set_params(self._full)
             self.full_retries += 1
             first = out.attempts
@@ -222,6 +257,10 @@ class _Runner:
                 cert = self.make_cert(vals)  # computes P = Q^-1 (or S_m^-1)
             except np.linalg.LinAlgError:
                 return False
+            if self.rows is not None:
+                broken = rows_broken(self.model, lp, self.rows)
+                if broken:
+                    raise _RowCuts(broken)
             chk = check_certificate(self.model, K, cert)
             holder.update(cert=cert, K=K, check=chk)
             failing = varying_failures(chk)
@@ -231,7 +270,7 @@ class _Runner:
 
         try:
             out = solve(lp.problem, self.primary, accept, fallback=fallback, retry=retry, skip_first=skip)
-        except _Cuts as exc:
+        except (_Cuts, _RowCuts) as exc:
             self._count(exc.attempts)
             raise
         self._count(out.attempts)
