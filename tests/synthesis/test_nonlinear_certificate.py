@@ -353,7 +353,8 @@ def test_a_costly_start_walks_from_the_scan_on_its_end_vertices(monkeypatch) -> 
     certifies the subset's bound there (a relaxation's bound is a floor at every alpha: none does better), else a walk.
     configs/delay-dlo1.yaml with nonlinear kinematics (36 vertices, 16 at the ends): the start certifies, in fewer solves
     of the whole than its scan, within the walk's stop rule (COSTLY_GAIN per step) of the scanned bound; the subset's
-    bound at an alpha is at most the whole's there (fewer LMIs to hold)."""
+    bound at an alpha is at most the whole's there (fewer LMIs to hold).  (Its certificate is not taken as the whole's
+    here: test_an_end_vertex_certificate_that_holds_everywhere_is_the_start_s.)"""
     from robustsynth.config import mapping_with
     from robustsynth.synthesis import alpha_search, heading_search as hs
     import yaml
@@ -361,6 +362,7 @@ def test_a_costly_start_walks_from_the_scan_on_its_end_vertices(monkeypatch) -> 
     cfg = mapping_with(yaml.safe_load((ROOT / "configs" / "delay-dlo1.yaml").read_text()),
                        **{"synthesis.kinematics": "nonlinear"})
     model, s = build_model(cfg), cfg.synthesis
+    monkeypatch.setattr(hs, "_on_every_vertex", lambda *a: None)
     runs = {}
     for name, costly in (("scan", 1e9), ("walk", 0.0)):
         monkeypatch.setattr(alpha_search, "COSTLY_SOLVE_S", costly)
@@ -389,3 +391,39 @@ def test_a_costly_start_walks_from_the_scan_on_its_end_vertices(monkeypatch) -> 
     whole, _ = alpha_search._run_invariance(lin, sc, [], True, alpha_hint=a, probe_only=True)
     assert relaxed.cert is not None and whole.cert is not None
     assert relaxed.value <= whole.value * (1 + 1e-6)
+
+
+def test_an_end_vertex_certificate_that_holds_everywhere_is_the_start_s(monkeypatch) -> None:
+    """Where a costly start's scan on the end vertices gives a certificate that the numpy re-check proves on every
+    vertex, that is the start's certificate: no solve of all (a relaxation's optimum that is feasible for the whole is
+    the whole's optimum), re-checked here again on the whole linearized model, with the scan's bound; its duals seed
+    the active vertices, as indices of the whole model (configs/delay-dlo1.yaml with nonlinear kinematics: 16 of 36
+    vertices, costly forced).  A model with uncertainty channels at its vertices carries no such certificate."""
+    from dataclasses import replace
+
+    from robustsynth.config import mapping_with
+    from robustsynth.synthesis import alpha_search, heading_search as hs
+    from robustsynth.synthesis.phase1 import Active
+    import yaml
+
+    cfg = mapping_with(yaml.safe_load((ROOT / "configs" / "delay-dlo1.yaml").read_text()),
+                       **{"synthesis.kinematics": "nonlinear"})
+    model, s = build_model(cfg), cfg.synthesis
+    monkeypatch.setattr(alpha_search, "COSTLY_SOLVE_S", 0.0)
+    lines: list[str] = []
+    best, runner, _ = hs._start(model, s, True, lines.append)
+    assert any("holds on every vertex" in ln for ln in lines), lines
+    assert not [ln for ln in lines if ln.startswith("  alpha = ")]  # no solve of all
+    lin = model.linearized()
+    assert best.cert["vertices"] == len(lin.vertices) == 36
+    again = check_certificate(lin, best.K, best.cert)
+    assert again.passed and again.figures["ultimate_bound"] == best.check.figures["ultimate_bound"]
+    sub, index = runner.stand_in
+    assert len(index) == 16 and len(sub.model.vertices) == 16
+    active = Active()
+    hs._seed(active, runner)
+    assert active.seed and set(active.seed) <= set(range(36)) and active.vertices == 36
+    assert set(active.seed) & set(index) == set(active.seed)  # the vertices that bind the subset's LMIs
+    channels = replace(lin, vertices=model.vertices)  # vertices with the kinematic channels (n_q > 0)
+    assert any(v.n_q for v in channels.vertices)
+    assert hs._on_every_vertex(channels, best, sub, tuple(range(len(channels.vertices)))) is None

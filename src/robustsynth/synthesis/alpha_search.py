@@ -204,7 +204,7 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     stop_rel: float = HINT_STOP_REL, bar: float | None = None,
                     prove: Callable[[], Phase1] | None = None, prove_first: bool = False,
                     gain_rule: bool | None = None,
-                    cheaper_hint: Callable[[], tuple[float, float] | None] | None = None,
+                    cheaper_hint: Callable[[float | None], tuple[float, float, Any] | None] | None = None,
                     rows: frozenset[bytes] | None = None) -> tuple[_Best, _Runner]:
     """The alpha line search of the invariance LMIs.  Without a hint: a log grid of alpha_points
     scanned upwards, then parabolic steps around its best point.  With ``alpha_hint`` (the best alpha
@@ -226,14 +226,15 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     asked before any solve (a related problem's solves all failed: the hint's would most likely fail too); so they
     are too where one solve is estimated at PROVE_FIRST_S or more.
     ``gain_rule``: the refinement stops at a step that gains less than COSTLY_GAIN (:func:`_refine`): by default where a
-    solve is estimated at COSTLY_SOLVE_S or more; True: always (a remedy's quick try).  ``cheaper_hint``: without a
-    hint, where a solve is estimated at COSTLY_SOLVE_S or more, the best alpha and objective of a relaxation of these
-    LMIs (a subset of the vertices, scanned: cheaper), to walk from instead of the scan (None: the scan).  A relaxation's
-    objective is at most this problem's at every alpha, so where the solve at its best alpha reaches its best objective
-    (within COSTLY_STOP_REL) no alpha does better here, to that search's own tolerance: the search ends there.
+    solve is estimated at COSTLY_SOLVE_S or more; True: always (a remedy's quick try).  ``cheaper_hint``: where a
+    solve is estimated at COSTLY_SOLVE_S or more, given the hint (or None), the best alpha and objective of a relaxation
+    of these LMIs (a subset of the vertices, searched from the hint or scanned: cheaper), to walk from instead of the
+    hint or the scan (None: those), and where its
+    certificate holds on every vertex of this model, that certificate and the relaxation's runner with its vertices'
+    indices (else None).  A relaxation's objective is at most this problem's at every alpha, so where the solve at its
+    best alpha reaches its best objective (within COSTLY_STOP_REL) no alpha does better here, to that search's own
+    tolerance: the search ends there; where its very certificate holds here, without that solve.
     ``rows``: the heading rows the problem starts with (keys; None: every row), grown by row generation (_Runner)."""
-    lp = _build(build_invariance, model, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,
-                symmetry=s.symmetry == "auto", heading_rows=rows)
     full = lambda mdl, rows=None: build_invariance(mdl, s.multiplier, s.margin, _weights(s), motor,  # noqa: E731
                                                    s.lyapunov, symmetry=False, heading_rows=rows)
     w = _weights(s)
@@ -241,12 +242,20 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
 
     def make_cert(vals: dict) -> dict:
         c = _cert_common(model, vals, s.multiplier, s.margin, "ultimate-bound")
-        c["alpha"] = float(lp.params["alpha"].value)
+        c["alpha"] = float(runner.lp.params["alpha"].value)
         c["beta"] = vals["beta"]
         c["motor_limits_enforced"] = motor
         return c
 
-    runner = _Runner(model, lp, s.solver, make_cert, full=full, rows=rows)
+    runner = _Runner(model, None, s.solver, make_cert, full=full, rows=rows)
+    # asked to prove first (the last bound's phase-1 problems alone settled it): the problem is built only where they
+    # do not settle this one (on the default robot at d_hi = 5 it holds ~1 GB, and each later bound's is never solved)
+    if prove is not None and prove_first and not probe_only and \
+            _settled_by_phase1(runner, prove, search, say, why="failed before"):
+        return best, runner
+    lp = _build(build_invariance, model, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,
+                symmetry=s.symmetry == "auto", heading_rows=rows)
+    runner.attach(lp)
     evaluate = _Evaluator(lp, runner, best, w, search, say)
     est = 0.0 if probe_only else solve_estimate(lp)
     costly = est >= COSTLY_SOLVE_S if gain_rule is None else gain_rule
@@ -254,15 +263,19 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         say(f"  {lmi_count(lp)} LMIs (the largest {lmi_rows(lp)} rows) per alpha; each point is one solve"
             + (f" (about {_duration(est)} each, estimated from its size)" if est >= 1.0 else "") + ", a failed one is retried")
     grid = np.linspace(math.log(ALPHA_RANGE[0]), math.log(ALPHA_RANGE[1]), s.alpha_points)
-    if alpha_hint is None and cheaper_hint is not None and est >= COSTLY_SOLVE_S and not probe_only:
-        relaxed = cheaper_hint()
+    if cheaper_hint is not None and est >= COSTLY_SOLVE_S and not probe_only:
+        relaxed = cheaper_hint(alpha_hint)
         if relaxed is not None:
-            alpha_hint, floor = relaxed
+            alpha_hint, floor, whole = relaxed
+            if whole is not None:  # the relaxation's certificate holds on every vertex: this problem's optimum
+                say("  its certificate holds on every vertex (the numpy re-check): no solve of all")
+                runner.stand_in = whole[1]
+                return whole[0], runner
             if evaluate(math.log(alpha_hint)) <= floor * (1.0 + COSTLY_STOP_REL):
                 say("  its best alpha certifies the relaxation's bound here too: no alpha does better")
                 return best, runner
-    if prove is not None and (prove_first or (est >= PROVE_FIRST_S and not probe_only)) and \
-            _settled_by_phase1(runner, prove, search, say, why="failed before" if prove_first else "costly"):
+    if prove is not None and runner.phase1 is None and est >= PROVE_FIRST_S and not probe_only and \
+            _settled_by_phase1(runner, prove, search, say, why="costly"):
         return best, runner
     if probe_only and alpha_hint is not None:  # one solve at the hint (is this class worth a search?)
         evaluate(math.log(alpha_hint))

@@ -328,22 +328,42 @@ def screen(models: list[Any], s: Any, motor: bool, alpha: float, active: Active)
     return out
 
 
-def seed(active: Active, model: Any, lp: Any) -> bool:
+def _lp_weights(model: Any, lp: Any) -> list[float] | None:
+    """Per vertex of ``model`` the dual weight of its LMIs in ``lp`` (solved, on ``model``; a mirror-invariant problem's
+    vertex stands for its mirror image too), or None where they do not match."""
+    w = _vertex_weights(lp)
+    if len(w) != len(model.vertices):
+        return None
+    if lp.mirrored:
+        mirror = model.mirror(lp.lyapunov)
+        if mirror is None:
+            return None
+        w = [max(x, w[mirror.vertex[i]]) for i, x in enumerate(w)]
+    return w
+
+
+def seed(active: Active, model: Any, lp: Any, within: tuple[Any, tuple[int, ...]] | None = None) -> bool:
     """Seed ``active`` from ``lp``, a solved problem of the invariance LMIs on ``model`` (the linearized certificate
     where a nonlinear search starts, :func:`~.heading_search._start`): the vertices whose LMIs bind there (dual weight
     at least DUAL_FLOOR of the largest; a mirror-invariant problem's vertex stands for its mirror image too), at most
     ACTIVE.  The kinematic channels' models have the same vertices in the same order, covered (docs/theory.md §6j):
     on the default robot at d_hi = 2 (0.1 rad, alpha in [0.005, 0.0096]) the 10 vertices that bind the linearized
-    certificate gave t* -1.64e-3 in 7.1 s where the 64 end vertices gave -1.72e-3 in ~48 s.  Whether it seeded."""
+    certificate gave t* -1.64e-3 in 7.1 s where the 64 end vertices gave -1.72e-3 in ~48 s.  ``within`` (sub, index):
+    ``lp`` is on ``sub``, whose vertices are the model's at ``index`` (a relaxation whose certificate held on every
+    vertex).  Whether it seeded."""
     n = len(model.vertices)
-    w = _vertex_weights(lp)
-    if len(w) != n or not any(x > 0 for x in w):
-        return False
-    if lp.mirrored:
-        mirror = model.mirror(lp.lyapunov)
-        if mirror is None:
+    if within is None:
+        w = _lp_weights(model, lp)
+    else:
+        sub, index = within
+        ws = _lp_weights(sub, lp)
+        if ws is None or len(index) != len(ws):
             return False
-        w = [max(x, w[mirror.vertex[i]]) for i, x in enumerate(w)]
+        w = [0.0] * n
+        for i, x in zip(index, ws):
+            w[i] = x
+    if w is None or len(w) != n or not any(x > 0 for x in w):
+        return False
     weight: dict[int, float] = {}
     _binding(weight, range(n), w)
     active.seed = tuple(sorted(sorted(weight, key=lambda i: (-weight[i], i))[:ACTIVE]))

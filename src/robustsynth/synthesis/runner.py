@@ -110,13 +110,13 @@ class _Runner:
     MAX_ROW_ROUNDS times.  A point is accepted only where its solution holds every row (and then passes the
     certificate's re-check, which bounds the heading on the whole set by itself)."""
 
-    def __init__(self, model: Any, lp: LMIProblem, primary: str, make_cert: Callable[[dict], dict],
+    def __init__(self, model: Any, lp: LMIProblem | None, primary: str, make_cert: Callable[[dict], dict],
                  full: Callable[..., LMIProblem] | None = None, rows: frozenset[bytes] | None = None):
         self.model, self.lp, self.primary, self.make_cert = model, lp, primary, make_cert
         self.rows = rows
         self._builder = full
         self._full: LMIProblem | None = None
-        self.active = lp  # lp, or the problem with the within-period vertices added so far
+        self.active = lp  # lp, or the problem with the within-period vertices added so far (None: not built yet)
         self.cuts: list[int] = []
         self.records: list[SolveRecord] = []
         self.fallbacks = 0
@@ -128,6 +128,13 @@ class _Runner:
         self.phase1_alone = False  # they settled a problem on which no solve had concluded
         self._failed_first: dict[tuple, list[LMIProblem]] = {}  # parameters -> problems the primary solver failed on
         self.last_kind = ""
+        # the runner of a relaxation on a subset of this model's vertices (their indices) whose certificate holds on
+        # every vertex, taken instead of a solve here (alpha_search's cheaper_hint): its duals seed the active vertices
+        self.stand_in: tuple[_Runner, tuple[int, ...]] | None = None
+
+    def attach(self, lp: LMIProblem) -> None:
+        """The problem of a runner made before it (``lp`` None: phase-1 problems asked first, which may spare it)."""
+        self.lp = self.active = lp
 
     def release_compiled(self) -> None:
         """Drop the compiled form of this runner's problems (cvxpy's canonical data, built again at their next solve)
