@@ -215,3 +215,33 @@ def test_switched_exact_of_the_icr_model() -> None:
     assert np.max(np.abs(e1[:, 2] - lin[:, 2])) <= TOL
     # what the robot's heading drift (up to |omega*| Ts ~ 5 mrad) makes of the forward speed: second order
     assert np.max(np.abs(e1[:, :2] - lin[:, :2])) <= 1e-5
+
+
+def test_the_heading_rows_of_every_yaw_choice_are_the_row_by_row_enumeration() -> None:
+    """nonlinear._break_rows (one level of break points at a time over every choice of a yaw row per live command
+    interval, numpy) gives the rows of the row-by-row enumeration (_break_points per choice, itertools.product order,
+    each row at its first occurrence) bit for bit: d_hi 1 to 4, random interval lengths (one dead), random yaw rows
+    with repeats (rows shared by choices)."""
+    import itertools
+
+    from robustsynth.model.nonlinear import _break_points, _break_rows
+
+    rng = np.random.default_rng(7)
+    for d_hi in (1, 2, 3, 4):
+        n_e, n_u = 3, 2
+        n_s = n_e + d_hi * n_u
+        lens = rng.uniform(0.0, 0.05, d_hi + 1)
+        live = [True] * (d_hi + 1)
+        if d_hi > 1:
+            lens[1], live[1] = 0.0, False
+        yaw = rng.normal(size=(4, n_u))
+        yaw[3] = yaw[1]  # a repeated row: its choices give rows seen before
+        uD = np.array([0.5, 0.0])
+        seen: dict[bytes, tuple] = {}
+        for combo in itertools.product(*[range(len(yaw)) if lv else (0,) for lv in live]):
+            for cc, dd, g, t in _break_points(lens, [yaw[k] for k in combo], uD, n_s, n_e, n_u, d_hi):
+                seen.setdefault(np.concatenate([cc, dd, [g, t]]).tobytes(), (cc, dd, g, t))
+        want = [np.array(x) for x in zip(*seen.values())]
+        got = _break_rows(lens, yaw, live, uD, n_s, n_e, n_u, d_hi)
+        for w, g in zip(want, got):
+            assert w.shape == g.shape and w.tobytes() == np.ascontiguousarray(g).tobytes()

@@ -63,7 +63,7 @@ def _posed_rows(active: Active | None, model: Any) -> frozenset[bytes] | None:
 
 
 def _tighten(model: Any, s: SynthesisConfig, search: list, motor: bool, say: Callable[[str], None], best: _Best,
-             runner: _Runner, tried: list) -> tuple[_Best, _Runner]:
+             runner: _Runner, tried: list, active: Active | None = None) -> tuple[_Best, _Runner]:
     """heading_bound auto, past a certificate: a smaller bound just above the set's own heading within a period, one
     solve at the best alpha each (at most HEADING_TIGHTEN), kept while it certifies a smaller figure."""
     for _ in range(HEADING_TIGHTEN):
@@ -74,8 +74,9 @@ def _tighten(model: Any, s: SynthesisConfig, search: list, motor: bool, say: Cal
         say(f"{s.objective}, nonlinear kinematics with |e_theta(t)| <= {tb:g} rad (the set's heading within a period "
             f"at {tb0:g} rad was {h:.3g}): one solve at the best alpha")
         try:
-            pb, pr = _run_invariance(model.with_heading_bound(tb, within_period=s.lyapunov == "common"), s, search,
-                                     motor, say, alpha_hint=float(best.cert["alpha"]), retry=False, probe_only=True)
+            m = model.with_heading_bound(tb, within_period=s.lyapunov == "common")
+            pb, pr = _run_invariance(m, s, search, motor, say, alpha_hint=float(best.cert["alpha"]), retry=False,
+                                     probe_only=True, rows=_posed_rows(active, m))
         except InfeasibleError as exc:  # below the slip's own turn within a period
             say(f"  {exc}")
             break
@@ -199,7 +200,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                 "the channels")
             break
     if auto and best.cert is not None:  # a smaller bound, just above the set's own heading
-        best, runner = _tighten(model, s, search, motor, say, best, runner, tried)
+        best, runner = _tighten(model, s, search, motor, say, best, runner, tried, active)
     if best.cert is None:
         r = m = None  # noqa: F841  (the last bound's runner and model released before the remedies: _no_proof)
         _no_proof(model, given, s, motor, say, common, tried, tried_at, auto, below, hint, active)
