@@ -169,6 +169,52 @@ def _t_stars(lps: list[Any], intervals: list[tuple[float, float]], solver: str) 
     return res
 
 
+def _every_row(model: Any, active: Active, idx: tuple[int, ...], ivs: list[tuple[float, float]], run: Callable[..., Any],
+               latest: dict[str, Any], say: Callable[[str], None]) -> list[tuple[float | None, str]]:
+    """prove_no_set's t* of ``ivs`` on the vertices ``idx`` with every heading row (``run`` its solve of intervals on
+    a vertex subset and heading rows, ``latest`` the last run's problems by interval): by row generation where the rows
+    are many (:func:`lmis.generates_rows`; the active rows first, or the last run's solutions where it posed them on
+    these vertices; an interval left unsettled whose solution breaks rows not posed is solved again with the worst of
+    them added, :func:`lmis.rows_broken`, until its solution holds every row, whose t* is then the one of every row),
+    every row posed at once where they are few, or where generation cannot conclude."""
+    rows = active.row_set() if lmis.generates_rows(model) else None
+    if rows is None:
+        return run(idx, ivs)
+    known = latest["by"] if latest["key"] == (idx, rows) else {}
+    fresh = [iv for iv in ivs if iv not in known]
+    if fresh:
+        run(idx, fresh, rows)
+    out = {iv: (known.get(iv) or latest["by"][iv])[1] for iv in ivs}
+    lps = {iv: (known.get(iv) or latest["by"][iv])[0] for iv in ivs}
+    todo = list(ivs)
+    for _ in range(ROW_ROUNDS):
+        new: set[bytes] = set()
+        again, every = [], []
+        for iv in todo:
+            t, _ = out[iv]
+            if t is not None and settles(t):
+                continue
+            broken = lmis.rows_broken(model, lps[iv], rows) if t is not None else None
+            if broken is None:
+                every.append(iv)
+            elif broken:
+                new.update(broken)
+                again.append(iv)
+        if every:
+            out.update(zip(every, run(idx, every)))
+        if not again:
+            return [out[iv] for iv in ivs]
+        rows = rows | new
+        say(f"  {len(new)} heading rows not posed break the solution: posed too")
+        out.update(zip(again, run(idx, again, rows)))
+        lps.update({iv: latest["by"][iv][0] for iv in again})
+        todo = again
+    left = [iv for iv in todo if not settles(out[iv][0])]  # the rounds did not conclude: every row at once
+    if left:
+        out.update(zip(left, run(idx, left)))
+    return [out[iv] for iv in ivs]
+
+
 def prove_no_set(model: Any, s: Any, motor: bool, alpha_range: tuple[float, float],
                  say: Callable[[str], None] = lambda _m: None, intervals: int = INTERVALS,
                  active: Active | None = None, halvings: int = HALVINGS) -> Phase1:
@@ -216,47 +262,7 @@ def prove_no_set(model: Any, s: Any, motor: bool, alpha_range: tuple[float, floa
         return ts
 
     def run_all_rows(idx: tuple[int, ...], ivs: list[tuple[float, float]]) -> list[tuple[float | None, str]]:
-        """t* of ``ivs`` on the vertices ``idx`` with every heading row: by row generation where the rows are many
-        (:func:`lmis.generates_rows`; the active rows first, or the last run's solutions where it posed them on these vertices; an interval left
-        unsettled whose solution breaks rows not posed is solved again with the worst of them added,
-        :func:`lmis.rows_broken`, until its solution holds every row, whose t* is then the one of every row), every row
-        posed at once where they are few, or where generation cannot conclude."""
-        rows = active.row_set() if lmis.generates_rows(model) else None
-        if rows is None:
-            return run(idx, ivs)
-        known = latest["by"] if latest["key"] == (idx, rows) else {}
-        fresh = [iv for iv in ivs if iv not in known]
-        if fresh:
-            run(idx, fresh, rows)
-        out = {iv: (known.get(iv) or latest["by"][iv])[1] for iv in ivs}
-        lps = {iv: (known.get(iv) or latest["by"][iv])[0] for iv in ivs}
-        todo = list(ivs)
-        for _ in range(ROW_ROUNDS):
-            new: set[bytes] = set()
-            again, every = [], []
-            for iv in todo:
-                t, _ = out[iv]
-                if t is not None and settles(t):
-                    continue
-                broken = lmis.rows_broken(model, lps[iv], rows) if t is not None else None
-                if broken is None:
-                    every.append(iv)
-                elif broken:
-                    new.update(broken)
-                    again.append(iv)
-            if every:
-                out.update(zip(every, run(idx, every)))
-            if not again:
-                return [out[iv] for iv in ivs]
-            rows = rows | new
-            say(f"  {len(new)} heading rows not posed break the solution: posed too")
-            out.update(zip(again, run(idx, again, rows)))
-            lps.update({iv: latest["by"][iv][0] for iv in again})
-            todo = again
-        left = [iv for iv in todo if not settles(out[iv][0])]  # the rounds did not conclude: every row at once
-        if left:
-            out.update(zip(left, run(idx, left)))
-        return [out[iv] for iv in ivs]
+        return _every_row(model, active, idx, ivs, run, latest, say)
 
     everyone = tuple(range(n_all))
     base = ends if ends is not None else everyone  # the vertices an interval is settled on before the halving
