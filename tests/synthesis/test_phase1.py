@@ -228,8 +228,9 @@ def _proofs_at(heading: float):
 
 def test_asked_first_the_phase1_problems_spare_every_solve_or_are_asked_once() -> None:
     """After a heading bound that only phase-1 problems settled, the next bound asks them before any solve
-    (``prove_first``): proven, no solve is made and the next bound will ask first too; not proven, the hinted
-    search runs as without them, and they are not asked a second time where its solves fail."""
+    (``prove_first``): proven, no solve is made, nor the problem built (at d_hi = 5 ~0.5 GB), and the next bound
+    will ask first too; not proven, the hinted search runs as without them, and they are not asked a second time where
+    its solves fail."""
     from robustsynth.synthesis.alpha_search import _run_invariance
 
     model, s, cases = _proofs_at(0.2)
@@ -237,9 +238,10 @@ def test_asked_first_the_phase1_problems_spare_every_solve_or_are_asked_once() -
         best, runner = _run_invariance(model, s, [], True, alpha_hint=0.2, retry=False, prove=prove, prove_first=True)
         assert len(asked) == 1
         if t < 0:
-            assert best.cert is None and runner.solves == 0 and runner.phase1_alone
+            assert best.cert is None and runner.solves == 0 and runner.phase1_alone and runner.lp is None
         else:
             assert runner.solves > 0 and best.cert is not None  # (the committed certificate's class: it certifies)
+            assert runner.lp is not None
 
 
 def test_where_one_solve_would_cost_a_minute_the_phase1_problems_go_first(monkeypatch: pytest.MonkeyPatch) -> None:

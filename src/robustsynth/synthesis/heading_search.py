@@ -147,7 +147,8 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
     del crunner
     for j, tb in enumerate(bounds):
         # the last bound's runner and problem are done with (``runner`` keeps the best's) before this bound builds its
-        # own: on the default robot at d_hi = 5 each holds ~1 GB of LMIs
+        # own: on the default robot at d_hi = 5 each holds ~0.5 GB of LMIs (the main process 0.92 -> 1.41 GB at the
+        # first)
         b = r = None
         # the channels for slip changing within a period only where the certificate is proven at the
         # within-period vertices: a common Lyapunov matrix (Model.slip_variation)

@@ -327,7 +327,7 @@ class HeadingRowTable:
     (each at its first occurrence, channel by channel), as arrays: ``V`` (rows, n_s + n_u) the coefficients
     ``[c, d]``, ``offsets`` their constant parts' reach (``KinematicChannels.heading_offsets``), and ``raw`` (rows,
     n_s + n_u + 1) whose rows' bytes are the rows' keys (:func:`heading_row_key`).  Built with numpy, not row by row:
-    the default robot at d_hi = 5 has 2.2 million rows, whose enumeration as Python tuples took 6 s and ~1 GB."""
+    the default robot at d_hi = 5 has 2.2 million rows, whose enumeration as Python tuples took 6 s."""
 
     def __init__(self, channels: tuple) -> None:
         raw = np.concatenate([np.column_stack([np.asarray(ch.C_h, dtype=float), np.asarray(ch.D_h, dtype=float),
