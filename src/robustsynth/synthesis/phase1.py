@@ -175,8 +175,10 @@ def _every_row(model: Any, active: Active, idx: tuple[int, ...], ivs: list[tuple
     a vertex subset and heading rows, ``latest`` the last run's problems by interval): by row generation where the rows
     are many (:func:`lmis.generates_rows`; the active rows first, or the last run's solutions where it posed them on
     these vertices; an interval left unsettled whose solution breaks rows not posed is solved again with the worst of
-    them added, :func:`lmis.rows_broken`, until its solution holds every row, whose t* is then the one of every row),
-    every row posed at once where they are few, or where generation cannot conclude."""
+    them added, :func:`lmis.rows_broken`, until its solution holds every row, whose t* is then the one of every row);
+    every row posed at once where they are few.  Where the rows are many they are never all posed at once (2.2 million
+    at d_hi = 5: 3.9 GB of coefficients): an interval whose solve failed, or whose rounds (ROW_ROUNDS) did not
+    conclude, stays unsettled."""
     rows = active.row_set() if lmis.generates_rows(model) else None
     if rows is None:
         return run(idx, ivs)
@@ -189,30 +191,22 @@ def _every_row(model: Any, active: Active, idx: tuple[int, ...], ivs: list[tuple
     todo = list(ivs)
     for _ in range(ROW_ROUNDS):
         new: set[bytes] = set()
-        again, every = [], []
+        again = []
         for iv in todo:
             t, _ = out[iv]
-            if t is not None and settles(t):
-                continue
-            broken = lmis.rows_broken(model, lps[iv], rows) if t is not None else None
-            if broken is None:
-                every.append(iv)
-            elif broken:
+            # (a failed solve, or values that say nothing, stay as they are: unsettled, no proof claimed)
+            broken = lmis.rows_broken(model, lps[iv], rows) if t is not None and not settles(t) else None
+            if broken:
                 new.update(broken)
                 again.append(iv)
-        if every:
-            out.update(zip(every, run(idx, every)))
         if not again:
-            return [out[iv] for iv in ivs]
+            break
         rows = rows | new
         say(f"  {len(new)} heading rows not posed break the solution: posed too")
         out.update(zip(again, run(idx, again, rows)))
         lps.update({iv: latest["by"][iv][0] for iv in again})
         todo = again
-    left = [iv for iv in todo if not settles(out[iv][0])]  # the rounds did not conclude: every row at once
-    if left:
-        out.update(zip(left, run(idx, left)))
-    return [out[iv] for iv in ivs]
+    return [out[iv] for iv in ivs]  # (rounds that did not conclude leave their intervals unsettled)
 
 
 def prove_no_set(model: Any, s: Any, motor: bool, alpha_range: tuple[float, float],
