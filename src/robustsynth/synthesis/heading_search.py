@@ -261,9 +261,10 @@ def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable
     if ends is None:
         return None
     sub = replace(lin, vertices=tuple(lin.vertices[i] for i in ends))
-    say(f"  each solve is costly: the {'walk from the hint' if hint is not None else 'scan'} on the {len(ends)} vertices "
-        "with every delay instant at an end of its range first, then its certificate re-checked on every vertex (or a "
-        "solve of all at its best alpha, a walk from there where that does not certify its bound)")
+    how = "walk from the hint" if hint is not None else "scan"
+    say(f"  each solve is costly: the {how} on the {len(ends)} vertices with every delay instant at an end of its "
+        "range first, then its certificate re-checked on every vertex (or a solve of all at its best alpha, a walk "
+        "from there where that does not certify its bound)")
     best, runner = _run_invariance(sub, sc, [], motor, lambda m: say("  " + m), alpha_hint=hint,
                                    gain_rule=True if hint is not None else None)
     runner.release_compiled()

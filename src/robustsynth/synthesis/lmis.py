@@ -290,10 +290,10 @@ def heading_constraints(model: Any, lv: _Lyap, only: frozenset[bytes] | None = N
     Up to LIFT_ROWS distinct rows, those the others imply are left out (:func:`implied_rows_left_out`); beyond, every
     row is a linear row on a lifted matrix (:func:`_lifted_heading_rows`).  Both exact.
 
-    ``only`` (a relaxation, not the certificate's LMIs: row generation, :func:`rows_broken`): in the lifted form, just the rows whose
-    key (:func:`heading_row_key`) is in it, all of them where it names none of this model's.  ``extra`` receives, in the
-    lifted form, ``heading_keys`` (the rows posed, in order) and ``heading_rows`` (their linear constraints, one per
-    Lyapunov matrix: their duals rank the rows, :mod:`.phase1`)."""
+    ``only`` (a relaxation, not the certificate's LMIs: row generation, :func:`rows_broken`): in the lifted form, just
+    the rows whose key (:func:`heading_row_key`) is in it, all of them where it names none of this model's.  ``extra``
+    receives, in the lifted form, ``heading_keys`` (the rows posed, in order) and ``heading_rows`` (their linear
+    constraints, one per Lyapunov matrix: their duals rank the rows, :mod:`.phase1`)."""
     table = heading_row_table(model)
     rooms = table.rooms(model)
     V = table.V
@@ -459,7 +459,8 @@ GENERATE_ROWS = 20_000
 
 
 def row_ratios(table: HeadingRowTable, rooms: np.ndarray, W: list[np.ndarray]) -> np.ndarray:
-    """Per row of ``table``, ``max_j sqrt(z W_j z') / room``: at most 1 where the row holds (:func:`heading_weights`)."""
+    """Per row of ``table``, ``max_j sqrt(z W_j z') / room``: at most 1 where the row holds
+    (:func:`heading_weights`)."""
     out = np.zeros(len(table))
     for a in range(0, len(table), ROW_CHUNK):
         V = table.V[a:a + ROW_CHUNK]
@@ -699,9 +700,9 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
     so a maximum t* < 0 says that none exists whose set keeps |e_x|, |e_y| <= sqrt(kappa).  Its parameters may differ from (alpha, 1 - alpha):
     ``one_minus_alpha`` = 1 - alpha_lo and ``alpha`` = alpha_hi make it a relaxation of every alpha in
     [alpha_lo, alpha_hi] ((1 - alpha) X and sum beta <= alpha loosen as alpha falls and rises): t* < 0 then holds for
-    the whole interval (docs/theory.md §6j).  ``heading_rows``: pose just those heading rows (:func:`heading_constraints`'
-    ``only``), a relaxation: its solution is a certificate only where every row holds at its values (row generation,
-    :func:`rows_broken`); a phase-1 problem's ``extra`` then says which rows were posed."""
+    the whole interval (docs/theory.md §6j).  ``heading_rows``: pose just those heading rows
+    (:func:`heading_constraints`' ``only``), a relaxation: its solution is a certificate only where every row holds at
+    its values (row generation, :func:`rows_broken`); a phase-1 problem's ``extra`` then says which rows were posed."""
     lv = _Lyap(model, lyapunov, mirror=model.mirror(lyapunov) if symmetry else None)
     n_s, n_w = model.n_s, model.n_w
     alpha = cp.Parameter(nonneg=True, name="alpha", value=0.1)

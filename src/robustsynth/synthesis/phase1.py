@@ -169,8 +169,9 @@ def _t_stars(lps: list[Any], intervals: list[tuple[float, float]], solver: str) 
     return res
 
 
-def _every_row(model: Any, active: Active, idx: tuple[int, ...], ivs: list[tuple[float, float]], run: Callable[..., Any],
-               latest: dict[str, Any], say: Callable[[str], None]) -> list[tuple[float | None, str]]:
+def _every_row(model: Any, active: Active, idx: tuple[int, ...], ivs: list[tuple[float, float]],
+               run: Callable[..., Any], latest: dict[str, Any], say: Callable[[str], None]
+               ) -> list[tuple[float | None, str]]:
     """prove_no_set's t* of ``ivs`` on the vertices ``idx`` with every heading row (``run`` its solve of intervals on
     a vertex subset and heading rows, ``latest`` the last run's problems by interval): by row generation where the rows
     are many (:func:`lmis.generates_rows`; the active rows first, or the last run's solutions where it posed them on
