@@ -211,14 +211,13 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
 def _seed(active: Active, runner: _Runner) -> None:
     """Seed ``active`` (:func:`.phase1.seed`) from the duals of the last solve of the linearized start's ``runner``
     (or of the relaxation it took its certificate from, on a subset of its vertices)."""
+    solved, within = runner, None
     if runner.stand_in is not None:
-        sub, index = runner.stand_in
-        for lp in (sub.active, sub.lp):
-            if lp is not None and lp.problem.status in ("optimal", "optimal_inaccurate") and \
-                    seed(active, runner.model, lp, within=(sub.model, index)):
-                return
-    for lp in (runner.active, runner.lp):
-        if lp is not None and lp.problem.status in ("optimal", "optimal_inaccurate") and seed(active, runner.model, lp):
+        solved, index = runner.stand_in
+        within = (solved.model, index)
+    for lp in (solved.active, solved.lp):
+        if lp is not None and lp.problem.status in ("optimal", "optimal_inaccurate") and \
+                seed(active, runner.model, lp, within=within):
             return
 
 

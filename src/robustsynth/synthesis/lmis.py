@@ -332,12 +332,13 @@ class HeadingRowTable:
     def __init__(self, channels: tuple) -> None:
         raw = np.concatenate([np.column_stack([np.asarray(ch.C_h, dtype=float), np.asarray(ch.D_h, dtype=float),
                                                np.asarray(ch.heading_offsets, dtype=float)]) for ch in channels])
-        raw = np.ascontiguousarray(raw)
-        _, first = np.unique(raw.view(np.dtype((np.void, raw.dtype.itemsize * raw.shape[1]))).ravel(),
-                             return_index=True)
-        self.raw = raw[np.sort(first)]
+        self._key = np.dtype((np.void, raw.itemsize * raw.shape[1]))  # a row's bytes: its key
+        distinct, first = np.unique(np.ascontiguousarray(raw).view(self._key).ravel(), return_index=True)
+        keep = np.sort(first)
+        self.raw = raw[keep]
         self.V, self.offsets = self.raw[:, :-1], self.raw[:, -1]
-        self._hash: tuple[np.ndarray, np.ndarray] | None = None
+        # the keys sorted (np.unique's order) and each one's row here: indices() looks keys up in them
+        self._sorted, self._row = distinct, np.searchsorted(keep, first)
 
     def __len__(self) -> int:
         return len(self.raw)
@@ -346,32 +347,15 @@ class HeadingRowTable:
         rows = self.raw if idx is None else self.raw[np.asarray(idx, dtype=int)]
         return [r.tobytes() for r in rows]
 
-    def _hashes(self, raw: np.ndarray) -> np.ndarray:
-        mult = np.arange(1, 2 * raw.shape[1], 2, dtype=np.uint64) * np.uint64(0x9E3779B97F4A7C15)
-        return raw.view(np.uint64) @ mult  # (wrapping: a hash of the rows' bits)
-
     def indices(self, keys: Any) -> np.ndarray:
         """The rows (sorted indices) whose key is one of ``keys`` (keys of other widths, or of no row here, name
         none)."""
-        w = self.raw.shape[1] * self.raw.dtype.itemsize
-        keys = [k for k in keys if len(k) == w]
+        keys = [k for k in keys if len(k) == self._key.itemsize]
         if not keys or not len(self.raw):
             return np.zeros(0, dtype=int)
-        if self._hash is None:
-            h = self._hashes(self.raw)
-            order = np.argsort(h, kind="stable")
-            self._hash = (h[order], order)
-        sorted_h, order = self._hash
-        want = np.frombuffer(b"".join(keys), dtype=self.raw.dtype).reshape(len(keys), self.raw.shape[1])
-        hk = self._hashes(want)
-        lo, hi = np.searchsorted(sorted_h, hk, "left"), np.searchsorted(sorted_h, hk, "right")
-        found = set()
-        bits = self.raw.view(np.uint64)
-        for k, a, b in zip(want.view(np.uint64), lo, hi):
-            for i in order[a:b]:
-                if np.array_equal(bits[i], k):
-                    found.add(int(i))
-        return np.array(sorted(found), dtype=int)
+        want = np.frombuffer(b"".join(keys), dtype=self._key)
+        at = np.minimum(np.searchsorted(self._sorted, want), len(self._sorted) - 1)
+        return np.unique(self._row[at[self._sorted[at] == want]])
 
     def rooms(self, model: Any) -> np.ndarray:
         """theta_bar - offset per row.  Raises InfeasibleError where a row has no room (the slip's own turn within a
@@ -417,6 +401,13 @@ def heading_rows(model: Any) -> tuple[list[tuple[np.ndarray, np.ndarray, float]]
     return rows, table.keys()
 
 
+def set_weight(Q: np.ndarray, K: np.ndarray) -> np.ndarray:
+    """``W = [I; K] Q [I; K]'``: on the set {xi' Q^-1 xi <= 1} of the gain K, a row z = [c, d] (on xi and du = K xi)
+    reaches ``sqrt(z W z')``."""
+    IK = np.vstack([np.eye(Q.shape[0]), K])
+    return IK @ Q @ IK.T
+
+
 def heading_weights(lp: LMIProblem) -> list[np.ndarray] | None:
     """Per Lyapunov matrix j of a solved problem, ``W_j = R left_j^-1 R'`` at its values (``R = [X; Y]``, X = Q or G,
     left_j = Q or G + G' - S_j): heading row z = [c, d] holds on the set where ``z W_j z' <= room^2`` for every j, the
@@ -430,8 +421,7 @@ def heading_weights(lp: LMIProblem) -> list[np.ndarray] | None:
             if Q is None or Y is None or Q.shape == ():
                 return None
             Q = (Q + Q.T) / 2.0
-            IK = np.vstack([np.eye(Q.shape[0]), np.linalg.solve(Q.T, Y.T).T])  # [I; K], K = Y Q^-1
-            return [IK @ Q @ IK.T]
+            return [set_weight(Q, np.linalg.solve(Q.T, Y.T).T)]  # K = Y Q^-1
         G = val(lp.G)
         if G is None or Y is None or G.shape == ():
             return None

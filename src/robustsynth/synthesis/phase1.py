@@ -144,7 +144,7 @@ DUAL_FLOOR = 1e-3  # a vertex whose dual weight is below this fraction of the la
 # two rows bind there, and the phase-1 search at 0.1, 0.15 and 0.2 rad took 203, 31 and 27 s against 281, 105 and
 # 89 s with every row, every t* the same to 1e-10 (measured side by side, the active set carried across the bounds)
 ACTIVE_ROWS = 500
-# rounds of row generation before a problem is posed with every heading row at once (prove_no_set's run_all_rows)
+# rounds of row generation in prove_no_set's every-row tries (_every_row); an interval they do not conclude stays unsettled
 ROW_ROUNDS = 8
 EVERY = frozenset({b"every heading row"})  # settle's marker: the interval with every heading row (run_all_rows)
 
@@ -187,8 +187,8 @@ def _every_row(model: Any, active: Active, idx: tuple[int, ...], ivs: list[tuple
     fresh = [iv for iv in ivs if iv not in known]
     if fresh:
         run(idx, fresh, rows)
-    out = {iv: (known.get(iv) or latest["by"][iv])[1] for iv in ivs}
-    lps = {iv: (known.get(iv) or latest["by"][iv])[0] for iv in ivs}
+    solved = {iv: known.get(iv) or latest["by"][iv] for iv in ivs}  # (its problem, its t* and status)
+    lps, out = {iv: s[0] for iv, s in solved.items()}, {iv: s[1] for iv, s in solved.items()}
     todo = list(ivs)
     for _ in range(ROW_ROUNDS):
         new: set[bytes] = set()
@@ -380,15 +380,14 @@ def seed_rows(active: Active, model: Any, Q: np.ndarray, K: np.ndarray) -> bool:
     (more than LIFT_ROWS of them): the first phase-1 problems of a long delay then pose ACTIVE_ROWS rows, not every row
     (60 281 on the icr default at d_hi = 3), and so do a remedy's (another slip box: rows of other keys, none ranked).
     A subset of the rows is a relaxation, as the ranked ones are: where it settles nothing, the same interval is solved
-    with every row (:func:`prove_no_set`).  Whether it seeded."""
+    with every row (:func:`prove_no_set`; by row generation where they are many).  Whether it seeded."""
     table = lmis.heading_row_table(model)
     Q, K = np.asarray(Q, dtype=float), np.asarray(K, dtype=float)
     if len(table) <= lmis.LIFT_ROWS or Q.shape != (model.n_s, model.n_s) or K.shape != (model.n_u, model.n_s):
         return False
     if active.rows is not None and len(table.indices(active.rows)):
         return False  # ranked by the problems' duals already
-    IK = np.vstack([np.eye(model.n_s), K])  # a row r xi + d du reaches sqrt((r + d K) Q (r + d K)') on the set
-    reach = lmis.row_ratios(table, table.rooms(model), [IK @ Q @ IK.T])
+    reach = lmis.row_ratios(table, table.rooms(model), [lmis.set_weight(Q, K)])
     order = np.argsort(-reach, kind="stable")[:ACTIVE_ROWS]
     active.rows = tuple(table.keys(order))
     return True
