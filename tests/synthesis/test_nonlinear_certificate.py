@@ -398,7 +398,10 @@ def test_an_end_vertex_certificate_that_holds_everywhere_is_the_start_s(monkeypa
     vertex, that is the start's certificate: no solve of all (a relaxation's optimum that is feasible for the whole is
     the whole's optimum), re-checked here again on the whole linearized model, with the scan's bound; its duals seed
     the active vertices, as indices of the whole model (configs/delay-dlo1.yaml with nonlinear kinematics: 16 of 36
-    vertices, costly forced).  A model with uncertainty channels at its vertices carries no such certificate."""
+    vertices, costly forced).  A model with uncertainty channels at its vertices carries no such certificate.  Costly
+    forced on the end vertices too, they start from the 8 with every instant at the same end: one solve of theirs at
+    that relaxation's best alpha which certifies settles them (a start needs no finer alpha), at a bound no smaller
+    than the relaxation's there."""
     from dataclasses import replace
 
     from robustsynth.config import mapping_with
@@ -414,6 +417,13 @@ def test_an_end_vertex_certificate_that_holds_everywhere_is_the_start_s(monkeypa
     best, runner, _ = hs._start(model, s, True, lines.append)
     assert any("holds on every vertex" in ln for ln in lines), lines
     assert not [ln for ln in lines if ln.startswith("  alpha = ")]  # no solve of all
+    assert any("8 vertices with every delay instant at the same end" in ln for ln in lines), lines
+    assert any("enough for a start" in ln for ln in lines), lines
+    end_solves = [ln for ln in lines if ln.startswith("    alpha = ")]  # the end vertices' own: the one at the hint
+    assert len(end_solves) == 1 and f"alpha = {best.cert['alpha']:.4g}:" in end_solves[0], end_solves
+    relaxed = [ln for ln in lines if ln.startswith("      alpha = ") and f"alpha = {best.cert['alpha']:.4g}:" in ln]
+    cm = lambda ln: float(ln.split("|e_y| <= ")[1].split(" cm")[0])  # noqa: E731
+    assert relaxed and cm(end_solves[0]) >= cm(relaxed[-1])  # a relaxation's bound is at most the whole's
     lin = model.linearized()
     assert best.cert["vertices"] == len(lin.vertices) == 36
     again = check_certificate(lin, best.K, best.cert)

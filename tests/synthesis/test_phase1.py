@@ -540,3 +540,43 @@ def test_row_generation_ends_where_every_row_holds(monkeypatch: pytest.MonkeyPat
     (*_, t_gen, _, _), = gen.intervals
     (*_, t_all, _, _), = every.intervals
     assert t_gen == pytest.approx(t_all, abs=T_TOL), (t_gen, t_all)
+
+
+def _label_instants(label: str) -> dict[int, float]:
+    """The switching instants a delay vertex's label names (``s{j}={value}``, vertices.delay_vertex_gammas)."""
+    import re
+
+    return {int(j): float(x) for j, x in re.findall(r"\bs(\d+)=([-0-9.e]+)", label)}
+
+
+@pytest.mark.parametrize("cfg", [
+    pytest.param(lambda: mapping_with(yaml.safe_load((ROOT / "configs" / "delay-dlo1.yaml").read_text()),
+                                      **{"synthesis.kinematics": "nonlinear"}), id="delay-dlo1"),
+    pytest.param(lambda: mapping_with(yaml.safe_load((ROOT / "configs" / "default.yaml").read_text()),
+                                      **{"network.delay": {"min": 0.02, "max": 0.29}}), id="default-d_hi-3"),
+])
+def test_the_same_end_vertices_are_the_delay_s_constant_extremes(cfg) -> None:
+    """_same_end_vertices (the long-delay start's first relaxation) keeps the end vertices whose instants all sit at
+    the same end, read two ways: from the instants the vertices carry (h_j) and from their labels (s~_j = Ts - h_j).
+    Per slip corner exactly two delay vertices: the instants all at their least s~ and all at their largest."""
+    model = build_model(cfg())
+    lin = model.linearized()
+    kept = phase1._same_end_vertices(lin)
+    ends = _exact_end_vertices(lin) or tuple(range(len(lin.vertices)))
+    assert kept is not None and set(kept) < set(ends)
+    Ts = model.config.network.sampling_time
+    s = {i: _label_instants(lin.vertices[i].label) for i in ends}
+    for i in ends:  # the two routes agree on every end vertex
+        h = lin.vertices[i].instants
+        assert sorted(s[i]) == list(range(len(h)))
+        assert all(abs(s[i][j] - (Ts - h[j])) <= 1e-9 for j in range(len(h))), (lin.vertices[i].label, h)
+    n = len(next(iter(s.values())))
+    lo = [min(s[i][j] for i in ends) for j in range(n)]
+    hi = [max(s[i][j] for i in ends) for j in range(n)]
+    varying = [j for j in range(n) if hi[j] - lo[j] > 1e-9]
+    assert varying
+    by_label = {i for i in ends if all(abs(s[i][j] - lo[j]) <= 1e-9 for j in varying)
+                or all(abs(s[i][j] - hi[j]) <= 1e-9 for j in varying)}
+    assert set(kept) == by_label
+    corners = {lin.vertices[i].corner for i in ends}
+    assert len(kept) == 2 * len(corners)

@@ -107,7 +107,8 @@ def test_an_exit_3_names_the_remedies_tried_and_their_figures_hold() -> None:
 def test_each_try_gets_its_share_of_what_is_left_of_the_budget(monkeypatch) -> None:
     """try_remedies on a clock of its own (no time measured): each try's deadline is what is left of the budget over
     the remedies still to try, so a try that runs to its deadline leaves the later ones their turn; the bounds a try
-    left untried are named; once the budget is spent a remedy is named, not tried."""
+    left untried are named; a try is not started where what is left is shorter than the longest try so far; once the
+    budget is spent a remedy is named, not tried."""
     from robustsynth.model import build_model
     from robustsynth.synthesis import remedies
 
@@ -122,10 +123,20 @@ def test_each_try_gets_its_share_of_what_is_left_of_the_budget(monkeypatch) -> N
         return None, (0.5, 0.7)
 
     lines = remedies.try_remedies(model, slow, lambda _m: None, budget_s=60.0)
-    assert len(deadlines) == 3 and len(lines) == 3
-    assert deadlines[0] == 100.0 + 60.0 / 3
-    assert deadlines[1] == 121.0 + (60.0 - 21.0) / 2 and deadlines[2] == 141.5 + (60.0 - 41.5)
-    assert all("none at the first try (heading bounds 0.5, 0.7 rad not tried" in line for line in lines)
+    assert len(deadlines) == 2 and len(lines) == 3
+    assert deadlines[0] == 100.0 + 60.0 / 3 and deadlines[1] == 121.0 + (60.0 - 21.0) / 2
+    assert all("none at the first try (heading bounds 0.5, 0.7 rad not tried" in line for line in lines[:2])
+    # the tries took 21 and 20.5 s: the 18.5 s left hold no third
+    assert lines[2].endswith("not tried (a try took up to 21 s here; 18 s of the tries' 60 s were left)"), lines[2]
+
+    def quick(m, deadline):  # 10 s each: all three fit
+        deadlines.append(deadline)
+        clock[0] += 10.0
+        return None, ()
+
+    deadlines.clear()
+    lines = remedies.try_remedies(model, quick, lambda _m: None, budget_s=60.0)
+    assert len(deadlines) == 3 and all(line.endswith("none at the first try") for line in lines)
 
     def hog(m, deadline):  # the first try takes the whole budget
         clock[0] += 61.0

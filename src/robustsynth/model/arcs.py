@@ -302,7 +302,7 @@ def turning_vertices(model, turns: Turns, theta_bar: float | None = None,
     out = []
     for (v, _, _, group), (A, B, E, Cq, Dq, Fq, Bp_v) in zip(jobs, parts):
         out.append(Vertex(A, B, E, Bp_v * scale, Cq / scale[:, None], Dq / scale[:, None], v.corner, v.label,
-                          Fq / scale[:, None], True, group))
+                          Fq / scale[:, None], True, group, v.instants))
     if within_period and model.icr:  # the icr channels cover every slip history on the constant-slip vertices
         return tuple(out[:n_base]), tuple(out[:n_base])
     return tuple(out[:n_base]), tuple(out[n_base:])

@@ -272,7 +272,7 @@ def _corner_vertices(config: Config, nominal: Model, delays: _Delays, iv: _Inter
             At, Bt = augment_integral(At, Bt, nominal.Ts, n_e)
         for t, lab in enumerate(delays.labels):
             vertices.append(Vertex(At[t], Bt[t], E, np.zeros((n_s, 0)), np.zeros((0, n_s)),
-                                   np.zeros((0, n_u)), m, f"{name}; {lab}"))
+                                   np.zeros((0, n_u)), m, f"{name}; {lab}", instants=tuple(map(float, iv.h[t]))))
             channels.append(vertex_channels(mu, np.stack([iv.h[t], iv.q[t]], axis=1), nominal.V, nominal.Ts, M, n_s,
                                             n_e, n_u, d_hi, lateral=lateral_row(mu, D) if icr else None))
     return vertices, channels

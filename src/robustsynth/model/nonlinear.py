@@ -435,7 +435,7 @@ def augment(v: Vertex, ch: KinematicChannels, theta_bar: float, V: float, scales
     Cq, Dq, Fq, Bp = _unscaled(ch, theta_bar, V, A.shape[0])
     Bp = Bp * scales
     Cq, Dq, Fq = Cq / scales[:, None], Dq / scales[:, None], Fq / scales[:, None]
-    return Vertex(A, B, E, Bp, Cq, Dq, v.corner, v.label, Fq, True, group)
+    return Vertex(A, B, E, Bp, Cq, Dq, v.corner, v.label, Fq, True, group, v.instants)
 
 
 def linearization_delta(ch: KinematicChannels) -> np.ndarray:

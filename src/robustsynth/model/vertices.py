@@ -52,6 +52,9 @@ class Vertex:
     F_q: np.ndarray | None = None
     diagonal: bool = False
     group: int = -1  # vertices of one group (>= 0) share their S-procedure multiplier
+    # the delay vertex's h_j (the time each command interval j acts on its triangle's (h, h^2/2) coordinates), one per
+    # instant, on the polytopic delay descriptions' vertices; () elsewhere
+    instants: tuple[float, ...] = ()
 
     @property
     def tangent(self) -> bool:

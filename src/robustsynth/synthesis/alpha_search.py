@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 from typing import Any, Callable
 
 import numpy as np
@@ -21,6 +22,21 @@ from .solver_process import trim_heap
 
 
 ALPHA_RANGE = (0.005, 0.95)  # line search range of alpha (log-spaced grid, then parabolic steps)
+
+
+@dataclass(frozen=True)
+class Relaxed:
+    """What a relaxation of a costly problem gave (:func:`_run_invariance`'s ``cheaper_hint``: the same LMIs on a subset
+    of its vertices, searched first): its best alpha and objective (at most the problem's at every alpha); ``whole``:
+    its certificate where the numpy re-check proves it on every vertex of the problem, with the relaxation's runner and
+    its vertices' indices (else None); ``settle``: ``value`` is not the relaxation's best over alpha (its own search
+    was settled so), and a certified solve of the problem at that alpha ends the search (a search's start, which needs
+    no finer alpha)."""
+
+    alpha: float
+    value: float
+    whole: tuple[_Best, tuple] | None = None
+    settle: bool = False
 
 
 GOLDEN_STEPS = 10  # a golden section where a parabola cannot be fitted (an infeasible neighbour)
@@ -204,7 +220,7 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     stop_rel: float = HINT_STOP_REL, bar: float | None = None,
                     prove: Callable[[], Phase1] | None = None, prove_first: bool = False,
                     gain_rule: bool | None = None,
-                    cheaper_hint: Callable[[float | None], tuple[float, float, Any] | None] | None = None,
+                    cheaper_hint: Callable[[float | None], Relaxed | None] | None = None,
                     rows: frozenset[bytes] | None = None) -> tuple[_Best, _Runner]:
     """The alpha line search of the invariance LMIs.  Without a hint: a log grid of alpha_points
     scanned upwards, then parabolic steps around its best point.  With ``alpha_hint`` (the best alpha
@@ -227,13 +243,12 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     are too where one solve is estimated at PROVE_FIRST_S or more.
     ``gain_rule``: the refinement stops at a step that gains less than COSTLY_GAIN (:func:`_refine`): by default where a
     solve is estimated at COSTLY_SOLVE_S or more; True: always (a remedy's quick try).  ``cheaper_hint``: where a
-    solve is estimated at COSTLY_SOLVE_S or more, given the hint (or None), the best alpha and objective of a relaxation
-    of these LMIs (a subset of the vertices, searched from the hint or scanned: cheaper), to walk from instead of the
-    hint or the scan (None: those), and where its
-    certificate holds on every vertex of this model, that certificate and the relaxation's runner with its vertices'
-    indices (else None).  A relaxation's objective is at most this problem's at every alpha, so where the solve at its
-    best alpha reaches its best objective (within COSTLY_STOP_REL) no alpha does better here, to that search's own
-    tolerance: the search ends there; where its very certificate holds here, without that solve.
+    solve is estimated at COSTLY_SOLVE_S or more, given the hint (or None), what a relaxation of these LMIs (a subset of
+    the vertices, searched from the hint or scanned: cheaper) gave (:class:`Relaxed`; None: the hint or the scan as
+    without it): its best alpha is walked from instead.  A relaxation's objective is at most this problem's at every
+    alpha, so where the solve at its best alpha reaches its best objective (within COSTLY_STOP_REL) no alpha does better
+    here, to that search's own tolerance: the search ends there; where its very certificate holds here, without that
+    solve; where it settles the search (a start), at that solve once it certifies.
     ``rows``: the heading rows the problem starts with (keys; None: every row), grown by row generation (_Runner)."""
     full = lambda mdl, rows=None: build_invariance(mdl, s.multiplier, s.margin, _weights(s), motor,  # noqa: E731
                                                    s.lyapunov, symmetry=False, heading_rows=rows)
@@ -267,12 +282,17 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     if cheaper_hint is not None and est >= COSTLY_SOLVE_S and not probe_only:
         relaxed = cheaper_hint(alpha_hint)
         if relaxed is not None:
-            alpha_hint, floor, whole = relaxed
-            if whole is not None:  # the relaxation's certificate holds on every vertex: this problem's optimum
+            alpha_hint = relaxed.alpha
+            if relaxed.whole is not None:  # the relaxation's certificate holds on every vertex: this problem's optimum
                 say("  its certificate holds on every vertex (the numpy re-check): no solve of all")
-                runner.stand_in = whole[1]
-                return whole[0], runner
-            if evaluate(math.log(alpha_hint)) <= floor * (1.0 + COSTLY_STOP_REL):
+                runner.stand_in = relaxed.whole[1]
+                return relaxed.whole[0], runner
+            at = evaluate(math.log(alpha_hint))
+            if relaxed.settle and math.isfinite(at):
+                say("  certified at the relaxation's alpha: enough for a start (no walk to a finer alpha)")
+                runner.settled = True
+                return best, runner
+            if at <= relaxed.value * (1.0 + COSTLY_STOP_REL):
                 say("  its best alpha certifies the relaxation's bound here too: no alpha does better")
                 return best, runner
     if prove is not None and runner.phase1 is None and est >= PROVE_FIRST_S and not probe_only and \

@@ -15,10 +15,10 @@ import numpy as np
 from ..certificate import check_certificate
 from ..config import SynthesisConfig
 from ..errors import InfeasibleError, SolverFailure
-from .alpha_search import ALPHA_RANGE, COSTLY_STOP_REL, _motor_pruner, _run_invariance
+from .alpha_search import ALPHA_RANGE, COSTLY_STOP_REL, Relaxed, _motor_pruner, _run_invariance
 from .lmis import generates_rows, heading_row_table
-from .phase1 import (INTERVALS, PARALLEL, Active, _exact_end_vertices, halvings_for, prove_no_set, screen, seed,
-                     seed_rows, settles)
+from .phase1 import (INTERVALS, PARALLEL, Active, _exact_end_vertices, _same_end_vertices, halvings_for, prove_no_set,
+                     screen, seed, seed_rows, settles)
 from .runner import _Best, _Runner, _wider_turns
 from .solve import RETRY
 
@@ -248,35 +248,45 @@ def _start(model: Any, s: SynthesisConfig, motor: bool, say: Callable[[str], Non
 
 
 def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable[[str], None],
-                       hint: float | None = None) -> tuple[float, float, tuple[_Best, tuple] | None] | None:
+                       hint: float | None = None, deeper: bool = True) -> Relaxed | None:
     """Where the linearized start's solves are costly (a long delay's vertices: 432 at d_hi = 3, ~6.5 s a solve), the
-    best alpha and objective of the same LMIs on the vertices with every uncertain instant at an end of its range (a
-    relaxation, about a third of them), scanned, or walked from ``hint`` (a remedy's start): it costs a fraction of the
-    whole's, and the whole starts from it (one solve where it certifies the same bound there, else a walk; not a scan
-    of twelve), or takes its certificate where the numpy re-check proves it on every vertex (:func:`_on_every_vertex`,
-    the third item; None where not).  None where there is no such subset, or it certified nothing (the whole is then
-    searched as it would have been)."""
-    ends = _exact_end_vertices(lin)
+    same LMIs on the vertices with every uncertain instant at an end of its range (a relaxation, about a third of them),
+    scanned, or walked from ``hint`` (a remedy's start): it costs a fraction of the whole's, and the whole starts from
+    its best alpha (one solve where it certifies the same bound there, else a walk; not a scan of twelve), or takes its
+    certificate where the numpy re-check proves it on every vertex (:func:`_on_every_vertex`).  Where a solve on those
+    is costly too (``deeper``; 256 end vertices at d_hi = 5, ~12 s a solve), they are searched the same way from the
+    end vertices with every instant at the same end (:func:`.phase1._same_end_vertices`, 32 there, ~1.5 s a solve),
+    and one solve of theirs at that alpha that certifies settles them: the start's alpha need not be their best (there
+    8.45 cm at 0.0469 against 8.28 cm at their best, 0.0366; 38 s against 125 s for their scan).  None where there is
+    no such subset, or it certified nothing (the vertices are then searched as they would have been)."""
+    ends = (_exact_end_vertices if deeper else _same_end_vertices)(lin)
     if ends is None:
         return None
     sub = replace(lin, vertices=tuple(lin.vertices[i] for i in ends))
     how = "walk from the hint" if hint is not None else "scan"
-    say(f"  each solve is costly: the {how} on the {len(ends)} vertices with every delay instant at an end of its "
+    at = "an end" if deeper else "the same end"
+    say(f"  each solve is costly: the {how} on the {len(ends)} vertices with every delay instant at {at} of its "
         "range first, then its certificate re-checked on every vertex (or a solve of all at its best alpha, a walk "
         "from there where that does not certify its bound)")
-    best, runner = _run_invariance(sub, sc, [], motor, lambda m: say("  " + m), alpha_hint=hint,
-                                   gain_rule=True if hint is not None else None)
+    inner = lambda m: say("  " + m)  # noqa: E731
+    best, runner = _run_invariance(sub, sc, [], motor, inner, alpha_hint=hint, gain_rule=True if hint is not None else None,
+                                   cheaper_hint=(lambda h: _end_vertices_hint(sub, sc, motor, inner, hint=h, deeper=False))
+                                   if deeper else None)
     runner.release_compiled()
     if best.cert is None:
         return None
-    return float(best.cert["alpha"]), best.value, _on_every_vertex(lin, best, runner, ends)
+    # a relaxation whose own search was settled at a deeper one's alpha settles this one too (its value is no minimum)
+    return Relaxed(float(best.cert["alpha"]), best.value, _on_every_vertex(lin, best, runner, ends),
+                   settle=not deeper or runner.settled)
 
 
 def _on_every_vertex(lin: Any, best: _Best, runner: _Runner, ends: tuple[int, ...]) -> tuple[_Best, tuple] | None:
     """The end vertices' certificate as one of ``lin`` (every vertex), where the numpy re-check proves it there: the
     LMIs at the other vertices (their instants inside their ranges) often hold already (the default robot at d_hi = 3:
     128 of 432 vertices, the re-check in 0.1 s against a 6.5 s solve of all).  Only without uncertainty channels (the
-    linearized start's delay vertices: no multiplier per vertex to carry).  None where it does not hold."""
+    linearized start's delay vertices: no multiplier per vertex to carry).  None where it does not hold.  With it, the
+    runner that solved (``runner``, or the relaxation ``runner`` took its own certificate from) and the indices in
+    ``lin`` of the vertices it solved on."""
     if any(v.n_q for v in lin.vertices):
         return None
     cert = dict(best.cert, vertices=len(lin.vertices),
@@ -284,6 +294,9 @@ def _on_every_vertex(lin: Any, best: _Best, runner: _Runner, ends: tuple[int, ..
     chk = check_certificate(lin, best.K, cert)
     if not chk.passed:
         return None
+    if runner.stand_in is not None:  # runner took its certificate from a relaxation of its own: that one solved
+        inner, index = runner.stand_in
+        return replace(best, cert=cert, check=chk), (inner, tuple(ends[i] for i in index))
     return replace(best, cert=cert, check=chk), (runner, ends)
 
 

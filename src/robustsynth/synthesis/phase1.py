@@ -114,6 +114,29 @@ def _exact_end_vertices(model: Any) -> tuple[int, ...] | None:
     return keep
 
 
+def _same_end_vertices(model: Any) -> tuple[int, ...] | None:
+    """The indices of the end vertices (:func:`_exact_end_vertices`) whose uncertain instants all sit at the same end
+    of their ranges: every h_j at its least, or every one at its largest (the delay's constant extremes; 32 of the 256
+    end vertices of the default robot at d_hi = 5).  None where the vertices carry no instants (``Vertex.instants``),
+    or that is every end vertex (or none).  The relaxation the linearized start of a long delay is scanned on first
+    (heading_search._end_vertices_hint): any subset of the vertices is a relaxation, so this choice bears on the
+    time a search takes, never on what it proves."""
+    ends = tuple(i for i, v in enumerate(model.vertices) if not v.tangent)
+    if not ends:
+        return None
+    H = [model.vertices[i].instants for i in ends]
+    if not H[0] or any(len(h) != len(H[0]) for h in H):
+        return None
+    H = np.asarray(H, dtype=float)
+    lo, hi = H.min(axis=0), H.max(axis=0)
+    tol = 1e-9 * max(float(np.abs(H).max()), 1e-300)
+    varies = hi - lo > tol
+    at_lo = np.all(np.abs(H - lo)[:, varies] <= tol, axis=1)
+    at_hi = np.all(np.abs(H - hi)[:, varies] <= tol, axis=1)
+    keep = tuple(ends[k] for k in np.flatnonzero(at_lo | at_hi))
+    return keep if varies.any() and 0 < len(keep) < len(ends) else None
+
+
 @dataclass
 class Active:
     """The vertices (indices into the model's) whose LMIs bound the last phase-1 problems: those with the largest

@@ -66,7 +66,9 @@ def try_remedies(model: Any, first_try: Callable[[Any, float], tuple[dict[str, A
     deadline), "none at the first try", why it could not be tried (the config refuses the change, the model cannot be
     built), or "not tried" once ``budget_s`` is spent.  Each try's deadline is its share of what is left of the budget
     (what is left over the remedies still to try): a try that is slow, or a machine that is busy, leaves the later
-    remedies their turn; a try checks it before each heading bound but its first."""
+    remedies their turn; a try checks it before each heading bound but its first.  A try is started only where what is
+    left of the budget holds one as long as the longest so far (on the default robot at d_hi = 5 a try took about
+    30 s: a third and a fourth would have run the tries to about 85 s, each stopped before its second heading bound)."""
     from ..config import config_to_dict, load_config
     from ..errors import RobustSynthError
 
@@ -75,18 +77,30 @@ def try_remedies(model: Any, first_try: Callable[[Any, float], tuple[dict[str, A
     lines: list[str] = []
     t0 = time.perf_counter()
     todo = candidates(cfg)
+    longest = 0.0  # [s] the longest try so far
     for k, (what, change) in enumerate(todo):
+        try:  # the changed config first: a refusal costs nothing (its model and its search do)
+            changed = load_config(_merged(base, change))
+        except RobustSynthError as exc:
+            lines.append(f"{what}: refused ({exc})")
+            continue
         left = budget_s - (time.perf_counter() - t0)
         if left <= 0:
             lines.append(f"{what}: not tried (the tries' {budget_s:.0f} s were spent)")
             continue
+        if longest > left:
+            lines.append(f"{what}: not tried (a try took up to {longest:.0f} s here; {left:.0f} s of the tries' "
+                         f"{budget_s:.0f} s were left)")
+            continue
         say(f"remedy: {what}, a quick search")
+        started = time.perf_counter()
         try:
-            figures, untried = first_try(model.rebuilt(load_config(_merged(base, change))),
-                                         time.perf_counter() + left / (len(todo) - k))
-        except RobustSynthError as exc:  # the change itself is refused (a config error), or found infeasible at once
+            figures, untried = first_try(model.rebuilt(changed), started + left / (len(todo) - k))
+        except RobustSynthError as exc:  # the model refuses the change, or the search finds it infeasible at once
             lines.append(f"{what}: refused ({exc})")
             continue
+        finally:
+            longest = max(longest, time.perf_counter() - started)
         if figures is None:
             lines.append(f"{what}: none at the first try" + (
                 f" (heading bounds {', '.join(f'{b:g}' for b in untried)} rad not tried: its share of the {budget_s:.0f} s "
