@@ -430,6 +430,15 @@ def test_an_end_vertex_certificate_that_holds_everywhere_is_the_start_s(monkeypa
     assert again.passed and again.figures["ultimate_bound"] == best.check.figures["ultimate_bound"]
     sub, index = runner.stand_in
     assert len(index) == 16 and len(sub.model.vertices) == 16
+    # the largest problem the start solved (the remedies' cost class): the end vertices', built again here
+    from robustsynth.synthesis.cost import solve_estimate
+    from robustsynth.synthesis.lmis import build_invariance
+    from robustsynth.synthesis.runner import _weights
+
+    sc = s.model_copy(update={"lyapunov": "common", "kinematics": "linearized"})
+    again_lp = build_invariance(sub.model, sc.multiplier, sc.margin, _weights(sc), True, sc.lyapunov,
+                                symmetry=sc.symmetry == "auto")
+    assert hs._largest_solved(runner) == solve_estimate(again_lp) > 0.0
     active = Active()
     hs._seed(active, runner)
     assert active.seed and set(active.seed) <= set(range(36)) and active.vertices == 36

@@ -144,3 +144,24 @@ def test_each_try_gets_its_share_of_what_is_left_of_the_budget(monkeypatch) -> N
 
     lines = remedies.try_remedies(model, hog, lambda _m: None, budget_s=60.0)
     assert lines[0].endswith("none at the first try") and all("not tried (the tries' 60 s were spent)" in x for x in lines[1:])
+
+
+def test_where_the_start_s_solves_are_slow_each_remedy_is_named_with_why() -> None:
+    """try_remedies with ``skip`` (the search's reason: its start's solves are estimated at COSTLY_SOLVE_S or more)
+    starts no try: every remedy is named with that reason, and one the config refuses is named as refused."""
+    from robustsynth.model import build_model
+    from robustsynth.synthesis import remedies
+
+    def never(m, deadline):
+        raise AssertionError("a try was started")
+
+    model = build_model(load_config(ROOT / "configs" / "tracks-box.yaml"))
+    lines = remedies.try_remedies(model, never, lambda _m: None, skip="slow here")
+    assert len(lines) == len(candidates(model.user_config)) == 3
+    assert lines[0].endswith(": not tried (slow here)"), lines  # said once, then referred to
+    assert all(line.endswith(": not tried (the same)") for line in lines[1:]), lines
+    default = build_model(load_config(ROOT / "configs" / "default.yaml"))  # its turns of 16 m do not fit the path
+    lines = remedies.try_remedies(default, never, lambda _m: None, skip="slow here")
+    assert lines[-1].startswith("reference.turn_radius 16 m: refused (reference.path:"), lines[-1]
+    assert lines[0].endswith(": not tried (slow here)"), lines
+    assert all(line.endswith(": not tried (the same)") for line in lines[1:-1]), lines

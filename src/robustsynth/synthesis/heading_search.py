@@ -15,7 +15,8 @@ import numpy as np
 from ..certificate import check_certificate
 from ..config import SynthesisConfig
 from ..errors import InfeasibleError, SolverFailure
-from .alpha_search import ALPHA_RANGE, COSTLY_STOP_REL, Relaxed, _motor_pruner, _run_invariance
+from .alpha_search import ALPHA_RANGE, COSTLY_SOLVE_S, COSTLY_STOP_REL, Relaxed, _motor_pruner, _run_invariance
+from .cost import solve_estimate
 from .lmis import generates_rows, heading_row_table
 from .phase1 import (INTERVALS, PARALLEL, Active, _exact_end_vertices, _same_end_vertices, halvings_for, prove_no_set,
                      screen, seed, seed_rows, settles)
@@ -89,10 +90,14 @@ def _tighten(model: Any, s: SynthesisConfig, search: list, motor: bool, say: Cal
 
 def _no_proof(model: Any, given: SynthesisConfig, s: SynthesisConfig, motor: bool, say: Callable[[str], None],
               common: _Best, tried: list, tried_at: dict, auto: bool, below: str | None, hint: float | None,
-              active: Active) -> None:
+              active: Active, start_solve: float = 0.0) -> None:
     """No heading bound gave a certificate: raise.  The last bound's runner is done with before this is called (it
     holds its problem, ~100 MB of expressions at d_hi = 3, which the remedies' own problems would otherwise sit
-    beside; no other bound's is kept: a runner is kept only with its certificate, and none certified here)."""
+    beside; no other bound's is kept: a runner is kept only with its certificate, and none certified here).  The
+    remedies are tried only where the start's solves are quick (``start_solve``, :func:`_largest_solved`, under
+    COSTLY_SOLVE_S): a try's own start solves at least one such problem, and where each takes longer (the default robot
+    at d_hi = 5: estimated 15 s, 17 s measured) a try spent the tries' 60 s on its start and one pair of heading bounds,
+    and told nothing."""
     # exit 4 where no solve of any heading bound concluded (every one failed), exit 3 where one did (a solver's
     # infeasibility, or a bound below the slip's own turn): the same rule for one bound and for auto's several
     if not auto and below is not None:  # the configured bound itself is the cause
@@ -109,8 +114,10 @@ def _no_proof(model: Any, given: SynthesisConfig, s: SynthesisConfig, motor: boo
                             f"near infeasibility{retries}). " + _nonlinear_infeasible(model, common, tried, tried_at, auto))
     from .remedies import try_remedies
 
+    slow = (f"a quick try's start solves a problem estimated at {start_solve:.0f} s here, quick tries need under "
+            f"{COSTLY_SOLVE_S:g} s: try it with synthesize") if start_solve >= COSTLY_SOLVE_S else None
     tries = try_remedies(model, lambda m, end: _first_try(m, given, motor, hint=hint, active=active, say=say, deadline=end),
-                         say)
+                         say, skip=slow)
     raise InfeasibleError(_nonlinear_infeasible(model, common, tried, tried_at, auto)
                           + (". Tried (" + "; ".join(tries) + ")" if tries else ""))
 
@@ -125,6 +132,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
     heading bounds, the alphas tried and the heading and forward-speed ranges of the linearized set; an exit 3
     also names what each remedy gave when tried (:mod:`robustsynth.synthesis.remedies`)."""
     common, crunner, least = _start(model, s, motor, say)
+    start_solve = _largest_solved(crunner)
     given = s
     # the channels' searches below (the linearized start keeps the configured solver: on configs/turns.yaml's arc
     # channels the scaled one took 1.4 s a point against 2.0 s unscaled, both optimal)
@@ -204,7 +212,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
         best, runner = _tighten(model, s, search, motor, say, best, runner, tried, active)
     if best.cert is None:
         r = m = None  # noqa: F841  (the last bound's runner and model released before the remedies: _no_proof)
-        _no_proof(model, given, s, motor, say, common, tried, tried_at, auto, below, hint, active)
+        _no_proof(model, given, s, motor, say, common, tried, tried_at, auto, below, hint, active, start_solve)
     return best, runner
 
 
@@ -245,6 +253,13 @@ def _start(model: Any, s: SynthesisConfig, motor: bool, say: Callable[[str], Non
                                       alpha_hint=hint, gain_rule=True if hint is not None else None,
                                       cheaper_hint=lambda h: _end_vertices_hint(lin, sc, motor, say, hint=h))
     return common, crunner, least
+
+
+def _largest_solved(runner: _Runner) -> float:
+    """The estimated time of one solve (:func:`.cost.solve_estimate`) of the largest problem the linearized start
+    solved: its own, or where it took a relaxation's certificate, the relaxation's (0 where it solved none)."""
+    chain = [runner] + ([runner.stand_in[0]] if runner.stand_in is not None else [])
+    return max((solve_estimate(r.lp) for r in chain if r.solves and r.lp is not None), default=0.0)
 
 
 def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable[[str], None],

@@ -60,7 +60,7 @@ def _merged(base: dict[str, Any], change: dict[str, Any]) -> dict[str, Any]:
 
 
 def try_remedies(model: Any, first_try: Callable[[Any, float], tuple[dict[str, Any] | None, tuple[float, ...]]],
-                 say: Callable[[str], None], budget_s: float = REMEDY_BUDGET_S) -> list[str]:
+                 say: Callable[[str], None], budget_s: float = REMEDY_BUDGET_S, skip: str | None = None) -> list[str]:
     """One line per remedy of :func:`candidates`: the certified |e_y| the quick search found for the robot with it
     (``first_try(model, deadline)``: the certified figures or None, and the heading bounds it left untried at the
     deadline), "none at the first try", why it could not be tried (the config refuses the change, the model cannot be
@@ -68,7 +68,8 @@ def try_remedies(model: Any, first_try: Callable[[Any, float], tuple[dict[str, A
     (what is left over the remedies still to try): a try that is slow, or a machine that is busy, leaves the later
     remedies their turn; a try checks it before each heading bound but its first.  A try is started only where what is
     left of the budget holds one as long as the longest so far (on the default robot at d_hi = 5 a try took about
-    30 s: a third and a fourth would have run the tries to about 85 s, each stopped before its second heading bound)."""
+    30 s: a third and a fourth would have run the tries to about 85 s, each stopped before its second heading bound).
+    ``skip``: why no try is started here (each remedy is then named with it, a refused one as refused)."""
     from ..config import config_to_dict, load_config
     from ..errors import RobustSynthError
 
@@ -83,6 +84,10 @@ def try_remedies(model: Any, first_try: Callable[[Any, float], tuple[dict[str, A
             changed = load_config(_merged(base, change))
         except RobustSynthError as exc:
             lines.append(f"{what}: refused ({exc})")
+            continue
+        if skip is not None:
+            said = any(line.endswith(f"not tried ({skip})") for line in lines)
+            lines.append(f"{what}: not tried ({'the same' if said else skip})")
             continue
         left = budget_s - (time.perf_counter() - t0)
         if left <= 0:
