@@ -40,6 +40,14 @@ HEADING_ROOM = 1.03  # the smaller bound tried: this times the set's heading wit
 HEADING_TIGHTEN = 2  # smaller bounds tried at most, each one solve at the best alpha
 
 
+# The first heading bound's phase-1 problems cut the alpha range into half as many intervals as INTERVALS (each with one
+# halving more, so the finest is as fine): the smallest bound, whose channels are the narrowest, settled far from any set
+# on every long delay measured (its largest t* -4e-5 at d_hi 2, -7e-5 at d_hi 3, -1.2e-4 at d_hi 5, each at or below
+# phase1.COARSEN_T, after which the next bound's layout is halved anyway); on the default robot at d_hi 3 it settles in
+# 12 s on 4 problems instead of 23 s on 8.  An interval left unsettled is halved as before (at worst 4 problems more).
+FIRST_INTERVALS = INTERVALS // 2
+
+
 # the first solver of the kinematic channels' problems: Clarabel without its equilibration concluded (optimal or
 # infeasible) at every alpha and heading bound tried on the default robot, where the scaled one returned inaccurate
 # points or failed at most of them (scaled: 9 of 10 solves at heading 0.1 rad inaccurate, 2 failed); on the tracks
@@ -144,7 +152,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
     bounds = _auto_bounds(common) if auto else (float(s.heading_bound),)
     best, runner, tried, below = _Best(), None, [], None
     phase1_alone = False  # whether phase-1 problems alone settled the previous bound (the next asks them first)
-    layout = INTERVALS  # how many intervals the next bound's phase-1 problems cut the alpha range into (Phase1.next_layout)
+    layout = FIRST_INTERVALS  # how many intervals the next bound's phase-1 problems cut the alpha range into (Phase1.next_layout)
     tried_at: dict[float, tuple[int, int]] = {}  # heading bound -> (alphas solved, of which the solver failed)
     active = Active()  # the vertices that bound the last phase-1 problems, tried first at the next (the same order)
     _seed(active, crunner)  # the first, where none has yet: those that bind the linearized start
