@@ -23,6 +23,7 @@ from ..conftest import boundary_points, committed_gain, make_config
 
 ROOT = Path(__file__).resolve().parents[2]
 LEVEL_TOL = 1e-9  # V/level: round-off only
+OBJECTIVE_TOL = 1e-4  # relative, two problems' optima compared: Clarabel's reduced tolerances stop at 5e-5
 
 
 @pytest.fixture(scope="module")
@@ -400,8 +401,8 @@ def test_an_end_vertex_certificate_that_holds_everywhere_is_the_start_s(monkeypa
     the active vertices, as indices of the whole model (configs/delay-dlo1.yaml with nonlinear kinematics: 16 of 36
     vertices, costly forced).  A model with uncertainty channels at its vertices carries no such certificate.  Costly
     forced on the end vertices too, they start from the 8 with every instant at the same end: one solve of theirs at
-    that relaxation's best alpha which certifies settles them (a start needs no finer alpha), at a bound no smaller
-    than the relaxation's there."""
+    that relaxation's best alpha which certifies settles them (a start needs no finer alpha), at an objective no
+    smaller than the relaxation's there; a relaxation's stand-in is mapped into the whole model's vertices."""
     from dataclasses import replace
 
     from robustsynth.config import mapping_with
@@ -421,9 +422,6 @@ def test_an_end_vertex_certificate_that_holds_everywhere_is_the_start_s(monkeypa
     assert any("enough for a start" in ln for ln in lines), lines
     end_solves = [ln for ln in lines if ln.startswith("    alpha = ")]  # the end vertices' own: the one at the hint
     assert len(end_solves) == 1 and f"alpha = {best.cert['alpha']:.4g}:" in end_solves[0], end_solves
-    relaxed = [ln for ln in lines if ln.startswith("      alpha = ") and f"alpha = {best.cert['alpha']:.4g}:" in ln]
-    cm = lambda ln: float(ln.split("|e_y| <= ")[1].split(" cm")[0])  # noqa: E731
-    assert relaxed and cm(end_solves[0]) >= cm(relaxed[-1])  # a relaxation's bound is at most the whole's
     lin = model.linearized()
     assert best.cert["vertices"] == len(lin.vertices) == 36
     again = check_certificate(lin, best.K, best.cert)
@@ -439,6 +437,21 @@ def test_an_end_vertex_certificate_that_holds_everywhere_is_the_start_s(monkeypa
     again_lp = build_invariance(sub.model, sc.multiplier, sc.margin, _weights(sc), True, sc.lyapunov,
                                 symmetry=sc.symmetry == "auto")
     assert hs._largest_solved(runner) == solve_estimate(again_lp) > 0.0
+    # the same-end relaxation searched again (deterministic): its best alpha is the start's, and there its objective
+    # (its best) is at most the end vertices' (a relaxation's, at the same alpha)
+    relaxed = hs._end_vertices_hint(sub.model, sc, True, lambda _m: None, deeper=False)
+    assert relaxed is not None and relaxed.settle and relaxed.alpha == best.cert["alpha"]
+    assert relaxed.value <= best.value * (1.0 + OBJECTIVE_TOL), (relaxed.value, best.value)
+    # a stand-in of a stand-in: its indices are mapped into the whole model (here the same-end vertices, found
+    # again among the whole's by their instants)
+    from robustsynth.synthesis.phase1 import _same_end_vertices
+    from robustsynth.synthesis.runner import _Runner
+
+    inner = _same_end_vertices(sub.model)
+    outer = _Runner(sub.model, None, s.solver, lambda vals: vals)
+    outer.stand_in = (sub, inner)
+    _, (solved, mapped) = hs._on_every_vertex(lin, best, outer, index)
+    assert solved is sub and mapped == tuple(index[i] for i in inner) == _same_end_vertices(lin)
     active = Active()
     hs._seed(active, runner)
     assert active.seed and set(active.seed) <= set(range(36)) and active.vertices == 36

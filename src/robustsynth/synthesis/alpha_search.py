@@ -29,9 +29,9 @@ class Relaxed:
     """What a relaxation of a costly problem gave (:func:`_run_invariance`'s ``cheaper_hint``: the same LMIs on a subset
     of its vertices, searched first): its best alpha and objective (at most the problem's at every alpha); ``whole``:
     its certificate where the numpy re-check proves it on every vertex of the problem, with the relaxation's runner and
-    its vertices' indices (else None); ``settle``: ``value`` is not the relaxation's best over alpha (its own search
-    was settled so), and a certified solve of the problem at that alpha ends the search (a search's start, which needs
-    no finer alpha)."""
+    its vertices' indices (else None); ``settle``: a certified solve of the problem at that alpha ends the search, with
+    no comparison with ``value`` (a search's start, which needs no finer alpha; where the relaxation's own search was
+    settled or walked from a deeper one, ``value`` is no best over alpha)."""
 
     alpha: float
     value: float
@@ -283,14 +283,15 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         relaxed = cheaper_hint(alpha_hint)
         if relaxed is not None:
             alpha_hint = relaxed.alpha
-            if relaxed.whole is not None:  # the relaxation's certificate holds on every vertex: this problem's optimum
+            # the relaxation's certificate holds on every vertex: this problem's optimum, where the relaxation's was its
+            # own (else, where settled, a certificate at its alpha)
+            if relaxed.whole is not None:
                 say("  its certificate holds on every vertex (the numpy re-check): no solve of all")
                 runner.stand_in = relaxed.whole[1]
                 return relaxed.whole[0], runner
             at = evaluate(math.log(alpha_hint))
             if relaxed.settle and math.isfinite(at):
                 say("  certified at the relaxation's alpha: enough for a start (no walk to a finer alpha)")
-                runner.settled = True
                 return best, runner
             if at <= relaxed.value * (1.0 + COSTLY_STOP_REL):
                 say("  its best alpha certifies the relaxation's bound here too: no alpha does better")

@@ -43,7 +43,7 @@ HEADING_TIGHTEN = 2  # smaller bounds tried at most, each one solve at the best 
 # The first heading bound's phase-1 problems cut the alpha range into half as many intervals as INTERVALS (each with one
 # halving more, so the finest is as fine): the smallest bound, whose channels are the narrowest, settled far from any set
 # on every long delay measured (its largest t* -4e-5 at d_hi 2, -7e-5 at d_hi 3, -1.2e-4 at d_hi 5, each at or below
-# phase1.COARSEN_T, after which the next bound's layout is halved anyway); on the default robot at d_hi 3 it settles in
+# -phase1.COARSEN_T, after which the next bound's layout is halved anyway); on the default robot at d_hi 3 it settles in
 # 12 s on 4 problems instead of 23 s on 8.  An interval left unsettled is halved as before (at worst 4 problems more).
 FIRST_INTERVALS = INTERVALS // 2
 
@@ -122,12 +122,12 @@ def _no_proof(model: Any, given: SynthesisConfig, s: SynthesisConfig, motor: boo
                             f"near infeasibility{retries}). " + _nonlinear_infeasible(model, common, tried, tried_at, auto))
     from .remedies import try_remedies
 
-    slow = (f"a quick try's start solves a problem estimated at {start_solve:.0f} s here, quick tries need under "
-            f"{COSTLY_SOLVE_S:g} s: try it with synthesize") if start_solve >= COSTLY_SOLVE_S else None
+    slow = (f"a quick try's start solves a problem estimated at {start_solve:.1f} s here, quick tries need under "
+            f"{COSTLY_SOLVE_S:g} s: run synthesize with that change in the config") if start_solve >= COSTLY_SOLVE_S else None
     tries = try_remedies(model, lambda m, end: _first_try(m, given, motor, hint=hint, active=active, say=say, deadline=end),
                          say, skip=slow)
     raise InfeasibleError(_nonlinear_infeasible(model, common, tried, tried_at, auto)
-                          + (". Tried (" + "; ".join(tries) + ")" if tries else ""))
+                          + ((". Remedies (" if slow else ". Tried (") + "; ".join(tries) + ")" if tries else ""))
 
 
 def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
@@ -265,7 +265,9 @@ def _start(model: Any, s: SynthesisConfig, motor: bool, say: Callable[[str], Non
 
 def _largest_solved(runner: _Runner) -> float:
     """The estimated time of one solve (:func:`.cost.solve_estimate`) of the largest problem the linearized start
-    solved: its own, or where it took a relaxation's certificate, the relaxation's (0 where it solved none)."""
+    solved: its own, or where it took a relaxation's certificate, the relaxation's (0 where it solved none).  A
+    heuristic for a remedy's quick start, on a model like this one, which mostly solves the same problems: where a
+    relaxation's certificate held on every vertex here, a problem built and spared is not counted."""
     chain = [runner] + ([runner.stand_in[0]] if runner.stand_in is not None else [])
     return max((solve_estimate(r.lp) for r in chain if r.solves and r.lp is not None), default=0.0)
 
@@ -278,7 +280,7 @@ def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable
     its best alpha (one solve where it certifies the same bound there, else a walk; not a scan of twelve), or takes its
     certificate where the numpy re-check proves it on every vertex (:func:`_on_every_vertex`).  Where a solve on those
     is costly too (``deeper``; 256 end vertices at d_hi = 5, ~12 s a solve), they are searched the same way from the
-    end vertices with every instant at the same end (:func:`.phase1._same_end_vertices`, 32 there, ~1.5 s a solve),
+    end vertices with every instant at the same end (:func:`.phase1._same_end_vertices`, 32 there, ~1.3 s a solve),
     and one solve of theirs at that alpha that certifies settles them: the start's alpha need not be their best (there
     8.45 cm at 0.0469 against 8.28 cm at their best, 0.0366; 38 s against 125 s for their scan).  None where there is
     no such subset, or it certified nothing (the vertices are then searched as they would have been)."""
@@ -288,19 +290,28 @@ def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable
     sub = replace(lin, vertices=tuple(lin.vertices[i] for i in ends))
     how = "walk from the hint" if hint is not None else "scan"
     at = "an end" if deeper else "the same end"
+    then = ("a solve of all at its best alpha, a walk from there where that does not certify its bound" if deeper else
+            f"one solve of the {len(lin.vertices)} at its best alpha, enough for a start where it certifies, a walk "
+            "from there where not")
     say(f"  each solve is costly: the {how} on the {len(ends)} vertices with every delay instant at {at} of its "
-        "range first, then its certificate re-checked on every vertex (or a solve of all at its best alpha, a walk "
-        "from there where that does not certify its bound)")
+        f"range first, then its certificate re-checked on every vertex (or {then})")
     inner = lambda m: say("  " + m)  # noqa: E731
+    asked: list[Relaxed] = []  # what the deeper relaxation gave, where it was asked
+
+    def deeper_hint(h: float | None) -> Relaxed | None:
+        got = _end_vertices_hint(sub, sc, motor, inner, hint=h, deeper=False)
+        asked.extend([got] if got is not None else [])
+        return got
+
     best, runner = _run_invariance(sub, sc, [], motor, inner, alpha_hint=hint, gain_rule=True if hint is not None else None,
-                                   cheaper_hint=(lambda h: _end_vertices_hint(sub, sc, motor, inner, hint=h, deeper=False))
-                                   if deeper else None)
+                                   cheaper_hint=deeper_hint if deeper else None)
     runner.release_compiled()
     if best.cert is None:
         return None
-    # a relaxation whose own search was settled at a deeper one's alpha settles this one too (its value is no minimum)
+    # where these vertices' search started from a deeper relaxation, its value is no scan's best (settled at that
+    # relaxation's alpha, or a walk's from there): this one settles too, with no claim that no alpha does better
     return Relaxed(float(best.cert["alpha"]), best.value, _on_every_vertex(lin, best, runner, ends),
-                   settle=not deeper or runner.settled)
+                   settle=not deeper or bool(asked))
 
 
 def _on_every_vertex(lin: Any, best: _Best, runner: _Runner, ends: tuple[int, ...]) -> tuple[_Best, tuple] | None:

@@ -131,8 +131,6 @@ class _Runner:
         # the runner of a relaxation on a subset of this model's vertices (their indices) whose certificate holds on
         # every vertex, taken instead of a solve here (alpha_search's cheaper_hint): its duals seed the active vertices
         self.stand_in: tuple[_Runner, tuple[int, ...]] | None = None
-        # its search ended at a relaxation's alpha once certified there, not at its own best alpha (a start's: Relaxed)
-        self.settled = False
 
     def attach(self, lp: LMIProblem) -> None:
         """The problem of a runner made before it (``lp`` None: phase-1 problems asked first, which may spare it)."""
