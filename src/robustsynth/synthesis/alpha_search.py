@@ -273,14 +273,14 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                 symmetry=s.symmetry == "auto", heading_rows=rows)
     runner.attach(lp)
     evaluate = _Evaluator(lp, runner, best, w, search, say)
-    est = 0.0 if probe_only else solve_estimate(lp)
+    est = runner.estimate = 0.0 if probe_only else solve_estimate(lp)
     costly = est >= COSTLY_SOLVE_S if gain_rule is None else gain_rule
     if not probe_only:
         say(f"  {lmi_count(lp)} LMIs (the largest {lmi_rows(lp)} rows) per alpha; each point is one solve"
             + (f" (about {_duration(est)} each, estimated from its size)" if est >= 1.0 else "") + ", a failed one is retried")
     grid = np.linspace(math.log(ALPHA_RANGE[0]), math.log(ALPHA_RANGE[1]), s.alpha_points)
     if cheaper_hint is not None and est >= COSTLY_SOLVE_S and not probe_only:
-        relaxed = cheaper_hint(alpha_hint)
+        relaxed = runner.relaxed = cheaper_hint(alpha_hint)
         if relaxed is not None:
             alpha_hint = relaxed.alpha
             # the relaxation's certificate holds on every vertex: this problem's optimum, where the relaxation's was its

@@ -16,7 +16,6 @@ from ..certificate import check_certificate
 from ..config import SynthesisConfig
 from ..errors import InfeasibleError, SolverFailure
 from .alpha_search import ALPHA_RANGE, COSTLY_SOLVE_S, COSTLY_STOP_REL, Relaxed, _motor_pruner, _run_invariance
-from .cost import solve_estimate
 from .lmis import generates_rows, heading_row_table
 from .phase1 import (INTERVALS, PARALLEL, Active, _exact_end_vertices, _same_end_vertices, halvings_for, prove_no_set,
                      screen, seed, seed_rows, settles)
@@ -269,7 +268,7 @@ def _largest_solved(runner: _Runner) -> float:
     heuristic for a remedy's quick start, on a model like this one, which mostly solves the same problems: where a
     relaxation's certificate held on every vertex here, a problem built and spared is not counted."""
     chain = [runner] + ([runner.stand_in[0]] if runner.stand_in is not None else [])
-    return max((solve_estimate(r.lp) for r in chain if r.solves and r.lp is not None), default=0.0)
+    return max((r.estimate for r in chain if r.solves), default=0.0)
 
 
 def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable[[str], None],
@@ -296,22 +295,16 @@ def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable
     say(f"  each solve is costly: the {how} on the {len(ends)} vertices with every delay instant at {at} of its "
         f"range first, then its certificate re-checked on every vertex (or {then})")
     inner = lambda m: say("  " + m)  # noqa: E731
-    asked: list[Relaxed] = []  # what the deeper relaxation gave, where it was asked
-
-    def deeper_hint(h: float | None) -> Relaxed | None:
-        got = _end_vertices_hint(sub, sc, motor, inner, hint=h, deeper=False)
-        asked.extend([got] if got is not None else [])
-        return got
-
     best, runner = _run_invariance(sub, sc, [], motor, inner, alpha_hint=hint, gain_rule=True if hint is not None else None,
-                                   cheaper_hint=deeper_hint if deeper else None)
+                                   cheaper_hint=(lambda h: _end_vertices_hint(sub, sc, motor, inner, hint=h, deeper=False))
+                                   if deeper else None)
     runner.release_compiled()
     if best.cert is None:
         return None
     # where these vertices' search started from a deeper relaxation, its value is no scan's best (settled at that
     # relaxation's alpha, or a walk's from there): this one settles too, with no claim that no alpha does better
     return Relaxed(float(best.cert["alpha"]), best.value, _on_every_vertex(lin, best, runner, ends),
-                   settle=not deeper or bool(asked))
+                   settle=not deeper or runner.relaxed is not None)
 
 
 def _on_every_vertex(lin: Any, best: _Best, runner: _Runner, ends: tuple[int, ...]) -> tuple[_Best, tuple] | None:

@@ -86,8 +86,8 @@ def try_remedies(model: Any, first_try: Callable[[Any, float], tuple[dict[str, A
             lines.append(f"{what}: refused ({exc})")
             continue
         if skip is not None:
-            said = any(line.endswith(f"not tried ({skip})") for line in lines)
-            lines.append(f"{what}: not tried ({'the same' if said else skip})")
+            lines.append(f"{what}: not tried ({skip})")
+            skip = "the same"  # (said once)
             continue
         left = budget_s - (time.perf_counter() - t0)
         if left <= 0:

@@ -131,6 +131,8 @@ class _Runner:
         # the runner of a relaxation on a subset of this model's vertices (their indices) whose certificate holds on
         # every vertex, taken instead of a solve here (alpha_search's cheaper_hint): its duals seed the active vertices
         self.stand_in: tuple[_Runner, tuple[int, ...]] | None = None
+        self.estimate = 0.0  # [s] one solve of its problem, estimated (cost.solve_estimate; 0: not estimated)
+        self.relaxed: Any = None  # what the relaxation its search started from gave (alpha_search.Relaxed), if any
 
     def attach(self, lp: LMIProblem) -> None:
         """The problem of a runner made before it (``lp`` None: phase-1 problems asked first, which may spare it)."""
