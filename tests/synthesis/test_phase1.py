@@ -273,6 +273,63 @@ def test_where_one_solve_would_cost_a_minute_the_phase1_problems_go_first(monkey
     assert not asked and best.cert is not None  # certified at the hint: no phase-1 problem asked
 
 
+def test_where_a_solve_is_costly_a_screen_at_the_hint_that_shows_no_set_sends_the_phase1_problems_first(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Where one solve is estimated at COSTLY_SOLVE_S or more (the icr default at d_hi 2: 11 s, where the hint's solve
+    ended in solver_error after 19 s), a phase-1 problem at the hint (``screen``) is asked before the hint's solve:
+    where it shows no set there, the phase-1 problems over the range go first (proven: no solve at all); where it shows
+    one, the search solves at the hint as without it and certifies.  Below the threshold (every committed config) the
+    screen is not asked."""
+    from robustsynth.synthesis import alpha_search
+    from robustsynth.synthesis.alpha_search import _run_invariance
+    from robustsynth.synthesis.cost import solve_estimate
+
+    model, s, cases = _proofs_at(0.2)
+    est = solve_estimate(build_invariance(model, s.multiplier, s.margin, np.ones(3), True, s.lyapunov,
+                                          symmetry=s.symmetry == "auto"))
+    assert est < alpha_search.COSTLY_SOLVE_S  # a cheap problem: the threshold is lowered below its estimate
+    monkeypatch.setattr(alpha_search, "COSTLY_SOLVE_S", est / 2)
+    for none_there in (True, False):
+        for t, prove, asked in _proofs_at(0.2)[2]:
+            screened: list[float] = []
+            lines: list[str] = []
+            best, runner = _run_invariance(model, s, [], True, say=lines.append, alpha_hint=0.2, retry=False,
+                                           prove=prove, screen=lambda a: screened.append(a) or none_there)
+            assert screened == [0.2]
+            if none_there:
+                assert len(asked) == 1 and "shows no set there" in lines[1], lines[:3]
+            if none_there and t < 0:
+                assert best.cert is None and runner.solves == 0 and runner.phase1_alone
+            else:  # (the committed certificate's class at the hint: it certifies)
+                assert runner.solves > 0 and best.cert is not None
+    monkeypatch.setattr(alpha_search, "COSTLY_SOLVE_S", est * 2)
+    screened = []
+    best, runner = _run_invariance(model, s, [], True, alpha_hint=0.2, retry=False, prove=cases[0][1],
+                                   screen=lambda a: screened.append(a) or True)
+    assert not screened and best.cert is not None
+
+
+def test_the_screen_at_a_certified_alpha_shows_a_set_and_without_known_vertices_solves_nothing() -> None:
+    """phase1.screen_at on the vertices that bind the committed certificate of configs/nonlinear-proof.yaml, at its
+    own alpha and heading bound: a subset of the vertices is a relaxation, so where the whole certifies it cannot show
+    'no set' (t* > 0 on them).  An Active of another model's vertex count, or with none, asks no solve."""
+    m, K, cert = committed_gain("nonlinear-proof")
+    _, s = _nonlinear_proof()
+    model = m.with_heading_bound(float(cert["heading_bound"]), within_period=bool(m.covering_vertices))
+    lp = build_invariance(model, s.multiplier, s.margin, np.ones(3), True, s.lyapunov, symmetry=False)
+    lp.params["alpha"].value = float(cert["alpha"])
+    lp.params["one_minus_alpha"].value = 1.0 - float(cert["alpha"])
+    assert solve(lp.problem, s.solver, lambda: True).kind == "ok"
+    active = Active()
+    assert seed(active, model, lp) and active.seed
+    said: list[str] = []
+    assert not phase1.screen_at(model, s, True, float(cert["alpha"]), active, said.append)
+    assert said and "t* = " in said[0] and active.indices
+    for other in (Active(vertices=len(model.vertices) + 1, seed=(0,)), Active(vertices=len(model.vertices))):
+        assert not phase1.screen_at(model, s, True, float(cert["alpha"]), other, said.append)
+    assert len(said) == 1
+
+
 def test_an_infeasible_hint_where_solves_are_costly_asks_the_phase1_problems_before_the_scan() -> None:
     """Where each solve is costly (``gain_rule``: as where one is estimated at COSTLY_SOLVE_S or more; the icr default
     at d_hi 2 takes 15-90 s a solve) and the hint's solve ends infeasible, the phase-1 problems are asked before the
@@ -540,6 +597,38 @@ def test_row_generation_ends_where_every_row_holds(monkeypatch: pytest.MonkeyPat
     (*_, t_gen, _, _), = gen.intervals
     (*_, t_all, _, _), = every.intervals
     assert t_gen == pytest.approx(t_all, abs=T_TOL), (t_gen, t_all)
+
+
+def test_between_the_lifted_rows_and_generation_an_every_row_try_solves_again_only_where_rows_break(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Where the rows are posed as linear rows but too few to be generated in the main problems (the default robot at
+    d_hi 2: 2 601, between LIFT_ROWS and GENERATE_ROWS), prove_no_set's every-row try starts from the active rows: the
+    last solution on them is checked against every row, and solved again only with the rows it breaks.  Its t* is the
+    one every row posed at once gives (configs/nonlinear-proof.yaml at 0.16 rad, where rows bind; forced sizes)."""
+    monkeypatch.setattr(lmis, "LIFT_ROWS", 0)
+    monkeypatch.setattr(lmis, "GENERATE_ROWS", 10**9)
+    m, K, cert = committed_gain("nonlinear-proof")
+    _, s = _nonlinear_proof()
+    model = m.with_heading_bound(0.16, within_period=True)
+    a = 0.11
+    n_rows = len(lmis.heading_row_table(model))
+    for posed in (_farthest(model, np.asarray(cert["Q"], dtype=float), K, 4),
+                  lmis.heading_row_table(model).keys(np.arange(n_rows))):
+        said: list[str] = []
+        said_all: list[str] = []
+        gen = prove_no_set(model, s, True, (a / 1.1, a * 1.1), intervals=1, active=Active(rows=tuple(posed)),
+                           halvings=0, say=said.append)
+        every = prove_no_set(model, s, True, (a / 1.1, a * 1.1), intervals=1, active=Active(), halvings=0,
+                             say=said_all.append)
+        (*_, t_gen, _, _), = gen.intervals
+        (*_, t_all, _, _), = every.intervals
+        assert not gen.proven and t_gen == pytest.approx(t_all, abs=T_TOL), (t_gen, t_all)
+        solves = sum("phase-1 on alpha" in line for line in said)
+        if len(posed) < n_rows:  # 4 rows leave rows broken: solved again with them
+            assert any("break the solution" in line for line in said), said
+        else:  # every row posed already: each solution is checked, found to hold every row, and not solved again
+            assert not any("break the solution" in line for line in said), said
+            assert solves == sum("phase-1 on alpha" in line for line in said_all), (said, said_all)
 
 
 def _label_instants(label: str) -> dict[int, float]:

@@ -221,7 +221,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     prove: Callable[[], Phase1] | None = None, prove_first: bool = False,
                     gain_rule: bool | None = None,
                     cheaper_hint: Callable[[float | None], Relaxed | None] | None = None,
-                    rows: frozenset[bytes] | None = None) -> tuple[_Best, _Runner]:
+                    rows: frozenset[bytes] | None = None,
+                    screen: Callable[[float], bool] | None = None) -> tuple[_Best, _Runner]:
     """The alpha line search of the invariance LMIs.  Without a hint: a log grid of alpha_points
     scanned upwards, then parabolic steps around its best point.  With ``alpha_hint`` (the best alpha
     of a cheaper certificate class): walk from the hint in quarter grid steps while the bound falls,
@@ -249,7 +250,11 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     alpha, so where the solve at its best alpha reaches its best objective (within COSTLY_STOP_REL) no alpha does better
     here, to that search's own tolerance: the search ends there; where its very certificate holds here, without that
     solve; where it settles the search (a start), at that solve once it certifies.
-    ``rows``: the heading rows the problem starts with (keys; None: every row), grown by row generation (_Runner)."""
+    ``rows``: the heading rows the problem starts with (keys; None: every row), grown by row generation (_Runner).
+    ``screen``: given the hint, whether a phase-1 problem at that alpha on a subset of the vertices shows no set there
+    (:func:`.phase1.screen_at`); asked where a solve is estimated at COSTLY_SOLVE_S or more, before the hint's solve:
+    where it shows none, the phase-1 problems over the alpha range go first (the hint's solve would certify nothing,
+    and on such problems it most often fails: the default robot at d_hi = 2, 19 s for solver_error)."""
     full = lambda mdl, rows=None: build_invariance(mdl, s.multiplier, s.margin, _weights(s), motor,  # noqa: E731
                                                    s.lyapunov, symmetry=False, heading_rows=rows)
     w = _weights(s)
@@ -298,6 +303,10 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                 return best, runner
     if prove is not None and runner.phase1 is None and est >= PROVE_FIRST_S and not probe_only and \
             _settled_by_phase1(runner, prove, search, say, why="costly"):
+        return best, runner
+    if prove is not None and screen is not None and runner.phase1 is None and est >= COSTLY_SOLVE_S and \
+            not probe_only and alpha_hint is not None and screen(alpha_hint) and \
+            _settled_by_phase1(runner, prove, search, say, why="screened"):
         return best, runner
     if probe_only and alpha_hint is not None:  # one solve at the hint (is this class worth a search?)
         evaluate(math.log(alpha_hint))
@@ -398,6 +407,8 @@ _WHY_PHASE1 = {  # why the phase-1 problems are asked, as the progress line says
     "infeasible": "infeasible at the hint, and each solve is costly: phase-1 problems over the alpha range before the "
                   "scan",
     "costly": f"each solve is estimated at {PROVE_FIRST_S:g} s or more: phase-1 problems over the alpha range first",
+    "screened": f"each solve is estimated at {COSTLY_SOLVE_S:g} s or more, and a phase-1 problem at the hint on the "
+                "vertices that bind shows no set there: phase-1 problems over the alpha range first",
 }
 
 

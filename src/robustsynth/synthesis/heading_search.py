@@ -18,7 +18,7 @@ from ..errors import InfeasibleError, SolverFailure
 from .alpha_search import ALPHA_RANGE, COSTLY_SOLVE_S, COSTLY_STOP_REL, Relaxed, _motor_pruner, _run_invariance
 from .lmis import generates_rows, heading_row_table
 from .phase1 import (INTERVALS, PARALLEL, Active, _exact_end_vertices, _same_end_vertices, halvings_for, prove_no_set,
-                     screen, seed, seed_rows, settles)
+                     screen, screen_at, seed, seed_rows, settles)
 from .runner import _Best, _Runner, _wider_turns
 from .solve import RETRY
 
@@ -188,7 +188,8 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                                    bar=best.value if best.cert is not None else None,
                                    prove=lambda m=m, n=layout: prove_no_set(m, s, motor, ALPHA_RANGE, say, active=active,
                                                                              intervals=n, halvings=halvings_for(n)),
-                                   prove_first=phase1_alone)
+                                   prove_first=phase1_alone,
+                                   screen=lambda a, m=m: screen_at(m, s, motor, a, active, say))
             if best.cert is not None and (b.cert is None or b.value >= best.value):
                 tried.append((tb, "not better at the best alpha"))
                 break

@@ -460,6 +460,12 @@ def row_ratios(table: HeadingRowTable, rooms: np.ndarray, W: list[np.ndarray]) -
     return out
 
 
+def lifts_rows(model: Any) -> bool:
+    """Whether ``model``'s heading rows are posed as linear rows on a lifted matrix (more than LIFT_ROWS): a problem
+    posed on a subset of them can be checked against the rest (:func:`rows_broken`)."""
+    return model.heading_bound is not None and len(heading_row_table(model)) > LIFT_ROWS
+
+
 def generates_rows(model: Any) -> bool:
     """Whether problems of ``model`` start on a subset of its heading rows and generate the rest: more than
     GENERATE_ROWS rows (posed as linear rows)."""

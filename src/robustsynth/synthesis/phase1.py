@@ -31,7 +31,7 @@ from .lmis import build_invariance
 from .solve import solve, solve_all
 from .solver_process import trim_heap
 
-__all__ = ["Phase1", "Active", "prove_no_set", "screen", "seed", "seed_rows", "settles", "PHASE1_BOX", "T_PROVEN",
+__all__ = ["Phase1", "Active", "prove_no_set", "screen", "screen_at", "seed", "seed_rows", "settles", "PHASE1_BOX", "T_PROVEN",
            "INTERVALS", "HALVINGS", "halvings_for"]
 
 # X_00, X_11 <= PHASE1_BOX [m^2]: the set {xi' X^-1 xi <= 1} keeps |e_x|, |e_y| <= 1 m (the other states are bounded
@@ -197,13 +197,16 @@ def _every_row(model: Any, active: Active, idx: tuple[int, ...], ivs: list[tuple
                ) -> list[tuple[float | None, str]]:
     """prove_no_set's t* of ``ivs`` on the vertices ``idx`` with every heading row (``run`` its solve of intervals on
     a vertex subset and heading rows, ``latest`` the last run's problems by interval): by row generation where the rows
-    are many (:func:`lmis.generates_rows`; the active rows first, or the last run's solutions where it posed them on
-    these vertices; an interval left unsettled whose solution breaks rows not posed is solved again with the worst of
-    them added, :func:`lmis.rows_broken`, until its solution holds every row, whose t* is then the one of every row);
-    every row posed at once where they are few.  Where the rows are many they are never all posed at once (2.2 million
-    at d_hi = 5: 3.9 GB of coefficients): an interval whose solve failed, or whose rounds (ROW_ROUNDS) did not
-    conclude, stays unsettled."""
-    rows = active.row_set() if lmis.generates_rows(model) else None
+    are posed as linear rows (more than LIFT_ROWS) and some are ranked (:func:`seed_rows`, :func:`_rank_rows`): the
+    active rows first, or the last run's solutions where it posed them on these vertices; an interval left unsettled
+    whose solution breaks rows not posed is solved again with the worst of them added, :func:`lmis.rows_broken`, until
+    its solution holds every row, whose t* is then the one of every row.  Every row posed at once where they are few.
+    Where the rows are many they are never all posed at once (2.2 million at d_hi = 5: 3.9 GB of coefficients): an
+    interval whose solve failed, or whose rounds (ROW_ROUNDS) did not conclude, stays unsettled.  Between LIFT_ROWS
+    and lmis.GENERATE_ROWS rows (the default robot at d_hi = 2: 2 601) an unsettled interval's solution on the active
+    rows most often holds every row already (its t* is then the one of every row, with no solve more): there, where
+    the rounds do not conclude, the interval is solved with every row at once."""
+    rows = active.row_set() if active.rows is not None and lmis.lifts_rows(model) else None
     if rows is None:
         return run(idx, ivs)
     known = latest["by"] if latest["key"] == (idx, rows) else {}
@@ -212,7 +215,7 @@ def _every_row(model: Any, active: Active, idx: tuple[int, ...], ivs: list[tuple
         run(idx, fresh, rows)
     solved = {iv: known.get(iv) or latest["by"][iv] for iv in ivs}  # (its problem, its t* and status)
     lps, out = {iv: s[0] for iv, s in solved.items()}, {iv: s[1] for iv, s in solved.items()}
-    todo = list(ivs)
+    todo, whole = list(ivs), []  # whole: the intervals to solve with every row at once (where the rows are few)
     for _ in range(ROW_ROUNDS):
         new: set[bytes] = set()
         again = []
@@ -223,14 +226,20 @@ def _every_row(model: Any, active: Active, idx: tuple[int, ...], ivs: list[tuple
             if broken:
                 new.update(broken)
                 again.append(iv)
+            elif broken is None and t is not None and not settles(t):
+                whole.append(iv)
         if not again:
+            todo = []
             break
         rows = rows | new
         say(f"  {len(new)} heading rows not posed break the solution: posed too")
         out.update(zip(again, run(idx, again, rows)))
         lps.update({iv: latest["by"][iv][0] for iv in again})
         todo = again
-    return [out[iv] for iv in ivs]  # (rounds that did not conclude leave their intervals unsettled)
+    whole += todo  # (rounds that did not conclude)
+    if whole and not lmis.generates_rows(model):  # few enough to pose at once
+        out.update(zip(whole, run(idx, whole)))
+    return [out[iv] for iv in ivs]  # (where the rows are many, rounds that did not conclude leave their intervals unsettled)
 
 
 def prove_no_set(model: Any, s: Any, motor: bool, alpha_range: tuple[float, float],
@@ -350,6 +359,20 @@ def screen(models: list[Any], s: Any, motor: bool, alpha: float, active: Active)
         _rank(active, idx, lps, ts)
         out += [t for t, _ in ts]
     return out
+
+
+def screen_at(model: Any, s: Any, motor: bool, alpha: float, active: Active, say: Callable[[str], None]) -> bool:
+    """Whether the phase-1 problem of ``model`` at the single alpha ``alpha`` on the vertices of ``active`` (those that
+    bound the last phase-1 problems, or before any, those that bind the start: :func:`seed`) shows no set there
+    (:func:`screen`, t* <= -T_PROVEN).  False where no vertex of a model like this one is known."""
+    if active.vertices != len(model.vertices) or not (active.indices or active.seed):
+        return False
+    if not active.indices:
+        active.indices = active.seed
+    t = screen([model], s, motor, alpha, active)[0]
+    say(f"  phase-1 at the hint, alpha {alpha:.4g}, on {len(active.indices)} vertices: "
+        + ("the solver failed" if t is None else f"t* = {t:.3g}"))
+    return settles(t)
 
 
 def _lp_weights(model: Any, lp: Any) -> list[float] | None:
