@@ -71,6 +71,38 @@ def test_the_vertices_that_bind_are_carried_to_the_next_problems() -> None:
     assert again.intervals[0][3] == len(active.indices) < n_first
 
 
+def test_the_completion_is_the_delay_vertex_that_binds_most_at_every_slip_corner() -> None:
+    """phase1._completion, the step between the active vertices and the end vertices: the active vertices with every
+    end vertex whose delay vertex (its instants h_j) is that of the active vertex with the largest dual weight in
+    their solved problem: one delay vertex at each slip corner (configs/delay-dlo1.yaml with the nonlinear kinematics
+    at 0.3 rad: 36 vertices, 16 end vertices, 4 slip corners).  Nothing where the vertices carry no instants, or where
+    no solved problem ranks them."""
+    from dataclasses import replace
+
+    cfg = mapping_with(yaml.safe_load((ROOT / "configs" / "delay-dlo1.yaml").read_text()),
+                       **{"synthesis.kinematics": "nonlinear"})
+    model, s = build_model(cfg).with_heading_bound(0.3, within_period=True), _kinematic(cfg.synthesis)
+    ends = _exact_end_vertices(model)
+    n_corners = len(model.corners)
+    active = tuple(ends[k] for k in (0, 5, 10))  # three end vertices of different delay vertices
+    assert len({model.vertices[i].instants for i in active}) == 3
+    w = np.array([s.weights.e_x, s.weights.e_y, s.weights.e_theta])
+    lp = build_invariance(replace(model, vertices=tuple(model.vertices[i] for i in active)), s.multiplier, s.margin, w,
+                          True, s.lyapunov, symmetry=False, phase1=PHASE1_BOX)
+    lp.params["one_minus_alpha"].value, lp.params["alpha"].value = 1.0 - 0.005, 0.0096
+    assert solve(lp.problem, s.solver, lambda: True, fallback=False).kind == "ok"
+    weights = phase1._vertex_weights(lp)
+    top = active[int(np.argmax(weights))]
+    got = phase1._completion(model, active, [lp], ends)
+    same = [i for i in ends if model.vertices[i].instants == model.vertices[top].instants]
+    assert got == tuple(sorted(set(active) | set(same)))
+    assert len(same) == n_corners == len({model.vertices[i].corner for i in same})  # that delay vertex, every corner
+    assert len(active) < len(got) < len(ends)
+    bare = replace(model, vertices=tuple(replace(v, instants=()) for v in model.vertices))
+    assert phase1._completion(bare, active, [lp], ends) is None
+    assert phase1._completion(model, active, [], ends) is None
+
+
 def test_the_vertices_that_bind_the_linearized_start_seed_the_first_proof() -> None:
     """Before any phase-1 problem has ranked the vertices, the first starts on those that bind the linearized
     certificate where the search starts (its duals; the nonlinear model has the same vertices in the same order).
