@@ -93,14 +93,16 @@ def test_the_completion_is_the_delay_vertex_that_binds_most_at_every_slip_corner
     assert solve(lp.problem, s.solver, lambda: True, fallback=False).kind == "ok"
     weights = phase1._vertex_weights(lp)
     top = active[int(np.argmax(weights))]
-    got = phase1._completion(model, active, [lp], ends)
+    solved = [(lp, (float(lp.extra["t"].value), "optimal"))]
+    got = phase1._completion(model, active, solved, ends)
     same = [i for i in ends if model.vertices[i].instants == model.vertices[top].instants]
     assert got == tuple(sorted(set(active) | set(same)))
     assert len(same) == n_corners == len({model.vertices[i].corner for i in same})  # that delay vertex, every corner
     assert len(active) < len(got) < len(ends)
     bare = replace(model, vertices=tuple(replace(v, instants=()) for v in model.vertices))
-    assert phase1._completion(bare, active, [lp], ends) is None
+    assert phase1._completion(bare, active, solved, ends) is None
     assert phase1._completion(model, active, [], ends) is None
+    assert phase1._completion(model, active, [(lp, (None, "solver_error"))], ends) is None  # a failed solve ranks none
 
 
 def test_the_vertices_that_bind_the_linearized_start_seed_the_first_proof() -> None:
@@ -330,10 +332,17 @@ def test_where_a_solve_is_costly_a_screen_at_the_hint_that_shows_no_set_sends_th
             assert screened == [0.2]
             if none_there:
                 assert len(asked) == 1 and "shows no set there" in lines[1], lines[:3]
+            else:  # a set at the hint: the search as without the screen, whose hint certifies
+                assert not asked
             if none_there and t < 0:
                 assert best.cert is None and runner.solves == 0 and runner.phase1_alone
             else:  # (the committed certificate's class at the hint: it certifies)
                 assert runner.solves > 0 and best.cert is not None
+    # past a certified heading bound (``bar``): no set at the hint ends the search there, as its solve would have
+    t, prove, asked = _proofs_at(0.2)[2][0]
+    best, runner = _run_invariance(model, s, [], True, alpha_hint=0.2, retry=False, prove=prove, bar=1.0,
+                                   screen=lambda a: True)
+    assert best.cert is None and runner.solves == 0 and not asked
     monkeypatch.setattr(alpha_search, "COSTLY_SOLVE_S", est * 2)
     screened = []
     best, runner = _run_invariance(model, s, [], True, alpha_hint=0.2, retry=False, prove=cases[0][1],
@@ -360,6 +369,13 @@ def test_the_screen_at_a_certified_alpha_shows_a_set_and_without_known_vertices_
     for other in (Active(vertices=len(model.vertices) + 1, seed=(0,)), Active(vertices=len(model.vertices))):
         assert not phase1.screen_at(model, s, True, float(cert["alpha"]), other, said.append)
     assert len(said) == 1
+    # where an interval is proven (integral action at 0.2 rad, alpha in [0.005, 0.0096]: the test below), the screen at
+    # an alpha inside it shows no set: a single alpha's problem is tighter than the interval's
+    mi, si = _nonlinear_proof(**{"synthesis.integral_action": True})
+    mi = mi.with_heading_bound(0.2, within_period=True)
+    assert prove_no_set(mi, si, True, (0.005, 0.0096), intervals=1).proven
+    every = Active(indices=tuple(range(len(mi.vertices))), vertices=len(mi.vertices))
+    assert phase1.screen_at(mi, si, True, 0.007, every, said.append)
 
 
 def test_an_infeasible_hint_where_solves_are_costly_asks_the_phase1_problems_before_the_scan() -> None:
@@ -661,6 +677,69 @@ def test_between_the_lifted_rows_and_generation_an_every_row_try_solves_again_on
         else:  # every row posed already: each solution is checked, found to hold every row, and not solved again
             assert not any("break the solution" in line for line in said), said
             assert solves == sum("phase-1 on alpha" in line for line in said_all), (said, said_all)
+
+
+@pytest.mark.parametrize("how", ["values say nothing", "no round"])
+def test_between_the_lifted_rows_and_generation_an_inconclusive_every_row_try_poses_every_row(
+        monkeypatch: pytest.MonkeyPatch, how: str) -> None:
+    """Where the rows are few enough to pose at once (below GENERATE_ROWS) and the every-row try's generation cannot
+    conclude (rows_broken says nothing, or no round is left), the interval is solved with every row at once: its t* is
+    every row's (configs/nonlinear-proof.yaml at 0.16 rad, 4 rows active; forced sizes)."""
+    monkeypatch.setattr(lmis, "LIFT_ROWS", 0)
+    monkeypatch.setattr(lmis, "GENERATE_ROWS", 10**9)
+    if how == "values say nothing":
+        monkeypatch.setattr(lmis, "rows_broken", lambda *_a, **_k: None)
+    else:
+        monkeypatch.setattr(phase1, "ROW_ROUNDS", 0)
+    m, K, cert = committed_gain("nonlinear-proof")
+    _, s = _nonlinear_proof()
+    model = m.with_heading_bound(0.16, within_period=True)
+    a = 0.11
+    posed = _farthest(model, np.asarray(cert["Q"], dtype=float), K, 4)
+    said: list[str] = []
+    gen = prove_no_set(model, s, True, (a / 1.1, a * 1.1), intervals=1, active=Active(rows=tuple(posed)), halvings=0,
+                       say=said.append)
+    every = prove_no_set(model, s, True, (a / 1.1, a * 1.1), intervals=1, active=Active(), halvings=0)
+    (*_, t_gen, _, _), = gen.intervals
+    (*_, t_all, _, _), = every.intervals
+    assert t_gen == pytest.approx(t_all, abs=T_TOL), (t_gen, t_all)
+    assert any("phase-1 on alpha" in line and "heading rows" not in line for line in said), said  # every row posed
+
+
+def test_the_completion_step_runs_between_the_active_and_the_end_vertices(monkeypatch: pytest.MonkeyPatch) -> None:
+    """prove_no_set asks _completion once the active vertices leave an interval unsettled at depth 0, with the active
+    vertices and their solved problems, and tries the vertices it returns before the end vertices; the proof is the
+    one the end vertices give (configs/delay-dlo1.yaml with the nonlinear kinematics at 0.3 rad, alpha in [0.005,
+    0.0096], proven on the end vertices; two end vertices active)."""
+    cfg = mapping_with(yaml.safe_load((ROOT / "configs" / "delay-dlo1.yaml").read_text()),
+                       **{"synthesis.kinematics": "nonlinear"})
+    model, s = build_model(cfg).with_heading_bound(0.3, within_period=True), _kinematic(cfg.synthesis)
+    ends = _exact_end_vertices(model)
+    calls: list[tuple] = []
+    real = phase1._completion
+
+    def spy(m, active, solved, base):
+        got = real(m, active, solved, base)
+        calls.append((active, len(solved), base, got))
+        return got
+
+    monkeypatch.setattr(phase1, "_completion", spy)
+    active = Active(indices=(ends[0], ends[1]), vertices=len(model.vertices))
+    said: list[str] = []
+    proof = prove_no_set(model, s, True, (0.005, 0.0096), intervals=1, active=active, halvings=0, say=said.append)
+    assert proof.proven, proof.summary()
+    tried = [line for line in said if "phase-1 on alpha" in line]
+    assert "(2 vertices" in tried[0], tried
+    if proof.intervals[0][3] == 2:  # the two settled it: nothing more asked
+        assert not calls
+        return
+    assert len(calls) == 1, calls
+    first, n_solved, base, got = calls[0]
+    assert first == (ends[0], ends[1]) and n_solved == 1 and base == ends
+    sizes = [int(line.split("(")[1].split(" vertices")[0]) for line in tried]
+    assert sizes[-1] == proof.intervals[0][3]  # the interval is recorded with the vertices that settled it
+    if got is not None:  # tried after the two, before any end-vertex problem
+        assert len(got) in sizes and sizes.index(len(got)) < (sizes.index(len(ends)) if len(ends) in sizes else len(sizes))
 
 
 def _label_instants(label: str) -> dict[int, float]:

@@ -251,10 +251,7 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     here, to that search's own tolerance: the search ends there; where its very certificate holds here, without that
     solve; where it settles the search (a start), at that solve once it certifies.
     ``rows``: the heading rows the problem starts with (keys; None: every row), grown by row generation (_Runner).
-    ``screen``: given the hint, whether a phase-1 problem at that alpha on a subset of the vertices shows no set there
-    (:func:`.phase1.screen_at`); asked where a solve is estimated at COSTLY_SOLVE_S or more, before the hint's solve:
-    where it shows none, the phase-1 problems over the alpha range go first (the hint's solve would certify nothing,
-    and on such problems it most often fails: the default robot at d_hi = 2, 19 s for solver_error)."""
+    ``screen``: given the hint, whether a phase-1 problem at that alpha shows no set there (:func:`_asked_first`)."""
     full = lambda mdl, rows=None: build_invariance(mdl, s.multiplier, s.margin, _weights(s), motor,  # noqa: E731
                                                    s.lyapunov, symmetry=False, heading_rows=rows)
     w = _weights(s)
@@ -301,12 +298,7 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
             if at <= relaxed.value * (1.0 + COSTLY_STOP_REL):
                 say("  its best alpha certifies the relaxation's bound here too: no alpha does better")
                 return best, runner
-    if prove is not None and runner.phase1 is None and est >= PROVE_FIRST_S and not probe_only and \
-            _settled_by_phase1(runner, prove, search, say, why="costly"):
-        return best, runner
-    if prove is not None and screen is not None and runner.phase1 is None and est >= COSTLY_SOLVE_S and \
-            not probe_only and alpha_hint is not None and screen(alpha_hint) and \
-            _settled_by_phase1(runner, prove, search, say, why="screened"):
+    if not probe_only and _asked_first(runner, prove, screen, est, alpha_hint, bar, search, say):
         return best, runner
     if probe_only and alpha_hint is not None:  # one solve at the hint (is this class worth a search?)
         evaluate(math.log(alpha_hint))
@@ -340,6 +332,27 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     _refine(lambda x: evaluate(x, unscaled_only=unscaled), sorted([(float(g), v) for g, v in zip(grid, vals)] + extra),
             best, costly, say, rel=stop_rel)
     return best, runner
+
+
+def _asked_first(runner: _Runner, prove: Callable[[], Phase1] | None, screen: Callable[[float], bool] | None,
+                 est: float, alpha_hint: float | None, bar: float | None, search: list, say: Callable[[str], None]
+                 ) -> bool:
+    """_run_invariance's phase-1 problems before any solve, where one is costly (``est``, its estimate): where it is
+    estimated at PROVE_FIRST_S or more, or at COSTLY_SOLVE_S or more and ``screen`` (given the hint: whether a phase-1
+    problem at that alpha on a subset of the vertices shows no set there, :func:`.phase1.screen_at`) shows no set at
+    the hint, whose solve would then certify nothing (on such problems it most often fails: the default robot at
+    d_hi = 2, 19 s for solver_error).  True where the search ends here: they settled the range, or (past a certified
+    bound, ``bar``) the screen shows that the hint cannot beat it, as its solve would have."""
+    if prove is None or runner.phase1 is not None:
+        return False
+    if est >= PROVE_FIRST_S:
+        return _settled_by_phase1(runner, prove, search, say, why="costly")
+    if screen is None or est < COSTLY_SOLVE_S or alpha_hint is None or not screen(alpha_hint):
+        return False
+    if bar is not None:  # no set at the hint: it does not beat the bar there, and the search ends as it would
+        say("  no set at the hint: not better there (no solve)")
+        return True
+    return _settled_by_phase1(runner, prove, search, say, why="screened")
 
 
 def _from_hint(evaluate: "_Evaluator", runner: _Runner, best: _Best, grid: np.ndarray, alpha_hint: float,

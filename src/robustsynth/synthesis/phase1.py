@@ -169,6 +169,7 @@ DUAL_FLOOR = 1e-3  # a vertex whose dual weight is below this fraction of the la
 # 89 s with every row, every t* the same to 1e-10 (measured side by side, the active set carried across the bounds)
 ACTIVE_ROWS = 500
 # rounds of row generation in prove_no_set's every-row tries (_every_row); an interval they do not conclude stays unsettled
+# where the rows are generated (beyond lmis.GENERATE_ROWS), and is solved with every row at once where they are fewer
 ROW_ROUNDS = 8
 EVERY = frozenset({b"every heading row"})  # settle's marker: the interval with every heading row (run_all_rows)
 
@@ -205,8 +206,9 @@ def _every_row(model: Any, active: Active, idx: tuple[int, ...], ivs: list[tuple
     Where the rows are many they are never all posed at once (2.2 million at d_hi = 5: 3.9 GB of coefficients): an
     interval whose solve failed, or whose rounds (ROW_ROUNDS) did not conclude, stays unsettled.  Between LIFT_ROWS
     and lmis.GENERATE_ROWS rows (the default robot at d_hi = 2: 2 601) an unsettled interval's solution on the active
-    rows most often holds every row already (its t* is then the one of every row, with no solve more): there, where
-    the rounds do not conclude, the interval is solved with every row at once."""
+    rows most often holds every row already (its t* is then the one of every row, with no solve more): there, an
+    interval whose solve on a subset failed, whose values say nothing (:func:`lmis.rows_broken` None) or whose rounds
+    did not conclude is solved with every row at once."""
     rows = active.row_set() if active.rows is not None and lmis.lifts_rows(model) else None
     if rows is None:
         return run(idx, ivs)
@@ -227,7 +229,7 @@ def _every_row(model: Any, active: Active, idx: tuple[int, ...], ivs: list[tuple
             if broken:
                 new.update(broken)
                 again.append(iv)
-            elif broken is None and t is not None and not settles(t):
+            elif t is None or (broken is None and not settles(t)):  # failed, or its values say nothing
                 whole.append(iv)
         if not again:
             todo = []
@@ -237,7 +239,7 @@ def _every_row(model: Any, active: Active, idx: tuple[int, ...], ivs: list[tuple
         out.update(zip(again, run(idx, again, rows)))
         lps.update({iv: latest["by"][iv][0] for iv in again})
         todo = again
-    whole += todo  # (rounds that did not conclude)
+    whole += [iv for iv in todo if not settles(out[iv][0])]  # (rounds that did not conclude; a settled one is a proof)
     if whole and not lmis.generates_rows(model):  # few enough to pose at once
         out.update(zip(whole, run(idx, whole)))
     return [out[iv] for iv in ivs]  # (where the rows are many, rounds that did not conclude leave their intervals unsettled)
@@ -246,17 +248,20 @@ def _every_row(model: Any, active: Active, idx: tuple[int, ...], ivs: list[tuple
 COMPLETE = ("the active vertices completed",)  # settle's marker: the step _completion resolves
 
 
-def _completion(model: Any, active: tuple[int, ...], lps: list[Any], base: tuple[int, ...]) -> tuple[int, ...] | None:
+def _completion(model: Any, active: tuple[int, ...], solved: list[tuple[Any, tuple[float | None, str]]],
+                base: tuple[int, ...]) -> tuple[int, ...] | None:
     """The active vertices (indices of ``model``'s) with the base vertices whose delay vertex (``Vertex.instants``) is
-    that of the active vertex with the largest dual weight in the solved problems ``lps`` (on the active vertices):
-    that delay vertex at every slip corner.  None where the vertices carry no instants, no dual ranks them, or the
-    completion would hold as many vertices as the base.  A subset of the vertices is a relaxation, so this choice
+    that of the active vertex with the largest dual weight in the problems ``solved`` (on the active vertices: each with
+    its (t*, status); one whose solve failed keeps an earlier solve's duals, and is passed over): that delay vertex at
+    every slip corner.  None where the vertices carry no instants, no dual ranks them, the completion adds no vertex
+    (the top vertex a tangent one, or its delay vertex's end vertices active already), or it would hold as many
+    vertices as the base.  A subset of the vertices is a relaxation, so this choice
     bears on the time a proof takes, never on what it proves.  On the default robot at d_hi = 2 (0.2 rad, alpha in
     [0.0358, 0.0496]) the 10 active vertices left t* +4.1e-6 and +1.5e-6; 16 more, one delay vertex at the 16 slip
     corners, gave -3.31e-5 and -2.78e-5 in 11 s, as the 64 end vertices do in 32 s (two intervals at once)."""
     weights = [0.0] * len(active)
-    for lp in lps:
-        if lp is None or lp.extra.get("t") is None or lp.extra["t"].value is None:
+    for lp, (t, _) in solved:
+        if t is None:
             continue
         w = _vertex_weights(lp)
         if len(w) == len(active):
@@ -327,8 +332,8 @@ def prove_no_set(model: Any, s: Any, motor: bool, alpha_range: tuple[float, floa
 
     def settle(ivs: list[tuple[float, float]], depth: int) -> bool:
         """Settle ``ivs`` (PARALLEL at a time): on the active vertices, then (at ``depth`` 0, or with no active
-        vertices) on ``base``; an interval still unsettled is halved (``depth`` > 0), else solved on every vertex.
-        False at the first interval left unsettled."""
+        vertices) on their completion (:func:`_completion`) and on ``base``; an interval still unsettled is halved
+        (``depth`` > 0), else solved on every vertex.  False at the first interval left unsettled."""
         for k in range(0, len(ivs), PARALLEL):
             chunk = ivs[k : k + PARALLEL]
             last: dict[tuple[float, float], tuple[float | None, str, int] | None] = {iv: None for iv in chunk}
@@ -347,7 +352,7 @@ def prove_no_set(model: Any, s: Any, motor: bool, alpha_range: tuple[float, floa
             for idx, rows in tries + [(idx, EVERY) for idx in every + complete + wider]:
                 todo = [iv for iv in chunk if last[iv] is None or not settles(last[iv][0])]
                 if todo and idx is COMPLETE:
-                    idx = _completion(model, first[0], [latest["by"][iv][0] for iv in todo if iv in latest["by"]]
+                    idx = _completion(model, first[0], [latest["by"][iv] for iv in todo if iv in latest["by"]]
                                       if latest["key"] is not None and latest["key"][0] == first[0] else [], base)
                     if idx is None:
                         continue
@@ -403,14 +408,19 @@ def screen(models: list[Any], s: Any, motor: bool, alpha: float, active: Active)
 def screen_at(model: Any, s: Any, motor: bool, alpha: float, active: Active, say: Callable[[str], None]) -> bool:
     """Whether the phase-1 problem of ``model`` at the single alpha ``alpha`` on the vertices of ``active`` (those that
     bound the last phase-1 problems, or before any, those that bind the start: :func:`seed`) shows no set there
-    (:func:`screen`, t* <= -T_PROVEN).  False where no vertex of a model like this one is known."""
+    (:func:`screen`, t* <= -T_PROVEN).  False where no vertex of a model like this one is known, or where the rows are
+    generated and none is ranked yet (the screen would pose every one).  Never a proof by itself: it only decides
+    whether the phase-1 problems over the range go before a costly solve."""
     if active.vertices != len(model.vertices) or not (active.indices or active.seed):
+        return False
+    if active.rows is None and lmis.generates_rows(model):  # it would pose every row (2.2 million at d_hi = 5)
         return False
     if not active.indices:
         active.indices = active.seed
+    n = len(active.indices)  # (screen ranks them anew)
     t = screen([model], s, motor, alpha, active)[0]
-    say(f"  phase-1 at the hint, alpha {alpha:.4g}, on {len(active.indices)} vertices: "
-        + ("the solver failed" if t is None else f"t* = {t:.3g}"))
+    trim_heap()  # what its problem held goes back before the problems that may follow
+    say(f"  phase-1 at the hint, alpha {alpha:.4g}, on {n} vertices: " + ("the solver failed" if t is None else f"t* = {t:.3g}"))
     return settles(t)
 
 
