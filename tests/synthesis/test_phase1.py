@@ -324,7 +324,8 @@ def test_where_a_solve_is_costly_a_screen_at_the_hint_that_shows_no_set_sends_th
     assert est < alpha_search.COSTLY_SOLVE_S  # a cheap problem: the threshold is lowered below its estimate
     monkeypatch.setattr(alpha_search, "COSTLY_SOLVE_S", est / 2)
     for none_there in (True, False):
-        for t, prove, asked in _proofs_at(0.2)[2]:
+        # (a set at the hint: the stand-in proof's answer is never asked, one case tells it)
+        for t, prove, asked in _proofs_at(0.2)[2][: 2 if none_there else 1]:
             screened: list[float] = []
             lines: list[str] = []
             best, runner = _run_invariance(model, s, [], True, say=lines.append, alpha_hint=0.2, retry=False,
