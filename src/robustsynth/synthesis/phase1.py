@@ -352,8 +352,9 @@ def prove_no_set(model: Any, s: Any, motor: bool, alpha_range: tuple[float, floa
             for idx, rows in tries + [(idx, EVERY) for idx in every + complete + wider]:
                 todo = [iv for iv in chunk if last[iv] is None or not settles(last[iv][0])]
                 if todo and idx is COMPLETE:
-                    idx = _completion(model, first[0], [latest["by"][iv] for iv in todo if iv in latest["by"]]
-                                      if latest["key"] is not None and latest["key"][0] == first[0] else [], base)
+                    on_active = latest["key"] is not None and latest["key"][0] == first[0]  # the last run's vertices
+                    idx = _completion(model, first[0], [latest["by"][iv] for iv in todo if on_active and iv in latest["by"]],
+                                      base)
                     if idx is None:
                         continue
                 got = (run_all_rows(idx, todo) if rows is EVERY else run(idx, todo, rows)) if todo else []
