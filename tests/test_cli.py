@@ -322,11 +322,13 @@ def test_the_cleanup_keeps_what_existed_and_never_turns_an_error_into_a_tracebac
 def test_a_linear_plants_gains_record_the_overrides(tmp_path) -> None:
     """Third review, stop 47: `synthesize --solver scs` on a linear plant left nothing in gains.json that
     said scs was used (the robot's files record synthesis_overrides)."""
-    cfg = Path(__file__).resolve().parents[1] / "configs" / "zbp-h1.yaml"
-    r = CliRunner().invoke(main, ["synthesize", str(cfg), "--solver", "scs", "-o", str(tmp_path / "o")])
+    cfg = Path(__file__).resolve().parents[1] / "configs" / "dc-motor.yaml"  # the cheapest linear plant (4 s with scs)
+    r = CliRunner().invoke(main, ["synthesize", str(cfg), "--solver", "scs", "--objective", "stability",
+                                  "-o", str(tmp_path / "o")])
     assert r.exit_code == 0, r.output
     g = json.loads((tmp_path / "o" / "gains.json").read_text())
-    assert g["synthesis_overrides"] == {"synthesis.solver": "scs"} and g["config"]["synthesis"]["solver"] == "clarabel"
+    assert g["synthesis_overrides"] == {"synthesis.solver": "scs", "synthesis.objective": "stability"}
+    assert g["config"]["synthesis"]["solver"] == "clarabel" and g["config"]["synthesis"]["objective"] != "stability"
 
 
 def test_the_cleanup_follows_symlinks_and_covers_a_gains_files_directory(tmp_path) -> None:
