@@ -3,11 +3,14 @@ robot itself: one period of exact arcs with lateral slide, from random lifted st
 parameter jumping between values of its box at its own time within the period, random delays, on a straight
 segment and along arcs with the turning feedforward: wherever |e_theta(t)| (on arcs: its deviation from the
 reference's turn) stays within the heading bound, the robot's e_x, e_y and e_theta at t_{k+1} lie within what the
-constant-slip vertices' hull and the channels allow.  Negative controls: beyond the heading bound, and without
-the linear deviation channels, the robot leaves that allowance."""
+vertices' hull and the channels allow: the vertices of each command interval's twist with their channels (the
+layout synthesis makes), and the constant-slip vertices with the channels alone (``icr_channels``: certificates made
+before).  Negative controls: beyond the heading bound, and without the linear deviation channels or the vertices
+that replace them, the robot leaves that allowance."""
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import replace
 
 import numpy as np
@@ -26,7 +29,7 @@ TOL = 1e-12  # round-off of one period's arcs against the vertex algebra (errors
 THETA_BAR = 0.2
 
 
-def _model(radius=None, **over):
+def _model(radius=None, icr_channels=False, **over):
     d = load_config(ROOT / "configs" / "icr-physics.yaml").model_dump(mode="json")
     d["synthesis"].update(kinematics="nonlinear", heading_bound=THETA_BAR)
     d["verification"]["motor_saturation"] = False
@@ -37,7 +40,11 @@ def _model(radius=None, **over):
         for p in path:
             node = node[p]
         node[last] = v
-    return build_model(load_config(d))
+    model = build_model(load_config(d))
+    if icr_channels:  # the layout of a certificate made before the interval twists' vertices
+        model = (model.with_heading_bound(THETA_BAR, icr_channels=True) if radius is None else
+                 model.with_turns(model.turns.max_yaw_rate, model.turns.max_step, within_period=True, icr_channels=True))
+    return model
 
 
 def _history(model, rng, N, spread):
@@ -78,11 +85,67 @@ def _hull_weights(model, p0, changes, S):
     return (lam_s[:, :, None] * delay[:, None, :]).reshape(N, -1)
 
 
-def _allowance(model, lam, xi, du, w):
-    """The hull's centre (N, 3) and the channels' allowance |B_p| |q| (N, 3) on e_x, e_y, e_theta."""
-    nominal = sum(lam[:, i, None] * (xi @ v.A.T + du @ v.B.T + w @ v.E.T) for i, v in enumerate(model.vertices))
-    q = sum(lam[:, i, None] * (xi @ v.C_q.T + du @ v.D_q.T + w @ v.F.T) for i, v in enumerate(model.vertices))
-    return nominal[:, :3], np.abs(q) @ np.abs(model.vertices[0].B_p[:3]).T
+def _interval_weights(model, p0, changes, S):
+    """The weights of the interval twists' vertices (``model.covering_vertices``, vertices.icr_varying_vertices) for a
+    slip history: per delay vertex, its weight times, per command interval live there, the interval's average of the
+    multilinear corner weights (its uniform average twist is that combination of the corners' twists)."""
+    from robustsynth.model.slip import slip_corners, twist_matrix
+    from robustsynth.model.vertices import interval_coordinates
+
+    N, Ts, d_hi = p0.shape[0], model.Ts, model.d_hi
+    _, which = np.unique(np.round(twist_matrix(slip_corners(*model.slip_ranges), model.config.robot.track_distance),
+                                  15), axis=0, return_inverse=True)
+    n_t = int(which.max()) + 1
+    ts = np.stack([np.zeros(N)] + [t for t, _ in changes] + [np.full(N, Ts)], axis=1)
+    values = [p0] + [m for _, m in changes]
+    ends = np.concatenate([np.full((N, 1), Ts), S, np.zeros((N, 1))], axis=1)
+    per = []  # per interval (N, n_t)
+    for i in range(d_hi + 1):
+        b, a = ends[:, i], ends[:, i + 1]
+        w = np.zeros((N, n_t))
+        for k in range(len(values)):
+            share = np.clip(np.minimum(ts[:, k + 1], b) - np.maximum(ts[:, k], a), 0.0, None) / np.where(b > a, b - a, 1.0)
+            cw = corner_weights(values[k], *model.slip_ranges)
+            for c in range(cw.shape[1]):
+                w[:, which.ravel()[c]] += share * cw[:, c]
+        w[b <= a] = np.eye(n_t)[0]  # an empty interval: no weight of its own
+        per.append(w)
+    lam, _ = model.hull_coordinates(S, p0)
+    delay = lam.reshape(N, -1, model.delay_vertex_count).sum(axis=1)
+    # the delay vertices' coordinates (h_j, q_j), as the model was built from them
+    from robustsynth.model.build import _delay_vertices, _intervals, _nominal_model
+
+    nominal = _nominal_model(model.config, None)
+    iv = _intervals(_delay_vertices(model.config, nominal), nominal)
+    L_all, W_all = interval_coordinates(iv.h, iv.q, Ts)
+    out = []
+    for t in range(model.delay_vertex_count):
+        live = (np.abs(L_all[t]) > 1e-12 * Ts) | (np.abs(W_all[t]) > 1e-12 * Ts * Ts)
+        combos = list(itertools.product(*[range(n_t) if lv else (0,) for lv in live]))
+        for combo in combos:
+            weight = delay[:, t].copy()
+            for i, c in enumerate(combo):
+                if live[i]:
+                    weight = weight * per[i][:, c]
+            out.append(weight)
+    return np.stack(out, axis=1)
+
+
+def _allowance(model, lam, xi, du, w, vertices=None):
+    """The hull's centre (N, 3) and the channels' allowance |B_p| |q| (N, 3) on e_x, e_y, e_theta, over ``vertices``
+    (default the model's own)."""
+    vertices = model.vertices if vertices is None else vertices
+    nominal = sum(lam[:, i, None] * (xi @ v.A.T + du @ v.B.T + w @ v.E.T) for i, v in enumerate(vertices))
+    q = sum(lam[:, i, None] * (xi @ v.C_q.T + du @ v.D_q.T + w @ v.F.T) for i, v in enumerate(vertices))
+    return nominal[:, :3], np.abs(q) @ np.abs(vertices[0].B_p[:3]).T
+
+
+def _weights_and_vertices(model, p0, changes, S):
+    """The hull the layout covers slip changing within a period with: the interval twists' vertices where the model
+    carries them, else the constant-slip vertices."""
+    if len(model.covering_vertices) != len(model.vertices):
+        return _interval_weights(model, p0, changes, S), model.covering_vertices
+    return _hull_weights(model, p0, changes, S), model.vertices
 
 
 def _straight(model, rng, N, spread):
@@ -96,16 +159,18 @@ def _straight(model, rng, N, spread):
     heading = np.abs(xi[:, 2])
     for t in np.linspace(0.0, model.Ts, 101)[1:]:  # e_theta(t) is piecewise linear: a fine grid finds its extremes
         heading = np.maximum(heading, np.abs(robot.partial(q0, U, S, p0, t, changes)[:, 2]))
-    lam = _hull_weights(model, p0, changes, S)
-    return e1, heading, _allowance(model, lam, xi, du, np.ones((N, 1)))
+    lam, verts = _weights_and_vertices(model, p0, changes, S)
+    return e1, heading, _allowance(model, lam, xi, du, np.ones((N, 1)), verts)
 
 
+@pytest.mark.parametrize("icr_channels", [False, True])
 @pytest.mark.parametrize("over", [{}, {"network.delay.min": 0.0, "network.delay.max": 0.1},
                                   {"network.dropouts.max_consecutive": 1},
                                   {"slip.yaw.min": 0.3, "slip.icr_offset.min": -0.2, "slip.icr_offset.max": 0.3}])
-def test_the_robot_with_slip_changing_within_the_period_stays_within_the_channels(over) -> None:
-    model = _model(**over)
-    assert len(model.covering_vertices) == len(model.vertices)  # the constant-slip vertices cover every history
+def test_the_robot_with_slip_changing_within_the_period_stays_within_the_channels(over, icr_channels) -> None:
+    model = _model(icr_channels=icr_channels, **over)
+    # the constant-slip vertices cover every history with the channels alone; else the interval twists' vertices
+    assert (len(model.covering_vertices) == len(model.vertices)) == icr_channels
     assert model.slip_variation("common")[1] == ""
     e1, heading, (centre, allowed) = _straight(model, np.random.default_rng(1), 1500, 0.12)
     ok = heading <= THETA_BAR
@@ -123,22 +188,27 @@ def test_headings_beyond_the_bound_break_the_channels() -> None:
 
 
 def test_without_the_linear_deviation_channels_slip_changing_within_the_period_is_not_covered() -> None:
-    """The negative control of the third family: the corners' hull alone does not contain the robot's map when
-    the slip changes within the period (e_theta is linear in the slip history, so the excess shows there first)."""
+    """The negative controls of the third family: the corners' hull alone does not contain the robot's map when
+    the slip changes within the period (e_theta is linear in the slip history, so the excess shows there first),
+    neither without the linear deviation channels (a certificate made before the interval twists' vertices) nor with
+    the channels that go with those vertices but without them."""
     model = _model()
     narrow = replace(model, covering=tuple(replace(c, lin_weight=np.zeros_like(c.lin_weight)) for c in model.covering))
-    narrow = narrow.with_heading_bound(THETA_BAR)
-    e1, heading, (centre, allowed) = _straight(narrow, np.random.default_rng(3), 1500, 0.12)
-    ok = heading <= THETA_BAR
-    assert np.max((np.abs(e1 - centre) - allowed)[ok, 2]) > 1e-4
+    for m in (narrow.with_heading_bound(THETA_BAR, icr_channels=True),
+              replace(model, covering=model.icr_covering, icr_varying=()).with_heading_bound(THETA_BAR)):
+        e1, heading, (centre, allowed) = _straight(m, np.random.default_rng(3), 1500, 0.12)
+        ok = heading <= THETA_BAR
+        assert np.max((np.abs(e1 - centre) - allowed)[ok, 2]) > 1e-4
 
 
+@pytest.mark.parametrize("icr_channels", [False, True])
 @pytest.mark.parametrize("radius, over", [(3.0, {}), (1.0, {"network.delay.min": 0.05, "network.delay.max": 0.18})])
-def test_the_robot_on_an_arc_with_slip_changing_within_the_period_stays_within_the_channels(radius, over) -> None:
+def test_the_robot_on_an_arc_with_slip_changing_within_the_period_stays_within_the_channels(radius, over,
+                                                                                           icr_channels) -> None:
     """Along arcs: the reference turns at w_k (any value up to V^D / r, steps the certificate allows before it),
     command j carries the feedforward w_{k-j} g through the slip; the error measured in the reference's frame at
     t_{k+1}; the heading bound on eta(t) = theta(t) - w_k t."""
-    model = _model(radius, **over)
+    model = _model(radius, icr_channels, **over)
     turns = model.turns
     rng = np.random.default_rng(4)
     N = 1500
@@ -161,8 +231,8 @@ def test_the_robot_on_an_arc_with_slip_changing_within_the_period_stays_within_t
     heading = np.abs(xi[:, 2])
     for t in np.linspace(0.0, Ts, 101)[1:]:
         heading = np.maximum(heading, np.abs(robot.partial(q0, U, S, p0, t, changes)[:, 2] - w[:, 0] * t))
-    lam = _hull_weights(model, p0, changes, S)
-    centre, allowed = _allowance(model, lam, xi, du, model.disturbance_coordinates(p0, w))
+    lam, verts = _weights_and_vertices(model, p0, changes, S)
+    centre, allowed = _allowance(model, lam, xi, du, model.disturbance_coordinates(p0, w), verts)
     ok = heading <= THETA_BAR
     assert ok.mean() > 0.9
     excess = np.abs(e1 - centre) - allowed
@@ -245,3 +315,27 @@ def test_the_heading_rows_of_every_yaw_choice_are_the_row_by_row_enumeration() -
         got = _break_rows(lens, yaw, live, uD, n_s, n_e, n_u, d_hi)
         for w, g in zip(want, got):
             assert w.shape == g.shape and w.tobytes() == np.ascontiguousarray(g).tobytes()
+
+
+def test_a_certificate_made_before_the_interval_twists_vertices_is_rechecked_in_its_layout() -> None:
+    """configs/default.yaml's gain as committed at stop 83 (tests/data: the icr channels alone cover slip changing
+    within a period): re-checked on the layout it was made for, with its own figures; its multipliers fit that layout
+    only, and a new certificate of the config gets the interval twists' vertices."""
+    from pathlib import Path
+
+    from robustsynth.artifacts.gains import load_gains
+    from robustsynth.certificate import check_certificate
+
+    g = load_gains(Path(__file__).resolve().parents[1] / "data" / "default-icr-channels-stop83-gains.json")
+    K, cert = np.asarray(g["K"], dtype=float), g["certificate"]
+    model = build_model(load_config(ROOT / "configs" / "default.yaml"))
+    assert len(model.covering_vertices) > len(model.vertices)  # what a new certificate of this config gets
+    chk = check_certificate(model, K, cert)
+    assert chk.passed, chk.reason
+    assert chk.figures["slip_within_period"] == "covered"
+    for key in ("ultimate_bound", "ultimate_bound_between_samples"):
+        assert chk.figures[key]["e_y"] == pytest.approx(g["certified"][key]["e_y"], rel=1e-9)
+    turns = model.turns
+    new, old = (model.with_turns(turns.max_yaw_rate, turns.max_step, within_period=True, icr_channels=c)
+                for c in (False, True))
+    assert np.asarray(cert["multipliers"]["M"][0]).size == old.vertices[0].n_q ** 2 != new.vertices[0].n_q ** 2

@@ -193,3 +193,32 @@ def test_every_channel_at_once_gives_the_per_channel_signs(config):
             np.testing.assert_array_equal(got, want)
             agreed["signs"] += 1
     assert agreed["signs"] >= len(model.vertices) and agreed["none"] > 0
+
+
+def test_within_period_vertices_come_with_their_mirror_images_and_keep_the_symmetry():
+    """Constraint generation on the default robot (icr, nonlinear: the interval twists' vertices, docs/theory.md §12):
+    each within-period vertex added comes with its mirror image, so the grown problem is posed mirror-invariant and
+    reaches the full grown problem's optimum; where the model has no mirror (the tracks model's covering channels) only
+    the vertices asked are added."""
+    from robustsynth.config import load_config
+
+    from robustsynth.model.mirror import mirror_pairs
+    from robustsynth.synthesis.solve import solve
+
+    model = build_model(load_config(ROOT / "configs" / "default.yaml"))
+    m = model.mirror("common")
+    pairs = mirror_pairs(model.covering_vertices, m.t, m.tu)
+    i = next(k for k, j in enumerate(pairs) if j != k)
+    grown = model.with_cuts([i])
+    assert [v.label for v in grown.vertices[len(model.vertices):]] == \
+        [model.covering_vertices[k].label for k in (i, pairs[i])] and grown.mirror("common") is not None
+    values = []
+    for symmetry in (False, True):  # the LMIs alone, near the default's best alpha (the runner would grow them)
+        lp, _ = invariance_runner(grown, "common", 0.15, symmetry)
+        out = solve(lp.problem, "clarabel-unscaled", lambda: True, fallback=False)
+        assert out.kind == "ok", out.record
+        values.append((len(lp.problem.constraints), lp.problem.value))
+    assert values[1][0] < values[0][0] and values[1][1] == pytest.approx(values[0][1], rel=OPT_REL)
+    tracks = build_model(make_config(**{"slip.right.min": 0.8, "slip.left.min": 0.8,
+                                        "synthesis.kinematics": "nonlinear"})).with_heading_bound(0.15)
+    assert len(tracks.with_cuts([0]).vertices) == len(tracks.vertices) + 1

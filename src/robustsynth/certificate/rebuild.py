@@ -35,7 +35,19 @@ def model_of_certificate(model: Any, cert: Mapping[str, Any], objective: str) ->
                     f"config's model does not cover ({model.varying_reason})")
         if hb != model.heading_bound or within != bool(model.covering_vertices):
             model = model.with_heading_bound(hb, within_period=within)
+        if getattr(model, "turns", None) is None:  # (a turning model's: _model_of_turns)
+            model = _icr_layout(model, cert, lambda m: m.with_heading_bound(hb, within_period=True, icr_channels=True))
     return _model_of_turns(model, cert)
+
+
+def _icr_layout(model: Any, cert: Mapping[str, Any], legacy: Any) -> Any:
+    """``model``, or for an icr certificate made before its linear map's vertices (docs/theory.md §12: its channels
+    cover slip changing within a period alone) the model ``legacy(model)`` gives, where the certificate's multiplier
+    fits that layout and not this one."""
+    if not (model.icr_varying and model.covering_vertices) or _multiplier_size(cert) in (None, model.vertices[0].n_q ** 2):
+        return model
+    old = legacy(model)
+    return old if _multiplier_size(cert) == old.vertices[0].n_q ** 2 else model
 
 
 def _model_of_turns(model: Any, cert: Mapping[str, Any]) -> Any:
@@ -64,6 +76,7 @@ def _model_of_turns(model: Any, cert: Mapping[str, Any]) -> Any:
     try:
         if (have.max_yaw_rate, have.max_step) != want or within != bool(model.covering_vertices):
             model = model.with_turns(*want, within_period=within)
+        model = _icr_layout(model, cert, lambda m: m.with_turns(*want, within_period=True, icr_channels=True))
         size = _multiplier_size(cert)
         if not within and size not in (None, model.vertices[0].n_q ** 2):
             # made before the arc channels were merged (docs/theory.md §10): their own layout, if it fits

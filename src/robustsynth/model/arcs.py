@@ -259,27 +259,29 @@ def _parts(v: Vertex, ch: KinematicChannels, M11: float, turns: Turns, Ts: float
     return A_out, B_out, E_out, Cq, Dq, Fq, Bp
 
 
-def turning_vertices(model, turns: Turns, theta_bar: float | None = None,
-                     within_period: bool = False) -> tuple[tuple[Vertex, ...], tuple[Vertex, ...]]:
+def turning_vertices(model, turns: Turns, theta_bar: float | None = None, within_period: bool = False,
+                     icr_channels: bool = False) -> tuple[tuple[Vertex, ...], tuple[Vertex, ...]]:
     """The linearized model's vertices (``model.base_vertices``, with their kinematic channels
     ``model.channels``) augmented for ``turns``, for the nonlinear robot with |eta(t)| <= ``theta_bar``
     (None: the linearization); one scale per channel, common to every vertex (B_p enters the LMIs
     quadratically and must be the same at every vertex).  And ``()``, or with ``within_period`` (the model
     must have ``covering``): every vertex with its delay vertex's channels for slip changing within a
     period (``model.covering``, built at the box's centre, one multiplier per delay vertex: ``group``), and
-    the within-period vertices (``model.varying``) augmented alike (docs/theory.md §10)."""
+    the within-period vertices (``model.varying``) augmented alike (docs/theory.md §10); for the icr model with a
+    ``theta_bar`` its own (``Model.within_period_cover``, ``icr_channels`` as there)."""
     if not model.channels or len(model.channels) != len(model.base_vertices):
         raise ValueError("turning references need the delay vertices and their kinematic channels")
     if within_period and not model.covering:
         raise ValueError("slip changing within a period on arcs needs the model's covering channels")
     tb = float(theta_bar or 0.0)
-    n_d = len(model.covering)
+    covering, varying, varying_delay = model.within_period_cover(theta_bar is not None, icr_channels)
+    n_d = len(covering)
     if within_period:
         lo, hi = (np.array([r[k] for r in model.slip_ranges[:2]], dtype=float) for k in (0, 1))
         # the covering channels are built at the box's centre (the icr model's: at its centre twist)
-        M11 = model.covering[0].turn_gain or _turn_gain(model, (lo + hi) / 2.0)
-        jobs = [(v, model.covering[i % n_d], M11, i % n_d) for i, v in enumerate(model.base_vertices)]
-        jobs += [(v, model.covering[t], M11, t) for v, t in zip(model.varying, model.varying_delay)]
+        M11 = covering[0].turn_gain or _turn_gain(model, (lo + hi) / 2.0)
+        jobs = [(v, covering[i % n_d], M11, i % n_d) for i, v in enumerate(model.base_vertices)]
+        jobs += [(v, covering[t], M11, t) for v, t in zip(varying, varying_delay)]
     else:
         jobs = [(v, ch, _turn_gain(model, model.corners[v.corner]), -1)
                 for v, ch in zip(model.base_vertices, model.channels)]
@@ -303,7 +305,7 @@ def turning_vertices(model, turns: Turns, theta_bar: float | None = None,
     for (v, _, _, group), (A, B, E, Cq, Dq, Fq, Bp_v) in zip(jobs, parts):
         out.append(Vertex(A, B, E, Bp_v * scale, Cq / scale[:, None], Dq / scale[:, None], v.corner, v.label,
                           Fq / scale[:, None], True, group, v.instants))
-    if within_period and model.icr:  # the icr channels cover every slip history on the constant-slip vertices
+    if within_period and model.icr and not varying:  # the icr channels cover every slip history on the constant-slip vertices
         return tuple(out[:n_base]), tuple(out[:n_base])
     return tuple(out[:n_base]), tuple(out[n_base:])
 
@@ -326,16 +328,16 @@ def heading_yaw_columns(ch: KinematicChannels, turns: Turns, n_e: int, n_u: int,
     return F_h
 
 
-def turning_heading(model, turns: Turns) -> tuple[tuple[KinematicChannels, ...], tuple[KinematicChannels, ...]]:
-    """``model.channels`` and ``model.covering`` with their heading rows' yaw-rate coefficients (``F_h``:
-    :func:`heading_yaw_columns`)."""
+def turning_heading(model, turns: Turns) -> tuple[tuple[KinematicChannels, ...], ...]:
+    """``model.channels``, ``model.covering`` and ``model.icr_covering`` with their heading rows' yaw-rate
+    coefficients (``F_h``: :func:`heading_yaw_columns`)."""
     from dataclasses import replace
 
     def add(chs):
         return tuple(replace(ch, F_h=heading_yaw_columns(ch, turns, model.n_e, model.n_u, model.d_hi, model.turn_feedforward))
                      for ch in chs)
 
-    return add(model.channels), add(model.covering)
+    return add(model.channels), add(model.covering), add(model.icr_covering)
 
 
 def _turn_gain(model, mu: np.ndarray) -> float:

@@ -19,7 +19,8 @@ from .model import DEFAULT_HEADING_BOUND, MAX_POLYTOPIC_INSTANTS, WIDTH_TOL, Mod
 from .nonlinear import covering_channels, icr_covering_channels, vertex_channels
 from .vertices import (Vertex, add_lateral, apply_slip, augment_integral, delay_cover_ranges, delay_vertex_gammas,
                        icr_constant,
-                       interval_coordinates, loss_vertex_gammas, varying_slip_vertices)
+                       icr_varying_vertices, interval_coordinates, loss_vertex_gammas,
+                       varying_slip_vertices)
 
 __all__ = ["build_model", "MAX_VARYING_VERTICES"]
 
@@ -82,6 +83,9 @@ class _WithinPeriod:
     varying_delay: list[int] = field(default_factory=list)
     covering: list = field(default_factory=list)
     reason: str = ""
+    # the icr model's: vertices for its linear map (vertices.icr_varying_vertices), their delay vertices and the
+    # channels that go with them (nonlinear.icr_covering_channels with by_vertices), per delay vertex
+    icr: tuple = ((), (), ())
 
 
 def build_model(config: Config, min_lifting: int | None = None) -> Model:
@@ -128,7 +132,9 @@ def build_model(config: Config, min_lifting: int | None = None) -> Model:
                     delay_cover_h=None if delays.cover_h is None else frozen_array(delays.cover_h),
                     delay_combos=tuple(delays.combos), varying=tuple(frozen_vertex(v) for v in within.varying or ()),
                     varying_reason=within.reason, covering=tuple(within.covering),
-                    varying_delay=tuple(within.varying_delay))
+                    varying_delay=tuple(within.varying_delay),
+                    icr_varying=tuple(frozen_vertex(v) for v in within.icr[0]), icr_varying_delay=within.icr[1],
+                    icr_covering=within.icr[2])
     return _with_kinematic_terms(model, config)
 
 
@@ -226,8 +232,14 @@ def _within_period(config: Config, nominal: Model, delays: _Delays, iv: _Interva
         if iv is None:
             return _WithinPeriod(reason=reason)
         ranges = slip_parameter_ranges(config.slip)  # the channels for parameters changing within the period
-        return _WithinPeriod(covering=[icr_covering_channels(ranges, np.stack([iv.h[t], iv.q[t]], axis=1), V, Ts, D,
-                                                             *dims) for t in range(len(delays.labels))], reason=reason)
+        coords = [np.stack([iv.h[t], iv.q[t]], axis=1) for t in range(len(delays.labels))]
+        built = icr_varying_vertices(nominal.Phi, nominal.A_c, nominal.B_c, Ts, V, D, ranges, iv.h, iv.q,
+                                     delays.labels, nominal.integral, MAX_VARYING_VERTICES)
+        icr = () if built is None else (
+            tuple(built[0]), tuple(built[1]),
+            tuple(icr_covering_channels(ranges, c, V, Ts, D, *dims, by_vertices=True) for c in coords))
+        return _WithinPeriod(covering=[icr_covering_channels(ranges, c, V, Ts, D, *dims) for c in coords],
+                             reason=reason, icr=icr or ((), (), ()))
     if iv is None:
         return _WithinPeriod(reason="the norm-bounded delay description has no delay vertices to tie the slip averages "
                                     "to (synthesis.delay_description: polytopic or lossy-polytopic)")

@@ -10,7 +10,7 @@ import numpy as np
 
 from .vertices import Vertex
 
-__all__ = ["Mirror", "find_mirror"]
+__all__ = ["Mirror", "find_mirror", "mirror_pairs"]
 
 
 @dataclass(frozen=True)
@@ -54,6 +54,24 @@ def _close_columns(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.isclose(a, b, rtol=1e-10, atol=1e-12).all(axis=0)
 
 
+def mirror_pairs(vertices: Sequence[Vertex], t: np.ndarray, tu: np.ndarray) -> list[int] | None:
+    """For vertices without a slip corner of their own (within-period ones), each one's mirror image among them: the
+    index j with ``A_j = T A_i T`` and ``B_j = T B_i T_u`` (the mirror's tolerances), or None where one has none."""
+    if not len(vertices):
+        return []
+    A = np.stack([np.asarray(v.A, dtype=float) for v in vertices])
+    B = np.stack([np.asarray(v.B, dtype=float) for v in vertices])
+    tA, tB = t[None, :, None] * A * t[None, None, :], t[None, :, None] * B * tu[None, None, :]
+    out = []
+    for i in range(len(vertices)):
+        hit = np.flatnonzero(np.isclose(A, tA[i], rtol=1e-10, atol=1e-12).all(axis=(1, 2))
+                             & np.isclose(B, tB[i], rtol=1e-10, atol=1e-12).all(axis=(1, 2)))
+        if hit.size == 0:
+            return None
+        out.append(int(hit[0]))
+    return out
+
+
 def find_mirror(corners: np.ndarray, state_names: Sequence[str], input_names: Sequence[str], n_d: int,
                 vertices: Sequence[Vertex], kind: str) -> Mirror | None:
     """The mirror symmetry of a model with slip ``corners`` (rows: mu_r, mu_l, ...), lifted state and command names,
@@ -68,15 +86,21 @@ def find_mirror(corners: np.ndarray, state_names: Sequence[str], input_names: Se
         swap.append(int(hit[0]))
     t = np.array([-1.0 if n.startswith(("e_y", "e_theta", "omega", "int_e_y")) else 1.0 for n in state_names])
     tu = np.array([1.0 if n == "dV" else -1.0 for n in input_names])
-    sigma = [swap[int(v.corner)] * n_d + i % n_d for i, v in enumerate(vertices)]
+    n_base = len(corners) * n_d  # the corner-major vertices; after them, within-period ones (Model.with_cuts)
+    sigma = [swap[int(v.corner)] * n_d + i % n_d for i, v in enumerate(vertices[:n_base])]
+    extra = mirror_pairs(vertices[n_base:], t, tu)
+    if extra is None:
+        return None
+    sigma += [n_base + j for j in extra]
     close = lambda a, b: bool(_close_columns(a, b).all())  # noqa: E731  (np.allclose of two matrices)
     q_signs = []
     for i, v in enumerate(vertices):
         w = vertices[sigma[i]]
         tE, wE = t[:, None] * np.asarray(v.E, dtype=float), np.asarray(w.E, dtype=float)
         s_w = np.where(_close_columns(wE, tE), 1.0, np.where(_close_columns(wE, -tE), -1.0, 0.0))
-        if int(w.corner) != swap[int(v.corner)] or w.n_q != v.n_q or w.diagonal != v.diagonal or 0.0 in s_w or not (
-                close(w.A, t[:, None] * np.asarray(v.A) * t) and close(w.B, t[:, None] * np.asarray(v.B) * tu)):
+        if (i < n_base and int(w.corner) != swap[int(v.corner)]) or w.n_q != v.n_q or w.diagonal != v.diagonal or \
+                0.0 in s_w or not (close(w.A, t[:, None] * np.asarray(v.A) * t)
+                                   and close(w.B, t[:, None] * np.asarray(v.B) * tu)):
             return None
         signs = _channel_signs(v, w, t, tu, s_w)
         if signs is None:

@@ -128,6 +128,16 @@ class Model:
     covering: tuple = field(default=(), repr=False)
     varying_delay: tuple = field(default=(), repr=False)
     covering_vertices: tuple = field(default=(), repr=False)
+    # the icr model's linear map for slip changing within a period by vertices (vertices.icr_varying_vertices), the
+    # delay vertex of each, and the covering channels that go with them, per delay vertex (docs/theory.md §12): what
+    # a model with the kinematic channels covers slip changing within a period with (() where not built; ``covering``
+    # then, as for a linearized model and for a certificate made before)
+    icr_varying: tuple = field(default=(), repr=False)
+    icr_varying_delay: tuple = field(default=(), repr=False)
+    icr_covering: tuple = field(default=(), repr=False)
+    # the channels for slip changing within a period that the vertices carry, one per delay vertex (``covering`` or
+    # ``icr_covering``; () where they carry none): their heading rows bound |e_theta(t)|
+    cover_channels: tuple = field(default=(), repr=False)
     # the reference yaw rates the vertices cover (model/arcs.py; None: straight segments only)
     turns: Any = None
     # polytopic delays: which combinations of the instants' triangles are vertices (vertices.DELAY_COVERS),
@@ -166,7 +176,7 @@ class Model:
         """The model without the kinematic channels (itself when it has none)."""
         if self.heading_bound is None:
             return self
-        out = replace(self, vertices=self.base_vertices, heading_bound=None, covering_vertices=())
+        out = replace(self, vertices=self.base_vertices, heading_bound=None, covering_vertices=(), cover_channels=())
         if self.turns is not None:  # the linearized turning vertices (model/arcs.py), covering what these cover
             from .arcs import turning_vertices
 
@@ -179,12 +189,23 @@ class Model:
     def heading_channels(self) -> tuple:
         """The channels whose heading rows bound |e_theta(t)| within a period: the covering ones when
         the vertices carry them (every slip corner per command interval), else one per vertex."""
-        return self.covering if self.covering_vertices else self.channels
+        return (self.cover_channels or self.covering) if self.covering_vertices else self.channels
 
-    def with_heading_bound(self, theta_bar: float, within_period: bool = True) -> "Model":
+    def within_period_cover(self, nonlinear: bool, icr_channels: bool = False) -> tuple[tuple, tuple, tuple]:
+        """The channels for slip changing within a period (one per delay vertex) and the vertices of its linear map
+        with the delay vertex of each: ``covering``, ``varying``; for the icr model with the kinematic channels
+        (``nonlinear``) its own vertices (``icr_varying``, which hold only with their channels ``icr_covering``),
+        unless ``icr_channels`` (a certificate made before them: the channels alone, docs/theory.md §12)."""
+        if nonlinear and self.icr_varying and not icr_channels:
+            return self.icr_covering, self.icr_varying, self.icr_varying_delay
+        return self.covering, self.varying, self.varying_delay
+
+    def with_heading_bound(self, theta_bar: float, within_period: bool = True, icr_channels: bool = False) -> "Model":
         """The same model whose vertices carry the kinematic channels for |e_theta(t)| <= theta_bar:
         for slip changing within a period where the model covers it (``within_period``, and
-        ``covering`` built: docs/theory.md §9), else for slip constant within each period."""
+        ``covering`` built: docs/theory.md §9), else for slip constant within each period.  The icr model
+        covers it by the vertices of each command interval's twist where it has them (``icr_varying``), or
+        with ``icr_channels`` (a certificate made before them) by channels alone (§12)."""
         from ..errors import InputError
         from .nonlinear import augment, channel_scales
 
@@ -197,28 +218,32 @@ class Model:
         if self.turns is not None:  # the turning vertices for the nonlinear robot (model/arcs.py)
             from .arcs import turning_vertices
 
-            verts, cover = turning_vertices(self, self.turns, theta_bar, within_period and bool(self.covering))
+            within = within_period and bool(self.covering)
+            verts, cover = turning_vertices(self, self.turns, theta_bar, within, icr_channels=icr_channels)
             return replace(self, vertices=tuple(frozen_vertex(v) for v in verts), heading_bound=theta_bar,
-                           covering_vertices=tuple(frozen_vertex(v) for v in cover))
+                           covering_vertices=tuple(frozen_vertex(v) for v in cover),
+                           cover_channels=self.within_period_cover(True, icr_channels)[0] if within else ())
         covering = within_period and bool(self.covering)
+        channels, varying, varying_delay = self.within_period_cover(True, icr_channels)
         # covering: one multiplier per delay vertex (vertices are corner-major: vertex i has delay vertex i % n_d)
-        n_d = len(self.covering)
+        n_d = len(channels)
         groups = [i % n_d if covering else -1 for i in range(len(self.base_vertices))]
-        chans = [self.covering[i % n_d] for i in range(len(groups))] if covering else list(self.channels)
+        chans = [channels[i % n_d] for i in range(len(groups))] if covering else list(self.channels)
         scales = channel_scales(chans, theta_bar, self.V)
         verts = tuple(frozen_vertex(augment(v, ch, theta_bar, self.V, scales, group=g))
                       for v, ch, g in zip(self.base_vertices, chans, groups))
         if not covering:
             cover = ()
-        elif self.icr:  # the icr channels cover every slip history on the constant-slip vertices (§12)
+        elif self.icr and not varying:  # the icr channels cover every slip history on the constant-slip vertices (§12)
             cover = verts
         else:
-            cover = tuple(frozen_vertex(augment(v, self.covering[t], theta_bar, self.V, scales, group=t))
-                          for v, t in zip(self.varying, self.varying_delay))
-        return replace(self.linearized(), vertices=verts, heading_bound=theta_bar, covering_vertices=cover)
+            cover = tuple(frozen_vertex(augment(v, channels[t], theta_bar, self.V, scales, group=t))
+                          for v, t in zip(varying, varying_delay))
+        return replace(self.linearized(), vertices=verts, heading_bound=theta_bar, covering_vertices=cover,
+                       cover_channels=channels if covering else ())
 
     def with_turns(self, max_yaw_rate: float, max_step: float | None = None,
-                   within_period: bool | None = None, merged: bool = True) -> "Model":
+                   within_period: bool | None = None, merged: bool = True, icr_channels: bool = False) -> "Model":
         """The same model whose vertices cover a reference turning along arcs: yaw rate |w_k| <=
         ``max_yaw_rate`` [rad/s], constant on each sampling period, changing by at most ``max_step``
         (default ``max_yaw_rate``) between periods, with the turning feedforward in the commands
@@ -227,7 +252,8 @@ class Model:
         (the covering channels, one multiplier per delay vertex, and the within-period vertices; where the
         model builds them: ``covering``); None: as the model's own vertices do (a nonlinear model), else
         for a common Lyapunov matrix (``synthesis.lyapunov``).  ``merged``: :attr:`~.arcs.Turns.merged` (False
-        re-checks certificates made before the arc channels were merged)."""
+        re-checks certificates made before the arc channels were merged); ``icr_channels``: as
+        :meth:`with_heading_bound`'s."""
         from ..errors import InputError
         from .arcs import Turns, turning_heading, turning_vertices
 
@@ -247,10 +273,13 @@ class Model:
         if within_period is None:
             within_period = (bool(self.covering_vertices) if self.heading_bound is not None
                              else self.config.synthesis.lyapunov == "common")
-        verts, cover = turning_vertices(self, turns, self.heading_bound, within_period and bool(self.covering))
-        channels, covering = turning_heading(self, turns)
-        return replace(self, vertices=tuple(frozen_vertex(v) for v in verts), turns=turns, channels=channels,
-                       covering=covering, covering_vertices=tuple(frozen_vertex(v) for v in cover))
+        within = within_period and bool(self.covering)
+        verts, cover = turning_vertices(self, turns, self.heading_bound, within, icr_channels=icr_channels)
+        channels, covering, icr_covering = turning_heading(self, turns)
+        out = replace(self, vertices=tuple(frozen_vertex(v) for v in verts), turns=turns, channels=channels,
+                      covering=covering, icr_covering=icr_covering, covering_vertices=tuple(frozen_vertex(v) for v in cover))
+        nonlinear = self.heading_bound is not None
+        return replace(out, cover_channels=out.within_period_cover(True, icr_channels)[0] if within and nonlinear else ())
 
     @property
     def turn_feedforward(self) -> np.ndarray:
@@ -296,10 +325,18 @@ class Model:
     def with_cuts(self, indices: list[int]) -> "Model":
         """The model whose LMI vertices also include the within-period vertices ``varying[indices]``
         (constraint generation, docs/theory.md §11; common certificates only): appended after the
-        model's own vertices, so a certificate's per-vertex data for those come first.  Build its LMIs
-        without the mirror symmetry (the appended vertices have no mirror partner in the list)."""
+        model's own vertices, so a certificate's per-vertex data for those come first.  Where the model's own
+        vertices have the mirror symmetry (§6h), each comes with its mirror image (``mirror.mirror_pairs``), so that
+        the LMIs keep it."""
+        from .mirror import mirror_pairs
+
         family = self.covering_vertices or self.varying
-        extra = tuple(replace(family[i], corner=0) for i in indices)
+        t = np.array([-1.0 if n.startswith(("e_y", "e_theta", "omega", "int_e_y")) else 1.0 for n in self.state_names])
+        pairs = mirror_pairs(family, t, np.array([1.0, -1.0])) if self.mirror("common") is not None else None
+        chosen: list[int] = []
+        for i in indices:
+            chosen += [j for j in (i, None if pairs is None else pairs[i]) if j is not None and j not in chosen]
+        extra = tuple(replace(family[i], corner=0) for i in chosen)
         return replace(self, vertices=tuple(self.vertices) + extra)
 
     @property

@@ -198,7 +198,8 @@ def vertex_channels(mu: np.ndarray, coords: np.ndarray, V: float, Ts: float, M: 
 
 
 def icr_covering_channels(ranges: tuple[tuple[float, float], ...], coords: np.ndarray, V: float, Ts: float, D: float,
-                          n_s: int, n_e: int, n_u: int, d_hi: int, tol: float = 1e-12) -> KinematicChannels:
+                          n_s: int, n_e: int, n_u: int, d_hi: int, tol: float = 1e-12,
+                          by_vertices: bool = False) -> KinematicChannels:
     """Channels of a delay vertex that hold for the icr slip model's parameters changing at any time within
     the period (docs/theory.md §12, "Slip that changes within a period").  The vertices are the constant-slip
     ones (every corner of the box, slip constant over the period).  The twist a command (v, omega_c) gets is
@@ -220,6 +221,11 @@ def icr_covering_channels(ranges: tuple[tuple[float, float], ...], coords: np.nd
       ``(L_j (interval average - period average) + V W_j (weighted interval average - period average)) du_j'``
       (at most the component's range times ``share_j`` = L_j (1 - L_j / Ts) where it is affine in the delay
       coordinates, d_hi = 1, else L_j): into e_x, e_theta and e_y.
+
+    ``by_vertices``: the third family for the vertices of :func:`~.vertices.icr_varying_vertices` instead, whose hull
+    holds the linear map at every command interval's own average twist (exact, where the channels above lose the
+    components' correlation): what is left is, per interval i, omega's (Ts - t)-weighted average against its uniform
+    one (the vertices take them equal), at most a quarter of the component's range, into e_y through ``V W_i``.
 
     Heading rows: e_theta at the break points with each command interval's average yaw row at any of the images
     of the box's corners, independently per interval (e_theta is affine in each)."""
@@ -260,10 +266,17 @@ def icr_covering_channels(ranges: tuple[tuple[float, float], ...], coords: np.nd
             target.append(row)
             weight.append(w)
 
+    if by_vertices:  # each interval's uniform average twist is a vertex coordinate (vertices.icr_varying_vertices);
+        # what is left is omega's (Ts - t)-weighted average against its uniform one over each interval (the vertices
+        # take them equal): at most a quarter of the range 2 h, into e_y through V W_i (W_i in q: one B_p everywhere)
+        for j in range(d_hi + 1):
+            for e, k in ((ew, hys), (ev, hyd / D)):
+                c_j, d_j = _command_row(j, e, n_s, n_e, n_u)  # (W_j in q: B_p is one for every vertex)
+                add(float(Ws[j]) * c_j, float(Ws[j]) * d_j, float(Ws[j]) * float(e @ uD), 1, V * k / 2.0)
     # omega's weighted and uniform period averages on the newest command: into e_y
-    for e, k in ((ew, hys), (ev, hyd / D)):
+    for e, k in (() if by_vertices else ((ew, hys), (ev, hyd / D))):
         add(*_command_row(0, e, n_s, n_e, n_u), float(e @ uD), 1, V * Ts * Ts / 2.0 * k / 2.0)
-    for j in range(1, d_hi + 1):  # the older commands' difference from the newest: du_{k-j} - du_k
+    for j in range(1, 1 if by_vertices else d_hi + 1):  # the older commands' difference from the newest: du_{k-j} - du_k
         rows = {}
         for name, e in (("v", ev), ("w", ew)):
             c_j, d_j = _command_row(j, e, n_s, n_e, n_u)

@@ -491,13 +491,51 @@ def varying_slip_vertices(Phi: np.ndarray, A_c: np.ndarray, B_c: np.ndarray, Ts:
         combos = list(itertools.product(*choices))
         bar = np.array([[[r[0], lft[0]] for r, lft in c] for c in combos])  # (n, d_hi + 1, 2)
         til = np.array([[[r[1], lft[1]] for r, lft in c] for c in combos])
-        A, B, E = varying_slip_maps(Phi, A_c, B_c, Ts, V, L, W, slip_matrix(bar, D), slip_matrix(til, D))
-        if integral:
-            A, B = augment_integral(A, B, Ts, n_e)
-            E = np.concatenate([E, np.zeros(E.shape[:-1] + (2,))], axis=-1)
-        n_s = A.shape[-1]
-        for k in range(len(combos)):
-            out.append(Vertex(A[k], B[k], E[k][:, None], np.zeros((n_s, 0)), np.zeros((0, n_s)), np.zeros((0, n_u)),
-                              -1, f"{labels[t]}; slip averages #{k}"))
-            delay.append(t)
+        maps = varying_slip_maps(Phi, A_c, B_c, Ts, V, L, W, slip_matrix(bar, D), slip_matrix(til, D))
+        out += _within_period_vertices(maps, integral, Ts, n_e, n_u, f"{labels[t]}; slip averages")
+        delay += [t] * len(combos)
+    return out, delay
+
+
+def _within_period_vertices(maps: tuple, integral: bool, Ts: float, n_e: int, n_u: int, label: str) -> list[Vertex]:
+    """Vertices without uncertainty channels (``corner`` -1: of no slip corner) of the maps (A, B, E) of a stack, with
+    the integrators where the model has them, labelled ``label #k``."""
+    A, B, E = maps
+    if integral:
+        A, B = augment_integral(A, B, Ts, n_e)
+        E = np.concatenate([E, np.zeros(E.shape[:-1] + (2,))], axis=-1)
+    n_s = A.shape[-1]
+    return [Vertex(A[k], B[k], E[k][:, None], np.zeros((n_s, 0)), np.zeros((0, n_s)), np.zeros((0, n_u)), -1,
+                   f"{label} #{k}") for k in range(A.shape[0])]
+
+
+def icr_varying_vertices(Phi: np.ndarray, A_c: np.ndarray, B_c: np.ndarray, Ts: float, V: float, D: float,
+                         ranges: tuple[tuple[float, float], ...], h: np.ndarray, q: np.ndarray, labels: list[str],
+                         integral: bool, limit: int, tol: float = 1e-12):
+    """Vertices whose hull holds the icr slip model's linearized lifted map for every history of its parameters within
+    the box, changing at any time within the period (docs/theory.md §12): per delay vertex (coordinates ``h``, ``q``
+    (n_v, d_hi)), every combination of the box corners' twist matrices, one per command interval (an interval of zero
+    length at the vertex gets one).  The map is affine in each interval's average twist (:func:`varying_slip_maps`,
+    ``G_i = L_i B M_bar_i + W_i A B M_til_i``) and the twist is multi-affine in the parameters, so every interval's
+    uniform average is a convex combination of the corners' twists, independently of the other intervals'.  The
+    vertices take the (Ts - t)-weighted average of omega equal to the uniform one; their difference is a channel
+    (:func:`~.nonlinear.icr_covering_channels` with ``by_vertices``), so these vertices serve the certificates whose
+    vertices carry the kinematic channels only.  Returns a list of Vertex (``corner`` -1) and the delay vertex of each,
+    or None when there would be more than ``limit``."""
+    from .slip import slip_corners, twist_matrix
+
+    T = np.unique(np.round(twist_matrix(slip_corners(*ranges), D), 15), axis=0)  # (n, 3, 2): v_x, v_y, omega rows
+    L_all, W_all = interval_coordinates(h, q, Ts)
+    live_all = (np.abs(L_all) > tol * Ts) | (np.abs(W_all) > tol * Ts * Ts)
+    if sum(len(T) ** int(np.count_nonzero(lv)) for lv in live_all) > limit:
+        return None
+    n_u = B_c.shape[1]
+    out, delay = [], []
+    for t, (L, W, live) in enumerate(zip(L_all, W_all, live_all)):
+        combos = np.array(list(itertools.product(*[range(len(T)) if lv else (0,) for lv in live])), dtype=int)
+        tw = T[combos]  # (n, d_hi + 1, 3, 2)
+        M = tw[..., [0, 2], :]
+        maps = varying_slip_maps(Phi, A_c, B_c, Ts, V, L, W, M, M, lat_bar=tw[..., 1, :])
+        out += _within_period_vertices(maps, integral, Ts, B_c.shape[0], n_u, f"{labels[t]}; twists")
+        delay += [t] * len(combos)
     return out, delay

@@ -212,6 +212,12 @@ def _walk(evaluate: Callable[[float], float], x0: float, step: float, lo: float,
     return sorted(pts), False
 
 
+def _invariance_builder(s: SynthesisConfig, motor: bool, symmetry: bool) -> Callable[..., Any]:
+    """The invariance LMIs of a model (and heading rows), as the runner builds them again for a grown problem."""
+    return lambda mdl, rows=None: build_invariance(mdl, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,
+                                                   symmetry=symmetry, heading_rows=rows)
+
+
 def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     say: Callable[[str], None] = lambda _m: None,
                     alpha_hint: float | None = None, retry: bool | str = True, probe_only: bool = False,
@@ -219,10 +225,9 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     prune: Callable[[list[float]], set[float]] | None = None,
                     stop_rel: float = HINT_STOP_REL, bar: float | None = None,
                     prove: Callable[[], Phase1] | None = None, prove_first: bool = False,
-                    gain_rule: bool | None = None,
-                    cheaper_hint: Callable[[float | None], Relaxed | None] | None = None,
-                    rows: frozenset[bytes] | None = None,
-                    screen: Callable[[float], bool] | None = None) -> tuple[_Best, _Runner]:
+                    gain_rule: bool | None = None, cheaper_hint: Callable[[float | None], Relaxed | None] | None = None,
+                    rows: frozenset[bytes] | None = None, screen: Callable[[float], bool] | None = None,
+                    cuts: tuple[int, ...] = ()) -> tuple[_Best, _Runner]:
     """The alpha line search of the invariance LMIs.  Without a hint: a log grid of alpha_points
     scanned upwards, then parabolic steps around its best point.  With ``alpha_hint`` (the best alpha
     of a cheaper certificate class): walk from the hint in quarter grid steps while the bound falls,
@@ -250,10 +255,9 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     alpha, so where the solve at its best alpha reaches its best objective (within COSTLY_STOP_REL) no alpha does better
     here, to that search's own tolerance: the search ends there; where its very certificate holds here, without that
     solve; where it settles the search (a start), at that solve once it certifies.
-    ``rows``: the heading rows the problem starts with (keys; None: every row), grown by row generation (_Runner).
-    ``screen``: given the hint, whether a phase-1 problem at that alpha shows no set there (:func:`_asked_first`)."""
-    full = lambda mdl, rows=None: build_invariance(mdl, s.multiplier, s.margin, _weights(s), motor,  # noqa: E731
-                                                   s.lyapunov, symmetry=False, heading_rows=rows)
+    ``rows``: the heading rows the problem starts with (keys; None: every row), grown by row generation (_Runner);
+    ``cuts`` the within-period vertices (Model.with_cuts).  ``screen``: given the hint, whether a phase-1 problem at
+    that alpha shows no set there (:func:`_asked_first`)."""
     w = _weights(s)
     best = _Best()
 
@@ -264,7 +268,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         c["motor_limits_enforced"] = motor
         return c
 
-    runner = _Runner(model, None, s.solver, make_cert, full=full, rows=rows)
+    runner = _Runner(model, None, s.solver, make_cert, full=_invariance_builder(s, motor, False), rows=rows,
+                     grown=_invariance_builder(s, motor, s.symmetry == "auto"))
     # asked to prove first (the last bound's phase-1 problems alone settled it): the problem is built only where they
     # do not settle this one (on the default robot at d_hi = 5 its build took the main process from 0.92 to 1.41 GB,
     # and each later bound's is never solved)
@@ -273,7 +278,7 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         return best, runner
     lp = _build(build_invariance, model, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,
                 symmetry=s.symmetry == "auto", heading_rows=rows)
-    runner.attach(lp)
+    runner.attach(lp, cuts)
     evaluate = _Evaluator(lp, runner, best, w, search, say)
     est = runner.estimate = 0.0 if probe_only else solve_estimate(lp)
     costly = est >= COSTLY_SOLVE_S if gain_rule is None else gain_rule

@@ -84,7 +84,7 @@ def _tighten(model: Any, s: SynthesisConfig, search: list, motor: bool, say: Cal
         try:
             m = model.with_heading_bound(tb, within_period=s.lyapunov == "common")
             pb, pr = _run_invariance(m, s, search, motor, say, alpha_hint=float(best.cert["alpha"]), retry=False,
-                                     probe_only=True, rows=_posed_rows(active, m))
+                                     probe_only=True, rows=_posed_rows(active, m), cuts=tuple(runner.cuts))
         except InfeasibleError as exc:  # below the slip's own turn within a period
             say(f"  {exc}")
             break
@@ -189,7 +189,8 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                                    prove=lambda m=m, n=layout: prove_no_set(m, s, motor, ALPHA_RANGE, say, active=active,
                                                                              intervals=n, halvings=halvings_for(n)),
                                    prove_first=phase1_alone,
-                                   screen=lambda a, m=m: screen_at(m, s, motor, a, active, say))
+                                   screen=lambda a, m=m: screen_at(m, s, motor, a, active, say), cuts=active.cuts)
+            active.cuts = tuple(r.cuts)
             if best.cert is not None and (b.cert is None or b.value >= best.value):
                 tried.append((tb, "not better at the best alpha"))
                 break

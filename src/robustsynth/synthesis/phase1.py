@@ -153,6 +153,10 @@ class Active:
     # the vertices that bind the certificate where the search starts (:func:`seed`), of a model with ``vertices``
     # vertices: the first phase-1 problems begin with them when no phase-1 problem has ranked any yet
     seed: tuple[int, ...] = ()
+    # the within-period vertices the last solved problem of the search held (constraint generation, runner._Runner.cuts:
+    # indices into the family of Model.with_cuts, the same at every heading bound): the next bound's problem poses them
+    # from its first solve, a relaxation like any other choice of them
+    cuts: tuple[int, ...] = ()
 
     def row_set(self) -> frozenset[bytes] | None:
         return frozenset(self.rows) if self.rows is not None else None

@@ -111,10 +111,14 @@ class _Runner:
     certificate's re-check, which bounds the heading on the whole set by itself)."""
 
     def __init__(self, model: Any, lp: LMIProblem | None, primary: str, make_cert: Callable[[dict], dict],
-                 full: Callable[..., LMIProblem] | None = None, rows: frozenset[bytes] | None = None):
+                 full: Callable[..., LMIProblem] | None = None, rows: frozenset[bytes] | None = None,
+                 grown: Callable[..., LMIProblem] | None = None):
         self.model, self.lp, self.primary, self.make_cert = model, lp, primary, make_cert
         self.rows = rows
         self._builder = full
+        # the builder of the grown problem (within-period vertices and heading rows added): ``full``, or one that keeps
+        # the mirror symmetry where the grown model has it (Model.with_cuts adds each vertex with its mirror image)
+        self._grown = grown
         self._full: LMIProblem | None = None
         self.active = lp  # lp, or the problem with the within-period vertices added so far (None: not built yet)
         self.cuts: list[int] = []
@@ -134,9 +138,13 @@ class _Runner:
         self.estimate = 0.0  # [s] one solve of its problem, estimated (cost.solve_estimate; 0: not estimated)
         self.relaxed: Any = None  # what the relaxation its search started from gave (alpha_search.Relaxed), if any
 
-    def attach(self, lp: LMIProblem) -> None:
-        """The problem of a runner made before it (``lp`` None: phase-1 problems asked first, which may spare it)."""
+    def attach(self, lp: LMIProblem, cuts: tuple[int, ...] = ()) -> None:
+        """The problem of a runner made before it (``lp`` None: phase-1 problems asked first, which may spare it), with
+        the within-period vertices ``cuts`` (an earlier search's, same family) posed from its first solve."""
         self.lp = self.active = lp
+        if cuts and self.model.covering_vertices and max(cuts) < len(self.model.covering_vertices):
+            self.cuts = list(cuts)
+            self.active = self._build_active()
 
     def release_compiled(self) -> None:
         """Drop the compiled form of this runner's problems (cvxpy's canonical data, built again at their next solve)
@@ -210,7 +218,8 @@ class _Runner:
     def _build_active(self) -> LMIProblem:
         """The problem with the within-period vertices and the heading rows added so far (the full builder's)."""
         model = self.model.with_cuts(self.cuts) if self.cuts else self.model
-        return _build(self._builder, model, rows=self.rows) if self.rows is not None else _build(self._builder, model)
+        build = self._grown or self._builder
+        return _build(build, model, rows=self.rows) if self.rows is not None else _build(build, model)
 
     def _key(self) -> tuple:
         return tuple((name, float(p.value)) for name, p in sorted(self.lp.params.items()))
@@ -226,9 +235,10 @@ class _Runner:
         else:
             out, res = self._run_on(self.active, False, False)
         if out.kind == "failed":
-            if self._full is None:
-                self._full = (_build(self._builder, self.model, rows=self.rows) if self.rows is not None else
-                              _build(self._builder, self.model))
+            if self._full is None:  # (the grown model's, where vertices were added)
+                model = self.model.with_cuts(self.cuts) if self.cuts else self.model
+                self._full = (_build(self._builder, model, rows=self.rows) if self.rows is not None else
+                              _build(self._builder, model))
             self._set_params(self._full)
             self.full_retries += 1
             first = out.attempts
