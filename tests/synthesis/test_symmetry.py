@@ -212,6 +212,10 @@ def test_within_period_vertices_come_with_their_mirror_images_and_keep_the_symme
     grown = model.with_cuts([i])
     assert [v.label for v in grown.vertices[len(model.vertices):]] == \
         [model.covering_vertices[k].label for k in (i, pairs[i])] and grown.mirror("common") is not None
+    # as many as a round of constraint generation adds (CUTS_PER_ROUND, and their images): the symmetry stays
+    eight = [k for k, j in enumerate(pairs) if j > k][:8]
+    assert len(model.with_cuts(eight).vertices) == len(model.vertices) + 16
+    assert model.with_cuts(eight).mirror("common") is not None
     values = []
     for symmetry in (False, True):  # the LMIs alone, near the default's best alpha (the runner would grow them)
         lp, _ = invariance_runner(grown, "common", 0.15, symmetry)

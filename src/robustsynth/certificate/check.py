@@ -42,7 +42,8 @@ __all__ = [
 # A certificate passes when every LMI satisfies  lambda_min >= CHECK_FRACTION * margin,
 # i.e. it keeps at least this fraction of the margin it was solved with.
 CHECK_FRACTION = 0.5
-# the key of the within-period family's item that lists its failing vertices (indices into Model.varying)
+# the key of the within-period family's item that lists its failing vertices (indices into the family of
+# Model.with_cuts: covering_vertices or varying)
 VARYING_FAILURES = "failing_vertices"
 SYMMETRY_TOL = 1e-9  # relative asymmetry allowed in Q and M read from a file
 

@@ -219,8 +219,9 @@ def _intervals(delays: _Delays, nominal: Model) -> _Intervals:
 def _within_period(config: Config, nominal: Model, delays: _Delays, iv: _Intervals | None) -> _WithinPeriod:
     """Whether and how the slip-aware model covers slip changing within a period (docs/theory.md §11, §12):
     the tracks model by the slip averages' vertices and their kinematic channels (per delay vertex), the icr
-    model by its covering channels alone; neither without delay vertices (``iv`` None), nor when covering
-    would take more than MAX_VARYING_VERTICES vertices.  Says why where it does not."""
+    model by its covering channels alone and, for the certificates whose vertices carry the kinematic channels, by
+    the vertices of each command interval's twist with their channels (``icr``); neither without delay vertices
+    (``iv`` None), nor the vertices when they would be more than MAX_VARYING_VERTICES.  Says why where it does not."""
     V, Ts, D = nominal.V, nominal.Ts, config.robot.track_distance
     dims = (nominal.n_s, nominal.n_e, nominal.n_u, nominal.d_hi)
     mu_r = (config.slip.right.min, config.slip.right.max)

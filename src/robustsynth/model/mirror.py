@@ -56,16 +56,18 @@ def _close_columns(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def mirror_pairs(vertices: Sequence[Vertex], t: np.ndarray, tu: np.ndarray) -> list[int] | None:
     """For vertices without a slip corner of their own (within-period ones), each one's mirror image among them: the
-    index j with ``A_j = T A_i T`` and ``B_j = T B_i T_u`` (the mirror's tolerances), or None where one has none."""
+    index j with ``A_j = T A_i T`` and ``B_j = T B_i T_u`` (the mirror's tolerances) in the same ``Vertex.group``, or
+    None where one has none."""
     if not len(vertices):
         return []
     A = np.stack([np.asarray(v.A, dtype=float) for v in vertices])
     B = np.stack([np.asarray(v.B, dtype=float) for v in vertices])
+    groups = np.array([int(v.group) for v in vertices])  # (a vertex sharing a multiplier maps into its own group)
     tA, tB = t[None, :, None] * A * t[None, None, :], t[None, :, None] * B * tu[None, None, :]
     out = []
     for i in range(len(vertices)):
         hit = np.flatnonzero(np.isclose(A, tA[i], rtol=1e-10, atol=1e-12).all(axis=(1, 2))
-                             & np.isclose(B, tB[i], rtol=1e-10, atol=1e-12).all(axis=(1, 2)))
+                             & np.isclose(B, tB[i], rtol=1e-10, atol=1e-12).all(axis=(1, 2)) & (groups == groups[i]))
         if hit.size == 0:
             return None
         out.append(int(hit[0]))

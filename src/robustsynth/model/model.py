@@ -322,12 +322,9 @@ class Model:
             return (), self.varying_reason
         return (self.covering_vertices or self.varying), ""
 
-    def with_cuts(self, indices: list[int]) -> "Model":
-        """The model whose LMI vertices also include the within-period vertices ``varying[indices]``
-        (constraint generation, docs/theory.md §11; common certificates only): appended after the
-        model's own vertices, so a certificate's per-vertex data for those come first.  Where the model's own
-        vertices have the mirror symmetry (§6h), each comes with its mirror image (``mirror.mirror_pairs``), so that
-        the LMIs keep it."""
+    def with_mirrors(self, indices: list[int]) -> list[int]:
+        """``indices`` into the within-period vertices (``covering_vertices or varying``), each followed by its mirror
+        image's where the model's own vertices have the mirror symmetry (§6h; ``mirror.mirror_pairs``), once each."""
         from .mirror import mirror_pairs
 
         family = self.covering_vertices or self.varying
@@ -336,7 +333,15 @@ class Model:
         chosen: list[int] = []
         for i in indices:
             chosen += [j for j in (i, None if pairs is None else pairs[i]) if j is not None and j not in chosen]
-        extra = tuple(replace(family[i], corner=0) for i in chosen)
+        return chosen
+
+    def with_cuts(self, indices: list[int]) -> "Model":
+        """The model whose LMI vertices also include the within-period vertices ``(covering_vertices or varying)[indices]``
+        (constraint generation, docs/theory.md §11; common certificates only): appended after the
+        model's own vertices, so a certificate's per-vertex data for those come first; each with its mirror image
+        (:meth:`with_mirrors`), so that the LMIs keep the mirror symmetry where the model's own vertices have it."""
+        family = self.covering_vertices or self.varying
+        extra = tuple(replace(family[i], corner=0) for i in self.with_mirrors(indices))
         return replace(self, vertices=tuple(self.vertices) + extra)
 
     @property
@@ -586,8 +591,9 @@ class Model:
     @property
     def delay_vertex_count(self) -> int:
         """Delay vertices per slip corner: the vertices are corner-major, so vertex i has slip corner
-        ``i // n`` and delay vertex ``i % n`` (1 for the paper's model and the norm-bounded embedding)."""
-        return max(1, len(self.vertices) // max(1, int(np.asarray(self.corners).shape[0])))
+        ``i // n`` and delay vertex ``i % n`` (1 for the paper's model and the norm-bounded embedding); of the
+        model's own vertices (``base_vertices``: not those :meth:`with_cuts` appends)."""
+        return max(1, len(self.base_vertices or self.vertices) // max(1, int(np.asarray(self.corners).shape[0])))
 
     def next_corner_weights(self, m: int) -> np.ndarray:
         """Weights (n_next, n_c) over the corners of the slips that can follow corner m (one period)."""

@@ -67,7 +67,8 @@ def synthesis_markdown(model: Any, result: Any, gd: dict[str, Any], comparison: 
         + (f"yaw factor in [{cfg.slip.yaw.min:g}, {cfg.slip.yaw.max:g}], x_icr in [{cfg.slip.icr_offset.min:g}, "
            f"{cfg.slip.icr_offset.max:g}] m (slip.model icr: lateral sliding, docs/theory.md §12), "
            if cfg.slip.model == "icr" else "")
-        + _within_text(result.certified.get("slip_within_period"), len(model.varying), model.icr)
+        + _within_text(result.certified.get("slip_within_period"), len(model.covering_vertices or model.varying),
+                       model.icr and len(model.covering_vertices) == len(model.vertices))
         + ("free to jump anywhere in its range every period" if rate is None else
         f"changing at most {rate:g} /s (" + (f"the {cfg.synthesis.lyapunov} certificate uses the rate bound"
                                               if cfg.synthesis.lyapunov != "common" else
@@ -243,14 +244,15 @@ def _path_text(model: Any) -> str:
             "rad/s between periods (reference.turn_radius: the rounded corners are covered, docs/theory.md §10)")
 
 
-def _within_text(within: str | None, n: int, icr: bool = False) -> str:
-    """How the certificate treats slip that changes between sampling instants (docs/theory.md §11, §12)."""
-    if within == "covered" and icr:
+def _within_text(within: str | None, n: int, icr_channels: bool = False) -> str:
+    """How the certificate treats slip that changes between sampling instants (docs/theory.md §11, §12); ``n``: the
+    within-period vertices, ``icr_channels``: the icr model's channels alone cover it."""
+    if within == "covered" and icr_channels:
         return ("free to change at any time, also within a sampling period (covered: channels bound the map's deviation "
                 "from the constant-slip vertices' hull, docs/theory.md §12), ")
     if within == "covered":
         return (f"free to change at any time, also within a sampling period (covered: the LMI holds at {n} vertices of"
-                " the slip's averages over each command interval, docs/theory.md §11), ")
+                " the slip's averages over each command interval, docs/theory.md §11, §12), ")
     if within:
         return f"**assumed constant within a sampling period** ({within.removeprefix('assumed constant: ')}), "
     return "constant within a sampling period, "

@@ -190,7 +190,7 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
                                                                              intervals=n, halvings=halvings_for(n)),
                                    prove_first=phase1_alone,
                                    screen=lambda a, m=m: screen_at(m, s, motor, a, active, say), cuts=active.cuts)
-            active.cuts = tuple(r.cuts)
+            active.cuts = tuple(r.cuts) or active.cuts  # (none where phase-1 problems alone settled the bound)
             if best.cert is not None and (b.cert is None or b.value >= best.value):
                 tried.append((tb, "not better at the best alpha"))
                 break
@@ -252,7 +252,7 @@ def _start(model: Any, s: SynthesisConfig, motor: bool, say: Callable[[str], Non
     lin = model.linearized()
     if model.icr and model.covering_vertices:
         # the icr model's linearized certificate with the covering channels (and the arcs') costs as much as the
-        # nonlinear one (48 vertices of 40 channels: minutes); its alpha and heading only start the search, which
+        # nonlinear one (48 vertices of 34-40 channels: minutes); its alpha and heading only start the search, which
         # the straight constant-slip one (no channels, seconds) does about as well
         lin = replace(lin, vertices=model.base_vertices, turns=None, covering_vertices=(), channels=_straight_channels(model))
     sc = s.model_copy(update={"lyapunov": "common", "kinematics": "linearized"})

@@ -64,7 +64,8 @@ class _Best:
 
 
 class _Cuts(Rejected):
-    """A solved point failed the re-check only at within-period vertices (``indices`` into Model.varying)."""
+    """A solved point failed the re-check only at within-period vertices (``indices`` into the family of
+    Model.with_cuts)."""
 
     def __init__(self, indices: list[int]) -> None:
         super().__init__(f"{len(indices)} within-period vertices fail")
@@ -143,7 +144,7 @@ class _Runner:
         the within-period vertices ``cuts`` (an earlier search's, same family) posed from its first solve."""
         self.lp = self.active = lp
         if cuts and self.model.covering_vertices and max(cuts) < len(self.model.covering_vertices):
-            self.cuts = list(cuts)
+            self.cuts = self.model.with_mirrors(list(cuts))
             self.active = self._build_active()
 
     def release_compiled(self) -> None:
@@ -204,7 +205,7 @@ class _Runner:
                     out, res = Outcome("failed", last, spent[:-1] + [last]), (None, None, None)
                     break
                 rounds += 1
-                self.cuts += new
+                self.cuts = self.model.with_mirrors(self.cuts + new)  # (what Model.with_cuts poses)
                 self.active = self._build_active()
                 self._full = None
         self.last_kind = out.kind
