@@ -77,7 +77,8 @@ def test_a_retried_point_skips_the_primary_only_on_the_problem_it_failed_on(monk
     alpha = SimpleNamespace(value=0.1)
     lp0 = SimpleNamespace(mirrored=False, params={"alpha": alpha}, problem="P0")
     grown = SimpleNamespace(mirrored=False, params={"alpha": SimpleNamespace(value=None)}, problem="P1")
-    runner = runner_mod._Runner(SimpleNamespace(with_cuts=lambda idx: None), lp0, "clarabel", lambda v: {},
+    model = SimpleNamespace(with_cuts=lambda idx: None, with_mirrors=list)  # (no mirror: the cuts as asked)
+    runner = runner_mod._Runner(model, lp0, "clarabel", lambda v: {},
                             full=lambda m: grown)
     runner.run(fallback=False)  # the scan: the primary fails on P0
     runner.run(fallback=True, again=True)

@@ -138,6 +138,7 @@ class Model:
     # the channels for slip changing within a period that the vertices carry, one per delay vertex (``covering`` or
     # ``icr_covering``; () where they carry none): their heading rows bound |e_theta(t)|
     cover_channels: tuple = field(default=(), repr=False)
+    appended: int = 0  # how many of ``vertices`` (the last) are within-period vertices :meth:`with_cuts` appended
     # the reference yaw rates the vertices cover (model/arcs.py; None: straight segments only)
     turns: Any = None
     # polytopic delays: which combinations of the instants' triangles are vertices (vertices.DELAY_COVERS),
@@ -342,7 +343,7 @@ class Model:
         (:meth:`with_mirrors`), so that the LMIs keep the mirror symmetry where the model's own vertices have it."""
         family = self.covering_vertices or self.varying
         extra = tuple(replace(family[i], corner=0) for i in self.with_mirrors(indices))
-        return replace(self, vertices=tuple(self.vertices) + extra)
+        return replace(self, vertices=tuple(self.vertices) + extra, appended=self.appended + len(extra))
 
     @property
     def n_z(self) -> int:
@@ -591,9 +592,10 @@ class Model:
     @property
     def delay_vertex_count(self) -> int:
         """Delay vertices per slip corner: the vertices are corner-major, so vertex i has slip corner
-        ``i // n`` and delay vertex ``i % n`` (1 for the paper's model and the norm-bounded embedding); of the
-        model's own vertices (``base_vertices``: not those :meth:`with_cuts` appends)."""
-        return max(1, len(self.base_vertices or self.vertices) // max(1, int(np.asarray(self.corners).shape[0])))
+        ``i // n`` and delay vertex ``i % n`` (1 for the paper's model and the norm-bounded embedding); not
+        counting the within-period vertices :meth:`with_cuts` appends (``appended``)."""
+        own = len(self.vertices) - self.appended
+        return max(1, own // max(1, int(np.asarray(self.corners).shape[0])))
 
     def next_corner_weights(self, m: int) -> np.ndarray:
         """Weights (n_next, n_c) over the corners of the slips that can follow corner m (one period)."""
