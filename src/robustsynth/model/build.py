@@ -236,11 +236,11 @@ def _within_period(config: Config, nominal: Model, delays: _Delays, iv: _Interva
         coords = [np.stack([iv.h[t], iv.q[t]], axis=1) for t in range(len(delays.labels))]
         built = icr_varying_vertices(nominal.Phi, nominal.A_c, nominal.B_c, Ts, V, D, ranges, iv.h, iv.q,
                                      delays.labels, nominal.integral, MAX_VARYING_VERTICES)
-        icr = () if built is None else (
+        icr = ((), (), ()) if built is None else (
             tuple(built[0]), tuple(built[1]),
             tuple(icr_covering_channels(ranges, c, V, Ts, D, *dims, by_vertices=True) for c in coords))
         return _WithinPeriod(covering=[icr_covering_channels(ranges, c, V, Ts, D, *dims) for c in coords],
-                             reason=reason, icr=icr or ((), (), ()))
+                             reason=reason, icr=icr)
     if iv is None:
         return _WithinPeriod(reason="the norm-bounded delay description has no delay vertices to tie the slip averages "
                                     "to (synthesis.delay_description: polytopic or lossy-polytopic)")

@@ -19,6 +19,7 @@ it (:func:`gain_lifting`, :func:`pad_gain`, :func:`lifted_slice`).  :mod:`.build
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -26,7 +27,7 @@ import numpy as np
 from ..config import Config
 from ..core.network import Network, s_tilde_sequence
 from .linearize import lifted_exact
-from .mirror import Mirror, find_mirror
+from .mirror import Mirror, find_mirror, mirror_pairs
 from .slip import (SLIP_PARAMETERS, check_physical_feasibility, corner_weights, lateral_row, next_corner_weights,
                    nominal_slip, slip_matrix, slip_parameter_ranges)
 from .uncertainty import SlipBox, UncertainInstant, delta_for
@@ -323,14 +324,17 @@ class Model:
             return (), self.varying_reason
         return (self.covering_vertices or self.varying), ""
 
+    @cached_property
+    def _within_mirror(self) -> list[int] | None:
+        """Each within-period vertex's mirror image among them (``mirror.mirror_pairs``), where the model's own
+        vertices have the mirror symmetry (§6h); None where they have not (found once per model)."""
+        m = self.mirror("common")
+        return None if m is None else mirror_pairs(self.covering_vertices or self.varying, m.t, m.tu)
+
     def with_mirrors(self, indices: list[int]) -> list[int]:
         """``indices`` into the within-period vertices (``covering_vertices or varying``), each followed by its mirror
-        image's where the model's own vertices have the mirror symmetry (§6h; ``mirror.mirror_pairs``), once each."""
-        from .mirror import mirror_pairs
-
-        family = self.covering_vertices or self.varying
-        t = np.array([-1.0 if n.startswith(("e_y", "e_theta", "omega", "int_e_y")) else 1.0 for n in self.state_names])
-        pairs = mirror_pairs(family, t, np.array([1.0, -1.0])) if self.mirror("common") is not None else None
+        image's where the model's own vertices have the mirror symmetry (:attr:`_within_mirror`), once each."""
+        pairs = self._within_mirror
         chosen: list[int] = []
         for i in indices:
             chosen += [j for j in (i, None if pairs is None else pairs[i]) if j is not None and j not in chosen]

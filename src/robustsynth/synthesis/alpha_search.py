@@ -268,16 +268,15 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         c["motor_limits_enforced"] = motor
         return c
 
-    runner = _Runner(model, None, s.solver, make_cert, full=_invariance_builder(s, motor, False), rows=rows,
-                     grown=_invariance_builder(s, motor, s.symmetry == "auto"))
+    build = _invariance_builder(s, motor, s.symmetry == "auto")  # (mirror-invariant where the model allows)
+    runner = _Runner(model, None, s.solver, make_cert, full=_invariance_builder(s, motor, False), rows=rows, grown=build)
     # asked to prove first (the last bound's phase-1 problems alone settled it): the problem is built only where they
     # do not settle this one (on the default robot at d_hi = 5 its build took the main process from 0.92 to 1.41 GB,
     # and each later bound's is never solved)
     if prove is not None and prove_first and not probe_only and \
             _settled_by_phase1(runner, prove, search, say, why="failed before"):
         return best, runner
-    lp = _build(build_invariance, model, s.multiplier, s.margin, _weights(s), motor, s.lyapunov,
-                symmetry=s.symmetry == "auto", heading_rows=rows)
+    lp = _build(build, model, rows=rows)
     runner.attach(lp, cuts)
     evaluate = _Evaluator(lp, runner, best, w, search, say)
     est = runner.estimate = 0.0 if probe_only else solve_estimate(lp)
