@@ -333,7 +333,7 @@ class Model:
 
     def with_mirrors(self, indices: list[int]) -> list[int]:
         """``indices`` into the within-period vertices (``covering_vertices or varying``), each followed by its mirror
-        image's where the model's own vertices have the mirror symmetry (:attr:`_within_mirror`), once each."""
+        image's where the model's own vertices have the mirror symmetry (``_within_mirror``), once each."""
         pairs = self._within_mirror
         chosen: list[int] = []
         for i in indices:
