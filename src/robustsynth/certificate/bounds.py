@@ -141,15 +141,159 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
         # (for e_y its oscillation plus what cos e_theta takes off its size: |v1 c1 - v2 c2| <= |v1 - v2| + |v2| (1 -
         # cos); the sign of v_y is the command's, so where x_icr = 0 is in the box that is about half of 2 vy_bar)
         h = min(float(heading if heading is not None else 0.0), np.pi / 2)
-        vy, range_y = _lateral_ranges(model, cmds, mats, level, inner, 0.0, 2.0 * float(np.sin(h / 2.0)) ** 2)
+        one_minus_cos = 2.0 * float(np.sin(h / 2.0)) ** 2
+        vy, range_y = _lateral_ranges(model, cmds, mats, level, inner, 0.0, one_minus_cos)
         ey += Ts / 4 * range_y
         ex += Ts / 4 * 2.0 * vy * float(np.sin(h))
+        if within_period:  # the same terms joined to the start's e_y (:func:`_chord_joined`): the smaller bound
+            s = float(np.sin(h)) if model.heading_bound is not None else 0.0
+            joined = _chord_joined(model, cmds, mats, level, inner, 0.0, s, vy * one_minus_cos, sampled["e_y"])
+            ey = min(ey, joined - sampled["e_y"])
     elif model.icr:  # e_y' also holds the lateral velocity v_y = row(p) u: its jumps at the switching instants
         dvy = max(sup_on_set(np.array([model.lateral_row(mu) @ (cmds[j] - cmds[j + 1]) for j in range(d_hi)]), mats,
                              level, inner) for mu in np.asarray(model.corners))
         ey += Ts / 4 * d_hi * dvy
     return {"e_x": round_up(sampled["e_x"] + ex, 12), "e_y": round_up(sampled["e_y"] + ey, 12),
             "e_theta": heading}
+
+
+CHORD_INTERVALS = 64  # the intervals of lambda = t / Ts on which _chord_joined bounds |e_y(t)|
+CHORD_ROWS = (256, 32, 32)  # the most rows of each family (v_y pairs, a, omega) _chord_joined joins at once
+CHORD_BUDGET = 1_000_000  # the most quadratic forms per sign it evaluates at once (rows fewer with many matrices)
+
+
+def _chord_joined(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], level: float, inner: int,
+                  yaw_rate: float, s: float, cos_term: float, end: float) -> float:
+    """A bound on |f(t)| over the period for f the e_y component (p_y - p_ry in the frame of the reference at t_k;
+    on a straight segment e_y itself) where the slip changes within the period, with the chord terms joined to
+    f(0) = e_y(t_k) rather than added to the larger end (docs/theory.md §12, "the chord terms joined").
+
+    With lambda = t / Ts, ``|f(t)| <= (1 - lambda) |f(0)| + lambda |f(Ts)| + lambda (1 - lambda) X``, where
+    ``|f(Ts)| <= end`` (the end lies in the set) and X bounds the chord terms of :func:`between_samples`: Ts times
+    the range of v_y cos theta (the oscillation of v_y, a linear form of xi at a pair of slip corners and commands
+    in flight, plus ``cos_term`` = |v_y| (1 - cos theta_hat)), Ts 2 s |a| (a = v - V^D at a corner and command)
+    and Ts^2 / 2 V (|omega| + ``yaw_rate``).  So ``|f(t)| <= (1 - lambda) J(lambda) + lambda end + 4 lambda (1 -
+    lambda) Ts / 4 cos_term`` with ``J(lambda) = sup over the set of |e_y| + lambda (Ts |v_y osc| + Ts 2 s |a| + Ts^2
+    / 2 V |omega|)``, each a maximum over its rows: the largest over every triple of rows and signs of ``sqrt(level
+    r S r') + constants`` for r = e_y's row +- the three rows (at most as large as the sum of the separate bounds,
+    smaller where the rows do not align).  J grows with lambda, so on [lambda_i, lambda_i+1] the bound is at most
+    its affine majorant's larger end with J(lambda_i+1).  Rows beyond ``CHORD_ROWS`` (ranked by their own bound)
+    are covered by the sum of the separate bounds.  Rounded outwards."""
+    n_s, Ts, V = model.n_s, model.Ts, model.V
+    rows, consts = zip(*chord_families(model, cmds, yaw_rate))
+    e = np.zeros(n_s)
+    e[1] = 1.0
+    # each row's own bound, to rank them and to cover those left out: sqrt(level r S r') + constant
+    own = [np.sqrt(level * _rows_set_max(R, mats, inner)) + c for R, c in zip(rows, consts)]
+    sizes = [min(k, o.size) for o, k in zip(own, CHORD_ROWS)]
+    while len(mats) * int(np.prod(sizes)) > CHORD_BUDGET and max(sizes) > 1:  # many Lyapunov matrices: fewer rows
+        i = int(np.argmax(sizes))
+        sizes[i] = max(1, sizes[i] // 2)
+    keep = [np.argsort(-o)[:k] for o, k in zip(own, sizes)]
+    top = [float(np.max(o)) for o in own]
+    rest = [float(np.max(np.delete(o, k))) if o.size > k.size else None for o, k in zip(own, keep)]
+    R = np.vstack([e[None]] + [r[k] for r, k in zip(rows, keep)])
+    idx = np.cumsum([1] + sizes)
+    blocks = [np.arange(idx[i], idx[i + 1]) for i in range(3)]
+    kept_c = [c[k] for c, k in zip(consts, keep)]
+    e_own = float(np.sqrt(level * _rows_set_max(e[None], mats, inner))[0])
+    Gs = np.array([R @ S @ R.T for S in mats])
+    Ga = np.array([np.abs(R) @ np.abs(S) @ np.abs(R).T for S in mats])
+    gq = 2.0 * gamma(2 * n_s + 16)  # the rounding of G and of the combination below (on |c| |R| |S| |R|' |c|')
+
+    def joined(lam: float) -> float:
+        w = (lam * Ts, lam * Ts * 2.0 * s, lam * Ts * Ts / 2.0 * V)  # each family's weight in J(lam)
+        best = 0.0
+        for signs in np.ndindex(2, 2, 2):
+            c = [w[i] * (1.0 - 2.0 * signs[i]) for i in range(3)]
+            q_up = _triple_form(Gs, blocks, c) + gq * _triple_form(Ga, blocks, list(w))  # (n_mats, n0, n1, n2)
+            val = (np.sqrt(level * np.maximum(_set_max_rows(q_up.reshape(len(mats), -1), inner), 0.0))
+                   .reshape(q_up.shape[1:]) + w[0] * kept_c[0][:, None, None] + w[1] * kept_c[1][None, :, None]
+                   + w[2] * kept_c[2][None, None, :])
+            best = max(best, float(np.max(val)))
+        # a triple with a row left out: at most the sum of the separate bounds
+        for i in range(3):
+            if rest[i] is not None:
+                best = max(best, e_own + sum(w[j] * (rest[j] if j == i else top[j]) for j in range(3)))
+        return round_up(best, 12)
+
+    lams = np.arange(CHORD_INTERVALS + 1) / CHORD_INTERVALS
+    out = 0.0
+    for lo, hi in zip(lams[:-1], lams[1:]):
+        J = joined(float(hi))
+        peak = 0.25 if lo <= 0.5 <= hi else max(lo * (1 - lo), hi * (1 - hi))
+        out = max(out, max((1 - lo) * J + lo * end, (1 - hi) * J + hi * end) + 4.0 * peak * Ts / 4 * cos_term)
+    return round_up(out, 8)
+
+
+def chord_families(model: Any, cmds: list[np.ndarray], yaw_rate: float) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The three families of rows and constants whose ``max |r xi| + c`` bound, on a state xi, the chord terms
+    :func:`_chord_joined` joins (each with its distinct rows, :func:`_distinct`): the oscillation of v_y (every pair
+    of slip corners and of commands in flight ``cmds``, each with its turning feedforward, |w| <= ``yaw_rate``), the
+    forward-speed deviation |a| = |v - V^D| and |omega| + ``yaw_rate`` (the reference's own turn, psi'') at every
+    slip corner and command."""
+    V, uD, g = model.V, np.array([model.V, 0.0]), model.turn_feedforward
+    corners = np.asarray(model.corners)
+    lat = [model.lateral_row(mu) for mu in corners]
+    fam: list[tuple[list, list]] = [([], []), ([], []), ([], [])]
+    for ra in lat:
+        for rb in lat:
+            const = abs(float((ra - rb) @ uD)) + (abs(float(ra @ g)) + abs(float(rb @ g))) * yaw_rate
+            for ca in cmds:
+                for cb in cmds:
+                    fam[0][0].append(ra @ ca - rb @ cb)
+                    fam[0][1].append(const)
+    for mu in corners:
+        M = model.slip_matrix(mu)
+        for c in cmds:
+            fam[1][0].append(M[0] @ c)
+            fam[1][1].append(abs(float(M[0] @ uD) - V) + abs(float(M[0] @ g)) * yaw_rate)
+            fam[2][0].append(M[1] @ c)
+            fam[2][1].append(abs(float(M[1] @ uD)) + abs(float(M[1] @ g)) * yaw_rate + yaw_rate)
+    return [_distinct(np.array(r, dtype=float), np.array(c, dtype=float)) for r, c in fam]
+
+
+def _distinct(rows: np.ndarray, consts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct (row, constant) pairs of a family that enters as ``|r xi| + c``: r and -r alike (each row's
+    first nonzero entry made positive, which is exact), exact duplicates dropped."""
+    first = np.argmax(rows != 0.0, axis=1)
+    sign = np.where(rows[np.arange(rows.shape[0]), first] < 0.0, -1.0, 1.0)
+    both = np.unique(np.c_[rows * sign[:, None], consts], axis=0)
+    return both[:, :-1], both[:, -1]
+
+
+def _triple_form(G: np.ndarray, blocks: list[np.ndarray], c: list[float]) -> np.ndarray:
+    """``(e + c0 r0 + c1 r1 + c2 r2) S (...)'`` for every triple of rows (r0, r1, r2) of the three ``blocks``, from
+    their Gram matrices ``G`` (n_mats, n_rows, n_rows) under each S (row 0: e); shape (n_mats, n0, n1, n2)."""
+    b0, b1, b2 = blocks
+    d = np.diagonal(G, axis1=1, axis2=2)
+    x, y, z = (slice(None), None, None), (None, slice(None), None), (None, None, slice(None))
+
+    def one(v: np.ndarray, at: tuple) -> np.ndarray:  # (n_mats, k) placed on its axis
+        return v[(slice(None),) + at]
+
+    out = (G[:, 0, 0][:, None, None, None] + c[0] ** 2 * one(d[:, b0], x) + c[1] ** 2 * one(d[:, b1], y)
+           + c[2] ** 2 * one(d[:, b2], z) + 2 * c[0] * one(G[:, 0, b0], x) + 2 * c[1] * one(G[:, 0, b1], y)
+           + 2 * c[2] * one(G[:, 0, b2], z))
+    out += 2 * c[0] * c[1] * G[:, b0][:, :, b1][:, :, :, None]
+    out += 2 * c[0] * c[2] * G[:, b0][:, :, b2][:, :, None, :]
+    out += 2 * c[1] * c[2] * G[:, b1][:, :, b2][:, None, :, :]
+    return out
+
+
+def _rows_set_max(R: np.ndarray, mats: list[np.ndarray], inner: int) -> np.ndarray:
+    """Per row r of R an upper bound of max r S r' on the set (:func:`set_max`'s bound at a unit theta, without its
+    linear program), its rounding added."""
+    g = gamma(2 * R.shape[1] + 4)
+    aR = np.abs(R)
+    q = np.array([_form_upper(R, aR, S, g) for S in mats])
+    return _set_max_rows(q, inner)
+
+
+def _set_max_rows(q: np.ndarray, inner: int) -> np.ndarray:
+    """:func:`set_max` at the best unit theta, for every column of q (n_mats, n): ``min_d max_outer q``."""
+    q = np.maximum(q, 0.0)
+    return np.min(np.max(q.reshape(-1, inner, q.shape[-1]), axis=0), axis=0)
 
 
 def _lateral_on_set(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], level: float, inner: int,
@@ -279,4 +423,6 @@ def _between_samples_on_arcs(model: Any, cmds: list[np.ndarray], mats: list[np.n
         vy, range_y = _lateral_ranges(model, cmds, mats, level, inner, w_r, one_minus_cos)
         Py += Ts / 4 * range_y
         Px += Ts / 4 * 2.0 * vy * s
+        if within_period:  # the terms of Py joined to the start's e_y (:func:`_chord_joined`): the smaller bound
+            Py = min(Py, _chord_joined(model, cmds, mats, level, inner, w_r, s, vy * one_minus_cos, By + sp * Bx))
     return {"e_x": round_up(Px + sp * Py, 16), "e_y": round_up(Py + sp * Px, 16), "e_theta": heading}
