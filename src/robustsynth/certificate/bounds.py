@@ -158,6 +158,7 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
 
 
 CHORD_INTERVALS = 64  # the intervals of lambda = t / Ts on which _chord_joined bounds |e_y(t)|
+CHORD_COARSE = 8  # the points of lambda at which it evaluates J first (J is convex: their chords bound it between)
 CHORD_ROWS = (256, 32, 32)  # the most rows of each family (v_y pairs, a, omega) _chord_joined joins at once
 CHORD_BUDGET = 1_000_000  # the most quadratic forms per sign it evaluates at once (rows fewer with many matrices)
 
@@ -204,9 +205,10 @@ def _chord_joined(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], le
     def joined(lam: float) -> float:
         w = (lam * Ts, lam * Ts * 2.0 * s, lam * Ts * Ts / 2.0 * V)  # each family's weight in J(lam)
         best = 0.0
+        q_round = gq * _triple_form(Ga, blocks, list(w))  # (n_mats, n0, n1, n2)
         for signs in np.ndindex(2, 2, 2):
             c = [w[i] * (1.0 - 2.0 * signs[i]) for i in range(3)]
-            q_up = _triple_form(Gs, blocks, c) + gq * _triple_form(Ga, blocks, list(w))  # (n_mats, n0, n1, n2)
+            q_up = _triple_form(Gs, blocks, c) + q_round
             val = (np.sqrt(level * np.maximum(_set_max_rows(q_up.reshape(len(mats), -1), inner), 0.0))
                    .reshape(q_up.shape[1:]) + w[0] * kept_c[0][:, None, None] + w[1] * kept_c[1][None, :, None]
                    + w[2] * kept_c[2][None, None, :])
@@ -217,12 +219,24 @@ def _chord_joined(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], le
                 best = max(best, e_own + sum(w[j] * (rest[j] if j == i else top[j]) for j in range(3)))
         return round_up(best, 12)
 
-    lams = np.arange(CHORD_INTERVALS + 1) / CHORD_INTERVALS
-    out = 0.0
-    for lo, hi in zip(lams[:-1], lams[1:]):
-        J = joined(float(hi))
+    def on(lo: float, hi: float, J: float) -> float:  # the bound on [lo, hi] with J >= J(hi)
         peak = 0.25 if lo <= 0.5 <= hi else max(lo * (1 - lo), hi * (1 - hi))
-        out = max(out, max((1 - lo) * J + lo * end, (1 - hi) * J + hi * end) + 4.0 * peak * Ts / 4 * cos_term)
+        return max((1 - lo) * J + lo * end, (1 - hi) * J + hi * end) + 4.0 * peak * Ts / 4 * cos_term
+
+    # J is convex in lambda (a supremum of functions affine in it), so between the points of a coarse grid it is at
+    # most their chord: every interval first gets that bound, and J itself is evaluated at the right ends of the
+    # intervals whose bound is largest, until the largest left is below the largest evaluated one
+    coarse = np.arange(CHORD_COARSE + 1) / CHORD_COARSE
+    J_coarse = [joined(float(x)) for x in coarse]
+    lams = np.arange(CHORD_INTERVALS + 1) / CHORD_INTERVALS
+    J_chord = [round_up(float(np.interp(x, coarse, J_coarse)), 4) for x in lams[1:]]
+    left = sorted(((on(float(lams[i]), float(lams[i + 1]), J_chord[i]), i) for i in range(CHORD_INTERVALS)),
+                  reverse=True)
+    out = 0.0
+    for bound, i in left:
+        if bound <= out:
+            break  # this and every one after it: their chord bounds are below an evaluated one
+        out = max(out, on(float(lams[i]), float(lams[i + 1]), min(J_chord[i], joined(float(lams[i + 1])))))
     return round_up(out, 8)
 
 
