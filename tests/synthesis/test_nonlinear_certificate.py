@@ -277,13 +277,14 @@ def test_a_start_proven_infeasible_ends_the_nonlinear_search_at_once() -> None:
         assert out.kind == "infeasible", [(r.name, r.status) for r in out.attempts]
 
 
-@pytest.mark.slow  # the default's synthesis and one more solve: about 25 s
-def test_auto_tightens_a_heading_bound_the_set_leaves_room_in_and_skips_larger_ones() -> None:
-    """The default robot (icr slip, nonlinear kinematics, heading_bound: auto): at the grid's first bound its set's
-    heading within a period stays below HEADING_SLACK of it, so larger bounds are not tried (they widen every
-    channel's interval: checked here, at the best alpha the next grid bound certifies a larger |e_y| or nothing) and
-    a smaller bound just above the set's heading is, which certifies a smaller |e_y|.  The certificate passes the
-    numpy re-check, its bound just above its set's heading."""
+@pytest.mark.slow  # the default's synthesis and one more solve: about 20 s
+def test_auto_starts_below_the_grid_where_the_linearized_set_allows_and_skips_larger_bounds() -> None:
+    """The default robot (icr slip, nonlinear kinematics, heading_bound: auto): the first bound tried is
+    HEADING_FROM_LINEARIZED times the linearized set's heading within a period (0.076 rad, below the grid's first);
+    its set's heading stays below HEADING_SLACK of it, so larger bounds are not tried (they widen every channel's
+    interval: checked here, at the best alpha the grid's first bound certifies a larger |e_y| or nothing), and no
+    tightening is, as the bound already sits just above the set's heading.  The certificate passes the numpy
+    re-check."""
     from robustsynth.synthesis import synthesize
     from robustsynth.synthesis.alpha_search import _run_invariance
     from robustsynth.synthesis.heading_search import HEADING_GRID, HEADING_ROOM, HEADING_SLACK
@@ -293,14 +294,16 @@ def test_auto_tightens_a_heading_bound_the_set_leaves_room_in_and_skips_larger_o
     res = synthesize(model, on_step=said.append)
     f = res.check.figures
     assert res.check.passed and f["heading_bound"] < HEADING_GRID[0]
-    first = [ln for ln in said if f"|e_theta(t)| <= {HEADING_GRID[0]:g} rad (heading bound 1" in ln]
-    assert first and not any(f"|e_theta(t)| <= {HEADING_GRID[1]:g} rad" in ln for ln in said), said
+    first = [ln for ln in said if f"|e_theta(t)| <= {f['heading_bound']:g} rad (heading bound 1" in ln]
+    assert first and "first try" in first[0], said
+    assert not any(f"|e_theta(t)| <= {HEADING_GRID[0]:g} rad" in ln for ln in said), said
     assert any("leaves the bound room" in ln for ln in said), said
+    assert not any("one solve at the best alpha" in ln for ln in said), said  # no tightening
     # the bound sits just above the set's heading: a further tightening would gain less than a tenth
     assert f["heading_within_period"] <= f["heading_bound"] and HEADING_ROOM * f["heading_within_period"] > 0.9 * f["heading_bound"]
-    # the premise of skipping: at the best alpha the next grid bound is no better
+    # the premise of skipping: at the best alpha the grid's first bound is no better
     s = model.config.synthesis.model_copy(update={"solver": "clarabel-unscaled"})
-    larger, _ = _run_invariance(model.with_heading_bound(HEADING_GRID[1], within_period=True), s, [], True,
+    larger, _ = _run_invariance(model.with_heading_bound(HEADING_GRID[0], within_period=True), s, [], True,
                                 alpha_hint=float(res.certificate["alpha"]), retry=False, probe_only=True)
     ey = f["ultimate_bound"]["e_y"]
     assert larger.check is None or larger.check.figures["ultimate_bound"]["e_y"] > ey
