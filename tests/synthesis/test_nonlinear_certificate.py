@@ -462,3 +462,25 @@ def test_an_end_vertex_certificate_that_holds_everywhere_is_the_start_s(monkeypa
     channels = replace(lin, vertices=model.vertices)  # vertices with the kinematic channels (n_q > 0)
     assert any(v.n_q for v in channels.vertices)
     assert hs._on_every_vertex(channels, best, sub, tuple(range(len(channels.vertices)))) is None
+
+
+def test_auto_s_first_try_is_twice_the_linearized_heading_only_well_below_the_grid() -> None:
+    """heading_bound: auto's first try (HEADING_FROM_LINEARIZED times the linearized set's heading within a period,
+    rounded up to 1e-3 rad) is asked only where it lies a tenth or more below the grid's first bound, and only where the
+    linearized start certified (its alpha is where the try solves)."""
+    from robustsynth.results import CertificateCheck
+    from robustsynth.synthesis.heading_search import HEADING_FROM_LINEARIZED, HEADING_GRID, _first_try_bound
+    from robustsynth.synthesis.runner import _Best
+
+    def start(h: float, cert: bool = True) -> _Best:
+        return _Best(value=1.0, cert={"alpha": 0.1} if cert else None,
+                     check=CertificateCheck(True, (), {"heading_within_period": h}, ""))
+
+    assert HEADING_FROM_LINEARIZED == 2.0
+    assert _first_try_bound(start(0.0379), HEADING_GRID) == 0.076  # the default robot's linearized set
+    assert _first_try_bound(start(0.045), HEADING_GRID) == 0.09  # exactly a tenth below 0.1
+    assert _first_try_bound(start(0.0451), HEADING_GRID) is None  # 0.091: less than a tenth below
+    assert _first_try_bound(start(0.129), HEADING_GRID[1:]) is None  # nonlinear-proof: 0.258, above 0.15
+    assert _first_try_bound(start(0.0379, cert=False), HEADING_GRID) is None
+    assert _first_try_bound(start(0.0), HEADING_GRID) is None
+    assert _first_try_bound(_Best(), HEADING_GRID) is None

@@ -371,7 +371,7 @@ def _auto_bounds(common: _Best) -> tuple[float, ...]:
 def _first_try_bound(common: _Best, bounds: tuple[float, ...]) -> float | None:
     """auto's first try below the grid (HEADING_FROM_LINEARIZED times the linearized set's heading within a period,
     rounded up to 1e-3 rad), where it lies at least a tenth below the first of ``bounds``; else None."""
-    if common.check is None:
+    if common.check is None or common.cert is None:  # (no alpha to try it at)
         return None
     h = float(common.check.figures.get("heading_within_period") or 0.0)
     tb = math.ceil(HEADING_FROM_LINEARIZED * h * 1e3) / 1e3
