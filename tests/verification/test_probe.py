@@ -191,7 +191,8 @@ def test_between_samples_the_probe_stays_within_the_bounds_for_all_t() -> None:
     # are dropped (never reached; the review of d43a2e9), the others judged
     assert r["arcs"]["dropped_inadmissible_memory"] > 0
     assert r["arcs"]["runs"] + r["arcs"]["dropped_inadmissible_memory"] == r["samples"]
-    chord = {k: bound[k] - sampled[k] for k in ("e_x", "e_y")}
+    chord = chk.figures["between_samples_rise"]
+    assert all(chord[k] == pytest.approx(bound[k] - sampled[k], rel=1e-12) for k in ("e_x", "e_y"))  # (no join here)
     rise = r["between_samples"]["straight_rise"]
     assert all(rise[k] <= chord[k] for k in chord) and rise["e_x"] > 0.3 * chord["e_x"], (rise, chord)
     # one instant (t = Ts) is the one-period map

@@ -84,7 +84,8 @@ def sup_on_set(rows: np.ndarray, mats: list[np.ndarray], level: float, inner: in
 
 
 def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: float, sampled: dict[str, float],
-                    heading: float | None, inner: int = 1, within_period: bool = False) -> dict[str, float | None]:
+                    heading: float | None, inner: int = 1, within_period: bool = False,
+                    chord: dict[str, float] | None = None) -> dict[str, float | None]:
     """Bounds on |e_x(t)|, |e_y(t)|, |e_theta(t)| for every t, not only at the sampling instants
     (docs/theory.md §9).  Both ends of a period lie in the set, so within it each error is at most
     its sampled bound plus its distance from the chord between the ends, which is at most
@@ -96,6 +97,10 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
     it may jump at any time, its oscillation over the period: :func:`_lateral_oscillation`).
     v, omega and the jumps dv of the commands in flight are bounded on the set at every slip corner
     (multi-affine in the slip).  e_theta(t): :func:`heading_within_period`.
+
+    ``chord`` (a dict, filled): what the chord terms add to the sampled bounds, each at its own worst (on e_x and
+    e_y): the most any error rises above the larger end of its period.  Where the terms are joined to the start
+    (:func:`_chord_joined`) the bounds for all t are smaller than the sampled ones plus these.
 
     ``within_period``: slip may also change within the period (docs/theory.md §11).  Then e_x' = a(t)
     jumps wherever the slip does, and the chord distance is bounded by ``Ts/4 (sup a - inf a)`` over
@@ -112,7 +117,7 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
         E[:, n_e + (j - 1) * n_u : n_e + j * n_u] = np.eye(n_u)
         cmds.append(E)
     if getattr(model, "turns", None) is not None:
-        return _between_samples_on_arcs(model, cmds, mats, level, sampled, heading, inner, within_period)
+        return _between_samples_on_arcs(model, cmds, mats, level, sampled, heading, inner, within_period, chord)
     vbar, wbar, dvbar, abar = _speeds_on_set(model, cmds, mats, level, inner)
     if model.heading_bound is not None:
         s = float(np.sin(min(float(heading), np.pi / 2)))
@@ -145,45 +150,53 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
         vy, range_y = _lateral_ranges(model, cmds, mats, level, inner, 0.0, one_minus_cos)
         ey += Ts / 4 * range_y
         ex += Ts / 4 * 2.0 * vy * float(np.sin(h))
-        if within_period:  # the same terms joined to the start's e_y (:func:`_chord_joined`): the smaller bound
+        if within_period:  # the same terms joined to the start's errors (:func:`_chord_joined`): the smaller bounds
             s = float(np.sin(h)) if model.heading_bound is not None else 0.0
-            joined = _chord_joined(model, cmds, mats, level, inner, 0.0, s, vy * one_minus_cos, sampled["e_y"])
-            ey = min(ey, joined - sampled["e_y"])
+            a_cos = Ts / 4 * 2.0 * abar * one_minus_cos if model.heading_bound is not None else 0.0
+            fy, fx = chord_families(model, cmds, 0.0, "e_y"), chord_families(model, cmds, 0.0, "e_x")
+            wy, wx = (Ts, Ts * 2.0 * s, Ts * Ts / 2.0 * V), (Ts, Ts * Ts / 2.0 * V * s, Ts * 2.0 * s)
+            By, Bx = sampled["e_y"], sampled["e_x"]
+            if chord is not None:
+                chord.update(e_x=round_up(ex, 4), e_y=round_up(ey, 4))
+            ey = min(ey, _chord_joined(model, fy, wy, mats, level, inner, 1, Ts / 4 * vy * one_minus_cos, By) - By)
+            ex = min(ex, _chord_joined(model, fx, wx, mats, level, inner, 0, a_cos, Bx) - Bx)
     elif model.icr:  # e_y' also holds the lateral velocity v_y = row(p) u: its jumps at the switching instants
         dvy = max(sup_on_set(np.array([model.lateral_row(mu) @ (cmds[j] - cmds[j + 1]) for j in range(d_hi)]), mats,
                              level, inner) for mu in np.asarray(model.corners))
         ey += Ts / 4 * d_hi * dvy
+    if chord is not None and not chord:
+        chord.update(e_x=round_up(ex, 4), e_y=round_up(ey, 4))
     return {"e_x": round_up(sampled["e_x"] + ex, 12), "e_y": round_up(sampled["e_y"] + ey, 12),
             "e_theta": heading}
 
 
-CHORD_INTERVALS = 64  # the intervals of lambda = t / Ts on which _chord_joined bounds |e_y(t)|
+CHORD_INTERVALS = 64  # the intervals of lambda = t / Ts on which _chord_joined bounds |e_x(t)|, |e_y(t)|
 CHORD_COARSE = 8  # the points of lambda at which it evaluates J first (J is convex: their chords bound it between)
-CHORD_ROWS = (256, 32, 32)  # the most rows of each family (v_y pairs, a, omega) _chord_joined joins at once
+CHORD_ROWS = (256, 32, 32)  # the most rows of each family (chord_families) _chord_joined joins at once
 CHORD_BUDGET = 1_000_000  # the most quadratic forms per sign it evaluates at once (rows fewer with many matrices)
 
 
-def _chord_joined(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], level: float, inner: int,
-                  yaw_rate: float, s: float, cos_term: float, end: float) -> float:
-    """A bound on |f(t)| over the period for f the e_y component (p_y - p_ry in the frame of the reference at t_k;
-    on a straight segment e_y itself) where the slip changes within the period, with the chord terms joined to
-    f(0) = e_y(t_k) rather than added to the larger end (docs/theory.md §12, "the chord terms joined").
+def _chord_joined(model: Any, fams: list[tuple[np.ndarray, np.ndarray]], weights: tuple[float, float, float],
+                  mats: list[np.ndarray], level: float, inner: int, row: int, const: float, end: float) -> float:
+    """A bound on |f(t)| over the period for f an error component (e_x or e_y: ``row`` of xi; on arcs its part of p -
+    p_r in the frame of the reference at t_k) where the slip changes within the period, with the chord terms joined
+    to f(0) = xi[row] at t_k rather than added to the larger end (docs/theory.md §12, "the chord terms joined").
 
     With lambda = t / Ts, ``|f(t)| <= (1 - lambda) |f(0)| + lambda |f(Ts)| + lambda (1 - lambda) X``, where
-    ``|f(Ts)| <= end`` (the end lies in the set) and X bounds the chord terms of :func:`between_samples`: Ts times
-    the range of v_y cos theta (the oscillation of v_y, a linear form of xi at a pair of slip corners and commands
-    in flight, plus ``cos_term`` = |v_y| (1 - cos theta_hat)), Ts 2 s |a| (a = v - V^D at a corner and command)
-    and Ts^2 / 2 V (|omega| + ``yaw_rate``).  So ``|f(t)| <= (1 - lambda) J(lambda) + lambda end + 4 lambda (1 -
-    lambda) Ts / 4 cos_term`` with ``J(lambda) = sup over the set of |e_y| + lambda (Ts |v_y osc| + Ts 2 s |a| + Ts^2
-    / 2 V |omega|)``, each a maximum over its rows: the largest over every triple of rows and signs of ``sqrt(level
-    r S r') + constants`` for r = e_y's row +- the three rows (at most as large as the sum of the separate bounds,
-    smaller where the rows do not align).  J grows with lambda, so on [lambda_i, lambda_i+1] the bound is at most
-    its affine majorant's larger end with J(lambda_i+1).  Rows beyond ``CHORD_ROWS`` (ranked by their own bound)
+    ``|f(Ts)| <= end`` (the end lies in the set) and X bounds the chord terms of :func:`between_samples`: X = sum_i
+    ``weights[i]`` (max over the rows r of family i of ``|r xi| + c``) + 4 ``const`` (``fams``: :func:`chord_families`;
+    ``const``: the terms without a row, at their lambda = 1/2 value).  So ``|f(t)| <= (1 - lambda) J(lambda) + lambda
+    end + 4 lambda (1 - lambda) const`` with ``J(lambda) = sup over the set of |f(0)| + lambda (X - 4 const)``: the
+    largest over every triple of rows and signs of ``sqrt(level r S r')`` plus the constants, for r = f(0)'s row +- the
+    three rows (at most the sum of the separate bounds, smaller where the rows do not align).  J is nondecreasing and
+    convex in lambda: it is evaluated at CHORD_COARSE points, their chords bound it between, and each of CHORD_INTERVALS
+    intervals is bounded by its affine majorant's larger end with J (or its chord) at the right end; J itself is
+    evaluated only where an interval can still be the largest.  Rows beyond ``CHORD_ROWS`` (ranked by their own bound)
     are covered by the sum of the separate bounds.  Rounded outwards."""
-    n_s, Ts, V = model.n_s, model.Ts, model.V
-    rows, consts = zip(*chord_families(model, cmds, yaw_rate))
+    n_s = model.n_s
+    rows, consts = zip(*fams)
     e = np.zeros(n_s)
-    e[1] = 1.0
+    e[row] = 1.0
     # each row's own bound, to rank them and to cover those left out: sqrt(level r S r') + constant
     own = [np.sqrt(level * _rows_set_max(R, mats, inner)) + c for R, c in zip(rows, consts)]
     sizes = [min(k, o.size) for o, k in zip(own, CHORD_ROWS)]
@@ -203,9 +216,9 @@ def _chord_joined(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], le
     gq = 2.0 * gamma(2 * n_s + 16)  # the rounding of G and of the combination below (on |c| |R| |S| |R|' |c|')
 
     def joined(lam: float) -> float:
-        w = (lam * Ts, lam * Ts * 2.0 * s, lam * Ts * Ts / 2.0 * V)  # each family's weight in J(lam)
+        w = [lam * x for x in weights]  # each family's weight in J(lam)
         best = 0.0
-        q_round = gq * _triple_form(Ga, blocks, list(w))  # (n_mats, n0, n1, n2)
+        q_round = gq * _triple_form(Ga, blocks, w)  # (n_mats, n0, n1, n2)
         for signs in np.ndindex(2, 2, 2):
             c = [w[i] * (1.0 - 2.0 * signs[i]) for i in range(3)]
             q_up = _triple_form(Gs, blocks, c) + q_round
@@ -221,7 +234,7 @@ def _chord_joined(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], le
 
     def on(lo: float, hi: float, J: float) -> float:  # the bound on [lo, hi] with J >= J(hi)
         peak = 0.25 if lo <= 0.5 <= hi else max(lo * (1 - lo), hi * (1 - hi))
-        return max((1 - lo) * J + lo * end, (1 - hi) * J + hi * end) + 4.0 * peak * Ts / 4 * cos_term
+        return max((1 - lo) * J + lo * end, (1 - hi) * J + hi * end) + 4.0 * peak * const
 
     # J is convex in lambda (a supremum of functions affine in it), so between the points of a coarse grid it is at
     # most their chord: every interval first gets that bound, and J itself is evaluated at the right ends of the
@@ -240,18 +253,21 @@ def _chord_joined(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], le
     return round_up(out, 8)
 
 
-def chord_families(model: Any, cmds: list[np.ndarray], yaw_rate: float) -> list[tuple[np.ndarray, np.ndarray]]:
+def chord_families(model: Any, cmds: list[np.ndarray], yaw_rate: float, component: str = "e_y"
+                   ) -> list[tuple[np.ndarray, np.ndarray]]:
     """The three families of rows and constants whose ``max |r xi| + c`` bound, on a state xi, the chord terms
-    :func:`_chord_joined` joins (each with its distinct rows, :func:`_distinct`): the oscillation of v_y (every pair
-    of slip corners and of commands in flight ``cmds``, each with its turning feedforward, |w| <= ``yaw_rate``), the
-    forward-speed deviation |a| = |v - V^D| and |omega| + ``yaw_rate`` (the reference's own turn, psi'') at every
-    slip corner and command."""
+    :func:`_chord_joined` joins to ``component`` (each with its distinct rows, :func:`_distinct`), with the commands in
+    flight ``cmds`` and a turning feedforward |w| <= ``yaw_rate`` in each.  For e_y: the oscillation of v_y (every pair
+    of slip corners and of commands in flight), the forward-speed deviation |a| = |v - V^D| and |omega| + ``yaw_rate``
+    (the reference's own turn, psi''), at every slip corner and command.  For e_x: the oscillation of a (pairs, as for
+    v_y), |omega| and |v_y| at every slip corner and command."""
     V, uD, g = model.V, np.array([model.V, 0.0]), model.turn_feedforward
     corners = np.asarray(model.corners)
-    lat = [model.lateral_row(mu) for mu in corners]
+    lat = [model.lateral_row(mu) for mu in corners] if model.icr else None
+    fwd = [model.slip_matrix(mu)[0] for mu in corners]
     fam: list[tuple[list, list]] = [([], []), ([], []), ([], [])]
-    for ra in lat:
-        for rb in lat:
+    for ra in (lat if component == "e_y" else fwd):
+        for rb in (lat if component == "e_y" else fwd):
             const = abs(float((ra - rb) @ uD)) + (abs(float(ra @ g)) + abs(float(rb @ g))) * yaw_rate
             for ca in cmds:
                 for cb in cmds:
@@ -260,10 +276,16 @@ def chord_families(model: Any, cmds: list[np.ndarray], yaw_rate: float) -> list[
     for mu in corners:
         M = model.slip_matrix(mu)
         for c in cmds:
-            fam[1][0].append(M[0] @ c)
-            fam[1][1].append(abs(float(M[0] @ uD) - V) + abs(float(M[0] @ g)) * yaw_rate)
-            fam[2][0].append(M[1] @ c)
-            fam[2][1].append(abs(float(M[1] @ uD)) + abs(float(M[1] @ g)) * yaw_rate + yaw_rate)
+            omega = (M[1] @ c, abs(float(M[1] @ uD)) + abs(float(M[1] @ g)) * yaw_rate)
+            if component == "e_y":
+                a = (M[0] @ c, abs(float(M[0] @ uD) - V) + abs(float(M[0] @ g)) * yaw_rate)
+                parts = (a, (omega[0], omega[1] + yaw_rate))
+            else:
+                r = model.lateral_row(mu) if model.icr else np.zeros(model.n_u)
+                parts = (omega, (r @ c, abs(float(r @ uD)) + abs(float(r @ g)) * yaw_rate))
+            for k, (rw, cst) in enumerate(parts, start=1):
+                fam[k][0].append(rw)
+                fam[k][1].append(cst)
     return [_distinct(np.array(r, dtype=float), np.array(c, dtype=float)) for r, c in fam]
 
 
@@ -395,7 +417,8 @@ def _speeds_on_set(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], l
 
 def _between_samples_on_arcs(model: Any, cmds: list[np.ndarray], mats: list[np.ndarray], level: float,
                               sampled: dict[str, float], heading: float, inner: int,
-                              within_period: bool = False) -> dict[str, float | None]:
+                              within_period: bool = False, chord: dict[str, float] | None = None
+                              ) -> dict[str, float | None]:
     """:func:`between_samples` for a reference turning along arcs (docs/theory.md §10), on the exact arcs
     (for either kinematics: the linearization's own flow is not the robot's).  In the frame F_k of the
     reference at t_k, with p the robot's position and p_r the reference's (heading psi = w_k s), the error
@@ -437,6 +460,14 @@ def _between_samples_on_arcs(model: Any, cmds: list[np.ndarray], mats: list[np.n
         vy, range_y = _lateral_ranges(model, cmds, mats, level, inner, w_r, one_minus_cos)
         Py += Ts / 4 * range_y
         Px += Ts / 4 * 2.0 * vy * s
-        if within_period:  # the terms of Py joined to the start's e_y (:func:`_chord_joined`): the smaller bound
-            Py = min(Py, _chord_joined(model, cmds, mats, level, inner, w_r, s, vy * one_minus_cos, By + sp * Bx))
+        if within_period:  # the terms of Py and Px joined to the start's errors (:func:`_chord_joined`): the smaller
+            fy, fx = chord_families(model, cmds, w_r, "e_y"), chord_families(model, cmds, w_r, "e_x")
+            wy, wx = (Ts, Ts * 2.0 * s, Ts * Ts / 2.0 * V), (Ts, Ts * Ts / 2.0 * V * s, Ts * 2.0 * s)
+            cx = Ts * Ts / 8 * V * w_r * sp + Ts / 4 * 2.0 * abar * one_minus_cos  # the terms of Px without a row
+            if chord is not None:  # the separate sums' bounds, less the sampled ones
+                chord.update(e_x=round_up(Px + sp * Py - Bx, 16), e_y=round_up(Py + sp * Px - By, 16))
+            Py = min(Py, _chord_joined(model, fy, wy, mats, level, inner, 1, Ts / 4 * vy * one_minus_cos, By + sp * Bx))
+            Px = min(Px, _chord_joined(model, fx, wx, mats, level, inner, 0, cx, Bx + sp * By))
+    if chord is not None and not chord:
+        chord.update(e_x=round_up(Px + sp * Py - Bx, 16), e_y=round_up(Py + sp * Px - By, 16))
     return {"e_x": round_up(Px + sp * Py, 16), "e_y": round_up(Py + sp * Px, 16), "e_theta": heading}

@@ -572,19 +572,22 @@ def _between_text(between: dict, judged: bool) -> str:
             f" frame of the reference at t) the errors reach {figs(between['straight'])} on the straight line"
             + (f" and {figs(between['arcs'])} on arcs" if "arcs" in between else "")
             + f", against the bounds for all t of {figs(bound)}"
-            + _rise_text(between.get("straight_rise") or {}, bound, between.get("sampled") or {})
+            + _rise_text(between.get("straight_rise") or {}, bound, between.get("sampled") or {},
+                         between.get("rise_bound") or {})
             + (" (judged). " if judged else " (reported: a linearized certificate's sets hold for its linearization). ")
             + (f"The {between['mid_period']['runs']} states whose slip jumps within the period, which this certificate "
                f"does not cover (it assumes slip constant within each), reach {figs(between['mid_period'])} on the straight"
                " line (not judged). " if "mid_period" in between else ""))
 
 
-def _rise_text(rise: dict, bound: dict, sampled: dict) -> str:
-    """How far the errors rise above the ends of their period, beside the chord term of the bound for all t."""
-    parts = [f"{name} {100 * rise[name]:.2f} of {100 * (bound[name] - sampled[name]):.2f} cm"
+def _rise_text(rise: dict, bound: dict, sampled: dict, rise_bound: dict | None = None) -> str:
+    """How far the errors rise above the ends of their period, beside the chord terms at their worst (``rise_bound``;
+    without it, what the bound for all t adds to the sampled one)."""
+    rise_bound = rise_bound or {}
+    parts = [f"{name} {100 * rise[name]:.2f} of {100 * rise_bound.get(name, bound[name] - sampled[name]):.2f} cm"
              for name in ("e_x", "e_y") if name in rise and sampled.get(name) is not None]
     return ("; above the larger end of their period they rise by at most " + ", ".join(parts)
-            + " (the chord term those bounds add)") if parts else ""
+            + " (the chord terms, each at its worst)") if parts else ""
 
 
 def _arcs_text(arcs: dict) -> str:

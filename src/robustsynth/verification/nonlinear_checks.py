@@ -111,11 +111,13 @@ def steady_offsets(model, K: np.ndarray) -> dict[str, Any]:
 def _between_samples_ratio(probe: dict, figures: dict) -> tuple[float, str] | None:
     """The boundary probe's largest error between samples over the certificate's bound for all t
     (``ultimate_bound_between_samples``), and on the straight line the largest rise above the larger end of
-    the period over what that bound adds to the sampled one (the chord term, docs/theory.md §9: the bound
-    for all t at an instant is near the sampled bound, so the first ratio alone would not see that term);
-    the larger, and what it was.  None without those figures."""
+    the period over the chord term (``between_samples_rise``: the chord terms each at its worst, docs/theory.md §9;
+    without it, what the bound for all t adds to the sampled one: the bound for all t at an instant is near the
+    sampled bound, so the first ratio alone would not see that term); the larger, and what it was.  None without
+    those figures."""
     bound = figures.get("ultimate_bound_between_samples") or {}
     sampled = figures.get("ultimate_bound") or {}
+    rise_bound = figures.get("between_samples_rise") or {}
     between = probe.get("between_samples") or {}
     worst = None
 
@@ -130,9 +132,14 @@ def _between_samples_ratio(probe: dict, figures: dict) -> tuple[float, str] | No
             if b is not None and b > 0.0:
                 consider(value / b, f"{name} on {'arcs' if course == 'arcs' else 'the straight line'}")
     for name, value in (between.get("straight_rise") or {}).items():
-        if bound.get(name) is not None and sampled.get(name) is not None and bound[name] > sampled[name]:
-            consider(value / (bound[name] - sampled[name]), f"{name}'s rise above the period's ends on the straight line, "
-                     "over the chord term")
+        if rise_bound.get(name) is not None:
+            chord = rise_bound[name]
+        elif bound.get(name) is not None and sampled.get(name) is not None:
+            chord = bound[name] - sampled[name]
+        else:
+            continue
+        if chord > 0.0:
+            consider(value / chord, f"{name}'s rise above the period's ends on the straight line, over the chord term")
     return worst
 
 
@@ -464,7 +471,8 @@ def _boundary(r: _Runs, lyap: Any, level: float, mc: dict[str, Any]) -> dict[str
     if cert.figures.get("ultimate_bound_between_samples"):  # beside what the probe measured between the samples
         mc["boundary_probe"]["between_samples"] = dict(probe["between_samples"],
                                                        bound=dict(cert.figures["ultimate_bound_between_samples"]),
-                                                       sampled=dict(cert.figures["ultimate_bound"]))
+                                                       sampled=dict(cert.figures["ultimate_bound"]),
+                                                       rise_bound=dict(cert.figures.get("between_samples_rise") or {}))
     if vc.adversarial_runs:  # the beam search again, now from the boundary (multi-period histories)
         xb, mb = boundary_states(model, K, lyap, level, seed=seed)
         n_fig = int(xb.shape[0])

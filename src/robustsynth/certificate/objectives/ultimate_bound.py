@@ -63,9 +63,11 @@ def _set_figures(model: Any, K: np.ndarray, lyap: str, mats: list[np.ndarray], l
     # turning reference, §10)
     if model.channels:
         figures["heading_within_period"] = heading_within_period(model, K, mats, level, inner)
+    chord: dict[str, float] = {}  # what the chord terms add, each at its worst: the most an error rises in a period
     figures["ultimate_bound_between_samples"] = between_samples(
         model, K, mats, level, figures["ultimate_bound"], figures.get("heading_within_period"), inner,
-        within_period=varying)
+        within_period=varying, chord=chord)
+    figures["between_samples_rise"] = chord
 
 
 def _set_checks(model: Any, cert: Mapping[str, Any], figures: dict) -> list[dict[str, Any]]:
