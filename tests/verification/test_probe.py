@@ -165,7 +165,7 @@ def test_between_samples_the_probe_stays_within_the_bounds_for_all_t() -> None:
     line and on arcs, with slip jumps) on the committed turning gain, a nonlinear certificate covering slip
     changing within a period: within ``ultimate_bound_between_samples``, e_theta near it (the largest sits
     at the first instant after a boundary state at the heading's maximizer: the review of d43a2e9), and
-    the rise above each period's ends within the chord term that bound adds, a good part of it used.  The
+    the rise above each period's ends within the chord terms at their worst, a good part of them used.  The
     periods cut at t = Ts are the probe's own one-period runs (``KinematicRobot.partial`` against
     ``period``, with slip switches too), and inside the period the heading is its closed form."""
     from robustsynth.model.slip import slip_matrix
@@ -191,8 +191,8 @@ def test_between_samples_the_probe_stays_within_the_bounds_for_all_t() -> None:
     # are dropped (never reached; the review of d43a2e9), the others judged
     assert r["arcs"]["dropped_inadmissible_memory"] > 0
     assert r["arcs"]["runs"] + r["arcs"]["dropped_inadmissible_memory"] == r["samples"]
-    chord = chk.figures["between_samples_rise"]
-    assert all(chord[k] == pytest.approx(bound[k] - sampled[k], rel=1e-12) for k in ("e_x", "e_y"))  # (no join here)
+    chord = chk.figures["between_samples_rise"]  # the chord terms at their worst: the bounds for all t add less
+    assert all(bound[k] - sampled[k] < chord[k] for k in ("e_x", "e_y")), (bound, sampled, chord)
     rise = r["between_samples"]["straight_rise"]
     assert all(rise[k] <= chord[k] for k in chord) and rise["e_x"] > 0.3 * chord["e_x"], (rise, chord)
     # one instant (t = Ts) is the one-period map

@@ -150,22 +150,23 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
         vy, range_y = _lateral_ranges(model, cmds, mats, level, inner, 0.0, one_minus_cos)
         ey += Ts / 4 * range_y
         ex += Ts / 4 * 2.0 * vy * float(np.sin(h))
-        if within_period:  # the same terms joined to the start's errors (:func:`_chord_joined`): the smaller bounds
-            s = float(np.sin(h)) if model.heading_bound is not None else 0.0
-            a_cos = Ts / 4 * 2.0 * abar * one_minus_cos if model.heading_bound is not None else 0.0
-            fy, fx = chord_families(model, cmds, 0.0, "e_y"), chord_families(model, cmds, 0.0, "e_x")
-            wy, wx = (Ts, Ts * 2.0 * s, Ts * Ts / 2.0 * V), (Ts, Ts * Ts / 2.0 * V * s, Ts * 2.0 * s)
-            By, Bx = sampled["e_y"], sampled["e_x"]
-            if chord is not None:
-                chord.update(e_x=round_up(ex, 4), e_y=round_up(ey, 4))
-            ey = min(ey, _chord_joined(model, fy, wy, mats, level, inner, 1, Ts / 4 * vy * one_minus_cos, By) - By)
-            ex = min(ex, _chord_joined(model, fx, wx, mats, level, inner, 0, a_cos, Bx) - Bx)
     elif model.icr:  # e_y' also holds the lateral velocity v_y = row(p) u: its jumps at the switching instants
         dvy = max(sup_on_set(np.array([model.lateral_row(mu) @ (cmds[j] - cmds[j + 1]) for j in range(d_hi)]), mats,
                              level, inner) for mu in np.asarray(model.corners))
         ey += Ts / 4 * d_hi * dvy
-    if chord is not None and not chord:
+    if chord is not None:  # the chord terms each at its worst
         chord.update(e_x=round_up(ex, 4), e_y=round_up(ey, 4))
+    if within_period:  # the same terms joined to the start's errors (:func:`_chord_joined`): the smaller bounds
+        h = min(float(heading if heading is not None else 0.0), np.pi / 2)
+        s = float(np.sin(h)) if model.heading_bound is not None else 0.0
+        one_minus_cos = 2.0 * float(np.sin(h / 2.0)) ** 2
+        vy = _lateral_on_set(model, cmds, mats, level, inner) if model.icr else 0.0
+        a_cos = Ts / 4 * 2.0 * abar * one_minus_cos if model.heading_bound is not None else 0.0
+        fy, fx = chord_families(model, cmds, 0.0, "e_y"), chord_families(model, cmds, 0.0, "e_x")
+        wy, wx = (Ts, Ts * 2.0 * s, Ts * Ts / 2.0 * V), (Ts, Ts * Ts / 2.0 * V * s, Ts * 2.0 * s)
+        By, Bx = sampled["e_y"], sampled["e_x"]
+        ey = min(ey, _chord_joined(model, fy, wy, mats, level, inner, 1, Ts / 4 * vy * one_minus_cos, By) - By)
+        ex = min(ex, _chord_joined(model, fx, wx, mats, level, inner, 0, a_cos, Bx) - Bx)
     return {"e_x": round_up(sampled["e_x"] + ex, 12), "e_y": round_up(sampled["e_y"] + ey, 12),
             "e_theta": heading}
 
@@ -263,7 +264,7 @@ def chord_families(model: Any, cmds: list[np.ndarray], yaw_rate: float, componen
     v_y), |omega| and |v_y| at every slip corner and command."""
     V, uD, g = model.V, np.array([model.V, 0.0]), model.turn_feedforward
     corners = np.asarray(model.corners)
-    lat = [model.lateral_row(mu) for mu in corners] if model.icr else None
+    lat = [model.lateral_row(mu) for mu in corners] if model.icr else [np.zeros(model.n_u)]  # (tracks: no v_y)
     fwd = [model.slip_matrix(mu)[0] for mu in corners]
     fam: list[tuple[list, list]] = [([], []), ([], []), ([], [])]
     for ra in (lat if component == "e_y" else fwd):
@@ -460,14 +461,15 @@ def _between_samples_on_arcs(model: Any, cmds: list[np.ndarray], mats: list[np.n
         vy, range_y = _lateral_ranges(model, cmds, mats, level, inner, w_r, one_minus_cos)
         Py += Ts / 4 * range_y
         Px += Ts / 4 * 2.0 * vy * s
-        if within_period:  # the terms of Py and Px joined to the start's errors (:func:`_chord_joined`): the smaller
-            fy, fx = chord_families(model, cmds, w_r, "e_y"), chord_families(model, cmds, w_r, "e_x")
-            wy, wx = (Ts, Ts * 2.0 * s, Ts * Ts / 2.0 * V), (Ts, Ts * Ts / 2.0 * V * s, Ts * 2.0 * s)
-            cx = Ts * Ts / 8 * V * w_r * sp + Ts / 4 * 2.0 * abar * one_minus_cos  # the terms of Px without a row
-            if chord is not None:  # the separate sums' bounds, less the sampled ones
-                chord.update(e_x=round_up(Px + sp * Py - Bx, 16), e_y=round_up(Py + sp * Px - By, 16))
-            Py = min(Py, _chord_joined(model, fy, wy, mats, level, inner, 1, Ts / 4 * vy * one_minus_cos, By + sp * Bx))
-            Px = min(Px, _chord_joined(model, fx, wx, mats, level, inner, 0, cx, Bx + sp * By))
+    if within_period:  # the terms of Py and Px joined to the start's errors (:func:`_chord_joined`): the smaller
+        vy = vy if model.icr else 0.0  # (the tracks model: no lateral velocity, its family a zero row)
+        fy, fx = chord_families(model, cmds, w_r, "e_y"), chord_families(model, cmds, w_r, "e_x")
+        wy, wx = (Ts, Ts * 2.0 * s, Ts * Ts / 2.0 * V), (Ts, Ts * Ts / 2.0 * V * s, Ts * 2.0 * s)
+        cx = Ts * Ts / 8 * V * w_r * sp + Ts / 4 * 2.0 * abar * one_minus_cos  # the terms of Px without a row
+        if chord is not None:  # the separate sums' bounds, less the sampled ones
+            chord.update(e_x=round_up(Px + sp * Py - Bx, 16), e_y=round_up(Py + sp * Px - By, 16))
+        Py = min(Py, _chord_joined(model, fy, wy, mats, level, inner, 1, Ts / 4 * vy * one_minus_cos, By + sp * Bx))
+        Px = min(Px, _chord_joined(model, fx, wx, mats, level, inner, 0, cx, Bx + sp * By))
     if chord is not None and not chord:
         chord.update(e_x=round_up(Px + sp * Py - Bx, 16), e_y=round_up(Py + sp * Px - By, 16))
     return {"e_x": round_up(Px + sp * Py, 16), "e_y": round_up(Py + sp * Px, 16), "e_theta": heading}
