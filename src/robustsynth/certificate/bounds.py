@@ -119,8 +119,10 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
     if getattr(model, "turns", None) is not None:
         return _between_samples_on_arcs(model, cmds, mats, level, sampled, heading, inner, within_period, chord)
     vbar, wbar, dvbar, abar = _speeds_on_set(model, cmds, mats, level, inner)
+    h = min(float(heading if heading is not None else 0.0), np.pi / 2)
+    one_minus_cos, vy = 2.0 * float(np.sin(h / 2.0)) ** 2, 0.0  # (vy: the largest |v_y| where the icr model has it)
     if model.heading_bound is not None:
-        s = float(np.sin(min(float(heading), np.pi / 2)))
+        s = float(np.sin(h))
         ey = Ts * Ts / 8 * vbar * wbar + Ts / 4 * d_hi * dvbar * s
         ex = Ts * Ts / 8 * vbar * wbar * s + Ts / 4 * d_hi * dvbar
     else:
@@ -135,8 +137,6 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
             # |f''| = |V cos e_theta omega| <= V wbar, the second in +-abar s; e_x' = a - V (1 - cos e_theta)
             # - a (1 - cos e_theta): a ranges over osc, the second has |f''| <= V s wbar, the third is in
             # +-abar (1 - cos)
-            h = min(float(heading), np.pi / 2)
-            s, one_minus_cos = float(np.sin(h)), 2.0 * float(np.sin(h / 2.0)) ** 2
             ey = Ts * Ts / 8 * V * wbar + Ts / 4 * 2.0 * abar * s
             ex = Ts / 4 * osc + Ts * Ts / 8 * V * s * wbar + Ts / 4 * 2.0 * abar * one_minus_cos
     if model.icr and (within_period or model.heading_bound is not None):
@@ -145,8 +145,6 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
         # bounded by its range: |f - chord| <= Ts/4 (sup f' - inf f') <= Ts/4 2 vy_bar (times sin for e_x)
         # (for e_y its oscillation plus what cos e_theta takes off its size: |v1 c1 - v2 c2| <= |v1 - v2| + |v2| (1 -
         # cos); the sign of v_y is the command's, so where x_icr = 0 is in the box that is about half of 2 vy_bar)
-        h = min(float(heading if heading is not None else 0.0), np.pi / 2)
-        one_minus_cos = 2.0 * float(np.sin(h / 2.0)) ** 2
         vy, range_y = _lateral_ranges(model, cmds, mats, level, inner, 0.0, one_minus_cos)
         ey += Ts / 4 * range_y
         ex += Ts / 4 * 2.0 * vy * float(np.sin(h))
@@ -157,10 +155,7 @@ def between_samples(model: Any, K: np.ndarray, mats: list[np.ndarray], level: fl
     if chord is not None:  # the chord terms each at its worst
         chord.update(e_x=round_up(ex, 4), e_y=round_up(ey, 4))
     if within_period:  # the same terms joined to the start's errors (:func:`_chord_joined`): the smaller bounds
-        h = min(float(heading if heading is not None else 0.0), np.pi / 2)
         s = float(np.sin(h)) if model.heading_bound is not None else 0.0
-        one_minus_cos = 2.0 * float(np.sin(h / 2.0)) ** 2
-        vy = _lateral_on_set(model, cmds, mats, level, inner) if model.icr else 0.0
         a_cos = Ts / 4 * 2.0 * abar * one_minus_cos if model.heading_bound is not None else 0.0
         fy, fx = chord_families(model, cmds, 0.0, "e_y"), chord_families(model, cmds, 0.0, "e_x")
         wy, wx = (Ts, Ts * 2.0 * s, Ts * Ts / 2.0 * V), (Ts, Ts * Ts / 2.0 * V * s, Ts * 2.0 * s)
@@ -461,15 +456,13 @@ def _between_samples_on_arcs(model: Any, cmds: list[np.ndarray], mats: list[np.n
         vy, range_y = _lateral_ranges(model, cmds, mats, level, inner, w_r, one_minus_cos)
         Py += Ts / 4 * range_y
         Px += Ts / 4 * 2.0 * vy * s
+    if chord is not None:  # the chord terms each at its worst: the separate sums' bounds, less the sampled ones
+        chord.update(e_x=round_up(Px + sp * Py - Bx, 16), e_y=round_up(Py + sp * Px - By, 16))
     if within_period:  # the terms of Py and Px joined to the start's errors (:func:`_chord_joined`): the smaller
         vy = vy if model.icr else 0.0  # (the tracks model: no lateral velocity, its family a zero row)
         fy, fx = chord_families(model, cmds, w_r, "e_y"), chord_families(model, cmds, w_r, "e_x")
         wy, wx = (Ts, Ts * 2.0 * s, Ts * Ts / 2.0 * V), (Ts, Ts * Ts / 2.0 * V * s, Ts * 2.0 * s)
         cx = Ts * Ts / 8 * V * w_r * sp + Ts / 4 * 2.0 * abar * one_minus_cos  # the terms of Px without a row
-        if chord is not None:  # the separate sums' bounds, less the sampled ones
-            chord.update(e_x=round_up(Px + sp * Py - Bx, 16), e_y=round_up(Py + sp * Px - By, 16))
         Py = min(Py, _chord_joined(model, fy, wy, mats, level, inner, 1, Ts / 4 * vy * one_minus_cos, By + sp * Bx))
         Px = min(Px, _chord_joined(model, fx, wx, mats, level, inner, 0, cx, Bx + sp * By))
-    if chord is not None and not chord:
-        chord.update(e_x=round_up(Px + sp * Py - Bx, 16), e_y=round_up(Py + sp * Px - By, 16))
     return {"e_x": round_up(Px + sp * Py, 16), "e_y": round_up(Py + sp * Px, 16), "e_theta": heading}

@@ -201,22 +201,19 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
             if active.rows is None and common.cert is not None:  # (the start's certificate: one Lyapunov matrix Q)
                 # the first phase-1 problems pose the rows nearest their bound on the start's set, not every row
                 seed_rows(active, m, common.cert["Q"], common.K)
+            posed = dict(alpha_hint=start, rows=_posed_rows(active, m), give_up=NONLINEAR_GIVE_UP,
+                         prune=_motor_pruner(m, s, say=say) if motor else None, stop_rel=COSTLY_STOP_REL,
+                         cuts=active.cuts)
             if trying:  # one solve at the hint, which where it certifies starts the walk (bar: anything certified)
-                b, r = _run_invariance(m, s, search, motor, say, alpha_hint=start, retry=False,
-                                       rows=_posed_rows(active, m), give_up=NONLINEAR_GIVE_UP,
-                                       prune=_motor_pruner(m, s, say=say) if motor else None, stop_rel=COSTLY_STOP_REL,
-                                       bar=math.inf, cuts=active.cuts)
+                b, r = _run_invariance(m, s, search, motor, say, retry=False, bar=math.inf, **posed)
             else:
-                b, r = _run_invariance(m, s, search, motor, say, alpha_hint=start, retry="cheap" if auto else True,
-                                       rows=_posed_rows(active, m),
-                                       give_up=NONLINEAR_GIVE_UP,
-                                       prune=_motor_pruner(m, s, say=say) if motor else None, stop_rel=COSTLY_STOP_REL,
+                b, r = _run_invariance(m, s, search, motor, say, retry="cheap" if auto else True,
                                        bar=best.value if best.cert is not None else None,
                                        prove=lambda m=m, n=layout: prove_no_set(m, s, motor, ALPHA_RANGE, say,
                                                                                  active=active, intervals=n,
                                                                                  halvings=halvings_for(n)),
                                        prove_first=phase1_alone,
-                                       screen=lambda a, m=m: screen_at(m, s, motor, a, active, say), cuts=active.cuts)
+                                       screen=lambda a, m=m: screen_at(m, s, motor, a, active, say), **posed)
             active.cuts = tuple(r.cuts) or active.cuts  # (none where phase-1 problems alone settled the bound)
             if trying and b.cert is None:
                 say(f"  not certified at the hint: the grid's bounds from {bounds[1]:g} rad")

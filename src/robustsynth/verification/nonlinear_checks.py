@@ -111,12 +111,10 @@ def steady_offsets(model, K: np.ndarray) -> dict[str, Any]:
 def _between_samples_ratio(probe: dict, figures: dict) -> tuple[float, str] | None:
     """The boundary probe's largest error between samples over the certificate's bound for all t
     (``ultimate_bound_between_samples``), and on the straight line the largest rise above the larger end of
-    the period over the chord term (``between_samples_rise``: the chord terms each at its worst, docs/theory.md §9;
-    without it, what the bound for all t adds to the sampled one: the bound for all t at an instant is near the
-    sampled bound, so the first ratio alone would not see that term); the larger, and what it was.  None without
-    those figures."""
+    the period over the chord term (``between_samples_rise``: the chord terms each at its worst, docs/theory.md §9:
+    the bound for all t at an instant is near the sampled bound, so the first ratio alone would not see that term);
+    the larger, and what it was.  None without those figures."""
     bound = figures.get("ultimate_bound_between_samples") or {}
-    sampled = figures.get("ultimate_bound") or {}
     rise_bound = figures.get("between_samples_rise") or {}
     between = probe.get("between_samples") or {}
     worst = None
@@ -132,14 +130,9 @@ def _between_samples_ratio(probe: dict, figures: dict) -> tuple[float, str] | No
             if b is not None and b > 0.0:
                 consider(value / b, f"{name} on {'arcs' if course == 'arcs' else 'the straight line'}")
     for name, value in (between.get("straight_rise") or {}).items():
-        if rise_bound.get(name) is not None:
-            chord = rise_bound[name]
-        elif bound.get(name) is not None and sampled.get(name) is not None:
-            chord = bound[name] - sampled[name]
-        else:
-            continue
-        if chord > 0.0:
-            consider(value / chord, f"{name}'s rise above the period's ends on the straight line, over the chord term")
+        if rise_bound.get(name, 0.0) > 0.0:
+            consider(value / rise_bound[name], f"{name}'s rise above the period's ends on the straight line, over the "
+                     "chord term")
     return worst
 
 
