@@ -346,19 +346,20 @@ def test_the_cleanup_follows_symlinks_and_covers_a_gains_files_directory(tmp_pat
 def test_a_long_stage_gets_a_line_at_least_every_heartbeat(monkeypatch, capsys) -> None:
     """On a terminal a long command prints its steps and, between them, a line of its own at least every
     HEARTBEAT_S (issue 50: a nonlinear synthesis was silent for 12.6 minutes).  Here with the period shortened
-    to 1.5 s (the thread looks once a second) and 4.5 s without a step; once stopped, it says nothing more."""
+    to 0.3 s (the thread looking every 0.1 s) and 0.9 s without a step; once stopped, it says nothing more."""
     import time
 
     from robustsynth.report import progress
 
-    monkeypatch.setattr(progress, "HEARTBEAT_S", 1.5)
+    monkeypatch.setattr(progress, "HEARTBEAT_S", 0.3)
+    monkeypatch.setattr(progress, "HEARTBEAT_POLL_S", 0.1)
     say = progress.Heartbeat()
     say("step one")
     say.open_line = True  # as a rewritten count line (sweep) leaves it: the first beat goes below it
-    time.sleep(4.5)
+    time.sleep(0.9)
     say("step two")
     progress.stop_heartbeats()  # as every command does when it ends: no line after its last one
-    time.sleep(2.0)
+    time.sleep(0.4)
     err = capsys.readouterr().err.splitlines()
     assert err[0] == "step one" and err[-1] == "step two"
     assert err[1] == "", err

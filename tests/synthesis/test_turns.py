@@ -22,13 +22,18 @@ RUNS, PERIODS = 300, 160
 
 
 @pytest.fixture(scope="module")
-def designs():
-    """The slip box [0.8, 1] (nonlinear-proof's): the straight-segment model, its turning one, and a
-    certificate for each (a short alpha scan: the test needs certificates, not the best ones; the turning
-    one, with 22 channels per vertex, the shortest)."""
+def models():
+    """The slip box [0.8, 1] (nonlinear-proof's): the straight-segment model and its turning one."""
     base = build_model(make_config(**{"slip.right.min": 0.8, "slip.left.min": 0.8,
                                       "synthesis.delay_description": "polytopic"}))
-    turning = base.with_turns(W_BAR)
+    return base, base.with_turns(W_BAR)
+
+
+@pytest.fixture(scope="module")
+def designs(models):
+    """:func:`models` and a certificate for each (a short alpha scan: the test needs certificates, not the best
+    ones; the turning one, with 22 channels per vertex, the shortest)."""
+    base, turning = models
     return base, turning, synthesize(base, alpha_points=5), synthesize(turning, alpha_points=3)
 
 
@@ -193,13 +198,13 @@ def test_the_robot_on_arcs_stays_in_the_turning_set_and_leaves_the_straight_one(
     assert r.check.figures["ultimate_bound"]["e_y"] > r0.check.figures["ultimate_bound"]["e_y"]
 
 
-def test_a_heading_bound_on_a_turning_model_keeps_its_turns(designs) -> None:
+def test_a_heading_bound_on_a_turning_model_keeps_its_turns(models) -> None:
     """A heading bound on a turning model gives the turning vertices for the nonlinear robot (the review
     of 533bd04: it once kept ``turns`` and dropped the turning vertices); linearized() gives the
     linearized turning vertices back.  The H-infinity gain is built for straight segments: refused."""
     from robustsynth.errors import InputError
 
-    _, turning, _, _ = designs
+    _, turning = models
     nl = turning.with_heading_bound(0.3)
     assert nl.turns == turning.turns and nl.kinematics == "nonlinear" and nl.heading_bound == 0.3
     assert len(nl.vertices) == len(turning.vertices)
@@ -299,7 +304,7 @@ def test_between_samples_on_arcs_the_robot_stays_within_the_continuous_bounds() 
     assert worst[1] > 0.5 * cont["e_y"]  # the states do reach out: the comparison is not vacuous
 
 
-def test_the_synthesis_heading_rows_carry_the_turning_yaw_rates(designs) -> None:
+def test_the_synthesis_heading_rows_carry_the_turning_yaw_rates(models) -> None:
     """The synthesis's heading constraint leaves room theta_bar - |g| - sum|F_h| per row, as the re-check
     does (the review of e758184: it used |g| only, so a binding row after t_k gave sets the re-check
     refused): a heading bound above every |g| but below a row's |g| + sum|F_h| is refused up front."""
@@ -308,7 +313,7 @@ def test_the_synthesis_heading_rows_carry_the_turning_yaw_rates(designs) -> None
     from robustsynth.errors import InfeasibleError
     from robustsynth.synthesis.lmis import heading_constraints
 
-    _, turning, _, _ = designs
+    _, turning = models
     probe = turning.with_heading_bound(1.0)
     g = max(float(np.max(np.abs(ch.g_h))) for ch in probe.heading_channels)
     off = max(float(np.max(ch.heading_offsets)) for ch in probe.heading_channels)

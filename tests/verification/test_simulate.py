@@ -35,25 +35,37 @@ def test_arc_matches_solve_ivp(x, y, th, v, w, h) -> None:
     assert np.max(np.abs(arc_step(q, v, w, h) - ivp_arc(q, v, w, h))) <= ARC_TOL
 
 
+SETUPS = {
+    "paper": {},
+    "multi-period": {"network.delay.min": 0.03, "network.delay.max": 0.25},
+    "d_lo>=1": {"network.delay.min": 0.12, "network.delay.max": 0.22, "verification.noise.position": 0.005,
+                "verification.noise.heading": 0.01},
+    "ideal-actuator": {"verification.motor_saturation": False},  # saturation is the default
+    "integral": {"synthesis.integral_action": True, "robot.max_motor_speed": None},
+    "offset": {"verification.initial_offset.y": 0.05},
+    # the simulator, not the description, is under test: the quick norm-bounded one
+    "lossy": {"network.dropouts.max_consecutive": 3, "verification.dropouts.probability": 0.3,
+              "synthesis.delay_description": "norm-bounded"},
+}
+
+
+class _Setups(dict):
+    """name -> (model, a stability gain), each built on first use: a test pays only for the gains it asks for, and
+    setups whose configs differ in their verification section alone (what the simulator reads, not the synthesis)
+    share one gain."""
+
+    def __missing__(self, name: str):
+        m = build_model(make_config(**SETUPS[name]))
+        key = {k: v for k, v in SETUPS[name].items() if not k.startswith("verification.")}
+        twin = next((n for n in self if {k: v for k, v in SETUPS[n].items() if not k.startswith("verification.")} == key),
+                    None)
+        self[name] = (m, self[twin][1] if twin is not None else synthesize(m, objective="stability").K)
+        return self[name]
+
+
 @pytest.fixture(scope="module")
 def setups():
-    out = {}
-    for name, over in {
-        "paper": {},
-        "multi-period": {"network.delay.min": 0.03, "network.delay.max": 0.25},
-        "d_lo>=1": {"network.delay.min": 0.12, "network.delay.max": 0.22, "verification.noise.position": 0.005,
-                    "verification.noise.heading": 0.01},
-        "ideal-actuator": {"verification.motor_saturation": False},  # saturation is the default
-        "integral": {"synthesis.integral_action": True, "robot.max_motor_speed": None},
-        "offset": {"verification.initial_offset.y": 0.05},
-        # the simulator, not the description, is under test: the quick norm-bounded one
-        "lossy": {"network.dropouts.max_consecutive": 3, "verification.dropouts.probability": 0.3,
-                  "synthesis.delay_description": "norm-bounded"},
-    }.items():
-        m = build_model(make_config(**over))
-        res = synthesize(m, objective="stability")
-        out[name] = (m, res.K)
-    return out
+    return _Setups()
 
 
 def _agrees_with_reference(m, K, path, scen, vec) -> None:

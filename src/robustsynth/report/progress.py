@@ -14,6 +14,7 @@ import click
 __all__ = ["HEARTBEAT_S", "Heartbeat", "LazyBar", "stop_heartbeats", "stage_lines", "progress_bar", "sweep_counts"]
 
 HEARTBEAT_S = 10.0  # [s]: on a terminal, a line at least this often while a command works
+HEARTBEAT_POLL_S = 1.0  # [s]: how often the heartbeat's thread looks at the clock
 _HEARTBEATS: list["Heartbeat"] = []  # the running command's (stopped when it ends: cli._guard)
 
 
@@ -63,7 +64,7 @@ class Heartbeat:
         self.last = time.monotonic()
 
     def _beat(self) -> None:
-        while not self.stopped.wait(1.0):
+        while not self.stopped.wait(HEARTBEAT_POLL_S):
             with self.lock:
                 now = time.monotonic()
                 if not self.stopped.is_set() and now - self.last >= HEARTBEAT_S:
