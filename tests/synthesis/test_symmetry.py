@@ -226,3 +226,91 @@ def test_within_period_vertices_come_with_their_mirror_images_and_keep_the_symme
     tracks = build_model(make_config(**{"slip.right.min": 0.8, "slip.left.min": 0.8,
                                         "synthesis.kinematics": "nonlinear"})).with_heading_bound(0.15)
     assert len(tracks.with_cuts([0]).vertices) == len(tracks.vertices) + 1
+
+
+# -------------------------------------------------------------------------- phase-1 problems posed mirror-invariant
+
+T_TOL = 1e-7  # t* of two solves compared (test_phase1's): Clarabel's 'inaccurate' statuses are 5e-5 relative
+
+
+def _phase1_t(model, idx, mirror, s, alpha=(0.02, 0.03)):
+    from dataclasses import replace
+
+    from robustsynth.synthesis.phase1 import PHASE1_BOX
+    from robustsynth.synthesis.lmis import build_invariance
+    from robustsynth.synthesis.solve import solve
+
+    w = np.array([s.weights.e_x, s.weights.e_y, s.weights.e_theta])
+    sub = replace(model, vertices=tuple(model.vertices[i] for i in idx))
+    lp = build_invariance(sub, s.multiplier, s.margin, w, True, s.lyapunov, symmetry=mirror is not None, mirror=mirror,
+                          phase1=PHASE1_BOX)
+    lp.params["one_minus_alpha"].value, lp.params["alpha"].value = 1.0 - alpha[0], alpha[1]
+    out = solve(lp.problem, s.solver, lambda: True, fallback=False)
+    assert out.kind == "ok", out.record
+    return float(lp.extra["t"].value), lp
+
+
+def test_a_vertex_subset_closed_under_the_mirror_keeps_it_exactly_and_proves_more():
+    """phase1 poses its problems on a vertex subset with the subset's mirror images, mirror-invariant
+    (``Model.mirror_on``, docs/theory.md §6j).  On the default robot (icr, nonlinear at 0.1 rad): the closure holds
+    each vertex's image, its symmetry maps within it; posed mirror-invariant it has the t* of the same vertices posed
+    as they are (no loss: the average of a solution and its image), with one LMI of each pair, and at most the t* of
+    the subset alone (more vertices, a stronger relaxation).  Not closed, or one vertex's data off by one ulp: no
+    symmetry (a proof may not rest on images that are not exact)."""
+    from dataclasses import replace
+
+    from robustsynth.config import load_config
+    from robustsynth.model.mirror import restrict
+    from robustsynth.synthesis.heading_search import _kinematic
+
+    cfg = load_config(ROOT / "configs" / "default.yaml")
+    model = build_model(cfg).with_heading_bound(0.1, within_period=True)
+    s = _kinematic(cfg.synthesis)
+    full = model.mirror(s.lyapunov)
+    assert full is not None
+    subset = (13, 17, 21)  # three vertices of asymmetric slip corners (no two of them images of each other)
+    closed, mirror = model.mirror_on(subset, full)
+    assert set(subset) < set(closed) and all(full.vertex[i] in closed for i in closed) and mirror is not None
+    assert all(closed[mirror.vertex[k]] == full.vertex[i] for k, i in enumerate(closed))
+    t_mirrored, lp = _phase1_t(model, closed, mirror, s)
+    t_plain, lp_plain = _phase1_t(model, closed, None, s)
+    t_subset, _ = _phase1_t(model, subset, None, s)
+    assert lp.mirrored and sum(map(bool, lp.vertex_lmis)) < sum(map(bool, lp_plain.vertex_lmis))
+    assert t_mirrored == pytest.approx(t_plain, abs=T_TOL)
+    assert t_mirrored <= t_subset + T_TOL
+    assert model.mirror_on(subset, None) == (tuple(sorted(subset)), None)
+    assert restrict(full, model.vertices, subset) is None  # not closed
+    v = model.vertices[subset[0]]  # (its image is another vertex)
+    A = np.array(v.A, dtype=float)
+    A[0, 0] = np.nextafter(A[0, 0], np.inf)
+    off = list(model.vertices)
+    off[subset[0]] = replace(v, A=A)
+    assert restrict(full, off, closed) is None
+
+
+def test_prove_no_set_poses_mirror_invariant_problems_where_the_model_has_a_mirror(monkeypatch):
+    """prove_no_set builds every problem on the closure of its vertices, mirror-invariant, on the default robot; on
+    the tracks model of nonlinear-proof (no mirror for its per-track channels) as before, on the vertices asked."""
+    from robustsynth.config import load_config
+    from robustsynth.synthesis import phase1
+    from robustsynth.synthesis.heading_search import _kinematic
+
+    built = []
+    real = phase1.build_invariance
+
+    def spy(model, *args, **kwargs):
+        built.append((len(model.vertices), kwargs.get("mirror") is not None, kwargs.get("symmetry")))
+        return real(model, *args, **kwargs)
+
+    monkeypatch.setattr(phase1, "build_invariance", spy)
+    for name, mirrored, asked in (("default", True, (13, 17, 21)), ("nonlinear-proof", False, (0, 1, 2))):
+        cfg = load_config(ROOT / "configs" / f"{name}.yaml")
+        model = build_model(cfg).with_heading_bound(0.1, within_period=True)
+        s = _kinematic(cfg.synthesis)
+        active = phase1.Active(asked)
+        built.clear()
+        phase1.prove_no_set(model, s, True, (0.005, 0.0096), intervals=1, halvings=0, active=active)
+        assert built and all(m == mirrored and sym == mirrored for _, m, sym in built), (name, built)
+        if mirrored:
+            assert built[0][0] > 3  # the three asked and their images
+            assert set(active.indices) == {model.mirror(s.lyapunov).vertex[i] for i in active.indices}

@@ -10,7 +10,7 @@ import numpy as np
 
 from .vertices import Vertex
 
-__all__ = ["Mirror", "find_mirror", "mirror_pairs"]
+__all__ = ["Mirror", "closure", "find_mirror", "mirror_pairs", "restrict"]
 
 
 @dataclass(frozen=True)
@@ -118,3 +118,52 @@ def find_mirror(corners: np.ndarray, state_names: Sequence[str], input_names: Se
     else:
         lyap = [swap[j // (n_d * n_d)] * n_d * n_d + j % (n_d * n_d) for j in range(n_c * n_d * n_d)]
     return Mirror(t=t, tu=tu, vertex=tuple(sigma), lyapunov=tuple(lyap), q_signs=tuple(q_signs))
+
+
+def closure(mirror: Mirror, index: Sequence[int]) -> tuple[int, ...]:
+    """The vertices ``index`` (of the model ``mirror`` is of) with their mirror images, sorted."""
+    return tuple(sorted(set(int(i) for i in index) | {mirror.vertex[int(i)] for i in index}))
+
+
+def _exact_columns(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether each column of ``a`` equals the same column of ``b`` or its negative, bit for bit."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    return a.shape == b.shape and bool(np.all(np.all(a == b, axis=0) | np.all(a == -b, axis=0)))
+
+
+def _exact_image(v: Vertex, w: Vertex, t: np.ndarray, tu: np.ndarray) -> bool:
+    """Whether vertex ``w``'s data are the mirror image of ``v``'s, bit for bit: A and B exactly; each slip input (a
+    column of E) with a sign of its own; each channel's input (a column of B_p) up to a sign; and each channel's output
+    (a row of C_q, D_q and F together, F's columns with the slip inputs' signs) up to one sign."""
+    f = lambda x: np.asarray(x, dtype=float)  # noqa: E731
+    if not (np.array_equal(t[:, None] * f(v.A) * t, f(w.A)) and np.array_equal(t[:, None] * f(v.B) * tu, f(w.B))):
+        return False
+    tE, wE = t[:, None] * f(v.E), f(w.E)
+    plus, minus = np.all(tE == wE, axis=0), np.all(tE == -wE, axis=0)
+    if not np.all(plus | minus):
+        return False
+    if not v.n_q:
+        return True
+    s_w = np.where(plus, 1.0, -1.0)
+    out_v = np.hstack([f(v.C_q) * t, f(v.D_q) * tu, f(v.F) * s_w])
+    out_w = np.hstack([f(w.C_q), f(w.D_q), f(w.F)])
+    return _exact_columns(t[:, None] * f(v.B_p), w.B_p) and _exact_columns(out_v.T, out_w.T)
+
+
+def restrict(mirror: Mirror, vertices: Sequence[Vertex], index: Sequence[int]) -> Mirror | None:
+    """The mirror of the model whose vertices are ``vertices[index]`` (``vertices``: those of the model ``mirror`` is
+    of, a common Lyapunov matrix's): the same reflection, its vertex map renumbered within ``index``.  None where
+    ``index`` is not closed under the map (:func:`closure`), or where a vertex's data are not their partner's mirror
+    image to the last bit (A, B; E, B_p, C_q, D_q, F column by column up to a sign).  ``find_mirror`` accepts images
+    within 1e-10; a vertex subset posed mirror-invariant on the strength of it is used to *prove* that no set exists
+    (:func:`robustsynth.synthesis.phase1.prove_no_set`, docs/theory.md §6j), so here the images must be exact."""
+    if len(mirror.lyapunov) != 1:
+        return None
+    index = tuple(int(i) for i in index)
+    pos = {v: k for k, v in enumerate(index)}
+    if len(pos) != len(index) or any(mirror.vertex[i] not in pos for i in index):
+        return None
+    if not all(_exact_image(vertices[i], vertices[mirror.vertex[i]], mirror.t, mirror.tu) for i in index):
+        return None
+    return Mirror(t=mirror.t, tu=mirror.tu, vertex=tuple(pos[mirror.vertex[i]] for i in index), lyapunov=mirror.lyapunov,
+                  q_signs=tuple(mirror.q_signs[i] for i in index) if mirror.q_signs else ())

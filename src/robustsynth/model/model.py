@@ -20,14 +20,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 from functools import cached_property
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
 from ..config import Config
 from ..core.network import Network, s_tilde_sequence
 from .linearize import lifted_exact
-from .mirror import Mirror, find_mirror, mirror_pairs
+from .mirror import Mirror, closure, find_mirror, mirror_pairs, restrict
 from .slip import (SLIP_PARAMETERS, check_physical_feasibility, corner_weights, lateral_row, next_corner_weights,
                    nominal_slip, slip_matrix, slip_parameter_ranges)
 from .uncertainty import SlipBox, UncertainInstant, delta_for
@@ -629,6 +629,16 @@ class Model:
         default robot's mirrored problems all concluded, 1.4 s a solve against 4.4 s for the full ones.)"""
         return find_mirror(np.asarray(self.corners, dtype=float), self.state_names, INPUT_NAMES, self.delay_vertex_count,
                            self.vertices, kind)
+
+    def mirror_on(self, index: Sequence[int], mirror: "Mirror | None" = None) -> tuple[tuple[int, ...], "Mirror | None"]:
+        """The vertices ``index`` closed under the mirror symmetry (``mirror``: this model's, :meth:`mirror` of a
+        common Lyapunov matrix; None: none, ``index`` sorted as it is) and the symmetry of the model on just those
+        vertices, with which a problem on them may be posed mirror-invariant (None where the images are not exact:
+        :func:`~.mirror.restrict`)."""
+        if mirror is None:
+            return tuple(sorted(int(i) for i in index)), None
+        closed = closure(mirror, index)
+        return closed, restrict(mirror, self.vertices, closed)
 
     def lyapunov_conditions(self, kind: str, slip_step: float | None) -> list[list[tuple[int, list[tuple[float, int]], str]]]:
         """Per vertex i, the pairs (left, right, label) of one-period conditions a certificate of ``kind``

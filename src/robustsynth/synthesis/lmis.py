@@ -48,6 +48,7 @@ class LMIProblem:
     params: dict[str, cp.Parameter] = field(default_factory=dict)
     extra: dict[str, cp.Variable] = field(default_factory=dict)
     mirrored: bool = False  # posed mirror-invariant (docs/theory.md §6h)
+    images: tuple[int, ...] = ()  # posed mirror-invariant: each vertex's mirror image (its LMIs stand for both)
     # per vertex of the model its invariance LMIs (none for a vertex its mirror image's stand for): their duals say
     # which vertices bind (:mod:`.phase1`)
     vertex_lmis: list[list[Any]] = field(default_factory=list)
@@ -255,7 +256,7 @@ class _Lyap:
 
     def problem_kwargs(self) -> dict[str, Any]:
         return {"Y": self.Y, "lyapunov": self.kind, "Q": self.Q, "G": self.G, "S": self.S,
-                "mirrored": self.mirror is not None}
+                "mirrored": self.mirror is not None, "images": tuple(self.mirror.vertex) if self.mirror is not None else ()}
 
 
 def motor_constraints(model: Any, Q: Any, Y: Any, rows: Any = None, u2: Any = None) -> list[Any]:
@@ -683,7 +684,8 @@ def build_stability(model: Any, kind: str, margin: float, lyapunov: str = "commo
 
 def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, motor: bool,
                      lyapunov: str = "common", symmetry: bool = True, least_motor: bool = False,
-                     phase1: float | None = None, heading_rows: frozenset[bytes] | None = None) -> LMIProblem:
+                     phase1: float | None = None, heading_rows: frozenset[bytes] | None = None,
+                     mirror: Any = None) -> LMIProblem:
     """Invariant, attracting ellipsoid under every admissible delay and slip (docs/theory.md §6b);
     parameter alpha.  Minimizes sum_i weights_i * (bound on state i)^2 / level over e_x, e_y, e_theta.
     ``symmetry``: use the model's mirror symmetry when it has one (the same optimum, fewer LMIs).
@@ -698,8 +700,10 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
     [alpha_lo, alpha_hi] ((1 - alpha) X and sum beta <= alpha loosen as alpha falls and rises): t* < 0 then holds for
     the whole interval (docs/theory.md §6j).  ``heading_rows``: pose just those heading rows
     (:func:`heading_constraints`' ``only``), a relaxation: its solution is a certificate only where every row holds at
-    its values (row generation, :func:`rows_broken`); a phase-1 problem's ``extra`` then says which rows were posed."""
-    lv = _Lyap(model, lyapunov, mirror=model.mirror(lyapunov) if symmetry else None)
+    its values (row generation, :func:`rows_broken`); a phase-1 problem's ``extra`` then says which rows were posed.
+    ``mirror``: with ``symmetry``, the symmetry to pose with instead of the model's own (a vertex subset's, closed under
+    its images: :func:`~robustsynth.model.mirror.restrict`)."""
+    lv = _Lyap(model, lyapunov, mirror=(mirror if mirror is not None else model.mirror(lyapunov)) if symmetry else None)
     n_s, n_w = model.n_s, model.n_w
     alpha = cp.Parameter(nonneg=True, name="alpha", value=0.1)
     one_minus = cp.Parameter(nonneg=True, name="one_minus_alpha", value=0.9)
