@@ -634,7 +634,7 @@ class Model:
         """The vertices ``index`` closed under the mirror symmetry (``mirror``: this model's, :meth:`mirror` of a
         common Lyapunov matrix; None: none, ``index`` sorted as it is) and the symmetry of the model on just those
         vertices, with which a problem on them may be posed mirror-invariant (None where the images are not exact:
-        :func:`~.mirror.restrict`)."""
+        ``mirror.restrict``)."""
         if mirror is None:
             return tuple(sorted(int(i) for i in index)), None
         closed = closure(mirror, index)

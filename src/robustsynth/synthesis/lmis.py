@@ -702,7 +702,7 @@ def build_invariance(model: Any, kind: str, margin: float, weights: np.ndarray, 
     (:func:`heading_constraints`' ``only``), a relaxation: its solution is a certificate only where every row holds at
     its values (row generation, :func:`rows_broken`); a phase-1 problem's ``extra`` then says which rows were posed.
     ``mirror``: with ``symmetry``, the symmetry to pose with instead of the model's own (a vertex subset's, closed under
-    its images: :func:`~robustsynth.model.mirror.restrict`)."""
+    its images: ``robustsynth.model.mirror.restrict``)."""
     lv = _Lyap(model, lyapunov, mirror=(mirror if mirror is not None else model.mirror(lyapunov)) if symmetry else None)
     n_s, n_w = model.n_s, model.n_w
     alpha = cp.Parameter(nonneg=True, name="alpha", value=0.1)

@@ -526,7 +526,7 @@ def _vertex_weights(lp: Any) -> list[float]:
 
 def _mirror_closure(model: Any, s: Any) -> Callable[[tuple[int, ...]], tuple[tuple[int, ...], Any]]:
     """For a vertex subset of ``model``: the subset with its mirror images, and the model's symmetry on it (None: the
-    model has none for the Lyapunov kind of ``s``, or its images are not exact, :meth:`Model.mirror_on`; the subset is
+    model has none for the Lyapunov kind of ``s``, or its images are not exact, ``Model.mirror_on``; the subset is
     then itself, sorted).  A phase-1 problem on the closure, posed mirror-invariant, proves what the subset proves and
     more: where the LMIs of every vertex have a solution with margin t, its mirror image has one too (the model is
     symmetric), so their average is a mirror-invariant one with margin t, which holds at the closure's vertices; a
