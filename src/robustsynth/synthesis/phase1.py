@@ -411,8 +411,9 @@ def screen(models: list[Any], s: Any, motor: bool, alpha: float, active: Active)
                                 heading_rows=active.row_set())
                for m, idx, mirror in posed]
         ts = _t_stars(lps, [(alpha, alpha)] * len(lps), s.solver)
-        for (_, idx, _), lp, t in zip(posed, lps, ts):
-            _rank(active, idx, [lp], [t])
+        for idx in dict.fromkeys(idx for _, idx, _ in posed):  # (one ranking where every model posed the same vertices)
+            _rank(active, idx, [lp for (_, i, _), lp in zip(posed, lps) if i == idx],
+                  [t for (_, i, _), t in zip(posed, ts) if i == idx])
         out += [t for t, _ in ts]
     return out
 
