@@ -439,16 +439,9 @@ def screen_at(model: Any, s: Any, motor: bool, alpha: float, active: Active, say
 
 def _lp_weights(model: Any, lp: Any) -> list[float] | None:
     """Per vertex of ``model`` the dual weight of its LMIs in ``lp`` (solved, on ``model``; a mirror-invariant problem's
-    vertex stands for its mirror image too), or None where they do not match."""
+    vertex stands for its mirror image too: :func:`_vertex_weights`), or None where they do not match."""
     w = _vertex_weights(lp)
-    if len(w) != len(model.vertices):
-        return None
-    if lp.mirrored:
-        mirror = model.mirror(lp.lyapunov)
-        if mirror is None:
-            return None
-        w = [max(x, w[mirror.vertex[i]]) for i, x in enumerate(w)]
-    return w
+    return w if len(w) == len(model.vertices) else None
 
 
 def seed(active: Active, model: Any, lp: Any, within: tuple[Any, tuple[int, ...]] | None = None) -> bool:
@@ -534,13 +527,15 @@ def _mirror_closure(model: Any, s: Any) -> Callable[[tuple[int, ...]], tuple[tup
     maximum t* <= -T_PROVEN on the closure thus shows that every vertex has none (docs/theory.md §6j).  One of each
     pair of conditions is posed (each is the other's congruence), on the structured variables: on the default robot
     at d_hi = 2 (0.2 rad) 7 vertices took 0.58 s posed so against 2.95 s as they were, the same t*."""
-    mirror = model.mirror(s.lyapunov) if s.lyapunov == "common" and hasattr(model, "mirror_on") else None
+    if not hasattr(model, "mirror_on"):  # a plant without the robot's mirror: every subset as it is
+        return lambda idx: (tuple(sorted(idx)), None)
+    mirror = model.mirror(s.lyapunov) if s.lyapunov == "common" else None
     cache: dict[tuple[int, ...], tuple[tuple[int, ...], Any]] = {}
 
     def closed(idx: tuple[int, ...]) -> tuple[tuple[int, ...], Any]:
         key = tuple(idx)
         if key not in cache:
-            cache[key] = model.mirror_on(key, mirror) if mirror is not None else (tuple(sorted(key)), None)
+            cache[key] = model.mirror_on(key, mirror)
         return cache[key]
 
     return closed
