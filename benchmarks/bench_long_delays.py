@@ -117,6 +117,7 @@ def _run(cfg_path: Path, out: Path, cap: float) -> dict:
 def main(argv: list[str] | None = None) -> list[dict]:
     ap = argparse.ArgumentParser()
     ap.add_argument("--kinematics", choices=["linearized", "nonlinear", "both"], default="linearized")
+    ap.add_argument("--d-min", type=int, default=1)
     ap.add_argument("--d-max", type=int, default=5)
     ap.add_argument("--ts", type=float, nargs="*", default=[0.1, 0.05])
     ap.add_argument("--cap", type=float, default=CAP_S)
@@ -129,7 +130,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
         tmp = Path(tmp_s)
         for Ts in args.ts:
             for kin in kins:
-                for d in range(1, args.d_max + 1):
+                for d in range(args.d_min, args.d_max + 1):
                     seen = None
                     for desc in ("polytopic", "polytopic-product"):
                         cfg = _config(base, Ts, d, kin, desc)

@@ -297,7 +297,7 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                 return relaxed.whole[0], runner
             at = evaluate(math.log(alpha_hint))
             if relaxed.settle and math.isfinite(at):
-                say("  certified at the relaxation's alpha: enough for a start (no walk to a finer alpha)")
+                say("  certified at the relaxation's alpha: enough (each solve is costly; no walk to a finer alpha)")
                 return best, runner
             if at <= relaxed.value * (1.0 + COSTLY_STOP_REL):
                 say("  its best alpha certifies the relaxation's bound here too: no alpha does better")

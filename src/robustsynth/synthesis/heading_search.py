@@ -315,7 +315,7 @@ def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable
     ends = (_exact_end_vertices if deeper else _same_end_vertices)(lin)
     if ends is None:
         return None
-    sub = replace(lin, vertices=tuple(lin.vertices[i] for i in ends))
+    sub = _on_subset(lin, ends)
     how = "walk from the hint" if hint is not None else "scan"
     at = "an end" if deeper else "the same end"
     then = ("a solve of all at its best alpha, a walk from there where that does not certify its bound" if deeper else
@@ -334,6 +334,17 @@ def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable
     # relaxation's alpha, or a walk's from there): this one settles too, with no claim that no alpha does better
     return Relaxed(float(best.cert["alpha"]), best.value, _on_every_vertex(lin, best, runner, ends),
                    settle=not deeper or runner.relaxed is not None)
+
+
+def _on_subset(lin: Any, index: tuple[int, ...]) -> Any:
+    """``lin`` on its vertices ``index``, with the within-period vertices (``covering_vertices``) of their groups only:
+    a within-period vertex shares the multiplier of its group's vertices (one group per delay vertex, Vertex.group),
+    so one whose group the subset lacks could not be re-checked (the linearized turning model at d_hi = 3: every
+    certificate of the end vertices' subset was refused for it).  Fewer conditions: still a relaxation."""
+    verts = tuple(lin.vertices[i] for i in index)
+    groups = {v.group for v in verts}
+    cover = tuple(v for v in lin.covering_vertices if v.group < 0 or v.group in groups)
+    return replace(lin, vertices=verts, covering_vertices=cover)
 
 
 def _on_every_vertex(lin: Any, best: _Best, runner: _Runner, ends: tuple[int, ...]) -> tuple[_Best, tuple] | None:
