@@ -16,6 +16,7 @@ from ..certificate import check_certificate
 from ..config import SynthesisConfig
 from ..errors import InfeasibleError, SolverFailure
 from .alpha_search import ALPHA_RANGE, COSTLY_SOLVE_S, COSTLY_STOP_REL, Relaxed, _motor_pruner, _run_invariance
+from .extension import extend_multipliers
 from .lmis import generates_rows, heading_row_table
 from .phase1 import (INTERVALS, PARALLEL, Active, _exact_end_vertices, _same_end_vertices, halvings_for, prove_no_set,
                      screen, screen_at, seed, seed_rows, settles)
@@ -332,7 +333,7 @@ def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable
         return None
     # where these vertices' search started from a deeper relaxation, its value is no scan's best (settled at that
     # relaxation's alpha, or a walk's from there): this one settles too, with no claim that no alpha does better
-    return Relaxed(float(best.cert["alpha"]), best.value, _on_every_vertex(lin, best, runner, ends),
+    return Relaxed(float(best.cert["alpha"]), best.value, _on_every_vertex(lin, best, runner, ends, sc.solver, say),
                    settle=not deeper or runner.relaxed is not None)
 
 
@@ -347,17 +348,22 @@ def _on_subset(lin: Any, index: tuple[int, ...]) -> Any:
     return replace(lin, vertices=verts, covering_vertices=cover)
 
 
-def _on_every_vertex(lin: Any, best: _Best, runner: _Runner, ends: tuple[int, ...]) -> tuple[_Best, tuple] | None:
+def _on_every_vertex(lin: Any, best: _Best, runner: _Runner, ends: tuple[int, ...], solver: str | None = None,
+                     say: Callable[[str], None] = lambda _m: None) -> tuple[_Best, tuple] | None:
     """The end vertices' certificate as one of ``lin`` (every vertex), where the numpy re-check proves it there: the
     LMIs at the other vertices (their instants inside their ranges) often hold already (the default robot at d_hi = 3:
-    128 of 432 vertices, the re-check in 0.1 s against a 6.5 s solve of all).  Only without uncertainty channels (the
-    linearized start's delay vertices: no multiplier per vertex to carry).  None where it does not hold.  With it, the
-    runner that solved (``runner``, or the relaxation ``runner`` took its own certificate from) and the indices in
-    ``lin`` of the vertices it solved on."""
+    128 of 432 vertices, the re-check in 0.1 s against a 6.5 s solve of all).  Where the vertices carry uncertainty
+    channels (the linearized turning model), each group of vertices the subset lacks needs its own multiplier: found
+    with ``solver`` by :func:`.extension.extend_multipliers` (without a solver: None).  None where it does not hold.
+    With it, the runner that solved (``runner``, or the relaxation ``runner`` took its own certificate from) and the
+    indices in ``lin`` of the vertices it solved on."""
     if any(v.n_q for v in lin.vertices):
-        return None
-    cert = dict(best.cert, vertices=len(lin.vertices),
-                multipliers=dict(best.cert["multipliers"], M=[np.zeros((0, 0))] * len(lin.vertices)))
+        Ms = extend_multipliers(lin, best.cert, best.K, ends, solver, say) if solver is not None else None
+        if Ms is None:
+            return None
+    else:
+        Ms = [np.zeros((0, 0))] * len(lin.vertices)
+    cert = dict(best.cert, vertices=len(lin.vertices), multipliers=dict(best.cert["multipliers"], M=Ms))
     chk = check_certificate(lin, best.K, cert)
     if not chk.passed:
         return None
