@@ -227,7 +227,7 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     prove: Callable[[], Phase1] | None = None, prove_first: bool = False,
                     gain_rule: bool | None = None, cheaper_hint: Callable[[float | None], Relaxed | None] | None = None,
                     rows: frozenset[bytes] | None = None, screen: Callable[[float], bool] | None = None,
-                    cuts: tuple[int, ...] = ()) -> tuple[_Best, _Runner]:
+                    cuts: tuple[int, ...] = (), cheaper_from: float | None = None) -> tuple[_Best, _Runner]:
     """The alpha line search of the invariance LMIs.  Without a hint: a log grid of alpha_points
     scanned upwards, then parabolic steps around its best point.  With ``alpha_hint`` (the best alpha
     of a cheaper certificate class): walk from the hint in quarter grid steps while the bound falls,
@@ -249,8 +249,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     are too where one solve is estimated at PROVE_FIRST_S or more.
     ``gain_rule``: the refinement stops at a step that gains less than COSTLY_GAIN (:func:`_refine`): by default where a
     solve is estimated at COSTLY_SOLVE_S or more; True: always (a remedy's quick try).  ``cheaper_hint``: where a
-    solve is estimated at COSTLY_SOLVE_S or more, given the hint (or None), what a relaxation of these LMIs (a subset of
-    the vertices, searched from the hint or scanned: cheaper) gave (:class:`Relaxed`; None: the hint or the scan as
+    solve is estimated at COSTLY_SOLVE_S or more (or at ``cheaper_from`` where that is less), given the hint (or None), what a relaxation of these
+    LMIs (a subset of the vertices, searched from the hint or scanned: cheaper) gave (:class:`Relaxed`; None: the hint or the scan as
     without it): its best alpha is walked from instead.  A relaxation's objective is at most this problem's at every
     alpha, so where the solve at its best alpha reaches its best objective (within COSTLY_STOP_REL) no alpha does better
     here, to that search's own tolerance: the search ends there; where its very certificate holds here, without that
@@ -285,7 +285,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         say(f"  {lmi_count(lp)} LMIs (the largest {lmi_rows(lp)} rows) per alpha; each point is one solve"
             + (f" (about {_duration(est)} each, estimated from its size)" if est >= 1.0 else "") + ", a failed one is retried")
     grid = np.linspace(math.log(ALPHA_RANGE[0]), math.log(ALPHA_RANGE[1]), s.alpha_points)
-    if cheaper_hint is not None and est >= COSTLY_SOLVE_S and not probe_only:
+    if cheaper_hint is not None and est >= min(COSTLY_SOLVE_S, cheaper_from if cheaper_from is not None else math.inf) \
+            and not probe_only:
         relaxed = runner.relaxed = cheaper_hint(alpha_hint)
         if relaxed is not None:
             alpha_hint = relaxed.alpha
