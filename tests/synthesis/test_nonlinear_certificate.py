@@ -452,6 +452,9 @@ def test_an_end_vertex_certificate_that_holds_everywhere_is_the_start_s(monkeypa
     assert again.passed and again.figures["ultimate_bound"] == best.check.figures["ultimate_bound"]
     sub, index = runner.stand_in
     assert len(index) == 16 and len(sub.model.vertices) == 16
+    # the solves that made it (a synthesis reports them): the relaxations', none of the whole's
+    chain = runner.made_by()
+    assert chain[0] is runner and chain[1] is sub and runner.solves == 0 and sum(m.solves for m in chain) >= 1
     # the largest problem the start solved (the remedies' cost class): the end vertices', built again here
     from robustsynth.synthesis.cost import solve_estimate
     from robustsynth.synthesis.lmis import build_invariance

@@ -139,6 +139,14 @@ class _Runner:
         self.estimate = 0.0  # [s] one solve of its problem, estimated (cost.solve_estimate; 0: not estimated)
         self.relaxed: Any = None  # what the relaxation its search started from gave (alpha_search.Relaxed), if any
 
+    def made_by(self) -> list["_Runner"]:
+        """This runner and the relaxations whose certificate it took (``stand_in``, each in turn): the solves that made
+        its certificate."""
+        out: list[_Runner] = [self]
+        while out[-1].stand_in is not None and all(r is not out[-1].stand_in[0] for r in out):
+            out.append(out[-1].stand_in[0])
+        return out
+
     def attach(self, lp: LMIProblem, cuts: tuple[int, ...] = ()) -> None:
         """The problem of a runner made before it (``lp`` None: phase-1 problems asked first, which may spare it), with
         the within-period vertices ``cuts`` (an earlier search's, same family) posed from its first solve."""
