@@ -9,7 +9,8 @@ user may hand to the API instead (:func:`as_gains`), and the controller descript
 it (:func:`controller_description`, what ``export --to json`` writes and the exports bake in).
 
 It sits below everything that uses the file (runtime, verification, report, export, CLI) and
-imports only the config, the model's naming helpers and the control law's constants.
+imports only the config, the model's naming helpers, the control law's constants and (for the multipliers' compact
+form) the certificate's LMI module.
 """
 
 from __future__ import annotations
@@ -57,7 +58,9 @@ def _overrides(config: Any, result: Any) -> dict[str, Any]:
 
 def gains_dict(model: Any, result: Any) -> dict[str, Any]:
     """The gains.json mapping of a synthesis result: the gain, the certified figures, the
-    certificate (everything the numpy re-check needs), the solver's record and the config."""
+    certificate (everything the numpy re-check needs), the solver's record and the config.  Many diagonal
+    multipliers are written compactly (``{"diag": [...]}``, :func:`robustsynth.certificate.lmis.compact_multipliers`)."""
+    from ..certificate.lmis import compact_multipliers
     from ..config import config_to_dict
 
     figs = result.certified
@@ -77,7 +80,7 @@ def gains_dict(model: Any, result: Any) -> dict[str, Any]:
         certificate["S"] = cert["S"]
         certificate["slip_step"] = cert.get("slip_step")
     certificate.update({
-        "multipliers": cert["multipliers"],
+        "multipliers": dict(cert["multipliers"], M=compact_multipliers(cert["multipliers"]["M"])),
         "alpha": cert.get("alpha"),
         "beta": cert.get("beta"),
         "r2": cert.get("r2"),
@@ -151,6 +154,8 @@ def _stack(mats: list[Any]) -> np.ndarray:
 def gains_mat_vars(gd: dict[str, Any]) -> dict[str, Any]:
     """The same names as gains.json, MATLAB-friendly (null -> NaN, lists of names -> cell arrays,
     per-vertex multipliers M and per-corner S as 3-D arrays indexed first by vertex / corner)."""
+    from ..certificate.lmis import dense_multiplier
+
     c = gd["certificate"]
     lyap = {"P": np.asarray(c["P"], dtype=float), "Q": np.asarray(c["Q"], dtype=float)} if c["lyapunov"] == "common" else {
         "P": _stack(c["P"]), "G": np.asarray(c["G"], dtype=float), "S": _stack(c["S"])}
@@ -164,7 +169,7 @@ def gains_mat_vars(gd: dict[str, Any]) -> dict[str, Any]:
         "lyapunov": c["lyapunov"],
         "certified": _mat_value(gd["certified"]),
         **lyap,
-        "M": _stack(c["multipliers"]["M"]),
+        "M": _stack([dense_multiplier(M) for M in c["multipliers"]["M"]]),
         "alpha": _mat_value(c["alpha"]),
         "beta": np.asarray(c["beta"] if c["beta"] is not None else np.nan, dtype=float),
         "r2": _mat_value(c["r2"]),

@@ -27,7 +27,7 @@ from ..results import CertificateCheck
 from ..verified import (assembly_radius, assembly_radius_batch, proves_at_least, proves_at_least_batch, rump_shift,
                         rump_shift_batch)
 from ..objectives import certified_keys
-from .lmis import _AbsVertex, _stacks, _sym, multiplier_structure_error
+from .lmis import _AbsVertex, _stacks, _sym, dense_multiplier, multiplier_structure_error
 from .rebuild import model_of_certificate
 
 __all__ = [
@@ -253,7 +253,7 @@ def _multipliers(model: Any, mult: Mapping[str, Any]) -> list[np.ndarray] | str:
         return f"multipliers.M has {len(raw)} entries, expected one per vertex ({n_v})"
     Ms = []
     for i, (x, v) in enumerate(zip(raw, model.vertices)):
-        M = _arr(x, f"multipliers.M[{i}]")
+        M = _arr(dense_multiplier(x), f"multipliers.M[{i}]")
         if M.size != v.n_q * v.n_q:
             return (f"multipliers.M[{i}] has {M.size} entries, expected {v.n_q} x {v.n_q} (the vertex's uncertainty "
                     "channels): the certificate was made for other channels")

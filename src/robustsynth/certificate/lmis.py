@@ -8,7 +8,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["lmi_stability", "lmi_invariance", "multiplier_structure_error"]
+__all__ = ["lmi_stability", "lmi_invariance", "multiplier_structure_error", "dense_multiplier", "compact_multipliers",
+           "COMPACT_ABOVE"]
 
 
 def _T(X: np.ndarray) -> np.ndarray:
@@ -72,6 +73,34 @@ def lmi_invariance(v, X, left, right, Y, M, beta, alpha, mag: bool = False):
         rows[2].append(np.zeros((n_s, n_q)))
         rows.append([CX, F, np.zeros((n_q, n_s)), M])
     return _sym(_block(rows))
+
+
+# A certificate's multipliers are written as {"diag": [...]} where they are diagonal and hold more than this many entries
+# in all: the default robot's 48 multipliers of 60 channels (172 800 entries, a 1 MB gains.json) stay whole matrices;
+# the linearized turning model at d_hi 2 (144 of 80 channels, 921 600) made a gains.json of 9.2 MB, beyond what
+# load_gains reads (MAX_GAINS_BYTES, 8 MiB), and at d_hi 3 one of 48 MB
+COMPACT_ABOVE = 500_000
+
+
+def dense_multiplier(x: Any) -> Any:
+    """A multiplier as a matrix: ``{"diag": d}`` (a diagonal one, written compactly) as ``diag(d)``; anything else as
+    it is (the re-check then says what is wrong with it)."""
+    if isinstance(x, dict) and set(x) == {"diag"}:
+        d = np.asarray(x["diag"], dtype=float)
+        return np.diag(d) if d.ndim == 1 else d
+    return x
+
+
+def compact_multipliers(Ms: Any) -> Any:
+    """The per-vertex multipliers ``Ms`` as a certificate writes them: each diagonal one as ``{"diag": d}`` where they
+    hold more than COMPACT_ABOVE entries in all and every one is diagonal (else as they are)."""
+    mats = [np.asarray(dense_multiplier(M), dtype=float) for M in Ms]
+    if sum(M.size for M in mats) <= COMPACT_ABOVE:
+        return Ms
+    if not all(M.ndim == 2 and M.shape[0] == M.shape[1] and not np.any(M[~np.eye(M.shape[0], dtype=bool)])
+               for M in mats):
+        return Ms
+    return [{"diag": np.diag(M).copy()} for M in mats]
 
 
 def multiplier_structure_error(M: np.ndarray, n_blocks: int, kind: str, diagonal: bool = False) -> str:

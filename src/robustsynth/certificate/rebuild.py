@@ -8,6 +8,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from .lmis import dense_multiplier
+
 __all__ = ["model_of_certificate"]
 
 
@@ -91,6 +93,6 @@ def _model_of_turns(model: Any, cert: Mapping[str, Any]) -> Any:
 def _multiplier_size(cert: Mapping[str, Any]) -> int | None:
     """The number of entries of the certificate's first multiplier, or None when it has none readable."""
     try:
-        return int(np.asarray(cert["multipliers"]["M"][0], dtype=float).size)
+        return int(np.asarray(dense_multiplier(cert["multipliers"]["M"][0]), dtype=float).size)
     except (KeyError, IndexError, TypeError, ValueError):
         return None
