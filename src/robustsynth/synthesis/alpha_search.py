@@ -249,9 +249,9 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     are too where one solve is estimated at PROVE_FIRST_S or more.
     ``gain_rule``: the refinement stops at a step that gains less than COSTLY_GAIN (:func:`_refine`): by default where a
     solve is estimated at COSTLY_SOLVE_S or more; True: always (a remedy's quick try).  ``cheaper_hint``: where a
-    solve is estimated at COSTLY_SOLVE_S or more (or at ``cheaper_from`` where that is less), given the hint (or None), what a relaxation of these
-    LMIs (a subset of the vertices, searched from the hint or scanned: cheaper) gave (:class:`Relaxed`; None: the hint or the scan as
-    without it): its best alpha is walked from instead.  A relaxation's objective is at most this problem's at every
+    solve is estimated at COSTLY_SOLVE_S or more (or at ``cheaper_from`` where that is less), given the hint (or
+    None), what a relaxation of these LMIs (a subset of the vertices, searched from the hint or scanned: cheaper) gave
+    (:class:`Relaxed`; None: the hint or the scan as without it): its best alpha is walked from instead.  A relaxation's objective is at most this problem's at every
     alpha, so where the solve at its best alpha reaches its best objective (within COSTLY_STOP_REL) no alpha does better
     here, to that search's own tolerance: the search ends there; where its very certificate holds here, without that
     solve; where it settles the search (a start), at that solve once it certifies.
@@ -285,8 +285,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         say(f"  {lmi_count(lp)} LMIs (the largest {lmi_rows(lp)} rows) per alpha; each point is one solve"
             + (f" (about {_duration(est)} each, estimated from its size)" if est >= 1.0 else "") + ", a failed one is retried")
     grid = np.linspace(math.log(ALPHA_RANGE[0]), math.log(ALPHA_RANGE[1]), s.alpha_points)
-    if cheaper_hint is not None and est >= min(COSTLY_SOLVE_S, cheaper_from if cheaper_from is not None else math.inf) \
-            and not probe_only:
+    relax_from = COSTLY_SOLVE_S if cheaper_from is None else min(COSTLY_SOLVE_S, cheaper_from)
+    if cheaper_hint is not None and est >= relax_from and not probe_only:
         relaxed = runner.relaxed = cheaper_hint(alpha_hint)
         if relaxed is not None:
             alpha_hint = relaxed.alpha

@@ -189,15 +189,16 @@ def _synthesize(model: Any, settings: SynthesisConfig | None, on_step: Callable[
         raise SolverFailure(f"{s.objective}: no certified point")  # unreachable: each branch above raised
     cert = dict(best.cert)
     cert["min_eig_margin_found"] = best.check.min_eig_margin
+    # (where the certificate is a relaxation's, carried to every vertex: that relaxation's solves, with its own)
+    made_by = runner.made_by()
     solver = {
         "name": rec.name,
         "version": solver_version(rec.name),
         "status": rec.status,
         "iterations": rec.iterations,
-        # (where the certificate is a relaxation's, carried to every vertex: that relaxation's solves, with its own)
-        "solve_time_s": float(sum(r.solve_time_s for m in runner.made_by() for r in m.records)),
+        "solve_time_s": float(sum(r.solve_time_s for m in made_by for r in m.records)),
         "fallback_used": bool(runner.fallbacks),
-        "solves": sum(m.solves for m in runner.made_by()),
+        "solves": sum(m.solves for m in made_by),
     }
     return SynthesisResult(
         K=best.K,

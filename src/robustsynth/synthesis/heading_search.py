@@ -307,8 +307,7 @@ def _largest_solved(runner: _Runner) -> float:
     solved: its own, or where it took a relaxation's certificate, the relaxation's (0 where it solved none).  A
     heuristic for a remedy's quick start, on a model like this one, which mostly solves the same problems: where a
     relaxation's certificate held on every vertex here, a problem built and spared is not counted."""
-    chain = [runner] + ([runner.stand_in[0]] if runner.stand_in is not None else [])
-    return max((r.estimate for r in chain if r.solves), default=0.0)
+    return max((r.estimate for r in runner.made_by() if r.solves), default=0.0)
 
 
 def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable[[str], None],
