@@ -561,3 +561,45 @@ def test_auto_s_first_try_is_twice_the_linearized_heading_only_well_below_the_gr
     assert _first_try_bound(start(0.0379, cert=False), HEADING_GRID) is None
     assert _first_try_bound(start(0.0), HEADING_GRID) is None
     assert _first_try_bound(_Best(), HEADING_GRID) is None
+
+
+@pytest.mark.slow  # a walk on 16 vertices, the multipliers of the groups outside them, one solve of all: about 20 s
+def test_a_costly_heading_bound_starts_on_its_end_vertices_and_carries_their_certificate(monkeypatch) -> None:
+    """Where a heading bound's solve is costly and its end vertices are at most half of its vertices (d_hi >= 2), its
+    search starts on them (heading_search._bound_relaxation): their certificate, with a multiplier found for each group
+    of vertices outside them (extension.extend_multipliers), is the bound's where the numpy re-check proves it on every
+    vertex: proven here again on the whole nonlinear model.  Being the whole's and a relaxation's optimum at once, it is
+    the whole's optimum at that alpha: one solve of all there reaches the same objective.  At d_hi 1 (two of three
+    delay vertices at the ends) there is no such start."""
+    from robustsynth.config import mapping_with
+    from robustsynth.synthesis import alpha_search, heading_search as hs
+    import yaml
+
+    raw = yaml.safe_load((ROOT / "configs" / "nonlinear-proof.yaml").read_text())
+    d1 = build_model(mapping_with(raw, **{})).with_heading_bound(0.3, within_period=True)
+    cfg = mapping_with(raw, **{"network.delay.max": 0.15})  # delay [0.01, 0.15] s at Ts 0.1 s: d_hi 2
+    s = hs._kinematic(cfg.synthesis)
+    m = build_model(cfg).with_heading_bound(0.3, within_period=True)
+    assert hs._bound_relaxation(d1, s, True, lambda _m: None, None, None) is None
+    lines: list[str] = []
+    relax = hs._bound_relaxation(m, s, True, lines.append, None, None)
+    assert relax is not None and len(m.vertices) == 36
+    relaxed = relax(0.05)
+    assert relaxed is not None and relaxed.whole is not None, lines
+    best, (solver_runner, index) = relaxed.whole
+    assert len(index) == 16 and best.cert["vertices"] == 36
+    assert any("groups of vertices outside the relaxation" in ln for ln in lines), lines
+    again = check_certificate(m, best.K, best.cert)
+    assert again.passed and again.figures["ultimate_bound"] == best.check.figures["ultimate_bound"]
+    assert best.cert["alpha"] == relaxed.alpha and best.value == relaxed.value
+    # the whole at that alpha: its optimum is the relaxation's (at most: a relaxation's; at least: that certificate)
+    whole, _ = alpha_search._run_invariance(m, s, [], True, alpha_hint=relaxed.alpha, retry=True, probe_only=True)
+    assert whole.cert is not None and whole.value == pytest.approx(relaxed.value, rel=10 * OBJECTIVE_TOL)
+    # and where a solve is costly the bound's search takes it, no solve of all
+    monkeypatch.setattr(alpha_search, "COSTLY_SOLVE_S", 0.0)
+    said: list[str] = []
+    b, r = alpha_search._run_invariance(m, s, [], True, say=said.append, alpha_hint=0.05,
+                                        cheaper_hint=hs._bound_relaxation(m, s, True, said.append, None, None))
+    assert b.cert is not None and r.solves == 0 and r.stand_in is not None, said
+    assert any("holds on every vertex (the numpy re-check): no solve of all" in ln for ln in said), said
+    assert check_certificate(m, b.K, b.cert).passed

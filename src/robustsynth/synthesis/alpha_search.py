@@ -251,7 +251,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     solve is estimated at COSTLY_SOLVE_S or more; True: always (a remedy's quick try).  ``cheaper_hint``: where a
     solve is estimated at COSTLY_SOLVE_S or more (or at ``cheaper_from`` where that is less), given the hint (or
     None), what a relaxation of these LMIs (a subset of the vertices, searched from the hint or scanned: cheaper) gave
-    (:class:`Relaxed`; None: the hint or the scan as without it): its best alpha is walked from instead.  A relaxation's objective is at most this problem's at every
+    (:class:`Relaxed`; None: the hint or the scan as without it), asked after the phase-1 problems asked before any
+    solve (``screen``, ``prove_first``: where they settle the range, no relaxation): its best alpha is walked from instead.  A relaxation's objective is at most this problem's at every
     alpha, so where the solve at its best alpha reaches its best objective (within COSTLY_STOP_REL) no alpha does better
     here, to that search's own tolerance: the search ends there; where its very certificate holds here, without that
     solve; where it settles the search (a start), at that solve once it certifies.
@@ -285,26 +286,17 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         say(f"  {lmi_count(lp)} LMIs (the largest {lmi_rows(lp)} rows) per alpha; each point is one solve"
             + (f" (about {_duration(est)} each, estimated from its size)" if est >= 1.0 else "") + ", a failed one is retried")
     grid = np.linspace(math.log(ALPHA_RANGE[0]), math.log(ALPHA_RANGE[1]), s.alpha_points)
+    # the phase-1 problems where they are asked before any solve (they may settle the range: no relaxation then)
+    if not probe_only and _asked_first(runner, prove, screen, est, alpha_hint, bar, search, say):
+        return best, runner
     relax_from = COSTLY_SOLVE_S if cheaper_from is None else min(COSTLY_SOLVE_S, cheaper_from)
     if cheaper_hint is not None and est >= relax_from and not probe_only:
         relaxed = runner.relaxed = cheaper_hint(alpha_hint)
         if relaxed is not None:
             alpha_hint = relaxed.alpha
-            # the relaxation's certificate holds on every vertex: this problem's optimum, where the relaxation's was its
-            # own (else, where settled, a certificate at its alpha)
-            if relaxed.whole is not None:
-                say("  its certificate holds on every vertex (the numpy re-check): no solve of all")
-                runner.stand_in = relaxed.whole[1]
-                return relaxed.whole[0], runner
-            at = evaluate(math.log(alpha_hint))
-            if relaxed.settle and math.isfinite(at):
-                say("  certified at the relaxation's alpha: enough (each solve is costly; no walk to a finer alpha)")
-                return best, runner
-            if at <= relaxed.value * (1.0 + COSTLY_STOP_REL):
-                say("  its best alpha certifies the relaxation's bound here too: no alpha does better")
-                return best, runner
-    if not probe_only and _asked_first(runner, prove, screen, est, alpha_hint, bar, search, say):
-        return best, runner
+            ended = _ended_by_relaxation(relaxed, runner, evaluate, best, bar, say)
+            if ended is not None:
+                return ended, runner
     if probe_only and alpha_hint is not None:  # one solve at the hint (is this class worth a search?)
         evaluate(math.log(alpha_hint))
         return best, runner
@@ -337,6 +329,31 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     _refine(lambda x: evaluate(x, unscaled_only=unscaled), sorted([(float(g), v) for g, v in zip(grid, vals)] + extra),
             best, costly, say, rel=stop_rel)
     return best, runner
+
+
+def _ended_by_relaxation(relaxed: Relaxed, runner: _Runner, evaluate: "_Evaluator", best: _Best, bar: float | None,
+                         say: Callable[[str], None]) -> _Best | None:
+    """_run_invariance after its relaxation (``cheaper_hint``): the search's result where that ends it, else None (the
+    walk from the relaxation's alpha follows).  Its certificate holds on every vertex: this problem's optimum, where
+    the relaxation's was its own.  Past a certified bound (``bar``) that it does not beat at the hint: nor can this
+    problem there (a relaxation's objective is at most this one's).  Else one solve at its alpha, which where the
+    relaxation settled (a start) and it certifies is enough, and where it certifies the relaxation's bound no alpha
+    does better."""
+    if relaxed.whole is not None:
+        say("  its certificate holds on every vertex (the numpy re-check): no solve of all")
+        runner.stand_in = relaxed.whole[1]
+        return relaxed.whole[0]
+    if bar is not None and relaxed.value >= bar:
+        say("  the relaxation is not better at the hint: nor is this problem there (no solve of all)")
+        return best
+    at = evaluate(math.log(relaxed.alpha))
+    if relaxed.settle and math.isfinite(at):
+        say("  certified at the relaxation's alpha: enough (each solve is costly; no walk to a finer alpha)")
+        return best
+    if at <= relaxed.value * (1.0 + COSTLY_STOP_REL):
+        say("  its best alpha certifies the relaxation's bound here too: no alpha does better")
+        return best
+    return None
 
 
 def _asked_first(runner: _Runner, prove: Callable[[], Phase1] | None, screen: Callable[[float], bool] | None,

@@ -210,6 +210,8 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
             else:
                 b, r = _run_invariance(m, s, search, motor, say, retry="cheap" if auto else True,
                                        bar=best.value if best.cert is not None else None,
+                                       cheaper_hint=_bound_relaxation(m, s, motor, say, posed["rows"],
+                                                                      best.value if best.cert is not None else None),
                                        prove=lambda m=m, n=layout: prove_no_set(m, s, motor, ALPHA_RANGE, say,
                                                                                  active=active, intervals=n,
                                                                                  halvings=halvings_for(n)),
@@ -251,6 +253,23 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
         r = m = None  # noqa: F841  (the last bound's runner and model released before the remedies: _no_proof)
         _no_proof(model, given, s, motor, say, common, tried, tried_at, auto, below, hint, active, start_solve)
     return best, runner
+
+
+def _bound_relaxation(m: Any, s: SynthesisConfig, motor: bool, say: Callable[[str], None],
+                      rows: frozenset[bytes] | None, bar: float | None) -> Callable[[float | None], Relaxed | None] | None:
+    """A heading bound's relaxation (alpha_search's ``cheaper_hint``, asked where a solve is costly and the phase-1
+    problems asked first did not settle the range): its LMIs on the vertices with every delay instant at an end of its
+    range, searched from the hint, their certificate carried to every vertex where the re-check proves it there
+    (:func:`_end_vertices_hint`, the multipliers of the groups outside them found by
+    :func:`.extension.extend_multipliers`).  Only where those are at most half the vertices (from d_hi = 2; at d_hi =
+    1 two of three delay vertices are ends: little to gain).  Issue 51's robot (Ts 0.05 s, delay 20-140 ms, slip
+    [0.8, 1]) at 0.3 rad: its 32 of 108 vertices walked from the hint and carried to all, |e_y| <= 8.96 cm in 15 s,
+    where the search of all took about 75 s for 9.07 cm.  ``bar``: past a certified bound, the objective to beat
+    (one solve of the subset at the hint where it does not)."""
+    ends = _exact_end_vertices(m)
+    if ends is None or 2 * len(ends) > len(m.vertices):
+        return None
+    return lambda h: _end_vertices_hint(m, s, motor, say, hint=h, rows=rows, bar=bar)
 
 
 def _seed(active: Active, runner: _Runner) -> None:
@@ -311,7 +330,8 @@ def _largest_solved(runner: _Runner) -> float:
 
 
 def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable[[str], None],
-                       hint: float | None = None, deeper: bool = True) -> Relaxed | None:
+                       hint: float | None = None, deeper: bool = True, rows: frozenset[bytes] | None = None,
+                       bar: float | None = None) -> Relaxed | None:
     """Where the linearized start's solves are costly (a long delay's vertices: 432 at d_hi = 3, ~6.5 s a solve), the
     same LMIs on the vertices with every uncertain instant at an end of its range (a relaxation, about a third of them),
     scanned, or walked from ``hint`` (a remedy's start): it costs a fraction of the whole's, and the whole starts from
@@ -321,7 +341,11 @@ def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable
     end vertices with every instant at the same end (:func:`.phase1._same_end_vertices`, 32 there, ~1.3 s a solve),
     and one solve of theirs at that alpha that certifies settles them: the start's alpha need not be their best (there
     8.45 cm at 0.0469 against 8.28 cm at their best, 0.0366; 38 s against 125 s for their scan).  None where there is
-    no such subset, or it certified nothing (the vertices are then searched as they would have been)."""
+    no such subset, or it certified nothing (the vertices are then searched as they would have been).  ``rows``: the
+    heading rows its problem starts with (a heading bound's, grown by row generation; None: every row); ``bar`` (with
+    ``hint``): the objective to beat, as :func:`.alpha_search._run_invariance`'s: where the subset's solve at the hint
+    does not certify below it, nor can the whole's there (a relaxation's objective is at most the whole's), and that
+    one solve is all."""
     ends = (_exact_end_vertices if deeper else _same_end_vertices)(lin)
     if ends is None:
         return None
@@ -335,8 +359,9 @@ def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable
         f"range first, then its certificate re-checked on every vertex (or {then})")
     inner = lambda m: say("  " + m)  # noqa: E731
     best, runner = _run_invariance(sub, sc, [], motor, inner, alpha_hint=hint, gain_rule=True if hint is not None else None,
-                                   cheaper_hint=(lambda h: _end_vertices_hint(sub, sc, motor, inner, hint=h, deeper=False))
-                                   if deeper else None)
+                                   cheaper_hint=(lambda h: _end_vertices_hint(sub, sc, motor, inner, hint=h, deeper=False,
+                                                                              rows=rows))
+                                   if deeper else None, rows=rows, bar=bar if hint is not None else None)
     runner.release_compiled()
     if best.cert is None:
         return None
