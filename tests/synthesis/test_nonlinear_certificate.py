@@ -563,7 +563,7 @@ def test_auto_s_first_try_is_twice_the_linearized_heading_only_well_below_the_gr
     assert _first_try_bound(_Best(), HEADING_GRID) is None
 
 
-@pytest.mark.slow  # a walk on 16 vertices, the multipliers of the groups outside them, one solve of all: about 20 s
+@pytest.mark.slow  # walks on 16 vertices, the multipliers of the groups outside them, one solve of all: about 20 s
 def test_a_costly_heading_bound_starts_on_its_end_vertices_and_carries_their_certificate(monkeypatch) -> None:
     """Where a heading bound's solve is costly and its end vertices are at most half of its vertices (d_hi >= 2), its
     search starts on them (heading_search._bound_relaxation): their certificate, with a multiplier found for each group
@@ -603,3 +603,10 @@ def test_a_costly_heading_bound_starts_on_its_end_vertices_and_carries_their_cer
     assert b.cert is not None and r.solves == 0 and r.stand_in is not None, said
     assert any("holds on every vertex (the numpy re-check): no solve of all" in ln for ln in said), said
     assert check_certificate(m, b.K, b.cert).passed
+    # a remedy's quick try: one solve of the end vertices at the hint, carried to every vertex
+    said.clear()
+    probe = hs._bound_relaxation(m, s, True, said.append, None, None, probe=True)(0.05)
+    assert probe is not None and probe.whole is not None, said
+    assert probe.alpha == pytest.approx(0.05, rel=1e-12)  # (the hint passes through log alpha and back)
+    assert len([ln for ln in said if ln.startswith("    alpha = ")]) == 1, said
+    assert check_certificate(m, probe.whole[0].K, probe.whole[0].cert).passed

@@ -256,7 +256,8 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
 
 
 def _bound_relaxation(m: Any, s: SynthesisConfig, motor: bool, say: Callable[[str], None],
-                      rows: frozenset[bytes] | None, bar: float | None) -> Callable[[float | None], Relaxed | None] | None:
+                      rows: frozenset[bytes] | None, bar: float | None, probe: bool = False
+                      ) -> Callable[[float | None], Relaxed | None] | None:
     """A heading bound's relaxation (alpha_search's ``cheaper_hint``, asked where a solve is costly and the phase-1
     problems asked first did not settle the range): its LMIs on the vertices with every delay instant at an end of its
     range, searched from the hint, their certificate carried to every vertex where the re-check proves it there
@@ -265,11 +266,12 @@ def _bound_relaxation(m: Any, s: SynthesisConfig, motor: bool, say: Callable[[st
     1 two of three delay vertices are ends: little to gain).  Issue 51's robot (Ts 0.05 s, delay 20-140 ms, slip
     [0.8, 1]) at 0.3 rad: its 32 of 108 vertices walked from the hint and carried to all, |e_y| <= 8.96 cm in 15 s,
     where the search of all took about 75 s for 9.07 cm.  ``bar``: past a certified bound, the objective to beat
-    (one solve of the subset at the hint where it does not)."""
+    (one solve of the subset at the hint where it does not); ``probe``: one solve of the subset at the hint only (a
+    remedy's quick try)."""
     ends = _exact_end_vertices(m)
     if ends is None or 2 * len(ends) > len(m.vertices):
         return None
-    return lambda h: _end_vertices_hint(m, s, motor, say, hint=h, rows=rows, bar=bar)
+    return lambda h: _end_vertices_hint(m, s, motor, say, hint=h, rows=rows, bar=bar, probe=probe)
 
 
 def _seed(active: Active, runner: _Runner) -> None:
@@ -331,7 +333,7 @@ def _largest_solved(runner: _Runner) -> float:
 
 def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable[[str], None],
                        hint: float | None = None, deeper: bool = True, rows: frozenset[bytes] | None = None,
-                       bar: float | None = None) -> Relaxed | None:
+                       bar: float | None = None, probe: bool = False) -> Relaxed | None:
     """Where the linearized start's solves are costly (a long delay's vertices: 432 at d_hi = 3, ~6.5 s a solve), the
     same LMIs on the vertices with every uncertain instant at an end of its range (a relaxation, about a third of them),
     scanned, or walked from ``hint`` (a remedy's start): it costs a fraction of the whole's, and the whole starts from
@@ -345,7 +347,7 @@ def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable
     heading rows its problem starts with (a heading bound's, grown by row generation; None: every row); ``bar`` (with
     ``hint``): the objective to beat, as :func:`.alpha_search._run_invariance`'s: where the subset's solve at the hint
     does not certify below it, nor can the whole's there (a relaxation's objective is at most the whole's), and that
-    one solve is all."""
+    one solve is all; ``probe`` (with ``hint``): that one solve only, whatever it gives (a remedy's quick try)."""
     ends = (_exact_end_vertices if deeper else _same_end_vertices)(lin)
     if ends is None:
         return None
@@ -355,13 +357,16 @@ def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable
     then = ("a solve of all at its best alpha, a walk from there where that does not certify its bound" if deeper else
             f"one solve of the {len(lin.vertices)} at its best alpha, enough for a start where it certifies, a walk "
             "from there where not")
+    if probe and hint is not None:
+        how = "one solve at the hint"
     say(f"  each solve is costly: the {how} on the {len(ends)} vertices with every delay instant at {at} of its "
         f"range first, then its certificate re-checked on every vertex (or {then})")
     inner = lambda m: say("  " + m)  # noqa: E731
     best, runner = _run_invariance(sub, sc, [], motor, inner, alpha_hint=hint, gain_rule=True if hint is not None else None,
                                    cheaper_hint=(lambda h: _end_vertices_hint(sub, sc, motor, inner, hint=h, deeper=False,
                                                                               rows=rows))
-                                   if deeper else None, rows=rows, bar=bar if hint is not None else None)
+                                   if deeper else None, rows=rows, bar=bar if hint is not None else None,
+                                   probe_only=probe and hint is not None)
     runner.release_compiled()
     if best.cert is None:
         return None
@@ -437,7 +442,8 @@ def _first_try(model: Any, s: SynthesisConfig, motor: bool, hint: float | None =
     bound them, of a model with as many vertices as this one's), each such solve is first screened by a phase-1 problem
     at that alpha on those vertices, two bounds at a time (:func:`.phase1.screen`, a fraction of the solve's cost on the
     issue-51 robot: 10 of 108 vertices); where its t* <= -T_PROVEN the LMIs there have no set within 1 m, and the solve
-    is spared."""
+    is spared.  From d_hi = 2 that solve is made on the end vertices first (:func:`_bound_relaxation`), and their
+    certificate taken where it is carried to every vertex; else the solve of all as before."""
     common, _, _ = _start(model, s, motor, say, hint=hint)
     if common.cert is None:
         return None, ()
@@ -463,6 +469,12 @@ def _first_try(model: Any, s: SynthesisConfig, motor: bool, hint: float | None =
             if settles(t):
                 say(f"  {tb:g} rad: phase-1 at alpha {alpha:.4g} on {len(active.indices)} vertices, t* = {t:.3g}: no solve")
                 continue
+            # from d_hi 2 the solve on the end vertices first, its certificate carried to every vertex where it holds
+            # (the default at d_hi 2, slip half as wide: ~5 s instead of a 22 s solve of all)
+            relax = _bound_relaxation(m, s, motor, say, _posed_rows(active, m), None, probe=True)
+            got = relax(alpha) if relax is not None else None
+            if got is not None and got.whole is not None:
+                return dict(got.whole[0].check.figures), ()
             b, _ = _run_invariance(m, s, [], motor, say, alpha_hint=alpha, retry=False, probe_only=True,
                                    rows=_posed_rows(active, m))
             if b.cert is not None:

@@ -6,7 +6,8 @@ rate bound), a slip box half as wide about its centre, a
 bound on the slip's rate, half the reference speed, turns of twice the radius.  Each try is one quick search
 (``first_try``, from :mod:`robustsynth.synthesis.heading_search`: the linearized start as a walk from the main search's
 alpha, then one solve at its best alpha for each heading bound auto would try, each screened first by a phase-1
-problem on a few vertices where the main search needed those), so a figure it gives is one that ``synthesize`` with
+problem on a few vertices where the main search needed those; from d_hi = 2 on the end vertices first, carried to
+every vertex where the re-check proves it there), so a figure it gives is one that ``synthesize`` with
 that change reaches or improves on, and "none at the first try" proves nothing: it says only that this one try
 found no set.  This module does not import the search (it is handed ``first_try``): the search calls it.
 """
