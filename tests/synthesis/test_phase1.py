@@ -168,6 +168,9 @@ def test_fewer_heading_rows_are_a_relaxation(monkeypatch: pytest.MonkeyPatch) ->
         out = solve(lp.problem, s.solver, lambda: True, fallback=False, retry=True)
         assert out.kind == "ok"
         t[name] = float(lp.extra["t"].value)
+        vals = lp.values()  # its variables' values, the posed rows' keys and constraints left out
+        assert float(vals["t"]) == t[name] and vals["beta"].shape == lp.extra["beta"].shape
+        assert "heading_keys" not in vals and "heading_rows" not in vals
     assert t["all"] <= -T_PROVEN  # (the interval test_a_proven_interval_has_no_certifiable_alpha_inside proves)
     assert t["some"] >= t["all"] - T_TOL, t
 

@@ -46,7 +46,7 @@ class LMIProblem:
     S: list[cp.Variable] = field(default_factory=list)
     M: list[Any] = field(default_factory=list)  # per vertex (cvxpy expressions)
     params: dict[str, cp.Parameter] = field(default_factory=dict)
-    extra: dict[str, cp.Variable] = field(default_factory=dict)
+    extra: dict[str, Any] = field(default_factory=dict)  # its extra variables (and a phase-1 problem's posed rows)
     mirrored: bool = False  # posed mirror-invariant (docs/theory.md §6h)
     images: tuple[int, ...] = ()  # posed mirror-invariant: each vertex's mirror image (its LMIs stand for both)
     # per vertex of the model its invariance LMIs (none for a vertex its mirror image's stand for): their duals say
@@ -68,8 +68,9 @@ class LMIProblem:
             v = np.zeros((0, 0)) if v is None else np.asarray(v, dtype=float).reshape(M.shape)
             Ms.append(sym(v))
         out["M"] = Ms
-        for k, v in self.extra.items():
-            out[k] = np.asarray(v.value)
+        for k, v in self.extra.items():  # the extra variables (not the posed rows' keys and constraints)
+            if isinstance(v, cp.Variable):
+                out[k] = np.asarray(v.value)
         return out
 
 
