@@ -208,10 +208,9 @@ def _run_nonlinear(model: Any, s: SynthesisConfig, search: list, motor: bool,
             if trying:  # one solve at the hint, which where it certifies starts the walk (bar: anything certified)
                 b, r = _run_invariance(m, s, search, motor, say, retry=False, bar=math.inf, **posed)
             else:
-                b, r = _run_invariance(m, s, search, motor, say, retry="cheap" if auto else True,
-                                       bar=best.value if best.cert is not None else None,
-                                       cheaper_hint=_bound_relaxation(m, s, motor, say, posed["rows"],
-                                                                      best.value if best.cert is not None else None),
+                bar = best.value if best.cert is not None else None
+                b, r = _run_invariance(m, s, search, motor, say, retry="cheap" if auto else True, bar=bar,
+                                       cheaper_hint=_bound_relaxation(m, s, motor, say, posed["rows"], bar),
                                        prove=lambda m=m, n=layout: prove_no_set(m, s, motor, ALPHA_RANGE, say,
                                                                                  active=active, intervals=n,
                                                                                  halvings=halvings_for(n)),
@@ -268,10 +267,16 @@ def _bound_relaxation(m: Any, s: SynthesisConfig, motor: bool, say: Callable[[st
     where the search of all took about 75 s for 9.07 cm.  ``bar``: past a certified bound, the objective to beat
     (one solve of the subset at the hint where it does not); ``probe``: one solve of the subset at the hint only (a
     remedy's quick try)."""
-    ends = _exact_end_vertices(m)
-    if ends is None or 2 * len(ends) > len(m.vertices):
+    if not _ends_at_most_half(m):
         return None
     return lambda h: _end_vertices_hint(m, s, motor, say, hint=h, rows=rows, bar=bar, probe=probe)
+
+
+def _ends_at_most_half(model: Any) -> bool:
+    """Whether ``model`` has vertices with every delay instant at an end of its range and they are at most half of its
+    vertices (from d_hi = 2): where a relaxation on them is worth its search."""
+    ends = _exact_end_vertices(model)
+    return ends is not None and 2 * len(ends) <= len(model.vertices)
 
 
 def _seed(active: Active, runner: _Runner) -> None:
@@ -312,8 +317,7 @@ def _start(model: Any, s: SynthesisConfig, motor: bool, say: Callable[[str], Non
         # the straight constant-slip one (no channels, seconds) does about as well
         lin = replace(lin, vertices=model.base_vertices, turns=None, covering_vertices=(), channels=_straight_channels(model))
     sc = s.model_copy(update={"lyapunov": "common", "kinematics": "linearized"})
-    ends = _exact_end_vertices(lin)
-    cheaper_from = START_RELAX_S if ends is not None and 2 * len(ends) <= len(lin.vertices) else None
+    cheaper_from = START_RELAX_S if _ends_at_most_half(lin) else None
     say(f"the linearized common certificate, where the search starts ({len(lin.vertices)} vertices)")
     least: dict[float, float | None] = {}  # alpha -> the linearized LMIs' least motor bound, where proven
     common, crunner = _run_invariance(lin, sc, [], motor, say, prune=_motor_pruner(lin, sc, least, say=say) if motor else None,
@@ -352,13 +356,11 @@ def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable
     if ends is None:
         return None
     sub = _on_subset(lin, ends)
-    how = "walk from the hint" if hint is not None else "scan"
+    how = ("one solve at the hint" if probe else "walk from the hint") if hint is not None else "scan"
     at = "an end" if deeper else "the same end"
     then = ("a solve of all at its best alpha, a walk from there where that does not certify its bound" if deeper else
             f"one solve of the {len(lin.vertices)} at its best alpha, enough for a start where it certifies, a walk "
             "from there where not")
-    if probe and hint is not None:
-        how = "one solve at the hint"
     say(f"  each solve is costly: the {how} on the {len(ends)} vertices with every delay instant at {at} of its "
         f"range first, then its certificate re-checked on every vertex (or {then})")
     inner = lambda m: say("  " + m)  # noqa: E731
@@ -471,7 +473,8 @@ def _first_try(model: Any, s: SynthesisConfig, motor: bool, hint: float | None =
                 continue
             # from d_hi 2 the solve on the end vertices first, its certificate carried to every vertex where it holds
             # (the default at d_hi 2, slip half as wide: ~5 s instead of a 22 s solve of all)
-            relax = _bound_relaxation(m, s, motor, say, _posed_rows(active, m), None, probe=True)
+            rows = _posed_rows(active, m)
+            relax = _bound_relaxation(m, s, motor, say, rows, None, probe=True)
             got = relax(alpha) if relax is not None else None
             if got is not None and got.whole is not None:
                 return dict(got.whole[0].check.figures), ()
@@ -482,8 +485,7 @@ def _first_try(model: Any, s: SynthesisConfig, motor: bool, hint: float | None =
                 # nothing, and it moves on to the next bound
                 say(f"  {tb:g} rad: the end vertices certified nothing at alpha {alpha:.4g}: no solve of all")
                 continue
-            b, _ = _run_invariance(m, s, [], motor, say, alpha_hint=alpha, retry=False, probe_only=True,
-                                   rows=_posed_rows(active, m))
+            b, _ = _run_invariance(m, s, [], motor, say, alpha_hint=alpha, retry=False, probe_only=True, rows=rows)
             if b.cert is not None:
                 return dict(b.check.figures), ()
     return None, ()
