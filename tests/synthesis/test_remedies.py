@@ -21,20 +21,28 @@ def _changed(cfg, change):
 def test_each_remedy_changes_what_it_says_and_nothing_else() -> None:
     """tracks-box (slip [0.6, 1] free to jump, straight path): the box half as wide about its centre, a rate that
     crosses it in RATE_PERIODS periods, half the speed; no turn radius to widen.  Every changed config loads, and
-    apart from the changed keys it is the config itself."""
+    apart from the changed keys it is the config itself.  Its one Lyapunov matrix covers every slip sequence, so the
+    rate comes with a matrix per slip corner (synthesis.lyapunov slip-dependent), where it enters the LMIs; a config
+    with such matrices already gets the rate alone."""
     cfg = load_config(ROOT / "configs" / "tracks-box.yaml")
+    assert cfg.synthesis.lyapunov == "common"
     got = candidates(cfg)
     assert [c[0].split(" ")[0] for c in got] == ["slip", "slip.max_rate", "reference.speed"]
+    assert got[1][0].endswith("with synthesis.lyapunov slip-dependent")
     half, rate, speed = (_changed(cfg, c[1]) for c in got)
     for track in ("right", "left"):
         r = getattr(half.slip, track)
         assert abs(r.min - 0.7) <= EXACT and abs(r.max - 0.9) <= EXACT
     assert abs(rate.slip.max_rate - 0.4 / (RATE_PERIODS * cfg.network.sampling_time)) <= EXACT
+    assert rate.synthesis.lyapunov == "slip-dependent"
     assert speed.reference.speed == cfg.reference.speed / 2
     base = config_to_dict(cfg)
-    for new, keys in ((half, ("slip",)), (rate, ("slip",)), (speed, ("reference",))):
+    for new, keys in ((half, ("slip",)), (rate, ("slip", "synthesis")), (speed, ("reference",))):
         d = config_to_dict(new)
         assert {k for k in base if base[k] != d[k]} == set(keys)
+    per_corner = _changed(cfg, {"synthesis": {"lyapunov": "slip-dependent"}})
+    alone = dict(candidates(per_corner))
+    assert next(v for k, v in alone.items() if k.startswith("slip.max_rate")) == {"slip": {"max_rate": rate.slip.max_rate}}
 
 
 def test_a_tracks_box_with_a_rate_bound_is_offered_the_compensated_law_first() -> None:
@@ -114,7 +122,8 @@ def test_each_try_gets_its_share_of_what_is_left_of_the_budget(monkeypatch) -> N
 
     clock = [100.0]
     monkeypatch.setattr(remedies.time, "perf_counter", lambda: clock[0])
-    model = build_model(load_config(ROOT / "configs" / "tracks-box.yaml"))
+    # a Lyapunov matrix per slip corner: its rate remedy is tried too (three tries)
+    model = build_model(_changed(load_config(ROOT / "configs" / "tracks-box.yaml"), {"synthesis": {"lyapunov": "slip-dependent"}}))
     deadlines = []
 
     def slow(m, deadline):  # runs to its deadline (and a second beyond), untried bounds left
@@ -165,3 +174,27 @@ def test_where_the_start_s_solves_are_slow_each_remedy_is_named_with_why() -> No
     assert lines[-1].startswith("reference.turn_radius 16 m: refused (reference.path:"), lines[-1]
     assert lines[0].endswith(": not tried (slow here)"), lines
     assert all(line.endswith(": not tried (the same)") for line in lines[1:-1]), lines
+
+
+def test_a_remedy_no_quick_try_makes_is_named_and_takes_no_share(monkeypatch) -> None:
+    """tracks-box under one Lyapunov matrix: its rate remedy changes the synthesis settings (a matrix per slip corner),
+    which a quick try, this search's own, does not: it is named with why, and the two remedies tried split the budget
+    between them; the lines keep the candidates' order."""
+    from robustsynth.model import build_model
+    from robustsynth.synthesis import remedies
+
+    clock = [100.0]
+    monkeypatch.setattr(remedies.time, "perf_counter", lambda: clock[0])
+    model = build_model(load_config(ROOT / "configs" / "tracks-box.yaml"))
+    tried = []
+
+    def slow(m, deadline):
+        tried.append((m.config.slip.max_rate, m.config.synthesis.lyapunov, deadline))
+        clock[0] = deadline
+        return None, ()
+
+    lines = remedies.try_remedies(model, slow, lambda _m: None, budget_s=60.0)
+    assert [line.split(" ")[0] for line in lines] == ["slip", "slip.max_rate", "reference.speed"]
+    assert lines[1].endswith(f"not tried ({remedies.NOT_QUICK})"), lines[1]
+    assert [t[:2] for t in tried] == [(None, "common")] * 2  # the half box and the half speed, this search's settings
+    assert [t[2] for t in tried] == [100.0 + 60.0 / 2, 130.0 + 30.0 / 1]

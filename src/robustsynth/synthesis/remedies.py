@@ -3,7 +3,9 @@
 When the nonlinear-kinematics search ends without a certificate (exit 3), the remedies its message names are
 tried on copies of the config, cheapest first, within a time budget: the slip-compensated law (tracks model with a
 rate bound), a slip box half as wide about its centre, a
-bound on the slip's rate, half the reference speed, turns of twice the radius.  Each try is one quick search
+bound on the slip's rate, half the reference speed, turns of twice the radius.  A remedy that changes the synthesis
+settings (the rate bound under one Lyapunov matrix, which no rate bound changes: with a matrix per slip corner) is
+named with why, not tried.  Each try is one quick search
 (``first_try``, from :mod:`robustsynth.synthesis.heading_search`: the linearized start as a walk from the main search's
 alpha, then one solve at its best alpha for each heading bound auto would try, each screened first by a phase-1
 problem on a few vertices where the main search needed those; from d_hi = 2 on the end vertices first, carried to
@@ -21,12 +23,18 @@ __all__ = ["try_remedies", "candidates", "REMEDY_BUDGET_S", "RATE_PERIODS"]
 
 REMEDY_BUDGET_S = 60.0  # [s] the tries together; a remedy whose turn comes after it is named, not tried
 RATE_PERIODS = 10  # the tried slip rate crosses the slip box in this many periods
+# why a remedy that changes the synthesis settings is named, not tried: a quick try is this search's, on a changed
+# robot, network or path (the default robot at d_hi = 2 with a rate bound and a Lyapunov matrix per slip corner: its
+# start alone took 55 s, its LMIs 2 152 per alpha against 111)
+NOT_QUICK = ("a search with a Lyapunov matrix per slip corner, where a rate bound enters, is no quick try; under one "
+             "matrix a rate bound changes no LMI: run synthesize with that change")
 
 
 def candidates(cfg: Any) -> list[tuple[str, dict[str, Any]]]:
     """The remedies that apply to ``cfg``, as (what it is, in words, the config's changed keys as a nested
     mapping): on the tracks model with a rate bound, the slip-compensated law; the slip box half as wide about its
-    centre; where slip may jump, a rate that crosses the box in RATE_PERIODS periods; half the reference speed;
+    centre; where slip may jump, a rate that crosses the box in RATE_PERIODS periods (with a Lyapunov matrix per slip
+    corner where the config has one matrix: under one, no rate bound changes an LMI); half the reference speed;
     turns of twice the radius (a turning reference)."""
     slip = cfg.slip
     keys = ["right", "left"] + (["yaw", "icr_offset"] if slip.model == "icr" else [])
@@ -45,7 +53,14 @@ def candidates(cfg: Any) -> list[tuple[str, dict[str, Any]]]:
     if slip.max_rate is None:
         width = max(slip.right.max - slip.right.min, slip.left.max - slip.left.min)
         rate = width / (RATE_PERIODS * cfg.network.sampling_time)
-        out.append((f"slip.max_rate {rate:.3g} /s (the box crossed in {RATE_PERIODS} periods)", {"slip": {"max_rate": rate}}))
+        what = f"slip.max_rate {rate:.3g} /s (the box crossed in {RATE_PERIODS} periods)"
+        if cfg.synthesis.lyapunov == "common":  # one Lyapunov matrix covers every slip sequence: the rate changes no
+            # LMI of it; it enters with a matrix per slip corner (Model.lyapunov_conditions), which also takes the slip
+            # as constant within a period (docs/theory.md §9)
+            out.append((f"{what} with synthesis.lyapunov slip-dependent",
+                        {"slip": {"max_rate": rate}, "synthesis": {"lyapunov": "slip-dependent"}}))
+        else:
+            out.append((what, {"slip": {"max_rate": rate}}))
     out.append((f"reference.speed {cfg.reference.speed / 2.0:g} m/s", {"reference": {"speed": cfg.reference.speed / 2.0}}))
     if cfg.reference.turn_radius is not None:
         out.append((f"reference.turn_radius {2.0 * cfg.reference.turn_radius:g} m",
@@ -70,25 +85,35 @@ def try_remedies(model: Any, first_try: Callable[[Any, float], tuple[dict[str, A
     remedies their turn; a try checks it before each heading bound but its first.  A try is started only where what is
     left of the budget holds one as long as the longest so far (on the default robot at d_hi = 2 the first try took
     33 s, proven with |e_y| <= 4.05 cm; two more were started before, each stopped after its first pair of heading bounds).
-    ``skip``: why no try is started here (each remedy is then named with it, a refused one as refused)."""
+    ``skip``: why no try is started here (each remedy is then named with it, a refused one as refused).  A refused
+    remedy, and one no quick try makes (:data:`NOT_QUICK`), is named at no cost, and takes no share."""
     from ..config import config_to_dict, load_config
     from ..errors import RobustSynthError
 
     cfg = model.user_config  # a compensated law's remedies change the user's config, not its certificate's
     base = config_to_dict(cfg)
-    lines: list[str] = []
-    t0 = time.perf_counter()
-    todo = candidates(cfg)
-    longest = 0.0  # [s] the longest try so far
-    for k, (what, change) in enumerate(todo):
+    # each remedy's changed config, or the line that names it untried: a refusal, or a change no quick try makes (a
+    # try's share of the budget is then split among the remedies that will be tried)
+    plan: list[tuple[str, Any, str | None]] = []
+    for what, change in candidates(cfg):
         try:  # the changed config first: a refusal costs nothing (its model and its search do)
             changed = load_config(_merged(base, change))
         except RobustSynthError as exc:
-            lines.append(f"{what}: refused ({exc})")
+            plan.append((what, None, f"{what}: refused ({exc})"))
             continue
         if skip is not None:
-            lines.append(f"{what}: not tried ({skip})")
+            plan.append((what, None, f"{what}: not tried ({skip})"))
             skip = "the same"  # (said once)
+        elif "synthesis" in change:  # a quick try searches with this search's own synthesis settings
+            plan.append((what, None, f"{what}: not tried ({NOT_QUICK})"))
+        else:
+            plan.append((what, changed, None))
+    lines: list[str] = []
+    t0 = time.perf_counter()
+    longest = 0.0  # [s] the longest try so far
+    for k, (what, changed, named) in enumerate(plan):
+        if named is not None:
+            lines.append(named)
             continue
         left = budget_s - (time.perf_counter() - t0)
         if left <= 0:
@@ -100,8 +125,9 @@ def try_remedies(model: Any, first_try: Callable[[Any, float], tuple[dict[str, A
             continue
         say(f"remedy: {what}, a quick search")
         started = time.perf_counter()
+        to_try = sum(1 for *_, n in plan[k:] if n is None)  # this one and those after it
         try:
-            figures, untried = first_try(model.rebuilt(changed), started + left / (len(todo) - k))
+            figures, untried = first_try(model.rebuilt(changed), started + left / to_try)
         except RobustSynthError as exc:  # the model refuses the change, or the search finds it infeasible at once
             lines.append(f"{what}: refused ({exc})")
             continue
