@@ -18,7 +18,7 @@ def main() -> dict[str, float]:
 
     from robustsynth import build_model, load_config
     from robustsynth.synthesis import synthesize
-    from robustsynth.verification.reference import simulate_run
+    from robustsynth.plants.reference import simulate_run
     from robustsynth.plants.path import make_path
     from robustsynth.scenarios import draw_scenario
     from robustsynth.verification.simulate import simulate

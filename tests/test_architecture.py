@@ -151,7 +151,6 @@ STILL_CONCRETE = {
     "robustsynth.verification.nonlinear_checks": "the nonlinear robot on its path",
     "robustsynth.verification.physics": "the MuJoCo robot",
     "robustsynth.verification.probe": "the robot's boundary probe on its path",
-    "robustsynth.verification.reference": "the robot's per-run reference simulator (tests)",
     "robustsynth.verification.simulate": "the robot in closed loop on its path",
 }
 

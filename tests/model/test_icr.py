@@ -17,7 +17,7 @@ from robustsynth.model import build_model, coverage_check
 from robustsynth.model.slip import lateral_row, slip_matrix, twist_matrix
 from robustsynth.plants.kinematic import KinematicRobot, arc_step
 from robustsynth.plants.path import frame_error, make_path, pose_from_error
-from robustsynth.verification.reference import ivp_arc
+from robustsynth.plants.reference import ivp_arc
 
 from ..conftest import ROOT, make_config
 

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from robustsynth.model import build_model
 from robustsynth.synthesis import synthesize
 from robustsynth.scenarios import slip_vertices
-from robustsynth.verification.reference import ivp_arc, simulate_run
+from robustsynth.plants.reference import ivp_arc, simulate_run
 from robustsynth.plants.kinematic import arc_step
 from robustsynth.plants.path import make_path
 from robustsynth.scenarios import draw_scenario, steady_state_start

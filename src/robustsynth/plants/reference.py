@@ -1,18 +1,18 @@
-"""Straightforward per-run reference implementations, for tests and benchmarks only.
+"""The tracked robot's straightforward per-run reference implementations, for tests and benchmarks only: the
+oracle that the vectorized closed loop (:mod:`robustsynth.verification.simulate`) is held to.
 
 :func:`simulate_run` replays one run of a :class:`~robustsynth.scenarios.Scenario` with explicit actuation
 events (absolute arrival times, in-order by a running maximum) instead of the vectorized
 switching instants; ``integrator='ivp'`` integrates the kinematics with ``solve_ivp`` instead of
-the exact arcs."""
+the exact arcs.  It reads the scenario's arrays only (the room of scenarios is above this one)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from ..model.kinematics import G_matrix, JHJinv
-from ..plants.kinematic import arc_step, saturate
-from ..plants.path import PathGeometry, frame_error
-from ..scenarios import Scenario
+from .kinematic import arc_step, saturate
+from .path import PathGeometry, frame_error
 
 __all__ = ["simulate_run", "ivp_arc"]
 
@@ -34,8 +34,9 @@ def ivp_arc(q: np.ndarray, v: float, w: float, h: float, rtol: float = 1e-11, at
     return sol.y[:, -1]
 
 
-def simulate_run(model, K: np.ndarray, path: PathGeometry, scen: Scenario, n: int, integrator: str = "arc"):
-    """Run ``n`` of ``scen``; returns (q (steps+1, 3), e (steps+1, 3), du (steps, 2))."""
+def simulate_run(model, K: np.ndarray, path: PathGeometry, scen, n: int, integrator: str = "arc"):
+    """Run ``n`` of ``scen`` (a :class:`~robustsynth.scenarios.Scenario`); returns (q (steps+1, 3), e (steps+1, 3),
+    du (steps, 2))."""
     Ts, d_hi, V = model.Ts, model.d_hi, model.V
     D = model.config.robot.track_distance
     steps = scen.steps
