@@ -211,7 +211,8 @@ def test_a_proven_interval_has_no_certifiable_alpha_inside() -> None:
 
 def test_a_proof_turns_the_failed_points_into_infeasible_ones() -> None:
     """The search's bookkeeping: where the phase-1 problems settle the range, the alphas at which the solver failed
-    count as infeasible (the exit is 3 with the evidence, not 4); where they do not, nothing changes."""
+    count as infeasible (the exit is 3 with the evidence, not 4); where they do not, only those in an interval they
+    settled do (0.05 in [0.005, 0.1]), and the others stay failed."""
     m, s = _nonlinear_proof()
     runner = _Runner(m, None, s.solver, lambda vals: {})  # (the problem is not solved here)
     for proven in (False, True):
@@ -224,7 +225,41 @@ def test_a_proof_turns_the_failed_points_into_infeasible_ones() -> None:
         if proven:
             assert runner.failed_at == {0.05: False, 0.1: False, 0.2: False} and runner.failures == 0
         else:
-            assert runner.failed_at == {0.05: True, 0.1: False, 0.2: True} and runner.failures == 2
+            assert runner.failed_at == {0.05: False, 0.1: False, 0.2: True} and runner.failures == 1
+            assert runner.settled_at(0.05) == (0.005, 0.1, -1e-3, 8) and runner.settled_at(0.2) is None
+
+
+def test_a_point_the_phase_1_problems_show_has_no_set_is_not_solved() -> None:
+    """Where the phase-1 problems settled part of the range, the search solves no alpha of a settled interval (it is
+    infeasible there, with the evidence in the search record) and solves the others as before: the interval that did
+    not settle, and any alpha once no phase-1 problem was asked."""
+    from robustsynth.synthesis.alpha_search import _Evaluator
+    from robustsynth.synthesis.runner import _Best, _weights
+
+    from .conftest import invariance_runner
+
+    m, s = _nonlinear_proof()
+    lp, runner = invariance_runner(m, "common", 0.1)
+    evaluate = _Evaluator(lp, runner, _Best(), _weights(s), search := [], lambda _m: None)
+    runner.phase1 = Phase1(0.005, 0.95, [(0.005, 0.05, -1e-3, 8, "optimal"), (0.05, 0.95, 1e-4, 8, "optimal")])
+    assert evaluate(float(np.log(0.02))) == np.inf and runner.solves == 0
+    assert search[-1] == {"alpha": 0.02, "status": "infeasible", "objective": None, "by": "phase-1 (8 vertices)"}
+    assert evaluate.last.kind == "infeasible" and runner.failed_at[0.02] is False and runner.failures == 0
+    evaluate(float(np.log(0.1)))  # in the interval that did not settle: solved, whatever it gives
+    assert runner.solves == 1 and abs(search[-1]["alpha"] - 0.1) <= 1e-12 and "by" not in search[-1]
+    runner.phase1 = None
+    evaluate(float(np.log(0.03)))
+    assert runner.solves == 2 and "by" not in search[-1]
+    # a screen (a phase-1 problem at one alpha) is asked before a solve only where the range was left unsettled
+    asked: list[float] = []
+    evaluate.screen = lambda a: asked.append(a) or abs(a - 0.3) <= 1e-12
+    evaluate(float(np.log(0.4)))  # no phase-1 problems over the range were asked: no screen
+    assert not asked and runner.solves == 3
+    runner.phase1 = Phase1(0.005, 0.95, [(0.005, 0.05, -1e-3, 8, "optimal"), (0.05, 0.95, 1e-4, 8, "optimal")])
+    assert evaluate(float(np.log(0.3))) == np.inf and runner.solves == 3 and len(asked) == 1
+    assert search[-1]["status"] == "infeasible" and search[-1]["by"] == "phase-1 at this alpha"
+    evaluate(float(np.log(0.5)))  # the screen shows a set there: solved
+    assert len(asked) == 2 and runner.solves == 4
 
 
 def test_a_runner_that_released_its_compiled_problem_solves_it_again_to_the_same_bits() -> None:
@@ -316,7 +351,8 @@ def test_where_a_solve_is_costly_a_screen_at_the_hint_that_shows_no_set_sends_th
     ended in solver_error after 19 s), a phase-1 problem at the hint (``screen``) is asked before the hint's solve:
     where it shows no set there, the phase-1 problems over the range go first (proven: no solve at all); where it shows
     one, the search solves at the hint as without it and certifies.  Below the threshold (every committed config) the
-    screen is not asked."""
+    screen is not asked.  Where the phase-1 problems leave the range unsettled, each later costly solve is screened at
+    its own alpha first (here the screen shows no set at the hint only: the search then certifies as before)."""
     from robustsynth.synthesis import alpha_search
     from robustsynth.synthesis.alpha_search import _run_invariance
     from robustsynth.synthesis.cost import solve_estimate
@@ -332,8 +368,10 @@ def test_where_a_solve_is_costly_a_screen_at_the_hint_that_shows_no_set_sends_th
             screened: list[float] = []
             lines: list[str] = []
             best, runner = _run_invariance(model, s, [], True, say=lines.append, alpha_hint=0.2, retry=False,
-                                           prove=prove, screen=lambda a: screened.append(a) or none_there)
-            assert screened == [0.2]
+                                           prove=prove, screen=lambda a: screened.append(a) or (none_there and a == 0.2))
+            assert screened[0] == 0.2 and len(set(screened)) == len(screened)  # each alpha screened once
+            # past an unsettled range every costly solve is screened first; else only the hint is
+            assert (len(screened) > 1) == (none_there and t > 0), screened
             if none_there:
                 assert len(asked) == 1 and "shows no set there" in lines[1], lines[:3]
             else:  # a set at the hint: the search as without the screen, whose hint certifies

@@ -14,10 +14,10 @@ import numpy as np
 
 from ..config import SynthesisConfig
 from .lmis import build_invariance
-from .phase1 import Phase1, settles
+from .phase1 import T_PROVEN, Phase1, settles
 from .cost import solve_estimate
 from .runner import _attempts, _Best, _build, _cert_common, _duration, _Runner, _weights, lmi_count, lmi_rows
-from .solve import RETRY, Outcome, solve
+from .solve import RETRY, Outcome, SolveRecord, solve
 from .solver_process import trim_heap
 
 
@@ -281,6 +281,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     runner.attach(lp, cuts)
     evaluate = _Evaluator(lp, runner, best, w, search, say)
     est = runner.estimate = 0.0 if probe_only else solve_estimate(lp)
+    if screen is not None:  # each alpha screened once (the hint's screen is asked below), and before a costly solve
+        screen = evaluate.screen = _once(screen) if est >= COSTLY_SOLVE_S and not probe_only else screen
     costly = est >= COSTLY_SOLVE_S if gain_rule is None else gain_rule
     if not probe_only:
         say(f"  {lmi_count(lp)} LMIs (the largest {lmi_rows(lp)} rows) per alpha; each point is one solve"
@@ -463,7 +465,11 @@ def _settled_by_phase1(runner: _Runner, prove: Callable[[], Phase1], search: lis
     for a, b, t, n, status in proof.intervals:
         search.append({"alpha_interval": [a, b], "status": "infeasible" if settles(t) else "failed",
                        "objective": None, "by": f"phase-1 ({n} vertices)", "t": t})
-    if not proof.proven:
+    if not proof.proven:  # its settled intervals still show no set: the failed points there count as infeasible
+        shown = [a for a, failed in runner.failed_at.items() if failed and runner.settled_at(a) is not None]
+        for a in shown:
+            runner.failed_at[a] = False
+        runner.failures -= len(shown)
         return False
     runner.phase1_alone = all(runner.failed_at.values())  # no solve of this problem concluded (or none was made)
     flipped = [a for a, failed in runner.failed_at.items() if failed]
@@ -484,6 +490,7 @@ class _Evaluator:
                  say: Callable[[str], None]) -> None:
         self.lp, self.runner, self.best, self.w, self.search, self.say = lp, runner, best, w, search, say
         self.cache: dict[float, float] = {}
+        self.screen: Callable[[float], bool] | None = None  # a phase-1 problem at one alpha, asked before a costly solve
         self.last: Outcome | None = None
         self.position = ""
         self.cheap_concluded = False
@@ -497,6 +504,15 @@ class _Evaluator:
         if log_a in self.cache and not (fallback or cheap):
             return self.cache[log_a]
         a = float(np.exp(log_a))
+        shown = self.runner.settled_at(a)
+        if shown is not None:  # the phase-1 problems show no set here: no solve (Ts 0.05 s, d_hi 2: 4 of a scan's 5)
+            return self._no_set(log_a, a, *shown)
+        ph = self.runner.phase1
+        if self.screen is not None and ph is not None and not ph.proven and self.screen(a):
+            # where the phase-1 problems over the range did not settle it, each costly solve is screened first: a phase-1
+            # problem at this very alpha has no interval's slack (Ts 0.05 s, d_hi 2 at 0.1 rad: the scan's points failed
+            # after 14-20 s each, their retries after about 110 s each)
+            return self._no_set(log_a, a, a, a, -T_PROVEN, 0)
         lp.params["alpha"].value = a
         lp.params["one_minus_alpha"].value = 1.0 - a
         out, cert, K, chk = self.runner.run(fallback=fallback, retry=fallback or cheap, again=fallback or cheap,
@@ -514,6 +530,32 @@ class _Evaluator:
                  + (f"|e_y| <= {100 * best.check.figures['ultimate_bound']['e_y']:.2f} cm" if best.check is not None else "none"))
         self.cache[log_a] = val
         return val
+
+    def _no_set(self, log_a: float, a: float, lo: float, hi: float, t: float, n: int) -> float:
+        """A point of a phase-1 interval that shows no set (:meth:`_Runner.settled_at`), or where the phase-1 problem at
+        that alpha itself shows none (``n`` 0: the screen, which said its t* and vertices): infeasible, not solved."""
+        self.last = Outcome("infeasible", SolveRecord("phase-1", "infeasible", None, 0.0))
+        self.runner.last_kind = "infeasible"
+        self.runner.failed_at[a] = False
+        self.search.append({"alpha": a, "status": "infeasible", "objective": None,
+                            "by": f"phase-1 ({n} vertices)" if n else "phase-1 at this alpha"})
+        self.say(f"  alpha = {a:.4g}{self.position}: no set (" + (
+            f"the phase-1 problem on [{lo:.4g}, {hi:.4g}], t* = {t:.3g}" if n else "the phase-1 problem at this alpha")
+            + "): no solve")
+        self.cache[log_a] = math.inf
+        return math.inf
+
+
+def _once(screen: Callable[[float], bool]) -> Callable[[float], bool]:
+    """``screen`` asked at most once per alpha (a phase-1 problem each)."""
+    seen: dict[float, bool] = {}
+
+    def ask(a: float) -> bool:
+        if a not in seen:
+            seen[a] = screen(a)
+        return seen[a]
+
+    return ask
 
 
 def _scan(evaluate: _Evaluator, grid: np.ndarray, give_up: int | None, say: Callable[[str], None]

@@ -269,7 +269,7 @@ def _bound_relaxation(m: Any, s: SynthesisConfig, motor: bool, say: Callable[[st
     remedy's quick try)."""
     if not _ends_at_most_half(m):
         return None
-    return lambda h: _end_vertices_hint(m, s, motor, say, hint=h, rows=rows, bar=bar, probe=probe)
+    return lambda h: _end_vertices_hint(m, s, motor, say, hint=h, rows=rows, bar=bar, probe=probe, persist=False)
 
 
 def _ends_at_most_half(model: Any) -> bool:
@@ -337,7 +337,7 @@ def _largest_solved(runner: _Runner) -> float:
 
 def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable[[str], None],
                        hint: float | None = None, deeper: bool = True, rows: frozenset[bytes] | None = None,
-                       bar: float | None = None, probe: bool = False) -> Relaxed | None:
+                       bar: float | None = None, probe: bool = False, persist: bool = True) -> Relaxed | None:
     """Where the linearized start's solves are costly (a long delay's vertices: 432 at d_hi = 3, ~6.5 s a solve), the
     same LMIs on the vertices with every uncertain instant at an end of its range (a relaxation, about a third of them),
     scanned, or walked from ``hint`` (a remedy's start): it costs a fraction of the whole's, and the whole starts from
@@ -351,7 +351,12 @@ def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable
     heading rows its problem starts with (a heading bound's, grown by row generation; None: every row); ``bar`` (with
     ``hint``): the objective to beat, as :func:`.alpha_search._run_invariance`'s: where the subset's solve at the hint
     does not certify below it, nor can the whole's there (a relaxation's objective is at most the whole's), and that
-    one solve is all; ``probe`` (with ``hint``): that one solve only, whatever it gives (a remedy's quick try)."""
+    one solve is all; ``probe`` (with ``hint``): that one solve only, whatever it gives (a remedy's quick try).
+    ``persist`` False (a heading bound's relaxation): the subset searched no harder than the heading bound's own search
+    (its scan stops after NONLINEAR_GIVE_UP solver failures in a row with nothing certified, and its failed points are
+    not solved again): a hint that costs more than the search it helps is none (Ts 0.05 s, d_hi 2: the end vertices'
+    scan, 15 failed solves of 4-8 s, then their retries, each on the problem without the mirror by both Clarabels,
+    about 36 s a point)."""
     ends = (_exact_end_vertices if deeper else _same_end_vertices)(lin)
     if ends is None:
         return None
@@ -366,9 +371,10 @@ def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable
     inner = lambda m: say("  " + m)  # noqa: E731
     best, runner = _run_invariance(sub, sc, [], motor, inner, alpha_hint=hint, gain_rule=True if hint is not None else None,
                                    cheaper_hint=(lambda h: _end_vertices_hint(sub, sc, motor, inner, hint=h, deeper=False,
-                                                                              rows=rows))
+                                                                              rows=rows, persist=persist))
                                    if deeper else None, rows=rows, bar=bar if hint is not None else None,
-                                   probe_only=probe and hint is not None)
+                                   probe_only=probe and hint is not None,
+                                   **({} if persist else {"retry": False, "give_up": NONLINEAR_GIVE_UP}))
     runner.release_compiled()
     if best.cert is None:
         return None

@@ -433,7 +433,7 @@ def screen_at(model: Any, s: Any, motor: bool, alpha: float, active: Active, say
     n = len(active.indices)  # (screen ranks them anew)
     t = screen([model], s, motor, alpha, active)[0]
     trim_heap()  # what its problem held goes back before the problems that may follow
-    say(f"  phase-1 at the hint, alpha {alpha:.4g}, on {n} vertices: " + ("the solver failed" if t is None else f"t* = {t:.3g}"))
+    say(f"  phase-1 at alpha {alpha:.4g}, on {n} vertices: " + ("the solver failed" if t is None else f"t* = {t:.3g}"))
     return settles(t)
 
 

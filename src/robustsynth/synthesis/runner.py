@@ -224,6 +224,20 @@ class _Runner:
             self.failed_at[float(alpha.value)] = out.kind == "failed"
         return (out, *res)
 
+    def settled_at(self, alpha: float) -> tuple[float, float, float, int] | None:
+        """Where this problem's phase-1 problems were asked (``phase1``): the interval (lo, hi, t*, vertices) that shows
+        no set at ``alpha`` (t* <= -T_PROVEN: every LMI of its relaxation has no solution there, so neither has this
+        problem, which holds them all), or None.  A search that goes on where they did not settle the whole range
+        solves no point of such an interval."""
+        from .phase1 import settles
+
+        if self.phase1 is None:
+            return None
+        for lo, hi, t, n, _ in self.phase1.intervals:
+            if lo <= alpha <= hi and settles(t):
+                return float(lo), float(hi), float(t), int(n)
+        return None
+
     def _build_active(self) -> LMIProblem:
         """The problem with the within-period vertices and the heading rows added so far (the full builder's)."""
         model = self.model.with_cuts(self.cuts) if self.cuts else self.model
