@@ -260,6 +260,10 @@ def test_a_point_the_phase_1_problems_show_has_no_set_is_not_solved() -> None:
     assert search[-1]["status"] == "infeasible" and search[-1]["by"] == "phase-1 at this alpha"
     evaluate(float(np.log(0.5)))  # the screen shows a set there: solved
     assert len(asked) == 2 and runner.solves == 4
+    # what a relaxation of this problem is told: its certificate is of no use where this one has no set
+    assert evaluate.useless_for_whole(0.02) and evaluate.useless_for_whole(0.3) and not evaluate.useless_for_whole(0.5)
+    evaluate.useless = lambda a: abs(a - 0.6) <= 1e-12  # (as a relaxation's search: no solve where the whole has none)
+    assert evaluate(float(np.log(0.6))) == np.inf and runner.solves == 4 and search[-1]["by"] == "of no use"
 
 
 def test_a_runner_that_released_its_compiled_problem_solves_it_again_to_the_same_bits() -> None:

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..config import SynthesisConfig
 from .lmis import build_invariance
-from .phase1 import T_PROVEN, Phase1, settles
+from .phase1 import Phase1, settles
 from .cost import solve_estimate
 from .runner import _attempts, _Best, _build, _cert_common, _duration, _Runner, _weights, lmi_count, lmi_rows
 from .solve import RETRY, Outcome, SolveRecord, solve
@@ -225,9 +225,10 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
                     prune: Callable[[list[float]], set[float]] | None = None,
                     stop_rel: float = HINT_STOP_REL, bar: float | None = None,
                     prove: Callable[[], Phase1] | None = None, prove_first: bool = False,
-                    gain_rule: bool | None = None, cheaper_hint: Callable[[float | None], Relaxed | None] | None = None,
+                    gain_rule: bool | None = None, cheaper_hint: Callable[[float | None, Callable[[float], bool]], Relaxed | None] | None = None,
                     rows: frozenset[bytes] | None = None, screen: Callable[[float], bool] | None = None,
-                    cuts: tuple[int, ...] = (), cheaper_from: float | None = None) -> tuple[_Best, _Runner]:
+                    cuts: tuple[int, ...] = (), cheaper_from: float | None = None,
+                    useless: Callable[[float], bool] | None = None) -> tuple[_Best, _Runner]:
     """The alpha line search of the invariance LMIs.  Without a hint: a log grid of alpha_points
     scanned upwards, then parabolic steps around its best point.  With ``alpha_hint`` (the best alpha
     of a cheaper certificate class): walk from the hint in quarter grid steps while the bound falls,
@@ -258,7 +259,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     solve; where it settles the search (a start), at that solve once it certifies.
     ``rows``: the heading rows the problem starts with (keys; None: every row), grown by row generation (_Runner);
     ``cuts`` the within-period vertices (Model.with_cuts).  ``screen``: given the hint, whether a phase-1 problem at
-    that alpha shows no set there (:func:`_asked_first`)."""
+    that alpha shows no set there (:func:`_asked_first`).  ``useless`` (a relaxation's search): where a certificate of
+    this problem is of no use to the problem it relaxes (no set there: its phase-1 problems); no solve there."""
     w = _weights(s)
     best = _Best()
 
@@ -280,6 +282,7 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     lp = _build(build, model, rows=rows)
     runner.attach(lp, cuts)
     evaluate = _Evaluator(lp, runner, best, w, search, say)
+    evaluate.useless = useless
     est = runner.estimate = 0.0 if probe_only else solve_estimate(lp)
     if screen is not None:  # each alpha screened once (the hint's screen is asked below), and before a costly solve
         screen = evaluate.screen = _once(screen) if est >= COSTLY_SOLVE_S and not probe_only else screen
@@ -293,7 +296,7 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         return best, runner
     relax_from = COSTLY_SOLVE_S if cheaper_from is None else min(COSTLY_SOLVE_S, cheaper_from)
     if cheaper_hint is not None and est >= relax_from and not probe_only:
-        relaxed = runner.relaxed = cheaper_hint(alpha_hint)
+        relaxed = runner.relaxed = cheaper_hint(alpha_hint, evaluate.useless_for_whole)
         if relaxed is not None:
             alpha_hint = relaxed.alpha
             ended = _ended_by_relaxation(relaxed, runner, evaluate, best, bar, say)
@@ -491,6 +494,7 @@ class _Evaluator:
         self.lp, self.runner, self.best, self.w, self.search, self.say = lp, runner, best, w, search, say
         self.cache: dict[float, float] = {}
         self.screen: Callable[[float], bool] | None = None  # a phase-1 problem at one alpha, asked before a costly solve
+        self.useless: Callable[[float], bool] | None = None  # a relaxation's: where the problem it relaxes has no set
         self.last: Outcome | None = None
         self.position = ""
         self.cheap_concluded = False
@@ -506,13 +510,15 @@ class _Evaluator:
         a = float(np.exp(log_a))
         shown = self.runner.settled_at(a)
         if shown is not None:  # the phase-1 problems show no set here: no solve (Ts 0.05 s, d_hi 2: 4 of a scan's 5)
-            return self._no_set(log_a, a, *shown)
-        ph = self.runner.phase1
-        if self.screen is not None and ph is not None and not ph.proven and self.screen(a):
+            lo, hi, t, n = shown
+            return self._no_set(log_a, a, f"the phase-1 problem on [{lo:.4g}, {hi:.4g}], t* = {t:.3g}", f"phase-1 ({n} vertices)")
+        if self.no_set_here(a):
             # where the phase-1 problems over the range did not settle it, each costly solve is screened first: a phase-1
             # problem at this very alpha has no interval's slack (Ts 0.05 s, d_hi 2 at 0.1 rad: the scan's points failed
             # after 14-20 s each, their retries after about 110 s each)
-            return self._no_set(log_a, a, a, a, -T_PROVEN, 0)
+            return self._no_set(log_a, a, "the phase-1 problem at this alpha", "phase-1 at this alpha")
+        if self.useless is not None and self.useless(a):  # a relaxation, at an alpha where the whole has no set
+            return self._no_set(log_a, a, "for the problem this one relaxes, shown by its phase-1 problems", "of no use")
         lp.params["alpha"].value = a
         lp.params["one_minus_alpha"].value = 1.0 - a
         out, cert, K, chk = self.runner.run(fallback=fallback, retry=fallback or cheap, again=fallback or cheap,
@@ -531,17 +537,25 @@ class _Evaluator:
         self.cache[log_a] = val
         return val
 
-    def _no_set(self, log_a: float, a: float, lo: float, hi: float, t: float, n: int) -> float:
-        """A point of a phase-1 interval that shows no set (:meth:`_Runner.settled_at`), or where the phase-1 problem at
-        that alpha itself shows none (``n`` 0: the screen, which said its t* and vertices): infeasible, not solved."""
+    def no_set_here(self, a: float) -> bool:
+        """Whether the phase-1 problem at ``a`` (``screen``) shows no set of this problem there, asked only where the
+        phase-1 problems over the range left it unsettled."""
+        ph = self.runner.phase1
+        return self.screen is not None and ph is not None and not ph.proven and self.screen(a)
+
+    def useless_for_whole(self, a: float) -> bool:
+        """For a relaxation of this problem: whether a certificate of it at ``a`` is of no use here (no set of this
+        problem at ``a``: a settled phase-1 interval, or the screen)."""
+        return self.runner.settled_at(a) is not None or self.no_set_here(a)
+
+    def _no_set(self, log_a: float, a: float, why: str, by: str) -> float:
+        """A point where phase-1 problems show no set (:meth:`_Runner.settled_at`, the screen at that alpha, or, for a
+        relaxation, the whole's): not solved, and not certified."""
         self.last = Outcome("infeasible", SolveRecord("phase-1", "infeasible", None, 0.0))
         self.runner.last_kind = "infeasible"
         self.runner.failed_at[a] = False
-        self.search.append({"alpha": a, "status": "infeasible", "objective": None,
-                            "by": f"phase-1 ({n} vertices)" if n else "phase-1 at this alpha"})
-        self.say(f"  alpha = {a:.4g}{self.position}: no set (" + (
-            f"the phase-1 problem on [{lo:.4g}, {hi:.4g}], t* = {t:.3g}" if n else "the phase-1 problem at this alpha")
-            + "): no solve")
+        self.search.append({"alpha": a, "status": "infeasible", "objective": None, "by": by})
+        self.say(f"  alpha = {a:.4g}{self.position}: no set ({why}): no solve")
         self.cache[log_a] = math.inf
         return math.inf
 

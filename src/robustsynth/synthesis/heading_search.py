@@ -269,7 +269,8 @@ def _bound_relaxation(m: Any, s: SynthesisConfig, motor: bool, say: Callable[[st
     remedy's quick try)."""
     if not _ends_at_most_half(m):
         return None
-    return lambda h: _end_vertices_hint(m, s, motor, say, hint=h, rows=rows, bar=bar, probe=probe, persist=False)
+    return lambda h, useless=None: _end_vertices_hint(m, s, motor, say, hint=h, rows=rows, bar=bar, probe=probe,
+                                                      persist=False, useless=useless)
 
 
 def _ends_at_most_half(model: Any) -> bool:
@@ -322,7 +323,8 @@ def _start(model: Any, s: SynthesisConfig, motor: bool, say: Callable[[str], Non
     least: dict[float, float | None] = {}  # alpha -> the linearized LMIs' least motor bound, where proven
     common, crunner = _run_invariance(lin, sc, [], motor, say, prune=_motor_pruner(lin, sc, least, say=say) if motor else None,
                                       alpha_hint=hint, gain_rule=True if hint is not None else None,
-                                      cheaper_hint=lambda h: _end_vertices_hint(lin, sc, motor, say, hint=h),
+                                      cheaper_hint=lambda h, useless=None: _end_vertices_hint(lin, sc, motor, say, hint=h,
+                                                                                              useless=useless),
                                       cheaper_from=cheaper_from)
     return common, crunner, least
 
@@ -337,7 +339,8 @@ def _largest_solved(runner: _Runner) -> float:
 
 def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable[[str], None],
                        hint: float | None = None, deeper: bool = True, rows: frozenset[bytes] | None = None,
-                       bar: float | None = None, probe: bool = False, persist: bool = True) -> Relaxed | None:
+                       bar: float | None = None, probe: bool = False, persist: bool = True,
+                       useless: Callable[[float], bool] | None = None) -> Relaxed | None:
     """Where the linearized start's solves are costly (a long delay's vertices: 432 at d_hi = 3, ~6.5 s a solve), the
     same LMIs on the vertices with every uncertain instant at an end of its range (a relaxation, about a third of them),
     scanned, or walked from ``hint`` (a remedy's start): it costs a fraction of the whole's, and the whole starts from
@@ -356,7 +359,8 @@ def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable
     (its scan stops after NONLINEAR_GIVE_UP solver failures in a row with nothing certified, and its failed points are
     not solved again): a hint that costs more than the search it helps is none (Ts 0.05 s, d_hi 2: the end vertices'
     scan, 15 failed solves of 4-8 s, then their retries, each on the problem without the mirror by both Clarabels,
-    about 36 s a point)."""
+    about 36 s a point).  ``useless``: where the problem these vertices relax has no set (its phase-1 problems): their
+    certificate there is of no use to it, and no solve is made there."""
     ends = (_exact_end_vertices if deeper else _same_end_vertices)(lin)
     if ends is None:
         return None
@@ -370,10 +374,11 @@ def _end_vertices_hint(lin: Any, sc: SynthesisConfig, motor: bool, say: Callable
         f"range first, then its certificate re-checked on every vertex (or {then})")
     inner = lambda m: say("  " + m)  # noqa: E731
     best, runner = _run_invariance(sub, sc, [], motor, inner, alpha_hint=hint, gain_rule=True if hint is not None else None,
-                                   cheaper_hint=(lambda h: _end_vertices_hint(sub, sc, motor, inner, hint=h, deeper=False,
-                                                                              rows=rows, persist=persist))
+                                   cheaper_hint=(lambda h, _u=None: _end_vertices_hint(sub, sc, motor, inner, hint=h,
+                                                                                      deeper=False, rows=rows,
+                                                                                      persist=persist, useless=useless))
                                    if deeper else None, rows=rows, bar=bar if hint is not None else None,
-                                   probe_only=probe and hint is not None,
+                                   probe_only=probe and hint is not None, useless=useless,
                                    **({} if persist else {"retry": False, "give_up": NONLINEAR_GIVE_UP}))
     runner.release_compiled()
     if best.cert is None:

@@ -104,9 +104,9 @@ def _run_linearized(model: Any, s: SynthesisConfig, search: list, motor: bool,
 
 
 def _cheaper(model: Any, s: SynthesisConfig, motor: bool, say: Callable[[str], None]
-             ) -> Callable[[float | None], Any]:
+             ) -> Callable[..., Any]:
     """The relaxation a costly common search starts from (alpha_search's ``cheaper_hint``): the same LMIs on the
     vertices with every delay instant at an end of its range (:func:`.heading_search._end_vertices_hint`), as the
     nonlinear search's linearized start does.  On the default robot at d_hi = 3 with linearized kinematics (432
     vertices of 80 channels each, about 2 min a solve) the scan of the whole never concluded in 900 s."""
-    return lambda h: _end_vertices_hint(model, s, motor, say, hint=h)
+    return lambda h, useless=None: _end_vertices_hint(model, s, motor, say, hint=h, useless=useless)
