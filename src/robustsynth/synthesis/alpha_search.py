@@ -281,11 +281,11 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
         return best, runner
     lp = _build(build, model, rows=rows)
     runner.attach(lp, cuts)
-    evaluate = _Evaluator(lp, runner, best, w, search, say)
-    evaluate.useless = useless
+    evaluate = _Evaluator(lp, runner, best, w, search, say, useless=useless)
     est = runner.estimate = 0.0 if probe_only else solve_estimate(lp)
-    if screen is not None:  # each alpha screened once (the hint's screen is asked below), and before a costly solve
-        screen = evaluate.screen = _once(screen) if est >= COSTLY_SOLVE_S and not probe_only else screen
+    if screen is not None and est >= COSTLY_SOLVE_S and not probe_only:
+        # before each costly solve, each alpha screened once (the hint's too: its screen is asked below)
+        screen = evaluate.screen = _once(screen)
     costly = est >= COSTLY_SOLVE_S if gain_rule is None else gain_rule
     if not probe_only:
         say(f"  {lmi_count(lp)} LMIs (the largest {lmi_rows(lp)} rows) per alpha; each point is one solve"
@@ -490,11 +490,11 @@ class _Evaluator:
     concluded (set by :func:`_retry_failed`)."""
 
     def __init__(self, lp: Any, runner: _Runner, best: _Best, w: np.ndarray, search: list,
-                 say: Callable[[str], None]) -> None:
+                 say: Callable[[str], None], useless: Callable[[float], bool] | None = None) -> None:
         self.lp, self.runner, self.best, self.w, self.search, self.say = lp, runner, best, w, search, say
         self.cache: dict[float, float] = {}
         self.screen: Callable[[float], bool] | None = None  # a phase-1 problem at one alpha, asked before a costly solve
-        self.useless: Callable[[float], bool] | None = None  # a relaxation's: where the problem it relaxes has no set
+        self.useless = useless  # a relaxation's: where the problem it relaxes has no set
         self.last: Outcome | None = None
         self.position = ""
         self.cheap_concluded = False

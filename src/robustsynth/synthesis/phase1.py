@@ -85,6 +85,14 @@ class Phase1:
     def proven(self) -> bool:
         return bool(self.intervals) and all(settles(t) for _, _, t, _, _ in self.intervals)
 
+    def settled_at(self, alpha: float) -> tuple[float, float, float, int] | None:
+        """The interval (lo, hi, t*, vertices) that shows no set at ``alpha`` (t* <= -T_PROVEN: every LMI of its
+        relaxation has no solution there, so neither has the problem, which holds them all), or None."""
+        for lo, hi, t, n, _ in self.intervals:
+            if lo <= alpha <= hi and settles(t):
+                return float(lo), float(hi), float(t), int(n)
+        return None
+
     def next_layout(self, intervals: int, active: int) -> int:
         """How many intervals the next heading bound's range is cut into, after this proof over ``intervals`` of them
         (``active``: how many vertices the active set holds): half as many (at least PARALLEL) where every one settled

@@ -225,18 +225,10 @@ class _Runner:
         return (out, *res)
 
     def settled_at(self, alpha: float) -> tuple[float, float, float, int] | None:
-        """Where this problem's phase-1 problems were asked (``phase1``): the interval (lo, hi, t*, vertices) that shows
-        no set at ``alpha`` (t* <= -T_PROVEN: every LMI of its relaxation has no solution there, so neither has this
-        problem, which holds them all), or None.  A search that goes on where they did not settle the whole range
-        solves no point of such an interval."""
-        from .phase1 import settles
-
-        if self.phase1 is None:
-            return None
-        for lo, hi, t, n, _ in self.phase1.intervals:
-            if lo <= alpha <= hi and settles(t):
-                return float(lo), float(hi), float(t), int(n)
-        return None
+        """Where this problem's phase-1 problems were asked (``phase1``), the interval of theirs that shows no set at
+        ``alpha`` (:meth:`.phase1.Phase1.settled_at`), else None.  A search that goes on where they did not settle the
+        whole range solves no point of such an interval."""
+        return None if self.phase1 is None else self.phase1.settled_at(alpha)
 
     def _build_active(self) -> LMIProblem:
         """The problem with the within-period vertices and the heading rows added so far (the full builder's)."""
