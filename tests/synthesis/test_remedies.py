@@ -126,32 +126,32 @@ def test_each_try_gets_its_share_of_what_is_left_of_the_budget(monkeypatch) -> N
     model = build_model(_changed(load_config(ROOT / "configs" / "tracks-box.yaml"), {"synthesis": {"lyapunov": "slip-dependent"}}))
     deadlines = []
 
-    def slow(m, deadline):  # runs to its deadline (and a second beyond), untried bounds left
+    def slow(m, deadline, say):  # runs to its deadline (and a second beyond), untried bounds left
         deadlines.append(deadline)
         clock[0] = deadline + 1.0
         return None, (0.5, 0.7)
 
-    lines = remedies.try_remedies(model, slow, lambda _m: None, budget_s=60.0)
+    lines = remedies.try_remedies(model, slow, lambda _m: None, budget_s=60.0, workers=1)
     assert len(deadlines) == 2 and len(lines) == 3
     assert deadlines[0] == 100.0 + 60.0 / 3 and deadlines[1] == 121.0 + (60.0 - 21.0) / 2
     assert all("none at the first try (heading bounds 0.5, 0.7 rad not tried" in line for line in lines[:2])
     # the tries took 21 and 20.5 s: the 18.5 s left hold no third
     assert lines[2].endswith("not tried (a try took up to 21 s here; 18 s of the tries' 60 s were left)"), lines[2]
 
-    def quick(m, deadline):  # 10 s each: all three fit
+    def quick(m, deadline, say):  # 10 s each: all three fit
         deadlines.append(deadline)
         clock[0] += 10.0
         return None, ()
 
     deadlines.clear()
-    lines = remedies.try_remedies(model, quick, lambda _m: None, budget_s=60.0)
+    lines = remedies.try_remedies(model, quick, lambda _m: None, budget_s=60.0, workers=1)
     assert len(deadlines) == 3 and all(line.endswith("none at the first try") for line in lines)
 
-    def hog(m, deadline):  # the first try takes the whole budget
+    def hog(m, deadline, say):  # the first try takes the whole budget
         clock[0] += 61.0
         return None, ()
 
-    lines = remedies.try_remedies(model, hog, lambda _m: None, budget_s=60.0)
+    lines = remedies.try_remedies(model, hog, lambda _m: None, budget_s=60.0, workers=1)
     assert lines[0].endswith("none at the first try") and all("not tried (the tries' 60 s were spent)" in x for x in lines[1:])
 
 
@@ -161,7 +161,7 @@ def test_where_the_start_s_solves_are_slow_each_remedy_is_named_with_why() -> No
     from robustsynth.model import build_model
     from robustsynth.synthesis import remedies
 
-    def never(m, deadline):
+    def never(m, deadline, say):
         raise AssertionError("a try was started")
 
     model = build_model(load_config(ROOT / "configs" / "tracks-box.yaml"))
@@ -188,13 +188,163 @@ def test_a_remedy_no_quick_try_makes_is_named_and_takes_no_share(monkeypatch) ->
     model = build_model(load_config(ROOT / "configs" / "tracks-box.yaml"))
     tried = []
 
-    def slow(m, deadline):
+    def slow(m, deadline, say):
         tried.append((m.config.slip.max_rate, m.config.synthesis.lyapunov, deadline))
         clock[0] = deadline
         return None, ()
 
-    lines = remedies.try_remedies(model, slow, lambda _m: None, budget_s=60.0)
+    lines = remedies.try_remedies(model, slow, lambda _m: None, budget_s=60.0, workers=1)
     assert [line.split(" ")[0] for line in lines] == ["slip", "slip.max_rate", "reference.speed"]
     assert lines[1].endswith(f"not tried ({remedies.NOT_QUICK})"), lines[1]
     assert [t[:2] for t in tried] == [(None, "common")] * 2  # the half box and the half speed, this search's settings
     assert [t[2] for t in tried] == [100.0 + 60.0 / 2, 130.0 + 30.0 / 1]
+
+
+# ------------------------------------------------------------------ tries at once, in forked processes
+
+OVERLAP_S = 3.0  # [s] each fake try sleeps this long: the second is started long before the first ends
+
+
+def _log_try(log: Path, value: float | None, sleep: float = OVERLAP_S):
+    """A fake quick try that appends 'pid start end speed' to ``log`` and gives |e_y| = ``value`` (None: no set)."""
+    import os
+    import time
+
+    def first_try(m, deadline, say):
+        t0 = time.perf_counter()  # (the deadline's clock: CLOCK_MONOTONIC, one for every process here)
+        time.sleep(sleep if m.config.reference.speed >= 0.5 or value is None else sleep / 3)
+        with open(log, "a") as fp:
+            fp.write(f"{os.getpid()} {t0} {time.perf_counter()} {m.config.reference.speed} {deadline}\n")
+        say("said in the child")
+        return (None if value is None else {"ultimate_bound": {"e_y": value}, "heading_bound": 0.1}), ()
+
+    return first_try
+
+
+def test_tries_run_two_at_once_each_in_a_process_of_its_own_and_keep_their_order(tmp_path) -> None:
+    """tracks-box has two remedies a quick try makes (the half box and the half speed): with two workers both run at
+    once, each in a forked process (neither is this one, they differ, and the second started before the first ended),
+    each with the share of the budget it would get one after the other (half of it); the half speed's try ends first
+    (a third of the sleep) and its line still comes after the half box's."""
+    import os
+
+    from robustsynth.model import build_model
+    from robustsynth.synthesis import forked, remedies
+
+    if not forked.AVAILABLE:
+        pytest.skip("no fork here")
+    model = build_model(load_config(ROOT / "configs" / "tracks-box.yaml"))
+    log = tmp_path / "tries.log"
+    lines = remedies.try_remedies(model, _log_try(log, 0.0123), lambda _m: None, budget_s=60.0, workers=2)
+    rows = [r.split() for r in log.read_text().splitlines()]
+    pids = [int(r[0]) for r in rows]
+    assert len(rows) == 2 and os.getpid() not in pids and pids[0] != pids[1]
+    first, second = sorted(rows, key=lambda r: float(r[1]))
+    assert float(second[1]) < float(first[2])  # started before the other ended
+    assert all(25.0 < float(r[4]) - float(r[1]) <= 30.0 for r in rows)  # each the share of one after the other: 60 / 2
+    assert [line.split(" ")[0] for line in lines] == ["slip", "slip.max_rate", "reference.speed"]
+    assert lines[0].endswith("proven for the robot, |e_y| <= 1.23 cm at the first try (heading bound 0.1 rad)"), lines
+    assert lines[2].endswith("proven for the robot, |e_y| <= 1.23 cm at the first try (heading bound 0.1 rad)"), lines
+
+
+def test_a_try_that_raises_or_dies_in_its_process_is_named_so() -> None:
+    """The child's expected failure (a RobustSynthError: the changed model refused) comes back as 'refused (its
+    message)'; a child that ends without a result (here by os._exit) as 'not concluded', and the other try's line is
+    whole."""
+    import os
+
+    from robustsynth.errors import InputError
+    from robustsynth.model import build_model
+    from robustsynth.synthesis import forked, remedies
+
+    if not forked.AVAILABLE:
+        pytest.skip("no fork here")
+    model = build_model(load_config(ROOT / "configs" / "tracks-box.yaml"))
+
+    def bad(m, deadline, say):
+        if m.config.reference.speed < 0.5:
+            os._exit(3)  # the process ends: no result written
+        raise InputError("reference.speed: the changed model says no")
+
+    lines = remedies.try_remedies(model, bad, lambda _m: None, budget_s=60.0, workers=2)
+    assert lines[0].endswith(": refused (reference.speed: the changed model says no)"), lines[0]
+    assert lines[2].endswith(": not concluded (its process: the child process ended without its result)"), lines[2]
+
+
+def test_tries_still_running_at_the_budget_s_end_are_stopped_there(tmp_path) -> None:
+    """Tries that would run 30 s with a budget of 5 s: both are stopped at its end (their processes killed and
+    reaped), named so, and the call returns long before the 30 s."""
+    import os
+    import time
+
+    from robustsynth.model import build_model
+    from robustsynth.synthesis import forked, remedies
+
+    if not forked.AVAILABLE:
+        pytest.skip("no fork here")
+    model = build_model(load_config(ROOT / "configs" / "tracks-box.yaml"))
+    pids = tmp_path / "pids"
+
+    def sleeper(m, deadline, say):
+        with open(pids, "a") as fp:
+            fp.write(f"{os.getpid()}\n")
+        time.sleep(30.0)
+        return None, ()
+
+    t0 = time.monotonic()
+    lines = remedies.try_remedies(model, sleeper, lambda _m: None, budget_s=5.0, workers=2)
+    assert time.monotonic() - t0 < 20.0
+    assert lines[0].endswith(": not concluded (stopped at the end of the tries' 5 s)"), lines
+    assert lines[2].endswith(": not concluded (stopped at the end of the tries' 5 s)"), lines
+    assert len(pids.read_text().split()) == 2  # both had started (their model rebuilt, their try entered)
+    for pid in map(int, pids.read_text().split()):
+        with pytest.raises(ProcessLookupError):
+            os.kill(pid, 0)
+
+
+def test_sigterm_while_tries_run_stops_them_all(tmp_path) -> None:
+    """The CLI's signal handler raises Interrupted in the waiting parent: the tries' processes are killed, the
+    parent exits 143 at once (not after the tries' 30 s), and no try's process is left."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from robustsynth.synthesis import forked
+
+    if not forked.AVAILABLE:
+        pytest.skip("no fork here")
+    pids = tmp_path / "pids"
+    script = f"""
+import os, sys, time
+from pathlib import Path
+from robustsynth.config import load_config
+from robustsynth.errors import Interrupted, install_signal_handlers
+from robustsynth.model import build_model
+from robustsynth.synthesis import remedies
+install_signal_handlers()
+model = build_model(load_config({str(ROOT / "configs" / "tracks-box.yaml")!r}))
+def first_try(m, deadline, say):
+    with open({str(pids)!r}, "a") as fp:
+        fp.write(f"{{os.getpid()}}\\n")
+    time.sleep(30)
+    return None, ()
+try:
+    remedies.try_remedies(model, first_try, lambda _m: None, budget_s=60.0, workers=2)
+except Interrupted:
+    sys.exit(143)
+sys.exit(0)
+"""
+    proc = subprocess.Popen([sys.executable, "-c", script])
+    deadline = time.monotonic() + 60.0
+    while (not pids.exists() or len(pids.read_text().split()) < 2) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert pids.exists() and len(pids.read_text().split()) == 2
+    t0 = time.monotonic()
+    proc.send_signal(signal.SIGTERM)
+    assert proc.wait(timeout=20) == 143
+    assert time.monotonic() - t0 < 20.0  # (the tries sleep 30 s: they were not waited for)
+    for pid in map(int, pids.read_text().split()):
+        with pytest.raises(ProcessLookupError):
+            os.kill(pid, 0)  # gone (and reaped by the parent: no zombie answers either)

@@ -4,6 +4,7 @@ a command is done are :mod:`.console`'s."""
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from contextlib import contextmanager
@@ -25,6 +26,29 @@ def _on_terminal(quiet: bool) -> bool:
 def stop_heartbeats() -> None:
     while _HEARTBEATS:
         _HEARTBEATS.pop().close()
+
+
+def _hold_for_fork() -> None:
+    """Before a fork (the remedies' tries, synthesis/forked.py): no heartbeat is mid-line, so the child's copies of
+    its lock and of stderr's are free (a lock another thread held at the fork stays held in the child for ever)."""
+    for beat in _HEARTBEATS:
+        beat.lock.acquire()
+
+
+def _release_after_fork() -> None:
+    for beat in _HEARTBEATS:
+        beat.lock.release()
+
+
+def _fresh_in_child() -> None:
+    import threading
+
+    for beat in _HEARTBEATS:  # the child prints the lines it is given; its heartbeat thread was not forked
+        beat.lock = threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(before=_hold_for_fork, after_in_parent=_release_after_fork, after_in_child=_fresh_in_child)
 
 
 class Heartbeat:

@@ -133,8 +133,8 @@ def _no_proof(model: Any, given: SynthesisConfig, s: SynthesisConfig, motor: boo
 
     slow = (f"a quick try's start solves a problem estimated at {start_solve:.1f} s here, quick tries need under "
             f"{COSTLY_SOLVE_S:g} s: run synthesize with that change in the config") if start_solve >= COSTLY_SOLVE_S else None
-    tries = try_remedies(model, lambda m, end: _first_try(m, given, motor, hint=hint, active=active, say=say, deadline=end),
-                         say, skip=slow)
+    tries = try_remedies(model, lambda m, end, said: _first_try(m, given, motor, hint=hint, active=active, say=said,
+                                                                 deadline=end), say, skip=slow)
     raise InfeasibleError(_nonlinear_infeasible(model, common, tried, tried_at, auto)
                           + ((". Remedies (" if slow else ". Tried (") + "; ".join(tries) + ")" if tries else ""))
 

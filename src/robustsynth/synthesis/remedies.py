@@ -12,6 +12,11 @@ problem on a few vertices where the main search needed those; from d_hi = 2 on t
 every vertex where the re-check proves it there), so a figure it gives is one that ``synthesize`` with
 that change reaches or improves on, and "none at the first try" proves nothing: it says only that this one try
 found no set.  This module does not import the search (it is handed ``first_try``): the search calls it.
+
+Where the system forks, the tries run two at a time, each in a process of its own (:mod:`.forked`): a try's largest
+solve runs on one core in a solver process while its own process waits, and the other core ran nothing (the default
+robot at d_hi = 2: the half-wide box's one solve on its 64 end vertices took 22 s so, and the half speed's try was
+then left untried for want of budget).
 """
 
 from __future__ import annotations
@@ -19,7 +24,9 @@ from __future__ import annotations
 import time
 from typing import Any, Callable
 
-__all__ = ["try_remedies", "candidates", "REMEDY_BUDGET_S", "RATE_PERIODS"]
+from .phase1 import PARALLEL
+
+__all__ = ["try_remedies", "candidates", "FirstTry", "REMEDY_BUDGET_S", "RATE_PERIODS"]
 
 REMEDY_BUDGET_S = 60.0  # [s] the tries together; a remedy whose turn comes after it is named, not tried
 RATE_PERIODS = 10  # the tried slip rate crosses the slip box in this many periods
@@ -75,18 +82,27 @@ def _merged(base: dict[str, Any], change: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def try_remedies(model: Any, first_try: Callable[[Any, float], tuple[dict[str, Any] | None, tuple[float, ...]]],
-                 say: Callable[[str], None], budget_s: float = REMEDY_BUDGET_S, skip: str | None = None) -> list[str]:
+FirstTry = Callable[[Any, float, Callable[[str], None]], tuple[dict[str, Any] | None, tuple[float, ...]]]
+
+
+def try_remedies(model: Any, first_try: FirstTry, say: Callable[[str], None], budget_s: float = REMEDY_BUDGET_S,
+                 skip: str | None = None, workers: int | None = None) -> list[str]:
     """One line per remedy of :func:`candidates`: the certified |e_y| the quick search found for the robot with it
-    (``first_try(model, deadline)``: the certified figures or None, and the heading bounds it left untried at the
+    (``first_try(model, deadline, say)``: the certified figures or None, and the heading bounds it left untried at the
     deadline), "none at the first try", why it could not be tried (the config refuses the change, the model cannot be
     built), or "not tried" once ``budget_s`` is spent.  Each try's deadline is its share of what is left of the budget
-    (what is left over the remedies still to try): a try that is slow, or a machine that is busy, leaves the later
-    remedies their turn; a try checks it before each heading bound but its first.  A try is started only where what is
-    left of the budget holds one as long as the longest so far (on the default robot at d_hi = 2 the first try took
-    33 s, proven with |e_y| <= 4.05 cm; two more were started before, each stopped after its first pair of heading bounds).
-    ``skip``: why no try is started here (each remedy is then named with it, a refused one as refused).  A refused
-    remedy, and one no quick try makes (:data:`NOT_QUICK`), is named at no cost, and takes no share."""
+    (what is left over the remedies still to try, times the tries that run at once): a try that is slow, or a machine
+    that is busy, leaves the later remedies their turn; a try checks it before each heading bound but its first.  A try
+    is started only where what is left of the budget holds one as long as the longest so far (on the default robot at
+    d_hi = 2 the first try took 33 s, proven with |e_y| <= 4.05 cm; two more were started before, each stopped after
+    its first pair of heading bounds).  ``skip``: why no try is started here (each remedy is then named with it, a
+    refused one as refused).  A refused remedy, and one no quick try makes (:data:`NOT_QUICK`), is named at no cost,
+    and takes no share.
+
+    ``workers``: tries run at once, each in a forked process of its own (:mod:`.forked`; default PARALLEL where the
+    system forks, and at least two tries are to run; 1: one after the other in this process), each with the share of
+    the budget it would have one after the other; a try still running at the budget's end is stopped there.  The
+    lines keep the candidates' order whatever order the tries end in."""
     from ..config import config_to_dict, load_config
     from ..errors import RobustSynthError
 
@@ -108,37 +124,127 @@ def try_remedies(model: Any, first_try: Callable[[Any, float], tuple[dict[str, A
             plan.append((what, None, f"{what}: not tried ({NOT_QUICK})"))
         else:
             plan.append((what, changed, None))
-    lines: list[str] = []
-    t0 = time.perf_counter()
-    longest = 0.0  # [s] the longest try so far
-    for k, (what, changed, named) in enumerate(plan):
-        if named is not None:
-            lines.append(named)
-            continue
-        left = budget_s - (time.perf_counter() - t0)
+    lines = {k: named for k, (_, _, named) in enumerate(plan) if named is not None}
+    todo = [k for k, (_, _, named) in enumerate(plan) if named is None]
+    from . import forked
+
+    if workers is None:
+        workers = PARALLEL if forked.AVAILABLE else 1
+    run = _in_turn if workers <= 1 or len(todo) <= 1 else _at_once
+    run(_Tries(model, plan, first_try, say, budget_s, max(1, workers), time.perf_counter()), todo, lines)
+    return [lines[k] for k in range(len(plan))]
+
+
+class _Tries:
+    """What the tries share: the plan, the budget and its start, the longest try so far."""
+
+    def __init__(self, model: Any, plan: list, first_try: FirstTry, say: Callable[[str], None], budget_s: float,
+                 workers: int, t0: float) -> None:
+        self.model, self.plan, self.first_try, self.say = model, plan, first_try, say
+        self.budget_s, self.workers, self.t0 = budget_s, workers, t0
+        self.longest = 0.0  # [s] the longest try so far
+
+    def refusal(self, k: int) -> str | None:
+        """Why remedy ``k`` is not started now (the budget spent, or too little of it left), or None."""
+        what = self.plan[k][0]
+        left = self.left()
         if left <= 0:
-            lines.append(f"{what}: not tried (the tries' {budget_s:.0f} s were spent)")
-            continue
-        if longest > left:
-            lines.append(f"{what}: not tried (a try took up to {longest:.0f} s here; {left:.0f} s of the tries' "
-                         f"{budget_s:.0f} s were left)")
-            continue
-        say(f"remedy: {what}, a quick search")
-        started = time.perf_counter()
-        to_try = sum(1 for *_, n in plan[k:] if n is None)  # this one and those after it
-        try:
-            figures, untried = first_try(model.rebuilt(changed), started + left / to_try)
-        except RobustSynthError as exc:  # the model refuses the change, or the search finds it infeasible at once
-            lines.append(f"{what}: refused ({exc})")
-            continue
-        finally:
-            longest = max(longest, time.perf_counter() - started)
+            return f"{what}: not tried (the tries' {self.budget_s:.0f} s were spent)"
+        if self.longest > left:
+            return (f"{what}: not tried (a try took up to {self.longest:.0f} s here; {left:.0f} s of the tries' "
+                    f"{self.budget_s:.0f} s were left)")
+        return None
+
+    def left(self) -> float:
+        return self.budget_s - (time.perf_counter() - self.t0)
+
+    def deadline(self, to_try: int, running: int) -> float:
+        """The deadline of a try started now: what is left, over the tries still to run (this one, those after it,
+        and those running).  Tries that run at once get the shares they would get one after the other: they end
+        sooner, not later (each may pass its deadline to finish its first heading bound)."""
+        return time.perf_counter() + self.left() / (to_try + running)
+
+    def line(self, k: int, outcome: tuple[dict[str, Any] | None, tuple[float, ...]] | str) -> str:
+        """Remedy ``k``'s line from its try's (figures, untried bounds), or from why it gave none (a string)."""
+        what = self.plan[k][0]
+        if isinstance(outcome, str):
+            return f"{what}: {outcome}"
+        figures, untried = outcome
         if figures is None:
-            lines.append(f"{what}: none at the first try" + (
-                f" (heading bounds {', '.join(f'{b:g}' for b in untried)} rad not tried: its share of the {budget_s:.0f} s "
-                "was spent)" if untried else ""))
-        else:
-            ub = figures["ultimate_bound"]
-            lines.append(f"{what}: proven for the robot, |e_y| <= {100 * ub['e_y']:.2f} cm at the first try "
-                         f"(heading bound {figures['heading_bound']:g} rad)")
-    return lines
+            return f"{what}: none at the first try" + (
+                f" (heading bounds {', '.join(f'{b:g}' for b in untried)} rad not tried: its share of the "
+                f"{self.budget_s:.0f} s was spent)" if untried else "")
+        ub = figures["ultimate_bound"]
+        return (f"{what}: proven for the robot, |e_y| <= {100 * ub['e_y']:.2f} cm at the first try "
+                f"(heading bound {figures['heading_bound']:g} rad)")
+
+
+def _in_turn(tries: _Tries, todo: list[int], lines: dict[int, str]) -> None:
+    """The tries one after the other, in this process."""
+    from ..errors import RobustSynthError
+
+    for n, k in enumerate(todo):
+        refused = tries.refusal(k)
+        if refused is not None:
+            lines[k] = refused
+            continue
+        what, changed, _ = tries.plan[k]
+        tries.say(f"remedy: {what}, a quick search")
+        started = time.perf_counter()
+        try:
+            lines[k] = tries.line(k, tries.first_try(tries.model.rebuilt(changed), tries.deadline(len(todo) - n, 0),
+                                                     tries.say))
+        except RobustSynthError as exc:  # the model refuses the change, or the search finds it infeasible at once
+            lines[k] = tries.line(k, f"refused ({exc})")
+        finally:
+            tries.longest = max(tries.longest, time.perf_counter() - started)
+
+
+def _at_once(tries: _Tries, todo: list[int], lines: dict[int, str]) -> None:
+    """The tries ``tries.workers`` at a time, each in a forked process; this one waits for them (a signal's handler
+    runs meanwhile, and the children it leaves are killed)."""
+    from ..errors import RobustSynthError, check_interrupt
+    from . import forked
+
+    queue = list(todo)
+    running: dict[Any, int] = {}
+    try:
+        while queue or running:
+            while queue and len(running) < tries.workers:
+                k = queue.pop(0)
+                refused = tries.refusal(k)
+                if refused is not None:
+                    lines[k] = refused
+                    continue
+                what, changed, _ = tries.plan[k]
+                n = todo.index(k) + 1
+                tries.say(f"remedy {n}: {what}, a quick search ({tries.workers} at a time, each in a process of its own)")
+                deadline = tries.deadline(len(queue) + 1, len(running))
+                say = tries.say
+
+                def one(changed: Any = changed, deadline: float = deadline, n: int = n) -> Any:
+                    return tries.first_try(tries.model.rebuilt(changed), deadline, lambda m: say(f"[remedy {n}] {m}"))
+
+                running[forked.Forked(one, expected=(RobustSynthError,))] = k
+            if not running:
+                break
+            done = forked.wait_any(list(running), until=tries.t0 + tries.budget_s)
+            if done is None:  # the budget's end: a try still running is stopped (a process can be)
+                for child, k in running.items():
+                    child.kill()
+                    lines[k] = tries.line(k, f"not concluded (stopped at the end of the tries' {tries.budget_s:.0f} s)")
+                running.clear()
+                continue
+            k = running.pop(done)
+            try:
+                lines[k] = tries.line(k, done.result())
+            except forked.Raised as exc:
+                lines[k] = tries.line(k, f"refused ({exc})")
+            except forked.ChildError as exc:
+                lines[k] = tries.line(k, f"not concluded (its process: {exc})")
+            finally:
+                tries.longest = max(tries.longest, time.perf_counter() - done.started)
+            check_interrupt()
+    finally:
+        for child in running:
+            child.kill()

@@ -24,8 +24,8 @@ import sys
 import threading
 from typing import Any, BinaryIO
 
-__all__ = ["CHILD_ROWS", "ChildFailed", "ChildSolver", "ChildSolution", "SolverPanic", "kill_all", "kill_given_up",
-           "serialize_cones", "serialize_settings", "trim_heap"]
+__all__ = ["CHILD_ROWS", "ChildFailed", "ChildSolver", "ChildSolution", "SolverPanic", "forget_inherited", "kill_all",
+           "kill_given_up", "serialize_cones", "serialize_settings", "trim_heap"]
 
 # rows of A from which a problem goes to a child: the setup of the largest problems seen in the straight
 # syntheses (icr default, 75 763 rows) took 0.85 s idle, of 10 552 rows 0.1 s; the spawn costs ~0.3 s once
@@ -209,6 +209,16 @@ def kill_given_up(cancel: threading.Event) -> None:
         victims = [child for child, ev in _BUSY.values() if ev is cancel]
     for child in victims:
         child.kill()
+
+
+def forget_inherited() -> None:
+    """In a forked child (:mod:`.forked`): the solver processes in the lists are the parent's; this process starts
+    with none (its own are started as it needs them).  The lock is made afresh: another thread of the parent may
+    have held it at the fork."""
+    global _LOCK
+    _LOCK = threading.Lock()
+    _IDLE.clear()
+    _BUSY.clear()
 
 
 def kill_all() -> None:

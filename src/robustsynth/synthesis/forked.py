@@ -1,0 +1,164 @@
+"""A call run in a forked child process, its result read back through a pipe: work beside this process's own.
+
+The remedies' quick tries (:mod:`.remedies`) are searches of their own, each on a changed config; on two cores two of
+them run at once.  Threads cannot carry them: a search enters ``warnings.catch_warnings`` and points file descriptor 2
+at a pipe around each solve (:mod:`.solve`), both process-wide.  A fork can: the child has the parent's memory (the
+imported modules, the model, the callable), runs the call, and sends back its pickled result; nothing is imported or
+pickled on the way in.
+
+The child takes no signal: SIGINT and SIGTERM are ignored there (the parent decides; a Ctrl-C reaches the whole
+process group), and on Linux it gets SIGKILL when the parent dies (``PR_SET_PDEATHSIG``).  It never unwinds into the
+parent's frames: whatever the call does, the child ends with ``os._exit`` after killing its own solver processes.
+The parent kills the children it no longer waits for (:meth:`Forked.kill`).  POSIX only (``AVAILABLE``)."""
+
+from __future__ import annotations
+
+import os
+import pickle
+import select
+import signal
+import sys
+import time
+from typing import Any, Callable
+
+from . import solver_process
+
+__all__ = ["AVAILABLE", "ChildError", "Forked", "Raised", "wait_any"]
+
+AVAILABLE = hasattr(os, "fork") and sys.platform.startswith("linux")
+POLL_S = 0.2  # [s] the parent's wait wakes this often (a signal's handler runs at once anyway)
+
+
+class ChildError(RuntimeError):
+    """The child ended without a result (a crash, a kill), or its call raised something other than the expected."""
+
+
+class Raised(Exception):
+    """The child's call raised one of the expected exceptions: its message (``str``), and ``kind``, its type's name."""
+
+    def __init__(self, kind: str, message: str) -> None:
+        super().__init__(message)
+        self.kind = kind
+
+
+def _die_with_parent() -> None:
+    import ctypes
+    import ctypes.util
+
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+        libc.prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+
+
+class Forked:
+    """``fn()`` in a forked child.  :meth:`result` returns what it returned; where it raised one of ``expected``,
+    :meth:`result` raises :class:`Raised` with its message; any other exception comes back as :class:`ChildError`
+    naming it."""
+
+    def __init__(self, fn: Callable[[], Any], expected: tuple[type[BaseException], ...] = ()) -> None:
+        sys.stdout.flush()
+        sys.stderr.flush()  # what is buffered now is the parent's to write, not also the child's
+        parent = os.getpid()
+        r, w = os.pipe()
+        pid = os.fork()
+        if pid == 0:  # the child
+            os.close(r)
+            _child(fn, expected, w, parent)
+        os.close(w)
+        self.pid, self.fd = pid, r
+        self._data = bytearray()
+        self._done = False
+        self.started = time.perf_counter()
+
+    def fileno(self) -> int:
+        return self.fd
+
+    def _read(self) -> bool:
+        """Read what is there; True once the child closed its end (its result is whole, or it died)."""
+        chunk = os.read(self.fd, 1 << 20)
+        if chunk:
+            self._data += chunk
+            return False
+        return True
+
+    def result(self) -> Any:
+        """Wait for the child's result (raising what it raised, see the class)."""
+        while not self._done:
+            select.select([self.fd], [], [], POLL_S)
+            self._done = self._read() or self._done
+        return self._finish()
+
+    def _finish(self) -> Any:
+        os.close(self.fd)
+        self.fd = -1
+        os.waitpid(self.pid, 0)
+        try:
+            kind, payload = pickle.loads(bytes(self._data))
+        except Exception:  # noqa: BLE001 - nothing, or a part: the child died before it wrote it whole
+            raise ChildError("the child process ended without its result") from None
+        if kind == "ok":
+            return payload
+        if kind == "expected":
+            raise Raised(*payload)
+        raise ChildError(payload)
+
+    def kill(self) -> None:
+        """Stop the child (if it runs) and reap it."""
+        if self.fd < 0:
+            return
+        try:
+            os.kill(self.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        os.close(self.fd)
+        self.fd = -1
+        try:
+            os.waitpid(self.pid, 0)
+        except ChildProcessError:
+            pass
+
+
+def wait_any(running: list[Forked], until: float = float("inf")) -> Forked | None:
+    """Wait until one of ``running`` has its result in (or died): that one; None once ``until`` (time.perf_counter)
+    has passed.  A signal's handler runs meanwhile (the CLI's raises :class:`~robustsynth.errors.Interrupted`; the
+    caller kills the children)."""
+    while True:
+        wait = min(POLL_S, until - time.perf_counter())
+        if wait <= 0.0:
+            return None
+        ready, _, _ = select.select([f.fd for f in running], [], [], wait)
+        for f in running:
+            if f.fd in ready and f._read():
+                f._done = True
+                return f
+
+
+def _child(fn: Callable[[], Any], expected: tuple[type[BaseException], ...], w: int, parent: int) -> None:
+    code = 0
+    try:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        _die_with_parent()
+        if os.getppid() != parent:  # the parent died before the line above took effect
+            os._exit(1)
+        solver_process.forget_inherited()  # the parent's solver processes are the parent's
+        try:
+            out: tuple[str, Any] = ("ok", fn())
+        except expected as exc:
+            out = ("expected", (type(exc).__name__, str(exc)))
+        except BaseException as exc:  # noqa: BLE001 - a bug or a crash of the call: named to the parent
+            out = ("error", f"{type(exc).__name__}: {exc}")
+        data = pickle.dumps(out, protocol=pickle.HIGHEST_PROTOCOL)
+        with os.fdopen(w, "wb") as fp:
+            fp.write(data)
+    except BaseException:  # noqa: BLE001 - the parent sees a result missing (ChildError)
+        code = 1
+    finally:
+        try:
+            solver_process.kill_all()
+            sys.stdout.flush()
+            sys.stderr.flush()
+        finally:
+            os._exit(code)
