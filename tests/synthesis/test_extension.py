@@ -74,3 +74,22 @@ def test_a_relaxation_below_the_whole_s_optimum_is_not_carried(turning) -> None:
 def test_no_carrying_for_another_lyapunov_kind(turning) -> None:
     model, s, ends, whole, _ = turning
     assert extend_multipliers(model, dict(whole.cert, lyapunov="slip-dependent"), whole.K, ends, s.solver) is None
+
+
+def test_a_probe_says_its_lmi_count_before_its_one_solve() -> None:
+    """A probe (one solve at the hint: a remedy's quick try, a heading bound's end vertices) says the size of its
+    problem before it solves, as a search does (issue 51: the LMI count before the first solve): the count of the
+    problem it solves, at the hint's alpha."""
+    from robustsynth.synthesis.runner import lmi_count
+
+    cfg = mapping_with(yaml.safe_load((ROOT / "configs" / "default.yaml").read_text()),
+                       **{"synthesis.kinematics": "linearized"})
+    model = build_model(cfg)
+    s = cfg.synthesis.model_copy(update={"lyapunov": "common"})
+    said: list[str] = []
+    _, runner = alpha_search._run_invariance(_on_subset(model, _exact_end_vertices(model)), s, [], True, said.append,
+                                                alpha_hint=ALPHA, probe_only=True)
+    first = [m for m in said if "LMIs" in m]
+    solved = [i for i, m in enumerate(said) if m.startswith(f"  alpha = {ALPHA:.4g}: ")]  # its one solve's line
+    assert first and len(solved) == 1 and said.index(first[0]) < solved[0], said
+    assert first[0].startswith(f"  one solve at alpha = {ALPHA:.4g}: {lmi_count(runner.lp)} LMIs (the largest "), said

@@ -290,6 +290,8 @@ def _run_invariance(model: Any, s: SynthesisConfig, search: list, motor: bool,
     if not probe_only:
         say(f"  {lmi_count(lp)} LMIs (the largest {lmi_rows(lp)} rows) per alpha; each point is one solve"
             + (f" (about {_duration(est)} each, estimated from its size)" if est >= 1.0 else "") + ", a failed one is retried")
+    elif alpha_hint is not None:  # (no estimate: its patterns take seconds on the largest problems, a probe one solve)
+        say(f"  one solve at alpha = {alpha_hint:.4g}: {lmi_count(lp)} LMIs (the largest {lmi_rows(lp)} rows)")
     grid = np.linspace(math.log(ALPHA_RANGE[0]), math.log(ALPHA_RANGE[1]), s.alpha_points)
     # the phase-1 problems where they are asked before any solve (they may settle the range: no relaxation then)
     if not probe_only and _asked_first(runner, prove, screen, est, alpha_hint, bar, search, say):
