@@ -19,6 +19,11 @@ ALPHA = 0.22  # near the best alpha of the default robot
 # the two optima agree to the solver's accuracy: at the product's 1e-9 tolerances they differ by up to
 # 1.5e-6 (common), at 1e-11 by 1e-8 (measured), so the difference is the solver's, not the symmetry's
 OPT_REL = 1e-5
+# where a solve ends 'optimal_inaccurate', its objective is Clarabel's "almost optimal" one: gap within 5e-5 relative,
+# residuals within reduced_tol_feas = 1e-4 (its defaults), so two optima agree to that only (the full grown problem of
+# the within-period test ended so on a 2-core EPYC with OpenBLAS's Haswell kernels: 8.0e-5 below the mirror-invariant
+# problem's 'optimal' one)
+INACCURATE_REL = 1e-4
 MIRROR_TOL = 1e-12  # the vertex data are mirror images up to round-off
 
 
@@ -221,8 +226,9 @@ def test_within_period_vertices_come_with_their_mirror_images_and_keep_the_symme
         lp, _ = invariance_runner(grown, "common", 0.15, symmetry)
         out = solve(lp.problem, "clarabel-unscaled", lambda: True, fallback=False)
         assert out.kind == "ok", out.record
-        values.append((len(lp.problem.constraints), lp.problem.value))
-    assert values[1][0] < values[0][0] and values[1][1] == pytest.approx(values[0][1], rel=OPT_REL)
+        values.append((len(lp.problem.constraints), lp.problem.value, out.record.status))
+    rel = OPT_REL if all(v[2] == "optimal" for v in values) else INACCURATE_REL
+    assert values[1][0] < values[0][0] and values[1][1] == pytest.approx(values[0][1], rel=rel), values
     tracks = build_model(make_config(**{"slip.right.min": 0.8, "slip.left.min": 0.8,
                                         "synthesis.kinematics": "nonlinear"})).with_heading_bound(0.15)
     assert len(tracks.with_cuts([0]).vertices) == len(tracks.vertices) + 1
