@@ -21,6 +21,7 @@ then left untried for want of budget).
 
 from __future__ import annotations
 
+import os
 import time
 from typing import Any, Callable
 
@@ -100,7 +101,7 @@ def try_remedies(model: Any, first_try: FirstTry, say: Callable[[str], None], bu
     and takes no share.
 
     ``workers``: tries run at once, each in a forked process of its own (:mod:`.forked`; default PARALLEL where the
-    system forks, and at least two tries are to run; 1: one after the other in this process), each with the share of
+    system forks and has as many cores, and at least two tries are to run; 1: one after the other in this process), each with the share of
     the budget it would have one after the other; a try still running at the budget's end is stopped there.  The
     lines keep the candidates' order whatever order the tries end in."""
     from ..config import config_to_dict, load_config
@@ -128,8 +129,8 @@ def try_remedies(model: Any, first_try: FirstTry, say: Callable[[str], None], bu
     todo = [k for k, (_, _, named) in enumerate(plan) if named is None]
     from . import forked
 
-    if workers is None:
-        workers = PARALLEL if forked.AVAILABLE else 1
+    if workers is None:  # (one core: two tries at once would each get half of it)
+        workers = min(PARALLEL, os.cpu_count() or 1) if forked.AVAILABLE else 1
     run = _in_turn if workers <= 1 or len(todo) <= 1 else _at_once
     run(_Tries(model, plan, first_try, say, budget_s, max(1, workers), time.perf_counter()), todo, lines)
     return [lines[k] for k in range(len(plan))]
