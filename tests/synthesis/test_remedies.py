@@ -348,3 +348,30 @@ sys.exit(0)
     for pid in map(int, pids.read_text().split()):
         with pytest.raises(ProcessLookupError):
             os.kill(pid, 0)  # gone (and reaped by the parent: no zombie answers either)
+
+
+def test_a_try_the_system_gives_no_process_is_named_and_the_others_run(monkeypatch) -> None:
+    """fork refused (EAGAIN: the process limit) for the first try: it is named "not tried (no process for it: ...)",
+    and the next try still runs in its own process."""
+    import errno
+    import os
+
+    from robustsynth.model import build_model
+    from robustsynth.synthesis import forked, remedies
+
+    if not forked.AVAILABLE:
+        pytest.skip("no fork here")
+    real = os.fork
+    calls = []
+
+    def fork():
+        calls.append(1)
+        if len(calls) == 1:
+            raise OSError(errno.EAGAIN, os.strerror(errno.EAGAIN))
+        return real()
+
+    monkeypatch.setattr(forked.os, "fork", fork)
+    model = build_model(load_config(ROOT / "configs" / "tracks-box.yaml"))
+    lines = remedies.try_remedies(model, lambda m, deadline, say: (None, ()), lambda _m: None, budget_s=60.0, workers=2)
+    assert lines[0].endswith(f": not tried (no process for it: {os.strerror(errno.EAGAIN)})"), lines[0]
+    assert lines[2].endswith(": none at the first try"), lines[2]

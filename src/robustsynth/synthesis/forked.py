@@ -62,7 +62,12 @@ class Forked:
         sys.stderr.flush()  # what is buffered now is the parent's to write, not also the child's
         parent = os.getpid()
         r, w = os.pipe()
-        pid = os.fork()
+        try:
+            pid = os.fork()
+        except OSError:
+            os.close(r)
+            os.close(w)
+            raise
         if pid == 0:  # the child
             os.close(r)
             _child(fn, expected, w, parent)

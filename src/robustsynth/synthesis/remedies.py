@@ -226,7 +226,10 @@ def _at_once(tries: _Tries, todo: list[int], lines: dict[int, str]) -> None:
                 def one(changed: Any = changed, deadline: float = deadline, n: int = n) -> Any:
                     return tries.first_try(tries.model.rebuilt(changed), deadline, lambda m: say(f"[remedy {n}] {m}"))
 
-                running[forked.Forked(one, expected=(RobustSynthError,))] = k
+                try:
+                    running[forked.Forked(one, expected=(RobustSynthError,))] = k
+                except OSError as exc:  # no process for it (fork: EAGAIN, ENOMEM)
+                    lines[k] = tries.line(k, f"not tried (no process for it: {exc.strerror or exc})")
             if not running:
                 break
             done = forked.wait_any(list(running), until=tries.t0 + tries.budget_s)
