@@ -302,6 +302,55 @@ def test_tries_still_running_at_the_budget_s_end_are_stopped_there(tmp_path) -> 
             os.kill(pid, 0)
 
 
+def _running(pid: int) -> bool:
+    """Whether process ``pid`` exists and is not a zombie (an orphan's is reaped by whoever adopts it, maybe late)."""
+    try:
+        return open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
+
+
+def test_tries_die_with_a_parent_killed_by_sigkill(tmp_path) -> None:
+    """SIGKILL leaves the parent no handler to run: its tries' processes end with it all the same (PR_SET_PDEATHSIG),
+    rather than sleeping out their 30 s."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from robustsynth.synthesis import forked
+
+    if not forked.AVAILABLE:
+        pytest.skip("no fork here")
+    pids = tmp_path / "pids"
+    script = f"""
+import os, time
+from robustsynth.config import load_config
+from robustsynth.model import build_model
+from robustsynth.synthesis import remedies
+model = build_model(load_config({str(ROOT / "configs" / "tracks-box.yaml")!r}))
+def first_try(m, deadline, say):
+    with open({str(pids)!r}, "a") as fp:
+        fp.write(f"{{os.getpid()}}\\n")
+    time.sleep(30)
+    return None, ()
+remedies.try_remedies(model, first_try, lambda _m: None, budget_s=60.0, workers=2)
+"""
+    proc = subprocess.Popen([sys.executable, "-c", script])
+    deadline = time.monotonic() + 60.0
+    while (not pids.exists() or len(pids.read_text().split()) < 2) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    children = [int(p) for p in pids.read_text().split()]
+    assert len(children) == 2 and all(_running(p) for p in children)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=20)
+    gone = time.monotonic() + 10.0
+    while any(_running(p) for p in children) and time.monotonic() < gone:
+        time.sleep(0.1)
+    assert not any(_running(p) for p in children)
+
+
 def test_sigterm_while_tries_run_stops_them_all(tmp_path) -> None:
     """The CLI's signal handler raises Interrupted in the waiting parent: the tries' processes are killed, the
     parent exits 143 at once (not after the tries' 30 s), and no try's process is left."""
