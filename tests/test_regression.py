@@ -81,3 +81,9 @@ def test_compare_detects_differences() -> None:
     c = json.loads(json.dumps(a))
     c["verification_passed"] = False
     assert any("verification_passed" in d for d in compare(a, c))
+    # a stronger claim (a smaller bound or decay rate) is no regression; a weaker one by more than the tolerance is
+    d = json.loads(json.dumps(a))
+    d["certified"]["ultimate_bound"]["e_y"], d["certified"]["decay_rate"] = 0.03 * (1 - 1e-2), 0.9 * (1 - 1e-2)
+    assert compare(a, d) == []
+    d["certified"]["decay_rate"] = 0.9 * (1 + 2e-3)
+    assert any("certified.decay_rate" in x for x in compare(a, d))

@@ -3,9 +3,14 @@
     python -m robustsynth.regression --write   # regenerate the baselines (make baselines)
     python -m robustsynth.regression           # compare (what the test in make test does)
 
-Tolerances: certified figures relative 1e-3; Monte Carlo maxima relative 1e-2 (they depend on
-the gain, which solvers reproduce to their accuracy only); statuses, dimensions and verdicts exact;
-a linear plant's margins (``plant: kind: lti``) relative 1e-3 or absolute 2e-3 (bisections).
+Tolerances: certified figures (bounds, the decay rate, gains: each a claim, the smaller the stronger) no weaker
+than the baseline's by more than relative 1e-3, a stronger one is no regression: which points of a scan Clarabel
+ends 'optimal_inaccurate' and the numpy re-check accepts varies with the machine's BLAS kernels, and so does the
+optimum found (configs/turns.yaml certified |e_x| 0.76 % lower, its decay rate and motor bound 0.1-0.2 % lower, on
+a 2-core EPYC with OpenBLAS's Haswell kernels than on the machine its baseline was written on); Monte Carlo maxima
+relative 1e-2 either way (they depend on the gain, which solvers reproduce to their accuracy only); statuses,
+dimensions and verdicts exact; a linear plant's margins (``plant: kind: lti``) relative 1e-3 or absolute 2e-3
+(bisections).
 """
 
 from __future__ import annotations
@@ -76,6 +81,13 @@ def _close(a: Any, b: Any, rel: float) -> bool:
     return math.isclose(float(a), float(b), rel_tol=rel, abs_tol=0.0)
 
 
+def _no_weaker(a: Any, b: Any, rel: float) -> bool:
+    """Whether the claim ``b`` (a certified figure, the smaller the stronger) is no weaker than ``a`` by more than ``rel``."""
+    if a is None or b is None:
+        return a is b
+    return float(b) <= float(a) or math.isclose(float(a), float(b), rel_tol=rel, abs_tol=0.0)
+
+
 def compare(expected: dict[str, Any], got: dict[str, Any]) -> list[str]:
     """Differences between two summaries under the named tolerances (empty when they agree)."""
     diffs: list[str] = []
@@ -95,12 +107,13 @@ def compare(expected: dict[str, Any], got: dict[str, Any]) -> list[str]:
         if ec.get(key) != gc.get(key):
             diffs.append(f"certified.{key}: expected {ec.get(key)!r}, got {gc.get(key)!r}")
     for key in scalar_figures():
-        if not _close(ec.get(key), gc.get(key), CERTIFIED_REL):
-            diffs.append(f"certified.{key}: expected {ec.get(key)}, got {gc.get(key)} (rel {CERTIFIED_REL:g})")
+        if not _no_weaker(ec.get(key), gc.get(key), CERTIFIED_REL):
+            diffs.append(f"certified.{key}: expected {ec.get(key)} or less, got {gc.get(key)} (rel {CERTIFIED_REL:g})")
     eu, gu = ec.get("ultimate_bound") or {}, gc.get("ultimate_bound") or {}
     for key in sorted(set(eu) | set(gu)):
-        if not _close(eu.get(key), gu.get(key), CERTIFIED_REL):
-            diffs.append(f"certified.ultimate_bound.{key}: expected {eu.get(key)}, got {gu.get(key)} (rel {CERTIFIED_REL:g})")
+        if not _no_weaker(eu.get(key), gu.get(key), CERTIFIED_REL):
+            diffs.append(f"certified.ultimate_bound.{key}: expected {eu.get(key)} or less, got {gu.get(key)} "
+                         f"(rel {CERTIFIED_REL:g})")
     em = (expected.get("monte_carlo") or {}).get("max", {})
     gm = (got.get("monte_carlo") or {}).get("max", {})
     for key in sorted(set(em) | set(gm)):
