@@ -310,69 +310,22 @@ def _running(pid: int) -> bool:
         return False
 
 
-def test_tries_die_with_a_parent_killed_by_sigkill(tmp_path) -> None:
-    """SIGKILL leaves the parent no handler to run: its tries' processes end with it all the same (PR_SET_PDEATHSIG),
-    rather than sleeping out their 30 s."""
-    import os
-    import signal
+def _sleeping_tries(tmp_path, handlers: bool):
+    """A python process whose two remedy tries (forked) each write their pid and sleep 30 s; with ``handlers`` it has
+    the CLI's signal handlers and exits 143 on Interrupted.  Returned once both tries run: (the process, their pids)."""
     import subprocess
     import sys
     import time
 
-    from robustsynth.synthesis import forked
-
-    if not forked.AVAILABLE:
-        pytest.skip("no fork here")
-    pids = tmp_path / "pids"
-    script = f"""
-import os, time
-from robustsynth.config import load_config
-from robustsynth.model import build_model
-from robustsynth.synthesis import remedies
-model = build_model(load_config({str(ROOT / "configs" / "tracks-box.yaml")!r}))
-def first_try(m, deadline, say):
-    with open({str(pids)!r}, "a") as fp:
-        fp.write(f"{{os.getpid()}}\\n")
-    time.sleep(30)
-    return None, ()
-remedies.try_remedies(model, first_try, lambda _m: None, budget_s=60.0, workers=2)
-"""
-    proc = subprocess.Popen([sys.executable, "-c", script])
-    deadline = time.monotonic() + 60.0
-    while (not pids.exists() or len(pids.read_text().split()) < 2) and time.monotonic() < deadline:
-        time.sleep(0.1)
-    children = [int(p) for p in pids.read_text().split()]
-    assert len(children) == 2 and all(_running(p) for p in children)
-    proc.send_signal(signal.SIGKILL)
-    proc.wait(timeout=20)
-    gone = time.monotonic() + 10.0
-    while any(_running(p) for p in children) and time.monotonic() < gone:
-        time.sleep(0.1)
-    assert not any(_running(p) for p in children)
-
-
-def test_sigterm_while_tries_run_stops_them_all(tmp_path) -> None:
-    """The CLI's signal handler raises Interrupted in the waiting parent: the tries' processes are killed, the
-    parent exits 143 at once (not after the tries' 30 s), and no try's process is left."""
-    import os
-    import signal
-    import subprocess
-    import sys
-    import time
-
-    from robustsynth.synthesis import forked
-
-    if not forked.AVAILABLE:
-        pytest.skip("no fork here")
     pids = tmp_path / "pids"
     script = f"""
 import os, sys, time
-from pathlib import Path
 from robustsynth.config import load_config
 from robustsynth.errors import Interrupted, install_signal_handlers
 from robustsynth.model import build_model
 from robustsynth.synthesis import remedies
-install_signal_handlers()
+if {handlers!r}:
+    install_signal_handlers()
 model = build_model(load_config({str(ROOT / "configs" / "tracks-box.yaml")!r}))
 def first_try(m, deadline, say):
     with open({str(pids)!r}, "a") as fp:
@@ -389,12 +342,47 @@ sys.exit(0)
     deadline = time.monotonic() + 60.0
     while (not pids.exists() or len(pids.read_text().split()) < 2) and time.monotonic() < deadline:
         time.sleep(0.1)
-    assert pids.exists() and len(pids.read_text().split()) == 2
+    return proc, [int(p) for p in pids.read_text().split()] if pids.exists() else []
+
+
+def test_tries_die_with_a_parent_killed_by_sigkill(tmp_path) -> None:
+    """SIGKILL leaves the parent no handler to run: its tries' processes end with it all the same (PR_SET_PDEATHSIG),
+    rather than sleeping out their 30 s."""
+    import signal
+    import time
+
+    from robustsynth.synthesis import forked
+
+    if not forked.AVAILABLE:
+        pytest.skip("no fork here")
+    proc, children = _sleeping_tries(tmp_path, handlers=False)
+    assert len(children) == 2 and all(_running(p) for p in children)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=20)
+    gone = time.monotonic() + 10.0
+    while any(_running(p) for p in children) and time.monotonic() < gone:
+        time.sleep(0.1)
+    assert not any(_running(p) for p in children)
+
+
+def test_sigterm_while_tries_run_stops_them_all(tmp_path) -> None:
+    """The CLI's signal handler raises Interrupted in the waiting parent: the tries' processes are killed, the
+    parent exits 143 at once (not after the tries' 30 s), and no try's process is left."""
+    import os
+    import signal
+    import time
+
+    from robustsynth.synthesis import forked
+
+    if not forked.AVAILABLE:
+        pytest.skip("no fork here")
+    proc, children = _sleeping_tries(tmp_path, handlers=True)
+    assert len(children) == 2
     t0 = time.monotonic()
     proc.send_signal(signal.SIGTERM)
     assert proc.wait(timeout=20) == 143
     assert time.monotonic() - t0 < 20.0  # (the tries sleep 30 s: they were not waited for)
-    for pid in map(int, pids.read_text().split()):
+    for pid in children:
         with pytest.raises(ProcessLookupError):
             os.kill(pid, 0)  # gone (and reaped by the parent: no zombie answers either)
 

@@ -75,9 +75,6 @@ class Forked:
         self._done = False
         self.started = time.perf_counter()
 
-    def fileno(self) -> int:
-        return self.fd
-
     def _read(self) -> bool:
         """Read what is there; True once the child closed its end (its result is whole, or it died)."""
         chunk = os.read(self.fd, 1 << 20)

@@ -92,18 +92,18 @@ def try_remedies(model: Any, first_try: FirstTry, say: Callable[[str], None], bu
     (``first_try(model, deadline, say)``: the certified figures or None, and the heading bounds it left untried at the
     deadline), "none at the first try", why it could not be tried (the config refuses the change, the model cannot be
     built), or "not tried" once ``budget_s`` is spent.  Each try's deadline is its share of what is left of the budget
-    (what is left over the remedies still to try, times the tries that run at once): a try that is slow, or a machine
-    that is busy, leaves the later remedies their turn; a try checks it before each heading bound but its first.  A try
-    is started only where what is left of the budget holds one as long as the longest so far (on the default robot at
+    (what is left over the remedies still to try or running): a try that is slow, or a machine that is busy, leaves
+    the later remedies their turn; a try checks it before each heading bound but its first.  A try is started only
+    where what is left of the budget holds one as long as the longest so far (on the default robot at
     d_hi = 2 the first try took 33 s, proven with |e_y| <= 4.05 cm; two more were started before, each stopped after
     its first pair of heading bounds).  ``skip``: why no try is started here (each remedy is then named with it, a
     refused one as refused).  A refused remedy, and one no quick try makes (:data:`NOT_QUICK`), is named at no cost,
     and takes no share.
 
     ``workers``: tries run at once, each in a forked process of its own (:mod:`.forked`; default PARALLEL where the
-    system forks and has as many cores, and at least two tries are to run; 1: one after the other in this process), each with the share of
-    the budget it would have one after the other; a try still running at the budget's end is stopped there.  The
-    lines keep the candidates' order whatever order the tries end in."""
+    system forks and has as many cores, and at least two tries are to run; 1: one after the other in this process),
+    each with the share of the budget it would have one after the other; a try still running at the budget's end is
+    stopped there.  The lines keep the candidates' order whatever order the tries end in."""
     from ..config import config_to_dict, load_config
     from ..errors import RobustSynthError
 
