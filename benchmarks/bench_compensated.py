@@ -71,7 +71,7 @@ def physics() -> None:
     from robustsynth.config import load_config
     from robustsynth.model import build_model
     from robustsynth.plants.physics import available
-    from robustsynth.verification.physics import Injection, validate_physics
+    from robustsynth.robot_verification.physics import Injection, validate_physics
 
     if available():
         print(f"physics: {available()}")

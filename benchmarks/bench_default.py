@@ -47,7 +47,7 @@ def box() -> dict:
     """Part 1: the icr box the shipped recipe reads off the physics robot, per condition and their union."""
     from robustsynth.identification import identify
     from robustsynth.model import build_model
-    from robustsynth.verification.physics import excite
+    from robustsynth.robot_verification.physics import excite
 
     rows, union = [], {}
     for name, phys in PHYSICS:

@@ -23,7 +23,7 @@ def main() -> dict[str, float]:
     from robustsynth.plants.path import make_path
     from robustsynth.scenarios import draw_scenario, steady_state_start
     from robustsynth.synthesis import synthesize
-    from robustsynth.verification.simulate import run_logs, simulate
+    from robustsynth.robot_verification.simulate import run_logs, simulate
 
     over = {"network.delay.min": 0.02, "network.delay.max": 0.07, "slip.right.min": 0.7, "slip.right.max": 0.95,
             "slip.left.min": 0.6, "slip.left.max": 0.9, "network.dropouts.max_consecutive": 2,
@@ -64,7 +64,7 @@ def icr() -> dict[str, float]:
     from robustsynth.config import config_with, load_config
     from robustsynth.identification import identify
     from robustsynth.model import build_model
-    from robustsynth.verification.physics import excitation_slip, excitation_steps, excite
+    from robustsynth.robot_verification.physics import excitation_slip, excitation_steps, excite
 
     base = load_config(Path(__file__).resolve().parents[1] / "configs" / "icr-physics.yaml")
     out: dict[str, float] = {}

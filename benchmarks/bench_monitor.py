@@ -33,7 +33,7 @@ def main() -> dict[str, float]:
     from robustsynth.plants.path import path_of
     from robustsynth.runtime.replay import monitor_log, monitor_logs
     from robustsynth.scenarios import draw_scenario, steady_state_start
-    from robustsynth.verification.simulate import run_logs, simulate
+    from robustsynth.robot_verification.simulate import run_logs, simulate
 
     d = config_to_dict(load_config(ROOT / "configs" / "default.yaml"))
     d["verification"]["noise"] = {"position": NOISE[0], "heading": NOISE[1]}
@@ -59,7 +59,7 @@ def main() -> dict[str, float]:
           f"{res['runs_with_alarms']} runs with an alarm; alarm periods {res['alarm_periods']}")
     out["mc_runs_with_alarms"] = res["runs_with_alarms"]
     try:
-        from robustsynth.verification.physics import validate_physics
+        from robustsynth.robot_verification.physics import validate_physics
     except ImportError:  # the physics extra
         validate_physics = None
     if validate_physics is not None:
@@ -96,7 +96,7 @@ def main() -> dict[str, float]:
         first = r["alarms"][0] if r["alarms"] else None
         print(f"{name} from period {K0}: " + (f"first alarm at period {first['period']} ({first['causes']})" if first else "no alarm"))
     if validate_physics is not None:
-        from robustsynth.verification.physics import Injection
+        from robustsynth.robot_verification.physics import Injection
 
         for inj in (Injection("delay", K0), Injection("losses", K0), Injection("friction", K0), Injection("push", K0),
                     Injection("command", K0), Injection("friction", K0, 0.3, drag=0.0), Injection("friction", K0, 0.05, drag=0.0)):

@@ -21,7 +21,7 @@ def main() -> dict[str, float]:
     from robustsynth.plants.reference import simulate_run
     from robustsynth.plants.path import make_path
     from robustsynth.scenarios import draw_scenario
-    from robustsynth.verification.simulate import simulate
+    from robustsynth.robot_verification.simulate import simulate
 
     model = build_model(load_config())
     K = synthesize(model).K

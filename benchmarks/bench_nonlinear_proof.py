@@ -57,8 +57,8 @@ def main(names: list[str] | None = None) -> dict[str, dict[str, float]]:
     from robustsynth import build_model, load_config
     from robustsynth.artifacts.gains import load_gains
     from robustsynth.certificate import check_certificate, lyapunov_of
-    from robustsynth.verification.nonlinear_checks import PROBE_REFINE, PROBE_SAMPLES
-    from robustsynth.verification.probe import boundary_probe
+    from robustsynth.robot_verification.nonlinear_checks import PROBE_REFINE, PROBE_SAMPLES
+    from robustsynth.robot_verification.probe import boundary_probe
 
     out: dict[str, dict[str, float]] = {}
     print("| config | committed gain: \\|e_y\\| sampled / for all t, \\|e_theta(t)\\| | its probe: nonlinear max V+/level | "
@@ -147,7 +147,7 @@ def new_user_variants(runs: int = 1000) -> dict[str, dict[str, float]]:
     from robustsynth.certificate import lyapunov_of
     from robustsynth.config import parse_config
     from robustsynth.verification.checks import verify
-    from robustsynth.verification.probe import boundary_probe
+    from robustsynth.robot_verification.probe import boundary_probe
 
     base = yaml.safe_load((ROOT / "configs" / "nonlinear-proof.yaml").read_text())
     out: dict[str, dict[str, float]] = {}

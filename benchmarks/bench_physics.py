@@ -17,7 +17,7 @@ def main() -> dict[str, float]:
     from robustsynth import build_model, load_config
     from robustsynth.artifacts.gains import load_gains
     from robustsynth.plants.physics import available
-    from robustsynth.verification.physics import validate_physics
+    from robustsynth.robot_verification.physics import validate_physics
 
     if available():
         print(f"skipped: {available()}")

@@ -111,7 +111,7 @@ def replay(model, K: np.ndarray, hist: list) -> float:
     """The largest |e_y| of the nonlinear robot along ``hist`` from the straight equilibrium that starts it best."""
     from robustsynth.scenarios import Scenario, split_state
     from robustsynth.plants.path import pose_from_error
-    from robustsynth.verification.simulate import FREE_YAW, adversary_course, simulate
+    from robustsynth.robot_verification.simulate import FREE_YAW, adversary_course, simulate
 
     _, _, _, ys, corners, taus = _choices(model, K)
     T, d_hi = len(hist), model.d_hi

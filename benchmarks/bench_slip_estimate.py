@@ -36,7 +36,7 @@ def _row(name: str, rate: float, noise: float) -> dict[str, float]:
     from robustsynth.plants.path import path_of
     from robustsynth.runtime.replay import monitor_log
     from robustsynth.scenarios import draw_scenario, steady_state_start
-    from robustsynth.verification.simulate import run_logs, simulate
+    from robustsynth.robot_verification.simulate import run_logs, simulate
 
     d = config_to_dict(load_config(ROOT / "configs" / f"{name}.yaml"))
     d["slip"]["max_rate"] = rate

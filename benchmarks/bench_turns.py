@@ -7,7 +7,7 @@ bound searched) and per largest reference yaw rate w_bar (arcs of radius V^D / w
 certified |e_x|, |e_y|, |e_theta| and motor bound (with the feedforward's share), the bound on |e_y(t)|
 between samples (on arcs: the exact arcs in the turning frame, docs/theory.md §10), the synthesis time,
 and the boundary probe on arcs (the nonlinear robot, one period from 20 000 states on the set's
-boundary, slip at a corner, random delays, the yaw rates as ``verification.probe.arc_period`` draws
+boundary, slip at a corner, random delays, the yaw rates as ``robot_verification.probe.arc_period`` draws
 them: max V+/level), and the same states with each track's slip jumping to the other end of its range at
 its own random time within the period (which a common certificate covers, docs/theory.md §10; the
 straight-segment one covers it on straight segments only).  w_bar = 0 is the straight-segment certificate;
@@ -29,7 +29,7 @@ BOXES = ((0.8, "linearized", (0.0, 0.1, 0.2, 0.35)), (0.6, "linearized", (0.0, 0
 
 def _probe(model, K, P, level, wbar, N=20000, seed=1, within=False):
     from robustsynth.scenarios import random_delays, track_changes
-    from robustsynth.verification.probe import arc_period
+    from robustsynth.robot_verification.probe import arc_period
 
     rng = np.random.default_rng(seed)
     n_e, n_u, d_hi = model.n_e, model.n_u, model.d_hi

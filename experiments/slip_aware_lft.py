@@ -27,7 +27,7 @@ from _common import config, motor_lmis, solve_optimal
 from robustsynth.model import build_model
 from robustsynth.plants.path import make_path
 from robustsynth.scenarios import draw_scenario
-from robustsynth.verification.simulate import simulate
+from robustsynth.robot_verification.simulate import simulate
 
 
 def slip_ranges(m):

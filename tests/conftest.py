@@ -57,10 +57,10 @@ def committed_gain(name: str) -> tuple[Any, np.ndarray, dict[str, Any]]:
 
 def boundary_points(model, K: np.ndarray, lyap, level: float, n: int, rng: np.random.Generator):
     """States on the boundary V = level of a certificate's set (``n`` random directions and each bounded
-    figure's maximizers, :func:`~robustsynth.verification.probe.probe_directions`), each with a random slip
+    figure's maximizers, :func:`~robustsynth.robot_verification.probe.probe_directions`), each with a random slip
     corner: (xi (N, n_s), mu (N, 2))."""
     from robustsynth.scenarios import slip_vertices
-    from robustsynth.verification.probe import probe_directions
+    from robustsynth.robot_verification.probe import probe_directions
 
     dirs = probe_directions(model, K, lyap, n, rng)
     corners = slip_vertices(model)

@@ -304,7 +304,7 @@ def test_the_default_probe_between_samples_stays_within_the_all_t_bounds():
     oscillation (docs/theory.md §12): the probe's largest errors at BETWEEN_INSTANTS instants of each period from
     the set's boundary stay within ``ultimate_bound_between_samples``, and its rise above the periods' ends within
     the chord terms at their worst (``between_samples_rise``)."""
-    from robustsynth.verification.probe import boundary_probe
+    from robustsynth.robot_verification.probe import boundary_probe
 
     model, K, cert = committed_gain("default")
     chk = check_certificate(model, K, cert)

@@ -72,7 +72,7 @@ def _mc(turns: list | None = None) -> dict:
 
 def _robot_result(passed: bool, turns: list | None = None, cfg=None):
     from robustsynth.results import CertificateCheck
-    from robustsynth.verification import VerificationResult
+    from robustsynth.robot_verification import VerificationResult
 
     checks = [{"name": "certificate", "passed": True},
               {"name": "monte carlo e_y", "passed": passed, "value": 0.05, "threshold": 0.04, "detail": "too far"},
@@ -274,7 +274,7 @@ def test_validate(monkeypatch, tmp_path) -> None:
     _patch(monkeypatch, "robustsynth.model", build_model=lambda cfg: None)
     _patch(monkeypatch, "robustsynth.pipeline", excitation_stage=lambda *a, **k: [1, 2, 3, 4],
            validation_stage=lambda *a, **k: _vd(False, False, False))
-    _patch(monkeypatch, "robustsynth.verification.physics",
+    _patch(monkeypatch, "robustsynth.robot_verification.physics",
            physics_config=lambda cfg: (None, {"summary": "the icr chassis"}))
     o = tmp_path / "x"
     assert _invoke(["validate", ICR, "--excite", "-o", str(o)]) == (0, (

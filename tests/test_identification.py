@@ -18,7 +18,7 @@ from robustsynth.identification import check_log, fragment_yaml, identify
 from robustsynth.model import build_model
 from robustsynth.plants.path import make_path
 from robustsynth.scenarios import draw_scenario, steady_state_start
-from robustsynth.verification.simulate import run_logs, simulate
+from robustsynth.robot_verification.simulate import run_logs, simulate
 
 from .conftest import make_config
 
@@ -175,7 +175,7 @@ def _icr_cfg(**over):
 
 @pytest.fixture(scope="module")
 def icr_logs():
-    from robustsynth.verification.physics import excitation_slip, excitation_steps, excite
+    from robustsynth.robot_verification.physics import excitation_slip, excitation_steps, excite
 
     cfg = _icr_cfg()
     m = build_model(cfg)
@@ -190,7 +190,7 @@ def test_icr_lines_hold_the_true_slip_and_the_true_offset() -> None:
     when a delayed command switches within it (the algebra of identification_icr against the
     simulator's arcs)."""
     from robustsynth.identification import _icr_lines
-    from robustsynth.verification.physics import excitation_slip, excitation_steps, excite
+    from robustsynth.robot_verification.physics import excitation_slip, excitation_steps, excite
 
     cfg = _icr_cfg(**{"verification.noise.position": 0.0, "verification.noise.heading": 0.0})
     m = build_model(cfg)
@@ -381,7 +381,7 @@ def test_check_log_icr_on_exact_logs_with_zero_noise_flags_nothing() -> None:
     """Exact poses (--pose-noise 0 0): the lines' model error (two commands per period) is in their
     uncertainty, so a robot inside the box is not flagged; the config's zero noise alone is refused."""
     from robustsynth.errors import InputError
-    from robustsynth.verification.physics import excite
+    from robustsynth.robot_verification.physics import excite
 
     cfg = _icr_cfg(**{"verification.noise.position": 0.0, "verification.noise.heading": 0.0})
     logs = excite(build_model(cfg), episodes=4, seed=2, engine="kinematic")
@@ -408,7 +408,7 @@ def test_identify_icr_refuses_logs_without_turns_and_skips_a_track_at_rest(icr_l
         identify(straight, cfg.robot.gear_radius, cfg.robot.track_distance, model="icr", pose_noise=ICR_NOISE)
     rows = {r["assumption"]: r for r in check_log(straight, cfg, None, ICR_NOISE)}
     assert rows["slip.yaw"]["samples"] == 0 and rows["slip.icr_offset"]["samples"] == 0
-    from robustsynth.verification.physics import excite
+    from robustsynth.robot_verification.physics import excite
 
     wide = _icr_cfg(**{"robot.track_distance": 1.0})  # at 2 rad/m the inner track stands still
     rest = excite(build_model(wide), episodes=4, seed=1, engine="kinematic")

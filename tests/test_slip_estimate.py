@@ -110,7 +110,7 @@ def _closed_loop(config: str, gains: str, rate: float, assumed_rate: float, runs
     from robustsynth.plants.path import path_of
     from robustsynth.runtime.replay import monitor_log
     from robustsynth.scenarios import draw_scenario, steady_state_start
-    from robustsynth.verification.simulate import run_logs, simulate
+    from robustsynth.robot_verification.simulate import run_logs, simulate
 
     d = config_to_dict(load_config(ROOT / config))
     d["slip"]["max_rate"] = rate

@@ -173,7 +173,7 @@ class RobotJobs(Jobs):
         paths = excitation_stage(build_model(cfg), out, episodes=episodes, seed=seed, engine=engine)
         physics = None
         if engine == "physics":  # which robot the engine drove (issue 50: the default chassis had been used silently)
-            from .verification.physics import physics_config
+            from .robot_verification.physics import physics_config
 
             physics = physics_config(cfg)[1]["summary"]
         con.show(console.excitation_summary(cfg, config_path, engine, out, len(paths), physics))
@@ -189,7 +189,7 @@ class RobotJobs(Jobs):
 
         injection = None
         if inject is not None:
-            from .verification.physics import Injection
+            from .robot_verification.physics import Injection
 
             injection = Injection(*inject)
         with progress_bar(con.quiet) as cb:

@@ -20,7 +20,7 @@ def other_kind(kind: str) -> str:
 
 
 def _row(model: Any, gains: dict[str, Any] | None, vd: dict[str, Any] | None, status: str, message: str = "") -> dict:
-    from .verification.nonlinear_checks import steady_offsets
+    from .robot_verification.nonlinear_checks import steady_offsets
     import numpy as np
 
     row: dict[str, Any] = {"model": model.kind, "status": status, "message": message, "certified": None,

@@ -4,7 +4,7 @@ and ``bisect``.
 This one file is the controller everywhere:
 
 * :class:`robustsynth.runtime.Controller` drives one robot with it (floats);
-* the simulator that verifies a gain (:mod:`robustsynth.verification.simulate`) runs the same
+* the simulator that verifies a gain (:mod:`robustsynth.robot_verification.simulate`) runs the same
   :class:`Law` with numpy arrays of N robots in place of the floats: every operation below is
   arithmetic that works on both, in the same order, so the simulated commands are the deployed
   ones bit for bit;

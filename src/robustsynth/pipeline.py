@@ -111,7 +111,7 @@ ProgressFn = Callable[[int, int], None]
 @dataclass(frozen=True)
 class VerificationStage:
     model: Any  # the robot's Model, or a LinearPlant
-    result: Any  # robustsynth.verification.VerificationResult (a linear plant's: results.Verdict)
+    result: Any  # robustsynth.robot_verification.VerificationResult (a linear plant's: results.Verdict)
     data: dict[str, Any]
     figures: dict[str, Path]
     files: tuple[Path, ...]
@@ -157,16 +157,16 @@ def verification_stage(
 def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, episodes: int = 4, seed: int = 0,
                      progress: ProgressFn | None = None, plots: bool = True, workers: int = 1,
                      engine: str = "physics", inject: Any = None) -> dict[str, Any]:
-    """``robustsynth validate``: the deployed law on the physics robot (:mod:`.verification.physics`);
+    """``robustsynth validate``: the deployed law on the physics robot (:mod:`.robot_verification.physics`);
     writes the episodes as robot logs under ``outdir/logs/`` and ``validation.json`` (last).  ``inject``: a
-    violation of one of the certificate's assumptions in every episode (:class:`.verification.physics.Injection`)."""
+    violation of one of the certificate's assumptions in every episode (:class:`.robot_verification.physics.Injection`)."""
     import numpy as np
 
     from .artifacts.files import commit_files, json_bytes, make_dir
     from .artifacts.gains import gains_id, load_gains
     from .certificate import recheck_gains
     from .errors import InputError
-    from .verification.physics import validate_physics
+    from .robot_verification.physics import validate_physics
 
     if engine == "physics":
         _require_physics()
@@ -218,9 +218,9 @@ def validation_stage(model: Model, gains_path: str | Path, outdir: str | Path, e
 def excitation_stage(model: Model, outdir: str | Path, episodes: int = 4, seed: int = 0,
                      engine: str = "physics") -> list[Path]:
     """``robustsynth validate --excite``: open-loop excitation of the robot (turns at several rates,
-    speed changes; :func:`.verification.physics.excite`) written as robot logs under
+    speed changes; :func:`.robot_verification.physics.excite`) written as robot logs under
     ``outdir/logs/`` for ``identify``; ``engine='kinematic'``: the model's own robot, no MuJoCo."""
-    from .verification.physics import excite
+    from .robot_verification.physics import excite
 
     if engine == "physics":
         _require_physics()
@@ -270,7 +270,7 @@ def write_run_logs(model: Model, result: Any, logdir: str | Path) -> list[Path]:
     """The verification's Monte Carlo runs as robot logs (one CSV per run, the format `identify` and
     `check-log` read) in ``logdir``; for a slip-compensated law, its runs with the estimator in the loop on the true
     slip (with the estimate's columns)."""
-    from .verification.simulate import run_logs
+    from .robot_verification.simulate import run_logs
 
     if result.compensated is not None:  # a slip-compensated law: the runs of the law as deployed, on the true slip
         return _write_logs(result.compensated.logs(), logdir)

@@ -2,7 +2,7 @@
 starts of their runs.
 
 Used by both judges of a gain: the lifted linear model (:mod:`robustsynth.verification.lifted`) and
-the robot in closed loop (:mod:`robustsynth.verification.simulate`).  A :class:`Scenario` is
+the robot in closed loop (:mod:`robustsynth.robot_verification.simulate`).  A :class:`Scenario` is
 everything random about N runs, drawn up front, so that any implementation can replay it;
 :func:`slip_profiles` and :func:`random_delays` are the random sequences (the delays and losses from
 the one network model, :class:`robustsynth.core.network.Network`, on the config's loss channel);

@@ -21,7 +21,7 @@ from robustsynth.monitor import CAUSES, RATE, Monitor
 from robustsynth.plants.path import path_of
 from robustsynth.runtime.export import c_files
 from robustsynth.scenarios import draw_scenario, steady_state_start
-from robustsynth.verification.simulate import run_logs, simulate
+from robustsynth.robot_verification.simulate import run_logs, simulate
 
 ROOT = Path(__file__).resolve().parents[2]
 CC = shutil.which("cc") or shutil.which("gcc")
@@ -221,8 +221,8 @@ def _compensated_periods(runs: int, seed: int = 3, error: float | None = None):
     the condition fails with a margin below 0 in many periods).  Returns the files, the lines, the expected outputs,
     the sent commands' motor speeds and the description."""
     from robustsynth.law import Compensator
-    from robustsynth.verification.compensated import true_robot
-    from robustsynth.verification.simulate import applied_times, simulate_compensated
+    from robustsynth.robot_verification.compensated import true_robot
+    from robustsynth.robot_verification.simulate import applied_times, simulate_compensated
 
     cfg = load_config(ROOT / "configs" / f"{COMPENSATED}.yaml")
     gains = load_gains(ROOT / "results" / "baselines" / COMPENSATED / "gains.json")

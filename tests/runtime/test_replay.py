@@ -20,7 +20,7 @@ from robustsynth.model import build_model
 from robustsynth.plants.path import path_of
 from robustsynth.runtime.replay import monitor_log, monitor_logs
 from robustsynth.scenarios import draw_scenario, steady_state_start
-from robustsynth.verification.simulate import run_logs, simulate
+from robustsynth.robot_verification.simulate import run_logs, simulate
 
 ROOT = Path(__file__).resolve().parents[2]
 NOISE = (0.0005, 0.0005)  # [m], [rad]: the pose noise of the runs (verification.noise; a motion-capture or RTK pose)

@@ -22,7 +22,7 @@ from robustsynth.plants.path import path_of
 from robustsynth.runtime.export import export_controller
 from robustsynth.runtime.replay import monitor_log
 from robustsynth.scenarios import draw_scenario
-from robustsynth.verification.simulate import run_logs, simulate
+from robustsynth.robot_verification.simulate import run_logs, simulate
 
 ROOT = Path(__file__).resolve().parents[2]
 T0 = 1733.25  # the node clock at the path's start [s]: the loop must count from it
@@ -144,8 +144,8 @@ def test_the_nodes_loop_runs_the_compensated_law_as_compensator_step(tmp_path: P
     then holds.  An uncompensated loop publishes nothing there."""
     from robustsynth.law import Compensator, Controller
     from robustsynth.monitor import Monitor
-    from robustsynth.verification.compensated import true_robot
-    from robustsynth.verification.simulate import applied_times, simulate_compensated
+    from robustsynth.robot_verification.compensated import true_robot
+    from robustsynth.robot_verification.simulate import applied_times, simulate_compensated
 
     name = "harsh-compensated"
     out = tmp_path / "ros2"

@@ -179,9 +179,9 @@ def test_path_certificate_and_V_with_the_previous_delay(path_solved, solved):
 def test_path_dependent_adversary_replays(path_solved):
     """The nonlinear adversary evaluates a path-dependent V with the period's delay weights, as verify
     does: the worst history, replayed by the simulator, reaches the V the search reported."""
-    from robustsynth.verification.simulate import adversarial_nonlinear
+    from robustsynth.robot_verification.simulate import adversarial_nonlinear
 
-    from ..verification.test_simulate import REPLAY_TOL, replay_worst
+    from ..robot_verification.test_simulate import REPLAY_TOL, replay_worst
 
     pm, (K, cert, _) = path_solved
     lyap = lyapunov_of(pm, cert)

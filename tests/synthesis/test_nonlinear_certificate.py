@@ -18,7 +18,7 @@ from robustsynth.cli import main
 from robustsynth.config import load_config
 from robustsynth.errors import ConfigError
 from robustsynth.model import build_model
-from robustsynth.verification.probe import boundary_probe
+from robustsynth.robot_verification.probe import boundary_probe
 
 from ..conftest import boundary_points, committed_gain, make_config
 

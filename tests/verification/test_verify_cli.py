@@ -114,7 +114,7 @@ def test_verify_without_plots_leaves_no_earlier_figures(run_dir, tmp_path) -> No
       "arcs": {"max_V_over_level_nonlinear": 1.09}}, "1.090"),
 ])
 def test_robot_leaves_is_said_only_of_a_linearized_certificate_the_robot_leaves(bp, says) -> None:
-    from robustsynth.verification.lines import robot_leaves
+    from robustsynth.robot_verification.lines import robot_leaves
 
     got = robot_leaves({"boundary_probe": bp} if bp else {}, make_config())
     assert (got == "") if says is False else (f"linearization: from the boundary of its set the nonlinear robot reaches "
@@ -126,7 +126,7 @@ def test_robot_leaves_blames_the_model_the_exact_map_leaves_and_suggests_only_wh
     """The paper's model: the exact (slip-aware) lifted map leaves the set too, so the linearization is not
     the cause (review: the note blamed it at 1.348 on the exact map).  The icr slip model has nonlinear
     kinematics now: it is suggested there too.  A nonlinear certificate the robot leaves is a defect, said so."""
-    from robustsynth.verification.lines import robot_leaves
+    from robustsynth.robot_verification.lines import robot_leaves
 
     bp = {"in_verdict": True, "max_V_over_level_nonlinear": 2.584, "max_V_over_level_linear": 1.348}
     got = robot_leaves({"boundary_probe": bp}, make_config(**{"synthesis.model": "paper"}))

@@ -1,5 +1,5 @@
 """The tracked robot's straightforward per-run reference implementations, for tests and benchmarks only: the
-oracle that the vectorized closed loop (:mod:`robustsynth.verification.simulate`) is held to.
+oracle that the vectorized closed loop (:mod:`robustsynth.robot_verification.simulate`) is held to.
 
 :func:`simulate_run` replays one run of a :class:`~robustsynth.scenarios.Scenario` with explicit actuation
 events (absolute arrival times, in-order by a running maximum) instead of the vectorized

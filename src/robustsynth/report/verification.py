@@ -10,7 +10,7 @@ from .. import __version__
 from ..artifacts.files import SCHEMA_VERSION
 from ..certificate.turns import TURN_REENTRY
 from ..objectives import labelled_figures
-from ..verification.lines import robot_leaves
+from ..robot_verification.lines import robot_leaves
 from ..results import failed_names
 from .markdown import conditions_text, fmt, table
 
@@ -118,7 +118,7 @@ def nonlinear_markdown(cfg: Any, mc: dict[str, Any]) -> str:
 
 
 def compensated_markdown(rec: dict[str, Any] | None) -> str:
-    """The slip-compensated law on the true robot (verification/compensated.py, docs/theory.md §18)."""
+    """The slip-compensated law on the true robot (robot_verification/compensated.py, docs/theory.md §18)."""
     if not rec:
         return ""
     if rec.get("skipped"):

@@ -5,7 +5,7 @@ acts, each track's traction is within ``error`` of the estimate it was compensat
 judge the robot under that condition (the ratio box is their slip).  This one closes the loop with what the
 certificate does not see: the robot's true slip moving in its true box at ``slip.max_rate``, each run's deployed
 monitor estimating it from the poses and the compensated commands, and the law dividing its commands by that
-estimate (:func:`~robustsynth.verification.simulate.simulate_compensated`).
+estimate (:func:`~robustsynth.robot_verification.simulate.simulate_compensated`).
 
 The theorem says: from a period whose state is in the set, as long as the monitored condition (half-width + lag <=
 error) holds for every command that can act, the state stays in the set.  So a step k -> k + 1 is judged where the
@@ -25,9 +25,9 @@ from ..certificate import CertificateCheck, lyapunov_of
 from ..monitor import CAUSES
 from ..plants.path import path_of
 from ..scenarios import draw_scenario
-from .lifted_checks import _previous_delays
+from ..verification.lifted_checks import _previous_delays
 from .simulate import simulate_compensated
-from .verdict import LEVEL_TOL, _check
+from ..verification.verdict import LEVEL_TOL, _check
 
 __all__ = ["compensated_checks", "covered_steps", "judge", "true_robot", "jump_recovery"]
 
@@ -59,7 +59,7 @@ def _true_error(mu: np.ndarray, mu_hat: np.ndarray, d_hi: int) -> np.ndarray:
 def compensated_checks(model, K: np.ndarray, cert: CertificateCheck, gains: dict, runs: int, seed: int,
                        progress: Callable[[int, int], None] | None = None) -> tuple[list[dict], dict[str, Any], Any]:
     """The checks of the compensated law on the true robot, their record (``verify``'s ``monte_carlo
-    ["compensated"]``) and the runs (:class:`~robustsynth.verification.simulate.CompensatedRuns`, for their logs).
+    ["compensated"]``) and the runs (:class:`~robustsynth.robot_verification.simulate.CompensatedRuns`, for their logs).
     ``model`` is the certificate's (built from a config with ``slip.compensation``)."""
     from ..artifacts.gains import controller_description
 
@@ -153,7 +153,7 @@ def true_robot(config: Any):
 def judge(model, cert: CertificateCheck, gains: dict, desc: dict, scen: Any, res: Any, seed: int
           ) -> tuple[list[dict], dict[str, Any]]:
     """The checks of :func:`compensated_checks` on runs already simulated (``scen`` drawn, ``res`` from
-    :func:`~robustsynth.verification.simulate.simulate_compensated` with the description ``desc``)."""
+    :func:`~robustsynth.robot_verification.simulate.simulate_compensated` with the description ``desc``)."""
     user = model.user_config
     runs, steps = scen.runs, scen.steps
     comp = model.compensation

@@ -304,7 +304,7 @@ def _compensated_samples(model: Any, gains: dict[str, Any], comp: dict[str, np.n
 
 def _estimator_loop(model: Any, gains: dict[str, Any], taus: np.ndarray, steps: int) -> Any:
     """For a slip-compensated law (docs/theory.md §18), the per-episode monitors and compensators of the deployed
-    controller (:class:`~robustsynth.verification.simulate.EstimatorLoop`); None otherwise."""
+    controller (:class:`~robustsynth.robot_verification.simulate.EstimatorLoop`); None otherwise."""
     if model.compensation is None:
         return None
     from ..artifacts.gains import controller_description

@@ -12,8 +12,8 @@ import pytest
 from robustsynth.certificate import check_certificate, lyapunov_of
 from robustsynth.plants.path import make_path, pose_from_error
 from robustsynth.scenarios import Scenario, random_delays
-from robustsynth.verification.probe import boundary_probe, jump_times, probe_directions
-from robustsynth.verification.simulate import simulate
+from robustsynth.robot_verification.probe import boundary_probe, jump_times, probe_directions
+from robustsynth.robot_verification.simulate import simulate
 
 from ..conftest import committed_gain
 
@@ -111,7 +111,7 @@ def test_the_local_search_finds_more_and_its_worst_state_replays(heavy) -> None:
 def test_boundary_starts_lie_on_the_boundary_with_admissible_memory(heavy) -> None:
     """The adversary's boundary starts: V = level at their slip, stored commands within the motor
     limit, at most MAX_BOUNDARY_STARTS."""
-    from robustsynth.verification.probe import MAX_BOUNDARY_STARTS, boundary_states
+    from robustsynth.robot_verification.probe import MAX_BOUNDARY_STARTS, boundary_states
 
     m, K, lyap, level = heavy
     xi, mu = boundary_states(m, K, lyap, level, seed=0)
@@ -171,7 +171,7 @@ def test_between_samples_the_probe_stays_within_the_bounds_for_all_t() -> None:
     from robustsynth.model.slip import slip_matrix
     from robustsynth.plants.kinematic import KinematicRobot
     from robustsynth.scenarios import random_delays, track_changes
-    from robustsynth.verification.probe import arc_commands, arc_period, arc_yaw_rates, errors_between_samples
+    from robustsynth.robot_verification.probe import arc_commands, arc_period, arc_yaw_rates, errors_between_samples
 
     m, K, cert = committed_gain("turns")
     chk = check_certificate(m, K, cert)

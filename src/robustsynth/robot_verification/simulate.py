@@ -303,7 +303,7 @@ def adversarial_nonlinear(model, K: np.ndarray, V_fn: Callable[..., np.ndarray],
     :func:`adversary_start` (``yaw`` builds the reference of the FREE_YAW course).
 
     ``starts`` (N, n_s): lifted states to start from instead of the steady states (the boundary of
-    the certified set, :func:`~robustsynth.verification.probe.boundary_states`), with slips ``mu0``.
+    the certified set, :func:`~robustsynth.robot_verification.probe.boundary_states`), with slips ``mu0``.
 
     ``within_period`` (slip that may jump at any time, docs/theory.md §11): from the second period on
     the adversary also picks *when* within the period each track's slip takes its new value, at

@@ -100,7 +100,7 @@ def test_workers_split_the_episodes_without_changing_them() -> None:
 
     from robustsynth import build_model, load_config
     from robustsynth.artifacts.gains import load_gains
-    from robustsynth.verification.physics import validate_physics
+    from robustsynth.robot_verification.physics import validate_physics
 
     m = build_model(load_config(ROOT / "configs" / "tracks-box.yaml"))
     g = load_gains(ROOT / "results" / "baselines" / "tracks-box" / "gains.json")
@@ -164,7 +164,7 @@ def test_on_a_path_rounded_by_arcs_the_straight_segments_leave_the_arcs_out(tmp_
     from robustsynth import build_model, load_config
     from robustsynth.artifacts.gains import load_gains
     from robustsynth.plants.path import path_of
-    from robustsynth.verification.physics import validate_physics
+    from robustsynth.robot_verification.physics import validate_physics
 
     m = build_model(load_config(ROOT / "configs" / "turns.yaml"))
     g = load_gains(ROOT / "results" / "baselines" / "turns" / "gains.json")
@@ -250,7 +250,7 @@ def test_validate_says_which_physics_robot_it_ran_and_derives_it_from_the_config
 
     from robustsynth import build_model, load_config
     from robustsynth.artifacts.gains import load_gains
-    from robustsynth.verification.physics import validate_physics
+    from robustsynth.robot_verification.physics import validate_physics
 
     cfg = _narrow_robot(tmp_path)
     r = CliRunner().invoke(main, ["validate", str(cfg), "--gains", str(ROOT / "results" / "baselines" / "tracks-box" /
@@ -298,7 +298,7 @@ def default_robot():
 
 def _alarms(model, gains, desc, inject=None, episodes=1):
     from robustsynth.runtime.replay import monitor_log
-    from robustsynth.verification.physics import validate_physics
+    from robustsynth.robot_verification.physics import validate_physics
 
     res = validate_physics(model, gains, episodes=episodes, seed=3, inject=inject)
     return [monitor_log(log, desc)["alarms"] for log in res["logs"]], res["validation"]
@@ -317,7 +317,7 @@ def test_episodes_inside_the_assumptions_raise_no_alarm(default_robot) -> None:
 def test_each_violation_injected_on_the_physics_robot_is_flagged_with_its_cause(default_robot, kind, cause, within) -> None:
     """Each kind of violation, injected from period K0 into an episode on the MuJoCo robot (validate --inject): the
     monitor names its cause within two periods (slip: within its window), and raises nothing before K0."""
-    from robustsynth.verification.physics import Injection
+    from robustsynth.robot_verification.physics import Injection
 
     alarms, val = _alarms(*default_robot, inject=Injection(kind, K0))
     assert val["injected"].startswith(f"{kind} from period {K0}")

@@ -17,7 +17,7 @@ from robustsynth.plants.reference import ivp_arc, simulate_run
 from robustsynth.plants.kinematic import arc_step
 from robustsynth.plants.path import make_path
 from robustsynth.scenarios import draw_scenario, steady_state_start
-from robustsynth.verification.simulate import adversarial_nonlinear, ADVERSARY_OBJECTIVES, adversary_start, simulate
+from robustsynth.robot_verification.simulate import adversarial_nonlinear, ADVERSARY_OBJECTIVES, adversary_start, simulate
 
 from ..conftest import make_config
 
@@ -245,7 +245,7 @@ def test_adversary_histories_replay_and_are_admissible(certified, name, within, 
     is also its reported maximum.  ``only``: the adversary may change slip only within a period (each
     track at 1/3 or 2/3 of it), so that the replay of such changes is exercised whatever the worst
     histories are."""
-    from robustsynth.verification import simulate as sim_mod
+    from robustsynth.robot_verification import simulate as sim_mod
 
     if within == "only":
         monkeypatch.setattr(sim_mod, "WITHIN_PERIOD_TIMES", (1.0 / 3.0, 2.0 / 3.0))
@@ -287,8 +287,8 @@ def test_the_adversary_along_arcs_turns_and_its_histories_replay() -> None:
     line, from the steady states (|e_y|) and from the boundary of the set (V) alike (the review of b7bf029:
     a course that started straight gave the boundary search exactly the straight line's V)."""
     from robustsynth.certificate import check_certificate, lyapunov_of
-    from robustsynth.verification.probe import boundary_states
-    from robustsynth.verification.simulate import ARC_COURSES, FREE_YAW, adversary_course, adversary_courses
+    from robustsynth.robot_verification.probe import boundary_states
+    from robustsynth.robot_verification.simulate import ARC_COURSES, FREE_YAW, adversary_course, adversary_courses
 
     from ..conftest import committed_gain
 
@@ -329,7 +329,7 @@ def test_the_adversary_that_picks_the_yaw_rates_keeps_them_admissible_and_its_hi
     from dataclasses import replace
 
     from robustsynth.certificate import lyapunov_of
-    from robustsynth.verification.simulate import FREE_YAW
+    from robustsynth.robot_verification.simulate import FREE_YAW
 
     from ..conftest import committed_gain
 
@@ -464,7 +464,7 @@ def _top_distinct_by_full_sort(score: np.ndarray, width: int) -> np.ndarray:
 def test_top_distinct_sorts_a_prefix_and_picks_what_the_full_sort_picks(n, width, levels, seed, infs) -> None:
     """Few distinct levels make ties (and runs short of distinct scores, where the full sort decides),
     -inf marks masked candidates, and ties closer than the 1e-12 tolerance count as one score."""
-    from robustsynth.verification.simulate import _top_distinct
+    from robustsynth.robot_verification.simulate import _top_distinct
 
     rng = np.random.default_rng(seed)
     score = rng.integers(0, levels, size=n).astype(float) + rng.choice([0.0, 1e-14], size=n)
@@ -477,7 +477,7 @@ def test_the_adversarys_searches_on_threads_give_what_one_thread_gives() -> None
     threads and merges them in their order: every figure and every worst history is the one of a single thread,
     bit for bit (configs/turns.yaml's committed gain: five courses, a turning model)."""
     from robustsynth.certificate import lyapunov_of
-    from robustsynth.verification.nonlinear_checks import _adversary
+    from robustsynth.robot_verification.nonlinear_checks import _adversary
 
     from ..conftest import committed_gain
 

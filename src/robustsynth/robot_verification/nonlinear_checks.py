@@ -16,11 +16,11 @@ from ..certificate.turns import turn_bounds
 from ..plants.path import path_of
 from ..runtime.replay import monitor_summary
 from ..scenarios import draw_scenario, slip_vertices, steady_state_start
-from .lifted_checks import _previous_delays
+from ..verification.lifted_checks import _previous_delays
 from .probe import boundary_probe, boundary_states
 from .simulate import (ADVERSARY_OBJECTIVES, ARC_COURSES, FREE_YAW, SimResult, adversarial_nonlinear, adversary_courses,
                        merge_adversaries, run_logs, simulate)
-from .verdict import DIVERGENCE_LIMIT, LEVEL_TOL, _check
+from ..verification.verdict import DIVERGENCE_LIMIT, LEVEL_TOL, _check
 
 
 BOUNDARY_ADVERSARY_STEPS = 50  # the adversary from the boundary: what matters happens in the first periods
@@ -203,7 +203,7 @@ def _adversary(within: bool, model, *args, workers: int = ADVERSARY_WORKERS, **k
     """:func:`adversarial_nonlinear`; where the certificate covers slip changing within a period
     (``within``), merged with the same search that also picks the times of the changes (a beam search
     with more choices keeps different histories and does not always find more); for a turning model,
-    merged with the same searches along the arcs of :func:`~robustsynth.verification.simulate.adversary_course` and
+    merged with the same searches along the arcs of :func:`~robustsynth.robot_verification.simulate.adversary_course` and
     along references whose yaw rates the adversary picks (FREE_YAW; with slip changing at the sampling instants only:
     the times within a period multiply its choices by 4 again, 17 s against 3 s on configs/turns.yaml for the same
     figures, and the fixed courses pick them).  The searches are independent: they run on ``workers`` threads and
@@ -298,7 +298,7 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
     # the runtime monitor over the runs (robustsynth.monitor; recorded, not in the verdict): they keep every
     # assumption of the certificate, so an alarm is its false alarm unless the robot left its set (judged above)
     # (a slip-compensated law: these runs are the robot under its condition, the slip its ratio mu / mu_hat, which
-    # its monitor does not watch; the monitor runs in the loop of verification/compensated.py)
+    # its monitor does not watch; the monitor runs in the loop of robot_verification/compensated.py)
     mc["monitor"] = None if model.compensation is not None else monitor_summary(run_logs(model, sim, scen), gains, model.config)
     return checks, mc, sim, ext, scen, v_ratio, np.asarray(mask)
 

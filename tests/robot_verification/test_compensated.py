@@ -1,5 +1,5 @@
-"""The slip-compensated law in closed loop (robustsynth.verification.simulate.simulate_compensated and
-robustsynth.verification.compensated; docs/theory.md §18): the simulated law is the deployed one bit for bit (the
+"""The slip-compensated law in closed loop (robustsynth.robot_verification.simulate.simulate_compensated and
+robustsynth.robot_verification.compensated; docs/theory.md §18): the simulated law is the deployed one bit for bit (the
 vectorized loop against Compensator.step per robot), the committed certificate holds wherever its condition does,
 and when the slip moves faster than the monitor assumes the checks fail (the negative control)."""
 
@@ -43,8 +43,8 @@ def test_the_simulated_compensated_law_is_the_deployed_one_bit_for_bit(setup) ->
     from robustsynth.law import Compensator, Controller
     from robustsynth.monitor import Monitor
     from robustsynth.scenarios import draw_scenario
-    from robustsynth.verification.compensated import true_robot
-    from robustsynth.verification.simulate import applied_times, simulate_compensated
+    from robustsynth.robot_verification.compensated import true_robot
+    from robustsynth.robot_verification.simulate import applied_times, simulate_compensated
 
     cfg, model, gains, K, cert, desc, path = setup
     desc = dict(desc, monitor=dict(desc["monitor"], persistence=1000))
@@ -72,7 +72,7 @@ def test_the_committed_certificate_holds_wherever_its_condition_does(setup) -> N
     """20 runs with the estimator in the loop on the true slip ([0.6, 1.04] moving at 0.02 /s): every check passes,
     the condition holds in most periods (the misses: the estimator's first periods), and the robot's errors on the
     covered samples stay within the certified bounds."""
-    from robustsynth.verification.compensated import compensated_checks
+    from robustsynth.robot_verification.compensated import compensated_checks
 
     cfg, model, gains, K, cert, desc, path = setup
     assert cert.passed
@@ -94,8 +94,8 @@ def test_a_slip_faster_than_the_monitor_assumes_fails_the_checks(setup) -> None:
     and the compensator believe the config.  The estimate then claims its condition where a command meets a
     traction farther than the error from it, and the robot leaves its set on steps the condition covered."""
     from robustsynth.scenarios import draw_scenario
-    from robustsynth.verification.compensated import judge, true_robot
-    from robustsynth.verification.simulate import simulate_compensated
+    from robustsynth.robot_verification.compensated import judge, true_robot
+    from robustsynth.robot_verification.simulate import simulate_compensated
 
     cfg, model, gains, K, cert, desc, path = setup
     d = config_to_dict(cfg)
@@ -122,7 +122,7 @@ def test_the_runs_logs_carry_the_estimate_and_replay_check_log_and_identify_read
     from robustsynth.artifacts.logs import read_log, write_log
     from robustsynth.identification import check_log, identify
     from robustsynth.runtime.replay import monitor_logs
-    from robustsynth.verification.compensated import compensated_checks
+    from robustsynth.robot_verification.compensated import compensated_checks
 
     cfg, model, gains, K, cert, desc, path = setup
     _, _, runs = compensated_checks(model, K, cert, gains, 4, 0)

@@ -53,7 +53,7 @@ def robot_leaves(mc: dict[str, Any], cfg: Any) -> str:
     The blame follows the exact lifted map on the same states: at most 1, the linearization (a certificate made
     with synthesis.kinematics: linearized); above, the certificate's model itself (the paper's, which leaves slip
     out of the commands).  It points to nonlinear kinematics only where the config can have them."""
-    from .verdict import LEVEL_TOL
+    from ..verification.verdict import LEVEL_TOL
 
     bp = mc.get("boundary_probe") or {}
     if not bp:
@@ -88,7 +88,7 @@ def robot_leaves(mc: dict[str, Any], cfg: Any) -> str:
 
 
 def jump_line(j: Mapping[str, Any] | None) -> str | None:
-    """The slip-jump experiment of the compensated law (verification/compensated.jump_recovery), one line."""
+    """The slip-jump experiment of the compensated law (robot_verification/compensated.jump_recovery), one line."""
     if not j:
         return None
     rec, back, lost = j["recovery_periods"], j["back_in_the_set_periods"], j["condition_lost_after"]
@@ -104,7 +104,7 @@ def jump_line(j: Mapping[str, Any] | None) -> str | None:
 
 
 def compensated_line(rec: Mapping[str, Any] | None) -> str | None:
-    """verify's record of the slip-compensated law on the true robot (verification/compensated.py), one line."""
+    """verify's record of the slip-compensated law on the true robot (robot_verification/compensated.py), one line."""
     if not rec or rec.get("skipped"):
         return None
     first = rec["condition_first_period"]
