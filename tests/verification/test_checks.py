@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import importlib
 import sys
-import warnings
 
 import numpy as np
 import pytest
@@ -50,13 +49,3 @@ def test_the_robot_verdict_is_imported_only_when_a_robot_is_verified() -> None:
 
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
     assert out == ["False"]
-
-
-def test_the_old_name_of_the_robot_verdict_warns_and_is_the_same_class() -> None:
-    from robustsynth.robot_verification import VerificationResult
-
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        from robustsynth.verification import VerificationResult as old
-    assert old is VerificationResult
-    assert any(issubclass(w.category, DeprecationWarning) and "robot_verification" in str(w.message) for w in caught)
