@@ -56,3 +56,21 @@ def test_no_slip_no_delay_no_saturation_is_one_arc() -> None:
     U = robot.send(robot.memory(None, 1), np.array([[0.45, 0.3]]))[0]
     out = robot.period(q, U, np.zeros(m.d_hi), np.ones(2))
     assert np.allclose(out, arc_step(q, 0.45, 0.3, m.Ts), rtol=0, atol=1e-15)
+
+
+def test_sinc_takes_each_formula_where_it_holds_on_any_shape() -> None:
+    """_sinc is sin(x)/x from |x| = 1e-4 on and the series 1 - x^2/6 below (exact to rounding there), bit for bit,
+    on arrays that are all small (a straight course), all large (an arc), mixed, 0-d and broadcast views."""
+    from robustsynth.plants.kinematic import _sinc
+
+    rng = np.random.default_rng(5)
+    mixed = np.concatenate([rng.uniform(-2e-4, 2e-4, 500), rng.uniform(-3.0, 3.0, 500), [0.0, 1e-4, -1e-4]])
+    for x in (np.zeros((4, 3)), rng.uniform(-9e-5, 9e-5, (7, 5)), rng.uniform(0.1, 3.0, (6, 2)), mixed,
+              np.array(0.0), np.array(0.7), np.broadcast_to(np.array([0.2, 0.0, 5e-5]), (4, 3))):
+        small = np.abs(x) < 1e-4
+        want = np.where(small, 1.0 - x * x / 6.0, np.sin(np.where(small, 1.0, x)) / np.where(small, 1.0, x))
+        got = _sinc(x)
+        assert isinstance(got, np.ndarray) and got.shape == np.shape(x)
+        assert np.array_equal(got, want)
+    xs = rng.uniform(-1e-3, 1e-3, 2000)  # the two formulas meet: the series is sin(x)/x to rounding below 1e-3
+    assert np.max(np.abs(_sinc(xs) - np.sin(xs) / xs)) <= 4 * np.finfo(float).eps

@@ -36,7 +36,7 @@ def slip_changes(before: np.ndarray, after: np.ndarray, t: np.ndarray) -> list:
     at t1 and both at t2 (``KinematicRobot.period``'s ``switch``).  The icr model's yaw factor changes with the
     right track's time and x_icr with the left's, so its parameters change at two instants, in either order."""
     t = np.asarray(t, dtype=float)
-    t1, t2 = np.min(t, axis=-1), np.max(t, axis=-1)
+    t1, t2 = np.minimum(t[..., 0], t[..., 1]), np.maximum(t[..., 0], t[..., 1])  # (np.min over an axis of 2: 25x slower)
     n_p = np.shape(before)[-1]
     tp = t if n_p == t.shape[-1] else t[..., [i % 2 for i in range(n_p)]]
     return [(t1, np.where(tp <= t1[..., None], after, before)), (t2, after)]

@@ -65,9 +65,15 @@ def _sinc(x: np.ndarray) -> np.ndarray:
     """sin(x) / x, 1 at 0 (numpy's sinc without its factor pi and its copies)."""
     x = np.asarray(x, dtype=float)
     small = np.abs(x) < 1e-4
-    safe = np.where(small, 1.0, x)
-    # below 1e-4 the series 1 - x^2/6 is exact to rounding (the next term, x^4/120, is below 1e-18)
-    return np.where(small, 1.0 - x * x / 6.0, np.sin(safe) / safe)
+    # below 1e-4 the series 1 - x^2/6 is exact to rounding (the next term, x^4/120, is below 1e-18); each formula
+    # evaluated only where it holds (the adversary's arrays are all small on a straight course, all large on an arc)
+    if small.all():
+        return np.asarray(1.0 - x * x / 6.0)
+    out = np.sin(x, out=np.empty_like(x))
+    np.divide(out, x, out=out, where=~small)
+    if small.any():
+        out[small] = 1.0 - x[small] * x[small] / 6.0
+    return out
 
 
 def saturate(u_hat: np.ndarray, J: np.ndarray, J_inv: np.ndarray, rho_max: float | None) -> np.ndarray:

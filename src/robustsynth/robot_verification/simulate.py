@@ -392,7 +392,8 @@ def _next_motor_speeds(model, path, free: bool, W: np.ndarray, shape: tuple, xi_
     W1 = model.turns.next_yaw_rates(W) if free else np.full((P, 1, 1), path.feedforward(t_next))  # (P, n_y, n_y')
     u1 = (uD + np.broadcast_to(W1[:, None, None, None, :, :, None], shape + W1.shape[-1:] + (1,)) * model.turn_feedforward
           + (xi_next @ K.T)[..., None, :])
-    rho_all = np.max(np.abs(u1 @ J_inv.T), axis=-1)  # shape + (n_y',)
+    rho_motors = np.abs(u1 @ J_inv.T)  # each motor's; the larger of the two (np.max over an axis of 2: 25x slower)
+    rho_all = np.maximum(rho_motors[..., 0], rho_motors[..., 1])  # shape + (n_y',)
     w1_arg = np.argmax(rho_all, axis=-1)
     rho = np.take_along_axis(rho_all, w1_arg[..., None], axis=-1)[..., 0]
     return W1, w1_arg, rho
