@@ -3,7 +3,7 @@
 Any plant: :func:`verify` hands the plant to its kind's verifier (:data:`VERIFIERS`): the tracked robot's
 (:func:`robustsynth.robot_verification.verify.verify_robot`: the certificate's re-check, frozen delays, the lifted
 model, the nonlinear robot; its pass/fail rules there and in docs/reference/verification.md) or the linear plant's
-(:func:`robustsynth.verification.lti.verify_plant`).  This room is plant-generic: it names the plants' verifiers
+(:func:`robustsynth.verification.lti.verify_linear`).  This room is plant-generic: it names the plants' verifiers
 and imports one only when a plant of its kind is verified, as the objectives' registry names their designs."""
 
 from __future__ import annotations
@@ -13,28 +13,14 @@ from typing import Any, Callable
 
 from ..objectives import scalar_figures
 
-__all__ = ["VERIFIERS", "claimed_beyond", "verify", "verify_linear"]
+__all__ = ["VERIFIERS", "claimed_beyond", "verify"]
 
 # each plant kind's verifier (robustsynth.objectives.PLANTS): its module and function, imported when a plant of the
 # kind is verified (a new plant: one verifier module and one line here)
 VERIFIERS = {
     "tracked-robot": ("robustsynth.robot_verification.verify", "verify_robot"),
-    "lti": ("robustsynth.verification.checks", "verify_linear"),
+    "lti": ("robustsynth.verification.lti", "verify_linear"),
 }
-
-
-def verify_linear(plant: Any, gains: Any, runs: int | None = None, seed: int | None = None,
-                  progress: Callable[[int, int], None] | None = None) -> Any:
-    """:func:`verify` for a linear plant: a design, a gains mapping or a gains file (read here, named in its
-    problems), verified by :func:`robustsynth.verification.lti.verify_plant`."""
-    from pathlib import Path
-
-    from ..artifacts.gains import load_gains
-    from .lti import verify_plant
-
-    if isinstance(gains, (str, Path)):
-        return verify_plant(plant, load_gains(gains), runs, seed, where=str(gains))
-    return verify_plant(plant, gains, runs, seed)
 
 
 def claimed_beyond(claimed: dict[str, Any], figures: dict[str, Any]) -> list[str]:

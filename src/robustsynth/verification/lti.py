@@ -17,14 +17,14 @@ is a counterexample to the certificate, not a modelling artefact.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
 from ..core.network import Network, s_tilde_sequence
 from ..results import Check, Verdict, all_passed
 
-__all__ = ["verify_lti", "verify_plant", "certified_gain", "checked_gain", "CONSTANT_DELAYS", "TOL"]
+__all__ = ["verify_lti", "verify_plant", "verify_linear", "certified_gain", "checked_gain", "CONSTANT_DELAYS", "TOL"]
 
 CONSTANT_DELAYS = 201
 TOL = 1e-9  # relative: the simulation's own rounding
@@ -416,3 +416,16 @@ def verify_plant(plant: Any, gains: Any, runs: int | None = None, seed: int | No
     return Verdict.from_dict(verify_lti(plant.arrays, K, P, net.sampling_time, net.delay_min, net.delay_max,
                                         net.max_lost, figures, runs=64 if runs is None else runs,
                                         seed=0 if seed is None else seed, multipliers=eps, pieces=pieces))
+
+
+def verify_linear(plant: Any, gains: Any, runs: int | None = None, seed: int | None = None,
+                  progress: Callable[[int, int], None] | None = None) -> Verdict:
+    """The linear plant's verifier (``robustsynth.verify``'s, :data:`robustsynth.verification.checks.VERIFIERS`): a
+    design, a gains mapping or a gains file (read here, named in its problems), verified by :func:`verify_plant`."""
+    from pathlib import Path
+
+    from ..artifacts.gains import load_gains
+
+    if isinstance(gains, (str, Path)):
+        return verify_plant(plant, load_gains(gains), runs, seed, where=str(gains))
+    return verify_plant(plant, gains, runs, seed)
