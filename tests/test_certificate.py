@@ -319,3 +319,29 @@ def test_the_default_probe_between_samples_stays_within_the_all_t_bounds():
     assert all(rise[k] <= chord[k] for k in ("e_x", "e_y")), (rise, chord)
     # the chord terms joined to the start (docs/theory §12): the bounds for all t add less than the terms at their worst
     assert all(bound[k] - sampled[k] < chord[k] for k in ("e_x", "e_y")), (bound, sampled, chord)
+
+
+PRODUCT_REL = 1e-13  # one matrix product of O(1) entries summed in another order (BLAS's kernels): a few roundings
+
+
+@given(seed=st.integers(0, 2**32 - 1), batch=st.lists(st.integers(1, 6), min_size=0, max_size=4),
+       n=st.integers(1, 9), m=st.integers(1, 4), view=st.sampled_from(["contiguous", "broadcast", "transposed"]))
+@settings(max_examples=60, deadline=None)
+def test_rows_times_is_the_stacked_product(seed, batch, n, m, view) -> None:
+    """``rows_times(x, M)`` (one 2-D product for a contiguous batch of rows) is ``x @ M`` up to the rounding of the
+    sums, for any batch shape, and for the layouts it leaves to the stacked product (broadcast views, a transposed
+    M) too; V_max, which uses it, is each matrix's quadratic form."""
+    from robustsynth.certificate.lyapunov import Lyapunov, rows_times
+
+    rng = np.random.default_rng(seed)
+    x = rng.normal(size=tuple(batch) + (n,))
+    if view == "broadcast":
+        x = np.broadcast_to(x[..., None, :], x.shape[:-1] + (3, n))
+    M = rng.normal(size=(m, n)).T if view == "transposed" else rng.normal(size=(n, m))
+    got, ref = rows_times(x, M), x @ M
+    assert got.shape == ref.shape
+    assert np.all(np.abs(got - ref) <= PRODUCT_REL * (np.abs(x) @ np.abs(M) + 1e-300))
+    S = _random_spd(rng, n)
+    lyap = Lyapunov(None, (S,), (np.linalg.inv(S),))
+    quad = np.einsum("...i,ij,...j->...", x, lyap.P[0], x)
+    assert np.allclose(lyap.V_max(x), quad, rtol=PRODUCT_REL * n * 10, atol=0.0)

@@ -10,7 +10,19 @@ import numpy as np
 
 from .lmis import _sym
 
-__all__ = ["Lyapunov", "lyapunov_of"]
+__all__ = ["Lyapunov", "lyapunov_of", "rows_times"]
+
+
+def rows_times(x: np.ndarray, M: np.ndarray) -> np.ndarray:
+    """``x @ M`` for a batch of row vectors ``x`` (..., n) and a small matrix ``M`` (n, m), as one 2-D product where
+    ``x`` is C-contiguous: numpy's matmul over a stack of (1, n) rows runs one tiny product per row (the adversary's
+    66 816 candidates x 5 states: 7.2 ms against 0.6 ms as one product, BLAS on one thread).  The sums are those of a
+    matrix product either way; their rounding may differ in the last bit (BLAS's kernels).  Other layouts (broadcast
+    views) keep the stacked product."""
+    x = np.asarray(x)
+    if x.ndim <= 2 or not x.flags.c_contiguous:
+        return x @ M
+    return (x.reshape(-1, x.shape[-1]) @ M).reshape(x.shape[:-1] + (M.shape[-1],))
 
 
 @dataclass(frozen=True)
@@ -75,7 +87,7 @@ class Lyapunov:
 
     def V_max(self, xi: np.ndarray) -> np.ndarray:
         xi = np.asarray(xi, dtype=float)
-        vals = [np.sum((xi @ P) * xi, axis=-1) for P in self.P]
+        vals = [np.sum(rows_times(xi, P) * xi, axis=-1) for P in self.P]
         return np.max(vals, axis=0)
 
 
