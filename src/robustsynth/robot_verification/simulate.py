@@ -395,8 +395,8 @@ def _next_motor_speeds(model, path, free: bool, W: np.ndarray, shape: tuple, xi_
           + rows_times(xi_next, K.T)[..., None, :])
     # each motor's |rho| = |J_inv u1|, written out (a stacked matmul of 2 x 2 products: ~11x slower), and the larger of
     # the two (np.max over an axis of 2: 25x slower)
-    v1, w1 = u1[..., 0], u1[..., 1]
-    rho_all = np.maximum(np.abs(v1 * J_inv[0, 0] + w1 * J_inv[0, 1]), np.abs(v1 * J_inv[1, 0] + w1 * J_inv[1, 1]))
+    u_v, u_w = u1[..., 0], u1[..., 1]  # (not W1: the command's forward speed and yaw rate)
+    rho_all = np.maximum(np.abs(u_v * J_inv[0, 0] + u_w * J_inv[0, 1]), np.abs(u_v * J_inv[1, 0] + u_w * J_inv[1, 1]))
     w1_arg = np.argmax(rho_all, axis=-1)
     rho = np.take_along_axis(rho_all, w1_arg[..., None], axis=-1)[..., 0]
     return W1, w1_arg, rho
