@@ -15,9 +15,9 @@ PKG = "robustsynth"
 
 # bottom -> top; a name covers the module and everything under it (longest match wins)
 LAYERS: list[tuple[str, ...]] = [
-    ("robustsynth", "robustsynth.errors", "robustsynth.law", "robustsynth.monitor", "robustsynth.objectives",
-     "robustsynth.results", "robustsynth.verified"),  # the face, errors, the pure law and its monitor, the objectives'
-    # descriptors, verified arithmetic
+    ("robustsynth", "robustsynth.errors", "robustsynth.forked", "robustsynth.law", "robustsynth.monitor",
+     "robustsynth.objectives", "robustsynth.results", "robustsynth.verified"),  # the face, errors, work in a forked
+    # child, the pure law and its monitor, the objectives' descriptors, verified arithmetic
     ("robustsynth.config",),
     ("robustsynth.core",),  # what every plant shares: the network and its delay / loss sequences
     ("robustsynth.model",),

@@ -1,4 +1,4 @@
-"""The console's heartbeat across a fork (robustsynth.report.progress, the remedies' tries of synthesis/forked.py)."""
+"""The console's heartbeat across a fork (robustsynth.report.progress, the remedies' tries of robustsynth/forked.py)."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ def test_a_forked_child_prints_through_a_heartbeat_another_thread_was_holding() 
     thread forks: the fork waits for it, so the child's copy of the lock is free and the child's line goes out; the
     parent's heartbeat works on after the fork."""
     from robustsynth.report import progress
-    from robustsynth.synthesis import forked
+    from robustsynth import forked
 
     if not forked.AVAILABLE:
         pytest.skip("no fork here")

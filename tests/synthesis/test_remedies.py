@@ -229,7 +229,8 @@ def test_tries_run_two_at_once_each_in_a_process_of_its_own_and_keep_their_order
     import os
 
     from robustsynth.model import build_model
-    from robustsynth.synthesis import forked, remedies
+    from robustsynth import forked
+    from robustsynth.synthesis import remedies
 
     if not forked.AVAILABLE:
         pytest.skip("no fork here")
@@ -255,7 +256,8 @@ def test_a_try_that_raises_or_dies_in_its_process_is_named_so() -> None:
 
     from robustsynth.errors import InputError
     from robustsynth.model import build_model
-    from robustsynth.synthesis import forked, remedies
+    from robustsynth import forked
+    from robustsynth.synthesis import remedies
 
     if not forked.AVAILABLE:
         pytest.skip("no fork here")
@@ -278,7 +280,8 @@ def test_tries_still_running_at_the_budget_s_end_are_stopped_there(tmp_path) -> 
     import time
 
     from robustsynth.model import build_model
-    from robustsynth.synthesis import forked, remedies
+    from robustsynth import forked
+    from robustsynth.synthesis import remedies
 
     if not forked.AVAILABLE:
         pytest.skip("no fork here")
@@ -351,7 +354,7 @@ def test_tries_die_with_a_parent_killed_by_sigkill(tmp_path) -> None:
     import signal
     import time
 
-    from robustsynth.synthesis import forked
+    from robustsynth import forked
 
     if not forked.AVAILABLE:
         pytest.skip("no fork here")
@@ -372,7 +375,7 @@ def test_sigterm_while_tries_run_stops_them_all(tmp_path) -> None:
     import signal
     import time
 
-    from robustsynth.synthesis import forked
+    from robustsynth import forked
 
     if not forked.AVAILABLE:
         pytest.skip("no fork here")
@@ -394,7 +397,8 @@ def test_a_try_the_system_gives_no_process_is_named_and_the_others_run(monkeypat
     import os
 
     from robustsynth.model import build_model
-    from robustsynth.synthesis import forked, remedies
+    from robustsynth import forked
+    from robustsynth.synthesis import remedies
 
     if not forked.AVAILABLE:
         pytest.skip("no fork here")

@@ -29,8 +29,9 @@ def stop_heartbeats() -> None:
 
 
 def _hold_for_fork() -> None:
-    """Before a fork (the remedies' tries, synthesis/forked.py): no heartbeat is mid-line, so the child's copies of
-    its lock and of stderr's are free (a lock another thread held at the fork stays held in the child for ever)."""
+    """Before a fork (robustsynth/forked.py: the remedies' tries, the verification's checks beside the adversary): no
+    heartbeat is mid-line, so the child's copies of its lock and of stderr's are free (a lock another thread held at
+    the fork stays held in the child for ever)."""
     for beat in _HEARTBEATS:
         beat.lock.acquire()
 

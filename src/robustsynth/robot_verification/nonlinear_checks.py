@@ -12,6 +12,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ..certificate import CertificateCheck, lyapunov_of
+from ..forked import beside
 from ..certificate.turns import turn_bounds
 from ..plants.path import path_of
 from ..runtime.replay import monitor_summary
@@ -218,6 +219,19 @@ def _adversary(within: bool, model, *args, workers: int = ADVERSARY_WORKERS, **k
     return out
 
 
+def beside_on_one_core(fn: Callable[[], Any]) -> Any:
+    """``fn()`` beside this process (:func:`robustsynth.forked.beside`: a forked child where there are two cores),
+    BLAS on one thread there: it shares the cores with the adversary's threads.  ``.result()`` its value."""
+
+    def alone() -> Any:
+        from threadpoolctl import threadpool_limits
+
+        with threadpool_limits(limits=1, user_api="blas"):
+            return fn()
+
+    return beside(alone)
+
+
 def _threaded(fn: Callable[[Any], Any], jobs: list, workers: int) -> list:
     """``[fn(job) for job in jobs]`` on ``workers`` threads, BLAS on one thread meanwhile (the threads share the
     cores).  An interrupt reaches the jobs through :func:`~robustsynth.errors.check_interrupt` (every period of a
@@ -272,8 +286,28 @@ def describe_adversary_run(model, worst: dict[str, Any], starts: np.ndarray, lev
 
 
 def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: int, progress):
-    vc = model.config.verification
     r = _draw_runs(model, K, cert, gains, runs, seed, progress)
+    # the runtime monitor over the runs (robustsynth.monitor; recorded, not in the verdict): they keep every
+    # assumption of the certificate, so an alarm is its false alarm unless the robot left its set (judged below)
+    # (a slip-compensated law: these runs are the robot under its condition, the slip its ratio mu / mu_hat, which
+    # its monitor does not watch; the monitor runs in the loop of robot_verification/compensated.py).  It runs on
+    # one core beside the adversary's threads (forked.beside): its record is the same whenever it runs.
+    monitor = None if model.compensation is not None else beside_on_one_core(
+        lambda: monitor_summary(run_logs(model, r.sim, r.scen), gains, model.config))
+    try:
+        checks, mc, v_ratio, mask = _judge_runs(r, runs, seed)
+        mc["monitor"] = None if monitor is None else monitor.result()
+    finally:
+        if monitor is not None:
+            monitor.kill()
+    return checks, mc, r.sim, r.ext, r.scen, v_ratio, mask
+
+
+def _judge_runs(r: "_Runs", runs: int, seed: int) -> tuple[list, dict[str, Any], np.ndarray | None, np.ndarray]:
+    """:func:`_nonlinear`'s checks of the drawn runs: its checks, the Monte Carlo record, V/level of the runs (None
+    without a certified set) and the steps the verdict covers."""
+    model, K, cert, gains = r.model, r.K, r.cert, r.gains
+    vc = model.config.verification
     sim, ext, scen = r.sim, r.ext, r.scen
     finite = bool(np.all(np.isfinite(sim.q)) and np.all(np.isfinite(ext.q)))
     ub = cert.figures.get("ultimate_bound") if cert.passed else None
@@ -295,12 +329,7 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
         mc["beyond_cap"] = _beyond_cap(model, K, gains, cert, ub, runs, seed)
     mc["excluded"] = rule
     checks += _bound_checks(r, mc, mask, mask_ext, adv, ub, slack, finite, rule)
-    # the runtime monitor over the runs (robustsynth.monitor; recorded, not in the verdict): they keep every
-    # assumption of the certificate, so an alarm is its false alarm unless the robot left its set (judged above)
-    # (a slip-compensated law: these runs are the robot under its condition, the slip its ratio mu / mu_hat, which
-    # its monitor does not watch; the monitor runs in the loop of robot_verification/compensated.py)
-    mc["monitor"] = None if model.compensation is not None else monitor_summary(run_logs(model, sim, scen), gains, model.config)
-    return checks, mc, sim, ext, scen, v_ratio, np.asarray(mask)
+    return checks, mc, v_ratio, np.asarray(mask)
 
 
 @dataclass(frozen=True)
@@ -388,9 +417,16 @@ def _on_the_set(r: _Runs, checks: list, mc: dict[str, Any]) -> tuple[np.ndarray,
                              "nonlinear: re-enters the certified set from a start outside it", not_back == 0, not_back, 0,
                              "runs that did not re-enter before the next waypoint (the set is attracting)" if at_waypoints
                              else "runs that did not re-enter before the end of the path (the set is attracting)"))
-    adv = adv_v = None
-    if model.config.verification.adversarial_runs:
-        adv, adv_v = _adversarial(r, lyap, level, mc)
+    # the boundary probe on one core beside the adversary's threads (forked.beside): its result is the same whenever
+    # it runs
+    probe_job = beside_on_one_core(lambda: _probe(r, lyap, level))
+    try:
+        adv = adv_v = None
+        if model.config.verification.adversarial_runs:
+            adv, adv_v = _adversarial(r, lyap, level, mc)
+        probe = probe_job.result()
+    finally:
+        probe_job.kill()
     mc["V_over_level"] = {
         "max_in_certified_steps": float(max(np.max(np.where(mask, v_ratio, 0.0)), np.max(np.where(mask_ext, v_ext, 0.0)))),
         "fraction_of_certified_steps_outside": float(np.sum((v_ratio > 1.0) & mask) / max(np.sum(mask), 1)),
@@ -398,7 +434,7 @@ def _on_the_set(r: _Runs, checks: list, mc: dict[str, Any]) -> tuple[np.ndarray,
                                + (int(np.sum(adv_v > 1.0 + LEVEL_TOL)) if adv is not None else 0)),
         "waypoints": switches,
     }
-    probe = _boundary(r, lyap, level, mc)
+    _boundary(r, lyap, level, mc, probe)
     checks += _boundary_checks(r, probe, mc)
     worst_v = max(mc["V_over_level"]["max_in_certified_steps"], mc["adversarial"]["max_V_over_level"] if adv else 0.0)
     checks.append(_check("nonlinear: the robot's lifted state stays in the certified set", worst_v <= 1.0 + LEVEL_TOL,
@@ -445,17 +481,21 @@ def _adversarial(r: _Runs, lyap: Any, level: float, mc: dict[str, Any]) -> tuple
     return adv, adv_v
 
 
-def _boundary(r: _Runs, lyap: Any, level: float, mc: dict[str, Any]) -> dict[str, Any]:
-    """The boundary probe and the adversary from the boundary, and the bounds through the waypoint turns (their
-    records into ``mc``): the probe's result."""
+def _probe(r: _Runs, lyap: Any, level: float) -> dict[str, Any]:
+    """The boundary probe of the certified set on the nonlinear robot (:func:`.probe.boundary_probe`).  The verdict
+    judges the robot, whatever the certificate's kind (issue 49): a nonlinear certificate claims that no state of its
+    set leaves it (docs/theory.md §9); a linearized one proves it for the robot's linearization only, and where the
+    robot leaves its set the verdict says so (it fails) and names the state, slip, delays and period that did it
+    (docs/theory.md §7)."""
+    return boundary_probe(r.model, r.K, lyap, level, samples=PROBE_SAMPLES, seed=r.seed,
+                          within_period=r.cert.figures.get("slip_within_period") == "covered", refine=PROBE_REFINE)
+
+
+def _boundary(r: _Runs, lyap: Any, level: float, mc: dict[str, Any], probe: dict[str, Any]) -> None:
+    """The boundary ``probe``'s record and the adversary from the boundary, and the bounds through the waypoint turns
+    (their records into ``mc``)."""
     model, K, cert, gains, seed, within = r.model, r.K, r.cert, r.gains, r.seed, r.within
     vc = model.config.verification
-    # the verdict judges the robot, whatever the certificate's kind (issue 49): a nonlinear certificate claims
-    # that no state of its set leaves it (docs/theory.md §9); a linearized one proves it for the robot's
-    # linearization only, and where the robot leaves its set the verdict says so (it fails) and names the
-    # state, slip, delays and period that did it (docs/theory.md §7)
-    probe = boundary_probe(model, K, lyap, level, samples=PROBE_SAMPLES, seed=seed,
-                           within_period=cert.figures.get("slip_within_period") == "covered", refine=PROBE_REFINE)
     nonlinear_proof = gains["certificate"].get("kinematics", "linearized") == "nonlinear"
     mc["boundary_probe"] = {k: v for k, v in probe.items() if k not in ("worst", "searched_states") and v is not None}
     mc["boundary_probe"]["in_verdict"] = True
@@ -484,7 +524,6 @@ def _boundary(r: _Runs, lyap: Any, level: float, mc: dict[str, Any]) -> dict[str
     # waypoint turns: the certificate's bounds through each frame change, beside the verdict (the
     # measured switch values are in V_over_level.waypoints); docs/theory.md §10
     mc["turns"] = turn_bounds(model, K, gains["certificate"], cert.figures)
-    return probe
 
 
 def _boundary_checks(r: _Runs, probe: dict[str, Any], mc: dict[str, Any]) -> list[dict[str, Any]]:

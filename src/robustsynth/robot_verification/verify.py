@@ -37,7 +37,7 @@ from ..results import failed_names
 from ..verification.checks import claimed_beyond
 from ..verification.lifted_checks import _frozen, _lifted
 from ..verification.verdict import _check
-from .nonlinear_checks import _nonlinear
+from .nonlinear_checks import _nonlinear, beside_on_one_core
 from .simulate import SimResult
 
 __all__ = ["VerificationResult", "verify_robot"]
@@ -198,8 +198,13 @@ def verify_robot(model, gains: Any, runs: int | None = None, seed: int | None = 
                              str(exc)))
     cert_rate = cert.figures.get("decay_rate") if cert.passed else None
     fchecks, frozen = _frozen(model, K, cert_rate)
-    lchecks, lifted, traces = _lifted(model, K, cert, gains)
-    nchecks, mc, sim, ext, scen, v_ratio, mask = _nonlinear(model, K, cert, gains, runs, seed, progress)
+    # the lifted model's checks run on one core beside the nonlinear robot's (the same whenever they run)
+    lifted_job = beside_on_one_core(lambda: _lifted(model, K, cert, gains))
+    try:
+        nchecks, mc, sim, ext, scen, v_ratio, mask = _nonlinear(model, K, cert, gains, runs, seed, progress)
+        lchecks, lifted, traces = lifted_job.result()
+    finally:
+        lifted_job.kill()
     checks += fchecks + lchecks + nchecks
     comp_runs = None
     if model.compensation is not None:  # the runs above keep the certificate's condition; these close the loop

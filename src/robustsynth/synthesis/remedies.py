@@ -127,7 +127,7 @@ def try_remedies(model: Any, first_try: FirstTry, say: Callable[[str], None], bu
             plan.append((what, changed, None))
     lines = {k: named for k, (_, _, named) in enumerate(plan) if named is not None}
     todo = [k for k, (_, _, named) in enumerate(plan) if named is None]
-    from . import forked
+    from .. import forked
 
     if workers is None:  # (one core: two tries at once would each get half of it)
         workers = min(PARALLEL, os.cpu_count() or 1) if forked.AVAILABLE else 1
@@ -205,7 +205,7 @@ def _at_once(tries: _Tries, todo: list[int], lines: dict[int, str]) -> None:
     """The tries ``tries.workers`` at a time, each in a forked process; this one waits for them (a signal's handler
     runs meanwhile, and the children it leaves are killed)."""
     from ..errors import RobustSynthError, check_interrupt
-    from . import forked
+    from .. import forked
 
     queue = list(todo)
     running: dict[Any, int] = {}

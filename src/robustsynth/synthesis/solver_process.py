@@ -280,3 +280,7 @@ def _child_main(parent: int) -> None:
 
 if __name__ == "__main__":
     _child_main(int(sys.argv[1]))
+else:  # imported (the parent's side): a forked child forgets this process's solvers and kills its own at its end
+    from .. import forked as _forked
+
+    _forked.in_children(forget_inherited, kill_all)

@@ -1,7 +1,8 @@
 """A call run in a forked child process, its result read back through a pipe: work beside this process's own.
 
-The remedies' quick tries (:mod:`.remedies`) are searches of their own, each on a changed config; on two cores two of
-them run at once.  Threads cannot carry them: a search enters ``warnings.catch_warnings`` and points file descriptor 2
+The remedies' quick tries (:mod:`robustsynth.synthesis.remedies`) are searches of their own, each on a changed config;
+on two cores two of them run at once.  The robot's verification runs its single-threaded checks this way beside the
+adversary's threads (:func:`beside`).  Threads cannot carry them: a search enters ``warnings.catch_warnings`` and points file descriptor 2
 at a pipe around each solve (:mod:`.solve`), both process-wide.  A fork can: the child has the parent's memory (the
 imported modules, the model, the callable), runs the call, and sends back its pickled result; nothing is imported or
 pickled on the way in.
@@ -9,7 +10,10 @@ pickled on the way in.
 The child takes no signal: SIGINT and SIGTERM are ignored there (the parent decides; a Ctrl-C reaches the whole
 process group), and on Linux it gets SIGKILL when the parent dies (``PR_SET_PDEATHSIG``).  It never unwinds into the
 parent's frames: whatever the call does, the child ends with ``os._exit`` after killing its own solver processes.
-The parent kills the children it no longer waits for (:meth:`Forked.kill`).  POSIX only (``AVAILABLE``)."""
+The parent kills the children it no longer waits for (:meth:`Forked.kill`).  POSIX only (``AVAILABLE``).
+
+A room above that keeps processes of its own registers what a child does with them (:func:`in_children`: the
+synthesis' solver processes are the parent's, and the child kills its own before it ends).  Standard library only."""
 
 from __future__ import annotations
 
@@ -21,12 +25,19 @@ import sys
 import time
 from typing import Any, Callable
 
-from . import solver_process
-
-__all__ = ["AVAILABLE", "ChildError", "Forked", "Raised", "wait_any"]
+__all__ = ["AVAILABLE", "ChildError", "Forked", "Raised", "beside", "in_children", "wait_any"]
 
 AVAILABLE = hasattr(os, "fork") and sys.platform.startswith("linux")
 POLL_S = 0.2  # [s] the parent's wait wakes this often (a signal's handler runs at once anyway)
+
+# what a child does first and last (in_children): (at its start, at its end) pairs
+_CHILD_HOOKS: list[tuple[Callable[[], None], Callable[[], None]]] = []
+
+
+def in_children(start: Callable[[], None], end: Callable[[], None]) -> None:
+    """Have every child call ``start()`` before its call and ``end()`` after it (before it exits, whatever the call
+    did): how a room forgets the processes it inherited and kills the ones it started."""
+    _CHILD_HOOKS.append((start, end))
 
 
 class ChildError(RuntimeError):
@@ -120,6 +131,59 @@ class Forked:
             pass
 
 
+class _Here:
+    """:func:`beside`'s value where no child is forked: ``fn()`` computed when its result is asked for."""
+
+    def __init__(self, fn: Callable[[], Any]) -> None:
+        self._fn = fn
+
+    def result(self) -> Any:
+        return self._fn()
+
+    def kill(self) -> None:
+        pass
+
+
+class _Beside:
+    """:func:`beside`'s value: ``fn()`` in a forked child; where the child fails, the call again here."""
+
+    def __init__(self, fn: Callable[[], Any]) -> None:
+        self._fn = fn
+        self._child: Forked | None = Forked(fn)
+
+    def result(self) -> Any:
+        child, self._child = self._child, None
+        if child is None:
+            raise RuntimeError("beside: the result was asked for twice")
+        try:
+            return child.result()
+        except (ChildError, Raised):  # what it raised is raised here as itself, with its traceback
+            return self._fn()
+
+    def kill(self) -> None:
+        if self._child is not None:
+            self._child.kill()
+            self._child = None
+
+
+def _cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def beside(fn: Callable[[], Any]) -> _Beside | _Here:
+    """``fn()`` computed beside this process (in a forked child where there are two cores or more and a fork,
+    else here when it is asked for): ``.result()`` its value (the call again in this process where the child failed,
+    so that an exception is raised as itself), ``.kill()`` stops it when its value is no longer wanted.  For a call
+    whose value does not depend on when it runs: it sees this process's memory as it was at the fork, and what it
+    changes there stays in the child."""
+    if AVAILABLE and _cores() > 1:
+        return _Beside(fn)
+    return _Here(fn)
+
+
 def wait_any(running: list[Forked], until: float = float("inf")) -> Forked | None:
     """Wait until one of ``running`` has its result in (or died): that one; None once ``until`` (time.perf_counter)
     has passed.  A signal's handler runs meanwhile (the CLI's raises :class:`~robustsynth.errors.Interrupted`; the
@@ -143,7 +207,8 @@ def _child(fn: Callable[[], Any], expected: tuple[type[BaseException], ...], w: 
         _die_with_parent()
         if os.getppid() != parent:  # the parent died before the line above took effect
             os._exit(1)
-        solver_process.forget_inherited()  # the parent's solver processes are the parent's
+        for start, _end in _CHILD_HOOKS:  # e.g. the parent's solver processes are the parent's
+            start()
         try:
             out: tuple[str, Any] = ("ok", fn())
         except expected as exc:
@@ -157,7 +222,8 @@ def _child(fn: Callable[[], Any], expected: tuple[type[BaseException], ...], w: 
         code = 1
     finally:
         try:
-            solver_process.kill_all()
+            for _start, end in _CHILD_HOOKS:
+                end()
             sys.stdout.flush()
             sys.stderr.flush()
         finally:
