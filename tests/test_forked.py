@@ -13,7 +13,7 @@ from robustsynth import forked
 
 WAIT_S = 30.0  # [s] the longest a test waits for a child to be gone (a loaded machine is slow to reap)
 
-needs_fork = pytest.mark.skipif(not (forked.AVAILABLE and forked._cores() > 1),
+needs_fork = pytest.mark.skipif(not (forked.AVAILABLE and forked.cores() > 1),
                                 reason="beside forks only where there is a fork and two cores")
 
 

@@ -136,8 +136,11 @@ class Jobs(ABC):
         passed = res.passed
         if physics:
             con.say("[validate on the physics robot]")
+            from .forked import cores
+
+            # the episodes on the cores there are (each has its own random stream: the same results on any number)
             vd = validation_stage(res.verification.model, out / "gains.json", out / "validation", episodes=physics,
-                                  plots=plots)
+                                  plots=plots, workers=min(physics, cores()))
             con.say(console.physics_line(vd, physics))
             passed = passed and vd["passed"]
         _export_verified(out, con, export_to, res.passed)

@@ -25,7 +25,7 @@ import sys
 import time
 from typing import Any, Callable
 
-__all__ = ["AVAILABLE", "ChildError", "Forked", "Raised", "beside", "in_children", "wait_any"]
+__all__ = ["AVAILABLE", "ChildError", "Forked", "Raised", "beside", "cores", "in_children", "wait_any"]
 
 AVAILABLE = hasattr(os, "fork") and sys.platform.startswith("linux")
 POLL_S = 0.2  # [s] the parent's wait wakes this often (a signal's handler runs at once anyway)
@@ -166,7 +166,8 @@ class _Beside:
             self._child = None
 
 
-def _cores() -> int:
+def cores() -> int:
+    """The cores this process may run on."""
     try:
         return len(os.sched_getaffinity(0))
     except (AttributeError, OSError):
@@ -179,7 +180,7 @@ def beside(fn: Callable[[], Any]) -> _Beside | _Here:
     so that an exception is raised as itself), ``.kill()`` stops it when its value is no longer wanted.  For a call
     whose value does not depend on when it runs: it sees this process's memory as it was at the fork, and what it
     changes there stays in the child."""
-    if AVAILABLE and _cores() > 1:
+    if AVAILABLE and cores() > 1:
         return _Beside(fn)
     return _Here(fn)
 

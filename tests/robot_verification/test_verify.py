@@ -19,7 +19,7 @@ from ..conftest import ROOT
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not (forked.AVAILABLE and forked._cores() > 1), reason="nothing is forked here")
+@pytest.mark.skipif(not (forked.AVAILABLE and forked.cores() > 1), reason="nothing is forked here")
 def test_the_verdict_is_the_same_with_its_checks_forked_beside_or_run_here(monkeypatch):
     d = yaml.safe_load((ROOT / "configs" / "default.yaml").read_text())
     # no adversary (its threads are no check's input): the children's values against the same calls made here
