@@ -124,3 +124,19 @@ def test_a_sweep_figure_marks_the_points_that_failed_verification() -> None:
     assert len(marks) == 1 and list(marks[0].get_ydata()) == [6.0]  # the third point, 6 cm
     assert "1 failed verification" in ax.get_title()
     plt.close(fig)
+
+
+def test_write_figures_renders_every_other_figure_beside_and_the_files_are_the_same(polyline, tmp_path,
+                                                                                    monkeypatch) -> None:
+    """write_figures renders every other figure in a forked child (robustsynth.forked.beside): every figure is
+    written, in FIGURES' order, with the same bytes as when all are rendered in this process."""
+    from robustsynth import forked
+    from robustsynth.report.plots import FIGURES, write_figures
+
+    m, res = polyline
+    beside = write_figures(res, m, tmp_path / "beside")
+    monkeypatch.setattr(forked, "AVAILABLE", False)
+    here = write_figures(res, m, tmp_path / "here")
+    assert list(beside) == list(here) == list(FIGURES)
+    for name in FIGURES:
+        assert beside[name].read_bytes() == here[name].read_bytes(), name

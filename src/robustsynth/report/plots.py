@@ -362,20 +362,32 @@ def write_figures(res, model, outdir: str | Path, fmt: str = "png") -> dict[str,
         "ellipsoid": lambda: fig_ellipsoid(res, model),
         "frozen": lambda: fig_frozen(res, model),
     }
-    written = {}
     from ..errors import check_interrupt
+    from ..forked import beside
 
-    for name, make in makers.items():
-        check_interrupt()
-        fig = make()
-        buf = io.BytesIO()
-        meta = {"Software": None} if fmt == "png" else ({"Creator": None, "Producer": None, "CreationDate": None} if fmt == "pdf" else {"Date": None})
-        fig.savefig(buf, format=fmt, dpi=110, metadata=meta)
-        plt.close(fig)
-        path = outdir / f"{name}.{fmt}"
-        atomic_write(path, buf.getvalue())
-        written[name] = path
-    return written
+    def render(names: list[str]) -> dict[str, Path]:
+        out = {}
+        for name in names:
+            check_interrupt()
+            fig = makers[name]()
+            buf = io.BytesIO()
+            meta = {"Software": None} if fmt == "png" else ({"Creator": None, "Producer": None, "CreationDate": None} if fmt == "pdf" else {"Date": None})
+            fig.savefig(buf, format=fmt, dpi=110, metadata=meta)
+            plt.close(fig)
+            path = outdir / f"{name}.{fmt}"
+            atomic_write(path, buf.getvalue())
+            out[name] = path
+        return out
+
+    # every other figure rendered beside (a forked child where there are two cores: ~0.5 s a figure on one core);
+    # the files are the same bytes whoever renders them
+    names = list(makers)
+    theirs = beside(lambda: render(names[1::2]))
+    try:
+        written = {**render(names[0::2]), **theirs.result()}
+    finally:
+        theirs.kill()
+    return {name: written[name] for name in names}
 
 
 # ------------------------------------------------------------------------------------ sweeps
