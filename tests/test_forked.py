@@ -88,3 +88,13 @@ def test_the_result_is_asked_for_once():
     assert job.result() == 1
     with pytest.raises(RuntimeError, match="asked for twice"):
         job.result()
+
+
+def test_where_the_fork_fails_the_call_runs_here(monkeypatch):
+    def no_fork():
+        raise BlockingIOError(11, "Resource temporarily unavailable")  # fork's EAGAIN at a process limit
+
+    monkeypatch.setattr(forked.os, "fork", no_fork)
+    monkeypatch.setattr(forked, "cores", lambda: 2)
+    monkeypatch.setattr(forked, "AVAILABLE", True)
+    assert forked.beside(lambda: os.getpid()).result() == os.getpid()

@@ -181,7 +181,10 @@ def beside(fn: Callable[[], Any]) -> _Beside | _Here:
     whose value does not depend on when it runs: it sees this process's memory as it was at the fork, and what it
     changes there stays in the child."""
     if AVAILABLE and cores() > 1:
-        return _Beside(fn)
+        try:
+            return _Beside(fn)
+        except OSError:  # no fork now (a process limit, no memory for the page tables): here, when asked for
+            pass
     return _Here(fn)
 
 
