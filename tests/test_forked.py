@@ -58,7 +58,8 @@ def test_kill_stops_the_child(tmp_path):
     mark = tmp_path / "pid"
 
     def fn():
-        mark.write_text(str(os.getpid()))
+        (tmp_path / "pid.part").write_text(str(os.getpid()))
+        os.replace(tmp_path / "pid.part", mark)  # whole when it appears
         time.sleep(10 * WAIT_S)
         return "never"
 

@@ -1,15 +1,15 @@
 """A call run in a forked child process, its result read back through a pipe: work beside this process's own.
 
 The remedies' quick tries (:mod:`robustsynth.synthesis.remedies`) are searches of their own, each on a changed config;
-on two cores two of them run at once.  The robot's verification runs its single-threaded checks this way beside the
-adversary's threads (:func:`beside`).  Threads cannot carry them: a search enters ``warnings.catch_warnings`` and points file descriptor 2
-at a pipe around each solve (:mod:`.solve`), both process-wide.  A fork can: the child has the parent's memory (the
-imported modules, the model, the callable), runs the call, and sends back its pickled result; nothing is imported or
-pickled on the way in.
+on two cores two of them run at once.  Threads cannot carry them: a search enters ``warnings.catch_warnings`` and
+points file descriptor 2 at a pipe around each solve (:mod:`robustsynth.synthesis.solve`), both process-wide.  A fork
+can: the child has the parent's memory (the imported modules, the model, the callable), runs the call, and sends back
+its pickled result; nothing is imported or pickled on the way in.  The robot's verification runs its single-threaded
+checks the same way beside the adversary's threads, and the report half its figures (:func:`beside`).
 
 The child takes no signal: SIGINT and SIGTERM are ignored there (the parent decides; a Ctrl-C reaches the whole
 process group), and on Linux it gets SIGKILL when the parent dies (``PR_SET_PDEATHSIG``).  It never unwinds into the
-parent's frames: whatever the call does, the child ends with ``os._exit`` after killing its own solver processes.
+parent's frames: whatever the call does, the child ends with ``os._exit`` after its end hooks (below).
 The parent kills the children it no longer waits for (:meth:`Forked.kill`).  POSIX only (``AVAILABLE``).
 
 A room above that keeps processes of its own registers what a child does with them (:func:`in_children`: the

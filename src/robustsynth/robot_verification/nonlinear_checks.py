@@ -12,8 +12,8 @@ from typing import Any, Callable
 import numpy as np
 
 from ..certificate import CertificateCheck, lyapunov_of
-from ..forked import beside
 from ..certificate.turns import turn_bounds
+from ..forked import beside
 from ..plants.path import path_of
 from ..runtime.replay import monitor_summary
 from ..scenarios import draw_scenario, slip_vertices, steady_state_start
