@@ -5,6 +5,8 @@ is forked, the call runs here when its value is asked for."""
 from __future__ import annotations
 
 import os
+import signal
+import threading
 import time
 
 import pytest
@@ -53,8 +55,8 @@ def test_a_child_that_dies_has_the_call_run_here():
     assert forked.beside(fn).result() == "computed here"
 
 
-@needs_fork
-def test_kill_stops_the_child(tmp_path):
+def _sleeping_child(tmp_path):
+    """A child that writes its pid and sleeps; (the job, the pid)."""
     mark = tmp_path / "pid"
 
     def fn():
@@ -67,7 +69,12 @@ def test_kill_stops_the_child(tmp_path):
     t0 = time.perf_counter()
     while not mark.exists() and time.perf_counter() - t0 < WAIT_S:
         time.sleep(0.05)
-    pid = int(mark.read_text())
+    return job, int(mark.read_text())
+
+
+@needs_fork
+def test_kill_stops_the_child(tmp_path):
+    job, pid = _sleeping_child(tmp_path)
     job.kill()
     with pytest.raises(ProcessLookupError):
         os.kill(pid, 0)  # reaped by kill(): no such process
@@ -99,3 +106,41 @@ def test_where_the_fork_fails_the_call_runs_here(monkeypatch):
     monkeypatch.setattr(forked, "cores", lambda: 2)
     monkeypatch.setattr(forked, "AVAILABLE", True)
     assert forked.beside(lambda: os.getpid()).result() == os.getpid()
+
+
+class _Alarm(Exception):
+    pass
+
+
+@needs_fork
+def test_an_interrupted_wait_stops_the_child(tmp_path):
+    """A signal's handler that raises while result() waits (the CLI's on Ctrl-C): the child is killed and reaped
+    there, not left computing (it ignores SIGINT) for a kill() that would no longer find it."""
+    job, pid = _sleeping_child(tmp_path)
+
+    def alarm(_signo, _frame):
+        raise _Alarm
+
+    old = signal.signal(signal.SIGALRM, alarm)
+    try:
+        signal.setitimer(signal.ITIMER_REAL, 0.3)
+        with pytest.raises(_Alarm):
+            job.result()
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.signal(signal.SIGALRM, old)
+    with pytest.raises(ProcessLookupError):
+        os.kill(pid, 0)  # killed and reaped
+    job.kill()
+
+
+def test_another_thread_or_beside_off_computes_here(monkeypatch):
+    """Only the main thread forks (another thread's fork could copy a lock some thread holds into the child), and
+    nothing forks with BESIDE off (a sweep's workers)."""
+    got = []
+    t = threading.Thread(target=lambda: got.append(forked.beside(os.getpid).result()))
+    t.start()
+    t.join()
+    assert got == [os.getpid()]
+    monkeypatch.setattr(forked, "BESIDE", False)
+    assert forked.beside(os.getpid).result() == os.getpid()

@@ -8,9 +8,11 @@ its pickled result; nothing is imported or pickled on the way in.  The robot's v
 checks the same way beside the adversary's threads, and the report half its figures (:func:`beside`).
 
 The child takes no signal: SIGINT and SIGTERM are ignored there (the parent decides; a Ctrl-C reaches the whole
-process group), and on Linux it gets SIGKILL when the parent dies (``PR_SET_PDEATHSIG``).  It never unwinds into the
-parent's frames: whatever the call does, the child ends with ``os._exit`` after its end hooks (below).
-The parent kills the children it no longer waits for (:meth:`Forked.kill`).  POSIX only (``AVAILABLE``).
+process group), and it gets SIGKILL when the thread that forked it ends (``PR_SET_PDEATHSIG``; the main thread: when
+the parent dies).  It never unwinds into the parent's frames: whatever the call does, the child ends with
+``os._exit`` after its end hooks (below).  The parent kills the children it no longer waits for (:meth:`Forked.kill`;
+:func:`beside`'s also when the wait for one is interrupted).  Linux only (``AVAILABLE``; elsewhere the callers run
+the call in this process).
 
 A room above that keeps processes of its own registers what a child does with them (:func:`in_children`: the
 synthesis' solver processes are the parent's, and the child kills its own before it ends).  Standard library only."""
@@ -28,6 +30,7 @@ from typing import Any, Callable
 __all__ = ["AVAILABLE", "ChildError", "Forked", "Raised", "beside", "cores", "in_children", "wait_any"]
 
 AVAILABLE = hasattr(os, "fork") and sys.platform.startswith("linux")
+BESIDE = True  # False: beside() forks nothing (a sweep's worker processes share the cores already)
 POLL_S = 0.2  # [s] the parent's wait wakes this often (a signal's handler runs at once anyway)
 
 # what a child does first and last (in_children): (at its start, at its end) pairs
@@ -84,6 +87,7 @@ class Forked:
         self.pid, self.fd = pid, r
         self._data = bytearray()
         self._done = False
+        self._reaped = False
         self.started = time.perf_counter()
 
     def _read(self) -> bool:
@@ -105,6 +109,7 @@ class Forked:
         os.close(self.fd)
         self.fd = -1
         os.waitpid(self.pid, 0)
+        self._reaped = True
         try:
             kind, payload = pickle.loads(bytes(self._data))
         except Exception:  # noqa: BLE001 - nothing, or a part: the child died before it wrote it whole
@@ -117,18 +122,20 @@ class Forked:
 
     def kill(self) -> None:
         """Stop the child (if it runs) and reap it."""
-        if self.fd < 0:
+        if self._reaped:
             return
         try:
             os.kill(self.pid, signal.SIGKILL)
         except ProcessLookupError:
             pass
-        os.close(self.fd)
-        self.fd = -1
+        if self.fd >= 0:
+            os.close(self.fd)
+            self.fd = -1
         try:
             os.waitpid(self.pid, 0)
         except ChildProcessError:
             pass
+        self._reaped = True
 
 
 class _Here:
@@ -152,13 +159,20 @@ class _Beside:
         self._child: Forked | None = Forked(fn)
 
     def result(self) -> Any:
-        child, self._child = self._child, None
+        child = self._child
         if child is None:
             raise RuntimeError("beside: the result was asked for twice")
         try:
-            return child.result()
+            value = child.result()
         except (ChildError, Raised):  # what it raised is raised here as itself, with its traceback
+            self._child = None
             return self._fn()
+        except BaseException:  # the wait interrupted (a signal's handler, Ctrl-C): the child is stopped
+            self._child = None
+            child.kill()
+            raise
+        self._child = None
+        return value
 
     def kill(self) -> None:
         if self._child is not None:
@@ -175,12 +189,15 @@ def cores() -> int:
 
 
 def beside(fn: Callable[[], Any]) -> _Beside | _Here:
-    """``fn()`` computed beside this process (in a forked child where there are two cores or more and a fork,
-    else here when it is asked for): ``.result()`` its value (the call again in this process where the child failed,
-    so that an exception is raised as itself), ``.kill()`` stops it when its value is no longer wanted.  For a call
-    whose value does not depend on when it runs: it sees this process's memory as it was at the fork, and what it
-    changes there stays in the child."""
-    if AVAILABLE and cores() > 1:
+    """``fn()`` computed beside this process: in a forked child where there are a fork (``AVAILABLE``), two cores or
+    more and ``BESIDE``, and the caller is the main thread (another thread's fork could copy a lock some thread holds
+    at that moment into the child); else here when it is asked for.  ``.result()`` its value (the call again in this
+    process where the child failed, so that an exception is raised as itself), ``.kill()`` stops it when its value is
+    no longer wanted.  For a call whose value does not depend on when it runs: it sees this process's memory as it was
+    at the fork, and what it changes there stays in the child."""
+    import threading
+
+    if AVAILABLE and BESIDE and cores() > 1 and threading.current_thread() is threading.main_thread():
         try:
             return _Beside(fn)
         except OSError:  # no fork now (a process limit, no memory for the page tables): here, when asked for

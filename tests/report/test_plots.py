@@ -133,8 +133,20 @@ def test_write_figures_renders_every_other_figure_beside_and_the_files_are_the_s
     from robustsynth import forked
     from robustsynth.report.plots import FIGURES, write_figures
 
+    if not (forked.AVAILABLE and forked.cores() > 1):
+        pytest.skip("nothing is forked here")
+    returned = []
+
+    class Counted(forked.Forked):
+        def result(self):
+            value = super().result()  # raises where the child failed (beside then renders here)
+            returned.append(sorted(value))
+            return value
+
+    monkeypatch.setattr(forked, "Forked", Counted)
     m, res = polyline
     beside = write_figures(res, m, tmp_path / "beside")
+    assert returned == [sorted(list(FIGURES)[1::2])]  # the child rendered every other figure
     monkeypatch.setattr(forked, "AVAILABLE", False)
     here = write_figures(res, m, tmp_path / "here")
     assert list(beside) == list(here) == list(FIGURES)

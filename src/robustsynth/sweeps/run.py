@@ -178,6 +178,9 @@ def _worker_init() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     _die_with_parent()
+    from .. import forked
+
+    forked.BESIDE = False  # the points share the cores already: a verify's checks run one after the other here
     import robustsynth.synthesis  # noqa: F401  (warm: cvxpy and the solvers are imported once per worker)
 
 
