@@ -139,7 +139,8 @@ class Forked:
 
 
 class _Here:
-    """:func:`beside`'s value where no child is forked: ``fn()`` computed when its result is asked for."""
+    """:func:`beside`'s value where no child is forked: ``fn()`` computed when its result is asked for.  As a context
+    manager, :meth:`kill` on the way out (nothing here)."""
 
     def __init__(self, fn: Callable[[], Any]) -> None:
         self._fn = fn
@@ -150,29 +151,31 @@ class _Here:
     def kill(self) -> None:
         pass
 
+    def __enter__(self) -> "_Here":
+        return self
 
-class _Beside:
+    def __exit__(self, *exc: Any) -> None:
+        self.kill()
+
+
+class _Beside(_Here):
     """:func:`beside`'s value: ``fn()`` in a forked child; where the child fails, the call again here."""
 
     def __init__(self, fn: Callable[[], Any]) -> None:
-        self._fn = fn
+        super().__init__(fn)
         self._child: Forked | None = Forked(fn)
 
     def result(self) -> Any:
-        child = self._child
+        child, self._child = self._child, None
         if child is None:
             raise RuntimeError("beside: the result was asked for twice")
         try:
-            value = child.result()
+            return child.result()
         except (ChildError, Raised):  # what it raised is raised here as itself, with its traceback
-            self._child = None
             return self._fn()
         except BaseException:  # the wait interrupted (a signal's handler, Ctrl-C): the child is stopped
-            self._child = None
             child.kill()
             raise
-        self._child = None
-        return value
 
     def kill(self) -> None:
         if self._child is not None:
@@ -193,7 +196,7 @@ def beside(fn: Callable[[], Any]) -> _Beside | _Here:
     more and ``BESIDE``, and the caller is the main thread (another thread's fork could copy a lock some thread holds
     at that moment into the child); else here when it is asked for.  ``.result()`` its value (the call again in this
     process where the child failed, so that an exception is raised as itself), ``.kill()`` stops it when its value is
-    no longer wanted.  For a call whose value does not depend on when it runs: it sees this process's memory as it was
+    no longer wanted (``with beside(fn) as job:`` kills it on the way out).  For a call whose value does not depend on when it runs: it sees this process's memory as it was
     at the fork, and what it changes there stays in the child."""
     import threading
 

@@ -382,11 +382,8 @@ def write_figures(res, model, outdir: str | Path, fmt: str = "png") -> dict[str,
     # every other figure rendered beside (a forked child where there are two cores: ~0.5 s a figure on one core);
     # the files are the same bytes whoever renders them
     names = list(makers)
-    theirs = beside(lambda: render(names[1::2]))
-    try:
+    with beside(lambda: render(names[1::2])) as theirs:
         written = {**render(names[0::2]), **theirs.result()}
-    finally:
-        theirs.kill()
     return {name: written[name] for name in names}
 
 

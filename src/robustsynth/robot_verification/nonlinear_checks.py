@@ -6,6 +6,7 @@ reported beside the verdict; the worst runs in words."""
 from __future__ import annotations
 
 import math
+from contextlib import nullcontext
 from dataclasses import dataclass, replace
 from typing import Any, Callable
 
@@ -296,14 +297,10 @@ def _nonlinear(model, K, cert: CertificateCheck, gains: dict, runs: int, seed: i
     # (a slip-compensated law: these runs are the robot under its condition, the slip its ratio mu / mu_hat, which
     # its monitor does not watch; the monitor runs in the loop of robot_verification/compensated.py).  It runs on
     # one core beside the adversary's threads (forked.beside): its record is the same whenever it runs.
-    monitor = None if model.compensation is not None else beside_on_one_core(
-        lambda: monitor_summary(run_logs(model, r.sim, r.scen), gains, model.config))
-    try:
+    with (nullcontext() if model.compensation is not None else beside_on_one_core(
+            lambda: monitor_summary(run_logs(model, r.sim, r.scen), gains, model.config))) as monitor:
         checks, mc, v_ratio, mask = _judge_runs(r, runs, seed)
         mc["monitor"] = None if monitor is None else monitor.result()
-    finally:
-        if monitor is not None:
-            monitor.kill()
     return checks, mc, r.sim, r.ext, r.scen, v_ratio, mask
 
 
@@ -423,14 +420,11 @@ def _on_the_set(r: _Runs, checks: list, mc: dict[str, Any]) -> tuple[np.ndarray,
                              else "runs that did not re-enter before the end of the path (the set is attracting)"))
     # the boundary probe on one core beside the adversary's threads (forked.beside): its result is the same whenever
     # it runs
-    probe_job = beside_on_one_core(lambda: _probe(r, lyap, level))
-    try:
+    with beside_on_one_core(lambda: _probe(r, lyap, level)) as probe_job:
         adv = adv_v = None
         if model.config.verification.adversarial_runs:
             adv, adv_v = _adversarial(r, lyap, level, mc)
         probe = probe_job.result()
-    finally:
-        probe_job.kill()
     mc["V_over_level"] = {
         "max_in_certified_steps": float(max(np.max(np.where(mask, v_ratio, 0.0)), np.max(np.where(mask_ext, v_ext, 0.0)))),
         "fraction_of_certified_steps_outside": float(np.sum((v_ratio > 1.0) & mask) / max(np.sum(mask), 1)),

@@ -199,12 +199,9 @@ def verify_robot(model, gains: Any, runs: int | None = None, seed: int | None = 
     cert_rate = cert.figures.get("decay_rate") if cert.passed else None
     fchecks, frozen = _frozen(model, K, cert_rate)
     # the lifted model's checks run on one core beside the nonlinear robot's (the same whenever they run)
-    lifted_job = beside_on_one_core(lambda: _lifted(model, K, cert, gains))
-    try:
+    with beside_on_one_core(lambda: _lifted(model, K, cert, gains)) as lifted_job:
         nchecks, mc, sim, ext, scen, v_ratio, mask = _nonlinear(model, K, cert, gains, runs, seed, progress)
         lchecks, lifted, traces = lifted_job.result()
-    finally:
-        lifted_job.kill()
     checks += fchecks + lchecks + nchecks
     comp_runs = None
     if model.compensation is not None:  # the runs above keep the certificate's condition; these close the loop

@@ -392,13 +392,9 @@ def _decide(rec: SolveRecord, accept: Callable[[], bool], attempts: list[SolveRe
 def auto_threads() -> int:
     """How many solves :func:`solve_all` runs at once by default (a linear plant's line search): the CPUs this
     process may use, at most ``MAX_THREADS``."""
-    import os
+    from ..forked import cores
 
-    try:
-        n = len(os.sched_getaffinity(0))
-    except (AttributeError, OSError):
-        n = os.cpu_count() or 1
-    return max(1, min(MAX_THREADS, n))
+    return max(1, min(MAX_THREADS, cores()))
 
 
 def solve_all(problems: list[cp.Problem], primary: str, accepts: list[Callable[[], bool]]) -> list[Outcome]:
